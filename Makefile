@@ -1,0 +1,79 @@
+# icil-paper: `make reproduce` (experiments + book, small preset) and `make test`.
+# Both work alone on a fresh machine with Python 3.11: they depend on `make setup`.
+SHELL := /bin/bash
+.SHELLFLAGS := -o pipefail -ec
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+PRESET ?= $(or $(ICIL_PRESET),small)
+export ICIL_PRESET := $(PRESET)
+export MUJOCO_GL ?= egl
+export PYTHONUNBUFFERED := 1
+
+# Stamps keyed on what they depend on, so that a repeated `make setup` takes seconds.
+REQ_HASH := $(shell cat requirements.txt pyproject.toml | sha256sum | cut -c1-16)
+PY_STAMP := $(VENV)/.installed-$(REQ_HASH)
+SYS_STAMP := $(VENV)/.system-checked
+TORCH_PIN := $(shell grep -E '^torch==' requirements.txt)
+BOOK_OUT := book/_build
+# What notebook outputs depend on besides their own code: the library, the preset, the results.
+SRC_HASH = $(shell { find src -name '*.py' | LC_ALL=C sort | xargs cat; echo $(PRESET); \
+	find results/$(PRESET) -name '*.json' -printf '%p %T@\n' 2>/dev/null | LC_ALL=C sort; } | sha256sum | cut -c1-16)
+
+.PHONY: help setup test test-all reproduce experiments book bench lint clean
+
+help:
+	@echo "make setup      create $(VENV), install requirements and the package, check Vulkan"
+	@echo "make test       the fast test suite (under 10 minutes on 2 cores)"
+	@echo "make reproduce  run the experiments at PRESET=$(PRESET) and build the book"
+	@echo "make book       execute the notebooks and build the book into $(BOOK_OUT)/html"
+	@echo "make bench      throughput benchmarks (results/bench/*.json)"
+	@echo "make lint       ruff"
+
+setup: $(PY_STAMP) $(SYS_STAMP)
+
+$(PY_STAMP):
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	@echo "Installing Python packages into $(VENV) (a few minutes the first time)"
+	# torch first and pinned, so that no other package pulls a CUDA build of it
+	$(BIN)/pip install --quiet --progress-bar off '$(TORCH_PIN)' 2>&1 | { grep -v 'is ignored' || true; }
+	$(BIN)/pip install --quiet --progress-bar off -r requirements.txt 2>&1 | { grep -v 'is ignored' || true; }
+	$(BIN)/pip install --quiet --no-deps -e . 2>&1 | { grep -v 'is ignored' || true; }
+	$(BIN)/python -c "import torch, robosuite, mani_skill, icil_paper" \
+		|| { echo "setup: the Python install is incomplete (see pip's messages above)"; exit 1; }
+	@rm -f $(VENV)/.installed-*; touch $@
+
+$(SYS_STAMP): $(PY_STAMP)
+	$(BIN)/python -m icil_paper.system_deps --install
+	@touch $@
+
+test: setup
+	$(BIN)/python -m pytest -q --durations=15
+
+reproduce: setup
+	$(BIN)/icil-paper reproduce --preset $(PRESET)
+	$(MAKE) book
+
+experiments: setup
+	$(BIN)/icil-paper reproduce --preset $(PRESET)
+
+# The execution cache keys on notebook code only, so it is cleared whenever src/, the
+# preset or the results change.
+book: setup
+	@mkdir -p $(BOOK_OUT)
+	@if [ "$$(cat $(BOOK_OUT)/.src-hash 2>/dev/null)" != "$(SRC_HASH)" ]; then \
+		echo "src/, the preset or the results changed: clearing the notebook execution cache"; \
+		rm -rf $(BOOK_OUT)/.jupyter_cache; fi
+	$(BIN)/jupyter-book build . --path-output book
+	@echo "$(SRC_HASH)" > $(BOOK_OUT)/.src-hash
+	@echo "Book: $(BOOK_OUT)/html/index.html"
+
+bench: setup
+	@for m in $$(ls src/icil_paper/bench/*.py | xargs -n1 basename | grep -v __init__ | sed 's/\.py$$//'); do \
+		echo "== bench $$m"; $(BIN)/python -m icil_paper.bench.$$m || exit 1; done
+
+lint: setup
+	$(BIN)/ruff check src tests notebooks
+
+clean:
+	rm -rf $(BOOK_OUT) .pytest_cache

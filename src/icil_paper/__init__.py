@@ -1,0 +1,16 @@
+"""icil_paper: the library behind the companion to "Action Tokenizer Matters in
+In-Context Imitation Learning" (LipVQ-VAE).
+
+Submodules are imported lazily so that `import icil_paper` stays cheap:
+
+- `icil_paper.config`     presets (`smoke`, `small`, `full`) and the config dataclasses
+- `icil_paper.seeding`    the one seeding function, `seed_everything`
+- `icil_paper.results`    the results store under `results/<preset>/`
+- `icil_paper.tokenizers` every action tokenizer of the paper, behind `make_tokenizer`
+- `icil_paper.metrics`    smoothness scores (least energy and its scale-free variants)
+- `icil_paper.sim`        the task suites (`TASKS`, `make_env`, `make_expert`)
+- `icil_paper.data`       demonstration data sets in the robomimic HDF5 layout
+- `icil_paper.policies`   ICRT and the baselines
+"""
+
+__version__ = "0.1.0"

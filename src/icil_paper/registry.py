@@ -1,0 +1,57 @@
+"""Registries by name, with lazy imports and errors that list the valid names.
+
+Experiments are data (`{"policy": "icrt", "tokenizer": "lipvq"}`), so every name that a
+user can type goes through `check_name`, and a typo fails with the list of valid names.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+from collections.abc import Iterable, Iterator, Mapping
+from typing import Any
+
+
+class UnknownNameError(ValueError):
+    """A preset, task, policy or tokenizer name that does not exist."""
+
+
+def check_name(kind: str, name: str, valid: Iterable[str]) -> str:
+    """Return `name` if it is in `valid`, else raise UnknownNameError listing the valid names."""
+    valid = list(valid)
+    if name in valid:
+        return name
+    hint = difflib.get_close_matches(str(name), valid, n=1)
+    did_you_mean = f" Did you mean {hint[0]!r}?" if hint else ""
+    raise UnknownNameError(
+        f"unknown {kind} {name!r}.{did_you_mean} Valid {kind} names: {', '.join(valid)}"
+    )
+
+
+class Registry(Mapping[str, Any]):
+    """A name -> object mapping whose entries are "module:attribute" strings imported on use.
+
+    Lazy imports keep `icil-paper --help` fast and let a part of the library (say the
+    ManiSkill suite) fail to import without breaking the rest.
+    """
+
+    def __init__(self, kind: str, entries: Mapping[str, str]):
+        self.kind = kind
+        self._entries = dict(entries)
+        self._loaded: dict[str, Any] = {}
+
+    def __getitem__(self, name: str) -> Any:
+        check_name(self.kind, name, self._entries)
+        if name not in self._loaded:
+            module, _, attribute = self._entries[name].partition(":")
+            self._loaded[name] = getattr(importlib.import_module(module), attribute)
+        return self._loaded[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._entries)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __repr__(self) -> str:
+        return f"Registry({self.kind!r}, {list(self._entries)})"

@@ -1,0 +1,218 @@
+"""The results store: one JSON record per run under `results/<preset>/<kind>/`.
+
+Each record carries its config, config hash, seed, git commit, package versions, host, wall
+time and metrics. Records are written atomically (temporary file, then rename), so a crash
+never leaves half a record and a failed run never overwrites a good one. A run whose config
+hash already has a valid record is skipped unless forced; a corrupt record is reported,
+moved aside (never deleted) and recomputed.
+
+    store = ResultsStore("small")
+    record = store.run("tokenizer", "lipvq", config, lambda: {"recon_mse": 0.01})
+    table = store.table("tokenizer")          # a pandas DataFrame for notebooks
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tempfile
+import time
+import warnings
+from collections.abc import Callable, Mapping
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from icil_paper.provenance import git_state, host_info, package_versions
+
+SCHEMA_VERSION = 1
+RESULTS_ENV_VAR = "ICIL_RESULTS"
+REQUIRED_KEYS = ("schema", "kind", "name", "preset", "config", "config_hash", "seed",
+                 "git_commit", "packages", "host", "wall_time_s", "metrics")
+
+
+class CorruptRecordWarning(UserWarning):
+    """A result file that cannot be trusted (unreadable, incomplete or tampered with)."""
+
+
+def results_root() -> Path:
+    """Root of the store: $ICIL_RESULTS, else `results/` in the repository."""
+    from icil_paper.provenance import REPO_ROOT
+
+    return Path(os.environ.get(RESULTS_ENV_VAR, REPO_ROOT / "results"))
+
+
+def canonical_json(obj: Any) -> str:
+    """JSON with sorted keys and no whitespace: the text that a config hash is taken over."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_json_default)
+
+
+def config_hash(config: Mapping[str, Any]) -> str:
+    """A short stable hash of a JSON-ready config."""
+    return hashlib.sha256(canonical_json(config).encode()).hexdigest()[:16]
+
+
+def _json_default(obj: Any) -> Any:
+    if hasattr(obj, "tolist"):  # numpy arrays and scalars, torch tensors
+        return obj.tolist()
+    if isinstance(obj, (set, frozenset)):
+        return sorted(obj)
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"{type(obj).__name__} is not JSON serializable")
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write `data` to `path` through a temporary file in the same folder and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_json(path: Path, obj: Any) -> None:
+    """Atomically write `obj` as indented JSON (NaN is refused: it is not valid JSON)."""
+    text = json.dumps(obj, indent=2, sort_keys=True, default=_json_default, allow_nan=False)
+    atomic_write_bytes(Path(path), (text + "\n").encode())
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
+
+
+class ResultsStore:
+    """Records of one preset: `results/<preset>/<kind>/<name>__<config hash>.json`."""
+
+    def __init__(self, preset: str, root: Path | None = None):
+        self.preset = preset
+        self.root = Path(root) if root is not None else results_root()
+        self.dir = self.root / preset
+
+    def path_for(self, kind: str, name: str, chash: str) -> Path:
+        return self.dir / _slug(kind) / f"{_slug(name)}__{chash}.json"
+
+    def get(self, kind: str, name: str, config: Mapping[str, Any]) -> dict[str, Any] | None:
+        """The valid record of this run, or None (a corrupt one is reported and set aside)."""
+        chash = config_hash(config)
+        path = self.path_for(kind, name, chash)
+        if not path.exists():
+            return None
+        record, problem = _read_record(path)
+        if problem is None and record["config_hash"] != chash:
+            problem = f"config hash {record['config_hash']} does not match {chash}"
+        if problem is not None:
+            self._set_aside(path, problem)
+            return None
+        return record
+
+    def write(self, kind: str, name: str, config: Mapping[str, Any], metrics: Mapping[str, Any],
+              seed: int, wall_time_s: float, extra: Mapping[str, Any] | None = None) -> Path:
+        """Atomically write one record and return its path."""
+        _check_finite_metrics(metrics)
+        chash = config_hash(config)
+        git = git_state()
+        record = {
+            "schema": SCHEMA_VERSION,
+            "kind": kind,
+            "name": name,
+            "preset": self.preset,
+            "config": json.loads(canonical_json(config)),
+            "config_hash": chash,
+            "seed": seed,
+            "git_commit": git["commit"],
+            "git_dirty": git["dirty"],
+            "packages": package_versions(),
+            "host": host_info(),
+            "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "wall_time_s": round(float(wall_time_s), 3),
+            "metrics": dict(metrics),
+            **(dict(extra) if extra else {}),
+        }
+        path = self.path_for(kind, name, chash)
+        atomic_write_json(path, record)
+        return path
+
+    def run(self, kind: str, name: str, config: Mapping[str, Any],
+            compute: Callable[[], Mapping[str, Any]], seed: int | None = None,
+            force: bool = False) -> dict[str, Any]:
+        """Return the stored record of this run, or compute it, store it and return it.
+
+        `compute()` returns the metrics. If it raises, nothing is written, so an existing
+        good record (when forced) is left as it was.
+        """
+        if not force:
+            record = self.get(kind, name, config)
+            if record is not None:
+                return record
+        if seed is None:
+            seed = int(config.get("seed", 0)) if isinstance(config, Mapping) else 0
+        start = time.perf_counter()
+        metrics = compute()
+        path = self.write(kind, name, config, metrics, seed, time.perf_counter() - start)
+        return json.loads(path.read_text())
+
+    def records(self, kind: str | None = None) -> list[dict[str, Any]]:
+        """Every valid record (of one kind, if given); corrupt ones are reported and skipped."""
+        pattern = f"{_slug(kind)}/*.json" if kind else "*/*.json"
+        records = []
+        for path in sorted(self.dir.glob(pattern)):
+            record, problem = _read_record(path)
+            if problem is not None:
+                self._set_aside(path, problem)
+                continue
+            records.append(record)
+        return records
+
+    def table(self, kind: str | None = None):
+        """The records as a pandas DataFrame: one row per run, metrics as columns."""
+        import pandas as pd
+
+        rows = []
+        for r in self.records(kind):
+            row = {"kind": r["kind"], "name": r["name"], "seed": r["seed"],
+                   "config_hash": r["config_hash"], "git_commit": r["git_commit"],
+                   "wall_time_s": r["wall_time_s"]}
+            row.update({k: v for k, v in r["metrics"].items() if not isinstance(v, (dict, list))})
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+    def _set_aside(self, path: Path, problem: str) -> None:
+        stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+        aside = path.with_name(f"{path.name}.corrupt-{stamp}")
+        os.replace(path, aside)
+        warnings.warn(f"corrupt result {path}: {problem}; moved to {aside.name} and it will "
+                      "be recomputed", CorruptRecordWarning, stacklevel=3)
+
+
+def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None]:
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        return None, f"unreadable JSON ({exc})"
+    if not isinstance(record, dict):
+        return None, "not a JSON object"
+    missing = [k for k in REQUIRED_KEYS if k not in record]
+    if missing:
+        return None, f"missing keys {missing}"
+    if record["schema"] != SCHEMA_VERSION:
+        return None, f"schema {record['schema']} is not {SCHEMA_VERSION}"
+    if config_hash(record["config"]) != record["config_hash"]:
+        return None, "its config does not hash to its config_hash"
+    return record, None
+
+
+def _check_finite_metrics(metrics: Mapping[str, Any]) -> None:
+    for key, value in metrics.items():
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"metric {key!r} is {value}; a result with a non-finite metric "
+                             "is not stored (fix the run, or store None explicitly)")

@@ -1,0 +1,141 @@
+"""System libraries the simulators need, checked and (where possible) installed.
+
+ManiSkill 3 (SAPIEN 3) needs a Vulkan device even for state observations. On a Linux machine
+with no GPU, Mesa's software Vulkan driver (lavapipe) works from Mesa 24.3 on; Debian 12's own
+Mesa (22.3) does not, but its `bookworm-backports` suite has a new enough one. `make setup`
+runs `python -m icil_paper.system_deps --install`, which:
+
+1. probes for a working Vulkan device (a SAPIEN render system in a subprocess);
+2. if there is none, on Debian 12 as root: adds `bookworm-backports` to apt, deriving the
+   mirror from the machine's existing Debian source (no host name is written into the repo),
+   and installs `mesa-vulkan-drivers` from it;
+3. anywhere else (not root, not Debian, no apt): prints what to install by hand and carries on.
+   Tests that need ManiSkill then skip with `vulkan_problem()`'s reason.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+BACKPORTS_SOURCE = Path("/etc/apt/sources.list.d/icil-paper-backports.sources")
+MANUAL_FIX = (
+    "ManiSkill needs a Vulkan device. On a machine without a GPU install Mesa's lavapipe "
+    ">= 24.3, e.g. on Debian 12 as root: add the 'bookworm-backports' suite of your Debian "
+    "mirror to apt, then `apt-get update && apt-get install -t bookworm-backports "
+    "mesa-vulkan-drivers`; on Ubuntu 24.10+ `apt-get install mesa-vulkan-drivers`. "
+    "With an NVIDIA GPU, install the driver's Vulkan ICD (libnvidia-gl)."
+)
+
+_PROBE = """
+import sapien
+sapien.render.RenderSystem()
+print("vulkan-ok")
+"""
+
+
+@functools.lru_cache(maxsize=1)
+def vulkan_problem(python: str | None = None) -> str | None:
+    """None when a Vulkan device works for SAPIEN, else a sentence naming the problem and fix."""
+    try:
+        out = subprocess.run([python or sys.executable, "-c", _PROBE], capture_output=True,
+                             text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"the Vulkan probe could not run ({exc}). {MANUAL_FIX}"
+    if "vulkan-ok" in out.stdout:
+        return None
+    if "No module named 'sapien'" in out.stderr:
+        return "SAPIEN is not installed (run `make setup`)."
+    last = (out.stderr.strip().splitlines() or ["no output"])[-1]
+    return f"no working Vulkan device ({last}). {MANUAL_FIX}"
+
+
+def debian_backports_entry(sources_dir: Path = Path("/etc/apt")) -> str | None:
+    """A deb822 entry for bookworm-backports built from the machine's own Debian source.
+
+    Reads the existing entries (deb822 `.sources` files or one-line `.list` files), takes the
+    URI of the one that serves the `bookworm` suite, and returns the same mirror with suite
+    `bookworm-backports`; None when no Debian 12 source is found.
+    """
+    candidates = sorted(sources_dir.glob("sources.list.d/*.sources"))
+    for path in candidates:
+        for stanza in re.split(r"\n\s*\n", path.read_text()):
+            fields = {}
+            for line in stanza.splitlines():
+                if ":" in line and not line.lstrip().startswith("#"):
+                    key, _, value = line.partition(":")
+                    fields[key.strip().lower()] = value.strip()
+            if "bookworm" in fields.get("suites", "").split() and fields.get("uris"):
+                signed = fields.get("signed-by", "/usr/share/keyrings/debian-archive-keyring.gpg")
+                return (f"Types: deb\nURIs: {fields['uris'].split()[0]}\n"
+                        f"Suites: bookworm-backports\nComponents: main\nSigned-By: {signed}\n")
+    lists = [sources_dir / "sources.list", *sorted(sources_dir.glob("sources.list.d/*.list"))]
+    for path in lists:
+        if not path.exists():
+            continue
+        for line in path.read_text().splitlines():
+            parts = line.split()
+            if len(parts) >= 3 and parts[0] == "deb" and "bookworm" in parts[2:3]:
+                uri = next(p for p in parts[1:] if "://" in p)
+                return (f"Types: deb\nURIs: {uri}\nSuites: bookworm-backports\n"
+                        "Components: main\n"
+                        "Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg\n")
+    return None
+
+
+def install_lavapipe() -> str | None:
+    """Install lavapipe from bookworm-backports; None on success, else why it could not."""
+    if sys.platform != "linux":
+        return f"not Linux ({sys.platform})"
+    if os.geteuid() != 0:
+        return "not root"
+    if shutil.which("apt-get") is None:
+        return "no apt-get (not a Debian-like system)"
+    entry = debian_backports_entry()
+    if entry is None:
+        return "no Debian 12 (bookworm) apt source found to derive the backports mirror from"
+    if not BACKPORTS_SOURCE.exists() or BACKPORTS_SOURCE.read_text() != entry:
+        BACKPORTS_SOURCE.write_text(entry)
+    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+    for cmd in (["apt-get", "update", "-qq"],
+                ["apt-get", "install", "-y", "-qq", "-t", "bookworm-backports",
+                 "mesa-vulkan-drivers", "libvulkan1"]):
+        print("+", " ".join(cmd), flush=True)
+        if subprocess.run(cmd, env=env).returncode != 0:
+            return f"`{' '.join(cmd)}` failed"
+    return None
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--install", action="store_true",
+                        help="install lavapipe when no Vulkan device works (root, Debian 12)")
+    args = parser.parse_args(argv)
+    problem = vulkan_problem()
+    if problem is None:
+        print("system: Vulkan device works (ManiSkill can run)")
+        return 0
+    print(f"system: {problem}")
+    if not args.install:
+        return 0
+    why_not = install_lavapipe()
+    vulkan_problem.cache_clear()
+    problem = vulkan_problem()
+    if problem is None:
+        print("system: installed Mesa lavapipe; Vulkan device works (ManiSkill can run)")
+    else:
+        reason = f" ({why_not})" if why_not else ""
+        print(f"system: could not install lavapipe automatically{reason}.\n"
+              f"  Install by hand: {MANUAL_FIX}\n"
+              "  Everything else works; ManiSkill tests will be skipped with this reason.")
+    return 0  # a missing system library never stops setup: the rest of the project works
+
+
+if __name__ == "__main__":
+    sys.exit(main())
