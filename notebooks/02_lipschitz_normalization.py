@@ -1,0 +1,208 @@
+# ---
+# jupyter:
+#   jupytext:
+#     formats: py:percent
+#   kernelspec:
+#     name: python3
+#     display_name: Python 3
+# ---
+
+# %% [markdown]
+# # 2. Lipschitz normalization
+#
+# **What the paper claims (Sec. III-B).** LipVQ-VAE constrains its encoder $q_\theta$ to be
+# Lipschitz in the $\infty$-norm, so that nearby actions get nearby latents:
+# $\|q_\theta(t_0) - q_\theta(t_1)\|_\infty \le c\,\|t_0 - t_1\|_\infty$ (Eq. 4). Every encoder
+# layer $\ell$ gets a trainable bound $c_\ell$ and each row $i$ of its weight is rescaled
+# (Eq. 5, Liu et al. 2022):
+#
+# $$W^{(\ell)}_i \leftarrow W^{(\ell)}_i \cdot \min\Big(1, \frac{\mathrm{softplus}(c_\ell)}{\sum_j |W^{(\ell)}_{ij}|}\Big),$$
+#
+# and the loss adds $10^{-6}\prod_\ell \mathrm{softplus}(c_\ell)$.
+#
+# **Why this bounds a layer.** For $y = Wx + b$,
+# $\|Wx - Wx'\|_\infty = \max_i |\sum_j W_{ij}(x_j - x'_j)| \le \max_i \sum_j |W_{ij}|\;\|x - x'\|_\infty$:
+# the $\infty$-operator norm of $W$ is its largest absolute row sum. After Eq. 5 every row sum
+# is at most $\mathrm{softplus}(c_\ell)$, so the layer is $\mathrm{softplus}(c_\ell)$-Lipschitz;
+# rows already below the bound are left alone.
+#
+# **Why the product bounds the network.** Lipschitz constants multiply under composition,
+# $\mathrm{Lip}(f \circ g) \le \mathrm{Lip}(f)\,\mathrm{Lip}(g)$, and ReLU is 1-Lipschitz in
+# every coordinate (hence in the $\infty$-norm), so an encoder of $L$ normalized layers with
+# ReLUs between them is $\prod_\ell \mathrm{softplus}(c_\ell)$-Lipschitz. That product is the
+# loss term the paper penalizes.
+#
+# This chapter trains encoders on action trajectories and checks: the bound holds
+# empirically; how each $c_\ell$ moves during training; and how the row-wise
+# $\infty$-norm normalization compares with spectral normalization (Miyato et al. 2018),
+# which bounds each layer by 1 in the 2-norm instead. The trajectories come from the
+# library's generator of minimum-jerk reach/grasp/lift motions
+# (`icil_paper.trajectories`), a stand-in used until recorded demonstrations are wired into
+# the tokenizer chapters.
+
+# %%
+import dataclasses
+import math
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+import torch
+
+from icil_paper.config import get_preset
+from icil_paper.metrics import empirical_lipschitz
+from icil_paper.results import ResultsStore
+from icil_paper.seeding import seed_everything
+from icil_paper.tokenizers import lipschitz_bounds, lipschitz_loss
+from icil_paper.tokenizers.lipschitz_linear import weight_norm_bound
+from icil_paper.tokenizers.training import (
+    build_tokenizer,
+    reconstruction_errors,
+    smoothness,
+    train_tokenizer,
+)
+from icil_paper.trajectories import ACTION_DIM, generate_trajectories
+
+preset = get_preset()  # reads ICIL_PRESET
+cfg = preset.tokenizer
+store = ResultsStore(preset.name)
+# Encoders compared: (label, tokenizer name, options).
+MODELS = [
+    ("lipvq (paper)", "lipvq", {}),
+    ("lipvq (official code)", "lipvq", {"variant": "official"}),
+    ("vq + spectral norm", "vq", {"norm": "spectral"}),
+    ("vq (no normalization)", "vq", {}),
+]
+RADII = (1e-3, 1e-2, 1e-1, 1.0)
+
+# %%
+def compute(name: str, options: dict) -> dict:
+    seed_everything(preset.seed)
+    train = generate_trajectories(cfg.n_trajectories, seed=preset.seed, noise=cfg.trajectory_noise)
+    test = generate_trajectories(cfg.n_eval_trajectories, seed=preset.seed + 1,
+                                 noise=cfg.trajectory_noise)
+    tok = build_tokenizer(name, ACTION_DIM, cfg, stand_alone=True, **options)
+    result = train_tokenizer(tok, train, cfg, seed=preset.seed, progress=True)
+    anchors = torch.from_numpy(np.concatenate(test))
+    metrics = {
+        "bound_inf": weight_norm_bound(tok.encoder, math.inf),
+        "bound_2": weight_norm_bound(tok.encoder, 2),
+        "bound_softplus_product": (lipschitz_loss(tok.encoder).item()
+                                   if lipschitz_bounds(tok) else None),
+        "c_history": result["history"]["lipschitz_bounds"],
+        "history_step": result["history"]["step"],
+        "train_s": result["wall_time_s"],
+    }
+    for radius in RADII:
+        for ord_name, ord_value in (("inf", math.inf), ("2", 2)):
+            metrics[f"empirical_{ord_name}_r{radius:g}"] = empirical_lipschitz(
+                tok.encoder, anchors, n_pairs=4000, radius=radius, seed=preset.seed, ord=ord_value)
+    metrics.update(reconstruction_errors(tok, test))
+    metrics.update({f"latent_{k}": v for k, v in smoothness(tok, test).items()})
+    return metrics
+
+
+records = {}
+for label, name, options in MODELS:
+    config = {"chapter": "02", "tokenizer": name, "options": options,
+              "tokenizer_config": dataclasses.asdict(cfg), "seed": preset.seed,
+              "trajectories": "generated (icil_paper.trajectories)", "radii": list(RADII)}
+    records[label] = store.run("lipschitz", label, config,
+                               lambda name=name, options=options: compute(name, options),
+                               seed=preset.seed)["metrics"]
+
+# %% [markdown]
+# ## Does the bound hold?
+#
+# The empirical constant is the largest ratio
+# $\|q(x_1) - q(x_2)\| / \|x_1 - x_2\|$ over random pairs around held-out actions (a
+# perturbation of radius $r$, and pairs of two random actions); it can only under-estimate
+# the true constant. The bounds are $\prod_\ell \|W_\ell\|$ with the layers' effective
+# weights, in each norm (for LipVQ-VAE the $\infty$ one is at most
+# $\prod_\ell \mathrm{softplus}(c_\ell)$).
+
+# %%
+rows = []
+for label, m in records.items():
+    emp_inf = max(m[f"empirical_inf_r{r:g}"] for r in RADII)
+    emp_2 = max(m[f"empirical_2_r{r:g}"] for r in RADII)
+    rows.append({
+        "encoder": label,
+        "prod softplus(c_l)": m["bound_softplus_product"],
+        "bound (inf)": m["bound_inf"], "empirical (inf)": emp_inf,
+        "bound (2)": m["bound_2"], "empirical (2)": emp_2,
+        "recon MSE": m["reconstruction_mse"],
+        "least energy (z_e)": m["latent_least_energy"],
+        "normalized LE": m["latent_least_energy_normalized"],
+        "curvature energy": m["latent_curvature_energy"],
+    })
+table = pd.DataFrame(rows).set_index("encoder")
+table.style.format(precision=4)
+
+# %%
+fig, ax = plt.subplots(figsize=(7, 3.5))
+x = np.arange(len(records))
+for k, m in enumerate(records.values()):
+    emp = [m[f"empirical_inf_r{r:g}"] for r in RADII]
+    ax.plot([k] * len(RADII), emp, "o", color="C0", alpha=0.6,
+            label="empirical, by radius" if k == 0 else None)
+    ax.plot(k, m["bound_inf"], "_", color="C3", markersize=30, mew=2,
+            label="bound prod ||W_l||_inf" if k == 0 else None)
+ax.set_yscale("log")
+ax.set_xticks(x, list(records), rotation=15)
+ax.set_ylabel("Lipschitz constant (inf-norm)")
+ax.legend()
+ax.set_title("Empirical Lipschitz constant vs. its bound")
+plt.tight_layout()
+
+# %% [markdown]
+# ## How each $c_\ell$ moves in training
+
+# %%
+paper = records["lipvq (paper)"]
+c_hist = np.array(paper["c_history"])  # (logged steps, layers)
+fig, ax = plt.subplots(figsize=(7, 3.5))
+for layer in range(c_hist.shape[1]):
+    ax.plot(paper["history_step"], c_hist[:, layer], label=f"layer {layer + 1}")
+ax.set_xlabel("training step")
+ax.set_ylabel("softplus(c_l)")
+ax.set_title("LipVQ-VAE (paper): per-layer Lipschitz bounds during training")
+ax.legend()
+plt.tight_layout()
+
+# %% [markdown]
+# ## What we found
+
+# %%
+holds = {label: max(m[f"empirical_inf_r{r:g}"] for r in RADII) <= m["bound_inf"] * (1 + 1e-5)
+         for label, m in records.items()}
+start, end = c_hist[0], c_hist[-1]
+drift = float(np.mean(end - start)) / paper["history_step"][-1]
+change = ", ".join(f"layer {i + 1}: {a:.3g} -> {b:.3g} ({(b - a) / a:+.1%})"
+                   for i, (a, b) in enumerate(zip(start, end, strict=True)))
+lip, spec, plain = (records["lipvq (paper)"], records["vq + spectral norm"],
+                    records["vq (no normalization)"])
+emp = {label: max(m[f"empirical_inf_r{r:g}"] for r in RADII) for label, m in records.items()}
+lines = [
+    "Bound check (inf-norm, every model): "
+    + "; ".join(f"{k}: {'held' if v else 'VIOLATED'}" for k, v in holds.items()) + ".",
+    f"LipVQ-VAE's per-layer bounds softplus(c_l) over {paper['history_step'][-1]} steps: {change}. "
+    f"Their product ends at {paper['bound_softplus_product']:.4g}; the empirical constant is "
+    f"{emp['lipvq (paper)']:.4g}, {emp['lipvq (paper)'] / paper['bound_softplus_product']:.2%} "
+    "of it.",
+    f"With Liu et al.'s initialisation (c_l = the largest initial row sum) nothing is rescaled "
+    "at the start. The 1e-6 weight does not make the bounds' steps small: Adam scales every "
+    "parameter's step to about the learning rate, so softplus(c_l) drifts "
+    f"{'down' if drift < 0 else 'up'} by {abs(drift):.2g}"
+    f" per step on average (learning rate {cfg.lr:g}), {np.max(np.abs(end - start) / start):.2%}"
+    " of its value at most in this run. The constraint bites only once a row's sum "
+    "reaches its shrinking bound.",
+    f"Spectral normalization gives a 2-norm bound of {spec['bound_2']:.3g} (about 1 per "
+    f"layer) and an inf-norm bound of {spec['bound_inf']:.3g}; its empirical inf-norm "
+    f"constant is {emp['vq + spectral norm']:.3g} against {emp['lipvq (paper)']:.3g} for "
+    f"LipVQ-VAE and {emp['vq (no normalization)']:.3g} without normalization.",
+    f"Reconstruction MSE: LipVQ-VAE {lip['reconstruction_mse']:.4g}, spectral "
+    f"{spec['reconstruction_mse']:.4g}, unnormalized {plain['reconstruction_mse']:.4g}, "
+    f"official-code variant {records['lipvq (official code)']['reconstruction_mse']:.4g}.",
+]
+print("\n\n".join(lines))

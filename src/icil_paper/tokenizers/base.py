@@ -1,0 +1,211 @@
+"""The one interface every action tokenizer implements.
+
+An action tokenizer turns a batch of action trajectories into one embedding per step, the
+action tokens that the policy interleaves with its observation tokens (Eq. 1 of the paper),
+and knows how to turn embeddings back into actions:
+
+    tokenizer = make_tokenizer("lipvq", action_dim=7, latent_dim=64)
+    tokenizer.fit(trajectories)            # bin ranges, FAST's BPE; no-op for learned ones
+    out = tokenizer(actions)               # actions (B, T, A)
+    out.embeddings                         # (B, T, D)  what the policy consumes
+    out.reconstruction                     # (B, T, A)  the tokenizer's own reconstruction
+    out.codes                              # LongTensor of discrete codes, or None
+    loss = policy_loss + sum(out.losses.values())   # weighted scalars
+    actions_back = tokenizer.decode(out.embeddings) # (B, T, A)
+
+Input checks are the same for every tokenizer: a wrong action dimension or a NaN/inf
+value raises a ValueError that names the problem.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+
+@dataclass
+class TokenizerOutput:
+    """What `ActionTokenizer.forward` returns."""
+
+    embeddings: Tensor
+    """(B, T, D) action tokens the policy consumes (gradients flow where the method allows)."""
+    reconstruction: Tensor
+    """(B, T, A) actions reconstructed by the tokenizer itself (its decoder, bin centres or
+    inverse DCT, depending on the method)."""
+    codes: Tensor | None
+    """Integer codes (LongTensor) for discrete tokenizers, None for continuous ones. Shape
+    per tokenizer: (B, T) for vq / lipvq / lfq, (B, T, A) for bin; for fast (B, T, L) in
+    causal mode or (B, ceil(T / chunk), L) in blocked mode, padded with -1."""
+    losses: dict[str, Tensor] = field(default_factory=dict)
+    """Weighted scalar losses; a policy trained jointly adds their sum to its own loss."""
+    latents: Tensor | None = None
+    """(B, T, D') encoder output before quantization, where there is an encoder."""
+
+    def total_loss(self) -> Tensor:
+        """Sum of `losses` (a zero tensor when there are none)."""
+        if not self.losses:
+            return self.embeddings.new_zeros(())
+        return torch.stack(list(self.losses.values())).sum()
+
+
+def mlp(sizes: Sequence[int], activation: type[nn.Module] = nn.ReLU,
+        linear: type[nn.Module] = nn.Linear) -> nn.Sequential:
+    """Linear layers of the given sizes with `activation` between them (none after the last).
+
+    `mlp([7, 64, 128, 32])` is Linear(7, 64)-ReLU-Linear(64, 128)-ReLU-Linear(128, 32).
+    """
+    layers: list[nn.Module] = []
+    for i, (n_in, n_out) in enumerate(zip(sizes[:-1], sizes[1:], strict=False)):
+        layers.append(linear(n_in, n_out))
+        if i < len(sizes) - 2:
+            layers.append(activation())
+    return nn.Sequential(*layers)
+
+
+def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
+    """Validate `fit` input: an array (N, T, A), a tensor, or a list of (T_i, A) arrays.
+
+    Returns a list of float64 arrays (T_i, A). Raises ValueError naming the problem.
+    """
+    if isinstance(actions, Tensor):
+        actions = actions.detach().cpu().numpy()
+    if isinstance(actions, np.ndarray):
+        if actions.ndim == 2:
+            actions = [actions]
+        elif actions.ndim == 3:
+            actions = list(actions)
+        else:
+            raise ValueError(f"actions must be shaped (N, T, A) or be a list of (T, A) arrays; "
+                             f"got an array with shape {actions.shape}")
+    trajectories = []
+    for i, traj in enumerate(actions):
+        if isinstance(traj, Tensor):
+            traj = traj.detach().cpu().numpy()
+        traj = np.asarray(traj, dtype=np.float64)
+        if traj.ndim != 2:
+            raise ValueError(f"trajectory {i} must be shaped (T, A), got shape {traj.shape}")
+        if traj.shape[1] != action_dim:
+            raise ValueError(f"wrong action dimension: trajectory {i} has {traj.shape[1]} "
+                             f"action dimensions, the tokenizer expects {action_dim}")
+        if not np.isfinite(traj).all():
+            raise ValueError(f"trajectory {i} contains NaN or inf actions "
+                             f"(first at row {int(np.argwhere(~np.isfinite(traj))[0, 0])})")
+        if len(traj) == 0:
+            raise ValueError(f"trajectory {i} is empty")
+        trajectories.append(traj)
+    if not trajectories:
+        raise ValueError("no trajectories to fit")
+    return trajectories
+
+
+class ActionTokenizer(nn.Module):
+    """Base class: validation, the decoder head, and the shared `encode` / `decode` API.
+
+    Subclasses set `name` and `discrete`, and implement `_forward(actions) -> TokenizerOutput`
+    and, if they have something to fit to data, `_fit(trajectories)`.
+    """
+
+    name: str = "base"
+    discrete: bool = False
+    needs_fit: bool = False
+
+    def __init__(self, action_dim: int, latent_dim: int):
+        super().__init__()
+        if action_dim < 1 or latent_dim < 1:
+            raise ValueError(f"action_dim and latent_dim must be positive, got "
+                             f"{action_dim} and {latent_dim}")
+        self.action_dim = int(action_dim)
+        self.latent_dim = int(latent_dim)
+        # A buffer (not a Python bool) so that a loaded checkpoint knows it was fitted.
+        self.register_buffer("_fitted", torch.tensor(not self.needs_fit), persistent=True)
+
+    # ----------------------------------------------------------------- fitting
+    @property
+    def fitted(self) -> bool:
+        """True once `fit` has run (always True for tokenizers with nothing to fit)."""
+        return bool(self._fitted)
+
+    def fit(self, actions) -> ActionTokenizer:
+        """Fit what must be fitted to data before training; returns self.
+
+        actions: an array (N, T, A), or a list of (T_i, A) arrays of unequal lengths.
+        """
+        trajectories = as_trajectory_list(actions, self.action_dim)
+        self._fit(trajectories)
+        self._fitted.fill_(True)
+        return self
+
+    def _fit(self, trajectories: list[np.ndarray]) -> None:
+        """Nothing to fit for learned tokenizers."""
+
+    # ----------------------------------------------------------------- forward
+    def check_actions(self, actions: Tensor) -> Tensor:
+        """Raise ValueError for a wrong shape, wrong action dimension or NaN/inf values."""
+        if not isinstance(actions, Tensor):
+            actions = torch.as_tensor(np.asarray(actions), dtype=torch.float32)
+        if actions.ndim != 3:
+            raise ValueError(f"actions must be shaped (B, T, A), got shape {tuple(actions.shape)}")
+        if actions.shape[-1] != self.action_dim:
+            raise ValueError(f"wrong action dimension: got actions with {actions.shape[-1]} "
+                             f"dimensions, the {self.name} tokenizer expects {self.action_dim}")
+        if not torch.isfinite(actions).all():
+            bad = (~torch.isfinite(actions)).nonzero()[0].tolist()
+            raise ValueError(f"actions contain NaN or inf values (first at index {bad})")
+        if not self.fitted:
+            raise RuntimeError(f"the {self.name} tokenizer must be fitted first: "
+                               "call tokenizer.fit(trajectories)")
+        return actions.to(self._param_dtype())
+
+    def _param_dtype(self) -> torch.dtype:
+        for p in self.parameters():
+            return p.dtype
+        return torch.float32
+
+    def forward(self, actions: Tensor) -> TokenizerOutput:
+        """Tokenize actions (B, T, A) -> TokenizerOutput (see the module docstring)."""
+        return self._forward(self.check_actions(actions))
+
+    def _forward(self, actions: Tensor) -> TokenizerOutput:
+        raise NotImplementedError
+
+    def encode(self, actions: Tensor) -> Tensor:
+        """Embeddings (B, T, D) of actions (B, T, A)."""
+        return self(actions).embeddings
+
+    def decode(self, embeddings: Tensor) -> Tensor:
+        """Actions (B, T, A) from embeddings (B, T, D)."""
+        if embeddings.ndim != 3 or embeddings.shape[-1] != self.latent_dim:
+            raise ValueError(f"embeddings must be shaped (B, T, {self.latent_dim}), got "
+                             f"{tuple(embeddings.shape)}")
+        return self.decoder(embeddings)
+
+    # ----------------------------------------------------------------- facts
+    @property
+    def codebook_size(self) -> int | None:
+        """Number of distinct codes (None for continuous tokenizers)."""
+        return None
+
+    @property
+    def context_steps(self) -> int:
+        """How many of the latest actions one step's embedding depends on.
+
+        1 for per-step tokenizers. A policy that embeds actions one step at a time (e.g. at
+        inference) must pass at least this many of the latest actions and keep the last
+        step's embedding.
+        """
+        return 1
+
+    def tokens_per_step(self, actions=None) -> float:
+        """Discrete tokens emitted per action step (1 embedding per step for continuous ones)."""
+        return 1.0
+
+    def vocabulary_ids(self, codes: Tensor) -> Tensor:
+        """Codes from `forward` as a flat LongTensor of ids in [0, codebook_size) (no padding)."""
+        return codes[codes >= 0].flatten()
+
+    def extra_repr(self) -> str:
+        return f"action_dim={self.action_dim}, latent_dim={self.latent_dim}"

@@ -1,0 +1,308 @@
+"""`fast`: FAST (Pertsch et al. 2025), DCT compression of action chunks plus BPE.
+
+Per chunk of `chunk` steps (C, A):
+
+    coefficients = scipy.fft.dct(chunk, axis=time, norm="ortho")      (C, A)
+    integers     = round(scale * coefficients)                         (C, A)
+    symbols      = integers flattened frequency-major (all dimensions of the lowest
+                   frequency first), each shifted to a non-negative symbol
+    tokens       = BPE(symbols), a vocabulary of `vocab_size` trained by `fit`
+                   with the `tokenizers` package (min frequency 2)
+
+Decoding inverts every step. Because the DCT is orthonormal, rounding changes each
+coefficient by at most 1 / (2 scale), so the round-trip error of a chunk is at most
+sqrt(C * A) / (2 scale) in the Euclidean norm (and usually far less). Each rounded integer is
+one symbol of the BPE's initial alphabet, a byte whenever the range of integers seen in `fit`
+spans at most 256 values (true at scale 10 for actions in [-1, 1] and chunks up to 16 steps);
+values outside the fitted range are clipped to it.
+
+A token sequence that does not decode to exactly C * A symbols (or holds ids outside the
+vocabulary) is malformed. The reference implementation turns those into zero actions,
+which hides the failure; here `decode_tokens` raises `FastDecodeError`, or, with
+`strict=False`, returns NaN actions and a per-sequence `ok` flag.
+
+One embedding per step (what the policy consumes): a chunk's token embeddings, each plus a
+learned embedding of its position in the sequence, are mean-pooled into one vector. Two
+ways to assign chunks to steps:
+
+- `mode="causal"` (default): step t is tokenized as the chunk of the `chunk` actions
+  ending at t (the first steps are left-padded by repeating the first action). A step's
+  embedding then depends on past and present actions only, which is what an
+  autoregressive policy that reads earlier action tokens requires. To embed one new step
+  (at inference), pass the last `context_steps` actions and keep the last embedding.
+- `mode="blocked"`: non-overlapping chunks (FAST's own setting); every step of a chunk
+  gets the chunk's pooled embedding plus a learned embedding of the step's place in it.
+  Note that the embedding of a step then encodes *later* actions of its chunk.
+
+`tokens_per_step` always counts tokens of non-overlapping chunks (FAST's compression rate).
+`reconstruction` inverts the rounded coefficients (identical to decoding the tokens, since
+BPE is lossless; the tests check this); `decode(embeddings)` is a learned MLP head, trained
+on detached embeddings unless `autoencode=True`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, mlp
+from icil_paper.tokenizers.mlp import DEFAULT_HIDDEN
+
+# Symbol of integer v is chr(v - min_token + _CHAR_OFFSET). 0 is kept free because NumPy's
+# fixed-width strings (used to build symbol strings fast) drop trailing NUL characters.
+_CHAR_OFFSET = 1
+_MODES = ("causal", "blocked")
+
+
+class FastDecodeError(ValueError):
+    """A FAST token sequence that does not decode to a whole chunk of actions."""
+
+
+def _bpe_from_str(text: str):
+    from tokenizers import Tokenizer
+
+    return Tokenizer.from_str(text)
+
+
+class FASTTokenizer(ActionTokenizer):
+    """DCT + BPE action tokenizer with per-step pooled token embeddings.
+
+    Args:
+        action_dim, latent_dim: A and D.
+        chunk: steps per DCT chunk (C).
+        scale: coefficients are multiplied by this before rounding (FAST: 10).
+        vocab_size: BPE vocabulary size (FAST: 1024).
+        min_frequency: BPE merge threshold (FAST: 2).
+        mode: "causal" or "blocked" (see the module docstring).
+        hidden: widths of the decode head's hidden layers.
+        autoencode: let the decode loss train the token embeddings (stand-alone training).
+        decode_weight: weight of the decode head's loss in `losses`.
+    """
+
+    name = "fast"
+    discrete = True
+    needs_fit = True
+
+    def __init__(self, action_dim: int, latent_dim: int, chunk: int = 8, scale: float = 10.0,
+                 vocab_size: int = 1024, min_frequency: int = 2, mode: str = "causal",
+                 hidden: Sequence[int] = DEFAULT_HIDDEN, autoencode: bool = False,
+                 decode_weight: float = 1.0):
+        super().__init__(action_dim, latent_dim)
+        if mode not in _MODES:
+            raise ValueError(f"unknown FAST mode {mode!r}; valid: {', '.join(_MODES)}")
+        if chunk < 1 or scale <= 0:
+            raise ValueError(f"chunk must be >= 1 and scale > 0, got {chunk} and {scale}")
+        self.chunk = int(chunk)
+        self.scale = float(scale)
+        self.vocab_size = int(vocab_size)
+        self.min_frequency = int(min_frequency)
+        self.mode = mode
+        self.autoencode = autoencode
+        self.decode_weight = decode_weight
+        self.symbols_per_chunk = self.chunk * action_dim
+        self.token_embedding = nn.Embedding(vocab_size, latent_dim)
+        self.token_position = nn.Embedding(self.symbols_per_chunk, latent_dim)
+        self.step_position = nn.Embedding(self.chunk, latent_dim)
+        self.decoder = mlp([latent_dim, *hidden[::-1], action_dim])
+        self.min_token = 0
+        self.max_token = 0
+        self._bpe = None
+        self._vocab: list[str] = []
+
+    # ------------------------------------------------------------------ fitting
+    def _fit(self, trajectories: list[np.ndarray]) -> None:
+        from tokenizers import Tokenizer, models, trainers
+
+        chunks = np.concatenate([self._blocked_chunks(t[None])[0] for t in trajectories])
+        ints = self._quantize(chunks)  # (N, C, A)
+        self.min_token, self.max_token = int(ints.min()), int(ints.max())
+        n_symbols = self.max_token - self.min_token + 1
+        if n_symbols > self.vocab_size:
+            raise ValueError(
+                f"FAST needs {n_symbols} base symbols (integers {self.min_token}..{self.max_token}"
+                f" at scale {self.scale}) but vocab_size is {self.vocab_size}; "
+                "lower fast_scale or raise fast_vocab_size")
+        strings = self._symbol_strings(ints)
+        bpe = Tokenizer(models.BPE())
+        trainer = trainers.BpeTrainer(
+            vocab_size=self.vocab_size, min_frequency=self.min_frequency, show_progress=False,
+            special_tokens=[], max_token_length=10000,
+            initial_alphabet=[chr(i + _CHAR_OFFSET) for i in range(n_symbols)])
+        bpe.train_from_iterator(strings, trainer, length=len(strings))
+        self._set_bpe(bpe)
+
+    def _set_bpe(self, bpe) -> None:
+        self._bpe = bpe
+        self._vocab = [bpe.id_to_token(i) for i in range(bpe.get_vocab_size())]
+
+    def get_extra_state(self) -> dict:
+        """The BPE vocabulary and symbol range travel with `state_dict()`."""
+        return {"bpe": self._bpe.to_str() if self._bpe is not None else None,
+                "min_token": self.min_token, "max_token": self.max_token}
+
+    def set_extra_state(self, state: dict) -> None:
+        self.min_token, self.max_token = state["min_token"], state["max_token"]
+        if state["bpe"] is not None:
+            self._set_bpe(_bpe_from_str(state["bpe"]))
+
+    @property
+    def bpe_vocab_size(self) -> int:
+        """Tokens in the fitted BPE vocabulary (at most `vocab_size`)."""
+        return len(self._vocab)
+
+    # ------------------------------------------------------------------ chunks
+    def _blocked_chunks(self, actions: np.ndarray) -> np.ndarray:
+        """(B, T, A) -> (B, ceil(T / C), C, A), the last chunk padded with the last action."""
+        b, t, a = actions.shape
+        n = -(-t // self.chunk)
+        padded = np.concatenate([actions, np.repeat(actions[:, -1:], n * self.chunk - t, 1)], 1)
+        return padded.reshape(b, n, self.chunk, a)
+
+    def _causal_chunks(self, actions: np.ndarray) -> np.ndarray:
+        """(B, T, A) -> (B, T, C, A): the C actions ending at each step (first one repeated)."""
+        padded = np.concatenate([np.repeat(actions[:, :1], self.chunk - 1, 1), actions], 1)
+        windows = np.lib.stride_tricks.sliding_window_view(padded, self.chunk, axis=1)
+        return np.ascontiguousarray(windows.transpose(0, 1, 3, 2))  # (B, T, C, A)
+
+    def _quantize(self, chunks: np.ndarray) -> np.ndarray:
+        """Chunks (..., C, A) -> rounded scaled DCT coefficients (..., C, A), int64."""
+        from scipy.fft import dct
+
+        return np.rint(dct(chunks, axis=-2, norm="ortho") * self.scale).astype(np.int64)
+
+    def _dequantize(self, ints: np.ndarray) -> np.ndarray:
+        from scipy.fft import idct
+
+        return idct(ints / self.scale, axis=-2, norm="ortho")
+
+    def _symbol_strings(self, ints: np.ndarray) -> list[str]:
+        """Integers (N, C, A) -> one string of C * A symbols per chunk (frequency-major)."""
+        flat = np.clip(ints.reshape(len(ints), -1), self.min_token, self.max_token)
+        codes = (flat - self.min_token + _CHAR_OFFSET).astype(np.uint32)
+        # A (N, L) uint32 array viewed as N fixed-width unicode strings of L characters.
+        return np.ascontiguousarray(codes).view(f"<U{codes.shape[1]}").ravel().tolist()
+
+    # ------------------------------------------------------------------ tokens
+    def encode_tokens(self, chunks) -> list[list[int]]:
+        """Action chunks (N, C, A) -> N token id lists."""
+        self._require_fit()
+        chunks = np.asarray(chunks, dtype=np.float64)
+        if chunks.ndim != 3 or chunks.shape[1:] != (self.chunk, self.action_dim):
+            raise ValueError(f"chunks must be shaped (N, {self.chunk}, {self.action_dim}), "
+                             f"got {chunks.shape}")
+        strings = self._symbol_strings(self._quantize(chunks))
+        return [e.ids for e in self._bpe.encode_batch(strings)]
+
+    def decode_tokens(self, tokens: Sequence[Sequence[int]], strict: bool = True
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """Token id lists -> (actions (N, C, A), ok (N,) bool).
+
+        A malformed sequence (ids outside the vocabulary, or not exactly C * A symbols)
+        raises FastDecodeError when `strict`; otherwise its actions are NaN and `ok` is False.
+        """
+        self._require_fit()
+        n_sym = self.symbols_per_chunk
+        ints = np.zeros((len(tokens), n_sym), dtype=np.int64)
+        ok = np.ones(len(tokens), dtype=bool)
+        problems = []
+        for i, ids in enumerate(tokens):
+            ids = [int(j) for j in ids]
+            bad = [j for j in ids if not 0 <= j < len(self._vocab)]
+            if bad:
+                ok[i] = False
+                problems.append(f"sequence {i}: token ids {bad[:5]} outside the vocabulary "
+                                f"of {len(self._vocab)}")
+                continue
+            symbols = "".join(self._vocab[j] for j in ids)
+            if len(symbols) != n_sym:
+                ok[i] = False
+                problems.append(f"sequence {i}: {len(ids)} tokens decode to {len(symbols)} "
+                                f"coefficients, a chunk needs {n_sym}")
+                continue
+            ints[i] = np.frombuffer(symbols.encode("utf-32-le"), dtype=np.uint32)
+        if problems and strict:
+            raise FastDecodeError(f"{len(problems)} malformed FAST token sequence(s): "
+                                  + "; ".join(problems[:5]))
+        ints = ints - _CHAR_OFFSET + self.min_token
+        actions = self._dequantize(ints.reshape(-1, self.chunk, self.action_dim))
+        actions[~ok] = np.nan
+        return actions, ok
+
+    def _require_fit(self) -> None:
+        if self._bpe is None:
+            raise RuntimeError("the fast tokenizer must be fitted first: call tokenizer.fit(...)")
+
+    def _token_array(self, token_lists: list[list[int]]) -> Tensor:
+        """Ragged id lists -> LongTensor (N, L) padded with -1."""
+        length = max(1, max(len(t) for t in token_lists))
+        out = np.full((len(token_lists), length), -1, dtype=np.int64)
+        for i, ids in enumerate(token_lists):
+            out[i, :len(ids)] = ids
+        return torch.from_numpy(out)
+
+    # ------------------------------------------------------------------ forward
+    def _pool(self, ids: Tensor) -> Tensor:
+        """Token ids (N, L) padded with -1 -> mean of token + position embeddings (N, D)."""
+        mask = (ids >= 0).unsqueeze(-1)  # (N, L, 1)
+        positions = torch.arange(ids.shape[1], device=ids.device)
+        emb = self.token_embedding(ids.clamp(min=0)) + self.token_position(positions)
+        return (emb * mask).sum(1) / mask.sum(1).clamp(min=1)
+
+    def _forward(self, actions: Tensor) -> TokenizerOutput:
+        self._require_fit()
+        b, t, a = actions.shape
+        x = actions.detach().cpu().double().numpy()
+        if self.mode == "causal":
+            chunks = self._causal_chunks(x)  # (B, T, C, A)
+        else:
+            chunks = self._blocked_chunks(x)  # (B, n, C, A)
+        n = chunks.shape[1]
+        ints = self._quantize(chunks.reshape(b * n, self.chunk, a))
+        ints = np.clip(ints, self.min_token, self.max_token)
+        token_lists = [e.ids for e in self._bpe.encode_batch(self._symbol_strings(ints))]
+        ids = self._token_array(token_lists).to(actions.device)  # (B * n, L)
+        pooled = self._pool(ids).view(b, n, -1)  # (B, n, D)
+        recon_chunks = self._dequantize(ints).reshape(b, n, self.chunk, a)
+        if self.mode == "causal":
+            z = pooled  # (B, T, D)
+            recon = recon_chunks[:, :, -1]  # each step is the last row of its own chunk
+        else:
+            steps = torch.arange(t, device=actions.device)
+            z = pooled.repeat_interleave(self.chunk, dim=1)[:, :t]
+            z = z + self.step_position(steps % self.chunk)
+            recon = recon_chunks.reshape(b, n * self.chunk, a)[:, :t]
+        recon = torch.as_tensor(recon, dtype=actions.dtype, device=actions.device)
+        decoded = self.decoder(z if self.autoencode else z.detach())
+        losses = {"decode": self.decode_weight * F.mse_loss(decoded, actions)}
+        codes = ids.view(b, n, -1)
+        return TokenizerOutput(embeddings=z, reconstruction=recon, codes=codes, losses=losses)
+
+    # ------------------------------------------------------------------ facts
+    @property
+    def context_steps(self) -> int:
+        """`chunk` in causal mode (step t depends on steps t - chunk + 1 .. t)."""
+        return self.chunk
+
+    @property
+    def codebook_size(self) -> int:
+        """Tokens in the BPE vocabulary (the configured size before fitting)."""
+        return self.bpe_vocab_size or self.vocab_size
+
+    def tokens_per_step(self, actions=None) -> float:
+        """Tokens of non-overlapping chunks per action step, over `actions`.
+
+        actions: (B, T, A) array/tensor or a list of (T_i, A) arrays (required).
+        """
+        from icil_paper.tokenizers.base import as_trajectory_list
+
+        if actions is None:
+            raise ValueError("FAST's tokens per step depend on the data: pass actions")
+        trajectories = as_trajectory_list(actions, self.action_dim)
+        n_tokens = 0
+        for traj in trajectories:
+            n_tokens += sum(len(t) for t in self.encode_tokens(self._blocked_chunks(traj[None])[0]))
+        return n_tokens / sum(len(t) for t in trajectories)

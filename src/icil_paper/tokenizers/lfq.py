@@ -1,0 +1,90 @@
+"""`lfq`: lookup-free quantization (MAGVIT-v2, Yu et al. 2024), the paper's "LFQ-VAE".
+
+    actions (B, T, A) --encoder--> z_e (B, T, b), b = log2(K) bits
+        --sign per dimension--> q in {-1, +1}^b, code = the bit pattern (an int in [0, K))
+        --straight-through--> (project to D if b != D) --> embeddings (B, T, D) --decoder--> x_hat
+
+Losses: L_rec + entropy_weight * (mean per-sample entropy - gamma * batch codebook entropy)
++ commitment_weight * ||z_e - sg[q]||^2. The entropy term makes each step's code confident
+while spreading the batch over the whole implicit codebook of 2^b codes.
+
+The quantizer is `vector_quantize_pytorch.LFQ` (pinned in requirements.txt; checked to work
+with this project's torch 2.13). In eval mode it returns the hard codes and no losses.
+
+Code width: the codebook has 2^b codes, so b = log2(codebook_size) (10 for 1024 codes) is
+usually smaller than the token width D. The +-1 code is then mapped to D by a learned
+linear projection; the projected code is the embedding the policy consumes and what the
+decoder reads, so `decode(embeddings)` needs no inverse projection. With b == D the embedding
+is the +-1 code itself.
+
+(The official code's "LFQ-VAE" only L2-normalizes the encoder output and does no lookup-free
+quantization; this file implements the method the paper cites.)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, mlp
+from icil_paper.tokenizers.mlp import DEFAULT_HIDDEN
+
+
+class LFQTokenizer(ActionTokenizer):
+    """Lookup-free quantization of one action per step.
+
+    Args:
+        action_dim, latent_dim: A and D.
+        codebook_size: K, a power of two; the code has log2(K) bits.
+        hidden: encoder hidden widths; the decoder mirrors them.
+        entropy_weight: weight of the entropy loss (MAGVIT-v2: 0.1).
+        commitment_weight: weight of the commitment loss (0.25).
+        diversity_gamma: weight of the batch-entropy term inside the entropy loss.
+        recon_weight: weight of the reconstruction loss.
+    """
+
+    name = "lfq"
+    discrete = True
+
+    def __init__(self, action_dim: int, latent_dim: int, codebook_size: int = 1024,
+                 hidden: Sequence[int] = DEFAULT_HIDDEN, entropy_weight: float = 0.1,
+                 commitment_weight: float = 0.25, diversity_gamma: float = 1.0,
+                 recon_weight: float = 1.0):
+        super().__init__(action_dim, latent_dim)
+        bits = int(round(math.log2(codebook_size)))
+        if codebook_size < 2 or 2**bits != codebook_size:
+            raise ValueError(f"LFQ's codebook_size must be a power of two >= 2, got "
+                             f"{codebook_size}")
+        from vector_quantize_pytorch import LFQ
+
+        self.bits = bits
+        self.entropy_weight = entropy_weight
+        self.commitment_weight = commitment_weight
+        self.diversity_gamma = diversity_gamma
+        self.recon_weight = recon_weight
+        self.encoder = mlp([action_dim, *hidden, bits])
+        # Weights 1.0 here: the breakdown is weighted below, so `losses` shows each term.
+        self.quantizer = LFQ(dim=bits, codebook_size=codebook_size, entropy_loss_weight=1.0,
+                             commitment_loss_weight=1.0, diversity_gamma=diversity_gamma)
+        self.project = nn.Identity() if bits == latent_dim else nn.Linear(bits, latent_dim)
+        self.decoder = mlp([latent_dim, *hidden[::-1], action_dim])
+
+    @property
+    def codebook_size(self) -> int:
+        return 2**self.bits
+
+    def _forward(self, actions: Tensor) -> TokenizerOutput:
+        z_e = self.encoder(actions)  # (B, T, bits)
+        (q, codes, _), breakdown = self.quantizer(z_e, return_loss_breakdown=True)
+        z = self.project(q)  # (B, T, D)
+        recon = self.decoder(z)
+        losses = {"reconstruction": self.recon_weight * F.mse_loss(recon, actions)}
+        if self.training:
+            entropy = breakdown.per_sample_entropy - self.diversity_gamma * breakdown.batch_entropy
+            losses["entropy"] = self.entropy_weight * entropy
+            losses["commitment"] = self.commitment_weight * breakdown.commitment
+        return TokenizerOutput(embeddings=z, reconstruction=recon, codes=codes.long(),
+                               losses=losses, latents=z_e)

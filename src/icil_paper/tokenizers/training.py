@@ -1,0 +1,244 @@
+"""Stand-alone tokenizer training and the measurements chapter 04 and the benchmark report.
+
+In the paper every tokenizer is trained jointly with the policy. To compare tokenizers on
+their own, chapter 04 trains each as an autoencoder on action trajectories:
+
+    tok = build_tokenizer("lipvq", 7, preset.tokenizer, stand_alone=True)
+    result = train_tokenizer(tok, trajectories, preset.tokenizer, seed=0)
+    metrics = evaluate_tokenizer(tok, held_out_trajectories)
+
+`stand_alone=True` lets the reconstruction / decode loss train the embeddings of `mlp`,
+`lip-mlp`, `bin` and `fast` (in a policy those are shaped by the policy's loss instead).
+
+Batches are random windows of `config.window` steps from random trajectories:
+
+    trajectory i:  a_0 a_1 ... a_s [a_s ... a_{s+W-1}] ... a_{T_i - 1}
+                                   `------ window ------'   s uniform in [0, T_i - W]
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Iterator, Sequence
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+from icil_paper.config import TokenizerConfig
+from icil_paper.metrics import SMOOTHNESS_SCORES, codebook_usage
+from icil_paper.tokenizers import make_tokenizer
+from icil_paper.tokenizers.base import ActionTokenizer, as_trajectory_list
+from icil_paper.tokenizers.lipschitz_linear import lipschitz_bounds
+
+_AUTOENCODE = ("mlp", "lip-mlp", "bin", "fast")
+_CODEBOOK = ("vq", "lfq", "lipvq")
+
+
+def tokenizer_options(name: str, config: TokenizerConfig, **options) -> dict:
+    """Constructor options of tokenizer `name` from a TokenizerConfig (`options` win)."""
+    opts: dict = {}
+    if name in _CODEBOOK:
+        opts["codebook_size"] = config.codebook_size
+    if not (name == "lipvq" and options.get("variant") == "official"):
+        opts["hidden"] = tuple(config.hidden)
+    if name == "bin":
+        opts["n_bins"] = config.n_bins
+    if name == "fast":
+        opts.update(chunk=config.fast_chunk, scale=config.fast_scale,
+                    vocab_size=config.fast_vocab_size, mode=config.fast_mode)
+    opts.update(options)
+    return opts
+
+
+def build_tokenizer(name: str, action_dim: int, config: TokenizerConfig,
+                    stand_alone: bool = False, **options) -> ActionTokenizer:
+    """`make_tokenizer` with sizes from `config`; `latent_dim` may be given in `options`.
+
+    stand_alone: train the embeddings of mlp / lip-mlp / bin / fast by reconstruction.
+    """
+    latent_dim = options.pop("latent_dim", config.latent_dim)
+    if stand_alone and name in _AUTOENCODE:
+        options.setdefault("autoencode", True)
+    return make_tokenizer(name, action_dim, latent_dim, **tokenizer_options(name, config, **options))
+
+
+def sample_windows(trajectories: Sequence[np.ndarray], batch_size: int, window: int,
+                   rng: np.random.Generator) -> np.ndarray:
+    """Random windows (batch_size, window, A); short trajectories repeat their last action."""
+    out = np.empty((batch_size, window, trajectories[0].shape[1]), dtype=np.float32)
+    for b, i in enumerate(rng.integers(len(trajectories), size=batch_size)):
+        traj = trajectories[i]
+        start = int(rng.integers(max(len(traj) - window, 0) + 1))
+        piece = traj[start:start + window]
+        if len(piece) < window:
+            piece = np.concatenate([piece, np.repeat(piece[-1:], window - len(piece), 0)])
+        out[b] = piece
+    return out
+
+
+@contextlib.contextmanager
+def torch_threads(n: int | None) -> Iterator[None]:
+    """Run the block with n intra-op torch threads (None: leave as is), then restore."""
+    before = torch.get_num_threads()
+    if n is not None:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
+def train_tokenizer(tokenizer: ActionTokenizer, trajectories, config: TokenizerConfig,
+                    seed: int = 0, progress: bool = True, steps: int | None = None,
+                    log_every: int | None = None, threads: int | None = 1) -> dict:
+    """Train `tokenizer` on its own for `config.steps` Adam steps (lr `config.lr`).
+
+    Fits it first if it has something to fit and is not fitted. Returns
+    `{"steps", "wall_time_s", "history"}`; the history has, every `log_every` steps, the
+    step, the total loss, each weighted loss term and (for Lipschitz layers) the bounds
+    softplus(c_l) of every layer (`lipschitz_bounds`, a list per logged step).
+
+    threads: torch threads while training. Tokenizers are tiny, and one thread is several
+    times faster than two on a 2-core machine (thread synchronization dominates).
+    """
+    with torch_threads(threads):
+        return _train(tokenizer, trajectories, config, seed, progress, steps, log_every)
+
+
+def _train(tokenizer, trajectories, config, seed, progress, steps, log_every) -> dict:
+    trajectories = [t.astype(np.float32) for t in
+                    as_trajectory_list(trajectories, tokenizer.action_dim)]
+    if not tokenizer.fitted:
+        tokenizer.fit(trajectories)
+    steps = config.steps if steps is None else steps
+    log_every = log_every or max(1, steps // 50)
+    rng = np.random.default_rng(seed)
+    params = [p for p in tokenizer.parameters() if p.requires_grad]
+    optimizer = torch.optim.Adam(params, lr=config.lr)
+    history: dict[str, list] = {"step": [], "loss": [], "lipschitz_bounds": []}
+    tokenizer.train()
+    start = time.perf_counter()
+    bar = tqdm(range(1, steps + 1), desc=f"train {tokenizer.name}", disable=not progress,
+               leave=False)
+    for step in bar:
+        batch = torch.from_numpy(sample_windows(trajectories, config.batch_size, config.window, rng))
+        out = tokenizer(batch)
+        loss = out.total_loss()
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        optimizer.step()
+        if step % log_every == 0 or step == 1 or step == steps:
+            history["step"].append(step)
+            history["loss"].append(loss.item())
+            for key, value in out.losses.items():
+                history.setdefault(key, []).append(value.item())
+            history["lipschitz_bounds"].append(lipschitz_bounds(tokenizer))
+            bar.set_postfix(loss=f"{loss.item():.4f}")
+    tokenizer.eval()
+    return {"steps": steps, "wall_time_s": time.perf_counter() - start, "history": history}
+
+
+# ---------------------------------------------------------------------- evaluation
+def _each(tokenizer: ActionTokenizer, trajectories):
+    """(trajectory tensor (1, T, A), output) per trajectory, in eval mode without gradients."""
+    was_training = tokenizer.training
+    tokenizer.eval()
+    try:
+        with torch.no_grad():
+            for traj in as_trajectory_list(trajectories, tokenizer.action_dim):
+                x = torch.as_tensor(traj, dtype=torch.float32)[None]
+                yield x, tokenizer(x)
+    finally:
+        tokenizer.train(was_training)
+
+
+def reconstruction_errors(tokenizer: ActionTokenizer, trajectories) -> dict[str, float]:
+    """Mean squared errors over every action value of `trajectories`.
+
+    `reconstruction_mse`: the tokenizer's own reconstruction (decoder, bin centres or inverse
+    DCT); `decode_mse`: `decode(embeddings)`, the way back from what the policy consumes.
+    """
+    sq_rec = sq_dec = n = 0.0
+    for x, out in _each(tokenizer, trajectories):
+        sq_rec += float(((out.reconstruction - x) ** 2).sum())
+        sq_dec += float(((tokenizer.decode(out.embeddings) - x) ** 2).sum())
+        n += x.numel()
+    return {"reconstruction_mse": sq_rec / n, "decode_mse": sq_dec / n}
+
+
+def codebook_stats(tokenizer: ActionTokenizer, trajectories) -> dict[str, float | None]:
+    """Codebook usage and perplexity over `trajectories` (None for continuous tokenizers)."""
+    if not tokenizer.discrete:
+        return {"codebook_size": None, "usage": None, "perplexity": None, "codes_used": None}
+    ids = torch.cat([tokenizer.vocabulary_ids(out.codes) for _, out in
+                     _each(tokenizer, trajectories)])
+    return {"codebook_size": tokenizer.codebook_size,
+            **codebook_usage(ids, tokenizer.codebook_size)}
+
+
+def smoothness(tokenizer: ActionTokenizer, trajectories) -> dict[str, float]:
+    """Mean over trajectories of each smoothness score of the embedding sequence (T, D)."""
+    scores: dict[str, list[float]] = {name: [] for name in SMOOTHNESS_SCORES}
+    for _, out in _each(tokenizer, trajectories):
+        z = out.embeddings[0]
+        for name, fn in SMOOTHNESS_SCORES.items():
+            scores[name].append(fn(z))
+    return {name: float(np.mean(values)) for name, values in scores.items()}
+
+
+def throughput(tokenizer: ActionTokenizer, actions: torch.Tensor, min_time: float = 0.5,
+               max_repeats: int = 1000, threads: int | None = 1) -> dict[str, float]:
+    """Actions per second for encode (`forward`), `decode`, and both, on a batch (B, T, A).
+
+    Each is timed over repeats until `min_time` seconds have passed (after one warm-up),
+    with `threads` torch threads (one by default: a per-core figure).
+    """
+    n_actions = actions.shape[0] * actions.shape[1]
+    was_training = tokenizer.training
+    tokenizer.eval()
+    try:
+        with torch.no_grad():
+            emb = tokenizer(actions).embeddings
+            tokenizer.decode(emb)
+
+            def rate(fn) -> float:
+                start, repeats = time.perf_counter(), 0
+                while repeats < max_repeats:
+                    fn()
+                    repeats += 1
+                    if time.perf_counter() - start >= min_time:
+                        break
+                return repeats * n_actions / (time.perf_counter() - start)
+
+            with torch_threads(threads):
+                encode = rate(lambda: tokenizer(actions))
+                decode = rate(lambda: tokenizer.decode(emb))
+                both = rate(lambda: tokenizer.decode(tokenizer(actions).embeddings))
+    finally:
+        tokenizer.train(was_training)
+    return {"encode_actions_per_s": encode, "decode_actions_per_s": decode,
+            "encode_decode_actions_per_s": both}
+
+
+def evaluate_tokenizer(tokenizer: ActionTokenizer, trajectories,
+                       throughput_batch: tuple[int, int] = (32, 16), seed: int = 0,
+                       min_time: float = 0.5, threads: int | None = 1) -> dict[str, float | None]:
+    """Every measurement of chapter 04 on held-out `trajectories`, as one flat dict.
+
+    Reconstruction errors, codebook usage / perplexity, tokens per step, encode / decode
+    throughput on a batch of `throughput_batch` (B, T) windows, and the smoothness scores.
+    """
+    trajectories = [t.astype(np.float32) for t in
+                    as_trajectory_list(trajectories, tokenizer.action_dim)]
+    metrics: dict[str, float | None] = {}
+    with torch_threads(threads):
+        metrics.update(reconstruction_errors(tokenizer, trajectories))
+        metrics.update(codebook_stats(tokenizer, trajectories))
+        metrics["tokens_per_step"] = tokenizer.tokens_per_step(trajectories)
+        batch = sample_windows(trajectories, *throughput_batch, np.random.default_rng(seed))
+        metrics.update(throughput(tokenizer, torch.from_numpy(batch), min_time=min_time,
+                                  threads=None))
+        metrics.update(smoothness(tokenizer, trajectories))
+    return metrics
