@@ -35,57 +35,22 @@
 # demonstrations are wired in.
 
 # %%
-import dataclasses
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-import torch
 
 from icil_paper.config import get_preset
+from icil_paper.metrics import ascending, rank_correlation
 from icil_paper.paper_numbers import SMOOTHNESS
 from icil_paper.results import ResultsStore
-from icil_paper.seeding import seed_everything
+from icil_paper.studies import VIEW_STEPS, tokenizer_study
 from icil_paper.tokenizers import TOKENIZERS
-from icil_paper.tokenizers.training import build_tokenizer, evaluate_tokenizer, train_tokenizer
-from icil_paper.trajectories import ACTION_DIM, generate_trajectories
 
 preset = get_preset()  # reads ICIL_PRESET
-cfg = preset.tokenizer
 store = ResultsStore(preset.name)
-# (label, registry name, options): every tokenizer, plus the official code's LipVQ variant.
-RUNS = [(name, name, {}) for name in TOKENIZERS] + [
-    ("lipvq-official", "lipvq", {"variant": "official"})]
-VIEW_STEPS = 40  # steps of one held-out trajectory drawn in the latent-trajectory figure
 
 # %%
-def compute(name: str, options: dict) -> dict:
-    seed_everything(preset.seed)
-    train = generate_trajectories(cfg.n_trajectories, seed=preset.seed, noise=cfg.trajectory_noise)
-    test = generate_trajectories(cfg.n_eval_trajectories, seed=preset.seed + 1,
-                                 noise=cfg.trajectory_noise)
-    tok = build_tokenizer(name, ACTION_DIM, cfg, stand_alone=True, **options)
-    result = train_tokenizer(tok, train, cfg, seed=preset.seed, progress=True)
-    metrics = evaluate_tokenizer(tok, test, seed=preset.seed)
-    metrics["train_s"] = result["wall_time_s"]
-    metrics["final_loss"] = result["history"]["loss"][-1]
-    # A 2-D view of one latent trajectory (principal components), for the figure below.
-    with torch.no_grad():
-        z = tok.eval()(torch.from_numpy(test[0][None, :VIEW_STEPS])).embeddings[0].numpy()
-    z = z - z.mean(0)
-    _, _, vt = np.linalg.svd(z, full_matrices=False)
-    metrics["latent_view"] = (z @ vt[:2].T).tolist()
-    return metrics
-
-
-records = {}
-for label, name, options in RUNS:
-    config = {"chapter": "04", "tokenizer": name, "options": options,
-              "tokenizer_config": dataclasses.asdict(cfg), "seed": preset.seed,
-              "trajectories": "generated (icil_paper.trajectories)"}
-    records[label] = store.run("tokenizer", label, config,
-                               lambda name=name, options=options: compute(name, options),
-                               seed=preset.seed)["metrics"]
+records = tokenizer_study(preset, store)  # trains what the results store lacks
 
 # %% [markdown]
 # ## The table
@@ -151,25 +116,14 @@ plt.tight_layout()
 # ## What we found
 
 # %%
-def ranking(values: dict) -> list[str]:
-    return sorted(values, key=values.get)
-
-
-def spearman(a: dict, b: dict) -> float:
-    keys = sorted(set(a) & set(b))
-    ra = pd.Series([a[k] for k in keys]).rank()
-    rb = pd.Series([b[k] for k in keys]).rank()
-    return float(ra.corr(rb))
-
-
 paper_names = [k for k in TOKENIZERS if k in SMOOTHNESS]
-lines = [f"Paper's smoothness ranking (smoothest first): {', '.join(ranking(SMOOTHNESS))}."]
+lines = [f"Paper's smoothness ranking (smoothest first): {', '.join(ascending(SMOOTHNESS))}."]
 for score in scores:
     ours = {k: records[k][score] for k in paper_names}
-    best = ranking(ours)[0]
+    best = ascending(ours)[0]
     lines.append(
-        f"Our {score} ranking: {', '.join(ranking(ours))}; rank correlation with the paper's "
-        f"{spearman(ours, SMOOTHNESS):+.2f}. LipVQ-VAE is "
+        f"Our {score} ranking: {', '.join(ascending(ours))}; rank correlation with the paper's "
+        f"{rank_correlation(ours, SMOOTHNESS):+.2f}. LipVQ-VAE is "
         + ("the smoothest, as the paper claims." if best == "lipvq"
            else f"not the smoothest here ({best} is), so the paper's claim did not hold "
                 "on this score in our run."))

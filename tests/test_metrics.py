@@ -119,3 +119,14 @@ def test_empirical_lipschitz_of_a_linear_map():
     two = empirical_lipschitz(lambda x: x @ w.t(), torch.randn(100, 5), ord=2)
     assert two <= float(torch.linalg.matrix_norm(w, ord=2)) + 1e-5
     assert math.isfinite(two)
+
+
+def test_rank_correlation_and_ascending():
+    from icil_paper.metrics import ascending, rank_correlation
+
+    a = {"x": 1.0, "y": 2.0, "z": 3.0}
+    assert ascending(a) == ["x", "y", "z"]
+    assert rank_correlation(a, {"x": 10, "y": 20, "z": 30, "w": 0}) == pytest.approx(1.0)
+    assert rank_correlation(a, {"x": 3, "y": 2, "z": 1}) == pytest.approx(-1.0)
+    with pytest.raises(ValueError, match="at least 2 shared keys"):
+        rank_correlation(a, {"x": 1})

@@ -23,7 +23,7 @@ dimension, and returns a Python float.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -177,3 +177,18 @@ def empirical_lipschitz(fn: Callable, x, n_pairs: int = 1000, radius: float = 0.
     den = torch.linalg.vector_norm(a - b, ord=ord, dim=-1)
     valid = den > 1e-9
     return float((num[valid] / den[valid]).max()) if valid.any() else 0.0
+
+
+def ascending(values: Mapping[str, float]) -> list[str]:
+    """Keys ordered by value, smallest first (for smoothness scores: smoothest first)."""
+    return sorted(values, key=values.get)
+
+
+def rank_correlation(a: Mapping[str, float], b: Mapping[str, float]) -> float:
+    """Spearman rank correlation over the keys two score tables share (ties share ranks)."""
+    from scipy.stats import spearmanr
+
+    keys = sorted(set(a) & set(b))
+    if len(keys) < 2:
+        raise ValueError(f"rank correlation needs at least 2 shared keys, got {keys}")
+    return float(spearmanr([a[k] for k in keys], [b[k] for k in keys]).statistic)

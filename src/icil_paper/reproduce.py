@@ -34,7 +34,15 @@ class Stage:
 STAGES: tuple[Stage, ...] = (
     Stage("environment", "record the packages, hardware and simulator checks",
           "icil_paper.reproduce:record_environment"),
+    Stage("tokenizers", "train every action tokenizer alone and score it (chapter 04)",
+          "icil_paper.reproduce:tokenizers"),
 )
+
+
+def tokenizers(preset: Preset, store: ResultsStore, force: bool) -> None:
+    from icil_paper.studies import tokenizer_study
+
+    tokenizer_study(preset, store, force)
 
 
 def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None:
