@@ -41,75 +41,20 @@
 # the tokenizer chapters.
 
 # %%
-import dataclasses
-import math
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-import torch
 
 from icil_paper.config import get_preset
-from icil_paper.metrics import empirical_lipschitz
 from icil_paper.results import ResultsStore
-from icil_paper.seeding import seed_everything
-from icil_paper.tokenizers import lipschitz_bounds, lipschitz_loss
-from icil_paper.tokenizers.lipschitz_linear import weight_norm_bound
-from icil_paper.tokenizers.training import (
-    build_tokenizer,
-    reconstruction_errors,
-    smoothness,
-    train_tokenizer,
-)
-from icil_paper.trajectories import ACTION_DIM, generate_trajectories
+from icil_paper.studies import LIPSCHITZ_RADII as RADII
+from icil_paper.studies import lipschitz_study
 
 preset = get_preset()  # reads ICIL_PRESET
-cfg = preset.tokenizer
 store = ResultsStore(preset.name)
-# Encoders compared: (label, tokenizer name, options).
-MODELS = [
-    ("lipvq (paper)", "lipvq", {}),
-    ("lipvq (official code)", "lipvq", {"variant": "official"}),
-    ("vq + spectral norm", "vq", {"norm": "spectral"}),
-    ("vq (no normalization)", "vq", {}),
-]
-RADII = (1e-3, 1e-2, 1e-1, 1.0)
 
 # %%
-def compute(name: str, options: dict) -> dict:
-    seed_everything(preset.seed)
-    train = generate_trajectories(cfg.n_trajectories, seed=preset.seed, noise=cfg.trajectory_noise)
-    test = generate_trajectories(cfg.n_eval_trajectories, seed=preset.seed + 1,
-                                 noise=cfg.trajectory_noise)
-    tok = build_tokenizer(name, ACTION_DIM, cfg, stand_alone=True, **options)
-    result = train_tokenizer(tok, train, cfg, seed=preset.seed, progress=True)
-    anchors = torch.from_numpy(np.concatenate(test))
-    metrics = {
-        "bound_inf": weight_norm_bound(tok.encoder, math.inf),
-        "bound_2": weight_norm_bound(tok.encoder, 2),
-        "bound_softplus_product": (lipschitz_loss(tok.encoder).item()
-                                   if lipschitz_bounds(tok) else None),
-        "c_history": result["history"]["lipschitz_bounds"],
-        "history_step": result["history"]["step"],
-        "train_s": result["wall_time_s"],
-    }
-    for radius in RADII:
-        for ord_name, ord_value in (("inf", math.inf), ("2", 2)):
-            metrics[f"empirical_{ord_name}_r{radius:g}"] = empirical_lipschitz(
-                tok.encoder, anchors, n_pairs=4000, radius=radius, seed=preset.seed, ord=ord_value)
-    metrics.update(reconstruction_errors(tok, test))
-    metrics.update({f"latent_{k}": v for k, v in smoothness(tok, test).items()})
-    return metrics
-
-
-records = {}
-for label, name, options in MODELS:
-    config = {"chapter": "02", "tokenizer": name, "options": options,
-              "tokenizer_config": dataclasses.asdict(cfg), "seed": preset.seed,
-              "trajectories": "generated (icil_paper.trajectories)", "radii": list(RADII)}
-    records[label] = store.run("lipschitz", label, config,
-                               lambda name=name, options=options: compute(name, options),
-                               seed=preset.seed)["metrics"]
+records = lipschitz_study(preset, store)  # trains what the results store lacks
 
 # %% [markdown]
 # ## Does the bound hold?
@@ -194,7 +139,7 @@ lines = [
     "at the start. The 1e-6 weight does not make the bounds' steps small: Adam scales every "
     "parameter's step to about the learning rate, so softplus(c_l) drifts "
     f"{'down' if drift < 0 else 'up'} by {abs(drift):.2g}"
-    f" per step on average (learning rate {cfg.lr:g}), {np.max(np.abs(end - start) / start):.2%}"
+    f" per step on average (learning rate {preset.tokenizer.lr:g}), {np.max(np.abs(end - start) / start):.2%}"
     " of its value at most in this run. The constraint bites only once a row's sum "
     "reaches its shrinking bound.",
     f"Spectral normalization gives a 2-norm bound of {spec['bound_2']:.3g} (about 1 per "

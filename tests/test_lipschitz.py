@@ -13,15 +13,6 @@ from icil_paper.tokenizers import LipschitzLinear, lipschitz_loss, make_tokenize
 from icil_paper.tokenizers.lipschitz_linear import lipschitz_bounds, lipschitz_layers
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """Tiny models run fastest (and with steady timings) on one torch thread."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
-
-
 @pytest.mark.parametrize("seed", range(5))
 def test_row_sums_never_exceed_the_bound(seed):
     torch.manual_seed(seed)

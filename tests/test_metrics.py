@@ -18,15 +18,6 @@ from icil_paper.metrics import (
 )
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """Tiny models run fastest (and with steady timings) on one torch thread."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
-
-
 def test_least_energy_of_a_constant_velocity_line_is_zero():
     t = np.arange(50, dtype=float)[:, None]
     z = 0.3 + t * np.array([[1.0, -2.0, 0.5]])

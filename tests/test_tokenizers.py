@@ -23,15 +23,6 @@ from icil_paper.tokenizers.training import (
 )
 from icil_paper.trajectories import generate_trajectories
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """Tiny models run fastest (and with steady timings) on one torch thread."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
-
 A, D, K = 7, 16, 64
 # Every tokenizer plus the official code's LipVQ variant: (registry name, options).
 VARIANTS = [(name, {}) for name in TOKENIZERS] + [("lipvq", {"variant": "official"})]

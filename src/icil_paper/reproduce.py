@@ -34,9 +34,17 @@ class Stage:
 STAGES: tuple[Stage, ...] = (
     Stage("environment", "record the packages, hardware and simulator checks",
           "icil_paper.reproduce:record_environment"),
+    Stage("lipschitz", "Lipschitz bounds vs empirical constants of trained encoders (chapter 02)",
+          "icil_paper.reproduce:lipschitz"),
     Stage("tokenizers", "train every action tokenizer alone and score it (chapter 04)",
           "icil_paper.reproduce:tokenizers"),
 )
+
+
+def lipschitz(preset: Preset, store: ResultsStore, force: bool) -> None:
+    from icil_paper.studies import lipschitz_study
+
+    lipschitz_study(preset, store, force)
 
 
 def tokenizers(preset: Preset, store: ResultsStore, force: bool) -> None:

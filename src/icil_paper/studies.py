@@ -26,15 +26,10 @@ def tokenizer_runs() -> list[tuple[str, str, dict]]:
         ("lipvq-official", "lipvq", {"variant": "official"})]
 
 
-def _train_and_measure_tokenizer(preset: Preset, name: str, options: dict) -> dict:
-    import torch
-
+def _train_alone(preset: Preset, name: str, options: dict):
+    """Seed, generate train/test trajectories, train one tokenizer alone; return all three."""
     from icil_paper.seeding import seed_everything
-    from icil_paper.tokenizers.training import (
-        build_tokenizer,
-        evaluate_tokenizer,
-        train_tokenizer,
-    )
+    from icil_paper.tokenizers.training import build_tokenizer, train_tokenizer
     from icil_paper.trajectories import ACTION_DIM, generate_trajectories
 
     cfg = preset.tokenizer
@@ -44,6 +39,15 @@ def _train_and_measure_tokenizer(preset: Preset, name: str, options: dict) -> di
                                  noise=cfg.trajectory_noise)
     tok = build_tokenizer(name, ACTION_DIM, cfg, stand_alone=True, **options)
     result = train_tokenizer(tok, train, cfg, seed=preset.seed, progress=True)
+    return tok, result, test
+
+
+def _train_and_measure_tokenizer(preset: Preset, name: str, options: dict) -> dict:
+    import torch
+
+    from icil_paper.tokenizers.training import evaluate_tokenizer
+
+    tok, result, test = _train_alone(preset, name, options)
     metrics = evaluate_tokenizer(tok, test, seed=preset.seed)
     metrics["train_s"] = result["wall_time_s"]
     metrics["final_loss"] = result["history"]["loss"][-1]
@@ -68,5 +72,65 @@ def tokenizer_study(preset: Preset, store: ResultsStore | None = None,
         records[label] = store.run(
             "tokenizer", label, config,
             lambda name=name, options=options: _train_and_measure_tokenizer(preset, name, options),
+            seed=preset.seed, force=force)["metrics"]
+    return records
+
+
+LIPSCHITZ_MODELS = (
+    ("lipvq (paper)", "lipvq", {}),
+    ("lipvq (official code)", "lipvq", {"variant": "official"}),
+    ("vq + spectral norm", "vq", {"norm": "spectral"}),
+    ("vq (no normalization)", "vq", {}),
+)
+"""Encoders compared in chapter 02: (label, tokenizer name, options)."""
+
+LIPSCHITZ_RADII = (1e-3, 1e-2, 1e-1, 1.0)
+"""Perturbation radii of the random pairs that estimate an empirical Lipschitz constant."""
+
+
+def _lipschitz_measurements(preset: Preset, name: str, options: dict) -> dict:
+    import math
+
+    import torch
+
+    from icil_paper.metrics import empirical_lipschitz
+    from icil_paper.tokenizers import lipschitz_bounds, lipschitz_loss
+    from icil_paper.tokenizers.lipschitz_linear import weight_norm_bound
+    from icil_paper.tokenizers.training import reconstruction_errors, smoothness
+
+    tok, result, test = _train_alone(preset, name, options)
+    anchors = torch.from_numpy(np.concatenate(test))
+    metrics = {
+        "bound_inf": weight_norm_bound(tok.encoder, math.inf),
+        "bound_2": weight_norm_bound(tok.encoder, 2),
+        "bound_softplus_product": (lipschitz_loss(tok.encoder).item()
+                                   if lipschitz_bounds(tok) else None),
+        "c_history": result["history"]["lipschitz_bounds"],
+        "history_step": result["history"]["step"],
+        "train_s": result["wall_time_s"],
+    }
+    for radius in LIPSCHITZ_RADII:
+        for ord_name, ord_value in (("inf", math.inf), ("2", 2)):
+            metrics[f"empirical_{ord_name}_r{radius:g}"] = empirical_lipschitz(
+                tok.encoder, anchors, n_pairs=4000, radius=radius, seed=preset.seed,
+                ord=ord_value)
+    metrics.update(reconstruction_errors(tok, test))
+    metrics.update({f"latent_{k}": v for k, v in smoothness(tok, test).items()})
+    return metrics
+
+
+def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
+                    force: bool = False) -> dict[str, dict]:
+    """Chapter 02: train encoders with and without normalization; bounds vs empirical constants."""
+    store = store or ResultsStore(preset.name)
+    records = {}
+    for label, name, options in LIPSCHITZ_MODELS:
+        config = {"chapter": "02", "tokenizer": name, "options": options,
+                  "tokenizer_config": dataclasses.asdict(preset.tokenizer), "seed": preset.seed,
+                  "trajectories": "generated (icil_paper.trajectories)",
+                  "radii": list(LIPSCHITZ_RADII)}
+        records[label] = store.run(
+            "lipschitz", label, config,
+            lambda name=name, options=options: _lipschitz_measurements(preset, name, options),
             seed=preset.seed, force=force)["metrics"]
     return records
