@@ -1,0 +1,262 @@
+"""From demonstrations to training batches: prompt/query sequences (ICRT) and windows (baselines).
+
+ICRT's token layout (Eq. 1 of the paper, with the query's own actions in context as in
+ICRT's code). A prompt is one or more full demonstrations of the task, concatenated; the
+query is a window of `query_len` steps of another demonstration of the same task:
+
+    prompt (M steps, no loss)                            query (N steps, loss)
+    ┌────────────────────────────────────────────┐  ┌──────────────────────────────────────┐
+     o_p1  a_p1  o_p2  a_p2   ...   o_pM  a_pM        o_q1  a_q1  o_q2  a_q2  ...  o_qN  a_qN
+      │     │                                          │           │                │
+      └─────┴── one token each; causal attention:      ▼           ▼                ▼
+                every token sees itself and all      head        head             head
+                tokens to its left                  â_q1..     â_q2..           â_qN..
+                                                   a_q(1+K-1)
+
+    o_* : observation token (ObservationEncoder)   a_* : action token (tokenizer embeddings)
+    K   : chunk_size, the head predicts K future actions at each query observation token
+
+The head reads only the query's observation tokens, so o_qt sees a_q1 .. a_q(t-1) but never
+a_qt, the action it must predict. Prompt positions carry no loss. The batch is padded: a
+prompt shorter than the longest in the batch is padded at its end, and so is a short query;
+`prompt_valid` / `query_valid` mark real steps and the model skips padding (it is never
+attended to and does not shift the positions of real tokens).
+
+Windows for the baselines (BC-Transformer, ACT, MCR), for a step t of one demonstration:
+
+    history (H steps, edge-padded at the start)      future actions (K steps)
+    o_(t-H+1) ... o_(t-1)  o_t                     a_t  a_(t+1) ... a_(t+K-1)
+    a_(t-H+1) ... a_(t-1)  a_t   (per-step targets)   (masked past the episode's end)
+
+Every sampler draws from a NumPy Generator, so a batch sequence is reproducible from the
+generator's state (which the training loop checkpoints).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from icil_paper.policies.backbones import IMAGE_KEYS, ObsSpec, obs_spec_from_obs
+
+
+# --------------------------------------------------------------------------- demonstrations
+def _check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int | None) -> None:
+    name = f"demonstration {i} ({getattr(demo, 'task', '?')})"
+    actions = np.asarray(demo.actions)
+    if actions.ndim != 2 or len(actions) == 0:
+        raise ValueError(f"{name}: actions must be a non-empty (T, A) array, got shape {actions.shape}")
+    if action_dim is not None and actions.shape[1] != action_dim:
+        raise ValueError(f"{name}: actions have dimension {actions.shape[1]}, expected {action_dim}")
+    if not np.isfinite(actions).all():
+        raise ValueError(f"{name}: actions contain NaN or inf")
+    for k in keys:
+        if k not in demo.obs:
+            raise ValueError(f"{name}: observation key {k!r} is missing (it has {sorted(demo.obs)})")
+        if len(demo.obs[k]) != len(actions):
+            raise ValueError(f"{name}: obs[{k!r}] has {len(demo.obs[k])} steps but there are "
+                             f"{len(actions)} actions")
+
+
+class DemoSet:
+    """Demonstrations held as arrays, grouped by task, ready to be sampled into batches.
+
+    Args:
+        demos: Demo-like objects (fields `actions` (T, A), `obs` {key: (T, ...)}, `task`,
+            `instruction`).
+        spec: the observation keys to keep; by default inferred from the first demo.
+    """
+
+    def __init__(self, demos: Sequence[Any], spec: ObsSpec | None = None):
+        demos = list(demos)
+        if not demos:
+            raise ValueError("no demonstrations given")
+        self.spec = spec or obs_spec_from_obs(demos[0].obs)
+        self.action_dim = int(np.asarray(demos[0].actions).shape[1])
+        for i, d in enumerate(demos):
+            _check_demo(i, d, self.spec.keys, self.action_dim)
+        self.actions = [np.asarray(d.actions, np.float32) for d in demos]
+        self.obs = [{k: _as_stored(k, d.obs[k]) for k in self.spec.keys} for d in demos]
+        self.tasks = [str(getattr(d, "task", "task")) for d in demos]
+        self.instructions = [str(getattr(d, "instruction", "") or "") for d in demos]
+        self.lengths = np.array([len(a) for a in self.actions])
+        self.by_task: dict[str, list[int]] = {}
+        for i, t in enumerate(self.tasks):
+            self.by_task.setdefault(t, []).append(i)
+        self._cum = np.concatenate([[0], np.cumsum(self.lengths)])
+
+    def __len__(self) -> int:
+        return len(self.actions)
+
+    @property
+    def n_steps(self) -> int:
+        return int(self.lengths.sum())
+
+    def all_obs(self) -> dict[str, np.ndarray]:
+        """Every step's observation, concatenated over demonstrations: key -> (sum T, ...)."""
+        return {k: np.concatenate([o[k] for o in self.obs]) for k in self.spec.keys}
+
+    def step_index(self, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Map flat step indices (over all demos) to (demo index, step index)."""
+        demo = np.searchsorted(self._cum, flat, side="right") - 1
+        return demo, flat - self._cum[demo]
+
+
+def _as_stored(key: str, x: np.ndarray) -> np.ndarray:
+    x = np.asarray(x)
+    if key == "rgb":
+        return x.astype(np.uint8, copy=False)
+    return x.astype(np.float32, copy=False)
+
+
+def as_demo_set(demos: DemoSet | Sequence[Any], spec: ObsSpec | None = None) -> DemoSet:
+    return demos if isinstance(demos, DemoSet) else DemoSet(demos, spec)
+
+
+# --------------------------------------------------------------------------- helpers
+def _take(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """x[idx] with idx clamped into range (edge padding)."""
+    return x[np.clip(idx, 0, len(x) - 1)]
+
+
+def _stack_obs(rows: list[dict[str, np.ndarray]]) -> dict[str, Tensor]:
+    return {k: torch.from_numpy(np.stack([r[k] for r in rows])) for k in rows[0]}
+
+
+def _pad_end(x: np.ndarray, length: int) -> np.ndarray:
+    """Pad (T, ...) to (length, ...) by repeating the last row."""
+    if len(x) >= length:
+        return x[:length]
+    return np.concatenate([x, np.repeat(x[-1:], length - len(x), axis=0)])
+
+
+def chunk_targets(actions: np.ndarray, steps: np.ndarray, chunk: int) -> tuple[np.ndarray, np.ndarray]:
+    """Future actions a_t .. a_(t+K-1) for each step t: (len(steps), K, A) and a validity mask."""
+    idx = steps[:, None] + np.arange(chunk)[None, :]  # (N, K)
+    valid = idx < len(actions)
+    return _take(actions, idx), valid
+
+
+# --------------------------------------------------------------------------- ICRT batches
+def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_size: int,
+                       prompt_demos: int, rng: np.random.Generator,
+                       action_context: int = 0) -> dict[str, Any]:
+    """Sample B (prompt, query) pairs of the same task (see the module docstring).
+
+    Returns a dict of tensors (padded; B batch, M prompt steps, N query steps, K chunk):
+        prompt_obs {key: (B, M, ...)}, prompt_actions (B, M, A), prompt_valid (B, M) bool,
+        query_obs {key: (B, N, ...)}, query_actions (B, N, A), query_valid (B, N) bool,
+        targets (B, N, K, A), target_valid (B, N, K) bool (False past a demo's end or on
+        padding), instruction [B strings], and with `action_context` = c > 0
+        query_action_context (B, c, A), the c actions before each query window (edge-padded
+        with the first action at an episode's start).
+    The prompt is `prompt_demos` other demonstrations of the query's task (the query's own
+    demonstration only when the task has no other).
+    """
+    if prompt_demos < 1:
+        raise ValueError(f"prompt_demos must be at least 1, got {prompt_demos}")
+    rows = []
+    for _ in range(batch_size):
+        q = int(rng.integers(len(data)))
+        same = [i for i in data.by_task[data.tasks[q]] if i != q] or [q]
+        chosen = rng.choice(len(same), size=prompt_demos, replace=len(same) < prompt_demos)
+        prompt = [same[int(c)] for c in chosen]
+        T = int(data.lengths[q])
+        n = min(query_len, T)
+        start = int(rng.integers(0, T - n + 1))
+        steps = np.arange(start, start + n)
+        targets, tvalid = chunk_targets(data.actions[q], steps, chunk_size)
+        rows.append({
+            "prompt_obs": {k: np.concatenate([data.obs[p][k] for p in prompt]) for k in data.spec.keys},
+            "prompt_actions": np.concatenate([data.actions[p] for p in prompt]),
+            "query_obs": {k: v[steps] for k, v in data.obs[q].items()},
+            "query_actions": data.actions[q][steps],
+            "targets": targets, "target_valid": tvalid,
+            "instruction": data.instructions[q],
+            "context": _take(data.actions[q], np.arange(start - action_context, start)),
+        })
+    M = max(len(r["prompt_actions"]) for r in rows)
+    N = max(len(r["query_actions"]) for r in rows)
+    batch = {
+        "prompt_valid": torch.tensor(np.stack([np.arange(M) < len(r["prompt_actions"]) for r in rows])),
+        "query_valid": torch.tensor(np.stack([np.arange(N) < len(r["query_actions"]) for r in rows])),
+        "prompt_obs": _stack_obs([{k: _pad_end(v, M) for k, v in r["prompt_obs"].items()} for r in rows]),
+        "prompt_actions": torch.from_numpy(np.stack([_pad_end(r["prompt_actions"], M) for r in rows])),
+        "query_obs": _stack_obs([{k: _pad_end(v, N) for k, v in r["query_obs"].items()} for r in rows]),
+        "query_actions": torch.from_numpy(np.stack([_pad_end(r["query_actions"], N) for r in rows])),
+        "targets": torch.from_numpy(np.stack([_pad_end(r["targets"], N) for r in rows])),
+        "instruction": [r["instruction"] for r in rows],
+    }
+    if action_context > 0:
+        batch["query_action_context"] = torch.from_numpy(np.stack([r["context"] for r in rows]))
+    tvalid = np.stack([_pad_end(r["target_valid"], N) for r in rows])
+    batch["target_valid"] = torch.from_numpy(tvalid) & batch["query_valid"][:, :, None]
+    return batch
+
+
+# --------------------------------------------------------------------------- baseline windows
+def window_batch(data: DemoSet, batch_size: int, history: int, chunk_size: int,
+                 rng: np.random.Generator) -> dict[str, Any]:
+    """Sample B steps uniformly over all demonstration steps, with history and future actions.
+
+    Returns: obs {key: (B, H, ...)} (edge-padded at the episode start), obs_valid (B, H)
+    (False for padded history steps), actions (B, H, A) the action taken at each history
+    step, targets (B, K, A) and target_valid (B, K) for a_t .. a_(t+K-1), instruction [B],
+    index (demonstration indices (B,), step indices (B,)) as NumPy arrays.
+    """
+    flat = rng.integers(0, data.n_steps, size=batch_size)
+    demo_idx, step_idx = data.step_index(flat)
+    obs_rows, actions, valid, targets, tvalid, instr = [], [], [], [], [], []
+    for d, t in zip(demo_idx.tolist(), step_idx.tolist(), strict=True):
+        hist = np.arange(t - history + 1, t + 1)
+        obs_rows.append({k: _take(v, hist) for k, v in data.obs[d].items()})
+        actions.append(_take(data.actions[d], hist))
+        valid.append(hist >= 0)
+        tg, tv = chunk_targets(data.actions[d], np.array([t]), chunk_size)
+        targets.append(tg[0])
+        tvalid.append(tv[0])
+        instr.append(data.instructions[d])
+    return {
+        "obs": _stack_obs(obs_rows),
+        "obs_valid": torch.from_numpy(np.stack(valid)),
+        "actions": torch.from_numpy(np.stack(actions)),
+        "targets": torch.from_numpy(np.stack(targets)),
+        "target_valid": torch.from_numpy(np.stack(tvalid)),
+        "instruction": instr,
+        "index": (demo_idx, step_idx),
+    }
+
+
+def batch_to(batch: Mapping[str, Any], device: torch.device | str) -> dict[str, Any]:
+    """Move every tensor of a (nested) batch dict to `device`."""
+    out: dict[str, Any] = {}
+    for k, v in batch.items():
+        if isinstance(v, Tensor):
+            out[k] = v.to(device)
+        elif isinstance(v, Mapping):
+            out[k] = batch_to(v, device)
+        else:
+            out[k] = v
+    return out
+
+
+def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec, time_axis: bool = False) -> dict[str, Tensor]:
+    """An environment observation (or a (T, ...) sequence with `time_axis`) -> {key: (1, T, ...)}."""
+    out = {}
+    for k in spec.keys:
+        if k not in obs:
+            raise ValueError(f"observation key {k!r} is missing (the observation has "
+                             f"{sorted(obs)}; the policy reads {list(spec.keys)})")
+        x = _as_stored(k, np.asarray(obs[k]))
+        if not time_axis:
+            x = x[None]
+        out[k] = torch.from_numpy(np.ascontiguousarray(x))[None]
+    return out
+
+
+__all__ = ["DemoSet", "as_demo_set", "prompt_query_batch",
+           "window_batch", "chunk_targets", "batch_to", "obs_batch", "IMAGE_KEYS"]

@@ -1,0 +1,158 @@
+"""ACT (Zhao et al. 2023), scaled down to BC-Transformer's size, and Table II's ACT+tokenizer.
+
+Plain ACT (`tokenizer=None`): a conditional VAE over the action chunk.
+
+    training only:  [CLS, state, a_t, ..., a_(t+K-1)] ─ bidirectional encoder ─ CLS ─> mu, logvar ─> z
+    always:         [z, state token, camera tokens...] ─ bidirectional encoder ─> memory
+                    K learned queries ─ DETR decoder (self-attn, cross-attn to memory) ─> â_t .. â_(t+K-1)
+    loss = L1(â, a) + kl_weight * KL(N(mu, sigma) || N(0, I));   at inference z = 0
+
+At inference a chunk is predicted every step and overlapping chunks are averaged with ACT's
+temporal ensembling (weights exp(-m i), i = 0 the oldest; `PolicyConfig.ensemble_m`).
+Sizes come from `PolicyConfig` (the same d_model / n_layer / n_head as BC-Transformer, as
+the paper scaled ACT down); the blocks are this library's Llama-style blocks with learned
+position embeddings instead of DETR's sine embeddings.
+
+ACT + tokenizer (`tokenizer="lipvq"` etc., Table II's rows). The paper replaces "ACT's cVAE
+action encoder" with each tokenizer and gives no further detail. Our reading: the tokenizer
+becomes ACT's action representation. Its embeddings of the true chunk (B, K, D_tok) are the
+decoder's regression target, and actions are the tokenizer's decoding of the decoder's
+output, so the tokenizer's latent space is what the policy has to predict:
+
+    memory = [state token, camera tokens...]      (no CVAE and no z)
+    K queries ─ decoder ─ Linear ─> ẑ (B, K, D_tok) ─ tokenizer.decode ─> â (B, K, A)
+    loss = L1(â, a) + MSE(ẑ, sg[tokenizer(a).embeddings]) + tokenizer losses
+
+The L1 term trains through `decode` where decoding is differentiable (vq, lipvq, lfq, mlp);
+for bin and FAST, whose decoding rounds to a code, it is logged but carries no gradient and
+the latent regression does the work. The target is detached so the policy cannot move it,
+while the tokenizer itself still learns through its own losses (trained jointly).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from icil_paper.batching import DemoSet, window_batch
+from icil_paper.config import PolicyConfig
+from icil_paper.policies.backbones import ObsSpec, build_mlp
+from icil_paper.policies.base import Policy, TemporalEnsemble, masked_l1
+from icil_paper.policies.transformer import DecoderBlock, RMSNorm, Transformer, TransformerConfig
+
+
+class ACT(Policy):
+    """Action chunking with transformers; `tokenizer` None = CVAE (plain ACT)."""
+
+    name = "act"
+
+    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
+                 config: PolicyConfig, tokenizer: str | None = None, **options: Any):
+        super().__init__(obs_dim, action_dim, config, tokenizer, **options)
+        D, K = config.d_model, config.chunk_size
+        self.chunk_size, self.kl_weight = K, config.kl_weight
+        cfg = TransformerConfig(d_model=D, n_layer=config.n_layer, n_head=config.n_head,
+                                dropout=config.dropout, causal=False, rope=False)
+        self.obs_encoder = self.make_obs_encoder(separate=True)
+        n_mem = self.obs_encoder.n_parts
+        self.tokenizer = self.make_tokenizer(tokenizer)
+        if self.tokenizer is None:  # the CVAE encoder and its latent z
+            self.latent_dim = config.act_latent_dim
+            self.cls = nn.Parameter(torch.zeros(1, 1, D))
+            self.enc_state = nn.Linear(max(self.obs_spec.lowdim_dim, 1), D)
+            self.enc_action = nn.Linear(action_dim, D)
+            self.enc_pos = nn.Parameter(torch.randn(1, K + 2, D) * 0.02)
+            self.cvae_encoder = Transformer(cfg)
+            self.to_latent = nn.Linear(D, 2 * self.latent_dim)
+            self.from_latent = nn.Linear(self.latent_dim, D)
+            n_mem += 1
+            out_dim = action_dim
+        else:
+            out_dim = self.tokenizer.latent_dim
+        self.mem_pos = nn.Parameter(torch.randn(1, n_mem, D) * 0.02)
+        self.memory_encoder = Transformer(cfg)
+        self.queries = nn.Parameter(torch.randn(1, K, D) * 0.02)
+        self.decoder = nn.ModuleList([DecoderBlock(cfg) for _ in range(config.n_layer)])
+        self.dec_norm = RMSNorm(D)
+        self.head = build_mlp([D, D, out_dim])
+        self.ensemble = TemporalEnsemble(K, config.ensemble_m)
+
+    # ------------------------------------------------------------------ model
+    def _cvae_posterior(self, obs: Mapping[str, Tensor], actions: Tensor,
+                        valid: Tensor) -> tuple[Tensor, Tensor]:
+        """[CLS, state, a_1..a_K] -> mu, logvar (B, latent)."""
+        B = actions.shape[0]
+        if self.obs_spec.lowdim_dim:
+            state = self.obs_encoder.lowdim(obs)[:, -1]  # (B, lowdim)
+        else:
+            state = actions.new_zeros(B, 1)
+        x = torch.cat([self.cls.expand(B, -1, -1), self.enc_state(state)[:, None],
+                       self.enc_action(actions)], dim=1) + self.enc_pos  # (B, K + 2, D)
+        tok_valid = torch.cat([valid.new_ones(B, 2), valid], dim=1)
+        h = self.cvae_encoder(x, tok_valid)[:, 0]  # (B, D)
+        mu, logvar = self.to_latent(h).chunk(2, dim=-1)
+        return mu, logvar
+
+    def decode_chunk(self, obs: Mapping[str, Tensor], instructions=None,
+                     z: Tensor | None = None) -> Tensor:
+        """Observation at one step {key: (B, 1, ...)} (+ z) -> decoder output (B, K, out)."""
+        mem = self.obs_encoder(obs, instructions)[:, -1]  # (B, n_parts, D)
+        if self.tokenizer is None:
+            mem = torch.cat([self.from_latent(z)[:, None], mem], dim=1)
+        memory = self.memory_encoder(mem + self.mem_pos)  # (B, n_mem, D)
+        x = self.queries.expand(mem.shape[0], -1, -1)  # (B, K, D)
+        for block in self.decoder:
+            x = block(x, memory)
+        return self.head(self.dec_norm(x))  # (B, K, out)
+
+    # ------------------------------------------------------------------ training
+    def sample_batch(self, data: DemoSet, batch_size: int, rng: np.random.Generator) -> dict[str, Any]:
+        return window_batch(data, batch_size, 1, self.chunk_size, rng)
+
+    def forward(self, batch: Mapping[str, Any]) -> tuple[Tensor, dict[str, float]]:
+        obs, instr = batch["obs"], batch.get("instruction")
+        target, valid = batch["targets"].float(), batch["target_valid"]  # (B, K, A), (B, K)
+        if self.tokenizer is None:
+            mu, logvar = self._cvae_posterior(obs, target, valid)
+            z = mu + torch.randn_like(mu) * (0.5 * logvar).exp()
+            pred = self.decode_chunk(obs, instr, z)
+            l1 = masked_l1(pred, target, valid)
+            kl = (-0.5 * (1 + logvar - mu.pow(2) - logvar.exp())).sum(-1).mean()
+            return l1 + self.kl_weight * kl, {"action_l1": float(l1.detach()), "kl": float(kl.detach())}
+        out = self.tokenizer(target)
+        z_target = out.embeddings.detach()  # (B, K, D_tok)
+        z_pred = self.decode_chunk(obs, instr)
+        latent = ((z_pred - z_target).pow(2).mean(-1) * valid).sum() / valid.sum().clamp(min=1)
+        actions = self.tokenizer.decode(z_pred)
+        l1 = masked_l1(actions, target, valid)
+        loss = latent + sum(out.losses.values())
+        if actions.requires_grad:
+            loss = loss + l1
+        info = {"action_l1": float(l1.detach()), "latent_mse": float(latent.detach())}
+        info.update({f"tok_{k}": float(v.detach()) for k, v in out.losses.items()})
+        return loss, info
+
+    # ------------------------------------------------------------------ acting
+    def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
+        super().reset(instruction=instruction)
+        self.ensemble.reset()
+
+    @torch.no_grad()
+    def predict_chunk(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
+        """The chunk (K, A) predicted for one env observation (z = 0 for plain ACT)."""
+        o = self.obs_tensors(obs)
+        if self.tokenizer is None:
+            z = torch.zeros(1, self.latent_dim, device=self.device)
+            chunk = self.decode_chunk(o, [self.instruction], z)
+        else:
+            chunk = self.tokenizer.decode(self.decode_chunk(o, [self.instruction]))
+        return chunk[0].cpu().numpy().astype(np.float32)
+
+    @torch.no_grad()
+    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
+        return self.ensemble(self.predict_chunk(obs)).astype(np.float32)
+

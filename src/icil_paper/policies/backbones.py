@@ -1,0 +1,332 @@
+"""Observation backbones: what turns one observation into one token.
+
+    proprio (P,) ┐
+    object  (O,) ┴─ concat ─ normalize ─ MLP ──────────────────┐
+    rgb (n_cams, H, W, 3) [+ depth (n_cams, H, W)]              ├─ concat ─ Linear ─(+ text)─> token (D,)
+                 └─ per camera: ResNet-18 ─ avgpool ─ concat ───┘
+    instruction ─ hashed bag of words ─ EmbeddingBag ──────────────────────────────┘ (optional)
+
+- Low-dimensional state (proprioception and object state) goes through an MLP, after a
+  per-dimension normalization whose mean and standard deviation are fitted on the training
+  demonstrations (`ObservationEncoder.set_stats`) and saved with the weights.
+- Images go through the library's own ResNet-18 (`ResNet18`). Its module names and shapes
+  follow torchvision's `resnet18` exactly (conv1, bn1, layer1..4, fc), because torchvision
+  itself does not load against the CPU build of torch this project uses; with `norm="batch"`
+  and `width=64` a torchvision state dict would load into it. Policies use GroupNorm
+  (`norm="group"`) by default, as diffusion_policy does: batch statistics are a poor fit for
+  small batches of highly correlated frames, and GroupNorm makes a token independent of the
+  rest of the batch. No pretrained weights are available offline, so it trains from scratch.
+- The paper embeds language with CLIP; no pretrained text encoder can be downloaded here, so
+  the optional language embedding (`HashedTextEmbedding`) is a learned bag of words: each
+  lower-cased word is hashed (CRC-32) into one of `n_buckets` learned vectors and the vectors
+  are averaged. It tells tasks apart by their instruction, but knows nothing of word meaning.
+"""
+
+from __future__ import annotations
+
+import re
+import zlib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+IMAGE_KEYS = ("rgb", "depth")
+DEFAULT_LOWDIM_KEYS = ("proprio", "object")
+
+
+# --------------------------------------------------------------------------- observation spec
+@dataclass(frozen=True)
+class ObsSpec:
+    """Which observation keys a policy reads, and their sizes."""
+
+    lowdim_keys: tuple[str, ...] = DEFAULT_LOWDIM_KEYS
+    """Low-dimensional keys, concatenated in this order."""
+    lowdim_dim: int = 0
+    """Total width of the concatenated low-dimensional keys."""
+    image: tuple[int, int, int] | None = None
+    """(n_cams, H, W) of the "rgb" key, or None for state-only observations."""
+    depth: bool = False
+    """Whether a "depth" key (n_cams, H, W) accompanies the images (RGB-D)."""
+    lowdim_dims: tuple[int, ...] | None = field(default=None, compare=False)
+    """Width of each low-dimensional key when known (for error messages only)."""
+
+    @property
+    def has_images(self) -> bool:
+        return self.image is not None
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        extra = (("rgb",) if self.image else ()) + (("depth",) if self.depth else ())
+        return self.lowdim_keys + extra
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"lowdim_keys": list(self.lowdim_keys), "lowdim_dim": self.lowdim_dim,
+                "image": list(self.image) if self.image else None, "depth": self.depth}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> ObsSpec:
+        return cls(tuple(d["lowdim_keys"]), int(d["lowdim_dim"]),
+                   tuple(d["image"]) if d.get("image") else None, bool(d.get("depth", False)))
+
+
+def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
+    """Normalize the `obs_dim` argument of `make_policy`.
+
+    - an int: the width of proprio and object state concatenated (state observations);
+    - a mapping key -> size or shape, e.g. {"proprio": 9, "object": 10} or
+      {"proprio": (9,), "object": (10,), "rgb": (2, 84, 84, 3), "depth": (2, 84, 84)};
+    - an ObsSpec.
+    """
+    if isinstance(obs_dim, ObsSpec):
+        return obs_dim
+    if isinstance(obs_dim, (int, np.integer)):
+        if obs_dim < 1:
+            raise ValueError(f"obs_dim must be positive, got {obs_dim}")
+        return ObsSpec(DEFAULT_LOWDIM_KEYS, int(obs_dim))
+    if isinstance(obs_dim, Mapping):
+        lowdim = {k: int(np.prod(v)) if isinstance(v, (tuple, list)) else int(v)
+                  for k, v in obs_dim.items() if k not in IMAGE_KEYS}
+        image = None
+        if "rgb" in obs_dim:
+            shape = tuple(int(s) for s in obs_dim["rgb"])
+            if len(shape) != 4 or shape[-1] != 3:
+                raise ValueError(f"rgb must be shaped (n_cams, H, W, 3), got {shape}")
+            image = shape[:3]
+        if "depth" in obs_dim and image is None:
+            raise ValueError("a depth observation needs an rgb observation beside it")
+        if not lowdim and image is None:
+            raise ValueError(f"no observation keys in {dict(obs_dim)}")
+        return ObsSpec(tuple(lowdim), sum(lowdim.values()), image, "depth" in obs_dim,
+                       tuple(lowdim.values()))
+    raise TypeError(f"obs_dim must be an int, a mapping or an ObsSpec, got {type(obs_dim)}")
+
+
+def obs_spec_from_obs(obs: Mapping[str, np.ndarray], time_axis: bool = True) -> ObsSpec:
+    """The ObsSpec of an observation dict; with `time_axis` the arrays are (T, ...)."""
+    keys = [k for k in DEFAULT_LOWDIM_KEYS + IMAGE_KEYS if k in obs]
+    if not keys:
+        raise ValueError(f"observation has none of the keys {DEFAULT_LOWDIM_KEYS + IMAGE_KEYS}; "
+                         f"it has {sorted(obs)}")
+    return as_obs_spec({k: tuple(np.shape(obs[k])[1:] if time_axis else np.shape(obs[k]))
+                        for k in keys})
+
+
+# --------------------------------------------------------------------------- MLP
+def build_mlp(sizes: Sequence[int], activation: type[nn.Module] = nn.GELU,
+              final_activation: bool = False) -> nn.Sequential:
+    """Linear layers of the given sizes with `activation` between them."""
+    layers: list[nn.Module] = []
+    for i, (a, b) in enumerate(zip(sizes[:-1], sizes[1:], strict=False)):
+        layers.append(nn.Linear(a, b))
+        if i < len(sizes) - 2 or final_activation:
+            layers.append(activation())
+    return nn.Sequential(*layers)
+
+
+# --------------------------------------------------------------------------- ResNet-18
+def _norm2d(kind: str, channels: int) -> nn.Module:
+    if kind == "batch":
+        return nn.BatchNorm2d(channels)
+    if kind == "group":
+        return nn.GroupNorm(max(1, channels // 16), channels)
+    raise ValueError(f"norm must be 'batch' or 'group', got {kind!r}")
+
+
+class BasicBlock(nn.Module):
+    """torchvision's BasicBlock: two 3x3 convolutions and a residual connection."""
+
+    expansion = 1
+
+    def __init__(self, inplanes: int, planes: int, stride: int = 1, norm: str = "group"):
+        super().__init__()
+        self.conv1 = nn.Conv2d(inplanes, planes, 3, stride=stride, padding=1, bias=False)
+        self.bn1 = _norm2d(norm, planes)
+        self.relu = nn.ReLU(inplace=True)
+        self.conv2 = nn.Conv2d(planes, planes, 3, padding=1, bias=False)
+        self.bn2 = _norm2d(norm, planes)
+        self.downsample = None
+        if stride != 1 or inplanes != planes:
+            self.downsample = nn.Sequential(
+                nn.Conv2d(inplanes, planes, 1, stride=stride, bias=False), _norm2d(norm, planes))
+
+    def forward(self, x: Tensor) -> Tensor:
+        identity = x if self.downsample is None else self.downsample(x)
+        out = self.relu(self.bn1(self.conv1(x)))
+        out = self.bn2(self.conv2(out))
+        return self.relu(out + identity)
+
+
+class ResNet18(nn.Module):
+    """ResNet-18 with torchvision's layout; returns pooled features (N, 8 * width).
+
+    Args:
+        in_channels: 3 for RGB, 4 for RGB-D (depth as a fourth channel).
+        width: channels of the first stage (torchvision: 64); stages are width x (1, 2, 4, 8).
+        norm: "group" (default, batch-independent) or "batch" (torchvision's).
+        num_classes: size of the final `fc` layer, or None for no classifier (features only).
+    """
+
+    def __init__(self, in_channels: int = 3, width: int = 64, norm: str = "group",
+                 num_classes: int | None = None):
+        super().__init__()
+        self.inplanes = width
+        self.conv1 = nn.Conv2d(in_channels, width, 7, stride=2, padding=3, bias=False)
+        self.bn1 = _norm2d(norm, width)
+        self.relu = nn.ReLU(inplace=True)
+        self.maxpool = nn.MaxPool2d(kernel_size=3, stride=2, padding=1)
+        self.layer1 = self._layer(width, 1, norm)
+        self.layer2 = self._layer(width * 2, 2, norm)
+        self.layer3 = self._layer(width * 4, 2, norm)
+        self.layer4 = self._layer(width * 8, 2, norm)
+        self.avgpool = nn.AdaptiveAvgPool2d((1, 1))
+        self.out_dim = width * 8
+        self.fc = nn.Linear(self.out_dim, num_classes) if num_classes else nn.Identity()
+        for m in self.modules():
+            if isinstance(m, nn.Conv2d):
+                nn.init.kaiming_normal_(m.weight, mode="fan_out", nonlinearity="relu")
+
+    def _layer(self, planes: int, stride: int, norm: str) -> nn.Sequential:
+        blocks = [BasicBlock(self.inplanes, planes, stride, norm), BasicBlock(planes, planes, 1, norm)]
+        self.inplanes = planes
+        return nn.Sequential(*blocks)
+
+    def forward(self, x: Tensor) -> Tensor:
+        """x (N, C, H, W) float -> (N, 8 * width) (or (N, num_classes) with a classifier)."""
+        x = self.maxpool(self.relu(self.bn1(self.conv1(x))))
+        x = self.layer4(self.layer3(self.layer2(self.layer1(x))))
+        return self.fc(torch.flatten(self.avgpool(x), 1))
+
+
+# --------------------------------------------------------------------------- language
+_WORD = re.compile(r"[a-z0-9]+")
+
+
+def hash_words(text: str, n_buckets: int) -> list[int]:
+    """Bucket ids of the lower-cased words of `text` (CRC-32, stable across runs)."""
+    words = _WORD.findall(text.lower()) or ["<empty>"]
+    return [zlib.crc32(w.encode()) % n_buckets for w in words]
+
+
+class HashedTextEmbedding(nn.Module):
+    """A learned bag-of-words embedding of an instruction (stands in for CLIP; see module doc)."""
+
+    def __init__(self, dim: int, n_buckets: int = 4096):
+        super().__init__()
+        self.n_buckets = n_buckets
+        self.bag = nn.EmbeddingBag(n_buckets, dim, mode="mean")
+        nn.init.normal_(self.bag.weight, std=0.02)
+
+    def forward(self, texts: Sequence[str]) -> Tensor:
+        """texts: B strings -> (B, dim)."""
+        ids = [hash_words(t or "", self.n_buckets) for t in texts]
+        offsets = torch.tensor([0] + [len(i) for i in ids[:-1]]).cumsum(0)
+        flat = torch.tensor([i for row in ids for i in row], dtype=torch.long)
+        return self.bag(flat.to(self.bag.weight.device), offsets.to(self.bag.weight.device))
+
+
+# --------------------------------------------------------------------------- the encoder
+class ObservationEncoder(nn.Module):
+    """Observation dict (B, T, ...) -> one token per step (B, T, D). See the module docstring.
+
+    Args:
+        spec: which keys and sizes (ObsSpec).
+        d_model: token width D.
+        hidden: width of the low-dimensional MLP.
+        resnet_width: first-stage width of the ResNet-18 (64 is torchvision's).
+        language: add the hashed instruction embedding to every token.
+        separate: return one token per part instead of one fused token per step:
+            (B, T, n_parts, D) with parts [low-dimensional state, camera 1, camera 2, ...,
+            instruction] (ACT's encoder reads its observation this way).
+    """
+
+    def __init__(self, spec: ObsSpec, d_model: int, hidden: int = 256, resnet_width: int = 64,
+                 language: bool = False, separate: bool = False):
+        super().__init__()
+        self.spec, self.d_model, self.language, self.separate = spec, d_model, language, separate
+        parts = 0
+        if spec.lowdim_dim:
+            self.lowdim_mlp = build_mlp([spec.lowdim_dim, hidden, d_model], final_activation=True)
+            self.register_buffer("lowdim_mean", torch.zeros(spec.lowdim_dim))
+            self.register_buffer("lowdim_std", torch.ones(spec.lowdim_dim))
+            parts += d_model
+        if spec.image is not None:
+            self.resnet = ResNet18(in_channels=4 if spec.depth else 3, width=resnet_width)
+            if separate:
+                self.image_proj = nn.Linear(self.resnet.out_dim, d_model)  # per camera
+            else:
+                self.image_proj = nn.Linear(spec.image[0] * self.resnet.out_dim, d_model)
+            self.register_buffer("depth_mean", torch.zeros(()))
+            self.register_buffer("depth_std", torch.ones(()))
+            parts += d_model
+        if parts == 0:
+            raise ValueError("an observation encoder needs low-dimensional keys or images")
+        self.fuse = None if separate else nn.Linear(parts, d_model)
+        self.text = HashedTextEmbedding(d_model) if language else None
+
+    @property
+    def n_parts(self) -> int:
+        """Tokens per step in `separate` mode."""
+        n_cams = self.spec.image[0] if self.spec.image is not None else 0
+        return int(bool(self.spec.lowdim_dim)) + n_cams + int(self.language)
+
+    # -- statistics ---------------------------------------------------------------
+    def set_stats(self, obs: Mapping[str, np.ndarray]) -> None:
+        """Fit normalization to training observations (arrays with a leading step axis)."""
+        if self.spec.lowdim_dim and all(k in obs for k in self.spec.lowdim_keys):
+            x = np.concatenate([np.asarray(obs[k], np.float64).reshape(len(obs[k]), -1)
+                                for k in self.spec.lowdim_keys], axis=-1)
+            self.lowdim_mean.copy_(torch.as_tensor(x.mean(0), dtype=torch.float32))
+            # a constant dimension (e.g. zero padding) keeps std 1 instead of exploding
+            std = x.std(0)
+            self.lowdim_std.copy_(torch.as_tensor(np.where(std < 1e-6, 1.0, std), dtype=torch.float32))
+        if self.spec.depth and "depth" in obs:
+            d = np.asarray(obs["depth"], np.float64)
+            self.depth_mean.fill_(float(d.mean()))
+            self.depth_std.fill_(float(max(d.std(), 1e-6)))
+
+    # -- parts ---------------------------------------------------------------------
+    def lowdim(self, obs: Mapping[str, Tensor]) -> Tensor:
+        """Normalized low-dimensional state (B, T, lowdim_dim)."""
+        x = torch.cat([obs[k].float().flatten(2) for k in self.spec.lowdim_keys], dim=-1)
+        if x.shape[-1] != self.spec.lowdim_dim:
+            raise ValueError(f"observation keys {self.spec.lowdim_keys} have {x.shape[-1]} "
+                             f"values in all, the policy expects {self.spec.lowdim_dim}")
+        return (x - self.lowdim_mean) / self.lowdim_std
+
+    def image_features(self, obs: Mapping[str, Tensor]) -> Tensor:
+        """Per-camera ResNet features (B, T, n_cams, F)."""
+        rgb = obs["rgb"]  # (B, T, n, H, W, 3) uint8
+        B, T, n, H, W, _ = rgb.shape
+        x = rgb.reshape(B * T * n, H, W, 3).permute(0, 3, 1, 2).float() / 127.5 - 1.0
+        if self.spec.depth:
+            d = obs["depth"].reshape(B * T * n, 1, H, W).float()
+            x = torch.cat([x, (d - self.depth_mean) / self.depth_std], dim=1)
+        return self.resnet(x).view(B, T, n, -1)
+
+    def forward(self, obs: Mapping[str, Tensor], instructions: Sequence[str] | None = None) -> Tensor:
+        """obs: key -> (B, T, ...) tensors; instructions: B strings (if language) -> (B, T, D)
+        (or (B, T, n_parts, D) in `separate` mode)."""
+        parts = []
+        if self.spec.lowdim_dim:
+            parts.append(self.lowdim_mlp(self.lowdim(obs)))  # (B, T, D)
+        if self.spec.image is not None:
+            feats = self.image_features(obs)  # (B, T, n_cams, F)
+            if self.separate:
+                parts.extend(self.image_proj(feats).unbind(dim=2))
+            else:
+                parts.append(self.image_proj(feats.flatten(2)))
+        text = None
+        if self.text is not None:
+            B = parts[0].shape[0]
+            texts = list(instructions) if instructions is not None else [""] * B
+            text = self.text(texts)[:, None, :]  # (B, 1, D)
+        if self.separate:
+            if text is not None:
+                parts.append(text.expand_as(parts[0]))
+            return torch.stack(parts, dim=2)  # (B, T, n_parts, D)
+        token = self.fuse(torch.cat(parts, dim=-1))  # (B, T, D)
+        return token if text is None else token + text

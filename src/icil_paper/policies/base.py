@@ -1,0 +1,203 @@
+"""The interface every policy implements (LeRobot-like), and what they share.
+
+    policy = make_policy("icrt", obs_dim, action_dim=7, config=preset.policy, tokenizer="lipvq")
+    policy.prepare(train_demos)                 # normalization stats, tokenizer.fit, pre-training
+    batch = policy.sample_batch(data, batch_size, rng)
+    loss, info = policy(batch)                  # training: a scalar loss and a dict of floats
+    policy.reset(prompt=demos)                  # start an episode (ICRT: fill the KV cache)
+    action = policy.select_action(obs)          # np.ndarray (A,) for one env observation
+
+A policy keeps the arguments it was built with in `policy.spec`, so that
+`build_policy(policy.spec)` rebuilds an empty copy (evaluation workers use it with the
+state dict).
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from icil_paper.batching import DemoSet, as_demo_set, obs_batch
+from icil_paper.config import PolicyConfig
+from icil_paper.policies.backbones import ObservationEncoder, ObsSpec, as_obs_spec
+
+
+class Policy(nn.Module):
+    """Base class of ICRT and the baselines.
+
+    Subclasses set `name` (and `uses_prompt` when `reset` takes prompt demonstrations) and
+    implement `sample_batch`, `forward`, `reset` and `select_action`.
+    """
+
+    name: str = "policy"
+    uses_prompt: bool = False
+    needs_images: bool = False
+
+    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
+                 config: PolicyConfig, tokenizer: str | None = None, **options: Any):
+        super().__init__()
+        self.obs_spec = as_obs_spec(obs_dim)
+        if action_dim < 1:
+            raise ValueError(f"action_dim must be positive, got {action_dim}")
+        if self.needs_images and not self.obs_spec.has_images:
+            raise ValueError(f"the {self.name} policy needs image observations (obs='rgb' or "
+                             f"'rgbd'); got state observations {list(self.obs_spec.keys)}")
+        self.action_dim = int(action_dim)
+        self.config = config
+        self.tokenizer_name = tokenizer
+        self.options = dict(options)
+        self.spec = {"name": self.name, "obs_dim": self.obs_spec.to_dict(), "action_dim": action_dim,
+                     "config": _config_dict(config), "tokenizer": tokenizer, "options": dict(options)}
+        self.instruction = ""
+
+    # ---------------------------------------------------------------- shared parts
+    def make_obs_encoder(self, spec: ObsSpec | None = None, separate: bool = False,
+                         language: bool | None = None) -> ObservationEncoder:
+        c = self.config
+        return ObservationEncoder(spec or self.obs_spec, c.d_model, hidden=2 * c.d_model,
+                                  resnet_width=c.resnet_width,
+                                  language=c.language if language is None else language,
+                                  separate=separate)
+
+    def make_tokenizer(self, tokenizer: str | None) -> nn.Module | None:
+        if tokenizer is None:
+            return None
+        from icil_paper.tokenizers import make_tokenizer
+
+        latent_dim = int(self.options.get("tokenizer_latent_dim", self.config.d_model))
+        kwargs = dict(self.options.get("tokenizer_options", {}))
+        return make_tokenizer(tokenizer, self.action_dim, latent_dim, **kwargs)
+
+    @property
+    def device(self) -> torch.device:
+        return next(self.parameters()).device
+
+    # ---------------------------------------------------------------- training
+    def prepare(self, demos: DemoSet | Sequence[Any], pretrain: bool = True,
+                progress: bool = False) -> DemoSet:
+        """Fit what depends on the training data: normalization statistics and, if there is
+        a tokenizer that needs it, `tokenizer.fit` on the training actions. `pretrain=False`
+        skips expensive pre-training (MCR) when resuming from a checkpoint that holds it.
+        Returns the demonstrations as a DemoSet."""
+        data = as_demo_set(demos, self.obs_spec)
+        if data.action_dim != self.action_dim:
+            raise ValueError(f"demonstrations have action dimension {data.action_dim}, the "
+                             f"policy expects {self.action_dim}")
+        encoders = [m for m in self.modules() if isinstance(m, ObservationEncoder)]
+        all_obs = data.all_obs()
+        for enc in encoders:
+            enc.set_stats(all_obs)
+        tok = getattr(self, "tokenizer", None)
+        if tok is not None and getattr(tok, "needs_fit", False):
+            tok.fit(data.actions)
+        return data
+
+    def sample_batch(self, data: DemoSet, batch_size: int, rng: np.random.Generator) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def forward(self, batch: Mapping[str, Any]) -> tuple[Tensor, dict[str, float]]:
+        raise NotImplementedError
+
+    # ---------------------------------------------------------------- acting
+    def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
+        """Start an episode. `prompt`: demonstrations for in-context policies (ignored by the
+        others); `instruction`: the task's language instruction (used if `language`)."""
+        self.instruction = instruction or ""
+
+    @torch.no_grad()
+    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
+        raise NotImplementedError
+
+    def obs_tensors(self, obs: Mapping[str, np.ndarray]) -> dict[str, Tensor]:
+        """One env observation -> {key: (1, 1, ...)} on the policy's device."""
+        return {k: v.to(self.device) for k, v in obs_batch(obs, self.obs_spec).items()}
+
+    def n_params(self) -> int:
+        return sum(p.numel() for p in self.parameters())
+
+
+def _config_dict(config: PolicyConfig) -> dict[str, Any]:
+    import dataclasses
+
+    return dataclasses.asdict(config) if dataclasses.is_dataclass(config) else dict(config)
+
+
+def build_policy(spec: Mapping[str, Any]) -> Policy:
+    """Rebuild an (untrained) policy from `policy.spec`."""
+    from icil_paper.policies import make_policy
+
+    config = spec["config"]
+    if isinstance(config, Mapping):
+        fields = {f for f in PolicyConfig.__dataclass_fields__}
+        config = PolicyConfig(**{k: tuple(v) if isinstance(v, list) else v
+                                 for k, v in config.items() if k in fields})
+    return make_policy(spec["name"], ObsSpec.from_dict(spec["obs_dim"]), spec["action_dim"],
+                       config, tokenizer=spec.get("tokenizer"), **copy.deepcopy(spec.get("options", {})))
+
+
+def masked_l1(pred: Tensor, target: Tensor, valid: Tensor) -> Tensor:
+    """Mean absolute error over valid entries; pred/target (..., A), valid (...) bool."""
+    w = valid.to(pred.dtype)[..., None]
+    denom = (w.sum() * pred.shape[-1]).clamp(min=1.0)
+    return ((pred - target).abs() * w).sum() / denom
+
+
+class TemporalEnsemble:
+    """ACT's temporal ensembling of overlapping action chunks.
+
+    Every step the policy predicts a chunk of K actions; the action for step t averages every
+    earlier prediction for t, with weights exp(-m i) where i = 0 is the oldest prediction.
+    """
+
+    def __init__(self, chunk_size: int, m: float = 0.01):
+        self.chunk_size, self.m = chunk_size, m
+        self.reset()
+
+    def reset(self) -> None:
+        self.t = 0
+        self.chunks: list[tuple[int, np.ndarray]] = []  # (step predicted at, (K, A))
+
+    def __call__(self, chunk: np.ndarray) -> np.ndarray:
+        self.chunks.append((self.t, chunk))
+        self.chunks = [(s, c) for s, c in self.chunks if self.t - s < self.chunk_size]
+        preds = np.stack([c[self.t - s] for s, c in self.chunks])  # oldest first
+        w = np.exp(-self.m * np.arange(len(preds)))
+        self.t += 1
+        return (w[:, None] * preds).sum(0) / w.sum()
+
+
+def validate_prompt(prompt: Any, spec: ObsSpec, action_dim: int) -> list[Any]:
+    """Check prompt demonstrations; return them as a list. Raises ValueError naming the problem.
+
+    A prompt is a Demo-like object (fields `actions` (T, A) and `obs`), or a list of them.
+    """
+    if prompt is None:
+        raise ValueError("this policy needs a prompt: reset(prompt=...) with one or more "
+                         "demonstrations of the task")
+    demos = list(prompt) if isinstance(prompt, (list, tuple)) else [prompt]
+    if not demos:
+        raise ValueError("empty prompt: give at least one demonstration")
+    for i, d in enumerate(demos):
+        if not hasattr(d, "actions") or not hasattr(d, "obs"):
+            raise ValueError(f"prompt item {i} is a {type(d).__name__}, not a demonstration "
+                             "with `actions` and `obs`")
+        a = np.asarray(d.actions)
+        if a.ndim != 2 or len(a) == 0:
+            raise ValueError(f"empty prompt: demonstration {i} has actions of shape {a.shape}")
+        if a.shape[1] != action_dim:
+            raise ValueError(f"wrong action dimension in the prompt: demonstration {i} has "
+                             f"{a.shape[1]}-dimensional actions, the policy expects {action_dim}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"prompt demonstration {i} has NaN or inf actions")
+        for k in spec.keys:
+            if k not in d.obs:
+                raise ValueError(f"prompt demonstration {i} lacks observation key {k!r}")
+            if len(d.obs[k]) != len(a):
+                raise ValueError(f"prompt demonstration {i}: obs[{k!r}] has {len(d.obs[k])} steps "
+                                 f"but there are {len(a)} actions")
+    return demos

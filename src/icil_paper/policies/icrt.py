@@ -1,0 +1,269 @@
+"""ICRT: in-context imitation with a causal transformer over prompt and query (Sec. III-A).
+
+    prompt demo(s) ─┐                                   query (this episode)
+    o_p1 a_p1 ... o_pM a_pM                             o_q1 a_q1 o_q2 a_q2 ... o_qt
+      │    │                                              │    │                 │
+      │    └ tokenizer(actions).embeddings ─ MLP ─┐       │    └ (same)          │
+      └ ObservationEncoder ───────────────────────┤       └ ObservationEncoder   │
+                                                  ▼                              ▼
+                         causal transformer (RMSNorm, RoPE, SwiGLU; transformer.py)
+                                                                                 │
+                                          MLP head at query observation tokens ─ â_t .. â_(t+K-1)
+
+The token layout is drawn in `icil_paper.batching`. Choices, and why:
+
+- Query actions in context. The paper's Eq. 1 lists only query observations; ICRT's code
+  interleaves the query's own past actions as well (s1, a1, s2, a2, ...), and so do we by
+  default (`PolicyConfig.query_actions`): at step t the policy has seen what it did at steps
+  < t. The head reads the query's observation tokens only, so the observation token of step t
+  never sees a_t. With `query_actions=False` the query is observations only, as Eq. 1 reads.
+- Loss. L1 between the predicted chunk and the next K demonstrated actions, over query steps
+  only (prompt positions get no loss, and chunk entries past the episode's end are masked),
+  plus the tokenizer's own losses (reconstruction, codebook, commitment, Lipschitz), so the
+  tokenizer is trained jointly with the policy as the paper does.
+- Action tokens must not carry information about later actions (the observation tokens
+  after them must not see the future). Every tokenizer here embeds step t from actions up
+  to t: the per-step ones from a_t alone, FAST (in its default causal mode) from the chunk
+  of C actions ending at t. A query action token is computed from the same C actions at
+  training (the batch carries the C - 1 actions before the query window) and at inference
+  (the policy keeps the last C executed actions), so the two agree exactly. FAST's
+  "blocked" mode, whose step tokens encode later actions of their chunk, is refused. The
+  prompt's actions are embedded as whole trajectories.
+- Inference. `reset(prompt)` runs the prompt through the transformer once and keeps every
+  layer's keys and values (a KV cache); each `select_action(obs)` then appends the previous
+  action's token and the new observation's token and costs one step, independent of the
+  prompt's length. The first action of the predicted chunk is executed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from icil_paper.batching import DemoSet, prompt_query_batch
+from icil_paper.config import PolicyConfig
+from icil_paper.policies.backbones import ObsSpec, build_mlp
+from icil_paper.policies.base import Policy, masked_l1, validate_prompt
+from icil_paper.policies.transformer import Transformer, TransformerConfig
+
+
+def action_context_steps(tokenizer: nn.Module) -> int:
+    """Actions up to and including step t that a tokenizer reads to embed step t."""
+    if getattr(tokenizer, "mode", None) == "blocked":
+        raise ValueError("FAST's blocked mode embeds a step with later actions of its chunk, "
+                         "which a causal policy must not see; use mode='causal'")
+    steps = getattr(tokenizer, "context_steps", None)
+    if steps is None:
+        steps = int(getattr(tokenizer, "chunk", 1)) if getattr(tokenizer, "name", "") == "fast" else 1
+    return max(1, int(steps))
+
+
+class ICRT(Policy):
+    """In-context robot transformer. `tokenizer` names the action tokenizer (default "mlp",
+    ICRT's own). Options: `tokenizer_latent_dim` (default d_model), `tokenizer_options`,
+    `query_len` (default 32, steps per training query)."""
+
+    name = "icrt"
+    uses_prompt = True
+
+    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
+                 config: PolicyConfig, tokenizer: str | None = "mlp", **options: Any):
+        super().__init__(obs_dim, action_dim, config, tokenizer or "mlp", **options)
+        D, K = config.d_model, config.chunk_size
+        self.chunk_size = K
+        self.query_actions = config.query_actions
+        self.max_seq_len = config.max_seq_len
+        self.obs_encoder = self.make_obs_encoder()
+        self.tokenizer = self.make_tokenizer(self.tokenizer_name)
+        self.action_context = action_context_steps(self.tokenizer)
+        # "another MLP ensures the same dimension" between action and observation tokens
+        self.action_proj = build_mlp([self.tokenizer.latent_dim, D, D])
+        self.type_emb = nn.Embedding(2, D)  # 0: observation token, 1: action token
+        nn.init.normal_(self.type_emb.weight, std=0.02)
+        self.transformer = Transformer(TransformerConfig(
+            d_model=D, n_layer=config.n_layer, n_head=config.n_head, dropout=config.dropout,
+            causal=True, rope=True))
+        self.head = build_mlp([D, D, K * action_dim])
+        self._cache = None
+
+    # ------------------------------------------------------------------ tokens
+    def obs_tokens(self, obs: Mapping[str, Tensor], instructions: Sequence[str] | None) -> Tensor:
+        """obs {key: (B, T, ...)} -> (B, T, D)."""
+        return self.obs_encoder(obs, instructions) + self.type_emb.weight[0]
+
+    def action_tokens(self, actions: Tensor, context: Tensor | None = None
+                      ) -> tuple[Tensor, dict[str, Tensor]]:
+        """actions (B, T, A) -> tokens (B, T, D) and the tokenizer's losses.
+
+        context (B, C - 1, A): the actions just before `actions`, which a chunk-based
+        tokenizer reads to embed the first steps (see the module docstring).
+        """
+        B, T, A = actions.shape
+        if A != self.action_dim:
+            raise ValueError(f"wrong action dimension: got {A}, the policy expects {self.action_dim}")
+        n_ctx = 0 if context is None else context.shape[1]
+        x = actions if not n_ctx else torch.cat([context.to(actions), actions], dim=1)
+        out = self.tokenizer(x)
+        emb = out.embeddings[:, n_ctx:]  # (B, T, latent)
+        return self.action_proj(emb) + self.type_emb.weight[1], out.losses
+
+    def sequence(self, batch: Mapping[str, Any]) -> tuple[Tensor, Tensor, Tensor, dict[str, Tensor]]:
+        """Assemble the token sequence of a batch (layout in `icil_paper.batching`).
+
+        Returns tokens (B, L, D), valid (B, L) bool, query_obs_index (N,) the positions of the
+        query's observation tokens, and the tokenizer's losses (token-weighted mean of the
+        prompt's and the query's).
+        """
+        instr = batch.get("instruction")
+        pv, qv = batch["prompt_valid"], batch["query_valid"]  # (B, M), (B, N)
+        B, M = pv.shape
+        N = qv.shape[1]
+        o_p = self.obs_tokens(batch["prompt_obs"], instr)  # (B, M, D)
+        a_p, loss_p = self.action_tokens(batch["prompt_actions"].float())
+        prompt = torch.stack([o_p, a_p], dim=2).reshape(B, 2 * M, -1)  # o1 a1 o2 a2 ...
+        valid = [pv.repeat_interleave(2, dim=1)]
+        o_q = self.obs_tokens(batch["query_obs"], instr)  # (B, N, D)
+        if self.query_actions:
+            a_q, loss_q = self.action_tokens(batch["query_actions"].float(),
+                                             batch.get("query_action_context"))
+            query = torch.stack([o_q, a_q], dim=2).reshape(B, 2 * N, -1)
+            valid.append(qv.repeat_interleave(2, dim=1))
+            q_index = 2 * M + 2 * torch.arange(N, device=o_q.device)
+            n_p, n_q = B * M, B * N
+            losses = {k: (loss_p[k] * n_p + loss_q[k] * n_q) / (n_p + n_q) for k in loss_p}
+        else:
+            query, losses = o_q, loss_p
+            valid.append(qv)
+            q_index = 2 * M + torch.arange(N, device=o_q.device)
+        tokens = torch.cat([prompt, query], dim=1)  # (B, L, D)
+        return tokens, torch.cat(valid, dim=1), q_index, losses
+
+    # ------------------------------------------------------------------ training
+    def sample_batch(self, data: DemoSet, batch_size: int, rng: np.random.Generator) -> dict[str, Any]:
+        return prompt_query_batch(data, batch_size, int(self.options.get("query_len", 32)),
+                                  self.chunk_size, self.config.prompt_demos, rng,
+                                  action_context=self.action_context - 1)
+
+    def predict(self, batch: Mapping[str, Any]) -> tuple[Tensor, dict[str, Tensor]]:
+        """Predicted chunks (B, N, K, A) at every query step, and the tokenizer's losses."""
+        tokens, valid, q_index, losses = self.sequence(batch)
+        if tokens.shape[1] > self.max_seq_len:
+            raise ValueError(
+                f"sequence of {tokens.shape[1]} tokens (prompt {batch['prompt_valid'].shape[1]} "
+                f"steps, query {batch['query_valid'].shape[1]} steps) is longer than "
+                f"max_seq_len={self.max_seq_len}; raise PolicyConfig.max_seq_len or use "
+                "shorter demonstrations")
+        h = self.transformer(tokens, valid)  # (B, L, D)
+        h_q = h[:, q_index]  # (B, N, D): the query's observation tokens
+        B, N, _ = h_q.shape
+        return self.head(h_q).view(B, N, self.chunk_size, self.action_dim), losses
+
+    def forward(self, batch: Mapping[str, Any]) -> tuple[Tensor, dict[str, float]]:
+        pred, tok_losses = self.predict(batch)
+        action_loss = masked_l1(pred, batch["targets"].float(), batch["target_valid"])
+        loss = action_loss + sum(tok_losses.values())
+        info = {"action_l1": float(action_loss.detach())}
+        info.update({f"tok_{k}": float(v.detach()) for k, v in tok_losses.items()})
+        return loss, info
+
+    # ------------------------------------------------------------------ inspection
+    def token_roles(self, batch: Mapping[str, Any]) -> dict[str, Tensor]:
+        """What each position of a batch's token sequence is, all (B, L):
+
+        segment (0 prompt, 1 query), kind (0 observation, 1 action), step (the demo step the
+        token belongs to), valid (a real token, not padding), supervised (a query observation
+        token with at least one target action: where the loss is computed).
+        """
+        pv, qv = batch["prompt_valid"], batch["query_valid"]
+        B, M = pv.shape
+        N = qv.shape[1]
+        per_q = 2 if self.query_actions else 1
+        seg = torch.cat([torch.zeros(B, 2 * M), torch.ones(B, per_q * N)], 1).long()
+        kind = torch.cat([torch.arange(2 * M) % 2, torch.arange(per_q * N) % per_q]).long()
+        step = torch.cat([torch.arange(2 * M) // 2, torch.arange(per_q * N) // per_q]).long()
+        valid = torch.cat([pv.repeat_interleave(2, 1), qv.repeat_interleave(per_q, 1)], 1)
+        supervised = torch.zeros(B, 2 * M + per_q * N, dtype=torch.bool)
+        supervised[:, 2 * M::per_q] = batch["target_valid"].any(-1) if "target_valid" in batch else qv
+        return {"segment": seg, "kind": kind.expand(B, -1), "step": step.expand(B, -1),
+                "valid": valid, "supervised": supervised}
+
+    def token_loss_gradients(self, batch: Mapping[str, Any]) -> Tensor:
+        """|d loss / d h| at every position of the transformer's output, (B, L).
+
+        Zero wherever the loss does not reach directly: prompt tokens, query action tokens,
+        padding. (Earlier layers do pass gradient to prompt tokens through attention: the
+        prompt is context, not a target.)
+        """
+        captured: dict[str, Tensor] = {}
+
+        def keep(_module, _inputs, output):
+            output.retain_grad()
+            captured["h"] = output
+
+        handle = self.transformer.register_forward_hook(keep)
+        try:
+            loss, _ = self(batch)
+            self.zero_grad(set_to_none=True)
+            loss.backward()
+        finally:
+            handle.remove()
+        grad = captured["h"].grad.norm(dim=-1).detach()
+        self.zero_grad(set_to_none=True)
+        return grad
+
+    # ------------------------------------------------------------------ acting
+    @torch.no_grad()
+    def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
+        """Fill the KV cache with the prompt (one or more demonstrations of the task)."""
+        demos = validate_prompt(prompt, self.obs_spec, self.action_dim)
+        if instruction is None:
+            instruction = getattr(demos[0], "instruction", "") or ""
+        super().reset(instruction=instruction)
+        dev = self.device
+        obs = {k: torch.from_numpy(np.ascontiguousarray(
+            np.concatenate([np.asarray(d.obs[k]) for d in demos])))[None].to(dev)
+            for k in self.obs_spec.keys}
+        obs = {k: v.float() if k != "rgb" else v for k, v in obs.items()}
+        actions = torch.from_numpy(np.concatenate(
+            [np.asarray(d.actions, np.float32) for d in demos]))[None].to(dev)
+        M = actions.shape[1]
+        if 2 * M + 2 > self.max_seq_len:
+            raise ValueError(f"a prompt of {M} steps ({2 * M} tokens) leaves no room for the "
+                             f"query within max_seq_len={self.max_seq_len}")
+        o_p = self.obs_tokens(obs, [self.instruction])
+        a_p, _ = self.action_tokens(actions)
+        tokens = torch.stack([o_p, a_p], dim=2).reshape(1, 2 * M, -1)
+        self._cache = self.transformer.new_cache()
+        self.transformer(tokens, cache=self._cache)
+        self._prompt_len = 2 * M
+        self._actions: list[np.ndarray] = []  # executed query actions (the last C are kept)
+
+    @torch.no_grad()
+    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
+        """One step: append (previous action, observation) to the cache; return a_t (A,)."""
+        if self._cache is None:
+            raise RuntimeError("call reset(prompt=...) before select_action")
+        new = []
+        if self.query_actions and self._actions:
+            recent = torch.as_tensor(np.stack(self._actions), device=self.device)[None]  # (1, <=C, A)
+            new.append(self.action_tokens(recent[:, -1:], recent[:, :-1])[0])
+        new.append(self.obs_tokens(self.obs_tensors(obs), [self.instruction]))
+        x = torch.cat(new, dim=1)  # (1, 1 or 2, D)
+        self._make_room(x.shape[1])
+        h = self.transformer(x, cache=self._cache)[:, -1]  # (1, D)
+        chunk = self.head(h).view(self.chunk_size, self.action_dim).cpu().numpy()
+        action = chunk[0].astype(np.float32)
+        self._actions = (self._actions + [action])[-self.action_context:]
+        return action
+
+    def _make_room(self, n_new: int) -> None:
+        """Evict the oldest query steps once the cache would exceed max_seq_len."""
+        overflow = len(self._cache) + n_new - self.max_seq_len
+        if overflow > 0:
+            step = 2 if self.query_actions else 1
+            overflow = step * -(-overflow // step)  # whole (observation, action) pairs
+            self._cache.evict(self._prompt_len, self._prompt_len + overflow)

@@ -1,0 +1,148 @@
+"""MCR (Jiang et al. 2025): a manipulation-centric visual encoder, frozen under a BC head.
+
+MCR pre-trains a visual encoder on robot data with three objectives and then freezes it for
+behaviour cloning. No MCR checkpoint can be downloaded here, so `prepare` pre-trains the
+library's ResNet-18 on our own training demonstrations with the same three objectives
+(`PolicyConfig.mcr_pretrain_steps` steps, before the policy's own training):
+
+    image I_t ─ ResNet-18 ─ v_t ──┬─ dynamics alignment: InfoNCE(v_t, g(proprio_t, a_t..a_(t+K-1)))
+                                  ├─ action prediction: L1(f(v_t), a_t..a_(t+K-1))
+                                  └─ time contrastive: InfoNCE(v_t, v_(t+dt)), |dt| <= 3
+
+    then:  frozen v_t ─┐
+           state_t ────┴─ MLP head ─> â_t .. â_(t+K-1)     (L1; the first action is executed)
+
+MCR needs images: with state observations it raises a ValueError, and it runs on the image
+observation settings only (`DataConfig.obs = "rgb"` or `"rgbd"`). As in the paper's ManiSkill
+runs, depth enters the same ResNet as a fourth input channel.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor
+
+from icil_paper.batching import DemoSet, _take, window_batch
+from icil_paper.config import PolicyConfig
+from icil_paper.policies.backbones import ObsSpec, build_mlp
+from icil_paper.policies.base import Policy, masked_l1
+
+
+def info_nce(a: Tensor, b: Tensor, temperature: float = 0.1) -> Tensor:
+    """Symmetric InfoNCE between matching rows of a and b (B, D); other rows are negatives."""
+    a, b = F.normalize(a, dim=-1), F.normalize(b, dim=-1)
+    logits = a @ b.T / temperature  # (B, B)
+    labels = torch.arange(len(a), device=a.device)
+    return 0.5 * (F.cross_entropy(logits, labels) + F.cross_entropy(logits.T, labels))
+
+
+class MCR(Policy):
+    """Frozen manipulation-centric visual encoder + behaviour-cloning MLP head.
+
+    Options: `pretrain_batch` (default 16), `pretrain_lr` (default 3e-4), `pretrain_seed`.
+    """
+
+    name = "mcr"
+    needs_images = True
+
+    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
+                 config: PolicyConfig, tokenizer: str | None = None, **options: Any):
+        super().__init__(obs_dim, action_dim, config, None, **options)
+        D, K, spec = config.d_model, config.chunk_size, self.obs_spec
+        self.chunk_size = K
+        self.visual = self.make_obs_encoder(ObsSpec((), 0, spec.image, spec.depth), language=False)
+        self.state = None
+        if spec.lowdim_dim:
+            self.state = self.make_obs_encoder(ObsSpec(spec.lowdim_keys, spec.lowdim_dim))
+        # pre-training heads (unused once the encoder is frozen)
+        self.pre_dynamics = build_mlp([max(spec.lowdim_dim, 1) + K * action_dim, D, D])
+        self.pre_action = build_mlp([D, D, K * action_dim])
+        self.pre_proj = build_mlp([D, D, D])
+        self.head = build_mlp([D * (2 if self.state is not None else 1), D, K * action_dim])
+        self.register_buffer("pretrained", torch.tensor(False))
+
+    # ------------------------------------------------------------------ pre-training
+    def prepare(self, demos: DemoSet | Sequence[Any], pretrain: bool = True,
+                progress: bool = False) -> DemoSet:
+        data = super().prepare(demos)
+        if pretrain and not bool(self.pretrained):
+            self.pretrain(data, progress=progress)
+        self.visual.requires_grad_(False)  # frozen under the BC head
+        return data
+
+    def _lowdim(self, obs: Mapping[str, Tensor], B: int) -> Tensor:
+        if self.state is None:
+            return torch.zeros(B, 1)
+        return self.state.lowdim(obs)[:, -1]
+
+    def pretrain(self, data: DemoSet, steps: int | None = None, progress: bool = False) -> list[float]:
+        """Manipulation-centric pre-training of `visual`; returns the loss per step."""
+        from tqdm.auto import tqdm
+
+        steps = self.config.mcr_pretrain_steps if steps is None else steps
+        B = int(self.options.get("pretrain_batch", 16))
+        rng = np.random.default_rng(int(self.options.get("pretrain_seed", 0)))
+        params = [p for m in (self.visual, self.pre_dynamics, self.pre_action, self.pre_proj)
+                  for p in m.parameters()]
+        opt = torch.optim.AdamW(params, lr=float(self.options.get("pretrain_lr", 3e-4)))
+        was_training = self.training
+        self.train()
+        losses = []
+        for _ in tqdm(range(steps), desc="mcr pre-training", disable=not progress, leave=False):
+            batch = window_batch(data, B, 1, self.chunk_size, rng)
+            positive = self._nearby_frames(data, batch, rng)
+            obs, chunk, valid = batch["obs"], batch["targets"].float(), batch["target_valid"]
+            v = self.visual(obs)[:, -1]  # (B, D)
+            v_pos = self.visual(positive)[:, -1]
+            dyn = self.pre_dynamics(torch.cat([self._lowdim(obs, B), chunk.flatten(1)], dim=-1))
+            l_dyn = info_nce(self.pre_proj(v), dyn)
+            l_act = masked_l1(self.pre_action(v).view_as(chunk), chunk, valid)
+            l_tcn = info_nce(self.pre_proj(v), self.pre_proj(v_pos))
+            loss = l_dyn + l_act + l_tcn
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            losses.append(float(loss.detach()))
+        self.pretrained.fill_(True)
+        self.train(was_training)
+        return losses
+
+    def _nearby_frames(self, data: DemoSet, batch: Mapping[str, Any], rng: np.random.Generator,
+                       radius: int = 3) -> dict[str, Tensor]:
+        demo, step = batch["index"]  # the (demonstration, step) of each sample
+        rows = []
+        for d, t in zip(demo.tolist(), step.tolist(), strict=True):
+            dt = int(rng.integers(1, radius + 1)) * (1 if rng.random() < 0.5 else -1)
+            idx = np.array([t + dt])
+            rows.append({k: _take(v, idx) for k, v in data.obs[d].items()})
+        return {k: torch.from_numpy(np.stack([r[k] for r in rows])) for k in rows[0]}
+
+    # ------------------------------------------------------------------ behaviour cloning
+    def sample_batch(self, data: DemoSet, batch_size: int, rng: np.random.Generator) -> dict[str, Any]:
+        return window_batch(data, batch_size, 1, self.chunk_size, rng)
+
+    def predict(self, obs: Mapping[str, Tensor], instructions=None) -> Tensor:
+        """obs {key: (B, 1, ...)} -> chunk (B, K, A)."""
+        with torch.no_grad():
+            v = self.visual(obs)[:, -1]  # (B, D), frozen
+        feats = [v]
+        if self.state is not None:
+            feats.append(self.state(obs, instructions)[:, -1])
+        B = v.shape[0]
+        return self.head(torch.cat(feats, dim=-1)).view(B, self.chunk_size, self.action_dim)
+
+    def forward(self, batch: Mapping[str, Any]) -> tuple[Tensor, dict[str, float]]:
+        pred = self.predict(batch["obs"], batch.get("instruction"))
+        loss = masked_l1(pred, batch["targets"].float(), batch["target_valid"])
+        return loss, {"action_l1": float(loss.detach())}
+
+    @torch.no_grad()
+    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
+        chunk = self.predict(self.obs_tensors(obs), [self.instruction])
+        return chunk[0, 0].cpu().numpy().astype(np.float32)
+

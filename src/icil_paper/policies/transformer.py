@@ -1,0 +1,283 @@
+"""A readable Llama-style transformer: RMSNorm, rotary position embeddings, SwiGLU, KV cache.
+
+One file, in the spirit of nanoGPT. ICRT and BC-Transformer use `Transformer` with causal
+self-attention; ACT uses the same blocks without the causal mask (its encoders) and
+`DecoderBlock` (self-attention, cross-attention, feed-forward) for its DETR-style decoder.
+
+Shapes: B batch, T tokens, D = d_model, H heads, hd = D / H head width.
+
+    x (B, T, D) ─┬─ RMSNorm ─ Attention(RoPE, mask, KV cache) ─(+)─┬─ RMSNorm ─ SwiGLU ─(+)─> (B, T, D)
+                 └──────────────────────────────────────────────┘  └──────────────────────┘
+
+Masks. A boolean `attn_mask` of shape (B, 1, T_query, T_key) says which key each query may
+attend to (True = attend). `causal_mask` builds it from a per-token validity mask, so padded
+batches work without moving tokens around: padding tokens are never attended to, and each
+token may always attend to itself (a padding row is then well defined and simply ignored).
+
+Positions. Rotary embeddings are computed on the fly from integer positions, so there is no
+table to outgrow; keys are rotated *before* they enter the cache, which makes dropping old
+cache entries (see `KVCache.evict`) safe: attention scores depend only on the positions
+that were used when each key was written.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+
+@dataclass(frozen=True)
+class TransformerConfig:
+    """Sizes of a transformer stack."""
+
+    d_model: int = 128
+    """Token width D."""
+    n_layer: int = 4
+    """Number of blocks."""
+    n_head: int = 4
+    """Attention heads H (D must be divisible by H)."""
+    dropout: float = 0.0
+    """Dropout on attention weights and on each residual branch."""
+    causal: bool = True
+    """Causal self-attention (a token attends to itself and earlier tokens only)."""
+    rope: bool = True
+    """Rotary position embeddings on queries and keys; without them positions must be added
+    to the input (ACT's learned position embeddings)."""
+    rope_base: float = 10_000.0
+    """Base of the rotary frequencies."""
+    ffn_multiple: int = 16
+    """SwiGLU hidden width is 8/3 D rounded up to a multiple of this (Llama's rule)."""
+
+
+class RMSNorm(nn.Module):
+    """Root-mean-square layer norm (no mean subtraction, no bias), as in Llama."""
+
+    def __init__(self, dim: int, eps: float = 1e-6):
+        super().__init__()
+        self.eps = eps
+        self.weight = nn.Parameter(torch.ones(dim))
+
+    def forward(self, x: Tensor) -> Tensor:
+        # x (..., D): scale each vector to unit RMS, then by a learned gain
+        return x * torch.rsqrt(x.pow(2).mean(-1, keepdim=True) + self.eps) * self.weight
+
+
+def rope_cos_sin(positions: Tensor, head_dim: int, base: float = 10_000.0) -> tuple[Tensor, Tensor]:
+    """Rotary angles for integer positions (B, T) -> cos, sin each (B, 1, T, head_dim)."""
+    inv_freq = 1.0 / (base ** (torch.arange(0, head_dim, 2, device=positions.device,
+                                             dtype=torch.float32) / head_dim))  # (hd/2,)
+    angles = positions.to(torch.float32)[..., None] * inv_freq  # (B, T, hd/2)
+    angles = torch.cat([angles, angles], dim=-1)[:, None]  # (B, 1, T, hd)
+    return angles.cos(), angles.sin()
+
+
+def apply_rope(x: Tensor, cos: Tensor, sin: Tensor) -> Tensor:
+    """Rotate feature pairs (i, i + hd/2) of x (B, H, T, hd) by the given angles."""
+    half = x.shape[-1] // 2
+    rotated = torch.cat([-x[..., half:], x[..., :half]], dim=-1)  # "rotate_half"
+    return (x * cos.to(x.dtype) + rotated * sin.to(x.dtype)).type_as(x)
+
+
+def causal_mask(valid: Tensor, past_valid: Tensor | None = None, causal: bool = True) -> Tensor:
+    """Boolean attention mask (B, 1, T, P + T) for T new tokens after P cached ones.
+
+    valid: (B, T) bool, which new tokens are real (False = padding).
+    past_valid: (B, P) bool for the cached tokens, or None when there is no cache.
+    A query attends to keys that are real and (if causal) not after it, and always to itself.
+    """
+    B, T = valid.shape
+    P = 0 if past_valid is None else past_valid.shape[1]
+    keys_valid = valid if past_valid is None else torch.cat([past_valid, valid], dim=1)  # (B, P+T)
+    q_index = torch.arange(T, device=valid.device)[:, None] + P  # (T, 1) absolute positions
+    k_index = torch.arange(P + T, device=valid.device)[None, :]  # (1, P+T)
+    allowed = keys_valid[:, None, :].expand(B, T, P + T)
+    if causal:
+        allowed = allowed & (k_index <= q_index)[None]
+    allowed = allowed | (k_index == q_index)[None]  # always attend to yourself
+    return allowed[:, None]  # (B, 1, T, P+T)
+
+
+def positions_from_valid(valid: Tensor, start: Tensor | int = 0) -> Tensor:
+    """Integer positions (B, T) that count only real tokens: padding does not shift positions.
+
+    `start` (an int or a (B,) tensor) is the position of the first real token.
+    """
+    pos = valid.long().cumsum(dim=1) - 1  # (B, T)
+    pos = pos.clamp(min=0)
+    if isinstance(start, Tensor):
+        start = start[:, None]
+    return pos + start
+
+
+class KVCache:
+    """Keys and values of every layer for the tokens seen so far (inference only).
+
+    keys[l], values[l]: (B, H, P, hd); valid: (B, P) bool; next_position: (B,) the position
+    the next real token gets.
+    """
+
+    def __init__(self, n_layer: int):
+        self.keys: list[Tensor | None] = [None] * n_layer
+        self.values: list[Tensor | None] = [None] * n_layer
+        self.valid: Tensor | None = None
+        self.next_position: Tensor | None = None
+
+    def __len__(self) -> int:
+        return 0 if self.valid is None else self.valid.shape[1]
+
+    def append(self, layer: int, k: Tensor, v: Tensor) -> tuple[Tensor, Tensor]:
+        """Add this step's keys/values (B, H, T, hd) of one layer; return all of them."""
+        if self.keys[layer] is not None:
+            k = torch.cat([self.keys[layer], k], dim=2)
+            v = torch.cat([self.values[layer], v], dim=2)
+        self.keys[layer], self.values[layer] = k, v
+        return k, v
+
+    def evict(self, start: int, stop: int) -> None:
+        """Drop cached tokens [start, stop) of every layer (e.g. the oldest query steps)."""
+        keep = torch.ones(len(self), dtype=torch.bool)
+        keep[start:stop] = False
+        for i, (k, v) in enumerate(zip(self.keys, self.values, strict=True)):
+            if k is not None:
+                self.keys[i], self.values[i] = k[:, :, keep], v[:, :, keep]
+        self.valid = self.valid[:, keep]
+
+
+class Attention(nn.Module):
+    """Multi-head attention; self-attention by default, cross-attention when given a context."""
+
+    def __init__(self, cfg: TransformerConfig, cross: bool = False):
+        super().__init__()
+        assert cfg.d_model % cfg.n_head == 0, "d_model must be divisible by n_head"
+        self.n_head, self.head_dim = cfg.n_head, cfg.d_model // cfg.n_head
+        self.rope, self.rope_base, self.cross = cfg.rope and not cross, cfg.rope_base, cross
+        self.q = nn.Linear(cfg.d_model, cfg.d_model, bias=False)
+        self.k = nn.Linear(cfg.d_model, cfg.d_model, bias=False)
+        self.v = nn.Linear(cfg.d_model, cfg.d_model, bias=False)
+        self.proj = nn.Linear(cfg.d_model, cfg.d_model, bias=False)
+        self.dropout = cfg.dropout
+
+    def _heads(self, x: Tensor) -> Tensor:
+        B, T, _ = x.shape
+        return x.view(B, T, self.n_head, self.head_dim).transpose(1, 2)  # (B, H, T, hd)
+
+    def forward(self, x: Tensor, attn_mask: Tensor | None = None,
+                positions: Tensor | None = None, context: Tensor | None = None,
+                cache: KVCache | None = None, layer: int = 0) -> Tensor:
+        """x (B, T, D) -> (B, T, D). Keys/values come from `context` (B, S, D) if given."""
+        source = x if context is None else context
+        q, k, v = self._heads(self.q(x)), self._heads(self.k(source)), self._heads(self.v(source))
+        if self.rope:
+            cos, sin = rope_cos_sin(positions, self.head_dim, self.rope_base)
+            q, k = apply_rope(q, cos, sin), apply_rope(k, cos, sin)
+        if cache is not None:
+            k, v = cache.append(layer, k, v)  # (B, H, P + T, hd)
+        y = F.scaled_dot_product_attention(
+            q, k, v, attn_mask=attn_mask, dropout_p=self.dropout if self.training else 0.0)
+        B, _, T, _ = y.shape
+        return self.proj(y.transpose(1, 2).reshape(B, T, -1))  # (B, T, D)
+
+
+class SwiGLU(nn.Module):
+    """Llama's gated feed-forward: W2 (silu(W1 x) * W3 x)."""
+
+    def __init__(self, cfg: TransformerConfig):
+        super().__init__()
+        hidden = int(8 * cfg.d_model / 3)
+        hidden = cfg.ffn_multiple * math.ceil(hidden / cfg.ffn_multiple)
+        self.w1 = nn.Linear(cfg.d_model, hidden, bias=False)
+        self.w3 = nn.Linear(cfg.d_model, hidden, bias=False)
+        self.w2 = nn.Linear(hidden, cfg.d_model, bias=False)
+
+    def forward(self, x: Tensor) -> Tensor:
+        return self.w2(F.silu(self.w1(x)) * self.w3(x))
+
+
+class Block(nn.Module):
+    """Pre-norm transformer block: x + Attn(norm(x)), then + SwiGLU(norm(x))."""
+
+    def __init__(self, cfg: TransformerConfig):
+        super().__init__()
+        self.norm1, self.attn = RMSNorm(cfg.d_model), Attention(cfg)
+        self.norm2, self.mlp = RMSNorm(cfg.d_model), SwiGLU(cfg)
+        self.drop = nn.Dropout(cfg.dropout)
+
+    def forward(self, x: Tensor, attn_mask: Tensor | None, positions: Tensor | None,
+                cache: KVCache | None = None, layer: int = 0) -> Tensor:
+        x = x + self.drop(self.attn(self.norm1(x), attn_mask, positions, cache=cache, layer=layer))
+        return x + self.drop(self.mlp(self.norm2(x)))
+
+
+class DecoderBlock(nn.Module):
+    """DETR-style decoder block: self-attention, cross-attention to a memory, SwiGLU."""
+
+    def __init__(self, cfg: TransformerConfig):
+        super().__init__()
+        self.norm1, self.self_attn = RMSNorm(cfg.d_model), Attention(cfg)
+        self.norm2, self.cross_attn = RMSNorm(cfg.d_model), Attention(cfg, cross=True)
+        self.norm3, self.mlp = RMSNorm(cfg.d_model), SwiGLU(cfg)
+        self.drop = nn.Dropout(cfg.dropout)
+
+    def forward(self, x: Tensor, memory: Tensor, memory_mask: Tensor | None = None) -> Tensor:
+        """x (B, K, D) queries, memory (B, S, D); memory_mask (B, 1, 1, S) bool or None."""
+        x = x + self.drop(self.self_attn(self.norm1(x)))
+        x = x + self.drop(self.cross_attn(self.norm2(x), memory_mask, context=memory))
+        return x + self.drop(self.mlp(self.norm3(x)))
+
+
+class Transformer(nn.Module):
+    """A stack of `Block`s with a final RMSNorm; optional KV cache for incremental decoding.
+
+        y = model(x)                                  # (B, T, D), all tokens real
+        y = model(x, valid=valid)                     # padded batch, valid (B, T) bool
+        cache = model.new_cache()
+        y1 = model(x[:, :10], cache=cache)            # prefill
+        y2 = model(x[:, 10:11], cache=cache)          # one more token, reusing the cache
+        # torch.cat([y1, y2], 1) equals model(x[:, :11]) up to float rounding
+    """
+
+    def __init__(self, cfg: TransformerConfig):
+        super().__init__()
+        self.cfg = cfg
+        self.blocks = nn.ModuleList([Block(cfg) for _ in range(cfg.n_layer)])
+        self.norm = RMSNorm(cfg.d_model)
+        self.apply(_init_weights)
+
+    def new_cache(self) -> KVCache:
+        return KVCache(self.cfg.n_layer)
+
+    def forward(self, x: Tensor, valid: Tensor | None = None,
+                cache: KVCache | None = None) -> Tensor:
+        """x (B, T, D) -> (B, T, D). valid (B, T) bool marks real tokens (default: all)."""
+        B, T, _ = x.shape
+        if valid is None:
+            valid = torch.ones(B, T, dtype=torch.bool, device=x.device)
+        past_valid = cache.valid if cache is not None and len(cache) else None
+        start = cache.next_position if past_valid is not None else 0
+        positions = positions_from_valid(valid, start)  # (B, T)
+        mask = causal_mask(valid, past_valid, causal=self.cfg.causal)  # (B, 1, T, P+T)
+        if cache is not None:
+            cache.valid = valid if past_valid is None else torch.cat([past_valid, valid], dim=1)
+            cache.next_position = start + valid.long().sum(dim=1)  # (B,)
+        for i, block in enumerate(self.blocks):
+            x = block(x, mask, positions, cache=cache, layer=i)
+        return self.norm(x)
+
+
+def _init_weights(module: nn.Module) -> None:
+    """GPT-2 style initialisation: normal(0, 0.02) linear weights, zero biases."""
+    if isinstance(module, nn.Linear):
+        nn.init.normal_(module.weight, mean=0.0, std=0.02)
+        if module.bias is not None:
+            nn.init.zeros_(module.bias)
+    elif isinstance(module, nn.Embedding):
+        nn.init.normal_(module.weight, mean=0.0, std=0.02)
+
+
+def init_weights(module: nn.Module) -> None:
+    """Apply the transformer's initialisation to `module` and its children."""
+    module.apply(_init_weights)

@@ -1,0 +1,192 @@
+"""Recordings of demonstrations and rollouts: a rerun `.rrd` file and a static picture beside it.
+
+    from icil_paper.recording import record_episode
+    paths = record_episode("runs/demo.rrd", demo.obs, demo.actions, latents=z)
+    # paths["rrd"]: open with `rerun runs/demo.rrd`;  paths["png"]: the same episode, static
+
+The `.rrd` file is written offline (no viewer is spawned), on a `step` timeline:
+
+    actions/<dim>        one scalar series per action dim (dx, dy, dz, rx, ry, rz, gripper)
+    world/eef            the end-effector position (proprio[:3]) and its whole path
+    world/object         the object position, when `object_position` says where it is in obs
+    latents/<i>          the first `MAX_LATENT_SERIES` dims of a tokenizer's latents, if given
+    camera/<i>           camera images, if given (or found as obs["rgb"])
+
+The static picture (matplotlib PNG) shows the same: action curves, the end-effector path from
+above and from the side, the latents, and a strip of camera frames. It is what a reader without
+the rerun viewer (or a book built offline) sees.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import uuid
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ACTION_NAMES = ("dx", "dy", "dz", "rx", "ry", "rz", "gripper")
+MAX_LATENT_SERIES = 8
+
+
+def _stack_obs(obs_seq: Mapping[str, Any] | Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
+    if isinstance(obs_seq, Mapping):
+        return {k: np.asarray(v) for k, v in obs_seq.items()}
+    obs_seq = list(obs_seq)
+    if not obs_seq:
+        return {}
+    return {k: np.stack([np.asarray(o[k]) for o in obs_seq]) for k in obs_seq[0]}
+
+
+def _images(images: Any, obs: dict[str, np.ndarray]) -> np.ndarray | None:
+    """Images as (T, n_cams, H, W, 3) uint8, or None."""
+    if images is None:
+        images = obs.get("rgb")
+    if images is None:
+        return None
+    images = np.asarray(images)
+    if images.ndim == 4:
+        images = images[:, None]
+    if images.ndim != 5 or images.shape[-1] != 3:
+        raise ValueError(f"images must be (T, H, W, 3) or (T, n_cams, H, W, 3), got {images.shape}")
+    return images.astype(np.uint8)
+
+
+def _write_rrd(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
+               latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
+    import rerun as rr
+
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
+    rec = rr.RecordingStream("icil_paper", recording_id=uuid.uuid4())
+    rec.save(str(tmp))
+    try:
+        if title:
+            rec.log("episode", rr.TextDocument(title), static=True)
+        eef = obs.get("proprio")
+        if eef is not None and eef.shape[-1] >= 3:
+            rec.log("world/eef_path", rr.LineStrips3D([eef[:, :3]]), static=True)
+        names = [ACTION_NAMES[i] if actions.shape[1] == len(ACTION_NAMES) else f"a{i}"
+                 for i in range(actions.shape[1])]
+        for t in range(actions.shape[0]):
+            rec.set_time("step", sequence=t)
+            for i, name in enumerate(names):
+                rec.log(f"actions/{name}", rr.Scalars(float(actions[t, i])))
+            if eef is not None and eef.shape[-1] >= 3:
+                rec.log("world/eef", rr.Points3D([eef[t, :3]], radii=0.01))
+            obj = obs.get("object_position")
+            if obj is not None and obj.shape[-1] == 3:
+                rec.log("world/object", rr.Points3D([obj[t]], radii=0.015))
+            if latents is not None:
+                for i in range(min(latents.shape[1], MAX_LATENT_SERIES)):
+                    rec.log(f"latents/{i}", rr.Scalars(float(latents[t, i])))
+            if images is not None:
+                for c in range(images.shape[1]):
+                    rec.log(f"camera/{c}", rr.Image(images[t, c]))
+        rec.flush()
+        rec.disconnect()
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _write_png(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
+               latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend stays as it is
+
+    from icil_paper.results import atomic_write_bytes
+
+    eef = obs.get("proprio")
+    rows = 2 + (latents is not None) + (images is not None)
+    fig = Figure(figsize=(10, 2.6 * rows), constrained_layout=True)
+    grid = fig.add_gridspec(rows, 2)
+    ax = fig.add_subplot(grid[0, :])
+    names = ACTION_NAMES if actions.shape[1] == len(ACTION_NAMES) else [
+        f"a{i}" for i in range(actions.shape[1])]
+    for i, name in enumerate(names):
+        ax.plot(actions[:, i], label=name, lw=1.2)
+    ax.set(xlabel="step", ylabel="action", title=title or "episode")
+    ax.legend(ncol=len(names), fontsize=7, loc="upper right")
+    if eef is not None and eef.shape[-1] >= 3:
+        top, side = fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1])
+        top.plot(eef[:, 0], eef[:, 1], "-", color="tab:blue")
+        top.plot(*eef[0, :2], "o", color="tab:green", label="start")
+        top.plot(*eef[-1, :2], "s", color="tab:red", label="end")
+        top.set(xlabel="x [m]", ylabel="y [m]", title="end effector, from above")
+        top.set_aspect("equal", adjustable="datalim")
+        top.legend(fontsize=7)
+        side.plot(eef[:, 2], color="tab:blue", label="eef z")
+        obj = obs.get("object_position")
+        if obj is not None and obj.shape[-1] == 3:
+            side.plot(obj[:, 2], color="tab:orange", label="object z")
+            top.plot(obj[:, 0], obj[:, 1], ":", color="tab:orange", label="object")
+        side.set(xlabel="step", ylabel="z [m]", title="height")
+        side.legend(fontsize=7)
+    row = 2
+    if latents is not None:
+        ax = fig.add_subplot(grid[row, :])
+        for i in range(min(latents.shape[1], MAX_LATENT_SERIES)):
+            ax.plot(latents[:, i], lw=1)
+        ax.set(xlabel="step", ylabel="latent", title=f"latents (first {MAX_LATENT_SERIES} dims)")
+        row += 1
+    if images is not None:
+        strip = fig.add_subplot(grid[row, :])
+        picks = np.linspace(0, images.shape[0] - 1, num=min(5, images.shape[0])).astype(int)
+        frames = [np.concatenate(list(images[t]), axis=0) for t in picks]  # cameras stacked
+        strip.imshow(np.concatenate(frames, axis=1))
+        strip.set(title=f"camera frames at steps {picks.tolist()}")
+        strip.axis("off")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def record_episode(path: str | Path, obs_seq: Mapping[str, Any] | Sequence[Mapping[str, Any]],
+                   actions: Any, latents: Any = None, images: Any = None, title: str = "",
+                   rrd: bool = True, object_position: tuple[int, int] | None = None
+                   ) -> dict[str, Path | None]:
+    """Write a rerun recording of an episode to `path` (.rrd) and a PNG beside it.
+
+    Args:
+        path: the `.rrd` file; the picture goes to the same path with suffix `.png`.
+        obs_seq: observations, a dict of (T, ...) arrays or a list of T observation dicts.
+        actions: (T, A) actions.
+        latents: optional (T, D) latents (e.g. a tokenizer's embeddings of the actions).
+        images: optional (T, H, W, 3) or (T, n_cams, H, W, 3) uint8 frames (default: obs["rgb"]).
+        title: text shown with the recording.
+        rrd: False writes only the picture.
+        object_position: (start, stop) of an object position (3 entries) inside obs["object"],
+            e.g. (0, 3) for ManiSkill and (1, 4) for the kitchen suite; None draws no object.
+
+    Returns {"rrd": path or None (rerun unavailable or failed, with a warning), "png": path}.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    obs = _stack_obs(obs_seq)
+    actions = np.asarray(actions, dtype=np.float32)
+    if actions.ndim != 2:
+        raise ValueError(f"actions must be (T, A), got shape {actions.shape}")
+    lat = None if latents is None else np.asarray(latents, dtype=np.float32).reshape(
+        actions.shape[0], -1)
+    imgs = _images(images, obs)
+    if object_position is not None and "object" in obs:
+        start, stop = object_position
+        obs["object_position"] = obs["object"][:, start:stop]
+    for key, value in {**obs, "images": imgs}.items():
+        if value is not None and value.shape[0] != actions.shape[0]:
+            raise ValueError(f"{key} has {value.shape[0]} steps but actions have "
+                             f"{actions.shape[0]}")
+    out: dict[str, Path | None] = {"rrd": None, "png": path.with_suffix(".png")}
+    if rrd:
+        try:
+            _write_rrd(path, obs, actions, lat, imgs, title)
+            out["rrd"] = path
+        except Exception as exc:  # noqa: BLE001 - the picture is the fallback
+            warnings.warn(f"rerun recording {path} failed ({type(exc).__name__}: {exc}); "
+                          "writing the static picture only", stacklevel=2)
+    _write_png(out["png"], obs, actions, lat, imgs, title)
+    return out

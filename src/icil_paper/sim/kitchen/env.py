@@ -1,0 +1,331 @@
+"""The kitchen suite's environments: a robosuite `ManipulationEnv` per scene and a small
+gymnasium-style wrapper with the project's observation dict.
+
+Action (7-D, every entry in [-1, 1]), robosuite's OSC_POSE controller with delta input at
+20 Hz (`load_composite_controller_config(controller="BASIC")`)::
+
+    a = [dx, dy, dz,  rx, ry, rz,  g]
+         position     rotation     gripper
+         x 0.05 m     x 0.5 rad    +1 closes, -1 opens
+
+Position and rotation deltas are in the robot base frame (aligned with the world); the
+rotation is an axis-angle vector applied on the left of the current end-effector orientation.
+
+Observation (a dict of numpy arrays, the same widths for every kitchen and Kinova task)::
+
+    proprio (9,)  float32 = end-effector position (3) | quaternion x, y, z, w (4)
+                            | finger offsets (2)
+    object  (18,) float32 = see `icil_paper.sim.kitchen.scenes` (joint position, key point
+                            pose, target pose, key point - end effector)
+    rgb     (2, H, W, 3) uint8     cameras agentview, robot0_eye_in_hand (obs="rgb"/"rgbd")
+    depth   (2, H, W) float32      metres (obs="rgbd")
+
+The end effector is the gripper's grip site (between the fingertips). Its quaternion is made
+unique by taking the sign whose dot product with the downward-pointing, unturned gripper's
+quaternion (x, y, z, w) = (0.707, 0.707, 0, 0) is positive, so it does not flip while the
+gripper points down and turns by less than 180 degrees either way.
+The finger offsets are the distances of the left and right finger pads from the grip site
+along the closing axis, signed (+left, -right) like robosuite's Panda `robot0_gripper_qpos`
+(within 4 mm of it); being geometric, they mean the same for the Panda gripper and the
+Kinova's Robotiq 2F-85, so both arms share one proprio layout.
+
+Episodes: `terminated` is True on the first step where the task's success predicate holds
+(the episode is over, like ManiSkill's success termination); `truncated` is True when the
+horizon is reached without success. The reward is sparse: 1.0 on success steps, else 0.0.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from collections import OrderedDict
+from typing import Any
+
+import mujoco
+import numpy as np
+from robosuite.controllers import load_composite_controller_config
+from robosuite.environments.manipulation.manipulation_env import ManipulationEnv
+from robosuite.models.arenas import TableArena
+from robosuite.models.tasks import ManipulationTask
+
+from icil_paper.registry import check_name
+from icil_paper.sim.kitchen.kinova import DynamicsPerturbation, RealityGap
+from icil_paper.sim.kitchen.scenes import Scene, make_scene
+from icil_paper.sim.kitchen.tasks import (
+    ALL_TASKS,
+    KITCHEN_PROPRIO_DIM,
+    KitchenTaskSpec,
+)
+
+CAMERAS = ("agentview", "robot0_eye_in_hand")
+"""Cameras of image observations, in the order of the `rgb` / `depth` arrays."""
+ACTION_DIM = 7
+CONTROL_FREQ = 20
+OBS_KINDS = ("state", "rgb", "rgbd")
+_DOWN_QUAT_XYZW = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
+
+
+class KitchenSceneEnv(ManipulationEnv):
+    """A robosuite manipulation env: one robot at a counter with the fixtures of one `Scene`.
+
+    The MJCF model is built once; resets only re-sample the scene layout (robosuite's
+    `hard_reset=False`). robosuite's own observables are switched off: the wrapper reads the
+    few quantities it needs straight from the simulator, and renders only when asked.
+    """
+
+    def __init__(self, scene: Scene, robot: str = "Panda", horizon: int = 200,
+                 offscreen: bool = False, perturbation: DynamicsPerturbation | None = None,
+                 initialization_noise="default", seed: int | None = None):
+        self.scene = scene
+        self.perturbation = perturbation
+        self.success_flag = False
+        self.table_full_size = (0.8, 0.8, 0.05)
+        self.table_offset = (0.0, 0.0, 0.8)
+        super().__init__(
+            robots=robot,
+            controller_configs=load_composite_controller_config(controller="BASIC", robot=robot),
+            gripper_types="default",
+            initialization_noise=initialization_noise,
+            use_camera_obs=False,
+            has_renderer=False,
+            has_offscreen_renderer=offscreen,
+            render_camera=None,
+            control_freq=CONTROL_FREQ,
+            lite_physics=True,
+            horizon=horizon,
+            ignore_done=True,
+            hard_reset=False,
+            camera_names=list(CAMERAS),
+            renderer="mujoco",
+            seed=seed,
+        )
+
+    # model ---------------------------------------------------------------------------------
+    def _load_model(self):
+        super()._load_model()
+        robot_model = self.robots[0].robot_model
+        robot_model.set_base_xpos(robot_model.base_xpos_offset["table"](self.table_full_size[0]))
+        arena = TableArena(table_full_size=self.table_full_size, table_offset=self.table_offset)
+        arena.set_origin([0, 0, 0])
+        # Over the robot's right shoulder, looking at the counter: fixtures face the robot, so
+        # robosuite's default agentview (in front of the table) would see their backs.
+        arena.set_camera(camera_name="agentview", pos=[-0.45, -0.75, 1.55],
+                         quat=_look_at_quat_wxyz([-0.45, -0.75, 1.55], [0.05, 0.0, 0.85]))
+        self.model = ManipulationTask(mujoco_arena=arena,
+                                      mujoco_robots=[r.robot_model for r in self.robots],
+                                      mujoco_objects=self.scene.build())
+
+    def _setup_references(self):
+        super()._setup_references()
+        self.scene.bind(self.sim)
+        gripper = self.robots[0].gripper["right"]
+        m = self.sim.model
+        self.grip_site_id = m.site_name2id(gripper.important_sites["grip_site"])
+        self.pad_geom_ids = (m.geom_name2id(gripper.important_geoms["left_fingerpad"][0]),
+                             m.geom_name2id(gripper.important_geoms["right_fingerpad"][0]))
+        if self.perturbation is not None and self.perturbation._nominal is None:
+            self.perturbation.bind(self.sim, *self.scene.dynamics_handles())
+
+    def _setup_observables(self):
+        return OrderedDict()
+
+    def _reset_internal(self):
+        super()._reset_internal()
+        self.scene.reset(self.sim, self.rng)
+        if self.perturbation is not None:
+            self.perturbation.apply(self.sim, self.rng)
+        self.sim.forward()
+        self.success_flag = False
+
+    # task ----------------------------------------------------------------------------------
+    def _check_success(self):
+        return self.scene.success(self)
+
+    def reward(self, action=None):
+        self.success_flag = bool(self._check_success())
+        return float(self.success_flag)
+
+    def is_grasping(self, obj) -> bool:
+        return bool(self._check_grasp(gripper=self.robots[0].gripper["right"], object_geoms=obj))
+
+    # measurements --------------------------------------------------------------------------
+    def eef_pos(self) -> np.ndarray:
+        return np.array(self.sim.data.site_xpos[self.grip_site_id])
+
+    def eef_mat(self) -> np.ndarray:
+        return np.array(self.sim.data.site_xmat[self.grip_site_id]).reshape(3, 3)
+
+    def proprio(self) -> np.ndarray:
+        out = np.empty(KITCHEN_PROPRIO_DIM, dtype=np.float32)
+        pos, mat = self.eef_pos(), self.eef_mat()
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, mat.reshape(-1))
+        xyzw = np.array([quat[1], quat[2], quat[3], quat[0]])
+        out[0:3] = pos
+        out[3:7] = -xyzw if xyzw @ _DOWN_QUAT_XYZW < 0 else xyzw
+        axis = mat[:, 0]
+        left, right = (self.sim.data.geom_xpos[g] - pos for g in self.pad_geom_ids)
+        out[7] = abs(float(left @ axis))
+        out[8] = -abs(float(right @ axis))
+        return out
+
+
+def _look_at_quat_wxyz(eye, target) -> list[float]:
+    """MuJoCo camera quaternion (w, x, y, z) looking from `eye` at `target`, z up."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    back = eye - target
+    back /= np.linalg.norm(back)                     # camera +z points away from the scene
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    mat = np.stack([right, up, back], axis=1)
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, mat.reshape(-1))
+    return quat.tolist()
+
+
+class KitchenEnv:
+    """A kitchen (or Kinova) task with the project's env interface (see the module docstring).
+
+    `reset(seed)` re-seeds the episode: the layout, the robot's initial joint noise, the Kinova
+    perturbation and observation noise all follow from it. `reset()` without a seed uses the
+    constructor's seed first, then seeds drawn from a generator seeded by it.
+    """
+
+    def __init__(self, name: str, obs: str = "state", seed: int = 0, camera_size: int = 84,
+                 horizon: int | None = None, obs_noise_std: float | None = None,
+                 initialization_noise="default"):
+        check_name("kitchen task", name, ALL_TASKS)
+        check_name("observation kind", obs, OBS_KINDS)
+        self.spec: KitchenTaskSpec = ALL_TASKS[name]
+        self.name = name
+        self.obs_kind = obs
+        self.action_dim = ACTION_DIM
+        self.horizon = int(horizon or self.spec.horizon)
+        self.instruction = self.spec.instruction
+        self.camera_size = int(camera_size)
+        self.cameras = CAMERAS
+        gap = RealityGap() if self.spec.perturbed else None
+        self.obs_noise_std = float(obs_noise_std if obs_noise_std is not None
+                                   else (gap.obs_noise_std if gap else 0.0))
+        self.scene = make_scene(self.spec.scene, self.spec.goal)
+        with _quiet_robosuite():
+            self._env = KitchenSceneEnv(self.scene, robot=self.spec.robot, horizon=self.horizon,
+                                        offscreen=obs != "state",
+                                        perturbation=DynamicsPerturbation(gap) if gap else None,
+                                        initialization_noise=initialization_noise, seed=seed)
+        self.sim = self._env.sim
+        self._seeds = np.random.default_rng(seed)
+        self._first_seed: int | None = int(seed)
+        self.seed: int | None = None
+        self.steps = 0
+        self._noise_rng = np.random.default_rng(0)
+
+    @property
+    def geometry(self):
+        """The scene's fixture geometry (fixture frame), for the scripted experts."""
+        return self.scene.geometry
+
+    @property
+    def robosuite_env(self) -> KitchenSceneEnv:
+        return self._env
+
+    # gymnasium-style interface ---------------------------------------------------------------
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if seed is None:
+            seed = self._first_seed if self._first_seed is not None else int(
+                self._seeds.integers(2**31 - 1))
+        self._first_seed = None
+        self.seed = int(seed)
+        self._env.rng = np.random.default_rng(self.seed)
+        self._noise_rng = np.random.default_rng([self.seed, 1])
+        with _quiet_robosuite():                 # robosuite rebuilds its controllers here
+            self._env.reset()
+        self.steps = 0
+        return self._obs(), self._info(self._env.scene.success(self._env))
+
+    def step(self, action):
+        action = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+        if action.shape != (ACTION_DIM,):
+            raise ValueError(f"{self.name}: action must have {ACTION_DIM} entries, got "
+                             f"{action.shape[0]}")
+        if not np.all(np.isfinite(action)):
+            raise ValueError(f"{self.name}: action has non-finite entries: {action}")
+        _, reward, _, _ = self._env.step(action)
+        self.steps += 1
+        success = self._env.success_flag
+        terminated = success
+        truncated = self.steps >= self.horizon and not terminated
+        return self._obs(), float(reward), terminated, truncated, self._info(success)
+
+    def render(self, camera: str = "agentview", size: int | tuple[int, int] = 256) -> np.ndarray:
+        """An RGB frame (H, W, 3) uint8 from a camera of the scene (at most 640 x 480)."""
+        width, height = (size, size) if np.isscalar(size) else size
+        self._ensure_render_context()
+        rgb = self.sim.render(width=int(width), height=int(height), camera_name=camera)
+        return np.ascontiguousarray(rgb[::-1])
+
+    def get_state(self) -> np.ndarray:
+        """Flat MuJoCo state (time, qpos, qvel) as float64, robomimic's `states` entry."""
+        return np.asarray(self.sim.get_state().flatten(), dtype=np.float64)
+
+    def close(self) -> None:
+        self._env.close()
+
+    # -----------------------------------------------------------------------------------------
+    def _ensure_render_context(self) -> None:
+        if self.sim._render_context_offscreen is None:
+            from robosuite.utils.binding_utils import MjRenderContextOffscreen
+
+            MjRenderContextOffscreen(self.sim, device_id=-1)
+            self.sim._render_context_offscreen.vopt.geomgroup[0] = 0   # hide collision meshes
+
+    def _info(self, success: bool) -> dict[str, Any]:
+        return {"success": bool(success), "joint_pos": self.scene.joint_pos(self.sim)}
+
+    def _obs(self) -> dict[str, np.ndarray]:
+        proprio = self._env.proprio()
+        obj = self.scene.object_state(self.sim, proprio[:3].astype(np.float64))
+        if self.obs_noise_std > 0:
+            proprio = proprio + self._noise_rng.normal(0, self.obs_noise_std, proprio.shape)
+            obj = obj + self._noise_rng.normal(0, self.obs_noise_std, obj.shape)
+        out = {"proprio": proprio.astype(np.float32), "object": obj.astype(np.float32)}
+        if self.obs_kind != "state":
+            rgbs, depths = [], []
+            size = self.camera_size
+            for cam in self.cameras:
+                if self.obs_kind == "rgbd":
+                    rgb, depth = self.sim.render(width=size, height=size, camera_name=cam,
+                                                 depth=True)
+                    depths.append(_metric_depth(self.sim, depth[::-1]))
+                else:
+                    rgb = self.sim.render(width=size, height=size, camera_name=cam)
+                rgbs.append(rgb[::-1])
+            out["rgb"] = np.stack(rgbs).astype(np.uint8)
+            if depths:
+                out["depth"] = np.stack(depths).astype(np.float32)
+        return out
+
+    def __repr__(self) -> str:
+        return f"KitchenEnv({self.name!r}, obs={self.obs_kind!r}, robot={self.spec.robot!r})"
+
+
+@contextlib.contextmanager
+def _quiet_robosuite():
+    """Silence robosuite's notices about controller parts that a single arm lacks (printed
+    whenever it builds controllers: at construction and at every reset)."""
+    logger = logging.getLogger("robosuite_logs")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _metric_depth(sim, depth: np.ndarray) -> np.ndarray:
+    """MuJoCo's normalized depth buffer -> distances in metres."""
+    extent = sim.model.stat.extent
+    far, near = sim.model.vis.map.zfar * extent, sim.model.vis.map.znear * extent
+    return near / (1.0 - depth * (1.0 - near / far))
+

@@ -1,0 +1,499 @@
+"""Scripted experts of the kitchen suite: closed-loop state machines, one per scene.
+
+Every expert reads only the observation at each step (end-effector pose and fingers from
+`proprio`; the fixture's joint position, key point and base pose from `object`) plus fixed
+geometry of the fixture (handle offsets in the fixture's own frame, read once at reset), and
+outputs the suite's 7-D action. Usage::
+
+    expert = make_kitchen_expert("kitchen/open_drawer")
+    obs, info = env.reset(seed=3)
+    expert.reset(env, obs)
+    while True:
+        obs, reward, terminated, truncated, info = env.step(expert.act(obs))
+        if terminated or truncated:
+            break
+
+Phases (the current one is `expert.phase`):
+
+- Hook experts (doors, drawers): `approach` above the gap behind the handle bar with the
+  gripper closed, `descend` into it, `drag` the handle along the joint's path (arc of the
+  door, line of the drawer) a little ahead of the joint's current position, turning the hand
+  with the door, until the joint is past the goal; then `lift` out of the gap and `retreat`.
+- Push expert (lever): `approach` above a point beside the lever arm (on the side away from
+  the turning direction), `descend` to the arm's height, `push` along the arc ahead of the
+  arm, `lift`, `retreat`.
+- Twist expert (knob): `approach` above the knob with the hand turned across the fin, open,
+  `descend`, `grasp`, `twist` the wrist ahead of the knob until it reaches the goal angle,
+  `release`, `retreat`.
+- Press expert (button): `approach` above the cap with the gripper closed, `press` down until
+  the button is fully in, `retreat`.
+- Pick-and-place experts (pick_place, insertion): `approach` above the object turned to its
+  faces, `descend`, `grasp`, `lift`, `carry` above the target, `lower` (into the bin / the
+  hole, steering the object's observed position over the target), `release`, `retreat`.
+
+Closed loop: a phase that sees its precondition broken (the hand slipped off a handle, the
+object is no longer between the fingers, the knob does not follow the wrist) goes back to
+`approach`; every phase has a step budget after which it lifts and starts over.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from icil_paper.registry import check_name
+from icil_paper.sim.kitchen.scenes import COUNTER_Z, quat_xyzw_to_yaw, rot_z
+from icil_paper.sim.kitchen.tasks import ALL_TASKS
+
+POS_SCALE = 0.05
+"""Metres of end-effector goal offset per unit of position action (robosuite OSC_POSE)."""
+ROT_SCALE = 0.5
+"""Radians of end-effector goal rotation per unit of rotation action (robosuite OSC_POSE)."""
+LEAD = 2.0
+"""Velocity lead of the pose servo, in control steps."""
+OPEN, CLOSE = -1.0, 1.0
+_DOWN = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+"""Grip-site orientation pointing down, unturned (its x axis, the closing axis, along world y)."""
+
+
+def _wrap(angle: float) -> float:
+    return float((angle + np.pi) % (2 * np.pi) - np.pi)
+
+
+def gripper_yaw(mat: np.ndarray) -> float:
+    """Yaw of a downward gripper: rotation about world z from the unturned pose."""
+    return float(np.arctan2(-mat[0, 0], mat[1, 0]))
+
+
+class KitchenExpert:
+    """Base class: observation parsing, pose servoing and phase bookkeeping."""
+
+    phases: tuple[str, ...] = ()
+    budgets: dict[str, int] = {}
+    """Step budget per phase; running out restarts from `approach` (after lifting)."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.spec = ALL_TASKS[name]
+        # the Kinova arm under robosuite's OSC settles about twice as slowly as the Panda
+        self.budget_scale = 2.0 if self.spec.robot == "Kinova3" else 1.0
+        self._prev_eef, self.vel = None, np.zeros(3)
+        self.phase = self.phases[0] if self.phases else ""
+        self.t = 0
+        self.restarts = 0
+
+    # interface -----------------------------------------------------------------------------
+    def reset(self, env, obs) -> None:
+        self.env = env
+        self.geometry = env.geometry
+        self.scene = env.scene
+        self.phase, self.t, self.restarts = "approach", 0, 0
+        self._prev_eef, self.vel = None, np.zeros(3)
+        self._start(obs)
+
+    def act(self, obs) -> np.ndarray:
+        self._parse(obs)
+        self.t += 1
+        budget = self.budgets.get(self.phase)
+        over = budget is not None and self.t > budget * self.budget_scale
+        if over and self.phase not in ("retreat", "recover"):
+            self._set("recover")
+        if self.phase == "recover":
+            action = self._recover()
+        else:
+            action = self._act()
+        return np.clip(action, -1.0, 1.0).astype(np.float32)
+
+    # to implement ----------------------------------------------------------------------------
+    def _start(self, obs) -> None:
+        pass
+
+    def _act(self) -> np.ndarray:
+        raise NotImplementedError
+
+    # helpers ---------------------------------------------------------------------------------
+    def _set(self, phase: str) -> None:
+        if phase == "approach" and self.phase not in ("approach", ""):
+            self.restarts += 1
+        self.phase = phase
+        self.t = 0
+
+    def _parse(self, obs) -> None:
+        p, o = obs["proprio"].astype(np.float64), obs["object"].astype(np.float64)
+        self.eef = p[0:3]
+        if self._prev_eef is not None:            # smoothed velocity (m per step)
+            self.vel = 0.5 * self.vel + 0.5 * (self.eef - self._prev_eef)
+        self._prev_eef = self.eef.copy()
+        self.eef_mat = Rotation.from_quat(p[3:7]).as_matrix()
+        self.yaw = gripper_yaw(self.eef_mat)
+        self.fingers = p[7] - p[8]                   # opening between the finger pads (m)
+        self.q = o[0]
+        self.key_pos, self.key_quat = o[1:4], o[4:8]
+        self.base_pos, self.base_quat = o[8:11], o[11:15]
+        self.base_yaw = quat_xyzw_to_yaw(self.base_quat)
+        self.base_rot = rot_z(self.base_yaw)
+
+    def _servo(self, target: np.ndarray, yaw: float, grip: float, speed: float = 1.0
+               ) -> np.ndarray:
+        """Action moving the grip site towards `target`, turned to `yaw`, pointing down."""
+        action = np.zeros(7)
+        # aim where the hand will be LEAD steps from now: damps overshoot of the arm's lag
+        delta = (np.asarray(target) - self.eef - LEAD * self.vel) / POS_SCALE
+        peak = np.max(np.abs(delta))
+        action[:3] = delta * (speed / peak if peak > speed else 1.0)
+        desired = rot_z(yaw) @ _DOWN
+        rotvec = Rotation.from_matrix(desired @ self.eef_mat.T).as_rotvec()
+        action[3:6] = np.clip(rotvec / ROT_SCALE, -1.0, 1.0)
+        action[6] = grip
+        return action
+
+    def _approach(self, above: np.ndarray, yaw: float, grip: float) -> np.ndarray:
+        """Servo to a point above a target, rising first when the hand is low and far away
+        (so it never sweeps through a fixture on its way)."""
+        far = np.linalg.norm(above[:2] - self.eef[:2]) > 0.04
+        if far and self.eef[2] < above[2] - 0.03:
+            return self._servo(np.array([self.eef[0], self.eef[1], above[2]]), yaw, grip)
+        return self._servo(above, yaw, grip)
+
+    def _descend(self, target: np.ndarray, yaw: float, grip: float, speed: float = 0.6,
+                 tol_xy: float = 0.008) -> np.ndarray:
+        """Servo down onto `target`, holding the height while the hand is off it sideways."""
+        if np.linalg.norm(target[:2] - self.eef[:2]) > tol_xy:
+            target = np.array([target[0], target[1], max(target[2], self.eef[2])])
+        return self._servo(target, yaw, grip, speed)
+
+    def _near(self, target, tol_xy: float = 0.01, tol_z: float = 0.01) -> bool:
+        d = np.asarray(target) - self.eef
+        return bool(np.linalg.norm(d[:2]) < tol_xy and abs(d[2]) < tol_z)
+
+    def _recover(self) -> np.ndarray:
+        """Lift straight up (gripper as the subclass wants), then start over."""
+        target = self.eef.copy()
+        target[2] = max(self.eef[2], self.safe_z)
+        if self.eef[2] > self.safe_z - 0.015 or self.t > 25:
+            self._set("approach")
+        return self._servo(target + np.array([0, 0, 0.03]), self.yaw, self.recover_grip)
+
+    safe_z = COUNTER_Z + 0.30
+    recover_grip = OPEN
+
+
+# ---------------------------------------------------------------------------------------------
+# Articulated fixtures
+# ---------------------------------------------------------------------------------------------
+
+class _JointPathExpert(KitchenExpert):
+    """Shared kinematics: where a point of the moving part is for a given joint value."""
+
+    goal_q: dict[str, float] = {}
+    """Joint value the expert drives towards, per task goal (past the success threshold)."""
+    done_q: dict[str, float] = {}
+    """Joint value at which the expert lets go, per goal."""
+
+    def _start(self, obs) -> None:
+        g = self.geometry
+        self.kind, self.axis = g.joint_kind, np.asarray(g.joint_axis, dtype=float)
+        self.pivot, self.hook = np.asarray(g.pivot, float), np.asarray(g.hook, float)
+        self.goal = self.spec.goal
+        self.safe_z = COUNTER_Z + g.top + 0.10
+
+    def _part_rot(self, q: float) -> np.ndarray:
+        return rot_z(self.axis[2] * q) if self.kind == "hinge" else np.eye(3)
+
+    def part_point(self, q: float, local: np.ndarray) -> np.ndarray:
+        """World position of `local` (moving part frame at its pivot) with the joint at q."""
+        if self.kind == "hinge":
+            offset = self._part_rot(q) @ local
+        else:
+            offset = local + q * self.axis
+        return self.base_pos + self.base_rot @ (self.pivot + offset)
+
+    def part_yaw(self, q: float) -> float:
+        return self.base_yaw + (self.axis[2] * q if self.kind == "hinge" else 0.0)
+
+    def finished(self) -> bool:
+        target = self.done_q[self.goal]
+        return self.q >= target if self.goal_q[self.goal] > target else self.q <= target
+
+    def next_q(self, step: float) -> float:
+        return self.q + float(np.clip(self.goal_q[self.goal] - self.q, -step, step))
+
+
+class HookExpert(_JointPathExpert):
+    """Doors and drawers: fingertips in the gap behind the handle bar drag the part."""
+
+    phases = ("approach", "descend", "drag", "lift", "retreat", "recover")
+    budgets = {"approach": 60, "descend": 30, "drag": 120, "lift": 30}
+    recover_grip = CLOSE
+
+    def __init__(self, name: str):
+        super().__init__(name)
+        if self.spec.scene == "door":
+            self.goal_q = {"open": 1.35, "close": -0.2}
+            self.done_q = {"open": 1.15, "close": 0.03}
+            self.step_q = 0.22
+        else:
+            self.goal_q = {"open": 0.2, "close": -0.05}
+            self.done_q = {"open": 0.15, "close": 0.004}
+            self.step_q = 0.05
+
+    def _act(self) -> np.ndarray:
+        hook = self.part_point(self.q, self.hook)
+        yaw = self.part_yaw(self.q)
+        if self.phase == "approach":
+            above = hook + np.array([0, 0, 0.07])
+            if self._near(above, 0.008, 0.02) and abs(_wrap(self.yaw - yaw)) < 0.1:
+                self._set("descend")
+            return self._approach(above, yaw, CLOSE)
+        if self.phase == "descend":
+            if np.linalg.norm(hook[:2] - self.eef[:2]) > 0.03:
+                self._set("recover")
+            if self._near(hook, 0.015, 0.012):
+                self._set("drag")
+            return self._descend(hook, yaw, CLOSE)
+        if self.phase == "drag":
+            if self.finished():
+                self._set("lift")
+            elif np.linalg.norm(hook[:2] - self.eef[:2]) > 0.05 or self.eef[2] > hook[2] + 0.03:
+                self._set("recover")
+            q_next = self.next_q(self.step_q)
+            target = self.part_point(q_next, self.hook)
+            return self._servo(target, self.part_yaw(q_next), CLOSE)
+        if self.phase == "lift":
+            above = np.array([self.eef[0], self.eef[1], self.safe_z])
+            if self.eef[2] > hook[2] + 0.06:
+                self._set("retreat")
+            return self._servo(above, self.yaw, CLOSE, speed=0.6)
+        # retreat: back towards the robot and up, away from the fixture
+        target = np.array([self.eef[0] - 0.05, self.eef[1], self.safe_z])
+        return self._servo(target, self.yaw, CLOSE, speed=0.5)
+
+
+class PushExpert(_JointPathExpert):
+    """Lever: closed fingertips push the arm sideways along its arc."""
+
+    phases = ("approach", "descend", "push", "lift", "retreat", "recover")
+    budgets = {"approach": 60, "descend": 30, "push": 80, "lift": 30}
+    recover_grip = CLOSE
+    goal_q = {"on": 1.15, "off": -0.2}
+    done_q = {"on": 0.95, "off": 0.06}
+    offset = 0.028
+    """Distance from the arm's centre line to the grip site while pushing (m)."""
+
+    def pusher(self, q: float) -> np.ndarray:
+        r = self.geometry.radius
+        direction = np.array([-np.cos(q), -np.sin(q), 0.0])          # pivot -> tip
+        tangent = np.array([np.sin(q), -np.cos(q), 0.0])              # d(tip)/dq
+        sign = 1.0 if self.goal_q[self.goal] > self.q else -1.0
+        local = r * direction - sign * self.offset * tangent
+        return self.base_pos + self.base_rot @ (self.pivot + local)
+
+    def _act(self) -> np.ndarray:
+        start = self.pusher(self.q)
+        yaw = self.base_yaw
+        if self.phase == "approach":
+            above = start + np.array([0, 0, 0.07])
+            if self._near(above, 0.008, 0.02):
+                self._set("descend")
+            return self._approach(above, yaw, CLOSE)
+        if self.phase == "descend":
+            if self._near(start, 0.012, 0.008):
+                self._set("push")
+            return self._descend(start, yaw, CLOSE)
+        if self.phase == "push":
+            if self.finished():
+                self._set("lift")
+            elif np.linalg.norm(start[:2] - self.eef[:2]) > 0.05:
+                self._set("recover")
+            return self._servo(self.pusher(self.next_q(0.25)), yaw, CLOSE)
+        if self.phase == "lift":
+            if self.eef[2] > start[2] + 0.05:
+                self._set("retreat")
+            return self._servo(np.array([self.eef[0], self.eef[1], self.safe_z]), yaw, CLOSE,
+                               speed=0.6)
+        target = np.array([self.eef[0] - 0.05, self.eef[1], self.safe_z])
+        return self._servo(target, yaw, CLOSE, speed=0.5)
+
+
+class TwistExpert(_JointPathExpert):
+    """Knob: grasp the fin across, then turn the wrist ahead of the knob."""
+
+    phases = ("approach", "descend", "grasp", "twist", "release", "retreat", "recover")
+    budgets = {"approach": 60, "descend": 30, "grasp": 15, "twist": 80, "release": 10}
+    goal_q = {"on": 1.35, "off": -0.15}
+    done_q = {"on": 1.2, "off": 0.08}
+
+    def _start(self, obs) -> None:
+        super()._start(obs)
+        self._grip_hist: list[float] = []
+
+    def grasp_yaw(self, q: float) -> float:
+        """Hand yaw across the fin (fin along the knob's x, fingers close along the hand's x)."""
+        return self.part_yaw(q)
+
+    def _act(self) -> np.ndarray:
+        fin = self.part_point(self.q, self.hook)
+        yaw = self.grasp_yaw(self.q)
+        if self.phase == "approach":
+            above = fin + np.array([0, 0, 0.07])
+            if self._near(above, 0.008, 0.02) and abs(_wrap(self.yaw - yaw)) < 0.08 \
+                    and self.fingers > 0.06:
+                self._set("descend")
+            return self._approach(above, yaw, OPEN)
+        if self.phase == "descend":
+            target = fin - np.array([0, 0, 0.006])
+            if self._near(target, 0.008, 0.006):
+                self._set("grasp")
+                self._grip_hist = []
+            return self._descend(target, yaw, OPEN, speed=0.5)
+        if self.phase == "grasp":
+            self._grip_hist.append(self.fingers)
+            h = self._grip_hist
+            settled = len(h) > 4 and abs(h[-1] - h[-3]) < 5e-4
+            if settled:
+                if self.fingers < 0.008:           # closed on nothing: missed the fin
+                    self._set("recover")
+                else:
+                    self._set("twist")
+            return self._servo(fin - np.array([0, 0, 0.006]), yaw, CLOSE)
+        if self.phase == "twist":
+            if self.finished():
+                self._set("release")
+            elif abs(_wrap(self.yaw - yaw)) > 0.5 or self.fingers < 0.008:
+                self._set("recover")               # the knob does not follow the hand
+            q_next = self.next_q(0.35)
+            return self._servo(fin - np.array([0, 0, 0.006]), self.grasp_yaw(q_next), CLOSE)
+        if self.phase == "release":
+            if self.fingers > 0.05 or self.t > 8:
+                self._set("retreat")
+            return self._servo(self.eef, self.yaw, OPEN)
+        return self._servo(np.array([self.eef[0], self.eef[1], self.safe_z]), self.yaw, OPEN,
+                           speed=0.6)
+
+
+class PressExpert(_JointPathExpert):
+    """Button: closed fingertips push the cap straight down."""
+
+    phases = ("approach", "press", "retreat", "recover")
+    budgets = {"approach": 60, "press": 40}
+    recover_grip = CLOSE
+    goal_q = {"press": -0.012}
+    done_q = {"press": -0.0105}
+
+    def _act(self) -> np.ndarray:
+        cap = self.key_pos
+        yaw = self.base_yaw
+        if self.phase == "approach":
+            above = cap + np.array([0, 0, 0.05])
+            if self._near(above, 0.006, 0.015):
+                self._set("press")
+            return self._approach(above, yaw, CLOSE)
+        if self.phase == "press":
+            if self.finished():
+                self._set("retreat")
+            target = self.part_point(0.0, self.hook) - np.array([0, 0, 0.03])
+            return self._servo(target, yaw, CLOSE, speed=0.5)
+        return self._servo(np.array([self.eef[0], self.eef[1], self.safe_z]), yaw, CLOSE,
+                           speed=0.6)
+
+
+# ---------------------------------------------------------------------------------------------
+# Free objects
+# ---------------------------------------------------------------------------------------------
+
+class PickPlaceExpert(KitchenExpert):
+    """Grasp the object from above, carry it over the target, lower it in and let go."""
+
+    phases = ("approach", "descend", "grasp", "lift", "carry", "lower", "release", "retreat",
+              "recover")
+    budgets = {"approach": 60, "descend": 30, "grasp": 15, "lift": 30, "carry": 60,
+               "lower": 40, "release": 12}
+
+    def _start(self, obs) -> None:
+        scene = self.scene
+        self.insertion = self.spec.scene == "insertion"
+        self.half_h = scene.obj_half_height
+        self.symmetry = 2 * np.pi if self.insertion else np.pi / 2   # round peg / square box
+        self.grasp_dz = self.half_h - 0.02 if self.insertion else 0.0
+        self.target_top = COUNTER_Z + scene.geometry.top
+        self.carry_z = self.target_top + 2 * self.half_h - self.grasp_dz + 0.05
+        self.safe_z = self.carry_z + 0.05
+        self._grip_hist: list[float] = []
+        self.release_steps = 0
+
+    def grasp_yaw(self) -> float:
+        """Hand yaw matching the object's faces (modulo its symmetry), closest to the hand's."""
+        if self.insertion:
+            return self.yaw if abs(self.yaw) < 0.3 else 0.0
+        obj_yaw = quat_xyzw_to_yaw(self.key_quat)
+        k = np.round((self.yaw - obj_yaw) / self.symmetry)
+        candidate = obj_yaw + k * self.symmetry
+        if abs(candidate) > 1.2:                 # stay well inside the wrist's range
+            candidate -= np.sign(candidate) * self.symmetry
+        return float(candidate)
+
+    def holding(self) -> bool:
+        d = self.key_pos - (self.eef - np.array([0, 0, self.grasp_dz]))
+        return bool(np.linalg.norm(d[:2]) < 0.03 and abs(d[2]) < 0.03 and self.fingers > 0.01)
+
+    def _act(self) -> np.ndarray:
+        obj = self.key_pos
+        grasp_point = obj + np.array([0, 0, self.grasp_dz])
+        if self.phase == "approach":
+            yaw = self.grasp_yaw()
+            above = grasp_point + np.array([0, 0, 0.08])
+            if self._near(above, 0.008, 0.02) and abs(_wrap(self.yaw - yaw)) < 0.08 \
+                    and self.fingers > 0.07:
+                self._set("descend")
+                self._yaw_lock = yaw
+            return self._approach(above, yaw, OPEN)
+        if self.phase == "descend":
+            if self._near(grasp_point, 0.008, 0.006):
+                self._set("grasp")
+                self._grip_hist = []
+            return self._descend(grasp_point, self._yaw_lock, OPEN, speed=0.5, tol_xy=0.008)
+        if self.phase == "grasp":
+            self._grip_hist.append(self.fingers)
+            h = self._grip_hist
+            if len(h) > 4 and abs(h[-1] - h[-3]) < 5e-4:
+                self._set("lift" if self.fingers > 0.01 else "recover")
+            return self._servo(grasp_point, self._yaw_lock, CLOSE)
+        target_xy = self.base_pos[:2] + (self.eef[:2] - obj[:2])    # put the object, not the hand
+        if self.phase == "lift":
+            if not self.holding():
+                self._set("recover")
+            if self.eef[2] > self.carry_z - 0.02:
+                self._set("carry")
+            return self._servo(np.array([self.eef[0], self.eef[1], self.carry_z + 0.02]),
+                               self._yaw_lock, CLOSE, speed=0.7)
+        if self.phase == "carry":
+            if not self.holding():
+                self._set("recover")
+            target = np.array([*target_xy, self.carry_z])
+            if self._near(target, 0.006, 0.02):
+                self._set("lower")
+            return self._servo(target, self._yaw_lock, CLOSE)
+        if self.phase == "lower":
+            if not self.holding():
+                self._set("release")
+            bottom = (COUNTER_Z + 0.004) if self.insertion else (self.base_pos[2] + 0.015)
+            z = bottom + self.half_h + self.grasp_dz
+            if self.eef[2] < z + 0.008:
+                self._set("release")
+            return self._servo(np.array([*target_xy, z]), self._yaw_lock, CLOSE, speed=0.4)
+        if self.phase == "release":
+            if self.fingers > 0.06 or self.t > 10:
+                self._set("retreat")
+            return self._servo(self.eef, self._yaw_lock, OPEN)
+        return self._servo(np.array([self.eef[0], self.eef[1], self.safe_z]), self.yaw, OPEN,
+                           speed=0.6)
+
+
+EXPERTS = {"door": HookExpert, "drawer": HookExpert, "lever": PushExpert, "knob": TwistExpert,
+           "button": PressExpert, "pick_place": PickPlaceExpert, "insertion": PickPlaceExpert}
+
+
+def make_kitchen_expert(name: str) -> KitchenExpert:
+    """The scripted expert of a kitchen or Kinova task (call `reset(env, obs)`, then `act`)."""
+    check_name("kitchen task", name, ALL_TASKS)
+    return EXPERTS[ALL_TASKS[name].scene](name)

@@ -1,0 +1,327 @@
+"""Kitchen fixtures built as MJCF in code: cabinets with a hinged door or a sliding drawer, a
+faucet-style lever, a stove knob, a spring button, a bin and a block with a hole.
+
+Every fixture is a `CodeFixture`, a robosuite `MujocoObject` whose body tree is generated here
+(no asset files), so the suite needs nothing beyond robosuite itself. Conventions, in each
+fixture's own frame (the env places and turns it on the counter per seed):
+
+- the origin is the centre of the fixture's footprint, on the counter surface;
+- the front faces -x, towards the robot; z points up;
+- articulated parts hang off one joint named "joint"; a site named "handle" marks the point
+  the robot interacts with (handle bar, lever tip, knob fin, button cap);
+- geoms are visible (group 1) and collide with the robot and free objects but not with each
+  other (contype 2, conaffinity 1), so a drawer cannot jam in its carcass: the joint range is the
+  only stop. Joint friction (`frictionloss`) holds a part where the robot leaves it.
+
+Sizes are in metres. `GEOMETRY` records the numbers the scripted experts need (handle offsets,
+radii), read by `icil_paper.sim.kitchen.scenes`.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import numpy as np
+from robosuite.models.objects import MujocoObject
+
+WOOD = (0.62, 0.45, 0.30, 1.0)
+DARK_WOOD = (0.42, 0.28, 0.18, 1.0)
+WHITE = (0.92, 0.92, 0.90, 1.0)
+STEEL = (0.70, 0.72, 0.75, 1.0)
+BLACK = (0.12, 0.12, 0.12, 1.0)
+RED = (0.80, 0.15, 0.12, 1.0)
+BLUE = (0.15, 0.35, 0.75, 1.0)
+GREEN = (0.20, 0.60, 0.30, 1.0)
+
+
+def _fmt(values) -> str:
+    return " ".join(f"{float(v):.5g}" for v in np.atleast_1d(values))
+
+
+class _Builder:
+    """Appends geoms, bodies, joints and sites to an ET body with short keyword calls."""
+
+    def __init__(self):
+        self.count = 0
+
+    def geom(self, body: ET.Element, kind: str, size, pos=(0, 0, 0), rgba=WOOD,
+             name: str | None = None, **attrs) -> ET.Element:
+        self.count += 1
+        attrib = {"name": name or f"g{self.count}", "type": kind, "size": _fmt(size),
+                  "pos": _fmt(pos), "rgba": _fmt(rgba), "group": "1", "contype": "2",
+                  "conaffinity": "1", "friction": "1 0.005 0.0001", "solref": "0.01 1"}
+        attrib.update({k: (v if isinstance(v, str) else _fmt(v)) for k, v in attrs.items()})
+        return ET.SubElement(body, "geom", attrib=attrib)
+
+    def box(self, body, half, pos=(0, 0, 0), rgba=WOOD, **attrs):
+        return self.geom(body, "box", half, pos, rgba, **attrs)
+
+    @staticmethod
+    def body(parent: ET.Element, name: str, pos=(0, 0, 0), **attrs) -> ET.Element:
+        attrib = {"name": name, "pos": _fmt(pos)}
+        attrib.update({k: (v if isinstance(v, str) else _fmt(v)) for k, v in attrs.items()})
+        return ET.SubElement(parent, "body", attrib=attrib)
+
+    @staticmethod
+    def inertial(body: ET.Element, mass: float, pos, half) -> ET.Element:
+        """Explicit inertia (a solid box of half sizes `half`): robosuite's compiler takes
+        inertia from group-0 geoms only, and fixture geoms are in the visible group 1."""
+        hx, hy, hz = half
+        diag = (mass / 3 * (hy**2 + hz**2), mass / 3 * (hx**2 + hz**2), mass / 3 * (hx**2 + hy**2))
+        return ET.SubElement(body, "inertial", attrib={"pos": _fmt(pos), "mass": _fmt(mass),
+                                                       "diaginertia": _fmt(diag)})
+
+    @staticmethod
+    def joint(body: ET.Element, kind: str, axis, limits, damping: float, frictionloss: float,
+              pos=(0, 0, 0), **attrs) -> ET.Element:
+        attrib = {"name": "joint", "type": kind, "axis": _fmt(axis), "pos": _fmt(pos),
+                  "limited": "true", "range": _fmt(limits), "damping": _fmt(damping),
+                  "frictionloss": _fmt(frictionloss), "armature": "0.005"}
+        attrib.update({k: (v if isinstance(v, str) else _fmt(v)) for k, v in attrs.items()})
+        return ET.SubElement(body, "joint", attrib=attrib)
+
+    @staticmethod
+    def site(body: ET.Element, name: str, pos=(0, 0, 0), size=0.006) -> ET.Element:
+        return ET.SubElement(body, "site", attrib={
+            "name": name, "pos": _fmt(pos), "size": _fmt(size), "rgba": "1 0 0 0",
+            "type": "sphere", "group": "0"})
+
+
+class CodeFixture(MujocoObject):
+    """A robosuite `MujocoObject` whose body tree was generated in code.
+
+    `root` is the fixture's root `<body>` element (named "main"); every name inside it gets the
+    prefix `"<name>_"` when merged into the task model, as for robosuite's own objects.
+    """
+
+    def __init__(self, name: str, root: ET.Element, half_extent: tuple[float, float, float]):
+        super().__init__(obj_type="all", duplicate_collision_geoms=False)
+        self._name = name
+        self._half_extent = np.asarray(half_extent, dtype=float)
+        self._obj = root
+        self._get_object_properties()
+
+    def _get_object_subtree(self):
+        return self._obj
+
+    def exclude_from_prefixing(self, inp):
+        return False
+
+    @property
+    def bottom_offset(self):
+        return np.zeros(3)
+
+    @property
+    def top_offset(self):
+        return np.array([0.0, 0.0, 2 * self._half_extent[2]])
+
+    @property
+    def horizontal_radius(self):
+        return float(np.linalg.norm(self._half_extent[:2]))
+
+    def get_bounding_box_half_size(self):
+        return self._half_extent.copy()
+
+
+@dataclass(frozen=True)
+class FixtureGeometry:
+    """Numbers of one fixture that a scripted expert or a success check needs (fixture frame)."""
+
+    joint_range: tuple[float, float] = (0.0, 0.0)
+    """Limits of the fixture's joint (rad or m); (0, 0) when it has none."""
+    joint_kind: str = "none"
+    """"hinge", "slide" or "none"."""
+    joint_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    """Joint axis in the fixture frame."""
+    pivot: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Hinge axis point (door, lever, knob) or closed-handle point (drawer), fixture frame."""
+    hook: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Where the closed fingertips sit to move the part, in the moving part's frame at joint 0."""
+    radius: float = 0.0
+    """Distance from the hinge axis to the hook point (door, lever)."""
+    top: float = 0.0
+    """Height of the highest point of the fixture above the counter."""
+    inner_half: float = 0.0
+    """Half width of the opening of a bin or a hole."""
+
+
+def cabinet_with_door(name: str = "door_cabinet") -> tuple[CodeFixture, FixtureGeometry]:
+    """A counter-top cabinet whose door swings towards the robot about a vertical hinge.
+
+    The hinge is on the cabinet's +y edge; the joint angle is 0 when closed and grows as the door
+    opens (axis -z). A horizontal handle bar stands 5.5 cm off the door near its top free corner,
+    so closed fingertips can drop into the gap behind the bar from above (the hand stays above
+    the cabinet) and pull or push the door along its arc.
+    """
+    b = _Builder()
+    depth, width, height, wall, door_t = 0.18, 0.26, 0.22, 0.01, 0.015
+    root = ET.Element("body", attrib={"name": "main"})
+    hx, hy = depth / 2, width / 2
+    b.box(root, (hx, hy, wall / 2), (0, 0, wall / 2), WOOD)                      # floor
+    b.box(root, (hx, hy, wall / 2), (0, 0, height - wall / 2), WOOD)             # top
+    for s in (-1, 1):                                                              # sides
+        b.box(root, (hx, wall / 2, height / 2), (0, s * (hy - wall / 2), height / 2), WOOD)
+    b.box(root, (wall / 2, hy, height / 2), (hx - wall / 2, 0, height / 2), WOOD)  # back
+    hinge = (-hx - door_t / 2 - 0.002, hy, 0.0)
+    door = b.body(root, "door", hinge)
+    door_w, door_h = width - 0.004, height - 0.004
+    b.inertial(door, 0.7, (0, -door_w / 2, height / 2), (door_t / 2, door_w / 2, door_h / 2))
+    b.joint(door, "hinge", (0, 0, -1), (0.0, 1.75), damping=0.3, frictionloss=0.15)
+    b.box(door, (door_t / 2, door_w / 2, door_h / 2), (0, -door_w / 2, height / 2), DARK_WOOD)
+    bar_z, bar_x, bar_y, bar_half = height - 0.022, -0.055, -door_w + 0.075, 0.045
+    b.geom(door, "capsule", (0.007, bar_half), (bar_x, bar_y, bar_z), STEEL,
+           quat="0.7071 0.7071 0 0")
+    for s in (-1, 1):
+        b.box(door, (abs(bar_x) / 2, 0.005, 0.006), (bar_x / 2, bar_y + s * bar_half, bar_z), STEEL)
+    hook = (-(door_t / 2 + (abs(bar_x) - 0.007 - door_t / 2) / 2), bar_y, bar_z - 0.012)
+    b.site(door, "handle", hook)
+    geometry = FixtureGeometry(joint_range=(0.0, 1.75), joint_kind="hinge",
+                               joint_axis=(0, 0, -1), pivot=hinge, hook=hook,
+                               radius=float(np.hypot(hook[0], hook[1])), top=height)
+    return CodeFixture(name, root, (hx + 0.06, hy, height / 2)), geometry
+
+
+def cabinet_with_drawer(name: str = "drawer_cabinet") -> tuple[CodeFixture, FixtureGeometry]:
+    """A counter-top cabinet with one drawer that slides out towards the robot (-x).
+
+    The joint is the drawer's travel in metres, 0 when closed. Its handle is a horizontal bar
+    5.5 cm in front of the drawer face near the top, hooked from above like the door's.
+    """
+    b = _Builder()
+    depth, width, height, wall, front_t = 0.22, 0.28, 0.14, 0.01, 0.015
+    root = ET.Element("body", attrib={"name": "main"})
+    hx, hy = depth / 2, width / 2
+    b.box(root, (hx, hy, wall / 2), (0, 0, wall / 2), WOOD)
+    b.box(root, (hx, hy, wall / 2), (0, 0, height - wall / 2), WOOD)
+    for s in (-1, 1):
+        b.box(root, (hx, wall / 2, height / 2), (0, s * (hy - wall / 2), height / 2), WOOD)
+    b.box(root, (wall / 2, hy, height / 2), (hx - wall / 2, 0, height / 2), WOOD)
+    front_x = -hx - front_t / 2 - 0.002
+    drawer = b.body(root, "drawer", (front_x, 0, 0))
+    inner_d, inner_w, inner_h = depth - 0.03, width - 2 * wall - 0.01, height - 2 * wall - 0.02
+    b.inertial(drawer, 0.7, (inner_d / 2, 0, height / 2), (inner_d / 2, inner_w / 2, inner_h / 2))
+    b.joint(drawer, "slide", (-1, 0, 0), (0.0, 0.18), damping=3.0, frictionloss=0.8)
+    b.box(drawer, (front_t / 2, hy - 0.002, height / 2 - 0.002), (0, 0, height / 2), DARK_WOOD)
+    b.box(drawer, (inner_d / 2, inner_w / 2, 0.004), (inner_d / 2, 0, wall + 0.006), WOOD)
+    for s in (-1, 1):
+        b.box(drawer, (inner_d / 2, 0.004, inner_h / 2), (inner_d / 2, s * inner_w / 2,
+                                                          wall + 0.006 + inner_h / 2), WOOD)
+    b.box(drawer, (0.004, inner_w / 2, inner_h / 2), (inner_d, 0, wall + 0.006 + inner_h / 2), WOOD)
+    bar_z, bar_x, bar_half = height - 0.022, -0.055, 0.06
+    b.geom(drawer, "capsule", (0.007, bar_half), (bar_x, 0, bar_z), STEEL, quat="0.7071 0.7071 0 0")
+    for s in (-1, 1):
+        b.box(drawer, (abs(bar_x) / 2, 0.005, 0.006), (bar_x / 2, s * bar_half, bar_z), STEEL)
+    hook = (-(front_t / 2 + (abs(bar_x) - 0.007 - front_t / 2) / 2), 0.0, bar_z - 0.012)
+    b.site(drawer, "handle", hook)
+    pivot = (front_x, 0.0, 0.0)
+    geometry = FixtureGeometry(joint_range=(0.0, 0.18), joint_kind="slide",
+                               joint_axis=(-1, 0, 0), pivot=pivot, hook=hook, top=height)
+    return CodeFixture(name, root, (hx + 0.06, hy, height / 2)), geometry
+
+
+def faucet_lever(name: str = "faucet") -> tuple[CodeFixture, FixtureGeometry]:
+    """A faucet-style lever: a horizontal arm that turns about a vertical post.
+
+    At joint 0 ("off") the arm points at the robot (-x); the angle grows as the arm turns
+    towards -y (axis +z). The fingertips push the arm sideways near its tip.
+    """
+    b = _Builder()
+    post_h, arm_len = 0.085, 0.13
+    root = ET.Element("body", attrib={"name": "main"})
+    b.geom(root, "cylinder", (0.045, 0.006), (0, 0, 0.006), STEEL)
+    b.geom(root, "cylinder", (0.018, post_h / 2), (0, 0, post_h / 2), STEEL)
+    b.geom(root, "cylinder", (0.012, 0.03), (0.045, 0, post_h + 0.03), STEEL)   # spout riser
+    b.geom(root, "capsule", (0.011, 0.035), (0.08, 0, post_h + 0.06), STEEL,
+           quat="0.7071 0 0.7071 0")                                               # spout
+    arm = b.body(root, "lever", (0, 0, post_h + 0.012))
+    b.inertial(arm, 0.12, (-arm_len / 2, 0, 0), (arm_len / 2, 0.01, 0.01))
+    b.joint(arm, "hinge", (0, 0, 1), (0.0, 1.3), damping=0.05, frictionloss=0.06)
+    b.geom(arm, "cylinder", (0.02, 0.012), (0, 0, 0), STEEL)
+    b.box(arm, (arm_len / 2, 0.009, 0.008), (-arm_len / 2, 0, 0), RED)
+    b.geom(arm, "sphere", (0.014,), (-arm_len, 0, 0), RED)
+    hook = (-(arm_len - 0.03), 0.0, 0.0)
+    b.site(arm, "handle", hook)
+    geometry = FixtureGeometry(joint_range=(0.0, 1.3), joint_kind="hinge",
+                               joint_axis=(0, 0, 1), pivot=(0, 0, post_h + 0.012), hook=hook,
+                               radius=arm_len - 0.03, top=post_h + 0.032)
+    return CodeFixture(name, root, (0.07, 0.05, 0.06)), geometry
+
+
+def stove_knob(name: str = "stove") -> tuple[CodeFixture, FixtureGeometry]:
+    """A stove top with one knob that twists about the vertical axis (angle grows anticlockwise
+    seen from above). The knob has a fin along its x axis that the gripper grasps across.
+    """
+    b = _Builder()
+    base_h = 0.05
+    root = ET.Element("body", attrib={"name": "main"})
+    b.box(root, (0.09, 0.09, base_h / 2), (0, 0, base_h / 2), BLACK)
+    b.geom(root, "cylinder", (0.05, 0.002), (0, 0, base_h + 0.001), STEEL)
+    knob = b.body(root, "knob", (0, 0, base_h))
+    b.inertial(knob, 0.08, (0, 0, 0.015), (0.025, 0.025, 0.015))
+    b.joint(knob, "hinge", (0, 0, 1), (0.0, 1.6), damping=0.05, frictionloss=0.05)
+    b.geom(knob, "cylinder", (0.03, 0.007), (0, 0, 0.007), STEEL)
+    b.box(knob, (0.028, 0.008, 0.016), (0, 0, 0.014 + 0.016), RED)
+    hook = (0.0, 0.0, 0.014 + 0.018)
+    b.site(knob, "handle", hook)
+    geometry = FixtureGeometry(joint_range=(0.0, 1.6), joint_kind="hinge",
+                               joint_axis=(0, 0, 1), pivot=(0, 0, base_h), hook=hook,
+                               top=base_h + 0.046)
+    return CodeFixture(name, root, (0.09, 0.09, 0.05)), geometry
+
+
+def button_box(name: str = "appliance") -> tuple[CodeFixture, FixtureGeometry]:
+    """A small appliance with a spring-loaded push button on top.
+
+    The joint is the button's travel along -z in metres (0 up, -0.012 fully pressed); a stiff
+    spring returns it, and gravity compensation keeps it from sagging.
+    """
+    b = _Builder()
+    base_h = 0.08
+    root = ET.Element("body", attrib={"name": "main"})
+    b.box(root, (0.07, 0.07, base_h / 2), (0, 0, base_h / 2), WHITE)
+    b.geom(root, "cylinder", (0.026, 0.002), (0, 0, base_h + 0.001), BLACK)
+    button = b.body(root, "button", (0, 0, base_h), gravcomp="1")
+    b.inertial(button, 0.02, (0, 0, 0.01), (0.019, 0.019, 0.008))
+    b.joint(button, "slide", (0, 0, 1), (-0.012, 0.0), damping=2.0, frictionloss=0.0,
+            stiffness="300", springref="0")
+    b.geom(button, "cylinder", (0.019, 0.008), (0, 0, 0.010), GREEN)
+    hook = (0.0, 0.0, 0.018)
+    b.site(button, "handle", hook)
+    geometry = FixtureGeometry(joint_range=(-0.012, 0.0), joint_kind="slide",
+                               joint_axis=(0, 0, 1), pivot=(0, 0, base_h), hook=hook,
+                               top=base_h + 0.018)
+    return CodeFixture(name, root, (0.07, 0.07, 0.05)), geometry
+
+
+def bin_container(name: str = "bin", inner_half: float = 0.07, wall_h: float = 0.045
+                  ) -> tuple[CodeFixture, FixtureGeometry]:
+    """An open bin (the pick-and-place target): a floor plate and four low walls."""
+    b = _Builder()
+    t = 0.006
+    root = ET.Element("body", attrib={"name": "main"})
+    outer = inner_half + t
+    b.box(root, (outer, outer, t / 2), (0, 0, t / 2), BLUE)
+    for s in (-1, 1):
+        b.box(root, (t / 2, outer, wall_h / 2), (s * (inner_half + t / 2), 0, wall_h / 2), BLUE)
+        b.box(root, (inner_half, t / 2, wall_h / 2), (0, s * (inner_half + t / 2), wall_h / 2),
+              BLUE)
+    b.site(root, "handle", (0, 0, t))
+    geometry = FixtureGeometry(top=wall_h, inner_half=inner_half, hook=(0, 0, t))
+    return CodeFixture(name, root, (outer, outer, wall_h / 2)), geometry
+
+
+def hole_block(name: str = "hole_block", hole_half: float = 0.026, height: float = 0.05
+               ) -> tuple[CodeFixture, FixtureGeometry]:
+    """A block with a square through-hole (the insertion target), built from four boxes."""
+    b = _Builder()
+    outer = 0.07
+    root = ET.Element("body", attrib={"name": "main"})
+    side = (outer - hole_half) / 2
+    for s in (-1, 1):
+        b.box(root, (side, outer, height / 2), (s * (hole_half + side), 0, height / 2), DARK_WOOD)
+        b.box(root, (hole_half, side, height / 2), (0, s * (hole_half + side), height / 2),
+              DARK_WOOD)
+    b.site(root, "handle", (0, 0, height))
+    geometry = FixtureGeometry(top=height, inner_half=hole_half, hook=(0, 0, height))
+    return CodeFixture(name, root, (outer, outer, height / 2)), geometry

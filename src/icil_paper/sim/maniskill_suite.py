@@ -1,0 +1,293 @@
+"""The ManiSkill suite: PickCube-v1, PushCube-v1 and StackCube-v1 behind the project's env interface.
+
+ManiSkill 3 runs the Panda arm on SAPIEN; on a machine without a GPU it needs a Vulkan device
+(Mesa's lavapipe, see `icil_paper.sim.rendering`) even for state observations, and uses the
+CPU physics backend (`physx_cpu`); with a CUDA GPU it uses `physx_cuda`.
+
+Action space (the same as the kitchen suite's, 7-D, every entry in [-1, 1])::
+
+    a = [dx, dy, dz,  rx, ry, rz,  g]
+         position     rotation     gripper
+         x 0.1 m      x 0.1 rad    +1 closes, -1 opens (robosuite's sign)
+
+The arm runs ManiSkill's `pd_ee_delta_pose` controller: translation in the robot's root frame,
+rotation about root-aligned axes at the end effector. The rotation part is an axis-angle vector
+(clipped to norm 1, i.e. 0.1 rad, as ManiSkill clips its own); the wrapper converts it to the
+XYZ Euler angles and sign that ManiSkill's controller takes (its normalized rotation input is
+multiplied by `rot_lower = -0.1`), so a policy sees a plain axis-angle delta.
+
+Observations (a dict of numpy arrays, the same keys for every task of the suite)::
+
+    proprio (9,)  = tcp position (3) | tcp quaternion x, y, z, w (4) | finger offsets (2)
+    object  (21,) = object pose (7: position, quaternion xyzw) | tcp -> object (3)
+                    | object grasped (1) | target pose (7) | object -> target (3)
+    rgb     (1, H, W, 3) uint8   and depth (1, H, W) float32 metres, for obs="rgb"/"rgbd"
+
+`proprio` has the layout of robosuite's `robot0_eef_pos | robot0_eef_quat | robot0_gripper_qpos`
+(and of the kitchen suite), so data sets of either simulator (and robomimic files) map onto the
+same keys: positions in the world frame, the quaternion's sign chosen so that its x component
+(the axis of the downward-pointing, unturned gripper, quaternion (1, 0, 0, 0) in x, y, z, w) is
+not negative, so it does not flip while the gripper points down; the finger offsets are the two
+finger joints signed (+left, -right) like robosuite's Panda `robot0_gripper_qpos`. The "target" is
+where the object should end up: PickCube's goal point, PushCube's goal region, and for StackCube
+the spot one cube height above cube B (with cube B's orientation). Images come from ManiSkill's
+own `base_camera` (128 x 128 by default).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+PROPRIO_DIM = 9
+MANISKILL_OBJECT_DIM = 21
+MANISKILL_OBS_DIMS = (PROPRIO_DIM, MANISKILL_OBJECT_DIM)
+ACTION_DIM = 7
+POS_SCALE = 0.1
+"""Metres of end-effector translation per unit of action (ManiSkill's pd_ee_delta_pose bound)."""
+ROT_SCALE = 0.1
+"""Radians of end-effector rotation per unit of action (ManiSkill's pd_ee_delta_pose bound)."""
+_IDENTITY_QUAT_XYZW = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class ManiSkillTask:
+    """One ManiSkill task of the suite."""
+
+    name: str
+    """Registry name, `maniskill/<task>`."""
+    env_id: str
+    """ManiSkill's gymnasium id."""
+    horizon: int
+    """Step limit of an episode. ManiSkill's ACT baseline uses 100 (pick, push) and 200 (stack)
+    for motion-planning demos; pick and push get 150 here, because the expert's converted demos
+    reach 90 steps and the `human` source's slower ones need the room."""
+    instruction: str
+    """Language instruction of the task."""
+    solver: str
+    """Name of the motion-planning solution in `mani_skill.examples.motionplanning.panda.solutions`."""
+
+
+MANISKILL_TASKS: dict[str, ManiSkillTask] = {
+    t.name: t for t in (
+        ManiSkillTask("maniskill/pick_cube", "PickCube-v1", 150,
+                      "pick up the red cube and move it to the green goal", "solvePickCube"),
+        ManiSkillTask("maniskill/push_cube", "PushCube-v1", 150,
+                      "push the cube into the target region", "solvePushCube"),
+        ManiSkillTask("maniskill/stack_cube", "StackCube-v1", 200,
+                      "stack the red cube on top of the green cube", "solveStackCube"),
+    )
+}
+
+
+def _np(x: Any) -> np.ndarray:
+    """First element of a batched ManiSkill tensor as a float32 numpy array."""
+    if hasattr(x, "detach"):
+        x = x.detach().cpu().numpy()
+    x = np.asarray(x)
+    return x[0] if x.ndim >= 1 and x.shape[0] == 1 else x
+
+
+def wxyz_to_xyzw(q: np.ndarray) -> np.ndarray:
+    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
+
+
+def default_sim_backend() -> str:
+    """`physx_cuda` when torch sees a CUDA GPU, else `physx_cpu`."""
+    try:
+        import torch
+
+        return "physx_cuda" if torch.cuda.is_available() else "physx_cpu"
+    except ImportError:
+        return "physx_cpu"
+
+
+def default_render_backend() -> str:
+    """ManiSkill's render backend: `gpu` with a CUDA GPU, else `cpu` (Vulkan via lavapipe)."""
+    return "gpu" if default_sim_backend() == "physx_cuda" else "cpu"
+
+
+def _pose7(p: np.ndarray, q_wxyz: np.ndarray) -> np.ndarray:
+    return np.concatenate([p, wxyz_to_xyzw(q_wxyz)]).astype(np.float32)
+
+
+def object_features(task: str, base_env: Any) -> np.ndarray:
+    """The suite's object-state vector (MANISKILL_OBJECT_DIM,) read from a ManiSkill env."""
+    agent = base_env.agent
+    tcp = _np(agent.tcp.pose.p)
+    if task == "maniskill/stack_cube":
+        obj = base_env.cubeA
+        half = float(_np(base_env.cube_half_size)[2])
+        b_pose = base_env.cubeB.pose
+        target = _pose7(_np(b_pose.p) + np.array([0.0, 0.0, 2 * half], np.float32), _np(b_pose.q))
+    else:
+        obj = base_env.cube if task == "maniskill/pick_cube" else base_env.obj
+        goal = base_env.goal_site if task == "maniskill/pick_cube" else base_env.goal_region
+        target = np.concatenate([_np(goal.pose.p), _IDENTITY_QUAT_XYZW]).astype(np.float32)
+    obj_p, obj_q = _np(obj.pose.p), _np(obj.pose.q)
+    grasped = np.array([float(_np(agent.is_grasping(obj)))], np.float32)
+    feats = np.concatenate([_pose7(obj_p, obj_q), obj_p - tcp, grasped, target,
+                            target[:3] - obj_p]).astype(np.float32)
+    out = np.zeros(MANISKILL_OBJECT_DIM, np.float32)
+    out[: feats.shape[0]] = feats
+    return out
+
+
+def proprio_features(base_env: Any) -> np.ndarray:
+    """tcp position (3) | tcp quaternion xyzw, canonical sign (4) | finger offsets (2)."""
+    pose = base_env.agent.tcp.pose
+    quat = wxyz_to_xyzw(_np(pose.q))
+    if quat[0] < 0:  # q and -q are one rotation: keep the sign facing the reset orientation
+        quat = -quat
+    fingers = _np(base_env.agent.robot.get_qpos())[-2:]
+    return np.concatenate([_np(pose.p), quat, [fingers[0], -fingers[1]]]).astype(np.float32)
+
+
+def policy_to_maniskill_action(action: np.ndarray) -> np.ndarray:
+    """Map the suite's 7-D action onto ManiSkill's normalized pd_ee_delta_pose action.
+
+    Position passes through; the axis-angle rotation (norm clipped to 1) becomes the XYZ Euler
+    angles that ManiSkill's controller composes, divided by its `rot_lower` (-0.1); the gripper
+    sign flips (ManiSkill: +1 opens).
+    """
+    a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+    if a.shape != (ACTION_DIM,):
+        raise ValueError(f"action must have {ACTION_DIM} entries, got shape {np.shape(action)}")
+    rot = a[3:6]
+    norm = np.linalg.norm(rot)
+    if norm > 1.0:
+        rot = rot / norm
+    euler = Rotation.from_rotvec(rot * ROT_SCALE).as_euler("XYZ")
+    out = np.empty(ACTION_DIM, np.float32)
+    out[:3] = a[:3]
+    out[3:6] = euler / -ROT_SCALE
+    out[6] = -a[6]
+    return out
+
+
+class ManiSkillEnv:
+    """A ManiSkill task with the project's observation dict, 7-D action and success flag.
+
+    `reset(seed)` seeds ManiSkill explicitly every episode (a `reset()` without a seed draws the
+    next one from a generator seeded by the constructor's `seed`, whose first value is `seed`
+    itself), so an episode is fully determined by its seed and actions. For that, every reset
+    also rebuilds the scene (`reconfigure`, about 0.3 s on CPU): PhysX keeps solver state across
+    a plain reset, so the same seed and actions would otherwise end a few millimetres apart
+    depending on the episodes before. `deterministic_reset=False` skips the rebuild.
+    """
+
+    def __init__(self, task: str, obs: str = "state", seed: int = 0,
+                 sim_backend: str | None = None, camera_size: int | None = None,
+                 horizon: int | None = None, render_size: int | None = None,
+                 deterministic_reset: bool = True):
+        import gymnasium as gym
+        import mani_skill.envs  # noqa: F401  (registers the environments)
+
+        from icil_paper.sim.rendering import LAVAPIPE_HOWTO, RenderingUnavailable
+
+        self.spec_ = MANISKILL_TASKS[task]
+        self.name = task
+        self.obs_kind = obs
+        self.action_dim = ACTION_DIM
+        self.horizon = int(horizon or self.spec_.horizon)
+        self.instruction = self.spec_.instruction
+        self.sim_backend = sim_backend or default_sim_backend()
+        kwargs: dict[str, Any] = {}
+        if camera_size is not None:
+            kwargs["sensor_configs"] = {"width": camera_size, "height": camera_size}
+        if render_size is not None:
+            kwargs["human_render_camera_configs"] = {"width": render_size, "height": render_size}
+        obs_mode = {"state": "none", "rgb": "rgb", "rgbd": "rgbd"}[obs]
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                self._env = gym.make(self.spec_.env_id, obs_mode=obs_mode,
+                                     control_mode="pd_ee_delta_pose",
+                                     sim_backend=self.sim_backend,
+                                     render_backend=default_render_backend(),
+                                     render_mode="rgb_array", max_episode_steps=10**6, **kwargs)
+        except RuntimeError as exc:  # SAPIEN's bare Vulkan errors, explained
+            if any(k in str(exc) for k in ("rendering device", "vk::", "Vulkan", "vulkan")):
+                raise RenderingUnavailable(f"ManiSkill cannot start: {exc}. {LAVAPIPE_HOWTO}"
+                                           ) from exc
+            raise
+        self.base = self._env.unwrapped
+        root_q = _np(self.base.agent.robot.pose.q)
+        if not np.allclose(np.abs(root_q[0]), 1.0, atol=1e-6):
+            raise RuntimeError(f"{task}: the robot base is rotated ({root_q}); the action frame "
+                               "assumes a base aligned with the world axes")
+        self.deterministic_reset = deterministic_reset
+        self._rng = np.random.default_rng(seed)
+        self._first_seed: int | None = int(seed)
+        self.seed: int | None = None
+        self.steps = 0
+        self._last_obs: dict[str, np.ndarray] | None = None
+
+    # gymnasium-style interface ---------------------------------------------------------------
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if seed is None:
+            seed = self._first_seed if self._first_seed is not None else int(
+                self._rng.integers(2**31 - 1))
+        self._first_seed = None
+        self.seed = int(seed)
+        if self.deterministic_reset:
+            options = {"reconfigure": True, **(options or {})}
+        raw, _ = self._env.reset(seed=self.seed, options=options)
+        self.base = self._env.unwrapped
+        self.steps = 0
+        obs = self._make_obs(raw)
+        info = self._info(self.base.evaluate())
+        return obs, info
+
+    def step(self, action):
+        raw, reward, _, _, info = self._env.step(policy_to_maniskill_action(action))
+        self.steps += 1
+        obs = self._make_obs(raw)
+        info = self._info(info)
+        terminated = info["success"]
+        truncated = self.steps >= self.horizon and not terminated
+        return obs, float(_np(reward)), terminated, truncated, info
+
+    def render(self) -> np.ndarray:
+        """An RGB frame (H, W, 3) uint8 from ManiSkill's render camera."""
+        frame = self._env.render()
+        return np.ascontiguousarray(_np(frame)).astype(np.uint8)
+
+    def get_state(self) -> np.ndarray:
+        """Flat simulator state (float32), as ManiSkill's `get_state()`."""
+        return _np(self.base.get_state()).astype(np.float32)
+
+    def close(self) -> None:
+        self._env.close()
+
+    # -----------------------------------------------------------------------------------------
+    def _info(self, raw_info: dict) -> dict[str, Any]:
+        info: dict[str, Any] = {"success": bool(_np(raw_info["success"]))}
+        for key, value in raw_info.items():
+            if key.startswith("is_"):
+                info[key] = bool(_np(value))
+        return info
+
+    def _make_obs(self, raw: Any) -> dict[str, np.ndarray]:
+        obs = {"proprio": proprio_features(self.base),
+               "object": object_features(self.name, self.base)}
+        if self.obs_kind in ("rgb", "rgbd"):
+            cams = raw["sensor_data"]
+            obs["rgb"] = np.stack([_np(cams[c]["rgb"]) for c in cams]).astype(np.uint8)
+            if self.obs_kind == "rgbd":
+                depth = np.stack([_np(cams[c]["depth"])[..., 0] for c in cams])
+                obs["depth"] = (depth.astype(np.float32) / 1000.0)  # millimetres -> metres
+        self._last_obs = obs
+        return obs
+
+    def __repr__(self) -> str:
+        return f"ManiSkillEnv({self.name!r}, obs={self.obs_kind!r}, backend={self.sim_backend!r})"
+
+
+def make_maniskill_env(name: str, obs: str = "state", seed: int = 0, **options) -> ManiSkillEnv:
+    """Build a ManiSkill task of the suite (see the module docstring for spaces)."""
+    return ManiSkillEnv(name, obs=obs, seed=seed, **options)

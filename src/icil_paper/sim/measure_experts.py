@@ -1,0 +1,175 @@
+"""Measure every expert's success rate over random seeds and record it.
+
+    python -m icil_paper.sim.measure_experts --suite maniskill --seeds 50
+
+For each task of the suite and each of `--seeds` random scene seeds this runs
+
+- the expert as the `generated` source uses it (success rate, episode length);
+- for each successful episode, an open-loop replay of the recorded 7-D actions from the same
+  seed in a second env (does the demonstration, as stored, succeed again?);
+- the `human` source around the same expert (which share of its episodes are kept as demos);
+- for ManiSkill, whether the motion-planning solution itself succeeded in its own pd_joint_pos
+  run (`planned_success_rate`), the source of the converted actions.
+
+The record (rates, failing seeds, the seeds, provenance) goes atomically to
+`results/experts/<suite>.json`. The project requires every expert rate to be at least 0.9.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+REQUIRED_RATE = 0.9
+_CACHE: dict[str, Any] = {}
+
+
+def _worker_init() -> None:
+    try:
+        import torch
+
+        torch.set_num_threads(1)
+    except ImportError:
+        pass
+
+
+def _get(task: str) -> tuple[Any, Any, Any]:
+    from icil_paper.sim import make_env, make_expert
+
+    if task not in _CACHE:
+        _CACHE[task] = (make_env(task, obs="state", seed=0), make_env(task, obs="state", seed=0),
+                        make_expert(task))
+    return _CACHE[task]
+
+
+def measure_one(job: tuple[str, int, bool]) -> dict[str, Any]:
+    """Expert episode, open-loop replay and (optionally) a human-source episode for one seed."""
+    from icil_paper.data.sources import ExpertSource, make_source, rollout
+
+    task, seed, human = job
+    env, replay_env, expert = _get(task)
+    start = time.perf_counter()
+    demo, ok = rollout(env, ExpertSource(expert), seed, record_states=False)
+    out: dict[str, Any] = {"task": task, "seed": seed, "success": ok, "length": len(demo),
+                           "expert_s": time.perf_counter() - start}
+    if hasattr(expert, "planned_success"):
+        out["planned_success"] = bool(expert.planned_success)
+    replay_ok = None  # only successful episodes become demos, so only they are replayed
+    if ok:
+        replay_ok = False
+        replay_env.reset(seed=seed)
+        for action in demo.actions:
+            *_, info = replay_env.step(action)
+            if info["success"]:
+                replay_ok = True
+                break
+    out["replay_success"] = replay_ok
+    if human:
+        hdemo, hok = rollout(env, make_source("human", task, expert), seed, source="human",
+                             record_states=False)
+        out["human_success"] = hok
+        out["human_length"] = len(hdemo)
+    return out
+
+
+def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per-task rates from the per-seed rows."""
+    tasks: dict[str, Any] = {}
+    for task in dict.fromkeys(r["task"] for r in rows):
+        rs = [r for r in rows if r["task"] == task]
+        ok = [r for r in rs if r["success"]]
+        entry = {
+            "episodes": len(rs),
+            "expert_success_rate": len(ok) / len(rs),
+            "failed_seeds": [r["seed"] for r in rs if not r["success"]],
+            "mean_length": float(np.mean([r["length"] for r in ok])) if ok else None,
+            "max_length": int(max(r["length"] for r in ok)) if ok else None,
+            "replay_success_rate": (float(np.mean([r["replay_success"] for r in ok]))
+                                    if ok else None),
+            "seconds_per_episode": float(np.mean([r["expert_s"] for r in rs])),
+        }
+        if "planned_success" in rs[0]:
+            entry["planned_success_rate"] = float(np.mean([r["planned_success"] for r in rs]))
+        if "human_success" in rs[0]:
+            hk = [r for r in rs if r["human_success"]]
+            entry["human_success_rate"] = len(hk) / len(rs)
+            entry["human_mean_length"] = (float(np.mean([r["human_length"] for r in hk]))
+                                          if hk else None)
+        entry["meets_required_rate"] = entry["expert_success_rate"] >= REQUIRED_RATE
+        tasks[task] = entry
+    return tasks
+
+
+def measure(suite: str, n_seeds: int = 50, seed: int = 0, workers: int = 2,
+            human: bool = True, tasks: list[str] | None = None,
+            progress: bool = True) -> dict[str, Any]:
+    """Run the measurement and return the record (not written)."""
+    import multiprocessing as mp
+
+    from tqdm.auto import tqdm
+
+    from icil_paper.sim import tasks_of
+
+    tasks = list(tasks or tasks_of(suite))
+    if not tasks:
+        raise RuntimeError(f"suite {suite!r} has no importable tasks")
+    seeds = np.random.default_rng(seed).integers(0, 2**31 - 1, size=n_seeds).tolist()
+    jobs = [(t, int(s), human) for t in tasks for s in seeds]
+    start = time.perf_counter()
+    rows = []
+    bar = tqdm(total=len(jobs), desc=f"experts {suite}", disable=not progress)
+    if workers <= 1:
+        _worker_init()
+        for job in jobs:
+            rows.append(measure_one(job))
+            bar.update()
+    else:
+        with mp.get_context("spawn").Pool(workers, initializer=_worker_init) as pool:
+            for row in pool.imap_unordered(measure_one, jobs):
+                rows.append(row)
+                bar.update()
+    bar.close()
+    rows.sort(key=lambda r: (tasks.index(r["task"]), seeds.index(r["seed"])))
+    return {"suite": suite, "n_seeds": n_seeds, "seed": seed, "seeds": seeds,
+            "required_rate": REQUIRED_RATE, "tasks": summarize(rows),
+            "wall_time_s": round(time.perf_counter() - start, 1)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    from icil_paper.provenance import git_state, host_info, package_versions
+    from icil_paper.results import atomic_write_json, results_root
+    from icil_paper.sim import SUITES
+
+    parser = argparse.ArgumentParser(prog="python -m icil_paper.sim.measure_experts",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--suite", choices=SUITES, default="maniskill")
+    parser.add_argument("--seeds", type=int, default=50, help="random scene seeds per task")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the seed draw")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--tasks", nargs="*", help="only these tasks of the suite")
+    parser.add_argument("--no-human", action="store_true", help="skip the human-source episodes")
+    parser.add_argument("--out", help="output JSON (default results/experts/<suite>.json)")
+    args = parser.parse_args(argv)
+    record = measure(args.suite, args.seeds, args.seed, args.workers, not args.no_human,
+                     args.tasks)
+    record.update(git_commit=git_state()["commit"], packages=package_versions(),
+                  host=host_info())
+    out = args.out or results_root() / "experts" / f"{args.suite}.json"
+    atomic_write_json(out, record)
+    for task, entry in record["tasks"].items():
+        extra = "".join(f"  {k.replace('_success_rate', '')} {entry[k]:.2f}" for k in
+                        ("replay_success_rate", "planned_success_rate", "human_success_rate")
+                        if entry.get(k) is not None)
+        flag = "" if entry["meets_required_rate"] else f"  BELOW {REQUIRED_RATE}"
+        print(f"{task:28s} expert {entry['expert_success_rate']:.2f}{extra}"
+              f"  len {entry['mean_length']}{flag}")
+    print(f"wrote {out}")
+    return 0 if all(e["meets_required_rate"] for e in record["tasks"].values()) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,85 @@
+"""System checks for the simulators' rendering: Vulkan (ManiSkill / SAPIEN) and EGL (MuJoCo).
+
+ManiSkill 3 with SAPIEN 3 needs a Vulkan device even for state observations. On a machine with
+no GPU, Mesa's software Vulkan driver (lavapipe) works from Mesa 24.3 on; `make setup` installs
+it where it can (`icil_paper.system_deps`). The tests that need ManiSkill skip with
+`vulkan_skip_reason()`, and `make_env("maniskill/...")` raises `RenderingUnavailable` with the
+same explanation instead of SAPIEN's bare "failed to find a rendering device".
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import subprocess
+import sys
+
+LAVAPIPE_HOWTO = (
+    "ManiSkill (SAPIEN 3) needs a Vulkan device, even for state observations. With an NVIDIA "
+    "GPU install the driver's Vulkan ICD (libnvidia-gl). Without a GPU install Mesa's software "
+    "driver lavapipe, version 24.3 or newer (SAPIEN needs VK_KHR_external_semaphore_fd): on "
+    "Debian 12 as root, `make setup` does it (python -m icil_paper.system_deps --install), or by "
+    "hand: add the 'bookworm-backports' suite of your Debian mirror to apt, then `apt-get update "
+    "&& apt-get install -t bookworm-backports mesa-vulkan-drivers`; on Ubuntu 24.10 or newer "
+    "`apt-get install mesa-vulkan-drivers`. Check with `vulkaninfo --summary` (package "
+    "vulkan-tools) that a device named 'llvmpipe' is listed."
+)
+
+
+class RenderingUnavailable(RuntimeError):
+    """The simulator cannot start because the machine lacks a rendering device."""
+
+
+@functools.lru_cache(maxsize=1)
+def vulkan_problem() -> str | None:
+    """None when SAPIEN finds a Vulkan device, else a sentence naming the problem and the fix.
+
+    The probe runs in a subprocess (a crashing driver must not take the caller down) and is
+    cached for the life of the process.
+    """
+    try:
+        from icil_paper.system_deps import MANUAL_FIX
+        from icil_paper.system_deps import vulkan_problem as probe
+    except ImportError:  # pragma: no cover - the probe ships with the library
+        probe = None
+    if probe is not None:
+        problem = probe()
+        if problem is None:
+            return None
+        return f"{problem.replace(MANUAL_FIX, '').strip()} {LAVAPIPE_HOWTO}"
+    code = "import sapien; sapien.render.RenderSystem(); print('vulkan-ok')"
+    try:
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"the Vulkan probe could not run ({exc}). {LAVAPIPE_HOWTO}"
+    if "vulkan-ok" in out.stdout:
+        return None
+    last = (out.stderr.strip().splitlines() or ["no output"])[-1]
+    return f"no working Vulkan device ({last}). {LAVAPIPE_HOWTO}"
+
+
+def vulkan_available() -> bool:
+    """Whether ManiSkill can start on this machine."""
+    return vulkan_problem() is None
+
+
+def vulkan_skip_reason() -> str:
+    """The reason ManiSkill tests give when they skip ('' when Vulkan works)."""
+    problem = vulkan_problem()
+    return "" if problem is None else f"ManiSkill cannot start: {problem}"
+
+
+def require_vulkan() -> None:
+    """Raise RenderingUnavailable with the install instructions when no Vulkan device works."""
+    problem = vulkan_problem()
+    if problem is not None:
+        raise RenderingUnavailable(f"ManiSkill cannot start: {problem}")
+
+
+def ensure_mujoco_gl() -> str:
+    """Select MuJoCo's headless EGL backend unless the user chose one; return the choice.
+
+    Must run before mujoco / robosuite are imported to take effect.
+    """
+    return os.environ.setdefault("MUJOCO_GL", "egl")

@@ -1,0 +1,120 @@
+"""The task registry: names, errors, lazy suites (with a fake kitchen package), splits."""
+
+from __future__ import annotations
+
+import sys
+import types
+
+import numpy as np
+import pytest
+
+import fake_suite
+import icil_paper.sim as sim
+from icil_paper.data import splits
+from icil_paper.registry import UnknownNameError
+
+
+@pytest.fixture
+def fake_kitchen(monkeypatch):
+    monkeypatch.setitem(sys.modules, fake_suite.MODULE, fake_suite.make_module())
+    sim._kitchen.cache_clear()
+    yield
+    sim._kitchen.cache_clear()
+
+
+@pytest.fixture
+def broken_kitchen(monkeypatch):
+    module = types.ModuleType(fake_suite.MODULE)  # an unfinished package: no KITCHEN_TASKS
+    monkeypatch.setitem(sys.modules, fake_suite.MODULE, module)
+    sim._kitchen.cache_clear()
+    yield
+    sim._kitchen.cache_clear()
+
+
+def test_maniskill_tasks_are_registered_without_importing_the_simulator():
+    assert {"maniskill/pick_cube", "maniskill/push_cube", "maniskill/stack_cube"} <= set(
+        sim.TASKS)
+    assert sim.obs_dims("maniskill") == (9, 21)
+    assert sim.suite_of("maniskill/stack_cube") == "maniskill"
+    assert sim.tasks_of("maniskill") == sim.MANISKILL_TASK_NAMES
+
+
+def test_unknown_names_list_the_valid_ones():
+    with pytest.raises(UnknownNameError, match="maniskill/pick_cube") as err:
+        sim.make_env("maniskill/pick_cub")
+    assert "Did you mean 'maniskill/pick_cube'" in str(err.value)
+    with pytest.raises(UnknownNameError, match="rgbd"):
+        sim.make_env("maniskill/pick_cube", obs="depth")
+    with pytest.raises(UnknownNameError, match="kitchen, kinova, maniskill"):
+        sim.obs_dims("robocasa")
+    with pytest.raises(AttributeError):
+        sim.NOT_A_THING  # noqa: B018
+
+
+def test_fake_kitchen_suite_is_dispatched(fake_kitchen):
+    tasks = sim.TASKS
+    assert tasks[:4] == fake_suite.KITCHEN + fake_suite.KINOVA
+    assert tasks[-3:] == sim.MANISKILL_TASK_NAMES
+    assert sim.suite_of("kinova/reach_a") == "kinova"
+    assert sim.obs_dims("kitchen") == sim.obs_dims("kinova") == fake_suite.OBS_DIMS
+    env = sim.make_env("kitchen/reach_b", obs="rgb", seed=7, horizon=12)
+    assert (env.name, env.horizon, env.obs_kind) == ("kitchen/reach_b", 12, "rgb")
+    obs, info = env.reset()
+    assert env.seed == 7 and obs["rgb"].shape == (1, 8, 8, 3)
+    expert = sim.make_expert("kitchen/reach_b")
+    expert.reset(env, obs)
+    for _ in range(env.horizon):
+        obs, _, terminated, truncated, info = env.step(expert.act(obs))
+        if terminated or truncated:
+            break
+    assert info["success"]
+    with pytest.raises(UnknownNameError, match="kitchen/reach_a"):
+        sim.make_env("kitchen/open_drawer")
+
+
+def test_unfinished_kitchen_package_leaves_maniskill_working(broken_kitchen):
+    assert sim.TASKS == sim.MANISKILL_TASK_NAMES
+    assert "does not define KITCHEN_TASKS" in sim.suite_unavailable("kitchen")
+    assert sim.suite_unavailable("maniskill") is None
+    with pytest.raises(sim.SuiteUnavailable, match="kitchen suite .* could not be imported"):
+        sim.make_env("kitchen/open_drawer")
+    with pytest.raises(sim.SuiteUnavailable):
+        sim.obs_dims("kinova")
+
+
+def test_zero_shot_and_sim_to_real_splits(fake_kitchen):
+    train, held = splits.zero_shot_split()
+    assert train == fake_suite.KITCHEN[:2] and held == fake_suite.KITCHEN[2:]
+    assert splits.sim_to_real_pairs() == {"kinova/reach_a": "kitchen/reach_a"}
+    assert splits._normalize_split((("a",), ("b",))) == (("a",), ("b",))
+    with pytest.raises(ValueError, match="keys"):
+        splits._normalize_split({"foo": ()})
+
+
+def test_action_conversion_to_maniskill_controller():
+    from scipy.spatial.transform import Rotation
+
+    from icil_paper.sim.maniskill_suite import ROT_SCALE, policy_to_maniskill_action
+
+    a = np.array([0.5, -1.5, 0.2, 0.0, 0.0, 0.3, 1.0])
+    out = policy_to_maniskill_action(a)
+    assert np.allclose(out[:3], [0.5, -1.0, 0.2])  # clipped to the box
+    assert out[6] == -1.0  # the suite's +1 (close) is ManiSkill's -1
+    # ManiSkill composes XYZ Euler angles of (input * rot_lower), rot_lower = -0.1
+    euler = out[3:6] * -ROT_SCALE
+    rotvec = Rotation.from_euler("XYZ", euler).as_rotvec()
+    assert np.allclose(rotvec, [0, 0, 0.3 * ROT_SCALE], atol=1e-6)
+    big = policy_to_maniskill_action(np.array([0, 0, 0, 1, 1, 1, 0.0]))
+    assert np.isclose(np.linalg.norm(Rotation.from_euler("XYZ", big[3:6] * -ROT_SCALE)
+                                     .as_rotvec()), ROT_SCALE)  # norm clipped to 0.1 rad
+    with pytest.raises(ValueError, match="7 entries"):
+        policy_to_maniskill_action(np.zeros(6))
+
+
+def test_rendering_check_reports_a_reason_or_nothing():
+    from icil_paper.sim import rendering
+
+    reason = rendering.vulkan_skip_reason()
+    assert (reason == "") == rendering.vulkan_available()
+    assert "lavapipe" in rendering.LAVAPIPE_HOWTO and "bookworm-backports" in \
+        rendering.LAVAPIPE_HOWTO
