@@ -34,7 +34,6 @@
 # `chunk_size` future actions at each query observation token.
 
 # %%
-import json
 import logging
 
 import matplotlib.pyplot as plt
@@ -43,7 +42,7 @@ from matplotlib.colors import ListedColormap
 
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
-from icil_paper.evaluate import evaluate_policy, rollout
+from icil_paper.evaluate import rollout
 from icil_paper.paper_numbers import TABLE_I_ROBOCASA
 from icil_paper.policies import make_policy
 from icil_paper.policies.backbones import obs_spec_from_obs
@@ -51,19 +50,17 @@ from icil_paper.policies.transformer import causal_mask
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
 from icil_paper.sim import make_env
-from icil_paper.train import (
-    METRICS_FILE,
-    cpu_threads,
-    default_run_dir,
-    load_policy,
-    tokenizer_options,
-    train_policy,
+from icil_paper.studies import (
+    ICRT_DEMO_TASK,
+    ICRT_DEMO_TOKENIZER,
+    icrt_rollout_study,
+    icrt_run_dir,
 )
+from icil_paper.train import cpu_threads, load_policy, tokenizer_options, train_policy
 
 logging.getLogger("robosuite_logs").disabled = True  # robosuite's import-time chatter
 preset = get_preset()  # reads ICIL_PRESET
-TASK = "kitchen/open_drawer"
-TOKENIZER = "lipvq"
+TASK, TOKENIZER = ICRT_DEMO_TASK, ICRT_DEMO_TOKENIZER
 store = ResultsStore(preset.name)
 rng = seed_everything(preset.seed)
 demos = load_demos(ensure_demos(preset, TASK, "generated"))
@@ -171,26 +168,8 @@ print(f"loss reaches {int((reached & sup).sum())} of {int(sup.sum())} supervised
 # in the results store, so rebuilding the chapter only loads it.
 
 # %%
-run_dir = default_run_dir(preset, "icrt", TOKENIZER, [TASK], "generated")
-config = {"chapter": "01", "policy": "icrt", "tokenizer": TOKENIZER, "task": TASK,
-          "source": "generated", "prompt_source": "generated", "seed": preset.seed,
-          "policy_config": preset.to_dict()["policy"], "train_config": preset.to_dict()["train"],
-          "episodes": preset.eval.episodes_per_task, "max_steps": preset.eval.max_steps}
-
-
-def compute() -> dict:
-    trained = train_policy(preset, "icrt", TOKENIZER, tasks=[TASK], source="generated",
-                           run_dir=run_dir)
-    lines = [json.loads(x) for x in (run_dir / METRICS_FILE).read_text().splitlines() if x]
-    result = evaluate_policy(trained.policy, TASK, preset, prompt_source="generated",
-                             episodes=preset.eval.episodes_per_task, seed=preset.seed)
-    return {"loss_steps": [x["step"] for x in lines], "loss": [x["loss"] for x in lines],
-            "action_l1": [x["action_l1"] for x in lines], "train": trained.metrics,
-            **{k: v for k, v in result.items() if k != "task"}}
-
-
-record = store.run("chapter01", f"icrt+{TOKENIZER}__{TASK}", config, compute, seed=preset.seed)
-m = record["metrics"]
+run_dir = icrt_run_dir(preset)
+m = icrt_rollout_study(preset, store)  # trains and evaluates, or loads the stored record
 
 fig, ax = plt.subplots(figsize=(6, 3))
 ax.plot(m["loss_steps"], m["loss"], label="total loss")

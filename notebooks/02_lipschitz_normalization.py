@@ -35,10 +35,11 @@
 # This chapter trains encoders on action trajectories and checks: the bound holds
 # empirically; how each $c_\ell$ moves during training; and how the row-wise
 # $\infty$-norm normalization compares with spectral normalization (Miyato et al. 2018),
-# which bounds each layer by 1 in the 2-norm instead. The trajectories come from the
-# library's generator of minimum-jerk reach/grasp/lift motions
-# (`icil_paper.trajectories`), a stand-in used until recorded demonstrations are wired into
-# the tokenizer chapters.
+# which bounds each layer by 1 in the 2-norm instead. The action trajectories are the
+# preset's `generated` demonstrations of every kitchen and ManiSkill task (chapter 03), a
+# fifth of each task's demos held out (`icil_paper.studies.tokenizer_trajectories`; the
+# preset option `tokenizer.trajectories = "synthetic"` switches to minimum-jerk motions from
+# `icil_paper.trajectories`, which need no simulator).
 
 # %%
 import matplotlib.pyplot as plt

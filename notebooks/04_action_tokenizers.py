@@ -29,10 +29,10 @@
 #
 # The last two give the same value for $z$ and $10z$. In the paper the tokenizers are
 # trained jointly with the policy; here they are trained alone, so these numbers isolate
-# the tokenizer. **The action trajectories are generated**, not recorded: minimum-jerk
-# reach / grasp / lift / place, push and pull episodes with gripper open/close and a little
-# low-pass noise (`icil_paper.trajectories`), a stand-in until the task suites'
-# demonstrations are wired in.
+# the tokenizer. The action trajectories are the preset's `generated` demonstrations of
+# every kitchen and ManiSkill task (chapter 03: our scripted experts on randomized scenes,
+# the stand-in for MimicGen data), with a fifth of each task's demos held out for the
+# metrics below (`icil_paper.studies.tokenizer_trajectories`).
 
 # %%
 import matplotlib.pyplot as plt

@@ -108,3 +108,15 @@ def test_results_root_follows_environment(tmp_path, monkeypatch):
     store = ResultsStore("small")
     store.run("k", "n", CONFIG, lambda: {"v": 1})
     assert os.path.exists(tmp_path / "elsewhere" / "small" / "k")
+
+
+def test_benchmark_records_carry_provenance(tmp_path):
+    import json
+
+    from icil_paper.bench import save_benchmark
+
+    path = save_benchmark("probe", {"rate": 1.5}, tmp_path / "probe.json")
+    record = json.loads(path.read_text())
+    assert record["benchmark"] == "probe" and record["rate"] == 1.5
+    assert {"git", "packages", "host", "load_average_1min"} <= set(record)
+    assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind

@@ -54,6 +54,10 @@ class DataConfig:
     """Observation kind recorded and learned from: `state`, `rgb` or `rgbd`."""
     workers: int = 2
     """Processes that generate demonstrations in parallel."""
+    expert_seeds: int = 50
+    """Random scenes per task on which the `experts` stage measures every expert (success,
+    open-loop replay, human-source keep rate); 0 skips it, and chapter 03 then reports the
+    experts' success over the scenes the data sets were generated on."""
 
 
 @dataclass(frozen=True)
@@ -87,10 +91,17 @@ class TokenizerConfig:
     fast_mode: str = "causal"
     """FAST: `causal` (step t tokenized with the chunk ending at t) or `blocked` (FAST's own
     non-overlapping chunks, whose step embeddings see later actions of their chunk)."""
+    trajectories: str = "demos"
+    """What tokenizers are trained on alone (chapters 02 and 04): `demos`, the preset's
+    `generated` demonstrations of its kitchen and ManiSkill tasks (the last `eval_fraction` of
+    each task's demos held out), or `synthetic`, minimum-jerk trajectories from
+    `icil_paper.trajectories` (no simulator needed)."""
+    eval_fraction: float = 0.2
+    """Share of each task's demonstrations held out for the tokenizer metrics (at least one)."""
     n_trajectories: int = 200
-    """Generated action trajectories a tokenizer is trained on in chapters 02 and 04."""
+    """`synthetic` only: generated trajectories a tokenizer is trained on."""
     n_eval_trajectories: int = 50
-    """Held-out generated trajectories the tokenizer metrics are computed on."""
+    """`synthetic` only: held-out generated trajectories the metrics are computed on."""
     trajectory_noise: float = 0.02
     """Amplitude of the low-pass noise added to generated trajectories (teleoperation tremor)."""
     bench_fast_actions: int = 1_000_000
@@ -222,7 +233,7 @@ class Preset:
 def _smoke() -> Preset:
     return Preset(
         name="smoke",
-        data=DataConfig(demos_per_task=2, workers=1),
+        data=DataConfig(demos_per_task=2, workers=1, expert_seeds=0),
         tokenizer=TokenizerConfig(
             latent_dim=16, codebook_size=64, fast_vocab_size=300, steps=30,
             batch_size=8, window=8, codebook_sizes=(16, 32), n_trajectories=12,
@@ -239,7 +250,7 @@ def _smoke() -> Preset:
 def _small() -> Preset:
     return Preset(
         name="small",
-        data=DataConfig(demos_per_task=10, workers=2),
+        data=DataConfig(demos_per_task=10, workers=2, expert_seeds=0),
         tokenizer=TokenizerConfig(latent_dim=32, codebook_size=256, steps=400,
                                   codebook_sizes=(64, 128, 256, 512), n_trajectories=64,
                                   n_eval_trajectories=16),

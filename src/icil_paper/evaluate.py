@@ -180,7 +180,10 @@ def _record(policy: Any, env: Any, ep: Mapping[str, Any], trace: Mapping[str, An
     path = Path(record_dir) / f"{name.replace('/', '-')}__seed{ep['seed']}.rrd"
     title = (f"{getattr(policy, 'name', 'policy')} on {name}, episode {ep['index']} "
              f"(env seed {ep['seed']}): {'success' if success else 'failure'}")
-    out = record_episode(path, trace["obs"], actions, latents=latents, title=title)
+    from icil_paper.sim import OBJECT_POSITION
+
+    out = record_episode(path, trace["obs"], actions, latents=latents, title=title,
+                         object_position=OBJECT_POSITION.get(name.split("/", 1)[0]))
     return str(out["rrd"] or out["png"])
 
 

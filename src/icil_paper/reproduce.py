@@ -34,23 +34,19 @@ class Stage:
 STAGES: tuple[Stage, ...] = (
     Stage("environment", "record the packages, hardware and simulator checks",
           "icil_paper.reproduce:record_environment"),
+    Stage("demos", "generate every data set of the preset: all tasks, both sources (chapter 03)",
+          "icil_paper.studies:demo_stage"),
+    Stage("experts", "measure every expert on data.expert_seeds random scenes (chapter 03)",
+          "icil_paper.studies:expert_study"),
+    Stage("showcase", "render and record one demonstration of every task (chapter 03)",
+          "icil_paper.studies:showcase_study"),
+    Stage("icrt", "train a small ICRT + LipVQ-VAE and roll it out from prompts (chapter 01)",
+          "icil_paper.studies:icrt_rollout_study"),
     Stage("lipschitz", "Lipschitz bounds vs empirical constants of trained encoders (chapter 02)",
-          "icil_paper.reproduce:lipschitz"),
+          "icil_paper.studies:lipschitz_study"),
     Stage("tokenizers", "train every action tokenizer alone and score it (chapter 04)",
-          "icil_paper.reproduce:tokenizers"),
+          "icil_paper.studies:tokenizer_study"),
 )
-
-
-def lipschitz(preset: Preset, store: ResultsStore, force: bool) -> None:
-    from icil_paper.studies import lipschitz_study
-
-    lipschitz_study(preset, store, force)
-
-
-def tokenizers(preset: Preset, store: ResultsStore, force: bool) -> None:
-    from icil_paper.studies import tokenizer_study
-
-    tokenizer_study(preset, store, force)
 
 
 def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None:

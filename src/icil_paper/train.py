@@ -103,11 +103,10 @@ def tokenizer_options(name: str, cfg: TokenizerConfig) -> dict[str, Any]:
 def load_training_demos(preset: Preset, tasks: Sequence[str], source: str,
                         progress: bool = True, obs: str | None = None) -> list[Any]:
     """Demonstrations of every task (generated on first use; see icil_paper.data)."""
-    from icil_paper.data import ensure_demos, load_demos
+    from icil_paper.data import ensure_many, load_demos
 
-    demos = []
-    for task in tasks:
-        demos.extend(load_demos(ensure_demos(preset, task, source, progress=progress, obs=obs)))
+    paths = ensure_many(preset, tasks, [source], progress=progress, obs=obs)  # one worker pool
+    demos = [demo for task in tasks for demo in load_demos(paths[task, source])]
     if not demos:
         raise ValueError(f"no demonstrations for tasks {list(tasks)} from source {source!r}")
     return demos

@@ -25,7 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
-ACTION_DIM = 7
+from icil_paper.sim import ACTION_DIM
+
 POSITION_SCALE = 0.02
 """Metres of end-effector motion per step for a position action of 1."""
 ROTATION_SCALE = 0.05

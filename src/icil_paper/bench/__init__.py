@@ -1,0 +1,26 @@
+"""Throughput benchmarks (`make bench`): tokenizers, policies, simulators and the kitchen suite.
+
+Each module runs as `python -m icil_paper.bench.<name>` and writes one JSON record to
+`results/bench/<name>.json` through `save_benchmark`, which adds the provenance every result
+carries (git commit, package versions, host, load average).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+
+def save_benchmark(name: str, record: dict[str, Any], out: str | Path | None = None) -> Path:
+    """Add provenance to `record` and write it atomically to `out` (default
+    results/bench/<name>.json); returns the path."""
+    from icil_paper.provenance import git_state, host_info, package_versions
+    from icil_paper.results import atomic_write_json, results_root
+
+    record = {"benchmark": name, **record, "load_average_1min": os.getloadavg()[0],
+              "git": git_state(), "packages": package_versions(), "host": host_info()}
+    path = Path(out) if out else results_root() / "bench" / f"{name}.json"
+    atomic_write_json(path, record)
+    print(f"wrote {path}")
+    return path

@@ -25,13 +25,11 @@ results/bench/kitchen.json.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
 
-from icil_paper.provenance import git_state, host_info, package_versions
-from icil_paper.results import atomic_write_json, results_root
+from icil_paper.bench import save_benchmark
 
 QUICK_TASKS = ("kitchen/open_drawer", "kitchen/pick_place", "kitchen/twist_knob_on",
                "kinova/open_door")
@@ -142,10 +140,6 @@ def run(tasks: list[str], episodes: int, seed: int, rgb: bool, progress: bool = 
         "episodes_per_task": episodes,
         "tasks": rows,
         "overall": overall,
-        "load_average_1min": os.getloadavg()[0],
-        "git": git_state(),
-        "packages": package_versions(),
-        "host": host_info(),
     }
     if rgb:
         record["rgb"] = bench_rgb(tasks[0], seed)
@@ -173,14 +167,13 @@ def main(argv: list[str] | None = None) -> int:
     record = run(tasks, episodes, args.seed, args.rgb)
     record["quick"] = args.quick
     record["wall_time_s"] = round(time.perf_counter() - start, 1)
-    out = args.out or results_root() / "bench" / "kitchen.json"
-    atomic_write_json(out, record)
+    save_benchmark("kitchen", record, args.out)
     o = record["overall"]
     print(f"overall: generation {o['generation_steps_per_cpu_s']:.1f}, raw "
           f"{o['raw_steps_per_cpu_s']:.1f} steps per CPU second, ratio {o['cpu_ratio']:.3f} "
           f"(median over tasks {o['median_task_cpu_ratio']:.3f}; wall clock: "
           f"{o['generation_steps_per_s']:.1f} / {o['raw_steps_per_s']:.1f} steps/s, ratio "
-          f"{o['ratio']:.3f}); wrote {out}")
+          f"{o['ratio']:.3f})")
     return 0
 
 

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import os
 import statistics
 import time
 from typing import Any
@@ -32,9 +31,8 @@ from typing import Any
 import numpy as np
 import torch
 
+from icil_paper.bench import save_benchmark
 from icil_paper.config import get_preset
-from icil_paper.provenance import git_state, host_info, package_versions
-from icil_paper.results import atomic_write_json, results_root
 from icil_paper.seeding import seed_everything
 
 PROMPT_TOKENS = (100, 400, 1600)
@@ -178,10 +176,8 @@ def run(quick: bool = False, seed: int = 0, devices: list[str] | None = None,
             if progress:
                 print(f"  training {dev_name} {size:5s}: {row['steps_per_s']:.3f} steps/s "
                       f"(batch {row['batch_size']}, {row['n_params']:,} parameters)", flush=True)
-    return {"benchmark": "policies", "quick": quick, "seed": seed,
-            "threads": torch.get_num_threads(), "load_average_1min": os.getloadavg()[0],
-            "latency": rows_lat, "training": rows_train,
-            "git": git_state(), "packages": package_versions(), "host": host_info()}
+    return {"quick": quick, "seed": seed, "threads": torch.get_num_threads(),
+            "latency": rows_lat, "training": rows_train}
 
 
 def format_table(result: dict[str, Any]) -> str:
@@ -217,9 +213,7 @@ def main(argv: list[str] | None = None) -> int:
         torch.set_num_threads(args.threads)
     result = run(quick=args.quick, seed=args.seed, devices=args.device)
     print(format_table(result))
-    out = args.out or results_root() / "bench" / "policies.json"
-    atomic_write_json(out, result)
-    print(f"wrote {out}")
+    save_benchmark("policies", result, args.out)
     return 0
 
 

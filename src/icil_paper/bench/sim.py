@@ -119,8 +119,7 @@ def default_tasks() -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.provenance import git_state, host_info, package_versions
-    from icil_paper.results import atomic_write_json, results_root
+    from icil_paper.bench import save_benchmark
     from icil_paper.seeding import seed_everything
     from icil_paper.sim import suite_unavailable
 
@@ -159,12 +158,8 @@ def main(argv: list[str] | None = None) -> int:
         }
     record = {"tasks": rows, "suites": suites, "demos": args.demos, "raw_steps": args.raw_steps,
               "seed": args.seed, "wall_time_s": round(time.perf_counter() - start, 1),
-              "kitchen_unavailable": suite_unavailable("kitchen"),
-              "git_commit": git_state()["commit"], "packages": package_versions(),
-              "host": host_info()}
-    out = Path(args.out) if args.out else results_root() / "bench" / "sim.json"
-    atomic_write_json(out, record)
-    print(f"wrote {out}")
+              "kitchen_unavailable": suite_unavailable("kitchen")}
+    save_benchmark("sim", record, args.out)
     return 0
 
 

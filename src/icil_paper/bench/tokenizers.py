@@ -14,14 +14,12 @@ untrained: throughput does not depend on them. Results go to results/bench/token
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import torch
 
+from icil_paper.bench import save_benchmark
 from icil_paper.config import TokenizerConfig
-from icil_paper.provenance import git_state, host_info, package_versions
-from icil_paper.results import atomic_write_json, results_root
 from icil_paper.seeding import seed_everything
 from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.tokenizers.training import build_tokenizer, sample_windows, throughput
@@ -71,14 +69,10 @@ def run(quick: bool = False, seed: int = 0, progress: bool = True) -> dict:
         "seed": seed,
         "batch_shape": list(batch_shape),
         "threads_available": torch.get_num_threads(),
-        "load_average_1min": os.getloadavg()[0],
         "config": {k: (list(v) if isinstance(v, tuple) else v)
                    for k, v in vars(config).items()},
         "throughput": rows,
         "fast_bpe_fit": fast_fit,
-        "git": git_state(),
-        "packages": package_versions(),
-        "host": host_info(),
     }
 
 
@@ -111,9 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     result = run(quick=args.quick, seed=args.seed)
     print(format_table(result))
-    out = args.out or results_root() / "bench" / "tokenizers.json"
-    atomic_write_json(out, result)
-    print(f"wrote {out}")
+    save_benchmark("tokenizers", result, args.out)
     return 0
 
 

@@ -35,12 +35,19 @@ from typing import Any
 
 from icil_paper.registry import UnknownNameError, check_name
 
+ACTION_DIM = 7
+"""Every task's action: [dx, dy, dz, drx, dry, drz, gripper], all in [-1, 1]."""
 SUITES = ("kitchen", "kinova", "maniskill")
+OBJECT_POSITION = {"maniskill": (0, 3), "kitchen": (1, 4), "kinova": (1, 4)}
+"""Where a suite's object state holds an object position (a slice of `obs["object"]`, for
+recordings): ManiSkill's object pose starts it; the kitchen suite's key point (handle, lever
+tip, knob fin, button, free object) follows the fixture's joint position
+(`icil_paper.sim.kitchen.scenes`)."""
 OBS_KINDS = ("state", "rgb", "rgbd")
 KITCHEN_MODULE = "icil_paper.sim.kitchen"
 MANISKILL_TASK_NAMES = ("maniskill/pick_cube", "maniskill/push_cube", "maniskill/stack_cube")
 
-__all__ = ["TASKS", "SUITES", "OBS_KINDS", "make_env", "make_expert", "obs_dims", "suite_of",
+__all__ = ["ACTION_DIM", "TASKS", "SUITES", "OBS_KINDS", "make_env", "make_expert", "obs_dims", "suite_of",
            "tasks_of", "suite_unavailable", "SuiteUnavailable", "UnknownNameError"]
 
 

@@ -43,10 +43,11 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from icil_paper.sim import ACTION_DIM
+
 PROPRIO_DIM = 9
 MANISKILL_OBJECT_DIM = 21
 MANISKILL_OBS_DIMS = (PROPRIO_DIM, MANISKILL_OBJECT_DIM)
-ACTION_DIM = 7
 POS_SCALE = 0.1
 """Metres of end-effector translation per unit of action (ManiSkill's pd_ee_delta_pose bound)."""
 ROT_SCALE = 0.1

@@ -55,6 +55,25 @@ __all__ = ["KITCHEN_TASKS", "KINOVA_TASKS", "ALL_TASKS", "TASK_FAMILIES", "FAMIL
            "KITCHEN_OBJECT_DIM", "KitchenTaskSpec", "make_kitchen_env", "make_kitchen_expert"]
 
 
+def _import_robosuite_quietly() -> None:
+    """Import robosuite with its logger off, then turn the logger back on.
+
+    On import robosuite warns about optional extras this suite does not use (a private macro
+    file, robosuite_models, mink-based IK), once in every process, worker processes included.
+    Only those import-time messages are hidden; later warnings are shown as usual.
+    """
+    import logging
+
+    logger = logging.getLogger("robosuite_logs")
+    if logger.disabled:
+        return
+    logger.disabled = True
+    try:
+        import robosuite  # noqa: F401
+    finally:
+        logger.disabled = False
+
+
 def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
     """Build a kitchen or Kinova task env (`icil_paper.sim.kitchen.env.KitchenEnv`).
 
@@ -65,6 +84,7 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
     """
     check_name("kitchen task", name, ALL_TASKS)
     check_name("observation kind", obs, ("state", "rgb", "rgbd"))
+    _import_robosuite_quietly()
     from icil_paper.sim.kitchen.env import KitchenEnv
 
     return KitchenEnv(name, obs=obs, seed=seed, **options)

@@ -49,6 +49,7 @@ from robosuite.models.arenas import TableArena
 from robosuite.models.tasks import ManipulationTask
 
 from icil_paper.registry import check_name
+from icil_paper.sim import ACTION_DIM, OBS_KINDS
 from icil_paper.sim.kitchen.kinova import DynamicsPerturbation, RealityGap
 from icil_paper.sim.kitchen.scenes import Scene, make_scene
 from icil_paper.sim.kitchen.tasks import (
@@ -59,9 +60,7 @@ from icil_paper.sim.kitchen.tasks import (
 
 CAMERAS = ("agentview", "robot0_eye_in_hand")
 """Cameras of image observations, in the order of the `rgb` / `depth` arrays."""
-ACTION_DIM = 7
 CONTROL_FREQ = 20
-OBS_KINDS = ("state", "rgb", "rgbd")
 _DOWN_QUAT_XYZW = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
 
 
