@@ -1,0 +1,48 @@
+"""Demonstration data sets in robomimic's HDF5 layout.
+
+    from icil_paper.data import ensure_demos, load_demos
+    path = ensure_demos("small", "maniskill/pick_cube", "generated")   # generates what is missing
+    demos = load_demos(path, action_dim=7)                             # validated list[Demo]
+
+- `hdf5`: the `Demo` dataclass, `write_demos`, `load_demos` (also reads robosuite / robomimic
+  files such as RoboCasa's and MimicGen's), `DatasetError` naming file, demo and problem.
+- `sources`: the `generated` (expert) and `human` (teleoperation-like) demonstration sources.
+- `generate`: `ensure_demos` / `ensure_many` / `demo_path`, parallel, resumable generation.
+- `splits`: train/valid masks, the zero-shot task split, the sim-to-real task pairs.
+- `cli`: `icil-paper demos --task ... --source ... --n ...`.
+"""
+
+from icil_paper.data.generate import (
+    DemoGenerationError,
+    data_root,
+    demo_path,
+    ensure_demos,
+    ensure_many,
+    preset_tasks,
+)
+from icil_paper.data.hdf5 import (
+    ROBOMIMIC_KEY_MAP,
+    DatasetError,
+    Demo,
+    file_info,
+    load_demos,
+    read_masks,
+    write_demos,
+)
+from icil_paper.data.sources import (
+    EVAL_SEED_BASE,
+    SOURCES,
+    HumanLikeOperator,
+    OperatorStyle,
+    demo_seed,
+    make_source,
+    rollout,
+)
+from icil_paper.data.splits import sim_to_real_pairs, train_valid_split, zero_shot_split
+
+__all__ = [
+    "Demo", "DatasetError", "DemoGenerationError", "EVAL_SEED_BASE", "HumanLikeOperator",
+    "OperatorStyle", "ROBOMIMIC_KEY_MAP", "SOURCES", "data_root", "demo_path", "demo_seed",
+    "ensure_demos", "ensure_many", "file_info", "load_demos", "make_source", "preset_tasks", "read_masks",
+    "rollout", "sim_to_real_pairs", "train_valid_split", "write_demos", "zero_shot_split",
+]

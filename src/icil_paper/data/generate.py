@@ -1,0 +1,320 @@
+"""Parallel, resumable demonstration generation: `ensure_demos` and `demo_path`.
+
+One HDF5 file per (preset, task, source) at `demo_path(preset, task, source)`:
+
+    data/<preset>/<suite>/<task>/<source>.hdf5          (state observations)
+    data/<preset>/<suite>/<task>/<source>_<obs>.hdf5    (rgb / rgbd observations)
+
+under the repository root, or under $ICIL_DATA when set.
+
+How a run survives being killed: every finished demo is written at once by the process that
+made it to its own shard file, `<file>.parts/demo_NNNNNN.hdf5`, through a temporary file and an
+atomic rename, so a shard on disk is always complete. When every demo is done, the shards and
+the demos already in the data set file are merged into a new file that replaces the old one
+atomically, and the shards are removed. A killed run therefore loses only the demos being
+generated at that moment; a re-run finds the finished demos (file and shards), generates only
+the missing indices and merges. Because demo `i`'s scenes and operator noise depend only on
+`i` and the base seed (`sources.demo_seed`), the result equals that of an uninterrupted run, with
+any number of worker processes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from icil_paper.data.hdf5 import DatasetError, file_info, merge_demo_files, write_demos
+from icil_paper.data.sources import MAX_ATTEMPTS, SOURCES, demo_seed, rollout, style_dict
+from icil_paper.registry import check_name
+
+DATA_ENV_VAR = "ICIL_DATA"
+GENERATOR = "icil_paper.data.generate/1"
+"""Written into every data set; a change in how demos are made bumps it."""
+
+
+class DemoGenerationError(RuntimeError):
+    """The expert failed every attempt at one demo."""
+
+
+def data_root() -> Path:
+    """Root of the data sets: $ICIL_DATA, else `data/` in the repository."""
+    from icil_paper.provenance import REPO_ROOT
+
+    return Path(os.environ.get(DATA_ENV_VAR) or REPO_ROOT / "data")
+
+
+def _preset(preset: Any):
+    from icil_paper.config import Preset, get_preset
+
+    return preset if isinstance(preset, Preset) else get_preset(preset)
+
+
+def demo_path(preset_name: Any, task: str, source: str, obs: str | None = None) -> Path:
+    """Where the data set of (preset, task, source) lives (see the module docstring)."""
+    from icil_paper.sim import OBS_KINDS
+
+    preset = _preset(preset_name)
+    check_name("demo source", source, SOURCES)
+    obs = check_name("observation kind", obs or preset.data.obs, OBS_KINDS)
+    suite, _, rest = task.partition("/")
+    if not suite or not rest or any(p in ("", ".", "..") for p in task.split("/")):
+        raise ValueError(f"task name {task!r} is not of the form <suite>/<task>")
+    stem = source if obs == "state" else f"{source}_{obs}"
+    return data_root() / preset.name / suite / rest / f"{stem}.hdf5"
+
+
+def parts_dir(path: Path) -> Path:
+    """Folder of the per-demo shard files of a data set being generated."""
+    return path.with_name(path.name + ".parts")
+
+
+def shard_path(path: Path, index: int) -> Path:
+    return parts_dir(path) / f"demo_{index:06d}.hdf5"
+
+
+@dataclass(frozen=True)
+class _Job:
+    task: str
+    source: str
+    obs: str
+    index: int
+    base_seed: int
+    shard: str
+    file_attrs: dict
+    env_options: dict
+
+
+_WORKER_CACHE: dict[tuple, tuple[Any, Any]] = {}
+_CACHE_SIZE = 2
+"""Envs (with their experts) a worker keeps open: one per (task, source) it recently served."""
+
+
+def _worker_init() -> None:
+    try:
+        import torch
+
+        torch.set_num_threads(1)
+    except ImportError:
+        pass
+
+
+def _env_and_source(task: str, source: str, obs: str, env_options: dict) -> tuple[Any, Any]:
+    from icil_paper.data.sources import make_source
+    from icil_paper.sim import make_env
+
+    key = (task, source, obs, tuple(sorted(env_options.items())))
+    if key not in _WORKER_CACHE:
+        while len(_WORKER_CACHE) >= _CACHE_SIZE:  # close the oldest env (memory)
+            _close(_WORKER_CACHE.pop(next(iter(_WORKER_CACHE))))
+        _WORKER_CACHE[key] = (make_env(task, obs=obs, seed=0, **env_options),
+                              make_source(source, task))
+    return _WORKER_CACHE[key]
+
+
+def _close(pair: tuple[Any, Any]) -> None:
+    for obj in reversed(pair):  # the source (expert) first, then the env
+        close = getattr(obj, "close", None)
+        if close is not None:
+            close()
+
+
+def _close_cache() -> None:
+    while _WORKER_CACHE:
+        _close(_WORKER_CACHE.pop(next(iter(_WORKER_CACHE))))
+
+
+def generate_one(job: _Job) -> dict[str, Any]:
+    """Make demo `job.index` (retrying on the next seeds), write its shard, return a summary."""
+    env, policy = _env_and_source(job.task, job.source, job.obs, job.env_options)
+    start = time.perf_counter()
+    tried = []
+    for attempt in range(MAX_ATTEMPTS):
+        seed = demo_seed(job.base_seed, job.source, job.index, attempt)
+        tried.append(seed)
+        demo, ok = rollout(env, policy, seed, source=job.source)
+        if ok:
+            demo.meta["attempt"] = attempt  # failed episodes before this one: keep-rate stats
+            write_demos(job.shard, [demo], file_attrs=job.file_attrs, valid_fraction=0.0,
+                        names=[f"demo_{job.index}"])
+            return {"task": job.task, "index": job.index, "seed": seed, "attempts": attempt + 1,
+                    "length": len(demo), "seconds": time.perf_counter() - start}
+    raise DemoGenerationError(f"{job.task} ({job.source}): demo {job.index} failed all "
+                              f"{MAX_ATTEMPTS} attempts (seeds {tried})")
+
+
+def _finished_shards(path: Path) -> dict[int, Path]:
+    folder = parts_dir(path)
+    shards = {}
+    if folder.is_dir():
+        for p in folder.glob("demo_*.hdf5"):
+            try:
+                shards[int(p.stem.split("_")[1])] = p
+            except (IndexError, ValueError):
+                continue
+    return shards
+
+
+def _check_compatible(path: Path, attrs: dict[str, Any], info: dict[str, Any]) -> None:
+    for key in ("task", "source", "obs_kind", "base_seed", "generator"):
+        if key in info and str(info[key]) != str(attrs[key]):
+            raise DatasetError(
+                f"{path}: was written with {key}={info[key]!r} but this run asks for "
+                f"{attrs[key]!r}; move the file away (or pass the matching setting) to "
+                "generate a new data set")
+
+
+@dataclass
+class _Plan:
+    """One data set to complete: its file, attributes, demos present and indices missing."""
+
+    task: str
+    source: str
+    path: Path
+    attrs: dict[str, Any]
+    have: set[int]
+    missing: list[int]
+
+
+def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
+          env_options: dict[str, Any]) -> _Plan:
+    from icil_paper.sim import suite_of
+
+    check_name("demo source", source, SOURCES)
+    suite_of(task)  # unknown task names fail here, listing the valid ones
+    path = demo_path(preset, task, source, obs)
+    attrs: dict[str, Any] = {
+        "task": task, "source": source, "obs_kind": obs, "base_seed": base_seed,
+        "action_dim": 7, "generator": GENERATOR,
+        "env_args": {"env_name": task, "type": "icil_paper", "env_kwargs": {"obs": obs,
+                                                                             **env_options}},
+    }
+    if source == "human":
+        attrs["operator_style"] = json.dumps(style_dict())
+    existing: list[str] = []
+    if path.exists():
+        info = file_info(path)
+        _check_compatible(path, attrs, info)
+        existing = info["demos"]
+    have = {int(name.split("_")[1]) for name in existing}
+    shards = _finished_shards(path)
+    missing = [i for i in range(n) if i not in have and i not in shards]
+    return _Plan(task, source, path, attrs, have, missing)
+
+
+def _merge(plan: _Plan) -> None:
+    """Fold finished shards into the data set file (atomically) and remove them."""
+    shards = _finished_shards(plan.path)
+    if not shards:
+        return
+    parts = [(plan.path, f"demo_{i}", f"demo_{i}") for i in sorted(plan.have)]
+    parts += [(shards[i], f"demo_{i}", f"demo_{i}") for i in sorted(shards) if i not in plan.have]
+    parts.sort(key=lambda p: int(p[2].split("_")[1]))
+    merge_demo_files(plan.path, parts, plan.attrs, split_seed=int(plan.attrs["base_seed"]))
+    shutil.rmtree(parts_dir(plan.path), ignore_errors=True)
+
+
+def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: int | None = None,
+                workers: int | None = None, progress: bool = True, seed: int | None = None,
+                obs: str | None = None, **env_options: Any) -> dict[tuple[str, str], Path]:
+    """`ensure_demos` for every (task, source) pair, with one pool of workers for them all.
+
+    Starting worker processes (importing the simulators) costs seconds, so generating many
+    data sets through one pool is much faster than one `ensure_demos` call each. Returns
+    {(task, source): path}.
+    """
+    preset = _preset(preset)
+    n = int(preset.data.demos_per_task if n is None else n)
+    workers = int(preset.data.workers if workers is None else workers)
+    base_seed = int(preset.seed if seed is None else seed)
+    obs = obs or preset.data.obs
+    plans = [_plan(preset, task, source, n, base_seed, obs, env_options)
+             for task in dict.fromkeys(tasks) for source in dict.fromkeys(sources)]
+    jobs = []
+    for plan in plans:
+        folder = parts_dir(plan.path)
+        if plan.missing:
+            folder.mkdir(parents=True, exist_ok=True)
+            for stale in folder.glob(".*.tmp"):  # temporary files of a killed run
+                stale.unlink(missing_ok=True)
+        jobs += [_Job(plan.task, plan.source, obs, i, base_seed, str(shard_path(plan.path, i)),
+                      plan.attrs, env_options) for i in plan.missing]
+    if jobs:
+        label = (f"{plans[0].task} [{plans[0].source}]" if len(plans) == 1
+                 else f"{len(plans)} data sets")
+        _run_jobs(jobs, workers, progress, f"demos {label}")
+    for plan in plans:
+        _merge(plan)
+    return {(plan.task, plan.source): plan.path for plan in plans}
+
+
+def ensure_demos(preset: Any, task: str, source: str, n: int | None = None,
+                 workers: int | None = None, progress: bool = True, seed: int | None = None,
+                 obs: str | None = None, **env_options: Any) -> Path:
+    """Make sure the data set of (preset, task, source) holds at least `n` demos; return its path.
+
+    Generates only the missing demos (default n: the preset's `data.demos_per_task`), with
+    `workers` processes (default: the preset's `data.workers`) and a progress bar, resuming any
+    interrupted run (module docstring). `seed` is the base seed (default: the preset's).
+    """
+    paths = ensure_many(preset, [task], [source], n=n, workers=workers, progress=progress,
+                        seed=seed, obs=obs, **env_options)
+    return paths[task, source]
+
+
+def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None:
+    import multiprocessing as mp
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=len(jobs), desc=desc, unit="demo", disable=not progress)
+    try:
+        if workers <= 1 or len(jobs) == 1:
+            try:
+                for job in jobs:
+                    summary = generate_one(job)
+                    bar.set_postfix(task=job.task, seed=str(summary["seed"]))
+                    bar.update()
+            finally:
+                _close_cache()
+        else:
+            context = mp.get_context("spawn")
+            # chunks of one job in submission order: a worker mostly meets the task it has
+            # an env for, and the bar moves demo by demo
+            with context.Pool(min(workers, len(jobs)), initializer=_worker_init) as pool:
+                for summary in pool.imap_unordered(generate_one, jobs):
+                    bar.set_postfix(task=summary["task"], seed=str(summary["seed"]))
+                    bar.update()
+    finally:
+        bar.close()
+
+
+def preset_tasks(preset: Any, available: bool = False) -> tuple[str, ...]:
+    """Every task of a preset: its kitchen and ManiSkill tasks, then the Kinova tasks.
+
+    `available=True` leaves out the tasks of suites that cannot be imported here, saying why
+    on stderr.
+    """
+    import sys
+
+    from icil_paper.sim import SuiteUnavailable, suite_of, tasks_of
+
+    preset = _preset(preset)
+    tasks = tuple(preset.data.kitchen_tasks) + tasks_of("kinova") + tuple(
+        preset.data.maniskill_tasks)
+    if not available:
+        return tasks
+    kept = []
+    for task in tasks:
+        try:
+            suite_of(task)
+        except SuiteUnavailable as exc:
+            print(f"skipping {task}: {exc}", file=sys.stderr)
+            continue
+        kept.append(task)
+    return tuple(kept)

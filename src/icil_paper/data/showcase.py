@@ -1,0 +1,70 @@
+"""What chapter 03 shows of each task: a rendered frame and a recorded demonstration.
+
+`showcase_task(task, out_dir)` builds the task's env once, renders its first scene, runs the
+`generated` source's demo 0 (the same seed as demo_0 of the task's data set, so it is that
+demo) and writes its rerun recording with the static picture beside it. It returns a
+JSON-ready dict, so the chapter stores it in the results store and a rebuild only reads it.
+"""
+
+from __future__ import annotations
+
+import io
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+def _save_png(path: Path, image: np.ndarray) -> None:
+    from matplotlib.image import imsave  # no pyplot: the caller's backend stays as it is
+
+    from icil_paper.results import atomic_write_bytes
+
+    buf = io.BytesIO()
+    imsave(buf, np.ascontiguousarray(image), format="png")
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[str, Any]:
+    """Render a frame of `task`, record its demo 0, and return paths and figures.
+
+    Files: `<out_dir>/<suite>__<task>.frame.png`, `.rrd` and `.png` (the recording and its
+    static picture).
+    """
+    from icil_paper.data.sources import demo_seed, make_source, rollout
+    from icil_paper.recording import record_episode
+    from icil_paper.sim import OBJECT_POSITION, make_env, suite_of
+
+    out_dir = Path(out_dir)
+    stem = task.replace("/", "__")
+    options = {"render_size": 256} if suite_of(task) == "maniskill" else {}
+    start = time.perf_counter()
+    env = make_env(task, obs="state", seed=base_seed, **options)
+    seed = demo_seed(base_seed, "generated", 0)
+    try:
+        env.reset(seed=seed)
+        frame = env.render()
+        frame_path = out_dir / f"{stem}.frame.png"
+        _save_png(frame_path, frame)
+        source = make_source("generated", task)
+        demo, ok = rollout(env, source, seed, record_states=False)
+        close = getattr(source, "close", None)
+        if close is not None:
+            close()
+    finally:
+        env.close()
+    paths = record_episode(out_dir / f"{stem}.rrd", demo.obs, demo.actions,
+                           title=f"{task}: {demo.instruction} (seed {seed})",
+                           object_position=OBJECT_POSITION.get(suite_of(task)))
+    return {
+        "task": task,
+        "instruction": demo.instruction,
+        "seed": seed,
+        "success": bool(ok),
+        "length": len(demo),
+        "horizon": int(env.horizon),
+        "frame": str(frame_path),
+        "rrd": None if paths["rrd"] is None else str(paths["rrd"]),
+        "picture": str(paths["png"]),
+        "seconds": round(time.perf_counter() - start, 2),
+    }

@@ -1,0 +1,73 @@
+"""Splits: train/valid demos within a file, and the task splits of the generalization tables.
+
+- `train_valid_split`: robomimic's `mask/train` / `mask/valid` filter keys, a seeded shuffle.
+- `zero_shot_split`: the kitchen tasks trained on and the ones held out (Table VI's zero-shot
+  setting, `KITCHEN_ZERO_SHOT_SPLIT` of the kitchen suite).
+- `sim_to_real_pairs`: each Kinova task (our sim-to-real stand-in) with the Panda kitchen task
+  of the same skill, e.g. `kinova/open_drawer` <- `kitchen/open_drawer`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+
+def train_valid_split(names: Sequence[str], valid_fraction: float = 0.1,
+                      seed: int = 0) -> dict[str, list[str]]:
+    """Split demo names into `train` and `valid` (round(fraction * n) valid demos, seeded).
+
+    The split depends only on the names, the fraction and the seed, so re-writing a file with
+    more demos keeps it reproducible. Both lists keep the names' order.
+    """
+    if not 0.0 <= valid_fraction < 1.0:
+        raise ValueError(f"valid_fraction must be in [0, 1), got {valid_fraction}")
+    names = list(names)
+    n_valid = int(round(valid_fraction * len(names)))
+    order = np.random.default_rng(seed).permutation(len(names))
+    valid = set(order[:n_valid].tolist())
+    return {"train": [n for i, n in enumerate(names) if i not in valid],
+            "valid": [n for i, n in enumerate(names) if i in valid]}
+
+
+_TRAIN_KEYS = ("train", "seen", "training")
+_HELD_OUT_KEYS = ("held_out", "heldout", "test", "eval", "unseen", "zero_shot")
+
+
+def _normalize_split(split) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    if isinstance(split, Mapping):
+        train = next((split[k] for k in _TRAIN_KEYS if k in split), None)
+        held = next((split[k] for k in _HELD_OUT_KEYS if k in split), None)
+        if train is None or held is None:
+            raise ValueError(f"cannot read a zero-shot split with keys {sorted(split)}")
+        return tuple(train), tuple(held)
+    if hasattr(split, "train") and hasattr(split, "held_out"):
+        return tuple(split.train), tuple(split.held_out)
+    train, held = split
+    return tuple(train), tuple(held)
+
+
+def zero_shot_split() -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(training tasks, held-out tasks) of the kitchen suite's zero-shot setting (Table VI)."""
+    from icil_paper.sim import _kitchen_or_raise
+
+    module = _kitchen_or_raise("kitchen zero-shot split")
+    train, held = _normalize_split(module.KITCHEN_ZERO_SHOT_SPLIT)
+    overlap = set(train) & set(held)
+    if overlap:
+        raise ValueError(f"zero-shot split trains on held-out tasks {sorted(overlap)}")
+    return train, held
+
+
+def sim_to_real_pairs() -> dict[str, str]:
+    """{kinova task: the kitchen (Panda) task of the same skill} for every Kinova task."""
+    from icil_paper.sim import tasks_of
+
+    kitchen = set(tasks_of("kitchen"))
+    pairs = {}
+    for task in tasks_of("kinova"):
+        twin = "kitchen/" + task.split("/", 1)[1]
+        if twin in kitchen:
+            pairs[task] = twin
+    return pairs

@@ -1,0 +1,63 @@
+"""Statistics of demonstration data sets: lengths, keep rates, and how smooth the actions are.
+
+Smoothness uses the project's least-energy score (`icil_paper.metrics.least_energy`, the
+paper's Table III measure) on the 6 motion dims of each action trajectory, divided by the
+number of second differences so that long and short demos compare: the mean squared
+acceleration of the commanded motion, lower is smoother. The `human` source's hand noise,
+hesitations and overshoots raise it; the expert's smooth plans keep it low.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from icil_paper.data.hdf5 import Demo
+
+STILL_RELATIVE = 0.1
+"""A step counts as standing still when the norm of its motion dims is below this fraction of
+the demo's 90th-percentile motion norm (relative, because the suites' action units differ)."""
+
+
+def action_least_energy_per_step(actions: np.ndarray) -> float:
+    """least_energy of the motion dims (T, 6) divided by its T - 2 second differences."""
+    from icil_paper.metrics import least_energy
+
+    motion = np.asarray(actions, dtype=np.float64)[:, :6]
+    if motion.shape[0] < 3:
+        return 0.0
+    return least_energy(motion) / (motion.shape[0] - 2)
+
+
+def demo_stats(demo: Demo) -> dict[str, Any]:
+    """One row of statistics of a demo."""
+    motion = np.abs(demo.actions[:, :6])
+    norms = np.linalg.norm(demo.actions[:, :6], axis=1)
+    still = norms < STILL_RELATIVE * np.percentile(norms, 90) if len(norms) else norms > 0
+    attempt = demo.meta.get("attempt")
+    return {
+        "task": demo.task,
+        "source": demo.source,
+        "seed": demo.seed,
+        "length": len(demo),
+        "least_energy_per_step": action_least_energy_per_step(demo.actions),
+        "mean_abs_motion": float(motion.mean()),
+        "still_fraction": float(np.mean(still)) if len(norms) else 0.0,
+        "gripper_switches": int(np.sum(np.diff(np.sign(demo.actions[:, 6])) != 0)),
+        "attempts": None if attempt is None else int(attempt) + 1,
+    }
+
+
+def data_set_stats(demos: Sequence[Demo]) -> list[dict[str, Any]]:
+    """Rows of `demo_stats` for every demo (a pandas DataFrame takes them as they are)."""
+    return [demo_stats(d) for d in demos]
+
+
+def keep_rate(demos: Sequence[Demo]) -> float | None:
+    """Share of episodes that succeeded and became demos (None without attempt records)."""
+    attempts = [d.meta.get("attempt") for d in demos]
+    if not attempts or any(a is None for a in attempts):
+        return None
+    return len(demos) / float(sum(int(a) + 1 for a in attempts))
