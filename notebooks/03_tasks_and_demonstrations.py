@@ -157,7 +157,7 @@ else:
 
 # %%
 demos = {(task, source): load_demos(data_sets[task, source], action_dim=7,
-                                    limit=preset.data.demos_per_task)
+                                    limit=preset.data.demos_per_task, images=False)
          for task in DATA_TASKS for source in SOURCES}
 stats = pd.DataFrame([row for ds in demos.values() for row in data_set_stats(ds)])
 summary = stats.groupby(["task", "source"]).agg(

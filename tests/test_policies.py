@@ -105,15 +105,20 @@ def test_padding_is_invisible():
 
 
 # --------------------------------------------------------------------------- ICRT
-@pytest.mark.parametrize("tokenizer", ["mlp", "lipvq", "bin", "fast"])
-def test_icrt_kv_cache_decoding_equals_recomputation(demos, tokenizer):
-    policy = build("icrt", tokenizer, demos).eval()
+def assert_cached_steps_equal_recomputation(policy, demos, steps):
+    """Step the policy through demos[1] with demos[0] as prompt (KV cache), then compare with
+    one full forward pass over the same prompt, observations and chosen actions."""
     prompt, query = demos[0], demos[1]
     policy.reset(prompt)
-    actions = [policy.select_action({k: v[t] for k, v in query.obs.items()}) for t in range(10)]
+    actions = [policy.select_action({k: v[t] for k, v in query.obs.items()})
+               for t in range(steps)]
     with torch.no_grad():
         pred, _ = policy.predict(single_batch(policy, prompt, query.obs, actions))
     np.testing.assert_allclose(pred[0, :, 0].numpy(), np.stack(actions), atol=1e-5, rtol=0)
+
+@pytest.mark.parametrize("tokenizer", ["mlp", "lipvq", "bin", "fast"])
+def test_icrt_kv_cache_decoding_equals_recomputation(demos, tokenizer):
+    assert_cached_steps_equal_recomputation(build("icrt", tokenizer, demos).eval(), demos, 10)
 
 
 def test_icrt_is_causal_over_the_query(demos):
@@ -201,12 +206,7 @@ def test_padded_batch_matches_single_examples(demos):
 
 def test_query_without_actions_follows_eq1(demos):
     policy = build("icrt", "mlp", demos, query_actions=False).eval()
-    prompt, query = demos[0], demos[1]
-    policy.reset(prompt)
-    actions = [policy.select_action({k: v[t] for k, v in query.obs.items()}) for t in range(5)]
-    with torch.no_grad():
-        pred, _ = policy.predict(single_batch(policy, prompt, query.obs, actions))
-    np.testing.assert_allclose(pred[0, :, 0].numpy(), np.stack(actions), atol=1e-5, rtol=0)
+    assert_cached_steps_equal_recomputation(policy, demos, 5)
 
 
 def test_kv_cache_evicts_old_query_steps_but_keeps_the_prompt(demos):
