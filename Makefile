@@ -39,7 +39,8 @@ $(PY_STAMP):
 	$(BIN)/pip install --quiet --progress-bar off '$(TORCH_PIN)' 2>&1 | { grep -v 'is ignored' || true; }
 	$(BIN)/pip install --quiet --progress-bar off -r requirements.txt 2>&1 | { grep -v 'is ignored' || true; }
 	$(BIN)/pip install --quiet --no-deps -e . 2>&1 | { grep -v 'is ignored' || true; }
-	$(BIN)/python -c "import torch, robosuite, mani_skill, icil_paper" \
+	$(BIN)/python -c "import logging; logging.getLogger('robosuite_logs').disabled = True; \
+		import torch, robosuite, mani_skill, icil_paper" \
 		|| { echo "setup: the Python install is incomplete (see pip's messages above)"; exit 1; }
 	@rm -f $(VENV)/.installed-*; touch $@
 
