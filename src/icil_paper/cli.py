@@ -74,8 +74,9 @@ def main(argv: list[str] | None = None) -> int:
             module = importlib.import_module(module_name)
         except ModuleNotFoundError as exc:
             if exc.name and module_name.startswith(exc.name):
-                print(f"icil-paper {command}: not available in this version "
-                      f"({module_name} is missing)", file=sys.stderr)
+                print(f"icil-paper {command}: not available yet ({module_name} is not part "
+                      "of this version; the README's 'What is reproduced so far' lists what "
+                      "is)", file=sys.stderr)
                 return 2
             raise
         return int(module.main(rest) or 0)
