@@ -35,19 +35,21 @@
 
 # %%
 import logging
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+from IPython.display import Image, display
 from matplotlib.colors import ListedColormap
 
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
-from icil_paper.evaluate import rollout
+from icil_paper.evaluate import record_rollout, rollout
 from icil_paper.paper_numbers import TABLE_I_ROBOCASA
 from icil_paper.policies import make_policy
 from icil_paper.policies.backbones import obs_spec_from_obs
 from icil_paper.policies.transformer import causal_mask
-from icil_paper.results import ResultsStore
+from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import seed_everything
 from icil_paper.sim import make_env
 from icil_paper.studies import (
@@ -226,6 +228,18 @@ print(f"episode {episode['episode']} (env seed {episode['seed']}): "
       f"{'success' if trace['success'] else 'no success'} after {trace['steps']} steps "
       f"(the stored evaluation: {'success' if episode['success'] else 'no success'} after "
       f"{episode['steps']} steps)")
+
+# %% [markdown]
+# The same rollout as a rerun recording (`rerun <file>`): the end effector's path and the
+# object in 3-D, the actions, and the latent action tokens LipVQ-VAE made of them, on one
+# step timeline. Below, its static picture.
+
+# %%
+recording = record_rollout(trained_policy, TASK, {"index": episode["episode"],
+                                                  "seed": episode["seed"]},
+                           trace, results_root() / preset.name / "chapter01")
+print(f"rerun recording: {recording}")
+display(Image(filename=str(Path(recording).with_suffix(".png"))))
 
 # %% [markdown]
 # ## What we found

@@ -36,14 +36,14 @@
 
 # %%
 import matplotlib.pyplot as plt
-import numpy as np
 import pandas as pd
+from IPython.display import Image, display
 
 from icil_paper.config import get_preset
 from icil_paper.metrics import ascending, rank_correlation
 from icil_paper.paper_numbers import SMOOTHNESS
 from icil_paper.results import ResultsStore
-from icil_paper.studies import VIEW_STEPS, tokenizer_study
+from icil_paper.studies import tokenizer_latent_recording, tokenizer_study
 from icil_paper.tokenizers import TOKENIZERS
 
 preset = get_preset()  # reads ICIL_PRESET
@@ -99,18 +99,18 @@ axes[3].set_xticks(range(len(paper_labels)), paper_labels, rotation=60)
 axes[3].set_title("least energy (the paper, Table III)")
 plt.tight_layout()
 
+# %% [markdown]
+# ## Latent trajectories
+#
+# The same held-out trajectory through every latent space, in principal components (each
+# path scaled to unit extent, so shapes compare and scales do not). The rerun recording
+# holds the 3-D paths side by side, with a point moving along each one step by step beside
+# the action curves; open it with `rerun <file>`. The picture below is its static view.
+
 # %%
-fig, axes = plt.subplots(1, len(labels), figsize=(2.2 * len(labels), 2.4))
-for ax, label in zip(axes, labels, strict=True):
-    view = np.array(records[label]["latent_view"])
-    ax.plot(view[:, 0], view[:, 1], "-", color="0.7", lw=0.8)
-    ax.scatter(view[:, 0], view[:, 1], c=np.arange(len(view)), cmap="viridis", s=8)
-    ax.set_title(label, fontsize=9)
-    ax.set_xticks([])
-    ax.set_yticks([])
-fig.suptitle(f"First {VIEW_STEPS} steps of one held-out trajectory in each latent space "
-             "(2 principal components; colour = time)", fontsize=10)
-plt.tight_layout()
+latent_recording = tokenizer_latent_recording(preset, records)
+print(f"rerun recording: {latent_recording['rrd'] or '(rerun unavailable: picture only)'}")
+display(Image(filename=str(latent_recording["png"])))
 
 # %% [markdown]
 # ## What we found

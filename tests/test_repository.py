@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -26,3 +27,13 @@ def test_no_source_file_is_ignored_by_git():
                and "_build" not in p.parts and "__pycache__" not in p.parts]
     assert sources
     assert _ignored(sources) == []  # e.g. a `data/` pattern that also hides src/icil_paper/data
+
+
+def test_code_passes_ruff():
+    """`make lint` as part of the suite, so that style drift fails CI (ruff is pinned)."""
+    ruff = Path(sys.executable).with_name("ruff")
+    if not ruff.exists():
+        pytest.skip("ruff is not installed beside this Python (make setup installs it)")
+    out = subprocess.run([str(ruff), "check", "src", "tests", "notebooks"], cwd=ROOT,
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr

@@ -157,13 +157,25 @@ def _run_episode(policy: Any, env: Any, ep: Mapping[str, Any], prompt: list[Any]
               "steps": out["steps"], "return": out["return"], "prompt": list(ep["prompt"]),
               "wall_time_s": round(time.perf_counter() - start, 3)}
     if record_dir is not None:
-        result["recording"] = _record(policy, env, ep, out, out["success"], record_dir)
+        result["recording"] = record_rollout(policy, str(getattr(env, "name", "task")), ep, out,
+                                             record_dir)
     return result
 
 
-def _record(policy: Any, env: Any, ep: Mapping[str, Any], trace: Mapping[str, Any],
-            success: bool, record_dir: str) -> str | None:
-    """Write one rollout as a rerun recording; returns its path (None if unavailable)."""
+def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping[str, Any],
+                   record_dir: str | Path) -> str | None:
+    """Write one rollout as a rerun recording with its static picture.
+
+    Args:
+        policy: the policy that acted; its tokenizer (if any) gives the latent action tokens.
+        task: the task name (for the file name, the title and the object's position).
+        ep: the episode's {"index", "seed"}.
+        trace: `rollout(..., keep_trace=True)`'s output ("obs", "actions", "success").
+        record_dir: the folder of `<task>__seed<seed>.rrd` and `.png`.
+
+    Returns the `.rrd` path, the `.png` path where rerun is unavailable, or None where
+    recording is unavailable altogether.
+    """
     try:
         from icil_paper.recording import record_episode
     except ImportError:
@@ -176,14 +188,13 @@ def _record(policy: Any, env: Any, ep: Mapping[str, Any], trace: Mapping[str, An
     if tokenizer is not None and len(actions):
         with torch.no_grad():  # the latent action tokens of the executed actions
             latents = tokenizer(torch.from_numpy(actions)[None]).embeddings[0].cpu().numpy()
-    name = str(getattr(env, "name", "task"))
-    path = Path(record_dir) / f"{name.replace('/', '-')}__seed{ep['seed']}.rrd"
-    title = (f"{getattr(policy, 'name', 'policy')} on {name}, episode {ep['index']} "
-             f"(env seed {ep['seed']}): {'success' if success else 'failure'}")
+    path = Path(record_dir) / f"{task.replace('/', '-')}__seed{ep['seed']}.rrd"
+    title = (f"{getattr(policy, 'name', 'policy')} on {task}, episode {ep['index']} "
+             f"(env seed {ep['seed']}): {'success' if trace['success'] else 'failure'}")
     from icil_paper.sim import OBJECT_POSITION
 
     out = record_episode(path, trace["obs"], actions, latents=latents, title=title,
-                         object_position=OBJECT_POSITION.get(name.split("/", 1)[0]))
+                         object_position=OBJECT_POSITION.get(task.split("/", 1)[0]))
     return str(out["rrd"] or out["png"])
 
 

@@ -24,6 +24,7 @@ import os
 import uuid
 import warnings
 from collections.abc import Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -56,21 +57,39 @@ def _images(images: Any, obs: dict[str, np.ndarray]) -> np.ndarray | None:
     return images.astype(np.uint8)
 
 
-def _write_rrd(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
-               latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
+def _action_names(n: int) -> list[str]:
+    return list(ACTION_NAMES) if n == len(ACTION_NAMES) else [f"a{i}" for i in range(n)]
+
+
+@contextmanager
+def _rrd_stream(path: Path):
+    """A rerun recording stream saving to a temporary file that becomes `path` on success."""
     import rerun as rr
 
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
     rec = rr.RecordingStream("icil_paper", recording_id=uuid.uuid4())
     rec.save(str(tmp))
     try:
+        yield rec
+        rec.flush()
+        rec.disconnect()
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _write_rrd(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
+               latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
+    import rerun as rr
+
+    with _rrd_stream(path) as rec:
         if title:
             rec.log("episode", rr.TextDocument(title), static=True)
         eef = obs.get("proprio")
         if eef is not None and eef.shape[-1] >= 3:
             rec.log("world/eef_path", rr.LineStrips3D([eef[:, :3]]), static=True)
-        names = [ACTION_NAMES[i] if actions.shape[1] == len(ACTION_NAMES) else f"a{i}"
-                 for i in range(actions.shape[1])]
+        names = _action_names(actions.shape[1])
         for t in range(actions.shape[0]):
             rec.set_time("step", sequence=t)
             for i, name in enumerate(names):
@@ -86,12 +105,6 @@ def _write_rrd(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
             if images is not None:
                 for c in range(images.shape[1]):
                     rec.log(f"camera/{c}", rr.Image(images[t, c]))
-        rec.flush()
-        rec.disconnect()
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def _write_png(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
@@ -105,8 +118,7 @@ def _write_png(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
     fig = Figure(figsize=(10, 2.6 * rows), constrained_layout=True)
     grid = fig.add_gridspec(rows, 2)
     ax = fig.add_subplot(grid[0, :])
-    names = ACTION_NAMES if actions.shape[1] == len(ACTION_NAMES) else [
-        f"a{i}" for i in range(actions.shape[1])]
+    names = _action_names(actions.shape[1])
     for i, name in enumerate(names):
         ax.plot(actions[:, i], label=name, lw=1.2)
     ax.set(xlabel="step", ylabel="action", title=title or "episode")
@@ -190,3 +202,108 @@ def record_episode(path: str | Path, obs_seq: Mapping[str, Any] | Sequence[Mappi
                           "writing the static picture only", stacklevel=2)
     _write_png(out["png"], obs, actions, lat, imgs, title)
     return out
+
+
+def principal_view(z: Any, dims: int = 3) -> np.ndarray:
+    """The first `dims` principal components of a latent trajectory z (T, D): (T, dims).
+
+    Centred, projected on the right singular vectors, and zero-padded where D < dims, so
+    that trajectories of any latent width can be drawn in the same 2-D or 3-D view.
+    """
+    z = np.asarray(z, dtype=np.float64)
+    if z.ndim != 2 or len(z) < 2:
+        raise ValueError(f"z must be (T, D) with T >= 2, got shape {z.shape}")
+    z = z - z.mean(0)
+    _, _, vt = np.linalg.svd(z, full_matrices=False)
+    view = z @ vt[:dims].T
+    return np.pad(view, ((0, 0), (0, dims - view.shape[1])))
+
+
+def _unit_extent(view: np.ndarray) -> np.ndarray:
+    """A view rescaled so that its largest coordinate range is 1 (latent scales differ)."""
+    extent = float(np.ptp(view, axis=0).max())
+    return view / extent if extent > 0 else view
+
+
+def record_latent_trajectories(path: str | Path, actions: Any, views: Mapping[str, Any],
+                               title: str = "", rrd: bool = True) -> dict[str, Path | None]:
+    """Write one action trajectory's path through several latent spaces: `.rrd` and `.png`.
+
+    Args:
+        path: the `.rrd` file; the picture goes to the same path with suffix `.png`.
+        actions: (T, A) the action trajectory the latents encode.
+        views: {label: (T, k)} each latent trajectory, e.g. `principal_view(z)` of a
+            tokenizer's embeddings (k = 2 or 3; 2 is drawn at height 0).
+        title: text shown with the recording.
+        rrd: False writes only the picture.
+
+    In the recording every label is a 3-D path (`latents/<label>/path`, static), rescaled to
+    unit extent and placed side by side along x, with a point that moves along it on the
+    `step` timeline, beside the action curves (`actions/<dim>`). The picture shows the same
+    paths in 2-D, coloured by time. Returns {"rrd": path or None, "png": path}.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    actions = np.asarray(actions, dtype=np.float32)
+    if actions.ndim != 2:
+        raise ValueError(f"actions must be (T, A), got shape {actions.shape}")
+    if not views:
+        raise ValueError("views is empty: give at least one {label: (T, k)} latent trajectory")
+    unit = {}
+    for label, view in views.items():
+        view = np.asarray(view, dtype=np.float32)
+        if view.ndim != 2 or view.shape[0] != actions.shape[0] or not 2 <= view.shape[1] <= 3:
+            raise ValueError(f"view {label!r} must be (T={actions.shape[0]}, 2 or 3), "
+                             f"got shape {view.shape}")
+        unit[label] = _unit_extent(np.pad(view, ((0, 0), (0, 3 - view.shape[1]))))
+    out: dict[str, Path | None] = {"rrd": None, "png": path.with_suffix(".png")}
+    if rrd:
+        try:
+            _write_latent_rrd(path, actions, unit, title)
+            out["rrd"] = path
+        except Exception as exc:  # noqa: BLE001 - the picture is the fallback
+            warnings.warn(f"rerun recording {path} failed ({type(exc).__name__}: {exc}); "
+                          "writing the static picture only", stacklevel=2)
+    _write_latent_png(out["png"], unit, title)
+    return out
+
+
+def _write_latent_rrd(path: Path, actions: np.ndarray, unit: Mapping[str, np.ndarray],
+                      title: str) -> None:
+    import rerun as rr
+
+    offsets = {label: np.array([1.5 * i, 0.0, 0.0], np.float32) for i, label in enumerate(unit)}
+    with _rrd_stream(path) as rec:
+        if title:
+            rec.log("episode", rr.TextDocument(title), static=True)
+        for label, view in unit.items():
+            rec.log(f"latents/{label}/path", rr.LineStrips3D([view + offsets[label]],
+                                                             labels=[label]), static=True)
+        names = _action_names(actions.shape[1])
+        for t in range(actions.shape[0]):
+            rec.set_time("step", sequence=t)
+            for i, name in enumerate(names):
+                rec.log(f"actions/{name}", rr.Scalars(float(actions[t, i])))
+            for label, view in unit.items():
+                rec.log(f"latents/{label}/now", rr.Points3D([view[t] + offsets[label]],
+                                                            radii=0.03))
+
+
+def _write_latent_png(path: Path, unit: Mapping[str, np.ndarray], title: str) -> None:
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend stays as it is
+
+    from icil_paper.results import atomic_write_bytes
+
+    fig = Figure(figsize=(2.2 * len(unit), 2.6), constrained_layout=True)
+    axes = fig.subplots(1, len(unit), squeeze=False)[0]
+    for ax, (label, view) in zip(axes, unit.items(), strict=True):
+        ax.plot(view[:, 0], view[:, 1], "-", color="0.7", lw=0.8)
+        ax.scatter(view[:, 0], view[:, 1], c=np.arange(len(view)), cmap="viridis", s=8)
+        ax.set_title(label, fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    if title:
+        fig.suptitle(title, fontsize=10)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90)
+    atomic_write_bytes(path, buf.getvalue())

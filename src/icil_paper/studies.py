@@ -12,11 +12,14 @@ import dataclasses
 import numpy as np
 
 from icil_paper.config import Preset
+from icil_paper.recording import principal_view
 from icil_paper.results import ResultsStore
 from icil_paper.sim import ACTION_DIM
 
 VIEW_STEPS = 40
-"""Steps of one held-out trajectory kept (as 2 principal components) for latent plots."""
+"""Steps of one held-out trajectory kept (in principal components) for latent plots."""
+VIEW_DIMS = 3
+"""Principal components of that latent trajectory kept (the figure draws 2, rerun 3)."""
 
 
 def tokenizer_runs() -> list[tuple[str, str, dict]]:
@@ -102,12 +105,11 @@ def _train_and_measure_tokenizer(preset: Preset, name: str, options: dict) -> di
     metrics = evaluate_tokenizer(tok, test, seed=preset.seed)
     metrics["train_s"] = result["wall_time_s"]
     metrics["final_loss"] = result["history"]["loss"][-1]
-    # A 2-D view of one latent trajectory (principal components), for the chapter's figure.
+    # One held-out latent trajectory in principal components, for the chapter's figure and
+    # its rerun recording (`tokenizer_latent_recording`).
     with torch.no_grad():
         z = tok.eval()(torch.from_numpy(test[0][None, :VIEW_STEPS])).embeddings[0].numpy()
-    z = z - z.mean(0)
-    _, _, vt = np.linalg.svd(z, full_matrices=False)
-    metrics["latent_view"] = (z @ vt[:2].T).tolist()
+    metrics["latent_view"] = principal_view(z, VIEW_DIMS).tolist()
     return metrics
 
 
@@ -119,12 +121,33 @@ def tokenizer_study(preset: Preset, store: ResultsStore | None = None,
     for label, name, options in tokenizer_runs():
         config = {"chapter": "04", "tokenizer": name, "options": options,
                   "tokenizer_config": dataclasses.asdict(preset.tokenizer),
-                  "seed": preset.seed, "trajectories": _trajectory_config(preset)}
+                  "seed": preset.seed, "trajectories": _trajectory_config(preset),
+                  "latent_view": {"steps": VIEW_STEPS, "dims": VIEW_DIMS}}
         records[label] = store.run(
             "tokenizer", label, config,
             lambda name=name, options=options: _train_and_measure_tokenizer(preset, name, options),
             seed=preset.seed, force=force)["metrics"]
     return records
+
+
+def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict:
+    """Chapter 04: the held-out trajectory of `records["..."]["latent_view"]` through every
+    tokenizer's latent space, as a rerun recording and its static picture.
+
+    Written to `results/<preset>/chapter04/latent_trajectories.{rrd,png}` from the stored
+    views and the trajectory's actions (no tokenizer is retrained); returns their paths.
+    """
+    from icil_paper.recording import record_latent_trajectories
+    from icil_paper.results import results_root
+
+    _, test, _ = tokenizer_trajectories(preset)
+    actions = test[0][:VIEW_STEPS]
+    views = {label: np.asarray(m["latent_view"])[:len(actions)] for label, m in records.items()}
+    title = (f"First {len(actions)} steps of one held-out trajectory in each latent space "
+             "(principal components, each path scaled to unit extent; colour = time)")
+    return record_latent_trajectories(
+        results_root() / preset.name / "chapter04" / "latent_trajectories.rrd", actions, views,
+        title=title)
 
 
 LIPSCHITZ_MODELS = (

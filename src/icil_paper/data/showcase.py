@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+
 def _save_png(path: Path, image: np.ndarray) -> None:
     from matplotlib.image import imsave  # no pyplot: the caller's backend stays as it is
 
