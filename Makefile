@@ -58,14 +58,15 @@ reproduce: setup
 experiments: setup
 	$(BIN)/icil-paper reproduce --preset $(PRESET)
 
-# The execution cache keys on notebook code only, so it is cleared whenever src/, the
-# preset or the results change.
+# The execution cache keys on notebook code only, and Sphinx re-reads only pages whose
+# source changed, so whenever src/, the preset or the results change the cache is cleared
+# and every page is rebuilt (--all); otherwise a page would keep numbers from old results.
 book: setup
 	@mkdir -p $(BOOK_OUT)
-	@if [ "$$(cat $(BOOK_OUT)/.src-hash 2>/dev/null)" != "$(SRC_HASH)" ]; then \
-		echo "src/, the preset or the results changed: clearing the notebook execution cache"; \
-		rm -rf $(BOOK_OUT)/.jupyter_cache; fi
-	$(BIN)/jupyter-book build . --path-output book
+	@all=""; if [ "$$(cat $(BOOK_OUT)/.src-hash 2>/dev/null)" != "$(SRC_HASH)" ]; then \
+		echo "src/, the preset or the results changed: re-executing every chapter"; \
+		rm -rf $(BOOK_OUT)/.jupyter_cache; all="--all"; fi; \
+	$(BIN)/jupyter-book build . --path-output book $$all
 	@echo "$(SRC_HASH)" > $(BOOK_OUT)/.src-hash
 	@echo "Book: $(BOOK_OUT)/html/index.html"
 

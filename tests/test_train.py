@@ -135,3 +135,19 @@ def test_train_cli_writes_run_and_record(tmp_path, demos, monkeypatch):
     table = ResultsStore("smoke").table("train")
     assert list(table["name"]) == ["act+lipvq__synthetic__generated"]
     assert table["steps"].iloc[0] == get_preset("smoke").train.steps
+
+
+def test_default_run_dir_follows_what_training_depends_on(tmp_path, monkeypatch):
+    from icil_paper.train import default_run_dir
+
+    monkeypatch.setenv("ICIL_RUNS", str(tmp_path))
+    preset = get_preset("smoke")
+    run = lambda p: default_run_dir(p, "icrt", "lipvq", ["kitchen/open_drawer"], "generated")
+    base = run(preset)
+    assert base.parent == tmp_path / "smoke"
+    assert base.name.startswith("icrt+lipvq__kitchen-open_drawer__generated__seed0__")
+    assert run(get_preset("smoke")) == base  # stable
+    assert run(preset.replace(eval={"episodes_per_task": 7})) == base  # evaluation only
+    for changed in (preset.replace(train={"steps": 6}), preset.replace(policy={"d_model": 64}),
+                    preset.replace(tokenizer={"codebook_size": 32}), get_preset("smoke", seed=1)):
+        assert run(changed) != base

@@ -23,11 +23,17 @@ VIEW_DIMS = 3
 
 
 def tokenizer_runs() -> list[tuple[str, str, dict]]:
-    """(label, registry name, options): every tokenizer, plus the official code's LipVQ."""
+    """(label, registry name, options): every tokenizer, the official code's LipVQ, and
+    VQ-VAE and LipVQ-VAE with codes initialised from encoder outputs (`codebook_init="data"`,
+    an opt-in remedy for codebook collapse, not the paper's method), so that chapter 04 can
+    tell smoothness that comes from the Lipschitz bound from smoothness that comes from a
+    trajectory that stays on one code."""
     from icil_paper.tokenizers import TOKENIZERS
 
     return [(name, name, {}) for name in TOKENIZERS] + [
-        ("lipvq-official", "lipvq", {"variant": "official"})]
+        ("lipvq-official", "lipvq", {"variant": "official"}),
+        ("vq-data-init", "vq", {"codebook_init": "data"}),
+        ("lipvq-data-init", "lipvq", {"codebook_init": "data"})]
 
 
 def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.ndarray], dict]:

@@ -73,10 +73,20 @@ def suite_of(tasks: Sequence[str]) -> str:
 
 def default_run_dir(preset: Preset, policy: str, tokenizer: str | None, tasks: Sequence[str],
                     source: str) -> Path:
+    """`runs/<preset>/<label>__<tasks>__<source>__seed<seed>__<hash>`.
+
+    The hash covers every preset section a training run depends on (data, tokenizer, policy,
+    train; not eval), so a changed preset trains into a new folder instead of refusing to
+    resume, or overwriting, the run trained under the old one.
+    """
     from icil_paper.policies import policy_label
+    from icil_paper.results import config_hash
 
     tag = suite_of(tasks) if len(tasks) != 1 else tasks[0].replace("/", "-")
-    return runs_root() / preset.name / f"{policy_label(policy, tokenizer)}__{tag}__{source}__seed{preset.seed}"
+    sections = preset.to_dict()
+    key = config_hash({k: sections[k] for k in ("data", "tokenizer", "policy", "train", "seed")})
+    return (runs_root() / preset.name
+            / f"{policy_label(policy, tokenizer)}__{tag}__{source}__seed{preset.seed}__{key[:8]}")
 
 
 def tokenizer_options(name: str, cfg: TokenizerConfig) -> dict[str, Any]:
@@ -468,7 +478,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--obs", choices=("state", "rgb", "rgbd"), default=None,
                    help="observations to learn from (default: the preset's; mcr: rgb)")
     p.add_argument("--run-dir", default=None, help="run folder (default: runs/<preset>/...)")
-    p.add_argument("--no-resume", action="store_true", help="start over even if a checkpoint exists")
+    resume = p.add_mutually_exclusive_group()
+    resume.add_argument("--resume", action="store_true",
+                        help="continue from the run folder's last checkpoint (the default)")
+    resume.add_argument("--no-resume", action="store_true",
+                        help="start over even if a checkpoint exists")
     p.add_argument("--steps", type=int, default=None, help="override preset.train.steps")
     p.add_argument("--device", default=None, help="cpu or cuda (default: cuda when available)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
