@@ -87,7 +87,9 @@ for label, m in records.items():
         "paper least energy": SMOOTHNESS.get(label),
     })
 table = pd.DataFrame(rows).set_index("tokenizer")
-table.style.format(precision=4, na_rep="-")
+formats = {"codebook": "{:,.0f}", "usage": "{:.1%}", "perplexity": "{:.1f}",
+           "tokens/step": "{:.2f}", "encode act/s": "{:,.0f}", "decode act/s": "{:,.0f}"}
+table.style.format({c: formats.get(c, "{:.3g}") for c in table.columns}, na_rep="-")
 
 # %%
 scores = ["least_energy", "least_energy_normalized", "curvature_energy"]
