@@ -48,3 +48,19 @@ def test_latent_recording_rejects_bad_views(tmp_path):
     with pytest.raises(ValueError, match="empty"):
         record_latent_trajectories(tmp_path / "b.rrd", actions, {})
     assert not list(tmp_path.iterdir())  # nothing half-written
+
+
+def test_failed_recording_leaves_only_the_picture(tmp_path, monkeypatch):
+    pytest.importorskip("rerun")
+    import icil_paper.recording as recording
+
+    def fail_midway(path, *args):
+        with recording._rrd_stream(path):
+            raise RuntimeError("disk full")
+
+    monkeypatch.setattr(recording, "_write_latent_rrd", fail_midway)
+    with pytest.warns(UserWarning, match="disk full"):
+        out = record_latent_trajectories(tmp_path / "z.rrd", np.zeros((5, 7)),
+                                         {"a": np.ones((5, 3)) * np.arange(5)[:, None]})
+    assert out["rrd"] is None
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["z.png"]  # no .rrd, no temporary

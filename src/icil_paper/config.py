@@ -257,7 +257,7 @@ def _small() -> Preset:
         policy=PolicyConfig(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
                             max_seq_len=1024, resnet_width=16, mcr_pretrain_steps=100),
         # 1500 steps: ICRT + LipVQ-VAE on kitchen/open_drawer went from 2/10 rollouts at 300
-        # steps to 10/10 at 1500 (about 50 s on one core).
+        # steps to 10/10 at 1500 (about a minute on 2 cores, its evaluation included).
         train=TrainConfig(steps=1500, batch_size=8, warmup_steps=100, ckpt_every=500),
         eval=EvalConfig(episodes_per_task=5, workers=2),
     )

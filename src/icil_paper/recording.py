@@ -69,13 +69,16 @@ def _rrd_stream(path: Path):
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
     rec = rr.RecordingStream("icil_paper", recording_id=uuid.uuid4())
     rec.save(str(tmp))
+    finished = False
     try:
         yield rec
         rec.flush()
-        rec.disconnect()
-        os.replace(tmp, path)
+        finished = True
     finally:
-        if tmp.exists():
+        rec.disconnect()  # close the file on failure too, before it is removed
+        if finished:
+            os.replace(tmp, path)
+        elif tmp.exists():
             tmp.unlink()
 
 
