@@ -9,12 +9,13 @@ import pytest
 import torch
 
 from icil_paper.metrics import (
+    SMOOTHNESS_SCORES,
     codebook_usage,
-    curvature_energy,
     empirical_lipschitz,
     least_energy,
-    least_energy_normalized,
-    smoothness_scores,
+    least_energy_standardized,
+    smoothness_summary,
+    standardized_least_energies,
 )
 
 
@@ -37,58 +38,103 @@ def test_least_energy_accepts_torch_and_short_curves():
     assert least_energy(np.zeros((2, 3))) == 0.0
 
 
-def test_least_energy_grows_with_scale_but_normalized_scores_do_not():
-    rng = np.random.default_rng(0)
-    z = np.cumsum(rng.normal(size=(40, 5)), axis=0)
-    assert least_energy(10 * z) == pytest.approx(100 * least_energy(z))
-    for score in (least_energy_normalized, curvature_energy):
-        assert score(10 * z) == pytest.approx(score(z), rel=1e-9)
-        assert score(1e-3 * z) == pytest.approx(score(z), rel=1e-9)
+def _random_walks(seed=0, n=6, D=5):
+    rng = np.random.default_rng(seed)
+    return [np.cumsum(rng.normal(size=(int(rng.integers(20, 40)), D)), axis=0) for _ in range(n)]
 
 
-def test_normalized_least_energy_range():
-    t = np.arange(30, dtype=float)[:, None]
-    assert least_energy_normalized(t * np.ones((1, 3))) == pytest.approx(0.0, abs=1e-12)
-    zigzag = np.array([(-1.0) ** i for i in range(30)])[:, None]  # reverses every step
-    # Every second difference is 4 (squared 16), every step 2 (squared 4): 16 * 28 / 4.
-    assert least_energy_normalized(zigzag) == pytest.approx(4 * 28)
-    assert least_energy_normalized(zigzag) <= 4 * (30 - 1)
-    assert least_energy_normalized(np.ones((10, 2))) == 0.0  # motionless
+def test_least_energy_grows_with_scale_but_the_standardized_score_does_not():
+    walks = _random_walks()
+    assert least_energy(7.3 * walks[0]) == pytest.approx(7.3**2 * least_energy(walks[0]))
+    scores, sigma = standardized_least_energies(walks)
+    for factor in (7.3, 1e-3, -2.0):
+        scaled, scaled_sigma = standardized_least_energies([factor * z for z in walks])
+        np.testing.assert_allclose(scaled, scores, rtol=1e-10)
+        assert scaled_sigma == pytest.approx(abs(factor) * sigma, rel=1e-12)
 
 
-def test_curvature_energy_of_a_circle_is_four_pi_squared():
-    for radius in (0.01, 1.0, 100.0):
-        angles = np.linspace(0, 2 * np.pi, 2001)
-        circle = radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
-        assert curvature_energy(circle) == pytest.approx(4 * np.pi**2, rel=1e-3)
+def test_standardized_score_ignores_a_shift_of_each_dimension():
+    walks = _random_walks(1)
+    shift = np.array([[100.0, -3.0, 0.0, 5e4, 1.0]])
+    scores, sigma = standardized_least_energies(walks)
+    shifted, shifted_sigma = standardized_least_energies([z + shift for z in walks])
+    np.testing.assert_allclose(shifted, scores, rtol=1e-6)
+    assert shifted_sigma == pytest.approx(sigma, rel=1e-6)
 
 
-def test_curvature_energy_of_a_line_is_zero_and_ignores_repeats():
-    t = np.arange(20, dtype=float)[:, None] * np.array([[1.0, 2.0, -1.0]])
-    assert curvature_energy(t) == pytest.approx(0.0, abs=1e-6)
-    # Repeated points (a quantized latent staying on a code) do not change the score.
-    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
-    repeated = np.repeat(square, 3, axis=0)
-    assert curvature_energy(repeated) == pytest.approx(curvature_energy(square))
-    # Two right-angle turns on unit segments: L * sum theta^2 / l = 3 * 2 * (pi/2)^2.
-    assert curvature_energy(square) == pytest.approx(3 * 2 * (np.pi / 2) ** 2)
+def test_standardized_score_is_least_energy_over_the_squared_set_scale():
+    walks = _random_walks(2)
+    scores, sigma = standardized_least_energies(walks)
+    values = np.concatenate(walks)
+    assert sigma == pytest.approx(np.sqrt(np.mean(np.var(values, axis=0))))
+    for z, score in zip(walks, scores, strict=True):
+        assert score == pytest.approx(least_energy(z) / sigma**2)
+        assert least_energy_standardized(z, sigma) == pytest.approx(score)
+        assert least_energy_standardized(z, 1.0) == least_energy(z)
+    # One array (N, T, D) and a torch tensor give the same as a list.
+    stacked = np.stack([z[:20] for z in walks])
+    from_array = standardized_least_energies(stacked)
+    from_tensor = standardized_least_energies(torch.from_numpy(stacked))
+    from_list = standardized_least_energies(list(stacked))
+    np.testing.assert_allclose(from_array[0], from_list[0])
+    np.testing.assert_allclose(from_tensor[0], from_list[0])
+    assert from_array[1] == from_list[1] == from_tensor[1]
 
 
-def test_curvature_energy_prefers_gentle_curves():
-    angles = np.linspace(0, np.pi / 2, 50)
-    arc = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    rng = np.random.default_rng(0)
-    jittery = arc + 0.02 * rng.normal(size=arc.shape)
-    assert curvature_energy(jittery) > 10 * curvature_energy(arc)
+def _steps(T, jumps, height=1.0):
+    """A one-dimensional piecewise-constant curve alternating 0, h, 0, ... with isolated jumps."""
+    z = np.zeros(T)
+    for k, t in enumerate(np.linspace(0, T, jumps + 2)[1:-1].astype(int)):
+        z[t:] = height * ((k + 1) % 2)
+    return z
+
+
+def test_piecewise_constant_curves_with_more_jumps_score_higher():
+    one, three = _steps(40, 1), _steps(40, 3)
+    assert np.count_nonzero(np.diff(one)) == 1 and np.count_nonzero(np.diff(three)) == 3
+    (s1, s3), sigma = standardized_least_energies([one, three])
+    # An isolated jump of height h has second differences +h and -h: 2 h^2 per jump.
+    assert s1 == pytest.approx(2 / sigma**2) and s3 == pytest.approx(3 * s1)
+    # Bigger jumps of the same number and the same set scale: the same scores.
+    (b1, b3), _ = standardized_least_energies([5 * one, 5 * three])
+    assert (b1, b3) == (pytest.approx(s1), pytest.approx(s3))
+
+
+def test_no_spread_scores_zero():
+    scores, sigma = standardized_least_energies([np.full((10, 3), 2.5)])
+    assert sigma == 0.0 and scores.tolist() == [0.0]
+    assert least_energy_standardized(np.ones((5, 2)), 0.0) == 0.0
+    with pytest.raises(ValueError, match="scale 0 given for a trajectory that moves"):
+        least_energy_standardized(_steps(10, 1), 0.0)
+
+
+def test_smoothness_summary_reports_raw_standardized_and_scale():
+    walks = _random_walks(3)
+    summary = smoothness_summary(walks)
+    scores, sigma = standardized_least_energies(walks)
+    assert summary == {"least_energy": pytest.approx(np.mean([least_energy(z) for z in walks])),
+                       "least_energy_standardized": pytest.approx(scores.mean()),
+                       "latent_scale": pytest.approx(sigma)}
+    assert smoothness_summary(iter(walks)) == summary  # a one-pass iterable is enough
+    assert set(SMOOTHNESS_SCORES) == {"least_energy"}  # per-trajectory scores only
 
 
 def test_smoothness_scores_bad_input():
     with pytest.raises(ValueError, match="shaped"):
         least_energy(np.zeros((2, 3, 4)))
     with pytest.raises(ValueError, match="NaN"):
-        curvature_energy(np.array([[0.0], [np.nan], [1.0]]))
-    assert set(smoothness_scores(np.random.default_rng(0).normal(size=(8, 2)))) == {
-        "least_energy", "least_energy_normalized", "curvature_energy"}
+        least_energy(np.array([[0.0], [np.nan], [1.0]]))
+    with pytest.raises(ValueError, match="NaN"):
+        standardized_least_energies([np.zeros((4, 2)), np.array([[0.0, np.inf]] * 3)])
+    with pytest.raises(ValueError, match="share their width D, got \\[2, 3\\]"):
+        standardized_least_energies([np.zeros((4, 2)), np.zeros((4, 3))])
+    with pytest.raises(ValueError, match=r"\(N, T, D\), got an array shaped \(4, 2\)"):
+        standardized_least_energies(np.zeros((4, 2)))
+    with pytest.raises(ValueError, match="no latent trajectories"):
+        standardized_least_energies([])
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="latent scale must be a finite number"):
+            least_energy_standardized(np.zeros((4, 2)), bad)
 
 
 def test_codebook_usage_and_perplexity():

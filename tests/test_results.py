@@ -2,6 +2,7 @@ import json
 import os
 import warnings
 
+import numpy as np
 import pytest
 
 from icil_paper.results import (
@@ -120,3 +121,184 @@ def test_benchmark_records_carry_provenance(tmp_path):
     assert record["benchmark"] == "probe" and record["rate"] == 1.5
     assert {"git", "packages", "host", "load_average_1min"} <= set(record)
     assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
+
+
+# ---------------------------------------------------------------- reliability (issue 13)
+
+def _corrupt(path):
+    path.write_text(path.read_text()[:40])
+
+
+def test_corruptions_within_one_second_are_all_kept(tmp_path, monkeypatch):
+    import datetime as dt
+
+    from icil_paper import results
+
+    class Frozen(dt.datetime):
+        @classmethod
+        def now(cls, tz=None):
+            return dt.datetime(2025, 1, 2, 3, 4, 5, 678, tzinfo=tz)
+
+    monkeypatch.setattr(results, "datetime", Frozen)
+    store = ResultsStore("smoke", root=tmp_path)
+    path = store.path_for("k", "n", config_hash(CONFIG))
+    damaged = []
+    for value in (1, 2, 3):
+        store.run("k", "n", CONFIG, lambda v=value: {"value": v}, force=True)
+        _corrupt(path)
+        damaged.append(path.read_text())
+        with pytest.warns(CorruptRecordWarning):
+            assert store.get("k", "n", CONFIG) is None
+    kept = sorted(path.parent.glob("*.corrupt-*"))
+    assert len(kept) == 3, [p.name for p in kept]
+    assert sorted(p.read_text() for p in kept) == sorted(damaged)
+
+
+def _racing_read(monkeypatch, before=None, after=None):
+    """Run `before(path)` / `after(path)` around every record read, as another process might."""
+    from icil_paper import results
+
+    real = results._read_record
+
+    def read(path, *args, **kwargs):
+        if before:
+            before(path)
+        out = real(path, *args, **kwargs)
+        if after:
+            after(path)
+        return out
+
+    monkeypatch.setattr(results, "_read_record", read)
+
+
+def _other_process_sets_aside(path):
+    if path.exists():
+        os.replace(path, path.with_name(path.name + ".corrupt-by-other"))
+
+
+@pytest.mark.parametrize("when", ["after", "before"])
+def test_losing_the_race_to_set_aside_a_corrupt_record_is_harmless(tmp_path, monkeypatch, when):
+    store = ResultsStore("smoke", root=tmp_path)
+    store.run("k", "n", CONFIG, lambda: {"value": 1})
+    path = store.path_for("k", "n", config_hash(CONFIG))
+    _corrupt(path)
+    damaged = path.read_text()
+    _racing_read(monkeypatch, **{when: _other_process_sets_aside})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the winner reported it; the loser stays quiet
+        assert store.get("k", "n", CONFIG) is None
+    assert not path.exists()
+    [kept] = path.parent.glob("*.corrupt-*")
+    assert kept.read_text() == damaged
+    # records() lists the folder first, then reads: the same race there.
+    store.run("k", "n", CONFIG, lambda: {"value": 2})
+    _corrupt(path)
+    assert store.records("k") == []
+
+
+def test_a_fresh_record_written_meanwhile_is_not_set_aside(tmp_path, monkeypatch):
+    store = ResultsStore("smoke", root=tmp_path)
+    store.run("k", "n", CONFIG, lambda: {"value": 1})
+    path = store.path_for("k", "n", config_hash(CONFIG))
+    _corrupt(path)
+    other = ResultsStore("smoke", root=tmp_path)
+
+    def other_process_recomputes(p):
+        _other_process_sets_aside(p)
+        other.write("k", "n", CONFIG, {"value": 2}, seed=0, wall_time_s=0.0)
+
+    _racing_read(monkeypatch, after=other_process_recomputes)
+    store.get("k", "n", CONFIG)
+    monkeypatch.undo()
+    assert store.get("k", "n", CONFIG)["metrics"]["value"] == 2
+
+
+def test_threads_reading_one_corrupt_record_never_crash(tmp_path):
+    import threading
+
+    store = ResultsStore("smoke", root=tmp_path)
+    path = store.path_for("k", "n", config_hash(CONFIG))
+    errors = []
+
+    def read(barrier):
+        barrier.wait()
+        try:
+            assert store.get("k", "n", CONFIG) is None
+        except BaseException as exc:  # collected and reported below
+            errors.append(exc)
+
+    for _ in range(10):
+        store.run("k", "n", CONFIG, lambda: {"value": 1}, force=True)
+        _corrupt(path)
+        barrier = threading.Barrier(6)
+        threads = [threading.Thread(target=read, args=(barrier,)) for _ in range(6)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", CorruptRecordWarning)
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+    assert not errors, errors
+    assert len(list(path.parent.glob("*.corrupt-*"))) == 10
+    assert not list(path.parent.glob(".*.tmp"))
+
+
+@pytest.mark.parametrize("bad", [
+    {"value": float("nan")},
+    {"per_task": [0.5, float("inf")]},
+    {"nested": {"success": [{"rate": float("-inf")}]}},
+])
+def test_a_stored_non_finite_metric_is_a_corrupt_record(tmp_path, bad):
+    store = ResultsStore("smoke", root=tmp_path)
+    store.run("k", "n", CONFIG, lambda: {"value": 1})
+    path = store.path_for("k", "n", config_hash(CONFIG))
+    record = json.loads(path.read_text())
+    record["metrics"] = bad
+    path.write_text(json.dumps(record))  # json writes NaN and Infinity; the store refuses them
+    with pytest.warns(CorruptRecordWarning, match="metric .* is (nan|inf|-inf)"):
+        assert store.get("k", "n", CONFIG) is None
+    assert list(path.parent.glob("*.corrupt-*"))
+
+
+@pytest.mark.parametrize("bad,where", [
+    ({"per_task": [0.5, float("nan")]}, r"'per_task'\[1\]"),
+    ({"by_task": {"drawer": {"rate": float("inf")}}}, r"'by_task'\['drawer'\]\['rate'\]"),
+    ({"rates": np.array([0.1, float("nan")])}, r"'rates'\[1\]"),
+    ({"rate": np.float32("nan")}, "'rate'"),
+])
+def test_write_refuses_nested_non_finite_metrics(tmp_path, bad, where):
+    store = ResultsStore("smoke", root=tmp_path)
+    with pytest.raises(ValueError, match=f"metric {where} is .*non-finite"):
+        store.write("k", "n", CONFIG, bad, seed=0, wall_time_s=0.0)
+    assert not (tmp_path / "smoke").exists()
+    store.write("k", "n", CONFIG, {"ok": [1, 2.5, {"x": None}], "flag": True}, 0, 0.0)
+
+
+@pytest.mark.parametrize("value", ["", "  "])
+def test_empty_results_variable_counts_as_unset(monkeypatch, value):
+    from icil_paper.provenance import REPO_ROOT
+    from icil_paper.results import results_root
+
+    monkeypatch.setenv("ICIL_RESULTS", value)
+    assert results_root() == REPO_ROOT / "results"
+    assert ResultsStore("small").dir == REPO_ROOT / "results" / "small"
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o002, 0o077])
+def test_atomic_writes_get_the_usual_file_mode(tmp_path, umask):
+    import stat
+
+    from icil_paper.results import atomic_write_bytes
+
+    old = os.umask(umask)
+    try:
+        path = tmp_path / "r.bin"
+        atomic_write_bytes(path, b"data")
+        atomic_write_json(tmp_path / "r.json", {"a": 1})
+        atomic_write_bytes(path, b"again")  # replacing keeps the usual mode too
+    finally:
+        os.umask(old)
+    for p in (path, tmp_path / "r.json"):
+        assert stat.S_IMODE(p.stat().st_mode) == 0o666 & ~umask, oct(p.stat().st_mode)
+    assert path.read_bytes() == b"again"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.bin", "r.json"]

@@ -8,16 +8,31 @@ an action trajectory (Table III; Horn 1983), computed in its code as
 the energy of the discrete second difference (acceleration): 0 for a constant-velocity
 line, larger the more the curve bends or changes speed. It scales with the square of the
 latent scale: 10 z scores 100 times z. A Lipschitz bound shrinks the latent scale, so part
-of a low least energy can be scale rather than shape. Two scale-free scores separate the
-two (both give z and 10 z the same value):
+of a low least energy can be scale rather than shape.
 
-- `least_energy_normalized`: the least energy of the curve rescaled to unit mean squared
-  step length (it changes speed/direction relative to how far it moves per step);
-- `curvature_energy`: Horn's discrete curve energy, squared turning angles over segment
-  lengths, times the curve's length (a dimensionless bending energy).
+`least_energy_standardized` removes the scale: it is the least energy of z / sigma, where
+sigma is the latent scale of the whole evaluation set, the pooled standard deviation of
+every latent value (all trajectories, steps and dimensions) about its dimension's mean:
 
-Every function accepts a NumPy array or a torch tensor shaped (T, D), or (T,) for a single
-dimension, and returns a Python float.
+    sigma^2 = mean over trajectories, steps t and dimensions d of (z[t, d] - mean_d)^2
+    least_energy_standardized(z) = least_energy(z) / sigma^2
+
+Multiplying every latent by a constant leaves it unchanged, and so does shifting a
+dimension by a constant (second differences and deviations from the mean ignore both).
+Because sigma is one number for the set, not one per trajectory, a curve that jumps three
+times scores three times one that jumps once between the same values: it measures how much
+the curve accelerates relative to how far the latents spread, which is what a comparison
+across tokenizers needs. `standardized_least_energies` computes sigma over a set and every
+trajectory's score.
+
+Two earlier scale-free scores were retired because they fail as comparisons: the least
+energy divided by each trajectory's mean squared step is exactly 2 (T - 1) for any
+piecewise-constant latent with isolated jumps, whatever their number or size, so it cannot
+rank quantised tokenizers; and a turning-angle curvature energy is dominated by tiny
+jitter of continuous latents.
+
+Every per-trajectory function accepts a NumPy array or a torch tensor shaped (T, D), or
+(T,) for a single dimension.
 """
 
 from __future__ import annotations
@@ -55,81 +70,82 @@ def least_energy(z) -> float:
     return float(np.sum(accel**2))
 
 
-def least_energy_normalized(z) -> float:
-    """Least energy of z rescaled to unit mean squared step length; scale-free.
+def _latent_scale(curves: list[np.ndarray]) -> float:
+    """Pooled standard deviation of the latent values about each dimension's mean."""
+    values = np.concatenate(curves, axis=0)  # (sum of T, D)
+    return float(np.sqrt(np.mean((values - values.mean(axis=0)) ** 2)))
 
-        least_energy(z) / mean_t ||z[t+1] - z[t]||^2
 
-    Why the mean squared step length: a second difference measures how much a step differs
-    from the previous one, so the natural unit to measure it in is the step itself. Dividing
-    by the mean squared step removes the latent scale (z -> s z multiplies both by s^2)
-    and keeps what a smoothness score should see: changes of direction and speed relative
-    to the motion. Normalizing by the variance of z instead would reward a curve that moves
-    in tiny jittery steps inside a wide range. The score is 0 for uniform motion along a
-    line and, since ||d2 - d1||^2 <= 2 ||d1||^2 + 2 ||d2||^2, at most 4 (T - 1) (a curve that
-    reverses at every step). A motionless curve (all steps zero) scores 0.
+def least_energy_standardized(z, scale: float) -> float:
+    """Least energy of z / scale: least_energy(z) / scale^2, for z (T, D) and a set's scale.
+
+    `scale` is the latent scale sigma of the evaluation set z belongs to (see
+    `standardized_least_energies`, which computes it). With scale 1 this is the paper's
+    least energy. A scale of 0 means no latent of the set moves: the score is then 0.
     """
-    z = _as_curve(z)
-    if len(z) < 3:
+    scale = float(scale)
+    if not math.isfinite(scale) or scale < 0:
+        raise ValueError(f"the latent scale must be a finite number >= 0, got {scale}")
+    energy = least_energy(z)
+    if scale == 0.0:
+        if energy > 0.0:
+            raise ValueError("latent scale 0 given for a trajectory that moves; the scale must "
+                             "be the spread of a set that includes it")
         return 0.0
-    steps = np.diff(z, axis=0)
-    mean_sq_step = float(np.mean(np.sum(steps**2, axis=1)))
-    if mean_sq_step <= 1e-300:
-        return 0.0
-    return least_energy(z) / mean_sq_step
+    return energy / scale**2
 
 
-def _distinct_points(z: np.ndarray, rel_tol: float = 1e-7) -> np.ndarray:
-    """Drop points that repeat their predecessor (up to rel_tol times the curve's extent)."""
-    extent = float(np.max(np.abs(z - z[0]))) if len(z) else 0.0
-    if extent == 0.0:
-        return z[:1]
-    keep = [0]
-    for i in range(1, len(z)):
-        if np.max(np.abs(z[i] - z[keep[-1]])) > rel_tol * extent:
-            keep.append(i)
-    return z[keep]
+def _curve_set(trajectories) -> list[np.ndarray]:
+    """A set of latent trajectories -> list of float64 (T_i, D) arrays of one width D."""
+    if hasattr(trajectories, "detach"):
+        trajectories = trajectories.detach().cpu().numpy()
+    if isinstance(trajectories, np.ndarray) and trajectories.ndim != 3:
+        raise ValueError("a set of latent trajectories must be a sequence of (T, D) arrays or "
+                         f"one array (N, T, D), got an array shaped {trajectories.shape}")
+    curves = [_as_curve(z) for z in trajectories]
+    if not curves:
+        raise ValueError("no latent trajectories to score")
+    widths = sorted({c.shape[1] for c in curves})
+    if len(widths) > 1:
+        raise ValueError(f"latent trajectories of one set must share their width D, got {widths}")
+    return curves
 
 
-def curvature_energy(z) -> float:
-    """Horn's discrete curve energy, made scale-free: L * sum_i theta_i^2 / l_i.
+def standardized_least_energies(trajectories) -> tuple[np.ndarray, float]:
+    """Every trajectory's standardized least energy and the set's latent scale sigma.
 
-    For a polygon through the latent points, theta_i is the turning angle at vertex i (the
-    angle between the incoming and outgoing segments) and l_i = (|s_{i-1}| + |s_i|) / 2 the
-    length the vertex stands for; theta_i / l_i is the discrete curvature, so
-    sum_i theta_i^2 / l_i approximates Horn's (1983) energy, the integral of squared
-    curvature along the curve. That integral has units of 1 / length (a circle of radius r
-    has 2 pi / r), so it is multiplied by the polygon's total length L to be scale-free:
-    z and 10 z give the same value, a straight line 0, a full circle 4 pi^2 whatever its
-    radius. Turning angles are taken in D dimensions as 2 atan2(|a - b|, |a + b|) for the
-    unit segment directions a and b (accurate for small and large angles).
-
-    Repeated consecutive points (a quantized latent often stays on one code for several
-    steps) have no direction; they are merged first, so only the path between distinct
-    latents counts. Fewer than 3 distinct points score 0.
+    trajectories: a sequence of latent trajectories (T_i, D) (lengths may differ, the width
+    D may not), or one array (N, T, D). Returns (scores (N,), sigma), sigma the pooled
+    standard deviation of all latent values about each dimension's mean. A set with no
+    spread (sigma 0) scores 0 throughout.
     """
-    points = _distinct_points(_as_curve(z))
-    if len(points) < 3:
-        return 0.0
-    seg = np.diff(points, axis=0)  # (n-1, D)
-    lengths = np.linalg.norm(seg, axis=1)  # (n-1,)
-    unit = seg / lengths[:, None]
-    a, b = unit[:-1], unit[1:]
-    theta = 2 * np.arctan2(np.linalg.norm(a - b, axis=1), np.linalg.norm(a + b, axis=1))
-    vertex_length = 0.5 * (lengths[:-1] + lengths[1:])
-    return float(np.sum(theta**2 / vertex_length) * lengths.sum())
+    curves = _curve_set(trajectories)
+    sigma = _latent_scale(curves)
+    if sigma <= 1e-300:
+        return np.zeros(len(curves)), 0.0
+    return np.array([least_energy(c) / sigma**2 for c in curves]), sigma
 
 
 SMOOTHNESS_SCORES: dict[str, Callable] = {
     "least_energy": least_energy,
-    "least_energy_normalized": least_energy_normalized,
-    "curvature_energy": curvature_energy,
 }
+"""Smoothness scores defined on one trajectory alone (the standardized score needs the set's
+scale: use `smoothness_summary` or `standardized_least_energies`)."""
 
 
-def smoothness_scores(z) -> dict[str, float]:
-    """All three smoothness scores of one latent trajectory z (T, D)."""
-    return {name: fn(z) for name, fn in SMOOTHNESS_SCORES.items()}
+def smoothness_summary(trajectories) -> dict[str, float]:
+    """Mean raw and standardized least energy of a set of latent trajectories, and its scale.
+
+    Returns `least_energy` (the paper's score, mean over trajectories),
+    `least_energy_standardized` (mean over trajectories) and `latent_scale` (sigma): the
+    three numbers to show wherever smoothness is shown.
+    """
+    curves = _curve_set(trajectories)
+    scores, sigma = standardized_least_energies(curves)
+    raw = [least_energy(z) for z in curves]
+    return {"least_energy": float(np.mean(raw)),
+            "least_energy_standardized": float(np.mean(scores)),
+            "latent_scale": sigma}
 
 
 def codebook_usage(ids, codebook_size: int) -> dict[str, float]:

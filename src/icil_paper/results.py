@@ -3,8 +3,11 @@
 Each record carries its config, config hash, seed, git commit, package versions, host, wall
 time and metrics. Records are written atomically (temporary file, then rename), so a crash
 never leaves half a record and a failed run never overwrites a good one. A run whose config
-hash already has a valid record is skipped unless forced; a corrupt record is reported,
-moved aside (never deleted) and recomputed.
+hash already has a valid record is skipped unless forced; a corrupt record (unreadable,
+incomplete, tampered with, or holding a NaN or infinite metric) is reported, moved aside
+under a name no other file has (never deleted, never overwriting an earlier one) and
+recomputed. Several processes may read the store at once: when two of them find the same
+corrupt record, one sets it aside and the other treats it as missing.
 
     store = ResultsStore("small")
     record = store.run("tokenizer", "lipvq", config, lambda: {"recon_mse": 0.01})
@@ -16,7 +19,9 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import numbers
 import os
+import stat
 import tempfile
 import time
 import warnings
@@ -38,10 +43,15 @@ class CorruptRecordWarning(UserWarning):
 
 
 def results_root() -> Path:
-    """Root of the store: $ICIL_RESULTS, else `results/` in the repository."""
+    """Root of the store: $ICIL_RESULTS, else `results/` in the repository.
+
+    An empty (or blank) $ICIL_RESULTS counts as unset: it would otherwise put the store in
+    whatever folder the command happens to run from.
+    """
     from icil_paper.provenance import REPO_ROOT
 
-    return Path(os.environ.get(RESULTS_ENV_VAR, REPO_ROOT / "results"))
+    value = os.environ.get(RESULTS_ENV_VAR, "").strip()
+    return Path(value) if value else REPO_ROOT / "results"
 
 
 def canonical_json(obj: Any) -> str:
@@ -64,12 +74,32 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON serializable")
 
 
+def _umask() -> int:
+    """The process umask, read without changing it where the system allows."""
+    try:
+        with open("/proc/self/status") as f:  # Linux: no window with a different umask
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write `data` to `path` through a temporary file in the same folder and a rename."""
+    """Write `data` to `path` through a temporary file in the same folder and a rename.
+
+    The file gets the mode an ordinary `open(path, "w")` would give it (0o666 minus the
+    umask), not the 0o600 of the temporary file; it is set before the rename, so the file
+    appears complete and with its final mode at once.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.chmod(tmp, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
@@ -105,13 +135,14 @@ class ResultsStore:
         """The valid record of this run, or None (a corrupt one is reported and set aside)."""
         chash = config_hash(config)
         path = self.path_for(kind, name, chash)
-        if not path.exists():
+        try:
+            record, problem, identity = _read_record(path)
+        except FileNotFoundError:  # never written, or set aside by another process meanwhile
             return None
-        record, problem = _read_record(path)
         if problem is None and record["config_hash"] != chash:
             problem = f"config hash {record['config_hash']} does not match {chash}"
         if problem is not None:
-            self._set_aside(path, problem)
+            self._set_aside(path, problem, identity)
             return None
         return record
 
@@ -166,9 +197,12 @@ class ResultsStore:
         pattern = f"{_slug(kind)}/*.json" if kind else "*/*.json"
         records = []
         for path in sorted(self.dir.glob(pattern)):
-            record, problem = _read_record(path)
+            try:
+                record, problem, identity = _read_record(path)
+            except FileNotFoundError:  # set aside by another process since the listing
+                continue
             if problem is not None:
-                self._set_aside(path, problem)
+                self._set_aside(path, problem, identity)
                 continue
             records.append(record)
         return records
@@ -186,33 +220,114 @@ class ResultsStore:
             rows.append(row)
         return pd.DataFrame(rows)
 
-    def _set_aside(self, path: Path, problem: str) -> None:
-        stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-        aside = path.with_name(f"{path.name}.corrupt-{stamp}")
-        os.replace(path, aside)
+    def _set_aside(self, path: Path, problem: str, identity: tuple[int, int] | None) -> None:
+        """Move the corrupt file read as `identity` (device, inode) to a new, unique name.
+
+        Nothing happens when the file is gone (another process set it aside first) or is no
+        longer the file that was read (another process replaced it with a fresh record:
+        atomic writes always give a new inode).
+        """
+        try:
+            st = os.stat(path)
+        except FileNotFoundError:
+            return
+        if identity is not None and (st.st_dev, st.st_ino) != identity:
+            return
+        is_dir = stat.S_ISDIR(st.st_mode)
+        aside = _reserve_aside_name(path, is_dir)
+        try:
+            os.replace(path, aside)
+        except BaseException as exc:
+            (aside.rmdir if is_dir else aside.unlink)()
+            if isinstance(exc, FileNotFoundError):  # lost the race to another process
+                return
+            raise
         warnings.warn(f"corrupt result {path}: {problem}; moved to {aside.name} and it will "
                       "be recomputed", CorruptRecordWarning, stacklevel=3)
 
 
-def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None]:
+def _reserve_aside_name(path: Path, is_dir: bool = False) -> Path:
+    """Create, exclusively, an empty `<name>.corrupt-<time>[-k]` beside `path`.
+
+    The time has microseconds, and a name already taken gets the next free suffix; the
+    exclusive create makes the name this caller's alone, so a set-aside file is never
+    overwritten, not even by another process in the same microsecond. (An empty folder is
+    reserved for a folder, since only that can be replaced by one.)
+    """
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
+    for k in range(1, 10_000):
+        aside = path.with_name(f"{path.name}.corrupt-{stamp}" + (f"-{k}" if k > 1 else ""))
+        try:
+            if is_dir:
+                os.mkdir(aside)
+            else:
+                with open(aside, "x"):
+                    pass
+            return aside
+        except FileExistsError:
+            continue
+    raise RuntimeError(f"no free name to set {path} aside under")  # pragma: no cover
+
+
+def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,
+                                      tuple[int, int] | None]:
+    """(record, None, identity) for a valid record, (None, problem, identity) otherwise.
+
+    identity is the (device, inode) of the file that was read. FileNotFoundError
+    propagates: a missing record is not a corrupt one.
+    """
+    identity = None
     try:
-        record = json.loads(path.read_text())
+        with open(path, "rb") as f:
+            st = os.fstat(f.fileno())
+            identity = (st.st_dev, st.st_ino)
+            record = json.loads(f.read().decode())
+    except FileNotFoundError:
+        raise
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        return None, f"unreadable JSON ({exc})"
+        return None, f"unreadable JSON ({exc})", identity
     if not isinstance(record, dict):
-        return None, "not a JSON object"
+        return None, "not a JSON object", identity
     missing = [k for k in REQUIRED_KEYS if k not in record]
     if missing:
-        return None, f"missing keys {missing}"
+        return None, f"missing keys {missing}", identity
     if record["schema"] != SCHEMA_VERSION:
-        return None, f"schema {record['schema']} is not {SCHEMA_VERSION}"
+        return None, f"schema {record['schema']} is not {SCHEMA_VERSION}", identity
     if config_hash(record["config"]) != record["config_hash"]:
-        return None, "its config does not hash to its config_hash"
-    return record, None
+        return None, "its config does not hash to its config_hash", identity
+    if not isinstance(record["metrics"], dict):
+        return None, "its metrics are not a JSON object", identity
+    bad = _non_finite(record["metrics"])
+    if bad is not None:
+        return None, f"metric {bad[0]} is {bad[1]} (a stored metric must be finite)", identity
+    return record, None, identity
+
+
+def _non_finite(value: Any, where: str = "") -> tuple[str, float] | None:
+    """(location, value) of the first NaN or infinite number in nested dicts/lists, or None.
+
+    Locations read like `per_task[3]['success']`.
+    """
+    if hasattr(value, "tolist") and not isinstance(value, numbers.Number):
+        value = value.tolist()  # numpy arrays, torch tensors
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            found = _non_finite(item, f"{where}[{key!r}]" if where else repr(key))
+            if found is not None:
+                return found
+    elif isinstance(value, (list, tuple)):
+        for i, item in enumerate(value):
+            found = _non_finite(item, f"{where}[{i}]")
+            if found is not None:
+                return found
+    elif isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral):
+        if not math.isfinite(float(value)):
+            return where, float(value)
+    return None
 
 
 def _check_finite_metrics(metrics: Mapping[str, Any]) -> None:
-    for key, value in metrics.items():
-        if isinstance(value, float) and not math.isfinite(value):
-            raise ValueError(f"metric {key!r} is {value}; a result with a non-finite metric "
-                             "is not stored (fix the run, or store None explicitly)")
+    bad = _non_finite(dict(metrics))
+    if bad is not None:
+        raise ValueError(f"metric {bad[0]} is {bad[1]}; a result with a non-finite metric "
+                         "is not stored (fix the run, or store None explicitly)")

@@ -1,0 +1,269 @@
+"""Intervals that cover, paired differences that pair, and the verdict rule."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+import pytest
+
+from icil_paper.stats import (
+    Z_95,
+    Estimate,
+    mean_samples,
+    paired_difference,
+    rank_correlation_interval,
+    score_success_correlation,
+    success_rate,
+    success_rate_samples,
+    verdict,
+    wilson_interval,
+)
+
+
+def _simulate(rng, task_rates, seeds, episodes, seed_spread=0.0):
+    """Outcomes (seeds, tasks, episodes); each seed shifts every task's rate by U(-s, s)."""
+    rates = np.asarray(task_rates)[None, :] + rng.uniform(-seed_spread, seed_spread, (seeds, 1))
+    rates = np.clip(rates, 0.0, 1.0)
+    return rng.random((seeds, len(task_rates), episodes)) < rates[:, :, None]
+
+
+# ---------------------------------------------------------------------------------- wilson
+
+@pytest.mark.parametrize("k,n", [(0, 10), (3, 10), (5, 10), (10, 10), (17, 40)])
+def test_wilson_endpoints_solve_the_score_equation(k, n):
+    low, high = wilson_interval(k, n)
+    p = k / n
+    assert 0.0 <= low <= p <= high <= 1.0
+    # Each endpoint p0 inside (0, 1) satisfies |p - p0| = z sqrt(p0 (1 - p0) / n).
+    for p0 in (low, high):
+        if 1e-12 < p0 < 1 - 1e-12:
+            assert abs(p - p0) == pytest.approx(Z_95 * math.sqrt(p0 * (1 - p0) / n), rel=1e-9)
+
+
+def test_wilson_without_episodes_is_uninformative():
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+
+
+def test_one_seed_one_task_uses_wilson():
+    outcomes = np.array([[[True] * 3 + [False] * 7]])
+    est = success_rate(outcomes)
+    assert (est.low, est.high) == wilson_interval(3, 10)
+    assert est.value == pytest.approx(0.3) and est.n == 10 and "wilson" in est.method
+
+
+# -------------------------------------------------------------------------------- coverage
+
+@pytest.mark.parametrize("seeds,tasks,episodes,seed_spread", [
+    (1, 1, 30, 0.0),     # Wilson
+    (1, 11, 10, 0.0),    # stratified bootstrap
+    (3, 11, 10, 0.1),    # hierarchical bootstrap, seeds that differ
+])
+def test_intervals_cover_the_true_rate(seeds, tasks, episodes, seed_spread):
+    rng = np.random.default_rng(123)
+    task_rates = np.linspace(0.15, 0.85, tasks) if tasks > 1 else np.array([0.35])
+    truth = float(task_rates.mean())  # seed shifts have mean zero and never clip here
+    covered, widths = 0, []
+    for i in range(200):
+        est = success_rate(_simulate(rng, task_rates, seeds, episodes, seed_spread),
+                           n_boot=400, rng_seed=i)
+        covered += est.low <= truth <= est.high
+        widths.append(est.high - est.low)
+    assert 0.88 <= covered / 200 <= 0.995, covered
+    assert np.mean(widths) < 0.5  # informative, not just [0, 1]
+
+
+def test_more_episodes_narrow_the_interval():
+    rng = np.random.default_rng(0)
+    few = success_rate(_simulate(rng, [0.3, 0.6, 0.5], 1, 10))
+    many = success_rate(_simulate(rng, [0.3, 0.6, 0.5], 1, 200))
+    assert many.high - many.low < 0.5 * (few.high - few.low)
+
+
+# ----------------------------------------------------------------- value, determinism, speed
+
+def test_tasks_weigh_equally_and_seeds_average():
+    outcomes = np.zeros((2, 3, 4), dtype=bool)
+    outcomes[0, 0] = True  # seed 0: task 0 always succeeds -> 1/3
+    outcomes[1, :, :2] = True  # seed 1: every task half -> 1/2
+    assert success_rate(outcomes).value == pytest.approx((1 / 3 + 1 / 2) / 2)
+    assert success_rate(outcomes.astype(int)).value == success_rate(outcomes).value
+
+
+def test_bootstrap_is_deterministic_given_rng_seed():
+    outcomes = _simulate(np.random.default_rng(1), np.linspace(0.2, 0.8, 11), 3, 10, 0.1)
+    a = success_rate(outcomes, rng_seed=7)
+    assert a == success_rate(outcomes, rng_seed=7)
+    assert a != success_rate(outcomes, rng_seed=8)
+    assert np.array_equal(success_rate_samples(outcomes, rng_seed=7),
+                          success_rate_samples(outcomes, rng_seed=7))
+    b = _simulate(np.random.default_rng(2), np.linspace(0.2, 0.8, 11), 1, 10)
+    assert paired_difference(outcomes, b, rng_seed=3) == paired_difference(outcomes, b, rng_seed=3)
+
+
+def test_two_thousand_resamples_are_fast():
+    outcomes = _simulate(np.random.default_rng(0), np.linspace(0.1, 0.9, 11), 3, 10, 0.1)
+    success_rate(outcomes, n_boot=2000)  # warm-up (imports)
+    start = time.perf_counter()
+    success_rate(outcomes, n_boot=2000)
+    paired_difference(outcomes, outcomes[:1], n_boot=2000)
+    assert time.perf_counter() - start < 0.5
+
+
+def test_estimate_round_trips_through_json():
+    est = success_rate(_simulate(np.random.default_rng(0), [0.5, 0.4], 2, 8))
+    d = json.loads(json.dumps(est.to_dict()))
+    assert set(d) == {"value", "low", "high", "n", "method"}
+    assert Estimate.from_dict(d) == est
+    assert est.low <= est.value <= est.high and est.n == 2 * 2 * 8
+    with pytest.raises(ValueError, match="reversed"):
+        Estimate(0.5, 0.6, 0.4, 10, "x")
+    with pytest.raises(ValueError, match="finite"):
+        Estimate(float("nan"), 0.0, 1.0, 10, "x")
+    with pytest.raises(AttributeError):
+        est.value = 1.0  # frozen
+
+
+# ------------------------------------------------------------------------ paired difference
+
+def test_paired_difference_is_narrower_on_correlated_rows():
+    rng = np.random.default_rng(5)
+    # Scenes differ in difficulty; both rows succeed on easy scenes, row a a bit more often.
+    difficulty = rng.random((11, 20))
+    a = (difficulty < 0.6)[None]
+    b = (difficulty < 0.5)[None]
+    paired = paired_difference(a, b)
+    assert paired.value == pytest.approx(a.mean() - b.mean())
+    # Unpaired: each row resampled on its own episodes.
+    unpaired = (success_rate_samples(a, rng_seed=1) - success_rate_samples(b, rng_seed=2))
+    un_low, un_high = np.percentile(unpaired, [2.5, 97.5])
+    assert paired.high - paired.low < 0.6 * (un_high - un_low)
+    assert verdict(paired) == "holds"  # a beats b on every scene where they differ
+
+
+def test_paired_difference_allows_different_seed_counts():
+    rng = np.random.default_rng(0)
+    a = _simulate(rng, np.full(4, 0.8), 3, 15)
+    b = _simulate(rng, np.full(4, 0.2), 1, 15)
+    diff = paired_difference(a, b)
+    assert diff.value == pytest.approx(a.mean() - b.mean())
+    assert diff.n == a.size + b.size and diff.low > 0
+    same = paired_difference(a, a)
+    assert same.value == 0.0 and same.low <= 0.0 <= same.high
+
+
+def test_paired_difference_of_identical_single_seed_rows_is_exactly_zero():
+    a = _simulate(np.random.default_rng(0), [0.3, 0.7], 1, 12)
+    est = paired_difference(a, a.copy())
+    assert (est.value, est.low, est.high) == (0.0, 0.0, 0.0)
+    assert verdict(est) == "inconclusive"
+
+
+# ------------------------------------------------------------------------------ correlation
+
+def test_rank_correlation_of_monotone_rows():
+    rng = np.random.default_rng(0)
+    rates = [0.1, 0.3, 0.5, 0.7, 0.9]
+    energies = [5.0, 4.0, 3.0, 2.0, 1.0]  # smoother (lower energy) rows succeed more
+    outcomes = [_simulate(rng, [r] * 3, 2, 40) for r in rates]
+    scores = [e + 0.1 * rng.normal(size=50) for e in energies]
+    est = score_success_correlation(scores, outcomes)
+    assert est.value == pytest.approx(-1.0) and est.n == 5
+    assert verdict(est, direction=-1) == "holds"
+    # Unpaired resampling gives the same point value.
+    assert score_success_correlation(scores, outcomes, paired=False).value == est.value
+
+
+def test_rank_correlation_of_unrelated_rows_is_inconclusive():
+    rng = np.random.default_rng(1)
+    outcomes = [_simulate(rng, [0.5] * 3, 1, 10) for _ in range(5)]
+    scores = [rng.normal(size=30) for _ in range(5)]
+    est = score_success_correlation(scores, outcomes)
+    assert -1.0 <= est.low <= est.value <= est.high <= 1.0
+    assert verdict(est, direction=-1) == "inconclusive"
+
+
+def test_rank_correlation_interval_from_samples():
+    rng = np.random.default_rng(0)
+    x = np.stack([mean_samples(rng.normal(m, 1.0, size=(2, 30)), rng_seed=i)
+                  for i, m in enumerate([0, 1, 2, 3])])
+    y = np.stack([success_rate_samples(_simulate(rng, [r], 1, 30), rng_seed=i)
+                  for i, r in enumerate([0.1, 0.4, 0.6, 0.9])])
+    est = rank_correlation_interval(x, y)
+    assert est.value == pytest.approx(1.0) and est.low > 0
+    with pytest.raises(ValueError, match="at least 3 rows"):
+        rank_correlation_interval(x[:2], y[:2])
+    with pytest.raises(ValueError, match=r"\(rows, n_boot\)"):
+        rank_correlation_interval(x, y[:, :10])
+
+
+def test_paired_correlation_needs_matching_rows():
+    rng = np.random.default_rng(0)
+    outcomes = [_simulate(rng, [0.5] * 3, 1, n) for n in (10, 10, 12)]
+    scores = [rng.normal(size=20) for _ in range(3)]
+    with pytest.raises(ValueError, match="paired=False"):
+        score_success_correlation(scores, outcomes)
+    assert math.isfinite(score_success_correlation(scores, outcomes, paired=False).value)
+    with pytest.raises(ValueError, match="one score array and one outcome array per row"):
+        score_success_correlation(scores[:2], outcomes)
+
+
+# ---------------------------------------------------------------------------------- verdict
+
+@pytest.mark.parametrize("low,high,direction,threshold,expected", [
+    (0.02, 0.10, +1, 0.0, "holds"),
+    (-0.10, -0.02, +1, 0.0, "does not hold"),
+    (-0.05, 0.05, +1, 0.0, "inconclusive"),
+    (0.0, 0.05, +1, 0.0, "inconclusive"),  # touching the threshold settles nothing
+    (-0.10, -0.02, -1, 0.0, "holds"),
+    (0.02, 0.10, -1, 0.0, "does not hold"),
+    (0.10, 0.16, +1, 0.04, "holds"),       # e.g. a rate claimed above 0.04
+    (0.00, 0.03, +1, 0.04, "does not hold"),
+    (0.00, 0.03, -1, 0.04, "holds"),       # a rate claimed at most 0.04
+])
+def test_verdict(low, high, direction, threshold, expected):
+    est = Estimate((low + high) / 2, low, high, 100, "test")
+    assert verdict(est, direction, threshold) == expected
+
+
+def test_verdict_rejects_a_bad_direction():
+    with pytest.raises(ValueError, match="direction"):
+        verdict(Estimate(0.1, 0.0, 0.2, 10, "test"), direction=2)
+
+
+# ------------------------------------------------------------------------------ bad inputs
+
+@pytest.mark.parametrize("bad,message", [
+    (np.zeros((11, 10), dtype=bool), r"\(seeds, tasks, episodes\).*outcomes\[None\]"),
+    (np.zeros(10, dtype=bool), r"shaped \(seeds, tasks, episodes\), got shape \(10,\)"),
+    (np.zeros((1, 0, 10), dtype=bool), "at least one seed, task and episode"),
+    ([[[True, False], [True]]], "full"),
+    (np.full((1, 2, 3), np.nan), "NaN"),
+    (np.full((1, 2, 3), 0.5), "bools or 0/1"),
+    (np.array([[["a", "b"]]]), "dtype"),
+])
+def test_bad_outcomes_raise_a_clear_error(bad, message):
+    with pytest.raises(ValueError, match=message):
+        success_rate(bad)
+
+
+def test_bad_paired_shapes_and_arguments_raise():
+    a = np.zeros((1, 11, 10), dtype=bool)
+    with pytest.raises(ValueError, match=r"same \(tasks, episodes\).*\(11, 10\).*\(11, 8\)"):
+        paired_difference(a, np.zeros((2, 11, 8), dtype=bool))
+    with pytest.raises(ValueError, match="n_boot"):
+        success_rate(np.zeros((2, 2, 2), dtype=bool), n_boot=5)
+    with pytest.raises(ValueError, match="level"):
+        success_rate(a, level=95)
+    with pytest.raises(ValueError, match="NaN"):
+        mean_samples([1.0, np.nan])
+
+
+def test_other_levels_change_the_width():
+    outcomes = _simulate(np.random.default_rng(0), [0.4, 0.6], 1, 30)
+    wide, narrow = success_rate(outcomes, level=0.99), success_rate(outcomes, level=0.8)
+    assert narrow.high - narrow.low < wide.high - wide.low
+    one = outcomes[:, :1]
+    assert success_rate(one, level=0.8).high < success_rate(one).high  # Wilson, z for 80%
