@@ -6,17 +6,20 @@ from icil_paper.config import (
     PRESET_NAMES,
     DataConfig,
     EvalConfig,
-    PolicyConfig,
+    PolicyConfigs,
     Preset,
-    TokenizerConfig,
+    TokenizerConfigs,
+    TokenizerStudyConfig,
     TrainConfig,
     active_preset_name,
     field_docs,
     get_preset,
 )
+from icil_paper.policies.configs import POLICY_CONFIGS
 from icil_paper.registry import Registry, UnknownNameError, check_name
 from icil_paper.results import config_hash
 from icil_paper.seeding import seed_everything
+from icil_paper.tokenizers.configs import TOKENIZER_CONFIGS, LipschitzOptions
 
 
 @pytest.mark.parametrize("name", PRESET_NAMES)
@@ -27,11 +30,13 @@ def test_every_preset_builds_and_is_named(name):
 
 
 def test_presets_grow_from_smoke_to_full():
-    smoke, small, full = (get_preset(n) for n in PRESET_NAMES)
-    for attr in ("steps",):
-        assert smoke.train.steps < small.train.steps < full.train.steps, attr
+    smoke, small, reference, full = (get_preset(n) for n in PRESET_NAMES)
+    assert smoke.train.steps < small.train.steps < reference.train.steps < full.train.steps
+    assert (smoke.eval.episodes_per_task < small.eval.episodes_per_task
+            <= reference.eval.episodes_per_task < full.eval.episodes_per_task)
     assert smoke.data.demos_per_task < small.data.demos_per_task < full.data.demos_per_task
-    assert smoke.policy.d_model < small.policy.d_model < full.policy.d_model
+    assert (smoke.policies.icrt.d_model < small.policies.icrt.d_model
+            < full.policies.icrt.d_model)
 
 
 def test_preset_comes_from_environment(monkeypatch):
@@ -44,7 +49,7 @@ def test_preset_comes_from_environment(monkeypatch):
 
 
 def test_unknown_preset_lists_valid_names(monkeypatch):
-    with pytest.raises(UnknownNameError, match="smoke, small, full"):
+    with pytest.raises(UnknownNameError, match="smoke, small, reference, full"):
         get_preset("tiny")
     monkeypatch.setenv("ICIL_PRESET", "medium")
     with pytest.raises(UnknownNameError, match="unknown preset 'medium'"):
@@ -69,8 +74,9 @@ def test_registry_imports_lazily_and_rejects_unknown_names():
         registry["broken"]
 
 
-@pytest.mark.parametrize("cls", [DataConfig, TokenizerConfig, PolicyConfig, TrainConfig,
-                                 EvalConfig, Preset])
+@pytest.mark.parametrize("cls", [DataConfig, TokenizerConfigs, PolicyConfigs, TrainConfig,
+                                 EvalConfig, TokenizerStudyConfig, Preset, LipschitzOptions,
+                                 *TOKENIZER_CONFIGS.values(), *POLICY_CONFIGS.values()])
 def test_every_config_field_has_a_docstring(cls):
     docs = field_docs(cls)
     missing = [f.name for f in dataclasses.fields(cls) if not docs.get(f.name)]
@@ -81,7 +87,7 @@ def test_preset_hash_is_stable_and_sensitive():
     a, b = get_preset("small"), get_preset("small")
     assert config_hash(a.to_dict()) == config_hash(b.to_dict())
     changed = a.replace(train={"steps": a.train.steps + 1})
-    assert changed.train.steps == a.train.steps + 1 and changed.policy == a.policy
+    assert changed.train.steps == a.train.steps + 1 and changed.policies == a.policies
     assert config_hash(changed.to_dict()) != config_hash(a.to_dict())
     assert get_preset("small", seed=3).seed == 3
 

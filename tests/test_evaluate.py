@@ -4,6 +4,7 @@ trained a few steps and rolled out for one short episode under the smoke preset.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -11,9 +12,11 @@ import pytest
 import torch
 
 from icil_paper.config import get_preset
-from icil_paper.evaluate import episode_seed, evaluate_policy, wilson_interval
+from icil_paper.evaluate import EvalResult, episode_seed, evaluate_policy
 from icil_paper.policies.base import Policy, validate_prompt
-from icil_paper.policies.synthetic import (
+from icil_paper.policies.configs import ICRTConfig
+from icil_paper.runspec import EvalSpec, run_spec
+from icil_paper.sim.synthetic import (
     STEP_SIZE,
     expert_action,
     make_synthetic_env,
@@ -45,107 +48,116 @@ def demos():
 
 
 def oracle():
-    return OraclePolicy({"proprio": 9, "object": 6}, 7, get_preset("smoke").policy)
+    return OraclePolicy(ICRTConfig(), {"proprio": 9, "object": 6}, 7)
 
 
-def test_wilson_interval_values():
-    assert wilson_interval(0, 0) == (0.0, 1.0)
-    lo, hi = wilson_interval(0, 10)
-    assert lo == pytest.approx(0.0, abs=1e-12) and hi == pytest.approx(0.2775, abs=1e-4)
-    lo, hi = wilson_interval(5, 10)
-    assert (lo, hi) == (pytest.approx(0.2366, abs=1e-4), pytest.approx(0.7634, abs=1e-4))
-    lo, hi = wilson_interval(50, 50)
-    assert hi == 1.0 and lo == pytest.approx(0.9287, abs=1e-4)
+def trained(tokenizer, demos, policy="icrt"):
+    spec = run_spec(get_preset("smoke"), policy, tokenizer,
+                    tasks=["synthetic/task0", "synthetic/task1"])
+    return train_policy(spec, run_dir=None, demos=demos, progress=False).policy
+
+
+def synthetic(policy, task, prompts, **spec):
+    """Roll `policy` out on a synthetic task in this process."""
+    return evaluate_policy(policy, EvalSpec(task=task, **spec), prompts=prompts,
+                           env_factory=make_synthetic_env, progress=False)
 
 
 def test_oracle_succeeds_with_the_right_prompt(demos):
-    result = evaluate_policy(oracle(), "synthetic/task1", "smoke", prompts=demos, episodes=4,
-                             seed=3, workers=1, max_steps=40, env_factory=make_synthetic_env,
-                             progress=False)
-    assert result["success_rate"] == 1.0 and result["successes"] == 4
-    assert result["ci_high"] == 1.0 and 0.4 < result["ci_low"] < 1.0
-    episodes = result["per_episode"]
+    task1 = [d for d in demos if d.task == "synthetic/task1"]
+    result = synthetic(oracle(), "synthetic/task1", task1, episodes=4, seed=3, max_steps=40)
+    assert isinstance(result, EvalResult)
+    assert result.success_rate == 1.0 and result.successes == 4
+    assert result.ci_high == 1.0 and 0.4 < result.ci_low < 1.0
+    episodes = result.per_episode
     assert [e["seed"] for e in episodes] == [episode_seed(3, i) for i in range(4)]
-    # prompts are drawn from the evaluated task only
-    task1 = [i for i, d in enumerate(demos) if d.task == "synthetic/task1"]
     assert all(set(e["prompt"]) <= set(range(len(task1))) for e in episodes)
+    assert result.outcomes.tolist() == [True] * 4
+    assert EvalResult.from_dict(json.loads(json.dumps(result.to_dict()))) == result
 
 
 def test_the_wrong_prompt_fails(demos):
     wrong = [d for d in demos if d.task == "synthetic/task0"]
-    result = evaluate_policy(oracle(), "synthetic/task1", "smoke", prompts=wrong, episodes=2,
-                             workers=1, max_steps=20, env_factory=make_synthetic_env,
-                             progress=False)
-    assert result["success_rate"] == 0.0
-    assert all(e["steps"] == 20 for e in result["per_episode"])
+    result = synthetic(oracle(), "synthetic/task1", wrong, episodes=2, max_steps=20)
+    assert result.success_rate == 0.0
+    assert all(e["steps"] == 20 for e in result.per_episode)
 
 
 def test_same_seed_same_episodes_in_one_or_two_processes(demos):
-    preset = get_preset("smoke")
-    policy = train_policy(preset, "icrt", "lipvq", demos=demos, run_dir=None, progress=False).policy
-    kw = dict(prompts=demos, episodes=3, seed=1, max_steps=6, env_factory=make_synthetic_env,
-              progress=False)
-    one = evaluate_policy(policy, "synthetic/task0", preset, workers=1, **kw)
-    again = evaluate_policy(policy, "synthetic/task0", preset, workers=1, **kw)
-    two = evaluate_policy(policy, "synthetic/task0", preset, workers=2, **kw)
+    policy = trained("lipvq", demos)
+    ev = EvalSpec(task="synthetic/task0", episodes=3, seed=1, max_steps=6)
+    kw = dict(prompts=demos, env_factory=make_synthetic_env, progress=False)
+    one = evaluate_policy(policy, ev, workers=1, **kw)
+    again = evaluate_policy(policy, ev, workers=1, **kw)
+    two = evaluate_policy(policy, ev, workers=2, **kw)
 
     def strip(r):
-        return [{k: v for k, v in e.items() if k != "wall_time_s"} for e in r["per_episode"]]
+        return [{k: v for k, v in e.items() if k != "wall_time_s"} for e in r.per_episode]
 
     assert strip(one) == strip(again) == strip(two)
-    other = evaluate_policy(policy, "synthetic/task0", preset, workers=1, **{**kw, "seed": 2})
+    other = evaluate_policy(policy, EvalSpec(task="synthetic/task0", episodes=3, seed=2,
+                                             max_steps=6), workers=1, **kw)
     assert [e["seed"] for e in strip(other)] != [e["seed"] for e in strip(one)]
 
 
 def test_record_writes_a_recording_per_rollout(tmp_path, demos):
-    preset = get_preset("smoke")
-    policy = train_policy(preset, "icrt", "vq", demos=demos, run_dir=None, progress=False).policy
-    result = evaluate_policy(policy, "synthetic/task0", preset, prompts=demos, episodes=2,
-                             workers=1, max_steps=4, record=True, record_dir=tmp_path,
-                             env_factory=make_synthetic_env, progress=False)
-    paths = [e["recording"] for e in result["per_episode"]]
+    policy = trained("vq", demos)
+    result = evaluate_policy(policy, EvalSpec(task="synthetic/task0", episodes=2, max_steps=4),
+                             prompts=demos, record_dir=tmp_path, env_factory=make_synthetic_env,
+                             progress=False)
+    paths = [e["recording"] for e in result.per_episode]
     assert len(set(paths)) == 2 and all(p and (tmp_path / p).exists() for p in paths)
 
 
 def test_bad_arguments_raise(demos):
     with pytest.raises(ValueError, match="episodes"):
-        evaluate_policy(oracle(), "synthetic/task0", "smoke", prompts=demos, episodes=0,
-                        env_factory=make_synthetic_env)
-    bad = [dataclass_replace(demos[0], actions=demos[0].actions[:, :5])]
+        synthetic(oracle(), "synthetic/task0", demos, episodes=0)
+    with pytest.raises(ValueError, match="max_steps"):
+        synthetic(oracle(), "synthetic/task0", demos, episodes=1, max_steps=0)
+    with pytest.raises(ValueError, match="needs prompt demonstrations"):
+        synthetic(oracle(), "synthetic/task0", [], episodes=1)
+    bad = [dataclasses.replace(demos[0], actions=demos[0].actions[:, :5])]
     with pytest.raises(ValueError, match="wrong action dimension"):
-        evaluate_policy(oracle(), "synthetic/task0", "smoke", prompts=bad, episodes=1,
-                        workers=1, env_factory=make_synthetic_env, progress=False)
+        synthetic(oracle(), "synthetic/task0", bad, episodes=1)
 
 
-def dataclass_replace(obj, **changes):
-    import dataclasses
+def test_a_policy_of_another_suite_is_refused_before_rollouts(demos):
+    from icil_paper.evaluate import check_policy_fits
 
-    return dataclasses.replace(obj, **changes)
+    policy = trained("mlp", demos)  # 9 + 6 wide state, the kitchen gives 9 + 18
+    with pytest.raises(ValueError, match="15-dimensional state.*gives 27"):
+        check_policy_fits(policy, "kitchen/open_drawer")
 
 
 def test_eval_cli_stores_one_record_per_task(tmp_path, demos, monkeypatch):
     import icil_paper.evaluate as evaluate_module
     from icil_paper.results import ResultsStore
+    from icil_paper.train import run_dir_for
 
-    train_policy(get_preset("smoke"), "icrt", "mlp", demos=demos, run_dir=tmp_path / "run",
-                 progress=False)
+    monkeypatch.setenv("ICIL_RUNS", str(tmp_path))
+    spec = run_spec(get_preset("smoke"), "icrt", "mlp",
+                    tasks=["kitchen/open_drawer", "kitchen/close_drawer"])
+    train_policy(spec, run_dir=run_dir_for(spec, "smoke"), demos=demos, progress=False)
     calls = []
     real = evaluate_module.evaluate_policy
 
-    def on_synthetic(policy, task, preset, **kw):
-        calls.append(task)
-        return real(policy, task, preset, **{**kw, "prompts": demos,
-                                             "env_factory": make_synthetic_env})
+    def on_synthetic(policy, ev, **kw):
+        calls.append(ev.task)
+        return real(policy, dataclasses.replace(ev, task="synthetic/task0"),
+                    **{**kw, "env_factory": make_synthetic_env})
 
     monkeypatch.setattr(evaluate_module, "evaluate_policy", on_synthetic)
-    argv = ["--preset", "smoke", "--run-dir", str(tmp_path / "run"), "--episodes", "2",
-            "--workers", "1", "--quiet"]
+    monkeypatch.setattr(evaluate_module, "prompt_pool", lambda *a, **k: demos)
+    argv = ["--preset", "smoke", "--tasks", "kitchen/open_drawer", "kitchen/close_drawer",
+            "--train-tasks", "kitchen/open_drawer", "kitchen/close_drawer",
+            "--episodes", "2", "--workers", "1", "--quiet"]
     assert evaluate_module.main(argv) == 0
     assert evaluate_module.main(argv) == 0  # the second run loads the stored records
-    assert calls == ["synthetic/task0", "synthetic/task1"]
+    assert calls == ["kitchen/open_drawer", "kitchen/close_drawer"]
     records = ResultsStore("smoke").records("eval")
     assert sorted(r["name"] for r in records) == [
-        "icrt+mlp__synthetic/task0__generated", "icrt+mlp__synthetic/task1__generated"]
+        "icrt+mlp__kitchen/close_drawer__generated__seed0",
+        "icrt+mlp__kitchen/open_drawer__generated__seed0"]
     m = records[0]["metrics"]
     assert m["episodes"] == 2 and 0 <= m["ci_low"] <= m["success_rate"] <= m["ci_high"] <= 1
     assert json.dumps(records[0])  # a plain JSON record
@@ -216,14 +228,16 @@ def sim_data(tmp_path_factory):
 def test_smoke_combination_trains_and_rolls_out(sim_data, name, tokenizer):
     _, demos = sim_data
     preset = get_preset("smoke")
-    trained = train_policy(preset, name, tokenizer, demos=demos, run_dir=None, progress=False)
-    assert trained.metrics["steps"] == preset.train.steps
-    assert np.isfinite(trained.metrics["final_loss"])
-    result = evaluate_policy(trained.policy, SIM_TASK, preset, prompts=demos, episodes=1,
-                             workers=1, env_factory=cached_env, progress=False)
-    (episode,) = result["per_episode"]
+    spec = run_spec(preset, name, tokenizer, tasks=[SIM_TASK])
+    result = train_policy(spec, run_dir=None, demos=demos, progress=False)
+    assert result.metrics["steps"] == preset.train.steps
+    assert np.isfinite(result.metrics["final_loss"])
+    ev = EvalSpec(task=SIM_TASK, episodes=1, max_steps=preset.eval.max_steps)
+    out = evaluate_policy(result.policy, ev, prompts=demos, env_factory=cached_env,
+                          progress=False)
+    (episode,) = out.per_episode
     assert 1 <= episode["steps"] <= preset.eval.max_steps
-    assert result["success_rate"] in (0.0, 1.0)
+    assert out.success_rate in (0.0, 1.0)
 
 
 @pytest.mark.sim
@@ -235,28 +249,27 @@ def test_smoke_mcr_on_images(sim_data):
         mp.setenv("ICIL_DATA", str(root))
         demos = load_demos(ensure_demos("smoke", SIM_TASK, "generated", n=1, obs="rgb",
                                         progress=False, camera_size=32))
-    preset = get_preset("smoke")
-    trained = train_policy(preset, "mcr", demos=demos, run_dir=None, progress=False)
-    assert bool(trained.policy.pretrained)
-    assert not any(p.requires_grad for p in trained.policy.visual.parameters())
-    result = evaluate_policy(trained.policy, SIM_TASK, preset, episodes=1, workers=1,
-                             max_steps=3, env_factory=cached_env,
-                             env_options={"camera_size": 32}, progress=False)
-    assert result["per_episode"][0]["steps"] <= 3
+    spec = run_spec(get_preset("smoke"), "mcr", tasks=[SIM_TASK])
+    result = train_policy(spec, run_dir=None, demos=demos, progress=False)
+    assert bool(result.policy.pretrained)
+    assert not any(p.requires_grad for p in result.policy.visual.parameters())
+    out = evaluate_policy(result.policy, EvalSpec(task=SIM_TASK, episodes=1, max_steps=3),
+                          env_factory=cached_env, env_options={"camera_size": 32},
+                          progress=False)
+    assert out.per_episode[0]["steps"] <= 3
 
 
 @pytest.mark.sim
 def test_train_and_eval_commands_end_to_end(sim_data, tmp_path, monkeypatch):
-    import icil_paper.evaluate as evaluate_module
-    import icil_paper.train as train_module
+    from icil_paper.cli import main
     from icil_paper.results import ResultsStore
 
     root, _ = sim_data
     monkeypatch.setenv("ICIL_DATA", str(root))  # the demonstrations generated above
     run = str(tmp_path / "run")
-    assert train_module.main(["--preset", "smoke", "--policy", "icrt", "--tokenizer", "lipvq",
-                              "--tasks", SIM_TASK, "--run-dir", run, "--quiet"]) == 0
-    assert evaluate_module.main(["--preset", "smoke", "--run-dir", run, "--episodes", "1",
-                                 "--quiet"]) == 0
+    assert main(["train", "--preset", "smoke", "--policy", "icrt", "--tokenizer", "lipvq",
+                 "--tasks", SIM_TASK, "--run-dir", run, "--quiet"]) == 0
+    assert main(["eval", "--preset", "smoke", "--run-dir", run, "--episodes", "1",
+                 "--quiet"]) == 0
     (record,) = ResultsStore("smoke").records("eval")
-    assert record["config"]["task"] == SIM_TASK and record["metrics"]["episodes"] == 1
+    assert record["config"]["eval"]["task"] == SIM_TASK and record["metrics"]["episodes"] == 1

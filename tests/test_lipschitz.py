@@ -10,6 +10,7 @@ import torch.nn.functional as F
 
 from icil_paper.metrics import empirical_lipschitz
 from icil_paper.tokenizers import LipschitzLinear, lipschitz_loss, make_tokenizer
+from icil_paper.tokenizers.configs import LipVQConfig
 from icil_paper.tokenizers.lipschitz_linear import lipschitz_bounds, lipschitz_layers
 
 
@@ -78,7 +79,7 @@ def _encoder_bound(tok) -> float:
 @pytest.mark.parametrize("seed", range(3))
 def test_lipvq_encoder_is_within_its_bound(seed):
     torch.manual_seed(seed)
-    tok = make_tokenizer("lipvq", 7, 16, codebook_size=32)
+    tok = make_tokenizer(LipVQConfig(latent_dim=16, codebook_size=32), 7)
     layers = lipschitz_layers(tok.encoder)
     assert len(layers) == 3  # every encoder linear layer is Lipschitz (the paper)
     with torch.no_grad():  # tight bounds so that Eq. 5 actually rescales rows
@@ -93,7 +94,7 @@ def test_lipvq_encoder_is_within_its_bound(seed):
 
 def test_lipvq_encoder_within_bound_after_training():
     torch.manual_seed(0)
-    tok = make_tokenizer("lipvq", 7, 16, codebook_size=32)
+    tok = make_tokenizer(LipVQConfig(latent_dim=16, codebook_size=32), 7)
     optimizer = torch.optim.Adam(tok.parameters(), lr=1e-2)
     x = torch.rand(64, 4, 7) * 2 - 1
     for _ in range(30):
@@ -108,7 +109,7 @@ def test_lipvq_encoder_within_bound_after_training():
 def test_gradient_based_worst_case_stays_within_bound():
     """A harder lower estimate than random pairs: ascend the difference quotient."""
     torch.manual_seed(1)
-    tok = make_tokenizer("lipvq", 7, 16, codebook_size=32)
+    tok = make_tokenizer(LipVQConfig(latent_dim=16, codebook_size=32), 7)
     with torch.no_grad():
         for layer in lipschitz_layers(tok.encoder):
             layer.c.fill_(0.3)

@@ -14,17 +14,31 @@ from icil_paper.config import get_preset
 from icil_paper.policies import POLICIES, make_policy
 from icil_paper.policies.backbones import HashedTextEmbedding, ResNet18, as_obs_spec
 from icil_paper.policies.base import TemporalEnsemble
-from icil_paper.policies.synthetic import synthetic_demos
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 from icil_paper.registry import UnknownNameError
+from icil_paper.sim.synthetic import synthetic_demos
 from icil_paper.tokenizers import TOKENIZERS
+from icil_paper.tokenizers.configs import default_config
 
 torch.set_num_threads(1)
 SPEC = {"proprio": 9, "object": 6}
 
 
-def smoke_policy_config(**changes):
-    return dataclasses.replace(get_preset("smoke").policy, **changes)
+def policy_config(name, **changes):
+    """The smoke preset's config of policy `name` (ICRT's query: 6 steps), with changes."""
+    base = get_preset("smoke").policies.get(name)
+    if name == "icrt":
+        changes = {"query_len": 6, **changes}
+    return dataclasses.replace(base, **changes)
+
+
+def tokenizer_config(name):
+    """Tokenizer `name` at test size (D = 16, small codebooks and vocabularies)."""
+    if name is None:
+        return None
+    sizes = {"vq": {"codebook_size": 32}, "lipvq": {"codebook_size": 32},
+             "bin": {"n_bins": 32}, "fast": {"vocab_size": 300, "chunk": 4}}.get(name, {})
+    return default_config(name, latent_dim=16, **sizes)
 
 
 @pytest.fixture(scope="module")
@@ -34,17 +48,10 @@ def demos():
 
 def build(name, tokenizer=None, demos=None, spec=SPEC, **config):
     torch.manual_seed(0)
-    policy = make_policy(name, spec, 7, smoke_policy_config(**config), tokenizer=tokenizer,
-                         query_len=6, tokenizer_latent_dim=16,
-                         tokenizer_options=_tok_options(tokenizer))
+    policy = make_policy(policy_config(name, **config), spec, 7, tokenizer_config(tokenizer))
     if demos is not None:
         policy.prepare(demos)
     return policy
-
-
-def _tok_options(name):
-    return {"vq": {"codebook_size": 32}, "lipvq": {"codebook_size": 32}, "lfq": {},
-            "bin": {"n_bins": 32}, "fast": {"vocab_size": 300, "chunk": 4}}.get(name, {})
 
 
 def single_batch(policy, prompt, query_obs, query_actions):
@@ -244,15 +251,14 @@ def test_bad_prompts_raise_clear_errors(demos):
 
 
 def test_bad_names_and_combinations_raise():
-    cfg = smoke_policy_config()
     with pytest.raises(UnknownNameError, match="icrt"):
-        make_policy("icrtt", 15, 7, cfg)
+        make_policy("icrtt", 15, 7)
     with pytest.raises(UnknownNameError, match="lipvq"):
-        make_policy("icrt", 15, 7, cfg, tokenizer="lipvqq")
-    with pytest.raises(ValueError, match="no action tokenizer"):
-        make_policy("bc_transformer", 15, 7, cfg, tokenizer="mlp")
+        make_policy(policy_config("icrt"), 15, 7, "lipvqq")
+    with pytest.raises(ValueError, match="does not take the 'mlp' action tokenizer"):
+        make_policy(policy_config("bc_transformer"), 15, 7, "mlp")
     with pytest.raises(ValueError, match="image observations"):
-        make_policy("mcr", 15, 7, cfg)
+        make_policy(policy_config("mcr"), 15, 7)
     with pytest.raises(ValueError, match="wrong action dimension"):
         policy = build("act", "mlp")
         policy.tokenizer(torch.zeros(1, 2, 6))
@@ -268,7 +274,7 @@ def test_every_combination_trains_and_acts(name, tokenizer):
     image = (1, 16, 16) if name == "mcr" else None
     demos = synthetic_demos(2, 2, steps=(10, 14), image=image, seed=1)
     spec = {k: v.shape[1:] for k, v in demos[0].obs.items()}
-    policy = build(name, tokenizer, spec=spec, mcr_pretrain_steps=2)
+    policy = build(name, tokenizer, spec=spec, **({"pretrain_steps": 2} if name == "mcr" else {}))
     data = policy.prepare(demos)
     rng = np.random.default_rng(0)
     params = [p for p in policy.parameters() if p.requires_grad]

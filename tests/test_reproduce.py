@@ -64,8 +64,9 @@ def test_tokenizer_trajectories_come_from_held_out_demos():
     assert all(t.ndim == 2 and t.shape[1] == 7 and t.dtype == np.float32 for t in train + test)
     assert not any(np.array_equal(a, b) for a in train for b in test)
     assert described["tasks"] == ["kitchen/open_drawer"] and described["kind"] == "demos"
-    synthetic = preset.replace(tokenizer={"trajectories": "synthetic"})
+    synthetic = preset.replace(tokenizer_study={"trajectories": "synthetic"})
     train_s, test_s, described_s = tokenizer_trajectories(synthetic)
-    assert described_s["kind"] == "synthetic" and len(train_s) == synthetic.tokenizer.n_trajectories
+    assert described_s["kind"] == "synthetic"
+    assert len(train_s) == synthetic.tokenizer_study.n_trajectories
     with pytest.raises(UnknownNameError, match="demos, synthetic"):
-        tokenizer_trajectories(preset.replace(tokenizer={"trajectories": "recorded"}))
+        tokenizer_trajectories(preset.replace(tokenizer_study={"trajectories": "recorded"}))

@@ -14,28 +14,32 @@ from icil_paper.config import get_preset
 from icil_paper.registry import UnknownNameError
 from icil_paper.seeding import seed_everything
 from icil_paper.tokenizers import TOKENIZERS, make_tokenizer
+from icil_paper.tokenizers.configs import default_config, lipvq_official
 from icil_paper.tokenizers.fast import FastDecodeError
 from icil_paper.tokenizers.training import (
-    build_tokenizer,
     evaluate_tokenizer,
     reconstruction_errors,
+    stand_alone,
     train_tokenizer,
 )
 from icil_paper.trajectories import generate_trajectories
 
 A, D, K = 7, 16, 64
-# Every tokenizer plus the official code's LipVQ variant: (registry name, options).
-VARIANTS = [(name, {}) for name in TOKENIZERS] + [("lipvq", {"variant": "official"})]
-IDS = [*TOKENIZERS, "lipvq-official"]
 
 
-def _options(name: str, options: dict) -> dict:
-    sized = dict(options)
+def cfg(name: str, **fields):
+    """Tokenizer `name` at test size (D = 16, K = 64, FAST's chunk 4 and vocabulary 300)."""
+    sized = {"latent_dim": D}
     if name in ("vq", "lfq", "lipvq"):
         sized["codebook_size"] = K
     if name == "fast":
         sized.update(vocab_size=300, chunk=4)
-    return sized
+    return default_config(name, **{**sized, **fields})
+
+
+# Every tokenizer plus the official code's LipVQ variant.
+VARIANTS = [cfg(name) for name in TOKENIZERS] + [lipvq_official(latent_dim=D, codebook_size=K)]
+IDS = [*TOKENIZERS, "lipvq-official"]
 
 
 @pytest.fixture(scope="module")
@@ -52,20 +56,22 @@ def _batch(trajectories, b=3, t=12) -> torch.Tensor:
     return torch.from_numpy(np.stack([tr[:t] for tr in trajectories[:b]]))
 
 
-def _make(name, options, trajectories):
+def _make(config, trajectories):
     seed_everything(0)
-    return make_tokenizer(name, A, D, **_options(name, options)).fit(trajectories)
+    if isinstance(config, str):
+        config = cfg(config)
+    return make_tokenizer(config, A).fit(trajectories)
 
 
 def test_registry_lists_every_tokenizer():
     assert TOKENIZERS == ("mlp", "lip-mlp", "bin", "fast", "vq", "lfq", "lipvq")
     with pytest.raises(UnknownNameError, match="lipvq"):
-        make_tokenizer("lipvqq", A, D)
+        make_tokenizer("lipvqq", A)
 
 
-@pytest.mark.parametrize(("name", "options"), VARIANTS, ids=IDS)
-def test_shapes_and_finite_losses(name, options, trajectories):
-    tok = _make(name, options, trajectories)
+@pytest.mark.parametrize("config", VARIANTS, ids=IDS)
+def test_shapes_and_finite_losses(config, trajectories):
+    tok = _make(config, trajectories)
     x = _batch(trajectories)
     out = tok(x)
     assert out.embeddings.shape == (3, 12, D)
@@ -85,7 +91,7 @@ def test_shapes_and_finite_losses(name, options, trajectories):
 
 @pytest.mark.parametrize("name", ["vq", "lfq", "lipvq"])
 def test_gradients_reach_encoder_through_quantizer(name, trajectories):
-    tok = _make(name, {}, trajectories).train()
+    tok = _make(name, trajectories).train()
     out = tok(_batch(trajectories))
     # A policy-like loss on the embeddings alone: only the straight-through path connects it
     # to the encoder.
@@ -95,7 +101,7 @@ def test_gradients_reach_encoder_through_quantizer(name, trajectories):
 
 
 def test_official_lipvq_has_no_straight_through(trajectories):
-    tok = _make("lipvq", {"variant": "official"}, trajectories).train()
+    tok = _make(lipvq_official(latent_dim=D, codebook_size=K), trajectories).train()
     out = tok(_batch(trajectories))
     assert not out.embeddings.requires_grad  # the policy gets the quantized latent detached
     out.losses["reconstruction"].backward()
@@ -105,9 +111,51 @@ def test_official_lipvq_has_no_straight_through(trajectories):
 
 
 def test_vq_embeddings_are_codebook_vectors(trajectories):
-    tok = _make("vq", {}, trajectories).train()
+    tok = _make("vq", trajectories).train()
     out = tok(_batch(trajectories))
     assert torch.equal(out.embeddings, tok.codebook(out.codes))
+
+
+@pytest.mark.parametrize("name", ["vq", "lipvq"])
+def test_straight_through_sends_no_reconstruction_gradient_to_the_codebook(name, trajectories):
+    """VQ-VAE's estimator z_e + sg[z_q - z_e]: the codebook learns from the codebook loss only;
+    the `codebook` form z_q + (z_e - sg[z_e]) also passes the decoder's gradient to it."""
+    x = _batch(trajectories)
+    grads = {}
+    for mode in ("vqvae", "codebook"):
+        tok = _make(cfg(name, straight_through=mode), trajectories).train()
+        out = tok(x)
+        assert torch.equal(out.embeddings, tok.codebook(out.codes))  # same value either way
+        out.losses["reconstruction"].backward()
+        grads[mode] = tok.codebook.weight.grad
+        encoder_grad = next(m for m in tok.encoder.modules() if hasattr(m, "weight")).weight.grad
+        assert encoder_grad is not None and encoder_grad.abs().sum() > 0, mode
+    assert grads["vqvae"] is None or grads["vqvae"].abs().sum() == 0
+    assert grads["codebook"] is not None and grads["codebook"].abs().sum() > 0
+
+
+def test_dead_code_restart_moves_unused_codes_to_encoder_outputs(trajectories):
+    tok = _make(cfg("vq", dead_code_restart=2), trajectories).train()
+    x = _batch(trajectories)
+    before = tok.codebook.weight.detach().clone()
+    used = set(tok(x).codes.flatten().tolist())
+    tok(x)  # the second step restarts every code unused in both steps
+    after = tok.codebook.weight.detach()
+    dead = [k for k in range(K) if k not in used]
+    assert dead and not torch.equal(after[dead], before[dead])
+    z_e = tok.encoder(x).detach().reshape(-1, D)
+    gap = (after[dead][:, None] - z_e[None]).abs().amax(-1).amin(-1)  # to the nearest output
+    assert torch.all(gap == 0)
+
+
+def test_codebook_weight_decay_is_an_option():
+    from icil_paper.train.optim import make_optimizer
+
+    for decay in (True, False):
+        tok = make_tokenizer(cfg("lipvq", codebook_weight_decay=decay), A)
+        opt = make_optimizer(tok, 1e-3, 0.1, (0.9, 0.95))
+        decayed = {id(p) for g in opt.param_groups if g["weight_decay"] > 0 for p in g["params"]}
+        assert (id(tok.codebook.weight) in decayed) is decay
 
 
 # Threshold per tokenizer on the held-out MSE after training, as a fraction of the actions'
@@ -121,11 +169,10 @@ THRESHOLDS = {"mlp": 0.05, "lip-mlp": 0.05, "vq": 0.4, "lfq": 0.5, "lipvq": 0.4,
 
 @pytest.mark.parametrize("name", TOKENIZERS)
 def test_reconstruction_error_falls_below_threshold(name, trajectories, held_out):
-    config = dataclasses.replace(get_preset("smoke").tokenizer, steps=300, batch_size=32,
-                                 window=8, lr=3e-3, latent_dim=D, codebook_size=K,
-                                 fast_chunk=4)
+    config = dataclasses.replace(get_preset("smoke").tokenizer_study, steps=300, batch_size=32,
+                                 window=8, lr=3e-3)
     seed_everything(0)
-    tok = build_tokenizer(name, A, config, stand_alone=True)
+    tok = make_tokenizer(stand_alone(cfg(name)), A)
     tok.fit(trajectories)
     variance = float(np.concatenate(held_out).var(0).mean())
     key = "decode_mse" if name in ("bin", "fast") else "reconstruction_mse"
@@ -137,7 +184,7 @@ def test_reconstruction_error_falls_below_threshold(name, trajectories, held_out
 
 
 def test_bin_reconstruction_within_half_a_bin(trajectories):
-    tok = make_tokenizer("bin", A, D, n_bins=256).fit(trajectories)
+    tok = make_tokenizer(cfg("bin", n_bins=256), A).fit(trajectories)
     x = _batch(trajectories, b=4, t=40)
     out = tok(x)
     assert out.codes.shape == (4, 40, A)
@@ -147,7 +194,7 @@ def test_bin_reconstruction_within_half_a_bin(trajectories):
 
 
 def test_bin_clips_values_outside_the_fitted_range(trajectories):
-    tok = make_tokenizer("bin", A, D, n_bins=16).fit(trajectories)
+    tok = make_tokenizer(cfg("bin", n_bins=16), A).fit(trajectories)
     x = torch.full((1, 2, A), 5.0)
     out = tok(x)
     assert (out.codes == 15).all()
@@ -156,7 +203,7 @@ def test_bin_clips_values_outside_the_fitted_range(trajectories):
 # ----------------------------------------------------------------------- FAST
 @pytest.fixture(scope="module")
 def fast(trajectories):
-    return make_tokenizer("fast", A, D, chunk=8, scale=10.0, vocab_size=400).fit(trajectories)
+    return make_tokenizer(cfg("fast", chunk=8, scale=10.0, vocab_size=400), A).fit(trajectories)
 
 
 def _chunks(trajectories, n=20, chunk=8):
@@ -185,7 +232,7 @@ def test_fast_round_trips_smooth_chunks_within_its_scale(fast, trajectories):
 
 def test_fast_reconstruction_matches_token_decoding(fast, trajectories):
     x = _batch(trajectories, b=2, t=8)
-    blocked = make_tokenizer("fast", A, D, chunk=8, vocab_size=400, mode="blocked")
+    blocked = make_tokenizer(cfg("fast", chunk=8, vocab_size=400, mode="blocked"), A)
     blocked.load_state_dict(fast.state_dict())
     out = blocked(x)
     decoded, ok = blocked.decode_tokens([fast.encode_tokens(x[i:i + 1].numpy())[0]
@@ -217,7 +264,7 @@ def test_fast_state_dict_carries_the_vocabulary(fast, trajectories):
     buffer = io.BytesIO()
     torch.save(fast.state_dict(), buffer)
     buffer.seek(0)
-    loaded = make_tokenizer("fast", A, D, chunk=8, vocab_size=400)
+    loaded = make_tokenizer(cfg("fast", chunk=8, vocab_size=400), A)
     loaded.load_state_dict(torch.load(buffer, weights_only=False))
     chunks = _chunks(trajectories, n=5)
     assert loaded.encode_tokens(chunks) == fast.encode_tokens(chunks)
@@ -225,24 +272,24 @@ def test_fast_state_dict_carries_the_vocabulary(fast, trajectories):
 
 
 def test_fast_refuses_to_run_unfitted():
-    tok = make_tokenizer("fast", A, D)
+    tok = make_tokenizer(cfg("fast"), A)
     with pytest.raises(RuntimeError, match="fit"):
         tok(torch.zeros(1, 8, A))
 
 
 # ----------------------------------------------------------------------- input errors
-@pytest.mark.parametrize(("name", "options"), VARIANTS, ids=IDS)
-def test_wrong_action_dimension_raises(name, options, trajectories):
-    tok = _make(name, options, trajectories)
+@pytest.mark.parametrize("config", VARIANTS, ids=IDS)
+def test_wrong_action_dimension_raises(config, trajectories):
+    tok = _make(config, trajectories)
     with pytest.raises(ValueError, match="action dimension"):
         tok(torch.zeros(2, 5, A - 1))
     with pytest.raises(ValueError, match="action dimension"):
-        make_tokenizer(name, A, D, **_options(name, options)).fit([np.zeros((10, A + 1))])
+        make_tokenizer(config, A).fit([np.zeros((10, A + 1))])
 
 
-@pytest.mark.parametrize(("name", "options"), VARIANTS, ids=IDS)
-def test_nan_input_raises(name, options, trajectories):
-    tok = _make(name, options, trajectories)
+@pytest.mark.parametrize("config", VARIANTS, ids=IDS)
+def test_nan_input_raises(config, trajectories):
+    tok = _make(config, trajectories)
     x = _batch(trajectories).clone()
     x[1, 3, 2] = float("nan")
     with pytest.raises(ValueError, match="NaN"):
@@ -250,33 +297,33 @@ def test_nan_input_raises(name, options, trajectories):
     bad = [trajectories[0].copy()]
     bad[0][4, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
-        make_tokenizer(name, A, D, **_options(name, options)).fit(bad)
+        make_tokenizer(config, A).fit(bad)
 
 
 def test_wrong_rank_raises():
-    tok = make_tokenizer("mlp", A, D)
+    tok = make_tokenizer(cfg("mlp"), A)
     with pytest.raises(ValueError, match=r"\(B, T, A\)"):
         tok(torch.zeros(5, A))
 
 
 def test_evaluate_tokenizer_reports_every_measurement(trajectories, held_out):
-    tok = _make("vq", {}, trajectories)
+    tok = _make("vq", trajectories)
     metrics = evaluate_tokenizer(tok, held_out, throughput_batch=(4, 8), min_time=0.01)
     for key in ("reconstruction_mse", "usage", "perplexity", "tokens_per_step",
                 "encode_actions_per_s", "decode_actions_per_s", "least_energy",
-                "least_energy_normalized", "curvature_energy"):
+                "least_energy_standardized", "latent_scale"):
         assert key in metrics and np.isfinite(metrics[key]), key
     assert 0 < metrics["usage"] <= 1 and 1 <= metrics["perplexity"] <= K
 
 
 def test_data_codebook_init_is_opt_in(trajectories):
     seed_everything(0)
-    default = make_tokenizer("lipvq", A, D, codebook_size=K).train()
+    default = make_tokenizer(cfg("lipvq"), A).train()
     before = default.codebook.weight.clone()
     default(_batch(trajectories))
     assert torch.equal(default.codebook.weight, before)
     assert before.abs().max() <= 1.0 / K  # VQ-VAE's uniform initialisation
-    tok = make_tokenizer("lipvq", A, D, codebook_size=K, codebook_init="data").train()
+    tok = make_tokenizer(cfg("lipvq", codebook_init="data"), A).train()
     x = _batch(trajectories)
     tok(x)
     z_e = tok.encoder(x).detach().reshape(-1, D)

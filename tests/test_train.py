@@ -1,26 +1,36 @@
-"""The training loop: overfitting, bit-exact resume, checkpoints, schedule, EMA, the CLI."""
+"""The training loop: overfitting, bit-exact resume, safe checkpoints and policy files,
+recovery from damaged run files, schedule, EMA, the CLI."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import os
 
 import numpy as np
 import pytest
 import torch
 
 from icil_paper.config import get_preset
-from icil_paper.policies.synthetic import synthetic_demos
+from icil_paper.runspec import run_spec
+from icil_paper.sim.synthetic import synthetic_demos
 from icil_paper.train import (
-    CHECKPOINT,
+    CONFIG_FILE,
     METRICS_FILE,
     POLICY_FILE,
-    cosine_schedule,
+    PolicyFileError,
+    RunFolderError,
     load_policy,
     policy_digest,
+    read_metrics,
+    run_dir_for,
     train_policy,
 )
+from icil_paper.train.optim import cosine_schedule
+from icil_paper.train.rundir import CHECKPOINT, PREVIOUS_CHECKPOINT, DamagedFileWarning
 
 torch.set_num_threads(1)
+TASKS = ["synthetic/task0", "synthetic/task1"]
 
 
 @pytest.fixture(scope="module")
@@ -28,8 +38,9 @@ def demos():
     return synthetic_demos(n_tasks=2, per_task=3, steps=(10, 14), seed=0)
 
 
-def smoke(**train):
-    return get_preset("smoke").replace(train=train) if train else get_preset("smoke")
+def spec(policy="icrt", tokenizer=None, overrides=(), seed=None):
+    preset = get_preset("smoke").with_overrides(list(overrides))
+    return run_spec(preset, policy, tokenizer, tasks=TASKS, seed=seed)
 
 
 def states_equal(a, b) -> bool:
@@ -40,11 +51,11 @@ def states_equal(a, b) -> bool:
 
 def test_tiny_icrt_overfits_one_demonstration():
     demo = synthetic_demos(n_tasks=1, per_task=1, steps=12, seed=3)
-    preset = get_preset("smoke").replace(
-        train={"steps": 100, "batch_size": 4, "lr": 3e-3, "warmup_steps": 10, "log_every": 1,
-               "query_len": 12, "weight_decay": 0.0},
-        policy={"d_model": 32, "n_layer": 1, "chunk_size": 1})
-    result = train_policy(preset, "icrt", "mlp", demos=demo, run_dir=None, progress=False)
+    s = spec("icrt", "mlp", ["train.steps=100", "train.batch_size=4", "train.lr=3e-3",
+                             "train.warmup_steps=10", "train.log_every=1",
+                             "train.weight_decay=0", "policies.icrt.query_len=12",
+                             "policies.icrt.chunk_size=1"])
+    result = train_policy(s, run_dir=None, demos=demo, progress=False)
     first = np.mean([h["action_l1"] for h in result.history[:3]])
     last = np.mean([h["action_l1"] for h in result.history[-3:]])
     assert last < first / 10, f"action loss fell only from {first:.4f} to {last:.4f}"
@@ -54,57 +65,122 @@ def test_tiny_icrt_overfits_one_demonstration():
                                                   ("bc_transformer", None, None),
                                                   ("icrt", "fast", None)])
 def test_resume_equals_uninterrupted_training(tmp_path, demos, policy, tokenizer, ema):
-    preset = get_preset("smoke").replace(train={"steps": 7, "ckpt_every": 3, "ema_decay": ema},
-                                         policy={"dropout": 0.1})  # dropout draws from torch's RNG
+    s = spec(policy, tokenizer, ["train.steps=7", "train.ckpt_every=3", f"train.ema_decay={ema}",
+                                 f"policies.{policy}.dropout=0.1"])  # dropout draws from torch
     kw = dict(demos=demos, progress=False)
-    straight = train_policy(preset, policy, tokenizer, run_dir=tmp_path / "a", **kw)
-    killed = train_policy(preset, policy, tokenizer, run_dir=tmp_path / "b", stop_after=4, **kw)
+    straight = train_policy(s, run_dir=tmp_path / "a", **kw)
+    killed = train_policy(s, run_dir=tmp_path / "b", stop_after=4, **kw)
     assert killed.metrics["steps"] == 4 and not (tmp_path / "b" / POLICY_FILE).exists()
-    ckpt = torch.load(tmp_path / "b" / CHECKPOINT, weights_only=False)
-    assert ckpt["step"] == 4
-    # lines logged after the checkpoint would be redone; simulate a kill just before step 6
+    # lines logged after the checkpoint would be redone; simulate a kill mid-line at step 6
     with open(tmp_path / "b" / METRICS_FILE, "a") as f:
-        f.write(json.dumps({"step": 5, "loss": -1.0}) + "\n")
-    resumed = train_policy(preset, policy, tokenizer, run_dir=tmp_path / "b", **kw)
+        f.write(json.dumps({"step": 5, "loss": -1.0}) + "\n" + '{"step": 6, "lo')
+    resumed = train_policy(s, run_dir=tmp_path / "b", **kw)
     assert resumed.metrics["steps"] == 7
     assert states_equal(straight.policy, resumed.policy)
+
     def logged(run):
-        lines = (tmp_path / run / METRICS_FILE).read_text().splitlines()
-        return [{k: v for k, v in json.loads(x).items() if k != "elapsed_s"} for x in lines]
+        return [{k: v for k, v in x.items() if k != "elapsed_s"}
+                for x in read_metrics(tmp_path / run / METRICS_FILE)]
 
     assert logged("a") == logged("b")
 
 
-def test_checkpoint_and_policy_files(tmp_path, demos):
-    preset = smoke(steps=4, ckpt_every=2)
-    result = train_policy(preset, "icrt", "bin", demos=demos, run_dir=tmp_path, progress=False)
-    ckpt = torch.load(tmp_path / CHECKPOINT, weights_only=False)
-    assert {"step", "model", "optimizer", "scheduler", "ema", "rng", "spec", "config"} <= set(ckpt)
-    assert ckpt["step"] == 4
+def test_checkpoint_and_policy_files_are_safe_to_load(tmp_path, demos):
+    s = spec("icrt", "bin", ["train.steps=4", "train.ckpt_every=2"])
+    result = train_policy(s, run_dir=tmp_path, demos=demos, progress=False)
+    ckpt = torch.load(tmp_path / CHECKPOINT, weights_only=True)  # tensors, numbers, strings
+    assert {"step", "key", "model", "optimizer", "scheduler", "ema", "rng"} <= set(ckpt)
+    assert ckpt["step"] == 4 and ckpt["key"] == s.key()
+    assert (tmp_path / PREVIOUS_CHECKPOINT).exists()
     assert not list(tmp_path.glob(".*.tmp")), "a temporary file was left behind"
-    lines = [json.loads(x) for x in (tmp_path / METRICS_FILE).read_text().splitlines()]
+    assert oct(os.stat(tmp_path / POLICY_FILE).st_mode & 0o777) != "0o600"
+    lines = read_metrics(tmp_path / METRICS_FILE)
     assert [x["step"] for x in lines] == [1, 2, 3, 4]
     assert all(np.isfinite(x["loss"]) and "lr" in x and "grad_norm" in x for x in lines)
     # the bin tokenizer was fitted on the training actions before training
     actions = np.concatenate([d.actions for d in demos])
     np.testing.assert_allclose(result.policy.tokenizer.low.numpy(), actions.min(0), atol=1e-3)
-    np.testing.assert_allclose(result.policy.tokenizer.high.numpy(), actions.max(0), atol=1e-3)
     loaded = load_policy(tmp_path)
     assert policy_digest(loaded) == policy_digest(result.policy)
+    assert loaded.meta["key"] == s.key()
     loaded.reset(demos[0])
     result.policy.reset(demos[0])
     obs = {k: v[0] for k, v in demos[1].obs.items()}
     np.testing.assert_array_equal(loaded.select_action(obs), result.policy.select_action(obs))
 
 
+def test_a_pickled_policy_file_is_refused(tmp_path):
+    class Payload:
+        def __reduce__(self):
+            return (os.system, ("touch " + str(tmp_path / "pwned"),))
+
+    torch.save({"format": "icil_paper.policy/2", "spec": Payload()}, tmp_path / POLICY_FILE)
+    with pytest.raises(PolicyFileError, match="reads safely"):
+        load_policy(tmp_path)
+    assert not (tmp_path / "pwned").exists()
+    (tmp_path / POLICY_FILE).write_bytes(b"not a policy")
+    with pytest.raises(PolicyFileError):
+        load_policy(tmp_path)
+    with pytest.raises(FileNotFoundError, match="train it first"):
+        load_policy(tmp_path / "elsewhere")
+
+
 def test_resume_refuses_a_different_run(tmp_path, demos):
-    train_policy(smoke(steps=2), "icrt", "mlp", demos=demos, run_dir=tmp_path, progress=False)
-    with pytest.raises(ValueError, match="different run"):
-        train_policy(smoke(steps=2), "icrt", "vq", demos=demos, run_dir=tmp_path, progress=False)
+    train_policy(spec("icrt", "mlp", ["train.steps=2"]), run_dir=tmp_path, demos=demos,
+                 progress=False)
+    with pytest.raises(RunFolderError, match="different run.*--no-resume"):
+        train_policy(spec("icrt", "vq", ["train.steps=2"]), run_dir=tmp_path, demos=demos,
+                     progress=False)
     # a finished run resumes to itself without training again
-    again = train_policy(smoke(steps=2), "icrt", "mlp", demos=demos, run_dir=tmp_path,
+    again = train_policy(spec("icrt", "mlp", ["train.steps=2"]), run_dir=tmp_path, demos=demos,
                          progress=False)
     assert again.history == [] and again.metrics["steps"] == 2
+
+
+def test_a_truncated_checkpoint_falls_back_to_the_previous_one(tmp_path, demos):
+    s = spec("icrt", "mlp", ["train.steps=6", "train.ckpt_every=2"])
+    straight = train_policy(s, run_dir=tmp_path / "a", demos=demos, progress=False)
+    train_policy(s, run_dir=tmp_path / "b", demos=demos, progress=False, stop_after=4)
+    ckpt = tmp_path / "b" / CHECKPOINT
+    ckpt.write_bytes(ckpt.read_bytes()[:100])  # torn by a crash
+    with pytest.warns(DamagedFileWarning, match="checkpoint"):
+        resumed = train_policy(s, run_dir=tmp_path / "b", demos=demos, progress=False)
+    assert states_equal(straight.policy, resumed.policy)  # from step 2, bit for bit
+    assert list((tmp_path / "b").glob(f"{CHECKPOINT}.corrupt-*")), "the damaged file is kept"
+
+
+def test_a_checkpoint_of_another_run_is_refused_without_config(tmp_path, demos):
+    train_policy(spec("icrt", "mlp", ["train.steps=3"]), run_dir=tmp_path, demos=demos,
+                 progress=False, stop_after=2)
+    (tmp_path / CONFIG_FILE).unlink()
+    with pytest.raises(RunFolderError, match="checkpoint of another run"):
+        train_policy(spec("icrt", "mlp", ["train.steps=4"]), run_dir=tmp_path, demos=demos,
+                     progress=False)
+
+
+def test_a_corrupt_config_is_set_aside(tmp_path, demos):
+    s = spec("icrt", "mlp", ["train.steps=2"])
+    train_policy(s, run_dir=tmp_path, demos=demos, progress=False, stop_after=1)
+    (tmp_path / CONFIG_FILE).write_text("{not json")
+    (tmp_path / ".checkpoint.pt.123.tmp").write_bytes(b"half")
+    with pytest.warns(DamagedFileWarning):
+        result = train_policy(s, run_dir=tmp_path, demos=demos, progress=False)
+    assert result.metrics["steps"] == 2
+    assert json.loads((tmp_path / CONFIG_FILE).read_text())["key"] == s.key()
+    assert not list(tmp_path.glob(".*.tmp")), "stale temporary files are cleaned"
+
+
+def test_unusable_run_folders_are_named(tmp_path, demos):
+    s = spec("icrt", "mlp", ["train.steps=1"])
+    (tmp_path / "file").write_text("")
+    with pytest.raises(RunFolderError, match="is a file"):
+        train_policy(s, run_dir=tmp_path / "file", demos=demos, progress=False)
+    if os.getuid() != 0:  # root writes anywhere
+        (tmp_path / "ro").mkdir(mode=0o500)
+        with pytest.raises(RunFolderError, match="cannot write"):
+            train_policy(s, run_dir=tmp_path / "ro", demos=demos, progress=False)
+    with pytest.raises(ValueError, match="train.steps must be at least 1"):
+        train_policy(spec("icrt", "mlp", ["train.steps=0"]), run_dir=None, demos=demos)
 
 
 def test_warmup_then_cosine_to_zero():
@@ -116,38 +192,65 @@ def test_warmup_then_cosine_to_zero():
 
 
 def test_ema_weights_are_the_returned_policy(demos):
-    plain = train_policy(smoke(steps=5), "bc_transformer", demos=demos, run_dir=None, progress=False)
-    averaged = train_policy(smoke(steps=5, ema_decay=0.5), "bc_transformer", demos=demos,
-                            run_dir=None, progress=False)
+    plain = train_policy(spec("bc_transformer", None, ["train.steps=5"]), demos=demos,
+                         progress=False)
+    averaged = train_policy(spec("bc_transformer", None, ["train.steps=5", "train.ema_decay=0.5"]),
+                            demos=demos, progress=False)
     assert not states_equal(plain.policy, averaged.policy)
 
 
 def test_train_cli_writes_run_and_record(tmp_path, demos, monkeypatch):
-    import icil_paper.train as train_module
+    import icil_paper.train.loop as loop
     from icil_paper.results import ResultsStore
+    from icil_paper.train.cli import main
 
-    monkeypatch.setattr(train_module, "load_training_demos", lambda *a, **k: demos)
-    code = train_module.main(["--preset", "smoke", "--policy", "act", "--tokenizer", "lipvq",
-                              "--tasks", "synthetic/task0", "--run-dir", str(tmp_path / "run"),
-                              "--quiet"])
-    assert code == 0
+    monkeypatch.setattr(loop, "training_demos", lambda *a, **k: demos)
+    args = ["--preset", "smoke", "--policy", "act", "--tokenizer", "lipvq", "--tasks",
+            "kitchen/open_drawer", "--run-dir", str(tmp_path / "run"), "--quiet"]
+    assert main(args + ["--set", "train.steps=3"]) == 0
     assert (tmp_path / "run" / POLICY_FILE).exists()
     table = ResultsStore("smoke").table("train")
-    assert list(table["name"]) == ["act+lipvq__synthetic__generated"]
-    assert table["steps"].iloc[0] == get_preset("smoke").train.steps
+    assert list(table["name"]) == ["act+lipvq__kitchen-open_drawer__generated__seed0"]
+    assert table["steps"].iloc[0] == 3
 
 
-def test_default_run_dir_follows_what_training_depends_on(tmp_path, monkeypatch):
-    from icil_paper.train import default_run_dir
+def test_set_changes_the_run_folder_and_record(tmp_path, demos, monkeypatch):
+    import icil_paper.train.loop as loop
+    from icil_paper.results import ResultsStore
+    from icil_paper.train.cli import main
 
+    monkeypatch.setattr(loop, "training_demos", lambda *a, **k: demos)
     monkeypatch.setenv("ICIL_RUNS", str(tmp_path))
-    preset = get_preset("smoke")
-    run = lambda p: default_run_dir(p, "icrt", "lipvq", ["kitchen/open_drawer"], "generated")
-    base = run(preset)
+    base = ["--preset", "smoke", "--tasks", "kitchen/open_drawer", "--quiet"]
+    assert main(base + ["--set", "train.steps=3"]) == 0
+    assert main(base + ["--set", "train.steps=4"]) == 0
+    folders = sorted(p.name for p in (tmp_path / "smoke").iterdir())
+    assert len(folders) == 2 and folders[0] != folders[1]
+    assert sorted(ResultsStore("smoke").table("train")["steps"]) == [3, 4]
+
+
+def test_run_dir_follows_the_run_spec(tmp_path, monkeypatch):
+    monkeypatch.setenv("ICIL_RUNS", str(tmp_path))
+    base = run_dir_for(spec("icrt", "lipvq"), "smoke")
     assert base.parent == tmp_path / "smoke"
-    assert base.name.startswith("icrt+lipvq__kitchen-open_drawer__generated__seed0__")
-    assert run(get_preset("smoke")) == base  # stable
-    assert run(preset.replace(eval={"episodes_per_task": 7})) == base  # evaluation only
-    for changed in (preset.replace(train={"steps": 6}), preset.replace(policy={"d_model": 64}),
-                    preset.replace(tokenizer={"codebook_size": 32}), get_preset("smoke", seed=1)):
-        assert run(changed) != base
+    assert base.name.startswith("icrt+lipvq__synthetic__generated__seed0__")
+    assert run_dir_for(spec("icrt", "lipvq"), "smoke") == base  # stable
+    assert run_dir_for(spec("icrt", "lipvq", ["eval.episodes_per_task=7", "train.log_every=3",
+                                              "data.workers=3"]), "smoke") == base
+    for changed in (["train.steps=6"], ["policies.icrt.d_model=64"],
+                    ["tokenizers.lipvq.codebook_size=32"], ["data.demos_per_task=3"]):
+        assert run_dir_for(spec("icrt", "lipvq", changed), "smoke") != base, changed
+    assert run_dir_for(spec("icrt", "lipvq", seed=1), "smoke") != base
+    monkeypatch.setenv("ICIL_RUNS", "")
+    assert run_dir_for(spec("icrt", "lipvq"), "smoke").parent.name == "smoke"
+    assert "runs" in run_dir_for(spec("icrt", "lipvq"), "smoke").parts
+
+
+def test_specs_round_trip_through_json():
+    from icil_paper.runspec import RunSpec
+
+    for policy, tokenizer in (("icrt", "lipvq"), ("act", None), ("act", "fast"), ("mcr", None)):
+        s = spec(policy, tokenizer)
+        back = RunSpec.from_dict(json.loads(json.dumps(s.to_dict())))
+        assert back == s and back.key() == s.key()
+        assert dataclasses.replace(s, seed=3).key() != s.key()

@@ -144,7 +144,7 @@ def chunk_targets(actions: np.ndarray, steps: np.ndarray, chunk: int) -> tuple[n
 # --------------------------------------------------------------------------- ICRT batches
 def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_size: int,
                        prompt_demos: int, rng: np.random.Generator,
-                       action_context: int = 0) -> dict[str, Any]:
+                       action_context: int = 0, query_start: str = "random") -> dict[str, Any]:
     """Sample B (prompt, query) pairs of the same task (see the module docstring).
 
     Returns a dict of tensors (padded; B batch, M prompt steps, N query steps, K chunk):
@@ -155,10 +155,15 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
         query_action_context (B, c, A), the c actions before each query window (edge-padded
         with the first action at an episode's start).
     The prompt is `prompt_demos` other demonstrations of the query's task (the query's own
-    demonstration only when the task has no other).
+    demonstration only when the task has no other). The query window holds `query_len`
+    steps (0: the whole episode) and starts uniformly at random in its episode
+    (`query_start="random"`) or at step 0 (`"episode_start"`, as a rollout does).
     """
     if prompt_demos < 1:
         raise ValueError(f"prompt_demos must be at least 1, got {prompt_demos}")
+    if query_len < 0 or query_start not in ("random", "episode_start"):
+        raise ValueError(f"query_len must be >= 0 and query_start 'random' or 'episode_start', "
+                         f"got {query_len} and {query_start!r}")
     rows = []
     for _ in range(batch_size):
         q = int(rng.integers(len(data)))
@@ -166,8 +171,8 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
         chosen = rng.choice(len(same), size=prompt_demos, replace=len(same) < prompt_demos)
         prompt = [same[int(c)] for c in chosen]
         T = int(data.lengths[q])
-        n = min(query_len, T)
-        start = int(rng.integers(0, T - n + 1))
+        n = T if query_len == 0 else min(query_len, T)
+        start = int(rng.integers(0, T - n + 1)) if query_start == "random" else 0
         steps = np.arange(start, start + n)
         targets, tvalid = chunk_targets(data.actions[q], steps, chunk_size)
         rows.append({

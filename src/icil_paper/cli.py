@@ -1,7 +1,13 @@
 """`icil-paper`: the command line of the companion.
 
 Each subcommand is a module-level `main(argv)` imported only when used, so `--help` is fast
-and one broken part of the library does not take the others down.
+and one broken part of the library does not take the others down. Every command that takes
+a preset also takes `--seed` and `--set SECTION.FIELD=VALUE` (repeatable), typed and
+checked against the config dataclasses (`add_preset_arguments`, `preset_from_args`).
+
+A user error (an unknown name, a bad value, a missing or damaged file) ends the command
+with one line naming the problem and the fix, and exit status 2; `--debug` (anywhere on the
+command line) shows the traceback instead. Other exceptions are bugs and show theirs.
 """
 
 from __future__ import annotations
@@ -10,9 +16,49 @@ import argparse
 import importlib
 import json
 import sys
+from typing import Any
 
 from icil_paper.config import PRESET_NAMES
-from icil_paper.registry import UnknownNameError
+
+USER_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
+"""What a command reports in one line (exit 2) instead of a traceback. ValueError covers
+UnknownNameError, OverrideError, DatasetError, RunFolderError, PolicyFileError and
+json.JSONDecodeError, whose messages name the problem."""
+
+
+def add_preset_arguments(parser: argparse.ArgumentParser) -> None:
+    """--preset, --seed and --set, shared by every command that takes a preset."""
+    parser.add_argument("--preset", choices=PRESET_NAMES, default=None,
+                        help="preset (default: $ICIL_PRESET or small)")
+    parser.add_argument("--seed", type=int, default=None, help="override the preset's seed")
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="SECTION.FIELD=VALUE",
+                        help="change one field of the preset, typed and checked (repeatable), "
+                             "e.g. --set train.steps=300 --set tokenizers.lipvq.codebook_size=512")
+
+
+def preset_from_args(args: argparse.Namespace) -> Any:
+    """The preset named by --preset (or $ICIL_PRESET), with --seed and every --set applied."""
+    from icil_paper.config import active_preset_name, get_preset
+
+    if args.seed is not None and args.seed < 0:
+        raise ValueError(f"--seed must be a non-negative integer, got {args.seed}")
+    preset = get_preset(active_preset_name(args.preset), seed=args.seed)
+    return preset.with_overrides(args.overrides)
+
+
+def positive(name: str):
+    """An argparse type: an integer >= 1, refused before any work with a message naming it."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer, got {text!r}") from None
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{name} must be at least 1, got {value}")
+        return value
+    return parse
 
 # subcommand -> (module with main(argv), one-line help)
 SUBCOMMANDS = {
@@ -51,6 +97,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.add_parser("env", help="report packages, hardware, simulators and the active preset",
                    add_help=False)
+    parser.epilog = ("--debug anywhere on the command line shows a traceback instead of a "
+                     "one-line error.")
     for name, (_, help_text) in SUBCOMMANDS.items():
         sub.add_parser(name, help=help_text, add_help=False)
     return parser
@@ -58,6 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]
     parser = build_parser()
     if not argv or argv[0] in ("-h", "--help"):
         parser.print_help()
@@ -69,20 +119,19 @@ def main(argv: list[str] | None = None) -> int:
         if command not in SUBCOMMANDS:
             parser.error(f"unknown command {command!r}; valid commands: env, "
                          + ", ".join(SUBCOMMANDS))
-        module_name = SUBCOMMANDS[command][0]
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as exc:
-            if exc.name and module_name.startswith(exc.name):
-                print(f"icil-paper {command}: not available yet ({module_name} is not part "
-                      "of this version; the README's 'What is reproduced so far' lists what "
-                      "is)", file=sys.stderr)
-                return 2
-            raise
+        module = importlib.import_module(SUBCOMMANDS[command][0])
         return int(module.main(rest) or 0)
-    except UnknownNameError as exc:
-        print(f"icil-paper {command}: error: {exc}", file=sys.stderr)
+    except USER_ERRORS as exc:
+        if debug:
+            raise
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        print(f"icil-paper {command}: error: {message} (--debug shows the traceback)",
+              file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"icil-paper {command}: interrupted; rerun the same command to resume",
+              file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -1,23 +1,49 @@
-"""Experiment configuration: dataclasses with a docstring under every field, and three presets.
+"""Experiment configuration: dataclasses with a docstring under every field, and the presets.
+
+A preset is one frozen object holding every knob: the data, one config per tokenizer
+(`icil_paper.tokenizers.configs`), one per policy (`icil_paper.policies.configs`), the
+training loop, evaluation, the stand-alone tokenizer studies and the tables.
 
 - `smoke`: seconds; what the test suite runs.
 - `small`: what CI's `make reproduce` runs on 2 CPU cores (at most 30 minutes in all).
+- `reference`: numbers worth reading, within 5 hours on 2 CPU cores.
 - `full`:  the paper's scale (500K / 30K iterations, 50 rollouts per task), for GPUs.
 
 The preset is chosen by `--preset` on the CLI or the `ICIL_PRESET` environment variable
 (default `small`). `get_preset("nope")` raises an UnknownNameError listing the valid names.
+Any field can be changed with `preset.with_overrides(["train.steps=3"])` (the CLI's
+`--set train.steps=3`), typed and checked against these dataclasses.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from icil_paper.policies.configs import (
+    ACTConfig,
+    BCTransformerConfig,
+    ICRTConfig,
+    MCRConfig,
+    PolicyConfig,
+)
 from icil_paper.registry import check_name
+from icil_paper.specs import NOT_KEYED, field_docs, to_dict, with_overrides
+from icil_paper.tokenizers.configs import (
+    BinConfig,
+    FASTConfig,
+    LFQConfig,
+    LipMLPConfig,
+    LipVQConfig,
+    MLPConfig,
+    TokenizerConfig,
+    VQConfig,
+)
 
-PRESET_NAMES = ("smoke", "small", "full")
+PRESET_NAMES = ("smoke", "small", "reference", "full")
 DEFAULT_PRESET = "small"
 PRESET_ENV_VAR = "ICIL_PRESET"
 
@@ -52,8 +78,8 @@ class DataConfig:
     """ManiSkill tasks of Table II."""
     obs: str = "state"
     """Observation kind recorded and learned from: `state`, `rgb` or `rgbd`."""
-    workers: int = 2
-    """Processes that generate demonstrations in parallel."""
+    workers: int = field(default=2, metadata=NOT_KEYED)
+    """Processes that generate demonstrations in parallel (the demos do not depend on it)."""
     expert_seeds: int = 50
     """Random scenes per task on which the `experts` stage measures every expert (success,
     open-loop replay, human-source keep rate); 0 skips it, and chapter 03 then reports the
@@ -61,43 +87,67 @@ class DataConfig:
 
 
 @dataclass(frozen=True)
-class TokenizerConfig:
-    """Action tokenizers (Sec. III-B) and their stand-alone training (chapter 04)."""
+class TokenizerConfigs:
+    """One config per action tokenizer (Sec. III-B), by registry name (`lip-mlp` is `lip_mlp`)."""
 
-    latent_dim: int = 64
-    """Width D of the action embedding (and of each codebook entry)."""
-    codebook_size: int = 1024
-    """Codebook size K of vq / lipvq (the paper's default, 2^10)."""
-    n_bins: int = 256
-    """Uniform bins per action dimension for the RT-1 style `bin` tokenizer."""
-    fast_scale: float = 10.0
-    """FAST: DCT coefficients are multiplied by this before rounding."""
-    fast_vocab_size: int = 1024
-    """FAST: BPE vocabulary size."""
-    fast_chunk: int = 8
-    """FAST: action steps per DCT chunk."""
+    mlp: MLPConfig = field(default_factory=MLPConfig)
+    """ICRT's action MLP."""
+    lip_mlp: LipMLPConfig = field(default_factory=LipMLPConfig)
+    """The MLP with Lipschitz layers (Table IV)."""
+    bin: BinConfig = field(default_factory=BinConfig)
+    """RT-1 style bins."""
+    fast: FASTConfig = field(default_factory=FASTConfig)
+    """FAST: DCT + BPE."""
+    vq: VQConfig = field(default_factory=VQConfig)
+    """VQ-VAE."""
+    lfq: LFQConfig = field(default_factory=LFQConfig)
+    """LFQ-VAE (lookup-free quantization)."""
+    lipvq: LipVQConfig = field(default_factory=LipVQConfig)
+    """LipVQ-VAE, the paper's tokenizer."""
+
+    def get(self, name: str) -> TokenizerConfig:
+        """The config of tokenizer `name` (UnknownNameError listing the valid names)."""
+        names = {f.name.replace("_", "-"): f.name for f in dataclasses.fields(self)}
+        return getattr(self, names[check_name("tokenizer", name, names)])
+
+
+@dataclass(frozen=True)
+class PolicyConfigs:
+    """One config per policy, by registry name."""
+
+    icrt: ICRTConfig = field(default_factory=ICRTConfig)
+    """ICRT (Sec. III-A)."""
+    bc_transformer: BCTransformerConfig = field(default_factory=BCTransformerConfig)
+    """BC-Transformer (robomimic)."""
+    act: ACTConfig = field(default_factory=ACTConfig)
+    """ACT, and ACT + tokenizer (Table II)."""
+    mcr: MCRConfig = field(default_factory=MCRConfig)
+    """MCR (images only)."""
+
+    def get(self, name: str) -> PolicyConfig:
+        """The config of policy `name` (UnknownNameError listing the valid names)."""
+        names = [f.name for f in dataclasses.fields(self)]
+        return getattr(self, check_name("policy", name, names))
+
+
+@dataclass(frozen=True)
+class TokenizerStudyConfig:
+    """Tokenizers trained alone on action trajectories (chapters 02 and 04, the benchmark)."""
+
     steps: int = 2000
-    """Optimizer steps when a tokenizer is trained on its own (chapter 04)."""
+    """Optimizer steps when a tokenizer is trained on its own."""
     batch_size: int = 64
-    """Trajectory windows per batch when a tokenizer is trained on its own."""
+    """Trajectory windows per batch."""
     window: int = 16
-    """Steps per trajectory window when a tokenizer is trained on its own."""
+    """Steps per trajectory window."""
     lr: float = 1e-3
-    """Learning rate when a tokenizer is trained on its own."""
-    codebook_sizes: tuple[int, ...] = (256, 512, 1024, 2048)
-    """Codebook sizes swept in the codebook-size ablation (Fig. 5)."""
-    hidden: tuple[int, ...] = (64, 128)
-    """Hidden widths of the tokenizers' encoder MLPs (decoders mirror them; the official code's)."""
-    fast_mode: str = "causal"
-    """FAST: `causal` (step t tokenized with the chunk ending at t) or `blocked` (FAST's own
-    non-overlapping chunks, whose step embeddings see later actions of their chunk)."""
+    """Adam learning rate."""
     trajectories: str = "demos"
-    """What tokenizers are trained on alone (chapters 02 and 04): `demos`, the preset's
-    `generated` demonstrations of its kitchen and ManiSkill tasks (the last `eval_fraction` of
-    each task's demos held out), or `synthetic`, minimum-jerk trajectories from
-    `icil_paper.trajectories` (no simulator needed)."""
+    """What tokenizers are trained on: `demos`, the preset's `generated` demonstrations of
+    its kitchen and ManiSkill tasks (the last `eval_fraction` of each task's demos held out),
+    or `synthetic`, minimum-jerk trajectories from `icil_paper.trajectories` (no simulator)."""
     eval_fraction: float = 0.2
-    """Share of each task's demonstrations held out for the tokenizer metrics (at least one)."""
+    """Share of each task's demonstrations held out for the metrics (at least one)."""
     n_trajectories: int = 200
     """`synthetic` only: generated trajectories a tokenizer is trained on."""
     n_eval_trajectories: int = 50
@@ -106,47 +156,6 @@ class TokenizerConfig:
     """Amplitude of the low-pass noise added to generated trajectories (teleoperation tremor)."""
     bench_fast_actions: int = 1_000_000
     """Actions FAST's BPE is fitted on in the benchmark (the paper: 1M)."""
-
-
-@dataclass(frozen=True)
-class PolicyConfig:
-    """Transformer sizes shared by ICRT and the baselines (ACT is scaled to BC-Transformer)."""
-
-    d_model: int = 128
-    """Token width."""
-    n_layer: int = 4
-    """Transformer layers."""
-    n_head: int = 4
-    """Attention heads."""
-    dropout: float = 0.1
-    """Dropout inside the transformer."""
-    chunk_size: int = 4
-    """Future actions predicted per query step (ICRT / ACT action chunking)."""
-    history: int = 10
-    """Observation history of BC-Transformer (robomimic's context length)."""
-    prompt_demos: int = 1
-    """Full demonstrations in an ICRT prompt (the paper uses one)."""
-    max_seq_len: int = 1024
-    """Longest token sequence ICRT trains on and keeps in its KV cache at inference (rotary
-    positions have no table limit; past this length the oldest query steps leave the cache,
-    the prompt stays)."""
-    query_actions: bool = True
-    """ICRT: interleave the query's own past actions with its observations (s1,a1,s2,a2,...,
-    as ICRT's code does); False gives Eq. 1 literally (query observations only)."""
-    resnet_width: int = 64
-    """First-stage channels of the ResNet-18 image backbone (torchvision's is 64)."""
-    language: bool = False
-    """Add a learned hashed bag-of-words embedding of the instruction to every observation
-    token (stands in for CLIP, which cannot be downloaded here)."""
-    act_latent_dim: int = 32
-    """ACT: width of the CVAE style latent z."""
-    kl_weight: float = 10.0
-    """ACT: weight of the KL term of the CVAE loss."""
-    ensemble_m: float = 0.01
-    """ACT: temporal ensembling weights exp(-m i) over overlapping chunks."""
-    mcr_pretrain_steps: int = 1000
-    """MCR: steps of manipulation-centric pre-training of the visual encoder before it is
-    frozen under the behaviour-cloning head."""
 
 
 @dataclass(frozen=True)
@@ -169,13 +178,12 @@ class TrainConfig:
     """Gradient norm clip."""
     ema_decay: float | None = None
     """Decay of an exponential moving average of weights, or None for no EMA."""
-    ckpt_every: int = 500
-    """Steps between checkpoints (a killed run loses at most this many)."""
-    query_len: int = 32
-    """Query steps per training sequence."""
-    log_every: int = 10
+    ckpt_every: int = field(default=500, metadata=NOT_KEYED)
+    """Steps between checkpoints (a killed run loses at most this many; resuming gives the
+    same result as an uninterrupted run, so it does not enter run keys)."""
+    log_every: int = field(default=10, metadata=NOT_KEYED)
     """Steps between lines of the metrics JSONL file."""
-    cpu_threads: int = 1
+    cpu_threads: int = field(default=1, metadata=NOT_KEYED)
     """torch CPU threads while training on CPU; 0 keeps torch's default. One thread is the
     default because the small models here gain little from more, and a CPU shared with other
     processes (rollout workers, a second job) makes torch's spinning thread pool many times
@@ -190,9 +198,9 @@ class EvalConfig:
     """Rollouts per task (the paper: 50)."""
     max_steps: int | None = None
     """Step limit per rollout; None uses the task's own horizon."""
-    workers: int = 2
-    """Processes that run rollouts in parallel."""
-    record: bool = False
+    workers: int = field(default=2, metadata=NOT_KEYED)
+    """Processes that run rollouts in parallel (each episode is fixed by its seed alone)."""
+    record: bool = field(default=False, metadata=NOT_KEYED)
     """Write a rerun recording of every rollout."""
 
 
@@ -201,23 +209,30 @@ class Preset:
     """Everything a run depends on besides code: one object, saved with every result."""
 
     name: str = DEFAULT_PRESET
-    """Preset name: smoke, small or full."""
+    """Preset name: smoke, small, reference or full."""
     seed: int = 0
-    """Seed passed to `seed_everything` by every entry point."""
+    """Seed of the data (demonstrations are generated from it) and default training and
+    evaluation seed; `seed_everything` is called with it by every entry point."""
     data: DataConfig = field(default_factory=DataConfig)
     """Demonstration data."""
-    tokenizer: TokenizerConfig = field(default_factory=TokenizerConfig)
-    """Action tokenizers."""
-    policy: PolicyConfig = field(default_factory=PolicyConfig)
-    """Policy sizes."""
+    tokenizers: TokenizerConfigs = field(default_factory=TokenizerConfigs)
+    """One config per action tokenizer."""
+    policies: PolicyConfigs = field(default_factory=PolicyConfigs)
+    """One config per policy."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Training loop."""
     eval: EvalConfig = field(default_factory=EvalConfig)
     """Evaluation rollouts."""
+    tokenizer_study: TokenizerStudyConfig = field(default_factory=TokenizerStudyConfig)
+    """Tokenizers trained alone (chapters 02 and 04)."""
 
     def to_dict(self) -> dict[str, Any]:
-        """A JSON-ready dict (tuples become lists)."""
-        return dataclasses.asdict(self)
+        """A JSON-ready dict (tuples become lists, component configs carry their type)."""
+        return to_dict(self)
+
+    def with_overrides(self, overrides: Sequence[str]) -> Preset:
+        """A copy with `SECTION.FIELD=VALUE` overrides applied (the CLI's `--set`)."""
+        return with_overrides(self, overrides)
 
     def replace(self, **sections: Any) -> Preset:
         """A copy with some fields changed: `preset.replace(train={"steps": 10})`."""
@@ -230,20 +245,44 @@ class Preset:
         return dataclasses.replace(self, **changes)
 
 
+def _policies(d_model: int, n_layer: int, n_head: int, dropout: float, chunk_size: int,
+              history: int, max_seq_len: int, resnet_width: int, query_len: int,
+              mcr_pretrain_steps: int, language: bool = False) -> PolicyConfigs:
+    """Every policy at the same transformer size (the paper scales ACT to BC-Transformer)."""
+    shared = dict(d_model=d_model, n_layer=n_layer, n_head=n_head, dropout=dropout,
+                  resnet_width=resnet_width, language=language)
+    return PolicyConfigs(
+        icrt=ICRTConfig(**shared, chunk_size=chunk_size, max_seq_len=max_seq_len,
+                        query_len=query_len),
+        bc_transformer=BCTransformerConfig(**shared, history=history),
+        act=ACTConfig(**shared, chunk_size=chunk_size),
+        mcr=MCRConfig(**shared, chunk_size=chunk_size, pretrain_steps=mcr_pretrain_steps))
+
+
+def _tokenizers(latent_dim: int, codebook_size: int, fast_vocab_size: int = 1024,
+                n_bins: int = 256) -> TokenizerConfigs:
+    """Every tokenizer at the same embedding width and codebook size."""
+    return TokenizerConfigs(
+        mlp=MLPConfig(latent_dim=latent_dim), lip_mlp=LipMLPConfig(latent_dim=latent_dim),
+        bin=BinConfig(latent_dim=latent_dim, n_bins=n_bins),
+        fast=FASTConfig(latent_dim=latent_dim, vocab_size=fast_vocab_size),
+        vq=VQConfig(latent_dim=latent_dim, codebook_size=codebook_size),
+        lfq=LFQConfig(latent_dim=latent_dim, codebook_size=codebook_size),
+        lipvq=LipVQConfig(latent_dim=latent_dim, codebook_size=codebook_size))
+
+
 def _smoke() -> Preset:
     return Preset(
         name="smoke",
         data=DataConfig(demos_per_task=2, workers=1, expert_seeds=0),
-        tokenizer=TokenizerConfig(
-            latent_dim=16, codebook_size=64, fast_vocab_size=300, steps=30,
-            batch_size=8, window=8, codebook_sizes=(16, 32), n_trajectories=12,
-            n_eval_trajectories=4, bench_fast_actions=20_000,
-        ),
-        policy=PolicyConfig(d_model=32, n_layer=1, n_head=2, dropout=0.0, chunk_size=2,
-                            history=4, max_seq_len=512, resnet_width=8, mcr_pretrain_steps=3),
-        train=TrainConfig(steps=5, batch_size=2, warmup_steps=1, ckpt_every=2, query_len=8,
-                          log_every=1),
+        tokenizers=_tokenizers(latent_dim=16, codebook_size=64, fast_vocab_size=300),
+        policies=_policies(d_model=32, n_layer=1, n_head=2, dropout=0.0, chunk_size=2,
+                           history=4, max_seq_len=512, resnet_width=8, query_len=8,
+                           mcr_pretrain_steps=3),
+        train=TrainConfig(steps=5, batch_size=2, warmup_steps=1, ckpt_every=2, log_every=1),
         eval=EvalConfig(episodes_per_task=1, max_steps=10, workers=1),
+        tokenizer_study=TokenizerStudyConfig(steps=30, batch_size=8, window=8, n_trajectories=12,
+                                             n_eval_trajectories=4, bench_fast_actions=20_000),
     )
 
 
@@ -251,15 +290,26 @@ def _small() -> Preset:
     return Preset(
         name="small",
         data=DataConfig(demos_per_task=10, workers=2, expert_seeds=0),
-        tokenizer=TokenizerConfig(latent_dim=32, codebook_size=256, steps=400,
-                                  codebook_sizes=(64, 128, 256, 512), n_trajectories=64,
-                                  n_eval_trajectories=16),
-        policy=PolicyConfig(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
-                            max_seq_len=1024, resnet_width=16, mcr_pretrain_steps=100),
+        tokenizers=_tokenizers(latent_dim=32, codebook_size=256),
+        policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
+                           history=10, max_seq_len=1024, resnet_width=16, query_len=32,
+                           mcr_pretrain_steps=100),
         # 1500 steps: ICRT + LipVQ-VAE on kitchen/open_drawer went from 2/10 rollouts at 300
         # steps to 10/10 at 1500 (about a minute on 2 cores, its evaluation included).
         train=TrainConfig(steps=1500, batch_size=8, warmup_steps=100, ckpt_every=500),
         eval=EvalConfig(episodes_per_task=5, workers=2),
+        tokenizer_study=TokenizerStudyConfig(steps=400, n_trajectories=64, n_eval_trajectories=16),
+    )
+
+
+def _reference() -> Preset:
+    small = _small()
+    return dataclasses.replace(
+        small, name="reference",
+        train=TrainConfig(steps=3000, batch_size=8, warmup_steps=100, ckpt_every=500),
+        eval=EvalConfig(episodes_per_task=10, workers=2),
+        tokenizer_study=TokenizerStudyConfig(steps=2000, n_trajectories=200,
+                                             n_eval_trajectories=50),
     )
 
 
@@ -267,18 +317,19 @@ def _full() -> Preset:
     return Preset(
         name="full",
         data=DataConfig(demos_per_task=200, workers=16, obs="rgb"),
-        tokenizer=TokenizerConfig(latent_dim=64, codebook_size=1024, steps=20000,
-                                  n_trajectories=2000, n_eval_trajectories=200),
-        policy=PolicyConfig(d_model=512, n_layer=6, n_head=8, dropout=0.1, chunk_size=16,
-                            max_seq_len=4096, resnet_width=64, language=True,
-                            mcr_pretrain_steps=20000),
+        tokenizers=_tokenizers(latent_dim=64, codebook_size=1024),
+        policies=_policies(d_model=512, n_layer=6, n_head=8, dropout=0.1, chunk_size=16,
+                           history=10, max_seq_len=4096, resnet_width=64, query_len=32,
+                           mcr_pretrain_steps=20000, language=True),
         train=TrainConfig(steps=500_000, batch_size=32, warmup_steps=2000, ckpt_every=5000,
                           ema_decay=0.999, cpu_threads=0),
         eval=EvalConfig(episodes_per_task=50, workers=16),
+        tokenizer_study=TokenizerStudyConfig(steps=20000, n_trajectories=2000,
+                                             n_eval_trajectories=200),
     )
 
 
-_PRESETS = {"smoke": _smoke, "small": _small, "full": _full}
+_PRESETS = {"smoke": _smoke, "small": _small, "reference": _reference, "full": _full}
 
 
 def active_preset_name(name: str | None = None) -> str:
@@ -295,17 +346,6 @@ def get_preset(name: str | None = None, seed: int | None = None) -> Preset:
     return preset
 
 
-def field_docs(cls: type) -> dict[str, str]:
-    """Map each field of a config dataclass to the docstring written under it."""
-    import ast
-    import inspect
-    import textwrap
-
-    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
-    body = tree.body[0].body
-    docs = {}
-    for node, following in zip(body, body[1:], strict=False):
-        if (isinstance(node, ast.AnnAssign) and isinstance(following, ast.Expr)
-                and isinstance(following.value, ast.Constant)):
-            docs[node.target.id] = str(following.value.value).strip()
-    return docs
+__all__ = ["PRESET_NAMES", "DataConfig", "EvalConfig", "Preset", "PolicyConfigs",
+           "TokenizerConfigs", "TokenizerStudyConfig", "TrainConfig", "active_preset_name",
+           "field_docs", "get_preset"]

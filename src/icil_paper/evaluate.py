@@ -1,61 +1,92 @@
 """Rollouts that turn a trained policy into a success rate, and `icil-paper eval`.
 
     from icil_paper.evaluate import evaluate_policy
-    result = evaluate_policy(policy, "kitchen/open_drawer", "small", prompt_source="generated",
-                             episodes=10, seed=0, workers=2)
-    result["success_rate"], result["ci_low"], result["ci_high"], result["per_episode"]
+    from icil_paper.runspec import eval_spec
+    result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
+                             prompts=demos, workers=2)
+    result.success_rate, result.ci_low, result.ci_high, result.per_episode
 
-Each episode i (of `episodes`) is fixed by the evaluation seed alone:
+Each episode i (of `EvalSpec.episodes`) is fixed by the evaluation seed alone:
 
 - its environment seed is `EVAL_SEED_BASE + 10_000 * seed + i` (`icil_paper.data`), above
   every seed demonstrations are generated with, so rollouts start from unseen scenes;
-- for an in-context policy, its prompt is `PolicyConfig.prompt_demos` demonstrations of
-  the task drawn from `prompt_source` with `np.random.default_rng([seed, i])`;
-- it runs until the task reports success, the episode ends, or `max_steps` (default: the
-  preset's `eval.max_steps`, else the task's horizon). Actions are clipped to [-1, 1].
+- for an in-context policy, its prompt is `ICRTConfig.prompt_demos` demonstrations drawn
+  from the prompt pool with `np.random.default_rng([seed, i])`; the pool is the first
+  demonstrations of the task's data set from `EvalSpec.prompt_source` (or of another task's,
+  `prompt_task`, for the prompt ablation), each cut to `prompt_steps` if that is set;
+- it runs until the task reports success, the episode ends, or `max_steps` (default the
+  task's horizon). Actions are clipped to [-1, 1].
 
 So the same seed gives the same episodes whether they run in one process or many. With
 `workers > 1` the episodes are split over spawned processes; each builds its own
-environment and its own copy of the policy from the policy's constructor arguments and
-state dict. The success rate comes with a Wilson 95% confidence interval.
+environment and its own copy of the policy from the policy's spec and state dict. The
+success rate comes with a Wilson 95% interval (`icil_paper.stats`).
 
-With `record=True` each rollout is written as a rerun recording (the observed scene state:
-end effector and object; camera frames for image observations; the executed actions; and,
-when the policy has an action tokenizer, its latent tokens of those actions) through
-`icil_paper.recording.record_episode`, under `results/<preset>/recordings/` by default.
+Before any rollout the policy's observation and action widths are checked against the
+task's (`check_policy_fits`), so a policy trained on another suite fails with both widths
+named. With a `record_dir` each rollout is written as a rerun recording (the scene state,
+camera frames for image observations, the executed actions and, when the policy has an
+action tokenizer, its latent tokens of those actions) with a static picture beside it.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import io
 import json
-import math
 import sys
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
-from icil_paper.config import PRESET_NAMES, Preset, active_preset_name, get_preset
+from icil_paper.runspec import EvalSpec
+from icil_paper.stats import wilson_interval
 
-Z_95 = 1.959963984540054
 
+@dataclass
+class EvalResult:
+    """What `evaluate_policy` returns (and what an `eval` record's metrics hold)."""
 
-def wilson_interval(successes: int, n: int, z: float = Z_95) -> tuple[float, float]:
-    """Wilson score interval for a binomial proportion (95% by default); (0, 1) for n = 0."""
-    if n <= 0:
-        return 0.0, 1.0
-    p = successes / n
-    denom = 1 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
+    task: str
+    """The task rolled out."""
+    episodes: int
+    """Rollouts run."""
+    successes: int
+    """Rollouts that reached the task's success predicate."""
+    success_rate: float
+    """successes / episodes."""
+    ci_low: float
+    """Lower end of the Wilson 95% interval."""
+    ci_high: float
+    """Upper end of the Wilson 95% interval."""
+    mean_steps: float
+    """Mean rollout length in env steps."""
+    wall_time_s: float
+    """Seconds the evaluation took."""
+    per_episode: list[dict[str, Any]] = field(default_factory=list)
+    """One dict per episode: episode, seed, success, steps, return, prompt (indices into the
+    prompt pool), wall_time_s and, when recorded, recording."""
+
+    @property
+    def outcomes(self) -> np.ndarray:
+        """(episodes,) bool: each episode's success, in episode order."""
+        return np.array([bool(e["success"]) for e in self.per_episode])
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> EvalResult:
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in data.items() if k in names})
 
 
 def episode_seed(seed: int, index: int) -> int:
@@ -79,17 +110,59 @@ def obs_kind(policy: Any) -> str:
 
 def _policy_blob(policy: Any) -> bytes:
     buf = io.BytesIO()
-    torch.save({"spec": policy.spec, "state_dict": policy.state_dict()}, buf)
+    torch.save({"spec": json.dumps(policy.spec), "state_dict": policy.state_dict()}, buf)
     return buf.getvalue()
 
 
 def _policy_from_blob(blob: bytes) -> Any:
     from icil_paper.policies.base import build_policy
 
-    state = torch.load(io.BytesIO(blob), map_location="cpu", weights_only=False)
-    policy = build_policy(state["spec"])
+    state = torch.load(io.BytesIO(blob), map_location="cpu", weights_only=True)
+    policy = build_policy(json.loads(state["spec"]))
     policy.load_state_dict(state["state_dict"])
     return policy.eval()
+
+
+def check_policy_fits(policy: Any, task: str) -> None:
+    """Raise ValueError when a policy's action or low-dimensional observation width differs
+    from the task's (both widths named), before any rollout."""
+    from icil_paper import sim
+
+    suite = sim.suite_of(task)
+    if policy.action_dim != sim.ACTION_DIM:
+        raise ValueError(f"the policy acts in {policy.action_dim} dimensions but {task} takes "
+                         f"{sim.ACTION_DIM}-dimensional actions")
+    width = int(sum(sim.obs_dims(suite)))
+    if policy.obs_spec.lowdim_dim and policy.obs_spec.lowdim_dim != width:
+        raise ValueError(f"the policy reads {policy.obs_spec.lowdim_dim}-dimensional state "
+                         f"(proprio + object) but {task} ({suite} suite) gives {width}: it was "
+                         "trained on another suite")
+
+
+def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
+                preset: str | None = None, progress: bool = True) -> list[Any]:
+    """The prompt demonstrations an EvalSpec draws from (see the module docstring)."""
+    from icil_paper.config import active_preset_name
+    from icil_paper.data import ensure_demos, load_demos
+
+    task = ev.prompt_task or ev.task
+    path = ensure_demos(active_preset_name(preset), task, ev.prompt_source, n=demos_per_task,
+                        seed=data_seed, obs=obs, progress=progress)
+    demos = load_demos(path, limit=demos_per_task)
+    if ev.prompt_steps is not None:
+        if ev.prompt_steps < 1:
+            raise ValueError(f"prompt_steps must be at least 1, got {ev.prompt_steps}")
+        demos = [_first_steps(d, ev.prompt_steps) for d in demos]
+    return demos
+
+
+def _first_steps(demo: Any, n: int) -> Any:
+    """A demonstration cut to its first `n` steps (per-step arrays cut alike)."""
+    cut = {"actions": demo.actions[:n], "obs": {k: v[:n] for k, v in demo.obs.items()}}
+    for name in ("states", "rewards"):
+        if getattr(demo, name, None) is not None:
+            cut[name] = getattr(demo, name)[:n]
+    return dataclasses.replace(demo, **cut)
 
 
 # --------------------------------------------------------------------------- one worker
@@ -191,10 +264,10 @@ def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping
     path = Path(record_dir) / f"{task.replace('/', '-')}__seed{ep['seed']}.rrd"
     title = (f"{getattr(policy, 'name', 'policy')} on {task}, episode {ep['index']} "
              f"(env seed {ep['seed']}): {'success' if trace['success'] else 'failure'}")
-    from icil_paper.sim import OBJECT_POSITION
+    from icil_paper.sim import object_position
 
     out = record_episode(path, trace["obs"], actions, latents=latents, title=title,
-                         object_position=OBJECT_POSITION.get(task.split("/", 1)[0]))
+                         object_position=object_position(task))
     return str(out["rrd"] or out["png"])
 
 
@@ -208,74 +281,56 @@ def _worker(blob: bytes, task: str, kind: str, plan: list[dict[str, Any]],
 
 
 # --------------------------------------------------------------------------- evaluation
-def evaluate_policy(policy: Any, task: str, preset: Preset | str | None = None,
-                    prompt_source: str = "generated", episodes: int | None = None,
-                    seed: int | None = None, workers: int | None = None, record: bool = False,
-                    max_steps: int | None = None, prompts: Sequence[Any] | None = None,
-                    record_dir: str | Path | None = None, progress: bool = True,
-                    env_options: Mapping[str, Any] | None = None,
-                    env_factory: Callable[..., Any] | None = None) -> dict[str, Any]:
-    """Success rate of `policy` on `task` over `episodes` rollouts (see the module docstring).
+def evaluate_policy(policy: Any, spec: EvalSpec, prompts: Sequence[Any] | None = None,
+                    workers: int = 1, record_dir: str | Path | None = None,
+                    progress: bool = True, env_options: Mapping[str, Any] | None = None,
+                    env_factory: Callable[..., Any] | None = None) -> EvalResult:
+    """Success rate of `policy` over the rollouts `spec` describes (see the module docstring).
 
     Args:
         policy: a trained policy (`icil_paper.policies`).
-        task: a task name of `icil_paper.sim.TASKS`.
-        preset: a Preset or preset name (defaults for episodes, workers, max_steps, record).
-        prompt_source: where prompt demonstrations come from ("generated" or "human").
-        episodes, seed, workers, max_steps: override the preset's values.
-        record: write a rerun recording of each rollout under `record_dir`.
-        prompts: prompt demonstrations to draw from instead of loading `prompt_source`.
+        spec: the task, episodes, seed, step limit and prompt choice (`runspec.EvalSpec`).
+        prompts: the prompt pool of an in-context policy (`prompt_pool` gives the spec's).
+        workers: processes that run rollouts (1: in this process).
+        record_dir: write a rerun recording of each rollout there.
         env_options: extra keyword options for `make_env`.
         env_factory: a picklable callable (task, obs=, seed=, **env_options) -> env used
-            instead of `icil_paper.sim.make_env` (e.g. `policies.synthetic.make_synthetic_env`).
-
-    Returns a dict: task, prompt_source, seed, episodes, successes, success_rate, ci_low,
-    ci_high (Wilson 95%), mean_steps, max_steps, per_episode (list of dicts: episode, seed,
-    success, steps, return, prompt (indices into the prompt pool), wall_time_s, recording).
+            instead of `icil_paper.sim.make_env` (e.g. a test suite's).
     """
-    preset = preset if isinstance(preset, Preset) else get_preset(preset)
-    ec = preset.eval
-    episodes = ec.episodes_per_task if episodes is None else int(episodes)
-    seed = preset.seed if seed is None else int(seed)
-    workers = ec.workers if workers is None else int(workers)
-    max_steps = ec.max_steps if max_steps is None else max_steps
-    record = record or ec.record
-    if episodes < 1:
-        raise ValueError(f"episodes must be at least 1, got {episodes}")
-
+    if spec.episodes < 1:
+        raise ValueError(f"episodes must be at least 1, got {spec.episodes}")
+    if spec.max_steps is not None and spec.max_steps < 1:
+        raise ValueError(f"max_steps must be at least 1 (or None), got {spec.max_steps}")
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    if env_factory is None:
+        check_policy_fits(policy, spec.task)
     pool: list[Any] = []
     if policy.uses_prompt:
-        if prompts is None:
-            from icil_paper.data import ensure_demos, load_demos
-
-            prompts = load_demos(ensure_demos(preset, task, prompt_source, progress=progress,
-                                              obs=obs_kind(policy)))
-        pool = [d for d in prompts if getattr(d, "task", task) == task] or list(prompts)
+        pool = list(prompts or [])
         if not pool:
-            raise ValueError(f"no prompt demonstrations for {task} from {prompt_source!r}")
-    k = policy.config.prompt_demos
+            raise ValueError(f"{policy.name} needs prompt demonstrations for {spec.task} "
+                             "(pass prompts=, e.g. prompt_pool(spec, ...))")
+    k = getattr(policy.config, "prompt_demos", 1)
     plan = []
-    for i in range(episodes):
+    for i in range(spec.episodes):
         chosen: list[int] = []
         if pool:
-            rng = np.random.default_rng([seed, i])
+            rng = np.random.default_rng([spec.seed, i])
             chosen = [int(j) for j in rng.choice(len(pool), size=k, replace=len(pool) < k)]
-        plan.append({"index": i, "seed": episode_seed(seed, i), "prompt": chosen})
+        plan.append({"index": i, "seed": episode_seed(spec.seed, i), "prompt": chosen})
     used = {j: pool[j] for ep in plan for j in ep["prompt"]}
-    if record:
-        from icil_paper.results import results_root
-
-        record_dir = str(record_dir or results_root() / preset.name / "recordings")
+    if record_dir is not None:
         Path(record_dir).mkdir(parents=True, exist_ok=True)
-    else:
-        record_dir = None
+        record_dir = str(record_dir)
     kind, env_options = obs_kind(policy), dict(env_options or {})
 
     start = time.perf_counter()
     was_training = policy.training
     policy.eval()
-    if workers <= 1 or episodes <= 1:
-        from icil_paper.train import cpu_threads
+    task, max_steps = spec.task, spec.max_steps
+    if workers <= 1 or spec.episodes <= 1:
+        from icil_paper.train.optim import cpu_threads
 
         with cpu_threads(1):  # one episode at a time gains nothing from a thread pool
             per_episode = _run_episodes(policy, task, kind, plan, used, max_steps, record_dir,
@@ -286,7 +341,7 @@ def evaluate_policy(policy: Any, task: str, preset: Preset | str | None = None,
         from tqdm.auto import tqdm
 
         blob = _policy_blob(policy)
-        n = min(workers, episodes)
+        n = min(workers, spec.episodes)
         shards = [plan[w::n] for w in range(n)]
         ctx = mp.get_context("spawn")
         with ProcessPoolExecutor(max_workers=n, mp_context=ctx) as ex:
@@ -301,34 +356,61 @@ def evaluate_policy(policy: Any, task: str, preset: Preset | str | None = None,
         per_episode.sort(key=lambda r: r["episode"])
     policy.train(was_training)
 
-    successes = sum(r["success"] for r in per_episode)
+    successes = int(sum(r["success"] for r in per_episode))
     lo, hi = wilson_interval(successes, len(per_episode))
-    return {"task": task, "prompt_source": prompt_source if policy.uses_prompt else None,
-            "seed": seed, "episodes": len(per_episode), "successes": int(successes),
-            "success_rate": successes / len(per_episode), "ci_low": lo, "ci_high": hi,
-            "mean_steps": float(np.mean([r["steps"] for r in per_episode])),
-            "max_steps": max_steps, "workers": workers,
-            "wall_time_s": round(time.perf_counter() - start, 3), "per_episode": per_episode}
+    return EvalResult(task=task, episodes=len(per_episode), successes=successes,
+                      success_rate=successes / len(per_episode), ci_low=lo, ci_high=hi,
+                      mean_steps=float(np.mean([r["steps"] for r in per_episode])),
+                      wall_time_s=round(time.perf_counter() - start, 3), per_episode=per_episode)
 
 
-def evaluate_tasks(policy: Any, tasks: Sequence[str], preset: Preset | str | None = None,
-                   **kwargs: Any) -> dict[str, Any]:
-    """`evaluate_policy` on each task; returns {"tasks": {task: result}, "average": mean rate}."""
-    results = {t: evaluate_policy(policy, t, preset, **kwargs) for t in tasks}
-    return {"tasks": results,
-            "average": float(np.mean([r["success_rate"] for r in results.values()]))}
+def eval_record_name(run: Any, ev: EvalSpec) -> str:
+    """The results-store name of an evaluation: `<label>__<task>__<prompt source>[...]`."""
+    name = f"{run.label}__{ev.task}__{ev.prompt_source}"
+    if ev.prompt_task:
+        name += f"__prompt-{ev.prompt_task.replace('/', '-')}"
+    if ev.prompt_steps:
+        name += f"__first{ev.prompt_steps}"
+    return f"{name}__seed{run.seed}"
+
+
+def evaluate_run(run: Any, ev: EvalSpec, policy: Any | Callable[[], Any], store: Any,
+                 preset: str | None = None, workers: int = 1, record_dir: str | Path | None = None,
+                 force: bool = False, progress: bool = True) -> dict[str, Any]:
+    """The stored evaluation of `run`'s trained policy as `ev` describes, computed if missing.
+
+    `policy` is the trained policy or a function that loads it (called only when the
+    record must be computed). The record's config is the keyed content of both specs, so
+    its key is `runspec.eval_key(run, ev)`. Returns the record.
+    """
+    from icil_paper.specs import to_dict
+
+    config = {"run": to_dict(run, keyed_only=True), "eval": to_dict(ev, keyed_only=True)}
+
+    def compute() -> dict[str, Any]:
+        trained = policy if isinstance(policy, torch.nn.Module) else policy()
+        pool = None
+        if trained.uses_prompt:
+            pool = prompt_pool(ev, run.data.obs, run.data.demos_per_task, run.data.seed, preset,
+                               progress)
+        result = evaluate_policy(trained, ev, prompts=pool, workers=workers,
+                                 record_dir=record_dir, progress=progress)
+        return result.to_dict()
+
+    return store.run("eval", eval_record_name(run, ev), config, compute, seed=ev.seed,
+                     force=force)
 
 
 # --------------------------------------------------------------------------- CLI
 def build_parser() -> argparse.ArgumentParser:
+    from icil_paper.cli import add_preset_arguments, positive
+
     p = argparse.ArgumentParser(prog="icil-paper eval",
                                 description="Roll out a trained policy; store its success rate.")
-    p.add_argument("--preset", choices=PRESET_NAMES, default=None,
-                   help="preset (default: $ICIL_PRESET or small)")
-    p.add_argument("--seed", type=int, default=None, help="evaluation seed (default: preset seed)")
+    add_preset_arguments(p)
     p.add_argument("--run-dir", default=None,
                    help="folder of a training run (default: the one that --policy, --tokenizer, "
-                        "--train-tasks or --suite, and --source name, trained with the preset's seed)")
+                        "--train-tasks or --suite, --source and the preset name)")
     p.add_argument("--policy", default="icrt", help="policy name, to find the default run folder")
     p.add_argument("--tokenizer", default=None, help="tokenizer name, to find the default run folder")
     p.add_argument("--tasks", nargs="+", default=None,
@@ -339,9 +421,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the training run's suite when --train-tasks is not given")
     p.add_argument("--source", default="generated", help="the training run's demonstration source")
     p.add_argument("--prompt-source", default="generated", help="where prompt demonstrations come from")
-    p.add_argument("--episodes", type=int, default=None, help="rollouts per task")
-    p.add_argument("--workers", type=int, default=None, help="parallel rollout processes")
-    p.add_argument("--max-steps", type=int, default=None, help="step limit per rollout")
+    p.add_argument("--eval-seed", type=int, default=None,
+                   help="evaluation seed (default: the preset's seed)")
+    p.add_argument("--episodes", type=positive("--episodes"), default=None,
+                   help="rollouts per task (default: the preset's eval.episodes_per_task)")
+    p.add_argument("--workers", type=positive("--workers"), default=None,
+                   help="parallel rollout processes (default: the preset's eval.workers)")
+    p.add_argument("--max-steps", type=positive("--max-steps"), default=None,
+                   help="step limit per rollout (default: the preset's, else the task's horizon)")
     p.add_argument("--record", action="store_true", help="write a rerun recording of each rollout")
     p.add_argument("--force", action="store_true", help="recompute a stored result")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -350,44 +437,41 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """`icil-paper eval`: evaluate a trained run on each task; one `eval` record per task."""
-    from icil_paper.policies import policy_label
-    from icil_paper.results import ResultsStore
-    from icil_paper.train import CONFIG_FILE, default_run_dir, load_policy, policy_digest
+    from icil_paper.cli import preset_from_args
+    from icil_paper.registry import check_name
+    from icil_paper.results import ResultsStore, results_root
+    from icil_paper.runspec import RunSpec, eval_spec, run_spec
+    from icil_paper.sim import all_tasks
+    from icil_paper.train.rundir import CONFIG_FILE, load_policy, run_dir_for
 
     args = build_parser().parse_args(argv)
-    preset = get_preset(active_preset_name(args.preset), seed=args.seed)
+    preset = preset_from_args(args)
+    valid = all_tasks()
+    for task in (args.tasks or []) + (args.train_tasks or []):
+        check_name("task", task, valid)
     if args.run_dir:
         run_dir = Path(args.run_dir)
+        config_path = run_dir / CONFIG_FILE
+        if not config_path.exists():
+            raise FileNotFoundError(f"{run_dir} is not a training run folder (no {CONFIG_FILE})")
+        run = RunSpec.from_dict(json.loads(config_path.read_text())["spec"])
     else:
-        train_preset = get_preset(preset.name)  # runs are named by the training seed
         train_tasks = args.train_tasks or list(getattr(preset.data, f"{args.suite}_tasks"))
-        run_dir = default_run_dir(train_preset, args.policy, args.tokenizer, train_tasks, args.source)
+        run = run_spec(preset, args.policy, args.tokenizer, tasks=train_tasks, source=args.source)
+        run_dir = run_dir_for(run, preset.name)
     policy = load_policy(run_dir)
-    run_config = json.loads((run_dir / CONFIG_FILE).read_text())
-    tasks = args.tasks or run_config["tasks"]
-    label = run_config.get("label") or policy_label(run_config["policy"], run_config["tokenizer"])
     store = ResultsStore(preset.name)
-    digest = policy_digest(policy)
-    for task in tasks:
-        config = {"label": label, "policy": run_config["policy"], "tokenizer": run_config["tokenizer"],
-                  "train_tasks": run_config["tasks"], "train_source": run_config["source"],
-                  "train_seed": run_config["seed"], "policy_digest": digest, "task": task,
-                  "prompt_source": args.prompt_source, "seed": preset.seed,
-                  "episodes": args.episodes or preset.eval.episodes_per_task,
-                  "max_steps": args.max_steps or preset.eval.max_steps}
-
-        def compute(task=task, config=config):
-            r = evaluate_policy(policy, task, preset, prompt_source=args.prompt_source,
-                                episodes=config["episodes"], seed=preset.seed, workers=args.workers,
-                                record=args.record, max_steps=args.max_steps,
-                                progress=not args.quiet)
-            return {k: v for k, v in r.items() if k != "task"}
-
-        record = store.run("eval", f"{label}__{task}__{args.prompt_source}", config, compute,
-                           seed=preset.seed, force=args.force)
+    workers = args.workers or preset.eval.workers
+    record_dir = results_root() / preset.name / "recordings" if args.record else None
+    for task in args.tasks or list(run.data.tasks):
+        ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
+                       prompt_source=args.prompt_source, max_steps=args.max_steps)
+        record = evaluate_run(run, ev, policy, store, preset.name, workers, record_dir,
+                              force=args.force, progress=not args.quiet)
         m = record["metrics"]
-        print(f"{label} on {task} (prompts: {args.prompt_source}): success {m['success_rate']:.3f} "
-              f"[{m['ci_low']:.3f}, {m['ci_high']:.3f}] over {m['episodes']} episodes")
+        print(f"{run.label} on {task} (prompts: {args.prompt_source}): success "
+              f"{m['success_rate']:.3f} [{m['ci_low']:.3f}, {m['ci_high']:.3f}] over "
+              f"{m['episodes']} episodes")
     return 0
 
 

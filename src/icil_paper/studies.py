@@ -8,13 +8,17 @@ Each study takes a preset and a results store, runs what is missing through
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
-from icil_paper.config import Preset
+from icil_paper.config import Preset, TokenizerStudyConfig
 from icil_paper.recording import principal_view
 from icil_paper.results import ResultsStore
+from icil_paper.runspec import DataSpec
 from icil_paper.sim import ACTION_DIM
+from icil_paper.specs import to_dict
+from icil_paper.tokenizers.configs import TokenizerConfig, lipvq_official
 
 VIEW_STEPS = 40
 """Steps of one held-out trajectory kept (in principal components) for latent plots."""
@@ -22,24 +26,61 @@ VIEW_DIMS = 3
 """Principal components of that latent trajectory kept (the figure draws 2, rerun 3)."""
 
 
-def tokenizer_runs() -> list[tuple[str, str, dict]]:
-    """(label, registry name, options): every tokenizer, the official code's LipVQ, and
-    VQ-VAE and LipVQ-VAE with codes initialised from encoder outputs (`codebook_init="data"`,
-    an opt-in remedy for codebook collapse, not the paper's method), so that chapter 04 can
+@dataclass(frozen=True)
+class TokenizerStudySpec:
+    """One tokenizer trained alone and measured (chapters 03 and 05): its key's content."""
+
+    tokenizer: TokenizerConfig
+    """The tokenizer's config (with `autoencode` where it has one: trained alone)."""
+    study: TokenizerStudyConfig
+    """Steps, batches, learning rate and the trajectories it is trained on."""
+    data: DataSpec
+    """The demonstrations whose actions are the trajectories (with `trajectories="demos"`)."""
+    seed: int
+    """Training seed."""
+    view_steps: int = VIEW_STEPS
+    """Steps of the held-out trajectory kept for latent plots."""
+    view_dims: int = VIEW_DIMS
+    """Principal components kept of it."""
+    radii: tuple[float, ...] = ()
+    """Chapter 03: perturbation radii of the empirical Lipschitz estimates (empty: none)."""
+
+
+def tokenizer_runs(preset: Preset) -> list[tuple[str, TokenizerConfig]]:
+    """(label, config): every tokenizer of the preset, the official code's LipVQ, and VQ-VAE
+    and LipVQ-VAE with codes initialised from encoder outputs (`codebook_init="data"`, an
+    opt-in remedy for codebook collapse, not the paper's method), so that chapter 05 can
     tell smoothness that comes from the Lipschitz bound from smoothness that comes from a
     trajectory that stays on one code."""
     from icil_paper.tokenizers import TOKENIZERS
 
-    return [(name, name, {}) for name in TOKENIZERS] + [
-        ("lipvq-official", "lipvq", {"variant": "official"}),
-        ("vq-data-init", "vq", {"codebook_init": "data"}),
-        ("lipvq-data-init", "lipvq", {"codebook_init": "data"})]
+    t = preset.tokenizers
+    return [(name, t.get(name)) for name in TOKENIZERS] + [
+        ("lipvq-official", lipvq_official(t.lipvq.latent_dim, t.lipvq.codebook_size)),
+        ("vq-data-init", dataclasses.replace(t.vq, codebook_init="data")),
+        ("lipvq-data-init", dataclasses.replace(t.lipvq, codebook_init="data"))]
+
+
+def study_data(preset: Preset) -> DataSpec:
+    """The demonstrations tokenizers are trained on alone: the `generated` demos of the
+    preset's kitchen and ManiSkill tasks, state observations."""
+    return DataSpec(tasks=tuple(preset.data.kitchen_tasks) + tuple(preset.data.maniskill_tasks),
+                    source="generated", obs="state", demos_per_task=preset.data.demos_per_task,
+                    seed=preset.seed)
+
+
+def study_spec(preset: Preset, config: TokenizerConfig, radii: tuple[float, ...] = ()
+               ) -> TokenizerStudySpec:
+    from icil_paper.tokenizers.training import stand_alone
+
+    return TokenizerStudySpec(tokenizer=stand_alone(config), study=preset.tokenizer_study,
+                              data=study_data(preset), seed=preset.seed, radii=tuple(radii))
 
 
 def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.ndarray], dict]:
     """The (train, test) action trajectories tokenizers are trained on alone, and what they are.
 
-    With `preset.tokenizer.trajectories == "demos"`: the actions of the preset's `generated`
+    With `preset.tokenizer_study.trajectories == "demos"`: the actions of the preset's `generated`
     demonstrations of its kitchen and ManiSkill tasks (made if missing), the last
     `eval_fraction` of each task's demos (at least one) held out. With `"synthetic"`:
     minimum-jerk trajectories from `icil_paper.trajectories`. The returned dict describes the
@@ -47,7 +88,7 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
     """
     from icil_paper.registry import check_name
 
-    cfg = preset.tokenizer
+    cfg = preset.tokenizer_study
     kind = check_name("tokenizer trajectories", cfg.trajectories, ("demos", "synthetic"))
     if kind == "synthetic":
         from icil_paper.trajectories import generate_trajectories
@@ -61,8 +102,9 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
                              "noise": cfg.trajectory_noise}
     from icil_paper.data import ensure_many, load_demos
 
-    tasks = list(preset.data.kitchen_tasks) + list(preset.data.maniskill_tasks)
-    paths = ensure_many(preset, tasks, ["generated"])
+    data = study_data(preset)
+    tasks = list(data.tasks)
+    paths = ensure_many(preset, tasks, ["generated"], n=data.demos_per_task, seed=data.seed)
     train, test = [], []
     for task in tasks:
         demos = load_demos(paths[task, "generated"], action_dim=ACTION_DIM,
@@ -79,68 +121,55 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
                          "eval_fraction": cfg.eval_fraction, "data_seed": preset.seed}
 
 
-def _train_alone(preset: Preset, name: str, options: dict):
+def _train_alone(preset: Preset, spec: TokenizerStudySpec):
     """Seed, load train/test trajectories, train one tokenizer alone; return it, log, test set."""
     from icil_paper.seeding import seed_everything
-    from icil_paper.tokenizers.training import build_tokenizer, train_tokenizer
+    from icil_paper.tokenizers import make_tokenizer
+    from icil_paper.tokenizers.training import train_tokenizer
 
     train, test, _ = tokenizer_trajectories(preset)
-    seed_everything(preset.seed)
-    tok = build_tokenizer(name, ACTION_DIM, preset.tokenizer, stand_alone=True, **options)
-    result = train_tokenizer(tok, train, preset.tokenizer, seed=preset.seed, progress=True)
+    seed_everything(spec.seed)
+    tok = make_tokenizer(spec.tokenizer, ACTION_DIM)
+    result = train_tokenizer(tok, train, spec.study, seed=spec.seed, progress=True)
     return tok, result, test
 
 
-def _trajectory_config(preset: Preset) -> dict:
-    """What the tokenizer studies' trajectories are, without loading them (for config hashes)."""
-    cfg = preset.tokenizer
-    if cfg.trajectories == "synthetic":
-        return {"kind": "synthetic", "n": cfg.n_trajectories, "n_eval": cfg.n_eval_trajectories,
-                "noise": cfg.trajectory_noise}
-    return {"kind": cfg.trajectories, "source": "generated",
-            "tasks": list(preset.data.kitchen_tasks) + list(preset.data.maniskill_tasks),
-            "demos_per_task": preset.data.demos_per_task, "data_seed": preset.seed}
-
-
-def _train_and_measure_tokenizer(preset: Preset, name: str, options: dict) -> dict:
+def _train_and_measure_tokenizer(preset: Preset, spec: TokenizerStudySpec) -> dict:
     import torch
 
     from icil_paper.tokenizers.training import evaluate_tokenizer
 
-    tok, result, test = _train_alone(preset, name, options)
-    metrics = evaluate_tokenizer(tok, test, seed=preset.seed)
+    tok, result, test = _train_alone(preset, spec)
+    metrics = evaluate_tokenizer(tok, test, seed=spec.seed)
     metrics["train_s"] = result["wall_time_s"]
     metrics["final_loss"] = result["history"]["loss"][-1]
     # One held-out latent trajectory in principal components, for the chapter's figure and
     # its rerun recording (`tokenizer_latent_recording`).
     with torch.no_grad():
-        z = tok.eval()(torch.from_numpy(test[0][None, :VIEW_STEPS])).embeddings[0].numpy()
-    metrics["latent_view"] = principal_view(z, VIEW_DIMS).tolist()
+        z = tok.eval()(torch.from_numpy(test[0][None, :spec.view_steps])).embeddings[0].numpy()
+    metrics["latent_view"] = principal_view(z, spec.view_dims).tolist()
     return metrics
 
 
 def tokenizer_study(preset: Preset, store: ResultsStore | None = None,
                     force: bool = False) -> dict[str, dict]:
-    """Chapter 04: train every tokenizer alone on action trajectories and measure it."""
+    """Chapter 05: train every tokenizer alone on action trajectories and measure it."""
     store = store or ResultsStore(preset.name)
     records = {}
-    for label, name, options in tokenizer_runs():
-        config = {"chapter": "04", "tokenizer": name, "options": options,
-                  "tokenizer_config": dataclasses.asdict(preset.tokenizer),
-                  "seed": preset.seed, "trajectories": _trajectory_config(preset),
-                  "latent_view": {"steps": VIEW_STEPS, "dims": VIEW_DIMS}}
+    for label, config in tokenizer_runs(preset):
+        spec = study_spec(preset, config)
         records[label] = store.run(
-            "tokenizer", label, config,
-            lambda name=name, options=options: _train_and_measure_tokenizer(preset, name, options),
-            seed=preset.seed, force=force)["metrics"]
+            "tokenizer", label, to_dict(spec, keyed_only=True),
+            lambda spec=spec: _train_and_measure_tokenizer(preset, spec),
+            seed=spec.seed, force=force)["metrics"]
     return records
 
 
 def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict:
-    """Chapter 04: the held-out trajectory of `records["..."]["latent_view"]` through every
+    """Chapter 05: the held-out trajectory of `records["..."]["latent_view"]` through every
     tokenizer's latent space, as a rerun recording and its static picture.
 
-    Written to `results/<preset>/chapter04/latent_trajectories.{rrd,png}` from the stored
+    Written to `results/<preset>/tokenizers/latent_trajectories.{rrd,png}` from the stored
     views and the trajectory's actions (no tokenizer is retrained); returns their paths.
     """
     from icil_paper.recording import record_latent_trajectories
@@ -152,23 +181,24 @@ def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict
     title = (f"First {len(actions)} steps of one held-out trajectory in each latent space "
              "(principal components, each path scaled to unit extent; colour = time)")
     return record_latent_trajectories(
-        results_root() / preset.name / "chapter04" / "latent_trajectories.rrd", actions, views,
+        results_root() / preset.name / "tokenizers" / "latent_trajectories.rrd", actions, views,
         title=title)
 
 
-LIPSCHITZ_MODELS = (
-    ("lipvq (paper)", "lipvq", {}),
-    ("lipvq (official code)", "lipvq", {"variant": "official"}),
-    ("vq + spectral norm", "vq", {"norm": "spectral"}),
-    ("vq (no normalization)", "vq", {}),
-)
-"""Encoders compared in chapter 02: (label, tokenizer name, options)."""
+def lipschitz_models(preset: Preset) -> list[tuple[str, TokenizerConfig]]:
+    """Encoders compared in chapter 03: (label, config)."""
+    t = preset.tokenizers
+    return [("lipvq (paper)", t.lipvq),
+            ("lipvq (official code)", lipvq_official(t.lipvq.latent_dim, t.lipvq.codebook_size)),
+            ("vq + spectral norm", dataclasses.replace(t.vq, norm="spectral")),
+            ("vq (no normalization)", t.vq)]
+
 
 LIPSCHITZ_RADII = (1e-3, 1e-2, 1e-1, 1.0)
 """Perturbation radii of the random pairs that estimate an empirical Lipschitz constant."""
 
 
-def _lipschitz_measurements(preset: Preset, name: str, options: dict) -> dict:
+def _lipschitz_measurements(preset: Preset, spec: TokenizerStudySpec) -> dict:
     import math
 
     import torch
@@ -178,7 +208,7 @@ def _lipschitz_measurements(preset: Preset, name: str, options: dict) -> dict:
     from icil_paper.tokenizers.lipschitz_linear import weight_norm_bound
     from icil_paper.tokenizers.training import reconstruction_errors, smoothness
 
-    tok, result, test = _train_alone(preset, name, options)
+    tok, result, test = _train_alone(preset, spec)
     anchors = torch.from_numpy(np.concatenate(test))
     metrics = {
         "bound_inf": weight_norm_bound(tok.encoder, math.inf),
@@ -189,10 +219,10 @@ def _lipschitz_measurements(preset: Preset, name: str, options: dict) -> dict:
         "history_step": result["history"]["step"],
         "train_s": result["wall_time_s"],
     }
-    for radius in LIPSCHITZ_RADII:
+    for radius in spec.radii:
         for ord_name, ord_value in (("inf", math.inf), ("2", 2)):
             metrics[f"empirical_{ord_name}_r{radius:g}"] = empirical_lipschitz(
-                tok.encoder, anchors, n_pairs=4000, radius=radius, seed=preset.seed,
+                tok.encoder, anchors, n_pairs=4000, radius=radius, seed=spec.seed,
                 ord=ord_value)
     metrics.update(reconstruction_errors(tok, test))
     metrics.update({f"latent_{k}": v for k, v in smoothness(tok, test).items()})
@@ -201,71 +231,52 @@ def _lipschitz_measurements(preset: Preset, name: str, options: dict) -> dict:
 
 def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
                     force: bool = False) -> dict[str, dict]:
-    """Chapter 02: train encoders with and without normalization; bounds vs empirical constants."""
+    """Chapter 03: train encoders with and without normalization; bounds vs empirical constants."""
     store = store or ResultsStore(preset.name)
     records = {}
-    for label, name, options in LIPSCHITZ_MODELS:
-        config = {"chapter": "02", "tokenizer": name, "options": options,
-                  "tokenizer_config": dataclasses.asdict(preset.tokenizer), "seed": preset.seed,
-                  "trajectories": _trajectory_config(preset),
-                  "radii": list(LIPSCHITZ_RADII)}
+    for label, config in lipschitz_models(preset):
+        spec = study_spec(preset, config, radii=LIPSCHITZ_RADII)
         records[label] = store.run(
-            "lipschitz", label, config,
-            lambda name=name, options=options: _lipschitz_measurements(preset, name, options),
-            seed=preset.seed, force=force)["metrics"]
+            "lipschitz", label, to_dict(spec, keyed_only=True),
+            lambda spec=spec: _lipschitz_measurements(preset, spec),
+            seed=spec.seed, force=force)["metrics"]
     return records
 
 
 ICRT_DEMO_TASK = "kitchen/open_drawer"
-"""Chapter 01's task: one small ICRT trained and rolled out on it."""
+"""Chapter 02's task: one small ICRT trained and rolled out on it."""
 ICRT_DEMO_TOKENIZER = "lipvq"
-"""Chapter 01's action tokenizer (the paper's LipVQ-VAE)."""
+"""Chapter 02's action tokenizer (the paper's LipVQ-VAE)."""
 
 
-def icrt_run_dir(preset: Preset):
-    """Where chapter 01's policy is trained (checkpoints, metrics, policy.pt)."""
-    from icil_paper.train import default_run_dir
+def icrt_specs(preset: Preset):
+    """Chapter 02's run and evaluation: ICRT + LipVQ-VAE on one task, rolled out from prompts."""
+    from icil_paper.runspec import eval_spec, run_spec
 
-    return default_run_dir(preset, "icrt", ICRT_DEMO_TOKENIZER, [ICRT_DEMO_TASK], "generated")
+    run = run_spec(preset, "icrt", ICRT_DEMO_TOKENIZER, tasks=[ICRT_DEMO_TASK])
+    return run, eval_spec(preset, ICRT_DEMO_TASK)
 
 
 def icrt_rollout_study(preset: Preset, store: ResultsStore | None = None,
                        force: bool = False) -> dict:
-    """Chapter 01: train a small ICRT + LipVQ-VAE on one task, then evaluate it from prompts.
+    """Chapter 02: train a small ICRT + LipVQ-VAE on one task, then evaluate it from prompts.
 
-    Returns the stored metrics: the loss curve, the training summary and the evaluation
-    (success rate, Wilson interval, per-episode seeds and prompts).
+    Returns {"train": the train record's metrics (summary and loss curve), "eval": the eval
+    record's metrics (success rate, Wilson interval, per-episode seeds and prompts)}.
     """
-    import json
-
-    from icil_paper.evaluate import evaluate_policy
-    from icil_paper.train import METRICS_FILE, train_policy
+    from icil_paper.cells import load_trained, train_run
+    from icil_paper.evaluate import evaluate_run
 
     store = store or ResultsStore(preset.name)
-    run_dir = icrt_run_dir(preset)
-    config = {"chapter": "01", "policy": "icrt", "tokenizer": ICRT_DEMO_TOKENIZER,
-              "task": ICRT_DEMO_TASK, "source": "generated", "prompt_source": "generated",
-              "seed": preset.seed, "policy_config": preset.to_dict()["policy"],
-              "train_config": preset.to_dict()["train"],
-              "episodes": preset.eval.episodes_per_task, "max_steps": preset.eval.max_steps}
-
-    def compute() -> dict:
-        trained = train_policy(preset, "icrt", ICRT_DEMO_TOKENIZER, tasks=[ICRT_DEMO_TASK],
-                               source="generated", run_dir=run_dir)
-        lines = [json.loads(x) for x in (run_dir / METRICS_FILE).read_text().splitlines() if x]
-        result = evaluate_policy(trained.policy, ICRT_DEMO_TASK, preset,
-                                 prompt_source="generated",
-                                 episodes=preset.eval.episodes_per_task, seed=preset.seed)
-        return {"loss_steps": [x["step"] for x in lines], "loss": [x["loss"] for x in lines],
-                "action_l1": [x["action_l1"] for x in lines], "train": trained.metrics,
-                **{k: v for k, v in result.items() if k != "task"}}
-
-    return store.run("chapter01", f"icrt+{ICRT_DEMO_TOKENIZER}__{ICRT_DEMO_TASK}", config,
-                     compute, seed=preset.seed, force=force)["metrics"]
+    run, ev = icrt_specs(preset)
+    trained = train_run(run, preset.name, store, force=force, data_workers=preset.data.workers)
+    evaluated = evaluate_run(run, ev, lambda: load_trained(run, preset.name, store), store,
+                             preset.name, workers=preset.eval.workers, force=force)
+    return {"train": trained["metrics"], "eval": evaluated["metrics"]}
 
 
 def shown_tasks(preset: Preset) -> list[str]:
-    """Chapter 03's tasks: every task, or one per suite under the smoke preset."""
+    """Chapter 04's tasks: every task, or one per suite under the smoke preset."""
     from icil_paper import sim
 
     if preset.name == "smoke":
@@ -274,9 +285,21 @@ def shown_tasks(preset: Preset) -> list[str]:
     return list(sim.all_tasks())
 
 
+@dataclass(frozen=True)
+class ShowcaseSpec:
+    """What a task's showcase (a rendered frame and a recorded demo 0) depends on."""
+
+    task: str
+    """The task shown."""
+    seed: int
+    """Base seed of the scene and of demo 0."""
+    files: tuple[str, ...] = ("frame.png", "rrd", "png")
+    """The files written: the frame, the rerun recording and its static picture."""
+
+
 def showcase_study(preset: Preset, store: ResultsStore | None = None,
                    force: bool = False) -> dict[str, dict]:
-    """Chapter 03: a rendered frame and a recorded demo 0 of every shown task, by task.
+    """Chapter 04: a rendered frame and a recorded demo 0 of every shown task, by task.
 
     A record whose image files have gone missing is recomputed.
     """
@@ -286,15 +309,15 @@ def showcase_study(preset: Preset, store: ResultsStore | None = None,
     from icil_paper.results import results_root
 
     store = store or ResultsStore(preset.name)
-    out_dir = results_root() / preset.name / "chapter03"
+    out_dir = results_root() / preset.name / "showcase"
     shown = {}
     for task in shown_tasks(preset):
-        config = {"task": task, "seed": preset.seed, "version": 2}
+        spec = ShowcaseSpec(task=task, seed=preset.seed)
         compute = lambda task=task: showcase_task(task, out_dir, preset.seed)  # noqa: E731
-        metrics = store.run("chapter03_task", task, config, compute, seed=preset.seed,
+        metrics = store.run("showcase", task, to_dict(spec), compute, seed=preset.seed,
                             force=force)["metrics"]
         if not all(Path(metrics[k]).exists() for k in ("frame", "picture")):
-            metrics = store.run("chapter03_task", task, config, compute, seed=preset.seed,
+            metrics = store.run("showcase", task, to_dict(spec), compute, seed=preset.seed,
                                 force=True)["metrics"]
         shown[task] = metrics
     return shown

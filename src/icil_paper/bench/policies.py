@@ -47,22 +47,18 @@ def _sync(device: torch.device) -> None:
 def build_icrt(size: str, device: torch.device, max_seq_len: int = 4096):
     """ICRT + LipVQ-VAE at the policy size of preset `size`, untrained, in eval mode."""
     from icil_paper.policies import make_policy
-    from icil_paper.policies.synthetic import synthetic_demos
-    from icil_paper.train import tokenizer_options
+    from icil_paper.sim.synthetic import synthetic_demos
 
     preset = get_preset(size)
-    config = dataclasses.replace(preset.policy, max_seq_len=max_seq_len, dropout=0.0)
-    policy = make_policy("icrt", {"proprio": 9, "object": 6}, 7, config, tokenizer="lipvq",
-                         tokenizer_latent_dim=preset.tokenizer.latent_dim,
-                         tokenizer_options=tokenizer_options("lipvq", preset.tokenizer),
-                         query_len=preset.train.query_len)
+    config = dataclasses.replace(preset.policies.icrt, max_seq_len=max_seq_len, dropout=0.0)
+    policy = make_policy(config, {"proprio": 9, "object": 6}, 7, preset.tokenizers.lipvq)
     policy.prepare(synthetic_demos(1, 2, steps=20))
     return policy.to(device).eval(), preset
 
 
 def latency(size: str, prompt_tokens: int, device: torch.device, steps: int) -> dict[str, Any]:
     """Median ms per query step with and without the KV cache, and the prefill time."""
-    from icil_paper.policies.synthetic import synthetic_demos
+    from icil_paper.sim.synthetic import synthetic_demos
 
     policy, _ = build_icrt(size, device)
     prompt = synthetic_demos(1, 1, steps=prompt_tokens // 2, seed=1)[0]
@@ -116,8 +112,8 @@ def latency(size: str, prompt_tokens: int, device: torch.device, steps: int) -> 
 def training_speed(size: str, device: torch.device, steps: int) -> dict[str, Any]:
     """Optimizer steps per second of ICRT + LipVQ-VAE at the size and batch of preset `size`."""
     from icil_paper.batching import batch_to
-    from icil_paper.policies.synthetic import synthetic_demos
-    from icil_paper.train import make_optimizer
+    from icil_paper.sim.synthetic import synthetic_demos
+    from icil_paper.train.optim import make_optimizer
 
     policy, preset = build_icrt(size, device)
     demos = synthetic_demos(2, 4, steps=100, seed=3)
@@ -143,8 +139,8 @@ def training_speed(size: str, device: torch.device, steps: int) -> dict[str, Any
     _sync(device)
     wall = time.perf_counter() - t0
     return {"size": size, "device": str(device), "batch_size": tc.batch_size,
-            "query_len": tc.query_len, "prompt_steps": 100, "steps": steps,
-            "d_model": preset.policy.d_model, "n_layer": preset.policy.n_layer,
+            "query_len": preset.policies.icrt.query_len, "prompt_steps": 100, "steps": steps,
+            "d_model": preset.policies.icrt.d_model, "n_layer": preset.policies.icrt.n_layer,
             "n_params": sum(p.numel() for p in policy.parameters()),
             "steps_per_s": round(steps / wall, 3), "s_per_step": round(wall / steps, 4)}
 

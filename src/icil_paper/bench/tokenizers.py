@@ -3,7 +3,7 @@
     python -m icil_paper.bench.tokenizers            # paper sizes, BPE fitted on 1M actions
     python -m icil_paper.bench.tokenizers --quick    # 100k actions, shorter timings
 
-Every tokenizer is built at the paper's sizes (TokenizerConfig defaults: D = 64, K = 1024,
+Every tokenizer is built at the paper's sizes (the configs' defaults: D = 64, K = 1024,
 256 bins, FAST chunk 8 / scale 10 / vocabulary 1024) and timed on a batch of (B, T) action
 windows from generated trajectories (`icil_paper.trajectories`), with one torch thread
 (a per-core figure) and with all threads. Encode is a full `forward` (embeddings, codes,
@@ -19,19 +19,22 @@ import time
 import torch
 
 from icil_paper.bench import save_benchmark
-from icil_paper.config import TokenizerConfig
+from icil_paper.config import TokenizerStudyConfig
 from icil_paper.seeding import seed_everything
-from icil_paper.tokenizers import TOKENIZERS
-from icil_paper.tokenizers.training import build_tokenizer, sample_windows, throughput
+from icil_paper.specs import to_dict
+from icil_paper.tokenizers import TOKENIZERS, make_tokenizer
+from icil_paper.tokenizers.configs import default_config, lipvq_official
+from icil_paper.tokenizers.training import sample_windows, throughput
 from icil_paper.trajectories import ACTION_DIM, generate_actions, generate_trajectories
 
-VARIANTS = [(name, name, {}) for name in TOKENIZERS] + [
-    ("lipvq-official", "lipvq", {"variant": "official"})]
+VARIANTS = [(name, default_config(name)) for name in TOKENIZERS] + [
+    ("lipvq-official", lipvq_official())]
+"""(label, config) at the paper's sizes (D = 64, K = 1024)."""
 
 
 def run(quick: bool = False, seed: int = 0, progress: bool = True) -> dict:
     """Measure everything; returns the JSON-ready result."""
-    config = TokenizerConfig()
+    config = TokenizerStudyConfig()
     rng = seed_everything(seed)
     fit_actions = 100_000 if quick else config.bench_fast_actions
     batch_shape = (64, 16)
@@ -40,8 +43,8 @@ def run(quick: bool = False, seed: int = 0, progress: bool = True) -> dict:
     batch = torch.from_numpy(sample_windows(trajectories, *batch_shape, rng))
 
     rows = []
-    for label, name, options in VARIANTS:
-        tok = build_tokenizer(name, ACTION_DIM, config, **options).fit(trajectories)
+    for label, tok_config in VARIANTS:
+        tok = make_tokenizer(tok_config, ACTION_DIM).fit(trajectories)
         row = {"tokenizer": label}
         for threads in (1, torch.get_num_threads()):
             rates = throughput(tok, batch, min_time=min_time, threads=threads)
@@ -54,7 +57,7 @@ def run(quick: bool = False, seed: int = 0, progress: bool = True) -> dict:
     start = time.perf_counter()
     fit_set = generate_actions(fit_actions, seed=seed + 1, noise=config.trajectory_noise)
     generate_s = time.perf_counter() - start
-    fast = build_tokenizer("fast", ACTION_DIM, config)
+    fast = make_tokenizer("fast", ACTION_DIM)
     start = time.perf_counter()
     fast.fit(fit_set)
     fit_s = time.perf_counter() - start
@@ -69,8 +72,7 @@ def run(quick: bool = False, seed: int = 0, progress: bool = True) -> dict:
         "seed": seed,
         "batch_shape": list(batch_shape),
         "threads_available": torch.get_num_threads(),
-        "config": {k: (list(v) if isinstance(v, tuple) else v)
-                   for k, v in vars(config).items()},
+        "config": to_dict(config),
         "throughput": rows,
         "fast_bpe_fit": fast_fit,
     }

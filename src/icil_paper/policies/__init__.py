@@ -1,15 +1,17 @@
 """ICRT and the baselines of Tables I and II, behind one interface (`base.Policy`).
 
-    from icil_paper.policies import make_policy, POLICIES
-    policy = make_policy("icrt", obs_dim=19, action_dim=7, config=preset.policy, tokenizer="lipvq")
+    from icil_paper.policies import make_policy
+    policy = make_policy("icrt", obs_spec, action_dim=7, tokenizer="lipvq")   # default configs
+    policy = make_policy(preset.policies.icrt, obs_spec, 7, preset.tokenizers.lipvq)
 
-| name             | file               | paper                                         | tokenizer            |
+| name             | file               | paper                                         | tokenizers           |
 |------------------|--------------------|-----------------------------------------------|----------------------|
 | `icrt`           | icrt.py            | ICRT, Sec. III-A (Table I's ICRT rows)        | any (default `mlp`)  |
 | `bc_transformer` | bc_transformer.py  | robomimic BC-Transformer (Tables I, II)       | none                 |
 | `act`            | act.py             | ACT (Table II); with a tokenizer: ACT+tok rows| none = CVAE, or any  |
 | `mcr`            | mcr.py             | MCR encoder + BC head (images only)           | none                 |
 
+Each policy is built from its config (`configs.py`) and its tokenizer's config alone;
 `obs_dim` is the width of proprio and object state concatenated, or a mapping of keys to
 shapes (`{"proprio": 9, "object": 10, "rgb": (2, 84, 84, 3)}`), or an `ObsSpec`. Policy
 modules are imported on first use (a lazy registry).
@@ -19,9 +21,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from icil_paper.policies.configs import POLICY_CONFIGS, PolicyConfig, default_policy_config
 from icil_paper.registry import Registry
 
-POLICIES = ("icrt", "bc_transformer", "act", "mcr")
+POLICIES = tuple(POLICY_CONFIGS)
 
 REGISTRY = Registry("policy", {
     "icrt": "icil_paper.policies.icrt:ICRT",
@@ -30,34 +33,49 @@ REGISTRY = Registry("policy", {
     "mcr": "icil_paper.policies.mcr:MCR",
 })
 
-# Which tokenizers each policy takes (None = no tokenizer).
-TAKES_TOKENIZER = {"icrt": True, "bc_transformer": False, "act": True, "mcr": False}
+
+def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None):
+    """The tokenizer config a policy gets: `tokenizer` (a config or a name), else the
+    policy's default (None for a policy that works without one). Raises ValueError when the
+    policy does not take that tokenizer, naming the ones it takes."""
+    from icil_paper.tokenizers.configs import default_config
+
+    cls = REGISTRY[policy]
+    if tokenizer is None:
+        if cls.default_tokenizer is None:
+            return None
+        fields = {"latent_dim": latent_dim} if latent_dim else {}
+        return default_config(cls.default_tokenizer, **fields)
+    if isinstance(tokenizer, str):
+        tokenizer = default_config(tokenizer)
+    if tokenizer.type not in cls.tokenizers:
+        takes = (f"it takes {', '.join(cls.tokenizers)}" if cls.tokenizers
+                 else "it takes none")
+        raise ValueError(f"the {policy} policy does not take the {tokenizer.type!r} action "
+                         f"tokenizer ({takes})")
+    return tokenizer
 
 
-def make_policy(name: str, obs_dim: Any, action_dim: int, config: Any,
-                tokenizer: str | None = None, **options: Any):
-    """Build the policy called `name` (one of POLICIES).
+def make_policy(config: PolicyConfig | str, obs_dim: Any, action_dim: int,
+                tokenizer: Any = None):
+    """Build the policy a config describes (a name gives its default config).
 
-    `tokenizer` names an action tokenizer (`icil_paper.tokenizers.TOKENIZERS`) for `icrt`
-    (default `mlp`) and `act` (None = ACT's own CVAE encoder); `bc_transformer` and `mcr`
-    take none and raise ValueError if given one. Unknown names raise UnknownNameError.
+    `tokenizer`: a tokenizer config (`icil_paper.tokenizers.configs`) or name, for the
+    policies that take one; None gives the policy's default (`mlp` for ICRT, the CVAE for
+    ACT). Unknown names raise UnknownNameError; a tokenizer the policy does not take raises
+    ValueError.
     """
-    cls = REGISTRY[name]
-    if tokenizer is not None:
-        from icil_paper.registry import check_name
-        from icil_paper.tokenizers import TOKENIZERS
-
-        check_name("tokenizer", tokenizer, TOKENIZERS)
-        if not TAKES_TOKENIZER[name]:
-            raise ValueError(f"the {name} policy takes no action tokenizer (got {tokenizer!r})")
-    return cls(obs_dim, action_dim, config, tokenizer=tokenizer, **options)
+    if isinstance(config, str):
+        config = default_policy_config(config)
+    tokenizer = resolve_tokenizer(config.type, tokenizer, latent_dim=config.d_model)
+    return REGISTRY[config.type](config, obs_dim, action_dim, tokenizer)
 
 
-def policy_label(name: str, tokenizer: str | None) -> str:
+def policy_label(policy: str, tokenizer: str | None) -> str:
     """A run's display name: `icrt+lipvq`, `act`, `act+bin`, `bc_transformer`."""
-    if name == "icrt" and tokenizer is None:
-        tokenizer = "mlp"
-    return f"{name}+{tokenizer}" if tokenizer else name
+    default = REGISTRY[policy].default_tokenizer if policy in REGISTRY else None
+    tokenizer = tokenizer or default
+    return f"{policy}+{tokenizer}" if tokenizer else policy
 
 
-__all__ = ["POLICIES", "REGISTRY", "TAKES_TOKENIZER", "make_policy", "policy_label"]
+__all__ = ["POLICIES", "REGISTRY", "make_policy", "policy_label", "resolve_tokenizer"]

@@ -8,8 +8,8 @@ Plain ACT (`tokenizer=None`): a conditional VAE over the action chunk.
     loss = L1(â, a) + kl_weight * KL(N(mu, sigma) || N(0, I));   at inference z = 0
 
 At inference a chunk is predicted every step and overlapping chunks are averaged with ACT's
-temporal ensembling (weights exp(-m i), i = 0 the oldest; `PolicyConfig.ensemble_m`).
-Sizes come from `PolicyConfig` (the same d_model / n_layer / n_head as BC-Transformer, as
+temporal ensembling (weights exp(-m i), i = 0 the oldest; `ACTConfig.ensemble_m`).
+Sizes come from `ACTConfig` (the same d_model / n_layer / n_head as BC-Transformer, as
 the paper scaled ACT down); the blocks are this library's Llama-style blocks with learned
 position embeddings instead of DETR's sine embeddings.
 
@@ -23,10 +23,13 @@ output, so the tokenizer's latent space is what the policy has to predict:
     K queries ─ decoder ─ Linear ─> ẑ (B, K, D_tok) ─ tokenizer.decode ─> â (B, K, A)
     loss = L1(â, a) + MSE(ẑ, sg[tokenizer(a).embeddings]) + tokenizer losses
 
-The L1 term trains through `decode` where decoding is differentiable (vq, lipvq, lfq, mlp);
-for bin and FAST, whose decoding rounds to a code, it is logged but carries no gradient and
-the latent regression does the work. The target is detached so the policy cannot move it,
-while the tokenizer itself still learns through its own losses (trained jointly).
+`tokenizer.decode` is the tokenizer's decoder for mlp, vq, lipvq and lfq. For bin and FAST it
+is a learned MLP head on the pooled step embedding (bin centres and FAST's inverse DCT start
+from discrete codes, which a regressed latent does not give), so ACT + Bin and ACT + FAST
+act through an MLP on a predicted latent, not through bin centres or the inverse DCT; the
+chapters name them so. The L1 term reaches the decoder or the head and, through `decode`,
+the decoder transformer. The target is detached so the policy cannot move it, while the
+tokenizer itself still learns through its own losses (trained jointly).
 """
 
 from __future__ import annotations
@@ -39,29 +42,33 @@ import torch
 from torch import Tensor, nn
 
 from icil_paper.batching import DemoSet, window_batch
-from icil_paper.config import PolicyConfig
-from icil_paper.policies.backbones import ObsSpec, build_mlp
+from icil_paper.layers import mlp
+from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import Policy, TemporalEnsemble, masked_l1
+from icil_paper.policies.configs import ACTConfig
 from icil_paper.policies.transformer import DecoderBlock, RMSNorm, Transformer, TransformerConfig
+from icil_paper.tokenizers import TOKENIZERS
+from icil_paper.tokenizers.configs import TokenizerConfig
 
 
 class ACT(Policy):
-    """Action chunking with transformers; `tokenizer` None = CVAE (plain ACT)."""
+    """Action chunking with transformers (ACTConfig); no tokenizer = the CVAE (plain ACT)."""
 
     name = "act"
+    tokenizers = TOKENIZERS
 
-    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
-                 config: PolicyConfig, tokenizer: str | None = None, **options: Any):
-        super().__init__(obs_dim, action_dim, config, tokenizer, **options)
+    def __init__(self, config: ACTConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
+                 action_dim: int, tokenizer: TokenizerConfig | None = None):
+        super().__init__(config, obs_dim, action_dim, tokenizer)
         D, K = config.d_model, config.chunk_size
         self.chunk_size, self.kl_weight = K, config.kl_weight
         cfg = TransformerConfig(d_model=D, n_layer=config.n_layer, n_head=config.n_head,
                                 dropout=config.dropout, causal=False, rope=False)
         self.obs_encoder = self.make_obs_encoder(separate=True)
         n_mem = self.obs_encoder.n_parts
-        self.tokenizer = self.make_tokenizer(tokenizer)
+        self.tokenizer = self.make_tokenizer()
         if self.tokenizer is None:  # the CVAE encoder and its latent z
-            self.latent_dim = config.act_latent_dim
+            self.latent_dim = config.latent_dim
             self.cls = nn.Parameter(torch.zeros(1, 1, D))
             self.enc_state = nn.Linear(max(self.obs_spec.lowdim_dim, 1), D)
             self.enc_action = nn.Linear(action_dim, D)
@@ -78,7 +85,7 @@ class ACT(Policy):
         self.queries = nn.Parameter(torch.randn(1, K, D) * 0.02)
         self.decoder = nn.ModuleList([DecoderBlock(cfg) for _ in range(config.n_layer)])
         self.dec_norm = RMSNorm(D)
-        self.head = build_mlp([D, D, out_dim])
+        self.head = mlp([D, D, out_dim], nn.GELU)
         self.ensemble = TemporalEnsemble(K, config.ensemble_m)
 
     # ------------------------------------------------------------------ model

@@ -34,6 +34,8 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
+from icil_paper.layers import mlp
+
 IMAGE_KEYS = ("rgb", "depth")
 DEFAULT_LOWDIM_KEYS = ("proprio", "object")
 
@@ -116,17 +118,6 @@ def obs_spec_from_obs(obs: Mapping[str, np.ndarray], time_axis: bool = True) -> 
 
 
 # --------------------------------------------------------------------------- MLP
-def build_mlp(sizes: Sequence[int], activation: type[nn.Module] = nn.GELU,
-              final_activation: bool = False) -> nn.Sequential:
-    """Linear layers of the given sizes with `activation` between them."""
-    layers: list[nn.Module] = []
-    for i, (a, b) in enumerate(zip(sizes[:-1], sizes[1:], strict=False)):
-        layers.append(nn.Linear(a, b))
-        if i < len(sizes) - 2 or final_activation:
-            layers.append(activation())
-    return nn.Sequential(*layers)
-
-
 # --------------------------------------------------------------------------- ResNet-18
 def _norm2d(kind: str, channels: int) -> nn.Module:
     if kind == "batch":
@@ -249,7 +240,7 @@ class ObservationEncoder(nn.Module):
         self.spec, self.d_model, self.language, self.separate = spec, d_model, language, separate
         parts = 0
         if spec.lowdim_dim:
-            self.lowdim_mlp = build_mlp([spec.lowdim_dim, hidden, d_model], final_activation=True)
+            self.lowdim_mlp = mlp([spec.lowdim_dim, hidden, d_model], nn.GELU, final_activation=True)
             self.register_buffer("lowdim_mean", torch.zeros(spec.lowdim_dim))
             self.register_buffer("lowdim_std", torch.ones(spec.lowdim_dim))
             parts += d_model

@@ -1,45 +1,51 @@
 """The interface every policy implements (LeRobot-like), and what they share.
 
-    policy = make_policy("icrt", obs_dim, action_dim=7, config=preset.policy, tokenizer="lipvq")
+    policy = make_policy(ICRTConfig(), obs_spec, action_dim=7, tokenizer=LipVQConfig())
     policy.prepare(train_demos)                 # normalization stats, tokenizer.fit, pre-training
     batch = policy.sample_batch(data, batch_size, rng)
     loss, info = policy(batch)                  # training: a scalar loss and a dict of floats
     policy.reset(prompt=demos)                  # start an episode (ICRT: fill the KV cache)
     action = policy.select_action(obs)          # np.ndarray (A,) for one env observation
 
-A policy keeps the arguments it was built with in `policy.spec`, so that
-`build_policy(policy.spec)` rebuilds an empty copy (evaluation workers use it with the
-state dict).
+A policy is built from its config alone (`policy.config`, a dataclass of
+`icil_paper.policies.configs`), its tokenizer's config (`policy.tokenizer_config`) and the
+data's shapes; `policy.spec` holds all of it as JSON-ready data, so that
+`build_policy(policy.spec)` rebuilds an empty copy (evaluation workers and saved policies
+use it with the state dict).
 """
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import torch
 from torch import Tensor, nn
 
 from icil_paper.batching import DemoSet, as_demo_set, obs_batch
-from icil_paper.config import PolicyConfig
 from icil_paper.policies.backbones import ObservationEncoder, ObsSpec, as_obs_spec
+from icil_paper.policies.configs import PolicyConfig
+from icil_paper.tokenizers.configs import TokenizerConfig
 
 
 class Policy(nn.Module):
     """Base class of ICRT and the baselines.
 
-    Subclasses set `name` (and `uses_prompt` when `reset` takes prompt demonstrations) and
-    implement `sample_batch`, `forward`, `reset` and `select_action`.
+    Subclasses set `name`, the tokenizers they accept (`tokenizers`, registry names; empty
+    for a policy that takes none) and `default_tokenizer` (used when none is given; None:
+    the policy works without one), `uses_prompt` when `reset` takes prompt demonstrations,
+    and implement `sample_batch`, `forward`, `reset` and `select_action`.
     """
 
     name: str = "policy"
     uses_prompt: bool = False
     needs_images: bool = False
+    tokenizers: ClassVar[tuple[str, ...]] = ()
+    default_tokenizer: ClassVar[str | None] = None
 
-    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
-                 config: PolicyConfig, tokenizer: str | None = None, **options: Any):
+    def __init__(self, config: PolicyConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
+                 action_dim: int, tokenizer: TokenizerConfig | None = None):
         super().__init__()
         self.obs_spec = as_obs_spec(obs_dim)
         if action_dim < 1:
@@ -49,10 +55,8 @@ class Policy(nn.Module):
                              f"'rgbd'); got state observations {list(self.obs_spec.keys)}")
         self.action_dim = int(action_dim)
         self.config = config
-        self.tokenizer_name = tokenizer
-        self.options = dict(options)
-        self.spec = {"name": self.name, "obs_dim": self.obs_spec.to_dict(), "action_dim": action_dim,
-                     "config": _config_dict(config), "tokenizer": tokenizer, "options": dict(options)}
+        self.tokenizer_config = tokenizer
+        self.spec = policy_spec(config, tokenizer, self.obs_spec, self.action_dim)
         self.instruction = ""
 
     # ---------------------------------------------------------------- shared parts
@@ -64,14 +68,18 @@ class Policy(nn.Module):
                                   language=c.language if language is None else language,
                                   separate=separate)
 
-    def make_tokenizer(self, tokenizer: str | None) -> nn.Module | None:
-        if tokenizer is None:
+    def make_tokenizer(self) -> nn.Module | None:
+        """The action tokenizer `tokenizer_config` describes (None without one)."""
+        if self.tokenizer_config is None:
             return None
         from icil_paper.tokenizers import make_tokenizer
 
-        latent_dim = int(self.options.get("tokenizer_latent_dim", self.config.d_model))
-        kwargs = dict(self.options.get("tokenizer_options", {}))
-        return make_tokenizer(tokenizer, self.action_dim, latent_dim, **kwargs)
+        return make_tokenizer(self.tokenizer_config, self.action_dim)
+
+    def no_weight_decay(self) -> list[nn.Parameter]:
+        """Parameters the optimiser must not decay (the tokenizer's, if it names any)."""
+        tok = getattr(self, "tokenizer", None)
+        return tok.no_weight_decay() if tok is not None else []
 
     @property
     def device(self) -> torch.device:
@@ -121,23 +129,24 @@ class Policy(nn.Module):
         return sum(p.numel() for p in self.parameters())
 
 
-def _config_dict(config: PolicyConfig) -> dict[str, Any]:
-    import dataclasses
+def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spec: ObsSpec,
+                action_dim: int) -> dict[str, Any]:
+    """What rebuilds a policy, as JSON-ready data: its config, its tokenizer's, the shapes."""
+    from icil_paper.specs import to_dict
 
-    return dataclasses.asdict(config) if dataclasses.is_dataclass(config) else dict(config)
+    return {"policy": to_dict(config), "tokenizer": to_dict(tokenizer) if tokenizer else None,
+            "obs_spec": obs_spec.to_dict(), "action_dim": int(action_dim)}
 
 
 def build_policy(spec: Mapping[str, Any]) -> Policy:
     """Rebuild an (untrained) policy from `policy.spec`."""
     from icil_paper.policies import make_policy
+    from icil_paper.specs import from_dict
 
-    config = spec["config"]
-    if isinstance(config, Mapping):
-        fields = {f for f in PolicyConfig.__dataclass_fields__}
-        config = PolicyConfig(**{k: tuple(v) if isinstance(v, list) else v
-                                 for k, v in config.items() if k in fields})
-    return make_policy(spec["name"], ObsSpec.from_dict(spec["obs_dim"]), spec["action_dim"],
-                       config, tokenizer=spec.get("tokenizer"), **copy.deepcopy(spec.get("options", {})))
+    tokenizer = spec.get("tokenizer")
+    return make_policy(from_dict(PolicyConfig, spec["policy"]),
+                       ObsSpec.from_dict(spec["obs_spec"]), int(spec["action_dim"]),
+                       from_dict(TokenizerConfig, tokenizer) if tokenizer else None)
 
 
 def masked_l1(pred: Tensor, target: Tensor, valid: Tensor) -> Tensor:

@@ -1,6 +1,6 @@
 """BC-Transformer: robomimic's transformer policy over an observation history, no prompt.
 
-    o_(t-H+1) ... o_(t-1)  o_t         (H = PolicyConfig.history, edge-padded at the start)
+    o_(t-H+1) ... o_(t-1)  o_t         (H = BCTransformerConfig.history, edge-padded at the start)
         │           │       │
     ObservationEncoder (one token per step)
         │           │       │
@@ -24,12 +24,13 @@ from typing import Any
 
 import numpy as np
 import torch
-from torch import Tensor
+from torch import Tensor, nn
 
 from icil_paper.batching import DemoSet, window_batch
-from icil_paper.config import PolicyConfig
-from icil_paper.policies.backbones import ObsSpec, build_mlp
+from icil_paper.layers import mlp
+from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import Policy, masked_l1
+from icil_paper.policies.configs import BCTransformerConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 
 
@@ -38,16 +39,16 @@ class BCTransformer(Policy):
 
     name = "bc_transformer"
 
-    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
-                 config: PolicyConfig, tokenizer: str | None = None, **options: Any):
-        super().__init__(obs_dim, action_dim, config, None, **options)
+    def __init__(self, config: BCTransformerConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
+                 action_dim: int, tokenizer: None = None):
+        super().__init__(config, obs_dim, action_dim, None)
         D = config.d_model
         self.history = config.history
         self.obs_encoder = self.make_obs_encoder()
         self.transformer = Transformer(TransformerConfig(
             d_model=D, n_layer=config.n_layer, n_head=config.n_head, dropout=config.dropout,
             causal=True, rope=True))
-        self.head = build_mlp([D, D, action_dim])
+        self.head = mlp([D, D, action_dim], nn.GELU)
         self._tokens: deque[Tensor] = deque(maxlen=self.history)
 
     def sample_batch(self, data: DemoSet, batch_size: int, rng: np.random.Generator) -> dict[str, Any]:

@@ -14,7 +14,7 @@ The token layout is drawn in `icil_paper.batching`. Choices, and why:
 
 - Query actions in context. The paper's Eq. 1 lists only query observations; ICRT's code
   interleaves the query's own past actions as well (s1, a1, s2, a2, ...), and so do we by
-  default (`PolicyConfig.query_actions`): at step t the policy has seen what it did at steps
+  default (`ICRTConfig.query_actions`): at step t the policy has seen what it did at steps
   < t. The head reads the query's observation tokens only, so the observation token of step t
   never sees a_t. With `query_actions=False` the query is observations only, as Eq. 1 reads.
 - Loss. L1 between the predicted chunk and the next K demonstrated actions, over query steps
@@ -45,10 +45,13 @@ import torch
 from torch import Tensor, nn
 
 from icil_paper.batching import DemoSet, prompt_query_batch
-from icil_paper.config import PolicyConfig
-from icil_paper.policies.backbones import ObsSpec, build_mlp
+from icil_paper.layers import mlp
+from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import Policy, masked_l1, validate_prompt
+from icil_paper.policies.configs import ICRTConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
+from icil_paper.tokenizers import TOKENIZERS
+from icil_paper.tokenizers.configs import TokenizerConfig
 
 
 def action_context_steps(tokenizer: nn.Module) -> int:
@@ -63,31 +66,35 @@ def action_context_steps(tokenizer: nn.Module) -> int:
 
 
 class ICRT(Policy):
-    """In-context robot transformer. `tokenizer` names the action tokenizer (default "mlp",
-    ICRT's own). Options: `tokenizer_latent_dim` (default d_model), `tokenizer_options`,
-    `query_len` (default 32, steps per training query)."""
+    """In-context robot transformer (ICRTConfig) with any action tokenizer (default `mlp`,
+    ICRT's own)."""
 
     name = "icrt"
     uses_prompt = True
+    tokenizers = TOKENIZERS
+    default_tokenizer = "mlp"
 
-    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
-                 config: PolicyConfig, tokenizer: str | None = "mlp", **options: Any):
-        super().__init__(obs_dim, action_dim, config, tokenizer or "mlp", **options)
+    def __init__(self, config: ICRTConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
+                 action_dim: int, tokenizer: TokenizerConfig):
+        if tokenizer is None:
+            raise ValueError("ICRT needs an action tokenizer config (make_policy gives the "
+                             "default `mlp` when none is named)")
+        super().__init__(config, obs_dim, action_dim, tokenizer)
         D, K = config.d_model, config.chunk_size
         self.chunk_size = K
         self.query_actions = config.query_actions
         self.max_seq_len = config.max_seq_len
         self.obs_encoder = self.make_obs_encoder()
-        self.tokenizer = self.make_tokenizer(self.tokenizer_name)
+        self.tokenizer = self.make_tokenizer()
         self.action_context = action_context_steps(self.tokenizer)
         # "another MLP ensures the same dimension" between action and observation tokens
-        self.action_proj = build_mlp([self.tokenizer.latent_dim, D, D])
+        self.action_proj = mlp([self.tokenizer.latent_dim, D, D], nn.GELU)
         self.type_emb = nn.Embedding(2, D)  # 0: observation token, 1: action token
         nn.init.normal_(self.type_emb.weight, std=0.02)
         self.transformer = Transformer(TransformerConfig(
             d_model=D, n_layer=config.n_layer, n_head=config.n_head, dropout=config.dropout,
             causal=True, rope=True))
-        self.head = build_mlp([D, D, K * action_dim])
+        self.head = mlp([D, D, K * action_dim], nn.GELU)
         self._cache = None
 
     # ------------------------------------------------------------------ tokens
@@ -144,9 +151,10 @@ class ICRT(Policy):
 
     # ------------------------------------------------------------------ training
     def sample_batch(self, data: DemoSet, batch_size: int, rng: np.random.Generator) -> dict[str, Any]:
-        return prompt_query_batch(data, batch_size, int(self.options.get("query_len", 32)),
-                                  self.chunk_size, self.config.prompt_demos, rng,
-                                  action_context=self.action_context - 1)
+        c = self.config
+        return prompt_query_batch(data, batch_size, c.query_len, self.chunk_size,
+                                  c.prompt_demos, rng, action_context=self.action_context - 1,
+                                  query_start=c.query_start)
 
     def predict(self, batch: Mapping[str, Any]) -> tuple[Tensor, dict[str, Tensor]]:
         """Predicted chunks (B, N, K, A) at every query step, and the tokenizer's losses."""
@@ -155,7 +163,7 @@ class ICRT(Policy):
             raise ValueError(
                 f"sequence of {tokens.shape[1]} tokens (prompt {batch['prompt_valid'].shape[1]} "
                 f"steps, query {batch['query_valid'].shape[1]} steps) is longer than "
-                f"max_seq_len={self.max_seq_len}; raise PolicyConfig.max_seq_len or use "
+                f"max_seq_len={self.max_seq_len}; raise ICRTConfig.max_seq_len or use "
                 "shorter demonstrations")
         h = self.transformer(tokens, valid)  # (B, L, D)
         h_q = h[:, q_index]  # (B, N, D): the query's observation tokens

@@ -3,7 +3,7 @@
 MCR pre-trains a visual encoder on robot data with three objectives and then freezes it for
 behaviour cloning. No MCR checkpoint can be downloaded here, so `prepare` pre-trains the
 library's ResNet-18 on our own training demonstrations with the same three objectives
-(`PolicyConfig.mcr_pretrain_steps` steps, before the policy's own training):
+(`MCRConfig.pretrain_steps` steps, before the policy's own training):
 
     image I_t ─ ResNet-18 ─ v_t ──┬─ dynamics alignment: InfoNCE(v_t, g(proprio_t, a_t..a_(t+K-1)))
                                   ├─ action prediction: L1(f(v_t), a_t..a_(t+K-1))
@@ -25,12 +25,13 @@ from typing import Any
 import numpy as np
 import torch
 import torch.nn.functional as F
-from torch import Tensor
+from torch import Tensor, nn
 
 from icil_paper.batching import DemoSet, _take, window_batch
-from icil_paper.config import PolicyConfig
-from icil_paper.policies.backbones import ObsSpec, build_mlp
+from icil_paper.layers import mlp
+from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import Policy, masked_l1
+from icil_paper.policies.configs import MCRConfig
 
 
 def info_nce(a: Tensor, b: Tensor, temperature: float = 0.1) -> Tensor:
@@ -44,15 +45,16 @@ def info_nce(a: Tensor, b: Tensor, temperature: float = 0.1) -> Tensor:
 class MCR(Policy):
     """Frozen manipulation-centric visual encoder + behaviour-cloning MLP head.
 
-    Options: `pretrain_batch` (default 16), `pretrain_lr` (default 3e-4), `pretrain_seed`.
+    Pre-training: `MCRConfig.pretrain_steps`, `pretrain_batch`, `pretrain_lr`; its batches
+    are drawn from a generator seeded with the training seed (`seed_everything`).
     """
 
     name = "mcr"
     needs_images = True
 
-    def __init__(self, obs_dim: int | Mapping[str, Any] | ObsSpec, action_dim: int,
-                 config: PolicyConfig, tokenizer: str | None = None, **options: Any):
-        super().__init__(obs_dim, action_dim, config, None, **options)
+    def __init__(self, config: MCRConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
+                 action_dim: int, tokenizer: None = None):
+        super().__init__(config, obs_dim, action_dim, None)
         D, K, spec = config.d_model, config.chunk_size, self.obs_spec
         self.chunk_size = K
         self.visual = self.make_obs_encoder(ObsSpec((), 0, spec.image, spec.depth), language=False)
@@ -60,10 +62,10 @@ class MCR(Policy):
         if spec.lowdim_dim:
             self.state = self.make_obs_encoder(ObsSpec(spec.lowdim_keys, spec.lowdim_dim))
         # pre-training heads (unused once the encoder is frozen)
-        self.pre_dynamics = build_mlp([max(spec.lowdim_dim, 1) + K * action_dim, D, D])
-        self.pre_action = build_mlp([D, D, K * action_dim])
-        self.pre_proj = build_mlp([D, D, D])
-        self.head = build_mlp([D * (2 if self.state is not None else 1), D, K * action_dim])
+        self.pre_dynamics = mlp([max(spec.lowdim_dim, 1) + K * action_dim, D, D], nn.GELU)
+        self.pre_action = mlp([D, D, K * action_dim], nn.GELU)
+        self.pre_proj = mlp([D, D, D], nn.GELU)
+        self.head = mlp([D * (2 if self.state is not None else 1), D, K * action_dim], nn.GELU)
         self.register_buffer("pretrained", torch.tensor(False))
 
     # ------------------------------------------------------------------ pre-training
@@ -84,12 +86,13 @@ class MCR(Policy):
         """Manipulation-centric pre-training of `visual`; returns the loss per step."""
         from tqdm.auto import tqdm
 
-        steps = self.config.mcr_pretrain_steps if steps is None else steps
-        B = int(self.options.get("pretrain_batch", 16))
-        rng = np.random.default_rng(int(self.options.get("pretrain_seed", 0)))
+        c = self.config
+        steps = c.pretrain_steps if steps is None else steps
+        B = c.pretrain_batch
+        rng = np.random.default_rng(int(torch.randint(2**31 - 1, ()).item()))
         params = [p for m in (self.visual, self.pre_dynamics, self.pre_action, self.pre_proj)
                   for p in m.parameters()]
-        opt = torch.optim.AdamW(params, lr=float(self.options.get("pretrain_lr", 3e-4)))
+        opt = torch.optim.AdamW(params, lr=c.pretrain_lr)
         was_training = self.training
         self.train()
         losses = []

@@ -1,14 +1,19 @@
 """Every action tokenizer of the paper behind one interface (see `base.py`).
 
     from icil_paper.tokenizers import make_tokenizer, TOKENIZERS
-    tok = make_tokenizer("lipvq", action_dim=7, latent_dim=64)            # as the paper writes it
-    tok = make_tokenizer("lipvq", 7, 64, variant="official")               # the official code's variant
-    out = tok(actions)                                                    # actions (B, T, 7)
+    from icil_paper.tokenizers.configs import LipVQConfig, lipvq_official
+    tok = make_tokenizer(LipVQConfig(latent_dim=64), action_dim=7)   # as the paper writes it
+    tok = make_tokenizer(lipvq_official(latent_dim=64), 7)          # the official code's variant
+    tok = make_tokenizer("vq", 7)                                   # a name: its default config
+    out = tok(actions)                                              # actions (B, T, 7)
+
+Each tokenizer is built from its config alone (`configs.py`, one dataclass per tokenizer,
+torch-free); `TOKENIZERS` lists the names, in the paper's order.
 
 | name      | file       | paper                          | discrete | fit needed |
 |-----------|------------|--------------------------------|----------|------------|
 | `mlp`     | mlp.py     | ICRT's action MLP              | no       | no         |
-| `lip-mlp` | mlp.py     | MLP + Eq. 5 (Table IV)         | no       | no         |
+| `lip-mlp` | mlp.py     | MLP + Eq. 4 (Table IV)         | no       | no         |
 | `bin`     | bin.py     | RT-1 uniform bins              | yes      | ranges     |
 | `fast`    | fast.py    | FAST: DCT + BPE                | yes      | BPE vocab  |
 | `vq`      | vq.py      | VQ-VAE                         | yes      | no         |
@@ -23,6 +28,12 @@ from __future__ import annotations
 
 from icil_paper.registry import Registry
 from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.configs import (
+    TOKENIZER_CONFIGS,
+    TokenizerConfig,
+    default_config,
+    lipvq_official,
+)
 from icil_paper.tokenizers.lipschitz_linear import (
     LipschitzLinear,
     lipschitz_bounds,
@@ -30,7 +41,7 @@ from icil_paper.tokenizers.lipschitz_linear import (
     lipschitz_loss,
 )
 
-TOKENIZERS = ("mlp", "lip-mlp", "bin", "fast", "vq", "lfq", "lipvq")
+TOKENIZERS = tuple(TOKENIZER_CONFIGS)
 
 REGISTRY = Registry("tokenizer", {
     "mlp": "icil_paper.tokenizers.mlp:MLPTokenizer",
@@ -43,12 +54,17 @@ REGISTRY = Registry("tokenizer", {
 })
 
 
-def make_tokenizer(name: str, action_dim: int, latent_dim: int, **options) -> ActionTokenizer:
-    """Build the tokenizer called `name` (one of TOKENIZERS); options go to its constructor.
+def make_tokenizer(config: TokenizerConfig | str, action_dim: int) -> ActionTokenizer:
+    """Build the tokenizer a config describes (a name gives that tokenizer's default config).
 
     An unknown name raises UnknownNameError (a ValueError) that lists the valid names.
     """
-    return REGISTRY[name](action_dim, latent_dim, **options)
+    if isinstance(config, str):
+        config = default_config(config)
+    if not isinstance(config, TokenizerConfig) or not config.type:
+        raise TypeError(f"make_tokenizer needs a tokenizer config (icil_paper.tokenizers.configs)"
+                        f" or a name, got {type(config).__name__}")
+    return REGISTRY[config.type](config, action_dim)
 
 
 def __getattr__(name: str):
@@ -62,6 +78,7 @@ def __getattr__(name: str):
 
 __all__ = [
     "TOKENIZERS", "REGISTRY", "make_tokenizer", "ActionTokenizer", "TokenizerOutput",
+    "TokenizerConfig", "default_config", "lipvq_official",
     "LipschitzLinear", "lipschitz_loss", "lipschitz_bounds", "lipschitz_layers",
     "FastDecodeError",
 ]

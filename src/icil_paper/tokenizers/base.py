@@ -4,7 +4,7 @@ An action tokenizer turns a batch of action trajectories into one embedding per 
 action tokens that the policy interleaves with its observation tokens (Eq. 1 of the paper),
 and knows how to turn embeddings back into actions:
 
-    tokenizer = make_tokenizer("lipvq", action_dim=7, latent_dim=64)
+    tokenizer = make_tokenizer(LipVQConfig(latent_dim=64), action_dim=7)
     tokenizer.fit(trajectories)            # bin ranges, FAST's BPE; no-op for learned ones
     out = tokenizer(actions)               # actions (B, T, A)
     out.embeddings                         # (B, T, D)  what the policy consumes
@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 from torch import Tensor, nn
+
+from icil_paper.tokenizers.configs import LipschitzOptions, TokenizerConfig
 
 
 @dataclass
@@ -52,17 +54,53 @@ class TokenizerOutput:
         return torch.stack(list(self.losses.values())).sum()
 
 
-def mlp(sizes: Sequence[int], activation: type[nn.Module] = nn.ReLU,
-        linear: type[nn.Module] = nn.Linear) -> nn.Sequential:
-    """Linear layers of the given sizes with `activation` between them (none after the last).
+ENCODER_NORMS = ("none", "lipschitz", "lipschitz-last", "spectral")
+_ACTIVATIONS = {"relu": nn.ReLU, "gelu": nn.GELU}
+_OUTPUT_ACTIVATIONS = {"none": nn.Identity, "sigmoid": nn.Sigmoid, "tanh": nn.Tanh}
 
-    `mlp([7, 64, 128, 32])` is Linear(7, 64)-ReLU-Linear(64, 128)-ReLU-Linear(128, 32).
+
+def activation_class(name: str) -> type[nn.Module]:
+    """`relu` or `gelu` as a module class (ValueError naming the valid ones otherwise)."""
+    if name not in _ACTIVATIONS:
+        raise ValueError(f"unknown activation {name!r}; valid: {', '.join(_ACTIVATIONS)}")
+    return _ACTIVATIONS[name]
+
+
+def build_encoder(sizes: Sequence[int], norm: str = "none", activation: str = "relu",
+                  output_activation: str = "none",
+                  lipschitz: LipschitzOptions | None = None) -> nn.Sequential:
+    """An encoder MLP with a chosen weight normalisation of its linear layers.
+
+    norm: `none`; `lipschitz`, every layer a LipschitzLinear (Eq. 4: LipVQ-VAE and lip-mlp
+    as the paper writes them); `lipschitz-last`, only the last layer (the official code);
+    `spectral`, spectral normalisation (Miyato et al. 2018; chapter 02's comparison, which
+    bounds the 2-norm Lipschitz constant of each layer by 1).
     """
+    from icil_paper.tokenizers.lipschitz_linear import LipschitzLinear
+
+    if norm not in ENCODER_NORMS:
+        raise ValueError(f"unknown encoder norm {norm!r}; valid: {', '.join(ENCODER_NORMS)}")
+    if output_activation not in _OUTPUT_ACTIVATIONS:
+        raise ValueError(f"unknown output activation {output_activation!r}; valid: "
+                         f"{', '.join(_OUTPUT_ACTIVATIONS)}")
+    options = lipschitz or LipschitzOptions()
+    act = activation_class(activation)
+    n_layers = len(sizes) - 1
     layers: list[nn.Module] = []
     for i, (n_in, n_out) in enumerate(zip(sizes[:-1], sizes[1:], strict=False)):
-        layers.append(linear(n_in, n_out))
-        if i < len(sizes) - 2:
-            layers.append(activation())
+        last = i == n_layers - 1
+        if norm == "lipschitz" or (norm == "lipschitz-last" and last):
+            layer = LipschitzLinear(n_in, n_out, per_row=options.per_row, c_init=options.c_init,
+                                    weight_init=options.weight_init)
+        elif norm == "spectral":
+            layer = nn.utils.parametrizations.spectral_norm(nn.Linear(n_in, n_out))
+        else:
+            layer = nn.Linear(n_in, n_out)
+        layers.append(layer)
+        if not last:
+            layers.append(act())
+    if output_activation != "none":
+        layers.append(_OUTPUT_ACTIVATIONS[output_activation]())
     return nn.Sequential(*layers)
 
 
@@ -105,21 +143,26 @@ def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
 class ActionTokenizer(nn.Module):
     """Base class: validation, the decoder head, and the shared `encode` / `decode` API.
 
-    Subclasses set `name` and `discrete`, and implement `_forward(actions) -> TokenizerOutput`
-    and, if they have something to fit to data, `_fit(trajectories)`.
+    Built from its config alone (`tokenizer.config`, a dataclass of
+    `icil_paper.tokenizers.configs`). Subclasses set `name` and `discrete`, and implement
+    `_forward(actions) -> TokenizerOutput` and, if they have something to fit to data,
+    `_fit(trajectories)`.
     """
 
     name: str = "base"
     discrete: bool = False
     needs_fit: bool = False
 
-    def __init__(self, action_dim: int, latent_dim: int):
+    def __init__(self, config: TokenizerConfig, action_dim: int):
         super().__init__()
-        if action_dim < 1 or latent_dim < 1:
+        if action_dim < 1 or config.latent_dim < 1:
             raise ValueError(f"action_dim and latent_dim must be positive, got "
-                             f"{action_dim} and {latent_dim}")
+                             f"{action_dim} and {config.latent_dim}")
+        if any(h < 1 for h in config.hidden):
+            raise ValueError(f"hidden widths must be positive, got {config.hidden}")
+        self.config = config
         self.action_dim = int(action_dim)
-        self.latent_dim = int(latent_dim)
+        self.latent_dim = int(config.latent_dim)
         # A buffer (not a Python bool) so that a loaded checkpoint knows it was fitted.
         self.register_buffer("_fitted", torch.tensor(not self.needs_fit), persistent=True)
 
@@ -206,6 +249,10 @@ class ActionTokenizer(nn.Module):
     def vocabulary_ids(self, codes: Tensor) -> Tensor:
         """Codes from `forward` as a flat LongTensor of ids in [0, codebook_size) (no padding)."""
         return codes[codes >= 0].flatten()
+
+    def no_weight_decay(self) -> list[nn.Parameter]:
+        """Parameters the optimiser must not decay (none unless a config asks for it)."""
+        return []
 
     def extra_repr(self) -> str:
         return f"action_dim={self.action_dim}, latent_dim={self.latent_dim}"

@@ -18,45 +18,35 @@ stand-alone training). In the policy, the table is trained by the policy's loss.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, mlp
-from icil_paper.tokenizers.mlp import DEFAULT_HIDDEN
+from icil_paper.layers import mlp
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.configs import BinConfig
 
 
 class BinTokenizer(ActionTokenizer):
-    """Uniform per-dimension bins over fitted ranges, an embedding per (dimension, bin).
-
-    Args:
-        action_dim, latent_dim: A and D.
-        n_bins: bins per action dimension (RT-1: 256).
-        hidden: widths of the decode head's hidden layers.
-        autoencode: let the decode loss train the embedding table (stand-alone training).
-        decode_weight: weight of the decode head's loss in `losses`.
-    """
+    """Uniform per-dimension bins over fitted ranges, an embedding per (dimension, bin)."""
 
     name = "bin"
     discrete = True
     needs_fit = True
 
-    def __init__(self, action_dim: int, latent_dim: int, n_bins: int = 256,
-                 hidden: Sequence[int] = DEFAULT_HIDDEN, autoencode: bool = False,
-                 decode_weight: float = 1.0):
-        super().__init__(action_dim, latent_dim)
+    def __init__(self, config: BinConfig, action_dim: int):
+        super().__init__(config, action_dim)
+        n_bins, latent_dim = config.n_bins, config.latent_dim
         if n_bins < 2:
             raise ValueError(f"n_bins must be at least 2, got {n_bins}")
         self.n_bins = int(n_bins)
-        self.autoencode = autoencode
-        self.decode_weight = decode_weight
+        self.autoencode = config.autoencode
+        self.decode_weight = config.decode_weight
         self.register_buffer("low", torch.full((action_dim,), -1.0))
         self.register_buffer("high", torch.full((action_dim,), 1.0))
         self.embedding = nn.Embedding(action_dim * n_bins, latent_dim)
-        self.decoder = mlp([latent_dim, *hidden[::-1], action_dim])
+        self.decoder = mlp([latent_dim, *config.hidden[::-1], action_dim])
         # Token id of bin b of dimension a is a * n_bins + b.
         self.register_buffer("offsets", torch.arange(action_dim) * n_bins, persistent=False)
 

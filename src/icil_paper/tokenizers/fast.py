@@ -49,8 +49,9 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, mlp
-from icil_paper.tokenizers.mlp import DEFAULT_HIDDEN
+from icil_paper.layers import mlp
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.configs import FASTConfig
 
 # Symbol of integer v is chr(v - min_token + _CHAR_OFFSET). 0 is kept free because NumPy's
 # fixed-width strings (used to build symbol strings fast) drop trailing NUL characters.
@@ -69,45 +70,35 @@ def _bpe_from_str(text: str):
 
 
 class FASTTokenizer(ActionTokenizer):
-    """DCT + BPE action tokenizer with per-step pooled token embeddings.
-
-    Args:
-        action_dim, latent_dim: A and D.
-        chunk: steps per DCT chunk (C).
-        scale: coefficients are multiplied by this before rounding (FAST: 10).
-        vocab_size: BPE vocabulary size (FAST: 1024).
-        min_frequency: BPE merge threshold (FAST: 2).
-        mode: "causal" or "blocked" (see the module docstring).
-        hidden: widths of the decode head's hidden layers.
-        autoencode: let the decode loss train the token embeddings (stand-alone training).
-        decode_weight: weight of the decode head's loss in `losses`.
-    """
+    """DCT + BPE action tokenizer with per-step pooled token embeddings (FASTConfig)."""
 
     name = "fast"
     discrete = True
     needs_fit = True
 
-    def __init__(self, action_dim: int, latent_dim: int, chunk: int = 8, scale: float = 10.0,
-                 vocab_size: int = 1024, min_frequency: int = 2, mode: str = "causal",
-                 hidden: Sequence[int] = DEFAULT_HIDDEN, autoencode: bool = False,
-                 decode_weight: float = 1.0):
-        super().__init__(action_dim, latent_dim)
-        if mode not in _MODES:
-            raise ValueError(f"unknown FAST mode {mode!r}; valid: {', '.join(_MODES)}")
-        if chunk < 1 or scale <= 0:
-            raise ValueError(f"chunk must be >= 1 and scale > 0, got {chunk} and {scale}")
-        self.chunk = int(chunk)
-        self.scale = float(scale)
-        self.vocab_size = int(vocab_size)
-        self.min_frequency = int(min_frequency)
-        self.mode = mode
-        self.autoencode = autoencode
-        self.decode_weight = decode_weight
+    def __init__(self, config: FASTConfig, action_dim: int):
+        super().__init__(config, action_dim)
+        if config.mode not in _MODES:
+            raise ValueError(f"unknown FAST mode {config.mode!r}; valid: {', '.join(_MODES)}")
+        if config.chunk < 1 or config.scale <= 0:
+            raise ValueError(f"chunk must be >= 1 and scale > 0, got {config.chunk} and "
+                             f"{config.scale}")
+        if config.vocab_size < 2 or config.min_frequency < 1:
+            raise ValueError(f"vocab_size must be >= 2 and min_frequency >= 1, got "
+                             f"{config.vocab_size} and {config.min_frequency}")
+        latent_dim = config.latent_dim
+        self.chunk = int(config.chunk)
+        self.scale = float(config.scale)
+        self.vocab_size = int(config.vocab_size)
+        self.min_frequency = int(config.min_frequency)
+        self.mode = config.mode
+        self.autoencode = config.autoencode
+        self.decode_weight = config.decode_weight
         self.symbols_per_chunk = self.chunk * action_dim
-        self.token_embedding = nn.Embedding(vocab_size, latent_dim)
+        self.token_embedding = nn.Embedding(self.vocab_size, latent_dim)
         self.token_position = nn.Embedding(self.symbols_per_chunk, latent_dim)
         self.step_position = nn.Embedding(self.chunk, latent_dim)
-        self.decoder = mlp([latent_dim, *hidden[::-1], action_dim])
+        self.decoder = mlp([latent_dim, *config.hidden[::-1], action_dim])
         self.min_token = 0
         self.max_token = 0
         self._bpe = None

@@ -24,40 +24,30 @@ quantization; this file implements the method the paper cites.)
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, mlp
-from icil_paper.tokenizers.mlp import DEFAULT_HIDDEN
+from icil_paper.layers import mlp
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.configs import LFQConfig
 
 
 class LFQTokenizer(ActionTokenizer):
-    """Lookup-free quantization of one action per step.
-
-    Args:
-        action_dim, latent_dim: A and D.
-        codebook_size: K, a power of two; the code has log2(K) bits.
-        hidden: encoder hidden widths; the decoder mirrors them.
-        entropy_weight: weight of the entropy loss (MAGVIT-v2: 0.1).
-        commitment_weight: weight of the commitment loss (0.25).
-        diversity_gamma: weight of the batch-entropy term inside the entropy loss.
-        recon_weight: weight of the reconstruction loss.
-    """
+    """Lookup-free quantization of one action per step (LFQConfig)."""
 
     name = "lfq"
     discrete = True
 
-    def __init__(self, action_dim: int, latent_dim: int, codebook_size: int = 1024,
-                 hidden: Sequence[int] = DEFAULT_HIDDEN, entropy_weight: float = 0.1,
-                 commitment_weight: float = 0.25, diversity_gamma: float = 1.0,
-                 recon_weight: float = 1.0):
-        super().__init__(action_dim, latent_dim)
-        bits = int(round(math.log2(codebook_size)))
+    def __init__(self, config: LFQConfig, action_dim: int):
+        super().__init__(config, action_dim)
+        codebook_size, latent_dim, hidden = config.codebook_size, config.latent_dim, config.hidden
+        bits = int(round(math.log2(codebook_size))) if codebook_size >= 2 else 0
         if codebook_size < 2 or 2**bits != codebook_size:
             raise ValueError(f"LFQ's codebook_size must be a power of two >= 2, got "
                              f"{codebook_size}")
+        entropy_weight, diversity_gamma = config.entropy_weight, config.diversity_gamma
+        commitment_weight, recon_weight = config.commitment_weight, config.recon_weight
         from vector_quantize_pytorch import LFQ
 
         self.bits = bits

@@ -15,50 +15,39 @@ encoder too, which makes the MLP an ordinary continuous autoencoder.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import torch.nn.functional as F
 from torch import Tensor
 
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, mlp
-from icil_paper.tokenizers.lipschitz_linear import LipschitzLinear, lipschitz_loss
-
-DEFAULT_HIDDEN = (64, 128)
+from icil_paper.layers import mlp
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, build_encoder
+from icil_paper.tokenizers.configs import LipMLPConfig, MLPConfig
+from icil_paper.tokenizers.lipschitz_linear import lipschitz_loss
 
 
 class MLPTokenizer(ActionTokenizer):
-    """Continuous action embedding by an MLP (ICRT), optionally Lipschitz (`lip-mlp`).
-
-    Args:
-        action_dim, latent_dim: A and D.
-        hidden: encoder hidden widths (the decoder mirrors them).
-        lipschitz: make every encoder linear layer a LipschitzLinear (Eq. 5).
-        autoencode: let the reconstruction loss train the encoder as well (see module doc).
-        recon_weight: weight of the reconstruction loss in `losses`.
-        lipschitz_weight: gamma, weight of prod softplus(c_l) (the paper: 1e-6).
-    """
+    """Continuous action embedding by an MLP (ICRT); `lip-mlp` with a LipMLPConfig."""
 
     name = "mlp"
     discrete = False
 
-    def __init__(self, action_dim: int, latent_dim: int, hidden: Sequence[int] = DEFAULT_HIDDEN,
-                 lipschitz: bool = False, autoencode: bool = False, recon_weight: float = 1.0,
-                 lipschitz_weight: float = 1e-6):
-        super().__init__(action_dim, latent_dim)
-        self.lipschitz = lipschitz
-        self.autoencode = autoencode
-        self.recon_weight = recon_weight
-        self.lipschitz_weight = lipschitz_weight
-        linear = LipschitzLinear if lipschitz else None
-        sizes = [action_dim, *hidden, latent_dim]
-        self.encoder = mlp(sizes, linear=linear) if linear else mlp(sizes)
+    def __init__(self, config: MLPConfig, action_dim: int):
+        super().__init__(config, action_dim)
+        self.lipschitz = isinstance(config, LipMLPConfig)
+        self.autoencode = config.autoencode
+        self.recon_weight = config.recon_weight
+        sizes = [action_dim, *config.hidden, config.latent_dim]
+        if self.lipschitz:
+            self.lipschitz_weight = config.lipschitz.weight
+            self.encoder = build_encoder(sizes, "lipschitz", lipschitz=config.lipschitz)
+        else:
+            self.encoder = mlp(sizes)
         self.decoder = mlp(sizes[::-1])
 
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         z = self.encoder(actions)  # (B, T, D)
         recon = self.decoder(z if self.autoencode else z.detach())  # (B, T, A)
         losses = {"reconstruction": self.recon_weight * F.mse_loss(recon, actions)}
-        if self.lipschitz:
+        if self.lipschitz and self.lipschitz_weight:
             losses["lipschitz"] = self.lipschitz_weight * lipschitz_loss(self.encoder)
         return TokenizerOutput(embeddings=z, reconstruction=recon, codes=None, losses=losses,
                                latents=z)
@@ -68,7 +57,3 @@ class LipMLPTokenizer(MLPTokenizer):
     """`lip-mlp`: the ICRT MLP with LipschitzLinear layers (Table IV's ablation)."""
 
     name = "lip-mlp"
-
-    def __init__(self, action_dim: int, latent_dim: int, **options):
-        options.setdefault("lipschitz", True)
-        super().__init__(action_dim, latent_dim, **options)

@@ -3,11 +3,11 @@
 In the paper every tokenizer is trained jointly with the policy. To compare tokenizers on
 their own, chapter 04 trains each as an autoencoder on action trajectories:
 
-    tok = build_tokenizer("lipvq", 7, preset.tokenizer, stand_alone=True)
-    result = train_tokenizer(tok, trajectories, preset.tokenizer, seed=0)
+    tok = make_tokenizer(stand_alone(preset.tokenizers.lipvq), action_dim=7)
+    result = train_tokenizer(tok, trajectories, preset.tokenizer_study, seed=0)
     metrics = evaluate_tokenizer(tok, held_out_trajectories)
 
-`stand_alone=True` lets the reconstruction / decode loss train the embeddings of `mlp`,
+`stand_alone(config)` lets the reconstruction / decode loss train the embeddings of `mlp`,
 `lip-mlp`, `bin` and `fast` (in a policy those are shaped by the policy's loss instead).
 
 Batches are random windows of `config.window` steps from random trajectories:
@@ -18,50 +18,29 @@ Batches are random windows of `config.window` steps from random trajectories:
 
 from __future__ import annotations
 
-import contextlib
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from icil_paper.config import TokenizerConfig
-from icil_paper.metrics import SMOOTHNESS_SCORES, codebook_usage
-from icil_paper.tokenizers import make_tokenizer
+from icil_paper.config import TokenizerStudyConfig
+from icil_paper.metrics import codebook_usage, smoothness_summary
 from icil_paper.tokenizers.base import ActionTokenizer, as_trajectory_list
+from icil_paper.tokenizers.configs import TokenizerConfig
 from icil_paper.tokenizers.lipschitz_linear import lipschitz_bounds
-
-_AUTOENCODE = ("mlp", "lip-mlp", "bin", "fast")
-_CODEBOOK = ("vq", "lfq", "lipvq")
+from icil_paper.train.optim import cpu_threads
 
 
-def tokenizer_options(name: str, config: TokenizerConfig, **options) -> dict:
-    """Constructor options of tokenizer `name` from a TokenizerConfig (`options` win)."""
-    opts: dict = {}
-    if name in _CODEBOOK:
-        opts["codebook_size"] = config.codebook_size
-    if not (name == "lipvq" and options.get("variant") == "official"):
-        opts["hidden"] = tuple(config.hidden)
-    if name == "bin":
-        opts["n_bins"] = config.n_bins
-    if name == "fast":
-        opts.update(chunk=config.fast_chunk, scale=config.fast_scale,
-                    vocab_size=config.fast_vocab_size, mode=config.fast_mode)
-    opts.update(options)
-    return opts
+def stand_alone(config: TokenizerConfig) -> TokenizerConfig:
+    """The config with `autoencode` on where it has that field (mlp, lip-mlp, bin, fast):
+    trained alone, their embeddings must learn from reconstruction."""
+    import dataclasses
 
-
-def build_tokenizer(name: str, action_dim: int, config: TokenizerConfig,
-                    stand_alone: bool = False, **options) -> ActionTokenizer:
-    """`make_tokenizer` with sizes from `config`; `latent_dim` may be given in `options`.
-
-    stand_alone: train the embeddings of mlp / lip-mlp / bin / fast by reconstruction.
-    """
-    latent_dim = options.pop("latent_dim", config.latent_dim)
-    if stand_alone and name in _AUTOENCODE:
-        options.setdefault("autoencode", True)
-    return make_tokenizer(name, action_dim, latent_dim, **tokenizer_options(name, config, **options))
+    if "autoencode" in {f.name for f in dataclasses.fields(config)}:
+        return dataclasses.replace(config, autoencode=True)
+    return config
 
 
 def sample_windows(trajectories: Sequence[np.ndarray], batch_size: int, window: int,
@@ -78,19 +57,7 @@ def sample_windows(trajectories: Sequence[np.ndarray], batch_size: int, window: 
     return out
 
 
-@contextlib.contextmanager
-def torch_threads(n: int | None) -> Iterator[None]:
-    """Run the block with n intra-op torch threads (None: leave as is), then restore."""
-    before = torch.get_num_threads()
-    if n is not None:
-        torch.set_num_threads(n)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
-
-
-def train_tokenizer(tokenizer: ActionTokenizer, trajectories, config: TokenizerConfig,
+def train_tokenizer(tokenizer: ActionTokenizer, trajectories, config: TokenizerStudyConfig,
                     seed: int = 0, progress: bool = True, steps: int | None = None,
                     log_every: int | None = None, threads: int | None = 1) -> dict:
     """Train `tokenizer` on its own for `config.steps` Adam steps (lr `config.lr`).
@@ -103,7 +70,7 @@ def train_tokenizer(tokenizer: ActionTokenizer, trajectories, config: TokenizerC
     threads: torch threads while training. Tokenizers are tiny, and one thread is several
     times faster than two on a 2-core machine (thread synchronization dominates).
     """
-    with torch_threads(threads):
+    with cpu_threads(threads):
         return _train(tokenizer, trajectories, config, seed, progress, steps, log_every)
 
 
@@ -179,13 +146,9 @@ def codebook_stats(tokenizer: ActionTokenizer, trajectories) -> dict[str, float 
 
 
 def smoothness(tokenizer: ActionTokenizer, trajectories) -> dict[str, float]:
-    """Mean over trajectories of each smoothness score of the embedding sequence (T, D)."""
-    scores: dict[str, list[float]] = {name: [] for name in SMOOTHNESS_SCORES}
-    for _, out in _each(tokenizer, trajectories):
-        z = out.embeddings[0]
-        for name, fn in SMOOTHNESS_SCORES.items():
-            scores[name].append(fn(z))
-    return {name: float(np.mean(values)) for name, values in scores.items()}
+    """Smoothness of the embedding sequences (T, D) of `trajectories`: the mean raw and
+    standardized least energy and the latent scale sigma (`metrics.smoothness_summary`)."""
+    return smoothness_summary([out.embeddings[0] for _, out in _each(tokenizer, trajectories)])
 
 
 def throughput(tokenizer: ActionTokenizer, actions: torch.Tensor, min_time: float = 0.5,
@@ -212,7 +175,7 @@ def throughput(tokenizer: ActionTokenizer, actions: torch.Tensor, min_time: floa
                         break
                 return repeats * n_actions / (time.perf_counter() - start)
 
-            with torch_threads(threads):
+            with cpu_threads(threads):
                 encode = rate(lambda: tokenizer(actions))
                 decode = rate(lambda: tokenizer.decode(emb))
                 both = rate(lambda: tokenizer.decode(tokenizer(actions).embeddings))
@@ -233,7 +196,7 @@ def evaluate_tokenizer(tokenizer: ActionTokenizer, trajectories,
     trajectories = [t.astype(np.float32) for t in
                     as_trajectory_list(trajectories, tokenizer.action_dim)]
     metrics: dict[str, float | None] = {}
-    with torch_threads(threads):
+    with cpu_threads(threads):
         metrics.update(reconstruction_errors(tokenizer, trajectories))
         metrics.update(codebook_stats(tokenizer, trajectories))
         metrics["tokens_per_step"] = tokenizer.tokens_per_step(trajectories)

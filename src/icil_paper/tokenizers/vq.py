@@ -2,9 +2,9 @@
 
     actions x (B, T, A) --encoder q_theta--> z_e (B, T, D)
         --nearest codebook entry (L2), Eq. 2--> z_q = e_k, k = argmin_j ||z_e - e_j||^2
-        --straight-through: z_q + (z_e - sg[z_e])--> embeddings (B, T, D) --decoder--> x_hat
+        --straight-through: z_e + sg[z_q - z_e]--> embeddings (B, T, D) --decoder--> x_hat
 
-Losses (Sec. III-B; squared errors are means over elements):
+Losses (Sec. III-B, Eq. 5; squared errors are means over elements):
 
     L = L_rec + alpha L_codebook + beta L_commit + gamma L_Lipschitz
     L_rec      = ||x_hat - x||^2
@@ -13,114 +13,80 @@ Losses (Sec. III-B; squared errors are means over elements):
     L_Lipschitz = prod_l softplus(c_l)      (only with Lipschitz layers)
 
 with alpha = 1.0, beta = 0.25, gamma = 1e-6. The embeddings the policy consumes are the
-quantized codebook vectors, with straight-through gradients so that the policy's loss also
-reaches the encoder.
+quantized codebook vectors with VQ-VAE's straight-through gradient: the forward value is
+z_q, the backward pass copies the gradient of z_q to z_e, so the reconstruction and policy
+losses train the encoder and the codebook learns from the codebook loss alone
+(`VQConfig.straight_through`: `vqvae`, the default). `codebook` is the form
+z_q + (z_e - sg[z_e]): the same value and the same encoder gradient, but the decoder's and
+the policy's gradients also reach the codebook vectors. `none` gives z_q itself (the
+official code: the encoder learns from the commitment loss only).
 
-`norm` picks the encoder's weight normalization: "none" (VQ-VAE), "lipschitz" (every
-linear layer a LipschitzLinear, Eq. 5: LipVQ-VAE as the paper writes it), "lipschitz-last"
-(only the last layer, as in the official code) or "spectral" (spectral normalization,
-Miyato et al. 2018, for chapter 02's comparison; it bounds the 2-norm Lipschitz constant
-by 1 per layer instead of the infinity norm by a learned bound).
+`VQConfig.norm` picks the encoder's weight normalisation (`base.build_encoder`): `none`
+(VQ-VAE), `lipschitz` (every layer a LipschitzLinear, Eq. 4: LipVQ-VAE as the paper writes
+it), `lipschitz-last` (the official code) or `spectral` (chapter 02's comparison).
+
+Codebook collapse (most steps on a few codes) is common at small scale; three standard
+remedies are options, all off by default (the paper's plain method): `codebook_init="data"`
+(codes start at encoder outputs), `dead_code_restart=N` (every N training steps, codes
+unused since the last restart jump to random encoder outputs of the batch) and
+`codebook_weight_decay=False` (the optimiser does not pull unused codes to zero).
 """
 
 from __future__ import annotations
-
-from collections.abc import Sequence
 
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, mlp
-from icil_paper.tokenizers.lipschitz_linear import LipschitzLinear, lipschitz_loss
-from icil_paper.tokenizers.mlp import DEFAULT_HIDDEN
+from icil_paper.layers import mlp
+from icil_paper.tokenizers.base import (
+    ActionTokenizer,
+    TokenizerOutput,
+    activation_class,
+    build_encoder,
+)
+from icil_paper.tokenizers.configs import VQConfig
+from icil_paper.tokenizers.lipschitz_linear import lipschitz_loss
 
-NORMS = ("none", "lipschitz", "lipschitz-last", "spectral")
-_ACTIVATIONS = {"relu": nn.ReLU, "gelu": nn.GELU}
-_OUTPUT_ACTIVATIONS = {None: nn.Identity, "none": nn.Identity, "sigmoid": nn.Sigmoid,
-                       "tanh": nn.Tanh}
-
-
-def build_encoder(sizes: Sequence[int], norm: str = "none", activation: str = "relu",
-                  output_activation: str | None = None, **lipschitz_options) -> nn.Sequential:
-    """Encoder MLP with the chosen weight normalization (see the module docstring).
-
-    `lipschitz_options` go to every LipschitzLinear (per_row, c_init, weight_init).
-    """
-    if norm not in NORMS:
-        raise ValueError(f"unknown encoder norm {norm!r}; valid: {', '.join(NORMS)}")
-    act = _ACTIVATIONS[activation]
-    n_layers = len(sizes) - 1
-    layers: list[nn.Module] = []
-    for i, (n_in, n_out) in enumerate(zip(sizes[:-1], sizes[1:], strict=False)):
-        last = i == n_layers - 1
-        if norm == "lipschitz" or (norm == "lipschitz-last" and last):
-            layer = LipschitzLinear(n_in, n_out, **lipschitz_options)
-        elif norm == "spectral":
-            layer = nn.utils.parametrizations.spectral_norm(nn.Linear(n_in, n_out))
-        else:
-            layer = nn.Linear(n_in, n_out)
-        layers.append(layer)
-        if not last:
-            layers.append(act())
-    layers.append(_OUTPUT_ACTIVATIONS[output_activation]())
-    return nn.Sequential(*layers)
+STRAIGHT_THROUGH = ("vqvae", "codebook", "none")
+CODEBOOK_INITS = ("uniform", "data")
 
 
 class VQTokenizer(ActionTokenizer):
-    """VQ-VAE action tokenizer (one code per step).
-
-    Args:
-        action_dim, latent_dim: A and D (D is also the codebook vector width).
-        codebook_size: K (the paper: 1024).
-        hidden: encoder hidden widths; the decoder mirrors them.
-        norm: encoder weight normalization, one of NORMS.
-        codebook_weight, commitment_weight, lipschitz_weight, recon_weight: alpha, beta,
-            gamma and the reconstruction weight.
-        straight_through: pass decoder/policy gradients to the encoder through the quantizer.
-        detach_embeddings: give the policy `sg[z_q]` (the official code) instead.
-        activation: "relu" (paper) or "gelu" (official code).
-        output_activation: None (paper) or "sigmoid" (official code).
-        decoder_hidden: decoder hidden widths (default: `hidden` reversed).
-        lipschitz_options: passed to LipschitzLinear (per_row, c_init, weight_init).
-        codebook_init: "uniform" (VQ-VAE's U(-1/K, 1/K), the default) or "data": on the first
-            training batch, set the codes to randomly drawn encoder outputs (an opt-in
-            remedy for codebook collapse; not part of the paper's method).
-    """
+    """VQ-VAE action tokenizer, one code per step (VQConfig; see the module docstring)."""
 
     name = "vq"
     discrete = True
 
-    def __init__(self, action_dim: int, latent_dim: int, codebook_size: int = 1024,
-                 hidden: Sequence[int] = DEFAULT_HIDDEN, norm: str = "none",
-                 codebook_weight: float = 1.0, commitment_weight: float = 0.25,
-                 lipschitz_weight: float = 1e-6, recon_weight: float = 1.0,
-                 straight_through: bool = True, detach_embeddings: bool = False,
-                 activation: str = "relu", output_activation: str | None = None,
-                 decoder_hidden: Sequence[int] | None = None,
-                 lipschitz_options: dict | None = None, codebook_init: str = "uniform"):
-        super().__init__(action_dim, latent_dim)
-        if codebook_init not in ("uniform", "data"):
-            raise ValueError(f"unknown codebook_init {codebook_init!r}; valid: 'uniform', 'data'")
-        if codebook_size < 2:
-            raise ValueError(f"codebook_size must be at least 2, got {codebook_size}")
-        self.norm = norm
-        self.codebook_weight = codebook_weight
-        self.commitment_weight = commitment_weight
-        self.lipschitz_weight = lipschitz_weight
-        self.recon_weight = recon_weight
-        self.straight_through = straight_through
-        self.detach_embeddings = detach_embeddings
-        self.encoder = build_encoder([action_dim, *hidden, latent_dim], norm, activation,
-                                     output_activation, **(lipschitz_options or {}))
-        dec_hidden = list(hidden[::-1] if decoder_hidden is None else decoder_hidden)
+    def __init__(self, config: VQConfig, action_dim: int):
+        super().__init__(config, action_dim)
+        if config.codebook_init not in CODEBOOK_INITS:
+            raise ValueError(f"unknown codebook_init {config.codebook_init!r}; valid: "
+                             f"{', '.join(CODEBOOK_INITS)}")
+        if config.straight_through not in STRAIGHT_THROUGH:
+            raise ValueError(f"unknown straight_through {config.straight_through!r}; valid: "
+                             f"{', '.join(STRAIGHT_THROUGH)}")
+        if config.codebook_size < 2:
+            raise ValueError(f"codebook_size must be at least 2, got {config.codebook_size}")
+        if config.dead_code_restart < 0:
+            raise ValueError(f"dead_code_restart must be >= 0, got {config.dead_code_restart}")
+        latent_dim, K = config.latent_dim, config.codebook_size
+        self.norm = config.norm
+        self.lipschitz_weight = config.lipschitz.weight
+        self.encoder = build_encoder([action_dim, *config.hidden, latent_dim], config.norm,
+                                     config.activation, config.output_activation,
+                                     config.lipschitz)
+        dec_hidden = list(config.hidden[::-1] if config.decoder_hidden is None
+                          else config.decoder_hidden)
         self.decoder = mlp([latent_dim, *dec_hidden, action_dim],
-                           activation=_ACTIVATIONS[activation])
-        self.codebook = nn.Embedding(codebook_size, latent_dim)
+                           activation=activation_class(config.activation))
+        self.codebook = nn.Embedding(K, latent_dim)
         # VQ-VAE's initialisation: uniform in (-1/K, 1/K).
-        nn.init.uniform_(self.codebook.weight, -1.0 / codebook_size, 1.0 / codebook_size)
-        self.codebook_init = codebook_init
+        nn.init.uniform_(self.codebook.weight, -1.0 / K, 1.0 / K)
         self.register_buffer("_codebook_from_data", torch.tensor(False))
+        # Steps trained and codes used since the last dead-code restart.
+        self.register_buffer("_steps", torch.zeros((), dtype=torch.long))
+        self.register_buffer("_used", torch.zeros(K, dtype=torch.bool))
 
     @property
     def codebook_size(self) -> int:
@@ -137,27 +103,51 @@ class VQTokenizer(ActionTokenizer):
         return z_q, codes.view(z_e.shape[:-1])
 
     def _forward(self, actions: Tensor) -> TokenizerOutput:
+        cfg = self.config
         z_e = self.encoder(actions)  # (B, T, D)
-        if self.codebook_init == "data" and self.training and not self._codebook_from_data:
+        if self.training and cfg.codebook_init == "data" and not self._codebook_from_data:
             self._init_codebook_from(z_e.detach())
         z_q, codes = self.quantize(z_e)  # (B, T, D), (B, T)
-        if self.straight_through:
-            # Written as z_q + (z_e - sg[z_e]) rather than z_e + sg[z_q - z_e]: the same
-            # gradient, but the value is exactly the codebook vector (no rounding residue).
-            z = z_q + (z_e - z_e.detach())
+        if cfg.straight_through == "vqvae":
+            # VQ-VAE's z_e + sg[z_q - z_e], written sg[z_q] + (z_e - sg[z_e]): the same
+            # gradient (to z_e only), and the value is exactly z_q (no rounding residue).
+            z = z_q.detach() + (z_e - z_e.detach())
+        elif cfg.straight_through == "codebook":
+            z = z_q + (z_e - z_e.detach())  # value z_q, gradient to z_e and to the codes
         else:
             z = z_q  # gradients reach the codebook only, never the encoder
         recon = self.decoder(z)  # (B, T, A)
         losses = {
-            "reconstruction": self.recon_weight * F.mse_loss(recon, actions),
-            "codebook": self.codebook_weight * F.mse_loss(z_q, z_e.detach()),
-            "commitment": self.commitment_weight * F.mse_loss(z_e, z_q.detach()),
+            "reconstruction": cfg.recon_weight * F.mse_loss(recon, actions),
+            "codebook": cfg.codebook_weight * F.mse_loss(z_q, z_e.detach()),
+            "commitment": cfg.commitment_weight * F.mse_loss(z_e, z_q.detach()),
         }
         if self.norm in ("lipschitz", "lipschitz-last") and self.lipschitz_weight:
             losses["lipschitz"] = self.lipschitz_weight * lipschitz_loss(self.encoder)
-        embeddings = z.detach() if self.detach_embeddings else z
+        if self.training and cfg.dead_code_restart:
+            self._restart_dead_codes(z_e.detach(), codes)
+        embeddings = z.detach() if cfg.detach_embeddings else z
         return TokenizerOutput(embeddings=embeddings, reconstruction=recon, codes=codes,
                                losses=losses, latents=z_e)
+
+    @torch.no_grad()
+    def _restart_dead_codes(self, z_e: Tensor, codes: Tensor) -> None:
+        """Count a training step; every `dead_code_restart` steps move unused codes to
+        random encoder outputs of this batch (seeded by torch's global generator)."""
+        self._used[codes.flatten()] = True
+        self._steps += 1
+        if int(self._steps) % self.config.dead_code_restart:
+            return
+        dead = (~self._used).nonzero().flatten()
+        if len(dead):
+            flat = z_e.reshape(-1, z_e.shape[-1])
+            pick = torch.randint(len(flat), (len(dead),), device=flat.device)
+            self.codebook.weight[dead] = flat[pick]
+        self._used.zero_()
+
+    def no_weight_decay(self) -> list[nn.Parameter]:
+        """The codebook when `codebook_weight_decay` is off (see the module docstring)."""
+        return [] if self.config.codebook_weight_decay else [self.codebook.weight]
 
     @torch.no_grad()
     def _init_codebook_from(self, z_e: Tensor) -> None:

@@ -1,0 +1,127 @@
+"""One config dataclass per policy; `make_policy(config, obs_spec, action_dim, tokenizer)` builds from it.
+
+Torch-free, so that presets, the command line and result keys can hold policy configs
+without importing the models. The class-level `type` is the policy's registry name.
+Which action tokenizers a policy takes is a property of the policy class
+(`Policy.tokenizers`), not of its config.
+
+    from icil_paper.policies import make_policy
+    from icil_paper.policies.configs import ICRTConfig
+    from icil_paper.tokenizers.configs import LipVQConfig
+    policy = make_policy(ICRTConfig(d_model=64), obs_spec, 7, LipVQConfig(latent_dim=32))
+
+The paper scales ACT down to BC-Transformer's size (Sec. IV-A), so the presets give every
+policy the same transformer sizes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+
+@dataclass(frozen=True)
+class PolicyConfig:
+    """Sizes every policy shares: the transformer and the observation backbone."""
+
+    type: ClassVar[str] = ""
+
+    d_model: int = 128
+    """Token width."""
+    n_layer: int = 4
+    """Transformer layers."""
+    n_head: int = 4
+    """Attention heads."""
+    dropout: float = 0.1
+    """Dropout inside the transformer."""
+    resnet_width: int = 64
+    """First-stage channels of the ResNet-18 image backbone (torchvision's is 64)."""
+    language: bool = False
+    """Add a learned hashed bag-of-words embedding of the instruction to every observation
+    token (stands in for CLIP, which cannot be downloaded here)."""
+
+    @property
+    def name(self) -> str:
+        """The registry name of this config's policy."""
+        return self.type
+
+
+@dataclass(frozen=True)
+class ICRTConfig(PolicyConfig):
+    """ICRT (Sec. III-A): a causal transformer over prompt demonstrations and the query."""
+
+    type: ClassVar[str] = "icrt"
+
+    chunk_size: int = 4
+    """Future actions predicted per query step (action chunking; the first is executed)."""
+    prompt_demos: int = 1
+    """Full demonstrations in a prompt (the paper uses one)."""
+    max_seq_len: int = 1024
+    """Longest token sequence trained on and kept in the KV cache at inference (rotary
+    positions have no table limit; past this length the oldest query steps leave the cache,
+    the prompt stays)."""
+    query_actions: bool = True
+    """Interleave the query's own past actions with its observations (s1,a1,s2,a2,..., as
+    ICRT's code does); False gives Eq. 1 literally (query observations only)."""
+    query_len: int = 32
+    """Query steps per training sequence; 0 trains on whole episodes from step 0 (the
+    window the policy acts with)."""
+    query_start: str = "random"
+    """Where a training query window starts in its episode: `random` (uniform over the
+    episode) or `episode_start` (always step 0, as rollouts do)."""
+
+
+@dataclass(frozen=True)
+class BCTransformerConfig(PolicyConfig):
+    """robomimic's BC-Transformer: a transformer over an observation history, no prompt."""
+
+    type: ClassVar[str] = "bc_transformer"
+
+    history: int = 10
+    """Observation steps in the context (robomimic's context length)."""
+
+
+@dataclass(frozen=True)
+class ACTConfig(PolicyConfig):
+    """ACT (Zhao et al. 2023), scaled to BC-Transformer's size; with a tokenizer, Table II's
+    ACT + tokenizer rows."""
+
+    type: ClassVar[str] = "act"
+
+    chunk_size: int = 4
+    """Actions predicted per chunk."""
+    latent_dim: int = 32
+    """Width of the CVAE's latent z (plain ACT)."""
+    kl_weight: float = 10.0
+    """Weight of the KL term of the CVAE loss."""
+    ensemble_m: float = 0.01
+    """Temporal ensembling weights exp(-m i) over overlapping chunks."""
+
+
+@dataclass(frozen=True)
+class MCRConfig(PolicyConfig):
+    """MCR (Jiang et al. 2025): a manipulation-centric visual encoder, frozen under a BC head."""
+
+    type: ClassVar[str] = "mcr"
+
+    chunk_size: int = 4
+    """Actions predicted per step by the BC head (the first is executed)."""
+    pretrain_steps: int = 1000
+    """Steps of manipulation-centric pre-training of the visual encoder before it is frozen."""
+    pretrain_batch: int = 16
+    """Batch size of the pre-training."""
+    pretrain_lr: float = 3e-4
+    """Learning rate of the pre-training."""
+
+
+POLICY_CONFIGS: dict[str, type[PolicyConfig]] = {
+    cls.type: cls for cls in (ICRTConfig, BCTransformerConfig, ACTConfig, MCRConfig)
+}
+"""Registry name -> config class."""
+
+
+def default_policy_config(name: str, **fields) -> PolicyConfig:
+    """The default config of policy `name`, with some fields changed."""
+    from icil_paper.registry import check_name
+
+    return POLICY_CONFIGS[check_name("policy", name, POLICY_CONFIGS)](**fields)

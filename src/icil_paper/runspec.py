@@ -1,0 +1,170 @@
+"""Run specs: everything a training run or an evaluation reads, with one content key each.
+
+    spec = run_spec(preset, policy="icrt", tokenizer="lipvq", tasks=["kitchen/open_drawer"])
+    spec.key()                       # 16 hex digits: changes whenever any field that can
+                                     # change the trained policy changes
+    ev = eval_spec(preset, "kitchen/open_drawer", episodes=10)
+    eval_key(spec, ev)               # the key of that policy's evaluation
+
+A `RunSpec` is the data (tasks, source, observations, demos per task, the data seed), the
+policy's config, its tokenizer's config, the training loop's config and the training seed.
+Run folders (`runs/<preset>/<label>__<tasks>__<source>__seed<k>__<key8>`), the results
+store's records and every table cell derive their keys from these specs alone, never from
+hand-picked sections, so a changed knob never returns a stale result
+(`tests/test_specs.py` changes every field and watches the keys).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from icil_paper.config import Preset, TrainConfig
+from icil_paper.policies.configs import PolicyConfig
+from icil_paper.specs import from_dict, spec_key, to_dict
+from icil_paper.tokenizers.configs import TokenizerConfig
+
+
+@dataclass(frozen=True)
+class DataSpec:
+    """The demonstrations a policy is trained on."""
+
+    tasks: tuple[str, ...]
+    """Task names (`icil_paper.sim`); one policy is trained on all of them."""
+    source: str = "generated"
+    """Demonstration source: `generated` (the MimicGen stand-in) or `human`."""
+    obs: str = "state"
+    """Observations learned from: `state`, `rgb` or `rgbd`."""
+    demos_per_task: int = 10
+    """Demonstrations per task (the first ones of each data set)."""
+    seed: int = 0
+    """Base seed the demonstrations are generated from."""
+    dataset: str | None = None
+    """A robomimic-layout HDF5 file to train on instead of generated data sets."""
+    dataset_sha256: str | None = None
+    """The SHA-256 of `dataset` (so that a changed file is a different run)."""
+    obs_keys: tuple[str, ...] | None = None
+    """`dataset` only: the observation keys read from it (None: the documented default)."""
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One training run: what it learns from, what it trains and how."""
+
+    data: DataSpec
+    """The demonstrations."""
+    policy: PolicyConfig
+    """The policy's config (its `type` names the policy)."""
+    tokenizer: TokenizerConfig | None
+    """The action tokenizer's config, or None for a policy without one."""
+    train: TrainConfig
+    """The training loop."""
+    seed: int = 0
+    """Training seed (`seed_everything`)."""
+
+    @property
+    def label(self) -> str:
+        """`icrt+lipvq`, `act`, `bc_transformer`, ..."""
+        tok = self.tokenizer.type if self.tokenizer is not None else None
+        return f"{self.policy.type}+{tok}" if tok else self.policy.type
+
+    def key(self) -> str:
+        """The content key of this run (see the module docstring)."""
+        return spec_key(self)
+
+    def to_dict(self) -> dict[str, Any]:
+        return to_dict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RunSpec:
+        return from_dict(cls, data)
+
+    def replace(self, **changes: Any) -> RunSpec:
+        return dataclasses.replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class EvalSpec:
+    """Rollouts of one trained policy on one task."""
+
+    task: str
+    """The task rolled out."""
+    episodes: int
+    """Rollouts; episode i starts from the scene of env seed `episode_seed(seed, i)`."""
+    seed: int = 0
+    """Evaluation seed: fixes every episode's scene and prompt."""
+    max_steps: int | None = None
+    """Step limit per rollout; None uses the task's own horizon."""
+    prompt_source: str = "generated"
+    """Where prompt demonstrations come from (`generated` or `human`)."""
+    prompt_task: str | None = None
+    """Draw prompts from this task's demonstrations instead of `task`'s (the prompt
+    ablation: does the prompt carry the task?)."""
+    prompt_steps: int | None = None
+    """Keep only the first this many steps of each prompt demonstration (None: whole)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        return to_dict(self)
+
+
+def eval_key(run: RunSpec, ev: EvalSpec) -> str:
+    """The content key of evaluating `run`'s policy as `ev` says."""
+    return spec_key({"run": run, "eval": ev})
+
+
+def policy_obs(policy: PolicyConfig, obs: str) -> str:
+    """The observations a policy learns from: `obs`, except that image-only policies (MCR)
+    read `rgb` where `obs` is `state`."""
+    from icil_paper.policies import REGISTRY
+
+    if obs == "state" and getattr(REGISTRY[policy.type], "needs_images", False):
+        return "rgb"
+    return obs
+
+
+def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerConfig | None = None,
+             tasks: Sequence[str] | None = None, source: str = "generated",
+             obs: str | None = None, seed: int | None = None) -> RunSpec:
+    """The run a preset describes for `policy` (+ `tokenizer`) on `tasks`.
+
+    policy, tokenizer: registry names (their configs come from the preset) or, for the
+        tokenizer, a config; None gives the policy's default tokenizer (ICRT: `mlp`).
+    tasks: default the preset's kitchen tasks. obs: default the preset's (MCR: `rgb`).
+    seed: training seed (default the preset's); the data seed is always the preset's.
+    """
+    from icil_paper.policies import resolve_tokenizer
+
+    policy_cfg = preset.policies.get(policy)
+    if isinstance(tokenizer, str):
+        tokenizer = preset.tokenizers.get(tokenizer)
+    elif tokenizer is None:
+        default = resolve_tokenizer(policy, None)
+        tokenizer = preset.tokenizers.get(default.type) if default is not None else None
+    tokenizer = resolve_tokenizer(policy, tokenizer)
+    data = DataSpec(tasks=tuple(tasks or preset.data.kitchen_tasks), source=source,
+                    obs=policy_obs(policy_cfg, obs or preset.data.obs),
+                    demos_per_task=preset.data.demos_per_task, seed=preset.seed)
+    return RunSpec(data=data, policy=policy_cfg, tokenizer=tokenizer, train=preset.train,
+                   seed=preset.seed if seed is None else int(seed))
+
+
+def eval_spec(preset: Preset, task: str, episodes: int | None = None, seed: int | None = None,
+              prompt_source: str = "generated", prompt_task: str | None = None,
+              prompt_steps: int | None = None, max_steps: int | None = None) -> EvalSpec:
+    """The evaluation a preset describes on `task` (episodes and step limit from `preset.eval`)."""
+    return EvalSpec(task=task,
+                    episodes=preset.eval.episodes_per_task if episodes is None else int(episodes),
+                    seed=preset.seed if seed is None else int(seed),
+                    max_steps=preset.eval.max_steps if max_steps is None else max_steps,
+                    prompt_source=prompt_source, prompt_task=prompt_task,
+                    prompt_steps=prompt_steps)
+
+
+def tasks_tag(tasks: Sequence[str]) -> str:
+    """A short folder tag for a task list: the task itself, or its suite (`mixed` if several)."""
+    if len(tasks) == 1:
+        return tasks[0].replace("/", "-")
+    suites = {t.split("/", 1)[0] for t in tasks}
+    return suites.pop() if len(suites) == 1 else "mixed"

@@ -1,0 +1,329 @@
+"""Typed configs as data: serialisation, content keys and `--set` overrides.
+
+Every knob of the library is a field of a frozen dataclass with a docstring under it
+(`field_docs` reads them). Component configs (one per tokenizer, one per policy) carry a
+class-level `type` naming the registered component, so a config written as JSON can be
+read back into the right class:
+
+    cfg = ICRTConfig(d_model=64)
+    d = to_dict(cfg)                     # {"type": "icrt", "d_model": 64, ...}
+    from_dict(PolicyConfig, d) == cfg    # the "type" key picks ICRTConfig
+    spec_key(run_spec)                   # 16 hex digits over every field that shapes a result
+    with_overrides(preset, ["train.steps=3", "tokenizers.lipvq.codebook_size=512"])
+
+A field that cannot change a result (how many worker processes, how often to log) is
+declared with `field(..., metadata=NOT_KEYED)` and left out of `spec_key`; every other field
+is in it, so a changed knob never returns a stale result. `tests/test_specs.py` walks every
+field of every config and checks this.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import functools
+import hashlib
+import inspect
+import json
+import textwrap
+import types
+import typing
+from collections.abc import Iterator, Mapping, Sequence
+from typing import Any
+
+NOT_KEYED = {"key": False}
+"""Field metadata of a knob that cannot change a result (workers, logging, threads)."""
+
+
+class OverrideError(ValueError):
+    """A `--set PATH=VALUE` that names no field or gives a value of the wrong type."""
+
+
+# --------------------------------------------------------------------------- docs
+@functools.cache
+def field_docs(cls: type) -> dict[str, str]:
+    """Map each field of a config dataclass (and its bases) to the docstring under it."""
+    docs: dict[str, str] = {}
+    for klass in reversed(cls.__mro__):
+        if not dataclasses.is_dataclass(klass) or klass is object:
+            continue
+        try:
+            source = textwrap.dedent(inspect.getsource(klass))
+        except (OSError, TypeError):
+            continue
+        body = ast.parse(source).body[0].body
+        for node, following in zip(body, body[1:], strict=False):
+            if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
+                    and isinstance(following, ast.Expr)
+                    and isinstance(following.value, ast.Constant)):
+                docs[node.target.id] = str(following.value.value).strip()
+    return docs
+
+
+# --------------------------------------------------------------------------- types
+def _hints(cls: type) -> dict[str, Any]:
+    return typing.get_type_hints(cls)
+
+
+def _is_keyed(f: dataclasses.Field) -> bool:
+    return f.metadata.get("key", True)
+
+
+def _subclasses(base: type) -> Iterator[type]:
+    for sub in base.__subclasses__():
+        yield sub
+        yield from _subclasses(sub)
+
+
+def config_class(base: type, type_name: str) -> type:
+    """The subclass of `base` (or `base` itself) whose class-level `type` is `type_name`."""
+    from icil_paper.registry import check_name
+
+    candidates = {getattr(c, "type", None): c for c in (base, *_subclasses(base))
+                  if dataclasses.is_dataclass(c) and getattr(c, "type", None)}
+    return candidates[check_name(f"{base.__name__} type", type_name, candidates)]
+
+
+# --------------------------------------------------------------------------- to / from dict
+def to_dict(obj: Any, keyed_only: bool = False) -> Any:
+    """A JSON-ready copy of a config: dataclasses become dicts (with their `type` where
+    they have one), tuples become lists. `keyed_only` drops NOT_KEYED fields."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        out: dict[str, Any] = {}
+        if getattr(obj, "type", None):
+            out["type"] = obj.type
+        for f in dataclasses.fields(obj):
+            if keyed_only and not _is_keyed(f):
+                continue
+            out[f.name] = to_dict(getattr(obj, f.name), keyed_only)
+        return out
+    if isinstance(obj, Mapping):
+        return {str(k): to_dict(v, keyed_only) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_dict(v, keyed_only) for v in obj]
+    return obj
+
+
+def from_dict(cls: type, data: Mapping[str, Any]) -> Any:
+    """Rebuild a config of class `cls` (or of the subclass its "type" names) from `to_dict`.
+
+    Unknown keys raise OverrideError (a config file from another version fails loudly
+    rather than silently dropping a knob); missing keys take the class's defaults.
+    """
+    if not isinstance(data, Mapping):
+        raise OverrideError(f"{cls.__name__} must be read from a mapping, got {type(data).__name__}")
+    if "type" in data:
+        cls = config_class(cls, str(data["type"]))
+    hints = _hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - set(fields) - {"type"})
+    if unknown:
+        raise OverrideError(f"{cls.__name__} has no field(s) {unknown}; valid: {sorted(fields)}")
+    values = {name: _coerce(hints[name], value, f"{cls.__name__}.{name}")
+              for name, value in data.items() if name != "type"}
+    return cls(**values)
+
+
+def _coerce(annotation: Any, value: Any, where: str) -> Any:
+    """`value` (from JSON or a parsed string) as an instance of `annotation`, or OverrideError."""
+    origin = typing.get_origin(annotation)
+    args = typing.get_args(annotation)
+    if annotation is Any:
+        return value
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        errors = []
+        for arg in args:
+            if arg is type(None):
+                continue
+            try:
+                return _coerce(arg, value, where)
+            except OverrideError as exc:
+                errors.append(str(exc))
+        raise OverrideError(f"{where}: expected {_type_name(annotation)}, got {value!r}")
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise OverrideError(f"{where}: expected {_type_name(annotation)}, got {value!r}")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_coerce(args[0], v, where) for v in value)
+        if len(args) != len(value):
+            raise OverrideError(f"{where}: expected {len(args)} values, got {len(value)}")
+        return tuple(_coerce(a, v, where) for a, v in zip(args, value, strict=True))
+    if origin is typing.Literal:
+        if value not in args:
+            raise OverrideError(f"{where}: expected one of {list(args)}, got {value!r}")
+        return value
+    if dataclasses.is_dataclass(annotation):
+        if dataclasses.is_dataclass(value):
+            return value
+        return from_dict(annotation, value)
+    if annotation is bool:
+        if isinstance(value, bool):
+            return value
+        raise OverrideError(f"{where}: expected true or false, got {value!r}")
+    if annotation is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, float) and value.is_integer():
+                return int(value)
+            raise OverrideError(f"{where}: expected an integer, got {value!r}")
+        return value
+    if annotation is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise OverrideError(f"{where}: expected a number, got {value!r}")
+        return float(value)
+    if annotation is str:
+        if not isinstance(value, str):
+            raise OverrideError(f"{where}: expected a string, got {value!r}")
+        return value
+    if isinstance(annotation, type) and isinstance(value, annotation):
+        return value
+    raise OverrideError(f"{where}: expected {_type_name(annotation)}, got {value!r}")
+
+
+def _type_name(annotation: Any) -> str:
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin in (typing.Union, types.UnionType):
+        return " or ".join(_type_name(a) for a in args)
+    if origin is tuple:
+        if len(args) == 2 and args[1] is Ellipsis:
+            return f"a comma-separated list of {_type_name(args[0])}"
+        return f"{len(args)} comma-separated values"
+    if annotation is type(None):
+        return "none"
+    return {int: "an integer", float: "a number", bool: "true or false",
+            str: "a string"}.get(annotation, getattr(annotation, "__name__", str(annotation)))
+
+
+# --------------------------------------------------------------------------- keys
+def canonical_json(obj: Any) -> str:
+    """JSON with sorted keys and no whitespace: the text a key is taken over."""
+    return json.dumps(to_dict(obj), sort_keys=True, separators=(",", ":"), default=_json_default)
+
+
+def _json_default(obj: Any) -> Any:
+    if hasattr(obj, "tolist"):  # numpy arrays and scalars, torch tensors
+        return obj.tolist()
+    if isinstance(obj, (set, frozenset)):
+        return sorted(obj)
+    if hasattr(obj, "__fspath__"):
+        return str(obj)
+    raise TypeError(f"{type(obj).__name__} is not JSON serializable")
+
+
+def content_hash(obj: Any) -> str:
+    """16 hex digits of SHA-256 over the canonical JSON of `obj`."""
+    return hashlib.sha256(canonical_json(obj).encode()).hexdigest()[:16]
+
+
+def spec_key(spec: Any) -> str:
+    """The content key of a spec: a hash of every field that can change its result."""
+    return content_hash(to_dict(spec, keyed_only=True))
+
+
+def keyed_paths(cls_or_obj: Any, prefix: str = "") -> list[str]:
+    """Dotted paths of every keyed leaf field of a config (nested configs expanded)."""
+    obj = cls_or_obj
+    paths = []
+    for f in dataclasses.fields(obj):
+        if not _is_keyed(f):
+            continue
+        value = getattr(obj, f.name) if not isinstance(obj, type) else None
+        path = f"{prefix}{f.name}"
+        if dataclasses.is_dataclass(value):
+            paths += keyed_paths(value, path + ".")
+        else:
+            paths.append(path)
+    return paths
+
+
+# --------------------------------------------------------------------------- overrides
+def get_path(obj: Any, path: str) -> Any:
+    """The value at a dotted path (`train.steps`)."""
+    for part in path.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
+def replace_path(obj: Any, path: str, value: Any, _done: str = "") -> Any:
+    """A copy of `obj` with the field at dotted `path` set to `value` (typed as declared)."""
+    head, _, rest = path.partition(".")
+    fields = {f.name: f for f in dataclasses.fields(obj)}
+    if head not in fields:
+        from icil_paper.registry import check_name
+
+        kind = f"field of {_done.rstrip('.')}" if _done else "section"
+        try:
+            check_name(kind, head, fields)
+        except ValueError as exc:
+            raise OverrideError(str(exc)) from None
+    current = getattr(obj, head)
+    if rest:
+        if not dataclasses.is_dataclass(current):
+            raise OverrideError(f"{type(obj).__name__}.{head} is a value, not a section; "
+                                f"set it as `{head}=...`")
+        return dataclasses.replace(obj, **{head: replace_path(current, rest, value,
+                                                               f"{_done}{head}.")})
+    if dataclasses.is_dataclass(current):
+        valid = ", ".join(f.name for f in dataclasses.fields(current))
+        raise OverrideError(f"{head} is a section; set one of its fields: {head}.<field> with "
+                            f"<field> one of {valid}")
+    annotation = _hints(type(obj))[head]
+    return dataclasses.replace(obj, **{head: _coerce(annotation, value, f"{_done}{head}")})
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """`"train.steps=3"` -> ("train.steps", 3). Values are read as JSON where they parse
+    (numbers, true/false, null, [lists]) and as plain strings otherwise; a comma-separated
+    value becomes a list (for tuple fields)."""
+    path, sep, raw = text.partition("=")
+    path = path.strip()
+    if not sep or not path:
+        raise OverrideError(f"--set expects SECTION.FIELD=VALUE, got {text!r}")
+    raw = raw.strip()
+    if raw.lower() in ("none", "null"):
+        return path, None
+    if raw.lower() in ("true", "false"):
+        return path, raw.lower() == "true"
+    try:
+        return path, json.loads(raw)
+    except json.JSONDecodeError:
+        pass
+    if "," in raw:
+        return path, [parse_override(f"x={part}")[1] for part in raw.split(",") if part.strip()]
+    return path, raw
+
+
+def with_overrides(obj: Any, overrides: Sequence[str]) -> Any:
+    """`obj` with every `PATH=VALUE` of `overrides` applied in order (OverrideError on a bad one)."""
+    for text in overrides or ():
+        path, value = parse_override(text)
+        annotation = _leaf_annotation(obj, path)
+        if _accepts_sequence(annotation) and not isinstance(value, (list, tuple)) \
+                and value is not None:
+            value = [value]  # `--set data.sources=human` on a tuple field
+        try:
+            obj = replace_path(obj, path, value)
+        except OverrideError as exc:
+            raise OverrideError(f"--set {text}: {exc}") from None
+    return obj
+
+
+def _leaf_annotation(obj: Any, path: str) -> Any:
+    parts = path.split(".")
+    for part in parts[:-1]:
+        if not dataclasses.is_dataclass(obj) or not hasattr(obj, part):
+            return None
+        obj = getattr(obj, part)
+    if not dataclasses.is_dataclass(obj):
+        return None
+    return _hints(type(obj)).get(parts[-1])
+
+
+def _accepts_sequence(annotation: Any) -> bool:
+    if annotation is None:
+        return False
+    if typing.get_origin(annotation) is tuple:
+        return True
+    return any(_accepts_sequence(a) for a in typing.get_args(annotation)
+               if typing.get_origin(annotation) in (typing.Union, types.UnionType))

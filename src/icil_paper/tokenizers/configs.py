@@ -1,0 +1,213 @@
+"""One config dataclass per action tokenizer; `make_tokenizer(config, action_dim)` builds from it.
+
+Torch-free, so that presets, the command line and result keys can hold tokenizer configs
+without importing the models. The class-level `type` is the tokenizer's registry name.
+
+    from icil_paper.tokenizers import make_tokenizer
+    from icil_paper.tokenizers.configs import LipVQConfig
+    tok = make_tokenizer(LipVQConfig(latent_dim=32, codebook_size=256), action_dim=7)
+
+Shared by every tokenizer: `latent_dim` (the width D of the action embedding) and `hidden`
+(the encoder MLP's hidden widths; decoders mirror them). Defaults are the paper's
+(Sec. III-B): D = 64, K = 1024, loss weights alpha 1.0, beta 0.25, gamma 1e-6.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import ClassVar
+
+DEFAULT_HIDDEN = (64, 128)
+
+
+@dataclass(frozen=True)
+class TokenizerConfig:
+    """Knobs every action tokenizer has."""
+
+    type: ClassVar[str] = ""
+
+    latent_dim: int = 64
+    """Width D of the action embedding (and of each codebook entry)."""
+    hidden: tuple[int, ...] = DEFAULT_HIDDEN
+    """Hidden widths of the encoder MLP; the decoder mirrors them."""
+
+    @property
+    def name(self) -> str:
+        """The registry name of this config's tokenizer."""
+        return self.type
+
+
+@dataclass(frozen=True)
+class LipschitzOptions:
+    """How every `LipschitzLinear` layer (Eq. 4) of an encoder is set up and regularised."""
+
+    weight: float = 1e-6
+    """gamma, the weight of L_Lipschitz = prod_l softplus(c_l) in the loss (Eq. 5)."""
+    per_row: bool = False
+    """One bound per output row (the official code) instead of one per layer (the paper)."""
+    c_init: float | None = None
+    """Initial c of every layer; None is Liu et al.'s: the layer's largest absolute row sum,
+    so that nothing is rescaled at the start."""
+    weight_init: str = "liu"
+    """`liu` (randn * sqrt(2 / in_features)) or `randn` (the official code)."""
+
+
+@dataclass(frozen=True)
+class MLPConfig(TokenizerConfig):
+    """`mlp`: ICRT's continuous action MLP."""
+
+    type: ClassVar[str] = "mlp"
+
+    autoencode: bool = False
+    """Let the reconstruction loss train the encoder too (stand-alone training); in a policy
+    the embedding is shaped by the policy's loss and the decoder learns on detached
+    embeddings."""
+    recon_weight: float = 1.0
+    """Weight of the reconstruction loss."""
+
+
+@dataclass(frozen=True)
+class LipMLPConfig(MLPConfig):
+    """`lip-mlp`: the ICRT MLP with every linear layer Lipschitz-normalised (Table IV)."""
+
+    type: ClassVar[str] = "lip-mlp"
+
+    lipschitz: LipschitzOptions = dataclasses.field(default_factory=LipschitzOptions)
+    """The Lipschitz layers' initialisation and loss weight."""
+
+
+@dataclass(frozen=True)
+class BinConfig(TokenizerConfig):
+    """`bin`: RT-1 style uniform bins per action dimension."""
+
+    type: ClassVar[str] = "bin"
+
+    n_bins: int = 256
+    """Uniform bins per action dimension (RT-1: 256; the official code: 20)."""
+    autoencode: bool = False
+    """Let the decode head's loss train the bin embeddings (stand-alone training)."""
+    decode_weight: float = 1.0
+    """Weight of the decode head's loss."""
+
+
+@dataclass(frozen=True)
+class FASTConfig(TokenizerConfig):
+    """`fast`: DCT of action chunks, rounded, then byte-pair encoded (Pertsch et al. 2025)."""
+
+    type: ClassVar[str] = "fast"
+
+    chunk: int = 8
+    """Action steps per DCT chunk."""
+    scale: float = 10.0
+    """DCT coefficients are multiplied by this before rounding (FAST: 10)."""
+    vocab_size: int = 1024
+    """BPE vocabulary size (FAST: 1024)."""
+    min_frequency: int = 2
+    """BPE merge threshold (FAST: 2)."""
+    mode: str = "causal"
+    """`causal` (step t tokenized with the chunk ending at t; what a causal policy needs) or
+    `blocked` (FAST's own non-overlapping chunks, whose step embeddings see later actions)."""
+    autoencode: bool = False
+    """Let the decode head's loss train the token embeddings (stand-alone training)."""
+    decode_weight: float = 1.0
+    """Weight of the decode head's loss."""
+
+
+@dataclass(frozen=True)
+class VQConfig(TokenizerConfig):
+    """`vq`: VQ-VAE over single actions (van den Oord et al. 2017)."""
+
+    type: ClassVar[str] = "vq"
+
+    codebook_size: int = 1024
+    """K, the number of codebook entries (the paper: 2^10)."""
+    norm: str = "none"
+    """Encoder weight normalisation: `none`, `lipschitz` (every layer, Eq. 4),
+    `lipschitz-last` (the last layer only, the official code) or `spectral`."""
+    lipschitz: LipschitzOptions = dataclasses.field(default_factory=LipschitzOptions)
+    """The Lipschitz layers' initialisation and loss weight (with a Lipschitz norm)."""
+    codebook_weight: float = 1.0
+    """alpha, the weight of the codebook loss ||sg[z_e] - z_q||^2."""
+    commitment_weight: float = 0.25
+    """beta, the weight of the commitment loss ||z_e - sg[z_q]||^2."""
+    recon_weight: float = 1.0
+    """Weight of the reconstruction loss."""
+    straight_through: str = "vqvae"
+    """How gradients pass the quantizer: `vqvae` (z_e + sg[z_q - z_e]: the decoder's and the
+    policy's gradients reach the encoder, the codebook learns from the codebook loss only),
+    `codebook` (z_q + (z_e - sg[z_e]): the same value, but those gradients also reach the
+    codebook) or `none` (z_q: the encoder learns from the commitment loss only, the
+    official code)."""
+    detach_embeddings: bool = False
+    """Give the policy sg[z_q] (the official code) instead of the straight-through value."""
+    activation: str = "relu"
+    """`relu` (the paper) or `gelu` (the official code)."""
+    output_activation: str = "none"
+    """Activation after the encoder's last layer: `none` (the paper) or `sigmoid` (the
+    official code)."""
+    decoder_hidden: tuple[int, ...] | None = None
+    """Decoder hidden widths; None mirrors `hidden`."""
+    codebook_init: str = "uniform"
+    """`uniform` (VQ-VAE's U(-1/K, 1/K)) or `data` (codes set to encoder outputs of the
+    first training batch; a remedy for codebook collapse, not the paper's method)."""
+    dead_code_restart: int = 0
+    """Every this many training steps, codes unused since the last restart are moved to
+    random encoder outputs of the current batch (a remedy for collapse); 0 never."""
+    codebook_weight_decay: bool = True
+    """Apply the optimiser's weight decay to the codebook (the paper's plain training);
+    False exempts it (a remedy for collapse: decay pulls unused codes to 0)."""
+
+
+@dataclass(frozen=True)
+class LipVQConfig(VQConfig):
+    """`lipvq`: LipVQ-VAE, a VQ-VAE with every encoder layer Lipschitz-normalised (the paper's)."""
+
+    type: ClassVar[str] = "lipvq"
+
+    norm: str = "lipschitz"
+    """Encoder weight normalisation (the paper: `lipschitz`, Eq. 4 on every layer)."""
+
+
+@dataclass(frozen=True)
+class LFQConfig(TokenizerConfig):
+    """`lfq`: lookup-free quantization (MAGVIT-v2), the paper's LFQ-VAE."""
+
+    type: ClassVar[str] = "lfq"
+
+    codebook_size: int = 1024
+    """K, a power of two; each code has log2(K) bits."""
+    entropy_weight: float = 0.1
+    """Weight of the entropy loss (MAGVIT-v2: 0.1)."""
+    commitment_weight: float = 0.25
+    """Weight of the commitment loss."""
+    diversity_gamma: float = 1.0
+    """Weight of the batch-entropy term inside the entropy loss."""
+    recon_weight: float = 1.0
+    """Weight of the reconstruction loss."""
+
+
+def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConfig:
+    """The official code's LipVQ-VAE (see `lipvq.py`): last layer normalised with per-row
+    bounds initialised to ones, GELU, sigmoid output, no straight-through estimator, the
+    policy gets the quantized latent detached, codebook weight 0.25, no Lipschitz term."""
+    return LipVQConfig(
+        latent_dim=latent_dim, codebook_size=codebook_size, hidden=(64, 128),
+        decoder_hidden=(64, 128), norm="lipschitz-last", activation="gelu",
+        output_activation="sigmoid", straight_through="none", detach_embeddings=True,
+        codebook_weight=0.25, commitment_weight=0.25,
+        lipschitz=LipschitzOptions(weight=0.0, per_row=True, c_init=1.0, weight_init="randn"))
+
+
+TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = {
+    cls.type: cls for cls in (MLPConfig, LipMLPConfig, BinConfig, FASTConfig, VQConfig,
+                              LFQConfig, LipVQConfig)
+}
+"""Registry name -> config class, in the paper's order of Table I (mlp first)."""
+
+
+def default_config(name: str, **fields) -> TokenizerConfig:
+    """The default config of tokenizer `name`, with some fields changed."""
+    from icil_paper.registry import check_name
+
+    return TOKENIZER_CONFIGS[check_name("tokenizer", name, TOKENIZER_CONFIGS)](**fields)

@@ -1,0 +1,103 @@
+"""`icil-paper train`: train one policy, write its run folder, store a `train` record."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from icil_paper.cli import add_preset_arguments, positive, preset_from_args
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from icil_paper.policies import POLICIES
+
+    p = argparse.ArgumentParser(prog="icil-paper train",
+                                description="Train a policy (ICRT or a baseline) with an action "
+                                            "tokenizer.")
+    add_preset_arguments(p)
+    p.add_argument("--policy", default="icrt", help=f"one of {', '.join(POLICIES)}")
+    p.add_argument("--tokenizer", default=None,
+                   help="action tokenizer (icrt: default mlp; act: default none = CVAE)")
+    p.add_argument("--tasks", nargs="+", default=None, help="task names (default: see --suite)")
+    p.add_argument("--suite", choices=("kitchen", "maniskill"), default="kitchen",
+                   help="train on every task of this suite when --tasks is not given")
+    p.add_argument("--source", default="generated", help="demonstration source")
+    p.add_argument("--obs", choices=("state", "rgb", "rgbd"), default=None,
+                   help="observations to learn from (default: the preset's; mcr: rgb)")
+    p.add_argument("--dataset", default=None, metavar="FILE",
+                   help="train on this robomimic-layout HDF5 file instead of generated data")
+    p.add_argument("--obs-keys", nargs="+", default=None,
+                   help="with --dataset: observation keys to read (default: the documented "
+                        "mapping, see icil_paper.data.load_dataset_file)")
+    p.add_argument("--run-dir", default=None, help="run folder (default: runs/<preset>/...)")
+    resume = p.add_mutually_exclusive_group()
+    resume.add_argument("--resume", action="store_true",
+                        help="continue from the run folder's last checkpoint (the default)")
+    resume.add_argument("--no-resume", action="store_true",
+                        help="start over even if a checkpoint exists")
+    p.add_argument("--steps", type=positive("--steps"), default=None,
+                   help="optimizer steps (the same as --set train.steps=N)")
+    p.add_argument("--device", default=None, help="cpu or cuda (default: cuda when available)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    return p
+
+
+def spec_from_args(args: argparse.Namespace, preset):
+    """(RunSpec, preset, demos or None) the arguments describe; every name is checked
+    before any work (demos are read here only for --dataset, to name its tasks)."""
+    import hashlib
+
+    from icil_paper.registry import check_name
+    from icil_paper.runspec import run_spec
+    from icil_paper.sim import all_tasks
+
+    if args.steps is not None:
+        preset = preset.with_overrides([f"train.steps={args.steps}"])
+    if args.dataset is not None:
+        path = Path(args.dataset)
+        if not path.is_file():
+            raise FileNotFoundError(f"--dataset {path}: no such file")
+        from icil_paper.data import load_dataset_file
+
+        demos = load_dataset_file(path, obs_keys=args.obs_keys)
+        tasks = sorted({str(getattr(d, "task", "")) or path.stem for d in demos})
+        spec = run_spec(preset, args.policy, args.tokenizer, tasks=tasks, source=args.source,
+                        obs=args.obs)
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()
+        data = spec.data.__class__(tasks=tuple(tasks), source="file", obs=spec.data.obs,
+                                   demos_per_task=len(demos), seed=0, dataset=str(path.resolve()),
+                                   dataset_sha256=digest,
+                                   obs_keys=tuple(args.obs_keys) if args.obs_keys else None)
+        return spec.replace(data=data), preset, demos
+    tasks = args.tasks or list(getattr(preset.data, f"{args.suite}_tasks"))
+    valid = all_tasks()
+    for task in tasks:
+        check_name("task", task, valid)
+    return run_spec(preset, args.policy, args.tokenizer, tasks=tasks, source=args.source,
+                    obs=args.obs), preset, None
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Train (or find trained), write the run folder and a `train` record; say where."""
+    from icil_paper.cells import train_run
+    from icil_paper.results import ResultsStore
+    from icil_paper.train.rundir import POLICY_FILE, run_dir_for
+
+    args = build_parser().parse_args(argv)
+    preset = preset_from_args(args)
+    spec, preset, demos = spec_from_args(args, preset)
+    run_dir = Path(args.run_dir) if args.run_dir else run_dir_for(spec, preset.name)
+    have_policy = (run_dir / POLICY_FILE).exists()
+    record = train_run(spec, preset.name, ResultsStore(preset.name), run_dir=run_dir,
+                       force=args.no_resume or not have_policy, resume=not args.no_resume,
+                       progress=not args.quiet, device=args.device,
+                       data_workers=preset.data.workers, demos=demos)
+    m = record["metrics"]
+    print(f"{spec.label} trained for {m['steps']} steps on {len(spec.data.tasks)} task(s): "
+          f"final loss {m['final_loss']}; policy {run_dir / POLICY_FILE}; run key {spec.key()}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,77 @@
+"""Optimisation: AdamW with decoupled decay on matrices, warm-up + cosine, EMA, CPU threads."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+import torch
+from torch import nn
+
+
+@contextlib.contextmanager
+def cpu_threads(n: int | None) -> Iterator[None]:
+    """Run a block with `n` torch CPU threads (None or n <= 0: leave torch's setting alone)."""
+    before = torch.get_num_threads()
+    if n is not None and n > 0:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
+def cosine_schedule(warmup: int, total: int):
+    """lr multiplier: linear warm-up over `warmup` steps, then half-cycle cosine to 0."""
+    def factor(step: int) -> float:
+        if step < warmup:
+            return (step + 1) / max(1, warmup)
+        progress = (step - warmup) / max(1, total - warmup)
+        return 0.5 * (1.0 + math.cos(math.pi * min(1.0, progress)))
+    return factor
+
+
+def make_optimizer(model: nn.Module, lr: float, weight_decay: float,
+                   betas: tuple[float, float]) -> torch.optim.AdamW:
+    """AdamW over trainable parameters, with weight decay on matrices (ndim >= 2) only, as
+    nanoGPT, and none on what the model's `no_weight_decay()` names (e.g. a codebook)."""
+    exempt = {id(p) for p in getattr(model, "no_weight_decay", list)()}
+    params = [p for p in model.parameters() if p.requires_grad]
+    decay = [p for p in params if p.ndim >= 2 and id(p) not in exempt]
+    no_decay = [p for p in params if p.ndim < 2 or id(p) in exempt]
+    return torch.optim.AdamW([{"params": decay, "weight_decay": weight_decay},
+                              {"params": no_decay, "weight_decay": 0.0}],
+                             lr=lr, betas=tuple(betas))
+
+
+class EMA:
+    """Exponential moving average of a model's floating-point parameters and buffers.
+
+    decay_t = min(decay, (1 + t) / (10 + t)): averaging starts short and grows to `decay`.
+    """
+
+    def __init__(self, model: nn.Module, decay: float):
+        self.decay = decay
+        self.step = 0
+        self.shadow = {k: v.detach().clone() for k, v in model.state_dict().items()
+                       if isinstance(v, torch.Tensor) and v.is_floating_point()}
+
+    @torch.no_grad()
+    def update(self, model: nn.Module) -> None:
+        d = min(self.decay, (1 + self.step) / (10 + self.step))
+        for k, v in model.state_dict().items():
+            if k in self.shadow:
+                self.shadow[k].mul_(d).add_(v.detach(), alpha=1 - d)
+        self.step += 1
+
+    def copy_to(self, model: nn.Module) -> None:
+        model.load_state_dict({**model.state_dict(), **self.shadow})
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"decay": self.decay, "step": self.step, "shadow": self.shadow}
+
+    def load_state_dict(self, state: Mapping[str, Any]) -> None:
+        self.decay, self.step = state["decay"], state["step"]
+        self.shadow = {k: v.clone() for k, v in state["shadow"].items()}

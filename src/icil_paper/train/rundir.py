@@ -1,0 +1,279 @@
+"""Run folders and their files: config, checkpoints, metrics, the trained policy.
+
+    runs/<preset>/<label>__<tasks>__<source>__seed<k>__<key8>/
+        config.json          the run spec and its key
+        checkpoint.pt        the latest checkpoint (model, optimizer, schedule, EMA, RNGs, step)
+        checkpoint.prev.pt   the one before it (a truncated latest falls back to it)
+        metrics.jsonl        one JSON line every `log_every` steps
+        policy.pt            the trained policy (EMA weights if EMA is on)
+
+Every file is written atomically (a temporary file, then a rename), so a killed run leaves
+whole files only. A damaged file is named in a warning, set aside under a unique name
+(`<file>.corrupt-<time>-<pid>-<random>`, never deleted) and the run goes on from what is
+left: the previous checkpoint, the metric lines before a torn one.
+
+Policies and checkpoints hold tensors, numbers and strings only, and are read with
+`torch.load(..., weights_only=True)`: opening a policy file from someone else cannot run
+code hidden in a pickle. The policy's spec (its config, its tokenizer's config and shapes)
+is stored as a JSON string beside the weights. A file that is not in this format is refused
+with an error that says so.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import random
+import uuid
+import warnings
+from collections.abc import Mapping
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from icil_paper.results import atomic_write_bytes, atomic_write_json
+
+RUNS_ENV_VAR = "ICIL_RUNS"
+CHECKPOINT = "checkpoint.pt"
+PREVIOUS_CHECKPOINT = "checkpoint.prev.pt"
+POLICY_FILE = "policy.pt"
+METRICS_FILE = "metrics.jsonl"
+CONFIG_FILE = "config.json"
+POLICY_FORMAT = "icil_paper.policy/2"
+CHECKPOINT_FORMAT = "icil_paper.checkpoint/2"
+
+
+class RunFolderError(ValueError):
+    """A run folder that cannot be used as asked; the message names the folder and the fix."""
+
+
+class PolicyFileError(ValueError):
+    """A file that is not a policy (or checkpoint) this version reads safely."""
+
+
+class DamagedFileWarning(UserWarning):
+    """A run file that could not be read; it was set aside and the run goes on without it."""
+
+
+def runs_root() -> Path:
+    """Root of run folders: $ICIL_RUNS (an empty value counts as unset), else `runs/`."""
+    from icil_paper.provenance import REPO_ROOT
+
+    return Path(os.environ.get(RUNS_ENV_VAR) or REPO_ROOT / "runs")
+
+
+def run_dir_for(spec: Any, preset_name: str) -> Path:
+    """`runs/<preset>/<label>__<tasks>__<source>__seed<k>__<key8>` for a RunSpec."""
+    from icil_paper.runspec import tasks_tag
+
+    data = spec.data
+    source = data.source if data.dataset is None else "file"
+    return (runs_root() / preset_name
+            / f"{spec.label}__{tasks_tag(data.tasks)}__{source}__seed{spec.seed}__{spec.key()[:8]}")
+
+
+def set_aside(path: Path, problem: str) -> Path:
+    """Rename a damaged file to a unique `<name>.corrupt-...` beside it and warn; return it."""
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    aside = path.with_name(f"{path.name}.corrupt-{stamp}-{os.getpid()}-{uuid.uuid4().hex[:6]}")
+    try:
+        os.replace(path, aside)
+    except FileNotFoundError:  # another process set it aside first
+        return aside
+    warnings.warn(f"damaged file {path}: {problem}; moved to {aside.name}", DamagedFileWarning,
+                  stacklevel=3)
+    return aside
+
+
+# --------------------------------------------------------------------------- the folder
+def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
+    """Create or check a run folder for `spec` and write its config.json.
+
+    Raises RunFolderError when the path is a file or cannot be written, or when resuming a
+    folder whose config or checkpoint belongs to a different run. Without `resume`, the
+    files of an earlier run there are removed (its metrics, checkpoints and policy).
+    """
+    run_dir = Path(run_dir)
+    if run_dir.exists() and not run_dir.is_dir():
+        raise RunFolderError(f"the run folder {run_dir} is a file; pass another --run-dir")
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        probe = run_dir / f".write-test-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise RunFolderError(f"cannot write to the run folder {run_dir} ({exc.strerror}); "
+                             "pass another --run-dir or set $ICIL_RUNS") from None
+    for stale in run_dir.glob(".*.tmp"):  # temporary files of a killed write
+        stale.unlink(missing_ok=True)
+    key = spec.key()
+    path = run_dir / CONFIG_FILE
+    if resume and path.exists():
+        try:
+            old = json.loads(path.read_text())
+            old_key = old["key"]
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            set_aside(path, f"unreadable run config ({exc})")
+        else:
+            if old_key != key:
+                raise RunFolderError(
+                    f"{run_dir} holds a different run (key {old_key}, this run is {key}); "
+                    "pass another --run-dir, or --no-resume to start over there")
+    if not resume:
+        for name in (METRICS_FILE, CHECKPOINT, PREVIOUS_CHECKPOINT, POLICY_FILE):
+            (run_dir / name).unlink(missing_ok=True)
+    atomic_write_json(path, {"key": key, "label": spec.label, "spec": spec.to_dict()})
+
+
+# --------------------------------------------------------------------------- RNG state
+def rng_state(rng: np.random.Generator) -> dict[str, Any]:
+    """Every random state a training run draws from, as tensors and JSON strings."""
+    kind, keys, pos, has_gauss, cached = np.random.get_state()
+    state = {"numpy": json.dumps(rng.bit_generator.state), "torch": torch.get_rng_state(),
+             "python": json.dumps(random.getstate()),
+             "numpy_global": json.dumps([kind, keys.tolist(), pos, has_gauss, cached])}
+    if torch.cuda.is_available():
+        state["cuda"] = torch.cuda.get_rng_state_all()
+    return state
+
+
+def set_rng_state(rng: np.random.Generator, state: Mapping[str, Any]) -> None:
+    rng.bit_generator.state = json.loads(state["numpy"])
+    torch.set_rng_state(state["torch"])
+    version, internal, gauss = json.loads(state["python"])
+    random.setstate((version, tuple(internal), gauss))
+    kind, keys, pos, has_gauss, cached = json.loads(state["numpy_global"])
+    np.random.set_state((kind, np.asarray(keys, dtype=np.uint32), pos, has_gauss, cached))
+    if "cuda" in state and torch.cuda.is_available():
+        torch.cuda.set_rng_state_all(state["cuda"])
+
+
+# --------------------------------------------------------------------------- safe torch files
+def save_tensors(path: Path, obj: Mapping[str, Any]) -> None:
+    """torch.save of tensors / numbers / strings through bytes and an atomic rename."""
+    import io
+
+    buf = io.BytesIO()
+    torch.save(dict(obj), buf)
+    atomic_write_bytes(Path(path), buf.getvalue())
+
+
+def load_tensors(path: Path, fmt: str, map_location: Any = "cpu") -> dict[str, Any]:
+    """Read a file written by `save_tensors` with `weights_only=True`; check its format.
+
+    Raises PolicyFileError for a file that is truncated, not in this format, or holds
+    anything but tensors, numbers and strings.
+    """
+    try:
+        blob = torch.load(path, map_location=map_location, weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError, ValueError, TypeError,
+            AttributeError, IndexError, KeyError) as exc:
+        raise PolicyFileError(f"{path} is not a {fmt} file this version reads safely "
+                              f"({type(exc).__name__}: {str(exc).splitlines()[0][:200]})") from None
+    if not isinstance(blob, dict) or blob.get("format") != fmt:
+        found = blob.get("format") if isinstance(blob, dict) else type(blob).__name__
+        raise PolicyFileError(f"{path} is not a {fmt} file (found {found!r}); retrain it with "
+                              "this version (`icil-paper train`)")
+    return blob
+
+
+def save_checkpoint(run_dir: Path, state: Mapping[str, Any]) -> None:
+    """Write checkpoint.pt, keeping the one before as checkpoint.prev.pt."""
+    current = Path(run_dir) / CHECKPOINT
+    if current.exists():
+        os.replace(current, Path(run_dir) / PREVIOUS_CHECKPOINT)
+    save_tensors(current, {"format": CHECKPOINT_FORMAT, **state})
+
+
+def load_checkpoint(run_dir: Path, key: str, map_location: Any = "cpu") -> dict[str, Any] | None:
+    """The newest readable checkpoint of this run, or None when there is none.
+
+    A damaged checkpoint is set aside (with a warning) and the previous one is tried. A
+    checkpoint of another run (its key differs) raises RunFolderError.
+    """
+    for name in (CHECKPOINT, PREVIOUS_CHECKPOINT):
+        path = Path(run_dir) / name
+        if not path.exists():
+            continue
+        try:
+            ckpt = load_tensors(path, CHECKPOINT_FORMAT, map_location)
+        except PolicyFileError as exc:
+            set_aside(path, str(exc))
+            continue
+        if ckpt.get("key") != key:
+            raise RunFolderError(f"{path} is a checkpoint of another run (key {ckpt.get('key')},"
+                                 f" this run is {key}); pass --no-resume to start over")
+        return ckpt
+    return None
+
+
+def save_policy(path: Path, policy: Any, meta: Mapping[str, Any]) -> None:
+    """Write a trained policy: its spec (JSON), its weights and `meta` (JSON)."""
+    save_tensors(Path(path), {"format": POLICY_FORMAT, "spec": json.dumps(policy.spec),
+                              "meta": json.dumps(dict(meta)), "state_dict": policy.state_dict()})
+
+
+def load_policy(path: str | Path, map_location: Any = "cpu"):
+    """The trained policy in a run folder or `policy.pt` file, in eval mode.
+
+    Raises FileNotFoundError (no policy there: train it first) or PolicyFileError.
+    """
+    from icil_paper.policies.base import build_policy
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / POLICY_FILE
+    if not path.exists():
+        raise FileNotFoundError(f"no trained policy at {path} (train it first: icil-paper train)")
+    blob = load_tensors(path, POLICY_FORMAT, map_location)
+    try:
+        policy = build_policy(json.loads(blob["spec"]))
+        policy.load_state_dict(blob["state_dict"])
+    except (KeyError, ValueError, RuntimeError, TypeError) as exc:
+        raise PolicyFileError(f"{path}: its weights do not fit its spec ({exc})") from None
+    policy.meta = json.loads(blob.get("meta") or "{}")
+    return policy.eval()
+
+
+def policy_digest(policy: Any) -> str:
+    """A short hash of a policy's weights (identifies a trained policy in result records)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for k, v in sorted(policy.state_dict().items()):
+        h.update(k.encode())
+        if isinstance(v, torch.Tensor):
+            h.update(v.detach().cpu().contiguous().numpy().tobytes())
+    return h.hexdigest()[:16]
+
+
+# --------------------------------------------------------------------------- metrics
+def read_metrics(path: Path) -> list[dict[str, Any]]:
+    """The metric lines of a run; a torn line (a run killed mid-write) is dropped."""
+    if not Path(path).exists():
+        return []
+    lines = []
+    for text in Path(path).read_text().splitlines():
+        if not text.strip():
+            continue
+        try:
+            lines.append(json.loads(text))
+        except json.JSONDecodeError:
+            continue
+    return lines
+
+
+def truncate_metrics(path: Path, step: int) -> None:
+    """Keep the readable metric lines up to `step` (the lines after a checkpoint are redone)."""
+    keep = [line for line in read_metrics(path) if line.get("step", 0) <= step]
+    if Path(path).exists():
+        atomic_write_bytes(Path(path), "".join(json.dumps(x) + "\n" for x in keep).encode())
+
+
+def append_metrics(path: Path, line: Mapping[str, Any]) -> None:
+    with open(path, "a") as f:
+        f.write(json.dumps(dict(line)) + "\n")

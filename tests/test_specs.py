@@ -1,0 +1,159 @@
+"""Run specs and their keys: every field of every config reaches the key of every stage that
+reads it (and no other), `--set` overrides are typed and checked, configs round-trip."""
+
+from __future__ import annotations
+
+import dataclasses
+import typing
+
+import pytest
+
+from icil_paper.config import get_preset
+from icil_paper.runspec import eval_key, eval_spec, run_spec
+from icil_paper.specs import (
+    NOT_KEYED,
+    OverrideError,
+    from_dict,
+    get_path,
+    keyed_paths,
+    replace_path,
+    spec_key,
+    to_dict,
+)
+from icil_paper.studies import study_spec
+from icil_paper.tokenizers.configs import TokenizerConfig
+
+TASKS = ("kitchen/open_drawer", "kitchen/close_door")
+
+
+def _other_value(annotation, value):
+    """A different value of the declared type (to perturb one field)."""
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin in (typing.Union, getattr(__import__("types"), "UnionType")):
+        if value is None:
+            return _other_value(next(a for a in args if a is not type(None)), None)
+        return None
+    if annotation is bool:
+        return not value
+    if annotation is int:
+        return (value or 0) + 1
+    if annotation is float:
+        return (value or 0.0) * 1.5 + 0.125
+    if annotation is str:
+        return (value or "") + "-changed"
+    if origin is tuple and len(args) == 2 and args[1] is Ellipsis:
+        return tuple(value or ()) + (_other_value(args[0], None),)
+    if origin is tuple:
+        return tuple(_other_value(a, v) for a, v in zip(args, value, strict=True))
+    raise AssertionError(f"no perturbation for {annotation}")
+
+
+def perturbed(obj, path):
+    parent = get_path(obj, path.rsplit(".", 1)[0]) if "." in path else obj
+    name = path.rsplit(".", 1)[-1]
+    annotation = typing.get_type_hints(type(parent))[name]
+    return replace_path(obj, path, _other_value(annotation, get_path(obj, path)))
+
+
+def leaf_paths(obj, prefix=""):
+    """Every leaf field path of a config, keyed or not."""
+    out = []
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value):
+            out += leaf_paths(value, f"{prefix}{f.name}.")
+        else:
+            out.append(f"{prefix}{f.name}")
+    return out
+
+
+STAGES = {
+    # stage: (key of the stage under a preset, the preset fields it reads)
+    "train icrt+lipvq": (lambda p: run_spec(p, "icrt", "lipvq", tasks=TASKS).key(),
+                         ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task",
+                          "data.obs", "seed")),
+    "train icrt (default mlp)": (lambda p: run_spec(p, "icrt", tasks=TASKS).key(),
+                                 ("policies.icrt.", "tokenizers.mlp.", "train.",
+                                  "data.demos_per_task", "data.obs", "seed")),
+    "train act+fast": (lambda p: run_spec(p, "act", "fast", tasks=TASKS).key(),
+                       ("policies.act.", "tokenizers.fast.", "train.", "data.demos_per_task",
+                        "data.obs", "seed")),
+    "train bc_transformer on the preset's kitchen tasks": (
+        lambda p: run_spec(p, "bc_transformer").key(),
+        ("policies.bc_transformer.", "train.", "data.demos_per_task", "data.obs",
+         "data.kitchen_tasks", "seed")),
+    "eval icrt+lipvq": (lambda p: eval_key(run_spec(p, "icrt", "lipvq", tasks=TASKS),
+                                           eval_spec(p, TASKS[0])),
+                        ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task",
+                         "data.obs", "seed", "eval.")),
+    "tokenizer study vq": (lambda p: spec_key(study_spec(p, p.tokenizers.vq)),
+                           ("tokenizers.vq.", "tokenizer_study.", "data.demos_per_task",
+                            "data.kitchen_tasks", "data.maniskill_tasks", "seed")),
+}
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_every_field_reaches_the_key_of_every_stage_that_reads_it(stage):
+    key_of, reads = STAGES[stage]
+    preset = get_preset("small")
+    base = key_of(preset)
+    keyed = set(keyed_paths(preset))
+    missing, spurious = [], []
+    for path in leaf_paths(preset):
+        if path == "name":
+            continue  # where results are stored, not what they are
+        changed = key_of(perturbed(preset, path)) != base
+        should = path in keyed and path.startswith(reads)
+        if should and not changed:
+            missing.append(path)
+        if changed and not should:
+            spurious.append(path)
+    assert not missing, f"{stage}: fields read but not in the key: {missing}"
+    assert not spurious, f"{stage}: fields that change the key but are not read: {spurious}"
+
+
+def test_only_execution_knobs_stay_out_of_keys():
+    preset = get_preset("small")
+    unkeyed = sorted(set(leaf_paths(preset)) - set(keyed_paths(preset)))
+    assert unkeyed == ["data.workers", "eval.record", "eval.workers", "train.ckpt_every",
+                       "train.cpu_threads", "train.log_every"]
+    for path in unkeyed:  # each says why in its docstring, through the metadata
+        parent = get_path(preset, path.rsplit(".", 1)[0])
+        f = next(f for f in dataclasses.fields(parent) if f.name == path.rsplit(".", 1)[1])
+        assert f.metadata == NOT_KEYED
+
+
+def test_set_overrides_are_typed_and_checked():
+    preset = get_preset("smoke")
+    changed = preset.with_overrides(["train.steps=3", "tokenizers.lipvq.codebook_size=16",
+                                     "data.sources=human", "train.ema_decay=none",
+                                     "tokenizers.lip_mlp.lipschitz.c_init=2.5",
+                                     "tokenizers.vq.hidden=32,64", "train.betas=0.8,0.9"])
+    assert changed.train.steps == 3 and changed.tokenizers.lipvq.codebook_size == 16
+    assert changed.data.sources == ("human",) and changed.train.ema_decay is None
+    assert changed.tokenizers.lip_mlp.lipschitz.c_init == 2.5
+    assert changed.tokenizers.vq.hidden == (32, 64) and changed.train.betas == (0.8, 0.9)
+    cases = {
+        "trian.steps=3": "unknown section 'trian'. Did you mean 'train'?.*Valid section names",
+        "train.stepz=3": "unknown field of train 'stepz'.*Did you mean 'steps'",
+        "train.steps=abc": "train.steps: expected an integer, got 'abc'",
+        "train.steps=2.5": "train.steps: expected an integer",
+        "train.lr=fast": "train.lr: expected a number",
+        "eval.record=maybe": "eval.record: expected true or false",
+        "train=3": "train is a section",
+        "train.steps": "expects SECTION.FIELD=VALUE",
+        "train.betas=1": "expected 2 values",
+    }
+    for text, message in cases.items():
+        with pytest.raises(OverrideError, match=message):
+            preset.with_overrides([text])
+
+
+def test_component_configs_round_trip_by_type():
+    preset = get_preset("small")
+    for name in ("mlp", "lip-mlp", "bin", "fast", "vq", "lfq", "lipvq"):
+        cfg = preset.tokenizers.get(name)
+        assert from_dict(TokenizerConfig, to_dict(cfg)) == cfg
+    assert from_dict(type(preset), to_dict(preset)) == preset
+    with pytest.raises(OverrideError, match="no field"):
+        from_dict(TokenizerConfig, {"type": "vq", "codebook_sise": 3})
