@@ -1,52 +1,53 @@
-"""A simulator-free stand-in for the kitchen package, for the registry and data tests.
+"""A simulator-free stand-in for the kitchen and Kinova suites, for the registry and data tests.
 
-A point "end effector" reaches a goal; it has the project's env interface (obs dict with
+A point "end effector" reaches a goal; it is a `TaskEnv` like the real suites (obs dict with
 proprio (9,) and object (6,), 7-D actions, `info["success"]`), so the registry, the sources and
 the data tooling can be tested in milliseconds. Seeds ending in 3 put the goal out of
 reach (first attempts only: seeds below 1e6 ending in 3), so the expert fails there and
 generation must move on to the demo's next seed.
+
+`use(monkeypatch)` / `install()` point the suite registry's kitchen and Kinova entries at the
+records below (`BROKEN` at a record that does not exist).
 """
 
 from __future__ import annotations
 
-import sys
 import time
-import types
 
 import numpy as np
+
+from icil_paper.registry import Registry
+from icil_paper.sim.base import TaskEnv, observation_space, state_box
+from icil_paper.sim.suite import Suite
 
 KITCHEN = ("kitchen/reach_a", "kitchen/reach_b", "kitchen/reach_c")
 KINOVA = ("kinova/reach_a",)
 OBS_DIMS = (9, 6)
-MODULE = "icil_paper.sim.kitchen"
+STEP_DELAY = {"seconds": 0.0}
+"""Seconds each step sleeps (a slow env for the kill-and-resume test)."""
 
 
-class ReachEnv:
+class ReachEnv(TaskEnv):
     """Move a point by 0.02 m per unit action until it is within 1 cm of the goal."""
 
-    action_dim = 7
-
     def __init__(self, name: str, obs: str = "state", seed: int = 0, horizon: int = 40,
-                 step_delay: float = 0.0):
-        self.name = name
-        self.obs_kind = obs
-        self.horizon = horizon
-        self.instruction = f"reach the goal ({name})"
-        self.step_delay = step_delay
-        self.seed = seed
-        self._first = seed
+                 render_mode: str | None = None):
+        super().__init__(name, obs, seed, horizon=horizon,
+                         instruction=f"reach the goal ({name})", render_mode=render_mode)
+        self.cameras = ("cam",) if obs != "state" else ()
+        self.observation_space = observation_space(
+            state_box(((3, "metric"), (4, "unit"), (2, "metric"))),
+            state_box(((6, "metric"),)), obs, image=(1, 8, 8), depth_range=(0.0, 2.0))
         self.closed = False
 
     def reset(self, seed=None, options=None):
-        seed = self._first if seed is None else seed
-        self.seed = int(seed)
+        self._begin_episode(seed)
         rng = np.random.default_rng(self.seed)
         self.eef = rng.uniform(-0.1, 0.1, 3)
         self.goal = rng.uniform(-0.2, 0.2, 3)
         if self.seed % 10 == 3 and self.seed < 1_000_000:
-            self.goal = self.goal + 10.0  # unreachable: the expert fails on this seed
+            self.goal = self.goal + 5.0  # unreachable: the expert fails on this seed
         self.grip = 0.04
-        self.steps = 0
         return self._obs(), {"success": False}
 
     def _obs(self):
@@ -63,20 +64,22 @@ class ReachEnv:
         return obs
 
     def step(self, action):
-        if self.step_delay:
-            time.sleep(self.step_delay)
+        if STEP_DELAY["seconds"]:
+            time.sleep(STEP_DELAY["seconds"])
         a = np.clip(np.asarray(action, np.float64), -1, 1)
         self.eef = self.eef + 0.02 * a[:3]
         self.grip = 0.0 if a[6] > 0 else 0.04
-        self.steps += 1
         success = bool(np.linalg.norm(self.goal - self.eef) < 0.01)
-        truncated = self.steps >= self.horizon and not success
-        return self._obs(), float(success), success, truncated, {"success": success}
+        terminated, truncated = self._step_outcome(success)
+        return self._obs(), float(success), terminated, truncated, {"success": success}
+
+    def render(self):
+        return np.zeros((8, 8, 3), np.uint8)
 
     def get_state(self):
-        return np.concatenate([self.eef, self.goal]).astype(np.float32)
+        return np.concatenate([self.eef, self.goal]).astype(np.float64)
 
-    def close(self):
+    def _close(self):
         self.closed = True
 
 
@@ -96,22 +99,41 @@ class ReachExpert:
         return action
 
 
-def make_module(step_delay: float = 0.0) -> types.ModuleType:
-    module = types.ModuleType(MODULE)
-    module.KITCHEN_TASKS = {name: name for name in KITCHEN}
-    module.KINOVA_TASKS = {name: name for name in KINOVA}
-    module.KITCHEN_OBS_DIMS = OBS_DIMS
-    module.KITCHEN_ZERO_SHOT_SPLIT = {"train": KITCHEN[:2], "held_out": KITCHEN[2:]}
-    module.TASK_FAMILIES = {"Reaching": KITCHEN}
-    module.make_kitchen_env = lambda name, obs="state", seed=0, **options: ReachEnv(
-        name, obs, seed, step_delay=step_delay, **options)
-    module.make_kitchen_expert = lambda name: ReachExpert()
-    return module
+def make_env(name, obs="state", seed=0, **options):
+    return ReachEnv(name, obs, seed, **options)
+
+
+def make_expert(name):
+    return ReachExpert()
+
+
+KITCHEN_SUITE = Suite(name="kitchen", tasks=KITCHEN, obs_dims=OBS_DIMS, control_freq=20,
+                      make_env=make_env, make_expert=make_expert, object_position=(0, 3),
+                      zero_shot_split={"train": KITCHEN[:2], "held_out": KITCHEN[2:]})
+KINOVA_SUITE = Suite(name="kinova", tasks=KINOVA, obs_dims=OBS_DIMS, control_freq=20,
+                     make_env=make_env, make_expert=make_expert, object_position=(0, 3))
+
+
+def registry(broken: bool = False) -> Registry:
+    """The suite registry with the kitchen and Kinova entries pointing here."""
+    import icil_paper.sim as sim
+
+    target = "fake_suite:NO_SUCH_RECORD" if broken else "fake_suite:{}_SUITE"
+    return Registry("suite", {**sim.SUITE_ENTRIES,
+                              "kitchen": target.format("KITCHEN"),
+                              "kinova": target.format("KINOVA")})
+
+
+def use(monkeypatch, broken: bool = False) -> None:
+    """Put the fake suites in place for one test."""
+    import icil_paper.sim as sim
+
+    monkeypatch.setattr(sim, "SUITE_REGISTRY", registry(broken))
 
 
 def install(step_delay: float = 0.0) -> None:
-    """Put the fake package in place of the kitchen suite (for subprocesses of a test)."""
+    """Put the fake suites in place for a whole process (subprocesses of a test)."""
     import icil_paper.sim as sim
 
-    sys.modules[MODULE] = make_module(step_delay)
-    sim._kitchen.cache_clear()
+    STEP_DELAY["seconds"] = step_delay
+    sim.SUITE_REGISTRY = registry()

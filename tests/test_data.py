@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import h5py
@@ -41,11 +42,9 @@ TASK = "kitchen/reach_a"
 
 @pytest.fixture
 def fake_kitchen(monkeypatch, tmp_path):
-    monkeypatch.setitem(sys.modules, fake_suite.MODULE, fake_suite.make_module())
+    fake_suite.use(monkeypatch)
     monkeypatch.setenv("ICIL_DATA", str(tmp_path / "data"))
-    sim._kitchen.cache_clear()
-    yield tmp_path / "data"
-    sim._kitchen.cache_clear()
+    return tmp_path / "data"
 
 
 def _demo(T=5, seed=0, images=False, task="kitchen/reach_a"):
@@ -74,6 +73,9 @@ def test_written_data_set_round_trips(tmp_path):
         for k in a.obs:
             assert np.array_equal(a.obs[k], b.obs[k]) and a.obs[k].dtype == b.obs[k].dtype
         assert (b.task, b.source, b.instruction, b.seed) == (a.task, a.source, "reach", a.seed)
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask  # not mkstemp's 0600
     masks = read_masks(path)
     assert len(masks["valid"]) == 1 and len(masks["train"]) == 11
     assert set(masks["train"]).isdisjoint(masks["valid"])
@@ -85,6 +87,143 @@ def test_written_data_set_round_trips(tmp_path):
         assert f["data/demo_3/dones"][-1] == 1
     assert len(load_demos(path, limit=3, images=False)) == 3
     assert "rgb" not in load_demos(path, limit=1, images=False)[0].obs
+
+
+def test_layout_is_robomimics_with_next_obs_cameras_checksums(tmp_path):
+    demos = [_demo(T=5, seed=i, images=True) for i in range(3)]
+    demos[0].cameras = ("agentview", "wrist")
+    demos[0].final_obs = {k: v[-1] + 1 for k, v in demos[0].obs.items()}
+    path = write_demos(tmp_path / "d.hdf5", demos, file_attrs={"control_freq": 20})
+    with h5py.File(path) as f:
+        g = f["data/demo_0"]
+        assert f["data"].attrs["format"] == "icil_paper/2" and f["data"].attrs["control_freq"] == 20
+        assert set(g["obs"]) == set(g["next_obs"]) == {
+            "proprio", "object", "agentview_image", "wrist_image", "agentview_depth", "wrist_depth"}
+        assert g["obs/wrist_image"].shape == (5, 4, 4, 3) and g["obs/wrist_depth"].shape == (5, 4, 4, 1)
+        assert np.array_equal(g["obs/wrist_image"][()], demos[0].obs["rgb"][:, 1])
+        # next_obs[t] = obs[t + 1]; its last row is the observation after the last action
+        assert np.array_equal(g["next_obs/proprio"][:-1], g["obs/proprio"][1:])
+        assert np.array_equal(g["next_obs/proprio"][-1], demos[0].final_obs["proprio"])
+        assert np.array_equal(f["data/demo_1/next_obs/object"][-1], demos[1].obs["object"][-1])
+        assert g["states"].dtype == np.float64
+        datasets = []
+        f.visititems(lambda n, o: datasets.append(o) if isinstance(o, h5py.Dataset)
+                     and n.startswith("data/") else None)
+        assert datasets and all(d.fletcher32 for d in datasets)
+    loaded = load_demos(path)
+    assert loaded[0].cameras == ("agentview", "wrist") and loaded[1].cameras == ("camera0", "camera1")
+    assert loaded[0].states.dtype == np.float64
+    for k, v in demos[0].final_obs.items():
+        assert np.array_equal(loaded[0].final_obs[k], v.astype(loaded[0].obs[k].dtype))
+    again = write_demos(tmp_path / "again.hdf5", loaded)  # a loaded demo writes back the same
+    with h5py.File(path) as f, h5py.File(again) as g:
+        for key in f["data/demo_0/next_obs"]:
+            assert np.array_equal(f["data/demo_0/next_obs"][key][()],
+                                  g["data/demo_0/next_obs"][key][()])
+
+
+def _write_version_1(path, demos):
+    """A data set in the first layout: stacked obs/rgb and obs/depth, no next_obs."""
+    with h5py.File(path, "w") as f:
+        data = f.create_group("data")
+        data.attrs["format"] = "icil_paper/1"
+        data.attrs["env_args"] = json.dumps({"env_name": TASK, "type": "icil_paper"})
+        for i, d in enumerate(demos):
+            g = data.create_group(f"demo_{i}")
+            g.create_dataset("actions", data=d.actions)
+            for k, v in d.obs.items():
+                g.create_dataset(f"obs/{k}", data=v)
+            g.create_dataset("states", data=d.states.astype(np.float32))
+            g.attrs.update({"num_samples": len(d), "task": d.task, "source": d.source,
+                            "instruction": d.instruction, "seed": d.seed, "attempt": 0})
+
+
+def test_version_1_files_load_and_are_rewritten_when_merged(tmp_path):
+    from icil_paper.data.hdf5 import merge_demo_files
+
+    old = [_demo(T=4 + i, seed=i, images=True) for i in range(2)]
+    _write_version_1(tmp_path / "old.hdf5", old)
+    loaded = load_demos(tmp_path / "old.hdf5", action_dim=7)
+    for a, b in zip(old, loaded, strict=True):
+        for k in a.obs:
+            assert np.array_equal(a.obs[k], b.obs[k]) and a.obs[k].dtype == b.obs[k].dtype
+        assert b.final_obs is None and b.meta == {"attempt": 0} and b.task == TASK
+    new = write_demos(tmp_path / "shard.hdf5", [_demo(T=6, seed=9, images=True)],
+                      names=["demo_2"])
+    merged = merge_demo_files(tmp_path / "old.hdf5", [(tmp_path / "old.hdf5", "demo_0", "demo_0"),
+                                                      (tmp_path / "old.hdf5", "demo_1", "demo_1"),
+                                                      (new, "demo_2", "demo_2")], {"task": TASK})
+    with h5py.File(merged) as f:
+        assert all("next_obs" in f["data"][n] and "camera0_image" in f["data"][n]["obs"]
+                   for n in ("demo_0", "demo_1", "demo_2"))
+        assert f["data/demo_0"].attrs["attempt"] == 0
+    after = load_demos(merged)
+    assert [len(d) for d in after] == [4, 5, 6]
+    for a, b in zip(loaded, after[:2], strict=True):
+        assert all(np.array_equal(a.obs[k], b.obs[k]) for k in a.obs)
+        assert np.array_equal(a.actions, b.actions) and np.array_equal(a.states, b.states)
+
+
+def test_limit_returns_exactly_the_first_demos(tmp_path):
+    demos = [_demo(T=3 + i % 4, seed=i) for i in range(12)]
+    path = write_demos(tmp_path / "d.hdf5", demos)
+    for n in (1, 3, 10, 12):
+        loaded = load_demos(path, limit=n)
+        assert [d.name for d in loaded] == [f"demo_{i}" for i in range(n)]
+        assert all(np.array_equal(d.actions, demos[i].actions) for i, d in enumerate(loaded))
+    with pytest.raises(DatasetError, match="holds 12 demos, 13 were asked for"):
+        load_demos(path, limit=13)
+    for bad in (0, -1, 2.5, True, "3"):
+        with pytest.raises(ValueError, match="limit must be"):
+            load_demos(path, limit=bad)
+
+
+def test_action_widths_are_checked_across_demos_and_against_the_file(tmp_path):
+    demos = [_demo(seed=i) for i in range(3)]
+    demos[2].actions = demos[2].actions[:, :6]
+    path = write_demos(tmp_path / "mixed.hdf5", demos)
+    with pytest.raises(DatasetError, match="demo 'demo_2': action dimension 6 differs from the "
+                                           r"file's first demo \(7\)") as err:
+        load_demos(path)
+    assert str(path) in str(err.value)
+    narrow = [_demo(seed=i) for i in range(2)]
+    for d in narrow:
+        d.actions = d.actions[:, :6]
+    path = write_demos(tmp_path / "narrow.hdf5", narrow, file_attrs={"action_dim": 7})
+    with pytest.raises(DatasetError, match="demo 'demo_0': action dimension 6 does not match "
+                                           "the file's action_dim attribute 7"):
+        load_demos(path)
+
+
+def _flip_byte(path, dataset):
+    with h5py.File(path) as f:
+        info = f[dataset].id.get_chunk_info(0)
+    with open(path, "r+b") as fh:
+        fh.seek(info.byte_offset + info.size // 2)
+        byte = fh.read(1)
+        fh.seek(-1, 1)
+        fh.write(bytes([byte[0] ^ 0x10]))
+
+
+def test_flipped_bytes_and_damaged_files_raise_dataset_error(tmp_path):
+    from icil_paper.data import verify_file
+
+    path = write_demos(tmp_path / "d.hdf5", [_demo(seed=i) for i in range(3)])
+    _flip_byte(path, "data/demo_1/actions")
+    with pytest.raises(DatasetError, match="demo 'demo_1': cannot read actions: the file is "
+                                           "damaged .*[Cc]hecksum"):
+        load_demos(path)
+    with pytest.raises(DatasetError, match="data/demo_1/actions cannot be read: the file is "
+                                           "damaged"):
+        verify_file(path)
+    whole = write_demos(tmp_path / "whole.hdf5", [_demo(seed=i) for i in range(3)])
+    cut = tmp_path / "cut.hdf5"
+    cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
+    with pytest.raises(DatasetError) as err:
+        load_demos(cut)
+    assert str(err.value).startswith(f"{cut}: ")
+    with pytest.raises(DatasetError, match="is a folder"):
+        load_demos(tmp_path)
 
 
 def test_train_valid_split_is_seeded_and_disjoint():
@@ -112,9 +251,14 @@ def _corrupt(path, edit):
     (lambda f: (f["data/demo_1/obs"].__delitem__("object"),
                 f["data/demo_1/obs"].create_dataset("object", data=np.zeros((3, 6)))),
      None, "obs/object has 3 steps but actions have 5"),
-    (lambda f: (f["data/demo_1/obs"].__delitem__("rgb"),
-                f["data/demo_1/obs"].create_dataset("rgb", data=np.zeros((5, 4, 4, 3), np.uint8))),
-     None, r"obs/rgb must be \(T, n_cams, H, W, 3\)"),
+    (lambda f: (f["data/demo_1/obs"].__delitem__("camera1_image"),
+                f["data/demo_1/obs"].create_dataset("camera1_image",
+                                                    data=np.zeros((5, 4, 4), np.uint8))),
+     None, r"obs/camera1_image must be \(T, H, W, 3\)"),
+    (lambda f: (f["data/demo_1/obs"].__delitem__("camera1_image"),
+                f["data/demo_1/obs"].create_dataset("camera1_image",
+                                                    data=np.zeros((5, 6, 6, 3), np.uint8))),
+     None, r"cameras obs/camera0_image, obs/camera1_image have different image shapes"),
     (lambda f: (f["data/demo_1/obs"].__delitem__("object"),
                 f["data/demo_1/obs"].create_dataset("object", data=np.zeros((5, 4), np.float32))),
      None, r"widths \(9, 4\) differ from the file's first demo \(9, 6\)"),
@@ -172,7 +316,8 @@ def test_reads_robomimic_files(tmp_path):
             o.create_dataset("agentview_depth", data=np.ones((T, 8, 8, 1), np.float32))
             o.create_dataset("robot0_eye_in_hand_depth", data=np.ones((T, 8, 8, 1)))
             g.create_dataset("states", data=rng.normal(size=(T, 30)))
-    demos = load_demos(path, action_dim=7)
+    with pytest.warns(UserWarning, match="observation keys not used: robot0_joint_pos "):
+        demos = load_demos(path, action_dim=7)
     d = demos[0]
     with h5py.File(path) as f:
         o = f["data/demo_0/obs"]
@@ -186,7 +331,7 @@ def test_reads_robomimic_files(tmp_path):
     assert (d.task, d.source, d.seed) == ("PnPCounterToCab", "robomimic", -1)
     assert d.instruction == "pick the apple from the counter"
     with pytest.raises(DatasetError, match="action dimension 7 does not match the expected 12"):
-        load_demos(path, action_dim=12)
+        load_demos(path, action_dim=12, obs_keys=["robot0_eef_pos", "object"])
 
 
 # ----------------------------------------------------------------------------- sources
@@ -202,7 +347,8 @@ def test_human_source_is_seeded_noisy_and_still_succeeds(fake_kitchen):
     env = sim.make_env(TASK, horizon=200)
     expert = sim.make_expert(TASK)
     generated, ok = rollout(env, ExpertSource(expert), seed=11)
-    assert ok
+    assert ok and generated.states.dtype == np.float64
+    assert generated.final_obs["object"].shape == generated.obs["object"].shape[1:]
     human = HumanLikeOperator(expert, action_scale=(0.02, 0.5))
     a, ok_a = rollout(env, human, seed=11, source="human")
     events = dict(human.events)
@@ -230,6 +376,111 @@ def test_human_source_is_seeded_noisy_and_still_succeeds(fake_kitchen):
 
 
 # ----------------------------------------------------------------------------- generation
+def test_empty_icil_data_counts_as_unset(monkeypatch, tmp_path):
+    from icil_paper.data import data_root
+    from icil_paper.provenance import REPO_ROOT
+
+    for value in ("", "   "):
+        monkeypatch.setenv("ICIL_DATA", value)
+        assert data_root() == REPO_ROOT / "data"
+    monkeypatch.setenv("ICIL_DATA", str(tmp_path))
+    assert data_root() == tmp_path
+
+
+def test_generated_data_sets_say_how_to_build_their_env(fake_kitchen):
+    path = ensure_demos("smoke", TASK, "generated", n=1, workers=1, progress=False)
+    info = file_info(path)
+    args = info["env_args"]
+    assert args["env_name"] == sim.gym_id(TASK) == "icil_paper/kitchen-reach_a-v0"
+    assert args["type"] == 2 and args["env_kwargs"] == {"obs": "state"}  # robomimic's gym type
+    assert args["icil_paper"]["task"] == TASK and "rollout.enabled=False" in args[
+        "icil_paper"]["robomimic"]
+    assert info["control_freq"] == 20 and info["action_dim"] == 7
+    demo = load_demos(path)[0]
+    env = sim.make_env(args["icil_paper"]["task"], **args["env_kwargs"])
+    replay = rollout(env, _Replay(demo.actions), seed=demo.seed)[0]
+    assert np.array_equal(replay.obs["object"], demo.obs["object"])
+    assert np.array_equal(replay.final_obs["proprio"], demo.final_obs["proprio"])
+
+
+class _Replay:
+    def __init__(self, actions):
+        self.actions = actions
+
+    def reset(self, env, obs, seed=None):
+        self.t = 0
+
+    def act(self, obs):
+        self.t += 1
+        return self.actions[self.t - 1]
+
+
+def test_damaged_data_set_and_shard_are_set_aside_and_regenerated(fake_kitchen):
+    reference = load_demos(ensure_demos("smoke", TASK, "generated", n=3, workers=1,
+                                        progress=False, seed=100))
+    path = demo_path("smoke", TASK, "generated")
+    _flip_byte(path, "data/demo_2/actions")
+    damaged = path.read_bytes()
+    with pytest.warns(UserWarning, match="cannot be read: the file is damaged.*moved it to"):
+        ensure_demos("smoke", TASK, "generated", n=3, workers=1, progress=False, seed=100)
+    aside = list(path.parent.glob("generated.hdf5.corrupt-*"))
+    assert len(aside) == 1 and aside[0].read_bytes() == damaged  # kept, never deleted
+    regenerated = load_demos(path)
+    assert [d.seed for d in regenerated] == [d.seed for d in reference]
+    assert all(np.array_equal(a.actions, b.actions) for a, b in zip(reference, regenerated,
+                                                                    strict=True))
+    # a damaged shard: set aside beside the data set (the parts folder is removed after merging)
+    attrs = {"task": TASK, "source": "generated", "obs_kind": "state", "base_seed": 100}
+    for i in (3, 4):
+        generate_one(_Job(TASK, "generated", "state", i, 100, str(shard_path(path, i)), attrs,
+                          {}))
+    shard = shard_path(path, 4)
+    shard.write_bytes(shard.read_bytes()[:200])
+    with pytest.warns(UserWarning, match="demo 4 will be generated again"):
+        ensure_demos("smoke", TASK, "generated", n=5, workers=1, progress=False, seed=100)
+    assert len(list(path.parent.glob("demo_000004.hdf5.corrupt-*"))) == 1
+    five = load_demos(path)
+    assert [d.name for d in five] == [f"demo_{i}" for i in range(5)]
+    # a second damage at once gets its own name (the first is kept)
+    for _ in range(2):
+        path.write_bytes(b"not hdf5")
+        with pytest.warns(UserWarning, match="not a readable HDF5 file"):
+            ensure_demos("smoke", TASK, "generated", n=1, workers=1, progress=False, seed=100)
+    assert len(list(path.parent.glob("generated.hdf5.corrupt-*"))) == 3
+
+
+def test_damaged_images_are_found_by_the_demos_command(fake_kitchen, capsys):
+    """Runs inside training and evaluation skip reading the image arrays back (their cost);
+    `icil-paper demos` reads them, sets a damaged file aside and regenerates it."""
+    path = ensure_demos("smoke", TASK, "generated", n=2, workers=1, progress=False, obs="rgb")
+    reference = load_demos(path)
+    _flip_byte(path, "data/demo_1/obs/cam_image")
+    with pytest.raises(DatasetError, match="demo 'demo_1': cannot read obs/cam_image: the file "
+                                           "is damaged"):
+        load_demos(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ensure_demos("smoke", TASK, "generated", n=2, workers=1, progress=False, obs="rgb")
+    with pytest.warns(UserWarning, match="cam_image cannot be read"):
+        assert data_cli.main(["--task", TASK, "--n", "2", "--obs", "rgb", "--preset", "smoke",
+                              "--workers", "1", "--no-progress"]) == 0
+    assert len(list(path.parent.glob(f"{path.name}.corrupt-*"))) == 1
+    again = load_demos(path)
+    assert all(np.array_equal(a.obs["rgb"], b.obs["rgb"]) for a, b in zip(reference, again,
+                                                                           strict=True))
+
+
+def test_demos_cli_refuses_bad_numbers_before_any_work(fake_kitchen, capsys):
+    episodes = fake_suite.ReachExpert.episodes
+    for args in (["--n", "0"], ["--n", "-2"], ["--workers", "0"], ["--seed", "-1"]):
+        rc = data_cli.main(["--task", TASK, "--preset", "smoke", "--no-progress", *args])
+        err = capsys.readouterr().err
+        assert rc == 2 and len(err.strip().splitlines()) == 1 and args[0] in err
+    assert fake_suite.ReachExpert.episodes == episodes and not fake_kitchen.exists()
+    with pytest.raises(ValueError, match="at least 1"):
+        ensure_demos("smoke", TASK, "generated", n=0, progress=False)
+
+
 def test_ensure_demos_generates_resumes_and_extends(fake_kitchen):
     path = demo_path("smoke", TASK, "generated")
     assert path == fake_kitchen / "smoke" / "kitchen" / "reach_a" / "generated.hdf5"

@@ -1,9 +1,7 @@
-"""The task registry: names, errors, lazy suites (with a fake kitchen package), splits."""
+"""The task registry: suite records, names, errors, lazy suites (with fake kitchen and Kinova
+suites), splits, gymnasium ids."""
 
 from __future__ import annotations
-
-import sys
-import types
 
 import numpy as np
 import pytest
@@ -13,30 +11,64 @@ import icil_paper.sim as sim
 from icil_paper.data import splits
 from icil_paper.registry import UnknownNameError
 
+MANISKILL = ("maniskill/pick_cube", "maniskill/push_cube", "maniskill/stack_cube")
+
 
 @pytest.fixture
 def fake_kitchen(monkeypatch):
-    monkeypatch.setitem(sys.modules, fake_suite.MODULE, fake_suite.make_module())
-    sim._kitchen.cache_clear()
-    yield
-    sim._kitchen.cache_clear()
+    fake_suite.use(monkeypatch)
 
 
 @pytest.fixture
 def broken_kitchen(monkeypatch):
-    module = types.ModuleType(fake_suite.MODULE)  # an unfinished package: no KITCHEN_TASKS
-    monkeypatch.setitem(sys.modules, fake_suite.MODULE, module)
-    sim._kitchen.cache_clear()
-    yield
-    sim._kitchen.cache_clear()
+    fake_suite.use(monkeypatch, broken=True)  # registry entries that name no record
 
 
 def test_maniskill_tasks_are_registered_without_importing_the_simulator():
-    assert {"maniskill/pick_cube", "maniskill/push_cube", "maniskill/stack_cube"} <= set(
-        sim.TASKS)
+    assert set(MANISKILL) <= set(sim.TASKS)
     assert sim.obs_dims("maniskill") == (9, 21)
     assert sim.suite_of("maniskill/stack_cube") == "maniskill"
-    assert sim.tasks_of("maniskill") == sim.MANISKILL_TASK_NAMES
+    assert sim.tasks_of("maniskill") == MANISKILL
+
+
+def test_every_suite_record_is_complete_and_consistent():
+    from icil_paper.sim.suite import Suite
+
+    assert sim.SUITES == ("kitchen", "kinova", "maniskill")  # what studies and notebooks show
+    assert set(sim.ALL_SUITES) == set(sim.SUITES) | {"synthetic"}
+    for name in sim.ALL_SUITES:
+        record = sim.get_suite(name)
+        assert isinstance(record, Suite) and record.name == name
+        assert record.tasks and all(t.startswith(name + "/") for t in record.tasks)
+        assert all(sim.suite_of(t) == name for t in record.tasks)
+        assert sim.obs_dims(name) == record.obs_dims and record.control_freq > 0
+        if record.object_position is not None:
+            start, stop = record.object_position
+            assert 0 <= start < stop <= record.obs_dims[1]
+        assert sim.object_position(record.tasks[0]) == record.object_position
+    assert not any(t.startswith("synthetic/") for t in sim.TASKS)  # listed separately
+    assert sim.suite_of("synthetic/task3") == "synthetic"
+    assert sim.object_position("kinova/open_door") == (1, 4)
+    assert sim.object_position("maniskill/pick_cube") == (0, 3)
+    assert sim.object_position("elsewhere/task") is None
+
+
+def test_a_suite_is_one_registry_line(monkeypatch):
+    """A new suite needs only its record and one registry entry; every function then knows it."""
+    from icil_paper.registry import Registry
+    from icil_paper.sim.suite import Suite
+
+    monkeypatch.setattr(sim, "ALL_SUITES", (*sim.ALL_SUITES, "extra"))
+    monkeypatch.setattr(sim, "SUITE_ENTRIES", {**sim.SUITE_ENTRIES,
+                                               "extra": "fake_suite:EXTRA_SUITE"})
+    monkeypatch.setattr(fake_suite, "EXTRA_SUITE", Suite(
+        name="extra", tasks=("extra/reach",), obs_dims=(9, 6), control_freq=10,
+        make_env=fake_suite.make_env, make_expert=fake_suite.make_expert), raising=False)
+    monkeypatch.setattr(sim, "SUITE_REGISTRY", Registry("suite", sim.SUITE_ENTRIES))
+    assert sim.suite_of("extra/reach") == "extra" and sim.tasks_of("extra") == ("extra/reach",)
+    env = sim.make_env("extra/reach", seed=2)
+    assert env.reset()[0]["proprio"].shape == (9,) and env.seed == 2
+    assert sim.suite_unavailable("extra") is None and sim.object_position("extra/reach") is None
 
 
 def test_unknown_names_list_the_valid_ones():
@@ -45,8 +77,10 @@ def test_unknown_names_list_the_valid_ones():
     assert "Did you mean 'maniskill/pick_cube'" in str(err.value)
     with pytest.raises(UnknownNameError, match="rgbd"):
         sim.make_env("maniskill/pick_cube", obs="depth")
-    with pytest.raises(UnknownNameError, match="kitchen, kinova, maniskill"):
+    with pytest.raises(UnknownNameError, match="kitchen, kinova, maniskill, synthetic"):
         sim.obs_dims("robocasa")
+    with pytest.raises(UnknownNameError, match="synthetic/task0"):
+        sim.make_env("synthetic/task99")
     with pytest.raises(AttributeError):
         sim.NOT_A_THING  # noqa: B018
 
@@ -54,7 +88,7 @@ def test_unknown_names_list_the_valid_ones():
 def test_fake_kitchen_suite_is_dispatched(fake_kitchen):
     tasks = sim.TASKS
     assert tasks[:4] == fake_suite.KITCHEN + fake_suite.KINOVA
-    assert tasks[-3:] == sim.MANISKILL_TASK_NAMES
+    assert tasks[-3:] == MANISKILL
     assert sim.suite_of("kinova/reach_a") == "kinova"
     assert sim.obs_dims("kitchen") == sim.obs_dims("kinova") == fake_suite.OBS_DIMS
     env = sim.make_env("kitchen/reach_b", obs="rgb", seed=7, horizon=12)
@@ -73,10 +107,11 @@ def test_fake_kitchen_suite_is_dispatched(fake_kitchen):
 
 
 def test_unfinished_kitchen_package_leaves_maniskill_working(broken_kitchen):
-    assert sim.TASKS == sim.MANISKILL_TASK_NAMES
-    assert "does not define KITCHEN_TASKS" in sim.suite_unavailable("kitchen")
+    assert sim.TASKS == MANISKILL
+    assert "has no attribute 'NO_SUCH_RECORD'" in sim.suite_unavailable("kitchen")
     assert sim.suite_unavailable("maniskill") is None
-    with pytest.raises(sim.SuiteUnavailable, match="kitchen suite .* could not be imported"):
+    assert sim.tasks_of("kinova") == () and sim.object_position("kitchen/open_drawer") is None
+    with pytest.raises(sim.SuiteUnavailable, match="kitchen suite could not be loaded"):
         sim.make_env("kitchen/open_drawer")
     with pytest.raises(sim.SuiteUnavailable):
         sim.obs_dims("kinova")

@@ -5,7 +5,11 @@
     demos = load_demos(path, action_dim=7)                             # validated list[Demo]
 
 - `hdf5`: the `Demo` dataclass, `write_demos`, `load_demos` (also reads robosuite / robomimic
-  files such as RoboCasa's and MimicGen's), `DatasetError` naming file, demo and problem.
+  files such as RoboCasa's and MimicGen's), `verify_file`, `DatasetError` naming file, demo
+  and problem.
+- `obs_keys`: how a file's observation keys become `proprio`, `object`, `rgb`, `depth`.
+- `robomimic`: `load_dataset_file` (any robomimic-layout file as training data, the contract
+  of `icil-paper train --dataset`), the `env_args` of our data sets.
 - `sources`: the `generated` (expert) and `human` (teleoperation-like) demonstration sources.
 - `generate`: `ensure_demos` / `ensure_many` / `demo_path`, parallel, resumable generation.
 - `splits`: train/valid masks, the zero-shot task split, the sim-to-real task pairs.
@@ -21,14 +25,16 @@ from icil_paper.data.generate import (
     preset_tasks,
 )
 from icil_paper.data.hdf5 import (
-    ROBOMIMIC_KEY_MAP,
     DatasetError,
     Demo,
     file_info,
     load_demos,
     read_masks,
+    verify_file,
     write_demos,
 )
+from icil_paper.data.obs_keys import ROBOMIMIC_KEY_MAP, ObsKeyMap, map_obs_keys
+from icil_paper.data.robomimic import dataset_obs_keys, load_dataset_file, robomimic_env_args
 from icil_paper.data.sources import (
     EVAL_SEED_BASE,
     SOURCES,
@@ -42,7 +48,9 @@ from icil_paper.data.splits import sim_to_real_pairs, train_valid_split, zero_sh
 
 __all__ = [
     "Demo", "DatasetError", "DemoGenerationError", "EVAL_SEED_BASE", "HumanLikeOperator",
-    "OperatorStyle", "ROBOMIMIC_KEY_MAP", "SOURCES", "data_root", "demo_path", "demo_seed",
-    "ensure_demos", "ensure_many", "file_info", "load_demos", "make_source", "preset_tasks", "read_masks",
-    "rollout", "sim_to_real_pairs", "train_valid_split", "write_demos", "zero_shot_split",
+    "ObsKeyMap", "OperatorStyle", "ROBOMIMIC_KEY_MAP", "SOURCES", "data_root",
+    "dataset_obs_keys", "demo_path", "demo_seed", "ensure_demos", "ensure_many", "file_info",
+    "load_dataset_file", "load_demos", "make_source", "map_obs_keys", "preset_tasks",
+    "read_masks", "robomimic_env_args", "rollout", "sim_to_real_pairs", "train_valid_split",
+    "verify_file", "write_demos", "zero_shot_split",
 ]

@@ -4,6 +4,9 @@
     icil-paper demos --task all --source all          # every task and source of the preset
     icil-paper demos --check path/to/file.hdf5 [--action-dim 7]
     icil-paper demos --list                           # task names and data set paths
+
+Every existing data set file is read back whole first (checksums included); a damaged one is
+set aside under a unique name, named in a warning, and generated again.
 """
 
 from __future__ import annotations
@@ -60,12 +63,25 @@ def _check(path: str, action_dim: int | None) -> int:
     return 0
 
 
+def _numbers_problem(args: argparse.Namespace) -> str | None:
+    """The first out-of-range number on the command line, as a sentence with the fix."""
+    for flag, value, low in (("--n", args.n, 1), ("--workers", args.workers, 1),
+                             ("--seed", args.seed, 0), ("--action-dim", args.action_dim, 1)):
+        if value is not None and value < low:
+            return f"{flag} must be at least {low}, got {value}"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     from icil_paper.config import get_preset
     from icil_paper.data.generate import demo_path, ensure_many, preset_tasks
     from icil_paper.seeding import seed_everything
 
     args = build_parser().parse_args(argv)
+    problem = _numbers_problem(args)
+    if problem:
+        print(f"icil-paper demos: error: {problem}", file=sys.stderr)
+        return 2
     if args.check:
         return _check(args.check, args.action_dim)
     preset = get_preset(args.preset, seed=args.seed)
@@ -85,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     if "all" in tasks:
         tasks = list(preset_tasks(preset, available=True))
     paths = ensure_many(preset, tasks, sources, n=args.n, workers=args.workers,
-                        progress=not args.no_progress, obs=args.obs)
+                        progress=not args.no_progress, obs=args.obs, full_check=True)
     for (task, source), path in paths.items():
         print(f"{task} [{source}]: {path}")
     return 0

@@ -5,7 +5,7 @@ One HDF5 file per (preset, task, source) at `demo_path(preset, task, source)`:
     data/<preset>/<suite>/<task>/<source>.hdf5          (state observations)
     data/<preset>/<suite>/<task>/<source>_<obs>.hdf5    (rgb / rgbd observations)
 
-under the repository root, or under $ICIL_DATA when set.
+under the repository root, or under $ICIL_DATA when set (an empty value counts as unset).
 
 How a run survives being killed: every finished demo is written at once by the process that
 made it to its own shard file, `<file>.parts/demo_NNNNNN.hdf5`, through a temporary file and an
@@ -16,6 +16,11 @@ generated at that moment; a re-run finds the finished demos (file and shards), g
 the missing indices and merges. Because demo `i`'s scenes and operator noise depend only on
 `i` and the base seed (`sources.demo_seed`), the result equals that of an uninterrupted run, with
 any number of worker processes.
+
+A damaged data set file or shard (one that HDF5 cannot read, or whose checksums fail) does not
+block a re-run: it is set aside under a unique name beside the data set (`set_aside`, never
+deleted), named in a warning, and its demos are generated again. Every run reads back all of
+a file but its image arrays; `full_check=True` (`icil-paper demos`) reads those too.
 """
 
 from __future__ import annotations
@@ -24,12 +29,14 @@ import json
 import os
 import shutil
 import time
+import uuid
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from icil_paper.data.hdf5 import DatasetError, file_info, merge_demo_files, write_demos
+from icil_paper.data.hdf5 import DatasetError, merge_demo_files, verify_file, write_demos
 from icil_paper.data.sources import MAX_ATTEMPTS, SOURCES, demo_seed, rollout, style_dict
 from icil_paper.registry import check_name
 
@@ -43,10 +50,12 @@ class DemoGenerationError(RuntimeError):
 
 
 def data_root() -> Path:
-    """Root of the data sets: $ICIL_DATA, else `data/` in the repository."""
+    """Root of the data sets: $ICIL_DATA, else (also when it is empty) `data/` in the
+    repository."""
     from icil_paper.provenance import REPO_ROOT
 
-    return Path(os.environ.get(DATA_ENV_VAR) or REPO_ROOT / "data")
+    value = os.environ.get(DATA_ENV_VAR, "").strip()
+    return Path(value) if value else REPO_ROOT / "data"
 
 
 def _preset(preset: Any):
@@ -160,6 +169,38 @@ def _finished_shards(path: Path) -> dict[int, Path]:
     return shards
 
 
+def set_aside(path: Path, folder: Path | None = None) -> Path:
+    """Move a damaged file out of the way under a unique name (in `folder`, default its own);
+    return the new path. Nothing is deleted."""
+    folder = Path(folder or path.parent)
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    target = folder / f"{path.name}.corrupt-{stamp}-{uuid.uuid4().hex[:8]}"
+    os.rename(path, target)
+    return target
+
+
+def _damage(path: Path, images: bool = True) -> str | None:
+    """None when every dataset of the file reads back (checksums included), else the problem."""
+    try:
+        verify_file(path, images=images)
+    except DatasetError as exc:
+        return str(exc)
+    return None
+
+
+def _usable_shards(path: Path) -> dict[int, Path]:
+    """The finished shards of a data set; damaged ones are set aside beside it, with a warning."""
+    shards = _finished_shards(path)
+    for index, shard in sorted(shards.items()):
+        problem = _damage(shard)  # one demo each: cheap to read whole
+        if problem is not None:
+            moved = set_aside(shard, path.parent)
+            warnings.warn(f"{problem}; moved it to {moved}; demo {index} will be generated "
+                          "again", stacklevel=3)
+            del shards[index]
+    return shards
+
+
 def _check_compatible(path: Path, attrs: dict[str, Any], info: dict[str, Any]) -> None:
     for key in ("task", "source", "obs_kind", "base_seed", "generator"):
         if key in info and str(info[key]) != str(attrs[key]):
@@ -182,27 +223,33 @@ class _Plan:
 
 
 def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
-          env_options: dict[str, Any]) -> _Plan:
-    from icil_paper.sim import suite_of
+          env_options: dict[str, Any], full_check: bool = False) -> _Plan:
+    from icil_paper.data.robomimic import robomimic_env_args
+    from icil_paper.sim import ACTION_DIM, get_suite, suite_of
 
     check_name("demo source", source, SOURCES)
-    suite_of(task)  # unknown task names fail here, listing the valid ones
     path = demo_path(preset, task, source, obs)
+    control_freq = int(get_suite(suite_of(task)).control_freq)
     attrs: dict[str, Any] = {
         "task": task, "source": source, "obs_kind": obs, "base_seed": base_seed,
-        "action_dim": 7, "generator": GENERATOR,
-        "env_args": {"env_name": task, "type": "icil_paper", "env_kwargs": {"obs": obs,
-                                                                             **env_options}},
+        "action_dim": ACTION_DIM, "generator": GENERATOR, "control_freq": control_freq,
+        "env_args": robomimic_env_args(task, obs, env_options, control_freq),
     }
     if source == "human":
         attrs["operator_style"] = json.dumps(style_dict())
     existing: list[str] = []
     if path.exists():
-        info = file_info(path)
-        _check_compatible(path, attrs, info)
-        existing = info["demos"]
+        try:
+            info = verify_file(path, images=full_check)
+        except DatasetError as exc:
+            moved = set_aside(path)
+            warnings.warn(f"{exc}; moved it to {moved} and generating the data set again",
+                          stacklevel=3)
+        else:
+            _check_compatible(path, attrs, info)
+            existing = info["demos"]
     have = {int(name.split("_")[1]) for name in existing}
-    shards = _finished_shards(path)
+    shards = _usable_shards(path)
     missing = [i for i in range(n) if i not in have and i not in shards]
     return _Plan(task, source, path, attrs, have, missing)
 
@@ -221,19 +268,26 @@ def _merge(plan: _Plan) -> None:
 
 def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: int | None = None,
                 workers: int | None = None, progress: bool = True, seed: int | None = None,
-                obs: str | None = None, **env_options: Any) -> dict[tuple[str, str], Path]:
+                obs: str | None = None, full_check: bool = False,
+                **env_options: Any) -> dict[tuple[str, str], Path]:
     """`ensure_demos` for every (task, source) pair, with one pool of workers for them all.
 
     Starting worker processes (importing the simulators) costs seconds, so generating many
     data sets through one pool is much faster than one `ensure_demos` call each. Returns
     {(task, source): path}.
     """
+    from icil_paper.sim import suite_of
+
     preset = _preset(preset)
     n = int(preset.data.demos_per_task if n is None else n)
+    if n < 1:
+        raise ValueError(f"demos per data set must be at least 1, got {n}")
+    for task in tasks:
+        suite_of(task)  # unknown task names fail here, listing the valid ones, before any work
     workers = int(preset.data.workers if workers is None else workers)
     base_seed = int(preset.seed if seed is None else seed)
     obs = obs or preset.data.obs
-    plans = [_plan(preset, task, source, n, base_seed, obs, env_options)
+    plans = [_plan(preset, task, source, n, base_seed, obs, env_options, full_check)
              for task in dict.fromkeys(tasks) for source in dict.fromkeys(sources)]
     jobs = []
     for plan in plans:
@@ -255,15 +309,18 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
 
 def ensure_demos(preset: Any, task: str, source: str, n: int | None = None,
                  workers: int | None = None, progress: bool = True, seed: int | None = None,
-                 obs: str | None = None, **env_options: Any) -> Path:
+                 obs: str | None = None, full_check: bool = False,
+                 **env_options: Any) -> Path:
     """Make sure the data set of (preset, task, source) holds at least `n` demos; return its path.
 
     Generates only the missing demos (default n: the preset's `data.demos_per_task`), with
     `workers` processes (default: the preset's `data.workers`) and a progress bar, resuming any
-    interrupted run (module docstring). `seed` is the base seed (default: the preset's).
+    interrupted run (module docstring). `seed` is the base seed (default: the preset's). A
+    damaged file is set aside and generated again; `full_check` also reads its image arrays to
+    find damage there (module docstring).
     """
     paths = ensure_many(preset, [task], [source], n=n, workers=workers, progress=progress,
-                        seed=seed, obs=obs, **env_options)
+                        seed=seed, obs=obs, full_check=full_check, **env_options)
     return paths[task, source]
 
 
@@ -297,24 +354,26 @@ def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None
 def preset_tasks(preset: Any, available: bool = False) -> tuple[str, ...]:
     """Every task of a preset: its kitchen and ManiSkill tasks, then the Kinova tasks.
 
-    `available=True` leaves out the tasks of suites that cannot be imported here, saying why
-    on stderr.
+    `available=True` leaves out the tasks of suites that cannot run here (a suite that does
+    not load, a simulator that cannot start), saying why on stderr once per suite.
     """
     import sys
 
-    from icil_paper.sim import SuiteUnavailable, suite_of, tasks_of
+    from icil_paper.sim import suite_unavailable, tasks_of
 
     preset = _preset(preset)
     tasks = tuple(preset.data.kitchen_tasks) + tasks_of("kinova") + tuple(
         preset.data.maniskill_tasks)
     if not available:
         return tasks
+    problems: dict[str, str | None] = {}
     kept = []
     for task in tasks:
-        try:
-            suite_of(task)
-        except SuiteUnavailable as exc:
-            print(f"skipping {task}: {exc}", file=sys.stderr)
-            continue
-        kept.append(task)
+        suite = task.split("/", 1)[0]
+        if suite not in problems:
+            problems[suite] = suite_unavailable(suite)
+            if problems[suite]:
+                print(f"skipping the {suite} tasks: {problems[suite]}", file=sys.stderr)
+        if not problems[suite]:
+            kept.append(task)
     return tuple(kept)

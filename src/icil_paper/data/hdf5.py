@@ -1,31 +1,36 @@
-"""Demonstrations in robomimic's HDF5 layout: writer, loader and validation.
+"""Demonstrations in robomimic's HDF5 layout: writer, loader, validation and integrity checks.
 
-Layout written (robomimic's, the one robosuite, RoboCasa and MimicGen data sets use)::
+Layout written (robomimic's, the one robosuite, RoboCasa and MimicGen data sets use, so that
+robomimic's own `SequenceDataset` reads it with its default arguments)::
 
-    data                      attrs: total (steps), env_args (JSON), task, source, obs_kind,
-    |                                base_seed, action_dim, format
-    +-- demo_0                attrs: num_samples, task, source, instruction, seed, ep_meta (JSON)
+    data                      attrs: total (steps), env_args (JSON, `robomimic.env_args`),
+    |                                task, source, obs_kind, base_seed, action_dim,
+    |                                control_freq (Hz), depth_units, format
+    +-- demo_0                attrs: num_samples, task, source, instruction, seed,
+    |   |                            ep_meta (JSON), cameras (JSON, image data sets)
     |   +-- actions           (T, 7) float32
     |   +-- obs/proprio       (T, P) float32
     |   +-- obs/object        (T, O) float32
-    |   +-- obs/rgb           (T, n_cams, H, W, 3) uint8    (image data sets only)
-    |   +-- obs/depth         (T, n_cams, H, W) float32     (rgbd data sets only)
-    |   +-- states            (T, S) float32  simulator state before each action (optional)
-    |   +-- rewards, dones    (T,)
+    |   +-- obs/<cam>_image   (T, H, W, 3) uint8         one per camera (image data sets)
+    |   +-- obs/<cam>_depth   (T, H, W, 1) float32 metres one per camera (rgbd data sets)
+    |   +-- next_obs/...      the same keys: the observation after each action
+    |   +-- states            (T, S) float64  simulator state before each action (optional)
+    |   +-- rewards, dones    (T,) float32, int64
     +-- demo_1 ...
     mask/train, mask/valid    demo names (bytes), robomimic's filter keys
 
-Files written by robosuite / robomimic tools (RoboCasa, MimicGen) load too; their observation
-keys are mapped onto the project's (`ROBOMIMIC_KEY_MAP`):
+Every dataset carries a Fletcher-32 checksum that HDF5 verifies on read, so flipped bytes
+raise instead of loading. Depth is in metres (robomimic's default depth processing clips to
+[0, 1]; scale it for robomimic models). Files of version 1 of this layout (one stacked
+`obs/rgb` (T, n_cams, H, W, 3) and `obs/depth` (T, n_cams, H, W), no `next_obs`, float32
+`states`) still load, and are rewritten in the current layout when demos are added to them.
 
-    proprio = robot0_eef_pos (3) | robot0_eef_quat (4, x y z w) | robot0_gripper_qpos (2)
-    object  = object                    (zero columns when the file has none)
-    rgb     = every `<camera>_image`    stacked in sorted camera order
-    depth   = every `<camera>_depth`    same order, trailing channel dropped
-
-and a demo's task, instruction and seed come from its attrs, else from `env_args["env_name"]`,
-RoboCasa's `ep_meta["lang"]`, and -1 (unknown). `load_demos` validates every demo and raises
-`DatasetError` naming the file, the demo and the problem.
+In memory every loader returns `Demo`s with the project's observation entries: `proprio`,
+`object`, `rgb` (T, n_cams, H, W, 3) and `depth` (T, n_cams, H, W), whichever file keys they
+come from (`icil_paper.data.obs_keys` maps those of robosuite / robomimic files). A demo's
+task, instruction and seed come from its attrs, else from `env_args`, RoboCasa's
+`ep_meta["lang"]`, and -1 (unknown). `load_demos` validates every demo and raises
+`DatasetError` naming the file, the demo and the problem, damaged files included.
 """
 
 from __future__ import annotations
@@ -34,22 +39,21 @@ import json
 import os
 import re
 import tempfile
-from collections.abc import Iterable, Sequence
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-FORMAT = "icil_paper/1"
-ROBOMIMIC_PROPRIO_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos")
-ROBOMIMIC_KEY_MAP = {
-    "proprio": "robot0_eef_pos | robot0_eef_quat | robot0_gripper_qpos (concatenated)",
-    "object": "object",
-    "rgb": "<camera>_image for every camera, sorted by name",
-    "depth": "<camera>_depth for every camera, sorted by name",
-}
-"""How observation keys of robosuite / robomimic files map onto the project's keys."""
+from icil_paper.data.obs_keys import ObsKeyMap, camera_of, map_obs_keys
+
+FORMAT = "icil_paper/2"
+"""Layout version written into `data.attrs["format"]` (version 1: stacked images, no next_obs)."""
+DEPTH_UNITS = "m"
+H5_ERRORS = (OSError, RuntimeError, KeyError)
+"""What h5py raises on a damaged file (bad checksum, truncated file, broken links)."""
 
 
 class DatasetError(ValueError):
@@ -61,7 +65,7 @@ class Demo:
     """One demonstration: T steps of observations and the actions taken from them.
 
     `obs[key][t]` is the observation before `actions[t]`. Keys: "proprio" (T, P), "object"
-    (T, O), optionally "rgb" (T, n_cams, H, W, 3) uint8 and "depth" (T, n_cams, H, W).
+    (T, O), optionally "rgb" (T, n_cams, H, W, 3) uint8 and "depth" (T, n_cams, H, W) metres.
     """
 
     actions: np.ndarray
@@ -79,11 +83,16 @@ class Demo:
     name: str = ""
     """Key of the demo in its file (`demo_N`)."""
     states: np.ndarray | None = None
-    """(T, S) simulator states before each action, when recorded."""
+    """(T, S) float64 simulator states before each action, when recorded."""
     rewards: np.ndarray | None = None
     """(T,) rewards, when recorded."""
     meta: dict[str, Any] = field(default_factory=dict)
     """Other per-demo attributes of the file."""
+    final_obs: dict[str, np.ndarray] | None = None
+    """The observation after the last action (same keys as `obs`, no time axis), when known;
+    it completes robomimic's `next_obs`."""
+    cameras: tuple[str, ...] = ()
+    """Names of the cameras along the camera axis of `obs["rgb"]` / `obs["depth"]`."""
 
     def __len__(self) -> int:
         return int(self.actions.shape[0])
@@ -100,30 +109,75 @@ def sorted_demo_names(names: Iterable[str]) -> list[str]:
     return sorted(names, key=lambda n: (_demo_index(n), n))
 
 
-def _write_demo(group: Any, demo: Demo) -> None:
-    T = len(demo)
-    group.create_dataset("actions", data=np.asarray(demo.actions, np.float32))
-    obs = group.create_group("obs")
-    for key, value in demo.obs.items():
+def _dataset(group: Any, name: str, data: np.ndarray, compress: bool = False) -> None:
+    """A dataset with a Fletcher-32 checksum (gzip too for images)."""
+    kwargs: dict[str, Any] = {"fletcher32": data.size > 0}
+    if compress and data.size > 0:
+        kwargs.update(compression="gzip", compression_opts=4)
+    group.create_dataset(name, data=data, **kwargs)
+
+
+def camera_names(demo: Any, n_cams: int) -> tuple[str, ...]:
+    """The demo's camera names, or camera0, camera1, ... when it has none."""
+    names = tuple(getattr(demo, "cameras", ()) or ())
+    return names if len(names) == n_cams else tuple(f"camera{i}" for i in range(n_cams))
+
+
+def _write_obs(group: Any, obs: Mapping[str, np.ndarray], cameras: Sequence[str]) -> None:
+    for key, value in obs.items():
         value = np.asarray(value)
         if value.dtype == np.float64:
             value = value.astype(np.float32)
-        kwargs = {"compression": "gzip", "compression_opts": 4} if value.ndim >= 4 else {}
-        obs.create_dataset(key, data=value, **kwargs)
-    if demo.states is not None:
-        group.create_dataset("states", data=np.asarray(demo.states, np.float32))
-    rewards = demo.rewards if demo.rewards is not None else np.zeros(T, np.float32)
-    group.create_dataset("rewards", data=np.asarray(rewards, np.float32))
+        if key == "rgb":
+            for i, cam in enumerate(cameras):
+                _dataset(group, f"{cam}_image", np.ascontiguousarray(value[:, i]), compress=True)
+        elif key == "depth":
+            for i, cam in enumerate(cameras):
+                _dataset(group, f"{cam}_depth", np.ascontiguousarray(value[:, i, ..., None]),
+                         compress=True)
+        else:
+            _dataset(group, key, value, compress=value.ndim >= 4)
+
+
+def _next_obs(demo: Any) -> dict[str, np.ndarray]:
+    """robomimic's next_obs: obs shifted by one step, then the final observation (the last
+    observation repeated when the demo did not record it)."""
+    final = getattr(demo, "final_obs", None) or {}
+    out = {}
+    for key, value in demo.obs.items():
+        value = np.asarray(value)
+        last = np.asarray(final[key])[None] if key in final else value[-1:]
+        out[key] = np.concatenate([value[1:], last.astype(value.dtype)])
+    return out
+
+
+def _write_demo(group: Any, demo: Any) -> None:
+    T = len(demo)
+    _dataset(group, "actions", np.asarray(demo.actions, np.float32))
+    n_cams = int(np.shape(demo.obs["rgb"])[1]) if "rgb" in demo.obs else (
+        int(np.shape(demo.obs["depth"])[1]) if "depth" in demo.obs else 0)
+    cameras = camera_names(demo, n_cams)
+    _write_obs(group.create_group("obs"), demo.obs, cameras)
+    _write_obs(group.create_group("next_obs"), _next_obs(demo), cameras)
+    states = getattr(demo, "states", None)
+    if states is not None:
+        _dataset(group, "states", np.asarray(states, np.float64))
+    rewards = getattr(demo, "rewards", None)
+    _dataset(group, "rewards", np.asarray(np.zeros(T) if rewards is None else rewards,
+                                          np.float32))
     dones = np.zeros(T, np.int64)
     dones[-1] = 1
-    group.create_dataset("dones", data=dones)
+    _dataset(group, "dones", dones)
+    instruction = getattr(demo, "instruction", "")
     group.attrs["num_samples"] = T
     group.attrs["task"] = demo.task
     group.attrs["source"] = demo.source
-    group.attrs["instruction"] = demo.instruction
-    group.attrs["seed"] = int(demo.seed)
-    group.attrs["ep_meta"] = json.dumps({"lang": demo.instruction})  # RoboCasa's key
-    for key, value in demo.meta.items():
+    group.attrs["instruction"] = instruction
+    group.attrs["seed"] = int(getattr(demo, "seed", -1))
+    group.attrs["ep_meta"] = json.dumps({"lang": instruction})  # RoboCasa's key
+    if n_cams:
+        group.attrs["cameras"] = json.dumps(list(cameras))
+    for key, value in (getattr(demo, "meta", None) or {}).items():
         group.attrs[key] = value
 
 
@@ -155,6 +209,7 @@ def _finish_file(f: Any, file_attrs: dict[str, Any], valid_fraction: float, spli
     names = sorted_demo_names(data.keys())
     data.attrs["total"] = int(sum(int(data[n]["actions"].shape[0]) for n in names))
     data.attrs["format"] = FORMAT
+    data.attrs["depth_units"] = DEPTH_UNITS
     for key, value in file_attrs.items():
         data.attrs[key] = json.dumps(value) if key == "env_args" else value
     masks = train_valid_split(names, valid_fraction=valid_fraction, seed=split_seed)
@@ -185,6 +240,9 @@ class _atomic_h5:
             if exc_type is None:
                 with open(self.tmp, "rb+") as fh:
                     os.fsync(fh.fileno())
+                umask = os.umask(0)
+                os.umask(umask)
+                os.chmod(self.tmp, 0o666 & ~umask)  # mkstemp's 0600 -> the usual permissions
                 os.replace(self.tmp, self.path)
         finally:
             if os.path.exists(self.tmp):
@@ -197,8 +255,9 @@ def merge_demo_files(path: str | Path, parts: Sequence[tuple[str | Path, str, st
                      split_seed: int = 0) -> Path:
     """Atomically write `path` from demos copied out of other files.
 
-    `parts` is a list of (file, demo name in that file, demo name in the output); the copy
-    keeps datasets and attrs bit for bit. `path` itself may be one of the inputs.
+    `parts` is a list of (file, demo name in that file, demo name in the output); a demo in
+    the current layout is copied bit for bit, one in the version 1 layout is rewritten in the
+    current one. `path` itself may be one of the inputs.
     """
     import h5py
 
@@ -213,7 +272,12 @@ def merge_demo_files(path: str | Path, parts: Sequence[tuple[str | Path, str, st
                 key = str(src)
                 if key not in opened:
                     opened[key] = h5py.File(key, "r")
-                opened[key].copy(opened[key]["data"][src_name], data, name=dst_name)
+                group = opened[key]["data"][src_name]
+                if "next_obs" in group:
+                    opened[key].copy(group, data, name=dst_name)
+                else:
+                    demo = _read_demo(Path(key), src_name, group, _own_key_map(group))
+                    _write_demo(data.create_group(dst_name), demo)
         finally:
             for f in opened.values():
                 f.close()
@@ -238,11 +302,28 @@ def _attr(attrs: Any, key: str, default: Any = None) -> Any:
     return value
 
 
+def _json_attr(attrs: Any, key: str) -> Any:
+    value = _attr(attrs, key)
+    if isinstance(value, str):
+        try:
+            return json.loads(value)
+        except json.JSONDecodeError:
+            return value
+    return value
+
+
 def file_info(path: str | Path) -> dict[str, Any]:
-    """The `data` group's attributes and demo names of a file, without loading arrays."""
+    """The `data` group's attributes and demo names of a file, without loading arrays.
+
+    Raises DatasetError when the file is missing, not HDF5, damaged or has no `data` group.
+    """
     import h5py
 
     path = Path(path)
+    if not path.exists():
+        raise _err(path, None, "file not found")
+    if path.is_dir():
+        raise _err(path, None, "is a folder, not a data set file")
     try:
         with h5py.File(path, "r") as f:
             if "data" not in f:
@@ -251,6 +332,8 @@ def file_info(path: str | Path) -> dict[str, Any]:
             names = sorted_demo_names(k for k in f["data"].keys() if k.startswith("demo"))
     except OSError as exc:
         raise _err(path, None, f"not a readable HDF5 file ({exc})") from None
+    except (RuntimeError, KeyError) as exc:
+        raise _err(path, None, f"the file is damaged ({_damage(exc)})") from None
     if "env_args" in attrs and isinstance(attrs["env_args"], str):
         try:
             attrs["env_args"] = json.loads(attrs["env_args"])
@@ -260,55 +343,121 @@ def file_info(path: str | Path) -> dict[str, Any]:
     return attrs
 
 
+def verify_file(path: str | Path, images: bool = True) -> dict[str, Any]:
+    """Read every dataset of a file once (checking its checksums); return `file_info(path)`.
+
+    `images=False` skips the image and depth arrays (datasets of 4 or more dimensions), the
+    bulk of an image data set (reading them costs about as much as loading them). Raises
+    DatasetError naming the file and the first dataset that cannot be read. Only the file's
+    integrity is checked, not its contents (that is `load_demos`'s job).
+    """
+    import h5py
+
+    path = Path(path)
+    info = file_info(path)
+    where = ["the file"]
+
+    def read(name: str, node: Any) -> None:
+        if isinstance(node, h5py.Dataset) and (images or node.ndim < 4):
+            where[0] = name
+            node[()]
+
+    try:
+        with h5py.File(path, "r") as f:
+            f.visititems(read)
+    except H5_ERRORS as exc:
+        raise _err(path, None, f"{where[0]} cannot be read: the file is damaged "
+                               f"({_damage(exc)})") from None
+    return info
+
+
+def _damage(exc: BaseException) -> str:
+    """h5py's error on a damaged file, with what it means when HDF5 does not say."""
+    text = f"{type(exc).__name__}: {exc}"
+    if "filter returned failure" in str(exc):
+        text += "; a checksum does not match: the bytes changed after writing"
+    return text
+
+
 def _finite(path: Path, name: str, key: str, value: np.ndarray) -> None:
     if value.dtype.kind == "f" and not np.all(np.isfinite(value)):
         bad = np.argwhere(~np.isfinite(value))[0]
         raise _err(path, name, f"{key} has NaN or infinite values (first at index {tuple(bad)})")
 
 
-def _read_obs(path: Path, name: str, group: Any, T: int) -> dict[str, np.ndarray]:
-    if "obs" not in group:
-        raise _err(path, name, "missing key 'obs'")
-    raw = group["obs"]
+def _read(path: Path, name: str, group: Any, key: str, rows: slice = slice(None)) -> np.ndarray:
+    """`group[key][rows]`, with h5py's errors on a damaged file turned into DatasetError."""
+    try:
+        return group[key][rows]
+    except H5_ERRORS as exc:
+        where = "/".join([*group.name.strip("/").split("/")[2:], key])  # relative to the demo
+        raise _err(path, name, f"cannot read {where}: the file is damaged "
+                               f"({_damage(exc)})") from None
+
+
+def _available(group: Any) -> dict[str, tuple[tuple[int, ...], str]]:
+    return {k: (tuple(v.shape), v.dtype.kind) for k, v in group.items() if hasattr(v, "shape")}
+
+
+def _own_key_map(group: Any) -> ObsKeyMap:
+    cameras = _json_attr(group.attrs, "cameras")
+    return map_obs_keys(_available(group["obs"]), own=True,
+                        camera_order=cameras if isinstance(cameras, list) else None)
+
+
+def _gather(path: Path, name: str, raw: Any, keys: ObsKeyMap, rows: slice,
+            T: int) -> dict[str, np.ndarray]:
+    """The project's observation entries of one demo from the file keys `keys` (rows `rows`)."""
     obs: dict[str, np.ndarray] = {}
-    if "proprio" in raw:
-        obs["proprio"] = raw["proprio"][()]
-    elif "robot0_eef_pos" in raw:
-        parts = [raw[k][()].reshape(T, -1) if k in raw and raw[k].shape[0] == T else None
-                 for k in ROBOMIMIC_PROPRIO_KEYS]
-        missing = [k for k, p in zip(ROBOMIMIC_PROPRIO_KEYS, parts, strict=True) if p is None]
-        if missing:
-            raise _err(path, name, f"robomimic observation keys {missing} are missing or not "
-                                   f"{T} steps long (needed for 'proprio')")
-        obs["proprio"] = np.concatenate(parts, axis=1)
-    else:
-        raise _err(path, name, "missing key 'obs/proprio' (and no robomimic 'robot0_eef_pos' "
-                               f"to build it from); obs keys: {sorted(raw.keys())}")
-    obs["object"] = raw["object"][()] if "object" in raw else np.zeros((T, 0), np.float32)
-    if "rgb" in raw:
-        obs["rgb"] = raw["rgb"][()]
-    else:
-        cams = sorted(k for k in raw if k.endswith("_image"))
-        if cams:
-            obs["rgb"] = np.stack([raw[k][()] for k in cams], axis=1)
-    if "depth" in raw:
-        obs["depth"] = raw["depth"][()]
-    else:
-        cams = sorted(k for k in raw if k.endswith("_depth"))
-        if cams:
-            depth = [raw[k][()] for k in cams]
-            depth = [d[..., 0] if d.ndim == 4 else d for d in depth]
-            obs["depth"] = np.stack(depth, axis=1)
+    prefix = raw.name.split("/")[-1]
+    for key in (*keys.proprio, *keys.object, *keys.rgb, *keys.depth):
+        if key not in raw:
+            raise _err(path, name, f"missing key '{prefix}/{key}'")
+        if raw[key].shape[0] != T:
+            raise _err(path, name, f"{prefix}/{key} has {raw[key].shape[0]} steps but actions "
+                                   f"have {T}")
+    for entry in ("proprio", "object"):
+        parts = [_read(path, name, raw, k, rows) for k in getattr(keys, entry)]
+        n = len(range(T)[rows])
+        obs[entry] = (np.concatenate([p.reshape(n, -1).astype(np.float32) for p in parts],
+                                     axis=1) if parts else np.zeros((n, 0), np.float32))
+    if keys.rgb:
+        arrays = []
+        for k in keys.rgb:
+            a = _read(path, name, raw, k, rows)
+            if k != "rgb":  # one camera
+                if a.ndim != 4 or a.shape[-1] != 3:
+                    raise _err(path, name, f"{prefix}/{k} must be (T, H, W, 3), got {a.shape}")
+                a = a[:, None]
+            arrays.append(a)
+        obs["rgb"] = _stack_cameras(path, name, prefix, keys.rgb, arrays)
+    if keys.depth:
+        arrays = []
+        for k in keys.depth:
+            a = _read(path, name, raw, k, rows)
+            if k != "depth":  # one camera: (T, H, W) or (T, H, W, 1)
+                a = a[..., 0] if a.ndim == 4 and a.shape[-1] == 1 else a
+                if a.ndim != 3:
+                    raise _err(path, name, f"{prefix}/{k} must be (T, H, W) or (T, H, W, 1)")
+                a = a[:, None]
+            arrays.append(a)
+        obs["depth"] = _stack_cameras(path, name, prefix, keys.depth, arrays)
     return obs
+
+
+def _stack_cameras(path: Path, name: str, prefix: str, keys: Sequence[str],
+                   arrays: list[np.ndarray]) -> np.ndarray:
+    shapes = {a.shape[2:] for a in arrays}
+    if len(shapes) > 1 or any(a.ndim != arrays[0].ndim for a in arrays):
+        raise _err(path, name, f"cameras {', '.join(f'{prefix}/{k}' for k in keys)} have "
+                               f"different image shapes {[a.shape[1:] for a in arrays]}")
+    return np.concatenate(arrays, axis=1)
 
 
 def _check_obs(path: Path, name: str, obs: dict[str, np.ndarray], T: int) -> None:
     for key, value in obs.items():
         if value.shape[0] != T:
             raise _err(path, name, f"obs/{key} has {value.shape[0]} steps but actions have {T}")
-    for key in ("proprio", "object"):
-        if obs[key].ndim != 2:
-            raise _err(path, name, f"obs/{key} must be 2-D (T, dim), got shape {obs[key].shape}")
     if "rgb" in obs:
         rgb = obs["rgb"]
         if rgb.ndim != 5 or rgb.shape[-1] != 3:
@@ -326,84 +475,157 @@ def _check_obs(path: Path, name: str, obs: dict[str, np.ndarray], T: int) -> Non
         _finite(path, name, f"obs/{key}", value)
 
 
+_KNOWN_ATTRS = {"num_samples", "task", "source", "instruction", "seed", "ep_meta", "cameras"}
+
+
+def _read_demo(path: Path, name: str, group: Any, keys: ObsKeyMap, file_task: str = "",
+               file_source: str = "robomimic") -> Demo:
+    """One demo of an open file, its observations gathered by `keys`; validated."""
+    if "actions" not in group:
+        raise _err(path, name, "missing key 'actions'")
+    if "obs" not in group:
+        raise _err(path, name, "missing key 'obs'")
+    actions = _read(path, name, group, "actions")
+    if actions.ndim != 2 or actions.shape[0] == 0:
+        raise _err(path, name, f"actions must be (T, A) with T > 0, got {actions.shape}")
+    T = actions.shape[0]
+    _finite(path, name, "actions", actions)
+    obs = _gather(path, name, group["obs"], keys, slice(None), T)
+    _check_obs(path, name, obs, T)
+    final = None
+    if "next_obs" in group:
+        final = {k: v[0] for k, v in _gather(path, name, group["next_obs"], keys,
+                                             slice(-1, None), T).items()}
+    states = _read(path, name, group, "states") if "states" in group else None
+    if states is not None and states.shape[0] != T:
+        raise _err(path, name, f"states have {states.shape[0]} steps but actions have {T}")
+    rewards = _read(path, name, group, "rewards") if "rewards" in group else None
+    attrs = group.attrs
+    ep_meta = _attr(attrs, "ep_meta")
+    try:
+        lang = json.loads(ep_meta).get("lang", "") if ep_meta else ""
+    except (json.JSONDecodeError, AttributeError):
+        lang = ""
+    cameras = tuple(camera_of(k) for k in keys.rgb or keys.depth
+                    if k not in ("rgb", "depth"))
+    return Demo(
+        actions=actions.astype(np.float32),
+        obs={k: (v.astype(np.float32) if v.dtype.kind == "f" else v) for k, v in obs.items()},
+        task=str(_attr(attrs, "task", file_task)),
+        source=str(_attr(attrs, "source", file_source)),
+        instruction=str(_attr(attrs, "instruction", lang) or lang),
+        seed=int(_attr(attrs, "seed", -1)),
+        name=name,
+        states=None if states is None else states.astype(np.float64),
+        rewards=None if rewards is None else rewards.astype(np.float32),
+        meta={k: _attr(attrs, k) for k in attrs if k not in _KNOWN_ATTRS},
+        final_obs=final,
+        cameras=cameras,
+    )
+
+
+def _file_task(info: Mapping[str, Any]) -> str:
+    env_args = info.get("env_args") if isinstance(info.get("env_args"), dict) else {}
+    ours = env_args.get("icil_paper") if isinstance(env_args.get("icil_paper"), dict) else {}
+    return str(info.get("task") or ours.get("task") or env_args.get("env_name") or "")
+
+
+def _check_limit(limit: Any) -> int | None:
+    if limit is None:
+        return None
+    if isinstance(limit, bool) or not isinstance(limit, (int, np.integer)) or limit < 1:
+        raise ValueError(f"limit must be a whole number of demos, at least 1 (or None for all), "
+                         f"got {limit!r}")
+    return int(limit)
+
+
 def load_demos(path: str | Path, action_dim: int | None = None, limit: int | None = None,
-               images: bool = True) -> list[Demo]:
+               images: bool = True,
+               obs_keys: Sequence[str] | Mapping[str, Sequence[str]] | None = None) -> list[Demo]:
     """Load and validate the demos of a robomimic-layout HDF5 file (ours or robomimic's).
 
     Args:
         path: the file.
         action_dim: expected action width; a mismatch raises DatasetError.
-        limit: load only the first `limit` demos (in numeric order).
+        limit: load exactly the first `limit` demos (in numeric order, demo_2 before demo_10);
+            a file with fewer raises DatasetError.
         images: load `rgb` / `depth` arrays (False skips them, for state-only training).
+        obs_keys: the file's observation keys to use (`icil_paper.data.obs_keys`); None: the
+            project's own keys, or the default mapping for files of other tools, which warns
+            naming the keys it drops.
 
     Raises DatasetError naming the file, the demo and the problem: missing keys, wrong shapes,
-    action width mismatch, steps that disagree between keys, NaN or infinite values, and
-    observation widths that differ between the demos of one file.
+    action widths that differ from `action_dim`, from the file's `action_dim` attribute or
+    between demos, steps that disagree between keys, NaN or infinite values, observation widths
+    that differ between the demos of one file, and damaged files (failed checksums, truncated
+    data).
     """
     import h5py
 
     path = Path(path)
-    if not path.exists():
-        raise _err(path, None, "file not found")
+    limit = _check_limit(limit)
     info = file_info(path)
-    names = info["demos"][:limit] if limit is not None else info["demos"]
+    names = info["demos"]
     if not names:
         raise _err(path, None, "no demos under 'data' (expected groups named demo_N)")
-    env_args = info.get("env_args") if isinstance(info.get("env_args"), dict) else {}
-    file_task = info.get("task") or env_args.get("env_name") or ""
-    file_source = info.get("source") or "robomimic"
+    if limit is not None:
+        if len(names) < limit:
+            raise _err(path, None, f"holds {len(names)} demos, {limit} were asked for")
+        names = names[:limit]
+    own = str(info.get("format", "")).startswith("icil_paper/") and obs_keys is None
+    file_task, file_source = _file_task(info), str(info.get("source") or "robomimic")
+    file_action_dim = info.get("action_dim")
     demos: list[Demo] = []
     widths: tuple[int, int] | None = None
-    with h5py.File(path, "r") as f:
-        for name in names:
-            group = f["data"][name]
-            if "actions" not in group:
-                raise _err(path, name, "missing key 'actions'")
-            actions = group["actions"][()]
-            if actions.ndim != 2 or actions.shape[0] == 0:
-                raise _err(path, name, f"actions must be (T, A) with T > 0, got {actions.shape}")
-            T, A = actions.shape
-            if action_dim is not None and A != action_dim:
-                raise _err(path, name, f"action dimension {A} does not match the expected "
-                                       f"{action_dim}")
-            _finite(path, name, "actions", actions)
-            obs = _read_obs(path, name, group, T)
-            if not images:
-                obs.pop("rgb", None)
-                obs.pop("depth", None)
-            _check_obs(path, name, obs, T)
-            dims = (obs["proprio"].shape[1], obs["object"].shape[1])
-            if widths is None:
-                widths = dims
-            elif dims != widths:
-                raise _err(path, name, f"(proprio, object) widths {dims} differ from the "
-                                       f"file's first demo {widths}")
-            states = group["states"][()] if "states" in group else None
-            if states is not None and states.shape[0] != T:
-                raise _err(path, name, f"states have {states.shape[0]} steps but actions "
-                                       f"have {T}")
-            rewards = group["rewards"][()] if "rewards" in group else None
-            attrs = group.attrs
-            ep_meta = _attr(attrs, "ep_meta")
-            try:
-                lang = json.loads(ep_meta).get("lang", "") if ep_meta else ""
-            except (json.JSONDecodeError, AttributeError):
-                lang = ""
-            known = {"num_samples", "task", "source", "instruction", "seed", "ep_meta"}
-            demos.append(Demo(
-                actions=actions.astype(np.float32),
-                obs={k: (v.astype(np.float32) if v.dtype.kind == "f" else v)
-                     for k, v in obs.items()},
-                task=str(_attr(attrs, "task", file_task)),
-                source=str(_attr(attrs, "source", file_source)),
-                instruction=str(_attr(attrs, "instruction", lang) or lang),
-                seed=int(_attr(attrs, "seed", -1)),
-                name=name,
-                states=None if states is None else states.astype(np.float32),
-                rewards=None if rewards is None else rewards.astype(np.float32),
-                meta={k: _attr(attrs, k) for k in attrs if k not in known},
-            ))
+    first_action_dim: int | None = None
+    keys: ObsKeyMap | None = None
+    warned = False
+    try:
+        with h5py.File(path, "r") as f:
+            for name in names:
+                group = f["data"][name]
+                if (keys is None or own) and "obs" in group:  # own files: cameras per demo
+                    keys = _key_map(path, name, group, obs_keys, own)
+                    if not images:
+                        keys = keys.without_images()
+                    if keys.dropped and obs_keys is None and not warned:
+                        warned = True
+                        warnings.warn(f"{path}: observation keys not used: "
+                                      f"{', '.join(keys.dropped)} (using {keys.describe()}); "
+                                      "choose keys with obs_keys (--obs-keys)", stacklevel=2)
+                demo = _read_demo(path, name, group, keys or ObsKeyMap((), ()), file_task,
+                                  file_source)
+                A = demo.actions.shape[1]
+                if action_dim is not None and A != action_dim:
+                    raise _err(path, name, f"action dimension {A} does not match the expected "
+                                           f"{action_dim}")
+                if file_action_dim is not None and A != int(file_action_dim):
+                    raise _err(path, name, f"action dimension {A} does not match the file's "
+                                           f"action_dim attribute {int(file_action_dim)}")
+                if first_action_dim is None:
+                    first_action_dim = A
+                elif A != first_action_dim:
+                    raise _err(path, name, f"action dimension {A} differs from the file's "
+                                           f"first demo ({first_action_dim})")
+                dims = (demo.obs["proprio"].shape[1], demo.obs["object"].shape[1])
+                if widths is None:
+                    widths = dims
+                elif dims != widths:
+                    raise _err(path, name, f"(proprio, object) widths {dims} differ from the "
+                                           f"file's first demo {widths}")
+                demos.append(demo)
+    except H5_ERRORS as exc:
+        raise _err(path, None, f"the file is damaged ({_damage(exc)})") from None
     return demos
+
+
+def _key_map(path: Path, name: str, group: Any, obs_keys: Any, own: bool) -> ObsKeyMap:
+    cameras = _json_attr(group.attrs, "cameras")
+    try:
+        return map_obs_keys(_available(group["obs"]), obs_keys, own=own,
+                            camera_order=cameras if isinstance(cameras, list) else None)
+    except ValueError as exc:
+        raise _err(path, name, str(exc)) from None
 
 
 def read_masks(path: str | Path) -> dict[str, list[str]]:

@@ -34,7 +34,7 @@ def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[st
     """
     from icil_paper.data.sources import demo_seed, make_source, rollout
     from icil_paper.recording import record_episode
-    from icil_paper.sim import OBJECT_POSITION, make_env, suite_of
+    from icil_paper.sim import make_env, object_position, suite_of
 
     out_dir = Path(out_dir)
     stem = task.replace("/", "__")
@@ -56,7 +56,7 @@ def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[st
         env.close()
     paths = record_episode(out_dir / f"{stem}.rrd", demo.obs, demo.actions,
                            title=f"{task}: {demo.instruction} (seed {seed})",
-                           object_position=OBJECT_POSITION.get(suite_of(task)))
+                           object_position=object_position(task))
     return {
         "task": task,
         "instruction": demo.instruction,

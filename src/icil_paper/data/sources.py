@@ -182,8 +182,9 @@ def rollout(env: Any, policy: Any, seed: int, source: str = "generated",
             ) -> tuple[Demo, bool]:
     """Run one episode of `policy` (a source) from `env.reset(seed=seed)`.
 
-    Returns the episode as a Demo (observations before each action) and whether it succeeded;
-    the episode ends at the first success or at the horizon.
+    Returns the episode as a Demo (observations before each action, the observation after the
+    last one, simulator states as float64) and whether it succeeded; the episode ends at the
+    first success or at the horizon.
     """
     obs, info = env.reset(seed=seed)
     policy.reset(env, obs, seed=seed)
@@ -199,7 +200,7 @@ def rollout(env: Any, policy: Any, seed: int, source: str = "generated",
         for k in keys:
             frames[k].append(obs[k])
         if get_state is not None:
-            states.append(np.asarray(get_state(), np.float32))
+            states.append(np.asarray(get_state(), np.float64))
         action = np.asarray(policy.act(obs), np.float32)
         obs, reward, terminated, truncated, info = env.step(action)
         actions.append(action)
@@ -207,9 +208,10 @@ def rollout(env: Any, policy: Any, seed: int, source: str = "generated",
         success = bool(info["success"])
         if terminated or truncated:
             break
+    cameras = tuple(getattr(env, "cameras", ()) or ()) if "rgb" in frames else ()
     if not actions:  # succeeded at reset: nothing to learn from
         return Demo(np.zeros((0, env.action_dim), np.float32), {}, env.name, source,
-                    env.instruction, int(seed)), False
+                    env.instruction, int(seed), cameras=cameras), False
     demo = Demo(
         actions=np.stack(actions).astype(np.float32),
         obs={k: np.stack(v) for k, v in frames.items()},
@@ -219,6 +221,8 @@ def rollout(env: Any, policy: Any, seed: int, source: str = "generated",
         seed=int(seed),
         states=np.stack(states) if states else None,
         rewards=np.asarray(rewards, np.float32),
+        final_obs={k: np.asarray(obs[k]) for k in keys},
+        cameras=cameras,
     )
     return demo, success
 

@@ -50,10 +50,12 @@ def _normalize_split(split) -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 def zero_shot_split() -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(training tasks, held-out tasks) of the kitchen suite's zero-shot setting (Table VI)."""
-    from icil_paper.sim import _kitchen_or_raise
+    from icil_paper.sim import get_suite
 
-    module = _kitchen_or_raise("kitchen zero-shot split")
-    train, held = _normalize_split(module.KITCHEN_ZERO_SHOT_SPLIT)
+    split = get_suite("kitchen", "the kitchen zero-shot split").zero_shot_split
+    if split is None:
+        raise ValueError("the kitchen suite defines no zero-shot split")
+    train, held = _normalize_split(split)
     overlap = set(train) & set(held)
     if overlap:
         raise ValueError(f"zero-shot split trains on held-out tasks {sorted(overlap)}")

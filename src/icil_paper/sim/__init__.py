@@ -1,13 +1,20 @@
 """The task suites behind one registry: `TASKS`, `make_env`, `make_expert`, `obs_dims`, `suite_of`.
 
-Three suites, named by the prefix of a task name:
+Suites, named by the prefix of a task name, each one `Suite` record (`icil_paper.sim.suite`) in
+`SUITE_ENTRIES`:
 
 - `kitchen/...`   kitchen skill tasks on robosuite (our stand-in for RoboCasa's skill families);
 - `kinova/...`    the door and drawer tasks on robosuite's Kinova3 arm with perturbed dynamics
                   (our stand-in for the paper's sim-to-real transfer); same spaces as `kitchen`;
-- `maniskill/...` PickCube, PushCube and StackCube of ManiSkill 3 (Table II).
+- `maniskill/...` PickCube, PushCube and StackCube of ManiSkill 3 (Table II);
+- `synthetic/...` a simulator-free reach task family (`icil_paper.sim.synthetic`) for tests and
+                  sanity checks.
 
-Every environment is gymnasium-style::
+`SUITES` are the three simulated suites of the paper's tables (what studies, notebooks and
+`TASKS` iterate over); `ALL_SUITES` adds `synthetic`, whose tasks every function here accepts
+but `TASKS` / `all_tasks()` leave out.
+
+Every environment is a `gymnasium.Env` (`icil_paper.sim.base.TaskEnv`)::
 
     env = make_env("maniskill/pick_cube", obs="state", seed=0)
     obs, info = env.reset()              # obs: {"proprio": (P,), "object": (O,)} float32
@@ -16,90 +23,88 @@ Every environment is gymnasium-style::
     info["success"]                      # the task's success predicate, a bool
 
 with `env.name`, `env.action_dim` (7: position delta, axis-angle rotation delta, gripper, all in
-[-1, 1]), `env.horizon`, `env.instruction`, `env.close()`. Image observations (`obs="rgb"` or
-`"rgbd"`) add `"rgb"` (uint8, n_cams, H, W, 3) and `"depth"` (float32, n_cams, H, W). Within a
-suite every task has the same `obs_dims(suite) = (P, O)`: object states are zero-padded to the
-suite's width, so one policy trains on all tasks of a suite.
+[-1, 1]), `env.horizon`, `env.instruction`, `env.observation_space`, `env.action_space`,
+`env.close()`. Image observations (`obs="rgb"` or `"rgbd"`) add `"rgb"` (uint8, n_cams, H, W, 3)
+and `"depth"` (float32 metres, n_cams, H, W). Within a suite every task has the same
+`obs_dims(suite) = (P, O)`: object states are zero-padded to the suite's width, so one policy
+trains on all tasks of a suite.
 
-Suites are imported only when used, so the ManiSkill suite works while robosuite is missing and
-the other way round; a suite that fails to import is named with the reason when one of its tasks
-is asked for.
+Importing this package registers one gymnasium id per task (`gym_id`)::
+
+    import gymnasium as gym, icil_paper.sim
+    env = gym.make("icil_paper/kitchen-open_drawer-v0", obs="state")   # make_env's options
+
+Suite modules are imported only when used (they import their simulator only when an env is
+built), so the ManiSkill suite works while robosuite is missing and the other way round; a
+suite that fails to load is named with the reason when one of its tasks is asked for.
 """
 
 from __future__ import annotations
 
-import functools
-import importlib
-from types import ModuleType
 from typing import Any
 
-from icil_paper.registry import UnknownNameError, check_name
+from icil_paper.registry import Registry, UnknownNameError, check_name
 
 ACTION_DIM = 7
 """Every task's action: [dx, dy, dz, drx, dry, drz, gripper], all in [-1, 1]."""
-SUITES = ("kitchen", "kinova", "maniskill")
-OBJECT_POSITION = {"maniskill": (0, 3), "kitchen": (1, 4), "kinova": (1, 4)}
-"""Where a suite's object state holds an object position (a slice of `obs["object"]`, for
-recordings): ManiSkill's object pose starts it; the kitchen suite's key point (handle, lever
-tip, knob fin, button, free object) follows the fixture's joint position
-(`icil_paper.sim.kitchen.scenes`)."""
 OBS_KINDS = ("state", "rgb", "rgbd")
-KITCHEN_MODULE = "icil_paper.sim.kitchen"
-MANISKILL_TASK_NAMES = ("maniskill/pick_cube", "maniskill/push_cube", "maniskill/stack_cube")
+SUITES = ("kitchen", "kinova", "maniskill")
+"""The simulated suites of the paper's tables, in display order."""
+SUITE_ENTRIES = {
+    "kitchen": "icil_paper.sim.kitchen:KITCHEN_SUITE",
+    "kinova": "icil_paper.sim.kitchen:KINOVA_SUITE",
+    "maniskill": "icil_paper.sim.maniskill_suite:MANISKILL_SUITE",
+    "synthetic": "icil_paper.sim.synthetic:SYNTHETIC_SUITE",
+}
+"""Suite name -> "module:attribute" of its `Suite` record (one line per suite)."""
+ALL_SUITES = tuple(SUITE_ENTRIES)
+SUITE_REGISTRY = Registry("suite", SUITE_ENTRIES)
+GYM_NAMESPACE = "icil_paper"
 
-__all__ = ["ACTION_DIM", "TASKS", "SUITES", "OBS_KINDS", "make_env", "make_expert", "obs_dims", "suite_of",
-           "tasks_of", "suite_unavailable", "SuiteUnavailable", "UnknownNameError"]
+__all__ = ["ACTION_DIM", "ALL_SUITES", "OBS_KINDS", "SUITES", "SUITE_ENTRIES", "TASKS",
+           "SuiteUnavailable", "UnknownNameError", "all_tasks", "get_suite", "gym_id",
+           "make_env", "make_expert", "object_position", "obs_dims", "register_gym_envs",
+           "suite_of", "suite_unavailable", "tasks_of"]
 
 
 class SuiteUnavailable(ImportError):
-    """A task suite whose package cannot be imported on this machine."""
+    """A task suite whose module cannot be loaded on this machine."""
 
 
-@functools.lru_cache(maxsize=1)
-def _kitchen() -> tuple[ModuleType | None, str | None]:
-    """The kitchen package, or None and why it failed to import."""
+def _load(suite: str) -> tuple[Any, str | None]:
+    """The suite's record, or None and why it failed to load."""
+    check_name("suite", suite, ALL_SUITES)
     try:
-        module = importlib.import_module(KITCHEN_MODULE)
+        return SUITE_REGISTRY[suite], None
     except Exception as exc:  # noqa: BLE001 - any failure makes the suite unavailable
         return None, f"{type(exc).__name__}: {exc}"
-    missing = [a for a in ("KITCHEN_TASKS", "KITCHEN_OBS_DIMS", "make_kitchen_env",
-                           "make_kitchen_expert") if not hasattr(module, a)]
-    if missing:
-        return None, f"{KITCHEN_MODULE} does not define {', '.join(missing)}"
-    return module, None
 
 
-def _kitchen_or_raise(name: str) -> ModuleType:
-    module, problem = _kitchen()
-    if module is None:
-        raise SuiteUnavailable(f"task {name!r}: the kitchen suite ({KITCHEN_MODULE}) could not "
-                               f"be imported ({problem})")
-    return module
+def get_suite(suite: str, context: str | None = None):
+    """The `Suite` record of a suite; SuiteUnavailable (naming `context`) if it cannot load."""
+    record, problem = _load(suite)
+    if record is None:
+        where = f"{context}: " if context else ""
+        raise SuiteUnavailable(f"{where}the {suite} suite could not be loaded from "
+                               f"{SUITE_ENTRIES[suite]} ({problem})")
+    return record
 
 
 def suite_unavailable(suite: str) -> str | None:
-    """None when a suite's package imports, else the reason it does not."""
-    check_name("suite", suite, SUITES)
-    if suite == "maniskill":
-        return None  # imports lazily; a missing Vulkan device is reported by make_env
-    return _kitchen()[1]
+    """None when a suite's module loads and its simulator can run here, else the reason."""
+    record, problem = _load(suite)
+    return problem if record is None else record.unavailable()
 
 
 def tasks_of(suite: str) -> tuple[str, ...]:
-    """The task names of one suite (empty when the suite cannot be imported)."""
-    check_name("suite", suite, SUITES)
-    if suite == "maniskill":
-        return MANISKILL_TASK_NAMES
-    module, _ = _kitchen()
-    if module is None:
-        return ()
-    table = module.KITCHEN_TASKS if suite == "kitchen" else getattr(module, "KINOVA_TASKS", {})
-    return tuple(table)
+    """The task names of one suite (empty when the suite cannot be loaded)."""
+    record, _ = _load(suite)
+    return () if record is None else tuple(record.tasks)
 
 
 def all_tasks() -> tuple[str, ...]:
-    """Every task name of every importable suite: kitchen, then kinova, then maniskill."""
-    return tasks_of("kitchen") + tasks_of("kinova") + tasks_of("maniskill")
+    """Every task name of every loadable suite of `SUITES`: kitchen, kinova, then maniskill."""
+    return tuple(task for suite in SUITES for task in tasks_of(suite))
 
 
 def __getattr__(attr: str) -> Any:  # PEP 562: `TASKS` is computed on first use
@@ -109,44 +114,71 @@ def __getattr__(attr: str) -> Any:  # PEP 562: `TASKS` is computed on first use
 
 
 def suite_of(name: str) -> str:
-    """The suite a task belongs to: `kitchen`, `kinova` or `maniskill`."""
+    """The suite a task belongs to (`kitchen`, `kinova`, `maniskill` or `synthetic`)."""
     prefix = str(name).split("/", 1)[0]
-    if prefix in ("kitchen", "kinova") and _kitchen()[0] is None:
-        _kitchen_or_raise(name)
-    check_name("task", name, all_tasks())
+    if prefix not in SUITE_ENTRIES:
+        check_name("task", name, all_tasks())  # raises, listing the valid names
+    check_name("task", name, get_suite(prefix, f"task {name!r}").tasks)
     return prefix
 
 
 def obs_dims(suite: str) -> tuple[int, int]:
     """(P, O): proprioception and object-state widths shared by every task of a suite."""
-    check_name("suite", suite, SUITES)
-    if suite == "maniskill":
-        from icil_paper.sim.maniskill_suite import MANISKILL_OBS_DIMS
+    return tuple(get_suite(suite).obs_dims)
 
-        return MANISKILL_OBS_DIMS
-    return tuple(_kitchen_or_raise(f"{suite}/...").KITCHEN_OBS_DIMS)
+
+def object_position(task: str) -> tuple[int, int] | None:
+    """The slice (start, stop) of `obs["object"]` holding an object's position in `task`'s
+    suite (drawn by recordings), or None when the suite has none or is unknown."""
+    prefix = str(task).split("/", 1)[0]
+    if prefix not in SUITE_ENTRIES:
+        return None
+    record, _ = _load(prefix)
+    return None if record is None else record.object_position
 
 
 def make_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
-    """A gymnasium-style environment of one task (see the module docstring).
+    """A `gymnasium.Env` of one task (see the module docstring).
 
     `options` go to the suite: for ManiSkill `sim_backend`, `camera_size`, `horizon`,
-    `render_size`; the kitchen suite documents its own.
+    `render_size`; every suite takes `render_mode` ("rgb_array" or None); the kitchen suite
+    documents its own (`icil_paper.sim.kitchen.make_kitchen_env`).
     """
     check_name("observation kind", obs, OBS_KINDS)
     suite = suite_of(name)
-    if suite == "maniskill":
-        from icil_paper.sim.maniskill_suite import make_maniskill_env
-
-        return make_maniskill_env(name, obs=obs, seed=seed, **options)
-    return _kitchen_or_raise(name).make_kitchen_env(name, obs, seed, **options)
+    return get_suite(suite).make_env(name, obs=obs, seed=seed, **options)
 
 
 def make_expert(name: str):
     """The scripted expert of a task: `expert.reset(env, obs)`, then `expert.act(obs)` per step."""
-    suite = suite_of(name)
-    if suite == "maniskill":
-        from icil_paper.sim.maniskill_expert import make_maniskill_expert
+    return get_suite(suite_of(name)).make_expert(name)
 
-        return make_maniskill_expert(name)
-    return _kitchen_or_raise(name).make_kitchen_expert(name)
+
+def gym_id(task: str) -> str:
+    """The gymnasium id of a task: `kitchen/open_drawer` -> `icil_paper/kitchen-open_drawer-v0`."""
+    return f"{GYM_NAMESPACE}/{task.replace('/', '-')}-v0"
+
+
+def register_gym_envs() -> list[str]:
+    """Register a gymnasium id for every task of every loadable suite (once); return the ids.
+
+    `gymnasium.make(gym_id(task), **options)` calls `make_env(task, **options)`. No
+    `TimeLimit` is added: the envs truncate at their own `horizon` (an option).
+    """
+    import gymnasium
+
+    ids = []
+    for suite in ALL_SUITES:
+        for task in tasks_of(suite):
+            env_id = gym_id(task)
+            if env_id not in gymnasium.registry:
+                gymnasium.register(env_id, entry_point="icil_paper.sim:make_env",
+                                   kwargs={"name": task})
+            ids.append(env_id)
+    return ids
+
+
+try:
+    register_gym_envs()
+except ImportError:  # gymnasium missing: the envs cannot be built either; make_env says why
+    pass

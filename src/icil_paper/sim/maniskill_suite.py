@@ -1,4 +1,4 @@
-"""The ManiSkill suite: PickCube-v1, PushCube-v1 and StackCube-v1 behind the project's env interface.
+"""The ManiSkill suite: PickCube-v1, PushCube-v1 and StackCube-v1 as the project's gymnasium envs.
 
 ManiSkill 3 runs the Panda arm on SAPIEN; on a machine without a GPU it needs a Vulkan device
 (Mesa's lavapipe, see `icil_paper.sim.rendering`) even for state observations, and uses the
@@ -41,13 +41,23 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from icil_paper.sim import ACTION_DIM
+from icil_paper.sim.base import TaskEnv, observation_space, state_box
+from icil_paper.sim.suite import Suite
 
 PROPRIO_DIM = 9
 MANISKILL_OBJECT_DIM = 21
 MANISKILL_OBS_DIMS = (PROPRIO_DIM, MANISKILL_OBJECT_DIM)
+CONTROL_FREQ = 20
+"""Control rate of the suite's tasks, Hz (ManiSkill's default for PickCube, PushCube, StackCube)."""
+PROPRIO_LAYOUT = ((3, "metric"), (4, "unit"), (2, "metric"))
+"""Kinds of the `proprio` entries, for the observation space (`icil_paper.sim.base.state_box`)."""
+OBJECT_LAYOUT = ((3, "metric"), (4, "unit"), (3, "metric"), (1, "flag"), (3, "metric"),
+                 (4, "unit"), (3, "metric"))
+"""Kinds of the `object` entries (module docstring)."""
+DEPTH_FAR = 100.0
+"""Metres: the far plane of ManiSkill's cameras, the bound of depth observations."""
 POS_SCALE = 0.1
 """Metres of end-effector translation per unit of action (ManiSkill's pd_ee_delta_pose bound)."""
 ROT_SCALE = 0.1
@@ -155,6 +165,8 @@ def policy_to_maniskill_action(action: np.ndarray) -> np.ndarray:
     angles that ManiSkill's controller composes, divided by its `rot_lower` (-0.1); the gripper
     sign flips (ManiSkill: +1 opens).
     """
+    from scipy.spatial.transform import Rotation  # here: listing the suite stays cheap
+
     a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
     if a.shape != (ACTION_DIM,):
         raise ValueError(f"action must have {ACTION_DIM} entries, got shape {np.shape(action)}")
@@ -170,32 +182,32 @@ def policy_to_maniskill_action(action: np.ndarray) -> np.ndarray:
     return out
 
 
-class ManiSkillEnv:
-    """A ManiSkill task with the project's observation dict, 7-D action and success flag.
+class ManiSkillEnv(TaskEnv):
+    """A ManiSkill task as a `gymnasium.Env` with the project's observation dict, 7-D action and
+    success flag (`icil_paper.sim.base.TaskEnv`).
 
-    `reset(seed)` seeds ManiSkill explicitly every episode (a `reset()` without a seed draws the
-    next one from a generator seeded by the constructor's `seed`, whose first value is `seed`
-    itself), so an episode is fully determined by its seed and actions. For that, every reset
+    `reset(seed)` seeds ManiSkill explicitly every episode (a `reset()` without a seed runs the
+    constructor's seed first, then seeds drawn from a generator seeded by the last explicit
+    seed), so an episode is fully determined by its seed and actions. For that, every reset
     also rebuilds the scene (`reconfigure`, about 0.3 s on CPU): PhysX keeps solver state across
     a plain reset, so the same seed and actions would otherwise end a few millimetres apart
     depending on the episodes before. `deterministic_reset=False` skips the rebuild.
     """
 
+    metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
+
     def __init__(self, task: str, obs: str = "state", seed: int = 0,
                  sim_backend: str | None = None, camera_size: int | None = None,
                  horizon: int | None = None, render_size: int | None = None,
-                 deterministic_reset: bool = True):
+                 deterministic_reset: bool = True, render_mode: str | None = None):
         import gymnasium as gym
         import mani_skill.envs  # noqa: F401  (registers the environments)
 
         from icil_paper.sim.rendering import LAVAPIPE_HOWTO, RenderingUnavailable
 
-        self.spec_ = MANISKILL_TASKS[task]
-        self.name = task
-        self.obs_kind = obs
-        self.action_dim = ACTION_DIM
-        self.horizon = int(horizon or self.spec_.horizon)
-        self.instruction = self.spec_.instruction
+        self.task_spec = MANISKILL_TASKS[task]
+        super().__init__(task, obs, seed, horizon=int(horizon or self.task_spec.horizon),
+                         instruction=self.task_spec.instruction, render_mode=render_mode)
         self.sim_backend = sim_backend or default_sim_backend()
         kwargs: dict[str, Any] = {}
         if camera_size is not None:
@@ -206,7 +218,7 @@ class ManiSkillEnv:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                self._env = gym.make(self.spec_.env_id, obs_mode=obs_mode,
+                self._env = gym.make(self.task_spec.env_id, obs_mode=obs_mode,
                                      control_mode="pd_ee_delta_pose",
                                      sim_backend=self.sim_backend,
                                      render_backend=default_render_backend(),
@@ -222,35 +234,31 @@ class ManiSkillEnv:
             raise RuntimeError(f"{task}: the robot base is rotated ({root_q}); the action frame "
                                "assumes a base aligned with the world axes")
         self.deterministic_reset = deterministic_reset
-        self._rng = np.random.default_rng(seed)
-        self._first_seed: int | None = int(seed)
-        self.seed: int | None = None
-        self.steps = 0
         self._last_obs: dict[str, np.ndarray] | None = None
+        sensors = dict(self.base._sensors) if obs != "state" else {}
+        self.cameras = tuple(sensors)
+        size = (next(iter(sensors.values())).config.height,
+                next(iter(sensors.values())).config.width) if sensors else (0, 0)
+        self.observation_space = observation_space(
+            state_box(PROPRIO_LAYOUT), state_box(OBJECT_LAYOUT), obs,
+            image=(len(self.cameras), *size), depth_range=(0.0, DEPTH_FAR))
 
-    # gymnasium-style interface ---------------------------------------------------------------
+    # gymnasium interface ----------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
-        if seed is None:
-            seed = self._first_seed if self._first_seed is not None else int(
-                self._rng.integers(2**31 - 1))
-        self._first_seed = None
-        self.seed = int(seed)
+        self._begin_episode(seed)
         if self.deterministic_reset:
             options = {"reconfigure": True, **(options or {})}
         raw, _ = self._env.reset(seed=self.seed, options=options)
         self.base = self._env.unwrapped
-        self.steps = 0
         obs = self._make_obs(raw)
         info = self._info(self.base.evaluate())
         return obs, info
 
     def step(self, action):
         raw, reward, _, _, info = self._env.step(policy_to_maniskill_action(action))
-        self.steps += 1
         obs = self._make_obs(raw)
         info = self._info(info)
-        terminated = info["success"]
-        truncated = self.steps >= self.horizon and not terminated
+        terminated, truncated = self._step_outcome(info["success"])
         return obs, float(_np(reward)), terminated, truncated, info
 
     def render(self) -> np.ndarray:
@@ -259,10 +267,10 @@ class ManiSkillEnv:
         return np.ascontiguousarray(_np(frame)).astype(np.uint8)
 
     def get_state(self) -> np.ndarray:
-        """Flat simulator state (float32), as ManiSkill's `get_state()`."""
-        return _np(self.base.get_state()).astype(np.float32)
+        """Flat simulator state, as ManiSkill's `get_state()` (float32 values, as float64)."""
+        return _np(self.base.get_state()).astype(np.float64)
 
-    def close(self) -> None:
+    def _close(self) -> None:
         self._env.close()
 
     # -----------------------------------------------------------------------------------------
@@ -278,9 +286,9 @@ class ManiSkillEnv:
                "object": object_features(self.name, self.base)}
         if self.obs_kind in ("rgb", "rgbd"):
             cams = raw["sensor_data"]
-            obs["rgb"] = np.stack([_np(cams[c]["rgb"]) for c in cams]).astype(np.uint8)
+            obs["rgb"] = np.stack([_np(cams[c]["rgb"]) for c in self.cameras]).astype(np.uint8)
             if self.obs_kind == "rgbd":
-                depth = np.stack([_np(cams[c]["depth"])[..., 0] for c in cams])
+                depth = np.stack([_np(cams[c]["depth"])[..., 0] for c in self.cameras])
                 obs["depth"] = (depth.astype(np.float32) / 1000.0)  # millimetres -> metres
         self._last_obs = obs
         return obs
@@ -292,3 +300,29 @@ class ManiSkillEnv:
 def make_maniskill_env(name: str, obs: str = "state", seed: int = 0, **options) -> ManiSkillEnv:
     """Build a ManiSkill task of the suite (see the module docstring for spaces)."""
     return ManiSkillEnv(name, obs=obs, seed=seed, **options)
+
+
+def make_maniskill_expert(name: str):
+    """The task's motion-planning expert (`icil_paper.sim.maniskill_expert`)."""
+    from icil_paper.sim.maniskill_expert import make_maniskill_expert as make
+
+    return make(name)
+
+
+def maniskill_problem() -> str | None:
+    """None when ManiSkill can start here, else why not (and how to fix it)."""
+    import importlib.util
+
+    if importlib.util.find_spec("mani_skill") is None:
+        return "mani_skill is not installed; install the pinned requirements with `make setup`"
+    from icil_paper.sim.rendering import vulkan_problem
+
+    problem = vulkan_problem()
+    return None if problem is None else f"ManiSkill cannot start: {problem}"
+
+
+MANISKILL_SUITE = Suite(
+    name="maniskill", tasks=tuple(MANISKILL_TASKS), obs_dims=MANISKILL_OBS_DIMS,
+    control_freq=CONTROL_FREQ, make_env=make_maniskill_env, make_expert=make_maniskill_expert,
+    object_position=(0, 3), unavailable=maniskill_problem,
+    description="PickCube, PushCube and StackCube of ManiSkill 3 (Panda, SAPIEN)")

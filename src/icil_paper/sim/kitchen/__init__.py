@@ -20,6 +20,7 @@ Public names:
 - `KITCHEN_OBS_DIMS = (P, O) = (9, 18)`, the widths of `proprio` and `object` for every task
   (Kinova tasks included).
 - `make_kitchen_env(name, obs="state", seed=0, **options)`, `make_kitchen_expert(name)`.
+- `KITCHEN_SUITE`, `KINOVA_SUITE`: the suites' records in `icil_paper.sim`'s registry.
 
 The spaces are documented in `env.py`, the object-state layout in `scenes.py`, the experts'
 phases in `experts.py`, the Kinova (sim-to-real stand-in) perturbations in `kinova.py`.
@@ -43,8 +44,14 @@ from icil_paper.sim.kitchen.tasks import (
     TASK_FAMILIES,
     KitchenTaskSpec,
 )
+from icil_paper.sim.suite import Suite
 
 KITCHEN_OBS_DIMS = (KITCHEN_PROPRIO_DIM, KITCHEN_OBJECT_DIM)
+CONTROL_FREQ = 20
+"""Control rate of every kitchen and Kinova task, Hz (robosuite's `control_freq`)."""
+OBJECT_POSITION = (1, 4)
+"""The key point (handle, lever tip, knob fin, button, free object) in `obs["object"]`: it
+follows the fixture's joint position (`icil_paper.sim.kitchen.scenes`)."""
 
 # robosuite picks its OpenGL backend when it is first imported (every module of this package
 # that imports it is imported through here); headless image observations need EGL.
@@ -52,7 +59,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 __all__ = ["KITCHEN_TASKS", "KINOVA_TASKS", "ALL_TASKS", "TASK_FAMILIES", "FAMILIES",
            "KITCHEN_ZERO_SHOT_SPLIT", "KITCHEN_OBS_DIMS", "KITCHEN_PROPRIO_DIM",
-           "KITCHEN_OBJECT_DIM", "KitchenTaskSpec", "make_kitchen_env", "make_kitchen_expert"]
+           "KITCHEN_OBJECT_DIM", "KitchenTaskSpec", "make_kitchen_env", "make_kitchen_expert",
+           "KITCHEN_SUITE", "KINOVA_SUITE", "CONTROL_FREQ", "robosuite_problem"]
 
 
 def _import_robosuite_quietly() -> None:
@@ -74,12 +82,23 @@ def _import_robosuite_quietly() -> None:
         logger.disabled = False
 
 
+def robosuite_problem() -> str | None:
+    """None when robosuite imports, else why not (the kitchen and Kinova suites need it)."""
+    try:
+        _import_robosuite_quietly()
+    except Exception as exc:  # noqa: BLE001 - any import failure means no simulator
+        return (f"robosuite cannot be imported ({type(exc).__name__}: {exc}); install the "
+                "pinned requirements with `make setup`")
+    return None
+
+
 def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
     """Build a kitchen or Kinova task env (`icil_paper.sim.kitchen.env.KitchenEnv`).
 
     Options: `camera_size` (default 84, square images), `horizon` (override the task's),
     `obs_noise_std` (override the Kinova tasks' observation noise; 0 turns it off),
-    `initialization_noise` (robosuite's robot joint noise, "default" or None).
+    `initialization_noise` (robosuite's robot joint noise, "default" or None),
+    `render_mode` ("rgb_array" or None, gymnasium's).
     Raises `UnknownNameError` listing the valid names for an unknown task or obs kind.
     """
     check_name("kitchen task", name, ALL_TASKS)
@@ -96,3 +115,16 @@ def make_kitchen_expert(name: str):
     from icil_paper.sim.kitchen.experts import make_kitchen_expert as make
 
     return make(name)
+
+
+KITCHEN_SUITE = Suite(
+    name="kitchen", tasks=tuple(KITCHEN_TASKS), obs_dims=KITCHEN_OBS_DIMS,
+    control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,
+    object_position=OBJECT_POSITION, unavailable=robosuite_problem,
+    zero_shot_split=KITCHEN_ZERO_SHOT_SPLIT,
+    description="kitchen skill tasks on robosuite (Panda), RoboCasa's seven skill families")
+KINOVA_SUITE = Suite(
+    name="kinova", tasks=tuple(KINOVA_TASKS), obs_dims=KITCHEN_OBS_DIMS,
+    control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,
+    object_position=OBJECT_POSITION, unavailable=robosuite_problem,
+    description="door and drawer tasks on a Kinova3 arm with a simulated reality gap")

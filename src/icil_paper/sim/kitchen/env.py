@@ -1,5 +1,5 @@
-"""The kitchen suite's environments: a robosuite `ManipulationEnv` per scene and a small
-gymnasium-style wrapper with the project's observation dict.
+"""The kitchen suite's environments: a robosuite `ManipulationEnv` per scene and a
+`gymnasium.Env` around it with the project's observation dict (`icil_paper.sim.base.TaskEnv`).
 
 Action (7-D, every entry in [-1, 1]), robosuite's OSC_POSE controller with delta input at
 20 Hz (`load_composite_controller_config(controller="BASIC")`)::
@@ -49,7 +49,9 @@ from robosuite.models.arenas import TableArena
 from robosuite.models.tasks import ManipulationTask
 
 from icil_paper.registry import check_name
-from icil_paper.sim import ACTION_DIM, OBS_KINDS
+from icil_paper.sim import ACTION_DIM
+from icil_paper.sim.base import TaskEnv, observation_space, state_box
+from icil_paper.sim.kitchen import CONTROL_FREQ
 from icil_paper.sim.kitchen.kinova import DynamicsPerturbation, RealityGap
 from icil_paper.sim.kitchen.scenes import Scene, make_scene
 from icil_paper.sim.kitchen.tasks import (
@@ -60,7 +62,11 @@ from icil_paper.sim.kitchen.tasks import (
 
 CAMERAS = ("agentview", "robot0_eye_in_hand")
 """Cameras of image observations, in the order of the `rgb` / `depth` arrays."""
-CONTROL_FREQ = 20
+PROPRIO_LAYOUT = ((3, "metric"), (4, "unit"), (2, "metric"))
+"""Kinds of the `proprio` entries, for the observation space (`icil_paper.sim.base.state_box`)."""
+OBJECT_LAYOUT = ((1, "metric"), (3, "metric"), (4, "unit"), (3, "metric"), (4, "unit"),
+                 (3, "metric"))
+"""Kinds of the `object` entries (layout in `icil_paper.sim.kitchen.scenes`)."""
 _DOWN_QUAT_XYZW = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
 
 
@@ -183,42 +189,45 @@ def _look_at_quat_wxyz(eye, target) -> list[float]:
     return quat.tolist()
 
 
-class KitchenEnv:
-    """A kitchen (or Kinova) task with the project's env interface (see the module docstring).
+class KitchenEnv(TaskEnv):
+    """A kitchen (or Kinova) task as a `gymnasium.Env` (see the module docstring and
+    `icil_paper.sim.base`).
 
     `reset(seed)` re-seeds the episode: the layout, the robot's initial joint noise, the Kinova
-    perturbation and observation noise all follow from it. `reset()` without a seed uses the
-    constructor's seed first, then seeds drawn from a generator seeded by it.
+    perturbation and observation noise all follow from it (the layout, joint noise and
+    perturbation are drawn from `np_random`, seeded with the episode's seed). `reset()` without
+    a seed uses the constructor's seed first, then seeds drawn from a generator seeded by the
+    last explicit seed.
     """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
 
     def __init__(self, name: str, obs: str = "state", seed: int = 0, camera_size: int = 84,
                  horizon: int | None = None, obs_noise_std: float | None = None,
-                 initialization_noise="default"):
+                 initialization_noise="default", render_mode: str | None = None):
         check_name("kitchen task", name, ALL_TASKS)
-        check_name("observation kind", obs, OBS_KINDS)
-        self.spec: KitchenTaskSpec = ALL_TASKS[name]
-        self.name = name
-        self.obs_kind = obs
-        self.action_dim = ACTION_DIM
-        self.horizon = int(horizon or self.spec.horizon)
-        self.instruction = self.spec.instruction
+        self.task_spec: KitchenTaskSpec = ALL_TASKS[name]
+        super().__init__(name, obs, seed, horizon=int(horizon or self.task_spec.horizon),
+                         instruction=self.task_spec.instruction, render_mode=render_mode)
         self.camera_size = int(camera_size)
-        self.cameras = CAMERAS
-        gap = RealityGap() if self.spec.perturbed else None
+        self.cameras = CAMERAS if obs != "state" else ()
+        gap = RealityGap() if self.task_spec.perturbed else None
         self.obs_noise_std = float(obs_noise_std if obs_noise_std is not None
                                    else (gap.obs_noise_std if gap else 0.0))
-        self.scene = make_scene(self.spec.scene, self.spec.goal)
+        self.scene = make_scene(self.task_spec.scene, self.task_spec.goal)
         with _quiet_robosuite():
-            self._env = KitchenSceneEnv(self.scene, robot=self.spec.robot, horizon=self.horizon,
-                                        offscreen=obs != "state",
+            self._env = KitchenSceneEnv(self.scene, robot=self.task_spec.robot,
+                                        horizon=self.horizon, offscreen=obs != "state",
                                         perturbation=DynamicsPerturbation(gap) if gap else None,
                                         initialization_noise=initialization_noise, seed=seed)
         self.sim = self._env.sim
-        self._seeds = np.random.default_rng(seed)
-        self._first_seed: int | None = int(seed)
-        self.seed: int | None = None
-        self.steps = 0
         self._noise_rng = np.random.default_rng(0)
+        extent = self.sim.model.stat.extent
+        self.observation_space = observation_space(
+            state_box(PROPRIO_LAYOUT, self.obs_noise_std),
+            state_box(OBJECT_LAYOUT, self.obs_noise_std), obs,
+            image=(len(self.cameras), self.camera_size, self.camera_size),
+            depth_range=(0.0, float(self.sim.model.vis.map.zfar * extent) * (1 + 1e-4)))
 
     @property
     def geometry(self):
@@ -229,18 +238,13 @@ class KitchenEnv:
     def robosuite_env(self) -> KitchenSceneEnv:
         return self._env
 
-    # gymnasium-style interface ---------------------------------------------------------------
+    # gymnasium interface ----------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
-        if seed is None:
-            seed = self._first_seed if self._first_seed is not None else int(
-                self._seeds.integers(2**31 - 1))
-        self._first_seed = None
-        self.seed = int(seed)
-        self._env.rng = np.random.default_rng(self.seed)
+        self._begin_episode(seed)
+        self._env.rng = self.np_random        # the layout, joint noise and perturbation
         self._noise_rng = np.random.default_rng([self.seed, 1])
         with _quiet_robosuite():                 # robosuite rebuilds its controllers here
             self._env.reset()
-        self.steps = 0
         return self._obs(), self._info(self._env.scene.success(self._env))
 
     def step(self, action):
@@ -251,10 +255,8 @@ class KitchenEnv:
         if not np.all(np.isfinite(action)):
             raise ValueError(f"{self.name}: action has non-finite entries: {action}")
         _, reward, _, _ = self._env.step(action)
-        self.steps += 1
         success = self._env.success_flag
-        terminated = success
-        truncated = self.steps >= self.horizon and not terminated
+        terminated, truncated = self._step_outcome(success)
         return self._obs(), float(reward), terminated, truncated, self._info(success)
 
     def render(self, camera: str = "agentview", size: int | tuple[int, int] = 256) -> np.ndarray:
@@ -268,7 +270,7 @@ class KitchenEnv:
         """Flat MuJoCo state (time, qpos, qvel) as float64, robomimic's `states` entry."""
         return np.asarray(self.sim.get_state().flatten(), dtype=np.float64)
 
-    def close(self) -> None:
+    def _close(self) -> None:
         self._env.close()
 
     # -----------------------------------------------------------------------------------------
@@ -306,7 +308,7 @@ class KitchenEnv:
         return out
 
     def __repr__(self) -> str:
-        return f"KitchenEnv({self.name!r}, obs={self.obs_kind!r}, robot={self.spec.robot!r})"
+        return f"KitchenEnv({self.name!r}, obs={self.obs_kind!r}, robot={self.task_spec.robot!r})"
 
 
 @contextlib.contextmanager

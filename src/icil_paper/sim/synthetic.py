@@ -1,14 +1,18 @@
-"""A tiny synthetic task family for tests, benchmarks and a simulator-free sanity check.
+"""The synthetic suite: a tiny reach task family for tests, benchmarks and a simulator-free
+sanity check.
 
-Task k (`synthetic/task<k>`) is "move the end effector to goal g_k", where g_k is fixed by k
-but is *not* part of the observation: only a prompt demonstration reveals it, so a policy
-that ignores its prompt cannot solve more than one task. The dynamics are trivial (the
+Task k (`synthetic/task<k>`, k < N_TASKS) is "move the end effector to goal g_k", where g_k is
+fixed by k but is *not* part of the observation: only a prompt demonstration reveals it, so a
+policy that ignores its prompt cannot solve more than one task. The dynamics are trivial (the
 position moves by 0.08 x the first three action dimensions each step) so that the data
 and the environment below agree exactly and cost nothing to run.
 
     demos = synthetic_demos(n_tasks=2, per_task=3, steps=20)     # Demo-like objects
-    env = SyntheticReachEnv("synthetic/task0")                    # gymnasium-style env
+    env = make_env("synthetic/task0")                            # icil_paper.sim.make_env
     obs, info = env.reset(seed=1); obs, r, term, trunc, info = env.step(action)
+
+Observation: proprio (9,) = position (3) | a state that follows it (6, in [-1, 1]); object (6,)
+= noise fixed at reset; "rgb" (n_cams, H, W, 3) draws a blob where the position is.
 """
 
 from __future__ import annotations
@@ -18,8 +22,15 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.sim.base import TaskEnv, observation_space, state_box
+from icil_paper.sim.suite import Suite
+
 STEP_SIZE = 0.08
 SUCCESS_RADIUS = 0.1
+N_TASKS = 10
+"""Tasks of the registered suite (`synthetic_demos` makes any number)."""
+CONTROL_FREQ = 20
+"""Nominal control rate, Hz (the dynamics have no time scale; the other suites' rate)."""
 
 
 def task_goal(task: str) -> np.ndarray:
@@ -114,20 +125,24 @@ def blob_images(xy: np.ndarray, image: tuple[int, int, int]) -> np.ndarray:
     return img
 
 
-class SyntheticReachEnv:
-    """The environment of `synthetic_demos` with the interface of `icil_paper.sim.make_env`."""
+class SyntheticReachEnv(TaskEnv):
+    """The environment of `synthetic_demos` as a `gymnasium.Env` (`icil_paper.sim.base`)."""
 
-    action_dim = 7
+    metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
 
     def __init__(self, name: str = "synthetic/task0", obs: str = "state", seed: int = 0,
                  horizon: int = 40, proprio_dim: int = 9, object_dim: int = 6,
-                 image: tuple[int, int, int] = (1, 16, 16)):
-        self.name, self.obs_kind, self.horizon = name, obs, horizon
+                 image: tuple[int, int, int] = (1, 16, 16), render_mode: str | None = None):
+        super().__init__(name, obs, seed, horizon=horizon,
+                         instruction=f"reach goal number {name.rsplit('task', 1)[-1]}",
+                         render_mode=render_mode)
         self.goal = task_goal(name)
-        self.instruction = f"reach goal number {name.rsplit('task', 1)[-1]}"
-        self.dims, self.image = (proprio_dim, object_dim), image
-        self._rng = np.random.default_rng(seed)
-        self.t = 0
+        self.dims, self.image = (proprio_dim, object_dim), tuple(image)
+        self.cameras = tuple(f"camera{i}" for i in range(self.image[0])) if obs != "state" else ()
+        self.observation_space = observation_space(
+            state_box(((3, "free"), (proprio_dim - 3, "unit"))),
+            state_box(((object_dim, "free"),)), obs, image=self.image, depth_range=(0.0, 1.0))
+        self.p, self.obj = _initial_state(np.random.default_rng(seed), *self.dims)
 
     def _obs(self) -> dict[str, np.ndarray]:
         obs = {"proprio": self.p.astype(np.float32), "object": self.obj.astype(np.float32)}
@@ -137,11 +152,9 @@ class SyntheticReachEnv:
                 obs["depth"] = obs["rgb"][..., 0].astype(np.float32) / 255.0
         return obs
 
-    def reset(self, seed: int | None = None):
-        if seed is not None:
-            self._rng = np.random.default_rng(seed)
-        self.p, self.obj = _initial_state(self._rng, *self.dims)
-        self.t = 0
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        self._begin_episode(seed)
+        self.p, self.obj = _initial_state(self.np_random, *self.dims)
         return self._obs(), {"success": False}
 
     def step(self, action):
@@ -149,14 +162,47 @@ class SyntheticReachEnv:
         if action.shape != (self.action_dim,):
             raise ValueError(f"action must have shape ({self.action_dim},), got {action.shape}")
         self.p = _step_state(self.p, np.clip(action, -1, 1))
-        self.t += 1
         success = bool(np.linalg.norm(self.p[:3] - self.goal) < SUCCESS_RADIUS)
-        return self._obs(), float(success), success, self.t >= self.horizon, {"success": success}
+        terminated, truncated = self._step_outcome(success)
+        return self._obs(), float(success), terminated, truncated, {"success": success}
 
-    def close(self) -> None:
-        pass
+    def render(self, size: int = 64) -> np.ndarray:
+        """An RGB frame (size, size, 3) uint8 with the blob where the end effector is."""
+        return blob_images(self.p[None, :2], (1, size, size))[0, 0]
+
+    def get_state(self) -> np.ndarray:
+        """The position state and the object noise, float64."""
+        return np.concatenate([self.p, self.obj]).astype(np.float64)
+
+    @property
+    def t(self) -> int:
+        """Steps taken in the current episode."""
+        return self.steps
+
+
+class SyntheticExpert:
+    """Steers to the task's goal, read from the env (as scripted experts read the simulator)."""
+
+    def reset(self, env: Any, obs: dict[str, np.ndarray]) -> None:
+        self.goal = getattr(env, "unwrapped", env).goal
+
+    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        return expert_action(np.asarray(obs["proprio"], np.float64), self.goal,
+                             7).astype(np.float32)
 
 
 def make_synthetic_env(name: str, obs: str = "state", seed: int = 0, **options: Any) -> SyntheticReachEnv:
     """`make_env`-compatible factory for `synthetic/task<k>` (usable by `evaluate_policy`)."""
     return SyntheticReachEnv(name, obs=obs, seed=seed, **options)
+
+
+def make_synthetic_expert(name: str) -> SyntheticExpert:
+    """The expert of a synthetic task."""
+    return SyntheticExpert()
+
+
+SYNTHETIC_SUITE = Suite(
+    name="synthetic", tasks=tuple(f"synthetic/task{k}" for k in range(N_TASKS)),
+    obs_dims=(9, 6), control_freq=CONTROL_FREQ, make_env=make_synthetic_env,
+    make_expert=make_synthetic_expert, object_position=None,
+    description="simulator-free reach tasks whose goal only a prompt demonstration reveals")

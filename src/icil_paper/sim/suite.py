@@ -1,0 +1,55 @@
+"""`Suite`: what the library needs to know about a task suite, in one record.
+
+Each suite module defines one record and `icil_paper.sim` lists it in its registry by name, so
+adding a suite is one module plus one registry line::
+
+    SUITE = Suite(
+        name="mysuite", tasks=("mysuite/reach", ...), obs_dims=(9, 12), control_freq=20,
+        make_env=make_my_env,          # (name, obs="state", seed=0, **options) -> TaskEnv
+        make_expert=make_my_expert,    # (name) -> expert with reset(env, obs), act(obs)
+        object_position=(0, 3),        # obs["object"][0:3] is an object's position
+        unavailable=my_problem,        # () -> None, or why the simulator cannot run here
+    )
+
+This module imports nothing but the standard library, so listing suites costs nothing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+
+def always_available() -> str | None:
+    """The availability check of a suite that needs nothing beyond the library itself."""
+    return None
+
+
+@dataclass(frozen=True)
+class Suite:
+    """One task suite: its tasks, observation widths, env and expert factories."""
+
+    name: str
+    """Prefix of the suite's task names (`<name>/<task>`)."""
+    tasks: tuple[str, ...]
+    """Every task name of the suite, in display order."""
+    obs_dims: tuple[int, int]
+    """(P, O): widths of `obs["proprio"]` and `obs["object"]`, shared by every task."""
+    control_freq: int
+    """Control rate in Hz (env steps per simulated second); the envs' `render_fps`."""
+    make_env: Callable[..., Any]
+    """`(name, obs="state", seed=0, **options) -> env`, a `icil_paper.sim.base.TaskEnv`."""
+    make_expert: Callable[[str], Any]
+    """`(name) -> expert`: `expert.reset(env, obs)`, then `expert.act(obs)` every step."""
+    object_position: tuple[int, int] | None = None
+    """(start, stop): the slice of `obs["object"]` that holds an object's position (drawn by
+    recordings), or None when the object state holds none."""
+    unavailable: Callable[[], str | None] = always_available
+    """None when the suite's simulator can run on this machine, else a sentence saying why not
+    (and how to fix it). May be slow the first time (it may import the simulator)."""
+    zero_shot_split: Mapping[str, Sequence[str]] | None = None
+    """Tasks trained on and held out in the zero-shot setting ({"train": ..., "test": ...}),
+    for suites that define one."""
+    description: str = ""
+    """One line on what the suite is."""
