@@ -13,24 +13,30 @@ export PYTHONUNBUFFERED := 1
 # Stamps keyed on what they depend on, so that a repeated `make setup` takes seconds.
 REQ_HASH := $(shell cat requirements.txt pyproject.toml | sha256sum | cut -c1-16)
 PY_STAMP := $(VENV)/.installed-$(REQ_HASH)
-SYS_STAMP := $(VENV)/.system-checked
+# Keyed on the script that installs system packages (lavapipe, chromium), so that a new
+# requirement there runs again on a machine that was set up before it.
+SYS_STAMP := $(VENV)/.system-$(shell sha256sum src/icil_paper/system_deps.py | cut -c1-12)
+# The book's browser assets (MathJax, the rerun web viewer), pinned in book/package.json.
+NODE_HASH := $(shell cat book/package.json book/package-lock.json | sha256sum | cut -c1-16)
+NODE_STAMP := book/node_modules/.installed-$(NODE_HASH)
 TORCH_PIN := $(shell grep -E '^torch==' requirements.txt)
 BOOK_OUT := book/_build
 # What notebook outputs depend on besides their own code: the library, the preset, the results.
 SRC_HASH = $(shell { find src -name '*.py' | LC_ALL=C sort | xargs cat; echo $(PRESET); \
 	find results/$(PRESET) -name '*.json' -printf '%p %T@\n' 2>/dev/null | LC_ALL=C sort; } | sha256sum | cut -c1-16)
 
-.PHONY: help setup test test-all reproduce experiments book bench lint clean
+.PHONY: help setup test test-all reproduce experiments book browser-check bench lint clean
 
 help:
-	@echo "make setup      create $(VENV), install requirements and the package, check Vulkan"
+	@echo "make setup      create $(VENV), install requirements, the package and the book's npm assets; check Vulkan and Chromium"
 	@echo "make test       the fast test suite (under 10 minutes on 2 cores)"
 	@echo "make reproduce  run the experiments at PRESET=$(PRESET) and build the book"
 	@echo "make book       execute the notebooks and build the book into $(BOOK_OUT)/html"
+	@echo "make browser-check  load every page of the built book in headless Chromium, offline"
 	@echo "make bench      throughput benchmarks (results/bench/*.json)"
 	@echo "make lint       ruff"
 
-setup: $(PY_STAMP) $(SYS_STAMP)
+setup: $(PY_STAMP) $(SYS_STAMP) $(NODE_STAMP)
 
 $(PY_STAMP):
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -46,7 +52,15 @@ $(PY_STAMP):
 
 $(SYS_STAMP): $(PY_STAMP)
 	$(BIN)/python -m icil_paper.system_deps --install
-	@touch $@
+	@rm -f $(VENV)/.system-*; touch $@
+
+# npm ci installs exactly the lock file's versions (no registry addresses are recorded in it).
+$(NODE_STAMP): book/package.json book/package-lock.json
+	@if command -v npm >/dev/null; then \
+		echo "Installing the book's browser assets (npm: mathjax, @rerun-io/web-viewer)"; \
+		npm ci --prefix book --no-audit --no-fund --loglevel=error && touch $@; \
+	else echo "setup: npm (Node.js) not found: install nodejs and npm, then rerun make setup;" \
+		"everything but the book works without it"; fi
 
 test: setup
 	$(BIN)/python -m pytest -q --durations=15
@@ -65,10 +79,17 @@ book: setup
 	@mkdir -p $(BOOK_OUT)
 	@all=""; if [ "$$(cat $(BOOK_OUT)/.src-hash 2>/dev/null)" != "$(SRC_HASH)" ]; then \
 		echo "src/, the preset or the results changed: re-executing every chapter"; \
-		rm -rf $(BOOK_OUT)/.jupyter_cache; all="--all"; fi; \
+		rm -rf $(BOOK_OUT)/.jupyter_cache $(BOOK_OUT)/recordings $(BOOK_OUT)/html/_static/recordings; \
+		all="--all"; fi; \
 	$(BIN)/jupyter-book build . --path-output book $$all
 	@echo "$(SRC_HASH)" > $(BOOK_OUT)/.src-hash
 	@echo "Book: $(BOOK_OUT)/html/index.html"
+
+# Serves the built book on loopback and loads every page in headless Chromium with every
+# other request blocked; fails on JS errors, failed requests, raw TeX, broken links or
+# images, and recording viewers that did not start. Screenshots: $(BOOK_OUT)/screenshots.
+browser-check: setup
+	$(BIN)/python -m icil_paper.browser_check $(BOOK_OUT)/html --screenshots $(BOOK_OUT)/screenshots
 
 bench: setup
 	@for m in $$(ls src/icil_paper/bench/*.py | xargs -n1 basename | grep -v __init__ | sed 's/\.py$$//'); do \

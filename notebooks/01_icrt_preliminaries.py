@@ -35,11 +35,10 @@
 
 # %%
 import logging
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-from IPython.display import Image, display
+from IPython.display import display
 from matplotlib.colors import ListedColormap
 
 from icil_paper.config import get_preset
@@ -59,6 +58,7 @@ from icil_paper.studies import (
     icrt_run_dir,
 )
 from icil_paper.train import cpu_threads, load_policy, tokenizer_options, train_policy
+from icil_paper.viewer import show_recording
 
 logging.getLogger("robosuite_logs").disabled = True  # robosuite's import-time chatter
 preset = get_preset()  # reads ICIL_PRESET
@@ -238,8 +238,7 @@ print(f"episode {episode['episode']} (env seed {episode['seed']}): "
 recording = record_rollout(trained_policy, TASK, {"index": episode["episode"],
                                                   "seed": episode["seed"]},
                            trace, results_root() / preset.name / "chapter01")
-print(f"rerun recording: {recording}")
-display(Image(filename=str(Path(recording).with_suffix(".png"))))
+display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}"))
 
 # %% [markdown]
 # ## What we found

@@ -51,6 +51,7 @@ from icil_paper.data.stats import data_set_stats, keep_rate
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import seed_everything
 from icil_paper.studies import demo_stage, expert_study, showcase_study, shown_tasks
+from icil_paper.viewer import show_recordings
 
 preset = get_preset()  # reads ICIL_PRESET
 seed_everything(preset.seed)
@@ -196,15 +197,8 @@ plt.show()
 # first few, which are what a reader without the viewer sees.
 
 # %%
-print("\n".join(f"{t}: {e['rrd'] or '(rerun unavailable)'}" for t, e in showcase.items()))
-picked = list(showcase.values())[:3]
-fig, axes = plt.subplots(1, len(picked), figsize=(6 * len(picked), 6.5), squeeze=False)
-for ax, entry in zip(axes[0], picked, strict=True):
-    ax.imshow(plt.imread(entry["picture"]))
-    ax.set_title(entry["task"])
-    ax.axis("off")
-plt.tight_layout()
-plt.show()
+display(show_recordings({task: (entry["rrd"], entry["picture"])
+                         for task, entry in showcase.items()}))
 
 # %% [markdown]
 # ## Generalization settings

@@ -37,7 +37,7 @@
 # %%
 import matplotlib.pyplot as plt
 import pandas as pd
-from IPython.display import Image, display
+from IPython.display import display
 
 from icil_paper.config import get_preset
 from icil_paper.metrics import ascending, rank_correlation
@@ -45,6 +45,7 @@ from icil_paper.paper_numbers import SMOOTHNESS
 from icil_paper.results import ResultsStore
 from icil_paper.studies import tokenizer_latent_recording, tokenizer_study
 from icil_paper.tokenizers import TOKENIZERS
+from icil_paper.viewer import show_recording
 
 preset = get_preset()  # reads ICIL_PRESET
 store = ResultsStore(preset.name)
@@ -117,8 +118,8 @@ plt.tight_layout()
 
 # %%
 latent_recording = tokenizer_latent_recording(preset, records)
-print(f"rerun recording: {latent_recording['rrd'] or '(rerun unavailable: picture only)'}")
-display(Image(filename=str(latent_recording["png"])))
+display(show_recording(latent_recording["rrd"], latent_recording["png"],
+                       label="latent trajectories"))
 
 # %% [markdown]
 # ## What we found

@@ -11,6 +11,10 @@ runs `python -m icil_paper.system_deps --install`, which:
    and installs `mesa-vulkan-drivers` from it;
 3. anywhere else (not root, not Debian, no apt): prints what to install by hand and carries on.
    Tests that need ManiSkill then skip with `vulkan_problem()`'s reason.
+
+The book's browser check (`icil_paper.browser_check`) needs Chromium. Where none is found,
+`--install` installs Debian's `chromium` package with apt-get (root, Debian-like); elsewhere
+it prints what to install and carries on (the browser check and its tests then say so).
 """
 
 from __future__ import annotations
@@ -31,6 +35,12 @@ MANUAL_FIX = (
     "mirror to apt, then `apt-get update && apt-get install -t bookworm-backports "
     "mesa-vulkan-drivers`; on Ubuntu 24.10+ `apt-get install mesa-vulkan-drivers`. "
     "With an NVIDIA GPU, install the driver's Vulkan ICD (libnvidia-gl)."
+)
+
+MANUAL_CHROMIUM = (
+    "The book's browser check needs Chromium: on Debian as root `apt-get install chromium`, "
+    "on Ubuntu `apt-get install chromium-browser`; or set ICIL_CHROMIUM to a Chromium or "
+    "Chrome executable."
 )
 
 _PROBE = """
@@ -112,18 +122,15 @@ def install_lavapipe() -> str | None:
     return None
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--install", action="store_true",
-                        help="install lavapipe when no Vulkan device works (root, Debian 12)")
-    args = parser.parse_args(argv)
+def ensure_vulkan(install: bool) -> None:
+    """Report whether a Vulkan device works; with `install`, install lavapipe if not."""
     problem = vulkan_problem()
     if problem is None:
         print("system: Vulkan device works (ManiSkill can run)")
-        return 0
+        return
     print(f"system: {problem}")
-    if not args.install:
-        return 0
+    if not install:
+        return
     why_not = install_lavapipe()
     vulkan_problem.cache_clear()
     problem = vulkan_problem()
@@ -134,6 +141,59 @@ def main(argv: list[str] | None = None) -> int:
         print(f"system: could not install lavapipe automatically{reason}.\n"
               f"  Install by hand: {MANUAL_FIX}\n"
               "  Everything else works; ManiSkill tests will be skipped with this reason.")
+
+
+def chromium_problem() -> str | None:
+    """None when a Chromium executable is found (see `browser_check.find_chromium`)."""
+    from icil_paper.browser_check import find_chromium
+
+    return None if find_chromium() else f"Chromium not found. {MANUAL_CHROMIUM}"
+
+
+def install_chromium() -> str | None:
+    """Install Debian's chromium with apt-get; None on success, else why it could not."""
+    if sys.platform != "linux":
+        return f"not Linux ({sys.platform})"
+    if os.geteuid() != 0:
+        return "not root"
+    if shutil.which("apt-get") is None:
+        return "no apt-get (not a Debian-like system)"
+    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+    for cmd in (["apt-get", "update", "-qq"],
+                ["apt-get", "install", "-y", "-qq", "chromium"]):
+        print("+", " ".join(cmd), flush=True)
+        if subprocess.run(cmd, env=env).returncode != 0:
+            return f"`{' '.join(cmd)}` failed"
+    return None
+
+
+def ensure_chromium(install: bool) -> None:
+    """Report whether Chromium is there; with `install`, install it where it is missing."""
+    problem = chromium_problem()
+    if problem is None:
+        print("system: Chromium found (the book's browser check can run)")
+        return
+    print(f"system: {problem}")
+    if not install:
+        return
+    why_not = install_chromium()
+    if chromium_problem() is None:
+        print("system: installed Debian's chromium (the book's browser check can run)")
+    else:
+        reason = f" ({why_not})" if why_not else ""
+        print(f"system: could not install Chromium automatically{reason}.\n"
+              f"  Install by hand: {MANUAL_CHROMIUM}\n"
+              "  Everything else works; the browser check and its tests say what is missing.")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--install", action="store_true",
+                        help="install what is missing: lavapipe (root, Debian 12), chromium "
+                             "(root, apt-get)")
+    args = parser.parse_args(argv)
+    ensure_chromium(args.install)
+    ensure_vulkan(args.install)
     return 0  # a missing system library never stops setup: the rest of the project works
 
 
