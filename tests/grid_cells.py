@@ -1,0 +1,84 @@
+"""Tiny grid cells for tests/test_grid.py, importable by spawned and Ray workers.
+
+Each cell stores a `grid` record through `ResultsStore` (the folder `ICIL_RESULTS` names)
+and leaves one file per call in `calls_dir`, so a test can count how often, and in which
+process, each cell ran.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from pathlib import Path
+
+from icil_paper.grid import Cell
+from icil_paper.results import ResultsStore
+from icil_paper.seeding import seed_everything
+
+KIND = "grid"
+
+
+def _config(name: str, seed: int) -> dict:
+    return {"name": name, "seed": seed}
+
+
+def _count_call(calls_dir: str, name: str) -> int:
+    """Leave a marker of this call; return its attempt number (1 for the first)."""
+    folder = Path(calls_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    n = len(list(folder.glob(f"{name}.*"))) + 1
+    (folder / f"{name}.{n}").write_text(str(os.getpid()))
+    return n
+
+
+def draw(name: str, seed: int, calls_dir: str) -> dict:
+    """Seeded NumPy and torch draws, stored as metrics; returns the record's metrics."""
+    import torch
+
+    _count_call(calls_dir, name)
+
+    def compute() -> dict:
+        rng = seed_everything(seed)
+        w = torch.randn(32, 32)
+        x = torch.randn(8, 32)
+        return {"numpy_mean": float(rng.normal(size=256).mean()),
+                "torch_sum": float((x @ w).tanh().sum()),
+                "torch_threads": torch.get_num_threads()}
+
+    record = ResultsStore("smoke").run(KIND, name, _config(name, seed), compute, seed=seed)
+    return {"metrics": record["metrics"], "pid": os.getpid()}
+
+
+def die_once(name: str, seed: int, calls_dir: str, how: str = "exit") -> dict:
+    """The first call kills its own process (`how`: "exit" or "kill"); later calls store."""
+    if _count_call(calls_dir, name) == 1:
+        sys.stdout.flush()
+        if how == "kill":
+            os.kill(os.getpid(), signal.SIGKILL)
+        os._exit(3)
+    record = ResultsStore("smoke").run(KIND, name, _config(name, seed),
+                                       lambda: {"seed_squared": seed * seed}, seed=seed)
+    return {"metrics": record["metrics"], "pid": os.getpid()}
+
+
+def always_dies(name: str, calls_dir: str) -> dict:
+    _count_call(calls_dir, name)
+    os._exit(3)
+
+
+def raises(name: str, calls_dir: str) -> dict:
+    _count_call(calls_dir, name)
+    raise ValueError(f"bad input for {name}\nsecond line of the message")
+
+
+def cell(fn: str, name: str, **kwargs) -> Cell:
+    """A test cell that runs `grid_cells.<fn>(name=name, **kwargs)`."""
+    return Cell(key=f"{fn}-{name}", target=f"grid_cells:{fn}", kwargs={"name": name, **kwargs},
+                label=f"{fn} {name}")
+
+
+def stored(c: Cell) -> bool:
+    """The `done` predicate of these cells: the store holds the cell's record."""
+    config = _config(c.kwargs["name"], c.kwargs.get("seed", 0))
+    return ResultsStore("smoke").get(KIND, c.kwargs["name"], config) is not None
