@@ -32,8 +32,9 @@ def test_every_preset_builds_and_is_named(name):
 def test_presets_grow_from_smoke_to_full():
     smoke, small, reference, full = (get_preset(n) for n in PRESET_NAMES)
     assert smoke.train.steps < small.train.steps < reference.train.steps < full.train.steps
-    assert (smoke.eval.episodes_per_task < small.eval.episodes_per_task
-            <= reference.eval.episodes_per_task < full.eval.episodes_per_task)
+    assert (smoke.eval.episodes_per_task <= small.eval.episodes_per_task
+            < reference.eval.episodes_per_task < full.eval.episodes_per_task)
+    assert small.tables.icrt_seeds < reference.tables.icrt_seeds
     assert smoke.data.demos_per_task < small.data.demos_per_task < full.data.demos_per_task
     assert (smoke.policies.icrt.d_model < small.policies.icrt.d_model
             < full.policies.icrt.d_model)

@@ -21,6 +21,7 @@ from icil_paper.specs import (
     to_dict,
 )
 from icil_paper.studies import study_spec
+from icil_paper.tables import table_spec
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 TASKS = ("kitchen/open_drawer", "kitchen/close_door")
@@ -86,6 +87,14 @@ STAGES = {
                                            eval_spec(p, TASKS[0])),
                         ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task",
                          "data.obs", "seed", "eval.")),
+    "table I (every unit)": (
+        lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval))
+                                  for u in table_spec(p, "I").units())),
+        ("policies.mcr.", "policies.act.", "policies.bc_transformer.", "policies.icrt.",
+         *(f"tokenizers.{t}." for t in ("mlp", "bin", "fast", "vq", "lfq", "lipvq")),
+         "train.", "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
+         "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
+         "tables.image_demos_per_task", "tables.image_episodes_per_task")),
     "tokenizer study vq": (lambda p: spec_key(study_spec(p, p.tokenizers.vq)),
                            ("tokenizers.vq.", "tokenizer_study.", "data.demos_per_task",
                             "data.kitchen_tasks", "data.maniskill_tasks", "seed")),

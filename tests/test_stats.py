@@ -267,3 +267,23 @@ def test_other_levels_change_the_width():
     assert narrow.high - narrow.low < wide.high - wide.low
     one = outcomes[:, :1]
     assert success_rate(one, level=0.8).high < success_rate(one).high  # Wilson, z for 80%
+
+
+def test_margin_over_the_best_other_row():
+    from icil_paper.stats import paired_margin, paired_score_margin
+
+    rng = np.random.default_rng(0)
+    a = rng.random((1, 4, 50)) < 0.9
+    b = rng.random((1, 4, 50)) < 0.5
+    c = rng.random((1, 4, 50)) < 0.6
+    m = paired_margin(a, [b, c])
+    assert m.value == pytest.approx(a.mean() - c.mean()) and m.low > 0
+    assert paired_margin(c, [a, b]).high < 0
+    one = paired_margin(a, [b], rng_seed=3)
+    assert one.value == pytest.approx(paired_difference(a, b, rng_seed=3).value)
+    scores = rng.random((3, 40))
+    low = scores * 0.2
+    s = paired_score_margin(low, [scores, scores + 1.0])
+    assert s.value < 0 and s.high < 0
+    with pytest.raises(ValueError, match="same trajectories"):
+        paired_score_margin(low[:, :10], [scores])

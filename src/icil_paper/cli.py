@@ -65,7 +65,7 @@ SUBCOMMANDS = {
     "demos": ("icil_paper.data.cli", "generate demonstration data sets (robomimic HDF5)"),
     "train": ("icil_paper.train", "train a policy (ICRT or a baseline) with a tokenizer"),
     "eval": ("icil_paper.evaluate", "roll out a trained policy and store its success rate"),
-    "tables": ("icil_paper.tables", "compute the paper's tables from the results store"),
+    "tables": ("icil_paper.tables.cli", "print the paper's tables and claims from the results store"),
     "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
 }
 
@@ -128,6 +128,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"icil-paper {command}: error: {message} (--debug shows the traceback)",
               file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into `head` and the like
+        return 0
     except KeyboardInterrupt:
         print(f"icil-paper {command}: interrupted; rerun the same command to resume",
               file=sys.stderr)

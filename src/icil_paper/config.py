@@ -156,6 +156,8 @@ class TokenizerStudyConfig:
     """Amplitude of the low-pass noise added to generated trajectories (teleoperation tremor)."""
     bench_fast_actions: int = 1_000_000
     """Actions FAST's BPE is fitted on in the benchmark (the paper: 1M)."""
+    seeds: int = 3
+    """Training seeds of every tokenizer trained alone (the chapters show the spread)."""
 
 
 @dataclass(frozen=True)
@@ -205,6 +207,30 @@ class EvalConfig:
 
 
 @dataclass(frozen=True)
+class TablesConfig:
+    """The paper's tables and figures (`icil_paper.tables`): seeds, sweeps and sizes."""
+
+    icrt_seeds: int = 1
+    """Training seeds of every ICRT row of Table I (and so of Tables III, IV, V and VI,
+    which share its cells); the other rows and tables train one seed."""
+    codebook_sizes: tuple[int, ...] = (256, 512, 1024, 2048)
+    """Fig. 5: the LipVQ-VAE codebook sizes swept (the paper: 2^8 .. 2^11)."""
+    image_demos_per_task: int = 10
+    """Demonstrations per task of MCR's image data sets (rendering costs about ten times a
+    state step on CPU)."""
+    image_episodes_per_task: int = 10
+    """Rollouts per task of MCR's image evaluations."""
+    feature_demos_per_task: int = 2
+    """Table III: held-out generated demonstrations per task (after the training ones) whose
+    actions the trained policies' tokenizers embed."""
+    feature_steps: int = 500
+    """Table III: latent features scored, taken from those trajectories in task order (the
+    paper: 500)."""
+    prompt_steps: int = 10
+    """Prompt ablation: steps kept of the truncated prompt."""
+
+
+@dataclass(frozen=True)
 class Preset:
     """Everything a run depends on besides code: one object, saved with every result."""
 
@@ -224,7 +250,9 @@ class Preset:
     eval: EvalConfig = field(default_factory=EvalConfig)
     """Evaluation rollouts."""
     tokenizer_study: TokenizerStudyConfig = field(default_factory=TokenizerStudyConfig)
-    """Tokenizers trained alone (chapters 02 and 04)."""
+    """Tokenizers trained alone (chapters 03 and 05)."""
+    tables: TablesConfig = field(default_factory=TablesConfig)
+    """The paper's tables and figures."""
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (tuples become lists, component configs carry their type)."""
@@ -282,7 +310,11 @@ def _smoke() -> Preset:
         train=TrainConfig(steps=5, batch_size=2, warmup_steps=1, ckpt_every=2, log_every=1),
         eval=EvalConfig(episodes_per_task=1, max_steps=10, workers=1),
         tokenizer_study=TokenizerStudyConfig(steps=30, batch_size=8, window=8, n_trajectories=12,
-                                             n_eval_trajectories=4, bench_fast_actions=20_000),
+                                             n_eval_trajectories=4, bench_fast_actions=20_000,
+                                             seeds=1),
+        tables=TablesConfig(icrt_seeds=1, codebook_sizes=(16, 32, 64, 128),
+                            image_demos_per_task=1, image_episodes_per_task=1,
+                            feature_demos_per_task=1, feature_steps=40),
     )
 
 
@@ -294,15 +326,21 @@ def _small() -> Preset:
         policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
                            history=10, max_seq_len=1024, resnet_width=16, query_len=32,
                            mcr_pretrain_steps=100),
-        # 1500 steps: ICRT + LipVQ-VAE on kitchen/open_drawer went from 2/10 rollouts at 300
-        # steps to 10/10 at 1500 (about a minute on 2 cores, its evaluation included).
-        train=TrainConfig(steps=1500, batch_size=8, warmup_steps=100, ckpt_every=500),
-        eval=EvalConfig(episodes_per_task=5, workers=2),
+        # CI computes every table within minutes: short training, one episode per task
+        # (the numbers exercise the code; the reference preset's are worth reading).
+        train=TrainConfig(steps=400, batch_size=8, warmup_steps=50, ckpt_every=200),
+        eval=EvalConfig(episodes_per_task=1, max_steps=120, workers=2),
         tokenizer_study=TokenizerStudyConfig(steps=400, n_trajectories=64, n_eval_trajectories=16),
+        tables=TablesConfig(icrt_seeds=1, codebook_sizes=(64, 128, 256, 512),
+                            image_demos_per_task=2, image_episodes_per_task=1,
+                            feature_demos_per_task=1),
     )
 
 
 def _reference() -> Preset:
+    # Numbers worth reading within 5 hours on 2 CPU cores: ICRT + LipVQ-VAE trained 3000
+    # steps on the 11 kitchen tasks reached about 0.5 average success; 10 episodes per task,
+    # 3 training seeds for the ICRT rows of Table I (and the tables that share its cells).
     small = _small()
     return dataclasses.replace(
         small, name="reference",
@@ -310,6 +348,9 @@ def _reference() -> Preset:
         eval=EvalConfig(episodes_per_task=10, workers=2),
         tokenizer_study=TokenizerStudyConfig(steps=2000, n_trajectories=200,
                                              n_eval_trajectories=50),
+        tables=TablesConfig(icrt_seeds=3, codebook_sizes=(64, 128, 256, 512),
+                            image_demos_per_task=5, image_episodes_per_task=4,
+                            feature_demos_per_task=1),
     )
 
 

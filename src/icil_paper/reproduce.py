@@ -4,6 +4,10 @@ Each stage is a library function `stage(preset, store, force) -> None` that writ
 records through `ResultsStore.run`, so a stage that already has its results is a cheap
 load, and a run killed half-way resumes where it stopped. The book's notebooks call the
 same functions, so after `reproduce` they only load. `make reproduce` then builds the book.
+
+The table stages fan their cells (one trained policy each, with its evaluations) out over
+`--workers` processes (`--executor local`, the default) or a Ray cluster (`--executor ray`,
+`--ray-address HOST:PORT` to join one); cells shared between tables are computed once.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import sys
 import time
 from dataclasses import dataclass
 
-from icil_paper.config import PRESET_NAMES, Preset, active_preset_name, get_preset
+from icil_paper.config import Preset
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
 
@@ -34,18 +38,31 @@ class Stage:
 STAGES: tuple[Stage, ...] = (
     Stage("environment", "record the packages, hardware and simulator checks",
           "icil_paper.reproduce:record_environment"),
-    Stage("demos", "generate every data set of the preset: all tasks, both sources (chapter 03)",
+    Stage("demos", "generate every data set of the preset: all tasks, both sources (chapter 04)",
           "icil_paper.studies:demo_stage"),
-    Stage("experts", "measure every expert on data.expert_seeds random scenes (chapter 03)",
+    Stage("experts", "measure every expert on data.expert_seeds random scenes (chapter 04)",
           "icil_paper.studies:expert_study"),
-    Stage("showcase", "render and record one demonstration of every task (chapter 03)",
+    Stage("showcase", "render and record one demonstration of every task (chapter 04)",
           "icil_paper.studies:showcase_study"),
-    Stage("icrt", "train a small ICRT + LipVQ-VAE and roll it out from prompts (chapter 01)",
+    Stage("icrt", "train a small ICRT + LipVQ-VAE and roll it out from prompts (chapter 02)",
           "icil_paper.studies:icrt_rollout_study"),
-    Stage("lipschitz", "Lipschitz bounds vs empirical constants of trained encoders (chapter 02)",
+    Stage("lipschitz", "Lipschitz bounds vs empirical constants of trained encoders (chapter 03)",
           "icil_paper.studies:lipschitz_study"),
-    Stage("tokenizers", "train every action tokenizer alone and score it (chapter 04)",
+    Stage("tokenizers", "train every action tokenizer alone and score it (chapter 05)",
           "icil_paper.studies:tokenizer_study"),
+    *(Stage(f"table-{t}", f"{what} (chapter {chapter})", f"icil_paper.reproduce:table_{t}")
+      for t, what, chapter in (
+          ("I", "Table I: every policy on the kitchen suite", "06"),
+          ("IV", "Table IV: the Lipschitz ablation (shares Table I's cells)", "09"),
+          ("fig5", "Fig. 5: LipVQ-VAE's codebook size", "09"),
+          ("III", "Table III: smoothness of the trained policies' latent features", "08"),
+          ("V", "Table V: sim-to-real stand-in, Panda -> perturbed Kinova3", "10"),
+          ("VI", "Table VI: cross-dataset, prompted with human-like demonstrations", "10"),
+          ("prompt", "prompt ablation: right, wrong and truncated prompts", "10"),
+          ("VII", "Table VII: zero-shot on held-out kitchen tasks", "10"),
+          ("II", "Table II: ACT with each tokenizer on ManiSkill", "07"))),
+    Stage("claims", "the claims ledger: every claim with its verdict (chapter 00)",
+          "icil_paper.reproduce:claims_stage"),
 )
 
 
@@ -60,6 +77,34 @@ def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None
 
     store.run("environment", "machine", {"preset": preset.name}, compute, seed=preset.seed,
               force=True)
+
+
+GRID = {"executor": "local", "workers": None, "ray_address": None}
+"""How the table stages run their cells (set from the command line)."""
+
+
+def _table_stage(table_id: str):
+    def stage(preset: Preset, store: ResultsStore, force: bool) -> None:
+        from icil_paper.tables.execute import run_tables
+
+        if force:
+            raise ValueError("--force does not apply to the table stages: delete the records "
+                             f"under {store.dir} to recompute them")
+        run_tables(preset, [table_id], **GRID)
+    stage.__doc__ = f"Compute every missing cell of table {table_id}."
+    return stage
+
+
+table_I, table_II, table_III, table_IV, table_V, table_VI, table_VII = (
+    _table_stage(t) for t in ("I", "II", "III", "IV", "V", "VI", "VII"))
+table_fig5, table_prompt = _table_stage("fig5"), _table_stage("prompt")
+
+
+def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
+    """Write results/<preset>/claims.json from the tables' records."""
+    from icil_paper.tables.claims import write_ledger
+
+    write_ledger(preset, store)
 
 
 def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = False) -> dict:
@@ -87,15 +132,28 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
 
 
 def main(argv: list[str] | None = None) -> int:
+    from icil_paper.cli import add_preset_arguments, positive, preset_from_args
+
     parser = argparse.ArgumentParser(prog="icil-paper reproduce", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--preset", choices=PRESET_NAMES, default=None,
-                        help="preset (default: $ICIL_PRESET or small)")
-    parser.add_argument("--seed", type=int, default=None, help="override the preset's seed")
+    add_preset_arguments(parser)
     parser.add_argument("--stages", nargs="+", default=None,
                         help=f"run only these stages ({', '.join(s.name for s in STAGES)})")
     parser.add_argument("--force", action="store_true", help="recompute stored results")
+    parser.add_argument("--executor", choices=("local", "ray", "serial"), default="local",
+                        help="how the table cells run: a local process pool (default), a Ray "
+                             "cluster, or one after the other in this process")
+    parser.add_argument("--workers", type=positive("--workers"), default=None,
+                        help="parallel cells (default: the preset's eval.workers)")
+    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT",
+                        help="with --executor ray: join this cluster (default: start one here)")
     args = parser.parse_args(argv)
-    preset = get_preset(active_preset_name(args.preset), seed=args.seed)
+    preset = preset_from_args(args)
+    if args.stages:
+        from icil_paper.registry import check_name
+
+        for name in args.stages:
+            check_name("stage", name, [s.name for s in STAGES])
+    GRID.update(executor=args.executor, workers=args.workers, ray_address=args.ray_address)
     timings = run_stages(preset, args.stages, args.force)
     total = sum(timings.values())
     print(f"reproduce [{preset.name}]: {len(timings)} stages in {total:.1f} s; "

@@ -16,7 +16,6 @@ corrupt record, one sets it aside and the other treats it as missing.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import numbers
@@ -31,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper.provenance import git_state, host_info, package_versions
+from icil_paper.specs import canonical_json, content_hash, json_default
 
 SCHEMA_VERSION = 1
 RESULTS_ENV_VAR = "ICIL_RESULTS"
@@ -54,24 +54,10 @@ def results_root() -> Path:
     return Path(value) if value else REPO_ROOT / "results"
 
 
-def canonical_json(obj: Any) -> str:
-    """JSON with sorted keys and no whitespace: the text that a config hash is taken over."""
-    return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_json_default)
-
-
 def config_hash(config: Mapping[str, Any]) -> str:
-    """A short stable hash of a JSON-ready config."""
-    return hashlib.sha256(canonical_json(config).encode()).hexdigest()[:16]
-
-
-def _json_default(obj: Any) -> Any:
-    if hasattr(obj, "tolist"):  # numpy arrays and scalars, torch tensors
-        return obj.tolist()
-    if isinstance(obj, (set, frozenset)):
-        return sorted(obj)
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(f"{type(obj).__name__} is not JSON serializable")
+    """A short stable hash of a JSON-ready config: `specs.content_hash`, the one every key
+    of the library is taken with (16 hex digits of SHA-256 over sorted, compact JSON)."""
+    return content_hash(config)
 
 
 def _umask() -> int:
@@ -112,7 +98,7 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
 
 def atomic_write_json(path: Path, obj: Any) -> None:
     """Atomically write `obj` as indented JSON (NaN is refused: it is not valid JSON)."""
-    text = json.dumps(obj, indent=2, sort_keys=True, default=_json_default, allow_nan=False)
+    text = json.dumps(obj, indent=2, sort_keys=True, default=json_default, allow_nan=False)
     atomic_write_bytes(Path(path), (text + "\n").encode())
 
 

@@ -198,10 +198,11 @@ def _type_name(annotation: Any) -> str:
 # --------------------------------------------------------------------------- keys
 def canonical_json(obj: Any) -> str:
     """JSON with sorted keys and no whitespace: the text a key is taken over."""
-    return json.dumps(to_dict(obj), sort_keys=True, separators=(",", ":"), default=_json_default)
+    return json.dumps(to_dict(obj), sort_keys=True, separators=(",", ":"), default=json_default)
 
 
-def _json_default(obj: Any) -> Any:
+def json_default(obj: Any) -> Any:
+    """JSON for what `json.dumps` does not know: arrays and tensors, sets, paths."""
     if hasattr(obj, "tolist"):  # numpy arrays and scalars, torch tensors
         return obj.tolist()
     if isinstance(obj, (set, frozenset)):

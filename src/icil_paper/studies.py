@@ -152,16 +152,18 @@ def _train_and_measure_tokenizer(preset: Preset, spec: TokenizerStudySpec) -> di
 
 
 def tokenizer_study(preset: Preset, store: ResultsStore | None = None,
-                    force: bool = False) -> dict[str, dict]:
-    """Chapter 05: train every tokenizer alone on action trajectories and measure it."""
+                    force: bool = False) -> dict[str, list[dict]]:
+    """Chapter 05: train every tokenizer alone on action trajectories and measure it, once
+    per training seed; returns {label: [metrics of seed 0, seed 1, ...]}."""
     store = store or ResultsStore(preset.name)
-    records = {}
+    records: dict[str, list[dict]] = {}
     for label, config in tokenizer_runs(preset):
-        spec = study_spec(preset, config)
-        records[label] = store.run(
-            "tokenizer", label, to_dict(spec, keyed_only=True),
-            lambda spec=spec: _train_and_measure_tokenizer(preset, spec),
-            seed=spec.seed, force=force)["metrics"]
+        for s in range(preset.tokenizer_study.seeds):
+            spec = dataclasses.replace(study_spec(preset, config), seed=preset.seed + s)
+            records.setdefault(label, []).append(store.run(
+                "tokenizer", f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
+                lambda spec=spec: _train_and_measure_tokenizer(preset, spec),
+                seed=spec.seed, force=force)["metrics"])
     return records
 
 
@@ -177,7 +179,8 @@ def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict
 
     _, test, _ = tokenizer_trajectories(preset)
     actions = test[0][:VIEW_STEPS]
-    views = {label: np.asarray(m["latent_view"])[:len(actions)] for label, m in records.items()}
+    views = {label: np.asarray(m[0]["latent_view"])[:len(actions)]  # seed 0's tokenizers
+             for label, m in records.items()}
     title = (f"First {len(actions)} steps of one held-out trajectory in each latent space "
              "(principal components, each path scaled to unit extent; colour = time)")
     return record_latent_trajectories(
@@ -225,21 +228,25 @@ def _lipschitz_measurements(preset: Preset, spec: TokenizerStudySpec) -> dict:
                 tok.encoder, anchors, n_pairs=4000, radius=radius, seed=spec.seed,
                 ord=ord_value)
     metrics.update(reconstruction_errors(tok, test))
-    metrics.update({f"latent_{k}": v for k, v in smoothness(tok, test).items()})
+    metrics.update({k if k.startswith("latent") else f"latent_{k}": v
+                    for k, v in smoothness(tok, test).items()})
     return metrics
 
 
 def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
                     force: bool = False) -> dict[str, dict]:
-    """Chapter 03: train encoders with and without normalization; bounds vs empirical constants."""
+    """Chapter 03: train encoders with and without normalization; bounds vs empirical
+    constants, once per training seed; returns {label: [metrics of seed 0, 1, ...]}."""
     store = store or ResultsStore(preset.name)
-    records = {}
+    records: dict[str, list[dict]] = {}
     for label, config in lipschitz_models(preset):
-        spec = study_spec(preset, config, radii=LIPSCHITZ_RADII)
-        records[label] = store.run(
-            "lipschitz", label, to_dict(spec, keyed_only=True),
-            lambda spec=spec: _lipschitz_measurements(preset, spec),
-            seed=spec.seed, force=force)["metrics"]
+        for s in range(preset.tokenizer_study.seeds):
+            spec = dataclasses.replace(study_spec(preset, config, radii=LIPSCHITZ_RADII),
+                                       seed=preset.seed + s)
+            records.setdefault(label, []).append(store.run(
+                "lipschitz", f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
+                lambda spec=spec: _lipschitz_measurements(preset, spec),
+                seed=spec.seed, force=force)["metrics"])
     return records
 
 

@@ -145,10 +145,17 @@ def codebook_stats(tokenizer: ActionTokenizer, trajectories) -> dict[str, float 
             **codebook_usage(ids, tokenizer.codebook_size)}
 
 
-def smoothness(tokenizer: ActionTokenizer, trajectories) -> dict[str, float]:
+def smoothness(tokenizer: ActionTokenizer, trajectories) -> dict:
     """Smoothness of the embedding sequences (T, D) of `trajectories`: the mean raw and
-    standardized least energy and the latent scale sigma (`metrics.smoothness_summary`)."""
-    return smoothness_summary([out.embeddings[0] for _, out in _each(tokenizer, trajectories)])
+    standardized least energy, the latent scale sigma (`metrics.smoothness_summary`), and
+    both scores per trajectory (`..._per_trajectory`, for intervals)."""
+    from icil_paper.metrics import least_energy, standardized_least_energies
+
+    latents = [out.embeddings[0] for _, out in _each(tokenizer, trajectories)]
+    standardized, _ = standardized_least_energies(latents)
+    return {**smoothness_summary(latents),
+            "least_energy_per_trajectory": [least_energy(z) for z in latents],
+            "least_energy_standardized_per_trajectory": [float(x) for x in standardized]}
 
 
 def throughput(tokenizer: ActionTokenizer, actions: torch.Tensor, min_time: float = 0.5,

@@ -8,7 +8,7 @@
 # ---
 
 # %% [markdown]
-# # 1. ICRT: in-context imitation as next-token prediction
+# # 2. ICRT: in-context imitation as next-token prediction
 #
 # **What the paper claims (Sec. III-A).** The paper builds on ICRT (Fu et al. 2024): a causal
 # transformer reads a *prompt* (one full demonstration of the task) as interleaved
@@ -29,9 +29,24 @@
 # tokenizer) trained on one kitchen task and rolled out from a prompt demonstration.
 #
 # Two choices of ours, both ICRT's own (its code, see `icil_paper.policies.icrt`): the query
-# carries its own past actions too ($o_{q,1}, a_{q,1}, o_{q,2}, \dots$; `PolicyConfig.
+# carries its own past actions too ($o_{q,1}, a_{q,1}, o_{q,2}, \dots$; `ICRTConfig.
 # query_actions=False` gives Eq. 1 literally), and the head predicts a chunk of
 # `chunk_size` future actions at each query observation token.
+#
+# **ICRT (the paper's Fig. 2)**: prompt and query tokens in one causal sequence; the loss
+# is on the query's predicted actions only.
+#
+# ```text
+#  prompt: one demonstration of the task            query: the episode being played
+#  o_p1  a_p1  o_p2  a_p2  ...  o_pM  a_pM          o_q1  a_q1  o_q2  ...  o_qt
+#   |     |                                           |     |            |
+#   |     +- action tokenizer (MLP, Bin, FAST,        |     +- same      |
+#   |        VQ-VAE, LFQ-VAE or LipVQ-VAE), MLP       |                  |
+#   +- observation backbone (state MLP; ResNet-18 for images)            |
+#                          causal transformer (RMSNorm, RoPE, SwiGLU)
+#                                                                        |
+#                            MLP head at the query's observation tokens: a_t .. a_(t+K-1)
+# ```
 
 # %%
 import logging
@@ -41,6 +56,7 @@ import numpy as np
 from IPython.display import display
 from matplotlib.colors import ListedColormap
 
+from icil_paper.cells import load_trained
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
 from icil_paper.evaluate import record_rollout, rollout
@@ -51,25 +67,22 @@ from icil_paper.policies.transformer import causal_mask
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import seed_everything
 from icil_paper.sim import make_env
-from icil_paper.studies import (
-    ICRT_DEMO_TASK,
-    ICRT_DEMO_TOKENIZER,
-    icrt_rollout_study,
-    icrt_run_dir,
-)
-from icil_paper.train import cpu_threads, load_policy, tokenizer_options, train_policy
+from icil_paper.studies import ICRT_DEMO_TASK, ICRT_DEMO_TOKENIZER, icrt_rollout_study, icrt_specs
+from icil_paper.train.optim import cpu_threads
 from icil_paper.viewer import show_recording
 
 logging.getLogger("robosuite_logs").disabled = True  # robosuite's import-time chatter
 preset = get_preset()  # reads ICIL_PRESET
 TASK, TOKENIZER = ICRT_DEMO_TASK, ICRT_DEMO_TOKENIZER
 store = ResultsStore(preset.name)
-rng = seed_everything(preset.seed)
-demos = load_demos(ensure_demos(preset, TASK, "generated"))
+run, evaluation = icrt_specs(preset)  # the run spec (data, configs, training) and rollouts
+rng = seed_everything(run.seed)
+demos = load_demos(ensure_demos(preset, TASK, "generated", n=run.data.demos_per_task),
+                   limit=run.data.demos_per_task)
 print(f"preset {preset.name}: {len(demos)} demonstrations of {TASK}, "
       f"{min(len(d.actions) for d in demos)}-{max(len(d.actions) for d in demos)} steps; "
-      f"policy d_model={preset.policy.d_model}, {preset.policy.n_layer} layers, "
-      f"{preset.train.steps} training steps")
+      f"policy d_model={run.policy.d_model}, {run.policy.n_layer} layers, "
+      f"{run.train.steps} training steps; run key {run.key()}")
 
 # %% [markdown]
 # ## The token layout of a real batch
@@ -80,10 +93,7 @@ print(f"preset {preset.name}: {len(demos)} demonstrations of {TASK}, "
 # tokens (rotary positions count real tokens only).
 
 # %%
-policy = make_policy("icrt", obs_spec_from_obs(demos[0].obs), 7, preset.policy, tokenizer=TOKENIZER,
-                     query_len=preset.train.query_len,
-                     tokenizer_latent_dim=preset.tokenizer.latent_dim,
-                     tokenizer_options=tokenizer_options(TOKENIZER, preset.tokenizer))
+policy = make_policy(run.policy, obs_spec_from_obs(demos[0].obs), 7, run.tokenizer)
 data = policy.prepare(demos)
 batch = policy.sample_batch(data, 3, rng)
 roles = policy.token_roles(batch)
@@ -166,12 +176,13 @@ print(f"loss reaches {int((reached & sup).sum())} of {int(sup.sum())} supervised
 #
 # One run of the library's training loop (`train_policy`: AdamW, warm-up and cosine decay,
 # checkpoints in `runs/`), then `evaluate_policy`: rollouts from unseen initial scenes,
-# each with a prompt demonstration drawn from the generated data set. The record is stored
-# in the results store, so rebuilding the chapter only loads it.
+# each with a prompt demonstration drawn from the generated data set. Both records are
+# stored in the results store under the run's key, so rebuilding the chapter only loads
+# them.
 
 # %%
-run_dir = icrt_run_dir(preset)
-m = icrt_rollout_study(preset, store)  # trains and evaluates, or loads the stored record
+study = icrt_rollout_study(preset, store)  # trains and evaluates, or loads the stored records
+m = {**study["train"], **study["eval"], "train": study["train"]}
 
 fig, ax = plt.subplots(figsize=(6, 3))
 ax.plot(m["loss_steps"], m["loss"], label="total loss")
@@ -192,16 +203,13 @@ print(f"success {m['successes']}/{m['episodes']} = {m['success_rate']:.2f} "
 # if the folder is missing).
 
 # %%
-if (run_dir / "policy.pt").exists():
-    trained_policy = load_policy(run_dir)
-else:
-    trained_policy = train_policy(preset, "icrt", TOKENIZER, tasks=[TASK], run_dir=run_dir).policy
+trained_policy = load_trained(run, preset.name, store)
 # show a successful evaluation episode when there is one (replayed: same seed, same prompt)
 episode = next((e for e in m["per_episode"] if e["success"]), m["per_episode"][0])
 prompt = [demos[i] for i in episode["prompt"]]
 env = make_env(TASK, obs="state", seed=episode["seed"])
 with cpu_threads(1):  # as in the evaluation workers, so the replay matches the stored episode
-    trace = rollout(trained_policy, env, episode["seed"], prompt, preset.eval.max_steps,
+    trace = rollout(trained_policy, env, episode["seed"], prompt, evaluation.max_steps,
                     keep_trace=True)
 env.close()
 
@@ -230,18 +238,24 @@ print(f"episode {episode['episode']} (env seed {episode['seed']}): "
       f"{episode['steps']} steps)")
 
 # %% [markdown]
-# The same rollout as a rerun recording (`rerun <file>`): the end effector's path and the
-# object in 3-D, the actions, and the latent action tokens LipVQ-VAE made of them, on one
-# step timeline. Below, its static picture.
+# The same rollout as a rerun recording, in the embedded viewer: the end effector's path
+# and the object in 3-D, the actions, and the latent action tokens LipVQ-VAE made of them,
+# on one step timeline (the file is linked for download; the static picture shows where
+# the viewer cannot start).
 
 # %%
 recording = record_rollout(trained_policy, TASK, {"index": episode["episode"],
                                                   "seed": episode["seed"]},
-                           trace, results_root() / preset.name / "chapter01")
+                           trace, results_root() / preset.name / "icrt")
 display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}"))
 
 # %% [markdown]
 # ## What we found
+#
+# The sentences below are generated from this build's numbers. A success rate over a few
+# episodes of one task says little: the interval is wide, and the preset's training budget
+# was chosen for the whole book's run time, not for this task; chapter 6 compares the
+# policies properly.
 
 # %%
 paper = TABLE_I_ROBOCASA["icrt+lipvq"]["drawers"]
@@ -257,7 +271,7 @@ print(
     f"- On {TASK}, ICRT + LipVQ-VAE succeeded in {m['successes']} of {m['episodes']} rollouts "
     f"({m['success_rate']:.2f}, 95% CI {m['ci_low']:.2f}-{m['ci_high']:.2f}). The paper reports "
     f"{paper:.2f} on RoboCasa's drawer family after 500K iterations on MimicGen data; its number "
-    f"lies {held} our interval. Our task, data and training budget are stand-ins at a much "
-    f"smaller scale, so this chapter checks the mechanics, not the paper's number; the "
-    f"comparison of tokenizers is in the chapters that follow."
+    f"lies {held} our interval of {m['episodes']} episode(s). Our task, data and training "
+    f"budget are stand-ins at a much smaller scale, so this chapter checks the mechanics, not "
+    f"the paper's number."
 )

@@ -8,7 +8,7 @@
 # ---
 
 # %% [markdown]
-# # 3. Tasks and demonstrations
+# # 4. Tasks and demonstrations
 #
 # **What the paper uses.** Its simulation results come from two suites. On RoboCasa it
 # evaluates seven foundational skill families (pick and place, doors, drawers, levers, knobs,
@@ -192,9 +192,10 @@ plt.show()
 # %% [markdown]
 # ## Recordings
 #
-# Every shown task's demo 0 is recorded for the rerun viewer (`rerun <file>.rrd`: actions,
-# end-effector path, object position on a step timeline). Below, the static pictures of the
-# first few, which are what a reader without the viewer sees.
+# Every shown task's demo 0 is recorded (actions, end-effector path, object position on a
+# step timeline) and shown in the embedded rerun viewer: pick a task from its menu. Each
+# recording is linked for download (`rerun <file>` opens it in the desktop viewer); the
+# static picture shows where the viewer cannot start.
 
 # %%
 display(show_recordings({task: (entry["rrd"], entry["picture"])

@@ -8,7 +8,7 @@
 # ---
 
 # %% [markdown]
-# # 0. Your environment
+# # 1. Your environment
 #
 # Before anything is trained, this chapter checks the machine the book is built on: the
 # package versions that every result records, the hardware, whether the two simulators
@@ -30,22 +30,38 @@ print(format_report(report))
 # %% [markdown]
 # ## The active preset
 #
-# Every run stores this whole configuration with its result, together with its seed, the
-# git commit and the package versions above. The table lists the fields that differ most
-# between presets.
+# Every run stores the part of this configuration it reads with its result (its run spec,
+# whose content key names the result), together with its seed, the git commit and the
+# package versions above. Every field below can be changed from the command line with
+# `--set SECTION.FIELD=VALUE` (e.g. `--set train.steps=300`); the component sections hold
+# one config per tokenizer and per policy.
 
 # %%
+import dataclasses
+
 import pandas as pd
 
-rows = []
-for section in ("data", "tokenizer", "policy", "train", "eval"):
-    config = getattr(preset, section)
+
+def leaves(config, path):
+    """(path, value, docstring) of every leaf field of a config, nested ones expanded."""
     docs = field_docs(type(config))
-    for field, value in vars(config).items():
-        rows.append({"section": section, "field": field, "value": str(value),
-                     "meaning": docs.get(field, "")})
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if dataclasses.is_dataclass(value):
+            yield from leaves(value, f"{path}.{f.name}")
+        else:
+            yield f"{path}.{f.name}", value, docs.get(f.name, "")
+
+
+rows = [{"field": name, "value": str(value), "meaning": doc}
+        for section in ("data", "train", "eval", "tables", "tokenizer_study")
+        for name, value, doc in leaves(getattr(preset, section), section)]
+rows += [{"field": name, "value": str(value), "meaning": doc}
+         for name, value, doc in leaves(preset.policies.icrt, "policies.icrt")]
+rows += [{"field": name, "value": str(value), "meaning": doc}
+         for name, value, doc in leaves(preset.tokenizers.lipvq, "tokenizers.lipvq")]
 pd.set_option("display.max_colwidth", 90)
-pd.DataFrame(rows)
+pd.DataFrame(rows).set_index("field")
 
 # %% [markdown]
 # ## What works here

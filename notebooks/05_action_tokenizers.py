@@ -1,0 +1,234 @@
+# ---
+# jupyter:
+#   jupytext:
+#     formats: py:percent
+#   kernelspec:
+#     name: python3
+#     display_name: Python 3
+# ---
+
+# %% [markdown]
+# # 5. Action tokenizers on their own
+#
+# **What the paper claims (Sec. IV, Table III).** The action tokenizer decides how well
+# in-context imitation works, and smoother latent trajectories go with higher success.
+# Scored by the least energy of the latent trajectory (lower is smoother), the paper ranks
+# LipVQ-VAE smoothest (0.63), then LFQ-VAE, VQ-VAE, FAST, MLP, and Bin last.
+#
+# ## The tokenizers
+#
+# Each turns an action trajectory $(T, 7)$ into one embedding per step, the action tokens
+# the policy interleaves with its observation tokens (`icil_paper.tokenizers`, one file
+# each, built from one config dataclass each):
+#
+# - **MLP** (ICRT's own): an MLP embeds each action; the embedding is shaped by the policy's
+#   loss alone. **Lip-MLP** (Table IV) is the same MLP with every layer normalized by Eq. 4.
+# - **Bin** (RT-1): each action dimension is cut into 256 equal bins over its range in the
+#   training data; every (dimension, bin) pair has a learned embedding, and a step's 7
+#   embeddings are averaged into one token.
+# - **FAST** (Pertsch et al. 2025): a chunk of 8 actions is compressed with a discrete cosine
+#   transform over time, scaled by 10 and rounded, flattened frequency-major and encoded by
+#   byte-pair encoding (a vocabulary of 1024 fitted on our demonstrations; the paper
+#   fine-tunes FAST's DROID tokenizer, which cannot be downloaded here). Our per-step pooling
+#   is our own design: step $t$ is tokenized as the chunk of the 8 actions ending at $t$ and
+#   its tokens' embeddings (plus position embeddings) are averaged, so a step's token never
+#   sees later actions, which a causal policy requires.
+# - **VQ-VAE** (van den Oord et al. 2017): an MLP encoder, the nearest of $K$ codebook
+#   vectors, a decoder; the codebook and commitment losses keep codes and encoder together,
+#   and a straight-through estimator carries gradients past the quantizer.
+# - **LFQ-VAE** (MAGVIT-v2): lookup-free quantization: the encoder outputs $\log_2 K$ numbers
+#   and each is replaced by its sign, so the code is a bit pattern; an entropy loss spreads
+#   the codes. (The official code's "LFQ-VAE" only L2-normalizes the encoder output; ours is
+#   the method the paper cites.)
+# - **LipVQ-VAE** (the paper): a VQ-VAE whose every encoder layer is normalized by Eq. 4,
+#   with the $10^{-6}$ Lipschitz term of Eq. 5 ({doc}`chapter 3 <03_lipschitz_normalization>`
+#   draws it). The official code's variant (`lipvq-official` below) normalizes only the last
+#   layer, with a sigmoid output and no straight-through estimator.
+#
+# ## What this chapter measures
+#
+# In the paper every tokenizer is trained jointly with the policy (that is Table III, in
+# {doc}`chapter 8 <08_smoothness>`); here each is trained on its own, as an autoencoder of
+# action trajectories, to isolate the tokenizer: reconstruction error, codebook usage and
+# perplexity, tokens per step, encode / decode throughput on CPU, and two smoothness scores
+# of the embeddings a policy would consume:
+#
+# - `least_energy`, the paper's score, $\sum_t \|z_{t+2} - 2 z_{t+1} + z_t\|^2$. It grows with
+#   the square of the latent scale, so a tokenizer with small latents scores low whatever
+#   the shape of its curve;
+# - `least_energy_standardized`, the same on $z / \sigma$, where $\sigma$ is the standard
+#   deviation of the latents over the held-out set: multiplying every latent by a constant
+#   leaves it unchanged, and it still separates a curve that jumps once from one that jumps
+#   three times.
+#
+# Each tokenizer is trained with the preset's number of seeds; every number below is the
+# mean over seeds and held-out trajectories with a bootstrap 95% interval. The action
+# trajectories are the preset's `generated` demonstrations of every kitchen and ManiSkill
+# task ({doc}`chapter 4 <04_tasks_and_demonstrations>`: our scripted experts on randomized
+# scenes, the stand-in for MimicGen data), with a fifth of each task's demos held out for
+# the metrics (`icil_paper.studies.tokenizer_trajectories`).
+
+# %%
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from IPython.display import display
+
+from icil_paper import stats
+from icil_paper.config import get_preset
+from icil_paper.metrics import ascending, rank_correlation
+from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
+from icil_paper.results import ResultsStore
+from icil_paper.studies import tokenizer_latent_recording, tokenizer_study
+from icil_paper.tokenizers import TOKENIZERS
+from icil_paper.viewer import show_recording
+
+preset = get_preset()  # reads ICIL_PRESET
+store = ResultsStore(preset.name)
+SMOOTHNESS = {k.split("+")[1]: v for k, v in TABLE_III_SMOOTHNESS.items()}  # the paper's
+
+# %%
+records = tokenizer_study(preset, store)  # {label: [metrics per seed]}; trains what is missing
+n_seeds = len(next(iter(records.values())))
+
+
+def mean(label, key):
+    values = [m[key] for m in records[label] if m[key] is not None]
+    return float(np.mean(values)) if values else None
+
+
+def scores(label, key):
+    """(seeds, trajectories) per-trajectory scores of one tokenizer."""
+    return np.array([m[f"{key}_per_trajectory"] for m in records[label]])
+
+
+def with_interval(label, key, digits=3):
+    est = stats.score_mean(scores(label, key))
+    return f"{est.value:.{digits}g} [{est.low:.{digits}g}, {est.high:.{digits}g}]"
+
+
+print(f"{len(records)} tokenizers, {n_seeds} training seed(s) each")
+
+# %% [markdown]
+# ## The table
+#
+# `recon MSE` is the tokenizer's own reconstruction (decoder; bin centres for `bin`, inverse
+# DCT for `fast`); `decode MSE` decodes the embeddings (a learned head for `bin` and `fast`).
+# Usage is the share of the codebook seen on held-out trajectories, perplexity the number of
+# equally used codes with the same entropy. Throughput is per CPU core (one torch thread).
+# The paper's least energy is shown beside ours; it was measured on RoboCasa latents of
+# policies trained jointly, so only the ranking is comparable.
+#
+# Three rows are not the paper's tokenizers: `lipvq-official` is the official code's variant,
+# and `vq-data-init` / `lipvq-data-init` start their codebooks from encoder outputs instead
+# of VQ-VAE's uniform $(-1/K, 1/K)$ initialisation. A VQ tokenizer whose trajectory stays
+# on one code has zero least energy whatever its encoder does, so these two rows tell
+# whether a low score comes from the Lipschitz bound or from codebook collapse.
+
+# %%
+rows = []
+for label in records:
+    rows.append({
+        "tokenizer": label,
+        "recon MSE": mean(label, "reconstruction_mse"),
+        "decode MSE": mean(label, "decode_mse"),
+        "codebook": mean(label, "codebook_size"),
+        "usage": mean(label, "usage"),
+        "perplexity": mean(label, "perplexity"),
+        "tokens/step": mean(label, "tokens_per_step"),
+        "encode act/s": mean(label, "encode_actions_per_s"),
+        "least energy": with_interval(label, "least_energy"),
+        "standardized": with_interval(label, "least_energy_standardized"),
+        "latent scale σ": mean(label, "latent_scale"),
+        "paper least energy": SMOOTHNESS.get(label),
+    })
+table = pd.DataFrame(rows).set_index("tokenizer")
+formats = {"codebook": "{:,.0f}", "usage": "{:.1%}", "perplexity": "{:.1f}",
+           "tokens/step": "{:.2f}", "encode act/s": "{:,.0f}", "latent scale σ": "{:.3g}",
+           "recon MSE": "{:.3g}", "decode MSE": "{:.3g}", "paper least energy": "{:.2f}"}
+display(table.style.format(formats, na_rep="-"))
+
+# %%
+score_keys = ["least_energy", "least_energy_standardized"]
+labels = list(records)
+fig, axes = plt.subplots(1, 3, figsize=(14, 3.6))
+for ax, key in zip(axes[:2], score_keys, strict=True):
+    ests = [stats.score_mean(scores(k, key)) for k in labels]
+    ax.bar(range(len(labels)), [e.value for e in ests],
+           yerr=[[e.value - e.low for e in ests], [e.high - e.value for e in ests]], capsize=3,
+           color=["C3" if k == "lipvq" else "C0" for k in labels])
+    ax.set_xticks(range(len(labels)), labels, rotation=60)
+    ax.set_yscale("log")
+    ax.set_title(key.replace("_", " ") + " (ours, lower is smoother)")
+paper_labels = [k for k in labels if k in SMOOTHNESS]
+axes[2].bar(range(len(paper_labels)), [SMOOTHNESS[k] for k in paper_labels], color="C7")
+axes[2].set_xticks(range(len(paper_labels)), paper_labels, rotation=60)
+axes[2].set_title("least energy (the paper, Table III)")
+plt.tight_layout()
+
+# %% [markdown]
+# ## Latent trajectories
+#
+# The same held-out trajectory through every latent space, in principal components (each
+# path scaled to unit extent, so shapes compare and scales do not). The rerun recording
+# holds the 3-D paths side by side, with a point moving along each one step by step beside
+# the action curves, in the embedded viewer (the file is linked for download; the static
+# picture shows where the viewer cannot start). Seed 0's tokenizers.
+
+# %%
+latent_recording = tokenizer_latent_recording(preset, records)
+display(show_recording(latent_recording["rrd"], latent_recording["png"],
+                       label="latent trajectories"))
+
+# %% [markdown]
+# ## What we found
+#
+# Generated from the numbers above. "Smoother" is decided by the paired difference of the
+# two tokenizers' mean scores over the same held-out trajectories (seeds resampled too):
+# it holds when the whole 95% interval lies below 0.
+
+# %%
+paper_names = [k for k in TOKENIZERS if k in SMOOTHNESS]
+lines = [f"Paper's smoothness ranking (smoothest first): {', '.join(ascending(SMOOTHNESS))}."]
+for key in score_keys:
+    ours = {k: float(scores(k, key).mean()) for k in paper_names}
+    lines.append(f"Our {key.replace('_', ' ')} ranking: {', '.join(ascending(ours))}; rank "
+                 f"correlation with the paper's {rank_correlation(ours, SMOOTHNESS):+.2f}.")
+
+
+def compare(a, b, key):
+    est = stats.paired_score_difference(scores(a, key), scores(b, key))
+    verdict = stats.verdict(est, direction=-1)
+    words = {"holds": "smoother", "does not hold": "less smooth",
+             "inconclusive": "not distinguishable (the interval contains 0)"}[verdict]
+    return (f"{a} minus {b} on {key.replace('_', ' ')}: {est.value:+.4g} "
+            f"[{est.low:+.4g}, {est.high:+.4g}]: {a} is {words}")
+
+
+for key in score_keys:
+    lines.append("LipVQ-VAE against VQ-VAE (the Lipschitz constraint alone): "
+                 + compare("lipvq", "vq", key) + ".")
+    lines.append("With codebooks initialised from encoder outputs: "
+                 + compare("lipvq-data-init", "vq-data-init", key) + ".")
+lines.append(f"Latent scale σ: LipVQ-VAE {mean('lipvq', 'latent_scale'):.3g}, VQ-VAE "
+             f"{mean('vq', 'latent_scale'):.3g}; the raw least energy scales with σ².")
+low_usage = [k for k in records if mean(k, "usage") is not None and mean(k, "usage") < 0.1]
+if low_usage:
+    lines.append("Codebook collapse (under 10% of codes used on held-out data, mean over "
+                 "seeds): " + ", ".join(f"{k} ({mean(k, 'codes_used'):.0f} of "
+                                        f"{mean(k, 'codebook_size'):.0f})" for k in low_usage)
+                 + ".")
+lines.append(
+    f"The official code's LipVQ variant (sigmoid output, no straight-through) uses "
+    f"{mean('lipvq-official', 'codes_used'):.0f} code(s) and reconstructs with MSE "
+    f"{mean('lipvq-official', 'reconstruction_mse'):.4g}, against "
+    f"{mean('lipvq', 'codes_used'):.0f} codes and {mean('lipvq', 'reconstruction_mse'):.4g} "
+    "for the paper's.")
+rates = {k: mean(k, "encode_decode_actions_per_s") for k in records}
+fastest, slowest = max(rates, key=rates.get), min(rates, key=rates.get)
+lines.append(
+    f"Throughput (encode + decode, one core): from {rates[slowest]:,.0f} actions/s ({slowest}) "
+    f"to {rates[fastest]:,.0f} ({fastest}). FAST emits {mean('fast', 'tokens_per_step'):.2f} "
+    f"tokens per step, bin {mean('bin', 'tokens_per_step'):.0f}, the others one embedding "
+    "per step.")
+print("\n\n".join(lines))

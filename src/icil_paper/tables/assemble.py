@@ -1,0 +1,182 @@
+"""From stored records to a table of numbers with intervals.
+
+    result = assemble(table_spec(preset, "I"), ResultsStore(preset.name))
+    result.estimate("icrt+lipvq", "avg")        # Estimate(value, low, high, n, method) or None
+    result.outcomes("icrt+lipvq", "avg")        # bools (seeds, tasks, episodes)
+    result.frame()                              # a DataFrame: ours, 95% interval, the paper's
+    result.markdown()
+
+A success cell's outcomes are one bool per evaluation episode, shaped (seeds, tasks,
+episodes); its estimate is `stats.success_rate` (Wilson for one seed and task, else a
+stratified or hierarchical bootstrap). A smoothness cell's scores are the per-trajectory
+least energies of the held-out trajectories, (seeds, trajectories); its estimate is their
+mean with a bootstrap interval. A cell with a unit whose record is missing has no estimate
+(shown as "not run"); `missing` counts those units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from icil_paper.results import ResultsStore
+from icil_paper.stats import Estimate, score_mean, success_rate
+from icil_paper.tables.execute import eval_record, feature_record
+from icil_paper.tables.spec import Cell, TableSpec
+
+
+@dataclass
+class CellResult:
+    """What one cell of a table holds once its records are read."""
+
+    estimate: Estimate | None
+    """The number and its 95% interval (None while a unit has no record)."""
+    data: np.ndarray | None
+    """Success: bools (seeds, tasks, episodes); smoothness: scores (seeds, trajectories)."""
+    missing: int
+    """Units without a record."""
+    extra: dict[str, Any] = field(default_factory=dict)
+    """Smoothness cells: the standardized scores (and their estimate), the latent scale, the
+    Fig. 4 view and every feature record's metrics, per seed."""
+
+
+def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
+    by_seed: dict[int, list[list[bool]]] = {}
+    missing = 0
+    for unit in cell.units:
+        record = eval_record(store, unit.run, unit.eval)
+        if record is None:
+            missing += 1
+            continue
+        by_seed.setdefault(unit.seed_index, []).append(
+            [bool(e["success"]) for e in record["metrics"]["per_episode"]])
+    if missing or not by_seed:
+        return CellResult(None, None, missing or len(cell.units))
+    data = np.array([by_seed[s] for s in sorted(by_seed)], dtype=bool)  # (S, T, E)
+    return CellResult(success_rate(data), data, 0)
+
+
+def _smoothness_cell(cell: Cell, store: ResultsStore) -> CellResult:
+    raw, standardized, scale, view, per_seed = [], [], [], [], []
+    missing = 0
+    for unit in sorted(cell.units, key=lambda u: u.seed_index):
+        record = feature_record(store, unit.run, unit.features)
+        if record is None:
+            missing += 1
+            continue
+        m = record["metrics"]
+        raw.append(m["least_energy_per_trajectory"])
+        standardized.append(m["least_energy_standardized_per_trajectory"])
+        scale.append(m["latent_scale"])
+        view.append(m["view"])
+        per_seed.append(m)
+    if missing or not raw:
+        return CellResult(None, None, missing or len(cell.units))
+    data = np.array(raw, dtype=np.float64)
+    std = np.array(standardized, dtype=np.float64)
+    return CellResult(score_mean(data), data, 0,
+                      {"standardized": std, "standardized_estimate": score_mean(std),
+                       "latent_scale": scale, "view": view, "metrics": per_seed})
+
+
+@dataclass
+class TableResult:
+    """A table's cells read from a results store."""
+
+    spec: TableSpec
+    cells: dict[tuple[str, str], CellResult]
+    """(row label, column) -> CellResult."""
+    preset: str
+    """The preset whose records these are."""
+
+    def cell(self, row: str, column: str) -> CellResult | None:
+        return self.cells.get((row, column))
+
+    def estimate(self, row: str, column: str = "avg") -> Estimate | None:
+        cell = self.cell(row, column)
+        return cell.estimate if cell else None
+
+    def outcomes(self, row: str, column: str = "avg") -> np.ndarray | None:
+        cell = self.cell(row, column)
+        return cell.data if cell else None
+
+    @property
+    def complete(self) -> bool:
+        return all(c.estimate is not None for c in self.cells.values())
+
+    @property
+    def missing(self) -> int:
+        return sum(c.missing for c in self.cells.values())
+
+    def frame(self, paper: bool = True):
+        """A long DataFrame: row, column, ours, low, high, n, paper (the paper's number)."""
+        import pandas as pd
+
+        rows = []
+        for row in self.spec.rows:
+            for column in self.spec.columns:
+                cell = self.cells.get((row.label, column))
+                est = cell.estimate if cell else None
+                rows.append({"row": row.label, "column": column,
+                             "ours": est.value if est else None,
+                             "low": est.low if est else None,
+                             "high": est.high if est else None,
+                             "n": est.n if est else None,
+                             "status": ("n/a" if cell is None else
+                                        "ok" if est else "not run"),
+                             **({"paper": row.paper.get(column)} if paper else {})})
+        return pd.DataFrame(rows)
+
+    def wide(self, digits: int = 2, paper: bool = True):
+        """One row per table row: each column as `ours [low, high]`, the paper's beside it."""
+        import pandas as pd
+
+        out = []
+        for row in self.spec.rows:
+            line = {"": row.label}
+            for column in self.spec.columns:
+                cell = self.cells.get((row.label, column))
+                line[column] = format_cell(cell, digits)
+                if paper:
+                    value = row.paper.get(column)
+                    places = digits + 1 if column == "avg" else digits  # as the paper prints
+                    line[f"{column} (paper)"] = "" if value is None else f"{value:.{places}f}"
+            out.append(line)
+        return pd.DataFrame(out).set_index("")
+
+    def markdown(self, digits: int = 2, paper: bool = True) -> str:
+        """The wide table as a GitHub-flavoured markdown table."""
+        wide = self.wide(digits, paper)
+        header = ["", *wide.columns]
+        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+        for label, values in wide.iterrows():
+            lines.append("| " + " | ".join([str(label), *map(str, values)]) + " |")
+        return "\n".join(lines)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"table": self.spec.id, "title": self.spec.title, "preset": self.preset,
+                "measure": self.spec.measure, "columns": list(self.spec.columns),
+                "rows": [{"row": row.label, "paper": dict(row.paper), "cells": {
+                    column: (None if (c := self.cells.get((row.label, column))) is None
+                             or c.estimate is None else c.estimate.to_dict())
+                    for column in self.spec.columns}} for row in self.spec.rows]}
+
+
+def format_cell(cell: CellResult | None, digits: int = 2) -> str:
+    """`0.53 [0.41, 0.64]`, `not run` or `n/a`."""
+    if cell is None:
+        return "n/a"
+    est = cell.estimate
+    if est is None:
+        return "not run"
+    return f"{est.value:.{digits}f} [{est.low:.{digits}f}, {est.high:.{digits}f}]"
+
+
+def assemble(spec: TableSpec, store: ResultsStore) -> TableResult:
+    """Read every cell of `spec` from `store` (nothing is computed)."""
+    cells = {(row.label, column): (_smoothness_cell if cell.units[0].features is not None
+                                   else _success_cell)(cell, store)
+             for row in spec.rows for column, cell in row.cells.items()}
+    return TableResult(spec, cells, store.preset)

@@ -1,0 +1,244 @@
+"""What the table chapters show: the paper, the reference run and this build, side by side.
+
+    results = load_table(preset, "I")               # {"this build": ..., "reference": ...}
+    compare_frame(results, "avg")                   # rows x (paper, reference, this build)
+    success_figure(results, "avg")                  # bars with 95% intervals, the paper's marks
+    verdicts(preset, "I")                           # the ledger's sentences, in Markdown
+
+`load_table` computes what this build's results store lacks (through the same function
+`icil-paper reproduce` calls, so after `make reproduce` it only loads) and reads the
+reference run's committed records (`results/reference/`) without computing anything: a
+reference cell that is not there yet shows as "not run", and a committed record whose key
+the current code no longer computes is listed as stale (`stale_records`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from icil_paper.config import Preset, get_preset
+from icil_paper.results import ResultsStore
+from icil_paper.tables.assemble import TableResult, assemble, format_cell
+from icil_paper.tables.definitions import table_spec
+
+REFERENCE = "reference"
+BUILD = "this build"
+
+
+def load_table(preset: Preset, table_id: str, compute: bool = True,
+               progress: bool = True) -> dict[str, TableResult]:
+    """{"reference": ..., "this build": ...} for one table (one entry when the build is the
+    reference preset itself)."""
+    from icil_paper.tables.execute import run_tables
+
+    if compute:
+        run_tables(preset, [table_id], progress=progress)
+    results = {}
+    if preset.name != REFERENCE:
+        ref = get_preset(REFERENCE)
+        results[REFERENCE] = assemble(table_spec(ref, table_id), ResultsStore(REFERENCE))
+    results[BUILD] = assemble(table_spec(preset, table_id), ResultsStore(preset.name))
+    return results
+
+
+def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: int = 3):
+    """Rows x (paper, reference, this build) for one column, as `value [low, high]`."""
+    import pandas as pd
+
+    any_result = next(iter(results.values()))
+    out = []
+    for row in any_result.spec.rows:
+        line: dict[str, Any] = {"": row.label}
+        value = row.paper.get(column)
+        line["paper"] = "" if value is None else f"{value:.{digits}f}"
+        for source, result in results.items():
+            line[f"{source} ({result.preset})"] = format_cell(result.cell(row.label, column),
+                                                              digits)
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
+def success_figure(results: dict[str, TableResult], column: str = "avg", title: str = "",
+                   ylabel: str = "success rate"):
+    """Grouped bars per row: each source's estimate with its 95% interval; the paper's
+    number as a black mark."""
+    import matplotlib.pyplot as plt
+
+    spec = next(iter(results.values())).spec
+    labels = [r.label for r in spec.rows]
+    fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(labels) + 2), 3.6))
+    width = 0.8 / max(1, len(results))
+    x = np.arange(len(labels))
+    for k, (source, result) in enumerate(results.items()):
+        vals, lo, hi = [], [], []
+        for label in labels:
+            est = result.estimate(label, column)
+            vals.append(est.value if est else np.nan)
+            lo.append(est.value - est.low if est else 0.0)
+            hi.append(est.high - est.value if est else 0.0)
+        ax.bar(x + (k - (len(results) - 1) / 2) * width, vals, width, yerr=[lo, hi], capsize=3,
+               label=f"{source} ({result.preset})", alpha=0.85)
+    paper = [next(r for r in spec.rows if r.label == label).paper.get(column) for label in labels]
+    if any(p is not None for p in paper):
+        ax.scatter(x, [np.nan if p is None else p for p in paper], marker="_", s=400,
+                   color="black", zorder=5, label="the paper")
+    ax.set_xticks(x, labels, rotation=30, ha="right")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title or f"Table {spec.id}, {column}")
+    ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    return fig
+
+
+def verdicts(preset: Preset, table_id: str) -> str:
+    """The claims ledger's sentences about one table, for the reference run and this build,
+    as Markdown (generated from the numbers, never written by hand)."""
+    from icil_paper.tables.claims import claims_ledger, sentence
+
+    sources = [(BUILD, preset)]
+    if preset.name != REFERENCE:
+        sources.insert(0, (REFERENCE, get_preset(REFERENCE)))
+    lines = []
+    for source, p in sources:
+        entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e["table"] == table_id]
+        if not entries:
+            continue
+        lines.append(f"**{source} ({p.name})**\n")
+        lines += [f"- *{e['claim']}* {sentence(e)}" for e in entries]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def stale_records(preset_name: str = REFERENCE) -> list[str]:
+    """Records in `results/<preset>/` (train, eval, features) whose key no current cell of
+    any table computes: results of an older version of the code or presets."""
+    from icil_paper.runspec import eval_key
+    from icil_paper.tables.definitions import TABLES
+    from icil_paper.tables.execute import feature_key, plan
+
+    preset = get_preset(preset_name)
+    keys = set()
+    for p in plan([table_spec(preset, t) for t in TABLES]):
+        keys.add(p.run.key())
+        keys.update(eval_key(p.run, ev) for ev in p.evals.values())
+        keys.update(feature_key(p.run, f) for f in p.features.values())
+    store = ResultsStore(preset_name)
+    return sorted(f"{r['kind']}/{r['name']}" for kind in ("train", "eval", "features")
+                  for r in store.records(kind) if r["config_hash"] not in keys)
+
+
+def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
+    """Point values only (rows x columns), compact enough for the wide family tables; with
+    `paper`, the paper's numbers instead of ours."""
+    import pandas as pd
+
+    out = []
+    for row in result.spec.rows:
+        line: dict[str, Any] = {"": row.label}
+        for column in result.spec.columns:
+            if paper:
+                value = row.paper.get(column)
+            else:
+                cell = result.cell(row.label, column)
+                if cell is None or cell.estimate is None:
+                    line[column] = "n/a" if cell is None else "not run"
+                    continue
+                value = cell.estimate.value
+            line[column] = "" if value is None else round(float(value), digits)
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
+def smoothness_success_figure(smooth: dict[str, TableResult], success: dict[str, TableResult],
+                              standardized: bool = False):
+    """Fig. 1: least energy (Table III) against average success (Table I) of the six ICRT
+    tokenizers, with 95% intervals on both axes; the paper's points beside ours (the paper's
+    on its own axis, since the scales differ)."""
+    import matplotlib.pyplot as plt
+
+    from icil_paper import paper_numbers as paper
+
+    rows = [r.label for r in next(iter(smooth.values())).spec.rows]
+    n = len(smooth) + 1
+    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.6))
+    for ax, (source, result) in zip(axes, smooth.items(), strict=False):
+        for label in rows:
+            cell = result.cell(label, "least_energy")
+            s_est = (cell.extra.get("standardized_estimate") if cell and standardized
+                     else cell.estimate if cell else None)
+            y_est = success[source].estimate(label, "avg")
+            if s_est is None or y_est is None:
+                continue
+            ax.errorbar(s_est.value, y_est.value,
+                        xerr=[[s_est.value - s_est.low], [s_est.high - s_est.value]],
+                        yerr=[[y_est.value - y_est.low], [y_est.high - y_est.value]],
+                        fmt="o", capsize=3)
+            ax.annotate(label.split("+")[1], (s_est.value, y_est.value), fontsize=8,
+                        xytext=(4, 4), textcoords="offset points")
+        ax.set_xlabel(("standardized " if standardized else "") + "least energy (lower: smoother)")
+        ax.set_ylabel("average success")
+        ax.set_title(f"{source} ({result.preset})")
+    ax = axes[-1]
+    for label in rows:
+        x, y = paper.TABLE_III_SMOOTHNESS[label], paper.TABLE_I_ROBOCASA[label]["avg"]
+        ax.scatter(x, y, color="black")
+        ax.annotate(label.split("+")[1], (x, y), fontsize=8, xytext=(4, 4),
+                    textcoords="offset points")
+    ax.set_xlabel("least energy (the paper)")
+    ax.set_ylabel("average success (the paper)")
+    ax.set_title("the paper (Table III vs Table I)")
+    fig.tight_layout()
+    return fig
+
+
+def tsne_paths(smooth: TableResult, seed: int = 0) -> dict[str, np.ndarray]:
+    """Fig. 4: each tokenizer's latents of the first steps of one held-out trajectory,
+    projected to 2-D by t-SNE (scikit-learn), {row label: (steps, 2)} (seed 0's policy)."""
+    from sklearn.manifold import TSNE
+
+    paths = {}
+    for row in smooth.spec.rows:
+        cell = smooth.cell(row.label, "least_energy")
+        if cell is None or cell.estimate is None:
+            continue
+        z = np.asarray(cell.extra["view"][0], dtype=np.float64)  # (steps, D)
+        z = z + 1e-9 * np.random.default_rng(seed).standard_normal(z.shape)  # ties in codes
+        perplexity = max(1.0, min(5.0, (len(z) - 1) / 3))
+        paths[row.label] = TSNE(n_components=2, perplexity=perplexity, init="pca",
+                                random_state=seed).fit_transform(z)
+    return paths
+
+
+def ledger_frame(ledger: list[dict[str, Any]]):
+    """The claims ledger as a table: id, table, the paper, ours [95% interval], verdict."""
+    import pandas as pd
+
+    rows = []
+    for e in ledger:
+        ours = ("" if e["ours"] is None else
+                f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]")
+        rows.append({"claim": e["id"], "table": e["table"], "quantity": e["quantity"],
+                     "paper": f"{e['paper']:+.3f}", "ours": ours, "verdict": e["verdict"]})
+    return pd.DataFrame(rows).set_index("claim")
+
+
+def difference_sentence(results: dict[str, TableResult], a: str, b: str,
+                        column: str = "avg", direction: int = +1) -> str:
+    """`a` minus `b` on the same episodes, with its paired interval and the verdict on
+    "a is higher" (direction +1) for each source, in Markdown."""
+    from icil_paper import stats
+
+    lines = []
+    for source, result in results.items():
+        xa, xb = result.outcomes(a, column), result.outcomes(b, column)
+        if xa is None or xb is None:
+            lines.append(f"- {source} ({result.preset}): not run yet.")
+            continue
+        est = stats.paired_difference(xa, xb)
+        claimed = "higher" if direction > 0 else "lower"
+        lines.append(f"- {source} ({result.preset}): '{a}' minus '{b}' = {est.value:+.3f} "
+                     f"[{est.low:+.3f}, {est.high:+.3f}]; '{a}' is {claimed}: "
+                     f"{stats.verdict(est, direction)}.")
+    return "\n".join(lines)

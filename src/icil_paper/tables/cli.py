@@ -1,0 +1,74 @@
+"""`icil-paper tables`: print the paper's tables from the results store (nothing is computed).
+
+    icil-paper tables --preset reference                  # every table, markdown
+    icil-paper tables --table I IV --format csv
+    icil-paper tables --claims                            # the claims ledger
+    icil-paper tables --format json > tables.json
+
+Cells whose records are missing print as `not run`; `icil-paper reproduce --stages tables`
+computes them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from icil_paper.cli import add_preset_arguments, preset_from_args
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from icil_paper.tables.definitions import TABLES
+
+    p = argparse.ArgumentParser(prog="icil-paper tables", description=__doc__.split("\n\n")[0])
+    add_preset_arguments(p)
+    p.add_argument("--table", nargs="+", default=None, metavar="ID",
+                   help=f"tables to print (default: all): {', '.join(TABLES)}")
+    p.add_argument("--format", choices=("md", "csv", "json"), default="md",
+                   help="markdown (default), CSV (one line per cell) or JSON")
+    p.add_argument("--claims", action="store_true", help="print the claims ledger instead")
+    p.add_argument("--no-paper", action="store_true", help="leave out the paper's numbers")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    from icil_paper.registry import check_name
+    from icil_paper.results import ResultsStore
+    from icil_paper.tables.assemble import assemble
+    from icil_paper.tables.claims import claims_ledger, sentence
+    from icil_paper.tables.definitions import TABLES, table_spec
+
+    args = build_parser().parse_args(argv)
+    preset = preset_from_args(args)
+    store = ResultsStore(preset.name)
+    if args.claims:
+        ledger = claims_ledger(preset, store)
+        if args.format == "json":
+            print(json.dumps(ledger, indent=2))
+        else:
+            for entry in ledger:
+                print(f"[{entry['verdict']}] {entry['id']} (Table {entry['table']}): "
+                      f"{sentence(entry)}")
+        return 0
+    ids = [check_name("table", t, TABLES) for t in (args.table or TABLES)]
+    results = [assemble(table_spec(preset, t), store) for t in ids]
+    if args.format == "json":
+        print(json.dumps([r.to_json() for r in results], indent=2))
+        return 0
+    for result in results:
+        spec = result.spec
+        if args.format == "csv":
+            frame = result.frame(paper=not args.no_paper)
+            frame.insert(0, "table", spec.id)
+            print(frame.to_csv(index=False), end="")
+            continue
+        status = "complete" if result.complete else f"{result.missing} unit(s) not run"
+        print(f"## Table {spec.id}: {spec.title} [{preset.name}; {status}]\n")
+        print(result.markdown(paper=not args.no_paper))
+        print(f"\n{spec.note}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

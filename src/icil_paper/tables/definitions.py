@@ -1,0 +1,315 @@
+"""Every table and figure of the paper's Sec. IV as a `TableSpec`, built from a preset.
+
+Numbering follows the paper's source: Table I RoboCasa (our kitchen suite), II ManiSkill,
+III smoothness, IV Lipschitz ablation, V sim-to-real (our perturbed Kinova3 stand-in),
+VI cross-dataset (MimicGen -> human: our generated -> human-like sources), VII zero-shot;
+Fig. 5 codebook size; and a prompt ablation of our own (does the prompt carry the task?).
+
+Shared cells: Tables III, IV, V, VI and the prompt ablation reuse Table I's trained
+policies (the same RunSpecs), Fig. 5 reuses Table I's LipVQ-VAE run at the preset's
+codebook size, so each policy is trained once. Every row is evaluated on the same episodes
+(the same evaluation seed), so two rows can be compared episode by episode.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+
+from icil_paper import paper_numbers as paper
+from icil_paper.config import Preset
+from icil_paper.runspec import DataSpec, EvalSpec, RunSpec, eval_spec, run_spec
+from icil_paper.tables.spec import Cell, FeatureSpec, Row, TableSpec, Unit
+
+FAMILY_COLUMNS = paper.FAMILIES
+"""The seven skill families (columns of Tables I, VI, VII) in the paper's order."""
+
+TABLE_I_ROWS = (("mcr", None), ("act", None), ("bc_transformer", None), ("icrt", "mlp"),
+                ("icrt", "bin"), ("icrt", "fast"), ("icrt", "vq"), ("icrt", "lfq"),
+                ("icrt", "lipvq"))
+"""(policy, tokenizer) of Table I's rows, in the paper's order."""
+
+TABLE_II_ROWS = (("mcr", None), ("act", None), ("bc_transformer", None), ("act", "bin"),
+                 ("act", "fast"), ("act", "vq"), ("act", "lfq"), ("act", "lipvq"))
+"""Table II: ACT's CVAE action encoder replaced by each tokenizer."""
+
+ICRT_TOKENIZERS = ("mlp", "bin", "fast", "vq", "lfq", "lipvq")
+TABLE_IV_ROWS = (("icrt", "mlp"), ("icrt", "lip-mlp"), ("icrt", "vq"), ("icrt", "lipvq"))
+TABLE_V_ROWS = (("bc_transformer", None), ("icrt", "bin"), ("icrt", "lipvq"))
+MANISKILL_COLUMNS = ("pick_cube", "push_cube", "stack_cube")
+
+
+def label(policy: str, tokenizer: str | None) -> str:
+    return f"{policy}+{tokenizer}" if tokenizer else policy
+
+
+def families(tasks: Sequence[str]) -> dict[str, list[str]]:
+    """Paper column -> our kitchen tasks of that skill family (kept in `tasks`' order)."""
+    from icil_paper.sim.kitchen.tasks import FAMILIES, TASK_FAMILIES
+
+    out = {}
+    for column, family in zip(FAMILY_COLUMNS, FAMILIES, strict=True):
+        out[column] = [t for t in tasks if t in TASK_FAMILIES[family]]
+    return out
+
+
+# --------------------------------------------------------------------------- building blocks
+def _runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str], seeds: int) -> list[RunSpec]:
+    """One RunSpec per training seed (preset.seed, preset.seed + 1, ...)."""
+    base = run_spec(preset, policy, tokenizer, tasks=tasks)
+    if policy == "mcr":  # image observations; fewer demonstrations (rendering is costly)
+        suite = tasks[0].split("/", 1)[0]
+        obs = "rgbd" if suite == "maniskill" else "rgb"
+        base = base.replace(data=dataclasses.replace(
+            base.data, obs=obs, demos_per_task=preset.tables.image_demos_per_task))
+    return [base.replace(seed=preset.seed + s) for s in range(seeds)]
+
+
+def _eval(preset: Preset, run: RunSpec, task: str, **prompt) -> EvalSpec:
+    """The evaluation of `run` on `task`: the preset's episodes (MCR's image episodes), the
+    same evaluation seed for every row; prompts only for in-context policies."""
+    episodes = (preset.tables.image_episodes_per_task if run.policy.type == "mcr"
+                else preset.eval.episodes_per_task)
+    if run.policy.type != "icrt":
+        prompt = {}  # no prompt is read: the evaluation is the same as Table I's
+    return eval_spec(preset, task, episodes=episodes, **prompt)
+
+
+def _cell(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str], **prompt) -> Cell:
+    return Cell(tuple(Unit(s, run, _eval(preset, run, task, **prompt))
+                      for s, run in enumerate(runs) for task in tasks))
+
+
+def _family_cells(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
+                  **prompt) -> dict[str, Cell]:
+    cells = {column: _cell(preset, runs, family_tasks, **prompt)
+             for column, family_tasks in families(tasks).items() if family_tasks}
+    cells["avg"] = _cell(preset, runs, tasks, **prompt)
+    return cells
+
+
+def _seeds(preset: Preset, policy: str) -> int:
+    return preset.tables.icrt_seeds if policy == "icrt" else 1
+
+
+def table_i_runs(preset: Preset, policy: str, tokenizer) -> list[RunSpec]:
+    """The runs of one Table I row (shared by Tables III, IV, V, VI and the prompt ablation)."""
+    return _runs(preset, policy, tokenizer, preset.data.kitchen_tasks, _seeds(preset, policy))
+
+
+# --------------------------------------------------------------------------- the tables
+def table_i(preset: Preset) -> TableSpec:
+    tasks = preset.data.kitchen_tasks
+    rows = tuple(Row(label(p, t), _family_cells(preset, table_i_runs(preset, p, t), tasks),
+                     paper.TABLE_I_ROBOCASA[label(p, t)]) for p, t in TABLE_I_ROWS)
+    return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",
+                     (*FAMILY_COLUMNS, "avg"), rows, note=(
+                         "One multi-task policy per row, trained on the generated demonstrations "
+                         "of all kitchen tasks and evaluated per task; ICRT prompts come from the "
+                         "generated data sets. avg is the mean over tasks."))
+
+
+def table_ii(preset: Preset) -> TableSpec:
+    rows = []
+    for policy, tokenizer in TABLE_II_ROWS:
+        cells = {}
+        per_task = []
+        for column, task in zip(MANISKILL_COLUMNS, preset.data.maniskill_tasks, strict=False):
+            runs = _runs(preset, policy, tokenizer, [task], 1)
+            cells[column] = _cell(preset, runs, [task])
+            per_task += list(cells[column].units)
+        cells["avg"] = Cell(tuple(per_task))
+        rows.append(Row(label(policy, tokenizer), cells,
+                        paper.TABLE_II_MANISKILL[label(policy, tokenizer)]))
+    return TableSpec("II", "Results on ManiSkill", (*MANISKILL_COLUMNS, "avg"), tuple(rows),
+                     note=("One policy per task (as ManiSkill's baselines), trained on the "
+                           "motion planner's demonstrations converted to end-effector deltas."))
+
+
+def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
+    """Table III's held-out trajectories for a run trained on the kitchen tasks."""
+    data = DataSpec(tasks=run.data.tasks, source="generated", obs=run.data.obs,
+                    demos_per_task=preset.tables.feature_demos_per_task, seed=run.data.seed)
+    return FeatureSpec(data=data, start=run.data.demos_per_task,
+                       steps=preset.tables.feature_steps)
+
+
+def table_iii(preset: Preset) -> TableSpec:
+    rows = []
+    for tokenizer in ICRT_TOKENIZERS:
+        runs = table_i_runs(preset, "icrt", tokenizer)
+        units = tuple(Unit(s, run, features=feature_spec(preset, run))
+                      for s, run in enumerate(runs))
+        rows.append(Row(label("icrt", tokenizer), {"least_energy": Cell(units)},
+                        {"least_energy": paper.TABLE_III_SMOOTHNESS[label("icrt", tokenizer)]}))
+    return TableSpec("III", "Smoothness of the action tokenizers' latent features",
+                     ("least_energy",), tuple(rows), measure="smoothness", note=(
+                         "Least energy of the latent features that Table I's trained ICRT "
+                         "policies' own tokenizers give held-out generated trajectories."))
+
+
+def table_iv(preset: Preset) -> TableSpec:
+    tasks = preset.data.kitchen_tasks
+    rows = tuple(Row(label(p, t), {"avg": _cell(preset, table_i_runs(preset, p, t), tasks)},
+                     paper.TABLE_IV_LIPSCHITZ[label(p, t)]) for p, t in TABLE_IV_ROWS)
+    return TableSpec("IV", "Lipschitz regularization's impact", ("avg",), rows,
+                     note="Average success over the kitchen tasks; MLP and VQ-VAE rows are "
+                          "Table I's.")
+
+
+def table_v(preset: Preset) -> TableSpec:
+    from icil_paper.data.splits import sim_to_real_pairs
+
+    kinova = sorted(sim_to_real_pairs())
+    columns = {"drawers": [t for t in kinova if t.endswith("drawer")],
+               "doors": [t for t in kinova if t.endswith("door")]}
+    rows = []
+    for policy, tokenizer in TABLE_V_ROWS:
+        runs = table_i_runs(preset, policy, tokenizer)
+        cells = {c: _cell(preset, runs, tasks) for c, tasks in columns.items()}
+        cells["avg"] = _cell(preset, runs, kinova)
+        rows.append(Row(label(policy, tokenizer), cells,
+                        paper.TABLE_V_SIM_TO_REAL[label(policy, tokenizer)]))
+    return TableSpec("V", "Sim-to-real success rates (our stand-in: Panda -> perturbed Kinova3)",
+                     ("drawers", "doors", "avg"), tuple(rows), note=(
+                         "Table I's policies (trained on the Panda kitchen) rolled out on the "
+                         "Kinova3 arm with perturbed dynamics and noisy observations, prompted "
+                         "with Kinova demonstrations; not a real robot."))
+
+
+def table_vi(preset: Preset) -> TableSpec:
+    tasks = preset.data.kitchen_tasks
+    rows = tuple(Row(label(p, t), _family_cells(preset, table_i_runs(preset, p, t), tasks,
+                                                prompt_source="human"),
+                     paper.TABLE_VI_CROSS_DATASET[label(p, t)]) for p, t in TABLE_I_ROWS)
+    return TableSpec("VI", "Cross-dataset robotic manipulation (generated -> human-like)",
+                     (*FAMILY_COLUMNS, "avg"), rows, note=(
+                         "Table I's policies prompted with the human-like source's "
+                         "demonstrations. Scenes come from the same distribution in both "
+                         "sources here, so rows without prompts repeat Table I's numbers."))
+
+
+def table_vii(preset: Preset) -> TableSpec:
+    from icil_paper.data.splits import zero_shot_split
+
+    train, held_out = zero_shot_split()
+    train = [t for t in train if t in preset.data.kitchen_tasks]
+    held_out = [t for t in held_out if t in preset.data.kitchen_tasks]
+    rows = []
+    for policy, tokenizer in TABLE_I_ROWS:
+        runs = _runs(preset, policy, tokenizer, train, 1)
+        rows.append(Row(label(policy, tokenizer), _family_cells(preset, runs, held_out),
+                        paper.TABLE_VII_ZERO_SHOT[label(policy, tokenizer)]))
+    return TableSpec("VII", "Zero-shot robotic manipulation results", (*FAMILY_COLUMNS, "avg"),
+                     tuple(rows), note=(
+                         f"Trained on {len(train)} kitchen tasks, evaluated on the {len(held_out)} "
+                         "held out (one direction of each two-task family); families without a "
+                         "held-out task are n/a."))
+
+
+def fig5(preset: Preset) -> TableSpec:
+    tasks = preset.data.kitchen_tasks
+    base = preset.tokenizers.lipvq
+    rows = []
+    for size in preset.tables.codebook_sizes:
+        tok = dataclasses.replace(base, codebook_size=size)
+        runs = _runs(preset, "icrt", tok, tasks, 1)
+        exponent = size.bit_length() - 1
+        name = f"2^{exponent}" if 2**exponent == size else str(size)
+        rows.append(Row(name, {"avg": _cell(preset, runs, tasks)},
+                        {"avg": paper.FIG5_CODEBOOK_SIZE[size]}
+                        if size in paper.FIG5_CODEBOOK_SIZE else {}))
+    return TableSpec("fig5", "Impact of LipVQ-VAE's codebook size (Fig. 5)", ("avg",),
+                     tuple(rows), note=(
+                         f"ICRT + LipVQ-VAE with codebook sizes {list(preset.tables.codebook_sizes)}"
+                         f" (the preset's Table I cell uses {base.codebook_size}); one seed each."))
+
+
+def _other_task(task: str, tasks: Sequence[str]) -> str:
+    """The task whose prompt stands in as the wrong one: the same fixture's opposite goal
+    (open/close, on/off) where there is one, else the next task of the list."""
+    suite, name = task.split("/", 1)
+    swaps = [f"{suite}/{b}{name[len(a):]}" for a, b in (("open_", "close_"), ("close_", "open_"))
+             if name.startswith(a)]
+    swaps += [f"{suite}/{name[:-len(a)]}{b}" for a, b in (("_on", "_off"), ("_off", "_on"))
+              if name.endswith(a)]
+    for candidate in swaps:
+        if candidate in tasks:
+            return candidate
+    return tasks[(list(tasks).index(task) + 1) % len(tasks)]
+
+
+def prompt_ablation(preset: Preset) -> TableSpec:
+    tasks = list(preset.data.kitchen_tasks)
+    runs = table_i_runs(preset, "icrt", "lipvq")
+    right = _cell(preset, runs, tasks)
+    wrong = Cell(tuple(Unit(s, run, _eval(preset, run, task,
+                                          prompt_task=_other_task(task, tasks)))
+                       for s, run in enumerate(runs) for task in tasks))
+    short = _cell(preset, runs, tasks, prompt_steps=preset.tables.prompt_steps)
+    rows = (Row("right prompt", {"avg": right}),
+            Row("another task's prompt", {"avg": wrong}),
+            Row(f"first {preset.tables.prompt_steps} prompt steps", {"avg": short}))
+    return TableSpec("prompt", "Does the prompt carry the task? (ICRT + LipVQ-VAE)", ("avg",),
+                     rows, note=(
+                         "Table I's ICRT + LipVQ-VAE with its task's prompt, with the prompt of "
+                         "another task (the same fixture's opposite goal where there is one), "
+                         "and with only the first steps of its own prompt."))
+
+
+ANALYSIS_VARIANTS = (
+    ("icrt+vq", "vq", {}),
+    ("icrt+lipvq (paper)", "lipvq", {}),
+    ("gamma = 1", "lipvq", {"lipschitz": {"weight": 1.0}}),
+    ("c_l init 1", "lipvq", {"lipschitz": {"c_init": 1.0}}),
+    ("vq + dead-code restart", "vq", {"dead_code_restart": 100}),
+    ("lipvq + dead-code restart", "lipvq", {"dead_code_restart": 100}),
+    ("lipvq, whole-episode queries", "lipvq", {"_policy": {"query_len": 0,
+                                                          "query_start": "episode_start"}}),
+)
+"""The analysis chapter's rows: (label, tokenizer, changes). Tokenizer changes are fields of
+its config (`lipschitz` a nested section); `_policy` changes ICRT's config."""
+
+
+def _variant(preset: Preset, tokenizer: str, changes: dict) -> tuple:
+    changes = dict(changes)
+    policy = dataclasses.replace(preset.policies.icrt, **changes.pop("_policy", {}))
+    tok = preset.tokenizers.get(tokenizer)
+    if "lipschitz" in changes:
+        changes["lipschitz"] = dataclasses.replace(tok.lipschitz, **changes["lipschitz"])
+    return policy, dataclasses.replace(tok, **changes)
+
+
+def analysis(preset: Preset) -> TableSpec:
+    """Is it smoothness? Table IV's cells and variants that make Eq. 4 bind (a large gamma,
+    small initial bounds), that remedy codebook collapse, and that train on the window the
+    policy acts with; success and the trained encoders' smoothness and Lipschitz facts."""
+    tasks = preset.data.kitchen_tasks
+    rows = []
+    for name, tokenizer, changes in ANALYSIS_VARIANTS:
+        policy, tok = _variant(preset, tokenizer, changes)
+        runs = [r.replace(policy=policy) for r in _runs(preset, "icrt", tok, tasks,
+                                                       preset.tables.icrt_seeds)]
+        features = Cell(tuple(Unit(s, run, features=feature_spec(preset, run))
+                              for s, run in enumerate(runs)))
+        rows.append(Row(name, {"avg": _cell(preset, runs, tasks), "features": features}))
+    return TableSpec("analysis", "Is it smoothness? Lipschitz bound, latent scale and collapse",
+                     ("avg", "features"), tuple(rows), note=(
+                         "ICRT with VQ-VAE and LipVQ-VAE variants on the kitchen suite; "
+                         "`features` holds each trained encoder's least energy (raw and "
+                         "standardized), latent scale, codes used and Lipschitz facts."))
+
+
+TABLES: dict[str, Callable[[Preset], TableSpec]] = {
+    "I": table_i, "II": table_ii, "III": table_iii, "IV": table_iv, "V": table_v,
+    "VI": table_vi, "VII": table_vii, "fig5": fig5, "prompt": prompt_ablation,
+    "analysis": analysis,
+}
+"""Every table by id, in the order the book shows them."""
+
+
+def table_spec(preset: Preset, table_id: str) -> TableSpec:
+    """The TableSpec of one table (UnknownNameError listing the ids otherwise)."""
+    from icil_paper.registry import check_name
+
+    return TABLES[check_name("table", table_id, TABLES)](preset)

@@ -1,0 +1,103 @@
+"""A table as data: rows x columns -> cells, each cell a set of (run, evaluation) units.
+
+    TableSpec ── rows: Row(label, cells: {column: Cell}, paper: {column: number})
+                                              │
+                              Cell ── units: Unit(seed_index, run: RunSpec, eval: EvalSpec
+                                                  or None, features: FeatureSpec or None)
+
+A unit names one trained policy (its RunSpec) and what is measured on it: one evaluation
+(an EvalSpec: a task, its episodes and prompts) or, for the smoothness table, the latent
+features of held-out trajectories (a FeatureSpec). A cell's number aggregates its units:
+success rates over (seeds, tasks, episodes), smoothness over trajectories. Units are keyed
+by content, so the same trained policy serves every table that names its RunSpec and is
+trained once (`execute.plan` groups the units of all tables by run).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from icil_paper.runspec import DataSpec, EvalSpec, RunSpec
+
+
+@dataclass(frozen=True)
+class FeatureSpec:
+    """Latent features of held-out trajectories through a trained policy's tokenizer (Table III)."""
+
+    data: DataSpec
+    """The held-out demonstrations: indices [start, start + demos_per_task) of each data set."""
+    start: int
+    """Index of the first held-out demonstration (the training run used the ones before)."""
+    steps: int
+    """Latent features kept, from the trajectories in task order (the paper: 500)."""
+    view_steps: int = 10
+    """Fig. 4: steps of the first trajectory whose latents are kept for the t-SNE plot."""
+
+
+@dataclass(frozen=True)
+class Unit:
+    """One trained policy and one measurement on it."""
+
+    seed_index: int
+    """Which of the row's training seeds (0 .. seeds - 1)."""
+    run: RunSpec
+    """The training run."""
+    eval: EvalSpec | None = None
+    """An evaluation of it, or None."""
+    features: FeatureSpec | None = None
+    """Latent features of it, or None."""
+
+
+@dataclass(frozen=True)
+class Cell:
+    """The units one number of a table aggregates."""
+
+    units: tuple[Unit, ...]
+    """Every (seed, task) unit of the cell."""
+
+    @property
+    def seeds(self) -> int:
+        return len({u.seed_index for u in self.units})
+
+
+@dataclass(frozen=True)
+class Row:
+    """One row of a table: a policy (+ tokenizer, or a variant) and its cells by column."""
+
+    label: str
+    """Row name as the paper prints it (`icrt+lipvq`, `bc_transformer`, `2^10`, ...)."""
+    cells: Mapping[str, Cell]
+    """Column -> cell; a column missing here has no unit in our stand-in (shown as n/a)."""
+    paper: Mapping[str, float] = field(default_factory=dict)
+    """The paper's numbers of this row by column (empty where the paper has none)."""
+
+
+@dataclass(frozen=True)
+class TableSpec:
+    """One table or figure of the paper."""
+
+    id: str
+    """`I` .. `VII`, `fig5`, `prompt`: the paper's numbering (from its source)."""
+    title: str
+    """The caption, as the paper words it, with our stand-in named."""
+    columns: tuple[str, ...]
+    """Column names in display order (the last is usually `avg`)."""
+    rows: tuple[Row, ...]
+    """The rows in the paper's order."""
+    measure: str = "success"
+    """`success` (success rates, higher is better) or `smoothness` (least energy, lower is
+    smoother)."""
+    note: str = ""
+    """How this table is computed here, and what stands in for what."""
+
+    def row(self, label: str) -> Row:
+        for row in self.rows:
+            if row.label == label:
+                return row
+        raise KeyError(f"table {self.id} has no row {label!r}; rows: "
+                       f"{', '.join(r.label for r in self.rows)}")
+
+    def units(self) -> list[Unit]:
+        """Every unit of every cell (with repeats where cells share units)."""
+        return [u for row in self.rows for cell in row.cells.values() for u in cell.units]

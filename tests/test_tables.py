@@ -1,0 +1,190 @@
+"""The paper's tables: specs share cells where the paper's tables share policies, records
+become numbers with intervals, claims get verdicts from those intervals, and committed
+reference records match the current code's keys."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from icil_paper.config import get_preset
+from icil_paper.evaluate import eval_record_name
+from icil_paper.results import ResultsStore
+from icil_paper.runspec import eval_key
+from icil_paper.specs import to_dict
+from icil_paper.tables import TABLES, table_spec
+from icil_paper.tables.assemble import assemble
+from icil_paper.tables.claims import claims, claims_ledger, write_ledger
+from icil_paper.tables.execute import plan
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def small_preset(*overrides):
+    return get_preset("smoke").with_overrides(
+        ["data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door",
+         *overrides])
+
+
+def run_keys(spec, label):
+    return {u.run.key() for u in spec.row(label).cells["avg"].units}
+
+
+@pytest.mark.parametrize("preset_name", ["smoke", "small", "reference"])
+def test_every_table_builds_and_every_row_is_evaluated_on_the_same_episodes(preset_name):
+    preset = get_preset(preset_name)
+    for table_id in TABLES:
+        spec = table_spec(preset, table_id)
+        assert spec.rows and spec.columns
+        seeds = {u.eval.seed for u in spec.units() if u.eval is not None}
+        assert seeds <= {preset.seed}, f"table {table_id}: rows are not paired"
+        for row in spec.rows:
+            assert set(row.cells) <= set(spec.columns), (table_id, row.label)
+
+
+def test_tables_share_the_policies_the_paper_shares():
+    preset = get_preset("reference")
+    t1, t4, t6, f5 = (table_spec(preset, t) for t in ("I", "IV", "VI", "fig5"))
+    for label in ("icrt+mlp", "icrt+vq", "icrt+lipvq"):
+        assert run_keys(t4, label) == run_keys(t1, label), label
+        assert len(run_keys(t1, label)) == preset.tables.icrt_seeds
+    assert len(run_keys(t1, "act")) == 1
+    # Table VI prompts ICRT with the human-like source; rows without prompts reuse Table I
+    t1_evals = {eval_key(u.run, u.eval) for u in t1.units()}
+    t6_bc = {eval_key(u.run, u.eval) for u in t6.row("bc_transformer").cells["avg"].units}
+    t6_icrt = {eval_key(u.run, u.eval) for u in t6.row("icrt+mlp").cells["avg"].units}
+    assert t6_bc <= t1_evals and not t6_icrt & t1_evals
+    # Fig. 5 reuses Table I's LipVQ-VAE run at the preset's codebook size (seed 0)
+    size = preset.tokenizers.lipvq.codebook_size
+    row = next(r for r in f5.rows if r.label == f"2^{size.bit_length() - 1}")
+    assert run_keys(f5, row.label) <= run_keys(t1, "icrt+lipvq")
+    plans = plan([table_spec(preset, t) for t in TABLES])
+    assert len(plans) == len({p.run.key() for p in plans})  # one plan per trained policy
+
+
+def test_zero_shot_trains_on_training_tasks_and_evaluates_held_out_ones():
+    from icil_paper.data.splits import zero_shot_split
+
+    train, held = zero_shot_split()
+    spec = table_spec(get_preset("small"), "VII")
+    for unit in spec.units():
+        assert set(unit.run.data.tasks) == set(train)
+        assert unit.eval.task in held
+    assert spec.row("icrt+lipvq").cells.keys() >= {"doors", "drawers", "levers", "knobs", "avg"}
+    assert "pick_place" not in spec.row("icrt+lipvq").cells  # no held-out task: n/a
+
+
+def test_prompt_ablation_uses_another_task_and_a_cut_prompt():
+    spec = table_spec(get_preset("small"), "prompt")
+    wrong = spec.row("another task's prompt").cells["avg"].units
+    assert all(u.eval.prompt_task and u.eval.prompt_task != u.eval.task for u in wrong)
+    pairs = {u.eval.task: u.eval.prompt_task for u in wrong}
+    assert pairs["kitchen/open_drawer"] == "kitchen/close_drawer"
+    cut = spec.rows[2].cells["avg"].units
+    assert all(u.eval.prompt_steps == get_preset("small").tables.prompt_steps for u in cut)
+
+
+def fake_records(preset, store, table_id, rate_of, episodes=None, seed=0):
+    """Write an eval record for every unit of a table: success drawn with rate_of(row)."""
+    spec = table_spec(preset, table_id)
+    rng = np.random.default_rng(seed)
+    for row in spec.rows:
+        for cell in row.cells.values():
+            for unit in cell.units:
+                if unit.eval is None:
+                    continue
+                n = episodes or unit.eval.episodes
+                per = [{"episode": i, "success": bool(rng.random() < rate_of(row.label)),
+                        "steps": 5} for i in range(n)]
+                successes = sum(e["success"] for e in per)
+                store.write("eval", eval_record_name(unit.run, unit.eval),
+                            {"run": to_dict(unit.run, keyed_only=True),
+                             "eval": to_dict(unit.eval, keyed_only=True)},
+                            {"task": unit.eval.task, "episodes": n, "successes": successes,
+                             "success_rate": successes / n, "ci_low": 0.0, "ci_high": 1.0,
+                             "mean_steps": 5.0, "wall_time_s": 0.0, "per_episode": per},
+                            seed=unit.run.seed, wall_time_s=0.0)
+
+
+def test_records_become_estimates_and_claims_get_their_verdicts():
+    preset = small_preset("eval.episodes_per_task=40")
+    store = ResultsStore(preset.name)
+    strong = {"icrt+lipvq": 0.9, "bc_transformer": 0.02}
+    fake_records(preset, store, "I", lambda row: strong.get(row, 0.5))
+    result = assemble(table_spec(preset, "I"), store)
+    assert result.complete and result.missing == 0
+    est = result.estimate("icrt+lipvq", "avg")
+    assert 0.8 < est.value < 1.0 and est.low < est.value < est.high
+    assert result.outcomes("icrt+lipvq", "avg").shape == (1, 3, 40)  # seeds, tasks, episodes
+    assert result.cell("icrt+lipvq", "pick_place") is None  # no such task in this preset
+    ledger = {e["id"]: e for e in claims_ledger(preset, store)}
+    assert ledger["I-lipvq-vs-bc"]["verdict"] == "holds"
+    assert ledger["I-lipvq-best"]["verdict"] == "holds"
+    assert ledger["I-mlp-below-bc"]["verdict"] == "does not hold"  # BC 0.02 is below MLP 0.5
+    assert ledger["II-lipvq-best"]["verdict"] == "not run"
+    assert ledger["I-lipvq-vs-bc"]["paper"] == pytest.approx(0.530 - 0.477, abs=1e-4)
+    lo, hi = ledger["I-lipvq-vs-bc"]["ci"]
+    assert lo <= ledger["I-lipvq-vs-bc"]["ours"] <= hi
+
+
+def test_equal_rows_are_inconclusive_and_reversed_ones_do_not_hold():
+    preset = small_preset("eval.episodes_per_task=30")
+    store = ResultsStore(preset.name)
+    fake_records(preset, store, "IV", lambda row: 0.9 if row == "icrt+vq" else 0.5)
+    ledger = {e["id"]: e for e in claims_ledger(preset, store)}
+    assert ledger["IV-vq"]["verdict"] == "does not hold"  # LipVQ 0.5 vs VQ 0.9
+    assert ledger["IV-mlp"]["verdict"] == "inconclusive"  # both 0.5
+
+
+def test_missing_records_show_as_not_run_and_the_ledger_is_written(tmp_path):
+    preset = small_preset()
+    store = ResultsStore(preset.name)
+    result = assemble(table_spec(preset, "I"), store)
+    assert not result.complete and result.estimate("icrt+lipvq") is None
+    path = write_ledger(preset, store)
+    entries = json.loads(Path(path).read_text())["claims"]
+    assert {e["verdict"] for e in entries} == {"not run"}
+    assert len(entries) == len(claims(preset)) >= 19
+    for e in entries:
+        assert {"id", "claim", "table", "paper", "ours", "ci", "verdict"} <= set(e)
+
+
+def test_tables_command_prints_tables_and_claims(capsys):
+    from icil_paper.cli import main
+
+    assert main(["tables", "--preset", "smoke", "--table", "IV"]) == 0
+    out = capsys.readouterr().out
+    assert "Table IV" in out and "not run" in out and "0.530" in out
+    assert main(["tables", "--preset", "smoke", "--claims"]) == 0
+    assert "[not run] I-lipvq-best" in capsys.readouterr().out
+    assert main(["tables", "--preset", "smoke", "--table", "IX"]) == 2
+
+
+@pytest.mark.sim
+def test_a_table_is_computed_end_to_end_and_reruns_compute_nothing():
+    from icil_paper.tables.execute import plan_done, run_tables
+
+    preset = get_preset("smoke").with_overrides(
+        ["data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer"])
+    run_tables(preset, ["IV", "III"], executor="serial", progress=False)
+    store = ResultsStore(preset.name)
+    assert all(plan_done(store, p) for p in plan([table_spec(preset, "IV")]))
+    table4 = assemble(table_spec(preset, "IV"), store)
+    assert table4.complete
+    smooth = assemble(table_spec(preset, "III"), store)
+    cell = smooth.cell("icrt+lipvq", "least_energy")
+    assert cell.estimate is not None and cell.extra["metrics"][0]["capped_fraction"] is not None
+    assert run_tables(preset, ["IV", "III"], executor="serial", progress=False) == {}
+
+
+def test_committed_reference_records_match_the_current_code(monkeypatch):
+    """Every record under results/reference/ has a key the current code computes for one
+    of the tables' cells (a changed config or definition would leave it stale)."""
+    from icil_paper.tables.book import stale_records
+
+    monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
+    stale = stale_records("reference")
+    assert not stale, f"stale reference records (rerun or remove them): {stale[:10]}"
