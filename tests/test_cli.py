@@ -74,3 +74,56 @@ def test_backports_entry_from_one_line_sources_and_none_elsewhere(tmp_path):
     assert "URIs: http://m.example/debian" in debian_backports_entry(tmp_path)
     (tmp_path / "sources.list").write_text("deb http://m.example/ubuntu noble main\n")
     assert debian_backports_entry(tmp_path) is None
+
+
+# --------------------------------------------------------------------------- user errors
+def run_cli(*argv):
+    """(exit status, stderr) of `icil-paper ...` in this process."""
+    import contextlib
+    import io
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        try:
+            code = cli.main(list(argv))
+        except SystemExit as exc:  # argparse's own errors
+            code = exc.code
+    return code, err.getvalue()
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["train", "--tokenizer", "lipvqq"], "unknown tokenizer 'lipvqq'. Did you mean 'lipvq'"),
+    (["train", "--policy", "bc_transformer", "--tokenizer", "vq"], "does not take the 'vq'"),
+    (["train", "--tasks", "kitchen/open_drawr"], "Did you mean 'kitchen/open_drawer'"),
+    (["train", "--steps", "0"], "--steps must be at least 1"),
+    (["train", "--set", "train.stepz=3"], "Did you mean 'steps'"),
+    (["train", "--set", "train.steps=many"], "train.steps: expected an integer"),
+    (["train", "--seed", "-1"], "non-negative"),
+    (["eval", "--episodes", "0"], "--episodes must be at least 1"),
+    (["eval", "--max-steps", "-5"], "--max-steps must be at least 1"),
+    (["eval", "--workers", "0"], "--workers must be at least 1"),
+    (["reproduce", "--stages", "tabel-I"], "Did you mean 'table-I'"),
+    (["tables", "--table", "VIII"], "unknown table"),
+    (["demos", "--task", "kitchen/open_drawer", "--n", "0"], "--n must be at least 1"),
+])
+def test_user_errors_are_one_line_and_exit_2_before_any_work(argv, message, tmp_path, monkeypatch):
+    monkeypatch.setenv("ICIL_DATA", str(tmp_path / "data"))
+    code, err = run_cli(*argv)
+    assert code == 2, err
+    assert message in err, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) <= 2
+    assert not (tmp_path / "data").exists(), "no data may be generated before the check"
+
+
+def test_damaged_run_folders_are_named_not_tracebacks(tmp_path):
+    code, err = run_cli("eval", "--run-dir", str(tmp_path / "missing"))
+    assert code == 2 and "not a training run folder" in err
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "config.json").write_text("{torn")
+    code, err = run_cli("eval", "--run-dir", str(tmp_path / "run"))
+    assert code == 2 and "Traceback" not in err
+
+
+def test_debug_shows_the_traceback():
+    with pytest.raises(ValueError, match="unknown tokenizer"):
+        cli.main(["train", "--tokenizer", "lipvqq", "--debug"])

@@ -336,3 +336,25 @@ def test_fast_last_step_embedding_needs_only_its_context(fast, trajectories):
     full = fast(x).embeddings[:, -1]
     tail = fast(x[:, -fast.context_steps:]).embeddings[:, -1]
     assert torch.allclose(full, tail)
+
+
+@pytest.mark.parametrize("config", VARIANTS, ids=IDS)
+def test_an_empty_batch_is_refused(config, trajectories):
+    tok = _make(config, trajectories)
+    for shape in ((0, 5, A), (2, 0, A)):
+        with pytest.raises(ValueError, match="empty batch"):
+            tok(torch.zeros(shape))
+
+
+def test_fast_token_input_is_checked(fast):
+    chunk = np.zeros((1, fast.chunk, A))
+    chunk[0, 1, 2] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        fast.encode_tokens(chunk)
+    assert fast.encode_tokens(np.zeros((0, fast.chunk, A))) == []
+    ids = fast.encode_tokens(np.zeros((1, fast.chunk, A)))
+    with pytest.raises(FastDecodeError, match="not a whole number"):
+        fast.decode_tokens([[ids[0][0] + 0.5, *ids[0][1:]]])
+    with pytest.raises(FastDecodeError, match="not an integer"):
+        fast.decode_tokens([["a"]])
+    np.testing.assert_allclose(fast.decode_tokens([[float(i) for i in ids[0]]])[0], 0, atol=0.05)

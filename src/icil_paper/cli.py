@@ -27,6 +27,13 @@ UnknownNameError, OverrideError, DatasetError, RunFolderError, PolicyFileError a
 json.JSONDecodeError, whose messages name the problem."""
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: the problem and where to look, not the whole usage."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (--help lists the options)\n")
+
+
 def add_preset_arguments(parser: argparse.ArgumentParser) -> None:
     """--preset, --seed and --set, shared by every command that takes a preset."""
     parser.add_argument("--preset", choices=PRESET_NAMES, default=None,
@@ -71,7 +78,7 @@ SUBCOMMANDS = {
 
 
 def _env(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="icil-paper env",
+    parser = Parser(prog="icil-paper env",
                                      description="Report packages, hardware, simulators and the preset.")
     parser.add_argument("--preset", choices=PRESET_NAMES, help="preset to report as active")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
@@ -89,7 +96,7 @@ def _env(argv: list[str]) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="icil-paper",
         description="Companion to 'Action Tokenizer Matters in In-Context Imitation Learning'. "
                     "Presets: smoke (seconds), small (CI, 2 CPU cores), full (the paper's scale).",

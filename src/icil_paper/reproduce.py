@@ -12,7 +12,6 @@ The table stages fan their cells (one trained policy each, with its evaluations)
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import sys
 import time
@@ -132,9 +131,9 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.cli import add_preset_arguments, positive, preset_from_args
+    from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
 
-    parser = argparse.ArgumentParser(prog="icil-paper reproduce", description=__doc__.split("\n\n")[0])
+    parser = Parser(prog="icil-paper reproduce", description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
     parser.add_argument("--stages", nargs="+", default=None,
                         help=f"run only these stages ({', '.join(s.name for s in STAGES)})")

@@ -18,9 +18,9 @@ from icil_paper.data.sources import SOURCES
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.config import PRESET_NAMES, active_preset_name
+    from icil_paper.cli import Parser, add_preset_arguments
 
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="icil-paper demos",
         description="Generate demonstration data sets (robomimic HDF5), resuming interrupted "
                     "runs, or validate a data set file.",
@@ -31,9 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="demonstration source (repeatable; default: generated)")
     parser.add_argument("--n", type=int, help="demos per task and source "
                         "(default: the preset's data.demos_per_task)")
-    parser.add_argument("--preset", choices=PRESET_NAMES, default=active_preset_name(),
-                        help="preset (default: $ICIL_PRESET or small)")
-    parser.add_argument("--seed", type=int, help="base seed of the scenes (default: the preset's)")
+    add_preset_arguments(parser)  # --preset, --seed (the scenes' base seed), --set
     parser.add_argument("--workers", type=int, help="processes (default: the preset's)")
     parser.add_argument("--obs", choices=("state", "rgb", "rgbd"),
                         help="observation kind (default: the preset's data.obs)")
@@ -73,7 +71,7 @@ def _numbers_problem(args: argparse.Namespace) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.config import get_preset
+    from icil_paper.cli import preset_from_args
     from icil_paper.data.generate import demo_path, ensure_many, preset_tasks
     from icil_paper.seeding import seed_everything
 
@@ -84,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.check:
         return _check(args.check, args.action_dim)
-    preset = get_preset(args.preset, seed=args.seed)
+    preset = preset_from_args(args)
     seed_everything(preset.seed)
     sources = args.source or ["generated"]
     sources = list(SOURCES) if "all" in sources else list(dict.fromkeys(sources))

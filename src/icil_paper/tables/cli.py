@@ -15,13 +15,13 @@ import argparse
 import json
 import sys
 
-from icil_paper.cli import add_preset_arguments, preset_from_args
+from icil_paper.cli import Parser, add_preset_arguments, preset_from_args
 
 
 def build_parser() -> argparse.ArgumentParser:
     from icil_paper.tables.definitions import TABLES
 
-    p = argparse.ArgumentParser(prog="icil-paper tables", description=__doc__.split("\n\n")[0])
+    p = Parser(prog="icil-paper tables", description=__doc__.split("\n\n")[0])
     add_preset_arguments(p)
     p.add_argument("--table", nargs="+", default=None, metavar="ID",
                    help=f"tables to print (default: all): {', '.join(TABLES)}")

@@ -195,6 +195,9 @@ class ActionTokenizer(nn.Module):
         if actions.shape[-1] != self.action_dim:
             raise ValueError(f"wrong action dimension: got actions with {actions.shape[-1]} "
                              f"dimensions, the {self.name} tokenizer expects {self.action_dim}")
+        if actions.shape[0] == 0 or actions.shape[1] == 0:
+            raise ValueError(f"empty batch of actions (shape {tuple(actions.shape)}): give at "
+                             "least one trajectory of at least one step")
         if not torch.isfinite(actions).all():
             bad = (~torch.isfinite(actions)).nonzero()[0].tolist()
             raise ValueError(f"actions contain NaN or inf values (first at index {bad})")

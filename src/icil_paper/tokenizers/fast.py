@@ -63,6 +63,19 @@ class FastDecodeError(ValueError):
     """A FAST token sequence that does not decode to a whole chunk of actions."""
 
 
+def _token_ids(ids, index: int) -> list[int]:
+    """One sequence's token ids as ints; FastDecodeError for anything but whole numbers."""
+    out = []
+    for j in ids:
+        if isinstance(j, (bool, np.bool_)) or not isinstance(j, (int, np.integer, float,
+                                                                 np.floating)):
+            raise FastDecodeError(f"sequence {index}: token id {j!r} is not an integer")
+        if isinstance(j, (float, np.floating)) and not float(j).is_integer():
+            raise FastDecodeError(f"sequence {index}: token id {j!r} is not a whole number")
+        out.append(int(j))
+    return out
+
+
 def _bpe_from_str(text: str):
     from tokenizers import Tokenizer
 
@@ -185,6 +198,10 @@ class FASTTokenizer(ActionTokenizer):
         if chunks.ndim != 3 or chunks.shape[1:] != (self.chunk, self.action_dim):
             raise ValueError(f"chunks must be shaped (N, {self.chunk}, {self.action_dim}), "
                              f"got {chunks.shape}")
+        if not np.isfinite(chunks).all():
+            raise ValueError("chunks contain NaN or inf values; FAST encodes finite actions only")
+        if len(chunks) == 0:
+            return []
         strings = self._symbol_strings(self._quantize(chunks))
         return [e.ids for e in self._bpe.encode_batch(strings)]
 
@@ -201,7 +218,7 @@ class FASTTokenizer(ActionTokenizer):
         ok = np.ones(len(tokens), dtype=bool)
         problems = []
         for i, ids in enumerate(tokens):
-            ids = [int(j) for j in ids]
+            ids = _token_ids(ids, i)
             bad = [j for j in ids if not 0 <= j < len(self._vocab)]
             if bad:
                 ok[i] = False

@@ -6,13 +6,13 @@ import argparse
 import sys
 from pathlib import Path
 
-from icil_paper.cli import add_preset_arguments, positive, preset_from_args
+from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
 
 
 def build_parser() -> argparse.ArgumentParser:
     from icil_paper.policies import POLICIES
 
-    p = argparse.ArgumentParser(prog="icil-paper train",
+    p = Parser(prog="icil-paper train",
                                 description="Train a policy (ICRT or a baseline) with an action "
                                             "tokenizer.")
     add_preset_arguments(p)
