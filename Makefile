@@ -21,9 +21,11 @@ NODE_HASH := $(shell cat book/package.json book/package-lock.json | sha256sum | 
 NODE_STAMP := book/node_modules/.installed-$(NODE_HASH)
 TORCH_PIN := $(shell grep -E '^torch==' requirements.txt)
 BOOK_OUT := book/_build
-# What notebook outputs depend on besides their own code: the library, the preset, the results.
+# What notebook outputs depend on besides their own code: the library, the preset, the
+# results of this preset and the committed reference run's (shown beside them).
 SRC_HASH = $(shell { find src -name '*.py' | LC_ALL=C sort | xargs cat; echo $(PRESET); \
-	find results/$(PRESET) -name '*.json' -printf '%p %T@\n' 2>/dev/null | LC_ALL=C sort; } | sha256sum | cut -c1-16)
+	find results/$(PRESET) results/reference -name '*.json' -printf '%p %T@\n' 2>/dev/null \
+	| LC_ALL=C sort; } | sha256sum | cut -c1-16)
 
 .PHONY: help setup test test-all reproduce experiments book browser-check bench lint clean
 
