@@ -227,6 +227,7 @@ axes[1].legend(frameon=False)
 axes[2].plot(prompt[0].actions[:, -1], "--", label="prompt demo")
 axes[2].plot(trace["actions"][:, -1], label="rollout")
 axes[2].set_title("gripper command")
+axes[2].set_ylim(-1.1, 1.1)  # the command's full range, so a constant command reads as one
 axes[2].legend(frameon=False)
 for a in axes[1:]:
     a.set_xlabel("step")

@@ -172,13 +172,13 @@ with pd.option_context("display.float_format", "{:.3g}".format):
 
 # %%
 fig, axes = plt.subplots(1, 1 + len(DATA_TASKS), figsize=(5 * (1 + len(DATA_TASKS)), 3.4))
+bins = np.linspace(stats.length.min(), stats.length.max() + 1, 13)
 for source, color in zip(SOURCES, ("tab:blue", "tab:orange"), strict=True):
-    lengths = stats[stats.source == source]
-    axes[0].hist([lengths[lengths.task == t].length for t in DATA_TASKS], bins=12,
-                 color=[color] * len(DATA_TASKS), alpha=0.6, label=[f"{source}: {t}" for t in
-                                                                     DATA_TASKS])
-axes[0].set(xlabel="demo length [steps]", ylabel="demos", title="demo lengths")
-axes[0].legend(fontsize=7)
+    axes[0].hist(stats[stats.source == source].length, bins=bins, color=color, alpha=0.6,
+                 label=source)
+axes[0].set(xlabel="demo length [steps]", ylabel="demos",
+            title=f"demo lengths ({', '.join(t.split('/')[1] for t in DATA_TASKS)})")
+axes[0].legend(fontsize=8)
 for ax, task in zip(axes[1:], DATA_TASKS, strict=True):
     for source, color in zip(SOURCES, ("tab:blue", "tab:orange"), strict=True):
         demo = demos[task, source][0]
