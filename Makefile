@@ -98,7 +98,7 @@ bench: setup
 		echo "== bench $$m"; $(BIN)/python -m icil_paper.bench.$$m || exit 1; done
 
 lint: setup
-	$(BIN)/ruff check src tests notebooks
+	$(BIN)/ruff check src tests notebooks book/_ext
 
 clean:
 	rm -rf $(BOOK_OUT) .pytest_cache

@@ -4,6 +4,7 @@ reads it (and no other), `--set` overrides are typed and checked, configs round-
 from __future__ import annotations
 
 import dataclasses
+import types
 import typing
 
 import pytest
@@ -30,7 +31,7 @@ TASKS = ("kitchen/open_drawer", "kitchen/close_door")
 def _other_value(annotation, value):
     """A different value of the declared type (to perturb one field)."""
     origin, args = typing.get_origin(annotation), typing.get_args(annotation)
-    if origin in (typing.Union, getattr(__import__("types"), "UnionType")):
+    if origin in (typing.Union, types.UnionType):
         if value is None:
             return _other_value(next(a for a in args if a is not type(None)), None)
         return None
