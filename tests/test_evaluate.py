@@ -273,3 +273,33 @@ def test_train_and_eval_commands_end_to_end(sim_data, tmp_path, monkeypatch):
                  "--quiet"]) == 0
     (record,) = ResultsStore("smoke").records("eval")
     assert record["config"]["eval"]["task"] == SIM_TASK and record["metrics"]["episodes"] == 1
+
+
+def test_evaluate_run_many_stores_what_evaluate_run_would(tmp_path, demos):
+    """One call for a run's evaluations on many tasks: each record equals the one
+    `evaluate_run` stores for that task alone, and is found again without computing."""
+    from icil_paper.evaluate import evaluate_run, evaluate_run_many
+    from icil_paper.results import ResultsStore
+    from icil_paper.runspec import eval_spec
+
+    preset = get_preset("smoke")
+    tasks = ["synthetic/task0", "synthetic/task1"]
+    run = run_spec(preset, "icrt", "lipvq", tasks=tasks)
+    policy = trained("lipvq", demos)
+    evs = [eval_spec(preset, t, episodes=2, max_steps=6) for t in tasks]
+    store = ResultsStore("smoke")
+    many = evaluate_run_many(run, evs, policy, store, "smoke", progress=False)
+
+    def not_again():
+        raise AssertionError("a stored evaluation was computed again")
+
+    assert evaluate_run_many(run, evs, not_again, store, "smoke", progress=False) == many
+    alone = ResultsStore("smoke", root=tmp_path / "alone")
+    for ev, record in zip(evs, many, strict=True):
+        assert evaluate_run(run, ev, not_again, store, "smoke", progress=False) == record
+        single = evaluate_run(run, ev, policy, alone, "smoke", progress=False)
+        assert single["config_hash"] == record["config_hash"]
+        strip = [{k: v for k, v in e.items() if k != "wall_time_s"}
+                 for e in record["metrics"]["per_episode"]]
+        assert strip == [{k: v for k, v in e.items() if k != "wall_time_s"}
+                         for e in single["metrics"]["per_episode"]]

@@ -1,10 +1,15 @@
 """Rollouts that turn a trained policy into a success rate, and `icil-paper eval`.
 
-    from icil_paper.evaluate import evaluate_policy
+    from icil_paper.evaluate import evaluate_many, evaluate_policy
     from icil_paper.runspec import eval_spec
     result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
                              prompts=demos, workers=2)
     result.success_rate, result.ci_low, result.ci_high, result.per_episode
+
+    # a table's evaluation: one policy on every task, in one call (one pool of workers,
+    # the tasks' episodes stepped side by side with one batched policy step)
+    results = evaluate_many(policy, [eval_spec(preset, t) for t in tasks],
+                            prompts={t: prompt_pool(...) for t in tasks}, workers=2)
 
 Each episode i (of `EvalSpec.episodes`) is fixed by the evaluation seed alone:
 
@@ -17,10 +22,13 @@ Each episode i (of `EvalSpec.episodes`) is fixed by the evaluation seed alone:
 - it runs until the task reports success, the episode ends, or `max_steps` (default the
   task's horizon). Actions are clipped to [-1, 1].
 
-So the same seed gives the same episodes whether they run in one process or many. With
-`workers > 1` the episodes are split over spawned processes; each builds its own
-environment and its own copy of the policy from the policy's spec and state dict. The
-success rate comes with a Wilson 95% interval (`icil_paper.stats`).
+The rollout engine (`icil_paper.rollouts`) runs the episodes: in lockstep groups of
+`batch_size` envs with one batched policy forward pass per step, on `workers` processes
+that each keep one copy of the policy and their envs for the whole call (or, with a
+`rollouts.RolloutPool`, across calls). The same seed gives the same episodes however they
+are split: for a fixed batch size the outcomes are identical for any number of workers, and
+another batch size changes the policy's actions by float rounding only. The success rate
+comes with a Wilson 95% interval (`icil_paper.stats`).
 
 Before any rollout the policy's observation and action widths are checked against the
 task's (`check_policy_fits`), so a policy trained on another suite fails with both widths
@@ -33,13 +41,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import io
 import json
 import sys
 import time
-import warnings
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -47,8 +52,13 @@ from typing import Any
 import numpy as np
 import torch
 
+from icil_paper.rollouts import Episode, RolloutPool, record_rollout, rollout, run_episodes
 from icil_paper.runspec import EvalSpec
 from icil_paper.stats import wilson_interval
+
+__all__ = ["EvalResult", "RolloutPool", "check_policy_fits", "episode_seed", "eval_record_name",
+           "evaluate_many", "evaluate_policy", "evaluate_run", "evaluate_run_many", "main",
+           "obs_kind", "plan_episodes", "prompt_pool", "record_rollout", "rollout"]
 
 
 @dataclass
@@ -70,10 +80,12 @@ class EvalResult:
     mean_steps: float
     """Mean rollout length in env steps."""
     wall_time_s: float
-    """Seconds the evaluation took."""
+    """Seconds the evaluation took (from `evaluate_many`: the whole call, which rolled out
+    every spec's episodes side by side)."""
     per_episode: list[dict[str, Any]] = field(default_factory=list)
     """One dict per episode: episode, seed, success, steps, return, prompt (indices into the
-    prompt pool), wall_time_s and, when recorded, recording."""
+    prompt pool), wall_time_s (from its lockstep group's start to its end) and, when
+    recorded, recording."""
 
     @property
     def outcomes(self) -> np.ndarray:
@@ -106,21 +118,6 @@ def obs_kind(policy: Any) -> str:
     if spec.image is None:
         return "state"
     return "rgbd" if spec.depth else "rgb"
-
-
-def _policy_blob(policy: Any) -> bytes:
-    buf = io.BytesIO()
-    torch.save({"spec": json.dumps(policy.spec), "state_dict": policy.state_dict()}, buf)
-    return buf.getvalue()
-
-
-def _policy_from_blob(blob: bytes) -> Any:
-    from icil_paper.policies.base import build_policy
-
-    state = torch.load(io.BytesIO(blob), map_location="cpu", weights_only=True)
-    policy = build_policy(json.loads(state["spec"]))
-    policy.load_state_dict(state["state_dict"])
-    return policy.eval()
 
 
 def check_policy_fits(policy: Any, task: str) -> None:
@@ -165,203 +162,135 @@ def _first_steps(demo: Any, n: int) -> Any:
     return dataclasses.replace(demo, **cut)
 
 
-# --------------------------------------------------------------------------- one worker
-def _run_episodes(policy: Any, task: str, kind: str, plan: list[dict[str, Any]],
-                  prompts: Mapping[int, Any], max_steps: int | None, record_dir: str | None,
-                  env_options: Mapping[str, Any], env_factory: Callable[..., Any] | None = None,
-                  progress: bool = False) -> list[dict[str, Any]]:
-    """Roll out the planned episodes in this process with one environment."""
-    from tqdm.auto import tqdm
+# --------------------------------------------------------------------------- evaluation
+def plan_episodes(spec: EvalSpec, pool_size: int = 0, prompt_demos: int = 1,
+                  spec_index: int = 0) -> list[Episode]:
+    """The episodes of `spec` (see the module docstring): env seeds and, with a prompt pool
+    of `pool_size` demonstrations, the indices of each episode's `prompt_demos` prompts."""
+    plan = []
+    for i in range(spec.episodes):
+        chosen: tuple[int, ...] = ()
+        if pool_size:
+            rng = np.random.default_rng([spec.seed, i])
+            chosen = tuple(int(j) for j in rng.choice(pool_size, size=prompt_demos,
+                                                       replace=pool_size < prompt_demos))
+        plan.append(Episode(spec=spec_index, task=spec.task, index=i,
+                            seed=episode_seed(spec.seed, i), prompt=chosen,
+                            max_steps=spec.max_steps))
+    return plan
 
-    if env_factory is None:
-        from icil_paper.sim import make_env as env_factory
 
-    policy.eval()
-    env = env_factory(task, obs=kind, seed=plan[0]["seed"], **dict(env_options))
+def _check_spec(spec: EvalSpec) -> None:
+    if spec.episodes < 1:
+        raise ValueError(f"episodes must be at least 1, got {spec.episodes}")
+    if spec.max_steps is not None and spec.max_steps < 1:
+        raise ValueError(f"max_steps must be at least 1 (or None), got {spec.max_steps}")
+
+
+def _pools(specs: Sequence[EvalSpec], prompts: Any) -> list[list[Any]]:
+    """One prompt pool per spec from `evaluate_many`'s `prompts` argument."""
+    if prompts is None:
+        return [[] for _ in specs]
+    if isinstance(prompts, Mapping):
+        return [list(prompts.get(spec.task) or []) for spec in specs]
+    pools = list(prompts)
+    if len(pools) != len(specs) or not all(p is None or isinstance(p, (list, tuple))
+                                           for p in pools):
+        raise ValueError(f"prompts must map each task to its prompt pool, or be a list of "
+                         f"{len(specs)} pools (lists of demonstrations), one per spec")
+    return [list(p or []) for p in pools]
+
+
+def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
+                  prompts: Mapping[str, Sequence[Any]] | Sequence[Sequence[Any] | None] | None = None,
+                  workers: int = 1, record_dir: str | Path | None = None, progress: bool = True,
+                  env_options: Mapping[str, Any] | None = None,
+                  env_factory: Callable[..., Any] | None = None, batch_size: int | None = None,
+                  pool: RolloutPool | None = None, device: str | None = None) -> list[EvalResult]:
+    """Evaluate one policy on many specs (e.g. every task of a table) in one call; returns
+    one EvalResult per spec, in order. Each result equals what `evaluate_policy` gives for
+    that spec alone, up to float rounding in the policy (see the module docstring).
+
+    Args:
+        policy: a trained policy (`icil_paper.policies`).
+        specs: the evaluations (`runspec.EvalSpec`), one per task or prompt variant.
+        prompts: an in-context policy's prompt pools: {task: pool}, or a list with one pool
+            per spec (`prompt_pool(spec, ...)` gives a spec's).
+        workers: processes that run rollouts (1: this process); ignored with `pool`.
+        record_dir: write a rerun recording of each rollout there.
+        env_options: extra keyword options for `make_env`.
+        env_factory: a picklable callable (task, obs=, seed=, **env_options) -> env used
+            instead of `icil_paper.sim.make_env` (e.g. a test suite's).
+        batch_size: episodes stepped in lockstep per worker (default
+            `rollouts.default_batch_size`: one episode per spec per group).
+        pool: a `RolloutPool` whose worker processes (and their envs) to use and keep.
+        device: where worker processes run the policy (default: the policy's device).
+    """
+    specs = list(specs)
+    if not specs:
+        raise ValueError("evaluate_many needs at least one EvalSpec")
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    if batch_size is not None and batch_size < 1:
+        raise ValueError(f"batch_size must be at least 1, got {batch_size}")
+    pools = _pools(specs, prompts)
+    k = getattr(policy.config, "prompt_demos", 1)
+    episodes: list[Episode] = []
+    for i, (spec, pool_i) in enumerate(zip(specs, pools, strict=True)):
+        _check_spec(spec)
+        if env_factory is None:
+            check_policy_fits(policy, spec.task)
+        if policy.uses_prompt and not pool_i:
+            raise ValueError(f"{policy.name} needs prompt demonstrations for {spec.task} "
+                             "(pass prompts=, e.g. prompt_pool(spec, ...))")
+        episodes += plan_episodes(spec, len(pool_i) if policy.uses_prompt else 0, k, i)
+    desc = f"eval {specs[0].task}" if len(specs) == 1 else f"eval {len(specs)} tasks"
+    start = time.perf_counter()
+    rows = run_episodes(policy, episodes, prompts=dict(enumerate(pools)), obs=obs_kind(policy),
+                        workers=workers, batch_size=batch_size, env_factory=env_factory,
+                        env_options=env_options, record_dir=record_dir, progress=progress,
+                        pool=pool, device=device, desc=desc)
+    wall = round(time.perf_counter() - start, 3)
     results = []
-    try:
-        for ep in tqdm(plan, desc=f"eval {task}", disable=not progress, leave=False):
-            results.append(_run_episode(policy, env, ep, [prompts[i] for i in ep["prompt"]],
-                                        max_steps, record_dir))
-    finally:
-        env.close()
+    for i, spec in enumerate(specs):
+        per_episode = [r for ep, r in zip(episodes, rows, strict=True) if ep.spec == i]
+        successes = int(sum(r["success"] for r in per_episode))
+        lo, hi = wilson_interval(successes, len(per_episode))
+        results.append(EvalResult(
+            task=spec.task, episodes=len(per_episode), successes=successes,
+            success_rate=successes / len(per_episode), ci_low=lo, ci_high=hi,
+            mean_steps=float(np.mean([r["steps"] for r in per_episode])), wall_time_s=wall,
+            per_episode=per_episode))
     return results
 
 
-def rollout(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | None = None,
-            max_steps: int | None = None, keep_trace: bool = False) -> dict[str, Any]:
-    """Run one episode: reset the env with `seed`, reset the policy with `prompt`, act until
-    success, the episode's end or `max_steps` (default: the env's horizon).
-
-    Returns {"success", "steps", "return"} and, with `keep_trace`, "obs" (list of the
-    observations acted on), "actions" (T, A) executed (clipped to [-1, 1]) and "final_obs".
-    """
-    obs, info = env.reset(seed=seed)
-    policy.reset(prompt=list(prompt) if policy.uses_prompt and prompt is not None else None,
-                 instruction=getattr(env, "instruction", ""))
-    limit = int(max_steps or env.horizon)
-    success, total_reward, steps = False, 0.0, 0
-    seen, actions = [], []
-    for steps in range(1, limit + 1):  # noqa: B007 (steps is read after the loop)
-        action = np.clip(policy.select_action(obs), -1.0, 1.0).astype(np.float32)
-        if keep_trace:
-            seen.append(obs)
-            actions.append(action)
-        obs, reward, terminated, truncated, info = env.step(action)
-        total_reward += float(reward)
-        if info.get("success"):
-            success = True
-            break
-        if terminated or truncated:
-            break
-    out: dict[str, Any] = {"success": bool(success), "steps": steps,
-                           "return": round(total_reward, 6)}
-    if keep_trace:
-        out.update(obs=seen, actions=np.asarray(actions, np.float32).reshape(-1, env.action_dim),
-                   final_obs=obs)
-    return out
-
-
-def _run_episode(policy: Any, env: Any, ep: Mapping[str, Any], prompt: list[Any],
-                 max_steps: int | None, record_dir: str | None) -> dict[str, Any]:
-    start = time.perf_counter()
-    out = rollout(policy, env, ep["seed"], prompt, max_steps, keep_trace=record_dir is not None)
-    result = {"episode": ep["index"], "seed": ep["seed"], "success": out["success"],
-              "steps": out["steps"], "return": out["return"], "prompt": list(ep["prompt"]),
-              "wall_time_s": round(time.perf_counter() - start, 3)}
-    if record_dir is not None:
-        result["recording"] = record_rollout(policy, str(getattr(env, "name", "task")), ep, out,
-                                             record_dir)
-    return result
-
-
-def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping[str, Any],
-                   record_dir: str | Path) -> str | None:
-    """Write one rollout as a rerun recording with its static picture.
-
-    Args:
-        policy: the policy that acted; its tokenizer (if any) gives the latent action tokens.
-        task: the task name (for the file name, the title and the object's position).
-        ep: the episode's {"index", "seed"}.
-        trace: `rollout(..., keep_trace=True)`'s output ("obs", "actions", "success").
-        record_dir: the folder of `<task>__seed<seed>.rrd` and `.png`.
-
-    Returns the `.rrd` path, the `.png` path where rerun is unavailable, or None where
-    recording is unavailable altogether.
-    """
-    try:
-        from icil_paper.recording import record_episode
-    except ImportError:
-        warnings.warn("icil_paper.recording is not available; rollouts are not recorded",
-                      stacklevel=2)
-        return None
-    actions = np.asarray(trace["actions"], np.float32)
-    latents = None
-    tokenizer = getattr(policy, "tokenizer", None)
-    if tokenizer is not None and len(actions):
-        with torch.no_grad():  # the latent action tokens of the executed actions
-            latents = tokenizer(torch.from_numpy(actions)[None]).embeddings[0].cpu().numpy()
-    path = Path(record_dir) / f"{task.replace('/', '-')}__seed{ep['seed']}.rrd"
-    title = (f"{getattr(policy, 'name', 'policy')} on {task}, episode {ep['index']} "
-             f"(env seed {ep['seed']}): {'success' if trace['success'] else 'failure'}")
-    from icil_paper.sim import object_position
-
-    out = record_episode(path, trace["obs"], actions, latents=latents, title=title,
-                         object_position=object_position(task))
-    return str(out["rrd"] or out["png"])
-
-
-def _worker(blob: bytes, task: str, kind: str, plan: list[dict[str, Any]],
-            prompts: Mapping[int, Any], max_steps: int | None, record_dir: str | None,
-            env_options: Mapping[str, Any], env_factory: Callable[..., Any] | None
-            ) -> list[dict[str, Any]]:
-    torch.set_num_threads(1)
-    return _run_episodes(_policy_from_blob(blob), task, kind, plan, prompts, max_steps,
-                         record_dir, env_options, env_factory)
-
-
-# --------------------------------------------------------------------------- evaluation
 def evaluate_policy(policy: Any, spec: EvalSpec, prompts: Sequence[Any] | None = None,
                     workers: int = 1, record_dir: str | Path | None = None,
                     progress: bool = True, env_options: Mapping[str, Any] | None = None,
-                    env_factory: Callable[..., Any] | None = None) -> EvalResult:
+                    env_factory: Callable[..., Any] | None = None, batch_size: int | None = None,
+                    pool: RolloutPool | None = None, device: str | None = None) -> EvalResult:
     """Success rate of `policy` over the rollouts `spec` describes (see the module docstring).
 
     Args:
         policy: a trained policy (`icil_paper.policies`).
         spec: the task, episodes, seed, step limit and prompt choice (`runspec.EvalSpec`).
         prompts: the prompt pool of an in-context policy (`prompt_pool` gives the spec's).
-        workers: processes that run rollouts (1: in this process).
+        workers: processes that run rollouts (1: in this process); ignored with `pool`.
         record_dir: write a rerun recording of each rollout there.
         env_options: extra keyword options for `make_env`.
         env_factory: a picklable callable (task, obs=, seed=, **env_options) -> env used
             instead of `icil_paper.sim.make_env` (e.g. a test suite's).
+        batch_size: episodes stepped in lockstep per worker, each with its own env (default
+            1 for one spec: one env per worker).
+        pool: a `RolloutPool` whose worker processes (and their envs) to use and keep.
+        device: where worker processes run the policy (default: the policy's device).
     """
-    if spec.episodes < 1:
-        raise ValueError(f"episodes must be at least 1, got {spec.episodes}")
-    if spec.max_steps is not None and spec.max_steps < 1:
-        raise ValueError(f"max_steps must be at least 1 (or None), got {spec.max_steps}")
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
-    if env_factory is None:
-        check_policy_fits(policy, spec.task)
-    pool: list[Any] = []
-    if policy.uses_prompt:
-        pool = list(prompts or [])
-        if not pool:
-            raise ValueError(f"{policy.name} needs prompt demonstrations for {spec.task} "
-                             "(pass prompts=, e.g. prompt_pool(spec, ...))")
-    k = getattr(policy.config, "prompt_demos", 1)
-    plan = []
-    for i in range(spec.episodes):
-        chosen: list[int] = []
-        if pool:
-            rng = np.random.default_rng([spec.seed, i])
-            chosen = [int(j) for j in rng.choice(len(pool), size=k, replace=len(pool) < k)]
-        plan.append({"index": i, "seed": episode_seed(spec.seed, i), "prompt": chosen})
-    used = {j: pool[j] for ep in plan for j in ep["prompt"]}
-    if record_dir is not None:
-        Path(record_dir).mkdir(parents=True, exist_ok=True)
-        record_dir = str(record_dir)
-    kind, env_options = obs_kind(policy), dict(env_options or {})
-
-    start = time.perf_counter()
-    was_training = policy.training
-    policy.eval()
-    task, max_steps = spec.task, spec.max_steps
-    if workers <= 1 or spec.episodes <= 1:
-        from icil_paper.train.optim import cpu_threads
-
-        with cpu_threads(1):  # one episode at a time gains nothing from a thread pool
-            per_episode = _run_episodes(policy, task, kind, plan, used, max_steps, record_dir,
-                                        env_options, env_factory, progress=progress)
-    else:
-        import multiprocessing as mp
-
-        from tqdm.auto import tqdm
-
-        blob = _policy_blob(policy)
-        n = min(workers, spec.episodes)
-        shards = [plan[w::n] for w in range(n)]
-        ctx = mp.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=n, mp_context=ctx) as ex:
-            futures = [ex.submit(_worker, blob, task, kind, shard,
-                                 {j: used[j] for ep in shard for j in ep["prompt"]},
-                                 max_steps, record_dir, env_options, env_factory)
-                       for shard in shards]
-            per_episode = []
-            for f in tqdm(futures, desc=f"eval {task} ({n} workers)", disable=not progress,
-                          leave=False):
-                per_episode.extend(f.result())
-        per_episode.sort(key=lambda r: r["episode"])
-    policy.train(was_training)
-
-    successes = int(sum(r["success"] for r in per_episode))
-    lo, hi = wilson_interval(successes, len(per_episode))
-    return EvalResult(task=task, episodes=len(per_episode), successes=successes,
-                      success_rate=successes / len(per_episode), ci_low=lo, ci_high=hi,
-                      mean_steps=float(np.mean([r["steps"] for r in per_episode])),
-                      wall_time_s=round(time.perf_counter() - start, 3), per_episode=per_episode)
+    return evaluate_many(policy, [spec], [list(prompts or [])], workers=workers,
+                         record_dir=record_dir, progress=progress, env_options=env_options,
+                         env_factory=env_factory, batch_size=batch_size, pool=pool,
+                         device=device)[0]
 
 
 def eval_record_name(run: Any, ev: EvalSpec) -> str:
@@ -374,38 +303,81 @@ def eval_record_name(run: Any, ev: EvalSpec) -> str:
     return f"{name}__seed{run.seed}"
 
 
+def _eval_config(run: Any, ev: EvalSpec) -> dict[str, Any]:
+    from icil_paper.specs import to_dict
+
+    return {"run": to_dict(run, keyed_only=True), "eval": to_dict(ev, keyed_only=True)}
+
+
+def _run_prompts(run: Any, ev: EvalSpec, policy: Any, preset: str | None,
+                 progress: bool) -> list[Any] | None:
+    if not policy.uses_prompt:
+        return None
+    return prompt_pool(ev, run.data.obs, run.data.demos_per_task, run.data.seed, preset, progress)
+
+
+def _trained(policy: Any | Callable[[], Any]) -> Any:
+    return policy if isinstance(policy, torch.nn.Module) else policy()
+
+
 def evaluate_run(run: Any, ev: EvalSpec, policy: Any | Callable[[], Any], store: Any,
                  preset: str | None = None, workers: int = 1, record_dir: str | Path | None = None,
-                 force: bool = False, progress: bool = True) -> dict[str, Any]:
+                 force: bool = False, progress: bool = True, pool: RolloutPool | None = None,
+                 batch_size: int | None = None) -> dict[str, Any]:
     """The stored evaluation of `run`'s trained policy as `ev` describes, computed if missing.
 
     `policy` is the trained policy or a function that loads it (called only when the
     record must be computed). The record's config is the keyed content of both specs, so
-    its key is `runspec.eval_key(run, ev)`. Returns the record.
+    its key is `runspec.eval_key(run, ev)`. Returns the record. `pool` and `batch_size`
+    go to `evaluate_policy`.
     """
-    from icil_paper.specs import to_dict
-
-    config = {"run": to_dict(run, keyed_only=True), "eval": to_dict(ev, keyed_only=True)}
-
     def compute() -> dict[str, Any]:
-        trained = policy if isinstance(policy, torch.nn.Module) else policy()
-        pool = None
-        if trained.uses_prompt:
-            pool = prompt_pool(ev, run.data.obs, run.data.demos_per_task, run.data.seed, preset,
-                               progress)
-        result = evaluate_policy(trained, ev, prompts=pool, workers=workers,
-                                 record_dir=record_dir, progress=progress)
+        trained = _trained(policy)
+        result = evaluate_policy(trained, ev, prompts=_run_prompts(run, ev, trained, preset, progress),
+                                 workers=workers, record_dir=record_dir, progress=progress,
+                                 pool=pool, batch_size=batch_size)
         return result.to_dict()
 
-    return store.run("eval", eval_record_name(run, ev), config, compute, seed=ev.seed,
-                     force=force)
+    return store.run("eval", eval_record_name(run, ev), _eval_config(run, ev), compute,
+                     seed=ev.seed, force=force)
+
+
+def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[[], Any],
+                      store: Any, preset: str | None = None, workers: int = 1,
+                      record_dir: str | Path | None = None, force: bool = False,
+                      progress: bool = True, pool: RolloutPool | None = None,
+                      batch_size: int | None = None) -> list[dict[str, Any]]:
+    """`evaluate_run` for many evaluations of one run (a table's tasks): the records that
+    are missing (or all, with `force`) are computed together in one `evaluate_many` call,
+    each stored as it would be by `evaluate_run`. Returns the records, in the order of `evs`.
+    """
+    evs = list(evs)
+    names = [eval_record_name(run, ev) for ev in evs]
+    configs = [_eval_config(run, ev) for ev in evs]
+    records = [None if force else store.get("eval", name, config)
+               for name, config in zip(names, configs, strict=True)]
+    missing = [i for i, r in enumerate(records) if r is None]
+    if missing:
+        trained = _trained(policy)
+        start = time.perf_counter()
+        results = evaluate_many(
+            trained, [evs[i] for i in missing],
+            [_run_prompts(run, evs[i], trained, preset, progress) for i in missing],
+            workers=workers, record_dir=record_dir, progress=progress, pool=pool,
+            batch_size=batch_size)
+        wall = time.perf_counter() - start
+        for i, result in zip(missing, results, strict=True):
+            path = store.write("eval", names[i], configs[i], result.to_dict(), evs[i].seed,
+                               wall / len(missing))
+            records[i] = json.loads(Path(path).read_text())
+    return records
 
 
 # --------------------------------------------------------------------------- CLI
 def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.cli import add_preset_arguments, positive
+    from icil_paper.cli import Parser, add_preset_arguments, positive
 
-    p = argparse.ArgumentParser(prog="icil-paper eval",
+    p = Parser(prog="icil-paper eval",
                                 description="Roll out a trained policy; store its success rate.")
     add_preset_arguments(p)
     p.add_argument("--run-dir", default=None,
@@ -463,15 +435,21 @@ def main(argv: list[str] | None = None) -> int:
     store = ResultsStore(preset.name)
     workers = args.workers or preset.eval.workers
     record_dir = results_root() / preset.name / "recordings" if args.record else None
-    for task in args.tasks or list(run.data.tasks):
-        ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
-                       prompt_source=args.prompt_source, max_steps=args.max_steps)
-        record = evaluate_run(run, ev, policy, store, preset.name, workers, record_dir,
-                              force=args.force, progress=not args.quiet)
-        m = record["metrics"]
-        print(f"{run.label} on {task} (prompts: {args.prompt_source}): success "
-              f"{m['success_rate']:.3f} [{m['ci_low']:.3f}, {m['ci_high']:.3f}] over "
-              f"{m['episodes']} episodes")
+    # one set of worker processes for every task: started, and each task's env built, once
+    pool = RolloutPool(workers) if workers > 1 else None
+    try:
+        for task in args.tasks or list(run.data.tasks):
+            ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
+                           prompt_source=args.prompt_source, max_steps=args.max_steps)
+            record = evaluate_run(run, ev, policy, store, preset.name, workers, record_dir,
+                                  force=args.force, progress=not args.quiet, pool=pool)
+            m = record["metrics"]
+            print(f"{run.label} on {task} (prompts: {args.prompt_source}): success "
+                  f"{m['success_rate']:.3f} [{m['ci_low']:.3f}, {m['ci_high']:.3f}] over "
+                  f"{m['episodes']} episodes")
+    finally:
+        if pool is not None:
+            pool.close()
     return 0
 
 

@@ -34,7 +34,7 @@ tokenizer itself still learns through its own losses (trained jointly).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -44,7 +44,7 @@ from torch import Tensor, nn
 from icil_paper.batching import DemoSet, window_batch
 from icil_paper.layers import mlp
 from icil_paper.policies.backbones import ObsSpec
-from icil_paper.policies.base import Policy, TemporalEnsemble, masked_l1
+from icil_paper.policies.base import Policy, TemporalEnsemble, batch_instructions, masked_l1
 from icil_paper.policies.configs import ACTConfig
 from icil_paper.policies.transformer import DecoderBlock, RMSNorm, Transformer, TransformerConfig
 from icil_paper.tokenizers import TOKENIZERS
@@ -145,21 +145,49 @@ class ACT(Policy):
 
     # ------------------------------------------------------------------ acting
     def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
-        super().reset(instruction=instruction)
-        self.ensemble.reset()
+        self.reset_batch([prompt], [instruction])
 
     @torch.no_grad()
     def predict_chunk(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
         """The chunk (K, A) predicted for one env observation (z = 0 for plain ACT)."""
-        o = self.obs_tensors(obs)
+        return self.predict_chunks(self.obs_tensors(obs), [self.instruction])[0]
+
+    @torch.no_grad()
+    def predict_chunks(self, obs: Mapping[str, Tensor], instructions: Sequence[str]) -> np.ndarray:
+        """Chunks (B, K, A) for observations {key: (B, 1, ...)} (z = 0 for plain ACT)."""
+        B = len(instructions)
         if self.tokenizer is None:
-            z = torch.zeros(1, self.latent_dim, device=self.device)
-            chunk = self.decode_chunk(o, [self.instruction], z)
+            z = torch.zeros(B, self.latent_dim, device=self.device)
+            chunk = self.decode_chunk(obs, list(instructions), z)
         else:
-            chunk = self.tokenizer.decode(self.decode_chunk(o, [self.instruction]))
-        return chunk[0].cpu().numpy().astype(np.float32)
+            chunk = self.tokenizer.decode(self.decode_chunk(obs, list(instructions)))
+        return chunk.float().cpu().numpy()
 
     @torch.no_grad()
     def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
-        return self.ensemble(self.predict_chunk(obs)).astype(np.float32)
+        return self.select_actions([obs])[0]
 
+    def reset_batch(self, prompts: Sequence[Any],
+                    instructions: Sequence[str | None] | None = None) -> None:
+        """Start B = len(prompts) episodes (prompts are ignored), one temporal ensemble each."""
+        texts = [t or "" for t in batch_instructions(prompts, instructions)]
+        super().reset(instruction=texts[0])
+        self._instructions = texts
+        self._ensembles = [TemporalEnsemble(self.chunk_size, self.config.ensemble_m)
+                           for _ in texts]
+        self.ensemble = self._ensembles[0]
+        self._rows = list(range(len(texts)))
+
+    @torch.no_grad()
+    def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
+                       rows: Sequence[int] | None = None) -> np.ndarray:
+        """One step of B episodes: their chunks in one forward pass, then each episode's
+        temporal ensemble; obs[i] is episode rows[i]'s observation (default: all)."""
+        keep = self._keep_rows(rows, len(obs))
+        if keep is not None:
+            kept = keep.tolist()
+            self._instructions = [self._instructions[i] for i in kept]
+            self._ensembles = [self._ensembles[i] for i in kept]
+        chunks = self.predict_chunks(self.obs_tensors_batch(obs), self._instructions)
+        return np.stack([ens(chunk) for ens, chunk in zip(self._ensembles, chunks, strict=True)]
+                        ).astype(np.float32)

@@ -6,6 +6,14 @@
     loss, info = policy(batch)                  # training: a scalar loss and a dict of floats
     policy.reset(prompt=demos)                  # start an episode (ICRT: fill the KV cache)
     action = policy.select_action(obs)          # np.ndarray (A,) for one env observation
+    policy.reset_batch([demos_0, demos_1, demos_2])         # B episodes at once
+    actions = policy.select_actions([obs_0, obs_1, obs_2])  # (B, A): one batched forward
+    actions = policy.select_actions([obs_0, obs_2], rows=[0, 2])  # episode 1 has finished
+
+`reset_batch` / `select_actions` run B episodes in lockstep (the rollout engine,
+`icil_paper.rollouts`). ICRT, ACT, BC-Transformer and MCR implement them with one batched
+forward pass per step; for any other policy the default here keeps one copy of the policy
+per episode and loops over `select_action`.
 
 A policy is built from its config alone (`policy.config`, a dataclass of
 `icil_paper.policies.configs`), its tokenizer's config (`policy.tokenizer_config`) and the
@@ -16,6 +24,7 @@ use it with the state dict).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -83,7 +92,9 @@ class Policy(nn.Module):
 
     @property
     def device(self) -> torch.device:
-        return next(self.parameters()).device
+        """Where the policy's parameters are (cpu for a policy without any)."""
+        first = next(self.parameters(), None)
+        return first.device if first is not None else torch.device("cpu")
 
     # ---------------------------------------------------------------- training
     def prepare(self, demos: DemoSet | Sequence[Any], pretrain: bool = True,
@@ -125,6 +136,70 @@ class Policy(nn.Module):
         """One env observation -> {key: (1, 1, ...)} on the policy's device."""
         return {k: v.to(self.device) for k, v in obs_batch(obs, self.obs_spec).items()}
 
+    def obs_tensors_batch(self, obs: Sequence[Mapping[str, np.ndarray]]) -> dict[str, Tensor]:
+        """B env observations -> {key: (B, 1, ...)} on the policy's device."""
+        each = [obs_batch(o, self.obs_spec) for o in obs]  # B x {key: (1, 1, ...)}
+        return {k: torch.cat([e[k] for e in each]).to(self.device) for k in self.obs_spec.keys}
+
+    # ---------------------------------------------------------------- acting, batched
+    def reset_batch(self, prompts: Sequence[Any], instructions: Sequence[str | None] | None = None
+                    ) -> None:
+        """Start B = len(prompts) episodes at once: prompts[b] and instructions[b] are what
+        `reset` takes for episode b (None entries: no prompt, the default instruction).
+
+        This default keeps one copy of the policy per episode (B = 1: the policy itself) and
+        `select_actions` loops over their `select_action`; policies with a batched forward
+        pass override both.
+        """
+        instructions = batch_instructions(prompts, instructions)
+        replicas = [self] if len(prompts) == 1 else [self._replica() for _ in prompts]
+        for policy, prompt, text in zip(replicas, prompts, instructions, strict=True):
+            policy.reset(prompt=prompt, instruction=text)
+        self._replicas = replicas
+
+    def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
+                       rows: Sequence[int] | None = None) -> np.ndarray:
+        """One step of the episodes started by `reset_batch`: obs[i] is the observation of
+        episode rows[i] (default: every episode, in order). An episode left out of `rows`
+        has finished and must not come back. Returns (len(obs), A) float32 actions."""
+        replicas = getattr(self, "_replicas", None)
+        if replicas is None:
+            raise RuntimeError("call reset_batch(prompts) before select_actions")
+        rows = list(range(len(replicas))) if rows is None else list(rows)
+        if len(rows) != len(obs):
+            raise ValueError(f"{len(obs)} observations for {len(rows)} rows")
+        return np.stack([np.asarray(replicas[r].select_action(o), np.float32)
+                         for r, o in zip(rows, obs, strict=True)])
+
+    def _replica(self) -> Policy:
+        """A deep copy of this policy for one episode of the default batched acting."""
+        saved = self.__dict__.pop("_replicas", None)
+        try:
+            return copy.deepcopy(self)
+        finally:
+            if saved is not None:
+                self._replicas = saved
+
+    def _keep_rows(self, rows: Sequence[int] | None, n_obs: int) -> Tensor | None:
+        """Row bookkeeping of a batched `select_actions`: check `rows` against the episodes
+        still running (`self._rows`, set by `reset_batch`); when some have finished, return
+        the positions of the remaining ones in the batched state (to keep those rows), else
+        None."""
+        current = getattr(self, "_rows", None)
+        if current is None:
+            raise RuntimeError("call reset(prompt=...) or reset_batch(...) before select_action")
+        rows = list(current) if rows is None else [int(r) for r in rows]
+        if len(rows) != n_obs:
+            raise ValueError(f"{n_obs} observations for {len(rows)} rows")
+        if rows == current:
+            return None
+        where = {r: i for i, r in enumerate(current)}
+        if any(r not in where for r in rows) or rows != sorted(rows):
+            raise ValueError(f"rows {rows} must be increasing and among the running episodes "
+                             f"{current} (a finished episode cannot come back)")
+        self._rows = rows
+        return torch.tensor([where[r] for r in rows], dtype=torch.long, device=self.device)
+
     def n_params(self) -> int:
         return sum(p.numel() for p in self.parameters())
 
@@ -147,6 +222,19 @@ def build_policy(spec: Mapping[str, Any]) -> Policy:
     return make_policy(from_dict(PolicyConfig, spec["policy"]),
                        ObsSpec.from_dict(spec["obs_spec"]), int(spec["action_dim"]),
                        from_dict(TokenizerConfig, tokenizer) if tokenizer else None)
+
+
+def batch_instructions(prompts: Sequence[Any], instructions: Sequence[str | None] | None
+                        ) -> list[str | None]:
+    """`reset_batch`'s instructions, one per prompt (None: each policy's default)."""
+    if len(prompts) < 1:
+        raise ValueError("reset_batch needs at least one episode (one prompt entry per episode)")
+    if instructions is None:
+        return [None] * len(prompts)
+    instructions = list(instructions)
+    if len(instructions) != len(prompts):
+        raise ValueError(f"{len(prompts)} prompts but {len(instructions)} instructions")
+    return instructions
 
 
 def masked_l1(pred: Tensor, target: Tensor, valid: Tensor) -> Tensor:

@@ -14,12 +14,13 @@ history is padded at an episode's start by repeating the first observation, at t
 and at inference alike. robomimic's head is a 5-mode GMM; ours regresses the action with an
 L1 loss, the same loss as ICRT and ACT here, so that the comparison is about context and
 not about the output distribution. It sees no prompt: `reset(prompt)` ignores the prompt.
+`reset_batch` / `select_actions` keep a (B, H) window of observation tokens for B episodes
+and act for all of them with one forward pass.
 """
 
 from __future__ import annotations
 
-from collections import deque
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -29,7 +30,7 @@ from torch import Tensor, nn
 from icil_paper.batching import DemoSet, window_batch
 from icil_paper.layers import mlp
 from icil_paper.policies.backbones import ObsSpec
-from icil_paper.policies.base import Policy, masked_l1
+from icil_paper.policies.base import Policy, batch_instructions, masked_l1
 from icil_paper.policies.configs import BCTransformerConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 
@@ -49,7 +50,7 @@ class BCTransformer(Policy):
             d_model=D, n_layer=config.n_layer, n_head=config.n_head, dropout=config.dropout,
             causal=True, rope=True))
         self.head = mlp([D, D, action_dim], nn.GELU)
-        self._tokens: deque[Tensor] = deque(maxlen=self.history)
+        self._history: Tensor | None = None
 
     def sample_batch(self, data: DemoSet, batch_size: int, rng: np.random.Generator) -> dict[str, Any]:
         return window_batch(data, batch_size, self.history, 1, rng)
@@ -65,14 +66,34 @@ class BCTransformer(Policy):
         return loss, {"action_l1": float(loss.detach())}
 
     def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
-        super().reset(instruction=instruction)
-        self._tokens.clear()
+        self.reset_batch([prompt], [instruction])
 
     @torch.no_grad()
     def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
-        token = self.obs_encoder(self.obs_tensors(obs), [self.instruction])  # (1, 1, D)
-        if not self._tokens:  # episode start: pad by repeating the first observation
-            self._tokens.extend([token] * (self.history - 1))
-        self._tokens.append(token)
-        h = self.transformer(torch.cat(list(self._tokens), dim=1))  # (1, H, D)
-        return self.head(h[:, -1])[0].cpu().numpy().astype(np.float32)
+        return self.select_actions([obs])[0]
+
+    def reset_batch(self, prompts: Sequence[Any],
+                    instructions: Sequence[str | None] | None = None) -> None:
+        """Start B = len(prompts) episodes (prompts are ignored); see `select_actions`."""
+        texts = [t or "" for t in batch_instructions(prompts, instructions)]
+        super().reset(instruction=texts[0])
+        self._instructions = texts
+        self._history: Tensor | None = None  # (B, H, D) the last H observation tokens
+        self._rows = list(range(len(texts)))
+
+    @torch.no_grad()
+    def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
+                       rows: Sequence[int] | None = None) -> np.ndarray:
+        """One step of B episodes in one forward pass over their (B, H) histories; obs[i] is
+        episode rows[i]'s observation (default: all); episodes left out have finished."""
+        keep = self._keep_rows(rows, len(obs))
+        if keep is not None:
+            self._history = None if self._history is None else self._history[keep]
+            self._instructions = [self._instructions[i] for i in keep.tolist()]
+        token = self.obs_encoder(self.obs_tensors_batch(obs), self._instructions)  # (B, 1, D)
+        if self._history is None:  # episode start: pad by repeating the first observation
+            self._history = token.expand(-1, self.history, -1)
+        else:
+            self._history = torch.cat([self._history[:, 1:], token], dim=1)
+        h = self.transformer(self._history)  # (B, H, D)
+        return self.head(h[:, -1]).float().cpu().numpy()

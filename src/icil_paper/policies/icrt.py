@@ -32,7 +32,11 @@ The token layout is drawn in `icil_paper.batching`. Choices, and why:
 - Inference. `reset(prompt)` runs the prompt through the transformer once and keeps every
   layer's keys and values (a KV cache); each `select_action(obs)` then appends the previous
   action's token and the new observation's token and costs one step, independent of the
-  prompt's length. The first action of the predicted chunk is executed.
+  prompt's length. The first action of the predicted chunk is executed (clipped to the
+  action range, and embedded as such at the next step). `reset_batch(prompts)` and
+  `select_actions(obs_list)` do the same for B episodes at once with one batched cache
+  (prompts of different lengths padded, finished episodes dropped): one forward pass per
+  step for all of them.
 """
 
 from __future__ import annotations
@@ -47,7 +51,7 @@ from torch import Tensor, nn
 from icil_paper.batching import DemoSet, prompt_query_batch
 from icil_paper.layers import mlp
 from icil_paper.policies.backbones import ObsSpec
-from icil_paper.policies.base import Policy, masked_l1, validate_prompt
+from icil_paper.policies.base import Policy, batch_instructions, masked_l1, validate_prompt
 from icil_paper.policies.configs import ICRTConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 from icil_paper.tokenizers import TOKENIZERS
@@ -227,51 +231,105 @@ class ICRT(Policy):
     @torch.no_grad()
     def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
         """Fill the KV cache with the prompt (one or more demonstrations of the task)."""
-        demos = validate_prompt(prompt, self.obs_spec, self.action_dim)
-        if instruction is None:
-            instruction = getattr(demos[0], "instruction", "") or ""
-        super().reset(instruction=instruction)
-        dev = self.device
-        obs = {k: torch.from_numpy(np.ascontiguousarray(
-            np.concatenate([np.asarray(d.obs[k]) for d in demos])))[None].to(dev)
-            for k in self.obs_spec.keys}
-        obs = {k: v.float() if k != "rgb" else v for k, v in obs.items()}
-        actions = torch.from_numpy(np.concatenate(
-            [np.asarray(d.actions, np.float32) for d in demos]))[None].to(dev)
-        M = actions.shape[1]
-        if 2 * M + 2 > self.max_seq_len:
-            raise ValueError(f"a prompt of {M} steps ({2 * M} tokens) leaves no room for the "
-                             f"query within max_seq_len={self.max_seq_len}")
-        o_p = self.obs_tokens(obs, [self.instruction])
-        a_p, _ = self.action_tokens(actions)
-        tokens = torch.stack([o_p, a_p], dim=2).reshape(1, 2 * M, -1)
-        self._cache = self.transformer.new_cache()
-        self.transformer(tokens, cache=self._cache)
-        self._prompt_len = 2 * M
-        self._actions: list[np.ndarray] = []  # executed query actions (the last C are kept)
+        self.reset_batch([prompt], [instruction])
 
     @torch.no_grad()
     def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
         """One step: append (previous action, observation) to the cache; return a_t (A,)."""
+        return self.select_actions([obs])[0]
+
+    @torch.no_grad()
+    def reset_batch(self, prompts: Sequence[Any],
+                    instructions: Sequence[str | None] | None = None) -> None:
+        """Start B = len(prompts) episodes: run every prompt through the transformer in one
+        padded batch and keep one batched KV cache. Prompts of different lengths are padded
+        at their end; padding is never attended to and does not shift positions, so each row
+        equals the episode's own cache up to float rounding::
+
+            row 0   o a o a o a o a │ o a o a ...     (the query steps of all rows
+            row 1   o a o a . . . . │ o a o a ...      share columns)
+
+        instructions[b]: episode b's instruction (None: its first demonstration's).
+        """
+        instructions = batch_instructions(prompts, instructions)
+        keys, rows_obs, rows_actions, texts = self.obs_spec.keys, [], [], []
+        for prompt, text in zip(prompts, instructions, strict=True):
+            demos = validate_prompt(prompt, self.obs_spec, self.action_dim)
+            texts.append(text if text is not None else getattr(demos[0], "instruction", "") or "")
+            rows_obs.append({k: np.concatenate([np.asarray(d.obs[k]) for d in demos]) for k in keys})
+            rows_actions.append(np.concatenate([np.asarray(d.actions, np.float32) for d in demos]))
+        lengths = [len(a) for a in rows_actions]
+        B, M = len(lengths), max(lengths)
+        if 2 * M + 2 > self.max_seq_len:
+            raise ValueError(f"a prompt of {M} steps ({2 * M} tokens) leaves no room for the "
+                             f"query within max_seq_len={self.max_seq_len}")
+        dev = self.device
+        obs = {k: torch.from_numpy(_pad_rows([o[k] for o in rows_obs], M)).to(dev) for k in keys}
+        obs = {k: v.float() if k != "rgb" else v for k, v in obs.items()}  # (B, M, ...)
+        actions = torch.from_numpy(_pad_rows(rows_actions, M)).to(dev)  # (B, M, A)
+        valid = torch.arange(M, device=dev)[None] < torch.tensor(lengths, device=dev)[:, None]
+        o_p = self.obs_tokens(obs, texts)
+        a_p, _ = self.action_tokens(actions)
+        tokens = torch.stack([o_p, a_p], dim=2).reshape(B, 2 * M, -1)  # o1 a1 o2 a2 ...
+        self._cache = self.transformer.new_cache()
+        self.transformer(tokens, valid.repeat_interleave(2, dim=1), cache=self._cache)
+        self._prompt_len = 2 * torch.tensor(lengths, device=dev)  # (B,) real prompt tokens
+        self._recent: Tensor | None = None  # (B, <= C, A) executed query actions
+        self._instructions = texts
+        self._rows = list(range(B))
+        self.instruction = texts[0]
+
+    @torch.no_grad()
+    def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
+                       rows: Sequence[int] | None = None) -> np.ndarray:
+        """One step of the episodes of `reset_batch`, in one forward pass: append each row's
+        (previous action, observation) to the cache and return (len(obs), A) actions, the
+        first of each predicted chunk, clipped to [-1, 1] (what the env executes, and what
+        the next step's action token embeds).
+
+        obs[i] belongs to episode rows[i] (default: all, in order); episodes left out have
+        finished and their rows leave the cache.
+        """
         if self._cache is None:
-            raise RuntimeError("call reset(prompt=...) before select_action")
+            raise RuntimeError("call reset(prompt=...) (or reset_batch) before select_action")
+        keep = self._keep_rows(rows, len(obs))
+        if keep is not None:  # finished episodes drop out of the batch
+            self._cache.select_rows(keep)
+            self._prompt_len = self._prompt_len[keep]
+            self._recent = None if self._recent is None else self._recent[keep]
+            self._instructions = [self._instructions[i] for i in keep.tolist()]
         new = []
-        if self.query_actions and self._actions:
-            recent = torch.as_tensor(np.stack(self._actions), device=self.device)[None]  # (1, <=C, A)
+        if self.query_actions and self._recent is not None:
+            recent = self._recent  # (B, <= C, A)
             new.append(self.action_tokens(recent[:, -1:], recent[:, :-1])[0])
-        new.append(self.obs_tokens(self.obs_tensors(obs), [self.instruction]))
-        x = torch.cat(new, dim=1)  # (1, 1 or 2, D)
+        new.append(self.obs_tokens(self.obs_tensors_batch(obs), self._instructions))
+        x = torch.cat(new, dim=1)  # (B, 1 or 2, D)
         self._make_room(x.shape[1])
-        h = self.transformer(x, cache=self._cache)[:, -1]  # (1, D)
-        chunk = self.head(h).view(self.chunk_size, self.action_dim).cpu().numpy()
-        action = chunk[0].astype(np.float32)
-        self._actions = (self._actions + [action])[-self.action_context:]
-        return action
+        h = self.transformer(x, cache=self._cache)[:, -1]  # (B, D)
+        chunk = self.head(h).view(len(obs), self.chunk_size, self.action_dim)
+        action = chunk[:, 0].clamp(-1.0, 1.0)  # (B, A)
+        recent = action[:, None] if self._recent is None else torch.cat(
+            [self._recent, action[:, None]], dim=1)
+        self._recent = recent[:, -self.action_context:]
+        return action.float().cpu().numpy()
 
     def _make_room(self, n_new: int) -> None:
-        """Evict the oldest query steps once the cache would exceed max_seq_len."""
-        overflow = len(self._cache) + n_new - self.max_seq_len
-        if overflow > 0:
+        """Hide each row's oldest query steps once its cache would exceed max_seq_len (whole
+        (observation, action) pairs; the prompt always stays)."""
+        cache = self._cache
+        overflow = cache.valid.sum(dim=1) + n_new - self.max_seq_len  # (B,)
+        if bool((overflow > 0).any()):
             step = 2 if self.query_actions else 1
-            overflow = step * -(-overflow // step)  # whole (observation, action) pairs
-            self._cache.evict(self._prompt_len, self._prompt_len + overflow)
+            overflow = step * torch.div(overflow.clamp(min=0) + step - 1, step,
+                                        rounding_mode="floor")
+            rank = cache.valid.long().cumsum(dim=1) - 1  # index among the row's real tokens
+            first = self._prompt_len[:, None]
+            cache.invalidate(cache.valid & (rank >= first) & (rank < first + overflow[:, None]))
+
+
+def _pad_rows(rows: Sequence[np.ndarray], length: int) -> np.ndarray:
+    """Stack arrays (T_b, ...) into (B, length, ...), zero after each row's end."""
+    out = np.zeros((len(rows), length, *rows[0].shape[1:]), dtype=rows[0].dtype)
+    for b, row in enumerate(rows):
+        out[b, :len(row)] = row
+    return out

@@ -18,6 +18,11 @@ Positions. Rotary embeddings are computed on the fly from integer positions, so 
 table to outgrow; keys are rotated *before* they enter the cache, which makes dropping old
 cache entries (see `KVCache.evict`) safe: attention scores depend only on the positions
 that were used when each key was written.
+
+Batched decoding. One `KVCache` holds a batch of independent sequences (B episodes acting
+in lockstep): rows of different lengths are padded with invalid entries, each row keeps its
+own next position, and rows can leave the batch (`KVCache.select_rows`) or hide their oldest
+entries (`KVCache.invalidate`). Each row then equals a cache of its own up to float rounding.
 """
 
 from __future__ import annotations
@@ -117,34 +122,99 @@ class KVCache:
     """Keys and values of every layer for the tokens seen so far (inference only).
 
     keys[l], values[l]: (B, H, P, hd); valid: (B, P) bool; next_position: (B,) the position
-    the next real token gets.
+    the next real token gets. Each layer's keys and values live in a buffer with room to
+    grow (doubled when full), so appending a step copies only the new columns, not the
+    whole cache.
+
+    Rows are independent sequences (a batch of episodes): rows of different lengths are
+    padded with invalid columns, which no query attends to. `select_rows` keeps some rows
+    (finished episodes drop out), `invalidate` hides columns of single rows (a row's oldest
+    query steps), and `drop_columns` removes columns from every row.
     """
 
     def __init__(self, n_layer: int):
-        self.keys: list[Tensor | None] = [None] * n_layer
-        self.values: list[Tensor | None] = [None] * n_layer
+        self._keys: list[Tensor | None] = [None] * n_layer
+        self._values: list[Tensor | None] = [None] * n_layer
+        self._used = [0] * n_layer
         self.valid: Tensor | None = None
         self.next_position: Tensor | None = None
 
     def __len__(self) -> int:
         return 0 if self.valid is None else self.valid.shape[1]
 
+    @property
+    def batch_size(self) -> int:
+        return 0 if self.valid is None else self.valid.shape[0]
+
+    @property
+    def keys(self) -> list[Tensor | None]:
+        """Each layer's cached keys (B, H, P, hd) (views of the buffers)."""
+        return [None if k is None else k[:, :, :n] for k, n in zip(self._keys, self._used, strict=True)]
+
+    @property
+    def values(self) -> list[Tensor | None]:
+        """Each layer's cached values (B, H, P, hd) (views of the buffers)."""
+        return [None if v is None else v[:, :, :n] for v, n in zip(self._values, self._used, strict=True)]
+
     def append(self, layer: int, k: Tensor, v: Tensor) -> tuple[Tensor, Tensor]:
         """Add this step's keys/values (B, H, T, hd) of one layer; return all of them."""
-        if self.keys[layer] is not None:
-            k = torch.cat([self.keys[layer], k], dim=2)
-            v = torch.cat([self.values[layer], v], dim=2)
-        self.keys[layer], self.values[layer] = k, v
-        return k, v
+        n, T = self._used[layer], k.shape[2]
+        buf = self._keys[layer]
+        if buf is None or n + T > buf.shape[2]:
+            capacity = max(2 * (n + T), 64)
+            new_k = k.new_empty(*k.shape[:2], capacity, k.shape[3])
+            new_v = v.new_empty(*v.shape[:2], capacity, v.shape[3])
+            if n:
+                new_k[:, :, :n] = self._keys[layer][:, :, :n]
+                new_v[:, :, :n] = self._values[layer][:, :, :n]
+            self._keys[layer], self._values[layer] = new_k, new_v
+        self._keys[layer][:, :, n:n + T] = k
+        self._values[layer][:, :, n:n + T] = v
+        self._used[layer] = n + T
+        return self._keys[layer][:, :, :n + T], self._values[layer][:, :, :n + T]
+
+    def _rebuild(self, rows: Tensor | None = None, columns: Tensor | None = None) -> None:
+        """Keep only `rows` (index) and `columns` (bool over P) of every layer's buffers."""
+        for i, n in enumerate(self._used):
+            if self._keys[i] is None:
+                continue
+            k, v = self._keys[i][:, :, :n], self._values[i][:, :, :n]
+            if rows is not None:
+                k, v = k[rows], v[rows]
+            if columns is not None:
+                k, v = k[:, :, columns], v[:, :, columns]
+            self._keys[i], self._values[i] = k.contiguous(), v.contiguous()
+            self._used[i] = k.shape[2]
 
     def evict(self, start: int, stop: int) -> None:
         """Drop cached tokens [start, stop) of every layer (e.g. the oldest query steps)."""
-        keep = torch.ones(len(self), dtype=torch.bool)
+        keep = torch.ones(len(self), dtype=torch.bool, device=self.valid.device)
         keep[start:stop] = False
-        for i, (k, v) in enumerate(zip(self.keys, self.values, strict=True)):
-            if k is not None:
-                self.keys[i], self.values[i] = k[:, :, keep], v[:, :, keep]
+        self.drop_columns(~keep)
+
+    def drop_columns(self, drop: Tensor) -> None:
+        """Remove the columns where `drop` (P,) bool is True from every row and layer."""
+        keep = ~drop
+        self._rebuild(columns=keep)
         self.valid = self.valid[:, keep]
+
+    def invalidate(self, hide: Tensor) -> None:
+        """Hide the cached tokens where `hide` (B, P) bool is True (no query attends to them
+        any more); then remove the columns hidden in every row."""
+        self.valid = self.valid & ~hide
+        empty = ~self.valid.any(dim=0)
+        if empty.any():
+            self.drop_columns(empty)
+
+    def select_rows(self, rows: Tensor | list[int]) -> None:
+        """Keep only these rows (e.g. the episodes still running), in this order; then remove
+        the columns that were padding in every kept row."""
+        rows = torch.as_tensor(rows, dtype=torch.long, device=self.valid.device)
+        self._rebuild(rows=rows)
+        self.valid, self.next_position = self.valid[rows], self.next_position[rows]
+        empty = ~self.valid.any(dim=0)
+        if empty.any():
+            self.drop_columns(empty)
 
 
 class Attention(nn.Module):
@@ -167,12 +237,17 @@ class Attention(nn.Module):
 
     def forward(self, x: Tensor, attn_mask: Tensor | None = None,
                 positions: Tensor | None = None, context: Tensor | None = None,
-                cache: KVCache | None = None, layer: int = 0) -> Tensor:
-        """x (B, T, D) -> (B, T, D). Keys/values come from `context` (B, S, D) if given."""
+                cache: KVCache | None = None, layer: int = 0,
+                rope: tuple[Tensor, Tensor] | None = None) -> Tensor:
+        """x (B, T, D) -> (B, T, D). Keys/values come from `context` (B, S, D) if given.
+
+        `rope`: the rotary (cos, sin) of `positions`, when the caller computed them once for
+        every layer (`Transformer.forward` does)."""
         source = x if context is None else context
         q, k, v = self._heads(self.q(x)), self._heads(self.k(source)), self._heads(self.v(source))
         if self.rope:
-            cos, sin = rope_cos_sin(positions, self.head_dim, self.rope_base)
+            cos, sin = rope if rope is not None else rope_cos_sin(positions, self.head_dim,
+                                                                  self.rope_base)
             q, k = apply_rope(q, cos, sin), apply_rope(k, cos, sin)
         if cache is not None:
             k, v = cache.append(layer, k, v)  # (B, H, P + T, hd)
@@ -207,8 +282,10 @@ class Block(nn.Module):
         self.drop = nn.Dropout(cfg.dropout)
 
     def forward(self, x: Tensor, attn_mask: Tensor | None, positions: Tensor | None,
-                cache: KVCache | None = None, layer: int = 0) -> Tensor:
-        x = x + self.drop(self.attn(self.norm1(x), attn_mask, positions, cache=cache, layer=layer))
+                cache: KVCache | None = None, layer: int = 0,
+                rope: tuple[Tensor, Tensor] | None = None) -> Tensor:
+        x = x + self.drop(self.attn(self.norm1(x), attn_mask, positions, cache=cache, layer=layer,
+                                    rope=rope))
         return x + self.drop(self.mlp(self.norm2(x)))
 
 
@@ -263,8 +340,11 @@ class Transformer(nn.Module):
         if cache is not None:
             cache.valid = valid if past_valid is None else torch.cat([past_valid, valid], dim=1)
             cache.next_position = start + valid.long().sum(dim=1)  # (B,)
+        rope = None
+        if self.cfg.rope:  # the same angles in every layer: computed once
+            rope = rope_cos_sin(positions, self.cfg.d_model // self.cfg.n_head, self.cfg.rope_base)
         for i, block in enumerate(self.blocks):
-            x = block(x, mask, positions, cache=cache, layer=i)
+            x = block(x, mask, positions, cache=cache, layer=i, rope=rope)
         return self.norm(x)
 
 

@@ -1,0 +1,565 @@
+"""The rollout engine: many episodes of many tasks, N environments per worker stepped in
+lockstep with one batched policy forward pass per step, on worker processes kept for a whole
+evaluation (and, with a `RolloutPool`, for many).
+
+    from icil_paper.rollouts import Episode, run_episodes
+    episodes = [Episode(spec=0, task="kitchen/open_drawer", index=i, seed=s, prompt=(2,))
+                for i, s in enumerate(seeds)]
+    results = run_episodes(policy, episodes, prompts={0: pool}, obs="state", workers=2)
+
+`icil_paper.evaluate` plans the episodes from `EvalSpec`s and turns these results into
+success rates; this module only runs them. How the work is cut::
+
+    episodes, interleaved:   s0e0 s1e0 s2e0 ... s10e0 s0e1 s1e1 ...     (sK = spec K, eJ = episode J)
+    groups (<= batch_size):  [s0e0 ... s10e0] [s0e1 ... s10e1] ...     (nearly equal sizes)
+    worker processes:        each takes the next group when free; each keeps one copy of
+                             the policy and its envs ({task: [env, ...]}) for the whole call
+
+    one group, in one worker:
+        env b.reset(seed of episode b); policy.reset_batch(prompts of the group)
+        repeat: actions = policy.select_actions(obs of the running episodes, rows)
+                step each running env with its (clipped) action; an episode ends on
+                success, termination, truncation or its step limit, and leaves the batch
+
+Interleaving the specs (one per task in a table's evaluation) means a group needs one env
+per task, so a worker builds each task's env once, as one process stepping those tasks
+would. The default batch size (`default_batch_size`) keeps to that and gives every worker
+the same number of groups. A worker keeps the envs it has built until it exits (a kitchen env
+with state observations holds about 115 MB), so memory grows with the tasks it has met.
+
+Determinism. A group's outcomes depend on its episodes alone: each env is reset from its
+episode's seed (the suites' resets do not depend on an env's history, which the tests
+check), and the policy's batched state starts afresh with every group. So for a given batch
+size the results are the same, bit for bit, whatever the number of workers; another batch
+size changes the policy's numbers by float rounding only (a batched forward pass equals the
+unbatched one row by row up to rounding, `tests/test_rollouts.py`).
+
+Devices. The policy acts on its own device (in worker processes: the calling process's
+policy device unless `device` is given), so on a GPU machine every step is one batched
+forward pass on the GPU. The environments here are CPU simulators, one per episode;
+ManiSkill's GPU-parallel envs (`physx_cuda`, many scenes in one env) are not driven by this
+engine.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import os
+import tempfile
+import time
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+MAX_BATCH = 16
+"""Largest default group: beyond this the per-step cost of stepping the envs in turn dwarfs
+the batched forward pass, and fewer, longer groups balance worse over workers."""
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One planned rollout."""
+
+    spec: int
+    """Which evaluation it belongs to (an index into the caller's specs; keys `prompts`)."""
+    task: str
+    """The task (the env to build)."""
+    index: int
+    """Its index within its evaluation (episode 0, 1, ...)."""
+    seed: int
+    """The env seed it starts from."""
+    prompt: tuple[int, ...] = ()
+    """Indices into its evaluation's prompt pool (empty: no prompt)."""
+    max_steps: int | None = None
+    """Step limit; None: the env's horizon."""
+
+
+@dataclass(frozen=True)
+class EnvSetup:
+    """How every env of a call is built: `factory(task, obs=obs, seed=seed, **options)`."""
+
+    obs: str = "state"
+    """Observation kind: state, rgb or rgbd."""
+    options: tuple[tuple[str, Any], ...] = ()
+    """Extra keyword options of the factory, as sorted (name, value) pairs."""
+    factory: Callable[..., Any] | None = None
+    """A picklable callable; None: `icil_paper.sim.make_env`."""
+
+    def make(self, task: str, seed: int) -> Any:
+        factory = self.factory
+        if factory is None:
+            from icil_paper.sim import make_env as factory
+        return factory(task, obs=self.obs, seed=seed, **dict(self.options))
+
+
+# --------------------------------------------------------------------------- lockstep rollouts
+def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
+                  prompts: Sequence[Sequence[Any] | None] | None = None,
+                  max_steps: Sequence[int | None] | int | None = None,
+                  keep_trace: bool = False) -> list[dict[str, Any]]:
+    """Run len(envs) episodes in lockstep: env b from `seeds[b]` with prompt `prompts[b]`,
+    one `policy.select_actions` call per step for every episode still running.
+
+    Episode b ends when its env reports success, terminates or truncates, or after
+    `max_steps[b]` steps (default: the env's horizon). Actions are clipped to [-1, 1].
+    Returns per episode {"success", "steps", "return", "wall_time_s"} (seconds from the
+    start until it ended) and, with `keep_trace`, "obs" (the observations acted on),
+    "actions" (T, A) executed and "final_obs".
+    """
+    n = len(envs)
+    if len(seeds) != n:
+        raise ValueError(f"{n} envs but {len(seeds)} seeds")
+    prompts = [None] * n if prompts is None else list(prompts)
+    limits = list(max_steps) if isinstance(max_steps, (list, tuple)) else [max_steps] * n
+    if len(prompts) != n or len(limits) != n:
+        raise ValueError(f"{n} envs need {n} prompts and step limits")
+    start = time.perf_counter()
+    limits = [int(m or env.horizon) for m, env in zip(limits, envs, strict=True)]
+    obs = [env.reset(seed=int(seed))[0] for env, seed in zip(envs, seeds, strict=True)]
+    uses_prompt = getattr(policy, "uses_prompt", False)
+    policy.reset_batch([list(p) if uses_prompt and p is not None else None for p in prompts],
+                       [getattr(env, "instruction", "") for env in envs])
+    steps, success, total = [0] * n, [False] * n, [0.0] * n
+    ended = [0.0] * n
+    seen: list[list[Any]] = [[] for _ in range(n)]
+    taken: list[list[np.ndarray]] = [[] for _ in range(n)]
+    running = list(range(n))
+    while running:
+        actions = np.asarray(policy.select_actions([obs[i] for i in running], rows=running))
+        actions = np.clip(actions, -1.0, 1.0).astype(np.float32)
+        still = []
+        for action, i in zip(actions, running, strict=True):
+            if keep_trace:
+                seen[i].append(obs[i])
+                taken[i].append(action)
+            obs[i], reward, terminated, truncated, info = envs[i].step(action)
+            steps[i] += 1
+            total[i] += float(reward)
+            if info.get("success"):
+                success[i] = True
+            elif not (terminated or truncated or steps[i] >= limits[i]):
+                still.append(i)
+                continue
+            ended[i] = time.perf_counter() - start
+        running = still
+    out = []
+    for i, env in enumerate(envs):
+        row: dict[str, Any] = {"success": success[i], "steps": steps[i],
+                               "return": round(total[i], 6), "wall_time_s": round(ended[i], 3)}
+        if keep_trace:
+            row.update(obs=seen[i], final_obs=obs[i],
+                       actions=np.asarray(taken[i], np.float32).reshape(-1, env.action_dim))
+        out.append(row)
+    return out
+
+
+def rollout(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | None = None,
+            max_steps: int | None = None, keep_trace: bool = False) -> dict[str, Any]:
+    """Run one episode: reset the env with `seed`, reset the policy with `prompt`, act until
+    success, the episode's end or `max_steps` (default: the env's horizon).
+
+    Returns {"success", "steps", "return"} and, with `keep_trace`, "obs" (list of the
+    observations acted on), "actions" (T, A) executed (clipped to [-1, 1]) and "final_obs".
+    """
+    out = rollout_batch(policy, [env], [seed], [prompt], [max_steps], keep_trace)[0]
+    out.pop("wall_time_s")
+    return out
+
+
+def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping[str, Any],
+                   record_dir: str | Path) -> str | None:
+    """Write one rollout as a rerun recording with its static picture.
+
+    Args:
+        policy: the policy that acted; its tokenizer (if any) gives the latent action tokens.
+        task: the task name (for the file name, the title and the object's position).
+        ep: the episode's {"index", "seed"}.
+        trace: `rollout(..., keep_trace=True)`'s output ("obs", "actions", "success").
+        record_dir: the folder of `<task>__seed<seed>.rrd` and `.png`.
+
+    Returns the `.rrd` path, the `.png` path where rerun is unavailable, or None where
+    recording is unavailable altogether.
+    """
+    try:
+        from icil_paper.recording import record_episode
+    except ImportError:
+        warnings.warn("icil_paper.recording is not available; rollouts are not recorded",
+                      stacklevel=2)
+        return None
+    actions = np.asarray(trace["actions"], np.float32)
+    latents = None
+    tokenizer = getattr(policy, "tokenizer", None)
+    if tokenizer is not None and len(actions):
+        with torch.no_grad():  # the latent action tokens of the executed actions
+            x = torch.from_numpy(actions)[None].to(getattr(policy, "device", "cpu"))
+            latents = tokenizer(x).embeddings[0].cpu().numpy()
+    path = Path(record_dir) / f"{task.replace('/', '-')}__seed{ep['seed']}.rrd"
+    title = (f"{getattr(policy, 'name', 'policy')} on {task}, episode {ep['index']} "
+             f"(env seed {ep['seed']}): {'success' if trace['success'] else 'failure'}")
+    from icil_paper.sim import object_position
+
+    out = record_episode(path, trace["obs"], actions, latents=latents, title=title,
+                         object_position=object_position(task))
+    return str(out["rrd"] or out["png"])
+
+
+# --------------------------------------------------------------------------- groups
+def default_batch_size(episodes: Sequence[Episode], workers: int = 1,
+                       max_batch: int = MAX_BATCH) -> int:
+    """The batch size `run_episodes` uses when none is given.
+
+    At most one episode per evaluation in a group (so a worker builds each task's env once)
+    and at most `max_batch`; within that, as large as gives every worker the same number of
+    groups. One task's evaluation thus runs one episode at a time per worker, as a policy
+    with a single env would.
+    """
+    n = len(episodes)
+    if n == 0:
+        return 1
+    widest = max(1, min(int(max_batch), len({e.spec for e in episodes})))
+    groups = workers * math.ceil(n / (workers * widest))
+    return max(1, math.ceil(n / groups))
+
+
+def group_episodes(episodes: Sequence[Episode], batch_size: int) -> list[list[Episode]]:
+    """Cut episodes into lockstep groups of at most `batch_size`: episodes interleaved over
+    evaluations (episode 0 of every spec, then episode 1, ...), split into
+    ceil(n / batch_size) consecutive groups of nearly equal size. Depends on the episodes
+    and `batch_size` alone, never on the number of workers."""
+    if batch_size < 1:
+        raise ValueError(f"batch_size must be at least 1, got {batch_size}")
+    order = sorted(episodes, key=lambda e: (e.index, e.spec))
+    n = len(order)
+    count = math.ceil(n / batch_size)
+    bounds = [round(k * n / count) for k in range(count + 1)] if count else [0]
+    return [order[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+# --------------------------------------------------------------------------- one worker
+@dataclass
+class GroupJob:
+    """One lockstep group for a worker (`run_group`): what to run and with what."""
+
+    episodes: list[Episode]
+    """The group's episodes."""
+    prompts: dict[int, dict[int, Any]]
+    """The prompt demonstrations they use: {spec: {pool index: demonstration}}."""
+    policy: Any
+    """The policy itself (in this process, or a picklable non-torch policy) or the file a
+    worker process loads it from (`RolloutPool.policy_ref`)."""
+    env: EnvSetup
+    """How the envs are built."""
+    record_dir: str | None = None
+    """Write a rerun recording of each rollout there."""
+
+
+def group_jobs(episodes: Sequence[Episode], prompts: Mapping[int, Sequence[Any]], policy: Any,
+               env: EnvSetup, batch_size: int, record_dir: str | None = None
+               ) -> list[GroupJob]:
+    """The jobs of `group_episodes(episodes, batch_size)`, each carrying only its prompts."""
+    jobs = []
+    for group in group_episodes(episodes, batch_size):
+        used: dict[int, dict[int, Any]] = {}
+        for ep in group:
+            for j in ep.prompt:
+                used.setdefault(ep.spec, {})[j] = prompts[ep.spec][j]
+        jobs.append(GroupJob(group, used, policy, env, record_dir))
+    return jobs
+
+
+@dataclass(frozen=True)
+class _PolicyFile:
+    path: str
+    key: str
+    device: str = "cpu"
+
+
+@dataclass
+class WorkerState:
+    """What a worker keeps between groups: its environments, by setup and task (a group
+    with k episodes of one task uses the first k), and the policy it last loaded."""
+
+    envs: dict[tuple[Any, ...], list[Any]] = field(default_factory=dict)
+    policy: Any = None
+    policy_key: str | None = None
+
+    def envs_for(self, setup: EnvSetup, episodes: Sequence[Episode]) -> list[Any]:
+        """One env per episode, built where this worker has too few for a task."""
+        out, used = [], {}
+        for ep in episodes:
+            key = (setup.factory, setup.obs, repr(setup.options), ep.task)
+            pool = self.envs.setdefault(key, [])
+            k = used.get(ep.task, 0)
+            if k == len(pool):
+                pool.append(setup.make(ep.task, ep.seed))
+            out.append(pool[k])
+            used[ep.task] = k + 1
+        return out
+
+    def policy_for(self, ref: Any) -> Any:
+        if not isinstance(ref, _PolicyFile):
+            return ref
+        if ref.key != self.policy_key:
+            from icil_paper.policies.base import build_policy
+
+            state = torch.load(ref.path, map_location=ref.device, weights_only=True)
+            policy = build_policy(json.loads(state["spec"]))
+            policy.load_state_dict(state["state_dict"])
+            self.policy, self.policy_key = policy.to(ref.device).eval(), ref.key
+        return self.policy
+
+    def close(self) -> None:
+        for pool in self.envs.values():
+            for env in pool:
+                env.close()
+        self.envs.clear()
+
+
+def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
+    """Roll out one group in this process; one result dict per episode, in group order."""
+    policy = state.policy_for(job.policy)
+    if isinstance(policy, torch.nn.Module):
+        policy.eval()
+    envs = state.envs_for(job.env, job.episodes)
+    prompts = [[job.prompts[ep.spec][j] for j in ep.prompt] if ep.prompt else None
+               for ep in job.episodes]
+    outs = rollout_batch(policy, envs, [ep.seed for ep in job.episodes], prompts,
+                         [ep.max_steps for ep in job.episodes],
+                         keep_trace=job.record_dir is not None)
+    results = []
+    for ep, out in zip(job.episodes, outs, strict=True):
+        row = {"episode": ep.index, "seed": ep.seed, "success": bool(out["success"]),
+               "steps": int(out["steps"]), "return": out["return"], "prompt": list(ep.prompt),
+               "wall_time_s": out["wall_time_s"]}
+        if job.record_dir is not None:
+            row["recording"] = record_rollout(policy, ep.task, {"index": ep.index,
+                                                                "seed": ep.seed},
+                                              out, job.record_dir)
+        results.append(row)
+    return results
+
+
+_STATE: WorkerState | None = None  # a worker process's state, kept between groups
+
+
+def worker_state() -> WorkerState:
+    """This process's WorkerState (a worker process keeps it between groups)."""
+    global _STATE
+    if _STATE is None:
+        _STATE = WorkerState()
+    return _STATE
+
+
+def _close_state() -> None:
+    global _STATE
+    if _STATE is not None:
+        _STATE.close()
+        _STATE = None
+
+
+def _init_process() -> None:
+    """Initializer of a worker process: one torch thread (the workers share the cores)."""
+    from multiprocessing import util
+
+    torch.set_num_threads(1)
+    util.Finalize(None, _close_state, exitpriority=10)  # close the envs when the worker exits
+
+
+def _run_in_worker(job: GroupJob) -> list[dict[str, Any]]:
+    return run_group(worker_state(), job)
+
+
+def _hello(modules: Sequence[str], linger: float) -> int:
+    import importlib
+
+    for name in modules:
+        importlib.import_module(name)
+    time.sleep(linger)
+    return os.getpid()
+
+
+class RolloutPool:
+    """Worker processes that outlive one call, so that many evaluations (one per task, or
+    one per trained policy) pay for process start, imports and env construction once::
+
+        with RolloutPool(2) as pool:
+            for task in tasks:
+                evaluate_policy(policy, eval_spec(preset, task), prompts, pool=pool)
+
+    Each worker keeps its envs (per task) and the policy it last loaded (reloaded only when
+    another policy comes). Workers are spawned, not forked, and use one torch thread each.
+    """
+
+    def __init__(self, workers: int):
+        import multiprocessing as mp
+
+        if workers < 1:
+            raise ValueError(f"workers must be at least 1, got {workers}")
+        self.workers = int(workers)
+        self._executor = ProcessPoolExecutor(self.workers, mp_context=mp.get_context("spawn"),
+                                             initializer=_init_process)
+        self._policy_dir = tempfile.TemporaryDirectory(prefix="icil-rollouts-")
+        self._policy_files: dict[int, tuple[Any, _PolicyFile]] = {}
+
+    def submit(self, fn: Callable[..., Any], *args: Any):
+        """Run fn(*args) in a worker; returns a Future."""
+        return self._executor.submit(fn, *args)
+
+    def warm_up(self, modules: Sequence[str] = (), timeout: float = 300.0) -> list[int]:
+        """Start every worker and import `modules` in each; returns the workers' process ids."""
+        seen: set[int] = set()
+        deadline = time.monotonic() + timeout
+        while len(seen) < self.workers:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"only {len(seen)} of {self.workers} rollout workers started")
+            futures = [self.submit(_hello, tuple(modules), 0.05) for _ in range(self.workers)]
+            seen.update(f.result() for f in futures)
+        return sorted(seen)
+
+    def policy_ref(self, policy: Any, device: str | None = None) -> _PolicyFile:
+        """The policy as a file the workers load (written once per policy state): its spec
+        and state dict, from which a worker rebuilds it (`build_policy`), so only registry
+        policies can act in worker processes."""
+        from icil_paper.policies import REGISTRY
+
+        config_type = getattr(getattr(policy, "config", None), "type", None)
+        if config_type not in REGISTRY or type(policy) is not REGISTRY[config_type]:
+            raise ValueError(f"a {type(policy).__name__} cannot act in worker processes: they "
+                             "rebuild the policy from its spec, which gives the registry's "
+                             f"{config_type!r} policy; run it with workers=1")
+        key = _policy_key(policy)
+        cached = self._policy_files.get(id(policy))
+        if cached is not None and cached[0] == key and cached[1].device == (device or "cpu"):
+            return cached[1]
+        path = Path(self._policy_dir.name) / f"policy-{key}.pt"
+        buf = io.BytesIO()
+        torch.save({"spec": json.dumps(policy.spec),
+                    "state_dict": {k: v.detach().cpu() for k, v in policy.state_dict().items()}},
+                   buf)
+        path.write_bytes(buf.getvalue())
+        ref = _PolicyFile(str(path), key, device or "cpu")
+        self._policy_files[id(policy)] = (key, ref)
+        return ref
+
+    def close(self) -> None:
+        self._executor.shutdown(wait=True, cancel_futures=True)
+        self._policy_dir.cleanup()
+
+    def __enter__(self) -> RolloutPool:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def _policy_key(policy: Any) -> str:
+    """A digest of the policy's spec and weights (a changed weight is another policy)."""
+    import hashlib
+
+    h = hashlib.sha256(json.dumps(policy.spec, sort_keys=True).encode())
+    for name, value in policy.state_dict().items():
+        h.update(name.encode())
+        h.update(value.detach().cpu().contiguous().numpy().tobytes())
+    return h.hexdigest()[:16]
+
+
+# --------------------------------------------------------------------------- many episodes
+def run_episodes(policy: Any, episodes: Sequence[Episode],
+                 prompts: Mapping[int, Sequence[Any]] | None = None, obs: str = "state",
+                 workers: int = 1, batch_size: int | None = None,
+                 env_factory: Callable[..., Any] | None = None,
+                 env_options: Mapping[str, Any] | None = None, record_dir: str | Path | None = None,
+                 progress: bool = True, pool: RolloutPool | None = None,
+                 device: str | None = None, desc: str = "rollouts") -> list[dict[str, Any]]:
+    """Run every episode (see the module docstring); returns one result dict per episode, in
+    the order of `episodes`: episode, seed, success, steps, return, prompt, wall_time_s
+    (seconds from its group's start until it ended) and, with `record_dir`, recording.
+
+    Args:
+        policy: acts through `reset_batch` / `select_actions` (`icil_paper.policies.base`).
+            A torch module goes to worker processes as its spec and weights (a registry
+            policy); anything else (a scripted or zero-action policy) is pickled as it is.
+        episodes: the rollouts.
+        prompts: {spec: prompt pool}; episode e's prompt is [prompts[e.spec][j] for j in e.prompt].
+        obs: the observation kind the envs give.
+        workers: processes (1: this process). Ignored when `pool` is given.
+        batch_size: episodes per lockstep group (default: `default_batch_size`).
+        env_factory, env_options: how envs are built (`EnvSetup`).
+        record_dir: write a rerun recording of each rollout there.
+        pool: worker processes to use (and keep) instead of starting new ones.
+        device: where worker processes run the policy (default: the policy's device).
+    """
+    if not episodes:
+        return []
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    n_workers = pool.workers if pool is not None else int(workers)
+    batch = int(batch_size) if batch_size is not None else default_batch_size(episodes, n_workers)
+    n_groups = math.ceil(len(episodes) / batch)
+    if pool is None:  # no more processes than groups (one group: this process)
+        n_workers = min(n_workers, n_groups)
+    setup = EnvSetup(obs, tuple(sorted(dict(env_options or {}).items())), env_factory)
+    if record_dir is not None:
+        Path(record_dir).mkdir(parents=True, exist_ok=True)
+        record_dir = str(record_dir)
+    prompts = dict(prompts or {})
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=len(episodes), desc=desc, unit="episode", disable=not progress,
+               leave=False)
+    by_episode: dict[tuple[int, int], dict[str, Any]] = {}
+    is_module = isinstance(policy, torch.nn.Module)
+    was_training = is_module and policy.training
+    if is_module:
+        policy.eval()
+    try:
+        if pool is None and n_workers == 1:
+            from icil_paper.train.optim import cpu_threads
+
+            state = WorkerState()
+            try:
+                with cpu_threads(1):  # small batched steps gain nothing from a thread pool
+                    for job in group_jobs(episodes, prompts, policy, setup, batch, record_dir):
+                        for ep, row in zip(job.episodes, run_group(state, job), strict=True):
+                            by_episode[ep.spec, ep.index] = row
+                        bar.update(len(job.episodes))
+            finally:
+                state.close()
+        else:
+            own = pool is None
+            pool = pool or RolloutPool(n_workers)
+            futures: dict[Any, list[Episode]] = {}
+            try:
+                ref = (pool.policy_ref(policy, device or str(policy.device)) if is_module
+                       else policy)
+                futures = {pool.submit(_run_in_worker, job): job.episodes
+                           for job in group_jobs(episodes, prompts, ref, setup, batch, record_dir)}
+                pending = set(futures)
+                while pending:
+                    done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+                    for f in done:
+                        group = futures[f]
+                        for ep, row in zip(group, f.result(), strict=True):
+                            by_episode[ep.spec, ep.index] = row
+                        bar.update(len(group))
+            except BaseException:
+                for f in futures:
+                    f.cancel()
+                raise
+            finally:
+                if own:
+                    pool.close()
+    finally:
+        bar.close()
+        if is_module:
+            policy.train(was_training)
+    return [by_episode[ep.spec, ep.index] for ep in episodes]
