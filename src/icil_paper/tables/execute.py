@@ -138,7 +138,7 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
     results store of `preset` as it finishes. Returns a short summary.
     """
     from icil_paper.cells import load_trained, train_run
-    from icil_paper.evaluate import evaluate_run
+    from icil_paper.evaluate import evaluate_run_many
     from icil_paper.seeding import seed_everything
 
     store = ResultsStore(preset)
@@ -153,12 +153,10 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
             policy = load_trained(run_spec, preset, store, progress=progress)
         return policy
 
-    successes = []
-    for ev_dict in evals:
-        ev = from_dict(EvalSpec, ev_dict)
-        record = evaluate_run(run_spec, ev, get_policy, store, preset, workers=1,
-                              progress=progress)
-        successes.append(record["metrics"]["success_rate"])
+    # every task of the cell side by side: one batched policy forward per step
+    records = evaluate_run_many(run_spec, [from_dict(EvalSpec, e) for e in evals], get_policy,
+                                store, preset, workers=1, progress=progress)
+    successes = [r["metrics"]["success_rate"] for r in records]
     for f_dict in features:
         spec = from_dict(FeatureSpec, f_dict)
         store.run("features", f"{_train_name(run_spec)}__features",
