@@ -220,6 +220,8 @@ class TablesConfig:
     state step on CPU)."""
     image_episodes_per_task: int = 10
     """Rollouts per task of MCR's image evaluations."""
+    image_max_steps: int | None = None
+    """Step limit of MCR's image rollouts; None: the evaluation's (`eval.max_steps`)."""
     feature_demos_per_task: int = 2
     """Table III: held-out generated demonstrations per task (after the training ones) whose
     actions the trained policies' tokenizers embed."""
@@ -321,19 +323,19 @@ def _smoke() -> Preset:
 def _small() -> Preset:
     return Preset(
         name="small",
-        data=DataConfig(demos_per_task=10, workers=2, expert_seeds=0),
+        data=DataConfig(demos_per_task=6, workers=2, expert_seeds=0),
         tokenizers=_tokenizers(latent_dim=32, codebook_size=256),
         policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
                            history=10, max_seq_len=1024, resnet_width=16, query_len=32,
                            mcr_pretrain_steps=100),
         # CI computes every table within minutes: short training, one episode per task
         # (the numbers exercise the code; the reference preset's are worth reading).
-        train=TrainConfig(steps=400, batch_size=8, warmup_steps=50, ckpt_every=200),
+        train=TrainConfig(steps=300, batch_size=8, warmup_steps=50, ckpt_every=150),
         eval=EvalConfig(episodes_per_task=1, max_steps=120, workers=2),
         tokenizer_study=TokenizerStudyConfig(steps=400, n_trajectories=64, n_eval_trajectories=16),
         tables=TablesConfig(icrt_seeds=1, codebook_sizes=(64, 128, 256, 512),
                             image_demos_per_task=2, image_episodes_per_task=1,
-                            feature_demos_per_task=1),
+                            image_max_steps=40, feature_demos_per_task=1),
     )
 
 
@@ -344,6 +346,7 @@ def _reference() -> Preset:
     small = _small()
     return dataclasses.replace(
         small, name="reference",
+        data=DataConfig(demos_per_task=10, workers=2, expert_seeds=0),
         train=TrainConfig(steps=3000, batch_size=8, warmup_steps=100, ckpt_every=500),
         eval=EvalConfig(episodes_per_task=10, workers=2),
         tokenizer_study=TokenizerStudyConfig(steps=2000, n_trajectories=200,

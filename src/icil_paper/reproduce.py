@@ -59,7 +59,8 @@ STAGES: tuple[Stage, ...] = (
           ("VI", "Table VI: cross-dataset, prompted with human-like demonstrations", "10"),
           ("prompt", "prompt ablation: right, wrong and truncated prompts", "10"),
           ("VII", "Table VII: zero-shot on held-out kitchen tasks", "10"),
-          ("II", "Table II: ACT with each tokenizer on ManiSkill", "07"))),
+          ("II", "Table II: ACT with each tokenizer on ManiSkill", "07"),
+          ("analysis", "is it smoothness? Lipschitz, scale and collapse variants", "11"))),
     Stage("claims", "the claims ledger: every claim with its verdict (chapter 00)",
           "icil_paper.reproduce:claims_stage"),
 )
@@ -96,7 +97,8 @@ def _table_stage(table_id: str):
 
 table_I, table_II, table_III, table_IV, table_V, table_VI, table_VII = (
     _table_stage(t) for t in ("I", "II", "III", "IV", "V", "VI", "VII"))
-table_fig5, table_prompt = _table_stage("fig5"), _table_stage("prompt")
+table_fig5, table_prompt, table_analysis = (_table_stage(t) for t in ("fig5", "prompt",
+                                                                       "analysis"))
 
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:

@@ -68,11 +68,13 @@ def _runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str], seeds: i
 def _eval(preset: Preset, run: RunSpec, task: str, **prompt) -> EvalSpec:
     """The evaluation of `run` on `task`: the preset's episodes (MCR's image episodes), the
     same evaluation seed for every row; prompts only for in-context policies."""
-    episodes = (preset.tables.image_episodes_per_task if run.policy.type == "mcr"
+    images = run.policy.type == "mcr"
+    episodes = (preset.tables.image_episodes_per_task if images
                 else preset.eval.episodes_per_task)
+    max_steps = preset.tables.image_max_steps if images else None
     if run.policy.type != "icrt":
         prompt = {}  # no prompt is read: the evaluation is the same as Table I's
-    return eval_spec(preset, task, episodes=episodes, **prompt)
+    return eval_spec(preset, task, episodes=episodes, max_steps=max_steps, **prompt)
 
 
 def _cell(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str], **prompt) -> Cell:

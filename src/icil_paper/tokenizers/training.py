@@ -194,11 +194,14 @@ def throughput(tokenizer: ActionTokenizer, actions: torch.Tensor, min_time: floa
 
 def evaluate_tokenizer(tokenizer: ActionTokenizer, trajectories,
                        throughput_batch: tuple[int, int] = (32, 16), seed: int = 0,
-                       min_time: float = 0.5, threads: int | None = 1) -> dict[str, float | None]:
-    """Every measurement of chapter 04 on held-out `trajectories`, as one flat dict.
+                       min_time: float = 0.5, threads: int | None = 1,
+                       timing: bool = True) -> dict[str, float | None]:
+    """Every measurement of chapter 05 on held-out `trajectories`, as one flat dict.
 
     Reconstruction errors, codebook usage / perplexity, tokens per step, encode / decode
-    throughput on a batch of `throughput_batch` (B, T) windows, and the smoothness scores.
+    throughput on a batch of `throughput_batch` (B, T) windows (None with `timing=False`:
+    throughput does not depend on the weights, so it is timed once per tokenizer), and the
+    smoothness scores.
     """
     trajectories = [t.astype(np.float32) for t in
                     as_trajectory_list(trajectories, tokenizer.action_dim)]
@@ -207,8 +210,12 @@ def evaluate_tokenizer(tokenizer: ActionTokenizer, trajectories,
         metrics.update(reconstruction_errors(tokenizer, trajectories))
         metrics.update(codebook_stats(tokenizer, trajectories))
         metrics["tokens_per_step"] = tokenizer.tokens_per_step(trajectories)
-        batch = sample_windows(trajectories, *throughput_batch, np.random.default_rng(seed))
-        metrics.update(throughput(tokenizer, torch.from_numpy(batch), min_time=min_time,
-                                  threads=None))
+        if timing:
+            batch = sample_windows(trajectories, *throughput_batch, np.random.default_rng(seed))
+            metrics.update(throughput(tokenizer, torch.from_numpy(batch), min_time=min_time,
+                                      threads=None))
+        else:
+            metrics.update(dict.fromkeys(("encode_actions_per_s", "decode_actions_per_s",
+                                          "encode_decode_actions_per_s")))
         metrics.update(smoothness(tokenizer, trajectories))
     return metrics
