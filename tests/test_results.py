@@ -288,7 +288,7 @@ def test_empty_results_variable_counts_as_unset(monkeypatch, value):
 def test_atomic_writes_get_the_usual_file_mode(tmp_path, umask):
     import stat
 
-    from icil_paper.results import atomic_write_bytes
+    from icil_paper.fileio import atomic_write_bytes
 
     old = os.umask(umask)
     try:

@@ -114,7 +114,7 @@ def _write_png(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
                latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
     from matplotlib.figure import Figure  # no pyplot: the caller's backend stays as it is
 
-    from icil_paper.results import atomic_write_bytes
+    from icil_paper.fileio import atomic_write_bytes
 
     eef = obs.get("proprio")
     rows = 2 + (latents is not None) + (images is not None)
@@ -295,7 +295,7 @@ def _write_latent_rrd(path: Path, actions: np.ndarray, unit: Mapping[str, np.nda
 def _write_latent_png(path: Path, unit: Mapping[str, np.ndarray], title: str) -> None:
     from matplotlib.figure import Figure  # no pyplot: the caller's backend stays as it is
 
-    from icil_paper.results import atomic_write_bytes
+    from icil_paper.fileio import atomic_write_bytes
 
     fig = Figure(figsize=(2.2 * len(unit), 2.6), constrained_layout=True)
     axes = fig.subplots(1, len(unit), squeeze=False)[0]

@@ -20,8 +20,6 @@ import json
 import math
 import numbers
 import os
-import stat
-import tempfile
 import time
 import warnings
 from collections.abc import Callable, Mapping
@@ -29,8 +27,9 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from icil_paper.fileio import atomic_write_json, set_aside
 from icil_paper.provenance import git_state, host_info, package_versions
-from icil_paper.specs import canonical_json, content_hash, json_default
+from icil_paper.specs import canonical_json, content_hash
 
 SCHEMA_VERSION = 1
 RESULTS_ENV_VAR = "ICIL_RESULTS"
@@ -58,48 +57,6 @@ def config_hash(config: Mapping[str, Any]) -> str:
     """A short stable hash of a JSON-ready config: `specs.content_hash`, the one every key
     of the library is taken with (16 hex digits of SHA-256 over sorted, compact JSON)."""
     return content_hash(config)
-
-
-def _umask() -> int:
-    """The process umask, read without changing it where the system allows."""
-    try:
-        with open("/proc/self/status") as f:  # Linux: no window with a different umask
-            for line in f:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError, IndexError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write `data` to `path` through a temporary file in the same folder and a rename.
-
-    The file gets the mode an ordinary `open(path, "w")` would give it (0o666 minus the
-    umask), not the 0o600 of the temporary file; it is set before the rename, so the file
-    appears complete and with its final mode at once.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.chmod(tmp, 0o666 & ~_umask())
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def atomic_write_json(path: Path, obj: Any) -> None:
-    """Atomically write `obj` as indented JSON (NaN is refused: it is not valid JSON)."""
-    text = json.dumps(obj, indent=2, sort_keys=True, default=json_default, allow_nan=False)
-    atomic_write_bytes(Path(path), (text + "\n").encode())
 
 
 def _slug(name: str) -> str:
@@ -219,40 +176,11 @@ class ResultsStore:
             return
         if identity is not None and (st.st_dev, st.st_ino) != identity:
             return
-        is_dir = stat.S_ISDIR(st.st_mode)
-        aside = _reserve_aside_name(path, is_dir)
-        try:
-            os.replace(path, aside)
-        except BaseException as exc:
-            (aside.rmdir if is_dir else aside.unlink)()
-            if isinstance(exc, FileNotFoundError):  # lost the race to another process
-                return
-            raise
+        aside = set_aside(path)
+        if aside is None:  # lost the race to another process
+            return
         warnings.warn(f"corrupt result {path}: {problem}; moved to {aside.name} and it will "
                       "be recomputed", CorruptRecordWarning, stacklevel=3)
-
-
-def _reserve_aside_name(path: Path, is_dir: bool = False) -> Path:
-    """Create, exclusively, an empty `<name>.corrupt-<time>[-k]` beside `path`.
-
-    The time has microseconds, and a name already taken gets the next free suffix; the
-    exclusive create makes the name this caller's alone, so a set-aside file is never
-    overwritten, not even by another process in the same microsecond. (An empty folder is
-    reserved for a folder, since only that can be replaced by one.)
-    """
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
-    for k in range(1, 10_000):
-        aside = path.with_name(f"{path.name}.corrupt-{stamp}" + (f"-{k}" if k > 1 else ""))
-        try:
-            if is_dir:
-                os.mkdir(aside)
-            else:
-                with open(aside, "x"):
-                    pass
-            return aside
-        except FileExistsError:
-            continue
-    raise RuntimeError(f"no free name to set {path} aside under")  # pragma: no cover
 
 
 def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,

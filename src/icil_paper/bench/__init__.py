@@ -15,8 +15,9 @@ from typing import Any
 def save_benchmark(name: str, record: dict[str, Any], out: str | Path | None = None) -> Path:
     """Add provenance to `record` and write it atomically to `out` (default
     results/bench/<name>.json); returns the path."""
+    from icil_paper.fileio import atomic_write_json
     from icil_paper.provenance import git_state, host_info, package_versions
-    from icil_paper.results import atomic_write_json, results_root
+    from icil_paper.results import results_root
 
     record = {"benchmark": name, **record, "load_average_1min": os.getloadavg()[0],
               "git": git_state(), "packages": package_versions(), "host": host_info()}

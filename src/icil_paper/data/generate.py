@@ -29,7 +29,6 @@ import json
 import os
 import shutil
 import time
-import uuid
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -38,6 +37,7 @@ from typing import Any
 
 from icil_paper.data.hdf5 import DatasetError, merge_demo_files, verify_file, write_demos
 from icil_paper.data.sources import MAX_ATTEMPTS, SOURCES, demo_seed, rollout, style_dict
+from icil_paper.fileio import set_aside
 from icil_paper.registry import check_name
 
 DATA_ENV_VAR = "ICIL_DATA"
@@ -167,16 +167,6 @@ def _finished_shards(path: Path) -> dict[int, Path]:
             except (IndexError, ValueError):
                 continue
     return shards
-
-
-def set_aside(path: Path, folder: Path | None = None) -> Path:
-    """Move a damaged file out of the way under a unique name (in `folder`, default its own);
-    return the new path. Nothing is deleted."""
-    folder = Path(folder or path.parent)
-    stamp = time.strftime("%Y%m%d-%H%M%S")
-    target = folder / f"{path.name}.corrupt-{stamp}-{uuid.uuid4().hex[:8]}"
-    os.rename(path, target)
-    return target
 
 
 def _damage(path: Path, images: bool = True) -> str | None:

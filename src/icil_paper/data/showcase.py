@@ -19,7 +19,7 @@ import numpy as np
 def _save_png(path: Path, image: np.ndarray) -> None:
     from matplotlib.image import imsave  # no pyplot: the caller's backend stays as it is
 
-    from icil_paper.results import atomic_write_bytes
+    from icil_paper.fileio import atomic_write_bytes
 
     buf = io.BytesIO()
     imsave(buf, np.ascontiguousarray(image), format="png")

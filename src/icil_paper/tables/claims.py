@@ -29,7 +29,8 @@ import numpy as np
 from icil_paper import paper_numbers as paper
 from icil_paper import stats
 from icil_paper.config import Preset
-from icil_paper.results import ResultsStore, atomic_write_json
+from icil_paper.fileio import atomic_write_json
+from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import TableResult, assemble
 from icil_paper.tables.definitions import ICRT_TOKENIZERS, table_spec
 

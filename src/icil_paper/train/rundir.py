@@ -25,17 +25,15 @@ import json
 import os
 import pickle
 import random
-import uuid
 import warnings
 from collections.abc import Mapping
-from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
-from icil_paper.results import atomic_write_bytes, atomic_write_json
+from icil_paper.fileio import atomic_write_bytes, atomic_write_json, set_aside
 
 RUNS_ENV_VAR = "ICIL_RUNS"
 CHECKPOINT = "checkpoint.pt"
@@ -76,17 +74,12 @@ def run_dir_for(spec: Any, preset_name: str) -> Path:
             / f"{spec.label}__{tasks_tag(data.tasks)}__{source}__seed{spec.seed}__{spec.key()[:8]}")
 
 
-def set_aside(path: Path, problem: str) -> Path:
-    """Rename a damaged file to a unique `<name>.corrupt-...` beside it and warn; return it."""
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    aside = path.with_name(f"{path.name}.corrupt-{stamp}-{os.getpid()}-{uuid.uuid4().hex[:6]}")
-    try:
-        os.replace(path, aside)
-    except FileNotFoundError:  # another process set it aside first
-        return aside
-    warnings.warn(f"damaged file {path}: {problem}; moved to {aside.name}", DamagedFileWarning,
-                  stacklevel=3)
-    return aside
+def _set_aside(path: Path, problem: str) -> None:
+    """Set a damaged run file aside (`fileio.set_aside`) and say so."""
+    aside = set_aside(path)
+    if aside is not None:
+        warnings.warn(f"damaged file {path}: {problem}; moved to {aside.name}",
+                      DamagedFileWarning, stacklevel=3)
 
 
 # --------------------------------------------------------------------------- the folder
@@ -117,7 +110,7 @@ def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
             old = json.loads(path.read_text())
             old_key = old["key"]
         except (OSError, ValueError, KeyError, TypeError) as exc:
-            set_aside(path, f"unreadable run config ({exc})")
+            _set_aside(path, f"unreadable run config ({exc})")
         else:
             if old_key != key:
                 raise RunFolderError(
@@ -202,7 +195,7 @@ def load_checkpoint(run_dir: Path, key: str, map_location: Any = "cpu") -> dict[
         try:
             ckpt = load_tensors(path, CHECKPOINT_FORMAT, map_location)
         except PolicyFileError as exc:
-            set_aside(path, str(exc))
+            _set_aside(path, str(exc))
             continue
         if ckpt.get("key") != key:
             raise RunFolderError(f"{path} is a checkpoint of another run (key {ckpt.get('key')},"
