@@ -44,14 +44,14 @@ from torch import Tensor, nn
 from icil_paper.batching import DemoSet, window_batch
 from icil_paper.layers import mlp
 from icil_paper.policies.backbones import ObsSpec
-from icil_paper.policies.base import Policy, TemporalEnsemble, batch_instructions, masked_l1
+from icil_paper.policies.base import BatchedPolicy, TemporalEnsemble, batch_instructions, masked_l1
 from icil_paper.policies.configs import ACTConfig
 from icil_paper.policies.transformer import DecoderBlock, RMSNorm, Transformer, TransformerConfig
 from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 
-class ACT(Policy):
+class ACT(BatchedPolicy):
     """Action chunking with transformers (ACTConfig); no tokenizer = the CVAE (plain ACT)."""
 
     name = "act"
@@ -144,9 +144,6 @@ class ACT(Policy):
         return loss, info
 
     # ------------------------------------------------------------------ acting
-    def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
-        self.reset_batch([prompt], [instruction])
-
     @torch.no_grad()
     def predict_chunk(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
         """The chunk (K, A) predicted for one env observation (z = 0 for plain ACT)."""
@@ -163,31 +160,23 @@ class ACT(Policy):
             chunk = self.tokenizer.decode(self.decode_chunk(obs, list(instructions)))
         return chunk.float().cpu().numpy()
 
-    @torch.no_grad()
-    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
-        return self.select_actions([obs])[0]
-
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
         """Start B = len(prompts) episodes (prompts are ignored), one temporal ensemble each."""
         texts = [t or "" for t in batch_instructions(prompts, instructions)]
-        super().reset(instruction=texts[0])
-        self._instructions = texts
+        self.begin_episodes(texts)
         self._ensembles = [TemporalEnsemble(self.chunk_size, self.config.ensemble_m)
                            for _ in texts]
         self.ensemble = self._ensembles[0]
-        self._rows = list(range(len(texts)))
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
                        rows: Sequence[int] | None = None) -> np.ndarray:
         """One step of B episodes: their chunks in one forward pass, then each episode's
         temporal ensemble; obs[i] is episode rows[i]'s observation (default: all)."""
-        keep = self._keep_rows(rows, len(obs))
+        keep = self.keep_rows(rows, len(obs))
         if keep is not None:
-            kept = keep.tolist()
-            self._instructions = [self._instructions[i] for i in kept]
-            self._ensembles = [self._ensembles[i] for i in kept]
+            self._ensembles = [self._ensembles[i] for i in keep.tolist()]
         chunks = self.predict_chunks(self.obs_tensors_batch(obs), self._instructions)
         return np.stack([ens(chunk) for ens, chunk in zip(self._ensembles, chunks, strict=True)]
                         ).astype(np.float32)

@@ -204,6 +204,37 @@ class Policy(nn.Module):
         return sum(p.numel() for p in self.parameters())
 
 
+class BatchedPolicy(Policy):
+    """A policy that acts for B episodes in one forward pass (ICRT and the baselines).
+
+    Subclasses implement `reset_batch` (calling `begin_episodes` with the episodes'
+    instructions, then setting up their own per-episode state) and `select_actions`
+    (calling `keep_rows` first, which drops finished episodes from the instructions and
+    returns the positions of the remaining ones in their state). A single episode is the
+    batch of one: `reset` and `select_action` are defined here from those two.
+    """
+
+    def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
+        self.reset_batch([prompt], [instruction])
+
+    @torch.no_grad()
+    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
+        return self.select_actions([obs])[0]
+
+    def begin_episodes(self, texts: Sequence[str]) -> None:
+        """Start len(texts) episodes with these instructions (the rows 0 .. B - 1)."""
+        self.instruction = texts[0]
+        self._instructions = list(texts)
+        self._rows = list(range(len(texts)))
+
+    def keep_rows(self, rows: Sequence[int] | None, n_obs: int) -> Tensor | None:
+        """`_keep_rows`, and the finished episodes' instructions dropped."""
+        keep = self._keep_rows(rows, n_obs)
+        if keep is not None:
+            self._instructions = [self._instructions[i] for i in keep.tolist()]
+        return keep
+
+
 def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spec: ObsSpec,
                 action_dim: int) -> dict[str, Any]:
     """What rebuilds a policy, as JSON-ready data: its config, its tokenizer's, the shapes."""

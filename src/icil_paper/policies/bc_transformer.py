@@ -30,12 +30,12 @@ from torch import Tensor, nn
 from icil_paper.batching import DemoSet, window_batch
 from icil_paper.layers import mlp
 from icil_paper.policies.backbones import ObsSpec
-from icil_paper.policies.base import Policy, batch_instructions, masked_l1
+from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
 from icil_paper.policies.configs import BCTransformerConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 
 
-class BCTransformer(Policy):
+class BCTransformer(BatchedPolicy):
     """Transformer over the last `history` observations; predicts one action per step."""
 
     name = "bc_transformer"
@@ -65,31 +65,20 @@ class BCTransformer(Policy):
         loss = masked_l1(pred, batch["actions"].float(), batch["obs_valid"])
         return loss, {"action_l1": float(loss.detach())}
 
-    def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
-        self.reset_batch([prompt], [instruction])
-
-    @torch.no_grad()
-    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
-        return self.select_actions([obs])[0]
-
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
         """Start B = len(prompts) episodes (prompts are ignored); see `select_actions`."""
-        texts = [t or "" for t in batch_instructions(prompts, instructions)]
-        super().reset(instruction=texts[0])
-        self._instructions = texts
+        self.begin_episodes([t or "" for t in batch_instructions(prompts, instructions)])
         self._history: Tensor | None = None  # (B, H, D) the last H observation tokens
-        self._rows = list(range(len(texts)))
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
                        rows: Sequence[int] | None = None) -> np.ndarray:
         """One step of B episodes in one forward pass over their (B, H) histories; obs[i] is
         episode rows[i]'s observation (default: all); episodes left out have finished."""
-        keep = self._keep_rows(rows, len(obs))
-        if keep is not None:
-            self._history = None if self._history is None else self._history[keep]
-            self._instructions = [self._instructions[i] for i in keep.tolist()]
+        keep = self.keep_rows(rows, len(obs))
+        if keep is not None and self._history is not None:
+            self._history = self._history[keep]
         token = self.obs_encoder(self.obs_tensors_batch(obs), self._instructions)  # (B, 1, D)
         if self._history is None:  # episode start: pad by repeating the first observation
             self._history = token.expand(-1, self.history, -1)

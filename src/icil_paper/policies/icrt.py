@@ -51,7 +51,7 @@ from torch import Tensor, nn
 from icil_paper.batching import DemoSet, prompt_query_batch
 from icil_paper.layers import mlp
 from icil_paper.policies.backbones import ObsSpec
-from icil_paper.policies.base import Policy, batch_instructions, masked_l1, validate_prompt
+from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1, validate_prompt
 from icil_paper.policies.configs import ICRTConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 from icil_paper.tokenizers import TOKENIZERS
@@ -69,7 +69,7 @@ def action_context_steps(tokenizer: nn.Module) -> int:
     return max(1, int(steps))
 
 
-class ICRT(Policy):
+class ICRT(BatchedPolicy):
     """In-context robot transformer (ICRTConfig) with any action tokenizer (default `mlp`,
     ICRT's own)."""
 
@@ -229,16 +229,6 @@ class ICRT(Policy):
 
     # ------------------------------------------------------------------ acting
     @torch.no_grad()
-    def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
-        """Fill the KV cache with the prompt (one or more demonstrations of the task)."""
-        self.reset_batch([prompt], [instruction])
-
-    @torch.no_grad()
-    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
-        """One step: append (previous action, observation) to the cache; return a_t (A,)."""
-        return self.select_actions([obs])[0]
-
-    @torch.no_grad()
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
         """Start B = len(prompts) episodes: run every prompt through the transformer in one
@@ -275,9 +265,7 @@ class ICRT(Policy):
         self.transformer(tokens, valid.repeat_interleave(2, dim=1), cache=self._cache)
         self._prompt_len = 2 * torch.tensor(lengths, device=dev)  # (B,) real prompt tokens
         self._recent: Tensor | None = None  # (B, <= C, A) executed query actions
-        self._instructions = texts
-        self._rows = list(range(B))
-        self.instruction = texts[0]
+        self.begin_episodes(texts)
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
@@ -292,12 +280,11 @@ class ICRT(Policy):
         """
         if self._cache is None:
             raise RuntimeError("call reset(prompt=...) (or reset_batch) before select_action")
-        keep = self._keep_rows(rows, len(obs))
+        keep = self.keep_rows(rows, len(obs))
         if keep is not None:  # finished episodes drop out of the batch
             self._cache.select_rows(keep)
             self._prompt_len = self._prompt_len[keep]
             self._recent = None if self._recent is None else self._recent[keep]
-            self._instructions = [self._instructions[i] for i in keep.tolist()]
         new = []
         if self.query_actions and self._recent is not None:
             recent = self._recent  # (B, <= C, A)

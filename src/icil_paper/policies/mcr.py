@@ -30,7 +30,7 @@ from torch import Tensor, nn
 from icil_paper.batching import DemoSet, _take, window_batch
 from icil_paper.layers import mlp
 from icil_paper.policies.backbones import ObsSpec
-from icil_paper.policies.base import Policy, batch_instructions, masked_l1
+from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
 from icil_paper.policies.configs import MCRConfig
 
 
@@ -42,7 +42,7 @@ def info_nce(a: Tensor, b: Tensor, temperature: float = 0.1) -> Tensor:
     return 0.5 * (F.cross_entropy(logits, labels) + F.cross_entropy(logits.T, labels))
 
 
-class MCR(Policy):
+class MCR(BatchedPolicy):
     """Frozen manipulation-centric visual encoder + behaviour-cloning MLP head.
 
     Pre-training: `MCRConfig.pretrain_steps`, `pretrain_batch`, `pretrain_lr`; its batches
@@ -144,28 +144,16 @@ class MCR(Policy):
         loss = masked_l1(pred, batch["targets"].float(), batch["target_valid"])
         return loss, {"action_l1": float(loss.detach())}
 
-    def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
-        self.reset_batch([prompt], [instruction])
-
-    @torch.no_grad()
-    def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
-        return self.select_actions([obs])[0]
-
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
         """Start B = len(prompts) episodes (prompts are ignored; MCR keeps no episode state)."""
-        texts = [t or "" for t in batch_instructions(prompts, instructions)]
-        super().reset(instruction=texts[0])
-        self._instructions = texts
-        self._rows = list(range(len(texts)))
+        self.begin_episodes([t or "" for t in batch_instructions(prompts, instructions)])
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
                        rows: Sequence[int] | None = None) -> np.ndarray:
         """The first action of each episode's predicted chunk, (len(obs), A), in one forward
         pass; obs[i] is episode rows[i]'s observation (default: all)."""
-        keep = self._keep_rows(rows, len(obs))
-        if keep is not None:
-            self._instructions = [self._instructions[i] for i in keep.tolist()]
+        self.keep_rows(rows, len(obs))
         chunk = self.predict(self.obs_tensors_batch(obs), self._instructions)  # (B, K, A)
         return chunk[:, 0].float().cpu().numpy()
