@@ -287,3 +287,15 @@ def test_margin_over_the_best_other_row():
     assert s.value < 0 and s.high < 0
     with pytest.raises(ValueError, match="same trajectories"):
         paired_score_margin(low[:, :10], [scores])
+
+
+def test_one_episode_per_task_still_gets_an_interval():
+    """Resampling within a task cannot vary a single episode; the tasks are pooled instead."""
+    x = np.zeros((1, 11, 1), dtype=bool)
+    x[0, 3, 0] = True
+    est = success_rate(x)
+    assert est.value == pytest.approx(1 / 11) and est.low < est.value < est.high
+    y = np.zeros((1, 11, 1), dtype=bool)
+    diff = paired_difference(x, y)
+    assert diff.low <= 0 < diff.high  # one success in eleven episodes decides nothing
+    assert verdict(diff) == "inconclusive"

@@ -19,6 +19,9 @@ averaged over seeds, so every task weighs the same. Its 95% interval is
   episodes within each task, and the percentiles taken as above. It carries both the
   spread between training seeds and the luck of the evaluation episodes.
 
+With a single episode per task there is nothing to resample within a task, so the tasks'
+episodes are pooled into one stratum (for one seed: a Wilson interval over all of them).
+
 A bootstrap interval is the percentile interval of the resampled values, widened where
 needed to hold the point value itself (a percentile interval can miss it when the
 resamples are very skewed).
@@ -124,7 +127,13 @@ def _check_n_boot(n_boot: int) -> None:
 
 
 def _as_outcomes(outcomes, name: str = "outcomes") -> np.ndarray:
-    """Bools or 0/1 numbers shaped (seeds, tasks, episodes) -> float64 array of 0 and 1."""
+    """Bools or 0/1 numbers shaped (seeds, tasks, episodes) -> float64 array of 0 and 1.
+
+    With one episode per task (and several tasks), resampling episodes within each task
+    cannot vary anything (there is only one to draw), so the interval would be a point;
+    the tasks' single episodes are then resampled together as one stratum (returned as
+    (seeds, 1, tasks)), which keeps the row's value and gives the episodes' luck a spread.
+    """
     try:
         x = np.asarray(outcomes)
     except ValueError as exc:  # ragged nested lists
@@ -142,7 +151,7 @@ def _as_outcomes(outcomes, name: str = "outcomes") -> np.ndarray:
         raise ValueError(f"{name} must have at least one seed, task and episode, got shape "
                          f"{x.shape}")
     if x.dtype == bool:
-        return x.astype(np.float64)
+        return _pool_single_episodes(x.astype(np.float64))
     if not np.issubdtype(x.dtype, np.number):
         raise ValueError(f"{name} must hold bools or 0/1 numbers, got dtype {x.dtype}")
     x = x.astype(np.float64)
@@ -152,7 +161,12 @@ def _as_outcomes(outcomes, name: str = "outcomes") -> np.ndarray:
     if not np.isin(x, (0.0, 1.0)).all():
         raise ValueError(f"{name} must be successes and failures (bools or 0/1), got values "
                          f"{np.unique(x)[:5].tolist()}...")
-    return x
+    return _pool_single_episodes(x)
+
+
+def _pool_single_episodes(x: np.ndarray) -> np.ndarray:
+    """(S, T, 1) with T > 1 -> (S, 1, T): see `_as_outcomes`."""
+    return x.transpose(0, 2, 1) if x.shape[2] == 1 and x.shape[1] > 1 else x
 
 
 def _as_scores(scores, name: str = "scores") -> np.ndarray:
