@@ -36,7 +36,7 @@
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.book import compare_frame, load_table, success_figure, values_frame, verdicts
+from icil_paper.tables.book import compare_frame, load_table, show_values, success_figure, verdicts
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "I")  # computes what this build's results store lacks
@@ -46,7 +46,7 @@ results = load_table(preset, "I")  # computes what this build's results store la
 
 # %%
 display(compare_frame(results, "avg"))
-success_figure(results, "avg", title="Table I: average success over the kitchen tasks")
+display(success_figure(results, "avg", title="Table I: average success over the kitchen tasks"))
 
 # %% [markdown]
 # ## By skill family
@@ -55,11 +55,7 @@ success_figure(results, "avg", title="Table I: average success over the kitchen 
 # counts); the paper's row first.
 
 # %%
-display(Markdown("**The paper**"))
-display(values_frame(next(iter(results.values())), paper=True))
-for source, result in results.items():
-    display(Markdown(f"**{source} ({result.preset})**"))
-    display(values_frame(result))
+show_values(results)
 
 # %% [markdown]
 # ## Which claims held

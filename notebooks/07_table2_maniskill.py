@@ -29,24 +29,20 @@
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.book import compare_frame, load_table, success_figure, values_frame, verdicts
+from icil_paper.tables.book import compare_frame, load_table, show_values, success_figure, verdicts
 
 preset = get_preset()
 results = load_table(preset, "II")
 
 # %%
 display(compare_frame(results, "avg"))
-success_figure(results, "avg", title="Table II: average success over the three cube tasks")
+display(success_figure(results, "avg", title="Table II: average success over the three cube tasks"))
 
 # %% [markdown]
 # ## By task
 
 # %%
-display(Markdown("**The paper**"))
-display(values_frame(next(iter(results.values())), paper=True))
-for source, result in results.items():
-    display(Markdown(f"**{source} ({result.preset})**"))
-    display(values_frame(result))
+show_values(results)
 
 # %% [markdown]
 # ## Which claims held

@@ -83,8 +83,8 @@ display(pd.DataFrame(rows).set_index(["source", "tokenizer"]) if rows else
 # come from other latents and another simulator, so only the ordering compares.
 
 # %%
-smoothness_success_figure(smooth, success)
-smoothness_success_figure(smooth, success, standardized=True)
+display(smoothness_success_figure(smooth, success))
+display(smoothness_success_figure(smooth, success, standardized=True))
 
 # %% [markdown]
 # ## Fig. 4: one trajectory through every latent space (t-SNE)
@@ -104,6 +104,7 @@ if paths:
         ax.set_title(label.split("+")[1])
         ax.set_xticks([]), ax.set_yticks([])
     fig.tight_layout()
+    plt.show()
     first = build.cell(build.spec.rows[0].label, "least_energy").extra["metrics"][0]
     recording = record_latent_trajectories(
         results_root() / preset.name / "smoothness" / "fig4_tsne.rrd",

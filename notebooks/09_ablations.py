@@ -37,7 +37,7 @@ fig5 = load_table(preset, "fig5")
 
 # %%
 display(compare_frame(table4, "avg"))
-success_figure(table4, "avg", title="Table IV: with and without Eq. 4")
+display(success_figure(table4, "avg", title="Table IV: with and without Eq. 4"))
 
 # %%
 display(Markdown(verdicts(preset, "IV")))
@@ -50,7 +50,7 @@ display(Markdown(verdicts(preset, "IV")))
 
 # %%
 display(compare_frame(fig5, "avg"))
-success_figure(fig5, "avg", title="Fig. 5: LipVQ-VAE's codebook size")
+display(success_figure(fig5, "avg", title="Fig. 5: LipVQ-VAE's codebook size"))
 
 # %%
 display(Markdown(verdicts(preset, "fig5")))

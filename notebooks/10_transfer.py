@@ -45,8 +45,8 @@ from icil_paper.tables.book import (
     compare_frame,
     difference_sentence,
     load_table,
+    show_values,
     success_figure,
-    values_frame,
     verdicts,
 )
 
@@ -59,7 +59,7 @@ preset = get_preset()
 table5 = load_table(preset, "V")
 display(compare_frame(table5, "drawers"))
 display(compare_frame(table5, "doors"))
-success_figure(table5, "avg", title="Table V: Panda-trained policies on the perturbed Kinova3")
+display(success_figure(table5, "avg", title="Table V: Panda-trained policies on the perturbed Kinova3"))
 display(Markdown(verdicts(preset, "V")))
 
 # %% [markdown]
@@ -68,10 +68,8 @@ display(Markdown(verdicts(preset, "V")))
 # %%
 table6 = load_table(preset, "VI")
 display(compare_frame(table6, "avg"))
-success_figure(table6, "avg", title="Table VI: prompted with the human-like source")
-for source, result in table6.items():
-    display(Markdown(f"**{source} ({result.preset}), by family**"))
-    display(values_frame(result))
+display(success_figure(table6, "avg", title="Table VI: prompted with the human-like source"))
+show_values(table6)
 display(Markdown(verdicts(preset, "VI")))
 
 # %% [markdown]
@@ -80,10 +78,8 @@ display(Markdown(verdicts(preset, "VI")))
 # %%
 table7 = load_table(preset, "VII")
 display(compare_frame(table7, "avg"))
-success_figure(table7, "avg", title="Table VII: held-out kitchen tasks")
-for source, result in table7.items():
-    display(Markdown(f"**{source} ({result.preset}), by family**"))
-    display(values_frame(result))
+display(success_figure(table7, "avg", title="Table VII: held-out kitchen tasks"))
+show_values(table7)
 display(Markdown(verdicts(preset, "VII")))
 
 # %% [markdown]
@@ -92,7 +88,7 @@ display(Markdown(verdicts(preset, "VII")))
 # %%
 prompt = load_table(preset, "prompt")
 display(compare_frame(prompt, "avg"))
-success_figure(prompt, "avg", title="ICRT + LipVQ-VAE with right, wrong and truncated prompts")
+display(success_figure(prompt, "avg", title="ICRT + LipVQ-VAE with right, wrong and truncated prompts"))
 
 # %%
 labels = [r.label for r in prompt["this build"].spec.rows]

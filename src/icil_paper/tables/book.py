@@ -89,6 +89,7 @@ def success_figure(results: dict[str, TableResult], column: str = "avg", title: 
     ax.set_title(title or f"Table {spec.id}, {column}")
     ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
+    plt.close(fig)  # shown once, by the caller's display(fig)
     return fig
 
 
@@ -127,6 +128,23 @@ def stale_records(preset_name: str = REFERENCE) -> list[str]:
     store = ResultsStore(preset_name)
     return sorted(f"{r['kind']}/{r['name']}" for kind in ("train", "eval", "features")
                   for r in store.records(kind) if r["config_hash"] not in keys)
+
+
+def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
+    """Display the paper's point values, then each source's (a one-line note for a source
+    that has not computed the table yet)."""
+    from IPython.display import Markdown, display
+
+    first = next(iter(results.values()))
+    display(Markdown("**The paper**"))
+    display(values_frame(first, digits, paper=True))
+    for source, result in results.items():
+        title = f"**{source} ({result.preset})**"
+        if not any(c.estimate is not None for c in result.cells.values()):
+            display(Markdown(f"{title}: not run yet."))
+            continue
+        display(Markdown(title))
+        display(values_frame(result, digits))
 
 
 def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
@@ -190,6 +208,7 @@ def smoothness_success_figure(smooth: dict[str, TableResult], success: dict[str,
     ax.set_ylabel("average success (the paper)")
     ax.set_title("the paper (Table III vs Table I)")
     fig.tight_layout()
+    plt.close(fig)  # shown once, by the caller's display(fig)
     return fig
 
 
