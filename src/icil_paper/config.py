@@ -370,6 +370,11 @@ def _full() -> Preset:
         eval=EvalConfig(episodes_per_task=50, workers=16),
         tokenizer_study=TokenizerStudyConfig(steps=20000, n_trajectories=2000,
                                              n_eval_trajectories=200),
+        # The paper's protocol: 50 rollouts per task for every row, images for every policy
+        # (data.obs), codebooks 2^8 .. 2^11; three seeds for the ICRT rows.
+        tables=TablesConfig(icrt_seeds=3, codebook_sizes=(256, 512, 1024, 2048),
+                            image_demos_per_task=200, image_episodes_per_task=50,
+                            feature_demos_per_task=2),
     )
 
 
