@@ -331,3 +331,21 @@ def test_temporal_ensemble_weights_older_predictions_more():
     assert first[0] == 0.0
     w = np.exp(-0.5 * np.arange(2))
     assert second[0] == pytest.approx((w[0] * 1.0 + w[1] * 10.0) / w.sum())
+
+
+@pytest.mark.parametrize("name,tokenizer", [("icrt", "mlp"), ("act", None),
+                                            ("bc_transformer", None)])
+def test_nan_observations_are_refused_and_leave_no_trace(name, tokenizer, demos):
+    policy = build(name, tokenizer, demos).eval()
+    policy.reset(prompt=demos[0], instruction=demos[0].instruction)
+    good = {k: v[0] for k, v in demos[1].obs.items()}
+    first = policy.select_action(good)
+    bad = {**good, "object": np.full_like(good["object"], np.nan)}
+    with pytest.raises(ValueError, match="'object' contains NaN"):
+        policy.select_action(bad)
+    assert np.isfinite(policy.select_action(good)).all() and np.isfinite(first).all()
+    nan_prompt = dataclasses.replace(demos[0], obs={**demos[0].obs,
+                                                    "proprio": demos[0].obs["proprio"] * np.nan})
+    if policy.uses_prompt:
+        with pytest.raises(ValueError, match="contains NaN"):
+            policy.reset(prompt=nan_prompt)

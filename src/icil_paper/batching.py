@@ -256,7 +256,11 @@ def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec, time_axis: bool = Fa
         if k not in obs:
             raise ValueError(f"observation key {k!r} is missing (the observation has "
                              f"{sorted(obs)}; the policy reads {list(spec.keys)})")
-        x = _as_stored(k, np.asarray(obs[k]))
+        x = np.asarray(obs[k])
+        if x.dtype.kind == "f" and not np.isfinite(x).all():
+            raise ValueError(f"observation {k!r} contains NaN or inf; a policy acting on it "
+                             "would return NaN actions (check the environment's state)")
+        x = _as_stored(k, x)
         if not time_axis:
             x = x[None]
         out[k] = torch.from_numpy(np.ascontiguousarray(x))[None]

@@ -328,4 +328,7 @@ def validate_prompt(prompt: Any, spec: ObsSpec, action_dim: int) -> list[Any]:
             if len(d.obs[k]) != len(a):
                 raise ValueError(f"prompt demonstration {i}: obs[{k!r}] has {len(d.obs[k])} steps "
                                  f"but there are {len(a)} actions")
+            values = np.asarray(d.obs[k])
+            if values.dtype.kind == "f" and not np.isfinite(values).all():
+                raise ValueError(f"prompt demonstration {i}: obs[{k!r}] contains NaN or inf")
     return demos
