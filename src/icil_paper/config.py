@@ -82,7 +82,7 @@ class DataConfig:
     """Processes that generate demonstrations in parallel (the demos do not depend on it)."""
     expert_seeds: int = 50
     """Random scenes per task on which the `experts` stage measures every expert (success,
-    open-loop replay, human-source keep rate); 0 skips it, and chapter 03 then reports the
+    open-loop replay, human-source keep rate); 0 skips it, and chapter 04 then reports the
     experts' success over the scenes the data sets were generated on."""
 
 

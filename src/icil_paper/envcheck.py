@@ -1,4 +1,4 @@
-"""The reader's environment check: what `icil-paper env` and chapter 00 report.
+"""The reader's environment check: what `icil-paper env` and chapter 01 report.
 
 Each simulator check runs in a subprocess with a time limit, so that a crashing native
 library is reported as a failed check rather than taking the caller down with it.

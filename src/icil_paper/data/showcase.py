@@ -1,4 +1,4 @@
-"""What chapter 03 shows of each task: a rendered frame and a recorded demonstration.
+"""What chapter 04 shows of each task: a rendered frame and a recorded demonstration.
 
 `showcase_task(task, out_dir)` builds the task's env once, renders its first scene, runs the
 `generated` source's demo 0 (the same seed as demo_0 of the task's data set, so it is that

@@ -356,8 +356,3 @@ def _init_weights(module: nn.Module) -> None:
             nn.init.zeros_(module.bias)
     elif isinstance(module, nn.Embedding):
         nn.init.normal_(module.weight, mean=0.0, std=0.02)
-
-
-def init_weights(module: nn.Module) -> None:
-    """Apply the transformer's initialisation to `module` and its children."""
-    module.apply(_init_weights)

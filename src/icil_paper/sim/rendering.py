@@ -10,7 +10,6 @@ same explanation instead of SAPIEN's bare "failed to find a rendering device".
 from __future__ import annotations
 
 import functools
-import os
 
 LAVAPIPE_HOWTO = (
     "ManiSkill (SAPIEN 3) needs a Vulkan device, even for state observations. With an NVIDIA "
@@ -54,17 +53,3 @@ def vulkan_skip_reason() -> str:
     problem = vulkan_problem()
     return "" if problem is None else f"ManiSkill cannot start: {problem}"
 
-
-def require_vulkan() -> None:
-    """Raise RenderingUnavailable with the install instructions when no Vulkan device works."""
-    problem = vulkan_problem()
-    if problem is not None:
-        raise RenderingUnavailable(f"ManiSkill cannot start: {problem}")
-
-
-def ensure_mujoco_gl() -> str:
-    """Select MuJoCo's headless EGL backend unless the user chose one; return the choice.
-
-    Must run before mujoco / robosuite are imported to take effect.
-    """
-    return os.environ.setdefault("MUJOCO_GL", "egl")

@@ -73,7 +73,7 @@ def build_encoder(sizes: Sequence[int], norm: str = "none", activation: str = "r
 
     norm: `none`; `lipschitz`, every layer a LipschitzLinear (Eq. 4: LipVQ-VAE and lip-mlp
     as the paper writes them); `lipschitz-last`, only the last layer (the official code);
-    `spectral`, spectral normalisation (Miyato et al. 2018; chapter 02's comparison, which
+    `spectral`, spectral normalisation (Miyato et al. 2018; chapter 03's comparison, which
     bounds the 2-norm Lipschitz constant of each layer by 1).
     """
     from icil_paper.tokenizers.lipschitz_linear import LipschitzLinear

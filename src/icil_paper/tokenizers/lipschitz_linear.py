@@ -1,10 +1,10 @@
-"""Row-wise Lipschitz weight normalization (Eq. 5 of the paper; Liu et al. 2022).
+"""Row-wise Lipschitz weight normalization (Eq. 4 of the paper; Liu et al. 2022).
 
 For a linear map y = W x + b and the infinity norm,
 
     ||W x - W x'||_inf = max_i |sum_j W_ij (x_j - x'_j)| <= (max_i sum_j |W_ij|) ||x - x'||_inf,
 
-so the layer's Lipschitz constant is the largest absolute row sum of W. Eq. 5 rescales every
+so the layer's Lipschitz constant is the largest absolute row sum of W. Eq. 4 rescales every
 row whose absolute row sum exceeds a trainable bound softplus(c) down to exactly that bound
 and leaves the other rows alone:
 
@@ -31,7 +31,7 @@ from torch import Tensor, nn
 
 
 class LipschitzLinear(nn.Module):
-    """A linear layer whose weight is row-normalized as in Eq. 5 on every forward pass.
+    """A linear layer whose weight is row-normalized as in Eq. 4 on every forward pass.
 
     Args:
         in_features, out_features, bias: as for `torch.nn.Linear`.
@@ -68,7 +68,7 @@ class LipschitzLinear(nn.Module):
         return bound.max() if self.per_row else bound
 
     def normalized_weight(self) -> Tensor:
-        """W with every row's absolute sum capped at softplus(c) (Eq. 5); (out, in)."""
+        """W with every row's absolute sum capped at softplus(c) (Eq. 4); (out, in)."""
         row_sums = self.weight.abs().sum(dim=1).clamp_min(1e-12)  # (out,)
         scale = torch.clamp(F.softplus(self.c) / row_sums, max=1.0)  # (out,)
         return self.weight * scale.unsqueeze(1)

@@ -2,14 +2,14 @@
 
 ICRT (Fu et al. 2024) embeds each action with an MLP into the token width; the embedding is
 shaped only by the policy's loss. `lip-mlp` is Table IV's ablation: the same MLP with every
-linear layer a `LipschitzLinear` (Eq. 5) and the 1e-6 prod softplus(c_l) term in its losses.
+linear layer a `LipschitzLinear` (Eq. 4) and the 1e-6 prod softplus(c_l) term of Eq. 5 in its losses.
 
     actions (B, T, A) --encoder MLP--> embeddings (B, T, D) --decoder MLP--> reconstruction
 
 The decoder exists so that `decode` works for every tokenizer. By default it learns on
 *detached* embeddings (`autoencode=False`), so the reconstruction loss trains the decoder
 only and the encoder stays exactly ICRT's (trained by the policy alone). With
-`autoencode=True` (stand-alone training, chapter 04) the reconstruction loss trains the
+`autoencode=True` (stand-alone training, chapter 05) the reconstruction loss trains the
 encoder too, which makes the MLP an ordinary continuous autoencoder.
 """
 

@@ -1,7 +1,7 @@
-"""Stand-alone tokenizer training and the measurements chapter 04 and the benchmark report.
+"""Stand-alone tokenizer training and the measurements chapter 05 and the benchmark report.
 
 In the paper every tokenizer is trained jointly with the policy. To compare tokenizers on
-their own, chapter 04 trains each as an autoencoder on action trajectories:
+their own, chapter 05 trains each as an autoencoder on action trajectories:
 
     tok = make_tokenizer(stand_alone(preset.tokenizers.lipvq), action_dim=7)
     result = train_tokenizer(tok, trajectories, preset.tokenizer_study, seed=0)

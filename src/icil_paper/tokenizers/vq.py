@@ -4,7 +4,7 @@
         --nearest codebook entry (L2), Eq. 2--> z_q = e_k, k = argmin_j ||z_e - e_j||^2
         --straight-through: z_e + sg[z_q - z_e]--> embeddings (B, T, D) --decoder--> x_hat
 
-Losses (Sec. III-B, Eq. 5; squared errors are means over elements):
+Losses (Sec. III-B, Eq. 5, the total loss; squared errors are means over elements):
 
     L = L_rec + alpha L_codebook + beta L_commit + gamma L_Lipschitz
     L_rec      = ||x_hat - x||^2
@@ -23,7 +23,7 @@ official code: the encoder learns from the commitment loss only).
 
 `VQConfig.norm` picks the encoder's weight normalisation (`base.build_encoder`): `none`
 (VQ-VAE), `lipschitz` (every layer a LipschitzLinear, Eq. 4: LipVQ-VAE as the paper writes
-it), `lipschitz-last` (the official code) or `spectral` (chapter 02's comparison).
+it), `lipschitz-last` (the official code) or `spectral` (chapter 03's comparison).
 
 Codebook collapse (most steps on a few codes) is common at small scale; three standard
 remedies are options, all off by default (the paper's plain method): `codebook_init="data"`
