@@ -42,12 +42,18 @@ def _mean_metric(cell, key: str) -> float | None:
     return float(np.mean(values)) if values else None
 
 
-def analysis_frame(result: TableResult, digits: int = 3):
-    """One row per variant: success, raw and standardized least energy, latent scale, codes
-    used, share of rows capped, product of bounds, empirical Lipschitz constant."""
+def analysis_frame(result: TableResult, digits: int = 2):
+    """One row per variant: success, raw and standardized least energy (with 95% intervals),
+    latent scale sigma, codes used, share of encoder rows Eq. 4 caps, product of the bounds
+    and the empirical Lipschitz constant (means over seeds; "-" where it does not apply)."""
     import pandas as pd
 
     from icil_paper.tables.assemble import format_cell
+
+    def number(value, percent=False):
+        if value is None:
+            return "-"
+        return f"{100 * value:.0f}%" if percent else f"{value:.3g}"
 
     out = []
     for row in result.spec.rows:
@@ -59,14 +65,13 @@ def analysis_frame(result: TableResult, digits: int = 3):
         else:
             std = feat.extra["standardized_estimate"]
             line.update({
-                "least energy": format_cell(feat, digits),
-                "standardized": f"{std.value:.{digits}f} [{std.low:.{digits}f}, "
-                                f"{std.high:.{digits}f}]",
-                "latent scale": round(float(np.mean(feat.extra["latent_scale"])), digits),
-                "codes used": _mean_metric(feat, "codes_used"),
-                "rows capped": _mean_metric(feat, "capped_fraction"),
-                "bound product": _mean_metric(feat, "bound_product"),
-                "empirical Lipschitz": _mean_metric(feat, "empirical_lipschitz"),
+                "least energy": number(feat.estimate.value),
+                "standardized": f"{std.value:.3g} [{std.low:.3g}, {std.high:.3g}]",
+                "σ": number(float(np.mean(feat.extra["latent_scale"]))),
+                "codes": number(_mean_metric(feat, "codes_used")),
+                "rows capped": number(_mean_metric(feat, "capped_fraction"), percent=True),
+                "∏ bounds": number(_mean_metric(feat, "bound_product")),
+                "empirical Lip.": number(_mean_metric(feat, "empirical_lipschitz")),
             })
         out.append(line)
     return pd.DataFrame(out).set_index("")
