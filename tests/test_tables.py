@@ -188,3 +188,36 @@ def test_committed_reference_records_match_the_current_code(monkeypatch):
     monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
     stale = stale_records("reference")
     assert not stale, f"stale reference records (rerun or remove them): {stale[:10]}"
+
+
+@pytest.mark.sim
+@pytest.mark.slow
+def test_the_executors_give_the_same_records(tmp_path, monkeypatch):
+    """`icil-paper reproduce --stages table-IV` serial, on a local pool and on Ray: the same
+    records (metrics without wall times), so a grid's numbers do not depend on how it ran."""
+    from icil_paper.cli import main
+
+    def records(folder):
+        out = {}
+        for path in sorted((folder / "smoke").glob("*/*.json")):
+            if path.parent.name in ("environment", "claims"):
+                continue
+            record = json.loads(path.read_text())
+            metrics = {k: v for k, v in record["metrics"].items() if "wall_time" not in k}
+            for episode in metrics.get("per_episode", []):
+                episode.pop("wall_time_s", None)
+            out[path.name] = {k: v for k, v in metrics.items()
+                              if k not in ("elapsed_s", "steps_per_s", "run_dir")}
+        return out
+
+    args = ["reproduce", "--preset", "smoke", "--stages", "table-IV",
+            "--set", "data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer"]
+    results = {}
+    for executor in ("serial", "local", "ray"):
+        monkeypatch.setenv("ICIL_RESULTS", str(tmp_path / executor))
+        monkeypatch.setenv("ICIL_RUNS", str(tmp_path / f"runs-{executor}"))
+        if executor == "ray":
+            pytest.importorskip("ray", reason="Ray is not installed")
+        assert main([*args, "--executor", executor, "--workers", "2"]) == 0
+        results[executor] = records(tmp_path / executor)
+    assert results["serial"] and results["serial"] == results["local"] == results["ray"]
