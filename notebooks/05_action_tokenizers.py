@@ -126,7 +126,7 @@ print(f"{len(records)} tokenizers, {n_seeds} training seed(s) each")
 # whether a low score comes from the Lipschitz bound or from codebook collapse.
 
 # %%
-rows = []
+rows, smooth_rows = [], []
 for label in records:
     rows.append({
         "tokenizer": label,
@@ -137,16 +137,21 @@ for label in records:
         "perplexity": mean(label, "perplexity"),
         "tokens/step": mean(label, "tokens_per_step"),
         "encode act/s": mean(label, "encode_actions_per_s"),
+    })
+    smooth_rows.append({
+        "tokenizer": label,
         "least energy": with_interval(label, "least_energy"),
         "standardized": with_interval(label, "least_energy_standardized"),
         "latent scale σ": mean(label, "latent_scale"),
         "paper least energy": SMOOTHNESS.get(label),
     })
-table = pd.DataFrame(rows).set_index("tokenizer")
 formats = {"codebook": "{:,.0f}", "usage": "{:.1%}", "perplexity": "{:.1f}",
            "tokens/step": "{:.2f}", "encode act/s": "{:,.0f}", "latent scale σ": "{:.3g}",
            "recon MSE": "{:.3g}", "decode MSE": "{:.3g}", "paper least energy": "{:.2f}"}
-display(table.style.format(formats, na_rep="-"))
+for table in (rows, smooth_rows):
+    frame = pd.DataFrame(table).set_index("tokenizer")
+    display(frame.style.format({c: formats[c] for c in frame.columns if c in formats},
+                               na_rep="-"))
 
 # %%
 score_keys = ["least_energy", "least_energy_standardized"]
