@@ -255,7 +255,7 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 #
 # The sentences below are generated from this build's numbers. A success rate over a few
 # episodes of one task says little: the interval is wide, and the preset's training budget
-# was chosen for the whole book's run time, not for this task; chapter 6 compares the
+# was chosen for the whole book's run time, not for this task; {doc}`chapter 6 <06_table1_kitchen>` compares the
 # policies properly.
 
 # %%

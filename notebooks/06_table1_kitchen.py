@@ -16,14 +16,14 @@
 # itself falls 3.5 points below BC-Transformer. MCR and ACT trail far behind.
 #
 # **How it is computed here.** RoboCasa's kitchens cannot be downloaded, so the skill
-# families are our robosuite kitchen tasks with scripted experts (chapter 4), and the
+# families are our robosuite kitchen tasks with scripted experts ({doc}`chapter 4 <04_tasks_and_demonstrations>`), and the
 # MimicGen data is their `generated` demonstrations. Each row is one multi-task policy
 # trained on every kitchen task, as in the paper, and rolled out per task from unseen
 # scenes; every row sees the same episodes (the same evaluation seed), so rows are compared
 # episode by episode. ICRT's prompt is one demonstration of the task from the generated data
 # set. MCR learns from camera images (fewer demonstrations and episodes, since rendering
 # costs about ten times a state step on CPU); every other row learns from low-dimensional
-# state. Sizes, steps and episodes are the preset's (chapter 1 lists them).
+# state. Sizes, steps and episodes are the preset's ({doc}`chapter 1 <01_environment>` lists them).
 #
 # The table shows three sources: **the paper**, **the reference run** (`reference` preset:
 # 3 training seeds for the ICRT rows, 10 episodes per task; its records are committed under
@@ -60,7 +60,7 @@ show_values(results)
 # %% [markdown]
 # ## Which claims held
 #
-# Generated from the claims ledger (chapter 0): each claim is a difference of two rows on
+# Generated from the claims ledger ({doc}`chapter 0 <00_claims_ledger>`): each claim is a difference of two rows on
 # the same episodes, with its paired 95% interval.
 
 # %%

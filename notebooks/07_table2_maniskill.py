@@ -17,7 +17,7 @@
 #
 # **How it is computed here.** ManiSkill 3 runs for real (CPU physics). Its demonstrations
 # are ManiSkill's own motion-planning solutions, converted to the 7-D end-effector deltas
-# every policy here acts in (chapter 4). One policy per task, as ManiSkill's baselines train
+# every policy here acts in ({doc}`chapter 4 <04_tasks_and_demonstrations>`). One policy per task, as ManiSkill's baselines train
 # them. In ACT + tokenizer the decoder regresses the tokenizer's embedding of the action
 # chunk and acts through the tokenizer's `decode`: the decoder network for MLP, VQ-VAE,
 # LFQ-VAE and LipVQ-VAE, and a learned MLP head for Bin and FAST (bin centres and FAST's

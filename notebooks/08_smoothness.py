@@ -19,15 +19,15 @@
 # each latent space: LipVQ-VAE's path is the smoothest.
 #
 # **How it is computed here.** The tokenizers are the ones trained jointly inside Table I's
-# ICRT policies (chapter 6), as the paper does; the trajectories are held-out `generated`
+# ICRT policies ({doc}`chapter 6 <06_table1_kitchen>`), as the paper does; the trajectories are held-out `generated`
 # demonstrations (the ones after each data set's training demonstrations), in task order,
 # cut to the preset's number of features (500 by default). Each trajectory's least energy
 # is one sample, so the mean comes with a bootstrap interval. The raw score grows with the
 # square of the latent scale (multiply a latent by 10 and it scores 100 times higher), so
 # the table also shows the **standardized** least energy, computed on the latents divided by
 # their overall standard deviation $\sigma$ over the held-out set, and $\sigma$ itself:
-# a low raw score can be a small latent rather than a smooth one (chapter 11 asks which).
-# Chapter 5 measures the same tokenizers trained alone, as a supplement.
+# a low raw score can be a small latent rather than a smooth one ({doc}`chapter 11 <11_is_it_smoothness>` asks which).
+# {doc}`Chapter 5 <05_action_tokenizers>` measures the same tokenizers trained alone, as a supplement.
 
 # %%
 

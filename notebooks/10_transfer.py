@@ -24,7 +24,7 @@
 # **How it is computed here, and what stands in for what.**
 # - *Table V* has no real robot: Table I's policies, trained on the Panda kitchen, are
 #   rolled out on robosuite's Kinova3 arm with perturbed fixture dynamics and noisy
-#   observations (chapter 4), prompted with Kinova demonstrations. The paper instead trains
+#   observations ({doc}`chapter 4 <04_tasks_and_demonstrations>`), prompted with Kinova demonstrations. The paper instead trains
 #   on Kinova data, simulated and real; our question is the same (does a policy transfer
 #   across a dynamics and embodiment gap), the gap is not.
 # - *Table VI*'s human data is our `human` source: the same experts driven with
