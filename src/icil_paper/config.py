@@ -307,7 +307,7 @@ def _smoke() -> Preset:
         data=DataConfig(demos_per_task=2, workers=1, expert_seeds=0),
         tokenizers=_tokenizers(latent_dim=16, codebook_size=64, fast_vocab_size=300),
         policies=_policies(d_model=32, n_layer=1, n_head=2, dropout=0.0, chunk_size=2,
-                           history=4, max_seq_len=512, resnet_width=8, query_len=8,
+                           history=4, max_seq_len=1024, resnet_width=8, query_len=8,
                            mcr_pretrain_steps=3),
         train=TrainConfig(steps=5, batch_size=2, warmup_steps=1, ckpt_every=2, log_every=1),
         eval=EvalConfig(episodes_per_task=1, max_steps=10, workers=1),
