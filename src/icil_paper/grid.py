@@ -84,6 +84,9 @@ from typing import Any
 from icil_paper.results import canonical_json
 
 EXECUTORS = ("serial", "local", "ray")
+LOCAL_RAY_ATTEMPTS = 3
+"""Starts of a local Ray tried before giving up (its raylet may miss Ray's start-up limit
+on a busy machine)."""
 FORWARDED_ENV = ("ICIL_", "MUJOCO_GL")
 """Prefixes of the driver's environment variables that every cell runs with."""
 _RAY_AUTH_LOGGER = "ray._private.authentication.authentication_token_setup"
@@ -469,15 +472,26 @@ def connect_ray(workers: int = 2, address: str | None = None) -> bool:
     # token authentication is on for a new local Ray (Ray's default) and wherever a token
     # is found (as `ray start` does it); Ray's notice about that says nothing to act on
     logging.getLogger(_RAY_AUTH_LOGGER).setLevel(logging.ERROR)
-    try:
-        if address:
-            _use_ray_token_if_present()
-            ray.init(address=address, **quiet)
-        else:
-            ray.init(address="local", num_cpus=workers, include_dashboard=False, **quiet)
-    except Exception as exc:
-        where = f"the Ray cluster at {address}" if address else "a local Ray"
-        raise RayUnavailable(f"could not start or reach {where}: {_one_line(exc)}") from exc
+    # A local Ray gives its raylet a fixed 30 s to come up; on a loaded 2-core machine it
+    # can take longer, so a local start is tried again before giving up.
+    attempts = 1 if address else LOCAL_RAY_ATTEMPTS
+    for attempt in range(1, attempts + 1):
+        try:
+            if address:
+                _use_ray_token_if_present()
+                ray.init(address=address, **quiet)
+            else:
+                ray.init(address="local", num_cpus=workers, include_dashboard=False, **quiet)
+            return True
+        except Exception as exc:
+            if ray.is_initialized():
+                ray.shutdown()
+            if attempt < attempts:
+                continue
+            where = f"the Ray cluster at {address}" if address else "a local Ray"
+            tried = f" ({attempts} attempts)" if attempts > 1 else ""
+            raise RayUnavailable(f"could not start or reach {where}{tried}: "
+                                 f"{_one_line(exc)}") from exc
     return True
 
 
