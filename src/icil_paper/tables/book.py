@@ -113,9 +113,11 @@ def verdicts(preset: Preset, table_id: str) -> str:
 
 
 def stale_records(preset_name: str = REFERENCE) -> list[str]:
-    """Records in `results/<preset>/` (train, eval, features) whose key no current cell of
-    any table computes: results of an older version of the code or presets."""
+    """Records in `results/<preset>/` (train, eval, features) whose key neither a current
+    cell of any table nor chapter 02's run computes: results of an older version of the
+    code or presets."""
     from icil_paper.runspec import eval_key
+    from icil_paper.studies import icrt_specs
     from icil_paper.tables.definitions import TABLES
     from icil_paper.tables.execute import feature_key, plan
 
@@ -125,6 +127,8 @@ def stale_records(preset_name: str = REFERENCE) -> list[str]:
         keys.add(p.run.key())
         keys.update(eval_key(p.run, ev) for ev in p.evals.values())
         keys.update(feature_key(p.run, f) for f in p.features.values())
+    run, ev = icrt_specs(preset)
+    keys.update((run.key(), eval_key(run, ev)))
     store = ResultsStore(preset_name)
     return sorted(f"{r['kind']}/{r['name']}" for kind in ("train", "eval", "features")
                   for r in store.records(kind) if r["config_hash"] not in keys)
