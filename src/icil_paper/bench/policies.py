@@ -1,5 +1,5 @@
 """Policy benchmark: ICRT's per-step inference latency with and without the KV cache, and
-training steps per second, at the small and full model sizes.
+training steps per second, at the small, reference and full presets' sizes.
 
     python -m icil_paper.bench.policies            # CPU (and the GPU too, when one is present)
     python -m icil_paper.bench.policies --quick    # fewer repetitions
@@ -12,8 +12,11 @@ attend to the cached keys and values. Without it, every step recomputes the whol
 The prefill (`reset(prompt)`) is timed separately. Reported: median milliseconds per step.
 
 Training. Steps per second of the one training loop's inner step (batch sampling, forward,
-backward, clipping, AdamW) at the `small` and `full` presets' policy sizes and batch sizes,
-on prompts of 100-step synthetic demonstrations (`policies.synthetic`) with 32-step queries.
+backward, clipping, AdamW) at the `small`, `reference` and `full` presets' policy sizes and
+batch sizes (`reference` trains the small model for longer: its row repeats `small`'s and
+shows the noise), on prompts of 100-step synthetic demonstrations (`sim.synthetic`) with
+32-step queries. On a GPU the forward pass runs under bf16 autocast and the peak memory is
+reported.
 
 CPU figures use one torch thread by default (`--threads`), as CPU training does
 (`TrainConfig.cpu_threads`). Weights are untrained (timing does not depend on them). Results go to
@@ -37,6 +40,8 @@ from icil_paper.seeding import seed_everything
 
 PROMPT_TOKENS = (100, 400, 1600)
 SIZES = ("small", "full")
+"""Model sizes timed for inference latency (`reference` uses `small`'s model)."""
+TRAINING_SIZES = ("small", "reference", "full")
 
 
 def _sync(device: torch.device) -> None:
@@ -123,9 +128,12 @@ def training_speed(size: str, device: torch.device, steps: int) -> dict[str, Any
     opt = make_optimizer(policy, tc.lr, tc.weight_decay, tc.betas)
     rng = np.random.default_rng(0)
 
+    bf16 = device.type == "cuda"
+
     def one_step() -> None:
         batch = batch_to(policy.sample_batch(data, tc.batch_size, rng), device)
-        loss, _ = policy(batch)
+        with torch.autocast(device.type, dtype=torch.bfloat16, enabled=bf16):
+            loss, _ = policy(batch)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(policy.parameters(), tc.grad_clip)
@@ -133,6 +141,8 @@ def training_speed(size: str, device: torch.device, steps: int) -> dict[str, Any
 
     one_step()  # warm-up
     _sync(device)
+    if device.type == "cuda":
+        torch.cuda.reset_peak_memory_stats(device)
     t0 = time.perf_counter()
     for _ in range(steps):
         one_step()
@@ -142,7 +152,10 @@ def training_speed(size: str, device: torch.device, steps: int) -> dict[str, Any
             "query_len": preset.policies.icrt.query_len, "prompt_steps": 100, "steps": steps,
             "d_model": preset.policies.icrt.d_model, "n_layer": preset.policies.icrt.n_layer,
             "n_params": sum(p.numel() for p in policy.parameters()),
-            "steps_per_s": round(steps / wall, 3), "s_per_step": round(wall / steps, 4)}
+            "steps_per_s": round(steps / wall, 3), "s_per_step": round(wall / steps, 4),
+            "precision": "bf16 autocast" if bf16 else "fp32",
+            "peak_memory_mib": (round(torch.cuda.max_memory_allocated(device) / 2**20, 1)
+                                if device.type == "cuda" else None)}
 
 
 def run(quick: bool = False, seed: int = 0, devices: list[str] | None = None,
@@ -164,13 +177,15 @@ def run(quick: bool = False, seed: int = 0, devices: list[str] | None = None,
                           f"{row['step_ms_kv_cache']:8.2f} ms/step cached, "
                           f"{row['step_ms_recompute']:8.2f} ms/step recomputed, "
                           f"prefill {row['prefill_ms']:8.1f} ms", flush=True)
-            n_steps = {"small": 5 if quick else 20, "full": 2 if quick else 3}[size]
+        for size in TRAINING_SIZES:
+            n_steps = {"small": 5 if quick else 20, "reference": 5 if quick else 20,
+                       "full": 2 if quick else 3}[size]
             if device.type == "cuda":
                 n_steps *= 10
             row = training_speed(size, device, n_steps)
             rows_train.append(row)
             if progress:
-                print(f"  training {dev_name} {size:5s}: {row['steps_per_s']:.3f} steps/s "
+                print(f"  training {dev_name} {size:9s}: {row['steps_per_s']:.3f} steps/s "
                       f"(batch {row['batch_size']}, {row['n_params']:,} parameters)", flush=True)
     return {"quick": quick, "seed": seed, "threads": torch.get_num_threads(),
             "latency": rows_lat, "training": rows_train}
@@ -187,8 +202,10 @@ def format_table(result: dict[str, Any]) -> str:
                      f"{r['speedup']:>7.1f}x {r['prefill_ms']:>9.1f}")
     lines.append("Training steps per second")
     for r in result["training"]:
-        lines.append(f"{r['device']:6s} {r['size']:5s} batch {r['batch_size']:>3d}  "
-                     f"{r['steps_per_s']:>8.3f} steps/s  ({r['n_params']:,} parameters)")
+        memory = f", peak {r['peak_memory_mib']} MiB" if r.get("peak_memory_mib") else ""
+        lines.append(f"{r['device']:6s} {r['size']:9s} batch {r['batch_size']:>3d}  "
+                     f"{r['steps_per_s']:>8.3f} steps/s  ({r['n_params']:,} parameters, "
+                     f"{r.get('precision', 'fp32')}{memory})")
     return "\n".join(lines)
 
 
