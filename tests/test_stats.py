@@ -289,6 +289,18 @@ def test_margin_over_the_best_other_row():
         paired_score_margin(low[:, :10], [scores])
 
 
+@pytest.mark.parametrize("outcome", [0, 1])
+@pytest.mark.parametrize("seeds", [1, 3])
+def test_a_row_that_always_fails_or_succeeds_is_not_known_exactly(outcome, seeds):
+    """All 0 (or all 1) over several tasks: the bootstrap alone gives [0, 0]; the interval
+    is at least the Wilson interval of all the row's episodes."""
+    x = np.full((seeds, 4, 10), outcome, dtype=bool)
+    row = success_rate(x)
+    low, high = wilson_interval(outcome * x.size, x.size)
+    assert row.value == outcome and row.high - row.low > 0.01
+    assert row.low <= low + 1e-12 and row.high >= high - 1e-12
+
+
 def test_one_episode_per_task_still_gets_an_interval():
     """Resampling within a task cannot vary a single episode; the tasks are pooled instead."""
     x = np.zeros((1, 11, 1), dtype=bool)

@@ -79,7 +79,7 @@ def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None
               force=True)
 
 
-GRID = {"executor": "local", "workers": None, "ray_address": None}
+GRID = {"executor": "local", "workers": None, "ray_address": None, "gpus_per_cell": 0.0}
 """How the table stages run their cells (set from the command line)."""
 
 
@@ -147,14 +147,20 @@ def main(argv: list[str] | None = None) -> int:
                         help="parallel cells (default: the preset's eval.workers)")
     parser.add_argument("--ray-address", default=None, metavar="HOST:PORT",
                         help="with --executor ray: join this cluster (default: start one here)")
+    parser.add_argument("--gpus-per-cell", type=float, default=0.0, metavar="N",
+                        help="with --executor ray: GPUs each cell asks for (e.g. 1 on GPU "
+                             "nodes; its training and rollouts then run on that GPU)")
     args = parser.parse_args(argv)
+    if not 0 <= args.gpus_per_cell <= 64:
+        parser.error(f"--gpus-per-cell must be between 0 and 64, got {args.gpus_per_cell}")
     preset = preset_from_args(args)
     if args.stages:
         from icil_paper.registry import check_name
 
         for name in args.stages:
             check_name("stage", name, [s.name for s in STAGES])
-    GRID.update(executor=args.executor, workers=args.workers, ray_address=args.ray_address)
+    GRID.update(executor=args.executor, workers=args.workers, ray_address=args.ray_address,
+                gpus_per_cell=args.gpus_per_cell)
     timings = run_stages(preset, args.stages, args.force)
     total = sum(timings.values())
     print(f"reproduce [{preset.name}]: {len(timings)} stages in {total:.1f} s; "

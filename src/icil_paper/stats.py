@@ -24,7 +24,10 @@ episodes are pooled into one stratum (for one seed: a Wilson interval over all o
 
 A bootstrap interval is the percentile interval of the resampled values, widened where
 needed to hold the point value itself (a percentile interval can miss it when the
-resamples are very skewed).
+resamples are very skewed), and never narrower than the Wilson interval of all the row's
+episodes pooled: a bootstrap cannot draw a success that never happened, so a row that
+failed (or succeeded) every episode would otherwise get the point interval [0, 0]
+(or [1, 1]), as if its rate were known exactly.
 
 Episode i of task t is the same scene in every seed and every row (evaluation episodes are
 fixed by the evaluation seed alone), so one bootstrap draw resamples the same episode
@@ -115,6 +118,15 @@ def wilson_interval(successes: int, n: int, z: float = Z_95) -> tuple[float, flo
 
 
 # ---------------------------------------------------------------------------- input checks
+
+def _z(level: float) -> float:
+    """The standard normal quantile of a two-sided interval at `level`."""
+    if level == 0.95:
+        return Z_95
+    from scipy.stats import norm
+
+    return float(norm.ppf(0.5 + level / 2))
+
 
 def _check_level(level: float) -> None:
     if not 0 < level < 1:
@@ -236,8 +248,8 @@ def success_rate(outcomes, *, n_boot: int = 2000, rng_seed: int = 0,
     outcomes: bools (seeds, tasks, episodes), full (no missing episodes). The value is the
     mean over seeds of the mean over tasks of each task's success rate. One seed and one
     task: Wilson interval; one seed, several tasks: stratified bootstrap over episodes;
-    several seeds: hierarchical bootstrap over seeds, then episodes. Deterministic given
-    `rng_seed`.
+    several seeds: hierarchical bootstrap over seeds, then episodes (a bootstrap interval
+    covers at least the pooled episodes' Wilson interval). Deterministic given `rng_seed`.
     """
     x = _as_outcomes(outcomes)
     _check_level(level)
@@ -245,15 +257,14 @@ def success_rate(outcomes, *, n_boot: int = 2000, rng_seed: int = 0,
     value = float(x.mean())
     pct = f"{100 * level:g}%"
     if S == 1 and T == 1:
-        from scipy.stats import norm
-
-        z = Z_95 if level == 0.95 else float(norm.ppf(0.5 + level / 2))
-        low, high = wilson_interval(int(x.sum()), E, z)
+        low, high = wilson_interval(int(x.sum()), E, _z(level))
         return Estimate(value, low, high, x.size, f"wilson {pct}")
     samples = success_rate_samples(x, n_boot=n_boot, rng_seed=rng_seed)
     low, high = _percentiles(samples, level)
+    pooled_low, pooled_high = wilson_interval(int(round(x.sum())), x.size, _z(level))
     method = "stratified bootstrap" if S == 1 else "hierarchical bootstrap"
-    return Estimate(value, min(low, value), max(high, value), x.size, f"{method} {pct}")
+    return Estimate(value, min(low, value, pooled_low), max(high, value, pooled_high),
+                    x.size, f"{method} {pct}")
 
 
 def paired_difference(a, b, *, n_boot: int = 2000, rng_seed: int = 0,

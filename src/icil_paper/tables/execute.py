@@ -257,9 +257,10 @@ def lipschitz_diagnostics(tokenizer: Any, actions: np.ndarray) -> dict[str, Any]
 # --------------------------------------------------------------------------- many tables
 def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor: str = "local",
                workers: int | None = None, ray_address: str | None = None,
-               progress: bool = True) -> dict[str, Any]:
+               gpus_per_cell: float = 0.0, progress: bool = True) -> dict[str, Any]:
     """Compute every missing record of the chosen tables (default: all); see the module
-    docstring. Returns the grid's summaries by run key."""
+    docstring. Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
+    Returns the grid's summaries by run key."""
     from icil_paper.grid import Cell, run_grid
     from icil_paper.tables.definitions import TABLES, table_spec
 
@@ -274,7 +275,7 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
                   kwargs={"preset": preset.name, "run": p.run.to_dict(),
                           "evals": [to_dict(e) for e in p.evals.values()],
                           "features": [to_dict(f) for f in p.features.values()]},
-                  label=_cell_label(p.run))
+                  gpus=gpus_per_cell, label=_cell_label(p.run))
              for p in todo]
     return run_grid(cells, executor=executor, workers=workers or preset.eval.workers,
                     ray_address=ray_address, progress=progress,
