@@ -105,6 +105,11 @@ def run_cli(*argv):
     (["reproduce", "--stages", "tabel-I"], "Did you mean 'table-I'"),
     (["tables", "--table", "VIII"], "unknown table"),
     (["demos", "--task", "kitchen/open_drawer", "--n", "0"], "--n must be at least 1"),
+    (["train", "--set", "train.batch_size=0"], "train.batch_size counts something"),
+    (["reproduce", "--set", "train.lr=-1"], "train.lr must be a finite number >= 0"),
+    (["reproduce", "--gpus-per-cell", "-1"], "--gpus-per-cell must be between 0 and 64"),
+    (["reproduce", "--executor", "ray", "--ray-address", "127.0.0.1:1"],
+     "nothing answers at 127.0.0.1:1"),
 ])
 def test_user_errors_are_one_line_and_exit_2_before_any_work(argv, message, tmp_path, monkeypatch):
     monkeypatch.setenv("ICIL_DATA", str(tmp_path / "data"))

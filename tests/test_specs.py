@@ -154,10 +154,45 @@ def test_set_overrides_are_typed_and_checked():
         "train=3": "train is a section",
         "train.steps": "expects SECTION.FIELD=VALUE",
         "train.betas=1": "expected 2 values",
+        "train.lr=-1": "train.lr must be a finite number >= 0, got -1",
+        "train.lr=0": "train.lr must be above 0",
+        "train.batch_size=0": "train.batch_size counts something and must be at least 1",
+        "eval.episodes_per_task=0": "must be at least 1",
+        "eval.max_steps=0": "eval.max_steps counts something",
+        "tokenizers.vq.hidden=32,0": "counts something",
+        "policies.icrt.dropout=1": "fraction and must be below 1",
+        "train.betas=0.9,1.5": "fraction and must be below 1",
+        "tokenizers.vq.commitment_weight=-0.1": "finite number >= 0",
     }
     for text, message in cases.items():
         with pytest.raises(OverrideError, match=message):
             preset.with_overrides([text])
+
+
+def test_every_preset_value_is_in_range():
+    """The range check (`--set`) accepts every value the presets themselves use, and 0
+    where it means something."""
+    from icil_paper.config import PRESET_NAMES
+    from icil_paper.specs import check_range
+
+    def walk(obj, prefix=""):
+        hints = typing.get_type_hints(type(obj))
+        for f in dataclasses.fields(obj):
+            value = getattr(obj, f.name)
+            if dataclasses.is_dataclass(value):
+                yield from walk(value, f"{prefix}{f.name}.")
+            else:
+                yield f"{prefix}{f.name}", value, hints[f.name]
+
+    checked = 0
+    for name in PRESET_NAMES:
+        for path, value, annotation in walk(get_preset(name)):
+            check_range(path, value, annotation)
+            checked += 1
+    assert checked > 300
+    preset = get_preset("smoke")
+    assert preset.with_overrides(["train.warmup_steps=0", "seed=0",
+                                  "tokenizers.vq.recon_weight=0"]).train.warmup_steps == 0
 
 
 def test_component_configs_round_trip_by_type():

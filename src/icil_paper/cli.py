@@ -19,12 +19,15 @@ import sys
 from typing import Any
 
 from icil_paper.config import PRESET_NAMES
+from icil_paper.grid import RayUnavailable
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
+    ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError,
+    RayUnavailable)
 """What a command reports in one line (exit 2) instead of a traceback. ValueError covers
 UnknownNameError, OverrideError, DatasetError, RunFolderError, PolicyFileError and
-json.JSONDecodeError, whose messages name the problem."""
+json.JSONDecodeError, whose messages name the problem; RayUnavailable says why Ray could
+not be imported, started or reached."""
 
 
 class Parser(argparse.ArgumentParser):

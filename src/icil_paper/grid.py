@@ -72,6 +72,7 @@ import multiprocessing as mp
 import os
 import re
 import signal
+import socket
 import sys
 import traceback
 from collections import deque
@@ -467,6 +468,8 @@ def connect_ray(workers: int = 2, address: str | None = None) -> bool:
                              f"installs the pinned ray): {exc}") from None
     if ray.is_initialized():
         return False
+    if address:
+        check_reachable(address)
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     quiet = {"log_to_driver": False, "logging_level": logging.WARNING}
     # token authentication is on for a new local Ray (Ray's default) and wherever a token
@@ -493,6 +496,21 @@ def connect_ray(workers: int = 2, address: str | None = None) -> bool:
             raise RayUnavailable(f"could not start or reach {where}{tried}: "
                                  f"{_one_line(exc)}") from exc
     return True
+
+
+def check_reachable(address: str, timeout_s: float = 5.0) -> None:
+    """A `HOST:PORT` address whose port does not answer fails at once with the fix, instead
+    of Ray's own wait for its control store (a minute of retries and log lines)."""
+    host, sep, port = address.rpartition(":")
+    if not sep or not port.isdigit() or "://" in address:
+        return  # "auto", "ray://...": left to Ray
+    try:
+        socket.create_connection((host or "127.0.0.1", int(port)), timeout=timeout_s).close()
+    except OSError as exc:
+        raise RayUnavailable(
+            f"nothing answers at {address} ({exc.strerror or exc}): start the cluster's head "
+            f"there with `ray start --head --port {port}`, or give the head's address with "
+            "--ray-address (or leave it out to start a local Ray)") from None
 
 
 def _use_ray_token_if_present() -> None:

@@ -159,6 +159,10 @@ def main(argv: list[str] | None = None) -> int:
 
         for name in args.stages:
             check_name("stage", name, [s.name for s in STAGES])
+    if args.executor == "ray" and args.ray_address:
+        from icil_paper.grid import check_reachable
+
+        check_reachable(args.ray_address)  # before any stage, not after the data sets
     GRID.update(executor=args.executor, workers=args.workers, ray_address=args.ray_address,
                 gpus_per_cell=args.gpus_per_cell)
     timings = run_stages(preset, args.stages, args.force)

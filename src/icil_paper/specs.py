@@ -25,6 +25,7 @@ import functools
 import hashlib
 import inspect
 import json
+import math
 import textwrap
 import types
 import typing
@@ -305,9 +306,48 @@ def with_overrides(obj: Any, overrides: Sequence[str]) -> Any:
             value = [value]  # `--set data.sources=human` on a tuple field
         try:
             obj = replace_path(obj, path, value)
+            check_range(path, value, annotation)
         except OverrideError as exc:
             raise OverrideError(f"--set {text}: {exc}") from None
     return obj
+
+
+ZERO_ALLOWED = frozenset({"seed", "expert_seeds", "dead_code_restart", "warmup_steps",
+                          "cpu_threads", "pretrain_steps"})
+"""Integer fields for which 0 means something (no restarts, no warm-up, torch's thread
+count, ...); every other integer field counts things and must be at least 1."""
+MORE_THAN_ZERO = frozenset({"lr", "pretrain_lr", "scale", "c_init", "grad_clip"})
+"""Float fields that must be above 0 (other floats, weights and rates, may be 0)."""
+BELOW_ONE = frozenset({"dropout", "eval_fraction", "ema_decay", "betas"})
+"""Fractions: below 1 (and at least 0)."""
+
+
+def check_range(path: str, value: Any, annotation: Any = None) -> None:
+    """Refuse a number no config field can take (OverrideError naming the range): every
+    number is finite and not negative; an integer field (by `annotation`) counts something
+    and is at least 1, except those of `ZERO_ALLOWED`; the fields of `MORE_THAN_ZERO` are
+    above 0 and those of `BELOW_ONE` below 1."""
+    name = path.rsplit(".", 1)[-1]
+    counts = _integer_field(annotation) and name not in ZERO_ALLOWED
+    for v in value if isinstance(value, (list, tuple)) else [value]:
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            continue
+        if not math.isfinite(v) or v < 0:
+            raise OverrideError(f"{path} must be a finite number >= 0, got {v}")
+        if counts and v < 1:
+            raise OverrideError(f"{path} counts something and must be at least 1, got {v}")
+        if name in MORE_THAN_ZERO and v <= 0:
+            raise OverrideError(f"{path} must be above 0, got {v}")
+        if name in BELOW_ONE and v >= 1:
+            raise OverrideError(f"{path} is a fraction and must be below 1, got {v}")
+
+
+def _integer_field(annotation: Any) -> bool:
+    """int, int | None or tuple[int, ...]."""
+    if annotation is int:
+        return True
+    return any(_integer_field(a) for a in typing.get_args(annotation) if a is not type(None)
+               and a is not Ellipsis)
 
 
 def _leaf_annotation(obj: Any, path: str) -> Any:
