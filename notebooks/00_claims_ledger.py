@@ -35,6 +35,7 @@
 # %%
 from collections import Counter
 
+import pandas as pd
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
@@ -42,6 +43,7 @@ from icil_paper.results import ResultsStore
 from icil_paper.tables.book import REFERENCE, ledger_frame, stale_records
 from icil_paper.tables.claims import claims_ledger, write_ledger
 
+pd.set_option("display.max_colwidth", None)  # the claims' quantities in full
 preset = get_preset()
 sources = [("this build", preset)]
 if preset.name != REFERENCE:
