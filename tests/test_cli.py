@@ -132,3 +132,22 @@ def test_damaged_run_folders_are_named_not_tracebacks(tmp_path):
 def test_debug_shows_the_traceback():
     with pytest.raises(ValueError, match="unknown tokenizer"):
         cli.main(["train", "--tokenizer", "lipvqq", "--debug"])
+
+
+@pytest.mark.parametrize("var", ["ICIL_RESULTS", "ICIL_RUNS", "ICIL_DATA"])
+def test_a_folder_variable_naming_a_file_is_a_one_line_error(var, tmp_path, monkeypatch):
+    """$ICIL_RESULTS (RUNS, DATA) set to a file: the variable is named, nothing is written."""
+    from icil_paper.data.generate import data_root
+    from icil_paper.results import results_root
+    from icil_paper.train.rundir import runs_root
+
+    target = tmp_path / "a_file"
+    target.write_text("not a folder")
+    monkeypatch.setenv(var, str(target))
+    root = {"ICIL_RESULTS": results_root, "ICIL_RUNS": runs_root, "ICIL_DATA": data_root}[var]
+    with pytest.raises(NotADirectoryError, match=f"\\${var}=.*is a file, not a folder"):
+        root()
+    code, err = run_cli("tables", "--preset", "smoke") if var == "ICIL_RESULTS" else \
+        run_cli("train", "--preset", "smoke", "--tasks", "kitchen/open_drawer")
+    assert code == 2 and f"${var}=" in err and "Traceback" not in err, err
+    assert target.read_text() == "not a folder"

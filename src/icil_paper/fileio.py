@@ -18,6 +18,20 @@ from typing import Any
 from icil_paper.specs import json_default
 
 
+def folder_from_env(var: str, default: str) -> Path:
+    """The folder $`var` names, else (also when it is empty or blank) `default` under the
+    repository root. NotADirectoryError, naming the variable, when it is a file."""
+    from icil_paper.provenance import REPO_ROOT
+
+    value = os.environ.get(var, "").strip()
+    path = Path(value) if value else REPO_ROOT / default
+    if path.exists() and not path.is_dir():
+        where = f"${var}={value}" if value else str(path)
+        raise NotADirectoryError(f"{where} is a file, not a folder: point ${var} at a folder "
+                                 f"(it is created when missing), or unset it for {default}/")
+    return path
+
+
 def _umask() -> int:
     """The process umask, read without changing it where the system allows."""
     try:

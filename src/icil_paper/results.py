@@ -27,7 +27,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from icil_paper.fileio import atomic_write_json, set_aside
+from icil_paper.fileio import atomic_write_json, folder_from_env, set_aside
 from icil_paper.provenance import git_state, host_info, package_versions
 from icil_paper.specs import canonical_json, content_hash
 
@@ -47,10 +47,7 @@ def results_root() -> Path:
     An empty (or blank) $ICIL_RESULTS counts as unset: it would otherwise put the store in
     whatever folder the command happens to run from.
     """
-    from icil_paper.provenance import REPO_ROOT
-
-    value = os.environ.get(RESULTS_ENV_VAR, "").strip()
-    return Path(value) if value else REPO_ROOT / "results"
+    return folder_from_env(RESULTS_ENV_VAR, "results")
 
 
 def config_hash(config: Mapping[str, Any]) -> str:

@@ -26,7 +26,6 @@ a file but its image arrays; `full_check=True` (`icil-paper demos`) reads those 
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import time
 import warnings
@@ -37,7 +36,7 @@ from typing import Any
 
 from icil_paper.data.hdf5 import DatasetError, merge_demo_files, verify_file, write_demos
 from icil_paper.data.sources import MAX_ATTEMPTS, SOURCES, demo_seed, rollout, style_dict
-from icil_paper.fileio import set_aside
+from icil_paper.fileio import folder_from_env, set_aside
 from icil_paper.registry import check_name
 
 DATA_ENV_VAR = "ICIL_DATA"
@@ -52,10 +51,7 @@ class DemoGenerationError(RuntimeError):
 def data_root() -> Path:
     """Root of the data sets: $ICIL_DATA, else (also when it is empty) `data/` in the
     repository."""
-    from icil_paper.provenance import REPO_ROOT
-
-    value = os.environ.get(DATA_ENV_VAR, "").strip()
-    return Path(value) if value else REPO_ROOT / "data"
+    return folder_from_env(DATA_ENV_VAR, "data")
 
 
 def _preset(preset: Any):

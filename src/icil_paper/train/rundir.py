@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from icil_paper.fileio import atomic_write_bytes, atomic_write_json, set_aside
+from icil_paper.fileio import atomic_write_bytes, atomic_write_json, folder_from_env, set_aside
 
 RUNS_ENV_VAR = "ICIL_RUNS"
 CHECKPOINT = "checkpoint.pt"
@@ -59,9 +59,7 @@ class DamagedFileWarning(UserWarning):
 
 def runs_root() -> Path:
     """Root of run folders: $ICIL_RUNS (an empty value counts as unset), else `runs/`."""
-    from icil_paper.provenance import REPO_ROOT
-
-    return Path(os.environ.get(RUNS_ENV_VAR) or REPO_ROOT / "runs")
+    return folder_from_env(RUNS_ENV_VAR, "runs")
 
 
 def run_dir_for(spec: Any, preset_name: str) -> Path:
@@ -165,8 +163,10 @@ def load_tensors(path: Path, fmt: str, map_location: Any = "cpu") -> dict[str, A
         blob = torch.load(path, map_location=map_location, weights_only=True)
     except (pickle.UnpicklingError, RuntimeError, EOFError, ValueError, TypeError,
             AttributeError, IndexError, KeyError) as exc:
-        raise PolicyFileError(f"{path} is not a {fmt} file this version reads safely "
-                              f"({type(exc).__name__}: {str(exc).splitlines()[0][:200]})") from None
+        detail = (str(exc).splitlines() or [""])[0][:80]
+        raise PolicyFileError(f"{path} is damaged or not a {fmt} file this version reads "
+                              f"safely ({type(exc).__name__}: {detail}); retrain it "
+                              "(`icil-paper train`) or restore the file") from None
     if not isinstance(blob, dict) or blob.get("format") != fmt:
         found = blob.get("format") if isinstance(blob, dict) else type(blob).__name__
         raise PolicyFileError(f"{path} is not a {fmt} file (found {found!r}); retrain it with "
