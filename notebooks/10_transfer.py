@@ -57,8 +57,9 @@ preset = get_preset()
 
 # %%
 table5 = load_table(preset, "V")
-display(compare_frame(table5, "drawers"))
-display(compare_frame(table5, "doors"))
+for family in ("drawers", "doors"):
+    display(Markdown(f"**{family.capitalize()}**"))
+    display(compare_frame(table5, family))
 display(success_figure(table5, "avg", title="Table V: Panda-trained policies on the perturbed Kinova3"))
 display(Markdown(verdicts(preset, "V")))
 

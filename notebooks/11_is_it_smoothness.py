@@ -46,14 +46,14 @@ from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
 from icil_paper.tables.analysis import analysis_frame, conclusion, findings
-from icil_paper.tables.book import load_table
+from icil_paper.tables.book import load_table, source_label
 
 preset = get_preset()
 results = load_table(preset, "analysis")
 
 # %%
 for source, result in results.items():
-    display(Markdown(f"**{source} ({result.preset})**"))
+    display(Markdown(f"**{source_label(source, result)}**"))
     display(analysis_frame(result))
 
 # %% [markdown]
@@ -66,7 +66,7 @@ for source, result in results.items():
 
 # %%
 for source, result in results.items():
-    lines = [f"**{source} ({result.preset})**", ""]
+    lines = [f"**{source_label(source, result)}**", ""]
     for f in findings(result):
         est = f["estimate"]
         value = ("not run" if est is None else
@@ -80,4 +80,4 @@ for source, result in results.items():
 
 # %%
 for source, result in results.items():
-    display(Markdown(f"**{source} ({result.preset}).** {conclusion(result)}"))
+    display(Markdown(f"**{source_label(source, result)}.** {conclusion(result)}"))
