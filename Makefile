@@ -27,7 +27,8 @@ SRC_HASH = $(shell { find src -name '*.py' | LC_ALL=C sort | xargs cat; echo $(P
 	find results/$(PRESET) results/reference -name '*.json' -printf '%p %T@\n' 2>/dev/null \
 	| LC_ALL=C sort; } | sha256sum | cut -c1-16)
 
-.PHONY: help setup test test-all reproduce experiments book browser-check bench lint clean
+.PHONY: help setup test test-all reproduce experiments book browser-check bench lint clean \
+	lerobot-setup lerobot-export
 
 help:
 	@echo "make setup      create $(VENV), install requirements, the package and the book's npm assets; check Vulkan and Chromium"
@@ -37,6 +38,8 @@ help:
 	@echo "make browser-check  load every page of the built book in headless Chromium, offline"
 	@echo "make bench      throughput benchmarks (results/bench/*.json)"
 	@echo "make lint       ruff"
+	@echo "make lerobot-setup   a separate .venv-lerobot (Python 3.12, lerobot) for the LeRobot exporter"
+	@echo "make lerobot-export FILE=data.hdf5 OUT=folder   a data set as a LeRobotDataset (v3.0)"
 
 setup: $(PY_STAMP) $(SYS_STAMP) $(NODE_STAMP)
 
@@ -96,6 +99,25 @@ browser-check: setup
 bench: setup
 	@for m in $$(ls src/icil_paper/bench/*.py | xargs -n1 basename | grep -v __init__ | sed 's/\.py$$//'); do \
 		echo "== bench $$m"; $(BIN)/python -m icil_paper.bench.$$m || exit 1; done
+
+# LeRobot 0.6 needs Python >= 3.12 and numpy >= 2, which robosuite and ManiSkill here cannot
+# share: it gets an environment of its own, used only by icil_paper.lerobot_export.
+LEROBOT_VENV ?= .venv-lerobot
+PYTHON312 ?= python3.12
+LEROBOT_STAMP := $(LEROBOT_VENV)/.installed-lerobot-0.6.1
+
+lerobot-setup: $(LEROBOT_STAMP)
+
+$(LEROBOT_STAMP):
+	@command -v $(PYTHON312) >/dev/null || { echo "lerobot-setup: $(PYTHON312) not found: \
+		install Python 3.12 (or pass PYTHON312=/path/to/python3.12)"; exit 1; }
+	@test -x $(LEROBOT_VENV)/bin/python || $(PYTHON312) -m venv $(LEROBOT_VENV)
+	$(LEROBOT_VENV)/bin/pip install --quiet --progress-bar off 'lerobot[dataset]==0.6.1' h5py
+	@touch $@
+
+lerobot-export: lerobot-setup
+	@test -n "$(FILE)" -a -n "$(OUT)" || { echo "usage: make lerobot-export FILE=data.hdf5 OUT=folder"; exit 2; }
+	PYTHONPATH=src $(LEROBOT_VENV)/bin/python -m icil_paper.lerobot_export "$(FILE)" "$(OUT)"
 
 lint: setup
 	$(BIN)/ruff check src tests notebooks book/_ext
