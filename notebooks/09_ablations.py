@@ -45,8 +45,9 @@ display(Markdown(verdicts(preset, "IV")))
 # %% [markdown]
 # ## Fig. 5: codebook size
 #
-# The paper's values are at $2^8 \ldots 2^{11}$; ours at the preset's sizes, in the same
-# order.
+# The paper sweeps $2^8 \ldots 2^{11}$ with its model; the preset sweeps four sizes scaled
+# to its smaller model, and each row stands beside the paper's size at the same position
+# (its label names both).
 
 # %%
 display(compare_frame(fig5, "avg"))

@@ -59,7 +59,7 @@ def test_tables_share_the_policies_the_paper_shares():
     assert t6_bc <= t1_evals and not t6_icrt & t1_evals
     # Fig. 5 reuses Table I's LipVQ-VAE run at the preset's codebook size (seed 0)
     size = preset.tokenizers.lipvq.codebook_size
-    row = next(r for r in f5.rows if r.label == f"2^{size.bit_length() - 1}")
+    row = next(r for r in f5.rows if r.label.split()[0] == f"2^{size.bit_length() - 1}")
     assert run_keys(f5, row.label) <= run_keys(t1, "icrt+lipvq")
     plans = plan([table_spec(preset, t) for t in TABLES])
     assert len(plans) == len({p.run.key() for p in plans})  # one plan per trained policy
@@ -221,3 +221,18 @@ def test_the_executors_give_the_same_records(tmp_path, monkeypatch):
         assert main([*args, "--executor", executor, "--workers", "2"]) == 0
         results[executor] = records(tmp_path / executor)
     assert results["serial"] and results["serial"] == results["local"] == results["ray"]
+
+
+@pytest.mark.parametrize("preset_name", ["small", "full"])
+def test_fig5_rows_stand_beside_the_paper_by_position(preset_name):
+    """The preset's i-th codebook size is compared with the paper's i-th (2^8 .. 2^11), and
+    its label names the paper's size where the two differ."""
+    from icil_paper import paper_numbers as paper
+
+    f5 = table_spec(get_preset(preset_name), "fig5")
+    assert [r.paper["avg"] for r in f5.rows] == [paper.FIG5_CODEBOOK_SIZE[s] for s in
+                                                 sorted(paper.FIG5_CODEBOOK_SIZE)]
+    if preset_name == "small":
+        assert f5.rows[0].label == "2^6 (the paper's 2^8)"
+    else:
+        assert [r.label for r in f5.rows] == ["2^8", "2^9", "2^10", "2^11"]

@@ -113,7 +113,8 @@ def _paper_correlation() -> float:
 
 
 def _fig5_rows(preset: Preset) -> tuple[str, list[str]]:
-    """The sweep row at the paper's 2^10 position (the third of four) and the others."""
+    """The sweep row at the paper's 2^10 position (the third of four; its label names the
+    paper's size where the preset's differs) and the others."""
     labels = [r.label for r in table_spec(preset, "fig5").rows]
     best = labels[min(2, len(labels) - 1)]
     return best, [x for x in labels if x != best]
@@ -176,8 +177,7 @@ def claims(preset: Preset) -> list[Claim]:
               "is in the chapter)", +1, diff("IV", "icrt+vq", "icrt+mlp"),
               paper_diff(T4, "icrt+vq", "icrt+mlp")),
         Claim("fig5-best", "fig5", "The codebook size of 2^10 yields the best performance.",
-              f"LipVQ at {f5_best} (the paper's 2^10 position in our sweep) minus the best "
-              "other size (avg)", +1, margin("fig5", f5_best, f5_others),
+              f"LipVQ at {f5_best} minus the best other size of the sweep (avg)", +1, margin("fig5", f5_best, f5_others),
               lambda: paper.FIG5_CODEBOOK_SIZE[1024] - max(
                   v for k, v in paper.FIG5_CODEBOOK_SIZE.items() if k != 1024)),
         Claim("V-lipvq-vs-bc", "V", "ICRT+LipVQ-VAE reaches around 12% while the baselines "
