@@ -151,3 +151,29 @@ def test_a_folder_variable_naming_a_file_is_a_one_line_error(var, tmp_path, monk
         run_cli("train", "--preset", "smoke", "--tasks", "kitchen/open_drawer")
     assert code == 2 and f"${var}=" in err and "Traceback" not in err, err
     assert target.read_text() == "not a folder"
+
+
+@pytest.mark.slow
+def test_eval_refuses_a_policy_of_another_action_width_before_any_work(tmp_path, monkeypatch):
+    """A policy trained on a file with 3-D actions, evaluated on a 7-D kitchen task: one line
+    naming both widths, and no prompt data set generated for it."""
+    import h5py
+    import numpy as np
+
+    monkeypatch.setenv("ICIL_DATA", str(tmp_path / "data"))
+    path = tmp_path / "three_d.hdf5"
+    with h5py.File(path, "w") as f:
+        for i in range(2):
+            demo = f.create_group(f"data/demo_{i}")
+            demo["actions"] = np.zeros((12, 3), np.float32)
+            demo["obs/proprio"] = np.zeros((12, 9), np.float32)
+            demo["obs/object"] = np.zeros((12, 18), np.float32)
+            demo.attrs["num_samples"] = 12
+    run_dir = tmp_path / "run"
+    code, err = run_cli("train", "--preset", "smoke", "--dataset", str(path),
+                        "--run-dir", str(run_dir))
+    assert code == 0, err
+    code, err = run_cli("eval", "--preset", "smoke", "--run-dir", str(run_dir),
+                        "--tasks", "kitchen/open_drawer", "--episodes", "1")
+    assert code == 2 and "acts in 3 dimensions" in err and "7-dimensional" in err, err
+    assert not (tmp_path / "data").exists()

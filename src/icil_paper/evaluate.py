@@ -432,13 +432,16 @@ def main(argv: list[str] | None = None) -> int:
         run = run_spec(preset, args.policy, args.tokenizer, tasks=train_tasks, source=args.source)
         run_dir = run_dir_for(run, preset.name)
     policy = load_policy(run_dir)
+    tasks = args.tasks or list(run.data.tasks)
+    for task in tasks:  # before any prompt data set is generated or env started
+        check_policy_fits(policy, task)
     store = ResultsStore(preset.name)
     workers = args.workers or preset.eval.workers
     record_dir = results_root() / preset.name / "recordings" if args.record else None
     # one set of worker processes for every task: started, and each task's env built, once
     pool = RolloutPool(workers) if workers > 1 else None
     try:
-        for task in args.tasks or list(run.data.tasks):
+        for task in tasks:
             ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
                            prompt_source=args.prompt_source, max_steps=args.max_steps)
             record = evaluate_run(run, ev, policy, store, preset.name, workers, record_dir,
