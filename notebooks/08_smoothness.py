@@ -67,7 +67,7 @@ for source, result in smooth.items():
             continue
         std = cell.extra["standardized_estimate"]
         codes = [m.get("codes_used") for m in cell.extra["metrics"]]
-        rows.append({"source": source_label(source, result), "tokenizer": row.label,
+        rows.append({"source": source_label(source, result.preset), "tokenizer": row.label,
                      "raw": format_cell(cell, 3),
                      "standardized": f"{std.value:.3f} [{std.low:.3f}, {std.high:.3f}]",
                      "latent scale σ": round(float(np.mean(cell.extra["latent_scale"])), 4),

@@ -53,7 +53,7 @@ results = load_table(preset, "analysis")
 
 # %%
 for source, result in results.items():
-    display(Markdown(f"**{source_label(source, result)}**"))
+    display(Markdown(f"**{source_label(source, result.preset)}**"))
     display(analysis_frame(result))
 
 # %% [markdown]
@@ -66,7 +66,7 @@ for source, result in results.items():
 
 # %%
 for source, result in results.items():
-    lines = [f"**{source_label(source, result)}**", ""]
+    lines = [f"**{source_label(source, result.preset)}**", ""]
     for f in findings(result):
         est = f["estimate"]
         value = ("not run" if est is None else
@@ -80,4 +80,4 @@ for source, result in results.items():
 
 # %%
 for source, result in results.items():
-    display(Markdown(f"**{source_label(source, result)}.** {conclusion(result)}"))
+    display(Markdown(f"**{source_label(source, result.preset)}.** {conclusion(result)}"))

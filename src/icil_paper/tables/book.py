@@ -43,9 +43,9 @@ def load_table(preset: Preset, table_id: str, compute: bool = True,
     return results
 
 
-def source_label(source: str, result: TableResult) -> str:
+def source_label(source: str, preset_name: str) -> str:
     """"this build (small)"; "reference run" (its preset is in its name already)."""
-    return source if result.preset in source else f"{source} ({result.preset})"
+    return source if preset_name in source else f"{source} ({preset_name})"
 
 
 def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: int = 3):
@@ -59,7 +59,7 @@ def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: 
         value = row.paper.get(column)
         line["paper"] = "" if value is None else f"{value:.{digits}f}"
         for source, result in results.items():
-            line[source_label(source, result)] = format_cell(result.cell(row.label, column),
+            line[source_label(source, result.preset)] = format_cell(result.cell(row.label, column),
                                                               digits)
         out.append(line)
     return pd.DataFrame(out).set_index("")
@@ -84,7 +84,7 @@ def success_figure(results: dict[str, TableResult], column: str = "avg", title: 
             lo.append(est.value - est.low if est else 0.0)
             hi.append(est.high - est.value if est else 0.0)
         ax.bar(x + (k - (len(results) - 1) / 2) * width, vals, width, yerr=[lo, hi], capsize=3,
-               label=source_label(source, result), alpha=0.85)
+               label=source_label(source, result.preset), alpha=0.85)
     paper = [next(r for r in spec.rows if r.label == label).paper.get(column) for label in labels]
     if any(p is not None for p in paper):
         ax.scatter(x, [np.nan if p is None else p for p in paper], marker="_", s=400,
@@ -105,13 +105,13 @@ def verdicts(preset: Preset, table_id: str) -> str:
 
     sources = [(BUILD, preset)]
     if preset.name != REFERENCE:
-        sources.insert(0, (REFERENCE, get_preset(REFERENCE)))
+        sources.insert(0, (f"{REFERENCE} run", get_preset(REFERENCE)))
     lines = []
     for source, p in sources:
         entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e["table"] == table_id]
         if not entries:
             continue
-        lines.append(f"**{source} ({p.name})**\n")
+        lines.append(f"**{source_label(source, p.name)}**\n")
         lines += [f"- *{e['claim']}* {sentence(e)}" for e in entries]
         lines.append("")
     return "\n".join(lines)
@@ -148,7 +148,7 @@ def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
     display(Markdown("**The paper**"))
     display(values_frame(first, digits, paper=True))
     for source, result in results.items():
-        title = f"**{source_label(source, result)}**"
+        title = f"**{source_label(source, result.preset)}**"
         if not any(c.estimate is not None for c in result.cells.values()):
             display(Markdown(f"{title}: not run yet."))
             continue
@@ -206,7 +206,7 @@ def smoothness_success_figure(smooth: dict[str, TableResult], success: dict[str,
                         xytext=(4, 4), textcoords="offset points")
         ax.set_xlabel(("standardized " if standardized else "") + "least energy (lower: smoother)")
         ax.set_ylabel("average success")
-        ax.set_title(source_label(source, result))
+        ax.set_title(source_label(source, result.preset))
     ax = axes[-1]
     for label in rows:
         x, y = paper.TABLE_III_SMOOTHNESS[label], paper.TABLE_I_ROBOCASA[label]["avg"]
@@ -262,11 +262,11 @@ def difference_sentence(results: dict[str, TableResult], a: str, b: str,
     for source, result in results.items():
         xa, xb = result.outcomes(a, column), result.outcomes(b, column)
         if xa is None or xb is None:
-            lines.append(f"- {source_label(source, result)}: not run yet.")
+            lines.append(f"- {source_label(source, result.preset)}: not run yet.")
             continue
         est = stats.paired_difference(xa, xb)
         claimed = "higher" if direction > 0 else "lower"
-        lines.append(f"- {source_label(source, result)}: '{a}' minus '{b}' = {est.value:+.3f} "
+        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = {est.value:+.3f} "
                      f"[{est.low:+.3f}, {est.high:+.3f}]; '{a}' is {claimed}: "
                      f"{stats.verdict(est, direction)}.")
     return "\n".join(lines)
