@@ -37,8 +37,8 @@ def _other_value(annotation, value):
         return None
     if annotation is bool:
         return not value
-    if annotation is int:
-        return (value or 0) + 1
+    if annotation is int:  # from None, a value no preset's default field happens to hold
+        return 7 if value is None else value + 1
     if annotation is float:
         return (value or 0.0) * 1.5 + 0.125
     if annotation is str:
@@ -97,6 +97,17 @@ STAGES = {
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
          "tables.image_demos_per_task", "tables.image_episodes_per_task",
          "tables.image_max_steps")),
+    "table II (every unit)": (
+        lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval))
+                                  for u in table_spec(p, "II").units())),
+        ("policies.mcr.", "policies.act.", "policies.bc_transformer.",
+         *(f"tokenizers.{t}." for t in ("bin", "fast", "vq", "lfq", "lipvq")),
+         # its columns are the paper's three tasks: an added ManiSkill task is not read
+         "train.", "data.demos_per_task", "data.obs", "seed",
+         "eval.episodes_per_task", "eval.max_steps", "tables.image_demos_per_task",
+         "tables.image_episodes_per_task", "tables.image_max_steps",
+         "tables.maniskill_demos_per_task", "tables.maniskill_steps",
+         "tables.maniskill_episodes_per_task")),
     "tokenizer study vq": (lambda p: spec_key(study_spec(p, p.tokenizers.vq)),
                            ("tokenizers.vq.", "tokenizer_study.", "data.demos_per_task",
                             "data.kitchen_tasks", "data.maniskill_tasks", "seed")),

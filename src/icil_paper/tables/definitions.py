@@ -111,21 +111,38 @@ def table_i(preset: Preset) -> TableSpec:
                          "generated data sets. avg is the mean over tasks."))
 
 
+def _maniskill_run(preset: Preset, run: RunSpec) -> RunSpec:
+    """Table II's state-based run: the preset's ManiSkill demonstrations and steps, where it
+    sets them (MCR's image runs keep theirs)."""
+    if run.policy.type == "mcr":
+        return run
+    t = preset.tables
+    demos = t.maniskill_demos_per_task or run.data.demos_per_task
+    steps = t.maniskill_steps or run.train.steps
+    return run.replace(data=dataclasses.replace(run.data, demos_per_task=demos),
+                       train=dataclasses.replace(run.train, steps=steps))
+
+
 def table_ii(preset: Preset) -> TableSpec:
+    episodes = preset.tables.maniskill_episodes_per_task or preset.eval.episodes_per_task
+    evaluated = preset.replace(eval={"episodes_per_task": episodes})  # MCR: image episodes
+    demos = preset.tables.maniskill_demos_per_task or preset.data.demos_per_task
     rows = []
     for policy, tokenizer in TABLE_II_ROWS:
         cells = {}
         per_task = []
         for column, task in zip(MANISKILL_COLUMNS, preset.data.maniskill_tasks, strict=False):
-            runs = _runs(preset, policy, tokenizer, [task], 1)
-            cells[column] = _cell(preset, runs, [task])
+            runs = [_maniskill_run(preset, run) for run in _runs(preset, policy, tokenizer,
+                                                                [task], 1)]
+            cells[column] = _cell(evaluated, runs, [task])
             per_task += list(cells[column].units)
         cells["avg"] = Cell(tuple(per_task))
         rows.append(Row(label(policy, tokenizer), cells,
                         paper.TABLE_II_MANISKILL[label(policy, tokenizer)]))
     return TableSpec("II", "Results on ManiSkill", (*MANISKILL_COLUMNS, "avg"), tuple(rows),
                      note=("One policy per task (as ManiSkill's baselines), trained on the "
-                           "motion planner's demonstrations converted to end-effector deltas."))
+                           f"motion planner's {demos} demonstrations per task, converted to "
+                           "end-effector deltas (MCR: its image data sets)."))
 
 
 def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
