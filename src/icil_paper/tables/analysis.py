@@ -155,4 +155,19 @@ def conclusion(result: TableResult) -> str:
         verdict = ("the data cannot decide the smoothness explanation: LipVQ-VAE's standardized "
                    f"smoothness is {smoother} and its success advantage {better} against "
                    "VQ-VAE at this number of seeds and episodes")
-    return f"{bind}In this run, {verdict}."
+    return f"{bind}In this run, {verdict}.{_variant_effects(found.values())}"
+
+
+def _variant_effects(found) -> str:
+    """A sentence naming every variant whose success interval against its base excludes 0,
+    largest effect first ('' when none does)."""
+    moved = [f for f in found if f["quantity"].startswith("'") and "success" in f["quantity"]
+             and f["verdict"] in ("holds", "does not hold")]
+    if not moved:
+        return ""
+    moved.sort(key=lambda f: -abs(f["estimate"].value))
+    parts = [f"{f['quantity'].replace(' success minus ', ' against ')} "
+             f"{f['estimate'].value:+.2f} [{f['estimate'].low:+.2f}, {f['estimate'].high:+.2f}]"
+             for f in moved]
+    return (" The variants whose success interval excludes 0 (success difference, 95% "
+            f"interval): {'; '.join(parts)}.")
