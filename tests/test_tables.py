@@ -265,3 +265,14 @@ def test_the_analysis_conclusion_names_the_variants_whose_success_moved(monkeypa
     assert "'c'" not in effects and "standardized" not in effects
     found[2:4] = []
     assert "excludes 0" not in analysis.conclusion(None)
+
+
+def test_the_ledger_keeps_each_interval_on_one_line():
+    """The book's ledger writes `ours [low, high]` with non-breaking spaces (a narrow column
+    must not break an interval over lines); the ledger's JSON keeps plain numbers."""
+    from icil_paper.tables.book import ledger_frame
+
+    entry = {"id": "x", "table": "I", "quantity": "a minus b", "paper": 0.05, "ours": 0.006,
+             "ci": [-0.07, 0.058], "verdict": "inconclusive"}
+    ours = ledger_frame([entry]).loc["x", "ours"]
+    assert ours == "+0.006\u00a0[-0.070,\u00a0+0.058]" and " " not in ours

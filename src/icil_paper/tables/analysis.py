@@ -48,7 +48,7 @@ def analysis_frame(result: TableResult, digits: int = 2):
     and the empirical Lipschitz constant (means over seeds; "-" where it does not apply)."""
     import pandas as pd
 
-    from icil_paper.tables.assemble import format_cell
+    from icil_paper.tables.assemble import format_cell, unbroken
 
     def number(value, percent=False):
         if value is None:
@@ -59,14 +59,14 @@ def analysis_frame(result: TableResult, digits: int = 2):
     for row in result.spec.rows:
         feat = _features(result, row.label)
         line: dict[str, Any] = {"": row.label,
-                                "success": format_cell(result.cell(row.label, "avg"), digits)}
+                                "success": unbroken(format_cell(result.cell(row.label, "avg"), digits))}
         if feat is None:
             line["least energy"] = "not run"
         else:
             std = feat.extra["standardized_estimate"]
             line.update({
                 "least energy": number(feat.estimate.value),
-                "standardized": f"{std.value:.3g} [{std.low:.3g}, {std.high:.3g}]",
+                "standardized": unbroken(f"{std.value:.3g} [{std.low:.3g}, {std.high:.3g}]"),
                 "σ": number(float(np.mean(feat.extra["latent_scale"]))),
                 "codes": number(_mean_metric(feat, "codes_used")),
                 "rows capped": number(_mean_metric(feat, "capped_fraction"), percent=True),

@@ -164,6 +164,12 @@ class TableResult:
                     for column in self.spec.columns}} for row in self.spec.rows]}
 
 
+def unbroken(text: str) -> str:
+    """`text` with non-breaking spaces, so that a narrow table column in the book does not
+    break `0.53 [0.41, 0.64]` over lines (for display only: not for CSV or Markdown files)."""
+    return text.replace(" ", "\u00a0")
+
+
 def format_cell(cell: CellResult | None, digits: int = 2) -> str:
     """`0.53 [0.41, 0.64]`, `not run` or `n/a`."""
     if cell is None:

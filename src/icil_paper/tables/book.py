@@ -20,7 +20,7 @@ import numpy as np
 
 from icil_paper.config import Preset, get_preset
 from icil_paper.results import ResultsStore
-from icil_paper.tables.assemble import TableResult, assemble, format_cell
+from icil_paper.tables.assemble import TableResult, assemble, format_cell, unbroken
 from icil_paper.tables.definitions import table_spec
 
 REFERENCE = "reference"
@@ -246,7 +246,7 @@ def ledger_frame(ledger: list[dict[str, Any]]):
     rows = []
     for e in ledger:
         ours = ("" if e["ours"] is None else
-                f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]")
+                unbroken(f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"))
         rows.append({"claim": e["id"], "table": e["table"], "quantity": e["quantity"],
                      "paper": f"{e['paper']:+.3f}", "ours": ours, "verdict": e["verdict"]})
     return pd.DataFrame(rows).set_index("claim").rename_axis(None)
