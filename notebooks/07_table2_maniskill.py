@@ -30,17 +30,16 @@ from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
 from icil_paper.tables.book import compare_frame, load_table, show_values, success_figure, verdicts
+from icil_paper.tables.definitions import maniskill_settings
 
 preset = get_preset()
 results = load_table(preset, "II")
-t = preset.tables
-episodes = t.maniskill_episodes_per_task or preset.eval.episodes_per_task
+demos, steps, episodes = maniskill_settings(preset)
 display(Markdown(
     f"Each state policy of this build's preset (`{preset.name}`) learns one task from "
-    f"{t.maniskill_demos_per_task or preset.data.demos_per_task} demonstrations in "
-    f"{t.maniskill_steps or preset.train.steps} steps and is rolled out in {episodes} "
-    f"episode{'s' if episodes != 1 else ''} per task; MCR "
-    f"learns from {t.image_demos_per_task} image demonstrations per task. The reference "
+    f"{demos} demonstrations in {steps} steps and is rolled out in {episodes} "
+    f"episode{'s' if episodes != 1 else ''} per task; MCR learns from "
+    f"{preset.tables.image_demos_per_task} image demonstrations per task. The reference "
     "preset gives these single-task runs more data and steps than Table I's multi-task "
     "ones (`tables.maniskill_*` in `src/icil_paper/config.py`)."))
 

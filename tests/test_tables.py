@@ -246,8 +246,9 @@ def test_the_analysis_conclusion_names_the_variants_whose_success_moved(monkeypa
 
     def finding(quantity, value, low, high, direction=+1):
         est = stats.Estimate(value, low, high, 30, "test")
+        variant = quantity.split("'")[1] if " success minus " in quantity[1:] else None
         return {"quantity": quantity, "direction": direction, "estimate": est,
-                "verdict": stats.verdict(est, direction=direction)}
+                "variant": variant, "verdict": stats.verdict(est, direction=direction)}
 
     found = [finding("LipVQ-VAE's standardized least energy minus VQ-VAE's", -5, -20, 10, -1),
              finding("LipVQ-VAE's success minus VQ-VAE's", 0.01, -0.05, 0.07),
@@ -269,7 +270,7 @@ def test_the_analysis_conclusion_names_the_variants_whose_success_moved(monkeypa
 
 def test_the_ledger_keeps_each_interval_on_one_line():
     """The book's ledger writes `ours [low, high]` with non-breaking spaces (a narrow column
-    must not break an interval over lines); the ledger's JSON keeps plain numbers."""
+    must not break an interval over lines)."""
     from icil_paper.tables.book import ledger_frame
 
     entry = {"id": "x", "table": "I", "quantity": "a minus b", "paper": 0.05, "ours": 0.006,

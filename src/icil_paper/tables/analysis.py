@@ -59,7 +59,8 @@ def analysis_frame(result: TableResult, digits: int = 2):
     for row in result.spec.rows:
         feat = _features(result, row.label)
         line: dict[str, Any] = {"": row.label,
-                                "success": unbroken(format_cell(result.cell(row.label, "avg"), digits))}
+                                "success": unbroken(format_cell(result.cell(row.label, "avg"),
+                                                                digits))}
         if feat is None:
             line["least energy"] = "not run"
         else:
@@ -93,27 +94,29 @@ def _smooth_diff(result: TableResult, a: str, b: str, standardized: bool = True)
 
 
 def findings(result: TableResult) -> list[dict[str, Any]]:
-    """The comparisons of the module docstring: quantity, claimed direction, estimate, verdict."""
+    """The comparisons of the module docstring: quantity, claimed direction, estimate,
+    verdict, and `variant`: the variant row a success comparison tests against its base
+    (None for the other comparisons)."""
     rows = [r.label for r in result.spec.rows]
     comparisons = [
         ("LipVQ-VAE's standardized least energy minus VQ-VAE's", -1,
-         _smooth_diff(result, PAPER, VQ)),
+         _smooth_diff(result, PAPER, VQ), None),
         ("LipVQ-VAE's raw least energy minus VQ-VAE's", -1,
-         _smooth_diff(result, PAPER, VQ, standardized=False)),
-        ("LipVQ-VAE's success minus VQ-VAE's", +1, _success_diff(result, PAPER, VQ)),
+         _smooth_diff(result, PAPER, VQ, standardized=False), None),
+        ("LipVQ-VAE's success minus VQ-VAE's", +1, _success_diff(result, PAPER, VQ), None),
     ]
     for row in rows:
         if row in (PAPER, VQ):
             continue
         base = VQ if row.startswith("vq") else PAPER
         comparisons.append((f"'{row}' success minus '{base}'", +1,
-                            _success_diff(result, row, base)))
+                            _success_diff(result, row, base), row))
         if "restart" not in row and "queries" not in row:
             comparisons.append((f"'{row}' standardized least energy minus '{base}'", -1,
-                                _smooth_diff(result, row, base)))
+                                _smooth_diff(result, row, base), None))
     out = []
-    for quantity, direction, est in comparisons:
-        out.append({"quantity": quantity, "direction": direction,
+    for quantity, direction, est, variant in comparisons:
+        out.append({"quantity": quantity, "direction": direction, "variant": variant,
                     "estimate": est, "verdict": "not run" if est is None
                     else stats.verdict(est, direction=direction)})
     return out
@@ -161,11 +164,11 @@ def conclusion(result: TableResult) -> str:
 def _variant_effects(found) -> str:
     """A sentence naming every variant whose success interval against its base excludes 0,
     largest effect first ('' when none does)."""
-    moved = [f for f in found if f["quantity"].startswith("'") and "success" in f["quantity"]
-             and f["verdict"] in ("holds", "does not hold")]
+    moved = sorted((f for f in found if f["variant"] is not None
+                    and f["verdict"] in ("holds", "does not hold")),
+                   key=lambda f: -abs(f["estimate"].value))
     if not moved:
         return ""
-    moved.sort(key=lambda f: -abs(f["estimate"].value))
     parts = [f"{f['quantity'].replace(' success minus ', ' against ')} "
              f"{f['estimate'].value:+.2f} [{f['estimate'].low:+.2f}, {f['estimate'].high:+.2f}]"
              for f in moved]

@@ -111,29 +111,31 @@ def table_i(preset: Preset) -> TableSpec:
                          "generated data sets. avg is the mean over tasks."))
 
 
-def _maniskill_run(preset: Preset, run: RunSpec) -> RunSpec:
-    """Table II's state-based run: the preset's ManiSkill demonstrations and steps, where it
-    sets them (MCR's image runs keep theirs)."""
-    if run.policy.type == "mcr":
-        return run
+def maniskill_settings(preset: Preset) -> tuple[int, int, int]:
+    """Table II's state-based rows: (demonstrations per task, training steps, episodes per
+    task), the preset's `tables.maniskill_*` where set, else its shared values."""
     t = preset.tables
-    demos = t.maniskill_demos_per_task or run.data.demos_per_task
-    steps = t.maniskill_steps or run.train.steps
-    return run.replace(data=dataclasses.replace(run.data, demos_per_task=demos),
-                       train=dataclasses.replace(run.train, steps=steps))
+    return (t.maniskill_demos_per_task or preset.data.demos_per_task,
+            t.maniskill_steps or preset.train.steps,
+            t.maniskill_episodes_per_task or preset.eval.episodes_per_task)
 
 
 def table_ii(preset: Preset) -> TableSpec:
-    episodes = preset.tables.maniskill_episodes_per_task or preset.eval.episodes_per_task
+    demos, steps, episodes = maniskill_settings(preset)
     evaluated = preset.replace(eval={"episodes_per_task": episodes})  # MCR: image episodes
-    demos = preset.tables.maniskill_demos_per_task or preset.data.demos_per_task
+
+    def state_run(run: RunSpec) -> RunSpec:  # MCR's image runs keep their data and steps
+        if run.policy.type == "mcr":
+            return run
+        return run.replace(data=dataclasses.replace(run.data, demos_per_task=demos),
+                           train=dataclasses.replace(run.train, steps=steps))
+
     rows = []
     for policy, tokenizer in TABLE_II_ROWS:
         cells = {}
         per_task = []
         for column, task in zip(MANISKILL_COLUMNS, preset.data.maniskill_tasks, strict=False):
-            runs = [_maniskill_run(preset, run) for run in _runs(preset, policy, tokenizer,
-                                                                [task], 1)]
+            runs = [state_run(run) for run in _runs(preset, policy, tokenizer, [task], 1)]
             cells[column] = _cell(evaluated, runs, [task])
             per_task += list(cells[column].units)
         cells["avg"] = Cell(tuple(per_task))
