@@ -14,14 +14,32 @@
 # Each claim is written as a quantity with a direction: "LipVQ-VAE beats BC-Transformer by
 # 5.3 points" is the difference of the two rows' average success, claimed above 0. The
 # paper's value of that quantity is computed from its own tables; ours from our records,
-# with a 95% interval. Rows are compared on the same evaluation episodes, so a difference's
-# interval comes from a paired bootstrap (`icil_paper.stats`).
+# with a 95% interval.
+#
+# **The unit is the training seed.** Most of the variance of every comparison is the spread
+# between training seeds, not the luck of the evaluation episodes. So an interval is built
+# from each seed's value (its mean over tasks and episodes): Welch's t interval on the two
+# rows' per-seed values when every seed plays the same scenes, a paired t interval when seed
+# k of both rows plays its own scene set k (`icil_paper.stats` gives the method, its
+# assumptions and its sources; `tests/test_verdicts.py` shows on simulated rows with no true
+# difference that it decides at most about 5% of them).
 #
 # **The rule.** A claim *holds* when our whole interval lies on the claimed side of 0; it
 # *does not hold* when the whole interval lies on the other side (we measured the
-# opposite); it is *inconclusive* when the interval contains 0: our data cannot tell at
-# this number of seeds and episodes, which is not evidence against the paper. *Not run*
-# means a record the claim needs is missing.
+# opposite); it is *inconclusive* when the interval contains 0. A comparison that reads a
+# row trained with a **single seed** is never decided (*too few seeds*): one seed cannot
+# tell its luck from the method. "Best of k" claims hold only if the row beats each other
+# row. *Not run* means a record the claim needs is missing.
+#
+# **Which verdict to quote.** The ledger tests some twenty claims at once; at 95% each, about
+# one would be decided by chance alone. The column *after Holm* keeps a decided verdict only
+# where Holm's step-down correction over the ledger (5% familywise) still rejects: **quote
+# that one.** *Size vs the paper* reads our interval against the paper's own effect: it may
+# exclude the paper's size even where the verdict is inconclusive. *mde* is the smallest
+# difference this design (these seeds and episodes) detects with 80% power; *seeds needed*
+# is the number of seeds a row that would detect the paper's effect with 80% power at this
+# number of episodes ("—": more than 1000, or nothing to plan). Both come from the measured
+# per-seed variances.
 #
 # Two sources: the **reference run** (records committed under `results/reference/`: the
 # numbers worth reading) and **this build** (the preset this book was built with; on CI the
@@ -32,34 +50,42 @@
 # simulated Kinova for the real robot, ...) are listed in the introduction; a claim that
 # holds here holds for the stand-in, not for RoboCasa.
 
-# %%
-from collections import Counter
-
+# %% tags=["hide-input"]
 import pandas as pd
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
 from icil_paper.results import ResultsStore
-from icil_paper.tables.book import REFERENCE, ledger_frame, stale_records
-from icil_paper.tables.claims import claims_ledger, write_ledger
+from icil_paper.tables.book import (REFERENCE, forest_plot, ledger_details, ledger_frame,
+                                    source_label, stale_records)
+from icil_paper.tables.claims import claims_ledger, summary_sentence, write_ledger
 
-pd.set_option("display.max_colwidth", None)  # the claims' quantities in full
+pd.set_option("display.max_colwidth", None)
 preset = get_preset()
 sources = [("this build", preset)]
 if preset.name != REFERENCE:
     sources.insert(0, ("reference run", get_preset(REFERENCE)))
-
-# %%
+ledgers = {}
 for source, p in sources:
     store = ResultsStore(p.name)
     if p.name == preset.name:
         write_ledger(p, store)
-    ledger = claims_ledger(p, store)
-    counts = Counter(e["verdict"] for e in ledger)
-    summary = ", ".join(f"{counts[v]} {v}" for v in
-                        ("holds", "does not hold", "inconclusive", "not run") if counts[v])
-    display(Markdown(f"## {source} (`{p.name}` preset): {summary}"))
+    ledgers[source] = (p, claims_ledger(p, store))
+
+# %% tags=["remove-input"]
+for source, (p, ledger) in ledgers.items():
+    heading = source_label(source, p.name)
+    display(Markdown(f"## {heading[0].upper()}{heading[1:]}\n\n{summary_sentence(ledger)}"))
+    display(forest_plot(ledger, title=f"{heading[0].upper()}{heading[1:]}: each claim's 95% "
+                                      "interval, the paper's value, the verdict after Holm"))
     display(ledger_frame(ledger))
+
+# %% [markdown]
+# ## What each claim compares
+
+# %% tags=["remove-input"]
+first_ledger = next(iter(ledgers.values()))[1]
+display(Markdown(ledger_details(first_ledger)))
 
 # %% [markdown]
 # ## Reference records made by older code
@@ -67,7 +93,7 @@ for source, p in sources:
 # A committed reference record whose key the current code no longer computes (a config or
 # a definition changed since it was run) is not used above; it is listed here.
 
-# %%
+# %% tags=["remove-input"]
 stale = stale_records(REFERENCE)
 display(Markdown("None: every committed reference record is current." if not stale else
                  f"{len(stale)} stale record(s), not used: " + ", ".join(stale[:20])))

@@ -25,21 +25,25 @@
 # costs about ten times a state step on CPU); every other row learns from low-dimensional
 # state. Sizes, steps and episodes are the preset's ({doc}`chapter 1 <01_environment>` lists them).
 #
-# The table shows three sources: **the paper**, **the reference run** (`reference` preset:
-# 3 training seeds for the ICRT rows, 10 episodes per task; its records are committed under
-# `results/reference/`) and **this build** (the preset the book was built with; on CI the
-# `small` preset, whose short training makes its numbers a test of the code, not evidence).
-# Every number comes with its 95% interval (`icil_paper.stats`): a stratified bootstrap
-# over episodes, hierarchical over seeds where there are several.
+# The table shows three sources: **the paper**, **the reference run** (`reference` preset,
+# whose design is stated below; its records are committed under `results/reference/`) and
+# **this build** (the preset the book was built with; on CI the `small` preset, whose short
+# training makes its numbers a test of the code, not evidence). Every number comes with its
+# 95% interval (`icil_paper.stats`): a t interval on the per-seed values where a row has
+# several training seeds; for a single seed, the episodes' noise only (and no comparison
+# with it is decided).
 
 # %%
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.book import compare_frame, load_table, show_values, success_figure, verdicts
+from icil_paper.tables.book import (REFERENCE, compare_frame, design_sentence, load_table,
+                                    show_values, success_figure, verdicts)
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "I")  # computes what this build's results store lacks
+display(Markdown(f"The reference run's design: {design_sentence(get_preset(REFERENCE))}. "
+                 f"This build's (`{preset.name}`): {design_sentence(preset)}."))
 
 # %% [markdown]
 # ## Average success over the kitchen tasks

@@ -35,7 +35,7 @@
 # unused codes jump to random encoder outputs: a standard remedy for collapse), and ICRT
 # trained on whole episodes from step 0, the window it acts with (ICRT trains on 32-step
 # query windows that start anywhere, but acts from step 0 of an episode). Every variant
-# trains the preset's number of ICRT seeds (three in the reference run). For each: success
+# trains the preset's number of ICRT seeds (stated below for each source). For each: success
 # over the kitchen tasks, raw and standardized least energy of its own tokenizer's latent
 # features on held-out trajectories (as in Table III), $\sigma$, the codes used, the share
 # of encoder rows Eq. 4 caps, the product of the bounds and an empirical Lipschitz constant
@@ -46,14 +46,15 @@ from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
 from icil_paper.tables.analysis import analysis_frame, conclusion, findings
-from icil_paper.tables.book import load_table, source_label
+from icil_paper.tables.book import design_sentence, load_table, source_label
 
 preset = get_preset()
 results = load_table(preset, "analysis")
 
 # %%
 for source, result in results.items():
-    display(Markdown(f"**{source_label(source, result.preset)}**"))
+    display(Markdown(f"**{source_label(source, result.preset)}**: "
+                     f"{design_sentence(get_preset(result.preset))}"))
     display(analysis_frame(result))
 
 # %% [markdown]

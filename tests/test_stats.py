@@ -51,7 +51,8 @@ def test_one_seed_one_task_uses_wilson():
     outcomes = np.array([[[True] * 3 + [False] * 7]])
     est = success_rate(outcomes)
     assert (est.low, est.high) == wilson_interval(3, 10)
-    assert est.value == pytest.approx(0.3) and est.n == 10 and "wilson" in est.method
+    assert est.value == pytest.approx(0.3) and est.n == 1 and est.episodes == 10
+    assert "wilson" in est.method and est.seeds == (1,)
 
 
 # -------------------------------------------------------------------------------- coverage
@@ -94,9 +95,11 @@ def test_tasks_weigh_equally_and_seeds_average():
 
 def test_bootstrap_is_deterministic_given_rng_seed():
     outcomes = _simulate(np.random.default_rng(1), np.linspace(0.2, 0.8, 11), 3, 10, 0.1)
-    a = success_rate(outcomes, rng_seed=7)
-    assert a == success_rate(outcomes, rng_seed=7)
-    assert a != success_rate(outcomes, rng_seed=8)
+    a = success_rate(outcomes[:1], rng_seed=7)  # one seed: a bootstrap over episodes
+    assert a == success_rate(outcomes[:1], rng_seed=7)
+    assert not np.array_equal(success_rate_samples(outcomes[:1], rng_seed=7),
+                              success_rate_samples(outcomes[:1], rng_seed=8))
+    assert success_rate(outcomes, rng_seed=7) == success_rate(outcomes, rng_seed=8)  # t: no draws
     assert np.array_equal(success_rate_samples(outcomes, rng_seed=7),
                           success_rate_samples(outcomes, rng_seed=7))
     b = _simulate(np.random.default_rng(2), np.linspace(0.2, 0.8, 11), 1, 10)
@@ -115,9 +118,9 @@ def test_two_thousand_resamples_are_fast():
 def test_estimate_round_trips_through_json():
     est = success_rate(_simulate(np.random.default_rng(0), [0.5, 0.4], 2, 8))
     d = json.loads(json.dumps(est.to_dict()))
-    assert set(d) == {"value", "low", "high", "n", "method"}
+    assert set(d) == {"value", "low", "high", "n", "method", "seeds", "episodes", "se", "df"}
     assert Estimate.from_dict(d) == est
-    assert est.low <= est.value <= est.high and est.n == 2 * 2 * 8
+    assert est.low <= est.value <= est.high and est.n == 2 and est.episodes == 2 * 2 * 8
     with pytest.raises(ValueError, match="reversed"):
         Estimate(0.5, 0.6, 0.4, 10, "x")
     with pytest.raises(ValueError, match="finite"):
@@ -140,7 +143,8 @@ def test_paired_difference_is_narrower_on_correlated_rows():
     unpaired = (success_rate_samples(a, rng_seed=1) - success_rate_samples(b, rng_seed=2))
     un_low, un_high = np.percentile(unpaired, [2.5, 97.5])
     assert paired.high - paired.low < 0.6 * (un_high - un_low)
-    assert verdict(paired) == "holds"  # a beats b on every scene where they differ
+    # a beats b on every scene where they differ, but one seed a row decides nothing.
+    assert verdict(paired) == "too few seeds"
 
 
 def test_paired_difference_allows_different_seed_counts():
@@ -149,16 +153,18 @@ def test_paired_difference_allows_different_seed_counts():
     b = _simulate(rng, np.full(4, 0.2), 1, 15)
     diff = paired_difference(a, b)
     assert diff.value == pytest.approx(a.mean() - b.mean())
-    assert diff.n == a.size + b.size and diff.low > 0
+    assert diff.n == 4 and diff.seeds == (3, 1) and diff.episodes == a.size + b.size
+    assert diff.low > 0 and verdict(diff) == "too few seeds"  # b's seed variance is unknown
     same = paired_difference(a, a)
-    assert same.value == 0.0 and same.low <= 0.0 <= same.high
+    assert same.value == 0.0 and same.low <= 0.0 <= same.high and "welch" in same.method
+    assert verdict(same) == "inconclusive"
 
 
 def test_paired_difference_of_identical_single_seed_rows_is_exactly_zero():
     a = _simulate(np.random.default_rng(0), [0.3, 0.7], 1, 12)
     est = paired_difference(a, a.copy())
     assert (est.value, est.low, est.high) == (0.0, 0.0, 0.0)
-    assert verdict(est) == "inconclusive"
+    assert verdict(est) == "too few seeds"
 
 
 # ------------------------------------------------------------------------------ correlation
@@ -168,18 +174,20 @@ def test_rank_correlation_of_monotone_rows():
     rates = [0.1, 0.3, 0.5, 0.7, 0.9]
     energies = [5.0, 4.0, 3.0, 2.0, 1.0]  # smoother (lower energy) rows succeed more
     outcomes = [_simulate(rng, [r] * 3, 2, 40) for r in rates]
-    scores = [e + 0.1 * rng.normal(size=50) for e in energies]
+    scores = [e + 0.1 * rng.normal(size=(2, 50)) for e in energies]
     est = score_success_correlation(scores, outcomes)
-    assert est.value == pytest.approx(-1.0) and est.n == 5
-    assert verdict(est, direction=-1) == "holds"
+    assert est.value == pytest.approx(-1.0) and est.n == 5 and est.seeds == (2,) * 5
+    assert verdict(est, direction=-1) == "holds" and est.p_value < 0.05
+    one_seed = score_success_correlation([s[0] for s in scores], outcomes)
+    assert verdict(one_seed, direction=-1) == "too few seeds"
     # Unpaired resampling gives the same point value.
     assert score_success_correlation(scores, outcomes, paired=False).value == est.value
 
 
 def test_rank_correlation_of_unrelated_rows_is_inconclusive():
     rng = np.random.default_rng(1)
-    outcomes = [_simulate(rng, [0.5] * 3, 1, 10) for _ in range(5)]
-    scores = [rng.normal(size=30) for _ in range(5)]
+    outcomes = [_simulate(rng, [0.5] * 3, 3, 10) for _ in range(5)]
+    scores = [rng.normal(size=(3, 30)) for _ in range(5)]
     est = score_success_correlation(scores, outcomes)
     assert -1.0 <= est.low <= est.value <= est.high <= 1.0
     assert verdict(est, direction=-1) == "inconclusive"
@@ -310,4 +318,6 @@ def test_one_episode_per_task_still_gets_an_interval():
     y = np.zeros((1, 11, 1), dtype=bool)
     diff = paired_difference(x, y)
     assert diff.low <= 0 < diff.high  # one success in eleven episodes decides nothing
-    assert verdict(diff) == "inconclusive"
+    assert verdict(diff) == "too few seeds"
+    three = paired_difference(np.repeat(x, 3, axis=0), np.repeat(y, 3, axis=0))
+    assert three.low <= 0 < three.high and verdict(three) == "inconclusive"

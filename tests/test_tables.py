@@ -110,7 +110,8 @@ def fake_records(preset, store, table_id, rate_of, episodes=None, seed=0):
 
 
 def test_records_become_estimates_and_claims_get_their_verdicts():
-    preset = small_preset("eval.episodes_per_task=40")
+    preset = small_preset("eval.episodes_per_task=40", "tables.icrt_seeds=3",
+                          "tables.baseline_seeds=3")
     store = ResultsStore(preset.name)
     strong = {"icrt+lipvq": 0.9, "bc_transformer": 0.02}
     fake_records(preset, store, "I", lambda row: strong.get(row, 0.5))
@@ -118,12 +119,17 @@ def test_records_become_estimates_and_claims_get_their_verdicts():
     assert result.complete and result.missing == 0
     est = result.estimate("icrt+lipvq", "avg")
     assert 0.8 < est.value < 1.0 and est.low < est.value < est.high
-    assert result.outcomes("icrt+lipvq", "avg").shape == (1, 3, 40)  # seeds, tasks, episodes
+    assert result.outcomes("icrt+lipvq", "avg").shape == (3, 3, 40)  # seeds, tasks, episodes
     assert result.cell("icrt+lipvq", "pick_place") is None  # no such task in this preset
     ledger = {e["id"]: e for e in claims_ledger(preset, store)}
     assert ledger["I-lipvq-vs-bc"]["verdict"] == "holds"
+    assert ledger["I-lipvq-vs-bc"]["adjusted_verdict"] == "holds"
+    assert ledger["I-lipvq-vs-bc"]["seeds"] == {"icrt+lipvq": 3, "bc_transformer": 3}
+    assert ledger["I-lipvq-vs-bc"]["n"] == 6 and ledger["I-lipvq-vs-bc"]["episodes"] == 720
+    assert ledger["I-lipvq-vs-bc"]["mde"] > 0 and ledger["I-lipvq-vs-bc"]["seeds_needed"] >= 2
     assert ledger["I-lipvq-best"]["verdict"] == "holds"
     assert ledger["I-mlp-below-bc"]["verdict"] == "does not hold"  # BC 0.02 is below MLP 0.5
+    assert ledger["I-mlp-below-bc"]["magnitude"] == "paper's size excluded"
     assert ledger["II-lipvq-best"]["verdict"] == "not run"
     assert ledger["I-lipvq-vs-bc"]["paper"] == pytest.approx(0.530 - 0.477, abs=1e-4)
     lo, hi = ledger["I-lipvq-vs-bc"]["ci"]
@@ -131,12 +137,24 @@ def test_records_become_estimates_and_claims_get_their_verdicts():
 
 
 def test_equal_rows_are_inconclusive_and_reversed_ones_do_not_hold():
-    preset = small_preset("eval.episodes_per_task=30")
+    preset = small_preset("eval.episodes_per_task=30", "tables.icrt_seeds=3")
     store = ResultsStore(preset.name)
     fake_records(preset, store, "IV", lambda row: 0.9 if row == "icrt+vq" else 0.5)
     ledger = {e["id"]: e for e in claims_ledger(preset, store)}
     assert ledger["IV-vq"]["verdict"] == "does not hold"  # LipVQ 0.5 vs VQ 0.9
     assert ledger["IV-mlp"]["verdict"] == "inconclusive"  # both 0.5
+
+
+def test_one_seed_rows_are_never_decided():
+    preset = small_preset("eval.episodes_per_task=40")  # one seed a row
+    store = ResultsStore(preset.name)
+    fake_records(preset, store, "I",
+                 lambda row: {"icrt+lipvq": 0.95, "bc_transformer": 0.02}.get(row, 0.5))
+    ledger = {e["id"]: e for e in claims_ledger(preset, store)}
+    entry = ledger["I-lipvq-vs-bc"]
+    assert entry["ci"][0] > 0.5  # the episodes alone would say so, ...
+    assert entry["verdict"] == entry["adjusted_verdict"] == "too few seeds"  # ... seeds cannot
+    assert entry["seeds"] == {"icrt+lipvq": 1, "bc_transformer": 1} and entry["mde"] is None
 
 
 def test_missing_records_show_as_not_run_and_the_ledger_is_written(tmp_path):

@@ -9,7 +9,11 @@ into the book's `_static/`:
     recordings/                 the recordings that executed chapters staged with
                                 `icil_paper.viewer.show_recording`
 
-and it adds `book/_static/` (recording-viewer.js, recordings.css) to every page. The npm
+and it adds `book/_static/` (recording-viewer.js, recordings.css) to every page. In a
+Markdown page, `<!-- computed: reference-summary -->` becomes the reference run's claims
+summary, `<!-- computed: reference-design -->` its seeds and episodes and
+`<!-- computed: preset-table -->` every preset's scale (`_computed`).
+The npm
 packages are pinned in `book/package.json` / `package-lock.json` and installed into
 `book/node_modules` by `make setup`; a build without them fails and says so.
 """
@@ -133,8 +137,35 @@ def _copy_assets(app: Sphinx, exception: Exception | None) -> None:
                 f"{static_out}")
 
 
+def _computed(marker: str) -> str:
+    """What a `<!-- computed: NAME -->` marker in a Markdown page stands for: sentences made
+    from the committed reference run and the presets (a page is not executed, so it cannot
+    compute them itself; nothing about results is typed into it)."""
+    from icil_paper.config import get_preset
+    from icil_paper.tables.book import REFERENCE, design_sentence, reference_summary
+
+    if marker == "reference-summary":
+        return reference_summary()
+    if marker == "reference-design":
+        return design_sentence(get_preset(REFERENCE))
+    if marker == "preset-table":
+        from icil_paper.tables.book import preset_table
+
+        return preset_table()
+    raise ExtensionError(f"unknown computed marker <!-- computed: {marker} --> (known: "
+                         "reference-summary, reference-design, preset-table)")
+
+
+def _substitute_computed(app: Sphinx, docname: str, source: list[str]) -> None:
+    import re
+
+    source[0] = re.sub(r"<!-- computed: ([a-z-]+) -->", lambda m: _computed(m.group(1)),
+                       source[0])
+
+
 def setup(app: Sphinx) -> dict:
     app.connect("builder-inited", _check_installed)
+    app.connect("source-read", _substitute_computed)
     app.connect("build-finished", _copy_assets)
     app.add_js_file("recording-viewer.js", type="module")
     app.add_css_file("recordings.css")

@@ -1,60 +1,94 @@
-"""Statistics behind every table and claim: success rates with intervals, paired
-differences, rank correlations, and the rule that turns an interval into a verdict.
+"""Statistics behind every table and claim: success rates with intervals, seed-aware
+differences, the verdict rule, Holm's correction, size and power.
 
     from icil_paper.stats import paired_difference, success_rate, verdict
     row = success_rate(outcomes)               # outcomes: bools (seeds, tasks, episodes)
     row.value, row.low, row.high               # mean success and its 95% interval
     diff = paired_difference(lipvq, bc)        # same tasks and episodes in both rows
-    verdict(diff, direction=+1)                # "holds", "does not hold" or "inconclusive"
+    verdict(diff, direction=+1)                # "holds", "does not hold", "inconclusive"
+                                               # or "too few seeds"
 
-Success rate of a row. Outcomes are shaped (seeds, tasks, episodes): one bool per
-evaluation episode. The row's value is the mean over tasks of each task's success rate,
-averaged over seeds, so every task weighs the same. Its 95% interval is
+**The unit of replication is the training seed.** A row is trained with S seeds and each
+seed is evaluated on T tasks x E episodes (outcomes shaped (seeds, tasks, episodes)). The
+row's value is the mean over seeds of the mean over tasks of each task's success rate, so
+every task weighs the same. What varies from one replication of an experiment to the next is
+mostly the training seed (on our records the spread between seeds is 70-96% of a
+comparison's variance), so intervals are built from *per-seed values* v_s (the seed's mean
+over tasks and episodes): each v_s already carries its own episode noise, and their spread
+carries both the seed's and the episodes' luck. This is the standard analysis of seeded
+learning experiments (Colas, Sigaud and Oudeyer 2018, "How many random seeds? Statistical
+power analysis in deep reinforcement learning experiments"; Agarwal et al. 2021, "Deep RL
+at the edge of the statistical precipice", who also treat runs as the unit).
 
-- one seed, one task: the Wilson score interval over the episodes;
-- one seed, several tasks: a stratified bootstrap: episodes are resampled with replacement
-  within each task, the row's value recomputed, and the 2.5th and 97.5th percentiles of
-  2000 such values taken;
-- several seeds: a hierarchical bootstrap: seeds are resampled with replacement, then
-  episodes within each task, and the percentiles taken as above. It carries both the
-  spread between training seeds and the luck of the evaluation episodes.
+- A row with S >= 2 seeds: the t interval mean(v) +- t_{S-1} sd(v) / sqrt(S) (Student 1908),
+  never narrower than the Wilson interval of all its episodes pooled (a row that failed every
+  episode is not known to be exactly 0).
+- A row with one seed: its seed variance cannot be estimated. The interval shown describes
+  the episodes' luck only (a stratified bootstrap over episodes within tasks, or Wilson for a
+  single task); its method says so, and no comparison that reads it is decided.
+- A difference of two rows (`paired_difference`): both rows need >= 2 seeds. Two designs:
+  *shared scenes* (episode i of task t is the same scene for every seed and row: today's
+  records), where scene difficulty cancels from the difference of means and the interval is
+  Welch's (1947) t interval on the two rows' per-seed values, se^2 = s_a^2/S_a + s_b^2/S_b
+  with the Welch-Satterthwaite degrees of freedom; and *scenes per seed index* (seed k of
+  every row is evaluated on scene set k), where seed k of row a and seed k of row b share
+  their scenes and the interval is the paired t interval on the per-seed differences
+  d_k = v_{a,k} - v_{b,k} (df = S - 1). Where a row's seeds all have the same value (a row
+  at 0 or 1 on every seed), its variance is taken as the episode noise of one seed's value,
+  sum_t p~_t (1 - p~_t) / (E T^2) with the Agresti-Coull p~_t = (k_t + 2) / (n_t + 4), so
+  that it keeps an honest width instead of a zero one.
+- Assumptions: seeds are independent draws of the training randomness; per-seed values are
+  close enough to normal for a t interval (they are means of T x E outcomes); under shared
+  scenes the inference is conditional on the evaluation scenes (it says what another set
+  of training seeds would do on these scenes), under scenes per seed it extends to the
+  scene distribution. The calibration test (`tests/test_stats.py`) simulates rows with no
+  true difference at the spreads we measure and checks that at most about 5% are decided.
 
-With a single episode per task there is nothing to resample within a task, so the tasks'
-episodes are pooled into one stratum (for one seed: a Wilson interval over all of them).
+**The verdict rule** (quoted in the claims chapter). Each claim of the paper is a quantity
+with a claimed direction: "LipVQ beats LFQ" is the difference LipVQ - LFQ, claimed above 0.
+From our 95% interval of that quantity:
 
-A bootstrap interval is the percentile interval of the resampled values, widened where
-needed to hold the point value itself (a percentile interval can miss it when the
-resamples are very skewed), and never narrower than the Wilson interval of all the row's
-episodes pooled: a bootstrap cannot draw a success that never happened, so a row that
-failed (or succeeded) every episode would otherwise get the point interval [0, 0]
-(or [1, 1]), as if its rate were known exactly.
+- **holds**: the whole interval lies beyond 0 in the claimed direction;
+- **does not hold**: the whole interval lies on the other side (the opposite was measured);
+- **inconclusive**: the interval contains or touches 0;
+- **too few seeds**: a row it reads has a single training seed, so the spread between seeds,
+  the largest part of the variance, is unknown; nothing is decided.
 
-Episode i of task t is the same scene in every seed and every row (evaluation episodes are
-fixed by the evaluation seed alone), so one bootstrap draw resamples the same episode
-indices for all seeds, and for both rows of a paired difference. A paired difference
-therefore compares the two rows on the same resampled scenes, which removes the part of
-the spread that comes from some scenes being harder than others.
+"Best of k" claims ("LipVQ-VAE is the best tokenizer") are an intersection-union test
+(Berger 1982): the claim holds when LipVQ beats *each* other row (every pairwise interval on
+the claimed side, each at 95%, which needs no correction), does not hold when *some* row
+beats it (a pairwise interval at the Bonferroni level 1 - 0.05/(k-1) on the other side),
+and is inconclusive otherwise. The margin to the largest other row is shown, but it is not
+what is tested: the maximum of noisy rows is biased upward, which would make "does not
+hold" too easy to reach.
 
-The verdict rule (quoted in the claims chapter). Each claim of the paper is written as a
-quantity, a direction and a threshold: "LipVQ beats LFQ" is the difference LipVQ - LFQ,
-claimed to be above 0. From our 95% interval of that quantity:
+**Multiplicity.** A ledger tests many claims at once. `holm` applies Holm's (1979)
+step-down procedure to the claims' p-values at a 5% familywise level; `adjusted_verdicts`
+keeps a decided verdict only where Holm rejects. Claims that cannot be tested (too few
+seeds, not run) are not in the family.
 
-- the claim **holds** when the whole interval lies beyond the threshold in the claimed
-  direction (for "above 0": its lower end is above 0);
-- it **does not hold** when the whole interval lies on the other side of the threshold
-  (its upper end is below 0): our data show the opposite;
-- it is **inconclusive** otherwise: the interval contains the threshold (or touches it),
-  so our data cannot tell the two apart at this number of seeds and episodes.
+**Size and power.** `magnitude` reads an interval against the paper's own effect: "paper's
+size excluded" (the interval lies entirely short of it), "consistent with the paper's size"
+(it holds the paper's value) or "beyond the paper's size", and whether it lies inside an
+equivalence margin around 0 (Schuirmann's 1987 two one-sided tests at 5% amount to a 90%
+interval inside the margin; we use the 95% interval, which is stricter). `minimum_detectable`
+is the smallest difference a design detects with 80% power at the 5% level,
+(t_{1-a/2, df} + t_{0.8, df}) se (the normal-approximation power formula with t quantiles,
+as in Colas et al. 2018), and `seeds_needed` the seeds per row that bring it down to an
+effect of a given size, both from measured per-seed variances.
 
-"Does not hold" is a strong statement (the opposite was measured), "inconclusive" is not
-evidence against the paper: more seeds or episodes narrow the interval and may settle it.
+Other estimates: smoothness scores (per-trajectory least energies, (seeds, trajectories),
+the same held-out trajectories for every seed) follow the same seed-level rules as success
+(`score_mean`, `paired_score_difference`, `paired_score_margin`); the rank correlation of
+smoothness and success across rows keeps a joint bootstrap over seeds and episodes
+(`score_success_correlation`), with "too few seeds" where a row has one seed.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -62,7 +96,15 @@ import numpy as np
 Z_95 = 1.959963984540054
 """The standard normal quantile of a two-sided 95% interval."""
 
-Verdict = Literal["holds", "does not hold", "inconclusive"]
+ALPHA = 0.05
+"""The tests' level: 95% intervals, a 5% familywise level for Holm's correction."""
+
+POWER = 0.8
+"""The power that `minimum_detectable` and `seeds_needed` plan for."""
+
+Verdict = Literal["holds", "does not hold", "inconclusive", "too few seeds"]
+Scenes = Literal["shared", "per_seed"]
+TOO_FEW_SEEDS = "too few seeds"
 
 
 @dataclass(frozen=True)
@@ -76,10 +118,23 @@ class Estimate:
     high: float
     """Upper end of the interval."""
     n: int
-    """The sample behind it: episode outcomes for a success rate or a difference (all seeds,
-    tasks and episodes, both rows together for a difference), rows for a correlation."""
+    """The independent units behind it: training seeds (both rows together for a
+    difference), or rows for a correlation across rows."""
     method: str
-    """How the interval was computed, e.g. "wilson 95%" or "hierarchical bootstrap 95%"."""
+    """How the interval was computed, e.g. "t on 3 seeds 95%" or "welch t 95%"."""
+    seeds: tuple[int, ...] = ()
+    """Training seeds of each row it reads (one entry per row); empty where not seeded."""
+    episodes: int | None = None
+    """Episode outcomes (or scored trajectories) behind it, all rows and seeds together."""
+    se: float | None = None
+    """Standard error of `value` (t-based estimates), else None."""
+    df: float | None = None
+    """Degrees of freedom of the t interval, else None."""
+    p_value: float | None = None
+    """Two-sided p-value of "the quantity is 0" (differences and correlations), else None."""
+    components: tuple[Estimate, ...] = field(default=())
+    """Best-of-k estimates: the pairwise difference to each other row (see the module
+    docstring); the verdict is the intersection-union test over them."""
 
     def __post_init__(self):
         for name in ("value", "low", "high"):
@@ -88,18 +143,42 @@ class Estimate:
         if self.low > self.high:
             raise ValueError(f"Estimate interval is reversed: low {self.low} > high {self.high}")
 
+    @property
+    def decidable(self) -> bool:
+        """False when a row behind it has a single training seed (its seed variance is
+        unknown); True otherwise, including for unseeded estimates."""
+        return not self.seeds or min(self.seeds) >= 2
+
+    def interval(self, level: float) -> tuple[float, float]:
+        """The t interval at another level (t-based estimates only)."""
+        if self.se is None or self.df is None:
+            raise ValueError(f"{self.method}: an interval at another level needs a t-based "
+                             "estimate (se and df)")
+        half = _t_quantile(level, self.df) * self.se
+        return self.value - half, self.value + half
+
     def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-ready fields: value, low, high, n, method."""
-        d = asdict(self)
-        d.update(value=float(self.value), low=float(self.low), high=float(self.high),
-                 n=int(self.n))
+        """Plain JSON-ready fields."""
+        d: dict[str, Any] = {"value": float(self.value), "low": float(self.low),
+                             "high": float(self.high), "n": int(self.n), "method": self.method}
+        if self.seeds:
+            d["seeds"] = [int(s) for s in self.seeds]
+        for name in ("episodes", "se", "df", "p_value"):
+            if getattr(self, name) is not None:
+                d[name] = float(getattr(self, name)) if name != "episodes" else int(self.episodes)
+        if self.components:
+            d["components"] = [c.to_dict() for c in self.components]
         return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Estimate:
         """The inverse of `to_dict`."""
         return cls(value=float(d["value"]), low=float(d["low"]), high=float(d["high"]),
-                   n=int(d["n"]), method=str(d["method"]))
+                   n=int(d["n"]), method=str(d["method"]),
+                   seeds=tuple(int(s) for s in d.get("seeds", ())),
+                   episodes=None if d.get("episodes") is None else int(d["episodes"]),
+                   se=d.get("se"), df=d.get("df"), p_value=d.get("p_value"),
+                   components=tuple(cls.from_dict(c) for c in d.get("components", ())))
 
     def __str__(self) -> str:
         return f"{self.value:.3g} [{self.low:.3g}, {self.high:.3g}]"
@@ -128,6 +207,13 @@ def _z(level: float) -> float:
     return float(norm.ppf(0.5 + level / 2))
 
 
+def _t_quantile(level: float, df: float) -> float:
+    """The t quantile of a two-sided interval at `level` with `df` degrees of freedom."""
+    from scipy.stats import t
+
+    return float(t.ppf(0.5 + level / 2, df))
+
+
 def _check_level(level: float) -> None:
     if not 0 < level < 1:
         raise ValueError(f"level must lie in (0, 1), got {level}")
@@ -136,6 +222,12 @@ def _check_level(level: float) -> None:
 def _check_n_boot(n_boot: int) -> None:
     if int(n_boot) != n_boot or n_boot < 100:
         raise ValueError(f"n_boot must be an integer >= 100, got {n_boot}")
+
+
+def _check_scenes(scenes: str) -> None:
+    if scenes not in ("shared", "per_seed"):
+        raise ValueError(f"scenes must be 'shared' (every seed on the same scenes) or "
+                         f"'per_seed' (seed k of every row on scene set k), got {scenes!r}")
 
 
 def _as_outcomes(outcomes, name: str = "outcomes") -> np.ndarray:
@@ -225,13 +317,19 @@ def _percentiles(samples: np.ndarray, level: float) -> tuple[float, float]:
     return float(low), float(high)
 
 
+def _bootstrap_p(samples: np.ndarray) -> float:
+    """Two-sided bootstrap p-value of "the quantity is 0": twice the smaller tail at 0."""
+    tail = min(float(np.mean(samples <= 0)), float(np.mean(samples >= 0)))
+    return float(min(1.0, max(2 * tail, 1.0 / len(samples))))
+
+
 def success_rate_samples(outcomes, *, n_boot: int = 2000, rng_seed: int = 0) -> np.ndarray:
     """Bootstrap resamples of a row's success rate, shaped (n_boot,).
 
     outcomes: bools (seeds, tasks, episodes). Seeds are resampled with replacement (when
     there are several), then episodes within each task, the same episode indices for every
-    seed (episode i is the same scene in each). These are the samples `success_rate`
-    takes its bootstrap interval from; `rank_correlation_interval` combines them across rows.
+    seed. These are the samples `rank_correlation_interval` combines across rows, and a
+    one-seed row's interval (episode noise only) is taken from.
     """
     x = _as_outcomes(outcomes)
     _check_n_boot(n_boot)
@@ -239,60 +337,6 @@ def success_rate_samples(outcomes, *, n_boot: int = 2000, rng_seed: int = 0) -> 
     S, T, E = x.shape
     idx = _episode_indices(rng, n_boot, T, E)
     return _resampled_rates(x, _seed_weights(rng, n_boot, S), idx)
-
-
-def success_rate(outcomes, *, n_boot: int = 2000, rng_seed: int = 0,
-                 level: float = 0.95) -> Estimate:
-    """A row's success rate with its interval (see the module docstring for the method).
-
-    outcomes: bools (seeds, tasks, episodes), full (no missing episodes). The value is the
-    mean over seeds of the mean over tasks of each task's success rate. One seed and one
-    task: Wilson interval; one seed, several tasks: stratified bootstrap over episodes;
-    several seeds: hierarchical bootstrap over seeds, then episodes (a bootstrap interval
-    covers at least the pooled episodes' Wilson interval). Deterministic given `rng_seed`.
-    """
-    x = _as_outcomes(outcomes)
-    _check_level(level)
-    S, T, E = x.shape
-    value = float(x.mean())
-    pct = f"{100 * level:g}%"
-    if S == 1 and T == 1:
-        low, high = wilson_interval(int(x.sum()), E, _z(level))
-        return Estimate(value, low, high, x.size, f"wilson {pct}")
-    samples = success_rate_samples(x, n_boot=n_boot, rng_seed=rng_seed)
-    low, high = _percentiles(samples, level)
-    pooled_low, pooled_high = wilson_interval(int(round(x.sum())), x.size, _z(level))
-    method = "stratified bootstrap" if S == 1 else "hierarchical bootstrap"
-    return Estimate(value, min(low, value, pooled_low), max(high, value, pooled_high),
-                    x.size, f"{method} {pct}")
-
-
-def paired_difference(a, b, *, n_boot: int = 2000, rng_seed: int = 0,
-                      level: float = 0.95) -> Estimate:
-    """Success rate of row `a` minus that of row `b`, on the same episodes, with its interval.
-
-    a: bools (seeds_a, tasks, episodes), b: bools (seeds_b, tasks, episodes); the two rows
-    must share tasks and episodes (episode i of task t the same scene in both), their seed
-    counts may differ. Each bootstrap draw resamples each row's seeds independently and one
-    set of episode indices used for both rows, so scene difficulty cancels out of the
-    difference. The interval is the percentile interval of the resampled differences.
-    """
-    xa, xb = _as_outcomes(a, "a"), _as_outcomes(b, "b")
-    if xa.shape[1:] != xb.shape[1:]:
-        raise ValueError("paired rows need the same (tasks, episodes): a has "
-                         f"{xa.shape[1:]}, b has {xb.shape[1:]} (shapes {xa.shape} and "
-                         f"{xb.shape})")
-    _check_level(level)
-    _check_n_boot(n_boot)
-    rng = np.random.default_rng(rng_seed)
-    _, T, E = xa.shape
-    idx = _episode_indices(rng, n_boot, T, E)
-    diffs = (_resampled_rates(xa, _seed_weights(rng, n_boot, len(xa)), idx)
-             - _resampled_rates(xb, _seed_weights(rng, n_boot, len(xb)), idx))
-    value = float(xa.mean() - xb.mean())
-    low, high = _percentiles(diffs, level)
-    return Estimate(value, min(low, value), max(high, value), xa.size + xb.size,
-                    f"paired bootstrap {100 * level:g}%")
 
 
 def mean_samples(scores, *, n_boot: int = 2000, rng_seed: int = 0,
@@ -316,6 +360,270 @@ def mean_samples(scores, *, n_boot: int = 2000, rng_seed: int = 0,
     return _resampled_rates(x[:, None, :], _seed_weights(rng, n_boot, S), idx[:, None, :])
 
 
+# ------------------------------------------------------------------- seed-level building blocks
+
+def _floored(var: float, floor: float) -> float:
+    """A per-seed sample variance, or the episode noise `floor` where the seeds' values are
+    all equal (a row at 0 or 1 on every seed is not known exactly)."""
+    return var if var > 0 else floor
+
+
+def _episode_noise(x: np.ndarray) -> float:
+    """Variance of one seed's value from its episodes alone: sum_t p~_t (1-p~_t) / (E T^2),
+    p~_t the Agresti-Coull rate of task t over all seeds (never 0, even at 0/n or n/n)."""
+    S, T, E = x.shape
+    k = x.sum(axis=(0, 2))
+    p = (k + 2) / (S * E + 4)
+    return float((p * (1 - p)).sum() / (E * T * T))
+
+
+def seed_values(data, kind: Literal["success", "score"] = "success") -> np.ndarray:
+    """Per-seed values of a row, (seeds,): each seed's mean over tasks and episodes (success
+    outcomes (seeds, tasks, episodes)) or over trajectories (scores (seeds, trajectories))."""
+    x = _as_outcomes(data) if kind == "success" else _as_scores(data)
+    return x.reshape(len(x), -1).mean(axis=1)
+
+
+def seed_variance(data, kind: Literal["success", "score"] = "success") -> float | None:
+    """The variance between a row's per-seed values (sample variance, ddof 1; a success row
+    whose seeds all agree gets one seed's episode noise instead of 0); None for a single
+    seed (it cannot be estimated)."""
+    x = _as_outcomes(data) if kind == "success" else _as_scores(data)
+    if len(x) < 2:
+        return None
+    v = x.reshape(len(x), -1).mean(axis=1)
+    floor = _episode_noise(x) if kind == "success" else 0.0
+    return _floored(float(np.var(v, ddof=1)), floor)
+
+
+def _welch_df(va: float, na: int, vb: float, nb: int) -> float:
+    """Welch-Satterthwaite degrees of freedom of s_a^2/n_a + s_b^2/n_b."""
+    ua, ub = va / na, vb / nb
+    den = ua * ua / (na - 1) + ub * ub / (nb - 1)
+    return float((ua + ub) ** 2 / den) if den > 0 else float(na + nb - 2)
+
+
+def _t_estimate(value: float, se: float, df: float, level: float, method: str,
+                bounds: tuple[float, float], **fields) -> Estimate:
+    """value +- t se, clipped to `bounds`, with the two-sided p-value of 0."""
+    from scipy.stats import t
+
+    half = _t_quantile(level, df) * se
+    low, high = max(bounds[0], value - half), min(bounds[1], value + half)
+    if se > 0:
+        p = float(2 * t.sf(abs(value) / se, df))
+    else:
+        p = 1.0 if value == 0 else 0.0
+    return Estimate(value, min(low, value), max(high, value), method=method, se=float(se),
+                    df=float(df), p_value=p, **fields)
+
+
+def _seeded_difference(xa: np.ndarray, xb: np.ndarray, *, kind: str, scenes: str,
+                       level: float, bounds: tuple[float, float],
+                       fallback) -> Estimate:
+    """a - b from per-seed values: Welch (shared scenes) or paired t (scenes per seed
+    index); `fallback()` gives the episode-only interval where a row has one seed."""
+    seeds = (len(xa), len(xb))
+    episodes = int(xa.size + xb.size)
+    pct = f"{100 * level:g}%"
+    va_, vb_ = (x.reshape(len(x), -1).mean(axis=1) for x in (xa, xb))
+    value = float(va_.mean() - vb_.mean())
+    if min(seeds) < 2:
+        low, high = fallback()
+        return Estimate(value, min(low, value), max(high, value), sum(seeds),
+                        f"one seed: episode noise only, {pct} (no verdict)", seeds=seeds,
+                        episodes=episodes)
+    floor = (_episode_noise(xa) + _episode_noise(xb)) if kind == "success" else 0.0
+    if scenes == "per_seed" and seeds[0] == seeds[1]:
+        d = va_ - vb_
+        var = _floored(float(np.var(d, ddof=1)), floor)
+        return _t_estimate(value, math.sqrt(var / len(d)), len(d) - 1, level,
+                           f"paired t on {len(d)} seeds {pct}", bounds, n=sum(seeds),
+                           seeds=seeds, episodes=episodes)
+    fa = _episode_noise(xa) if kind == "success" else 0.0
+    fb = _episode_noise(xb) if kind == "success" else 0.0
+    var_a = _floored(float(np.var(va_, ddof=1)), fa)
+    var_b = _floored(float(np.var(vb_, ddof=1)), fb)
+    se = math.sqrt(var_a / seeds[0] + var_b / seeds[1])
+    df = _welch_df(var_a, seeds[0], var_b, seeds[1])
+    return _t_estimate(value, se, df, level, f"welch t on {seeds[0]}+{seeds[1]} seeds {pct}",
+                       bounds, n=sum(seeds), seeds=seeds, episodes=episodes)
+
+
+# ------------------------------------------------------------------------------ success rows
+
+def success_rate(outcomes, *, n_boot: int = 2000, rng_seed: int = 0,
+                 level: float = 0.95) -> Estimate:
+    """A row's success rate with its interval (see the module docstring for the method).
+
+    outcomes: bools (seeds, tasks, episodes), full (no missing episodes). The value is the
+    mean over seeds of the mean over tasks of each task's success rate. Several seeds: the t
+    interval on per-seed values, at least as wide as the pooled episodes' Wilson interval.
+    One seed: episode noise only (Wilson for one task, else a stratified bootstrap over
+    episodes, also at least the pooled Wilson interval). Deterministic given `rng_seed`.
+    """
+    x = _as_outcomes(outcomes)
+    _check_level(level)
+    _check_n_boot(n_boot)
+    S, T, E = x.shape
+    value = float(x.mean())
+    pct = f"{100 * level:g}%"
+    pooled_low, pooled_high = wilson_interval(int(round(x.sum())), x.size, _z(level))
+    if S >= 2:
+        var = seed_variance(x)
+        est = _t_estimate(value, math.sqrt(var / S), S - 1, level, f"t on {S} seeds {pct}",
+                          (0.0, 1.0), n=S, seeds=(S,), episodes=int(x.size))
+        return Estimate(value, min(est.low, pooled_low), max(est.high, pooled_high), S,
+                        est.method, seeds=(S,), episodes=int(x.size), se=est.se, df=est.df)
+    if T == 1:
+        low, high = wilson_interval(int(x.sum()), E, _z(level))
+        return Estimate(value, low, high, 1, f"one seed: wilson {pct} (episodes only)",
+                        seeds=(1,), episodes=E)
+    samples = success_rate_samples(x, n_boot=n_boot, rng_seed=rng_seed)
+    low, high = _percentiles(samples, level)
+    return Estimate(value, min(low, value, pooled_low), max(high, value, pooled_high), 1,
+                    f"one seed: stratified bootstrap {pct} (episodes only)", seeds=(1,),
+                    episodes=int(x.size))
+
+
+def _check_paired_outcomes(xa: np.ndarray, xb: np.ndarray, name_b: str = "b") -> None:
+    if xa.shape[1:] != xb.shape[1:]:
+        raise ValueError(f"paired rows need the same (tasks, episodes): a has "
+                         f"{xa.shape[1:]}, {name_b} has {xb.shape[1:]} (shapes {xa.shape} "
+                         f"and {xb.shape})")
+
+
+def paired_difference(a, b, *, scenes: Scenes = "shared", n_boot: int = 2000,
+                      rng_seed: int = 0, level: float = 0.95) -> Estimate:
+    """Success rate of row `a` minus that of row `b`, on the same tasks and episodes.
+
+    a: bools (seeds_a, tasks, episodes), b: bools (seeds_b, tasks, episodes). `scenes`:
+    "shared" (episode i of task t the same scene for every seed of both rows) gives Welch's
+    t interval on the per-seed values; "per_seed" (seed k of both rows on scene set k) the
+    paired t interval on per-seed differences (equal seed counts; otherwise Welch). A row
+    with one seed gets an interval from the episodes' luck alone (a bootstrap that resamples
+    the same episode indices for both rows) and the verdict "too few seeds".
+    """
+    xa, xb = _as_outcomes(a, "a"), _as_outcomes(b, "b")
+    _check_paired_outcomes(xa, xb)
+    _check_level(level)
+    _check_n_boot(n_boot)
+    _check_scenes(scenes)
+
+    def episodes_only():
+        rng = np.random.default_rng(rng_seed)
+        idx = _episode_indices(rng, n_boot, *xa.shape[1:])
+        diffs = (_resampled_rates(xa, _seed_weights(rng, n_boot, len(xa)), idx)
+                 - _resampled_rates(xb, _seed_weights(rng, n_boot, len(xb)), idx))
+        return _percentiles(diffs, level)
+
+    return _seeded_difference(xa, xb, kind="success", scenes=scenes, level=level,
+                              bounds=(-1.0, 1.0), fallback=episodes_only)
+
+
+def _best_of(pairwise: list[Estimate], a_value: float, other_values: list[float],
+             sign: int, what: str, episodes: int) -> Estimate:
+    """The margin of a over the best other row (by point value; `sign` -1: lowest) with its
+    pairwise differences as components. The shown interval is the one to that row."""
+    best = int(np.argmax(sign * np.asarray(other_values)))
+    closest = pairwise[best]
+    value = float(a_value - other_values[best])
+    seeds = (pairwise[0].seeds[0], *(c.seeds[1] for c in pairwise))  # a, then each other
+    return Estimate(value, min(closest.low, value), max(closest.high, value), n=sum(seeds),
+                    method=f"{what}: intersection test over {len(pairwise)} rows "
+                    f"({closest.method} to the {'best' if sign > 0 else 'lowest'} other row)",
+                    seeds=seeds, episodes=episodes, components=tuple(pairwise))
+
+
+def paired_margin(a, others: Sequence, *, scenes: Scenes = "shared", n_boot: int = 2000,
+                  rng_seed: int = 0, level: float = 0.95) -> Estimate:
+    """Row `a`'s success rate minus the best of `others`, all on the same episodes.
+
+    For claims like "LipVQ-VAE is the best tokenizer". The value is a's rate minus the
+    largest other rate; its components are `paired_difference(a, other)` for each other row,
+    and `verdict` applies the intersection-union test to them (module docstring).
+    """
+    xa = _as_outcomes(a, "a")
+    xs = [_as_outcomes(o, f"others[{i}]") for i, o in enumerate(others)]
+    if not xs:
+        raise ValueError("paired_margin needs at least one other row")
+    for i, x in enumerate(xs):
+        _check_paired_outcomes(xa, x, f"others[{i}]")
+    pairwise = [paired_difference(xa, x, scenes=scenes, n_boot=n_boot, rng_seed=rng_seed + i,
+                                  level=level) for i, x in enumerate(xs)]
+    return _best_of(pairwise, float(xa.mean()), [float(x.mean()) for x in xs], +1,
+                    "margin over the best other row", xa.size + sum(x.size for x in xs))
+
+
+# ------------------------------------------------------------------------------- score rows
+
+def score_mean(scores, *, n_boot: int = 2000, rng_seed: int = 0,
+               level: float = 0.95) -> Estimate:
+    """The mean of per-trajectory scores, (trajectories,) or (seeds, trajectories): the t
+    interval on per-seed means for several seeds, a bootstrap over trajectories for one."""
+    x = _as_scores(scores)
+    _check_level(level)
+    value = float(x.mean())
+    S = len(x)
+    pct = f"{100 * level:g}%"
+    if S >= 2:
+        var = seed_variance(x, "score")
+        return _t_estimate(value, math.sqrt(var / S), S - 1, level, f"t on {S} seeds {pct}",
+                           (-math.inf, math.inf), n=S, seeds=(S,), episodes=int(x.size))
+    low, high = _percentiles(mean_samples(x, n_boot=n_boot, rng_seed=rng_seed), level)
+    return Estimate(value, min(low, value), max(high, value), 1,
+                    f"one seed: bootstrap over trajectories {pct}", seeds=(1,),
+                    episodes=int(x.size))
+
+
+def paired_score_difference(a, b, *, n_boot: int = 2000, rng_seed: int = 0,
+                            level: float = 0.95) -> Estimate:
+    """Mean per-trajectory score of row `a` minus that of row `b`.
+
+    a, b: (trajectories,) or (seeds, trajectories), both scored on the same held-out
+    trajectories (seed counts may differ). Welch's t interval on per-seed means; a row with
+    one seed gets a paired bootstrap over trajectories and the verdict "too few seeds".
+    """
+    xa, xb = _as_scores(a, "a"), _as_scores(b, "b")
+    if xa.shape[1] != xb.shape[1]:
+        raise ValueError(f"paired rows need the same trajectories: a has {xa.shape[1]}, "
+                         f"b has {xb.shape[1]}")
+    _check_level(level)
+    _check_n_boot(n_boot)
+
+    def trajectories_only():
+        rng = np.random.default_rng(rng_seed)
+        idx = rng.integers(0, xa.shape[1], size=(n_boot, xa.shape[1]))
+        diffs = (mean_samples(xa, n_boot=n_boot, rng_seed=rng_seed + 1, idx=idx)
+                 - mean_samples(xb, n_boot=n_boot, rng_seed=rng_seed + 2, idx=idx))
+        return _percentiles(diffs, level)
+
+    return _seeded_difference(xa[:, None, :], xb[:, None, :], kind="score", scenes="shared",
+                              level=level, bounds=(-math.inf, math.inf),
+                              fallback=trajectories_only)
+
+
+def paired_score_margin(a, others: Sequence, *, n_boot: int = 2000, rng_seed: int = 0,
+                        level: float = 0.95) -> Estimate:
+    """Row `a`'s mean score minus the lowest mean score of `others`, on the same trajectories.
+
+    For claims like "LipVQ-VAE is the smoothest" (lower least energy is smoother): below 0
+    means `a` scores lower than every other row. Components: `paired_score_difference(a,
+    other)` for each other row; `verdict` applies the intersection-union test.
+    """
+    xa = _as_scores(a, "a")
+    xs = [_as_scores(o, f"others[{i}]") for i, o in enumerate(others)]
+    if not xs:
+        raise ValueError("paired_score_margin needs at least one other row")
+    if any(x.shape[1] != xa.shape[1] for x in xs):
+        raise ValueError("paired rows need the same trajectories: got "
+                         f"{[xa.shape[1], *(x.shape[1] for x in xs)]}")
+    pairwise = [paired_score_difference(xa, x, n_boot=n_boot, rng_seed=rng_seed + i,
+                                        level=level) for i, x in enumerate(xs)]
+    return _best_of(pairwise, float(xa.mean()), [float(x.mean()) for x in xs], -1,
+                    "margin under the lowest other row", xa.size + sum(x.size for x in xs))
+
+
 # ----------------------------------------------------------------------------- correlation
 
 def _spearman_columns(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -335,7 +643,7 @@ def _spearman_columns(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def rank_correlation_interval(x_samples, y_samples, *, x=None, y=None,
-                              level: float = 0.95) -> Estimate:
+                              level: float = 0.95, seeds: tuple[int, ...] = ()) -> Estimate:
     """Spearman correlation across rows of two quantities, with a percentile interval.
 
     x_samples, y_samples: (rows, n_boot) bootstrap resamples of each row's two quantities
@@ -344,6 +652,7 @@ def rank_correlation_interval(x_samples, y_samples, *, x=None, y=None,
     (default: the mean of each row's samples). The value is the Spearman correlation of the
     point values; the interval the percentiles of the correlations of the resamples. A
     resample in which all rows tie on one quantity orders nothing and counts as 0.
+    `seeds`: the rows' training seeds (recorded, for the "too few seeds" rule).
     """
     xs = np.asarray(x_samples, dtype=np.float64)
     ys = np.asarray(y_samples, dtype=np.float64)
@@ -361,9 +670,11 @@ def rank_correlation_interval(x_samples, y_samples, *, x=None, y=None,
         raise ValueError(f"x and y must be shaped (rows,) = ({len(xs)},), got {px.shape} and "
                          f"{py.shape}")
     value = float(_spearman_columns(px[:, None], py[:, None])[0])
-    low, high = _percentiles(_spearman_columns(xs, ys), level)
+    samples = _spearman_columns(xs, ys)
+    low, high = _percentiles(samples, level)
     return Estimate(value, min(low, value), max(high, value), len(xs),
-                    f"spearman, joint bootstrap {100 * level:g}%")
+                    f"spearman, joint bootstrap {100 * level:g}%", seeds=tuple(seeds),
+                    p_value=_bootstrap_p(samples))
 
 
 def score_success_correlation(scores: Sequence, outcomes: Sequence, *, n_boot: int = 2000,
@@ -374,10 +685,10 @@ def score_success_correlation(scores: Sequence, outcomes: Sequence, *, n_boot: i
     scores: per row, its per-trajectory scores, (trajectories,) or (seeds, trajectories);
     outcomes: per row, its bools (seeds, tasks, episodes). For "smoother tokenizers succeed
     more", pass each row's least energies and outcomes: a negative correlation (lower
-    energy, higher success) supports the claim. With `paired` (the default) every row must
-    be scored on the same trajectories and evaluated on the same tasks and episodes, and
-    each joint resample uses the same trajectory and episode indices for all rows; with
-    `paired=False` each row is resampled on its own.
+    energy, higher success) supports the claim. Each joint resample draws every row's seeds
+    with replacement, then its trajectories and episodes; with `paired` (the default) every
+    row must share trajectories and (tasks, episodes), and one set of indices serves all
+    rows. A row with one seed makes the estimate "too few seeds" (its `seeds` records it).
     """
     if len(scores) != len(outcomes):
         raise ValueError(f"one score array and one outcome array per row: got {len(scores)} "
@@ -401,27 +712,29 @@ def score_success_correlation(scores: Sequence, outcomes: Sequence, *, n_boot: i
         x_samples.append(_resampled_rates(s[:, None, :], _seed_weights(rng, n_boot, len(s)),
                                           t_idx[:, None, :]))
         y_samples.append(_resampled_rates(o, _seed_weights(rng, n_boot, len(o)), e_idx))
+    seeds = tuple(min(len(s), len(o)) for s, o in zip(xs, ys, strict=True))
     return rank_correlation_interval(
         np.stack(x_samples), np.stack(y_samples), x=np.array([s.mean() for s in xs]),
-        y=np.array([o.mean() for o in ys]), level=level)
+        y=np.array([o.mean() for o in ys]), level=level, seeds=seeds)
 
 
 # --------------------------------------------------------------------------------- verdict
 
-def verdict(estimate: Estimate, direction: int = +1, threshold: float = 0.0) -> Verdict:
-    """"holds", "does not hold" or "inconclusive" for a claim about `estimate`.
+def _oriented(low: float, high: float, direction: int, threshold: float):
+    """(low, high, threshold) turned so that the claimed direction is "above"."""
+    if direction == -1:
+        return -high, -low, -threshold
+    return low, high, threshold
 
-    direction +1: the paper claims the quantity is above `threshold`; -1: below it. Holds
-    when the whole interval lies strictly beyond the threshold in the claimed direction,
-    does not hold when it lies strictly on the other side, inconclusive otherwise (the
-    interval contains or touches the threshold).
-    """
+
+def _check_direction(direction: int) -> None:
     if direction not in (1, -1):
         raise ValueError(f"direction must be +1 (claimed above the threshold) or -1 (below), "
                          f"got {direction}")
-    low, high = estimate.low, estimate.high
-    if direction == -1:
-        low, high, threshold = -high, -low, -threshold
+
+
+def _interval_verdict(low: float, high: float, direction: int, threshold: float) -> Verdict:
+    low, high, threshold = _oriented(low, high, direction, threshold)
     if low > threshold:
         return "holds"
     if high < threshold:
@@ -429,93 +742,150 @@ def verdict(estimate: Estimate, direction: int = +1, threshold: float = 0.0) -> 
     return "inconclusive"
 
 
-def paired_score_difference(a, b, *, n_boot: int = 2000, rng_seed: int = 0,
-                            level: float = 0.95) -> Estimate:
-    """Mean per-trajectory score of row `a` minus that of row `b`, with a paired interval.
+def verdict(estimate: Estimate, direction: int = +1, threshold: float = 0.0) -> Verdict:
+    """"holds", "does not hold", "inconclusive" or "too few seeds" for a claim about
+    `estimate`.
 
-    a, b: (trajectories,) or (seeds, trajectories), both scored on the same held-out
-    trajectories (seed counts may differ). Each draw resamples each row's seeds on its own
-    and one set of trajectory indices for both rows, so trajectory difficulty cancels.
+    direction +1: the paper claims the quantity is above `threshold`; -1: below it. Holds
+    when the whole interval lies strictly beyond the threshold in the claimed direction,
+    does not hold when it lies strictly on the other side, inconclusive otherwise; "too few
+    seeds" when a row behind the estimate has a single training seed. A best-of-k estimate
+    (with `components`) is decided by the intersection-union test of the module docstring.
     """
-    xa, xb = _as_scores(a, "a"), _as_scores(b, "b")
-    if xa.shape[1] != xb.shape[1]:
-        raise ValueError(f"paired rows need the same trajectories: a has {xa.shape[1]}, "
-                         f"b has {xb.shape[1]}")
-    _check_level(level)
-    _check_n_boot(n_boot)
-    rng = np.random.default_rng(rng_seed)
-    idx = rng.integers(0, xa.shape[1], size=(n_boot, xa.shape[1]))
-    diffs = (mean_samples(xa, n_boot=n_boot, rng_seed=rng_seed + 1, idx=idx)
-             - mean_samples(xb, n_boot=n_boot, rng_seed=rng_seed + 2, idx=idx))
-    value = float(xa.mean() - xb.mean())
-    low, high = _percentiles(diffs, level)
-    return Estimate(value, min(low, value), max(high, value), xa.size + xb.size,
-                    f"paired bootstrap {100 * level:g}%")
+    _check_direction(direction)
+    if not estimate.decidable or any(not c.decidable for c in estimate.components):
+        return TOO_FEW_SEEDS
+    if not estimate.components:
+        return _interval_verdict(estimate.low, estimate.high, direction, threshold)
+    pairwise = [_interval_verdict(c.low, c.high, direction, threshold)
+                for c in estimate.components]
+    if all(v == "holds" for v in pairwise):
+        return "holds"
+    k = len(estimate.components)
+    strict = 1 - ALPHA / k if k > 1 else 1 - ALPHA
+    for c in estimate.components:
+        low, high = c.interval(strict) if c.se is not None else (c.low, c.high)
+        if _interval_verdict(low, high, direction, threshold) == "does not hold":
+            return "does not hold"
+    return "inconclusive"
 
 
-def score_mean(scores, *, n_boot: int = 2000, rng_seed: int = 0,
-               level: float = 0.95) -> Estimate:
-    """The mean of per-trajectory scores, (trajectories,) or (seeds, trajectories), with a
-    bootstrap interval over seeds and trajectories."""
-    x = _as_scores(scores)
-    _check_level(level)
-    low, high = _percentiles(mean_samples(x, n_boot=n_boot, rng_seed=rng_seed), level)
-    value = float(x.mean())
-    return Estimate(value, min(low, value), max(high, value), x.size,
-                    f"bootstrap {100 * level:g}%")
+def decision_p_value(estimate: Estimate, direction: int = +1) -> tuple[float, Verdict] | None:
+    """The p-value of the test behind `verdict` (threshold 0) and the verdict it decides
+    when it is small enough: (p, "holds" or "does not hold"). None when the estimate cannot
+    be tested (too few seeds, or no p-value). For a best-of-k estimate: "holds" has the
+    intersection-union p-value max_j p_j (all pairwise differences on the claimed side),
+    "does not hold" the Bonferroni p-value (k-1) min_j p_j over the rows that beat it."""
+    _check_direction(direction)
+    if verdict(estimate, direction) == TOO_FEW_SEEDS:
+        return None
+    if not estimate.components:
+        if estimate.p_value is None:
+            return None
+        side = "holds" if direction * estimate.value > 0 else "does not hold"
+        return float(estimate.p_value), side
+    comps = estimate.components
+    if any(c.p_value is None for c in comps):
+        return None
+    claimed = [c for c in comps if direction * c.value > 0]
+    against = [c for c in comps if direction * c.value <= 0]
+    p_hold = max(c.p_value for c in comps) if len(claimed) == len(comps) else 1.0
+    p_against = (min(1.0, len(comps) * min(c.p_value for c in against)) if against else 1.0)
+    return (p_hold, "holds") if p_hold <= p_against else (p_against, "does not hold")
 
 
-def paired_margin(a, others: Sequence, *, n_boot: int = 2000, rng_seed: int = 0,
-                  level: float = 0.95) -> Estimate:
-    """Row `a`'s success rate minus the best of `others`, all on the same episodes.
+def holm(p_values: Sequence[float | None], alpha: float = ALPHA) -> list[bool]:
+    """Holm's (1979) step-down procedure: which hypotheses are rejected at familywise level
+    `alpha`. None entries are not tested (not in the family) and never rejected.
 
-    For claims like "LipVQ-VAE is the best tokenizer": above 0 means `a` beats every other
-    row. a and each of `others`: bools (seeds, tasks, episodes) with the same (tasks,
-    episodes). Each draw resamples every row's seeds on its own and one set of episode
-    indices for all rows; the margin of the draw is a's rate minus the largest other rate.
+    The m tested p-values are sorted; the i-th smallest (i = 1..m) is rejected while it is
+    at most alpha / (m - i + 1); the first that is not stops the procedure.
     """
-    xa = _as_outcomes(a, "a")
-    xs = [_as_outcomes(o, f"others[{i}]") for i, o in enumerate(others)]
-    if not xs:
-        raise ValueError("paired_margin needs at least one other row")
-    for i, x in enumerate(xs):
-        if x.shape[1:] != xa.shape[1:]:
-            raise ValueError(f"paired rows need the same (tasks, episodes): a has "
-                             f"{xa.shape[1:]}, others[{i}] has {x.shape[1:]}")
-    _check_level(level)
-    _check_n_boot(n_boot)
-    rng = np.random.default_rng(rng_seed)
-    idx = _episode_indices(rng, n_boot, *xa.shape[1:])
-    rates = [_resampled_rates(x, _seed_weights(rng, n_boot, len(x)), idx) for x in [xa, *xs]]
-    margins = rates[0] - np.max(rates[1:], axis=0)
-    value = float(xa.mean() - max(x.mean() for x in xs))
-    low, high = _percentiles(margins, level)
-    return Estimate(value, min(low, value), max(high, value),
-                    xa.size + sum(x.size for x in xs), f"paired bootstrap {100 * level:g}%")
+    _check_level(1 - alpha)
+    tested = sorted((p, i) for i, p in enumerate(p_values) if p is not None)
+    m = len(tested)
+    rejected = [False] * len(p_values)
+    for rank, (p, i) in enumerate(tested):
+        if p > alpha / (m - rank):
+            break
+        rejected[i] = True
+    return rejected
 
 
-def paired_score_margin(a, others: Sequence, *, n_boot: int = 2000, rng_seed: int = 0,
-                        level: float = 0.95) -> Estimate:
-    """Row `a`'s mean score minus the lowest mean score of `others`, on the same trajectories.
+def adjusted_verdicts(estimates: Sequence[Estimate | None], directions: Sequence[int],
+                      alpha: float = ALPHA) -> list[str]:
+    """Each claim's verdict after Holm's correction over all of them: a claim Holm rejects
+    keeps the side its test decided ("holds" or "does not hold"), any other testable claim is
+    "inconclusive"; "too few seeds" and "not run" (estimate None) stay as they are."""
+    tests = [None if e is None else decision_p_value(e, d)
+             for e, d in zip(estimates, directions, strict=True)]
+    rejected = holm([None if t is None else t[0] for t in tests], alpha)
+    out = []
+    for e, d, t, r in zip(estimates, directions, tests, rejected, strict=True):
+        if e is None:
+            out.append("not run")
+        elif t is None:
+            out.append(verdict(e, d))
+        else:
+            out.append(t[1] if r else "inconclusive")
+    return out
 
-    For claims like "LipVQ-VAE is the smoothest" (lower least energy is smoother): below 0
-    means `a` scores lower than every other row. Arrays as in `paired_score_difference`.
-    """
-    xa = _as_scores(a, "a")
-    xs = [_as_scores(o, f"others[{i}]") for i, o in enumerate(others)]
-    if not xs:
-        raise ValueError("paired_score_margin needs at least one other row")
-    if any(x.shape[1] != xa.shape[1] for x in xs):
-        raise ValueError("paired rows need the same trajectories: got "
-                         f"{[xa.shape[1], *(x.shape[1] for x in xs)]}")
-    _check_level(level)
-    _check_n_boot(n_boot)
-    rng = np.random.default_rng(rng_seed)
-    idx = rng.integers(0, xa.shape[1], size=(n_boot, xa.shape[1]))
-    means = [mean_samples(x, n_boot=n_boot, rng_seed=rng_seed + 1 + i, idx=idx)
-             for i, x in enumerate([xa, *xs])]
-    margins = means[0] - np.min(means[1:], axis=0)
-    value = float(xa.mean() - min(x.mean() for x in xs))
-    low, high = _percentiles(margins, level)
-    return Estimate(value, min(low, value), max(high, value),
-                    xa.size + sum(x.size for x in xs), f"paired bootstrap {100 * level:g}%")
+
+# ---------------------------------------------------------------------------- size, power
+
+def magnitude(estimate: Estimate, direction: int, paper_value: float,
+              margin: float | None = None) -> str:
+    """Our interval read against the paper's effect `paper_value` (same quantity and sign):
+    "paper's size excluded" (the interval lies entirely short of the paper's value, in the
+    claimed direction), "beyond the paper's size" (entirely past it), "consistent with the
+    paper's size" (it holds it); with `margin`, "; within +-margin of 0" is added when the
+    whole interval lies inside (-margin, margin). "too few seeds" where nothing is decided."""
+    _check_direction(direction)
+    if verdict(estimate, direction) == TOO_FEW_SEEDS:
+        return TOO_FEW_SEEDS
+    low, high, paper = _oriented(estimate.low, estimate.high, direction, paper_value)
+    if high < paper:
+        out = "paper's size excluded"
+    elif low > paper:
+        out = "beyond the paper's size"
+    else:
+        out = "consistent with the paper's size"
+    if margin is not None and -margin < estimate.low and estimate.high < margin:
+        out += f"; within ±{margin:g} of 0"
+    return out
+
+
+def minimum_detectable(var_a: float, var_b: float, seeds_a: int, seeds_b: int, *,
+                       level: float = 1 - ALPHA, power: float = POWER) -> float:
+    """The smallest true difference a - b that a two-sided test at `level` detects with
+    probability `power`, given per-seed variances var_a, var_b and the seeds per row:
+    (t_{(1+level)/2, df} + t_{power, df}) sqrt(var_a/S_a + var_b/S_b), Welch's df."""
+    from scipy.stats import t
+
+    if min(seeds_a, seeds_b) < 2:
+        raise ValueError(f"a design needs at least 2 seeds a row to detect anything, got "
+                         f"{seeds_a} and {seeds_b}")
+    if var_a < 0 or var_b < 0:
+        raise ValueError(f"variances must be >= 0, got {var_a} and {var_b}")
+    se = math.sqrt(var_a / seeds_a + var_b / seeds_b)
+    df = _welch_df(var_a, seeds_a, var_b, seeds_b)
+    return float((_t_quantile(level, df) + t.ppf(power, df)) * se)
+
+
+def seeds_needed(var_a: float, var_b: float, effect: float, *, level: float = 1 - ALPHA,
+                 power: float = POWER, max_seeds: int = 1000) -> int | None:
+    """Seeds per row (both rows alike, at least 2) for which `minimum_detectable` reaches
+    |effect|; None when even `max_seeds` does not, or when the effect is 0."""
+    effect = abs(float(effect))
+    if effect == 0 or not math.isfinite(effect):
+        return None
+    lo, hi = 2, max_seeds
+    if minimum_detectable(var_a, var_b, hi, hi, level=level, power=power) > effect:
+        return None
+    while lo < hi:  # the detectable difference falls with the number of seeds
+        mid = (lo + hi) // 2
+        if minimum_detectable(var_a, var_b, mid, mid, level=level, power=power) <= effect:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo

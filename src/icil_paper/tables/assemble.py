@@ -7,8 +7,8 @@
     result.markdown()
 
 A success cell's outcomes are one bool per evaluation episode, shaped (seeds, tasks,
-episodes); its estimate is `stats.success_rate` (Wilson for one seed and task, else a
-stratified or hierarchical bootstrap). A smoothness cell's scores are the per-trajectory
+episodes); its estimate is `stats.success_rate` (a t interval on per-seed values; one seed:
+the episodes' noise only). A smoothness cell's scores are the per-trajectory
 least energies of the held-out trajectories, (seeds, trajectories); its estimate is their
 mean with a bootstrap interval. A cell with a unit whose record is missing has no estimate
 (shown as "not run"); `missing` counts those units.
@@ -40,6 +40,8 @@ class CellResult:
     extra: dict[str, Any] = field(default_factory=dict)
     """Smoothness cells: the standardized scores (and their estimate), the latent scale, the
     Fig. 4 view and every feature record's metrics, per seed."""
+    scenes: str = "shared"
+    """The evaluation design (`Cell.scenes`): "shared" or "per_seed"."""
 
 
 def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
@@ -55,7 +57,7 @@ def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
     if missing or not by_seed:
         return CellResult(None, None, missing or len(cell.units))
     data = np.array([by_seed[s] for s in sorted(by_seed)], dtype=bool)  # (S, T, E)
-    return CellResult(success_rate(data), data, 0)
+    return CellResult(success_rate(data), data, 0, scenes=cell.scenes)
 
 
 def _smoothness_cell(cell: Cell, store: ResultsStore) -> CellResult:
@@ -101,6 +103,12 @@ class TableResult:
     def outcomes(self, row: str, column: str = "avg") -> np.ndarray | None:
         cell = self.cell(row, column)
         return cell.data if cell else None
+
+    def scenes(self, *rows: str, column: str = "avg") -> str:
+        """"per_seed" when every one of `rows` gives seed k its own scene set k, else
+        "shared" (the design `stats.paired_difference` is told about)."""
+        designs = {c.scenes for r in rows if (c := self.cell(r, column)) is not None}
+        return "per_seed" if designs == {"per_seed"} else "shared"
 
     @property
     def complete(self) -> bool:

@@ -239,17 +239,41 @@ def tsne_paths(smooth: TableResult, seed: int = 0) -> dict[str, np.ndarray]:
     return paths
 
 
+def _seeds_cell(seeds: dict[str, int] | None) -> str:
+    """"3 v 1" for a difference, "3 v 3 3 3" for a best of k (the claim's row first)."""
+    if not seeds:
+        return ""
+    counts = list(seeds.values())
+    return f"{counts[0]} v {' '.join(map(str, counts[1:]))}" if len(counts) > 1 else str(counts[0])
+
+
 def ledger_frame(ledger: list[dict[str, Any]]):
-    """The claims ledger as a table: id, table, the paper, ours [95% interval], verdict."""
+    """The claims ledger as a table: the paper, ours [95% interval], the seeds a row, the
+    verdict before and after Holm's correction, the size reading and the power."""
     import pandas as pd
 
     rows = []
     for e in ledger:
         ours = ("" if e["ours"] is None else
                 unbroken(f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"))
-        rows.append({"claim": e["id"], "table": e["table"], "quantity": e["quantity"],
-                     "paper": f"{e['paper']:+.3f}", "ours": ours, "verdict": e["verdict"]})
+        needed = e.get("seeds_needed")
+        rows.append({"claim": e["id"], "seeds": unbroken(_seeds_cell(e.get("seeds"))),
+                     "paper": f"{e['paper']:+.3f}", "ours": ours, "verdict": e["verdict"],
+                     "after Holm": e.get("adjusted_verdict", ""),
+                     "size vs the paper": e.get("magnitude") or "",
+                     "mde": "" if e.get("mde") is None else f"{e['mde']:.3f}",
+                     "seeds needed": ("" if e["verdict"] == "not run" else
+                                      str(needed) if needed else "—")})
     return pd.DataFrame(rows).set_index("claim").rename_axis(None)
+
+
+def ledger_details(ledger: list[dict[str, Any]]) -> str:
+    """Each claim's quantity, the paper's sentence and the power note, as a Markdown list."""
+    lines = []
+    for e in ledger:
+        note = f" {e['power_note'][0].upper()}{e['power_note'][1:]}." if e.get("power_note") else ""
+        lines.append(f"- **{e['id']}** ({e['quantity']}): *{e['claim']}*{note}")
+    return "\n".join(lines)
 
 
 def difference_sentence(results: dict[str, TableResult], a: str, b: str,
@@ -270,3 +294,110 @@ def difference_sentence(results: dict[str, TableResult], a: str, b: str,
                      f"[{est.low:+.3f}, {est.high:+.3f}]; '{a}' is {claimed}: "
                      f"{stats.verdict(est, direction)}.")
     return "\n".join(lines)
+
+
+VERDICT_COLOURS = {"holds": "#1a7f37", "does not hold": "#cf222e", "inconclusive": "#9a6700",
+                   "too few seeds": "#8c959f", "not run": "#d0d7de"}
+"""The verdicts' colours in the forest plot (green, red, amber, grey, light grey)."""
+
+
+def forest_plot(ledger: list[dict[str, Any]], title: str = "", verdict_key: str = "adjusted_verdict"):
+    """One row per claim: our estimate and 95% interval (coloured by the verdict after
+    Holm's correction), the paper's value as a black diamond and the zero line. Success
+    differences share one panel; least-energy and correlation claims, on other scales, get
+    their own. Rows a single-seed row reads are drawn dashed (their interval is the
+    episodes' noise only)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    def panel_of(e):
+        quantity = e["quantity"].lower()
+        return ("rank correlation" if "correlation" in quantity else
+                "least energy" if "least energy" in quantity else "success difference")
+
+    panels = {}
+    for e in ledger:
+        panels.setdefault(panel_of(e), []).append(e)
+    order = [p for p in ("success difference", "least energy", "rank correlation") if p in panels]
+    heights = [len(panels[p]) for p in order]
+    fig, axes = plt.subplots(len(order), 1, figsize=(8.5, 0.32 * sum(heights) + 1.2 * len(order) + 0.6),
+                             gridspec_kw={"height_ratios": heights}, squeeze=False)
+    for ax, name in zip(axes[:, 0], order, strict=True):
+        entries = panels[name]
+        y = np.arange(len(entries))[::-1]
+        for yi, e in zip(y, entries, strict=True):
+            verdict = e.get(verdict_key) or e["verdict"]
+            colour = VERDICT_COLOURS.get(verdict, "black")
+            if e["ours"] is not None:
+                style = "--" if verdict == "too few seeds" else "-"
+                ax.plot(e["ci"], [yi, yi], style, color=colour, lw=2.2)
+                ax.plot(e["ours"], yi, "o", color=colour, ms=5)
+            ax.plot(e["paper"], yi, "D", color="black", ms=4, zorder=5)
+        ax.axvline(0, color="#57606a", lw=0.8)
+        ax.set_yticks(y, [f"{e['id']}  ({e.get(verdict_key) or e['verdict']})"
+                          for e in entries], fontsize=8)
+        ax.set_ylim(-0.7, len(entries) - 0.3)
+        sides = {e["direction"] for e in entries}
+        side = ("" if len(sides) > 1 else
+                " (the paper claims above 0)" if sides == {1} else " (the paper claims below 0)")
+        ax.set_xlabel(name + side, fontsize=8)
+        ax.tick_params(axis="x", labelsize=8)
+        ax.grid(axis="x", color="#eaeef2", lw=0.6)
+    handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == "too few seeds" else "-", label=v)
+               for v, c in VERDICT_COLOURS.items() if v != "not run"]
+    handles.append(Line2D([], [], color="black", marker="D", ls="", ms=4, label="the paper"))
+    fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=len(handles),
+               frameon=False)
+    axes[0, 0].set_title(title or "Claims: our 95% intervals and the paper's values", fontsize=10)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    plt.close(fig)
+    return fig
+
+
+def design_sentence(preset: Preset) -> str:
+    """The preset's seeds and episodes in words (never typed into a chapter): "3 training
+    seeds for the ICRT rows and 1 for the other rows, 10 episodes per task and seed"."""
+    t = preset.tables
+    seeds = (f"{t.icrt_seeds} training seed{'s' if t.icrt_seeds != 1 else ''} for every row"
+             if t.icrt_seeds == t.baseline_seeds else
+             f"{t.icrt_seeds} training seed{'s' if t.icrt_seeds != 1 else ''} for the ICRT rows "
+             f"and {t.baseline_seeds} for the other rows")
+    scenes = ("seed k of every row on its own scene set k" if t.scenes_per_seed
+              else "every seed on the same scenes")
+    episodes = preset.eval.episodes_per_task
+    return (f"{seeds}, {episodes} episode{'s' if episodes != 1 else ''} per task and seed, "
+            f"{scenes}")
+
+
+def reference_summary(path=None) -> str:
+    """The committed reference run's ledger in one sentence (`claims.summary_sentence`), or
+    a sentence saying it is not there."""
+    from pathlib import Path
+
+    from icil_paper.tables.claims import load_ledger, summary_sentence
+
+    path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
+    if not path.exists():
+        return f"The reference run's ledger is not there yet ({path.name} is missing)."
+    return summary_sentence(load_ledger(path))
+
+
+PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)",
+                "small": "CI and a laptop (numbers test the code, not the paper)",
+                "reference": "numbers worth reading (committed under `results/reference/`)",
+                "full": "the paper's scale: GPUs or a Ray cluster"}
+
+
+def preset_table() -> str:
+    """The presets' scale as a Markdown table, read from the presets themselves."""
+    from icil_paper.config import PRESET_NAMES
+
+    lines = ["| preset | meant for | training steps | demonstrations per task | episodes "
+             "per task | training seeds (ICRT / other rows) |", "|---|---|---|---|---|---|"]
+    for name in PRESET_NAMES:
+        p = get_preset(name)
+        lines.append(f"| `{name}` | {PRESET_ROLES.get(name, '')} | {p.train.steps} | "
+                     f"{p.data.demos_per_task} | {p.eval.episodes_per_task} | "
+                     f"{p.tables.icrt_seeds} / {p.tables.baseline_seeds} |")
+    return "\n".join(lines)
+

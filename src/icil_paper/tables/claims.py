@@ -2,17 +2,27 @@
 
     ledger = claims_ledger(preset, store)          # list of dicts, one per claim
     write_ledger(preset, store)                   # results/<preset>/claims.json
+    summary(ledger)                               # counts of the verdicts after Holm
 
 Each claim is a quantity with a claimed direction: "LipVQ-VAE beats BC-Transformer by 5.3
 points on Table I" is the difference of the two rows' average success, claimed above 0.
 Its `paper` value is computed from the paper's own numbers (`icil_paper.paper_numbers`),
-`ours` from our records, `ci` is our 95% interval (paired over the same episodes, see
-`icil_paper.stats`) and the verdict follows the rule stated there:
+`ours` from our records, `ci` is our 95% interval with the training seed as the unit (see
+`icil_paper.stats`), and each entry carries:
 
-- `holds`: the whole interval lies on the claimed side of 0;
-- `does not hold`: the whole interval lies on the other side (we measured the opposite);
-- `inconclusive`: the interval contains 0;
-- `not run`: a record the claim needs is missing (the run is not finished).
+- `verdict`: the rule of `icil_paper.stats` on the interval: `holds`, `does not hold`,
+  `inconclusive`, `too few seeds` (a row it reads has one training seed), or `not run` (a
+  record it needs is missing);
+- `adjusted_verdict`: the verdict after Holm's correction over every testable claim of the
+  ledger at a 5% familywise level (the one to quote: 20-odd claims at 95% each would
+  otherwise decide about one by chance);
+- `magnitude`: our interval against the paper's own size (`stats.magnitude`; success
+  differences also say when they lie within +-`EQUIVALENCE_MARGIN` of 0);
+- `mde` and `seeds_needed`: the smallest difference this design detects at 80% power and
+  the seeds per row that detect the paper's effect, from the measured per-seed variances
+  (a one-seed row borrows the pooled variance of its table's multi-seed rows, else of the
+  ledger's; `variance_from` says which);
+- `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`.
 
 The chapters' verdict sentences are generated from these entries (`sentence`).
 """
@@ -20,6 +30,7 @@ The chapters' verdict sentences are generated from these entries (`sentence`).
 from __future__ import annotations
 
 import json
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -37,6 +48,69 @@ from icil_paper.tables.definitions import ICRT_TOKENIZERS, table_spec
 TOKENIZER_ROWS = tuple(f"icrt+{t}" for t in ICRT_TOKENIZERS)
 ACT_TOKENIZER_ROWS = ("act+bin", "act+fast", "act+vq", "act+lfq", "act+lipvq")
 
+EQUIVALENCE_MARGIN = 0.05
+"""A success difference whose whole interval lies within +-0.05 of 0 (5 points of success,
+the size of the gaps the paper reports) is reported as equivalent to 0 at that margin."""
+
+MAX_SEEDS = 1000
+"""`seeds_needed` searches up to this many seeds a row."""
+
+VERDICTS = ("holds", "does not hold", "inconclusive", stats.TOO_FEW_SEEDS, "not run")
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Rows of one table compared on the same episodes (or trajectories): `a` minus the one
+    other row, or, with several `others`, `a` against each of them (best of k)."""
+
+    table: str
+    a: str
+    others: tuple[str, ...]
+    column: str = "avg"
+
+    @property
+    def kind(self) -> str:
+        return "score" if self.column == "least_energy" else "success"
+
+    @property
+    def rows(self) -> tuple[str, ...]:
+        return (self.a, *self.others)
+
+    def data(self, tables: dict[str, TableResult]) -> list[np.ndarray] | None:
+        data = [tables[self.table].outcomes(label, self.column) for label in self.rows]
+        return None if any(d is None for d in data) else data
+
+    def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
+        data = self.data(tables)
+        if data is None:
+            return None
+        if self.kind == "score":
+            if len(self.others) == 1:
+                return stats.paired_score_difference(*data)
+            return stats.paired_score_margin(data[0], data[1:])
+        scenes = tables[self.table].scenes(*self.rows, column=self.column)
+        if len(self.others) == 1:
+            return stats.paired_difference(*data, scenes=scenes)
+        return stats.paired_margin(data[0], data[1:], scenes=scenes)
+
+
+@dataclass(frozen=True)
+class Correlation:
+    """Spearman correlation across `rows` of Table III's least energy and Table I's success."""
+
+    rows: tuple[str, ...]
+    table: str = "III"
+    kind: str = "correlation"
+
+    def data(self, tables: dict[str, TableResult]):
+        smooth = [tables["III"].outcomes(r, "least_energy") for r in self.rows]
+        success = [tables["I"].outcomes(r, "avg") for r in self.rows]
+        return None if any(x is None for x in smooth + success) else (smooth, success)
+
+    def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
+        data = self.data(tables)
+        return None if data is None else stats.score_success_correlation(*data)
+
 
 @dataclass(frozen=True)
 class Claim:
@@ -52,30 +126,19 @@ class Claim:
     """What is compared, in words."""
     direction: int
     """+1: claimed above 0; -1: claimed below 0."""
-    compute: Callable[[dict[str, TableResult]], stats.Estimate | None]
-    """Our estimate from the assembled tables (None when a record is missing)."""
+    compare: Comparison | Correlation
+    """The rows it reads and how they are compared."""
     paper_value: Callable[[], float]
     """The same quantity from the paper's numbers."""
 
 
 # --------------------------------------------------------------------------- helpers
-def _rows(t: TableResult, labels: Sequence[str], column: str = "avg") -> list | None:
-    data = [t.outcomes(label, column) for label in labels]
-    return None if any(d is None for d in data) else data
+def diff(table: str, a: str, b: str, column: str = "avg") -> Comparison:
+    return Comparison(table, a, (b,), column)
 
 
-def diff(table: str, a: str, b: str, column: str = "avg"):
-    def compute(tables: dict[str, TableResult]) -> stats.Estimate | None:
-        data = _rows(tables[table], [a, b], column)
-        return None if data is None else stats.paired_difference(*data)
-    return compute
-
-
-def margin(table: str, a: str, others: Sequence[str], column: str = "avg"):
-    def compute(tables: dict[str, TableResult]) -> stats.Estimate | None:
-        data = _rows(tables[table], [a, *others], column)
-        return None if data is None else stats.paired_margin(data[0], data[1:])
-    return compute
+def margin(table: str, a: str, others: Sequence[str], column: str = "avg") -> Comparison:
+    return Comparison(table, a, tuple(others), column)
 
 
 def paper_diff(rows: dict, a: str, b: str, column: str = "avg"):
@@ -84,24 +147,6 @@ def paper_diff(rows: dict, a: str, b: str, column: str = "avg"):
 
 def paper_margin(rows: dict, a: str, others: Sequence[str], column: str = "avg"):
     return lambda: rows[a][column] - max(rows[o][column] for o in others)
-
-
-def _smoothest(tables: dict[str, TableResult]) -> stats.Estimate | None:
-    t = tables["III"]
-    data = [t.outcomes(r, "least_energy") for r in TOKENIZER_ROWS]
-    if any(d is None for d in data):
-        return None
-    lip = TOKENIZER_ROWS.index("icrt+lipvq")
-    others = [d for i, d in enumerate(data) if i != lip]
-    return stats.paired_score_margin(data[lip], others)
-
-
-def _smoothness_success_correlation(tables: dict[str, TableResult]) -> stats.Estimate | None:
-    smooth = [tables["III"].outcomes(r, "least_energy") for r in TOKENIZER_ROWS]
-    success = [tables["I"].outcomes(r, "avg") for r in TOKENIZER_ROWS]
-    if any(x is None for x in smooth + success):
-        return None
-    return stats.score_success_correlation(smooth, success)
 
 
 def _paper_correlation() -> float:
@@ -158,13 +203,14 @@ def claims(preset: Preset) -> list[Claim]:
               paper_diff(T2, "act+lipvq", "act")),
         Claim("III-lipvq-smoothest", "III", "Among all tokenizers, LipVQ-VAE achieves the best "
               "smoothness score.", "LipVQ's least energy minus the lowest other tokenizer's",
-              -1, _smoothest, lambda: paper.TABLE_III_SMOOTHNESS["icrt+lipvq"]
+              -1, margin("III", "icrt+lipvq", others, "least_energy"),
+              lambda: paper.TABLE_III_SMOOTHNESS["icrt+lipvq"]
               - min(paper.TABLE_III_SMOOTHNESS[r] for r in others)),
         Claim("III-smoother-succeeds", "III", "A clear positive correlation: smoother action "
               "tokenization leads to higher manipulation success rates.",
               "Spearman correlation of least energy and Table I success over the six ICRT "
               "tokenizers (negative: smoother goes with more success)", -1,
-              _smoothness_success_correlation, _paper_correlation),
+              Correlation(TOKENIZER_ROWS), _paper_correlation),
         Claim("IV-mlp", "IV", "Incorporating Lipschitz regularization improves performance by "
               "2.3% for the MLP tokenizer.", "ICRT+Lip-MLP minus ICRT+MLP (avg)", +1,
               diff("IV", "icrt+lip-mlp", "icrt+mlp"),
@@ -207,35 +253,172 @@ def claims(preset: Preset) -> list[Claim]:
     ]
 
 
-def evaluate_claim(claim: Claim, tables: dict[str, TableResult]) -> dict[str, Any]:
-    """One ledger entry: the claim, the paper's number, ours with its interval, the verdict."""
-    estimate = claim.compute(tables)
-    entry = {"id": claim.id, "claim": claim.claim, "table": claim.table,
-             "quantity": claim.quantity, "direction": claim.direction,
-             "paper": round(float(claim.paper_value()), 4)}
-    if estimate is None:
-        entry.update(ours=None, ci=None, n=None, method=None, verdict="not run")
+def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], float]:
+    """(table, kind) -> the mean per-seed variance of its multi-seed rows (success: the
+    "avg" column; score: least energy), and ("*", kind) over every table: what a one-seed
+    row borrows for the power analysis."""
+    pooled: dict[tuple[str, str], list[float]] = {}
+    for table_id, result in tables.items():
+        for (_, column), cell in result.cells.items():
+            kind = ("score" if column == "least_energy" else
+                    "success" if column == "avg" else None)
+            if kind is None or cell.data is None:
+                continue
+            var = stats.seed_variance(cell.data, kind)
+            if var is not None:
+                pooled.setdefault((table_id, kind), []).append(var)
+                pooled.setdefault(("*", kind), []).append(var)
+    return {k: float(np.mean(v)) for k, v in pooled.items()}
+
+
+def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult],
+           pooled: dict[tuple[str, str], float], paper_value: float) -> dict[str, Any]:
+    """mde, seeds_needed and where each row's seed variance came from (see the module
+    docstring). Best of k: planned against the closest other row (smallest pairwise margin
+    on the claimed side), the comparison that decides the intersection test."""
+    out: dict[str, Any] = {"mde": None, "seeds_needed": None, "variance_from": None,
+                           "power_note": None}
+    compare = claim.compare
+    if not isinstance(compare, Comparison):
+        out["power_note"] = "not planned: a rank correlation across rows has no closed form"
+        return out
+    data = dict(zip(compare.rows, compare.data(tables), strict=True))
+    other = compare.others[0]
+    if estimate.components:
+        j = int(np.argmin([claim.direction * c.value for c in estimate.components]))
+        other = compare.others[j]
+    variances, source, seeds = [], {}, []
+    for label in (compare.a, other):
+        var = stats.seed_variance(data[label], compare.kind)
+        seeds.append(len(data[label]))
+        if var is not None:
+            source[label] = "own seeds"
+        elif (compare.table, compare.kind) in pooled:
+            var, source[label] = pooled[(compare.table, compare.kind)], \
+                f"pooled over Table {compare.table}'s multi-seed rows"
+        elif ("*", compare.kind) in pooled:
+            var, source[label] = pooled[("*", compare.kind)], "pooled over the ledger's rows"
+        else:
+            return {**out, "power_note": "no row with two seeds to measure a variance"}
+        variances.append(var)
+    out["variance_from"] = source
+    if min(seeds) >= 2:
+        out["mde"] = stats.minimum_detectable(*variances, *seeds)
+    if claim.direction * paper_value > 0:
+        out["seeds_needed"] = stats.seeds_needed(*variances, paper_value, max_seeds=MAX_SEEDS)
+        if out["seeds_needed"] is None:
+            out["power_note"] = (f"the paper's effect ({paper_value:+.3g}) would need more than "
+                                 f"{MAX_SEEDS} seeds a row")
     else:
-        entry.update(ours=estimate.value, ci=[estimate.low, estimate.high], n=estimate.n,
-                     method=estimate.method,
-                     verdict=stats.verdict(estimate, direction=claim.direction))
+        out["power_note"] = "the paper's own value is not on the claimed side: nothing to plan"
+    return out
+
+
+def _seeds_of(claim: Claim, tables: dict[str, TableResult]) -> dict[str, int]:
+    compare = claim.compare
+    if isinstance(compare, Correlation):
+        smooth, success = compare.data(tables)
+        return {r: min(len(np.atleast_2d(a)), len(b))
+                for r, a, b in zip(compare.rows, smooth, success, strict=True)}
+    return {r: len(d) for r, d in zip(compare.rows, compare.data(tables), strict=True)}
+
+
+def evaluate_claim(claim: Claim, tables: dict[str, TableResult],
+                   pooled: dict[tuple[str, str], float] | None = None) -> dict[str, Any]:
+    """One ledger entry: the claim, the paper's number, ours with its interval, the verdict,
+    the size reading and the power (the Holm-adjusted verdict is the ledger's to add)."""
+    estimate = claim.compare.estimate(tables)
+    paper_value = round(float(claim.paper_value()), 4)
+    entry: dict[str, Any] = {"id": claim.id, "claim": claim.claim, "table": claim.table,
+                             "quantity": claim.quantity, "direction": claim.direction,
+                             "paper": paper_value}
+    if estimate is None:
+        entry.update(ours=None, ci=None, n=None, episodes=None, seeds=None, method=None,
+                     p_value=None, verdict="not run", magnitude=None, mde=None,
+                     seeds_needed=None, variance_from=None, power_note=None)
+        return entry
+    test = stats.decision_p_value(estimate, claim.direction)
+    margin_ = EQUIVALENCE_MARGIN if claim.compare.kind == "success" else None
+    entry.update(ours=estimate.value, ci=[estimate.low, estimate.high], n=estimate.n,
+                 episodes=estimate.episodes, seeds=_seeds_of(claim, tables),
+                 method=estimate.method, p_value=None if test is None else test[0],
+                 verdict=stats.verdict(estimate, direction=claim.direction),
+                 magnitude=stats.magnitude(estimate, claim.direction, paper_value, margin_),
+                 **_power(claim, estimate, tables,
+                          pooled if pooled is not None else _pooled_variances(tables),
+                          paper_value))
+    entry["_estimate"] = estimate
     return entry
 
 
 def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[dict[str, Any]]:
-    """Every claim evaluated on the records of `store` (default: the preset's)."""
+    """Every claim evaluated on the records of `store` (default: the preset's), with the
+    verdicts after Holm's correction over the ledger (`adjusted_verdict`)."""
     store = store or ResultsStore(preset.name)
-    needed = {c.table for c in claims(preset)} | {"I"}
+    all_claims = claims(preset)
+    needed = {c.table for c in all_claims} | {"I"}
     tables = {t: assemble(table_spec(preset, t), store) for t in sorted(needed)}
-    return [evaluate_claim(c, tables) for c in claims(preset)]
+    pooled = _pooled_variances(tables)
+    entries = [evaluate_claim(c, tables, pooled) for c in all_claims]
+    adjusted = stats.adjusted_verdicts([e.pop("_estimate", None) for e in entries],
+                                       [e["direction"] for e in entries])
+    for entry, verdict in zip(entries, adjusted, strict=True):
+        entry["adjusted_verdict"] = verdict
+    return entries
 
 
 def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
     """Write `results/<preset>/claims.json` (atomically) and return its path."""
     store = store or ResultsStore(preset.name)
     path = store.dir / "claims.json"
-    atomic_write_json(path, {"preset": preset.name, "claims": claims_ledger(preset, store)})
+    atomic_write_json(path, {"preset": preset.name, "familywise_level": stats.ALPHA,
+                             "equivalence_margin": EQUIVALENCE_MARGIN,
+                             "claims": claims_ledger(preset, store)})
     return str(path)
+
+
+def summary(ledger: list[dict[str, Any]], adjusted: bool = True) -> dict[str, Any]:
+    """What a reader asks first: how many claims hold, do not hold, exclude the paper's
+    size, or remain undecided (after Holm's correction by default), and which undecided
+    claims this design could decide with more seeds."""
+    key = "adjusted_verdict" if adjusted else "verdict"
+    counts = Counter(e[key] for e in ledger)
+    undecided = [e for e in ledger if e[key] in ("inconclusive", stats.TOO_FEW_SEEDS)]
+    return {
+        "claims": len(ledger),
+        "counts": {v: counts.get(v, 0) for v in VERDICTS},
+        "decided": counts.get("holds", 0) + counts.get("does not hold", 0),
+        "size_excluded": sum(1 for e in ledger
+                             if (e.get("magnitude") or "").startswith("paper's size excluded")),
+        "within_margin": sum(1 for e in ledger if "within ±" in (e.get("magnitude") or "")),
+        "decidable_with_10_seeds": sum(1 for e in undecided
+                                       if e.get("seeds_needed") and e["seeds_needed"] <= 10),
+        "undecided": len(undecided),
+    }
+
+
+def summary_sentence(ledger: list[dict[str, Any]]) -> str:
+    """`summary` in one sentence, for the introduction and chapter 0."""
+    s = summary(ledger)
+    c = s["counts"]
+    if c["not run"] == s["claims"]:
+        return f"None of the {s['claims']} claims has its records yet: every one is not run."
+    parts = [f"{c['holds']} {'holds' if c['holds'] == 1 else 'hold'}",
+             f"{c['does not hold']} {'does' if c['does not hold'] == 1 else 'do'} not hold",
+             f"{c['inconclusive']} {'is' if c['inconclusive'] == 1 else 'are'} inconclusive",
+             f"{c[stats.TOO_FEW_SEEDS]} {'reads' if c[stats.TOO_FEW_SEEDS] == 1 else 'read'} "
+             "a row with a single training seed (too few seeds)"]
+    if c["not run"]:
+        parts.append(f"{c['not run']} are not run yet")
+    def claims_(k: int, one: str, many: str) -> str:
+        return f"{k} {one if k == 1 else many}"
+
+    return (f"Of {s['claims']} claims, after Holm's correction: " + ", ".join(parts) + ". "
+            f"{claims_(s['size_excluded'], 'excludes', 'exclude')} the paper's size of the "
+            f"effect, {claims_(s['within_margin'], 'lies', 'lie')} within "
+            f"±{EQUIVALENCE_MARGIN:g} of 0, and {s['decidable_with_10_seeds']} of the "
+            f"{s['undecided']} undecided would detect the paper's effect with 10 or fewer "
+            "seeds a row.")
 
 
 def sentence(entry: dict[str, Any]) -> str:
@@ -244,11 +427,26 @@ def sentence(entry: dict[str, Any]) -> str:
         return f"{entry['quantity']}: not run yet (the paper: {entry['paper']:+.3f})."
     low, high = entry["ci"]
     side = "above" if entry["direction"] > 0 else "below"
+    seeds = ", ".join(f"{r} {k}" for r, k in (entry.get("seeds") or {}).items())
     words = {"holds": f"holds: our interval lies {side} 0",
              "does not hold": "does not hold: our interval lies on the other side of 0",
-             "inconclusive": "is inconclusive: our interval contains 0"}[entry["verdict"]]
-    return (f"{entry['quantity']}: the paper {entry['paper']:+.3f}, ours {entry['ours']:+.3f} "
-            f"[{low:+.3f}, {high:+.3f}]; the claim {words}.")
+             "inconclusive": "is inconclusive: our interval contains 0",
+             stats.TOO_FEW_SEEDS: "is not decided: a row it reads has a single training "
+                                  "seed, so the spread between seeds is unknown"
+             }[entry["verdict"]]
+    out = (f"{entry['quantity']}: the paper {entry['paper']:+.3f}, ours {entry['ours']:+.3f} "
+           f"[{low:+.3f}, {high:+.3f}] (seeds: {seeds}); the claim {words}")
+    if entry["verdict"] == "inconclusive" and "intersection test" in (entry["method"] or ""):
+        out += (" (best of k: it holds only if every pairwise interval lies on the claimed "
+                "side, and does not hold only if one row beats it at the Bonferroni level)")
+    adjusted = entry.get("adjusted_verdict")
+    if adjusted and adjusted != entry["verdict"]:
+        out += f"; after Holm's correction over the ledger it is {adjusted}"
+    if entry.get("magnitude") and entry["magnitude"] != stats.TOO_FEW_SEEDS:
+        out += f"; {entry['magnitude']}"
+    if entry.get("seeds_needed"):
+        out += f"; about {entry['seeds_needed']} seeds a row would detect the paper's effect"
+    return out + "."
 
 
 def load_ledger(path) -> list[dict[str, Any]]:

@@ -60,6 +60,16 @@ class Cell:
     def seeds(self) -> int:
         return len({u.seed_index for u in self.units})
 
+    @property
+    def scenes(self) -> str:
+        """"per_seed" when training seed k is evaluated on scene set k (the evaluation seeds
+        differ between seed indices), else "shared" (`icil_paper.stats`' two designs)."""
+        by_seed: dict[int, set] = {}
+        for u in self.units:
+            if u.eval is not None:
+                by_seed.setdefault(u.seed_index, set()).add(u.eval.seed)
+        return "per_seed" if len({frozenset(v) for v in by_seed.values()}) > 1 else "shared"
+
 
 @dataclass(frozen=True)
 class Row:

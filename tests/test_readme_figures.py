@@ -1,0 +1,56 @@
+"""Every measured figure of the README is the value of the record it names."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import pytest
+
+from icil_paper.bench.figures import FIGURES, figure
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+MARKED = re.compile(r"(\d[\d,]*(?:\.\d+)?)\s*[^\s<]*\s*<!-- figure: ([\w.]+) -->")
+
+
+def significant_digits(printed: str) -> int:
+    """"15.6" -> 3, "0.074" -> 2, "241" -> 3, "290" -> 2 (an integer's trailing zeros are
+    not significant)."""
+    digits = printed.replace(",", "")
+    if "." in digits:
+        return len(digits.replace(".", "").lstrip("0"))
+    return len(digits.lstrip("0").rstrip("0")) or 1
+
+
+def rounded(value: float, digits: int) -> float:
+    if value == 0:
+        return 0.0
+    return round(value, digits - 1 - int(math.floor(math.log10(abs(value)))))
+
+
+def marked_figures() -> list[tuple[str, str]]:
+    return MARKED.findall(README.read_text())
+
+
+def test_the_readme_marks_its_measured_figures():
+    names = [name for _, name in marked_figures()]
+    assert len(names) >= 15
+    unknown = sorted(set(names) - set(FIGURES))
+    assert not unknown, f"README figures with no computation in bench/figures.py: {unknown}"
+    markers = re.findall(r"<!-- figure: ([\w.]+) -->", README.read_text())
+    assert len(markers) == len(names), "a marker that does not follow a number"
+
+
+@pytest.mark.parametrize("printed,name", marked_figures())
+def test_each_readme_figure_matches_its_record(printed, name):
+    value = figure(name)
+    expected = float(printed.replace(",", ""))
+    assert rounded(value, significant_digits(printed)) == pytest.approx(expected), (
+        f"README says {printed} for {name}; its record ({FIGURES[name][0]}) gives {value:.4g}")
+
+
+def test_rounding_rules():
+    assert significant_digits("15.6") == 3 and significant_digits("0.074") == 2
+    assert significant_digits("290") == 2 and significant_digits("1217") == 4
+    assert rounded(1217.497, 4) == 1217 and rounded(287.3, 2) == 290
