@@ -257,8 +257,10 @@ def ledger_frame(ledger: list[dict[str, Any]]):
         ours = ("" if e["ours"] is None else
                 unbroken(f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"))
         needed = e.get("seeds_needed")
+        paper_cell = (f"{e['paper']:+.3f}" if e.get("paper") is not None
+                      else f"({e['reference_effect']:+.3f})")
         rows.append({"claim": e["id"], "seeds": unbroken(_seeds_cell(e.get("seeds"))),
-                     "paper": f"{e['paper']:+.3f}", "ours": ours, "verdict": e["verdict"],
+                     "paper": paper_cell, "ours": ours, "verdict": e["verdict"],
                      "after Holm": e.get("adjusted_verdict", ""),
                      "size vs the paper": e.get("magnitude") or "",
                      "mde": "" if e.get("mde") is None else f"{e['mde']:.3f}",
@@ -272,6 +274,8 @@ def ledger_details(ledger: list[dict[str, Any]]) -> str:
     lines = []
     for e in ledger:
         note = f" {e['power_note'][0].upper()}{e['power_note'][1:]}." if e.get("power_note") else ""
+        if e.get("paper") is None:
+            note += f" Its reference size in parentheses is {e['reference']}."
         lines.append(f"- **{e['id']}** ({e['quantity']}): *{e['claim']}*{note}")
     return "\n".join(lines)
 
@@ -332,7 +336,10 @@ def forest_plot(ledger: list[dict[str, Any]], title: str = "", verdict_key: str 
                 style = "--" if verdict == "too few seeds" else "-"
                 ax.plot(e["ci"], [yi, yi], style, color=colour, lw=2.2)
                 ax.plot(e["ours"], yi, "o", color=colour, ms=5)
-            ax.plot(e["paper"], yi, "D", color="black", ms=4, zorder=5)
+            if e.get("paper") is not None:
+                ax.plot(e["paper"], yi, "D", color="black", ms=4, zorder=5)
+            else:  # a claim of ours: the reference effect it is read against
+                ax.plot(e["reference_effect"], yi, "D", mfc="white", mec="black", ms=4, zorder=5)
         ax.axvline(0, color="#57606a", lw=0.8)
         ax.set_yticks(y, [f"{e['id']}  ({e.get(verdict_key) or e['verdict']})"
                           for e in entries], fontsize=8)
@@ -346,6 +353,9 @@ def forest_plot(ledger: list[dict[str, Any]], title: str = "", verdict_key: str 
     handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == "too few seeds" else "-", label=v)
                for v, c in VERDICT_COLOURS.items() if v != "not run"]
     handles.append(Line2D([], [], color="black", marker="D", ls="", ms=4, label="the paper"))
+    if any(e.get("paper") is None for e in ledger):
+        handles.append(Line2D([], [], mfc="white", mec="black", marker="D", ls="", ms=4,
+                              label="reference size (our claims)"))
     fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=len(handles),
                frameon=False)
     axes[0, 0].set_title(title or "Claims: our 95% intervals and the paper's values", fontsize=10)

@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
             print(json.dumps(ledger, indent=2))
         else:
             for entry in ledger:
-                print(f"[{entry['verdict']}] {entry['id']} (Table {entry['table']}): "
+                print(f"[{entry['adjusted_verdict']}] {entry['id']} (Table {entry['table']}): "
                       f"{sentence(entry)}")
         return 0
     ids = [check_name("table", t, TABLES) for t in (args.table or TABLES)]
