@@ -11,7 +11,7 @@ export MUJOCO_GL ?= egl
 export PYTHONUNBUFFERED := 1
 
 # Stamps keyed on what they depend on, so that a repeated `make setup` takes seconds.
-REQ_HASH := $(shell cat requirements.txt pyproject.toml | sha256sum | cut -c1-16)
+REQ_HASH := $(shell cat requirements.txt requirements-no-deps.txt pyproject.toml | sha256sum | cut -c1-16)
 PY_STAMP := $(VENV)/.installed-$(REQ_HASH)
 # Keyed on the script that installs system packages (lavapipe, chromium), so that a new
 # requirement there runs again on a machine that was set up before it.
@@ -49,9 +49,12 @@ $(PY_STAMP):
 	# torch first and pinned, so that no other package pulls a CUDA build of it
 	$(BIN)/pip install --quiet --progress-bar off '$(TORCH_PIN)' 2>&1 | { grep -v 'is ignored' || true; }
 	$(BIN)/pip install --quiet --progress-bar off -r requirements.txt 2>&1 | { grep -v 'is ignored' || true; }
+	# robomimic (its tests run its own training on our data sets) and the torchvision it imports,
+	# without their declared dependencies, which would replace the CPU torch (requirements-no-deps.txt)
+	$(BIN)/pip install --quiet --progress-bar off --no-deps -r requirements-no-deps.txt 2>&1 | { grep -v 'is ignored' || true; }
 	$(BIN)/pip install --quiet --no-deps -e . 2>&1 | { grep -v 'is ignored' || true; }
 	$(BIN)/python -c "import logging; logging.getLogger('robosuite_logs').disabled = True; \
-		import torch, robosuite, mani_skill, icil_paper" \
+		import torch, robosuite, mani_skill, robomimic.scripts.train, safetensors, icil_paper" \
 		|| { echo "setup: the Python install is incomplete (see pip's messages above)"; exit 1; }
 	@rm -f $(VENV)/.installed-*; touch $@
 
@@ -103,15 +106,16 @@ bench: setup
 # LeRobot 0.6 needs Python >= 3.12 and numpy >= 2, which robosuite and ManiSkill here cannot
 # share: it gets an environment of its own, used only by icil_paper.lerobot_export.
 LEROBOT_VENV ?= .venv-lerobot
-PYTHON312 ?= python3.12
+# Empty: .ci/find-python312 looks for a Python 3.12 that runs (a pyenv shim of an unselected
+# version does not); PYTHON312=/path/to/python3.12 chooses one.
+PYTHON312 ?=
 LEROBOT_STAMP := $(LEROBOT_VENV)/.installed-lerobot-0.6.1
 
 lerobot-setup: $(LEROBOT_STAMP)
 
 $(LEROBOT_STAMP):
-	@command -v $(PYTHON312) >/dev/null || { echo "lerobot-setup: $(PYTHON312) not found: \
-		install Python 3.12 (or pass PYTHON312=/path/to/python3.12)"; exit 1; }
-	@test -x $(LEROBOT_VENV)/bin/python || $(PYTHON312) -m venv $(LEROBOT_VENV)
+	@test -x $(LEROBOT_VENV)/bin/python || { py=$$(PYTHON312='$(PYTHON312)' .ci/find-python312) \
+		&& echo "lerobot-setup: $(LEROBOT_VENV) from $$py" && "$$py" -m venv $(LEROBOT_VENV); }
 	$(LEROBOT_VENV)/bin/pip install --quiet --progress-bar off 'lerobot[dataset]==0.6.1' h5py
 	@touch $@
 
