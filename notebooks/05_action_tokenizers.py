@@ -45,6 +45,24 @@
 #   draws it). The official code's variant (`lipvq-official` below) normalizes only the last
 #   layer, with a sigmoid output and no straight-through estimator.
 #
+# And the tokenizers that came after the paper (compared inside ICRT in
+# {doc}`chapter 12 <12_tokenizers_since_the_paper>`), each learned one also with Eq. 4 on
+# every encoder layer (`lipfsq`, `liprvq`: the same layers and the same loss term as
+# LipVQ-VAE's):
+#
+# - **FSQ** (Mentzer et al. 2023, used by QueST and OAT): the encoder outputs a few numbers,
+#   each bounded by a tanh and rounded to one of $L_i$ levels, so the code is a point of a
+#   fixed grid of $\prod_i L_i$ points; there is no codebook to learn or to collapse
+#   (`vector_quantize_pytorch.FSQ`).
+# - **Residual VQ** (VQ-BeT's tokenizer): $Q$ codebooks in turn, each quantizing what the
+#   ones before it left, so a step's code is one entry per level and the quantized latent
+#   their sum (`vector_quantize_pytorch.ResidualVQ`, codebooks updated by moving averages).
+#   `codes/level` counts the codes each level uses: residual VQ can collapse level by level.
+# - **B-spline** (BEAST, Zhou et al. 2025): each chunk of actions ending at a step is fitted
+#   by a clamped cubic B-spline with $K$ control points per dimension (least squares), and
+#   the control points are quantized to 256 integer bins; decoding evaluates the spline.
+#   Nothing is learned but the token embeddings, as for Bin and FAST.
+#
 # ## What this chapter measures
 #
 # In the paper every tokenizer is trained jointly with the policy (that is Table III, in
@@ -80,6 +98,7 @@ from icil_paper.metrics import ascending, rank_correlation
 from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
 from icil_paper.results import ResultsStore
 from icil_paper.studies import tokenizer_latent_recording, tokenizer_study
+from icil_paper.tables.book import smoother_sentence
 from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.viewer import show_recording
 
@@ -93,8 +112,15 @@ n_seeds = len(next(iter(records.values())))
 
 
 def mean(label, key):
-    values = [m[key] for m in records[label] if m[key] is not None]
+    values = [m[key] for m in records[label] if m.get(key) is not None]
     return float(np.mean(values)) if values else None
+
+
+def per_level(label):
+    """Residual VQ: the codes each level uses, mean over seeds ("-" for one codebook)."""
+    levels = [m["codes_used_per_level"] for m in records[label]
+              if m.get("codes_used_per_level")]
+    return " / ".join(f"{v:.0f}" for v in np.mean(levels, axis=0)) if levels else None
 
 
 def scores(label, key):
@@ -119,7 +145,8 @@ print(f"{len(records)} tokenizers, {n_seeds} training seed(s) each")
 # The paper's least energy is shown beside ours; it was measured on RoboCasa latents of
 # policies trained jointly, so only the ranking is comparable.
 #
-# Three rows are not the paper's tokenizers: `lipvq-official` is the official code's variant,
+# Besides the tokenizers that came after the paper (`fsq` to `bspline`), three rows are not
+# the paper's tokenizers: `lipvq-official` is the official code's variant,
 # and `vq-data-init` / `lipvq-data-init` start their codebooks from encoder outputs instead
 # of VQ-VAE's uniform $(-1/K, 1/K)$ initialisation. A VQ tokenizer whose trajectory stays
 # on one code has zero least energy whatever its encoder does, so these two rows tell
@@ -136,6 +163,7 @@ for label in records:
         "usage": mean(label, "usage"),
         "perplexity": mean(label, "perplexity"),
         "tokens/step": mean(label, "tokens_per_step"),
+        "codes/level": per_level(label),
         "encode act/s": mean(label, "encode_actions_per_s"),
     })
     smooth_rows.append({
@@ -202,12 +230,7 @@ for key in score_keys:
 
 
 def compare(a, b, key):
-    est = stats.paired_score_difference(scores(a, key), scores(b, key))
-    verdict = stats.verdict(est, direction=-1)
-    words = {"holds": "smoother", "does not hold": "less smooth",
-             "inconclusive": "not distinguishable (the interval contains 0)"}[verdict]
-    return (f"{a} minus {b} on {key.replace('_', ' ')}: {est.value:+.4g} "
-            f"[{est.low:+.4g}, {est.high:+.4g}]: {a} is {words}")
+    return smoother_sentence(a, b, scores(a, key), scores(b, key), key.replace("_", " "))
 
 
 for key in score_keys:
@@ -215,6 +238,8 @@ for key in score_keys:
                  + compare("lipvq", "vq", key) + ".")
     lines.append("With codebooks initialised from encoder outputs: "
                  + compare("lipvq-data-init", "vq-data-init", key) + ".")
+    lines.append("Eq. 4 on FSQ's encoder: " + compare("lipfsq", "fsq", key) + ".")
+    lines.append("Eq. 4 on residual VQ's encoder: " + compare("liprvq", "rvq", key) + ".")
 lines.append(f"Latent scale σ: LipVQ-VAE {mean('lipvq', 'latent_scale'):.3g}, VQ-VAE "
              f"{mean('vq', 'latent_scale'):.3g}; the raw least energy scales with σ².")
 low_usage = [k for k in records if mean(k, "usage") is not None and mean(k, "usage") < 0.1]
@@ -234,6 +259,12 @@ fastest, slowest = max(rates, key=rates.get), min(rates, key=rates.get)
 lines.append(
     f"Throughput (encode + decode, one core): from {rates[slowest]:,.0f} actions/s ({slowest}) "
     f"to {rates[fastest]:,.0f} ({fastest}). FAST emits {mean('fast', 'tokens_per_step'):.2f} "
-    f"tokens per step, bin {mean('bin', 'tokens_per_step'):.0f}, the others one embedding "
-    "per step.")
+    f"tokens per step, bin {mean('bin', 'tokens_per_step'):.0f}, B-spline "
+    f"{mean('bspline', 'tokens_per_step'):.2f}, the others one embedding per step.")
+lines.append(
+    f"Residual VQ uses {per_level('rvq')} codes per level (of "
+    f"{mean('rvq', 'codebook_size') / len(records['rvq'][0]['codes_used_per_level']):.0f} "
+    f"each), {per_level('liprvq')} with Eq. 4; FSQ {mean('fsq', 'codes_used'):.0f} of its "
+    f"{mean('fsq', 'codebook_size'):.0f} grid points, {mean('lipfsq', 'codes_used'):.0f} with "
+    "Eq. 4.")
 print("\n\n".join(lines))

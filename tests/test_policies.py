@@ -123,7 +123,7 @@ def assert_cached_steps_equal_recomputation(policy, demos, steps):
         pred, _ = policy.predict(single_batch(policy, prompt, query.obs, actions))
     np.testing.assert_allclose(pred[0, :, 0].numpy(), np.stack(actions), atol=1e-5, rtol=0)
 
-@pytest.mark.parametrize("tokenizer", ["mlp", "lipvq", "bin", "fast"])
+@pytest.mark.parametrize("tokenizer", ["mlp", "lipvq", "bin", "fast", "fsq", "rvq", "bspline"])
 def test_icrt_kv_cache_decoding_equals_recomputation(demos, tokenizer):
     assert_cached_steps_equal_recomputation(build("icrt", tokenizer, demos).eval(), demos, 10)
 

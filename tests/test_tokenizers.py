@@ -28,12 +28,19 @@ A, D, K = 7, 16, 64
 
 
 def cfg(name: str, **fields):
-    """Tokenizer `name` at test size (D = 16, K = 64, FAST's chunk 4 and vocabulary 300)."""
+    """Tokenizer `name` at test size (D = 16, K = 64 codes: FSQ's 4 x 4 x 4 grid, residual
+    VQ's 8 x 8; FAST's chunk 4 and vocabulary 300, B-spline chunks of 6 steps)."""
     sized = {"latent_dim": D}
     if name in ("vq", "lfq", "lipvq"):
         sized["codebook_size"] = K
     if name == "fast":
         sized.update(vocab_size=300, chunk=4)
+    if name in ("fsq", "lipfsq"):
+        sized["levels"] = (4, 4, 4)
+    if name in ("rvq", "liprvq"):
+        sized.update(num_quantizers=2, codebook_size=8)
+    if name == "bspline":
+        sized.update(chunk=6, control_points=4, n_bins=64)
     return default_config(name, **{**sized, **fields})
 
 
@@ -64,7 +71,8 @@ def _make(config, trajectories):
 
 
 def test_registry_lists_every_tokenizer():
-    assert TOKENIZERS == ("mlp", "lip-mlp", "bin", "fast", "vq", "lfq", "lipvq")
+    assert TOKENIZERS == ("mlp", "lip-mlp", "bin", "fast", "vq", "lfq", "lipvq",
+                          "fsq", "lipfsq", "rvq", "liprvq", "bspline")
     with pytest.raises(UnknownNameError, match="lipvq"):
         make_tokenizer("lipvqq", A)
 
@@ -89,7 +97,7 @@ def test_shapes_and_finite_losses(config, trajectories):
         assert out.codes is None
 
 
-@pytest.mark.parametrize("name", ["vq", "lfq", "lipvq"])
+@pytest.mark.parametrize("name", ["vq", "lfq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq"])
 def test_gradients_reach_encoder_through_quantizer(name, trajectories):
     tok = _make(name, trajectories).train()
     out = tok(_batch(trajectories))
@@ -160,11 +168,12 @@ def test_codebook_weight_decay_is_an_option():
 
 # Threshold per tokenizer on the held-out MSE after training, as a fraction of the actions'
 # variance, with room for seed-to-seed variation (measured: mlp 0.01, vq 0.18, lfq 0.25,
-# lipvq 0.14, bin head 0.38, fast head 0.45). For bin and fast the reconstruction itself
-# is exact up to the bin width / rounding (tested separately); the threshold is on the
-# learned decode head.
+# lipvq 0.14, bin head 0.38, fast head 0.45; fsq 0.23, lipfsq 0.16, rvq 0.13, liprvq 0.12,
+# bspline head 0.36). For bin, fast and bspline the reconstruction itself is exact up to the
+# bin width / rounding (tested separately); the threshold is on the learned decode head.
 THRESHOLDS = {"mlp": 0.05, "lip-mlp": 0.05, "vq": 0.4, "lfq": 0.5, "lipvq": 0.4,
-              "bin": 0.7, "fast": 0.8}
+              "bin": 0.7, "fast": 0.8, "fsq": 0.45, "lipfsq": 0.4, "rvq": 0.3, "liprvq": 0.3,
+              "bspline": 0.7}
 
 
 @pytest.mark.parametrize("name", TOKENIZERS)
@@ -175,7 +184,7 @@ def test_reconstruction_error_falls_below_threshold(name, trajectories, held_out
     tok = make_tokenizer(stand_alone(cfg(name)), A)
     tok.fit(trajectories)
     variance = float(np.concatenate(held_out).var(0).mean())
-    key = "decode_mse" if name in ("bin", "fast") else "reconstruction_mse"
+    key = "decode_mse" if name in ("bin", "fast", "bspline") else "reconstruction_mse"
     before = reconstruction_errors(tok, held_out)[key]
     train_tokenizer(tok, trajectories, config, seed=0, progress=False)
     after = reconstruction_errors(tok, held_out)[key]

@@ -7,7 +7,8 @@ Fig. 5 codebook size; and a prompt ablation of our own (does the prompt carry th
 
 Shared cells: Tables III, IV, V, VI and the prompt ablation reuse Table I's trained
 policies (the same RunSpecs), Fig. 5 reuses Table I's LipVQ-VAE run at the preset's
-codebook size, so each policy is trained once. Every row is evaluated on the same episodes
+codebook size, and the `beyond` table of our own (tokenizers since the paper) Table I's
+VQ-VAE and LipVQ-VAE runs, so each policy is trained once. Every row is evaluated on the same episodes
 (the same evaluation seed), so two rows can be compared episode by episode.
 """
 
@@ -65,20 +66,24 @@ def _runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str], seeds: i
     return [base.replace(seed=preset.seed + s) for s in range(seeds)]
 
 
-def _eval(preset: Preset, run: RunSpec, task: str, **prompt) -> EvalSpec:
-    """The evaluation of `run` on `task`: the preset's episodes (MCR's image episodes), the
-    same evaluation seed for every row; prompts only for in-context policies."""
+def _eval(preset: Preset, run: RunSpec, task: str, seed_index: int = 0, **prompt) -> EvalSpec:
+    """The evaluation of `run` (training seed `seed_index` of its row) on `task`: the
+    preset's episodes (MCR's image episodes), the same scenes for every row; with
+    `tables.scenes_per_seed`, seed k of every row plays scene set k (evaluation seed
+    preset.seed + k), else every seed plays the same scenes. Prompts only for in-context
+    policies."""
     images = run.policy.type == "mcr"
     episodes = (preset.tables.image_episodes_per_task if images
                 else preset.eval.episodes_per_task)
     max_steps = preset.tables.image_max_steps if images else None
     if run.policy.type != "icrt":
         prompt = {}  # no prompt is read: the evaluation is the same as Table I's
-    return eval_spec(preset, task, episodes=episodes, max_steps=max_steps, **prompt)
+    seed = preset.seed + seed_index if preset.tables.scenes_per_seed else None
+    return eval_spec(preset, task, episodes=episodes, seed=seed, max_steps=max_steps, **prompt)
 
 
 def _cell(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str], **prompt) -> Cell:
-    return Cell(tuple(Unit(s, run, _eval(preset, run, task, **prompt))
+    return Cell(tuple(Unit(s, run, _eval(preset, run, task, s, **prompt))
                       for s, run in enumerate(runs) for task in tasks))
 
 
@@ -91,7 +96,7 @@ def _family_cells(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
 
 
 def _seeds(preset: Preset, policy: str) -> int:
-    return preset.tables.icrt_seeds if policy == "icrt" else 1
+    return preset.tables.icrt_seeds if policy == "icrt" else preset.tables.baseline_seeds
 
 
 def table_i_runs(preset: Preset, policy: str, tokenizer) -> list[RunSpec]:
@@ -274,7 +279,7 @@ def prompt_ablation(preset: Preset) -> TableSpec:
     tasks = list(preset.data.kitchen_tasks)
     runs = table_i_runs(preset, "icrt", "lipvq")
     right = _cell(preset, runs, tasks)
-    wrong = Cell(tuple(Unit(s, run, _eval(preset, run, task,
+    wrong = Cell(tuple(Unit(s, run, _eval(preset, run, task, s,
                                           prompt_task=_other_task(task, tasks)))
                        for s, run in enumerate(runs) for task in tasks))
     short = _cell(preset, runs, tasks, prompt_steps=preset.tables.prompt_steps)
@@ -331,10 +336,45 @@ def analysis(preset: Preset) -> TableSpec:
                          "standardized), latent scale, codes used and Lipschitz facts."))
 
 
+SINCE_PAPER_TOKENIZERS = ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq", "bspline")
+"""ICRT's tokenizers in the `beyond` table: Table I's VQ-VAE and LipVQ-VAE, then FSQ,
+residual VQ (each without and with Eq. 4) and B-spline control points."""
+
+
+def since_paper_seeds(preset: Preset) -> int:
+    """Training seeds of every `beyond` row: `tables.since_paper_seeds`, else `icrt_seeds`."""
+    return preset.tables.since_paper_seeds or preset.tables.icrt_seeds
+
+
+def beyond(preset: Preset) -> TableSpec:
+    """Tokenizers since the paper: ICRT with each of `SINCE_PAPER_TOKENIZERS` on the kitchen
+    suite, Table I's protocol and episodes; success per family and on average, and each
+    trained tokenizer's latent features (as in Table III and the analysis table). Its VQ-VAE
+    and LipVQ-VAE rows are Table I's policies (the same RunSpecs, trained once), with more
+    seeds where `since_paper_seeds` asks for them."""
+    tasks = preset.data.kitchen_tasks
+    rows = []
+    for tokenizer in SINCE_PAPER_TOKENIZERS:
+        runs = _runs(preset, "icrt", tokenizer, tasks, since_paper_seeds(preset))
+        cells = _family_cells(preset, runs, tasks)
+        cells["features"] = Cell(tuple(Unit(s, run, features=feature_spec(preset, run))
+                                       for s, run in enumerate(runs)))
+        name = label("icrt", tokenizer)
+        rows.append(Row(name, cells, paper.TABLE_I_ROBOCASA.get(name, {})))
+    return TableSpec("beyond", "Tokenizers since the paper (our kitchen suite, Table I's protocol)",
+                     (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
+                         "ICRT with FSQ, residual VQ (each without and with Eq. 4) and "
+                         "B-spline control points beside Table I's VQ-VAE and LipVQ-VAE "
+                         "policies, trained and evaluated as Table I's rows (the paper's "
+                         "numbers are its Table I's, for those two rows only); `features` "
+                         "holds each trained tokenizer's least energy on held-out "
+                         "trajectories, its latent scale, codes used and Lipschitz facts."))
+
+
 TABLES: dict[str, Callable[[Preset], TableSpec]] = {
     "I": table_i, "II": table_ii, "III": table_iii, "IV": table_iv, "V": table_v,
     "VI": table_vi, "VII": table_vii, "fig5": fig5, "prompt": prompt_ablation,
-    "analysis": analysis,
+    "analysis": analysis, "beyond": beyond,
 }
 """Every table by id, in the order the book shows them."""
 

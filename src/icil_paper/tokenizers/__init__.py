@@ -6,9 +6,10 @@
     tok = make_tokenizer(lipvq_official(latent_dim=64), 7)          # the official code's variant
     tok = make_tokenizer("vq", 7)                                   # a name: its default config
     out = tok(actions)                                              # actions (B, T, 7)
+    tok = load_tokenizer("exported/lipvq")       # a trained one, exported (`portable.py`)
 
 Each tokenizer is built from its config alone (`configs.py`, one dataclass per tokenizer,
-torch-free); `TOKENIZERS` lists the names, in the paper's order.
+torch-free); `TOKENIZERS` lists the names, the paper's in its order, then the later ones.
 
 | name      | file       | paper                          | discrete | fit needed |
 |-----------|------------|--------------------------------|----------|------------|
@@ -19,6 +20,17 @@ torch-free); `TOKENIZERS` lists the names, in the paper's order.
 | `vq`      | vq.py      | VQ-VAE                         | yes      | no         |
 | `lfq`     | lfq.py     | LFQ-VAE (MAGVIT-v2)            | yes      | no         |
 | `lipvq`   | lipvq.py   | LipVQ-VAE (Sec. III-B)         | yes      | no         |
+
+And the tokenizers that came after the paper (`configs.SINCE_PAPER`), each learned one with
+and without Eq. 4 (`lip*`: the same class, every encoder layer a LipschitzLinear):
+
+| name      | file       | source                          | discrete | fit needed |
+|-----------|------------|---------------------------------|----------|------------|
+| `fsq`     | fsq.py     | FSQ (Mentzer et al. 2023)       | yes      | no         |
+| `lipfsq`  | fsq.py     | FSQ + Eq. 4                     | yes      | no         |
+| `rvq`     | rvq.py     | residual VQ (VQ-BeT, 2024)      | yes      | no         |
+| `liprvq`  | rvq.py     | residual VQ + Eq. 4             | yes      | no         |
+| `bspline` | bspline.py | B-spline control points (BEAST) | yes      | ranges     |
 
 Tokenizer modules are imported on first use (a lazy registry), so importing this package
 does not import scipy or the `tokenizers` package.
@@ -40,6 +52,7 @@ from icil_paper.tokenizers.lipschitz_linear import (
     lipschitz_layers,
     lipschitz_loss,
 )
+from icil_paper.tokenizers.portable import TokenizerFolderError, load_tokenizer, save_tokenizer
 
 TOKENIZERS = tuple(TOKENIZER_CONFIGS)
 
@@ -51,6 +64,11 @@ REGISTRY = Registry("tokenizer", {
     "vq": "icil_paper.tokenizers.vq:VQTokenizer",
     "lfq": "icil_paper.tokenizers.lfq:LFQTokenizer",
     "lipvq": "icil_paper.tokenizers.lipvq:LipVQTokenizer",
+    "fsq": "icil_paper.tokenizers.fsq:FSQTokenizer",
+    "lipfsq": "icil_paper.tokenizers.fsq:LipFSQTokenizer",
+    "rvq": "icil_paper.tokenizers.rvq:RVQTokenizer",
+    "liprvq": "icil_paper.tokenizers.rvq:LipRVQTokenizer",
+    "bspline": "icil_paper.tokenizers.bspline:BSplineTokenizer",
 })
 
 
@@ -80,5 +98,5 @@ __all__ = [
     "TOKENIZERS", "REGISTRY", "make_tokenizer", "ActionTokenizer", "TokenizerOutput",
     "TokenizerConfig", "default_config", "lipvq_official",
     "LipschitzLinear", "lipschitz_loss", "lipschitz_bounds", "lipschitz_layers",
-    "FastDecodeError",
+    "FastDecodeError", "load_tokenizer", "save_tokenizer", "TokenizerFolderError",
 ]

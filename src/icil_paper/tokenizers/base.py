@@ -40,7 +40,8 @@ class TokenizerOutput:
     inverse DCT, depending on the method)."""
     codes: Tensor | None
     """Integer codes (LongTensor) for discrete tokenizers, None for continuous ones. Shape
-    per tokenizer: (B, T) for vq / lipvq / lfq, (B, T, A) for bin; for fast (B, T, L) in
+    per tokenizer: (B, T) for vq / lipvq / lfq / fsq / lipfsq, (B, T, A) for bin, (B, T, Q)
+    for rvq / liprvq (one code per level), (B, T, K * A) for bspline; for fast (B, T, L) in
     causal mode or (B, ceil(T / chunk), L) in blocked mode, padded with -1."""
     losses: dict[str, Tensor] = field(default_factory=dict)
     """Weighted scalar losses; a policy trained jointly adds their sum to its own loss."""
@@ -102,6 +103,24 @@ def build_encoder(sizes: Sequence[int], norm: str = "none", activation: str = "r
     if output_activation != "none":
         layers.append(_OUTPUT_ACTIVATIONS[output_activation]())
     return nn.Sequential(*layers)
+
+
+LIPSCHITZ_NORMS = ("lipschitz", "lipschitz-last")
+
+
+def lipschitz_losses(encoder: nn.Module, config) -> dict[str, Tensor]:
+    """Eq. 5's Lipschitz term of an encoder built with `config.norm`: {"lipschitz":
+    gamma * prod_l softplus(c_l)} when the norm is a Lipschitz one and gamma > 0, else {}.
+
+    The one place every learned quantizer (vq, fsq, rvq and their `lip*` variants) takes
+    the term from, so that Eq. 4 is the same option in each.
+    """
+    from icil_paper.tokenizers.lipschitz_linear import lipschitz_loss
+
+    weight = config.lipschitz.weight
+    if config.norm not in LIPSCHITZ_NORMS or not weight:
+        return {}
+    return {"lipschitz": weight * lipschitz_loss(encoder)}
 
 
 def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
@@ -252,6 +271,11 @@ class ActionTokenizer(nn.Module):
     def vocabulary_ids(self, codes: Tensor) -> Tensor:
         """Codes from `forward` as a flat LongTensor of ids in [0, codebook_size) (no padding)."""
         return codes[codes >= 0].flatten()
+
+    def codes_by_level(self, codes: Tensor) -> list[Tensor] | None:
+        """For a tokenizer with several codebooks used in turn (residual VQ): each level's
+        codes, flat; None for the others (one codebook)."""
+        return None
 
     def no_weight_decay(self) -> list[nn.Parameter]:
         """Parameters the optimiser must not decay (none unless a config asks for it)."""

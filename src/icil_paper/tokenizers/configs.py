@@ -18,7 +18,19 @@ import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
+from icil_paper.specs import ConfigError, check_fields
+
 DEFAULT_HIDDEN = (64, 128)
+TOKENIZER_CHOICES: dict[str, tuple[str, ...]] = {
+    "norm": ("none", "lipschitz", "lipschitz-last", "spectral"),
+    "activation": ("relu", "gelu"),
+    "output_activation": ("none", "sigmoid", "tanh"),
+    "straight_through": ("vqvae", "codebook", "none"),
+    "codebook_init": ("uniform", "data"),
+    "mode": ("causal", "blocked"),
+}
+"""The valid strings of the tokenizer fields of these names, in every tokenizer config that
+has one (checked when a config is built; the tokenizers' modules name the same values)."""
 
 
 @dataclass(frozen=True)
@@ -26,11 +38,15 @@ class TokenizerConfig:
     """Knobs every action tokenizer has."""
 
     type: ClassVar[str] = ""
+    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = TOKENIZER_CHOICES
 
     latent_dim: int = 64
     """Width D of the action embedding (and of each codebook entry)."""
     hidden: tuple[int, ...] = DEFAULT_HIDDEN
     """Hidden widths of the encoder MLP; the decoder mirrors them."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)  # ranges, empty values, CHOICES: before any work
 
     @property
     def name(self) -> str:
@@ -51,6 +67,11 @@ class LipschitzOptions:
     so that nothing is rescaled at the start."""
     weight_init: str = "liu"
     """`liu` (randn * sqrt(2 / in_features)) or `randn` (the official code)."""
+
+    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"weight_init": ("liu", "randn")}
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)
@@ -115,18 +136,29 @@ class FASTConfig(TokenizerConfig):
 
 
 @dataclass(frozen=True)
-class VQConfig(TokenizerConfig):
+class NormedEncoderConfig(TokenizerConfig):
+    """Knobs of every learned quantizer's encoder (vq, fsq, rvq): its weight normalisation.
+
+    Eq. 4 is an option of each, not a tokenizer of its own: `lipvq`, `lipfsq` and `liprvq`
+    are `vq`, `fsq` and `rvq` with `norm="lipschitz"` (the same `LipschitzLinear` layers,
+    built by `base.build_encoder`, and the same gamma prod_l softplus(c_l) loss term,
+    `base.lipschitz_losses`)."""
+
+    norm: str = "none"
+    """Encoder weight normalisation: `none`, `lipschitz` (every layer, Eq. 4),
+    `lipschitz-last` (the last layer only, the official code) or `spectral`."""
+    lipschitz: LipschitzOptions = dataclasses.field(default_factory=LipschitzOptions)
+    """The Lipschitz layers' initialisation and loss weight (with a Lipschitz norm)."""
+
+
+@dataclass(frozen=True)
+class VQConfig(NormedEncoderConfig):
     """`vq`: VQ-VAE over single actions (van den Oord et al. 2017)."""
 
     type: ClassVar[str] = "vq"
 
     codebook_size: int = 1024
     """K, the number of codebook entries (the paper: 2^10)."""
-    norm: str = "none"
-    """Encoder weight normalisation: `none`, `lipschitz` (every layer, Eq. 4),
-    `lipschitz-last` (the last layer only, the official code) or `spectral`."""
-    lipschitz: LipschitzOptions = dataclasses.field(default_factory=LipschitzOptions)
-    """The Lipschitz layers' initialisation and loss weight (with a Lipschitz norm)."""
     codebook_weight: float = 1.0
     """alpha, the weight of the codebook loss ||sg[z_e] - z_q||^2."""
     commitment_weight: float = 0.25
@@ -186,6 +218,13 @@ class LFQConfig(TokenizerConfig):
     recon_weight: float = 1.0
     """Weight of the reconstruction loss."""
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        k = self.codebook_size
+        if k < 2 or k & (k - 1):
+            raise ConfigError(f"LFQConfig.codebook_size must be a power of two >= 2 (each code "
+                              f"is log2(K) bits), got {k}")
+
 
 def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConfig:
     """The official code's LipVQ-VAE (see `lipvq.py`): last layer normalised with per-row
@@ -199,11 +238,90 @@ def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConf
         lipschitz=LipschitzOptions(weight=0.0, per_row=True, c_init=1.0, weight_init="randn"))
 
 
+# ----------------------------------------------------------------- since the paper
+@dataclass(frozen=True)
+class FSQConfig(NormedEncoderConfig):
+    """`fsq`: finite scalar quantization (Mentzer et al. 2023) of one action per step."""
+
+    type: ClassVar[str] = "fsq"
+
+    levels: tuple[int, ...] = (8, 5, 5, 5)
+    """Quantization levels of each code dimension (at least 3 each); the encoder outputs
+    len(levels) numbers and the implicit codebook has prod(levels) codes (FSQ's choice for
+    about 2^10 codes: (8, 5, 5, 5), 1000 codes)."""
+    recon_weight: float = 1.0
+    """Weight of the reconstruction loss."""
+
+
+@dataclass(frozen=True)
+class LipFSQConfig(FSQConfig):
+    """`lipfsq`: FSQ with every encoder layer Lipschitz-normalised (Eq. 4), as in LipVQ-VAE."""
+
+    type: ClassVar[str] = "lipfsq"
+
+    norm: str = "lipschitz"
+    """Encoder weight normalisation (`lipschitz`: Eq. 4 on every layer, as LipVQ-VAE)."""
+
+
+@dataclass(frozen=True)
+class RVQConfig(NormedEncoderConfig):
+    """`rvq`: residual vector quantization (VQ-BeT's tokenizer; Lee et al. 2024)."""
+
+    type: ClassVar[str] = "rvq"
+
+    num_quantizers: int = 2
+    """Residual levels: each quantizes what the levels before it left (VQ-BeT: 2)."""
+    codebook_size: int = 32
+    """Codes per level; a step's code is one code per level, prod over levels in all
+    (32 x 32 = 1024 combinations, the paper's VQ-VAE codebook size; VQ-BeT: 16 per level)."""
+    commitment_weight: float = 0.25
+    """beta, the weight of the commitment loss summed over levels (the codebooks learn by
+    exponential moving averages, vector-quantize-pytorch's default, not from a loss)."""
+    recon_weight: float = 1.0
+    """Weight of the reconstruction loss."""
+
+
+@dataclass(frozen=True)
+class LipRVQConfig(RVQConfig):
+    """`liprvq`: residual VQ with every encoder layer Lipschitz-normalised (Eq. 4)."""
+
+    type: ClassVar[str] = "liprvq"
+
+    norm: str = "lipschitz"
+    """Encoder weight normalisation (`lipschitz`: Eq. 4 on every layer, as LipVQ-VAE)."""
+
+
+@dataclass(frozen=True)
+class BSplineConfig(TokenizerConfig):
+    """`bspline`: BEAST (Zhou et al. 2025), clamped cubic B-spline control points of action
+    chunks, quantized to integer bins."""
+
+    type: ClassVar[str] = "bspline"
+
+    chunk: int = 8
+    """Action steps per fitted chunk (step t is tokenized with the chunk ending at t)."""
+    control_points: int = 5
+    """K, control points per action dimension (4 <= K <= chunk; a clamped cubic with K = 4
+    is one Bezier segment)."""
+    n_bins: int = 256
+    """Integer bins of each control point's value over its fitted range (BEAST: 256)."""
+    autoencode: bool = False
+    """Let the decode head's loss train the token embeddings (stand-alone training)."""
+    decode_weight: float = 1.0
+    """Weight of the decode head's loss."""
+
+
 TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = {
     cls.type: cls for cls in (MLPConfig, LipMLPConfig, BinConfig, FASTConfig, VQConfig,
-                              LFQConfig, LipVQConfig)
+                              LFQConfig, LipVQConfig, FSQConfig, LipFSQConfig, RVQConfig,
+                              LipRVQConfig, BSplineConfig)
 }
-"""Registry name -> config class, in the paper's order of Table I (mlp first)."""
+"""Registry name -> config class: the paper's, in the order of Table I (mlp first), then
+the tokenizers that came after it (`SINCE_PAPER`)."""
+
+SINCE_PAPER = ("fsq", "lipfsq", "rvq", "liprvq", "bspline")
+"""The tokenizers of this registry that the paper does not compare (it predates them, or
+they are Eq. 4 applied to them): FSQ, residual VQ and BEAST's B-splines."""
 
 
 def default_config(name: str, **fields) -> TokenizerConfig:

@@ -8,7 +8,8 @@ their own, chapter 05 trains each as an autoencoder on action trajectories:
     metrics = evaluate_tokenizer(tok, held_out_trajectories)
 
 `stand_alone(config)` lets the reconstruction / decode loss train the embeddings of `mlp`,
-`lip-mlp`, `bin` and `fast` (in a policy those are shaped by the policy's loss instead).
+`lip-mlp`, `bin`, `fast` and `bspline` (in a policy those are shaped by the policy's loss
+instead).
 
 Batches are random windows of `config.window` steps from random trajectories:
 
@@ -34,7 +35,8 @@ from icil_paper.train.optim import cpu_threads
 
 
 def stand_alone(config: TokenizerConfig) -> TokenizerConfig:
-    """The config with `autoencode` on where it has that field (mlp, lip-mlp, bin, fast):
+    """The config with `autoencode` on where it has that field (mlp, lip-mlp, bin, fast,
+    bspline):
     trained alone, their embeddings must learn from reconstruction."""
     import dataclasses
 
@@ -136,13 +138,19 @@ def reconstruction_errors(tokenizer: ActionTokenizer, trajectories) -> dict[str,
 
 
 def codebook_stats(tokenizer: ActionTokenizer, trajectories) -> dict[str, float | None]:
-    """Codebook usage and perplexity over `trajectories` (None for continuous tokenizers)."""
+    """Codebook usage and perplexity over `trajectories` (None for continuous tokenizers),
+    and, for a tokenizer with several codebooks used in turn (residual VQ), the distinct
+    codes of each level (`codes_used_per_level`; None for the others)."""
     if not tokenizer.discrete:
-        return {"codebook_size": None, "usage": None, "perplexity": None, "codes_used": None}
-    ids = torch.cat([tokenizer.vocabulary_ids(out.codes) for _, out in
-                     _each(tokenizer, trajectories)])
+        return {"codebook_size": None, "usage": None, "perplexity": None, "codes_used": None,
+                "codes_used_per_level": None}
+    codes = [out.codes for _, out in _each(tokenizer, trajectories)]
+    ids = torch.cat([tokenizer.vocabulary_ids(c) for c in codes])
+    levels = [tokenizer.codes_by_level(c) for c in codes]
+    per_level = None if levels[0] is None else [
+        int(torch.cat(level).unique().numel()) for level in zip(*levels, strict=True)]
     return {"codebook_size": tokenizer.codebook_size,
-            **codebook_usage(ids, tokenizer.codebook_size)}
+            **codebook_usage(ids, tokenizer.codebook_size), "codes_used_per_level": per_level}
 
 
 def smoothness(tokenizer: ActionTokenizer, trajectories) -> dict:

@@ -44,9 +44,9 @@ from icil_paper.tokenizers.base import (
     TokenizerOutput,
     activation_class,
     build_encoder,
+    lipschitz_losses,
 )
 from icil_paper.tokenizers.configs import VQConfig
-from icil_paper.tokenizers.lipschitz_linear import lipschitz_loss
 
 STRAIGHT_THROUGH = ("vqvae", "codebook", "none")
 CODEBOOK_INITS = ("uniform", "data")
@@ -122,8 +122,7 @@ class VQTokenizer(ActionTokenizer):
             "codebook": cfg.codebook_weight * F.mse_loss(z_q, z_e.detach()),
             "commitment": cfg.commitment_weight * F.mse_loss(z_e, z_q.detach()),
         }
-        if self.norm in ("lipschitz", "lipschitz-last") and self.lipschitz_weight:
-            losses["lipschitz"] = self.lipschitz_weight * lipschitz_loss(self.encoder)
+        losses.update(lipschitz_losses(self.encoder, cfg))
         if self.training and cfg.dead_code_restart:
             self._restart_dead_codes(z_e.detach(), codes)
         embeddings = z.detach() if cfg.detach_embeddings else z

@@ -1,0 +1,190 @@
+"""`bspline`: B-spline control points of action chunks, BEAST style (Zhou et al. 2025,
+"BEAST: Efficient Tokenization of B-Splines Encoded Action Sequences for Imitation
+Learning").
+
+Per chunk of C steps (C, A), each action dimension is fitted by a clamped cubic B-spline
+with K control points over the chunk's time axis s in [0, 1]:
+
+    knots    t = (0, 0, 0, 0, 1/(K-3), 2/(K-3), ..., 1, 1, 1, 1)      (K + 4 knots, uniform,
+             clamped: the curve starts at the first control point and ends at the last)
+    basis    Phi (C, K), Phi[i, k] = B_k(s_i), s_i = i / (C - 1)   (`BSpline.design_matrix`)
+    fit      P = argmin_P ||Phi P - chunk||^2 = pinv(Phi) chunk          (K, A) least squares
+             (the same as `scipy.interpolate.make_lsq_spline` per dimension; the tests check)
+    quantize codes = round((P - low_a) / (high_a - low_a) * (n_bins - 1))   integers (K, A)
+             in [0, n_bins), low_a / high_a the range of dimension a's control points over
+             the training chunks (`fit`), values outside clipped to it
+    decode   chunk_hat = Phi dequantize(codes)                            (C, A)
+
+`Phi` and `pinv(Phi)` are precomputed (float64 buffers), so encoding is two small matrix
+products in torch. Because every B_k(s) >= 0 and sum_k B_k(s) = 1, a curve moves by at most
+the largest move of its control points: the quantization error of a decoded chunk is at most
+(high_a - low_a) / (2 (n_bins - 1)) per dimension, and a chunk that is itself a cubic
+polynomial in s (any K >= 4 spans the cubics) is fitted exactly, so its round trip is exact
+up to that bound. Smooth chunks that are not cubic are fitted better as K grows.
+
+One embedding per step (what the policy consumes), as `fast` does it: step t is tokenized
+as the chunk of the C actions ending at t (the first steps left-padded with the first
+action), so a step's tokens never see later actions, which a causal policy requires. Its
+K * A tokens each have a learned embedding per (control point, dimension, bin), as `bin`
+has per (dimension, bin), and are averaged into one vector. `reconstruction` is the
+decoded spline at the chunk's last sample, i.e. step t itself (for a clamped spline, the
+last control point); `decode(embeddings)` is a learned MLP head, trained on detached
+embeddings unless `autoencode=True`. `tokens_per_step` counts K * A tokens per C steps
+(BEAST's compression, for non-overlapping chunks).
+
+Deviations from BEAST: plain least squares instead of its ridge-regularised fit (C >= K
+samples at distinct times make the problem well posed); a fixed degree of 3 (BEAST's degree
+is a parameter; cubic is its released processor's default); chunks ending at every step
+instead of consecutive chunks, so BEAST's continuity constraint between chunks (each
+chunk's first control point tied to the previous chunk's last) does not apply; the ranges
+are per action dimension, fitted once on the training data (BEAST normalises its actions
+and can update its bounds while encoding).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from icil_paper.layers import mlp
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.configs import BSplineConfig
+
+DEGREE = 3
+"""Cubic B-splines (the issue's and BEAST's released processor's default)."""
+
+
+def clamped_knots(control_points: int, degree: int = DEGREE) -> np.ndarray:
+    """The uniform clamped knot vector of a B-spline with `control_points` coefficients on [0, 1]."""
+    inner = np.linspace(0.0, 1.0, control_points - degree + 1)
+    return np.concatenate([np.zeros(degree), inner, np.ones(degree)])
+
+
+def basis_matrix(samples: int, control_points: int, degree: int = DEGREE) -> np.ndarray:
+    """Phi (samples, control_points): each basis function at s_i = i / (samples - 1)."""
+    from scipy.interpolate import BSpline
+
+    s = np.linspace(0.0, 1.0, samples)
+    return BSpline.design_matrix(s, clamped_knots(control_points, degree), degree).toarray()
+
+
+class BSplineTokenizer(ActionTokenizer):
+    """Clamped cubic B-spline control points of causal action chunks, quantized to bins
+    (BSplineConfig; see the module docstring)."""
+
+    name = "bspline"
+    discrete = True
+    needs_fit = True
+
+    def __init__(self, config: BSplineConfig, action_dim: int):
+        super().__init__(config, action_dim)
+        chunk, k, n_bins = config.chunk, config.control_points, config.n_bins
+        if not DEGREE + 1 <= k <= chunk:
+            raise ValueError(f"a cubic B-spline needs 4 <= control_points <= chunk, got "
+                             f"control_points={k} and chunk={chunk}")
+        if n_bins < 2:
+            raise ValueError(f"n_bins must be at least 2, got {n_bins}")
+        self.chunk, self.control_points, self.n_bins = int(chunk), int(k), int(n_bins)
+        self.autoencode = config.autoencode
+        self.decode_weight = config.decode_weight
+        phi = basis_matrix(chunk, k)
+        self.register_buffer("basis", torch.from_numpy(phi), persistent=False)  # (C, K)
+        self.register_buffer("fit_matrix", torch.from_numpy(np.linalg.pinv(phi)),
+                             persistent=False)  # (K, C)
+        self.register_buffer("low", torch.full((action_dim,), -1.0, dtype=torch.float64))
+        self.register_buffer("high", torch.full((action_dim,), 1.0, dtype=torch.float64))
+        n_tokens = k * action_dim
+        self.embedding = nn.Embedding(n_tokens * n_bins, config.latent_dim)
+        self.decoder = mlp([config.latent_dim, *config.hidden[::-1], action_dim])
+        # Token id of bin b of (control point k, dimension a) is (k * A + a) * n_bins + b.
+        self.register_buffer("offsets", (torch.arange(n_tokens) * n_bins).view(k, action_dim),
+                             persistent=False)
+
+    # ------------------------------------------------------------------ fitting
+    def _fit(self, trajectories: list[np.ndarray]) -> None:
+        points = torch.cat([self.control_points_of(self._causal_chunks(
+            torch.from_numpy(t)[None]))[0] for t in trajectories])  # (N, K, A)
+        low = points.amin(dim=(0, 1))
+        high = points.amax(dim=(0, 1))
+        flat = high - low < 1e-6  # a constant dimension still gets a non-empty range
+        low[flat] -= 1e-3
+        high[flat] += 1e-3
+        self.low.copy_(low)
+        self.high.copy_(high)
+
+    @property
+    def bin_width(self) -> Tensor:
+        """(A,) the distance between neighbouring bin values of each dimension."""
+        return (self.high - self.low) / (self.n_bins - 1)
+
+    # ------------------------------------------------------------------ chunks
+    def _causal_chunks(self, actions: Tensor) -> Tensor:
+        """(B, T, A) -> (B, T, C, A) float64: the C actions ending at each step."""
+        x = actions.to(self.basis.dtype)
+        padded = torch.cat([x[:, :1].expand(-1, self.chunk - 1, -1), x], dim=1)
+        return padded.unfold(1, self.chunk, 1).transpose(-1, -2)  # (B, T, C, A)
+
+    def control_points_of(self, chunks: Tensor) -> Tensor:
+        """Least-squares control points (..., K, A) of chunks (..., C, A), float64."""
+        return self.fit_matrix @ chunks.to(self.fit_matrix)
+
+    def quantize(self, points: Tensor) -> Tensor:
+        """Control points (..., K, A) -> integer bins (..., K, A) LongTensor in [0, n_bins)."""
+        scaled = (points - self.low) / self.bin_width
+        return scaled.round().clamp(0, self.n_bins - 1).long()
+
+    def dequantize(self, codes: Tensor) -> Tensor:
+        """Bins (..., K, A) -> control point values (..., K, A), float64."""
+        return self.low + codes.to(self.low.dtype) * self.bin_width
+
+    def evaluate(self, points: Tensor) -> Tensor:
+        """The spline of control points (..., K, A) at the chunk's C samples: (..., C, A)."""
+        return self.basis @ points
+
+    def encode_chunks(self, chunks) -> Tensor:
+        """Action chunks (N, C, A) -> codes (N, K, A) (BEAST's discrete tokens)."""
+        chunks = torch.as_tensor(np.asarray(chunks) if not isinstance(chunks, Tensor) else chunks)
+        if chunks.ndim != 3 or tuple(chunks.shape[1:]) != (self.chunk, self.action_dim):
+            raise ValueError(f"chunks must be shaped (N, {self.chunk}, {self.action_dim}), got "
+                             f"{tuple(chunks.shape)}")
+        if not torch.isfinite(chunks).all():
+            raise ValueError("chunks contain NaN or inf values")
+        return self.quantize(self.control_points_of(chunks))
+
+    def decode_codes(self, codes: Tensor) -> Tensor:
+        """Codes (N, K, A) -> decoded chunks (N, C, A), float64."""
+        return self.evaluate(self.dequantize(codes))
+
+    # ------------------------------------------------------------------ forward
+    def _forward(self, actions: Tensor) -> TokenizerOutput:
+        b, t, a = actions.shape
+        codes = self.quantize(self.control_points_of(self._causal_chunks(actions)))  # (B,T,K,A)
+        tokens = self.embedding(codes + self.offsets)  # (B, T, K, A, D)
+        z = tokens.mean(dim=(2, 3))  # (B, T, D)
+        # the decoded spline at the chunk's last sample: step t itself
+        recon = (self.basis[-1] @ self.dequantize(codes)).to(actions.dtype)  # (B, T, A)
+        decoded = self.decoder(z if self.autoencode else z.detach())
+        losses = {"decode": self.decode_weight * F.mse_loss(decoded, actions)}
+        return TokenizerOutput(embeddings=z, reconstruction=recon,
+                               codes=codes.reshape(b, t, -1), losses=losses)
+
+    # ------------------------------------------------------------------ facts
+    @property
+    def context_steps(self) -> int:
+        """`chunk`: step t depends on steps t - chunk + 1 .. t."""
+        return self.chunk
+
+    @property
+    def codebook_size(self) -> int:
+        """K * A * n_bins distinct tokens (one vocabulary per control point and dimension)."""
+        return self.control_points * self.action_dim * self.n_bins
+
+    def vocabulary_ids(self, codes: Tensor) -> Tensor:
+        """Codes (B, T, K * A) as token ids in [0, K * A * n_bins), flattened."""
+        return (codes + self.offsets.flatten()).flatten()
+
+    def tokens_per_step(self, actions=None) -> float:
+        """K * A tokens per chunk of C steps (non-overlapping chunks, BEAST's rate)."""
+        return self.control_points * self.action_dim / self.chunk
