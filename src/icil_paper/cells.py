@@ -4,19 +4,33 @@
     policy = load_trained(spec, preset.name)             # the policy file of that run
 
 The record's config is the run spec's keyed content (`specs.to_dict(spec, keyed_only=True)`),
-so its key is `spec.key()`; it holds the training summary and the loss curve. Where a
-record exists but its run folder has lost the policy file (a fresh clone holds records
-only), the policy is trained again on demand by `load_trained`.
+so its key is `spec.key()`; it holds the training summary and the loss curve, and names the
+SHA-256 of the policy file it stands for (`files`). A stored record is reported only with
+its file: where the run folder's `policy.pt` is missing (a fresh clone holds records only)
+or is not the file the record was written with, the record is stale, the changed file is
+set aside (kept, never deleted) and the run is computed again, resuming from its
+checkpoints (bit for bit the same policy on CPU). A record written before records named
+their files is verified by loading its policy file and comparing the weights' digest with
+the record's `policy_digest`.
+
+The run folder's lock (`train.rundir.run_lock`) is held from that check to the new record,
+so two processes asking for one run train it once: the second waits, then finds the record
+and its file as the first one left them.
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
-from icil_paper.results import ResultsStore
+from icil_paper.results import ResultsStore, files_problem
 from icil_paper.runspec import RunSpec, tasks_tag
 from icil_paper.specs import to_dict
+
+
+class StaleRecordWarning(UserWarning):
+    """A stored record whose files are not the ones it was written with; it is recomputed."""
 
 
 def train_record_name(run: RunSpec) -> str:
@@ -24,19 +38,41 @@ def train_record_name(run: RunSpec) -> str:
     return f"{run.label}__{tasks_tag(run.data.tasks)}__{run.data.source}__seed{run.seed}"
 
 
+def _policy_problem(record: dict[str, Any], folder: Path) -> str | None:
+    """Why `record` does not stand for the policy file in `folder`, or None when it does
+    (by its `files` digest, or for an older record without one, by loading the file)."""
+    from icil_paper.train import POLICY_FILE, load_policy, policy_digest
+
+    path = folder / POLICY_FILE
+    if not path.exists():
+        return f"{POLICY_FILE} is missing"
+    if record.get("files"):
+        return files_problem(record, folder)
+    try:
+        loaded = load_policy(path)
+    except ValueError:  # PolicyFileError: damaged, foreign, or weights off its spec
+        return f"{POLICY_FILE} cannot be read as a policy"
+    if policy_digest(loaded) != record["metrics"].get("policy_digest"):
+        return f"{POLICY_FILE} holds other weights than the record's"
+    return None
+
+
 def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Path | None = None,
               force: bool = False, resume: bool = True, progress: bool = True,
               device: str | None = None, data_workers: int = 1,
               demos: Any = None) -> dict[str, Any]:
-    """The `train` record of `run`, training it first if the store has none (or `force`).
+    """The `train` record of `run`, training it first if the store has none (or `force`),
+    or if the run folder's policy file is not the one the record names (module docstring).
 
     The run folder defaults to `run_dir_for(run, preset)`; training continues from its last
     checkpoint unless `resume=False` (start over).
     """
-    from icil_paper.train import METRICS_FILE, policy_digest, read_metrics, run_dir_for
+    from icil_paper.train import METRICS_FILE, POLICY_FILE, policy_digest, read_metrics, run_dir_for
     from icil_paper.train.loop import finite, train_policy
+    from icil_paper.train.rundir import run_lock, set_aside_damaged
 
     folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset)
+    name, config = train_record_name(run), to_dict(run, keyed_only=True)
 
     def compute() -> dict[str, Any]:
         result = train_policy(run, run_dir=folder, resume=resume, demos=demos, device=device,
@@ -48,19 +84,30 @@ def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Pat
                        action_l1=[x.get("action_l1") for x in lines])
         return finite(metrics)
 
-    return store.run("train", train_record_name(run), to_dict(run, keyed_only=True), compute,
-                     seed=run.seed, force=force)
+    with run_lock(folder):
+        record = None if force else store.get("train", name, config)
+        if record is not None:
+            problem = _policy_problem(record, folder)
+            if problem is None:
+                return record
+            if (folder / POLICY_FILE).exists():
+                set_aside_damaged(folder / POLICY_FILE, "not the file its train record names")
+            warnings.warn(f"the stored train record {name} is stale: in {folder}, {problem}; "
+                          "computing it again (from the run's checkpoints where they are "
+                          "whole)", StaleRecordWarning, stacklevel=2)
+        return store.run("train", name, config, compute, seed=run.seed, force=True,
+                         files=lambda: {POLICY_FILE: folder / POLICY_FILE})
 
 
 def load_trained(run: RunSpec, preset: str, store: ResultsStore | None = None,
                  progress: bool = True, device: str | None = None, data_workers: int = 1):
-    """The trained policy of `run`: its policy file, trained (and recorded) if missing."""
-    from icil_paper.train import POLICY_FILE, load_policy, run_dir_for
+    """The trained policy of `run`: its policy file, as its `train` record names it (trained,
+    or trained again, and recorded where it is missing or stale: `train_run`)."""
+    from icil_paper.train import load_policy, run_dir_for
+    from icil_paper.train.rundir import run_lock
 
     folder = run_dir_for(run, preset)
-    if not (folder / POLICY_FILE).exists():
-        store = store or ResultsStore(preset)
-        train_run(run, preset, store, force=store.get("train", train_record_name(run),
-                                                      to_dict(run, keyed_only=True)) is not None,
-                  progress=progress, device=device, data_workers=data_workers)
-    return load_policy(folder, map_location=device or "cpu")
+    with run_lock(folder):  # the file checked is the file loaded
+        train_run(run, preset, store or ResultsStore(preset), progress=progress,
+                  device=device, data_workers=data_workers)
+        return load_policy(folder, map_location=device or "cpu")

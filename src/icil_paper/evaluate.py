@@ -407,14 +407,28 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _check_outputs(run: Any, policy: Any, tasks: Sequence[str], prompt_source: str,
+                   preset: Any) -> None:
+    """Refuse, before any rollout, a results store (and, where a prompt data set must be
+    generated, a data folder) that this process cannot write to."""
+    from icil_paper.data.generate import DATA_ENV_VAR, demo_path
+    from icil_paper.fileio import check_env_folder
+    from icil_paper.results import RESULTS_ENV_VAR
+
+    check_env_folder(RESULTS_ENV_VAR, "results")
+    if policy.uses_prompt and not all(demo_path(preset, t, prompt_source, run.data.obs).exists()
+                                      for t in tasks):
+        check_env_folder(DATA_ENV_VAR, "data")
+
+
 def main(argv: list[str] | None = None) -> int:
     """`icil-paper eval`: evaluate a trained run on each task; one `eval` record per task."""
     from icil_paper.cli import preset_from_args
     from icil_paper.registry import check_name
     from icil_paper.results import ResultsStore, results_root
-    from icil_paper.runspec import RunSpec, eval_spec, run_spec
+    from icil_paper.runspec import eval_spec, run_spec
     from icil_paper.sim import all_tasks
-    from icil_paper.train.rundir import CONFIG_FILE, load_policy, run_dir_for
+    from icil_paper.train.rundir import CONFIG_FILE, load_policy, read_run_spec, run_dir_for
 
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
@@ -426,7 +440,7 @@ def main(argv: list[str] | None = None) -> int:
         config_path = run_dir / CONFIG_FILE
         if not config_path.exists():
             raise FileNotFoundError(f"{run_dir} is not a training run folder (no {CONFIG_FILE})")
-        run = RunSpec.from_dict(json.loads(config_path.read_text())["spec"])
+        run = read_run_spec(run_dir)
     else:
         train_tasks = args.train_tasks or list(getattr(preset.data, f"{args.suite}_tasks"))
         run = run_spec(preset, args.policy, args.tokenizer, tasks=train_tasks, source=args.source)
@@ -435,6 +449,7 @@ def main(argv: list[str] | None = None) -> int:
     tasks = args.tasks or list(run.data.tasks)
     for task in tasks:  # before any prompt data set is generated or env started
         check_policy_fits(policy, task)
+    _check_outputs(run, policy, tasks, args.prompt_source, preset)
     store = ResultsStore(preset.name)
     workers = args.workers or preset.eval.workers
     record_dir = results_root() / preset.name / "recordings" if args.record else None

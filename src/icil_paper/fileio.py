@@ -2,18 +2,32 @@
 
     atomic_write_json(path, obj)     # temporary file in the same folder, fsync, rename
     aside = set_aside(path)          # `<name>.corrupt-<time>[-k]` beside it, never overwritten
+    config = read_json(path, "a run config", fix="train the run again")   # one-line errors
+    with exclusive_lock(folder / ".lock"):   # one writer at a time, across processes
+        ...
+    check_env_folder("ICIL_RESULTS", "results")   # writable? before any work, not after
 
-Used by the results store, run folders and data sets alike.
+Used by the results store, run folders and data sets alike. Every file a command reads is
+opened through `load_file` (or `read_json`, built on it): whatever a truncated, damaged,
+foreign or unreadable file raises becomes one `UnreadableFileError` (a ValueError) naming
+the file, what it should be and the fix, which the command line prints as one line.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import pickle
+import socket
+import sys
 import tempfile
+import threading
+import zipfile
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from icil_paper.specs import json_default
 
@@ -74,6 +88,17 @@ def atomic_write_json(path: Path, obj: Any) -> None:
     atomic_write_bytes(Path(path), (text + "\n").encode())
 
 
+def file_sha256(path: str | Path) -> str:
+    """The SHA-256 of a file's bytes, 64 hex digits (what records name their files by)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def reserve_aside_name(path: Path, is_dir: bool = False) -> Path:
     """Create, exclusively, an empty `<name>.corrupt-<time>[-k]` beside `path`.
 
@@ -116,3 +141,207 @@ def set_aside(path: Path, folder: Path | None = None) -> Path | None:
             return None
         raise
     return aside
+
+
+# --------------------------------------------------------------------------- output folders
+class FolderNotWritableError(PermissionError):
+    """An output folder this process cannot write to; the message names it and the fix."""
+
+
+def check_writable(path: Path, where: str | None = None, fix: str = "") -> None:
+    """Refuse, before any work, an output folder that this process cannot write to.
+
+    The folder need not exist yet: the nearest existing folder above it must take a new
+    entry. That is tried with a temporary file, removed at once, so nothing is created
+    (a mode check would miss read-only mounts, ACLs and root's exemptions). `where` names
+    the folder in the message (default: its path), e.g. `$ICIL_RESULTS=/mnt/results`.
+    Raises FolderNotWritableError (a PermissionError), or NotADirectoryError when a file
+    stands where a folder should.
+    """
+    path = Path(os.path.abspath(path))
+    where = where or str(path)
+    probe = path
+    while True:
+        try:
+            if probe.exists() or probe == probe.parent:
+                break
+        except OSError:  # no permission to look: writing there fails the same way
+            break
+        probe = probe.parent
+    if probe.exists() and not probe.is_dir():
+        raise NotADirectoryError(f"{where}: {probe} is a file, not a folder; {fix}".rstrip("; "))
+    try:
+        fd, tmp = tempfile.mkstemp(dir=probe, prefix=".write-test-")
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise FolderNotWritableError(f"cannot write to {where} ({exc.strerror or exc}); "
+                                     f"{fix}".rstrip("; ")) from None
+
+
+def check_env_folder(var: str, default: str) -> Path:
+    """`folder_from_env(var, default)`, refused by `check_writable` (naming $`var` and how
+    to change it) when this process cannot write there."""
+    path = folder_from_env(var, default)
+    value = os.environ.get(var, "").strip()
+    where = f"${var}={value}" if value else f"{path} (${var} is not set)"
+    fix = f"point ${var} at a folder this user can write to" + (
+        f", or unset it for {default}/" if value else "")
+    check_writable(path, where, fix)
+    return path
+
+
+# --------------------------------------------------------------------------- reading files
+T = TypeVar("T")
+
+
+class UnreadableFileError(ValueError):
+    """A file that cannot be read as what it should be (truncated, damaged, of another
+    format, or not readable by this user); the message names the file, what it should be
+    and the fix."""
+
+
+READ_ERRORS: tuple[type[BaseException], ...] = (
+    OSError, EOFError, ValueError, RuntimeError, KeyError, IndexError, TypeError,
+    AttributeError, pickle.UnpicklingError, zipfile.BadZipFile)
+"""What parsers raise on a bad file. A truncated torch file alone can raise RuntimeError
+(no zip directory), EOFError (empty) or OSError (EINVAL: a seek before its start); torn
+JSON raises ValueError, a refused pickle UnpicklingError."""
+
+
+def _detail(exc: BaseException) -> str:
+    text = (str(exc).splitlines() or [""])[0][:80]
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def load_file(path: str | Path, parse: Callable[[Path], T], what: str, fix: str,
+              error: type[UnreadableFileError] = UnreadableFileError) -> T:
+    """`parse(path)`, with what a bad file makes it raise turned into one error.
+
+    what: what the file should be ("a run config"), fix: what to do ("train it again").
+    A missing file raises FileNotFoundError; a folder, an unreadable, truncated, damaged
+    or foreign file raises `error` (an UnreadableFileError), each naming the file, the
+    problem and the fix in one line. An UnreadableFileError that `parse` raises itself
+    (a format check) passes through as it is.
+    """
+    path = Path(path)
+    try:
+        return parse(path)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such file; {fix}") from None
+    except IsADirectoryError:
+        raise error(f"{path} is a folder, not {what}; {fix}") from None
+    except PermissionError as exc:
+        raise error(f"cannot read {path} ({exc.strerror or exc}): give this user read "
+                    f"access to it, or {fix}") from None
+    except UnreadableFileError:
+        raise
+    except READ_ERRORS as exc:
+        raise error(f"{path} is damaged or not {what} ({_detail(exc)}); {fix}") from None
+
+
+def read_json(path: str | Path, what: str, fix: str, keys: Sequence[str] = (),
+              error: type[UnreadableFileError] = UnreadableFileError) -> Any:
+    """The JSON in `path`, read through `load_file`; with `keys`, it must be an object
+    holding each of them."""
+    def parse(p: Path) -> Any:
+        obj = json.loads(p.read_bytes().decode("utf-8"))
+        if keys:
+            if not isinstance(obj, dict):
+                raise ValueError(f"it holds a JSON {type(obj).__name__}, not an object")
+            missing = [k for k in keys if k not in obj]
+            if missing:
+                raise KeyError(f"it has no {', '.join(repr(k) for k in missing)}")
+        return obj
+
+    return load_file(path, parse, what, fix, error)
+
+
+# --------------------------------------------------------------------------- one writer
+class LockedError(RuntimeError):
+    """A lock that another process holds, asked for without waiting."""
+
+
+_HELD: dict[str, list[Any]] = {}
+"""Locks this process holds: path -> [thread lock, file descriptor, depth]."""
+_HELD_GUARD = threading.Lock()
+
+
+@contextmanager
+def exclusive_lock(path: str | Path, what: str = "", wait: bool = True) -> Iterator[None]:
+    """Hold an exclusive lock on the file `path` while the block runs: one holder at a time
+    across processes (`fcntl.flock`) and threads; the holding thread may take it again.
+
+    The file is created for the lock and removed as it is released, so no lock file is
+    left behind; a waiter that finds its file removed or replaced tries again. It holds the
+    holder's pid, host and command line, which a waiter names on stderr once ("waiting for
+    pid 123 on host (icil-paper train ...), which holds <what>"). A holder that dies
+    releases the lock with its process, so a killed run never blocks the next one. With
+    `wait=False` a lock held elsewhere raises LockedError naming the holder.
+    """
+    key = os.path.abspath(path)
+    with _HELD_GUARD:
+        entry = _HELD.setdefault(key, [threading.RLock(), None, 0])
+    if not entry[0].acquire(blocking=wait):
+        raise LockedError(f"{what or key} is in use by another thread of this process")
+    try:
+        if entry[2] == 0:
+            entry[1] = _acquire(Path(key), what or key, wait)
+        entry[2] += 1
+        try:
+            yield
+        finally:
+            entry[2] -= 1
+            if entry[2] == 0:
+                fd, entry[1] = entry[1], None
+                try:
+                    Path(key).unlink(missing_ok=True)  # before letting go: see above
+                finally:
+                    os.close(fd)
+    finally:
+        entry[0].release()
+
+
+def _holder(path: Path) -> str:
+    try:
+        return path.read_text(errors="replace").strip() or "another process"
+    except OSError:
+        return "another process"
+
+
+def _acquire(path: Path, what: str, wait: bool) -> int:
+    import fcntl
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    told = False
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = _holder(path)
+                if not wait:
+                    raise LockedError(f"{what} is in use by {holder}; wait for it to finish, "
+                                      "or stop it") from None
+                if not told:
+                    print(f"waiting for {holder}, which holds {what}", file=sys.stderr,
+                          flush=True)
+                    told = True
+                fcntl.flock(fd, fcntl.LOCK_EX)
+            try:
+                st = os.stat(path)
+                current = (st.st_dev, st.st_ino) == (os.fstat(fd).st_dev, os.fstat(fd).st_ino)
+            except FileNotFoundError:
+                current = False
+            if current:
+                command = " ".join(Path(a).name if i == 0 else a
+                                   for i, a in enumerate(sys.argv))[:200]
+                os.ftruncate(fd, 0)
+                os.write(fd, f"pid {os.getpid()} on {socket.gethostname()} ({command})\n"
+                         .encode())
+                return fd
+        except BaseException:
+            os.close(fd)
+            raise
+        os.close(fd)  # the previous holder removed the file as it let go: lock the new one

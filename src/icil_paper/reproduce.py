@@ -60,7 +60,9 @@ STAGES: tuple[Stage, ...] = (
           ("prompt", "prompt ablation: right, wrong and truncated prompts", "10"),
           ("VII", "Table VII: zero-shot on held-out kitchen tasks", "10"),
           ("II", "Table II: ACT with each tokenizer on ManiSkill", "07"),
-          ("analysis", "is it smoothness? Lipschitz, scale and collapse variants", "11"))),
+          ("analysis", "is it smoothness? Lipschitz, scale and collapse variants", "11"),
+          ("beyond", "tokenizers since the paper: FSQ, residual VQ, B-splines, with and "
+                     "without Eq. 4", "12"))),
     Stage("claims", "the claims ledger: every claim with its verdict (chapter 00)",
           "icil_paper.reproduce:claims_stage"),
 )
@@ -97,8 +99,8 @@ def _table_stage(table_id: str):
 
 table_I, table_II, table_III, table_IV, table_V, table_VI, table_VII = (
     _table_stage(t) for t in ("I", "II", "III", "IV", "V", "VI", "VII"))
-table_fig5, table_prompt, table_analysis = (_table_stage(t) for t in ("fig5", "prompt",
-                                                                       "analysis"))
+table_fig5, table_prompt, table_analysis, table_beyond = (
+    _table_stage(t) for t in ("fig5", "prompt", "analysis", "beyond"))
 
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
@@ -132,8 +134,24 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
     return timings
 
 
+def check_outputs(preset: Preset) -> None:
+    """Refuse, before any stage, output folders this process cannot write to: the results
+    store, the run folders and, when a data set of the preset is missing, the data folder."""
+    from icil_paper.data.generate import DATA_ENV_VAR, demo_path
+    from icil_paper.fileio import check_env_folder
+    from icil_paper.results import RESULTS_ENV_VAR
+    from icil_paper.train.rundir import RUNS_ENV_VAR
+
+    check_env_folder(RESULTS_ENV_VAR, "results")
+    check_env_folder(RUNS_ENV_VAR, "runs")
+    tasks = tuple(preset.data.kitchen_tasks) + tuple(preset.data.maniskill_tasks)
+    if not all(demo_path(preset, t, s).exists() for t in tasks for s in preset.data.sources):
+        check_env_folder(DATA_ENV_VAR, "data")
+
+
 def main(argv: list[str] | None = None) -> int:
     from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
+    from icil_paper.config import check_tasks
 
     parser = Parser(prog="icil-paper reproduce", description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
@@ -153,12 +171,23 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not 0 <= args.gpus_per_cell <= 64:
         parser.error(f"--gpus-per-cell must be between 0 and 64, got {args.gpus_per_cell}")
+    if args.ray_address is not None:
+        if not args.ray_address.strip():
+            parser.error("--ray-address is empty: give the Ray head as HOST:PORT (e.g. "
+                         "--ray-address 127.0.0.1:6379) or `auto`, or leave it out to start a "
+                         "local Ray")
+        if args.executor != "ray":
+            parser.error(f"--ray-address {args.ray_address} is for --executor ray (this run's "
+                         f"executor is {args.executor}): add --executor ray to run the cells "
+                         "on that cluster, or leave --ray-address out")
     preset = preset_from_args(args)
+    check_tasks(preset)
     if args.stages:
         from icil_paper.registry import check_name
 
         for name in args.stages:
             check_name("stage", name, [s.name for s in STAGES])
+    check_outputs(preset)
     if args.executor == "ray" and args.ray_address:
         from icil_paper.grid import check_reachable
 

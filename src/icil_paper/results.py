@@ -7,7 +7,15 @@ hash already has a valid record is skipped unless forced; a corrupt record (unre
 incomplete, tampered with, or holding a NaN or infinite metric) is reported, moved aside
 under a name no other file has (never deleted, never overwriting an earlier one) and
 recomputed. Several processes may read the store at once: when two of them find the same
-corrupt record, one sets it aside and the other treats it as missing.
+corrupt record, one sets it aside and the other treats it as missing. One process computes
+a record at a time: `run` holds the record's lock (`fileio.exclusive_lock` on
+`.<name>__<hash>.lock` beside it) while it computes, so a second process asking for the
+same record waits and then reads the one the first wrote.
+
+A record that stands for files (a `train` record for its `policy.pt`) names them with their
+SHA-256 in `files` (`run(..., files=...)`); `files_problem` says when one is missing or
+changed, and the caller then recomputes rather than report a record whose file is not the
+one it describes (`cells.train_run`).
 
     store = ResultsStore("small")
     record = store.run("tokenizer", "lipvq", config, lambda: {"recon_mse": 0.01})
@@ -27,7 +35,13 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from icil_paper.fileio import atomic_write_json, folder_from_env, set_aside
+from icil_paper.fileio import (
+    atomic_write_json,
+    exclusive_lock,
+    file_sha256,
+    folder_from_env,
+    set_aside,
+)
 from icil_paper.provenance import git_state, host_info, package_versions
 from icil_paper.specs import canonical_json, content_hash
 
@@ -70,6 +84,11 @@ class ResultsStore:
 
     def path_for(self, kind: str, name: str, chash: str) -> Path:
         return self.dir / _slug(kind) / f"{_slug(name)}__{chash}.json"
+
+    def lock(self, kind: str, name: str, config: Mapping[str, Any]):
+        """The lock of one record (`fileio.exclusive_lock`): its one writer at a time."""
+        path = self.path_for(kind, name, config_hash(config))
+        return exclusive_lock(path.with_name(f".{path.stem}.lock"), what=f"the record {path}")
 
     def get(self, kind: str, name: str, config: Mapping[str, Any]) -> dict[str, Any] | None:
         """The valid record of this run, or None (a corrupt one is reported and set aside)."""
@@ -115,21 +134,34 @@ class ResultsStore:
 
     def run(self, kind: str, name: str, config: Mapping[str, Any],
             compute: Callable[[], Mapping[str, Any]], seed: int | None = None,
-            force: bool = False) -> dict[str, Any]:
+            force: bool = False,
+            files: Callable[[], Mapping[str, str | Path]] | None = None) -> dict[str, Any]:
         """Return the stored record of this run, or compute it, store it and return it.
 
         `compute()` returns the metrics. If it raises, nothing is written, so an existing
-        good record (when forced) is left as it was.
+        good record (when forced) is left as it was. The computation holds the record's
+        lock (`lock`): a process that finds another computing the same record waits for it
+        and returns what it stored. `files()`, called after `compute`, names the files the
+        record stands for ({name: path}); the record keeps their SHA-256 under `files`.
         """
         if not force:
             record = self.get(kind, name, config)
             if record is not None:
                 return record
-        if seed is None:
-            seed = int(config.get("seed", 0)) if isinstance(config, Mapping) else 0
-        start = time.perf_counter()
-        metrics = compute()
-        path = self.write(kind, name, config, metrics, seed, time.perf_counter() - start)
+        with self.lock(kind, name, config):
+            if not force:  # another process may have stored it while this one waited
+                record = self.get(kind, name, config)
+                if record is not None:
+                    return record
+            if seed is None:
+                seed = int(config.get("seed", 0)) if isinstance(config, Mapping) else 0
+            start = time.perf_counter()
+            metrics = compute()
+            extra = None
+            if files is not None:
+                extra = {"files": {str(k): file_sha256(v) for k, v in files().items()}}
+            path = self.write(kind, name, config, metrics, seed, time.perf_counter() - start,
+                              extra)
         return json.loads(path.read_text())
 
     def records(self, kind: str | None = None) -> list[dict[str, Any]]:
@@ -173,11 +205,39 @@ class ResultsStore:
             return
         if identity is not None and (st.st_dev, st.st_ino) != identity:
             return
-        aside = set_aside(path)
+        try:
+            aside = set_aside(path)
+        except OSError as exc:  # a read-only store (`icil-paper tables` on a mount)
+            warnings.warn(f"corrupt result {path}: {problem}; it is skipped (it could not be "
+                          f"moved aside: {exc.strerror or exc})", CorruptRecordWarning,
+                          stacklevel=3)
+            return
         if aside is None:  # lost the race to another process
             return
         warnings.warn(f"corrupt result {path}: {problem}; moved to {aside.name} and it will "
                       "be recomputed", CorruptRecordWarning, stacklevel=3)
+
+
+def files_problem(record: Mapping[str, Any], folder: str | Path) -> str | None:
+    """Why the files a record stands for are not the ones it was written with, or None.
+
+    The record's `files` ({name: SHA-256}) are looked up in `folder`: a missing file, or one
+    whose bytes hash otherwise, is named. A record without `files` (written before records
+    named their files) gives None here: it is accepted as far as this check goes, and its
+    caller verifies it by loading (a `train` record: its policy's weight digest,
+    `cells.train_run`).
+    """
+    for name, digest in (record.get("files") or {}).items():
+        try:
+            found = file_sha256(Path(folder) / name)
+        except FileNotFoundError:
+            return f"{name} is missing"
+        except OSError as exc:
+            return f"{name} cannot be read ({exc.strerror or exc})"
+        if found != digest:
+            return (f"{name} is not the file the record was written with (SHA-256 "
+                    f"{found[:12]}.., the record's {str(digest)[:12]}..)")
+    return None
 
 
 def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,

@@ -21,15 +21,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from icil_paper.config import Preset, TrainConfig
+from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig
 from icil_paper.policies.configs import PolicyConfig
-from icil_paper.specs import from_dict, spec_key, to_dict
+from icil_paper.specs import check_fields, from_dict, spec_key, to_dict
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 
 @dataclass(frozen=True)
 class DataSpec:
     """The demonstrations a policy is trained on."""
+
+    CHOICES = {"obs": OBS_KINDS, "source": (*DEMO_SOURCES, "file")}
 
     tasks: tuple[str, ...]
     """Task names (`icil_paper.sim`); one policy is trained on all of them."""
@@ -47,6 +49,9 @@ class DataSpec:
     """The SHA-256 of `dataset` (so that a changed file is a different run)."""
     obs_keys: tuple[str, ...] | None = None
     """`dataset` only: the observation keys read from it (None: the documented default)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)  # a task list, a source, an observation kind: before any work
 
 
 @dataclass(frozen=True)
@@ -89,6 +94,8 @@ class RunSpec:
 class EvalSpec:
     """Rollouts of one trained policy on one task."""
 
+    CHOICES = {"prompt_source": DEMO_SOURCES}
+
     task: str
     """The task rolled out."""
     episodes: int
@@ -104,6 +111,9 @@ class EvalSpec:
     ablation: does the prompt carry the task?)."""
     prompt_steps: int | None = None
     """Keep only the first this many steps of each prompt demonstration (None: whole)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     def to_dict(self) -> dict[str, Any]:
         return to_dict(self)

@@ -15,6 +15,11 @@ A field that cannot change a result (how many worker processes, how often to log
 declared with `field(..., metadata=NOT_KEYED)` and left out of `spec_key`; every other field
 is in it, so a changed knob never returns a stale result. `tests/test_specs.py` walks every
 field of every config and checks this.
+
+Every config checks its own values when it is built (its `__post_init__` calls
+`check_fields`): numbers in range, no empty string or list where a value is needed, strings
+among the field's `CHOICES`. So a bad value, from `--set` or from code, fails before any
+work, and the checks change no key (they read the fields, never set them).
 """
 
 from __future__ import annotations
@@ -40,6 +45,11 @@ class OverrideError(ValueError):
     """A `--set PATH=VALUE` that names no field or gives a value of the wrong type."""
 
 
+class ConfigError(ValueError):
+    """A config value that no component can use (out of range, empty, or two fields that
+    do not fit together), refused when the config is built; the message names the field."""
+
+
 # --------------------------------------------------------------------------- docs
 @functools.cache
 def field_docs(cls: type) -> dict[str, str]:
@@ -62,6 +72,7 @@ def field_docs(cls: type) -> dict[str, str]:
 
 
 # --------------------------------------------------------------------------- types
+@functools.cache
 def _hints(cls: type) -> dict[str, Any]:
     return typing.get_type_hints(cls)
 
@@ -305,25 +316,33 @@ def with_overrides(obj: Any, overrides: Sequence[str]) -> Any:
                 and value is not None:
             value = [value]  # `--set data.sources=human` on a tuple field
         try:
-            obj = replace_path(obj, path, value)
+            try:
+                obj = replace_path(obj, path, value)
+            except OverrideError:
+                raise
+            except ValueError:  # refused by a config's own check: name the range by the path
+                check_range(path, value, annotation)
+                raise
             check_range(path, value, annotation)
-        except OverrideError as exc:
+        except ValueError as exc:  # OverrideError, ConfigError, UnknownNameError
             raise OverrideError(f"--set {text}: {exc}") from None
     return obj
 
 
 ZERO_ALLOWED = frozenset({"seed", "expert_seeds", "dead_code_restart", "warmup_steps",
-                          "cpu_threads", "pretrain_steps"})
+                          "cpu_threads", "pretrain_steps", "query_len"})
 """Integer fields for which 0 means something (no restarts, no warm-up, torch's thread
-count, ...); every other integer field counts things and must be at least 1."""
+count, whole-episode queries, ...); every other integer field counts things and must be at
+least 1."""
 MORE_THAN_ZERO = frozenset({"lr", "pretrain_lr", "scale", "c_init", "grad_clip"})
 """Float fields that must be above 0 (other floats, weights and rates, may be 0)."""
 BELOW_ONE = frozenset({"dropout", "eval_fraction", "ema_decay", "betas"})
 """Fractions: below 1 (and at least 0)."""
 
 
-def check_range(path: str, value: Any, annotation: Any = None) -> None:
-    """Refuse a number no config field can take (OverrideError naming the range): every
+def check_range(path: str, value: Any, annotation: Any = None,
+                error: type[ValueError] = OverrideError) -> None:
+    """Refuse a number no config field can take (`error` naming the range): every
     number is finite and not negative; an integer field (by `annotation`) counts something
     and is at least 1, except those of `ZERO_ALLOWED`; the fields of `MORE_THAN_ZERO` are
     above 0 and those of `BELOW_ONE` below 1."""
@@ -333,13 +352,59 @@ def check_range(path: str, value: Any, annotation: Any = None) -> None:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             continue
         if not math.isfinite(v) or v < 0:
-            raise OverrideError(f"{path} must be a finite number >= 0, got {v}")
+            raise error(f"{path} must be a finite number >= 0, got {v}")
         if counts and v < 1:
-            raise OverrideError(f"{path} counts something and must be at least 1, got {v}")
+            raise error(f"{path} counts something and must be at least 1, got {v}")
         if name in MORE_THAN_ZERO and v <= 0:
-            raise OverrideError(f"{path} must be above 0, got {v}")
+            raise error(f"{path} must be above 0, got {v}")
         if name in BELOW_ONE and v >= 1:
-            raise OverrideError(f"{path} is a fraction and must be below 1, got {v}")
+            raise error(f"{path} is a fraction and must be below 1, got {v}")
+
+
+EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks"})
+"""Tuple fields that may be empty (an MLP without hidden layers, a preset without ManiSkill
+tasks); every other tuple field, and every string field, needs a value."""
+
+
+def field_choices(cls: type) -> dict[str, tuple[str, ...]]:
+    """{field name: its valid strings} of a config class: the `CHOICES` class attribute of
+    the class and of its bases (a subclass that redeclares a field keeps its choices)."""
+    out: dict[str, tuple[str, ...]] = {}
+    for klass in reversed(cls.__mro__):
+        out.update(vars(klass).get("CHOICES", {}))
+    return out
+
+
+def check_fields(obj: Any) -> None:
+    """The checks every config's `__post_init__` makes of its own fields, naming
+    `Class.field`: numbers by `check_range`'s rules (ConfigError); no empty string, and no
+    empty tuple but those of `EMPTY_ALLOWED` (ConfigError); a string (or each string of a
+    tuple) among the field's `field_choices` (UnknownNameError, with a "did you mean").
+    None passes (where a field takes None, it means "not set"); nested configs check
+    themselves when they are built."""
+    from icil_paper.registry import check_name
+
+    cls = type(obj)
+    hints = _hints(cls)
+    choices = field_choices(cls)
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if value is None or dataclasses.is_dataclass(value):
+            continue
+        where = f"{cls.__name__}.{f.name}"
+        check_range(where, value, hints.get(f.name), error=ConfigError)
+        many = isinstance(value, (list, tuple))
+        if many and not value and f.name not in EMPTY_ALLOWED:
+            raise ConfigError(f"{where} needs at least one value, got an empty list")
+        valid = choices.get(f.name)
+        for item in value if many else [value]:
+            if not isinstance(item, str):
+                continue
+            if not item.strip():
+                one_of = f" (one of {', '.join(valid)})" if valid else ""
+                raise ConfigError(f"{where} needs a value{one_of}, got an empty string")
+            if valid is not None:
+                check_name(where, item, valid)
 
 
 def _integer_field(annotation: Any) -> bool:

@@ -19,12 +19,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from icil_paper.specs import ConfigError, check_fields
+
 
 @dataclass(frozen=True)
 class PolicyConfig:
     """Sizes every policy shares: the transformer and the observation backbone."""
 
     type: ClassVar[str] = ""
+    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"query_start": ("random", "episode_start")}
 
     d_model: int = 128
     """Token width."""
@@ -39,6 +42,13 @@ class PolicyConfig:
     language: bool = False
     """Add a learned hashed bag-of-words embedding of the instruction to every observation
     token (stands in for CLIP, which cannot be downloaded here)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)  # ranges, empty values, CHOICES: before any work
+        if self.d_model % self.n_head:
+            raise ConfigError(f"{type(self).__name__}.d_model ({self.d_model}) must be a "
+                              f"multiple of n_head ({self.n_head}): each attention head gets "
+                              "d_model / n_head channels")
 
     @property
     def name(self) -> str:
@@ -65,7 +75,8 @@ class ICRTConfig(PolicyConfig):
     ICRT's code does); False gives Eq. 1 literally (query observations only)."""
     query_len: int = 32
     """Query steps per training sequence; 0 trains on whole episodes from step 0 (the
-    window the policy acts with)."""
+    window the policy acts with, whatever `query_start` says; the longest episode's
+    tokens, with its prompt, must then fit in `max_seq_len`)."""
     query_start: str = "random"
     """Where a training query window starts in its episode: `random` (uniform over the
     episode) or `episode_start` (always step 0, as rollouts do)."""

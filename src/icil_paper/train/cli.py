@@ -46,8 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
 def spec_from_args(args: argparse.Namespace, preset):
     """(RunSpec, preset, demos or None) the arguments describe; every name is checked
     before any work (demos are read here only for --dataset, to name its tasks)."""
-    import hashlib
-
+    from icil_paper.fileio import file_sha256
     from icil_paper.registry import check_name
     from icil_paper.runspec import run_spec
     from icil_paper.sim import all_tasks
@@ -62,9 +61,10 @@ def spec_from_args(args: argparse.Namespace, preset):
 
         demos = load_dataset_file(path, obs_keys=args.obs_keys)
         tasks = sorted({str(getattr(d, "task", "")) or path.stem for d in demos})
+        check_dataset_widths(path, demos)
         spec = run_spec(preset, args.policy, args.tokenizer, tasks=tasks, source=args.source,
                         obs=args.obs)
-        digest = hashlib.sha256(path.read_bytes()).hexdigest()
+        digest = file_sha256(path)
         data = spec.data.__class__(tasks=tuple(tasks), source="file", obs=spec.data.obs,
                                    demos_per_task=len(demos), seed=0, dataset=str(path.resolve()),
                                    dataset_sha256=digest,
@@ -78,6 +78,54 @@ def spec_from_args(args: argparse.Namespace, preset):
                     obs=args.obs), preset, None
 
 
+def check_dataset_widths(path: Path, demos) -> None:
+    """Refuse, before training, a data set whose action or state widths differ from those
+    of the registered task its demos name (ValueError naming both): a policy trained on it
+    could not act in that task. Demos of a task this library does not know (a file's own
+    name, say) are not checked."""
+    from icil_paper import sim
+
+    known = set(sim.all_tasks())
+    for demo in demos:
+        task = str(getattr(demo, "task", ""))
+        if task not in known:
+            continue
+        width = int(demo.actions.shape[1])
+        if width != sim.ACTION_DIM:
+            raise ValueError(f"--dataset {path}: its demos of {task} have {width}-dimensional "
+                             f"actions but {task} takes {sim.ACTION_DIM}-dimensional ones; "
+                             "pass a data set of that task, or one that names no task of "
+                             "this library")
+        suite = sim.suite_of(task)
+        state = sum(int(demo.obs[k].shape[1]) for k in ("proprio", "object") if k in demo.obs)
+        expected = int(sum(sim.obs_dims(suite)))
+        if state and state != expected:
+            raise ValueError(f"--dataset {path}: its demos of {task} have {state}-dimensional "
+                             f"state (proprio + object) but {task} ({suite} suite) gives "
+                             f"{expected}; pass --obs-keys that pick that state, or a data "
+                             "set that names no task of this library")
+
+
+def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -> None:
+    """Refuse, before any work, output folders this process cannot write to: the run
+    folder, the results store and, when a data set must be generated, the data folder."""
+    from icil_paper.data.generate import DATA_ENV_VAR, demo_path
+    from icil_paper.fileio import check_env_folder, check_writable
+    from icil_paper.results import RESULTS_ENV_VAR
+    from icil_paper.train.rundir import RUNS_ENV_VAR
+
+    if explicit_run_dir:
+        check_writable(run_dir, f"--run-dir {run_dir}", "pass another --run-dir")
+    else:
+        check_env_folder(RUNS_ENV_VAR, "runs")
+        check_writable(run_dir, f"the run folder {run_dir}", "set $ICIL_RUNS or pass --run-dir")
+    check_env_folder(RESULTS_ENV_VAR, "results")
+    data = spec.data
+    if data.dataset is None and not all(demo_path(preset, t, data.source, data.obs).exists()
+                                        for t in data.tasks):
+        check_env_folder(DATA_ENV_VAR, "data")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Train (or find trained), write the run folder and a `train` record; say where."""
     from icil_paper.cells import train_run
@@ -88,9 +136,10 @@ def main(argv: list[str] | None = None) -> int:
     preset = preset_from_args(args)
     spec, preset, demos = spec_from_args(args, preset)
     run_dir = Path(args.run_dir) if args.run_dir else run_dir_for(spec, preset.name)
-    have_policy = (run_dir / POLICY_FILE).exists()
+    check_outputs(spec, preset, run_dir, explicit_run_dir=bool(args.run_dir))
+    # a stored record is reused only with the policy file it names (`train_run`)
     record = train_run(spec, preset.name, ResultsStore(preset.name), run_dir=run_dir,
-                       force=args.no_resume or not have_policy, resume=not args.no_resume,
+                       force=args.no_resume, resume=not args.no_resume,
                        progress=not args.quiet, device=args.device,
                        data_workers=preset.data.workers, demos=demos)
     m = record["metrics"]

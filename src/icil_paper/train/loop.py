@@ -16,10 +16,13 @@ What one run does, in order:
 4. Every `ckpt_every` steps and at the end, a checkpoint (`rundir.py`). With `resume=True`
    a run continues from it; on CPU the result is bit for bit that of an uninterrupted run
    (a test checks it). Metrics go to `metrics.jsonl`, the trained policy to `policy.pt`.
+   The whole run holds the folder's lock (`rundir.run_lock`): a second process training
+   the same folder waits, then resumes from the finished run without training a step.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -120,9 +123,11 @@ def train_policy(spec: Any, run_dir: str | Path | None = None, resume: bool = Tr
     threads = spec.train.cpu_threads if device.type == "cpu" else 0
     if spec.train.steps < 1:
         raise ValueError(f"train.steps must be at least 1, got {spec.train.steps}")
-    with cpu_threads(threads):
-        return _train(spec, Path(run_dir) if run_dir is not None else None, resume, demos,
-                      device, progress, stop_after, preset, data_workers)
+    run_dir = Path(run_dir) if run_dir is not None else None
+    with cpu_threads(threads), (rundir.run_lock(run_dir) if run_dir is not None
+                                else contextlib.nullcontext()):
+        return _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
+                      data_workers)
 
 
 def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,

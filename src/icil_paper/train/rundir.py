@@ -6,6 +6,12 @@
         checkpoint.prev.pt   the one before it (a truncated latest falls back to it)
         metrics.jsonl        one JSON line every `log_every` steps
         policy.pt            the trained policy (EMA weights if EMA is on)
+        .lock                while a process writes here (`run_lock`; removed after)
+
+One process writes a run folder at a time: `train_policy` holds `run_lock(run_dir)` from
+the folder check to the policy file, and a second process training the same run waits for
+it (saying so on stderr) and then resumes from what the first one left (its finished
+policy: no step is trained twice, no metric line written twice).
 
 Every file is written atomically (a temporary file, then a rename), so a killed run leaves
 whole files only. A damaged file is named in a warning, set aside under a unique name
@@ -16,24 +22,33 @@ Policies and checkpoints hold tensors, numbers and strings only, and are read wi
 `torch.load(..., weights_only=True)`: opening a policy file from someone else cannot run
 code hidden in a pickle. The policy's spec (its config, its tokenizer's config and shapes)
 is stored as a JSON string beside the weights. A file that is not in this format is refused
-with an error that says so.
+with an error that says so, as is one that is truncated or unreadable (`fileio.load_file`).
 """
 
 from __future__ import annotations
 
 import json
 import os
-import pickle
 import random
 import warnings
 from collections.abc import Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
-from icil_paper.fileio import atomic_write_bytes, atomic_write_json, folder_from_env, set_aside
+from icil_paper.fileio import (
+    UnreadableFileError,
+    atomic_write_bytes,
+    atomic_write_json,
+    exclusive_lock,
+    folder_from_env,
+    load_file,
+    read_json,
+    set_aside,
+)
 
 RUNS_ENV_VAR = "ICIL_RUNS"
 CHECKPOINT = "checkpoint.pt"
@@ -41,6 +56,7 @@ PREVIOUS_CHECKPOINT = "checkpoint.prev.pt"
 POLICY_FILE = "policy.pt"
 METRICS_FILE = "metrics.jsonl"
 CONFIG_FILE = "config.json"
+LOCK_FILE = ".lock"
 POLICY_FORMAT = "icil_paper.policy/2"
 CHECKPOINT_FORMAT = "icil_paper.checkpoint/2"
 
@@ -49,7 +65,7 @@ class RunFolderError(ValueError):
     """A run folder that cannot be used as asked; the message names the folder and the fix."""
 
 
-class PolicyFileError(ValueError):
+class PolicyFileError(UnreadableFileError):
     """A file that is not a policy (or checkpoint) this version reads safely."""
 
 
@@ -72,7 +88,7 @@ def run_dir_for(spec: Any, preset_name: str) -> Path:
             / f"{spec.label}__{tasks_tag(data.tasks)}__{source}__seed{spec.seed}__{spec.key()[:8]}")
 
 
-def _set_aside(path: Path, problem: str) -> None:
+def set_aside_damaged(path: Path, problem: str) -> None:
     """Set a damaged run file aside (`fileio.set_aside`) and say so."""
     aside = set_aside(path)
     if aside is not None:
@@ -81,14 +97,8 @@ def _set_aside(path: Path, problem: str) -> None:
 
 
 # --------------------------------------------------------------------------- the folder
-def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
-    """Create or check a run folder for `spec` and write its config.json.
-
-    Raises RunFolderError when the path is a file or cannot be written, or when resuming a
-    folder whose config or checkpoint belongs to a different run. Without `resume`, the
-    files of an earlier run there are removed (its metrics, checkpoints and policy).
-    """
-    run_dir = Path(run_dir)
+def _check_run_folder(run_dir: Path) -> None:
+    """Create the run folder; RunFolderError when it is a file or cannot be written."""
     if run_dir.exists() and not run_dir.is_dir():
         raise RunFolderError(f"the run folder {run_dir} is a file; pass another --run-dir")
     try:
@@ -99,16 +109,37 @@ def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
     except OSError as exc:
         raise RunFolderError(f"cannot write to the run folder {run_dir} ({exc.strerror}); "
                              "pass another --run-dir or set $ICIL_RUNS") from None
+
+
+@contextmanager
+def run_lock(run_dir: Path):
+    """Hold the run folder's lock (`fileio.exclusive_lock` on its `.lock`): the one writer
+    of a run folder. The folder is created (and checked: RunFolderError) first."""
+    run_dir = Path(run_dir)
+    _check_run_folder(run_dir)
+    with exclusive_lock(run_dir / LOCK_FILE, what=f"the run folder {run_dir}"):
+        yield
+
+
+def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
+    """Create or check a run folder for `spec` and write its config.json.
+
+    Raises RunFolderError when the path is a file or cannot be written, or when resuming a
+    folder whose config or checkpoint belongs to a different run. Without `resume`, the
+    files of an earlier run there are removed (its metrics, checkpoints and policy). The
+    caller holds `run_lock(run_dir)`.
+    """
+    run_dir = Path(run_dir)
+    _check_run_folder(run_dir)
     for stale in run_dir.glob(".*.tmp"):  # temporary files of a killed write
         stale.unlink(missing_ok=True)
     key = spec.key()
     path = run_dir / CONFIG_FILE
     if resume and path.exists():
         try:
-            old = json.loads(path.read_text())
-            old_key = old["key"]
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            _set_aside(path, f"unreadable run config ({exc})")
+            old_key = read_config(run_dir)["key"]
+        except UnreadableFileError as exc:
+            set_aside_damaged(path, f"unreadable run config ({exc})")
         else:
             if old_key != key:
                 raise RunFolderError(
@@ -118,6 +149,34 @@ def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
         for name in (METRICS_FILE, CHECKPOINT, PREVIOUS_CHECKPOINT, POLICY_FILE):
             (run_dir / name).unlink(missing_ok=True)
     atomic_write_json(path, {"key": key, "label": spec.label, "spec": spec.to_dict()})
+
+
+def read_config(run_dir: Path) -> dict[str, Any]:
+    """The config.json of a run folder ({"key", "label", "spec"}), through `fileio.read_json`:
+    FileNotFoundError when there is none, UnreadableFileError when it is damaged."""
+    return read_json(Path(run_dir) / CONFIG_FILE, _CONFIG_WHAT, _config_fix(run_dir),
+                     keys=("key", "spec"))
+
+
+_CONFIG_WHAT = "a run folder's config.json (with its key and spec)"
+
+
+def _config_fix(run_dir: Path) -> str:
+    return f"train the run again (icil-paper train --run-dir {run_dir}) or restore the file"
+
+
+def read_run_spec(run_dir: Path) -> Any:
+    """The RunSpec of a run folder's config.json (`read_config`); a spec this version
+    cannot build (a field it lacks, a value it refuses) is an UnreadableFileError naming
+    the file too."""
+    from icil_paper.runspec import RunSpec
+
+    spec = read_config(run_dir)["spec"]
+    try:
+        return RunSpec.from_dict(spec)
+    except (ValueError, TypeError) as exc:
+        raise UnreadableFileError(f"{Path(run_dir) / CONFIG_FILE} is not {_CONFIG_WHAT} this "
+                                  f"version reads ({exc}); {_config_fix(run_dir)}") from None
 
 
 # --------------------------------------------------------------------------- RNG state
@@ -156,17 +215,13 @@ def save_tensors(path: Path, obj: Mapping[str, Any]) -> None:
 def load_tensors(path: Path, fmt: str, map_location: Any = "cpu") -> dict[str, Any]:
     """Read a file written by `save_tensors` with `weights_only=True`; check its format.
 
-    Raises PolicyFileError for a file that is truncated, not in this format, or holds
-    anything but tensors, numbers and strings.
+    Raises PolicyFileError (through `fileio.load_file`) for a file that is truncated,
+    damaged, unreadable, not in this format, or holds anything but tensors, numbers and
+    strings; FileNotFoundError when there is none.
     """
-    try:
-        blob = torch.load(path, map_location=map_location, weights_only=True)
-    except (pickle.UnpicklingError, RuntimeError, EOFError, ValueError, TypeError,
-            AttributeError, IndexError, KeyError) as exc:
-        detail = (str(exc).splitlines() or [""])[0][:80]
-        raise PolicyFileError(f"{path} is damaged or not a {fmt} file this version reads "
-                              f"safely ({type(exc).__name__}: {detail}); retrain it "
-                              "(`icil-paper train`) or restore the file") from None
+    blob = load_file(path, lambda p: torch.load(p, map_location=map_location, weights_only=True),
+                     f"a {fmt} file this version reads safely",
+                     "retrain it (`icil-paper train`) or restore the file", PolicyFileError)
     if not isinstance(blob, dict) or blob.get("format") != fmt:
         found = blob.get("format") if isinstance(blob, dict) else type(blob).__name__
         raise PolicyFileError(f"{path} is not a {fmt} file (found {found!r}); retrain it with "
@@ -195,7 +250,7 @@ def load_checkpoint(run_dir: Path, key: str, map_location: Any = "cpu") -> dict[
         try:
             ckpt = load_tensors(path, CHECKPOINT_FORMAT, map_location)
         except PolicyFileError as exc:
-            _set_aside(path, str(exc))
+            set_aside_damaged(path, str(exc))
             continue
         if ckpt.get("key") != key:
             raise RunFolderError(f"{path} is a checkpoint of another run (key {ckpt.get('key')},"
@@ -246,17 +301,22 @@ def policy_digest(policy: Any) -> str:
 
 # --------------------------------------------------------------------------- metrics
 def read_metrics(path: Path) -> list[dict[str, Any]]:
-    """The metric lines of a run; a torn line (a run killed mid-write) is dropped."""
+    """The metric lines of a run; a torn or damaged line (a run killed mid-write, bytes
+    that are not text) is dropped, and so is a line that is not a JSON object."""
     if not Path(path).exists():
         return []
+    raw = load_file(path, Path.read_bytes, "a metrics file",
+                    "remove it (the run's metric lines are then written anew)")
     lines = []
-    for text in Path(path).read_text().splitlines():
+    for text in raw.splitlines():
         if not text.strip():
             continue
         try:
-            lines.append(json.loads(text))
-        except json.JSONDecodeError:
+            line = json.loads(text.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError):
             continue
+        if isinstance(line, dict) and isinstance(line.get("step"), int):
+            lines.append(line)
     return lines
 
 
