@@ -17,7 +17,7 @@
 # active. Every check below runs in a separate process, so a failing native library shows
 # up as a failed row with the fix to apply instead of stopping the book.
 
-# %%
+# %% tags=["hide-input"]
 from icil_paper.config import field_docs, get_preset
 from icil_paper.envcheck import environment_report, format_report
 

@@ -66,7 +66,7 @@
 # output, no straight-through estimator and no Lipschitz term (`icil_paper.tokenizers.lipvq`);
 # the book uses the paper's version everywhere else.
 
-# %%
+# %% tags=["hide-input"]
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd

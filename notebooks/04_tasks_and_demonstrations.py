@@ -32,7 +32,7 @@
 # within a suite, one observation layout. This chapter shows every task, the experts' success
 # rates, and how the two sources' demonstrations differ.
 
-# %%
+# %% tags=["hide-input"]
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering on CPU (set before robosuite)
@@ -197,7 +197,7 @@ plt.show()
 # recording is linked for download (`rerun <file>` opens it in the desktop viewer); the
 # static picture shows where the viewer cannot start.
 
-# %%
+# %% tags=["hide-input"]
 display(show_recordings({task: (entry["rrd"], entry["picture"])
                          for task, entry in showcase.items()}))
 

@@ -33,12 +33,20 @@
 # several training seeds; for a single seed, the episodes' noise only (and no comparison
 # with it is decided).
 
-# %%
+# %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.book import (REFERENCE, compare_frame, design_sentence, load_table,
-                                    show_values, success_figure, verdicts)
+from icil_paper.tables.book import (
+    REFERENCE,
+    claims_figure,
+    design_sentence,
+    load_table,
+    show_comparison,
+    show_values,
+    success_figure,
+    verdicts,
+)
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "I")  # computes what this build's results store lacks
@@ -48,8 +56,8 @@ display(Markdown(f"The reference run's design: {design_sentence(get_preset(REFER
 # %% [markdown]
 # ## Average success over the kitchen tasks
 
-# %%
-display(compare_frame(results, "avg"))
+# %% tags=["hide-input"]
+show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table I: average success over the kitchen tasks"))
 
 # %% [markdown]
@@ -58,7 +66,7 @@ display(success_figure(results, "avg", title="Table I: average success over the 
 # Point values per family (the intervals of single families are wide at these episode
 # counts); the paper's row first.
 
-# %%
+# %% tags=["hide-input"]
 show_values(results)
 
 # %% [markdown]
@@ -67,5 +75,6 @@ show_values(results)
 # Generated from the claims ledger ({doc}`chapter 0 <00_claims_ledger>`): each claim is a difference of two rows on
 # the same episodes, with its paired 95% interval.
 
-# %%
+# %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "I")))
+display(claims_figure(preset, "I"))

@@ -25,11 +25,18 @@
 # Bin and ACT + FAST act through an MLP on a predicted latent. MCR learns from RGB-D images
 # through the depth channel added to its ResNet, as the paper describes.
 
-# %%
+# %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.book import compare_frame, load_table, show_values, success_figure, verdicts
+from icil_paper.tables.book import (
+    claims_figure,
+    load_table,
+    show_comparison,
+    show_values,
+    success_figure,
+    verdicts,
+)
 from icil_paper.tables.definitions import maniskill_settings
 
 preset = get_preset()
@@ -43,18 +50,19 @@ display(Markdown(
     "preset gives these single-task runs more data and steps than Table I's multi-task "
     "ones (`tables.maniskill_*` in `src/icil_paper/config.py`)."))
 
-# %%
-display(compare_frame(results, "avg"))
+# %% tags=["hide-input"]
+show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table II: average success over the three cube tasks"))
 
 # %% [markdown]
 # ## By task
 
-# %%
+# %% tags=["hide-input"]
 show_values(results)
 
 # %% [markdown]
 # ## Which claims held
 
-# %%
+# %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "II")))
+display(claims_figure(preset, "II"))

@@ -29,7 +29,7 @@
 # a low raw score can be a small latent rather than a smooth one ({doc}`chapter 11 <11_is_it_smoothness>` asks which).
 # {doc}`Chapter 5 <05_action_tokenizers>` measures the same tokenizers trained alone, as a supplement.
 
-# %%
+# %% tags=["hide-input"]
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -41,8 +41,9 @@ from icil_paper.recording import record_latent_trajectories
 from icil_paper.results import results_root
 from icil_paper.tables.assemble import format_cell
 from icil_paper.tables.book import (
-    compare_frame,
+    claims_figure,
     load_table,
+    show_comparison,
     smoothness_success_figure,
     source_label,
     tsne_paths,
@@ -58,7 +59,7 @@ success = load_table(preset, "I")
 # ## Table III: least energy of the latent features
 
 # %%
-display(compare_frame(smooth, "least_energy"))
+show_comparison(smooth, "least_energy")
 rows = []
 for source, result in smooth.items():
     for row in result.spec.rows:
@@ -83,7 +84,7 @@ display(pd.DataFrame(rows).set_index(["source", "tokenizer"]) if rows else
 # (Table I), both with 95% intervals. The paper's points are on their own axis: its scores
 # come from other latents and another simulator, so only the ordering compares.
 
-# %%
+# %% tags=["hide-input"]
 display(smoothness_success_figure(smooth, success))
 display(smoothness_success_figure(smooth, success, standardized=True))
 
@@ -119,5 +120,6 @@ else:
 # %% [markdown]
 # ## Which claims held
 
-# %%
+# %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "III")))
+display(claims_figure(preset, "III"))

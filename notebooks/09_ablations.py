@@ -22,11 +22,17 @@
 # to the preset's model (its third size is the paper's $2^{10}$ position; the preset's
 # Table I cell is one of the four), one training seed per size.
 
-# %%
+# %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.book import compare_frame, load_table, success_figure, verdicts
+from icil_paper.tables.book import (
+    claims_figure,
+    load_table,
+    show_comparison,
+    success_figure,
+    verdicts,
+)
 
 preset = get_preset()
 table4 = load_table(preset, "IV")
@@ -35,12 +41,13 @@ fig5 = load_table(preset, "fig5")
 # %% [markdown]
 # ## Table IV: Lipschitz regularization's impact
 
-# %%
-display(compare_frame(table4, "avg"))
+# %% tags=["hide-input"]
+show_comparison(table4, "avg")
 display(success_figure(table4, "avg", title="Table IV: with and without Eq. 4"))
 
-# %%
+# %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "IV")))
+display(claims_figure(preset, "IV"))
 
 # %% [markdown]
 # ## Fig. 5: codebook size
@@ -49,9 +56,10 @@ display(Markdown(verdicts(preset, "IV")))
 # to its smaller model, and each row stands beside the paper's size at the same position
 # (its label names both).
 
-# %%
-display(compare_frame(fig5, "avg"))
+# %% tags=["hide-input"]
+show_comparison(fig5, "avg")
 display(success_figure(fig5, "avg", title="Fig. 5: LipVQ-VAE's codebook size"))
 
-# %%
+# %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "fig5")))
+display(claims_figure(preset, "fig5"))

@@ -37,14 +37,15 @@
 #   another task's prompt (the same fixture's opposite goal), and with only the first steps
 #   of its prompt. If the prompt carries the task, the wrong prompt should hurt.
 
-# %%
+# %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
 from icil_paper.tables.book import (
-    compare_frame,
+    claims_figure,
     difference_sentence,
     load_table,
+    show_comparison,
     show_values,
     success_figure,
     verdicts,
@@ -55,40 +56,43 @@ preset = get_preset()
 # %% [markdown]
 # ## Table V: sim-to-real stand-in
 
-# %%
+# %% tags=["hide-input"]
 table5 = load_table(preset, "V")
 for family in ("drawers", "doors"):
     display(Markdown(f"**{family.capitalize()}**"))
-    display(compare_frame(table5, family))
+    show_comparison(table5, family)
 display(success_figure(table5, "avg", title="Table V: Panda-trained policies on the perturbed Kinova3"))
 display(Markdown(verdicts(preset, "V")))
+display(claims_figure(preset, "V"))
 
 # %% [markdown]
 # ## Table VI: cross-dataset (human-like prompts)
 
-# %%
+# %% tags=["hide-input"]
 table6 = load_table(preset, "VI")
-display(compare_frame(table6, "avg"))
+show_comparison(table6, "avg")
 display(success_figure(table6, "avg", title="Table VI: prompted with the human-like source"))
 show_values(table6)
 display(Markdown(verdicts(preset, "VI")))
+display(claims_figure(preset, "VI"))
 
 # %% [markdown]
 # ## Table VII: zero-shot
 
-# %%
+# %% tags=["hide-input"]
 table7 = load_table(preset, "VII")
-display(compare_frame(table7, "avg"))
+show_comparison(table7, "avg")
 display(success_figure(table7, "avg", title="Table VII: held-out kitchen tasks"))
 show_values(table7)
 display(Markdown(verdicts(preset, "VII")))
+display(claims_figure(preset, "VII"))
 
 # %% [markdown]
 # ## Does the prompt carry the task?
 
-# %%
+# %% tags=["hide-input"]
 prompt = load_table(preset, "prompt")
-display(compare_frame(prompt, "avg"))
+show_comparison(prompt, "avg")
 display(success_figure(prompt, "avg", title="ICRT + LipVQ-VAE with right, wrong and truncated prompts"))
 
 # %%

@@ -41,7 +41,7 @@
 # of encoder rows Eq. 4 caps, the product of the bounds and an empirical Lipschitz constant
 # (largest ratio of output to input change over nearby held-out actions, infinity norm).
 
-# %%
+# %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
@@ -51,7 +51,7 @@ from icil_paper.tables.book import design_sentence, load_table, source_label
 preset = get_preset()
 results = load_table(preset, "analysis")
 
-# %%
+# %% tags=["hide-input"]
 for source, result in results.items():
     display(Markdown(f"**{source_label(source, result.preset)}**: "
                      f"{design_sentence(get_preset(result.preset))}"))
@@ -65,7 +65,7 @@ for source, result in results.items():
 # direction the smoothness explanation predicts (LipVQ-VAE and the binding variants
 # smoother and more successful).
 
-# %%
+# %% tags=["hide-input"]
 for source, result in results.items():
     lines = [f"**{source_label(source, result.preset)}**", ""]
     for f in findings(result):
@@ -79,6 +79,6 @@ for source, result in results.items():
 # %% [markdown]
 # ## Verdict
 
-# %%
+# %% tags=["hide-input"]
 for source, result in results.items():
     display(Markdown(f"**{source_label(source, result.preset)}.** {conclusion(result)}"))

@@ -211,3 +211,25 @@ def test_book_root_is_found_from_a_chapter_folder(tmp_path):
     assert viewer.book_root(book / "notebooks") == book.resolve()
     with pytest.raises(FileNotFoundError):
         viewer.book_root(tmp_path)
+
+
+def test_plumbing_cells_hide_their_input():
+    """A code cell that only imports (and sets up the preset or loads tables) is plumbing:
+    it carries `hide-input` (or `remove-input`), so a chapter shows what teaches."""
+    import jupytext
+
+    untagged = []
+    for path in sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py")):
+        for cell in jupytext.read(path).cells:
+            if cell.cell_type != "code":
+                continue
+            code = [line for line in cell.source.splitlines()
+                    if line.strip() and not line.lstrip().startswith("#")]
+            imports_only = code and all(
+                line.startswith(("from ", "import ", "    ", ")")) or
+                re.match(r"^(preset|store|results)\s*=\s*(get_preset|ResultsStore|load_table)",
+                         line) for line in code)
+            tags = set(cell.metadata.get("tags", ()))
+            if imports_only and not tags & {"hide-input", "remove-input", "remove-cell"}:
+                untagged.append(f"{path.name}: {code[0]}")
+    assert not untagged, f"import-only cells without hide-input: {untagged}"

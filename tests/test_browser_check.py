@@ -47,6 +47,13 @@ BROKEN = {
                          ["broken link", "chapters/missing.html"]),
     "broken_image.html": ('<img src="img/missing.png" alt="gone">',
                           ["broken image", "img/missing.png"]),
+    "wide_table.html": ('<h2>A wide table</h2><div style="overflow-x: auto; width: 500px">'
+                        '<table style="width: 2000px"><tr><td>a</td><td>b</td></tr></table>'
+                        '</div>', ["overflow", "A wide table", "px wide"]),
+    "table_past_the_column.html": ('<main><article style="width: 600px"><h2>Past the '
+                                   'column</h2><table style="width: 1500px"><tr><td>x</td>'
+                                   '</tr></table></article></main>',
+                                   ["overflow", "Past the column"]),
     "dead_viewer.html": ('<figure class="icil-recording" data-recordings=\'[{"label": "x", '
                          '"rrd": "recordings/x.rrd", "png": null}]\'>'
                          '<div class="icil-recording-viewer"></div></figure>',

@@ -11,7 +11,7 @@ from icil_paper.system_deps import debian_backports_entry
 def test_help_lists_every_subcommand(capsys):
     assert cli.main(["--help"]) == 0
     out = capsys.readouterr().out
-    for command in ["env", "demos", "train", "eval", "tables", "reproduce"]:
+    for command in ["env", "demos", "train", "eval", "tables", "reproduce", "export-tokenizer"]:
         assert command in out
 
 

@@ -23,38 +23,61 @@ from icil_paper.specs import (
 )
 from icil_paper.studies import study_spec
 from icil_paper.tables import table_spec
+from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 TASKS = ("kitchen/open_drawer", "kitchen/close_door")
 
 
-def _other_value(annotation, value):
-    """A different value of the declared type (to perturb one field)."""
+def _other_values(annotation, value, choices=None):
+    """Different values of the declared type (to perturb one field), the likeliest first;
+    `choices`, a string field's valid values, give the other valid strings."""
     origin, args = typing.get_origin(annotation), typing.get_args(annotation)
     if origin in (typing.Union, types.UnionType):
         if value is None:
-            return _other_value(next(a for a in args if a is not type(None)), None)
-        return None
+            yield from _other_values(next(a for a in args if a is not type(None)), None, choices)
+        else:
+            yield None
+        return
     if annotation is bool:
-        return not value
-    if annotation is int:  # from None, a value no preset's default field happens to hold
-        return 7 if value is None else value + 1
-    if annotation is float:
-        return (value or 0.0) * 1.5 + 0.125
-    if annotation is str:
-        return (value or "") + "-changed"
-    if origin is tuple and len(args) == 2 and args[1] is Ellipsis:
-        return tuple(value or ()) + (_other_value(args[0], None),)
-    if origin is tuple:
-        return tuple(_other_value(a, v) for a, v in zip(args, value, strict=True))
-    raise AssertionError(f"no perturbation for {annotation}")
+        yield not value
+    elif annotation is int:  # from None, a value no preset's default field happens to hold
+        yield from ([7] if value is None else [value + 1, value * 2 or 1, value + 2])
+    elif annotation is float:
+        value = value or 0.0
+        yield from (value * 1.5 + 0.125, value / 2 + 0.0625)  # the second stays below 1
+    elif annotation is str:
+        yield from ([c for c in choices if c != value] if choices else [(value or "") + "-changed"])
+    elif origin is tuple and len(args) == 2 and args[1] is Ellipsis:
+        value = tuple(value or ())
+        for extra in _other_values(args[0], None, choices):
+            yield value + (extra,)
+        if len(value) > 1:
+            yield value[:-1]
+    elif origin is tuple:
+        for i, (a, v) in enumerate(zip(args, value, strict=True)):
+            for other in _other_values(a, v):
+                yield (*value[:i], other, *value[i + 1:])
+    else:
+        raise AssertionError(f"no perturbation for {annotation}")
 
 
 def perturbed(obj, path):
+    """`obj` with the field at `path` changed to a value its config accepts (each config
+    checks its own values when it is built, `specs.check_fields`)."""
+    from icil_paper.specs import field_choices
+
     parent = get_path(obj, path.rsplit(".", 1)[0]) if "." in path else obj
     name = path.rsplit(".", 1)[-1]
     annotation = typing.get_type_hints(type(parent))[name]
-    return replace_path(obj, path, _other_value(annotation, get_path(obj, path)))
+    choices = field_choices(type(parent)).get(name)
+    refused = []
+    for value in _other_values(annotation, get_path(obj, path), choices):
+        try:
+            return replace_path(obj, path, value)
+        except ValueError as exc:
+            refused.append(f"{value!r}: {exc}")
+    raise AssertionError(f"no other value of {path} is accepted: {refused}")
 
 
 def leaf_paths(obj, prefix=""):
@@ -95,8 +118,8 @@ STAGES = {
          *(f"tokenizers.{t}." for t in ("mlp", "bin", "fast", "vq", "lfq", "lipvq")),
          "train.", "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
-         "tables.image_demos_per_task", "tables.image_episodes_per_task",
-         "tables.image_max_steps")),
+         "tables.baseline_seeds", "tables.image_demos_per_task",
+         "tables.image_episodes_per_task", "tables.image_max_steps")),
     "table II (every unit)": (
         lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval))
                                   for u in table_spec(p, "II").units())),
@@ -108,6 +131,19 @@ STAGES = {
          "tables.image_episodes_per_task", "tables.image_max_steps",
          "tables.maniskill_demos_per_task", "tables.maniskill_steps",
          "tables.maniskill_episodes_per_task")),
+    "table beyond (every unit)": (
+        lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval), spec_key(u.features))
+                                  for u in table_spec(p, "beyond").units())),
+        ("policies.icrt.",
+         *(f"tokenizers.{t}." for t in ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq",
+                                        "bspline")),
+         "train.", "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
+         "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
+         "tables.since_paper_seeds", "tables.feature_demos_per_task",
+         "tables.feature_steps")),
+    "tokenizer study liprvq": (lambda p: spec_key(study_spec(p, p.tokenizers.liprvq)),
+                               ("tokenizers.liprvq.", "tokenizer_study.", "data.demos_per_task",
+                                "data.kitchen_tasks", "data.maniskill_tasks", "seed")),
     "tokenizer study vq": (lambda p: spec_key(study_spec(p, p.tokenizers.vq)),
                            ("tokenizers.vq.", "tokenizer_study.", "data.demos_per_task",
                             "data.kitchen_tasks", "data.maniskill_tasks", "seed")),
@@ -208,7 +244,7 @@ def test_every_preset_value_is_in_range():
 
 def test_component_configs_round_trip_by_type():
     preset = get_preset("small")
-    for name in ("mlp", "lip-mlp", "bin", "fast", "vq", "lfq", "lipvq"):
+    for name in TOKENIZERS:
         cfg = preset.tokenizers.get(name)
         assert from_dict(TokenizerConfig, to_dict(cfg)) == cfg
     assert from_dict(type(preset), to_dict(preset)) == preset

@@ -14,7 +14,7 @@ from icil_paper.config import get_preset
 from icil_paper.evaluate import eval_record_name
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key
-from icil_paper.specs import to_dict
+from icil_paper.specs import spec_key, to_dict
 from icil_paper.tables import TABLES, table_spec
 from icil_paper.tables.assemble import assemble
 from icil_paper.tables.claims import claims, claims_ledger, write_ledger
@@ -295,3 +295,15 @@ def test_the_ledger_keeps_each_interval_on_one_line():
              "ci": [-0.07, 0.058], "verdict": "inconclusive"}
     ours = ledger_frame([entry]).loc["x", "ours"]
     assert ours == "+0.006\u00a0[-0.070,\u00a0+0.058]" and " " not in ours
+
+
+def test_scenes_per_seed_give_seed_k_its_own_scene_set():
+    shared = table_spec(small_preset("tables.icrt_seeds=3"), "I")
+    per_seed = table_spec(small_preset("tables.icrt_seeds=3", "tables.scenes_per_seed=true"), "I")
+    cell, cell_k = shared.row("icrt+lipvq").cells["avg"], per_seed.row("icrt+lipvq").cells["avg"]
+    assert {u.eval.seed for u in cell.units} == {0} and cell.scenes == "shared"
+    assert {(u.seed_index, u.eval.seed) for u in cell_k.units} == {(0, 0), (1, 1), (2, 2)}
+    assert cell_k.scenes == "per_seed"
+    # Seed 0 keeps its scenes (and so its records); only the other seeds' evaluations move.
+    first = {spec_key(u.eval) for u in cell.units if u.seed_index == 0}
+    assert first == {spec_key(u.eval) for u in cell_k.units if u.seed_index == 0}

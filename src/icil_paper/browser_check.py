@@ -13,6 +13,9 @@ book needs no network (a CDN script, font or image is caught). A page fails on:
     untypeset math       `\\(`, `\\[` or `$$` left in the visible text (outside code)
     broken link/image    a local link (or a redirect page's target) to a file that is not
                          in the book, an image that is not or does not decode
+    overflow             a table, cell output or figure wider than the content column or
+                         than its own box (scrollWidth > clientWidth: clipped, or scrolled
+                         sideways), at the reader's window width (1400 px)
     recording viewer     a recording block (icil_paper.viewer) whose viewer made no canvas,
                          or did not report each of its recordings open (a block's menu is
                          switched through them), or that scrolled the page to itself
@@ -67,6 +70,46 @@ _VISIBLE_TEXT_JS = """
     out.push(node.textContent);
   }
   return out.join(" ");
+}
+"""
+
+VIEWPORT = {"width": 1400, "height": 900}
+"""The reader's window: the width at which nothing may be clipped."""
+
+# Tables, cell outputs and figures that stick out of the content column, or whose content
+# is wider than their own box (a clipped or sideways-scrolling output). Code input is left
+# alone: a long code line scrolls by design.
+_OVERFLOW_JS = """
+() => {
+  const column = document.querySelector("main article, main, article") || document.body;
+  const right = column.getBoundingClientRect().right;
+  const out = [];
+  const seen = new Set();
+  for (const el of column.querySelectorAll(
+      "table, .cell_output, .output, figure, img, .dataframe, svg")) {
+    if (el.closest(".cell_input, .highlight, pre code")) continue;
+    if (el.checkVisibility && !el.checkVisibility()) continue;
+    const box = el.getBoundingClientRect();
+    if (box.width === 0) continue;
+    const wide = el.scrollWidth > el.clientWidth + 1 && el.clientWidth > 0;
+    const sticks = box.right > right + 1;
+    if (!wide && !sticks) continue;
+    let heading = null;
+    for (let n = el; n && !heading; n = n.previousElementSibling || n.parentElement) {
+      if (/^H[1-4]$/.test(n.tagName)) heading = n.textContent.replace("#", "").trim();
+      else { const h = n.querySelector && n.querySelector("h1, h2, h3, h4");
+             if (h && n !== el && !n.contains(el)) heading = h.textContent.replace("#", "").trim(); }
+    }
+    const what = el.tagName.toLowerCase() + (el.className && typeof el.className === "string"
+                 ? "." + el.className.split(" ")[0] : "");
+    const key = what + "|" + heading;
+    if (seen.has(key)) continue;
+    seen.add(key);
+    out.push({what, heading: (heading || "the page top").slice(0, 60),
+              content: Math.round(Math.max(el.scrollWidth, box.width)),
+              box: Math.round(wide ? el.clientWidth : right - box.left)});
+  }
+  return out;
 }
 """
 
@@ -244,7 +287,7 @@ def _check_page(browser, root: Path, base: str, page: str, report: Report,
         return
     problems: list[str] = []
     blocked: set[str] = set()
-    context = browser.new_context(viewport={"width": 1280, "height": 900})
+    context = browser.new_context(viewport=VIEWPORT)
 
     def route(r):
         url = r.request.url
@@ -283,6 +326,9 @@ def _check_page(browser, root: Path, base: str, page: str, report: Report,
             if at >= 0:
                 snippet = " ".join(text[max(0, at - 30):at + 40].split())
                 problems.append(f"untypeset math: {marker} in the text (…{snippet}…)")
+        for o in pg.evaluate(_OVERFLOW_JS):
+            problems.append(f"overflow: a {o['what']} under '{o['heading']}' is {o['content']} px "
+                            f"wide in {o['box']} px (split, shorten or transpose it)")
         refs = pg.evaluate(_LINKS_JS)
         for url in dict.fromkeys(refs["links"]):
             path = _local_file(root, base, url)

@@ -25,9 +25,11 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
     ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError,
     RayUnavailable)
 """What a command reports in one line (exit 2) instead of a traceback. ValueError covers
-UnknownNameError, OverrideError, DatasetError, RunFolderError, PolicyFileError and
-json.JSONDecodeError, whose messages name the problem; RayUnavailable says why Ray could
-not be imported, started or reached."""
+UnknownNameError, OverrideError, ConfigError, DatasetError, RunFolderError,
+UnreadableFileError (PolicyFileError among them), TokenizerFolderError and
+json.JSONDecodeError, whose messages name the problem; PermissionError covers
+FolderNotWritableError (an output folder refused before any work); RayUnavailable says why
+Ray could not be imported, started or reached."""
 
 
 class Parser(argparse.ArgumentParser):
@@ -49,7 +51,9 @@ def add_preset_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def preset_from_args(args: argparse.Namespace) -> Any:
-    """The preset named by --preset (or $ICIL_PRESET), with --seed and every --set applied."""
+    """The preset named by --preset (or $ICIL_PRESET), with --seed and every --set applied;
+    every config checks its values as it is built (its `__post_init__`), so before any
+    work. (A command that runs the preset's task lists checks them: `config.check_tasks`.)"""
     from icil_paper.config import active_preset_name, get_preset
 
     if args.seed is not None and args.seed < 0:
@@ -77,6 +81,8 @@ SUBCOMMANDS = {
     "eval": ("icil_paper.evaluate", "roll out a trained policy and store its success rate"),
     "tables": ("icil_paper.tables.cli", "print the paper's tables and claims from the results store"),
     "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
+    "export-tokenizer": ("icil_paper.tokenizers.portable",
+                         "write a trained policy's tokenizer as a portable folder (safetensors)"),
 }
 
 

@@ -31,14 +31,19 @@ from icil_paper.policies.configs import (
     PolicyConfig,
 )
 from icil_paper.registry import check_name
-from icil_paper.specs import NOT_KEYED, field_docs, to_dict, with_overrides
+from icil_paper.specs import NOT_KEYED, check_fields, field_docs, to_dict, with_overrides
 from icil_paper.tokenizers.configs import (
     BinConfig,
+    BSplineConfig,
     FASTConfig,
+    FSQConfig,
     LFQConfig,
+    LipFSQConfig,
     LipMLPConfig,
+    LipRVQConfig,
     LipVQConfig,
     MLPConfig,
+    RVQConfig,
     TokenizerConfig,
     VQConfig,
 )
@@ -46,11 +51,24 @@ from icil_paper.tokenizers.configs import (
 PRESET_NAMES = ("smoke", "small", "reference", "full")
 DEFAULT_PRESET = "small"
 PRESET_ENV_VAR = "ICIL_PRESET"
+OBS_KINDS = ("state", "rgb", "rgbd")
+"""Observation kinds (`icil_paper.sim.OBS_KINDS`, named here so configs stay light)."""
+DEMO_SOURCES = ("generated", "human")
+"""Demonstration sources (`icil_paper.data.sources.SOURCES`)."""
+
+
+class _Checked:
+    """Base of the preset's sections: each checks its own fields when it is built."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)  # ranges, empty values, CHOICES (`specs.check_fields`)
 
 
 @dataclass(frozen=True)
-class DataConfig:
+class DataConfig(_Checked):
     """Which demonstrations are generated and how."""
+
+    CHOICES = {"obs": OBS_KINDS, "sources": DEMO_SOURCES}
 
     demos_per_task: int = 20
     """Successful demonstrations kept per task and source."""
@@ -104,6 +122,16 @@ class TokenizerConfigs:
     """LFQ-VAE (lookup-free quantization)."""
     lipvq: LipVQConfig = field(default_factory=LipVQConfig)
     """LipVQ-VAE, the paper's tokenizer."""
+    fsq: FSQConfig = field(default_factory=FSQConfig)
+    """FSQ, finite scalar quantization (after the paper)."""
+    lipfsq: LipFSQConfig = field(default_factory=LipFSQConfig)
+    """FSQ with Eq. 4 on its encoder."""
+    rvq: RVQConfig = field(default_factory=RVQConfig)
+    """Residual VQ (VQ-BeT's tokenizer; after the paper)."""
+    liprvq: LipRVQConfig = field(default_factory=LipRVQConfig)
+    """Residual VQ with Eq. 4 on its encoder."""
+    bspline: BSplineConfig = field(default_factory=BSplineConfig)
+    """B-spline control points of action chunks (BEAST; after the paper)."""
 
     def get(self, name: str) -> TokenizerConfig:
         """The config of tokenizer `name` (UnknownNameError listing the valid names)."""
@@ -131,8 +159,10 @@ class PolicyConfigs:
 
 
 @dataclass(frozen=True)
-class TokenizerStudyConfig:
+class TokenizerStudyConfig(_Checked):
     """Tokenizers trained alone on action trajectories (chapters 02 and 04, the benchmark)."""
+
+    CHOICES = {"trajectories": ("demos", "synthetic")}
 
     steps: int = 2000
     """Optimizer steps when a tokenizer is trained on its own."""
@@ -161,7 +191,7 @@ class TokenizerStudyConfig:
 
 
 @dataclass(frozen=True)
-class TrainConfig:
+class TrainConfig(_Checked):
     """The one training loop shared by every policy."""
 
     steps: int = 2000
@@ -193,7 +223,7 @@ class TrainConfig:
 
 
 @dataclass(frozen=True)
-class EvalConfig:
+class EvalConfig(_Checked):
     """Rollouts that turn a trained policy into a success rate."""
 
     episodes_per_task: int = 10
@@ -207,12 +237,15 @@ class EvalConfig:
 
 
 @dataclass(frozen=True)
-class TablesConfig:
+class TablesConfig(_Checked):
     """The paper's tables and figures (`icil_paper.tables`): seeds, sweeps and sizes."""
 
     icrt_seeds: int = 1
     """Training seeds of every ICRT row of Table I (and so of Tables III, IV, V and VI,
-    which share its cells); the other rows and tables train one seed."""
+    which share its cells)."""
+    baseline_seeds: int = 1
+    """Training seeds of Table I's other rows (MCR, ACT, BC-Transformer; shared with Tables
+    V and VI). A comparison that reads a one-seed row is never decided (`icil_paper.stats`)."""
     codebook_sizes: tuple[int, ...] = (256, 512, 1024, 2048)
     """Fig. 5: the LipVQ-VAE codebook sizes swept (the paper: 2^8 .. 2^11)."""
     image_demos_per_task: int = 10
@@ -237,10 +270,19 @@ class TablesConfig:
     """Table II: optimizer steps of its state-based rows; None: `train.steps`."""
     maniskill_episodes_per_task: int | None = None
     """Table II: rollouts per task of its state-based rows; None: `eval.episodes_per_task`."""
+    since_paper_seeds: int | None = None
+    """Training seeds of every row of the `beyond` table (tokenizers since the paper); its
+    VQ-VAE and LipVQ-VAE rows share their first `icrt_seeds` policies with Table I's.
+    None: `icrt_seeds`."""
+    scenes_per_seed: bool = False
+    """Evaluation design: True gives training seed k of every row its own scene set k
+    (evaluation seed `seed` + k), so that scene luck averages out over seeds and two rows
+    are paired by seed index; False evaluates every seed on the same scenes
+    (`icil_paper.stats` explains both)."""
 
 
 @dataclass(frozen=True)
-class Preset:
+class Preset(_Checked):
     """Everything a run depends on besides code: one object, saved with every result."""
 
     name: str = DEFAULT_PRESET
@@ -297,22 +339,35 @@ def _policies(d_model: int, n_layer: int, n_head: int, dropout: float, chunk_siz
 
 
 def _tokenizers(latent_dim: int, codebook_size: int, fast_vocab_size: int = 1024,
-                n_bins: int = 256) -> TokenizerConfigs:
-    """Every tokenizer at the same embedding width and codebook size."""
+                n_bins: int = 256, fsq_levels: tuple[int, ...] = (8, 5, 5, 5),
+                rvq: tuple[int, int] = (2, 32), bspline: tuple[int, int, int] = (16, 8, 256)
+                ) -> TokenizerConfigs:
+    """Every tokenizer at the same embedding width and, where it has one, about the same
+    number of codes: FSQ's levels multiply to about `codebook_size` (FSQ's recommended
+    levels), residual VQ's `rvq` = (levels Q, codes per level K) has K^Q = `codebook_size`
+    combinations; `bspline` = (chunk, control points, bins)."""
+    fsq = dict(latent_dim=latent_dim, levels=fsq_levels)
+    rvq_sizes = dict(latent_dim=latent_dim, num_quantizers=rvq[0], codebook_size=rvq[1])
+    chunk, control_points, spline_bins = bspline
     return TokenizerConfigs(
         mlp=MLPConfig(latent_dim=latent_dim), lip_mlp=LipMLPConfig(latent_dim=latent_dim),
         bin=BinConfig(latent_dim=latent_dim, n_bins=n_bins),
         fast=FASTConfig(latent_dim=latent_dim, vocab_size=fast_vocab_size),
         vq=VQConfig(latent_dim=latent_dim, codebook_size=codebook_size),
         lfq=LFQConfig(latent_dim=latent_dim, codebook_size=codebook_size),
-        lipvq=LipVQConfig(latent_dim=latent_dim, codebook_size=codebook_size))
+        lipvq=LipVQConfig(latent_dim=latent_dim, codebook_size=codebook_size),
+        fsq=FSQConfig(**fsq), lipfsq=LipFSQConfig(**fsq),
+        rvq=RVQConfig(**rvq_sizes), liprvq=LipRVQConfig(**rvq_sizes),
+        bspline=BSplineConfig(latent_dim=latent_dim, chunk=chunk, control_points=control_points,
+                              n_bins=spline_bins))
 
 
 def _smoke() -> Preset:
     return Preset(
         name="smoke",
         data=DataConfig(demos_per_task=2, workers=1, expert_seeds=0),
-        tokenizers=_tokenizers(latent_dim=16, codebook_size=64, fast_vocab_size=300),
+        tokenizers=_tokenizers(latent_dim=16, codebook_size=64, fast_vocab_size=300,
+                               fsq_levels=(4, 4, 4), rvq=(2, 8), bspline=(4, 4, 32)),
         policies=_policies(d_model=32, n_layer=1, n_head=2, dropout=0.0, chunk_size=2,
                            history=4, max_seq_len=1024, resnet_width=8, query_len=8,
                            mcr_pretrain_steps=3),
@@ -331,7 +386,8 @@ def _small() -> Preset:
     return Preset(
         name="small",
         data=DataConfig(demos_per_task=6, workers=2, expert_seeds=0),
-        tokenizers=_tokenizers(latent_dim=32, codebook_size=256),
+        tokenizers=_tokenizers(latent_dim=32, codebook_size=256, fsq_levels=(8, 6, 5),
+                               rvq=(2, 16), bspline=(8, 5, 256)),
         policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
                            history=10, max_seq_len=1024, resnet_width=16, query_len=32,
                            mcr_pretrain_steps=100),
@@ -363,7 +419,8 @@ def _reference() -> Preset:
         tables=TablesConfig(icrt_seeds=3, codebook_sizes=(64, 128, 256, 512),
                             image_demos_per_task=5, image_episodes_per_task=4,
                             feature_demos_per_task=1, maniskill_demos_per_task=40,
-                            maniskill_steps=10000, maniskill_episodes_per_task=20),
+                            maniskill_steps=10000, maniskill_episodes_per_task=20,
+                            since_paper_seeds=5),
     )
 
 
@@ -371,7 +428,8 @@ def _full() -> Preset:
     return Preset(
         name="full",
         data=DataConfig(demos_per_task=200, workers=16, obs="rgb"),
-        tokenizers=_tokenizers(latent_dim=64, codebook_size=1024),
+        tokenizers=_tokenizers(latent_dim=64, codebook_size=1024, fsq_levels=(8, 5, 5, 5),
+                               rvq=(2, 32), bspline=(16, 8, 256)),
         policies=_policies(d_model=512, n_layer=6, n_head=8, dropout=0.1, chunk_size=16,
                            history=10, max_seq_len=4096, resnet_width=64, query_len=32,
                            mcr_pretrain_steps=20000, language=True),
@@ -384,7 +442,7 @@ def _full() -> Preset:
         # (data.obs), codebooks 2^8 .. 2^11; three seeds for the ICRT rows.
         tables=TablesConfig(icrt_seeds=3, codebook_sizes=(256, 512, 1024, 2048),
                             image_demos_per_task=200, image_episodes_per_task=50,
-                            feature_demos_per_task=2),
+                            feature_demos_per_task=2, since_paper_seeds=5),
     )
 
 
@@ -395,6 +453,18 @@ def active_preset_name(name: str | None = None) -> str:
     """The preset name in force: `name` if given, else $ICIL_PRESET, else `small`."""
     name = name or os.environ.get(PRESET_ENV_VAR) or DEFAULT_PRESET
     return check_name("preset", name, PRESET_NAMES)
+
+
+def check_tasks(preset: Preset) -> None:
+    """Refuse, before any work, a preset whose task lists name a task that its suite does
+    not have (UnknownNameError with a "did you mean"). A suite that cannot load here is
+    not checked: its tasks are refused, with the reason, where they are used."""
+    from icil_paper import sim
+
+    for name, suite in (("kitchen_tasks", "kitchen"), ("maniskill_tasks", "maniskill")):
+        valid = sim.tasks_of(suite)
+        for task in getattr(preset.data, name) if valid else ():
+            check_name(f"data.{name} task", task, valid)
 
 
 def get_preset(name: str | None = None, seed: int | None = None) -> Preset:

@@ -139,9 +139,84 @@ def stale_records(preset_name: str = REFERENCE) -> list[str]:
                   for r in store.records(kind) if r["config_hash"] not in keys)
 
 
+def _collapsed(summary: str, frame) -> Any:
+    """A frame inside a closed <details> block (the reader opens it)."""
+    from IPython.display import HTML
+
+    return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
+                f"{frame.to_html(classes='dataframe')}</details>")
+
+
+def _build_summary(result: TableResult) -> str:
+    return (f"This build's numbers ({result.preset} preset): they test the code, not the "
+            "paper. Open to see them.")
+
+
+def show_comparison(results: dict[str, TableResult], column: str = "avg",
+                    digits: int = 3) -> None:
+    """The paper and the reference run side by side; this build's numbers below, in a
+    collapsed block (shown open when the book is built with the reference preset itself)."""
+    from IPython.display import display
+
+    frame = compare_frame(results, column, digits)
+    build = results.get(BUILD)
+    if build is None or len(results) == 1:
+        display(frame)
+        return
+    build_column = source_label(BUILD, build.preset)
+    display(frame.drop(columns=[build_column]))
+    display(_collapsed(_build_summary(build), frame[["paper", build_column]]))
+
+
+def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, float]:
+    """Columns (families or tasks; not "avg") where every row (whose label starts with
+    `prefix`, e.g. "icrt+" for the tokenizers) is at 0, or every one at 1: they cannot
+    separate those rows. Column -> the value every row has."""
+    rows = [r for r in result.spec.rows if r.label.startswith(prefix)]
+    out = {}
+    for column in result.spec.columns:
+        if column in ("avg", "features", "least_energy"):
+            continue
+        cells = [result.cell(r.label, column) for r in rows]
+        cells = [c for c in cells if c is not None]
+        values = [c.estimate.value for c in cells if c.estimate is not None]
+        if len(values) >= 2 and len(values) == len(cells) and (
+                all(v == 0.0 for v in values) or all(v == 1.0 for v in values)):
+            out[column] = values[0]
+    return out
+
+
+def uninformative_note(results: dict[str, TableResult]) -> str:
+    """A sentence per source naming its columns where every row is at 0 or at 1, and the
+    share of the average they make (they add the same to every row, so differences in the
+    average are diluted by that share). Empty when there are none."""
+    lines = []
+    for source, result in results.items():
+        flat = uninformative_columns(result)
+        if not flat and not uninformative_columns(result, "icrt+"):
+            continue
+        spec_row = result.spec.rows[0]
+        tasks = {c: len({u.eval.task for u in cell.units if u.eval is not None})
+                 for c, cell in spec_row.cells.items() if c not in ("avg", "features")}
+        total = sum(tasks.values())
+        share = sum(tasks.get(c, 0) for c in flat) / total if total else 0.0
+        named = ", ".join(f"{c} (every row {v:.0f})" for c, v in flat.items())
+        lines.append(f"- {source_label(source, result.preset)}: {named} cannot separate the "
+                     f"rows; they hold {share:.0%} of the tasks in the average, so every "
+                     f"difference in the average is diluted to {1 - share:.0%} of its size "
+                     "on the tasks that can separate them.")
+        icrt = {c: v for c, v in uninformative_columns(result, "icrt+").items() if c not in flat}
+        if icrt:
+            named = ", ".join(f"{c} (every ICRT row {v:.0f})" for c, v in icrt.items())
+            lines.append(f"- {source_label(source, result.preset)}: {named} cannot separate "
+                         "the ICRT tokenizers from one another.")
+    return "" if not lines else ("**Uninformative columns** (computed):\n\n" + "\n".join(lines))
+
+
 def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
-    """Display the paper's point values, then each source's (a one-line note for a source
-    that has not computed the table yet)."""
+    """Display the paper's point values, then the reference run's, then this build's in a
+    collapsed block (a one-line note for a source that has not computed the table yet), and
+    the columns where every row is at 0 or 1."""
     from IPython.display import Markdown, display
 
     first = next(iter(results.values()))
@@ -152,8 +227,14 @@ def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
         if not any(c.estimate is not None for c in result.cells.values()):
             display(Markdown(f"{title}: not run yet."))
             continue
+        if source == BUILD and len(results) > 1:
+            display(_collapsed(_build_summary(result), values_frame(result, digits)))
+            continue
         display(Markdown(title))
         display(values_frame(result, digits))
+    note = uninformative_note(results)
+    if note:
+        display(Markdown(note))
 
 
 def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
@@ -247,25 +328,30 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
     return f"{counts[0]} v {' '.join(map(str, counts[1:]))}" if len(counts) > 1 else str(counts[0])
 
 
-def ledger_frame(ledger: list[dict[str, Any]]):
-    """The claims ledger as a table: the paper, ours [95% interval], the seeds a row, the
-    verdict before and after Holm's correction, the size reading and the power."""
+def ledger_frame(ledger: list[dict[str, Any]], part: str = "verdicts"):
+    """The claims ledger as a table, in two parts that each fit the book's column:
+    "verdicts" (the seeds a row, the paper, ours [95% interval], the verdict before and
+    after Holm's correction) and "power" (the size reading, mde, seeds needed)."""
     import pandas as pd
 
+    if part not in ("verdicts", "power"):
+        raise ValueError(f"part must be 'verdicts' or 'power', got {part!r}")
     rows = []
     for e in ledger:
-        ours = ("" if e["ours"] is None else
-                unbroken(f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"))
-        needed = e.get("seeds_needed")
-        paper_cell = (f"{e['paper']:+.3f}" if e.get("paper") is not None
-                      else f"({e['reference_effect']:+.3f})")
-        rows.append({"claim": e["id"], "seeds": unbroken(_seeds_cell(e.get("seeds"))),
-                     "paper": paper_cell, "ours": ours, "verdict": e["verdict"],
-                     "after Holm": e.get("adjusted_verdict", ""),
-                     "size vs the paper": e.get("magnitude") or "",
-                     "mde": "" if e.get("mde") is None else f"{e['mde']:.3f}",
-                     "seeds needed": ("" if e["verdict"] == "not run" else
-                                      str(needed) if needed else "—")})
+        if part == "verdicts":
+            ours = ("" if e["ours"] is None else
+                    unbroken(f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"))
+            paper_cell = (f"{e['paper']:+.3f}" if e.get("paper") is not None
+                          else f"({e['reference_effect']:+.3f})")
+            rows.append({"claim": e["id"], "seeds": unbroken(_seeds_cell(e.get("seeds"))),
+                         "paper": paper_cell, "ours": ours, "verdict": e["verdict"],
+                         "after Holm": e.get("adjusted_verdict", "")})
+        else:
+            needed = e.get("seeds_needed")
+            rows.append({"claim": e["id"], "size vs the paper": e.get("magnitude") or "",
+                         "mde": "" if e.get("mde") is None else f"{e['mde']:.3f}",
+                         "seeds needed": ("" if e["verdict"] == "not run" else
+                                          str(needed) if needed else "—")})
     return pd.DataFrame(rows).set_index("claim").rename_axis(None)
 
 
@@ -411,3 +497,34 @@ def preset_table() -> str:
                      f"{p.tables.icrt_seeds} / {p.tables.baseline_seeds} |")
     return "\n".join(lines)
 
+
+
+def claims_figure(preset: Preset, table_id: str):
+    """The forest plot of one table's claims in the reference run's ledger (this build's
+    when the book is built with the reference preset); None when the table has no claim."""
+    from icil_paper.tables.claims import claims_ledger
+
+    p = get_preset(REFERENCE)
+    entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e["table"] == table_id]
+    if not entries:
+        return None
+    return forest_plot(entries, title=f"Table {table_id}'s claims, reference run: 95% "
+                                      "intervals, the paper's values, the verdict after Holm")
+
+
+SMOOTHER_WORDS = {"holds": "smoother", "does not hold": "less smooth",
+                  "inconclusive": "not distinguishable (the interval contains 0)",
+                  "too few seeds": "not decided (a single training seed)"}
+"""A least-energy verdict (claimed: lower) in words."""
+
+
+def smoother_sentence(a: str, b: str, a_scores, b_scores, quantity: str) -> str:
+    """"a minus b on <quantity>: +0.1 [-0.2, +0.4]: a is smoother" from per-trajectory
+    scores (seeds, trajectories) of two tokenizers on the same trajectories (lower is
+    smoother; `stats.paired_score_difference` and its verdict)."""
+    from icil_paper import stats
+
+    est = stats.paired_score_difference(a_scores, b_scores)
+    words = SMOOTHER_WORDS[stats.verdict(est, direction=-1)]
+    return (f"{a} minus {b} on {quantity}: {est.value:+.4g} [{est.low:+.4g}, {est.high:+.4g}]"
+            f": {a} is {words}")
