@@ -167,8 +167,11 @@ summary = stats.groupby(["task", "source"]).agg(
     still_fraction=("still_fraction", "mean"),
     gripper_switches=("gripper_switches", "mean"))
 summary["keep_rate"] = [keep_rate(demos[key]) for key in summary.index]
+short = {"mean_length": "mean length", "std_length": "std", "least_energy_per_step":
+         "least energy / step", "still_fraction": "still", "gripper_switches": "gripper switches",
+         "keep_rate": "kept"}  # short headers, so that the table fits the page
 with pd.option_context("display.float_format", "{:.3g}".format):
-    display(summary)
+    display(summary.rename(columns=short))
 
 # %%
 fig, axes = plt.subplots(1, 1 + len(DATA_TASKS), figsize=(5 * (1 + len(DATA_TASKS)), 3.4))

@@ -46,16 +46,14 @@ from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
 from icil_paper.tables.analysis import analysis_frame, conclusion, findings
-from icil_paper.tables.book import design_sentence, load_table, source_label
+from icil_paper.tables.book import design_sentence, load_table, show_per_source, source_label
 
 preset = get_preset()
 results = load_table(preset, "analysis")
 
 # %% tags=["hide-input"]
-for source, result in results.items():
-    display(Markdown(f"**{source_label(source, result.preset)}**: "
-                     f"{design_sentence(get_preset(result.preset))}"))
-    display(analysis_frame(result))
+show_per_source(results, analysis_frame,
+                describe=lambda result: design_sentence(get_preset(result.preset)))
 
 # %% [markdown]
 # ## The comparisons

@@ -47,8 +47,8 @@ from icil_paper.tables.book import (
     difference_sentence,
     load_table,
     show_comparison,
+    show_per_source,
     show_values,
-    source_label,
     success_figure,
     verdicts,
 )
@@ -83,9 +83,7 @@ show_values(results)
 # the product of the bounds and an empirical Lipschitz constant (means over seeds).
 
 # %% tags=["hide-input"]
-for source, result in results.items():
-    display(Markdown(f"**{source_label(source, result.preset)}**"))
-    display(analysis_frame(result))
+show_per_source(results, analysis_frame)
 
 # %% [markdown]
 # ## Does Eq. 4 help every quantizer?

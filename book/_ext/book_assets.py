@@ -9,7 +9,7 @@ into the book's `_static/`:
     recordings/                 the recordings that executed chapters staged with
                                 `icil_paper.viewer.show_recording`
 
-and it adds `book/_static/` (recording-viewer.js, recordings.css) to every page. In a
+and it adds `book/_static/` (recording-viewer.js, recordings.css, tables.css) to every page. In a
 Markdown page, `<!-- computed: reference-summary -->` becomes the reference run's claims
 summary, `<!-- computed: reference-design -->` its seeds and episodes and
 `<!-- computed: preset-table -->` every preset's scale (`_computed`).
@@ -169,4 +169,5 @@ def setup(app: Sphinx) -> dict:
     app.connect("build-finished", _copy_assets)
     app.add_js_file("recording-viewer.js", type="module")
     app.add_css_file("recordings.css")
+    app.add_css_file("tables.css")
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -53,7 +53,7 @@ def analysis_frame(result: TableResult, digits: int = 2):
     def number(value, percent=False):
         if value is None:
             return "-"
-        return f"{100 * value:.0f}%" if percent else f"{value:.3g}"
+        return f"{100 * value:.0f}%" if percent else _short(value)
 
     out = []
     for row in result.spec.rows:
@@ -67,7 +67,8 @@ def analysis_frame(result: TableResult, digits: int = 2):
             std = feat.extra["standardized_estimate"]
             line.update({
                 "least energy": number(feat.estimate.value),
-                "standardized": unbroken(f"{std.value:.3g} [{std.low:.3g}, {std.high:.3g}]"),
+                "standardized": unbroken(f"{_short(std.value)} [{_short(std.low)}, "
+                                         f"{_short(std.high)}]"),
                 "σ": number(float(np.mean(feat.extra["latent_scale"]))),
                 "codes": number(_mean_metric(feat, "codes_used")),
                 "rows capped": number(_mean_metric(feat, "capped_fraction"), percent=True),
@@ -76,6 +77,12 @@ def analysis_frame(result: TableResult, digits: int = 2):
             })
         out.append(line)
     return pd.DataFrame(out).set_index("")
+
+
+def _short(value: float) -> str:
+    """Three significant digits without an exponent up to 10^6 (6180, not 6.18e+03), so
+    that the analysis table's columns stay narrow."""
+    return f"{value:.0f}" if 1e3 <= abs(value) < 1e6 else f"{value:.3g}"
 
 
 def _success_diff(result: TableResult, a: str, b: str):

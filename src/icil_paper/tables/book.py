@@ -68,8 +68,12 @@ def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: 
 def success_figure(results: dict[str, TableResult], column: str = "avg", title: str = "",
                    ylabel: str = "success rate"):
     """Grouped bars per row: each source's estimate with its 95% interval; the paper's
-    number as a black mark."""
+    number as a black mark. With a reference run beside it, this build is left out (its
+    numbers test the code; they are in the collapsed block under the table)."""
     import matplotlib.pyplot as plt
+
+    if len(results) > 1:
+        results = {k: v for k, v in results.items() if k != BUILD}
 
     spec = next(iter(results.values())).spec
     labels = [r.label for r in spec.rows]
@@ -528,3 +532,18 @@ def smoother_sentence(a: str, b: str, a_scores, b_scores, quantity: str) -> str:
     words = SMOOTHER_WORDS[stats.verdict(est, direction=-1)]
     return (f"{a} minus {b} on {quantity}: {est.value:+.4g} [{est.low:+.4g}, {est.high:+.4g}]"
             f": {a} is {words}")
+
+
+def show_per_source(results: dict[str, TableResult], make_frame, describe=None) -> None:
+    """One frame per source (`make_frame(result)`): the reference run's shown, this build's
+    in a collapsed block when there is a reference beside it. `describe(result)` adds a
+    sentence after the source's name."""
+    from IPython.display import Markdown, display
+
+    for source, result in results.items():
+        extra = f": {describe(result)}" if describe else ""
+        if source == BUILD and len(results) > 1:
+            display(_collapsed(_build_summary(result) + extra, make_frame(result)))
+            continue
+        display(Markdown(f"**{source_label(source, result.preset)}**{extra}"))
+        display(make_frame(result))
