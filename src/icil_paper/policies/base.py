@@ -25,7 +25,7 @@ use it with the state dict).
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -50,7 +50,7 @@ class Policy(nn.Module):
     name: str = "policy"
     uses_prompt: bool = False
     needs_images: bool = False
-    tokenizers: ClassVar[tuple[str, ...]] = ()
+    tokenizers: ClassVar[Collection[str]] = ()
     default_tokenizer: ClassVar[str | None] = None
 
     def __init__(self, config: PolicyConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,

@@ -54,7 +54,7 @@ from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1, validate_prompt
 from icil_paper.policies.configs import ICRTConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
-from icil_paper.tokenizers import TOKENIZERS
+from icil_paper.tokenizers import REGISTRY as TOKENIZER_REGISTRY
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 
@@ -75,7 +75,7 @@ class ICRT(BatchedPolicy):
 
     name = "icrt"
     uses_prompt = True
-    tokenizers = TOKENIZERS
+    tokenizers = TOKENIZER_REGISTRY  # every registered tokenizer, those added later too
     default_tokenizer = "mlp"
 
     def __init__(self, config: ICRTConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
