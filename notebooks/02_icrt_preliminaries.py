@@ -59,7 +59,7 @@ from matplotlib.colors import ListedColormap
 from icil_paper.cells import load_trained
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
-from icil_paper.evaluate import record_rollout, rollout
+from icil_paper.eval import record_rollout, rollout_policy
 from icil_paper.paper_numbers import TABLE_I_ROBOCASA
 from icil_paper.policies import make_policy
 from icil_paper.policies.backbones import obs_spec_from_obs
@@ -209,7 +209,7 @@ episode = next((e for e in m["per_episode"] if e["success"]), m["per_episode"][0
 prompt = [demos[i] for i in episode["prompt"]]
 env = make_env(TASK, obs="state", seed=episode["seed"])
 with cpu_threads(1):  # as in the evaluation workers, so the replay matches the stored episode
-    trace = rollout(trained_policy, env, episode["seed"], prompt, evaluation.max_steps,
+    trace = rollout_policy(trained_policy, env, episode["seed"], prompt, evaluation.max_steps,
                     keep_trace=True)
 env.close()
 

@@ -30,9 +30,10 @@ import pytest
 import torch
 
 from icil_paper import cli
-from icil_paper.cells import StaleRecordWarning, train_record_name, train_run
+from icil_paper.cells import StaleRecordWarning, train_run
 from icil_paper.config import get_preset
 from icil_paper.fileio import LockedError, exclusive_lock, file_sha256
+from icil_paper.records import train_record_name
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import run_spec
 from icil_paper.sim.synthetic import synthetic_demos
@@ -495,7 +496,7 @@ def _run_with_read_only(folder: Path, cmd: list[str], env: dict) -> subprocess.C
 
 
 def test_a_read_only_results_folder_is_refused_before_training(tmp_path):
-    from icil_paper.evaluate import eval_record_name
+    from icil_paper.records import eval_record_name
     from icil_paper.results import config_hash
     from icil_paper.specs import to_dict
     from icil_paper.tables.definitions import table_spec

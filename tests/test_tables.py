@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from icil_paper.config import get_preset
-from icil_paper.evaluate import eval_record_name
+from icil_paper.records import eval_record_name
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key
 from icil_paper.specs import spec_key, to_dict

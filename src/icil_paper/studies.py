@@ -273,7 +273,7 @@ def icrt_rollout_study(preset: Preset, store: ResultsStore | None = None,
     record's metrics (success rate, Wilson interval, per-episode seeds and prompts)}.
     """
     from icil_paper.cells import load_trained, train_run
-    from icil_paper.evaluate import evaluate_run
+    from icil_paper.eval import evaluate_run
 
     store = store or ResultsStore(preset.name)
     run, ev = icrt_specs(preset)

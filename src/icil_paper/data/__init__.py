@@ -41,8 +41,8 @@ from icil_paper.data.sources import (
     HumanLikeOperator,
     OperatorStyle,
     demo_seed,
+    expert_rollout,
     make_source,
-    rollout,
 )
 from icil_paper.data.splits import sim_to_real_pairs, train_valid_split, zero_shot_split
 
@@ -51,6 +51,6 @@ __all__ = [
     "ObsKeyMap", "OperatorStyle", "ROBOMIMIC_KEY_MAP", "SOURCES", "data_root",
     "dataset_obs_keys", "demo_path", "demo_seed", "ensure_demos", "ensure_many", "file_info",
     "load_dataset_file", "load_demos", "make_source", "map_obs_keys", "preset_tasks",
-    "read_masks", "robomimic_env_args", "rollout", "sim_to_real_pairs", "train_valid_split",
+    "read_masks", "robomimic_env_args", "expert_rollout", "sim_to_real_pairs", "train_valid_split",
     "verify_file", "write_demos", "zero_shot_split",
 ]

@@ -11,7 +11,7 @@
     actions = policy.select_actions([obs_0, obs_2], rows=[0, 2])  # episode 1 has finished
 
 `reset_batch` / `select_actions` run B episodes in lockstep (the rollout engine,
-`icil_paper.rollouts`). ICRT, ACT, BC-Transformer and MCR implement them with one batched
+`icil_paper.eval.rollouts`). ICRT, ACT, BC-Transformer and MCR implement them with one batched
 forward pass per step; for any other policy the default here keeps one copy of the policy
 per episode and loops over `select_action`.
 

@@ -48,12 +48,12 @@ def _get(task: str) -> tuple[Any, Any, Any]:
 
 def measure_one(job: tuple[str, int, bool]) -> dict[str, Any]:
     """Expert episode, open-loop replay and (optionally) a human-source episode for one seed."""
-    from icil_paper.data.sources import ExpertSource, make_source, rollout
+    from icil_paper.data.sources import ExpertSource, expert_rollout, make_source
 
     task, seed, human = job
     env, replay_env, expert = _get(task)
     start = time.perf_counter()
-    demo, ok = rollout(env, ExpertSource(expert), seed, record_states=False)
+    demo, ok = expert_rollout(env, ExpertSource(expert), seed, record_states=False)
     out: dict[str, Any] = {"task": task, "seed": seed, "success": ok, "length": len(demo),
                            "expert_s": time.perf_counter() - start}
     if hasattr(expert, "planned_success"):
@@ -69,7 +69,7 @@ def measure_one(job: tuple[str, int, bool]) -> dict[str, Any]:
                 break
     out["replay_success"] = replay_ok
     if human:
-        hdemo, hok = rollout(env, make_source("human", task, expert), seed, source="human",
+        hdemo, hok = expert_rollout(env, make_source("human", task, expert), seed, source="human",
                              record_states=False)
         out["human_success"] = hok
         out["human_length"] = len(hdemo)
