@@ -104,7 +104,7 @@ bench: setup
 		echo "== bench $$m"; $(BIN)/python -m icil_paper.bench.$$m || exit 1; done
 
 # LeRobot 0.6 needs Python >= 3.12 and numpy >= 2, which robosuite and ManiSkill here cannot
-# share: it gets an environment of its own, used only by icil_paper.lerobot_export.
+# share: it gets an environment of its own, used only by icil_paper.interop.lerobot_export.
 LEROBOT_VENV ?= .venv-lerobot
 # Empty: .ci/find-python312 looks for a Python 3.12 that runs (a pyenv shim of an unselected
 # version does not); PYTHON312=/path/to/python3.12 chooses one.
@@ -121,7 +121,7 @@ $(LEROBOT_STAMP):
 
 lerobot-export: lerobot-setup
 	@test -n "$(FILE)" -a -n "$(OUT)" || { echo "usage: make lerobot-export FILE=data.hdf5 OUT=folder"; exit 2; }
-	PYTHONPATH=src $(LEROBOT_VENV)/bin/python -m icil_paper.lerobot_export "$(FILE)" "$(OUT)"
+	PYTHONPATH=src $(LEROBOT_VENV)/bin/python -m icil_paper.interop.lerobot_export "$(FILE)" "$(OUT)"
 
 lint: setup
 	$(BIN)/ruff check src tests notebooks book/_ext

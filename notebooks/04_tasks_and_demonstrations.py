@@ -114,7 +114,7 @@ plt.show()
 #   expert's (or the human source's) success rate over the scenes it was generated on;
 # - **over `data.expert_seeds` fresh scenes** (the `experts` stage; 50 under the full preset):
 #   success, an open-loop replay of the stored actions, and the human source's keep rate.
-#   Any preset can run it by hand: `python -m icil_paper.sim.measure_experts --suite <suite>
+#   Any preset can run it by hand: `python -m icil_paper.data.experts --suites <suite>
 #   --seeds 50` writes `results/experts/<suite>.json`, which this chapter also reads.
 
 # %%

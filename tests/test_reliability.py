@@ -30,7 +30,6 @@ import pytest
 import torch
 
 from icil_paper import cli
-from icil_paper.cells import StaleRecordWarning, train_run
 from icil_paper.config import get_preset
 from icil_paper.fileio import LockedError, exclusive_lock, file_sha256
 from icil_paper.records import train_record_name
@@ -53,6 +52,7 @@ from icil_paper.train.rundir import (
     DamagedFileWarning,
     load_checkpoint,
 )
+from icil_paper.train.stored import StaleRecordWarning, train_run
 
 TASKS = ["synthetic/task0", "synthetic/task1"]
 
@@ -411,9 +411,10 @@ def test_every_config_checks_its_own_values_when_built(build, phrase):
 
 def test_the_configs_choices_are_the_components_own():
     """The valid strings a config checks are the ones its component accepts."""
-    from icil_paper import batching, sim
+    from icil_paper import sim
     from icil_paper.config import DEMO_SOURCES, OBS_KINDS
     from icil_paper.data.sources import SOURCES
+    from icil_paper.policies import batching
     from icil_paper.policies.configs import ICRTConfig
     from icil_paper.specs import field_choices
     from icil_paper.tokenizers import base, fast, vq

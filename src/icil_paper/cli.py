@@ -77,11 +77,11 @@ def positive(name: str):
 # subcommand -> (module with main(argv), one-line help)
 SUBCOMMANDS = {
     "demos": ("icil_paper.data.cli", "generate demonstration data sets (robomimic HDF5)"),
-    "train": ("icil_paper.train", "train a policy (ICRT or a baseline) with a tokenizer"),
+    "train": ("icil_paper.train.cli", "train a policy (ICRT or a baseline) with a tokenizer"),
     "eval": ("icil_paper.eval.cli", "roll out a trained policy and store its success rate"),
     "tables": ("icil_paper.tables.cli", "print the paper's tables and claims from the results store"),
     "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
-    "export-tokenizer": ("icil_paper.tokenizers.portable",
+    "export-tokenizer": ("icil_paper.interop.tokenizer_export",
                          "write a trained policy's tokenizer as a portable folder (safetensors)"),
 }
 

@@ -15,7 +15,7 @@ same record waits and then reads the one the first wrote.
 A record that stands for files (a `train` record for its `policy.pt`) names them with their
 SHA-256 in `files` (`run(..., files=...)`); `files_problem` says when one is missing or
 changed, and the caller then recomputes rather than report a record whose file is not the
-one it describes (`cells.train_run`).
+one it describes (`train.stored.train_run`).
 
     store = ResultsStore("small")
     record = store.run("tokenizer", "lipvq", config, lambda: {"recon_mse": 0.01})
@@ -225,7 +225,7 @@ def files_problem(record: Mapping[str, Any], folder: str | Path) -> str | None:
     whose bytes hash otherwise, is named. A record without `files` (written before records
     named their files) gives None here: it is accepted as far as this check goes, and its
     caller verifies it by loading (a `train` record: its policy's weight digest,
-    `cells.train_run`).
+    `train.stored.train_run`).
     """
     for name, digest in (record.get("files") or {}).items():
         try:

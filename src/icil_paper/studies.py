@@ -272,8 +272,8 @@ def icrt_rollout_study(preset: Preset, store: ResultsStore | None = None,
     Returns {"train": the train record's metrics (summary and loss curve), "eval": the eval
     record's metrics (success rate, Wilson interval, per-episode seeds and prompts)}.
     """
-    from icil_paper.cells import load_trained, train_run
     from icil_paper.eval import evaluate_run
+    from icil_paper.train.stored import load_trained, train_run
 
     store = store or ResultsStore(preset.name)
     run, ev = icrt_specs(preset)
@@ -338,7 +338,7 @@ def expert_study(preset: Preset, store: ResultsStore | None = None,
     Nothing (an empty dict) when the preset sets `expert_seeds = 0`.
     """
     from icil_paper import sim
-    from icil_paper.sim.measure_experts import measure
+    from icil_paper.data.experts import measure
 
     store = store or ResultsStore(preset.name)
     n_seeds = preset.data.expert_seeds

@@ -99,7 +99,7 @@ def paired_phase(policy: Any, episodes: list[Any], prompts: dict[int, Any],
     setup = EnvSetup("state")
     start = time.perf_counter()
     if workers == 1:
-        from icil_paper.train.optim import cpu_threads
+        from icil_paper.seeding import cpu_threads
 
         state = WorkerState()  # no envs yet, as a new worker
         try:

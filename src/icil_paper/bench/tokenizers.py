@@ -19,11 +19,10 @@ import time
 import torch
 
 from icil_paper.bench import save_benchmark
-from icil_paper.config import TokenizerStudyConfig
 from icil_paper.seeding import seed_everything
 from icil_paper.specs import to_dict
 from icil_paper.tokenizers import TOKENIZERS, make_tokenizer
-from icil_paper.tokenizers.configs import default_config, lipvq_official
+from icil_paper.tokenizers.configs import TokenizerStudyConfig, default_config, lipvq_official
 from icil_paper.tokenizers.training import sample_windows, throughput
 from icil_paper.trajectories import ACTION_DIM, generate_actions, generate_trajectories
 

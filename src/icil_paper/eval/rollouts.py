@@ -523,7 +523,7 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
         policy.eval()
     try:
         if pool is None and n_workers == 1:
-            from icil_paper.train.optim import cpu_threads
+            from icil_paper.seeding import cpu_threads
 
             state = WorkerState()
             try:

@@ -41,10 +41,9 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from icil_paper.batching import DemoSet, window_batch
 from icil_paper.layers import mlp
-from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import BatchedPolicy, TemporalEnsemble, batch_instructions, masked_l1
+from icil_paper.policies.batching import DemoSet, ObsSpec, window_batch
 from icil_paper.policies.configs import ACTConfig
 from icil_paper.policies.transformer import DecoderBlock, RMSNorm, Transformer, TransformerConfig
 from icil_paper.tokenizers import REGISTRY as TOKENIZER_REGISTRY

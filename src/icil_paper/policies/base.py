@@ -32,8 +32,8 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from icil_paper.batching import DemoSet, as_demo_set, obs_batch
-from icil_paper.policies.backbones import ObservationEncoder, ObsSpec, as_obs_spec
+from icil_paper.policies.backbones import ObservationEncoder
+from icil_paper.policies.batching import DemoSet, ObsSpec, as_demo_set, as_obs_spec, obs_batch
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.tokenizers.configs import TokenizerConfig
 

@@ -53,7 +53,7 @@ SUITES = ("kitchen", "kinova", "maniskill")
 SUITE_ENTRIES = {
     "kitchen": "icil_paper.sim.kitchen:KITCHEN_SUITE",
     "kinova": "icil_paper.sim.kitchen:KINOVA_SUITE",
-    "maniskill": "icil_paper.sim.maniskill_suite:MANISKILL_SUITE",
+    "maniskill": "icil_paper.sim.maniskill:MANISKILL_SUITE",
     "synthetic": "icil_paper.sim.synthetic:SYNTHETIC_SUITE",
 }
 """Suite name -> "module:attribute" of its `Suite` record (one line per suite)."""

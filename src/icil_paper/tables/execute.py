@@ -15,7 +15,7 @@
 
 Records are named by `icil_paper.records` (`train_record`, `eval_record`,
 `features_record`; their keys are the content keys of the specs), written by
-`cells.train_run`, `eval.evaluate_run_many` and `eval.measure_features`.
+`train.train_run`, `eval.evaluate_run_many` and `eval.measure_features`.
 """
 
 from __future__ import annotations
@@ -114,9 +114,9 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
     Arguments are JSON (what a grid worker receives); every result is written to the
     results store of `preset` as it finishes. Returns a short summary.
     """
-    from icil_paper.cells import load_trained, train_run
     from icil_paper.eval import evaluate_run_many, measure_features
     from icil_paper.seeding import seed_everything
+    from icil_paper.train.stored import load_trained, train_run
 
     store = ResultsStore(preset)
     run_spec = RunSpec.from_dict(run)

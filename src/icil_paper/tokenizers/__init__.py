@@ -55,7 +55,7 @@ module is imported (`tests/test_registration.py` runs one end to end).
 
 from __future__ import annotations
 
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, make_tokenizer
 from icil_paper.tokenizers.configs import (
     TOKENIZER_CONFIGS,
     TOKENIZER_REGISTRY,
@@ -79,19 +79,6 @@ TOKENIZERS = tuple(TOKENIZER_CONFIGS)
 REGISTRY = TOKENIZER_REGISTRY
 """Name -> tokenizer class, imported on first use; filled by `register_tokenizer` on each
 config class (`configs.py`)."""
-
-
-def make_tokenizer(config: TokenizerConfig | str, action_dim: int) -> ActionTokenizer:
-    """Build the tokenizer a config describes (a name gives that tokenizer's default config).
-
-    An unknown name raises UnknownNameError (a ValueError) that lists the valid names.
-    """
-    if isinstance(config, str):
-        config = default_config(config)
-    if not isinstance(config, TokenizerConfig) or not config.type:
-        raise TypeError(f"make_tokenizer needs a tokenizer config (icil_paper.tokenizers.configs)"
-                        f" or a name, got {type(config).__name__}")
-    return REGISTRY[config.type](config, action_dim)
 
 
 def __getattr__(name: str):

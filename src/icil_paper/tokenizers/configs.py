@@ -234,6 +234,42 @@ class LipVQConfig(VQConfig):
     """Encoder weight normalisation (the paper: `lipschitz`, Eq. 4 on every layer)."""
 
 
+# ----------------------------------------------------------------- training alone
+@dataclass(frozen=True)
+class TokenizerStudyConfig:
+    """Tokenizers trained alone on action trajectories (chapters 02 and 04, the benchmark)."""
+
+    CHOICES = {"trajectories": ("demos", "synthetic")}
+
+    steps: int = 2000
+    """Optimizer steps when a tokenizer is trained on its own."""
+    batch_size: int = 64
+    """Trajectory windows per batch."""
+    window: int = 16
+    """Steps per trajectory window."""
+    lr: float = 1e-3
+    """Adam learning rate."""
+    trajectories: str = "demos"
+    """What tokenizers are trained on: `demos`, the preset's `generated` demonstrations of
+    its kitchen and ManiSkill tasks (the last `eval_fraction` of each task's demos held out),
+    or `synthetic`, minimum-jerk trajectories from `icil_paper.trajectories` (no simulator)."""
+    eval_fraction: float = 0.2
+    """Share of each task's demonstrations held out for the metrics (at least one)."""
+    n_trajectories: int = 200
+    """`synthetic` only: generated trajectories a tokenizer is trained on."""
+    n_eval_trajectories: int = 50
+    """`synthetic` only: held-out generated trajectories the metrics are computed on."""
+    trajectory_noise: float = 0.02
+    """Amplitude of the low-pass noise added to generated trajectories (teleoperation tremor)."""
+    bench_fast_actions: int = 1_000_000
+    """Actions FAST's BPE is fitted on in the benchmark (the paper: 1M)."""
+    seeds: int = 3
+    """Training seeds of every tokenizer trained alone (the chapters show the spread)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+
 def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConfig:
     """The official code's LipVQ-VAE (see `lipvq.py`): last layer normalised with per-row
     bounds initialised to ones, GELU, sigmoid output, no straight-through estimator, the

@@ -33,8 +33,9 @@ from typing import Any
 import numpy as np
 import torch
 
+from icil_paper.seeding import cpu_threads
 from icil_paper.train import rundir
-from icil_paper.train.optim import EMA, cosine_schedule, cpu_threads, make_optimizer
+from icil_paper.train.optim import EMA, cosine_schedule, make_optimizer
 
 
 @dataclass
@@ -134,9 +135,8 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
            data_workers) -> TrainResult:
     from tqdm.auto import tqdm
 
-    from icil_paper.batching import batch_to
     from icil_paper.policies import make_policy
-    from icil_paper.policies.backbones import obs_spec_from_obs
+    from icil_paper.policies.batching import batch_to, obs_spec_from_obs
     from icil_paper.seeding import seed_everything
 
     tc = spec.train

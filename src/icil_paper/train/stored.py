@@ -1,4 +1,5 @@
-"""Stored training runs: a RunSpec in, a `train` record and a policy file out.
+"""Stored training runs: a RunSpec in, a `train` record and a policy file out (the stored-run
+layer of `train/`, as `eval/stored.py` is of evaluation).
 
     record = train_run(spec, preset.name, store)        # trains only what is missing
     policy = load_trained(spec, preset.name)             # the policy file of that run
@@ -36,7 +37,7 @@ class StaleRecordWarning(UserWarning):
 def _policy_problem(record: dict[str, Any], folder: Path) -> str | None:
     """Why `record` does not stand for the policy file in `folder`, or None when it does
     (by its `files` digest, or for an older record without one, by loading the file)."""
-    from icil_paper.train import POLICY_FILE, load_policy, policy_digest
+    from icil_paper.train.rundir import POLICY_FILE, load_policy, policy_digest
 
     path = folder / POLICY_FILE
     if not path.exists():
@@ -62,9 +63,16 @@ def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Pat
     The run folder defaults to `run_dir_for(run, preset)`; training continues from its last
     checkpoint unless `resume=False` (start over).
     """
-    from icil_paper.train import METRICS_FILE, POLICY_FILE, policy_digest, read_metrics, run_dir_for
     from icil_paper.train.loop import finite, train_policy
-    from icil_paper.train.rundir import run_lock, set_aside_damaged
+    from icil_paper.train.rundir import (
+        METRICS_FILE,
+        POLICY_FILE,
+        policy_digest,
+        read_metrics,
+        run_dir_for,
+        run_lock,
+        set_aside_damaged,
+    )
 
     folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset)
     record_id = train_record(run)
@@ -98,8 +106,7 @@ def load_trained(run: RunSpec, preset: str, store: ResultsStore | None = None,
                  progress: bool = True, device: str | None = None, data_workers: int = 1):
     """The trained policy of `run`: its policy file, as its `train` record names it (trained,
     or trained again, and recorded where it is missing or stale: `train_run`)."""
-    from icil_paper.train import load_policy, run_dir_for
-    from icil_paper.train.rundir import run_lock
+    from icil_paper.train.rundir import load_policy, run_dir_for, run_lock
 
     folder = run_dir_for(run, preset)
     with run_lock(folder):  # the file checked is the file loaded
