@@ -24,7 +24,7 @@ from icil_paper.envcheck import environment_report, format_report
 preset = get_preset()  # reads ICIL_PRESET; `make reproduce` sets it from PRESET (default small)
 
 # %%
-report = environment_report()
+report = environment_report(preset.name)
 print(format_report(report))
 
 # %% [markdown]

@@ -135,3 +135,56 @@ def test_low_level_packages_import_no_higher_one(low):
                    for t in targets
                    if any(t == h or t.startswith(h + ".") for h in LOWER[low]))
     assert not wrong, f"{low} imports a higher layer: {wrong}"
+
+
+# --------------------------------------------------------------------------- the preset
+PRESET_READERS = {"icil_paper.cli", "icil_paper.config"}
+"""The only modules that may read the preset from the environment: the command line and
+`config.py` (`active_preset_name`, `get_preset()`); the library takes it as an argument."""
+
+
+def preset_reads(source: str) -> list[int]:
+    """Lines of `source` that read $ICIL_PRESET: `os.environ[...]`, `os.environ.get(...)`
+    or `os.getenv(...)` of "ICIL_PRESET" or `PRESET_ENV_VAR`, a call of
+    `active_preset_name`, or `get_preset()` without a name."""
+
+    def names_the_variable(node: ast.AST) -> bool:
+        return ((isinstance(node, ast.Constant) and node.value == "ICIL_PRESET")
+                or (isinstance(node, (ast.Name, ast.Attribute))
+                    and getattr(node, "id", getattr(node, "attr", None)) == "PRESET_ENV_VAR"))
+
+    def callee(node: ast.Call) -> str:
+        f = node.func
+        return f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else ""
+
+    lines = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Subscript) and ast.unparse(node.value).endswith("environ") \
+                and names_the_variable(node.slice):
+            lines.append(node.lineno)
+        elif isinstance(node, ast.Call):
+            name = callee(node)
+            if name in ("get", "getenv", "pop", "setdefault") and node.args \
+                    and names_the_variable(node.args[0]) and "environ" in ast.unparse(node.func) \
+                    or name == "getenv" and node.args and names_the_variable(node.args[0]):
+                lines.append(node.lineno)
+            elif name == "active_preset_name":
+                lines.append(node.lineno)
+            elif name == "get_preset" and not node.args and not any(
+                    k.arg == "name" for k in node.keywords):
+                lines.append(node.lineno)
+    return sorted(set(lines))
+
+
+def test_preset_reads_are_found():
+    assert preset_reads("import os\nx = os.environ.get('ICIL_PRESET')\n") == [2]
+    assert preset_reads("x = os.environ[PRESET_ENV_VAR]\ny = os.getenv('ICIL_PRESET')") == [1, 2]
+    assert preset_reads("a = active_preset_name(None)\nb = get_preset()\nc = get_preset('s')") == [1, 2]
+    assert preset_reads("msg = 'set ICIL_PRESET'\nd = os.environ.get('ICIL_DATA')") == []
+
+
+def test_only_the_cli_and_config_read_the_preset_from_the_environment():
+    wrong = {name: lines for name, path in modules().items() if name not in PRESET_READERS
+             and (lines := preset_reads(path.read_text()))}
+    assert not wrong, f"the preset read from the environment outside the CLI and config.py " \
+                      f"(pass it as an argument): {wrong}"

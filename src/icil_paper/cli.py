@@ -93,13 +93,10 @@ def _env(argv: list[str]) -> int:
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
     parser.add_argument("--no-sim", action="store_true", help="skip the simulator checks")
     args = parser.parse_args(argv)
-    if args.preset:
-        import os
-
-        os.environ["ICIL_PRESET"] = args.preset
+    from icil_paper.config import active_preset_name
     from icil_paper.envcheck import environment_report, format_report
 
-    report = environment_report(simulators=not args.no_sim)
+    report = environment_report(active_preset_name(args.preset), simulators=not args.no_sim)
     print(json.dumps(report, indent=2) if args.json else format_report(report))
     return 0
 

@@ -12,7 +12,6 @@ import sys
 import time
 from dataclasses import asdict, dataclass
 
-from icil_paper.config import active_preset_name
 from icil_paper.provenance import host_info, package_versions
 
 
@@ -92,10 +91,11 @@ def check_simulators() -> list[Check]:
             _run_check("offscreen rendering", _OFFSCREEN)]
 
 
-def environment_report(simulators: bool = True) -> dict:
-    """Everything `icil-paper env` prints, as a dict."""
+def environment_report(preset: str, simulators: bool = True) -> dict:
+    """Everything `icil-paper env` prints, as a dict; `preset` is the name of the preset in
+    force (the command line resolves it from --preset or $ICIL_PRESET)."""
     report = {
-        "preset": active_preset_name(),
+        "preset": preset,
         "host": host_info(),
         "packages": package_versions(),
         "checks": [asdict(c) for c in check_simulators()] if simulators else [],

@@ -73,7 +73,7 @@ def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None
     from icil_paper.envcheck import environment_report
 
     def compute():
-        report = environment_report()
+        report = environment_report(preset.name)
         return {"checks": {c["name"]: c["ok"] for c in report["checks"]},
                 "device": (report.get("torch") or {}).get("device", "cpu")}
 

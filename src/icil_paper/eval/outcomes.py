@@ -134,11 +134,13 @@ def check_policy_fits(policy: Any, task: str) -> None:
 def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
                 preset: str | None = None, progress: bool = True) -> list[Any]:
     """The prompt demonstrations an EvalSpec draws from (see the module docstring)."""
-    from icil_paper.config import active_preset_name
     from icil_paper.data import ensure_demos, load_demos
 
+    if preset is None:
+        raise ValueError("prompt_pool needs the preset's name (preset=...): prompt data sets "
+                         "live under data/<preset>/")
     task = ev.prompt_task or ev.task
-    path = ensure_demos(active_preset_name(preset), task, ev.prompt_source, n=demos_per_task,
+    path = ensure_demos(preset, task, ev.prompt_source, n=demos_per_task,
                         seed=data_seed, obs=obs, progress=progress)
     demos = load_demos(path, limit=demos_per_task)
     if ev.prompt_steps is not None:
