@@ -15,7 +15,7 @@ REQ_HASH := $(shell cat requirements.txt requirements-no-deps.txt pyproject.toml
 PY_STAMP := $(VENV)/.installed-$(REQ_HASH)
 # Keyed on the script that installs system packages (lavapipe, chromium), so that a new
 # requirement there runs again on a machine that was set up before it.
-SYS_STAMP := $(VENV)/.system-$(shell sha256sum src/icil_paper/system_deps.py | cut -c1-12)
+SYS_STAMP := $(VENV)/.system-$(shell sha256sum src/icil_paper/setup/system_deps.py | cut -c1-12)
 # The book's browser assets (MathJax, the rerun web viewer), pinned in book/package.json.
 NODE_HASH := $(shell cat book/package.json book/package-lock.json | sha256sum | cut -c1-16)
 NODE_STAMP := book/node_modules/.installed-$(NODE_HASH)
@@ -59,7 +59,7 @@ $(PY_STAMP):
 	@rm -f $(VENV)/.installed-*; touch $@
 
 $(SYS_STAMP): $(PY_STAMP)
-	$(BIN)/python -m icil_paper.system_deps --install
+	$(BIN)/python -m icil_paper.setup.system_deps --install
 	@rm -f $(VENV)/.system-*; touch $@
 
 # npm ci installs exactly the lock file's versions (no registry addresses are recorded in it).
@@ -97,7 +97,7 @@ book: setup
 # other request blocked; fails on JS errors, failed requests, raw TeX, broken links or
 # images, and recording viewers that did not start. Screenshots: $(BOOK_OUT)/screenshots.
 browser-check: setup
-	$(BIN)/python -m icil_paper.browser_check $(BOOK_OUT)/html --screenshots $(BOOK_OUT)/screenshots
+	$(BIN)/python -m icil_paper.book.browser_check $(BOOK_OUT)/html --screenshots $(BOOK_OUT)/screenshots
 
 bench: setup
 	@for m in $$(ls src/icil_paper/bench/*.py | xargs -n1 basename | grep -v __init__ | sed 's/\.py$$//'); do \

@@ -56,6 +56,13 @@ import numpy as np
 from IPython.display import display
 from matplotlib.colors import ListedColormap
 
+from icil_paper.book.studies import (
+    ICRT_DEMO_TASK,
+    ICRT_DEMO_TOKENIZER,
+    icrt_rollout_study,
+    icrt_specs,
+)
+from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
 from icil_paper.eval import record_rollout, rollout_policy
@@ -66,9 +73,7 @@ from icil_paper.policies.transformer import causal_mask
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import cpu_threads, seed_everything
 from icil_paper.sim import make_env
-from icil_paper.studies import ICRT_DEMO_TASK, ICRT_DEMO_TOKENIZER, icrt_rollout_study, icrt_specs
 from icil_paper.train import load_trained
-from icil_paper.viewer import show_recording
 
 logging.getLogger("robosuite_logs").disabled = True  # robosuite's import-time chatter
 preset = get_preset()  # reads ICIL_PRESET

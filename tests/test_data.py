@@ -378,7 +378,7 @@ def test_human_source_is_seeded_noisy_and_still_succeeds(fake_kitchen):
 # ----------------------------------------------------------------------------- generation
 def test_empty_icil_data_counts_as_unset(monkeypatch, tmp_path):
     from icil_paper.data import data_root
-    from icil_paper.provenance import REPO_ROOT
+    from icil_paper.setup.provenance import REPO_ROOT
 
     for value in ("", "   "):
         monkeypatch.setenv("ICIL_DATA", value)
@@ -581,7 +581,7 @@ def test_cli_generates_checks_and_lists(fake_kitchen, capsys):
 
 
 def test_recording_writes_rrd_and_picture(tmp_path):
-    from icil_paper.recording import record_episode
+    from icil_paper.book.recording import record_episode
 
     demo = _demo(T=6, images=True)
     paths = record_episode(tmp_path / "rec" / "demo.rrd", demo.obs, demo.actions,

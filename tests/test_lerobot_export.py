@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from icil_paper.data.hdf5 import Demo, write_demos
-from icil_paper.provenance import REPO_ROOT
+from icil_paper.setup.provenance import REPO_ROOT
 
 LEROBOT_PYTHON = Path(os.environ.get("ICIL_LEROBOT_PYTHON", "").strip()
                       or REPO_ROOT / ".venv-lerobot" / "bin" / "python")

@@ -97,8 +97,8 @@ def test_a_second_registration_of_a_name_is_refused():
 
 def test_a_tokenizer_of_one_module_gets_a_section_a_set_path_and_the_shared_sizes(toy_module):
     from icil_paper.config import get_preset
+    from icil_paper.config_data import field_docs
     from icil_paper.policies import make_policy
-    from icil_paper.specs import field_docs
     from icil_paper.tokenizers import REGISTRY, make_tokenizer
 
     smoke = get_preset("smoke")
@@ -112,7 +112,7 @@ def test_a_tokenizer_of_one_module_gets_a_section_a_set_path_and_the_shared_size
     policy = make_policy(smoke.policies.icrt, 19, 7, changed.tokenizers.toy)
     assert policy.tokenizer_config.type == "toy"
     from icil_paper.config import Preset
-    from icil_paper.specs import from_dict
+    from icil_paper.config_data import from_dict
 
     assert from_dict(Preset, changed.to_dict()) == changed  # a stored preset reads back
 

@@ -19,7 +19,7 @@ import sys
 from typing import Any
 
 from icil_paper.config import PRESET_NAMES
-from icil_paper.grid import RayUnavailable
+from icil_paper.tables.grid import RayUnavailable
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError,
@@ -94,7 +94,7 @@ def _env(argv: list[str]) -> int:
     parser.add_argument("--no-sim", action="store_true", help="skip the simulator checks")
     args = parser.parse_args(argv)
     from icil_paper.config import active_preset_name
-    from icil_paper.envcheck import environment_report, format_report
+    from icil_paper.setup.envcheck import environment_report, format_report
 
     report = environment_report(active_preset_name(args.preset), simulators=not args.no_sim)
     print(json.dumps(report, indent=2) if args.json else format_report(report))

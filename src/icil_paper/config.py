@@ -26,9 +26,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from icil_paper.config_data import NOT_KEYED, check_fields, field_docs, to_dict, with_overrides
 from icil_paper.policies.configs import POLICY_REGISTRY
 from icil_paper.registry import ComponentRegistry, check_name
-from icil_paper.specs import NOT_KEYED, check_fields, field_docs, to_dict, with_overrides
 from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY, TokenizerStudyConfig
 
 PRESET_NAMES = ("smoke", "small", "reference", "full")
@@ -44,7 +44,7 @@ class _Checked:
     """Base of the preset's sections: each checks its own fields when it is built."""
 
     def __post_init__(self) -> None:
-        check_fields(self)  # ranges, empty values, CHOICES (`specs.check_fields`)
+        check_fields(self)  # ranges, empty values, CHOICES (`config_data.check_fields`)
 
 
 @dataclass(frozen=True)

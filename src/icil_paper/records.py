@@ -7,7 +7,7 @@
 
 Every caller (training, evaluation, feature measurement, the table scheduler) names a
 record here and nowhere else. A record's config is the keyed content of the specs it
-stands for (`specs.to_dict(..., keyed_only=True)`), so its key is the specs' content key
+stands for (`config_data.to_dict(..., keyed_only=True)`), so its key is the specs' content key
 (`RunSpec.key()`, `runspec.eval_key`, `runspec.feature_key`); its name is for people
 reading the results folder:
 
@@ -22,8 +22,8 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+from icil_paper.config_data import to_dict
 from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec, tasks_tag
-from icil_paper.specs import to_dict
 
 
 class RecordId(NamedTuple):

@@ -35,6 +35,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from icil_paper.config_data import canonical_json, content_hash
 from icil_paper.fileio import (
     atomic_write_json,
     exclusive_lock,
@@ -42,8 +43,7 @@ from icil_paper.fileio import (
     folder_from_env,
     set_aside,
 )
-from icil_paper.provenance import git_state, host_info, package_versions
-from icil_paper.specs import canonical_json, content_hash
+from icil_paper.setup.provenance import git_state, host_info, package_versions
 
 SCHEMA_VERSION = 1
 RESULTS_ENV_VAR = "ICIL_RESULTS"
@@ -65,7 +65,7 @@ def results_root() -> Path:
 
 
 def config_hash(config: Mapping[str, Any]) -> str:
-    """A short stable hash of a JSON-ready config: `specs.content_hash`, the one every key
+    """A short stable hash of a JSON-ready config: `config_data.content_hash`, the one every key
     of the library is taken with (16 hex digits of SHA-256 over sorted, compact JSON)."""
     return content_hash(config)
 

@@ -23,8 +23,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig
+from icil_paper.config_data import check_fields, from_dict, spec_key, to_dict
 from icil_paper.policies.configs import PolicyConfig
-from icil_paper.specs import check_fields, from_dict, spec_key, to_dict
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 

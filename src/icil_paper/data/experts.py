@@ -145,8 +145,8 @@ def measure(suite: str, n_seeds: int = 50, seed: int = 0, workers: int = 2,
 
 def main(argv: list[str] | None = None) -> int:
     from icil_paper.fileio import atomic_write_json
-    from icil_paper.provenance import git_state, host_info, package_versions
     from icil_paper.results import results_root
+    from icil_paper.setup.provenance import git_state, host_info, package_versions
     from icil_paper.sim import SUITES
 
     parser = argparse.ArgumentParser(prog="python -m icil_paper.data.experts",

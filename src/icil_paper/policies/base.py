@@ -238,7 +238,7 @@ class BatchedPolicy(Policy):
 def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spec: ObsSpec,
                 action_dim: int) -> dict[str, Any]:
     """What rebuilds a policy, as JSON-ready data: its config, its tokenizer's, the shapes."""
-    from icil_paper.specs import to_dict
+    from icil_paper.config_data import to_dict
 
     return {"policy": to_dict(config), "tokenizer": to_dict(tokenizer) if tokenizer else None,
             "obs_spec": obs_spec.to_dict(), "action_dim": int(action_dim)}
@@ -246,8 +246,8 @@ def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spe
 
 def build_policy(spec: Mapping[str, Any]) -> Policy:
     """Rebuild an (untrained) policy from `policy.spec`."""
+    from icil_paper.config_data import from_dict
     from icil_paper.policies import make_policy
-    from icil_paper.specs import from_dict
 
     tokenizer = spec.get("tokenizer")
     return make_policy(from_dict(PolicyConfig, spec["policy"]),

@@ -21,8 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from icil_paper.config_data import ConfigError, check_fields
 from icil_paper.registry import ComponentRegistry, check_name
-from icil_paper.specs import ConfigError, check_fields
 
 
 @dataclass(frozen=True)

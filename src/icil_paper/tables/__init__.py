@@ -8,7 +8,7 @@
 - `spec.py`: TableSpec, Row, Cell, Unit, FeatureSpec.
 - `definitions.py`: Tables I-VII, Fig. 5 and the prompt ablation, from a preset.
 - `execute.py`: the cells of any set of tables grouped by trained run, fanned out with
-  `icil_paper.grid`, each writing its records through the results store.
+  `icil_paper.tables.grid`, each writing its records through the results store.
 - `assemble.py`: records -> numbers with intervals (`icil_paper.stats`), as tables.
 - `claims.py`: the claims ledger: every claim of the paper with a computed verdict.
 - `cli.py`: `icil-paper tables`.

@@ -8,7 +8,7 @@
    distinct EvalSpec).
 2. The data sets every plan reads (training demonstrations, prompt pools, held-out
    trajectories) are generated first, in this process, with the preset's data workers.
-3. Each RunPlan becomes one grid cell (`icil_paper.grid`): `run_cell` trains the policy
+3. Each RunPlan becomes one grid cell (`icil_paper.tables.grid`): `run_cell` trains the policy
    (or finds it), evaluates it and measures its features, writing one record per result
    through the results store. A cell whose records all exist is skipped, so a killed run
    resumes where it stopped.
@@ -27,10 +27,10 @@ from typing import Any
 import numpy as np
 
 from icil_paper.config import Preset
+from icil_paper.config_data import from_dict, to_dict
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec, eval_key, feature_key
-from icil_paper.specs import from_dict, to_dict
 from icil_paper.tables.spec import TableSpec
 
 
@@ -151,8 +151,8 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
     """Compute every missing record of the chosen tables (default: all); see the module
     docstring. Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
     Returns the grid's summaries by run key."""
-    from icil_paper.grid import Cell, run_grid
     from icil_paper.tables.definitions import TABLES, table_spec
+    from icil_paper.tables.grid import Cell, run_grid
 
     ids = list(table_ids or TABLES)
     plans = plan([table_spec(preset, t) for t in ids])

@@ -21,8 +21,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
+from icil_paper.config_data import ConfigError, check_fields
 from icil_paper.registry import ComponentRegistry, check_name
-from icil_paper.specs import ConfigError, check_fields
 
 DEFAULT_HIDDEN = (64, 128)
 TOKENIZER_CHOICES: dict[str, tuple[str, ...]] = {
@@ -252,7 +252,7 @@ class TokenizerStudyConfig:
     trajectories: str = "demos"
     """What tokenizers are trained on: `demos`, the preset's `generated` demonstrations of
     its kitchen and ManiSkill tasks (the last `eval_fraction` of each task's demos held out),
-    or `synthetic`, minimum-jerk trajectories from `icil_paper.trajectories` (no simulator)."""
+    or `synthetic`, minimum-jerk trajectories from `icil_paper.data.trajectories` (no simulator)."""
     eval_fraction: float = 0.2
     """Share of each task's demonstrations held out for the metrics (at least one)."""
     n_trajectories: int = 200

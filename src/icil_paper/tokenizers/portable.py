@@ -97,8 +97,8 @@ def save_tokenizer(tokenizer: ActionTokenizer, folder: str | Path,
     """
     from safetensors.torch import save as safetensors_bytes
 
-    from icil_paper.provenance import git_state, package_versions
-    from icil_paper.specs import to_dict
+    from icil_paper.config_data import to_dict
+    from icil_paper.setup.provenance import git_state, package_versions
 
     if not tokenizer.fitted:
         raise ValueError(f"the {tokenizer.name} tokenizer is not fitted: call "
@@ -191,7 +191,7 @@ def load_tokenizer(folder: str | Path, map_location: Any = "cpu") -> ActionToken
     from safetensors import SafetensorError
     from safetensors.torch import load as safetensors_load
 
-    from icil_paper.specs import from_dict
+    from icil_paper.config_data import from_dict
     from icil_paper.tokenizers.configs import TokenizerConfig
 
     folder = Path(folder)
