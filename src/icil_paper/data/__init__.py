@@ -13,6 +13,10 @@
 - `sources`: the `generated` (expert) and `human` (teleoperation-like) demonstration sources.
 - `generate`: `ensure_demos` / `ensure_many` / `demo_path`, parallel, resumable generation.
 - `splits`: train/valid masks, the zero-shot task split, the sim-to-real task pairs.
+- `trajectories`: synthetic minimum-jerk action trajectories (tokenizer studies without a
+  simulator).
+- `experts`: every expert's success rate over random scenes, open-loop replays and the
+  human source's keep rate (`python -m icil_paper.data.experts --suites ...`).
 - `cli`: `icil-paper demos --task ... --source ... --n ...`.
 """
 
