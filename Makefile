@@ -15,7 +15,7 @@ REQ_HASH := $(shell cat requirements.txt requirements-no-deps.txt pyproject.toml
 PY_STAMP := $(VENV)/.installed-$(REQ_HASH)
 # Keyed on the script that installs system packages (lavapipe, chromium), so that a new
 # requirement there runs again on a machine that was set up before it.
-SYS_STAMP := $(VENV)/.system-$(shell sha256sum src/icil_paper/system_deps.py | cut -c1-12)
+SYS_STAMP := $(VENV)/.system-$(shell sha256sum src/icil_paper/setup/system_deps.py | cut -c1-12)
 # The book's browser assets (MathJax, the rerun web viewer), pinned in book/package.json.
 NODE_HASH := $(shell cat book/package.json book/package-lock.json | sha256sum | cut -c1-16)
 NODE_STAMP := book/node_modules/.installed-$(NODE_HASH)
@@ -59,7 +59,7 @@ $(PY_STAMP):
 	@rm -f $(VENV)/.installed-*; touch $@
 
 $(SYS_STAMP): $(PY_STAMP)
-	$(BIN)/python -m icil_paper.system_deps --install
+	$(BIN)/python -m icil_paper.setup.system_deps --install
 	@rm -f $(VENV)/.system-*; touch $@
 
 # npm ci installs exactly the lock file's versions (no registry addresses are recorded in it).
@@ -97,14 +97,14 @@ book: setup
 # other request blocked; fails on JS errors, failed requests, raw TeX, broken links or
 # images, and recording viewers that did not start. Screenshots: $(BOOK_OUT)/screenshots.
 browser-check: setup
-	$(BIN)/python -m icil_paper.browser_check $(BOOK_OUT)/html --screenshots $(BOOK_OUT)/screenshots
+	$(BIN)/python -m icil_paper.book.browser_check $(BOOK_OUT)/html --screenshots $(BOOK_OUT)/screenshots
 
 bench: setup
 	@for m in $$(ls src/icil_paper/bench/*.py | xargs -n1 basename | grep -v __init__ | sed 's/\.py$$//'); do \
 		echo "== bench $$m"; $(BIN)/python -m icil_paper.bench.$$m || exit 1; done
 
 # LeRobot 0.6 needs Python >= 3.12 and numpy >= 2, which robosuite and ManiSkill here cannot
-# share: it gets an environment of its own, used only by icil_paper.lerobot_export.
+# share: it gets an environment of its own, used only by icil_paper.interop.lerobot_export.
 LEROBOT_VENV ?= .venv-lerobot
 # Empty: .ci/find-python312 looks for a Python 3.12 that runs (a pyenv shim of an unselected
 # version does not); PYTHON312=/path/to/python3.12 chooses one.
@@ -121,7 +121,7 @@ $(LEROBOT_STAMP):
 
 lerobot-export: lerobot-setup
 	@test -n "$(FILE)" -a -n "$(OUT)" || { echo "usage: make lerobot-export FILE=data.hdf5 OUT=folder"; exit 2; }
-	PYTHONPATH=src $(LEROBOT_VENV)/bin/python -m icil_paper.lerobot_export "$(FILE)" "$(OUT)"
+	PYTHONPATH=src $(LEROBOT_VENV)/bin/python -m icil_paper.interop.lerobot_export "$(FILE)" "$(OUT)"
 
 lint: setup
 	$(BIN)/ruff check src tests notebooks book/_ext

@@ -19,12 +19,12 @@
 
 # %% tags=["hide-input"]
 from icil_paper.config import field_docs, get_preset
-from icil_paper.envcheck import environment_report, format_report
+from icil_paper.setup.envcheck import environment_report, format_report
 
 preset = get_preset()  # reads ICIL_PRESET; `make reproduce` sets it from PRESET (default small)
 
 # %%
-report = environment_report()
+report = environment_report(preset.name)
 print(format_report(report))
 
 # %% [markdown]

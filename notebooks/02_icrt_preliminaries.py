@@ -56,20 +56,24 @@ import numpy as np
 from IPython.display import display
 from matplotlib.colors import ListedColormap
 
-from icil_paper.cells import load_trained
+from icil_paper.book.studies import (
+    ICRT_DEMO_TASK,
+    ICRT_DEMO_TOKENIZER,
+    icrt_rollout_study,
+    icrt_specs,
+)
+from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
-from icil_paper.evaluate import record_rollout, rollout
+from icil_paper.eval import record_rollout, rollout_policy
 from icil_paper.paper_numbers import TABLE_I_ROBOCASA
 from icil_paper.policies import make_policy
-from icil_paper.policies.backbones import obs_spec_from_obs
+from icil_paper.policies.batching import obs_spec_from_obs
 from icil_paper.policies.transformer import causal_mask
 from icil_paper.results import ResultsStore, results_root
-from icil_paper.seeding import seed_everything
+from icil_paper.seeding import cpu_threads, seed_everything
 from icil_paper.sim import make_env
-from icil_paper.studies import ICRT_DEMO_TASK, ICRT_DEMO_TOKENIZER, icrt_rollout_study, icrt_specs
-from icil_paper.train.optim import cpu_threads
-from icil_paper.viewer import show_recording
+from icil_paper.train import load_trained
 
 logging.getLogger("robosuite_logs").disabled = True  # robosuite's import-time chatter
 preset = get_preset()  # reads ICIL_PRESET
@@ -209,7 +213,7 @@ episode = next((e for e in m["per_episode"] if e["success"]), m["per_episode"][0
 prompt = [demos[i] for i in episode["prompt"]]
 env = make_env(TASK, obs="state", seed=episode["seed"])
 with cpu_threads(1):  # as in the evaluation workers, so the replay matches the stored episode
-    trace = rollout(trained_policy, env, episode["seed"], prompt, evaluation.max_steps,
+    trace = rollout_policy(trained_policy, env, episode["seed"], prompt, evaluation.max_steps,
                     keep_trace=True)
 env.close()
 

@@ -57,9 +57,9 @@
 # $\infty$-norm normalization compares with spectral normalization (Miyato et al. 2018),
 # which bounds each layer by 1 in the 2-norm instead. The action trajectories are the
 # preset's `generated` demonstrations of every kitchen and ManiSkill task ({doc}`chapter 4 <04_tasks_and_demonstrations>`), a
-# fifth of each task's demos held out (`icil_paper.studies.tokenizer_trajectories`; the
+# fifth of each task's demos held out (`icil_paper.book.studies.tokenizer_trajectories`; the
 # preset option `tokenizer_study.trajectories = "synthetic"` switches to minimum-jerk motions
-# from `icil_paper.trajectories`, which need no simulator).
+# from `icil_paper.data.trajectories`, which need no simulator).
 #
 # The official code's variant (`lipvq (official code)`) normalizes only the encoder's last
 # layer, with one bound per output row initialised to ones, GELU activations and a sigmoid
@@ -71,23 +71,21 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from icil_paper.book.studies import LIPSCHITZ_RADII as RADII
+from icil_paper.book.studies import lipschitz_study
+from icil_paper.book.summaries import SeedRecords
 from icil_paper.config import get_preset
 from icil_paper.results import ResultsStore
-from icil_paper.studies import LIPSCHITZ_RADII as RADII
-from icil_paper.studies import lipschitz_study
 
 preset = get_preset()  # reads ICIL_PRESET
 store = ResultsStore(preset.name)
 
 # %%
 by_seed = lipschitz_study(preset, store)  # trains what the results store lacks
-n_seeds = len(next(iter(by_seed.values())))
+n_seeds = SeedRecords(by_seed).n_seeds
 # One table row per encoder: the mean over training seeds (the bound check below runs on
 # every seed); the training curves are seed 0's.
-records = {label: {k: (float(np.mean([m[k] for m in ms]))
-                       if isinstance(ms[0][k], (int, float)) and ms[0][k] is not None
-                       else ms[0][k]) for k in ms[0]}
-           for label, ms in by_seed.items()}
+records = SeedRecords(by_seed).seed_means()
 print(f"{n_seeds} training seed(s) per encoder")
 
 # %% [markdown]

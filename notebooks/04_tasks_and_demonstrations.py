@@ -45,13 +45,13 @@ import pandas as pd
 from IPython.display import display
 
 from icil_paper import sim
+from icil_paper.book.studies import demo_stage, expert_study, showcase_study, shown_tasks
+from icil_paper.book.viewer import show_recordings
 from icil_paper.config import get_preset
 from icil_paper.data import SOURCES, load_demos, zero_shot_split
 from icil_paper.data.stats import data_set_stats, keep_rate
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import seed_everything
-from icil_paper.studies import demo_stage, expert_study, showcase_study, shown_tasks
-from icil_paper.viewer import show_recordings
 
 preset = get_preset()  # reads ICIL_PRESET
 seed_everything(preset.seed)
@@ -114,7 +114,7 @@ plt.show()
 #   expert's (or the human source's) success rate over the scenes it was generated on;
 # - **over `data.expert_seeds` fresh scenes** (the `experts` stage; 50 under the full preset):
 #   success, an open-loop replay of the stored actions, and the human source's keep rate.
-#   Any preset can run it by hand: `python -m icil_paper.sim.measure_experts --suite <suite>
+#   Any preset can run it by hand: `python -m icil_paper.data.experts --suites <suite>
 #   --seeds 50` writes `results/experts/<suite>.json`, which this chapter also reads.
 
 # %%

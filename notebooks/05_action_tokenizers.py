@@ -84,23 +84,22 @@
 # trajectories are the preset's `generated` demonstrations of every kitchen and ManiSkill
 # task ({doc}`chapter 4 <04_tasks_and_demonstrations>`: our scripted experts on randomized
 # scenes, the stand-in for MimicGen data), with a fifth of each task's demos held out for
-# the metrics (`icil_paper.studies.tokenizer_trajectories`).
+# the metrics (`icil_paper.book.studies.tokenizer_trajectories`).
 
 # %%
 import matplotlib.pyplot as plt
-import numpy as np
 import pandas as pd
 from IPython.display import display
 
 from icil_paper import stats
+from icil_paper.book.studies import tokenizer_latent_recording, tokenizer_study
+from icil_paper.book.summaries import SeedRecords
+from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
 from icil_paper.metrics import ascending, rank_correlation
 from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
 from icil_paper.results import ResultsStore
-from icil_paper.studies import tokenizer_latent_recording, tokenizer_study
-from icil_paper.tables.book import smoother_sentence
 from icil_paper.tokenizers import TOKENIZERS
-from icil_paper.viewer import show_recording
 
 preset = get_preset()  # reads ICIL_PRESET
 store = ResultsStore(preset.name)
@@ -108,31 +107,8 @@ SMOOTHNESS = {k.split("+")[1]: v for k, v in TABLE_III_SMOOTHNESS.items()}  # th
 
 # %%
 records = tokenizer_study(preset, store)  # {label: [metrics per seed]}; trains what is missing
-n_seeds = len(next(iter(records.values())))
-
-
-def mean(label, key):
-    values = [m[key] for m in records[label] if m.get(key) is not None]
-    return float(np.mean(values)) if values else None
-
-
-def per_level(label):
-    """Residual VQ: the codes each level uses, mean over seeds ("-" for one codebook)."""
-    levels = [m["codes_used_per_level"] for m in records[label]
-              if m.get("codes_used_per_level")]
-    return " / ".join(f"{v:.0f}" for v in np.mean(levels, axis=0)) if levels else None
-
-
-def scores(label, key):
-    """(seeds, trajectories) per-trajectory scores of one tokenizer."""
-    return np.array([m[f"{key}_per_trajectory"] for m in records[label]])
-
-
-def with_interval(label, key, digits=3):
-    est = stats.score_mean(scores(label, key))
-    return f"{est.value:.{digits}g} [{est.low:.{digits}g}, {est.high:.{digits}g}]"
-
-
+seeds = SeedRecords(records)  # means, intervals and verdicts over training seeds
+n_seeds = seeds.n_seeds
 print(f"{len(records)} tokenizers, {n_seeds} training seed(s) each")
 
 # %% [markdown]
@@ -157,20 +133,20 @@ rows, smooth_rows = [], []
 for label in records:
     rows.append({
         "tokenizer": label,
-        "recon MSE": mean(label, "reconstruction_mse"),
-        "decode MSE": mean(label, "decode_mse"),
-        "codebook": mean(label, "codebook_size"),
-        "usage": mean(label, "usage"),
-        "perplexity": mean(label, "perplexity"),
-        "tokens/step": mean(label, "tokens_per_step"),
-        "codes/level": per_level(label),
-        "encode act/s": mean(label, "encode_actions_per_s"),
+        "recon MSE": seeds.mean(label, "reconstruction_mse"),
+        "decode MSE": seeds.mean(label, "decode_mse"),
+        "codebook": seeds.mean(label, "codebook_size"),
+        "usage": seeds.mean(label, "usage"),
+        "perplexity": seeds.mean(label, "perplexity"),
+        "tokens/step": seeds.mean(label, "tokens_per_step"),
+        "codes/level": seeds.per_level(label),
+        "encode act/s": seeds.mean(label, "encode_actions_per_s"),
     })
     smooth_rows.append({
         "tokenizer": label,
-        "least energy": with_interval(label, "least_energy"),
-        "standardized": with_interval(label, "least_energy_standardized"),
-        "latent scale σ": mean(label, "latent_scale"),
+        "least energy": seeds.with_interval(label, "least_energy"),
+        "standardized": seeds.with_interval(label, "least_energy_standardized"),
+        "latent scale σ": seeds.mean(label, "latent_scale"),
         "paper least energy": SMOOTHNESS.get(label),
     })
 formats = {"codebook": "{:,.0f}", "usage": "{:.1%}", "perplexity": "{:.1f}",
@@ -186,7 +162,7 @@ score_keys = ["least_energy", "least_energy_standardized"]
 labels = list(records)
 fig, axes = plt.subplots(1, 3, figsize=(14, 3.6))
 for ax, key in zip(axes[:2], score_keys, strict=True):
-    ests = [stats.score_mean(scores(k, key)) for k in labels]
+    ests = [stats.score_mean(seeds.scores(k, key)) for k in labels]
     ax.bar(range(len(labels)), [e.value for e in ests],
            yerr=[[e.value - e.low for e in ests], [e.high - e.value for e in ests]], capsize=3,
            color=["C3" if k == "lipvq" else "C0" for k in labels])
@@ -224,47 +200,43 @@ display(show_recording(latent_recording["rrd"], latent_recording["png"],
 paper_names = [k for k in TOKENIZERS if k in SMOOTHNESS]
 lines = [f"Paper's smoothness ranking (smoothest first): {', '.join(ascending(SMOOTHNESS))}."]
 for key in score_keys:
-    ours = {k: float(scores(k, key).mean()) for k in paper_names}
+    ours = {k: float(seeds.scores(k, key).mean()) for k in paper_names}
     lines.append(f"Our {key.replace('_', ' ')} ranking: {', '.join(ascending(ours))}; rank "
                  f"correlation with the paper's {rank_correlation(ours, SMOOTHNESS):+.2f}.")
 
 
-def compare(a, b, key):
-    return smoother_sentence(a, b, scores(a, key), scores(b, key), key.replace("_", " "))
-
-
 for key in score_keys:
     lines.append("LipVQ-VAE against VQ-VAE (the Lipschitz constraint alone): "
-                 + compare("lipvq", "vq", key) + ".")
+                 + seeds.compare("lipvq", "vq", key) + ".")
     lines.append("With codebooks initialised from encoder outputs: "
-                 + compare("lipvq-data-init", "vq-data-init", key) + ".")
-    lines.append("Eq. 4 on FSQ's encoder: " + compare("lipfsq", "fsq", key) + ".")
-    lines.append("Eq. 4 on residual VQ's encoder: " + compare("liprvq", "rvq", key) + ".")
-lines.append(f"Latent scale σ: LipVQ-VAE {mean('lipvq', 'latent_scale'):.3g}, VQ-VAE "
-             f"{mean('vq', 'latent_scale'):.3g}; the raw least energy scales with σ².")
-low_usage = [k for k in records if mean(k, "usage") is not None and mean(k, "usage") < 0.1]
+                 + seeds.compare("lipvq-data-init", "vq-data-init", key) + ".")
+    lines.append("Eq. 4 on FSQ's encoder: " + seeds.compare("lipfsq", "fsq", key) + ".")
+    lines.append("Eq. 4 on residual VQ's encoder: " + seeds.compare("liprvq", "rvq", key) + ".")
+lines.append(f"Latent scale σ: LipVQ-VAE {seeds.mean('lipvq', 'latent_scale'):.3g}, VQ-VAE "
+             f"{seeds.mean('vq', 'latent_scale'):.3g}; the raw least energy scales with σ².")
+low_usage = [k for k in records if seeds.mean(k, "usage") is not None and seeds.mean(k, "usage") < 0.1]
 if low_usage:
     lines.append("Codebook collapse (under 10% of codes used on held-out data, mean over "
-                 "seeds): " + ", ".join(f"{k} ({mean(k, 'codes_used'):.0f} of "
-                                        f"{mean(k, 'codebook_size'):.0f})" for k in low_usage)
+                 "seeds): " + ", ".join(f"{k} ({seeds.mean(k, 'codes_used'):.0f} of "
+                                        f"{seeds.mean(k, 'codebook_size'):.0f})" for k in low_usage)
                  + ".")
 lines.append(
     f"The official code's LipVQ variant (sigmoid output, no straight-through) uses "
-    f"{mean('lipvq-official', 'codes_used'):.0f} code(s) and reconstructs with MSE "
-    f"{mean('lipvq-official', 'reconstruction_mse'):.4g}, against "
-    f"{mean('lipvq', 'codes_used'):.0f} codes and {mean('lipvq', 'reconstruction_mse'):.4g} "
+    f"{seeds.mean('lipvq-official', 'codes_used'):.0f} code(s) and reconstructs with MSE "
+    f"{seeds.mean('lipvq-official', 'reconstruction_mse'):.4g}, against "
+    f"{seeds.mean('lipvq', 'codes_used'):.0f} codes and {seeds.mean('lipvq', 'reconstruction_mse'):.4g} "
     "for the paper's.")
-rates = {k: mean(k, "encode_decode_actions_per_s") for k in records}
+rates = {k: seeds.mean(k, "encode_decode_actions_per_s") for k in records}
 fastest, slowest = max(rates, key=rates.get), min(rates, key=rates.get)
 lines.append(
     f"Throughput (encode + decode, one core): from {rates[slowest]:,.0f} actions/s ({slowest}) "
-    f"to {rates[fastest]:,.0f} ({fastest}). FAST emits {mean('fast', 'tokens_per_step'):.2f} "
-    f"tokens per step, bin {mean('bin', 'tokens_per_step'):.0f}, B-spline "
-    f"{mean('bspline', 'tokens_per_step'):.2f}, the others one embedding per step.")
+    f"to {rates[fastest]:,.0f} ({fastest}). FAST emits {seeds.mean('fast', 'tokens_per_step'):.2f} "
+    f"tokens per step, bin {seeds.mean('bin', 'tokens_per_step'):.0f}, B-spline "
+    f"{seeds.mean('bspline', 'tokens_per_step'):.2f}, the others one embedding per step.")
 lines.append(
-    f"Residual VQ uses {per_level('rvq')} codes per level (of "
-    f"{mean('rvq', 'codebook_size') / len(records['rvq'][0]['codes_used_per_level']):.0f} "
-    f"each), {per_level('liprvq')} with Eq. 4; FSQ {mean('fsq', 'codes_used'):.0f} of its "
-    f"{mean('fsq', 'codebook_size'):.0f} grid points, {mean('lipfsq', 'codes_used'):.0f} with "
+    f"Residual VQ uses {seeds.per_level('rvq')} codes per level (of "
+    f"{seeds.mean('rvq', 'codebook_size') / len(records['rvq'][0]['codes_used_per_level']):.0f} "
+    f"each), {seeds.per_level('liprvq')} with Eq. 4; FSQ {seeds.mean('fsq', 'codes_used'):.0f} of its "
+    f"{seeds.mean('fsq', 'codebook_size'):.0f} grid points, {seeds.mean('lipfsq', 'codes_used'):.0f} with "
     "Eq. 4.")
 print("\n\n".join(lines))

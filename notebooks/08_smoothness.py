@@ -36,8 +36,9 @@ import numpy as np
 import pandas as pd
 from IPython.display import Markdown, display
 
+from icil_paper.book.recording import record_latent_trajectories
+from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
-from icil_paper.recording import record_latent_trajectories
 from icil_paper.results import results_root
 from icil_paper.tables.assemble import format_cell
 from icil_paper.tables.book import (
@@ -49,7 +50,6 @@ from icil_paper.tables.book import (
     tsne_paths,
     verdicts,
 )
-from icil_paper.viewer import show_recording
 
 preset = get_preset()
 smooth = load_table(preset, "III")

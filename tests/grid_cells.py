@@ -12,9 +12,9 @@ import signal
 import sys
 from pathlib import Path
 
-from icil_paper.grid import Cell
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
+from icil_paper.tables.grid import Cell
 
 KIND = "grid"
 

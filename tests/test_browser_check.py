@@ -12,7 +12,7 @@ from urllib.parse import unquote, urlsplit
 
 import pytest
 
-from icil_paper import browser_check
+from icil_paper.book import browser_check
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(browser_check.unavailable() is not None,
@@ -143,8 +143,8 @@ CHAPTER = """# %% [markdown]
 # %%
 import numpy as np
 
-from icil_paper.recording import record_episode
-from icil_paper.viewer import show_recordings
+from icil_paper.book.recording import record_episode
+from icil_paper.book.viewer import show_recordings
 
 rng = np.random.default_rng(0)
 recordings = {}

@@ -5,7 +5,7 @@ import sys
 import pytest
 
 from icil_paper import cli
-from icil_paper.system_deps import debian_backports_entry
+from icil_paper.setup.system_deps import debian_backports_entry
 
 
 def test_help_lists_every_subcommand(capsys):
@@ -44,12 +44,12 @@ def test_console_script_runs():
 
 @pytest.mark.sim
 def test_env_checks_simulators():
-    from icil_paper.envcheck import check_simulators
+    from icil_paper.setup.envcheck import check_simulators
 
     checks = {c.name: c for c in check_simulators()}
     assert checks["robosuite"].ok, checks["robosuite"].detail
     assert checks["offscreen rendering"].ok, checks["offscreen rendering"].detail
-    from icil_paper.system_deps import vulkan_problem
+    from icil_paper.setup.system_deps import vulkan_problem
 
     problem = vulkan_problem()
     if problem:

@@ -75,7 +75,8 @@ def test_registry_imports_lazily_and_rejects_unknown_names():
         registry["broken"]
 
 
-@pytest.mark.parametrize("cls", [DataConfig, TokenizerConfigs, PolicyConfigs, TrainConfig,
+@pytest.mark.parametrize("cls", [DataConfig, TokenizerConfigs.section_class(),
+                                 PolicyConfigs.section_class(), TrainConfig,
                                  EvalConfig, TokenizerStudyConfig, Preset, LipschitzOptions,
                                  *TOKENIZER_CONFIGS.values(), *POLICY_CONFIGS.values()])
 def test_every_config_field_has_a_docstring(cls):

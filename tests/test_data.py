@@ -25,10 +25,10 @@ from icil_paper.data import (
     demo_path,
     demo_seed,
     ensure_demos,
+    expert_rollout,
     file_info,
     load_demos,
     read_masks,
-    rollout,
     train_valid_split,
     write_demos,
 )
@@ -346,21 +346,21 @@ def test_demo_seeds_are_unique_and_below_evaluation_seeds():
 def test_human_source_is_seeded_noisy_and_still_succeeds(fake_kitchen):
     env = sim.make_env(TASK, horizon=200)
     expert = sim.make_expert(TASK)
-    generated, ok = rollout(env, ExpertSource(expert), seed=11)
+    generated, ok = expert_rollout(env, ExpertSource(expert), seed=11)
     assert ok and generated.states.dtype == np.float64
     assert generated.final_obs["object"].shape == generated.obs["object"].shape[1:]
     human = HumanLikeOperator(expert, action_scale=(0.02, 0.5))
-    a, ok_a = rollout(env, human, seed=11, source="human")
+    a, ok_a = expert_rollout(env, human, seed=11, source="human")
     events = dict(human.events)
-    b, ok_b = rollout(env, human, seed=11, source="human")
-    c, _ = rollout(env, human, seed=12, source="human")
+    b, ok_b = expert_rollout(env, human, seed=11, source="human")
+    c, _ = expert_rollout(env, human, seed=12, source="human")
     assert ok_a and ok_b and a.source == "human"
     assert np.array_equal(a.actions, b.actions)  # same seed, same demo
     assert a.actions.shape != c.actions.shape or not np.allclose(a.actions, c.actions)
     assert np.all(np.abs(a.actions) <= 1)
     # over several scenes: hesitations and lower speed make demos longer, noise less smooth
-    pairs = [(rollout(env, ExpertSource(expert), seed=s)[0],
-              rollout(env, human, seed=s, source="human")[0]) for s in (20, 21, 22, 24, 25, 26)]
+    pairs = [(expert_rollout(env, ExpertSource(expert), seed=s)[0],
+              expert_rollout(env, human, seed=s, source="human")[0]) for s in (20, 21, 22, 24, 25, 26)]
     assert np.mean([len(h) for _, h in pairs]) > 1.1 * np.mean([len(g) for g, _ in pairs])
     assert (np.mean([action_least_energy_per_step(h.actions) for _, h in pairs])
             > 2 * np.mean([action_least_energy_per_step(g.actions) for g, _ in pairs]))
@@ -378,7 +378,7 @@ def test_human_source_is_seeded_noisy_and_still_succeeds(fake_kitchen):
 # ----------------------------------------------------------------------------- generation
 def test_empty_icil_data_counts_as_unset(monkeypatch, tmp_path):
     from icil_paper.data import data_root
-    from icil_paper.provenance import REPO_ROOT
+    from icil_paper.setup.provenance import REPO_ROOT
 
     for value in ("", "   "):
         monkeypatch.setenv("ICIL_DATA", value)
@@ -398,7 +398,7 @@ def test_generated_data_sets_say_how_to_build_their_env(fake_kitchen):
     assert info["control_freq"] == 20 and info["action_dim"] == 7
     demo = load_demos(path)[0]
     env = sim.make_env(args["icil_paper"]["task"], **args["env_kwargs"])
-    replay = rollout(env, _Replay(demo.actions), seed=demo.seed)[0]
+    replay = expert_rollout(env, _Replay(demo.actions), seed=demo.seed)[0]
     assert np.array_equal(replay.obs["object"], demo.obs["object"])
     assert np.array_equal(replay.final_obs["proprio"], demo.final_obs["proprio"])
 
@@ -581,7 +581,7 @@ def test_cli_generates_checks_and_lists(fake_kitchen, capsys):
 
 
 def test_recording_writes_rrd_and_picture(tmp_path):
-    from icil_paper.recording import record_episode
+    from icil_paper.book.recording import record_episode
 
     demo = _demo(T=6, images=True)
     paths = record_episode(tmp_path / "rec" / "demo.rrd", demo.obs, demo.actions,

@@ -12,7 +12,7 @@ import pytest
 import torch
 
 from icil_paper.config import get_preset
-from icil_paper.evaluate import EvalResult, episode_seed, evaluate_policy
+from icil_paper.eval import EvalResult, episode_seed, evaluate_policy
 from icil_paper.policies.base import Policy, validate_prompt
 from icil_paper.policies.configs import ICRTConfig
 from icil_paper.runspec import EvalSpec, run_spec
@@ -122,7 +122,7 @@ def test_bad_arguments_raise(demos):
 
 
 def test_a_policy_of_another_suite_is_refused_before_rollouts(demos):
-    from icil_paper.evaluate import check_policy_fits
+    from icil_paper.eval import check_policy_fits
 
     policy = trained("mlp", demos)  # 9 + 6 wide state, the kitchen gives 9 + 18
     with pytest.raises(ValueError, match="15-dimensional state.*gives 27"):
@@ -130,7 +130,9 @@ def test_a_policy_of_another_suite_is_refused_before_rollouts(demos):
 
 
 def test_eval_cli_stores_one_record_per_task(tmp_path, demos, monkeypatch):
-    import icil_paper.evaluate as evaluate_module
+    import icil_paper.eval.cli as eval_cli
+    import icil_paper.eval.outcomes as outcomes
+    import icil_paper.eval.stored as stored
     from icil_paper.results import ResultsStore
     from icil_paper.train import run_dir_for
 
@@ -139,23 +141,23 @@ def test_eval_cli_stores_one_record_per_task(tmp_path, demos, monkeypatch):
                     tasks=["kitchen/open_drawer", "kitchen/close_drawer"])
     train_policy(spec, run_dir=run_dir_for(spec, "smoke"), demos=demos, progress=False)
     calls = []
-    real = evaluate_module.evaluate_policy
+    real = stored.evaluate_policy
 
     def on_synthetic(policy, ev, **kw):
         calls.append(ev.task)
         return real(policy, dataclasses.replace(ev, task="synthetic/task0"),
                     **{**kw, "env_factory": make_synthetic_env})
 
-    monkeypatch.setattr(evaluate_module, "evaluate_policy", on_synthetic)
-    monkeypatch.setattr(evaluate_module, "prompt_pool", lambda *a, **k: demos)
+    monkeypatch.setattr(stored, "evaluate_policy", on_synthetic)
+    monkeypatch.setattr(stored, "prompt_pool", lambda *a, **k: demos)
     # the policy learnt synthetic demos and acts in the synthetic env: the kitchen widths
     # do not apply
-    monkeypatch.setattr(evaluate_module, "check_policy_fits", lambda policy, task: None)
+    monkeypatch.setattr(outcomes, "check_policy_fits", lambda policy, task: None)
     argv = ["--preset", "smoke", "--tasks", "kitchen/open_drawer", "kitchen/close_drawer",
             "--train-tasks", "kitchen/open_drawer", "kitchen/close_drawer",
             "--episodes", "2", "--workers", "1", "--quiet"]
-    assert evaluate_module.main(argv) == 0
-    assert evaluate_module.main(argv) == 0  # the second run loads the stored records
+    assert eval_cli.main(argv) == 0
+    assert eval_cli.main(argv) == 0  # the second run loads the stored records
     assert calls == ["kitchen/open_drawer", "kitchen/close_drawer"]
     records = ResultsStore("smoke").records("eval")
     assert sorted(r["name"] for r in records) == [
@@ -281,7 +283,7 @@ def test_train_and_eval_commands_end_to_end(sim_data, tmp_path, monkeypatch):
 def test_evaluate_run_many_stores_what_evaluate_run_would(tmp_path, demos):
     """One call for a run's evaluations on many tasks: each record equals the one
     `evaluate_run` stores for that task alone, and is found again without computing."""
-    from icil_paper.evaluate import evaluate_run, evaluate_run_many
+    from icil_paper.eval import evaluate_run, evaluate_run_many
     from icil_paper.results import ResultsStore
     from icil_paper.runspec import eval_spec
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from icil_paper.provenance import REPO_ROOT
+from icil_paper.setup.provenance import REPO_ROOT
 
 FINDER = REPO_ROOT / ".ci" / "find-python312"
 SYSTEM = Path("/usr/bin/python3.12")  # the last candidate, not under the test's control

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 import grid_cells
-from icil_paper.grid import Cell, GridError, RayUnavailable, connect_ray, run_grid
 from icil_paper.results import ResultsStore
+from icil_paper.tables.grid import Cell, GridError, RayUnavailable, connect_ray, run_grid
 
 
 def _use_folder(tmp_path: Path, monkeypatch, tag: str) -> Path:
@@ -112,7 +112,7 @@ def test_serial_reports_a_raising_cell_and_finishes_the_others(tmp_path, monkeyp
 
 def test_a_script_without_a_main_guard_gets_a_clear_error(tmp_path):
     script = tmp_path / "unguarded.py"
-    script.write_text("from icil_paper.grid import Cell, run_grid\n"
+    script.write_text("from icil_paper.tables.grid import Cell, run_grid\n"
                       "run_grid([Cell(key='a', target='json:dumps', kwargs={'obj': 1})], "
                       "progress=False)\n")
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from icil_paper.data.hdf5 import Demo, write_demos
-from icil_paper.provenance import REPO_ROOT
+from icil_paper.setup.provenance import REPO_ROOT
 
 LEROBOT_PYTHON = Path(os.environ.get("ICIL_LEROBOT_PYTHON", "").strip()
                       or REPO_ROOT / ".venv-lerobot" / "bin" / "python")
@@ -75,7 +75,7 @@ def _data_set(path: Path, image: bool, control_freq: int | None = 20) -> Path:
 def test_an_exported_data_set_reads_back_in_lerobot(tmp_path, image):
     source = _data_set(tmp_path / "demos.hdf5", image)
     out = tmp_path / "exported"
-    done = _run("-m", "icil_paper.lerobot_export", str(source), str(out), cwd=tmp_path)
+    done = _run("-m", "icil_paper.interop.lerobot_export", str(source), str(out), cwd=tmp_path)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "LeRobotDataset v3.0" in done.stdout
     if image:
@@ -104,12 +104,12 @@ def test_refusals_are_one_line_and_touch_nothing(tmp_path):
     taken = tmp_path / "taken"
     taken.mkdir()
     (taken / "keep.txt").write_text("mine")
-    done = _run("-m", "icil_paper.lerobot_export", str(source), str(taken), cwd=tmp_path)
+    done = _run("-m", "icil_paper.interop.lerobot_export", str(source), str(taken), cwd=tmp_path)
     assert done.returncode == 2 and "exists: choose a new folder" in done.stderr
     assert (taken / "keep.txt").read_text() == "mine"
 
     no_rate = _data_set(tmp_path / "no_rate.hdf5", image=False, control_freq=None)
-    done = _run("-m", "icil_paper.lerobot_export", str(no_rate), str(tmp_path / "new"),
+    done = _run("-m", "icil_paper.interop.lerobot_export", str(no_rate), str(tmp_path / "new"),
                 cwd=tmp_path)
     assert done.returncode == 2 and "give one with --fps" in done.stderr
     assert not (tmp_path / "new").exists() and not (tmp_path / "new.partial").exists()

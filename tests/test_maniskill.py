@@ -98,12 +98,12 @@ def test_actions_move_the_end_effector_as_documented(fast_resets):
 
 @pytest.mark.parametrize("task", TASKS)
 def test_expert_succeeds_replay_reproduces_and_idling_fails(envs, task):
-    from icil_paper.data.sources import ExpertSource, rollout
+    from icil_paper.data.sources import ExpertSource, expert_rollout
     from icil_paper.sim import make_expert
 
     env = envs[task]
     expert = make_expert(task)
-    demo, ok = rollout(env, ExpertSource(expert), seed=3)
+    demo, ok = expert_rollout(env, ExpertSource(expert), seed=3)
     assert ok and expert.planned_success and len(demo) < env.horizon
     assert np.all(np.abs(demo.actions) <= 1) and demo.states.shape[0] == len(demo)
     # the stored 7-D actions, replayed open loop from the same seed, succeed again

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import torch
 
-from icil_paper.batching import DemoSet, prompt_query_batch
 from icil_paper.config import get_preset
 from icil_paper.policies import POLICIES, make_policy
-from icil_paper.policies.backbones import HashedTextEmbedding, ResNet18, as_obs_spec
+from icil_paper.policies.backbones import HashedTextEmbedding, ResNet18
 from icil_paper.policies.base import TemporalEnsemble
+from icil_paper.policies.batching import DemoSet, as_obs_spec, prompt_query_batch
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 from icil_paper.registry import UnknownNameError
 from icil_paper.sim.synthetic import synthetic_demos

@@ -30,9 +30,9 @@ import pytest
 import torch
 
 from icil_paper import cli
-from icil_paper.cells import StaleRecordWarning, train_record_name, train_run
 from icil_paper.config import get_preset
 from icil_paper.fileio import LockedError, exclusive_lock, file_sha256
+from icil_paper.records import train_record_name
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import run_spec
 from icil_paper.sim.synthetic import synthetic_demos
@@ -52,6 +52,7 @@ from icil_paper.train.rundir import (
     DamagedFileWarning,
     load_checkpoint,
 )
+from icil_paper.train.stored import StaleRecordWarning, train_run
 
 TASKS = ["synthetic/task0", "synthetic/task1"]
 
@@ -410,11 +411,12 @@ def test_every_config_checks_its_own_values_when_built(build, phrase):
 
 def test_the_configs_choices_are_the_components_own():
     """The valid strings a config checks are the ones its component accepts."""
-    from icil_paper import batching, sim
+    from icil_paper import sim
     from icil_paper.config import DEMO_SOURCES, OBS_KINDS
+    from icil_paper.config_data import field_choices
     from icil_paper.data.sources import SOURCES
+    from icil_paper.policies import batching
     from icil_paper.policies.configs import ICRTConfig
-    from icil_paper.specs import field_choices
     from icil_paper.tokenizers import base, fast, vq
     from icil_paper.tokenizers.configs import LipschitzOptions, VQConfig
 
@@ -495,9 +497,9 @@ def _run_with_read_only(folder: Path, cmd: list[str], env: dict) -> subprocess.C
 
 
 def test_a_read_only_results_folder_is_refused_before_training(tmp_path):
-    from icil_paper.evaluate import eval_record_name
+    from icil_paper.config_data import to_dict
+    from icil_paper.records import eval_record_name
     from icil_paper.results import config_hash
-    from icil_paper.specs import to_dict
     from icil_paper.tables.definitions import table_spec
 
     path = write_dataset(tmp_path / "reach.hdf5")

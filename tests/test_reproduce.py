@@ -54,7 +54,7 @@ def test_every_stage_target_exists():
 
 @pytest.mark.sim
 def test_tokenizer_trajectories_come_from_held_out_demos():
-    from icil_paper.studies import tokenizer_trajectories
+    from icil_paper.book.studies import tokenizer_trajectories
 
     preset = get_preset("smoke").replace(
         data={"kitchen_tasks": ("kitchen/open_drawer",), "maniskill_tasks": (),
@@ -75,8 +75,7 @@ def test_tokenizer_trajectories_come_from_held_out_demos():
 def test_table_cells_ask_for_the_gpus_given_on_the_command_line(monkeypatch):
     """`reproduce --gpus-per-cell 1` reaches every table cell (Ray schedules by it); a
     negative count is refused before anything runs."""
-    from icil_paper import grid
-    from icil_paper.tables import execute
+    from icil_paper.tables import execute, grid
 
     seen = []
     monkeypatch.setattr(execute, "ensure_data", lambda *a, **k: None)

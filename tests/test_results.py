@@ -276,8 +276,8 @@ def test_write_refuses_nested_non_finite_metrics(tmp_path, bad, where):
 
 @pytest.mark.parametrize("value", ["", "  "])
 def test_empty_results_variable_counts_as_unset(monkeypatch, value):
-    from icil_paper.provenance import REPO_ROOT
     from icil_paper.results import results_root
+    from icil_paper.setup.provenance import REPO_ROOT
 
     monkeypatch.setenv("ICIL_RESULTS", value)
     assert results_root() == REPO_ROOT / "results"

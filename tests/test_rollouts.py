@@ -12,18 +12,18 @@ import pytest
 import torch
 
 from icil_paper.config import get_preset
-from icil_paper.evaluate import evaluate_many, evaluate_policy
-from icil_paper.policies import make_policy
-from icil_paper.policies.base import Policy, validate_prompt
-from icil_paper.policies.configs import ICRTConfig
-from icil_paper.policies.transformer import Transformer, TransformerConfig
-from icil_paper.rollouts import (
+from icil_paper.eval import evaluate_many, evaluate_policy
+from icil_paper.eval.rollouts import (
     Episode,
     RolloutPool,
     default_batch_size,
     group_episodes,
     rollout_batch,
 )
+from icil_paper.policies import make_policy
+from icil_paper.policies.base import Policy, validate_prompt
+from icil_paper.policies.configs import ICRTConfig
+from icil_paper.policies.transformer import Transformer, TransformerConfig
 from icil_paper.runspec import EvalSpec
 from icil_paper.sim.synthetic import (
     STEP_SIZE,

@@ -129,7 +129,7 @@ def test_zero_shot_and_sim_to_real_splits(fake_kitchen):
 def test_action_conversion_to_maniskill_controller():
     from scipy.spatial.transform import Rotation
 
-    from icil_paper.sim.maniskill_suite import ROT_SCALE, policy_to_maniskill_action
+    from icil_paper.sim.maniskill.env import ROT_SCALE, policy_to_maniskill_action
 
     a = np.array([0.5, -1.5, 0.2, 0.0, 0.0, 0.3, 1.0])
     out = policy_to_maniskill_action(a)

@@ -9,9 +9,9 @@ import typing
 
 import pytest
 
+from icil_paper.book.studies import study_spec
 from icil_paper.config import get_preset
-from icil_paper.runspec import eval_key, eval_spec, run_spec
-from icil_paper.specs import (
+from icil_paper.config_data import (
     NOT_KEYED,
     OverrideError,
     from_dict,
@@ -21,7 +21,7 @@ from icil_paper.specs import (
     spec_key,
     to_dict,
 )
-from icil_paper.studies import study_spec
+from icil_paper.runspec import eval_key, eval_spec, run_spec
 from icil_paper.tables import table_spec
 from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.tokenizers.configs import TokenizerConfig
@@ -64,8 +64,8 @@ def _other_values(annotation, value, choices=None):
 
 def perturbed(obj, path):
     """`obj` with the field at `path` changed to a value its config accepts (each config
-    checks its own values when it is built, `specs.check_fields`)."""
-    from icil_paper.specs import field_choices
+    checks its own values when it is built, `config_data.check_fields`)."""
+    from icil_paper.config_data import field_choices
 
     parent = get_path(obj, path.rsplit(".", 1)[0]) if "." in path else obj
     name = path.rsplit(".", 1)[-1]
@@ -220,7 +220,7 @@ def test_every_preset_value_is_in_range():
     """The range check (`--set`) accepts every value the presets themselves use, and 0
     where it means something."""
     from icil_paper.config import PRESET_NAMES
-    from icil_paper.specs import check_range
+    from icil_paper.config_data import check_range
 
     def walk(obj, prefix=""):
         hints = typing.get_type_hints(type(obj))

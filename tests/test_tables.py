@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from icil_paper.config import get_preset
-from icil_paper.evaluate import eval_record_name
+from icil_paper.config_data import spec_key, to_dict
+from icil_paper.records import eval_record_name
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key
-from icil_paper.specs import spec_key, to_dict
 from icil_paper.tables import TABLES, table_spec
 from icil_paper.tables.assemble import assemble
 from icil_paper.tables.claims import claims, claims_ledger, write_ledger

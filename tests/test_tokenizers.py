@@ -11,6 +11,7 @@ import pytest
 import torch
 
 from icil_paper.config import get_preset
+from icil_paper.data.trajectories import generate_trajectories
 from icil_paper.registry import UnknownNameError
 from icil_paper.seeding import seed_everything
 from icil_paper.tokenizers import TOKENIZERS, make_tokenizer
@@ -22,7 +23,6 @@ from icil_paper.tokenizers.training import (
     stand_alone,
     train_tokenizer,
 )
-from icil_paper.trajectories import generate_trajectories
 
 A, D, K = 7, 16, 64
 

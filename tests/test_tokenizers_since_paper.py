@@ -11,6 +11,7 @@ import pytest
 import torch
 
 from icil_paper.config import get_preset
+from icil_paper.data.trajectories import generate_trajectories
 from icil_paper.metrics import empirical_lipschitz
 from icil_paper.seeding import seed_everything
 from icil_paper.tokenizers import lipschitz_layers, lipschitz_loss, make_tokenizer
@@ -24,7 +25,6 @@ from icil_paper.tokenizers.configs import (
     RVQConfig,
 )
 from icil_paper.tokenizers.training import evaluate_tokenizer, train_tokenizer
-from icil_paper.trajectories import generate_trajectories
 
 A = 7
 

@@ -11,6 +11,11 @@ Submodules are imported lazily so that `import icil_paper` stays cheap:
 - `icil_paper.sim`        the task suites (`TASKS`, `make_env`, `make_expert`)
 - `icil_paper.data`       demonstration data sets in the robomimic HDF5 layout
 - `icil_paper.policies`   ICRT and the baselines
+- `icil_paper.train`, `icil_paper.eval`   training and evaluation: each its loop, its stored
+  records (named by `icil_paper.records`) and its command
+- `icil_paper.tables`     the paper's tables as specs, executed on a grid of cells
+- `icil_paper.book`, `icil_paper.setup`, `icil_paper.interop`   the chapters' studies and the
+  book's tools; this machine's checks and provenance; exports for other code bases
 """
 
 __version__ = "0.1.0"

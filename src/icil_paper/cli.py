@@ -19,7 +19,7 @@ import sys
 from typing import Any
 
 from icil_paper.config import PRESET_NAMES
-from icil_paper.grid import RayUnavailable
+from icil_paper.tables.grid import RayUnavailable
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError,
@@ -77,11 +77,11 @@ def positive(name: str):
 # subcommand -> (module with main(argv), one-line help)
 SUBCOMMANDS = {
     "demos": ("icil_paper.data.cli", "generate demonstration data sets (robomimic HDF5)"),
-    "train": ("icil_paper.train", "train a policy (ICRT or a baseline) with a tokenizer"),
-    "eval": ("icil_paper.evaluate", "roll out a trained policy and store its success rate"),
+    "train": ("icil_paper.train.cli", "train a policy (ICRT or a baseline) with a tokenizer"),
+    "eval": ("icil_paper.eval.cli", "roll out a trained policy and store its success rate"),
     "tables": ("icil_paper.tables.cli", "print the paper's tables and claims from the results store"),
     "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
-    "export-tokenizer": ("icil_paper.tokenizers.portable",
+    "export-tokenizer": ("icil_paper.interop.tokenizer_export",
                          "write a trained policy's tokenizer as a portable folder (safetensors)"),
 }
 
@@ -93,13 +93,10 @@ def _env(argv: list[str]) -> int:
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
     parser.add_argument("--no-sim", action="store_true", help="skip the simulator checks")
     args = parser.parse_args(argv)
-    if args.preset:
-        import os
+    from icil_paper.config import active_preset_name
+    from icil_paper.setup.envcheck import environment_report, format_report
 
-        os.environ["ICIL_PRESET"] = args.preset
-    from icil_paper.envcheck import environment_report, format_report
-
-    report = environment_report(simulators=not args.no_sim)
+    report = environment_report(active_preset_name(args.preset), simulators=not args.no_sim)
     print(json.dumps(report, indent=2) if args.json else format_report(report))
     return 0
 

@@ -2,7 +2,9 @@
 
 A preset is one frozen object holding every knob: the data, one config per tokenizer
 (`icil_paper.tokenizers.configs`), one per policy (`icil_paper.policies.configs`), the
-training loop, evaluation, the stand-alone tokenizer studies and the tables.
+training loop, evaluation, the stand-alone tokenizer studies and the tables. The tokenizer
+and policy sections have one field per registered component (`ComponentConfigs`), filled
+from the preset's shared sizes (`_tokenizers`, `_policies`).
 
 - `smoke`: seconds; what the test suite runs.
 - `small`: what CI's `make reproduce` runs on 2 CPU cores (at most 30 minutes in all).
@@ -19,34 +21,15 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Sequence
+import types
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
-from icil_paper.policies.configs import (
-    ACTConfig,
-    BCTransformerConfig,
-    ICRTConfig,
-    MCRConfig,
-    PolicyConfig,
-)
-from icil_paper.registry import check_name
-from icil_paper.specs import NOT_KEYED, check_fields, field_docs, to_dict, with_overrides
-from icil_paper.tokenizers.configs import (
-    BinConfig,
-    BSplineConfig,
-    FASTConfig,
-    FSQConfig,
-    LFQConfig,
-    LipFSQConfig,
-    LipMLPConfig,
-    LipRVQConfig,
-    LipVQConfig,
-    MLPConfig,
-    RVQConfig,
-    TokenizerConfig,
-    VQConfig,
-)
+from icil_paper.config_data import NOT_KEYED, check_fields, field_docs, to_dict, with_overrides
+from icil_paper.policies.configs import POLICY_REGISTRY
+from icil_paper.registry import ComponentRegistry, check_name
+from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY, TokenizerStudyConfig
 
 PRESET_NAMES = ("smoke", "small", "reference", "full")
 DEFAULT_PRESET = "small"
@@ -61,7 +44,7 @@ class _Checked:
     """Base of the preset's sections: each checks its own fields when it is built."""
 
     def __post_init__(self) -> None:
-        check_fields(self)  # ranges, empty values, CHOICES (`specs.check_fields`)
+        check_fields(self)  # ranges, empty values, CHOICES (`config_data.check_fields`)
 
 
 @dataclass(frozen=True)
@@ -105,89 +88,104 @@ class DataConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class TokenizerConfigs:
-    """One config per action tokenizer (Sec. III-B), by registry name (`lip-mlp` is `lip_mlp`)."""
+class ComponentConfigs:
+    """Base of the preset's component sections: one field per registered component, named
+    by its registry name (`lip-mlp` is `lip_mlp`), holding its config.
 
-    mlp: MLPConfig = field(default_factory=MLPConfig)
-    """ICRT's action MLP."""
-    lip_mlp: LipMLPConfig = field(default_factory=LipMLPConfig)
-    """The MLP with Lipschitz layers (Table IV)."""
-    bin: BinConfig = field(default_factory=BinConfig)
-    """RT-1 style bins."""
-    fast: FASTConfig = field(default_factory=FASTConfig)
-    """FAST: DCT + BPE."""
-    vq: VQConfig = field(default_factory=VQConfig)
-    """VQ-VAE."""
-    lfq: LFQConfig = field(default_factory=LFQConfig)
-    """LFQ-VAE (lookup-free quantization)."""
-    lipvq: LipVQConfig = field(default_factory=LipVQConfig)
-    """LipVQ-VAE, the paper's tokenizer."""
-    fsq: FSQConfig = field(default_factory=FSQConfig)
-    """FSQ, finite scalar quantization (after the paper)."""
-    lipfsq: LipFSQConfig = field(default_factory=LipFSQConfig)
-    """FSQ with Eq. 4 on its encoder."""
-    rvq: RVQConfig = field(default_factory=RVQConfig)
-    """Residual VQ (VQ-BeT's tokenizer; after the paper)."""
-    liprvq: LipRVQConfig = field(default_factory=LipRVQConfig)
-    """Residual VQ with Eq. 4 on its encoder."""
-    bspline: BSplineConfig = field(default_factory=BSplineConfig)
-    """B-spline control points of action chunks (BEAST; after the paper)."""
+    The fields are derived from the component registry (`section_class`), never listed by
+    hand: a tokenizer or policy registered by its decorator has its field here, its
+    defaults, and `--set tokenizers.<name>.<field>=...`, with nothing else to edit.
+    `TokenizerConfigs(vq=VQConfig(...))` builds the section of the registry as it stands.
+    """
 
-    def get(self, name: str) -> TokenizerConfig:
-        """The config of tokenizer `name` (UnknownNameError listing the valid names)."""
-        names = {f.name.replace("_", "-"): f.name for f in dataclasses.fields(self)}
-        return getattr(self, names[check_name("tokenizer", name, names)])
+    REGISTRY: ClassVar[ComponentRegistry]
+
+    def __new__(cls, *args: Any, **kwargs: Any):
+        if "REGISTRY" in vars(cls):  # the named section: build its current field list
+            cls = cls.section_class()
+        return object.__new__(cls)
+
+    @classmethod
+    def section_class(cls) -> type:
+        """The dataclass with one field per component registered now (cached per registry
+        state; a subclass of `cls`, so isinstance holds)."""
+        if "REGISTRY" not in vars(cls):
+            return cls
+        items = tuple(cls.REGISTRY.configs.items())
+        built = _SECTIONS.get((cls, items))
+        if built is None:
+            fields = [(_attr(name), config, field(default_factory=config))
+                      for name, config in items]
+            built = dataclasses.make_dataclass(cls.__name__, fields, bases=(cls,), frozen=True,
+                                               namespace={"__module__": cls.__module__})
+            built.__qualname__ = cls.__qualname__
+            built.__field_docs__ = {_attr(name): _first_line(config.__doc__)
+                                    for name, config in items}
+            _SECTIONS[(cls, items)] = built
+        return built
+
+    @classmethod
+    def build(cls, shared: Mapping[str, Any], per_component: Mapping[str, Mapping[str, Any]]
+              = types.MappingProxyType({})):
+        """The section with every registered component's config built from preset values:
+        each value of `shared` goes to every config class that has a field of that name,
+        then `per_component[name]` to the component `name` and to those whose config
+        class derives from its (`fsq`'s values reach `lipfsq`)."""
+        configs = cls.REGISTRY.configs
+        unknown = sorted(set(per_component) - set(configs))
+        if unknown:
+            raise ValueError(f"preset values for unregistered {cls.REGISTRY.kind}(s) {unknown}")
+        values = {}
+        for name, config in configs.items():
+            names = {f.name for f in dataclasses.fields(config)}
+            kwargs = {k: v for k, v in shared.items() if k in names}
+            for other, extra in per_component.items():
+                if issubclass(config, configs[other]):
+                    kwargs.update(extra)
+            values[_attr(name)] = config(**kwargs)
+        return cls(**values)
+
+    def get(self, name: str):
+        """The config of component `name` (UnknownNameError listing the valid names)."""
+        names = {n: _attr(n) for n in self.REGISTRY.configs if hasattr(self, _attr(n))}
+        return getattr(self, names[check_name(self.REGISTRY.kind, name, names)])
+
+    def __reduce__(self):
+        # the built class is not importable by name: rebuild it from the registry
+        base = next(c for c in type(self).__mro__ if "REGISTRY" in vars(c))
+        return _rebuild_section, (base, {f.name: getattr(self, f.name)
+                                         for f in dataclasses.fields(self)})
+
+
+_SECTIONS: dict[tuple[type, tuple], type] = {}
+
+
+def _attr(name: str) -> str:
+    return name.replace("-", "_")
+
+
+def _first_line(doc: str | None) -> str:
+    return " ".join((doc or "").strip().split("\n\n")[0].split())
+
+
+def _rebuild_section(base: type, values: dict[str, Any]):
+    return base(**values)
 
 
 @dataclass(frozen=True)
-class PolicyConfigs:
-    """One config per policy, by registry name."""
+class TokenizerConfigs(ComponentConfigs):
+    """One config per registered action tokenizer (Sec. III-B and after), by registry name
+    (`lip-mlp` is `lip_mlp`): `icil_paper.tokenizers.configs.TOKENIZER_REGISTRY`."""
 
-    icrt: ICRTConfig = field(default_factory=ICRTConfig)
-    """ICRT (Sec. III-A)."""
-    bc_transformer: BCTransformerConfig = field(default_factory=BCTransformerConfig)
-    """BC-Transformer (robomimic)."""
-    act: ACTConfig = field(default_factory=ACTConfig)
-    """ACT, and ACT + tokenizer (Table II)."""
-    mcr: MCRConfig = field(default_factory=MCRConfig)
-    """MCR (images only)."""
-
-    def get(self, name: str) -> PolicyConfig:
-        """The config of policy `name` (UnknownNameError listing the valid names)."""
-        names = [f.name for f in dataclasses.fields(self)]
-        return getattr(self, check_name("policy", name, names))
+    REGISTRY = TOKENIZER_REGISTRY
 
 
 @dataclass(frozen=True)
-class TokenizerStudyConfig(_Checked):
-    """Tokenizers trained alone on action trajectories (chapters 02 and 04, the benchmark)."""
+class PolicyConfigs(ComponentConfigs):
+    """One config per registered policy, by registry name:
+    `icil_paper.policies.configs.POLICY_REGISTRY`."""
 
-    CHOICES = {"trajectories": ("demos", "synthetic")}
-
-    steps: int = 2000
-    """Optimizer steps when a tokenizer is trained on its own."""
-    batch_size: int = 64
-    """Trajectory windows per batch."""
-    window: int = 16
-    """Steps per trajectory window."""
-    lr: float = 1e-3
-    """Adam learning rate."""
-    trajectories: str = "demos"
-    """What tokenizers are trained on: `demos`, the preset's `generated` demonstrations of
-    its kitchen and ManiSkill tasks (the last `eval_fraction` of each task's demos held out),
-    or `synthetic`, minimum-jerk trajectories from `icil_paper.trajectories` (no simulator)."""
-    eval_fraction: float = 0.2
-    """Share of each task's demonstrations held out for the metrics (at least one)."""
-    n_trajectories: int = 200
-    """`synthetic` only: generated trajectories a tokenizer is trained on."""
-    n_eval_trajectories: int = 50
-    """`synthetic` only: held-out generated trajectories the metrics are computed on."""
-    trajectory_noise: float = 0.02
-    """Amplitude of the low-pass noise added to generated trajectories (teleoperation tremor)."""
-    bench_fast_actions: int = 1_000_000
-    """Actions FAST's BPE is fitted on in the benchmark (the paper: 1M)."""
-    seeds: int = 3
-    """Training seeds of every tokenizer trained alone (the chapters show the spread)."""
+    REGISTRY = POLICY_REGISTRY
 
 
 @dataclass(frozen=True)
@@ -324,53 +322,35 @@ class Preset(_Checked):
         return dataclasses.replace(self, **changes)
 
 
-def _policies(d_model: int, n_layer: int, n_head: int, dropout: float, chunk_size: int,
-              history: int, max_seq_len: int, resnet_width: int, query_len: int,
-              mcr_pretrain_steps: int, language: bool = False) -> PolicyConfigs:
-    """Every policy at the same transformer size (the paper scales ACT to BC-Transformer)."""
-    shared = dict(d_model=d_model, n_layer=n_layer, n_head=n_head, dropout=dropout,
-                  resnet_width=resnet_width, language=language)
-    return PolicyConfigs(
-        icrt=ICRTConfig(**shared, chunk_size=chunk_size, max_seq_len=max_seq_len,
-                        query_len=query_len),
-        bc_transformer=BCTransformerConfig(**shared, history=history),
-        act=ACTConfig(**shared, chunk_size=chunk_size),
-        mcr=MCRConfig(**shared, chunk_size=chunk_size, pretrain_steps=mcr_pretrain_steps))
+def _policies(**sizes: Any) -> PolicyConfigs:
+    """Every policy at the same transformer size (the paper scales ACT to BC-Transformer):
+    each size goes to every policy config with a field of that name (`chunk_size` to ICRT,
+    ACT and MCR, `history` to BC-Transformer, `pretrain_steps` to MCR)."""
+    return PolicyConfigs.build(sizes)
 
 
-def _tokenizers(latent_dim: int, codebook_size: int, fast_vocab_size: int = 1024,
-                n_bins: int = 256, fsq_levels: tuple[int, ...] = (8, 5, 5, 5),
-                rvq: tuple[int, int] = (2, 32), bspline: tuple[int, int, int] = (16, 8, 256)
+def _tokenizers(latent_dim: int, codebook_size: int, **per_tokenizer: dict[str, Any]
                 ) -> TokenizerConfigs:
-    """Every tokenizer at the same embedding width and, where it has one, about the same
-    number of codes: FSQ's levels multiply to about `codebook_size` (FSQ's recommended
-    levels), residual VQ's `rvq` = (levels Q, codes per level K) has K^Q = `codebook_size`
-    combinations; `bspline` = (chunk, control points, bins)."""
-    fsq = dict(latent_dim=latent_dim, levels=fsq_levels)
-    rvq_sizes = dict(latent_dim=latent_dim, num_quantizers=rvq[0], codebook_size=rvq[1])
-    chunk, control_points, spline_bins = bspline
-    return TokenizerConfigs(
-        mlp=MLPConfig(latent_dim=latent_dim), lip_mlp=LipMLPConfig(latent_dim=latent_dim),
-        bin=BinConfig(latent_dim=latent_dim, n_bins=n_bins),
-        fast=FASTConfig(latent_dim=latent_dim, vocab_size=fast_vocab_size),
-        vq=VQConfig(latent_dim=latent_dim, codebook_size=codebook_size),
-        lfq=LFQConfig(latent_dim=latent_dim, codebook_size=codebook_size),
-        lipvq=LipVQConfig(latent_dim=latent_dim, codebook_size=codebook_size),
-        fsq=FSQConfig(**fsq), lipfsq=LipFSQConfig(**fsq),
-        rvq=RVQConfig(**rvq_sizes), liprvq=LipRVQConfig(**rvq_sizes),
-        bspline=BSplineConfig(latent_dim=latent_dim, chunk=chunk, control_points=control_points,
-                              n_bins=spline_bins))
+    """Every tokenizer at the same embedding width and, where it has one, the same codebook
+    size; `per_tokenizer` adds a tokenizer's own values by registry name (they reach its
+    subclasses: `fsq`'s reach `lipfsq`). FSQ's levels multiply to about `codebook_size`
+    (FSQ's recommended levels); residual VQ's Q levels of K codes have K^Q = `codebook_size`
+    combinations."""
+    return TokenizerConfigs.build(dict(latent_dim=latent_dim, codebook_size=codebook_size),
+                                  per_tokenizer)
 
 
 def _smoke() -> Preset:
     return Preset(
         name="smoke",
         data=DataConfig(demos_per_task=2, workers=1, expert_seeds=0),
-        tokenizers=_tokenizers(latent_dim=16, codebook_size=64, fast_vocab_size=300,
-                               fsq_levels=(4, 4, 4), rvq=(2, 8), bspline=(4, 4, 32)),
+        tokenizers=_tokenizers(latent_dim=16, codebook_size=64, fast={"vocab_size": 300},
+                               fsq={"levels": (4, 4, 4)},
+                               rvq={"num_quantizers": 2, "codebook_size": 8},
+                               bspline={"chunk": 4, "control_points": 4, "n_bins": 32}),
         policies=_policies(d_model=32, n_layer=1, n_head=2, dropout=0.0, chunk_size=2,
                            history=4, max_seq_len=1024, resnet_width=8, query_len=8,
-                           mcr_pretrain_steps=3),
+                           pretrain_steps=3, language=False),
         train=TrainConfig(steps=5, batch_size=2, warmup_steps=1, ckpt_every=2, log_every=1),
         eval=EvalConfig(episodes_per_task=1, max_steps=10, workers=1),
         tokenizer_study=TokenizerStudyConfig(steps=30, batch_size=8, window=8, n_trajectories=12,
@@ -386,11 +366,12 @@ def _small() -> Preset:
     return Preset(
         name="small",
         data=DataConfig(demos_per_task=6, workers=2, expert_seeds=0),
-        tokenizers=_tokenizers(latent_dim=32, codebook_size=256, fsq_levels=(8, 6, 5),
-                               rvq=(2, 16), bspline=(8, 5, 256)),
+        tokenizers=_tokenizers(latent_dim=32, codebook_size=256, fsq={"levels": (8, 6, 5)},
+                               rvq={"num_quantizers": 2, "codebook_size": 16},
+                               bspline={"chunk": 8, "control_points": 5, "n_bins": 256}),
         policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
                            history=10, max_seq_len=1024, resnet_width=16, query_len=32,
-                           mcr_pretrain_steps=100),
+                           pretrain_steps=100, language=False),
         # CI computes every table within minutes: short training, one episode per task
         # (the numbers exercise the code; the reference preset's are worth reading).
         train=TrainConfig(steps=300, batch_size=8, warmup_steps=50, ckpt_every=150),
@@ -428,11 +409,12 @@ def _full() -> Preset:
     return Preset(
         name="full",
         data=DataConfig(demos_per_task=200, workers=16, obs="rgb"),
-        tokenizers=_tokenizers(latent_dim=64, codebook_size=1024, fsq_levels=(8, 5, 5, 5),
-                               rvq=(2, 32), bspline=(16, 8, 256)),
+        tokenizers=_tokenizers(latent_dim=64, codebook_size=1024, fsq={"levels": (8, 5, 5, 5)},
+                               rvq={"num_quantizers": 2, "codebook_size": 32},
+                               bspline={"chunk": 16, "control_points": 8, "n_bins": 256}),
         policies=_policies(d_model=512, n_layer=6, n_head=8, dropout=0.1, chunk_size=16,
                            history=10, max_seq_len=4096, resnet_width=64, query_len=32,
-                           mcr_pretrain_steps=20000, language=True),
+                           pretrain_steps=20000, language=True),
         train=TrainConfig(steps=500_000, batch_size=32, warmup_steps=2000, ckpt_every=5000,
                           ema_decay=0.999, cpu_threads=0),
         eval=EvalConfig(episodes_per_task=50, workers=16),

@@ -29,13 +29,13 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any, TypeVar
 
-from icil_paper.specs import json_default
+from icil_paper.config_data import json_default
 
 
 def folder_from_env(var: str, default: str) -> Path:
     """The folder $`var` names, else (also when it is empty or blank) `default` under the
     repository root. NotADirectoryError, naming the variable, when it is a file."""
-    from icil_paper.provenance import REPO_ROOT
+    from icil_paper.setup.provenance import REPO_ROOT
 
     value = os.environ.get(var, "").strip()
     path = Path(value) if value else REPO_ROOT / default

@@ -55,3 +55,47 @@ class Registry(Mapping[str, Any]):
 
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}, {list(self._entries)})"
+
+
+class ComponentRegistry(Registry):
+    """A registry whose entries are added by a decorator on each component's config class
+    (LeRobot's `register_subclass`): the one place a tokenizer or a policy is named.
+
+        TOKENIZERS = ComponentRegistry("tokenizer", TokenizerConfig)
+
+        @TOKENIZERS.register("vq", "icil_paper.tokenizers.vq:VQTokenizer")
+        @dataclass(frozen=True)
+        class VQConfig(TokenizerConfig): ...
+
+    `register(name, model)` sets the config class's `type` to `name` and records it
+    (`configs`, in registration order) with its model, a "module:attribute" string imported
+    on first use, or a bare attribute name of the config's own module (a component written
+    as one file). The registry's names, the presets' sections (`icil_paper.config`) and the
+    command line's choices are read from it.
+    """
+
+    def __init__(self, kind: str, base: type):
+        super().__init__(kind, {})
+        self.base = base
+        self.configs: dict[str, type] = {}
+
+    def register(self, name: str, model: str):
+        """A class decorator registering a config class of `self.base` under `name`."""
+
+        def decorate(cls: type) -> type:
+            if not (isinstance(cls, type) and issubclass(cls, self.base)):
+                raise TypeError(f"register({name!r}) decorates a subclass of "
+                                f"{self.base.__name__}, got {cls!r}")
+            old = self.configs.get(name)
+            if old is not None and (old.__module__, old.__qualname__) != (cls.__module__,
+                                                                          cls.__qualname__):
+                raise ValueError(f"{self.kind} {name!r} is registered twice: by "
+                                 f"{old.__module__}.{old.__qualname__} and "
+                                 f"{cls.__module__}.{cls.__qualname__}; rename one")
+            cls.type = name
+            self.configs[name] = cls
+            self._entries[name] = model if ":" in model else f"{cls.__module__}:{model}"
+            self._loaded.pop(name, None)
+            return cls
+
+        return decorate

@@ -38,17 +38,17 @@ STAGES: tuple[Stage, ...] = (
     Stage("environment", "record the packages, hardware and simulator checks",
           "icil_paper.reproduce:record_environment"),
     Stage("demos", "generate every data set of the preset: all tasks, both sources (chapter 04)",
-          "icil_paper.studies:demo_stage"),
+          "icil_paper.book.studies:demo_stage"),
     Stage("experts", "measure every expert on data.expert_seeds random scenes (chapter 04)",
-          "icil_paper.studies:expert_study"),
+          "icil_paper.book.studies:expert_study"),
     Stage("showcase", "render and record one demonstration of every task (chapter 04)",
-          "icil_paper.studies:showcase_study"),
+          "icil_paper.book.studies:showcase_study"),
     Stage("icrt", "train a small ICRT + LipVQ-VAE and roll it out from prompts (chapter 02)",
-          "icil_paper.studies:icrt_rollout_study"),
+          "icil_paper.book.studies:icrt_rollout_study"),
     Stage("lipschitz", "Lipschitz bounds vs empirical constants of trained encoders (chapter 03)",
-          "icil_paper.studies:lipschitz_study"),
+          "icil_paper.book.studies:lipschitz_study"),
     Stage("tokenizers", "train every action tokenizer alone and score it (chapter 05)",
-          "icil_paper.studies:tokenizer_study"),
+          "icil_paper.book.studies:tokenizer_study"),
     *(Stage(f"table-{t}", f"{what} (chapter {chapter})", f"icil_paper.reproduce:table_{t}")
       for t, what, chapter in (
           ("I", "Table I: every policy on the kitchen suite", "06"),
@@ -70,10 +70,10 @@ STAGES: tuple[Stage, ...] = (
 
 def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None:
     """Store the environment report of this machine (always refreshed)."""
-    from icil_paper.envcheck import environment_report
+    from icil_paper.setup.envcheck import environment_report
 
     def compute():
-        report = environment_report()
+        report = environment_report(preset.name)
         return {"checks": {c["name"]: c["ok"] for c in report["checks"]},
                 "device": (report.get("torch") or {}).get("device", "cpu")}
 
@@ -189,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
             check_name("stage", name, [s.name for s in STAGES])
     check_outputs(preset)
     if args.executor == "ray" and args.ray_address:
-        from icil_paper.grid import check_reachable
+        from icil_paper.tables.grid import check_reachable
 
         check_reachable(args.ray_address)  # before any stage, not after the data sets
     GRID.update(executor=args.executor, workers=args.workers, ray_address=args.ray_address,

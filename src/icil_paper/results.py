@@ -15,7 +15,7 @@ same record waits and then reads the one the first wrote.
 A record that stands for files (a `train` record for its `policy.pt`) names them with their
 SHA-256 in `files` (`run(..., files=...)`); `files_problem` says when one is missing or
 changed, and the caller then recomputes rather than report a record whose file is not the
-one it describes (`cells.train_run`).
+one it describes (`train.stored.train_run`).
 
     store = ResultsStore("small")
     record = store.run("tokenizer", "lipvq", config, lambda: {"recon_mse": 0.01})
@@ -35,6 +35,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from icil_paper.config_data import canonical_json, content_hash
 from icil_paper.fileio import (
     atomic_write_json,
     exclusive_lock,
@@ -42,8 +43,7 @@ from icil_paper.fileio import (
     folder_from_env,
     set_aside,
 )
-from icil_paper.provenance import git_state, host_info, package_versions
-from icil_paper.specs import canonical_json, content_hash
+from icil_paper.setup.provenance import git_state, host_info, package_versions
 
 SCHEMA_VERSION = 1
 RESULTS_ENV_VAR = "ICIL_RESULTS"
@@ -65,7 +65,7 @@ def results_root() -> Path:
 
 
 def config_hash(config: Mapping[str, Any]) -> str:
-    """A short stable hash of a JSON-ready config: `specs.content_hash`, the one every key
+    """A short stable hash of a JSON-ready config: `config_data.content_hash`, the one every key
     of the library is taken with (16 hex digits of SHA-256 over sorted, compact JSON)."""
     return content_hash(config)
 
@@ -225,7 +225,7 @@ def files_problem(record: Mapping[str, Any], folder: str | Path) -> str | None:
     whose bytes hash otherwise, is named. A record without `files` (written before records
     named their files) gives None here: it is accepted as far as this check goes, and its
     caller verifies it by loading (a `train` record: its policy's weight digest,
-    `cells.train_run`).
+    `train.stored.train_run`).
     """
     for name, digest in (record.get("files") or {}).items():
         try:

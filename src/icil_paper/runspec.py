@@ -5,6 +5,7 @@
                                      # change the trained policy changes
     ev = eval_spec(preset, "kitchen/open_drawer", episodes=10)
     eval_key(spec, ev)               # the key of that policy's evaluation
+    feature_key(spec, FeatureSpec(...))  # of a measurement of its tokenizer's features (Table III)
 
 A `RunSpec` is the data (tasks, source, observations, demos per task, the data seed), the
 policy's config, its tokenizer's config, the training loop's config and the training seed.
@@ -22,8 +23,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig
+from icil_paper.config_data import check_fields, from_dict, spec_key, to_dict
 from icil_paper.policies.configs import PolicyConfig
-from icil_paper.specs import check_fields, from_dict, spec_key, to_dict
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 
@@ -119,9 +120,28 @@ class EvalSpec:
         return to_dict(self)
 
 
+@dataclass(frozen=True)
+class FeatureSpec:
+    """Latent features of held-out trajectories through a trained policy's tokenizer (Table III)."""
+
+    data: DataSpec
+    """The held-out demonstrations: indices [start, start + demos_per_task) of each data set."""
+    start: int
+    """Index of the first held-out demonstration (the training run used the ones before)."""
+    steps: int
+    """Latent features kept, from the trajectories in task order (the paper: 500)."""
+    view_steps: int = 10
+    """Fig. 4: steps of the first trajectory whose latents are kept for the t-SNE plot."""
+
+
 def eval_key(run: RunSpec, ev: EvalSpec) -> str:
     """The content key of evaluating `run`'s policy as `ev` says."""
     return spec_key({"run": run, "eval": ev})
+
+
+def feature_key(run: RunSpec, spec: FeatureSpec) -> str:
+    """The content key of measuring `run`'s tokenizer features as `spec` says."""
+    return spec_key({"run": run, "features": spec})
 
 
 def policy_obs(policy: PolicyConfig, obs: str) -> str:

@@ -16,8 +16,8 @@ def save_benchmark(name: str, record: dict[str, Any], out: str | Path | None = N
     """Add provenance to `record` and write it atomically to `out` (default
     results/bench/<name>.json); returns the path."""
     from icil_paper.fileio import atomic_write_json
-    from icil_paper.provenance import git_state, host_info, package_versions
     from icil_paper.results import results_root
+    from icil_paper.setup.provenance import git_state, host_info, package_versions
 
     record = {"benchmark": name, **record, "load_average_1min": os.getloadavg()[0],
               "git": git_state(), "packages": package_versions(), "host": host_info()}

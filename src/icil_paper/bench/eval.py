@@ -7,7 +7,7 @@ The policy is ICRT + LipVQ-VAE at the small preset's size, trained on every task
 `--demos` generated demonstrations for `--train-steps` steps (a short run: the benchmark is
 about speed, not success; it is stored in `runs/small/` under its spec's key and loaded on the
 next run). Its evaluation (`--episodes` per task, at most `--max-steps` steps each) is cut
-into the rollout engine's lockstep groups (`icil_paper.rollouts`), and every group is run
+into the rollout engine's lockstep groups (`icil_paper.eval.rollouts`), and every group is run
 twice in a row on the same worker and the same envs:
 
     policy:  `rollouts.run_group`: the envs reset from the episodes' seeds, one batched
@@ -68,7 +68,7 @@ def paired_group(job: Any, state: Any = None) -> dict[str, Any]:
     with `state`'s envs (default: this worker process's); returns the process id, the seconds
     (wall, CPU) of env construction, of the policy side and of the raw side, and the policy's
     per-episode results."""
-    from icil_paper.rollouts import rollout_batch, run_group, worker_state
+    from icil_paper.eval.rollouts import rollout_batch, run_group, worker_state
 
     state = state or worker_state()
     t0 = _clock()
@@ -87,7 +87,7 @@ def paired_phase(policy: Any, episodes: list[Any], prompts: dict[int, Any],
                  workers: int) -> dict[str, Any]:
     """Every group of the engine's plan for `workers`, paired, on fresh warmed-up workers
     (or in this process for one); the per-side figures of the module docstring."""
-    from icil_paper.rollouts import (
+    from icil_paper.eval.rollouts import (
         EnvSetup,
         RolloutPool,
         WorkerState,
@@ -99,7 +99,7 @@ def paired_phase(policy: Any, episodes: list[Any], prompts: dict[int, Any],
     setup = EnvSetup("state")
     start = time.perf_counter()
     if workers == 1:
-        from icil_paper.train.optim import cpu_threads
+        from icil_paper.seeding import cpu_threads
 
         state = WorkerState()  # no envs yet, as a new worker
         try:
@@ -171,7 +171,7 @@ def trained_policy(run: Any, progress: bool) -> tuple[Any, dict[str, Any]]:
 
 def main(argv: list[str] | None = None) -> int:
     from icil_paper.bench import save_benchmark
-    from icil_paper.evaluate import plan_episodes, prompt_pool
+    from icil_paper.eval import plan_episodes, prompt_pool
     from icil_paper.runspec import EvalSpec
     from icil_paper.seeding import seed_everything
     from icil_paper.sim import suite_unavailable, tasks_of

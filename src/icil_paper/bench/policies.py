@@ -116,7 +116,7 @@ def latency(size: str, prompt_tokens: int, device: torch.device, steps: int) -> 
 
 def training_speed(size: str, device: torch.device, steps: int) -> dict[str, Any]:
     """Optimizer steps per second of ICRT + LipVQ-VAE at the size and batch of preset `size`."""
-    from icil_paper.batching import batch_to
+    from icil_paper.policies.batching import batch_to
     from icil_paper.sim.synthetic import synthetic_demos
     from icil_paper.train.optim import make_optimizer
 

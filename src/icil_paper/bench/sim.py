@@ -54,7 +54,7 @@ def _maniskill_gym_steps(task: str, n: int, seed: int) -> float:
     import gymnasium as gym
     import mani_skill.envs  # noqa: F401
 
-    from icil_paper.sim.maniskill_suite import (
+    from icil_paper.sim.maniskill.env import (
         MANISKILL_TASKS,
         default_render_backend,
         default_sim_backend,

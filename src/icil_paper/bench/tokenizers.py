@@ -5,7 +5,7 @@
 
 Every tokenizer is built at the paper's sizes (the configs' defaults: D = 64, K = 1024,
 256 bins, FAST chunk 8 / scale 10 / vocabulary 1024) and timed on a batch of (B, T) action
-windows from generated trajectories (`icil_paper.trajectories`), with one torch thread
+windows from generated trajectories (`icil_paper.data.trajectories`), with one torch thread
 (a per-core figure) and with all threads. Encode is a full `forward` (embeddings, codes,
 the tokenizer's own reconstruction and losses); decode is `decode(embeddings)`. Weights are
 untrained: throughput does not depend on them. Results go to results/bench/tokenizers.json.
@@ -19,13 +19,12 @@ import time
 import torch
 
 from icil_paper.bench import save_benchmark
-from icil_paper.config import TokenizerStudyConfig
+from icil_paper.config_data import to_dict
+from icil_paper.data.trajectories import ACTION_DIM, generate_actions, generate_trajectories
 from icil_paper.seeding import seed_everything
-from icil_paper.specs import to_dict
 from icil_paper.tokenizers import TOKENIZERS, make_tokenizer
-from icil_paper.tokenizers.configs import default_config, lipvq_official
+from icil_paper.tokenizers.configs import TokenizerStudyConfig, default_config, lipvq_official
 from icil_paper.tokenizers.training import sample_windows, throughput
-from icil_paper.trajectories import ACTION_DIM, generate_actions, generate_trajectories
 
 VARIANTS = [(name, default_config(name)) for name in TOKENIZERS] + [
     ("lipvq-official", lipvq_official())]

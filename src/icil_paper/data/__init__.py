@@ -13,6 +13,10 @@
 - `sources`: the `generated` (expert) and `human` (teleoperation-like) demonstration sources.
 - `generate`: `ensure_demos` / `ensure_many` / `demo_path`, parallel, resumable generation.
 - `splits`: train/valid masks, the zero-shot task split, the sim-to-real task pairs.
+- `trajectories`: synthetic minimum-jerk action trajectories (tokenizer studies without a
+  simulator).
+- `experts`: every expert's success rate over random scenes, open-loop replays and the
+  human source's keep rate (`python -m icil_paper.data.experts --suites ...`).
 - `cli`: `icil-paper demos --task ... --source ... --n ...`.
 """
 
@@ -41,8 +45,8 @@ from icil_paper.data.sources import (
     HumanLikeOperator,
     OperatorStyle,
     demo_seed,
+    expert_rollout,
     make_source,
-    rollout,
 )
 from icil_paper.data.splits import sim_to_real_pairs, train_valid_split, zero_shot_split
 
@@ -51,6 +55,6 @@ __all__ = [
     "ObsKeyMap", "OperatorStyle", "ROBOMIMIC_KEY_MAP", "SOURCES", "data_root",
     "dataset_obs_keys", "demo_path", "demo_seed", "ensure_demos", "ensure_many", "file_info",
     "load_dataset_file", "load_demos", "make_source", "map_obs_keys", "preset_tasks",
-    "read_masks", "robomimic_env_args", "rollout", "sim_to_real_pairs", "train_valid_split",
+    "read_masks", "robomimic_env_args", "expert_rollout", "sim_to_real_pairs", "train_valid_split",
     "verify_file", "write_demos", "zero_shot_split",
 ]

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper.data.hdf5 import DatasetError, merge_demo_files, verify_file, write_demos
-from icil_paper.data.sources import MAX_ATTEMPTS, SOURCES, demo_seed, rollout, style_dict
+from icil_paper.data.sources import MAX_ATTEMPTS, SOURCES, demo_seed, expert_rollout, style_dict
 from icil_paper.fileio import folder_from_env, set_aside
 from icil_paper.registry import check_name
 
@@ -142,7 +142,7 @@ def generate_one(job: _Job) -> dict[str, Any]:
     for attempt in range(MAX_ATTEMPTS):
         seed = demo_seed(job.base_seed, job.source, job.index, attempt)
         tried.append(seed)
-        demo, ok = rollout(env, policy, seed, source=job.source)
+        demo, ok = expert_rollout(env, policy, seed, source=job.source)
         if ok:
             demo.meta["attempt"] = attempt  # failed episodes before this one: keep-rate stats
             write_demos(job.shard, [demo], file_attrs=job.file_attrs, valid_fraction=0.0,

@@ -32,8 +32,8 @@ def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[st
     Files: `<out_dir>/<suite>__<task>.frame.png`, `.rrd` and `.png` (the recording and its
     static picture).
     """
-    from icil_paper.data.sources import demo_seed, make_source, rollout
-    from icil_paper.recording import record_episode
+    from icil_paper.book.recording import record_episode
+    from icil_paper.data.sources import demo_seed, expert_rollout, make_source
     from icil_paper.sim import make_env, object_position, suite_of
 
     out_dir = Path(out_dir)
@@ -48,7 +48,7 @@ def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[st
         frame_path = out_dir / f"{stem}.frame.png"
         _save_png(frame_path, frame)
         source = make_source("generated", task)
-        demo, ok = rollout(env, source, seed, record_states=False)
+        demo, ok = expert_rollout(env, source, seed, record_states=False)
         close = getattr(source, "close", None)
         if close is not None:
             close()

@@ -177,7 +177,7 @@ def make_source(source: str, task: str, expert: Any = None,
     return HumanLikeOperator(expert, style, action_scale=scale)
 
 
-def rollout(env: Any, policy: Any, seed: int, source: str = "generated",
+def expert_rollout(env: Any, policy: Any, seed: int, source: str = "generated",
             record_states: bool = True, max_steps: int | None = None
             ) -> tuple[Demo, bool]:
     """Run one episode of `policy` (a source) from `env.reset(seed=seed)`.

@@ -21,17 +21,19 @@ from __future__ import annotations
 
 from typing import Any
 
-from icil_paper.policies.configs import POLICY_CONFIGS, PolicyConfig, default_policy_config
-from icil_paper.registry import Registry
+from icil_paper.policies.configs import (
+    POLICY_CONFIGS,
+    POLICY_REGISTRY,
+    PolicyConfig,
+    default_policy_config,
+    register_policy,
+)
 
 POLICIES = tuple(POLICY_CONFIGS)
 
-REGISTRY = Registry("policy", {
-    "icrt": "icil_paper.policies.icrt:ICRT",
-    "bc_transformer": "icil_paper.policies.bc_transformer:BCTransformer",
-    "act": "icil_paper.policies.act:ACT",
-    "mcr": "icil_paper.policies.mcr:MCR",
-})
+REGISTRY = POLICY_REGISTRY
+"""Name -> policy class, imported on first use; filled by `register_policy` on each config
+class (`configs.py`)."""
 
 
 def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None):
@@ -78,4 +80,4 @@ def policy_label(policy: str, tokenizer: str | None) -> str:
     return f"{policy}+{tokenizer}" if tokenizer else policy
 
 
-__all__ = ["POLICIES", "REGISTRY", "make_policy", "policy_label", "resolve_tokenizer"]
+__all__ = ["POLICIES", "REGISTRY", "make_policy", "register_policy", "policy_label", "resolve_tokenizer"]

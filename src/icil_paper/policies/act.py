@@ -41,13 +41,12 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from icil_paper.batching import DemoSet, window_batch
 from icil_paper.layers import mlp
-from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import BatchedPolicy, TemporalEnsemble, batch_instructions, masked_l1
+from icil_paper.policies.batching import DemoSet, ObsSpec, window_batch
 from icil_paper.policies.configs import ACTConfig
 from icil_paper.policies.transformer import DecoderBlock, RMSNorm, Transformer, TransformerConfig
-from icil_paper.tokenizers import TOKENIZERS
+from icil_paper.tokenizers import REGISTRY as TOKENIZER_REGISTRY
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 
@@ -55,7 +54,7 @@ class ACT(BatchedPolicy):
     """Action chunking with transformers (ACTConfig); no tokenizer = the CVAE (plain ACT)."""
 
     name = "act"
-    tokenizers = TOKENIZERS
+    tokenizers = TOKENIZER_REGISTRY  # every registered tokenizer, those added later too
 
     def __init__(self, config: ACTConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
                  action_dim: int, tokenizer: TokenizerConfig | None = None):

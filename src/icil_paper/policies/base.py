@@ -11,7 +11,7 @@
     actions = policy.select_actions([obs_0, obs_2], rows=[0, 2])  # episode 1 has finished
 
 `reset_batch` / `select_actions` run B episodes in lockstep (the rollout engine,
-`icil_paper.rollouts`). ICRT, ACT, BC-Transformer and MCR implement them with one batched
+`icil_paper.eval.rollouts`). ICRT, ACT, BC-Transformer and MCR implement them with one batched
 forward pass per step; for any other policy the default here keeps one copy of the policy
 per episode and loops over `select_action`.
 
@@ -25,15 +25,15 @@ use it with the state dict).
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 import torch
 from torch import Tensor, nn
 
-from icil_paper.batching import DemoSet, as_demo_set, obs_batch
-from icil_paper.policies.backbones import ObservationEncoder, ObsSpec, as_obs_spec
+from icil_paper.policies.backbones import ObservationEncoder
+from icil_paper.policies.batching import DemoSet, ObsSpec, as_demo_set, as_obs_spec, obs_batch
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.tokenizers.configs import TokenizerConfig
 
@@ -50,7 +50,7 @@ class Policy(nn.Module):
     name: str = "policy"
     uses_prompt: bool = False
     needs_images: bool = False
-    tokenizers: ClassVar[tuple[str, ...]] = ()
+    tokenizers: ClassVar[Collection[str]] = ()
     default_tokenizer: ClassVar[str | None] = None
 
     def __init__(self, config: PolicyConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
@@ -238,7 +238,7 @@ class BatchedPolicy(Policy):
 def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spec: ObsSpec,
                 action_dim: int) -> dict[str, Any]:
     """What rebuilds a policy, as JSON-ready data: its config, its tokenizer's, the shapes."""
-    from icil_paper.specs import to_dict
+    from icil_paper.config_data import to_dict
 
     return {"policy": to_dict(config), "tokenizer": to_dict(tokenizer) if tokenizer else None,
             "obs_spec": obs_spec.to_dict(), "action_dim": int(action_dim)}
@@ -246,8 +246,8 @@ def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spe
 
 def build_policy(spec: Mapping[str, Any]) -> Policy:
     """Rebuild an (untrained) policy from `policy.spec`."""
+    from icil_paper.config_data import from_dict
     from icil_paper.policies import make_policy
-    from icil_paper.specs import from_dict
 
     tokenizer = spec.get("tokenizer")
     return make_policy(from_dict(PolicyConfig, spec["policy"]),

@@ -27,10 +27,9 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from icil_paper.batching import DemoSet, window_batch
 from icil_paper.layers import mlp
-from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
+from icil_paper.policies.batching import DemoSet, ObsSpec, window_batch
 from icil_paper.policies.configs import BCTransformerConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 

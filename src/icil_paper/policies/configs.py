@@ -1,7 +1,9 @@
 """One config dataclass per policy; `make_policy(config, obs_spec, action_dim, tokenizer)` builds from it.
 
 Torch-free, so that presets, the command line and result keys can hold policy configs
-without importing the models. The class-level `type` is the policy's registry name.
+without importing the models. Each config class is registered once, by
+`@register_policy(name, "module:Class")`, which sets its class-level `type` (the registry
+name) and names the model class built from it.
 Which action tokenizers a policy takes is a property of the policy class
 (`Policy.tokenizers`), not of its config.
 
@@ -19,7 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from icil_paper.specs import ConfigError, check_fields
+from icil_paper.config_data import ConfigError, check_fields
+from icil_paper.registry import ComponentRegistry, check_name
 
 
 @dataclass(frozen=True)
@@ -56,11 +59,20 @@ class PolicyConfig:
         return self.type
 
 
+POLICY_REGISTRY = ComponentRegistry("policy", PolicyConfig)
+"""Every policy by name: its config class (`configs`) and its model, imported on first use.
+A policy is added by one decorator on its config class, `register_policy`; the preset's
+`policies` section and the CLI's choices are derived from it."""
+
+register_policy = POLICY_REGISTRY.register
+"""`@register_policy("name", "module:PolicyClass")` above `@dataclass(frozen=True)` on a
+`PolicyConfig` subclass: the one registration of a policy."""
+
+
+@register_policy("icrt", "icil_paper.policies.icrt:ICRT")
 @dataclass(frozen=True)
 class ICRTConfig(PolicyConfig):
     """ICRT (Sec. III-A): a causal transformer over prompt demonstrations and the query."""
-
-    type: ClassVar[str] = "icrt"
 
     chunk_size: int = 4
     """Future actions predicted per query step (action chunking; the first is executed)."""
@@ -82,22 +94,20 @@ class ICRTConfig(PolicyConfig):
     episode) or `episode_start` (always step 0, as rollouts do)."""
 
 
+@register_policy("bc_transformer", "icil_paper.policies.bc_transformer:BCTransformer")
 @dataclass(frozen=True)
 class BCTransformerConfig(PolicyConfig):
     """robomimic's BC-Transformer: a transformer over an observation history, no prompt."""
-
-    type: ClassVar[str] = "bc_transformer"
 
     history: int = 10
     """Observation steps in the context (robomimic's context length)."""
 
 
+@register_policy("act", "icil_paper.policies.act:ACT")
 @dataclass(frozen=True)
 class ACTConfig(PolicyConfig):
     """ACT (Zhao et al. 2023), scaled to BC-Transformer's size; with a tokenizer, Table II's
     ACT + tokenizer rows."""
-
-    type: ClassVar[str] = "act"
 
     chunk_size: int = 4
     """Actions predicted per chunk."""
@@ -109,11 +119,10 @@ class ACTConfig(PolicyConfig):
     """Temporal ensembling weights exp(-m i) over overlapping chunks."""
 
 
+@register_policy("mcr", "icil_paper.policies.mcr:MCR")
 @dataclass(frozen=True)
 class MCRConfig(PolicyConfig):
     """MCR (Jiang et al. 2025): a manipulation-centric visual encoder, frozen under a BC head."""
-
-    type: ClassVar[str] = "mcr"
 
     chunk_size: int = 4
     """Actions predicted per step by the BC head (the first is executed)."""
@@ -125,14 +134,10 @@ class MCRConfig(PolicyConfig):
     """Learning rate of the pre-training."""
 
 
-POLICY_CONFIGS: dict[str, type[PolicyConfig]] = {
-    cls.type: cls for cls in (ICRTConfig, BCTransformerConfig, ACTConfig, MCRConfig)
-}
-"""Registry name -> config class."""
+POLICY_CONFIGS: dict[str, type[PolicyConfig]] = POLICY_REGISTRY.configs
+"""Registry name -> config class, in registration order."""
 
 
 def default_policy_config(name: str, **fields) -> PolicyConfig:
     """The default config of policy `name`, with some fields changed."""
-    from icil_paper.registry import check_name
-
     return POLICY_CONFIGS[check_name("policy", name, POLICY_CONFIGS)](**fields)

@@ -10,7 +10,7 @@
                                                                                  │
                                           MLP head at query observation tokens ─ â_t .. â_(t+K-1)
 
-The token layout is drawn in `icil_paper.batching`. Choices, and why:
+The token layout is drawn in `icil_paper.policies.batching`. Choices, and why:
 
 - Query actions in context. The paper's Eq. 1 lists only query observations; ICRT's code
   interleaves the query's own past actions as well (s1, a1, s2, a2, ...), and so do we by
@@ -48,13 +48,12 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from icil_paper.batching import DemoSet, prompt_query_batch
 from icil_paper.layers import mlp
-from icil_paper.policies.backbones import ObsSpec
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1, validate_prompt
+from icil_paper.policies.batching import DemoSet, ObsSpec, prompt_query_batch
 from icil_paper.policies.configs import ICRTConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
-from icil_paper.tokenizers import TOKENIZERS
+from icil_paper.tokenizers import REGISTRY as TOKENIZER_REGISTRY
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 
@@ -75,7 +74,7 @@ class ICRT(BatchedPolicy):
 
     name = "icrt"
     uses_prompt = True
-    tokenizers = TOKENIZERS
+    tokenizers = TOKENIZER_REGISTRY  # every registered tokenizer, those added later too
     default_tokenizer = "mlp"
 
     def __init__(self, config: ICRTConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
@@ -123,7 +122,7 @@ class ICRT(BatchedPolicy):
         return self.action_proj(emb) + self.type_emb.weight[1], out.losses
 
     def sequence(self, batch: Mapping[str, Any]) -> tuple[Tensor, Tensor, Tensor, dict[str, Tensor]]:
-        """Assemble the token sequence of a batch (layout in `icil_paper.batching`).
+        """Assemble the token sequence of a batch (layout in `icil_paper.policies.batching`).
 
         Returns tokens (B, L, D), valid (B, L) bool, query_obs_index (N,) the positions of the
         query's observation tokens, and the tokenizer's losses (token-weighted mean of the

@@ -3,10 +3,11 @@
 Suites, named by the prefix of a task name, each one `Suite` record (`icil_paper.sim.suite`) in
 `SUITE_ENTRIES`:
 
-- `kitchen/...`   kitchen skill tasks on robosuite (our stand-in for RoboCasa's skill families);
+- `kitchen/...`   kitchen skill tasks on robosuite (our stand-in for RoboCasa's skill families;
+                  the `sim/kitchen/` package);
 - `kinova/...`    the door and drawer tasks on robosuite's Kinova3 arm with perturbed dynamics
                   (our stand-in for the paper's sim-to-real transfer); same spaces as `kitchen`;
-- `maniskill/...` PickCube, PushCube and StackCube of ManiSkill 3 (Table II);
+- `maniskill/...` PickCube, PushCube and StackCube of ManiSkill 3 (Table II; `sim/maniskill/`);
 - `synthetic/...` a simulator-free reach task family (`icil_paper.sim.synthetic`) for tests and
                   sanity checks.
 
@@ -53,7 +54,7 @@ SUITES = ("kitchen", "kinova", "maniskill")
 SUITE_ENTRIES = {
     "kitchen": "icil_paper.sim.kitchen:KITCHEN_SUITE",
     "kinova": "icil_paper.sim.kitchen:KINOVA_SUITE",
-    "maniskill": "icil_paper.sim.maniskill_suite:MANISKILL_SUITE",
+    "maniskill": "icil_paper.sim.maniskill:MANISKILL_SUITE",
     "synthetic": "icil_paper.sim.synthetic:SYNTHETIC_SUITE",
 }
 """Suite name -> "module:attribute" of its `Suite` record (one line per suite)."""

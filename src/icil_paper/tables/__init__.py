@@ -5,10 +5,11 @@
     run_tables(preset, ["I", "II"], workers=2)     # trains and evaluates what the store lacks
     result = assemble(spec, ResultsStore(preset.name))   # estimates with 95% intervals
 
-- `spec.py`: TableSpec, Row, Cell, Unit, FeatureSpec.
+- `spec.py`: TableSpec, Row, Cell, Unit (FeatureSpec, like EvalSpec, is `icil_paper.runspec`'s).
 - `definitions.py`: Tables I-VII, Fig. 5 and the prompt ablation, from a preset.
 - `execute.py`: the cells of any set of tables grouped by trained run, fanned out with
-  `icil_paper.grid`, each writing its records through the results store.
+  `icil_paper.tables.grid`, each writing its records through the results store.
+- `grid.py`: cells of work on a local process pool or a Ray cluster, skipped when done.
 - `assemble.py`: records -> numbers with intervals (`icil_paper.stats`), as tables.
 - `claims.py`: the claims ledger: every claim of the paper with a computed verdict.
 - `cli.py`: `icil-paper tables`.

@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.records import eval_record, features_record
 from icil_paper.results import ResultsStore
 from icil_paper.stats import Estimate, score_mean, success_rate
-from icil_paper.tables.execute import eval_record, feature_record
 from icil_paper.tables.spec import Cell, TableSpec
 
 
@@ -48,7 +48,7 @@ def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
     by_seed: dict[int, list[list[bool]]] = {}
     missing = 0
     for unit in cell.units:
-        record = eval_record(store, unit.run, unit.eval)
+        record = store.get(*eval_record(unit.run, unit.eval))
         if record is None:
             missing += 1
             continue
@@ -64,7 +64,7 @@ def _smoothness_cell(cell: Cell, store: ResultsStore) -> CellResult:
     raw, standardized, scale, view, per_seed = [], [], [], [], []
     missing = 0
     for unit in sorted(cell.units, key=lambda u: u.seed_index):
-        record = feature_record(store, unit.run, unit.features)
+        record = store.get(*features_record(unit.run, unit.features))
         if record is None:
             missing += 1
             continue

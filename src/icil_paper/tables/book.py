@@ -125,10 +125,10 @@ def stale_records(preset_name: str = REFERENCE) -> list[str]:
     """Records in `results/<preset>/` (train, eval, features) whose key neither a current
     cell of any table nor chapter 02's run computes: results of an older version of the
     code or presets."""
-    from icil_paper.runspec import eval_key
-    from icil_paper.studies import icrt_specs
+    from icil_paper.book.studies import icrt_specs
+    from icil_paper.runspec import eval_key, feature_key
     from icil_paper.tables.definitions import TABLES
-    from icil_paper.tables.execute import feature_key, plan
+    from icil_paper.tables.execute import plan
 
     preset = get_preset(preset_name)
     keys = set()

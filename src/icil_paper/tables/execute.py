@@ -8,14 +8,14 @@
    distinct EvalSpec).
 2. The data sets every plan reads (training demonstrations, prompt pools, held-out
    trajectories) are generated first, in this process, with the preset's data workers.
-3. Each RunPlan becomes one grid cell (`icil_paper.grid`): `run_cell` trains the policy
+3. Each RunPlan becomes one grid cell (`icil_paper.tables.grid`): `run_cell` trains the policy
    (or finds it), evaluates it and measures its features, writing one record per result
    through the results store. A cell whose records all exist is skipped, so a killed run
    resumes where it stopped.
 
-Record names and configs (their keys are the content keys of the specs):
-`train/<label>__<tasks>__<source>__seed<k>` (`cells.train_run`), `eval/...`
-(`evaluate.evaluate_run`), `features/<train name>__features` (`measure_features`).
+Records are named by `icil_paper.records` (`train_record`, `eval_record`,
+`features_record`; their keys are the content keys of the specs), written by
+`train.train_run`, `eval.evaluate_run_many` and `eval.measure_features`.
 """
 
 from __future__ import annotations
@@ -27,10 +27,11 @@ from typing import Any
 import numpy as np
 
 from icil_paper.config import Preset
+from icil_paper.config_data import from_dict, to_dict
+from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
-from icil_paper.runspec import EvalSpec, RunSpec, eval_key
-from icil_paper.specs import from_dict, spec_key, to_dict
-from icil_paper.tables.spec import FeatureSpec, TableSpec
+from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec, eval_key, feature_key
+from icil_paper.tables.spec import TableSpec
 
 
 @dataclass
@@ -42,10 +43,6 @@ class RunPlan:
     """eval key -> EvalSpec."""
     features: dict[str, FeatureSpec] = field(default_factory=dict)
     """feature key -> FeatureSpec."""
-
-
-def feature_key(run: RunSpec, spec: FeatureSpec) -> str:
-    return spec_key({"run": run, "features": spec})
 
 
 def plan(tables: Sequence[TableSpec]) -> list[RunPlan]:
@@ -62,33 +59,13 @@ def plan(tables: Sequence[TableSpec]) -> list[RunPlan]:
 
 
 # --------------------------------------------------------------------------- records
-def _train_name(run: RunSpec) -> str:
-    from icil_paper.cells import train_record_name
-
-    return train_record_name(run)
-
-
-def eval_record(store: ResultsStore, run: RunSpec, ev: EvalSpec) -> dict | None:
-    from icil_paper.evaluate import eval_record_name
-
-    return store.get("eval", eval_record_name(run, ev),
-                     {"run": to_dict(run, keyed_only=True), "eval": to_dict(ev, keyed_only=True)})
-
-
-def feature_record(store: ResultsStore, run: RunSpec, spec: FeatureSpec) -> dict | None:
-    return store.get("features", f"{_train_name(run)}__features", _feature_config(run, spec))
-
-
-def _feature_config(run: RunSpec, spec: FeatureSpec) -> dict:
-    return {"run": to_dict(run, keyed_only=True), "features": to_dict(spec, keyed_only=True)}
-
-
 def plan_done(store: ResultsStore, p: RunPlan) -> bool:
     """True when every record of the plan is in the store (its training included)."""
-    if store.get("train", _train_name(p.run), to_dict(p.run, keyed_only=True)) is None:
+    if store.get(*train_record(p.run)) is None:
         return False
-    return (all(eval_record(store, p.run, ev) is not None for ev in p.evals.values())
-            and all(feature_record(store, p.run, f) is not None for f in p.features.values()))
+    return (all(store.get(*eval_record(p.run, ev)) is not None for ev in p.evals.values())
+            and all(store.get(*features_record(p.run, f)) is not None
+                    for f in p.features.values()))
 
 
 # --------------------------------------------------------------------------- data first
@@ -137,9 +114,9 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
     Arguments are JSON (what a grid worker receives); every result is written to the
     results store of `preset` as it finishes. Returns a short summary.
     """
-    from icil_paper.cells import load_trained, train_run
-    from icil_paper.evaluate import evaluate_run_many
+    from icil_paper.eval import evaluate_run_many, measure_features
     from icil_paper.seeding import seed_everything
+    from icil_paper.train.stored import load_trained, train_run
 
     store = ResultsStore(preset)
     run_spec = RunSpec.from_dict(run)
@@ -159,99 +136,12 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
     successes = [r["metrics"]["success_rate"] for r in records]
     for f_dict in features:
         spec = from_dict(FeatureSpec, f_dict)
-        store.run("features", f"{_train_name(run_spec)}__features",
-                  _feature_config(run_spec, spec),
+        store.run(*features_record(run_spec, spec),
                   lambda spec=spec: measure_features(get_policy(), spec, preset),
                   seed=run_spec.seed)
     return {"run": run_spec.key(), "label": run_spec.label,
             "steps": trained["metrics"]["steps"], "evals": len(evals),
             "mean_success": float(np.mean(successes)) if successes else None}
-
-
-def measure_features(policy: Any, spec: FeatureSpec, preset: str) -> dict[str, Any]:
-    """Table III's measurement: the latent features a trained policy's own tokenizer gives
-    held-out trajectories (`spec.steps` features in all, in task order).
-
-    Returns per-trajectory raw and standardized least energy (lists, for intervals), their
-    means, the latent scale sigma, the codes used (discrete tokenizers), and the first
-    `spec.view_steps` latents of the first trajectory (Fig. 4).
-    """
-    import torch
-
-    from icil_paper.data import ensure_demos, load_demos
-    from icil_paper.metrics import least_energy, standardized_least_energies
-
-    d = spec.data
-    pieces, left = [], spec.steps
-    for task in d.tasks:
-        path = ensure_demos(preset, task, d.source, n=spec.start + d.demos_per_task,
-                            seed=d.seed, obs=d.obs, progress=False)
-        for demo in load_demos(path, limit=spec.start + d.demos_per_task, images=False)[spec.start:]:
-            if left < 3:
-                break
-            piece = np.asarray(demo.actions[:left], np.float32)
-            pieces.append(piece)
-            left -= len(piece)
-    if not pieces:
-        raise ValueError(f"no held-out trajectories for {list(d.tasks)} (demos {spec.start}..)")
-    tokenizer = policy.tokenizer
-    tokenizer.eval()
-    latents, codes = [], []
-    with torch.no_grad():
-        for piece in pieces:
-            out = tokenizer(torch.from_numpy(piece)[None].to(policy.device))
-            latents.append(out.embeddings[0].float().cpu().numpy())
-            if out.codes is not None:
-                codes.append(tokenizer.vocabulary_ids(out.codes).cpu().numpy())
-    standardized, sigma = standardized_least_energies(latents)
-    raw = [least_energy(z) for z in latents]
-    metrics = {"least_energy": float(np.mean(raw)), "least_energy_per_trajectory": raw,
-               "least_energy_standardized": float(np.mean(standardized)),
-               "least_energy_standardized_per_trajectory": [float(x) for x in standardized],
-               "latent_scale": float(sigma), "n_features": int(sum(len(z) for z in latents)),
-               "n_trajectories": len(latents),
-               "view": latents[0][:spec.view_steps].tolist(),
-               "view_actions": pieces[0][:spec.view_steps].tolist()}
-    if codes:
-        used = np.unique(np.concatenate(codes))
-        metrics.update(codes_used=int(len(used)), codebook_size=int(tokenizer.codebook_size))
-    metrics.update(lipschitz_diagnostics(tokenizer, np.concatenate(pieces)))
-    return metrics
-
-
-def lipschitz_diagnostics(tokenizer: Any, actions: np.ndarray) -> dict[str, Any]:
-    """Does Eq. 4 bind in a trained encoder? For tokenizers with Lipschitz layers: the share
-    of rows whose absolute sum the bound caps (`capped_fraction`, all layers together), each
-    layer's bound softplus(c_l), their product (the network's bound, Eq. 3), and, for every
-    tokenizer with an encoder, the largest ratio ||q(x) - q(x')||_inf / ||x - x'||_inf over
-    random nearby pairs of held-out actions (`empirical_lipschitz`, a lower estimate)."""
-    import math
-
-    import torch
-    import torch.nn.functional as F
-
-    from icil_paper.metrics import empirical_lipschitz
-    from icil_paper.tokenizers.lipschitz_linear import lipschitz_layers
-
-    out: dict[str, Any] = {"capped_fraction": None, "layer_bounds": None, "bound_product": None,
-                           "empirical_lipschitz": None}
-    layers = lipschitz_layers(tokenizer)
-    if layers:
-        with torch.no_grad():
-            capped = rows = 0
-            for layer in layers:
-                sums = layer.weight.abs().sum(dim=1)
-                capped += int((sums > F.softplus(layer.c)).sum())
-                rows += len(sums)
-            bounds = [float(layer.lipschitz_bound()) for layer in layers]
-        out.update(capped_fraction=capped / rows, layer_bounds=bounds,
-                   bound_product=float(np.prod(bounds)))
-    encoder = getattr(tokenizer, "encoder", None)
-    if encoder is not None:
-        anchors = torch.from_numpy(np.asarray(actions, np.float32))
-        out["empirical_lipschitz"] = empirical_lipschitz(encoder, anchors, n_pairs=2000,
-                                                         radius=0.05, seed=0, ord=math.inf)
-    return out
 
 
 # --------------------------------------------------------------------------- many tables
@@ -261,8 +151,8 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
     """Compute every missing record of the chosen tables (default: all); see the module
     docstring. Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
     Returns the grid's summaries by run key."""
-    from icil_paper.grid import Cell, run_grid
     from icil_paper.tables.definitions import TABLES, table_spec
+    from icil_paper.tables.grid import Cell, run_grid
 
     ids = list(table_ids or TABLES)
     plans = plan([table_spec(preset, t) for t in ids])

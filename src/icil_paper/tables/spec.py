@@ -18,21 +18,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from icil_paper.runspec import DataSpec, EvalSpec, RunSpec
-
-
-@dataclass(frozen=True)
-class FeatureSpec:
-    """Latent features of held-out trajectories through a trained policy's tokenizer (Table III)."""
-
-    data: DataSpec
-    """The held-out demonstrations: indices [start, start + demos_per_task) of each data set."""
-    start: int
-    """Index of the first held-out demonstration (the training run used the ones before)."""
-    steps: int
-    """Latent features kept, from the trajectories in task order (the paper: 500)."""
-    view_steps: int = 10
-    """Fig. 4: steps of the first trajectory whose latents are kept for the t-SNE plot."""
+from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec
 
 
 @dataclass(frozen=True)

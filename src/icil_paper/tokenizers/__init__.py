@@ -34,17 +34,35 @@ and without Eq. 4 (`lip*`: the same class, every encoder layer a LipschitzLinear
 
 Tokenizer modules are imported on first use (a lazy registry), so importing this package
 does not import scipy or the `tokenizers` package.
+
+A new tokenizer is one module: an `ActionTokenizer` subclass and its config, registered by
+one decorator (nothing else to edit; the presets give it their shared sizes, `latent_dim`
+and, where it has that field, `codebook_size`; `icil_paper.config` may add its own values):
+
+    from dataclasses import dataclass
+    from icil_paper.tokenizers import ActionTokenizer, TokenizerConfig, register_tokenizer
+
+    @register_tokenizer("toy", "ToyTokenizer")      # the class below, imported on first use
+    @dataclass(frozen=True)
+    class ToyConfig(TokenizerConfig):
+        scale: float = 1.0   # (with its docstring under it, as every config field)
+
+    class ToyTokenizer(ActionTokenizer): ...
+
+`--set tokenizers.toy.scale=2 --tokenizer toy` then works on the command line once the
+module is imported (`tests/test_registration.py` runs one end to end).
 """
 
 from __future__ import annotations
 
-from icil_paper.registry import Registry
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, make_tokenizer
 from icil_paper.tokenizers.configs import (
     TOKENIZER_CONFIGS,
+    TOKENIZER_REGISTRY,
     TokenizerConfig,
     default_config,
     lipvq_official,
+    register_tokenizer,
 )
 from icil_paper.tokenizers.lipschitz_linear import (
     LipschitzLinear,
@@ -55,34 +73,12 @@ from icil_paper.tokenizers.lipschitz_linear import (
 from icil_paper.tokenizers.portable import TokenizerFolderError, load_tokenizer, save_tokenizer
 
 TOKENIZERS = tuple(TOKENIZER_CONFIGS)
+"""The built-in tokenizers' names, the paper's in its order, then the later ones (a snapshot:
+`REGISTRY` also holds those registered after this package was imported)."""
 
-REGISTRY = Registry("tokenizer", {
-    "mlp": "icil_paper.tokenizers.mlp:MLPTokenizer",
-    "lip-mlp": "icil_paper.tokenizers.mlp:LipMLPTokenizer",
-    "bin": "icil_paper.tokenizers.bin:BinTokenizer",
-    "fast": "icil_paper.tokenizers.fast:FASTTokenizer",
-    "vq": "icil_paper.tokenizers.vq:VQTokenizer",
-    "lfq": "icil_paper.tokenizers.lfq:LFQTokenizer",
-    "lipvq": "icil_paper.tokenizers.lipvq:LipVQTokenizer",
-    "fsq": "icil_paper.tokenizers.fsq:FSQTokenizer",
-    "lipfsq": "icil_paper.tokenizers.fsq:LipFSQTokenizer",
-    "rvq": "icil_paper.tokenizers.rvq:RVQTokenizer",
-    "liprvq": "icil_paper.tokenizers.rvq:LipRVQTokenizer",
-    "bspline": "icil_paper.tokenizers.bspline:BSplineTokenizer",
-})
-
-
-def make_tokenizer(config: TokenizerConfig | str, action_dim: int) -> ActionTokenizer:
-    """Build the tokenizer a config describes (a name gives that tokenizer's default config).
-
-    An unknown name raises UnknownNameError (a ValueError) that lists the valid names.
-    """
-    if isinstance(config, str):
-        config = default_config(config)
-    if not isinstance(config, TokenizerConfig) or not config.type:
-        raise TypeError(f"make_tokenizer needs a tokenizer config (icil_paper.tokenizers.configs)"
-                        f" or a name, got {type(config).__name__}")
-    return REGISTRY[config.type](config, action_dim)
+REGISTRY = TOKENIZER_REGISTRY
+"""Name -> tokenizer class, imported on first use; filled by `register_tokenizer` on each
+config class (`configs.py`)."""
 
 
 def __getattr__(name: str):
@@ -96,7 +92,7 @@ def __getattr__(name: str):
 
 __all__ = [
     "TOKENIZERS", "REGISTRY", "make_tokenizer", "ActionTokenizer", "TokenizerOutput",
-    "TokenizerConfig", "default_config", "lipvq_official",
+    "TokenizerConfig", "default_config", "lipvq_official", "register_tokenizer",
     "LipschitzLinear", "lipschitz_loss", "lipschitz_bounds", "lipschitz_layers",
     "FastDecodeError", "load_tokenizer", "save_tokenizer", "TokenizerFolderError",
 ]

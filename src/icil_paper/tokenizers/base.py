@@ -26,7 +26,12 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from icil_paper.tokenizers.configs import LipschitzOptions, TokenizerConfig
+from icil_paper.tokenizers.configs import (
+    TOKENIZER_REGISTRY,
+    LipschitzOptions,
+    TokenizerConfig,
+    default_config,
+)
 
 
 @dataclass
@@ -283,3 +288,16 @@ class ActionTokenizer(nn.Module):
 
     def extra_repr(self) -> str:
         return f"action_dim={self.action_dim}, latent_dim={self.latent_dim}"
+
+
+def make_tokenizer(config: TokenizerConfig | str, action_dim: int) -> ActionTokenizer:
+    """Build the tokenizer a config describes (a name gives that tokenizer's default config).
+
+    An unknown name raises UnknownNameError (a ValueError) that lists the valid names.
+    """
+    if isinstance(config, str):
+        config = default_config(config)
+    if not isinstance(config, TokenizerConfig) or not config.type:
+        raise TypeError(f"make_tokenizer needs a tokenizer config (icil_paper.tokenizers.configs)"
+                        f" or a name, got {type(config).__name__}")
+    return TOKENIZER_REGISTRY[config.type](config, action_dim)

@@ -1,7 +1,10 @@
 """One config dataclass per action tokenizer; `make_tokenizer(config, action_dim)` builds from it.
 
 Torch-free, so that presets, the command line and result keys can hold tokenizer configs
-without importing the models. The class-level `type` is the tokenizer's registry name.
+without importing the models. Each config class is registered once, by
+`@register_tokenizer(name, "module:Class")`, which sets its class-level `type` (the
+registry name) and names the model class built from it; `TOKENIZER_CONFIGS`, the tokenizer
+registry and the presets' `tokenizers` section all read that one registration.
 
     from icil_paper.tokenizers import make_tokenizer
     from icil_paper.tokenizers.configs import LipVQConfig
@@ -18,7 +21,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
-from icil_paper.specs import ConfigError, check_fields
+from icil_paper.config_data import ConfigError, check_fields
+from icil_paper.registry import ComponentRegistry, check_name
 
 DEFAULT_HIDDEN = (64, 128)
 TOKENIZER_CHOICES: dict[str, tuple[str, ...]] = {
@@ -54,6 +58,17 @@ class TokenizerConfig:
         return self.type
 
 
+TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig)
+"""Every action tokenizer by name: its config class (`configs`) and its model, imported on
+first use. A tokenizer is added by one decorator on its config class, `register_tokenizer`;
+the preset's `tokenizers` section and the CLI's choices are derived from it."""
+
+register_tokenizer = TOKENIZER_REGISTRY.register
+"""`@register_tokenizer("name", "module:TokenizerClass")` above `@dataclass(frozen=True)` on
+a `TokenizerConfig` subclass: the one registration of a tokenizer (the model may be a bare
+class name of the config's own module, for a tokenizer written as one file)."""
+
+
 @dataclass(frozen=True)
 class LipschitzOptions:
     """How every `LipschitzLinear` layer (Eq. 4) of an encoder is set up and regularised."""
@@ -74,11 +89,10 @@ class LipschitzOptions:
         check_fields(self)
 
 
+@register_tokenizer("mlp", "icil_paper.tokenizers.mlp:MLPTokenizer")
 @dataclass(frozen=True)
 class MLPConfig(TokenizerConfig):
     """`mlp`: ICRT's continuous action MLP."""
-
-    type: ClassVar[str] = "mlp"
 
     autoencode: bool = False
     """Let the reconstruction loss train the encoder too (stand-alone training); in a policy
@@ -88,21 +102,19 @@ class MLPConfig(TokenizerConfig):
     """Weight of the reconstruction loss."""
 
 
+@register_tokenizer("lip-mlp", "icil_paper.tokenizers.mlp:LipMLPTokenizer")
 @dataclass(frozen=True)
 class LipMLPConfig(MLPConfig):
     """`lip-mlp`: the ICRT MLP with every linear layer Lipschitz-normalised (Table IV)."""
-
-    type: ClassVar[str] = "lip-mlp"
 
     lipschitz: LipschitzOptions = dataclasses.field(default_factory=LipschitzOptions)
     """The Lipschitz layers' initialisation and loss weight."""
 
 
+@register_tokenizer("bin", "icil_paper.tokenizers.bin:BinTokenizer")
 @dataclass(frozen=True)
 class BinConfig(TokenizerConfig):
     """`bin`: RT-1 style uniform bins per action dimension."""
-
-    type: ClassVar[str] = "bin"
 
     n_bins: int = 256
     """Uniform bins per action dimension (RT-1: 256; the official code: 20)."""
@@ -112,11 +124,10 @@ class BinConfig(TokenizerConfig):
     """Weight of the decode head's loss."""
 
 
+@register_tokenizer("fast", "icil_paper.tokenizers.fast:FASTTokenizer")
 @dataclass(frozen=True)
 class FASTConfig(TokenizerConfig):
     """`fast`: DCT of action chunks, rounded, then byte-pair encoded (Pertsch et al. 2025)."""
-
-    type: ClassVar[str] = "fast"
 
     chunk: int = 8
     """Action steps per DCT chunk."""
@@ -151,11 +162,10 @@ class NormedEncoderConfig(TokenizerConfig):
     """The Lipschitz layers' initialisation and loss weight (with a Lipschitz norm)."""
 
 
+@register_tokenizer("vq", "icil_paper.tokenizers.vq:VQTokenizer")
 @dataclass(frozen=True)
 class VQConfig(NormedEncoderConfig):
     """`vq`: VQ-VAE over single actions (van den Oord et al. 2017)."""
-
-    type: ClassVar[str] = "vq"
 
     codebook_size: int = 1024
     """K, the number of codebook entries (the paper: 2^10)."""
@@ -191,21 +201,10 @@ class VQConfig(NormedEncoderConfig):
     False exempts it (a remedy for collapse: decay pulls unused codes to 0)."""
 
 
-@dataclass(frozen=True)
-class LipVQConfig(VQConfig):
-    """`lipvq`: LipVQ-VAE, a VQ-VAE with every encoder layer Lipschitz-normalised (the paper's)."""
-
-    type: ClassVar[str] = "lipvq"
-
-    norm: str = "lipschitz"
-    """Encoder weight normalisation (the paper: `lipschitz`, Eq. 4 on every layer)."""
-
-
+@register_tokenizer("lfq", "icil_paper.tokenizers.lfq:LFQTokenizer")
 @dataclass(frozen=True)
 class LFQConfig(TokenizerConfig):
     """`lfq`: lookup-free quantization (MAGVIT-v2), the paper's LFQ-VAE."""
-
-    type: ClassVar[str] = "lfq"
 
     codebook_size: int = 1024
     """K, a power of two; each code has log2(K) bits."""
@@ -226,6 +225,51 @@ class LFQConfig(TokenizerConfig):
                               f"is log2(K) bits), got {k}")
 
 
+@register_tokenizer("lipvq", "icil_paper.tokenizers.lipvq:LipVQTokenizer")
+@dataclass(frozen=True)
+class LipVQConfig(VQConfig):
+    """`lipvq`: LipVQ-VAE, a VQ-VAE with every encoder layer Lipschitz-normalised (the paper's)."""
+
+    norm: str = "lipschitz"
+    """Encoder weight normalisation (the paper: `lipschitz`, Eq. 4 on every layer)."""
+
+
+# ----------------------------------------------------------------- training alone
+@dataclass(frozen=True)
+class TokenizerStudyConfig:
+    """Tokenizers trained alone on action trajectories (chapters 02 and 04, the benchmark)."""
+
+    CHOICES = {"trajectories": ("demos", "synthetic")}
+
+    steps: int = 2000
+    """Optimizer steps when a tokenizer is trained on its own."""
+    batch_size: int = 64
+    """Trajectory windows per batch."""
+    window: int = 16
+    """Steps per trajectory window."""
+    lr: float = 1e-3
+    """Adam learning rate."""
+    trajectories: str = "demos"
+    """What tokenizers are trained on: `demos`, the preset's `generated` demonstrations of
+    its kitchen and ManiSkill tasks (the last `eval_fraction` of each task's demos held out),
+    or `synthetic`, minimum-jerk trajectories from `icil_paper.data.trajectories` (no simulator)."""
+    eval_fraction: float = 0.2
+    """Share of each task's demonstrations held out for the metrics (at least one)."""
+    n_trajectories: int = 200
+    """`synthetic` only: generated trajectories a tokenizer is trained on."""
+    n_eval_trajectories: int = 50
+    """`synthetic` only: held-out generated trajectories the metrics are computed on."""
+    trajectory_noise: float = 0.02
+    """Amplitude of the low-pass noise added to generated trajectories (teleoperation tremor)."""
+    bench_fast_actions: int = 1_000_000
+    """Actions FAST's BPE is fitted on in the benchmark (the paper: 1M)."""
+    seeds: int = 3
+    """Training seeds of every tokenizer trained alone (the chapters show the spread)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+
 def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConfig:
     """The official code's LipVQ-VAE (see `lipvq.py`): last layer normalised with per-row
     bounds initialised to ones, GELU, sigmoid output, no straight-through estimator, the
@@ -239,11 +283,10 @@ def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConf
 
 
 # ----------------------------------------------------------------- since the paper
+@register_tokenizer("fsq", "icil_paper.tokenizers.fsq:FSQTokenizer")
 @dataclass(frozen=True)
 class FSQConfig(NormedEncoderConfig):
     """`fsq`: finite scalar quantization (Mentzer et al. 2023) of one action per step."""
-
-    type: ClassVar[str] = "fsq"
 
     levels: tuple[int, ...] = (8, 5, 5, 5)
     """Quantization levels of each code dimension (at least 3 each); the encoder outputs
@@ -253,21 +296,19 @@ class FSQConfig(NormedEncoderConfig):
     """Weight of the reconstruction loss."""
 
 
+@register_tokenizer("lipfsq", "icil_paper.tokenizers.fsq:LipFSQTokenizer")
 @dataclass(frozen=True)
 class LipFSQConfig(FSQConfig):
     """`lipfsq`: FSQ with every encoder layer Lipschitz-normalised (Eq. 4), as in LipVQ-VAE."""
-
-    type: ClassVar[str] = "lipfsq"
 
     norm: str = "lipschitz"
     """Encoder weight normalisation (`lipschitz`: Eq. 4 on every layer, as LipVQ-VAE)."""
 
 
+@register_tokenizer("rvq", "icil_paper.tokenizers.rvq:RVQTokenizer")
 @dataclass(frozen=True)
 class RVQConfig(NormedEncoderConfig):
     """`rvq`: residual vector quantization (VQ-BeT's tokenizer; Lee et al. 2024)."""
-
-    type: ClassVar[str] = "rvq"
 
     num_quantizers: int = 2
     """Residual levels: each quantizes what the levels before it left (VQ-BeT: 2)."""
@@ -281,22 +322,20 @@ class RVQConfig(NormedEncoderConfig):
     """Weight of the reconstruction loss."""
 
 
+@register_tokenizer("liprvq", "icil_paper.tokenizers.rvq:LipRVQTokenizer")
 @dataclass(frozen=True)
 class LipRVQConfig(RVQConfig):
     """`liprvq`: residual VQ with every encoder layer Lipschitz-normalised (Eq. 4)."""
-
-    type: ClassVar[str] = "liprvq"
 
     norm: str = "lipschitz"
     """Encoder weight normalisation (`lipschitz`: Eq. 4 on every layer, as LipVQ-VAE)."""
 
 
+@register_tokenizer("bspline", "icil_paper.tokenizers.bspline:BSplineTokenizer")
 @dataclass(frozen=True)
 class BSplineConfig(TokenizerConfig):
     """`bspline`: BEAST (Zhou et al. 2025), clamped cubic B-spline control points of action
     chunks, quantized to integer bins."""
-
-    type: ClassVar[str] = "bspline"
 
     chunk: int = 8
     """Action steps per fitted chunk (step t is tokenized with the chunk ending at t)."""
@@ -311,13 +350,10 @@ class BSplineConfig(TokenizerConfig):
     """Weight of the decode head's loss."""
 
 
-TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = {
-    cls.type: cls for cls in (MLPConfig, LipMLPConfig, BinConfig, FASTConfig, VQConfig,
-                              LFQConfig, LipVQConfig, FSQConfig, LipFSQConfig, RVQConfig,
-                              LipRVQConfig, BSplineConfig)
-}
-"""Registry name -> config class: the paper's, in the order of Table I (mlp first), then
-the tokenizers that came after it (`SINCE_PAPER`)."""
+TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = TOKENIZER_REGISTRY.configs
+"""Registry name -> config class, in registration order: the paper's, in the order of
+Table I (mlp first), then the tokenizers that came after it (`SINCE_PAPER`), then any
+registered later (a module of one's own that uses `register_tokenizer`)."""
 
 SINCE_PAPER = ("fsq", "lipfsq", "rvq", "liprvq", "bspline")
 """The tokenizers of this registry that the paper does not compare (it predates them, or
@@ -326,6 +362,4 @@ they are Eq. 4 applied to them): FSQ, residual VQ and BEAST's B-splines."""
 
 def default_config(name: str, **fields) -> TokenizerConfig:
     """The default config of tokenizer `name`, with some fields changed."""
-    from icil_paper.registry import check_name
-
     return TOKENIZER_CONFIGS[check_name("tokenizer", name, TOKENIZER_CONFIGS)](**fields)

@@ -1,11 +1,12 @@
 """A trained action tokenizer as a portable folder: JSON config, safetensors weights, no pickle.
 
-    icil-paper export-tokenizer runs/small/icrt+lipvq__... exported/lipvq
+    icil-paper export-tokenizer runs/small/icrt+lipvq__... exported/lipvq   # icil_paper.interop
 
     from icil_paper.tokenizers import load_tokenizer
     tokenizer = load_tokenizer("exported/lipvq")    # eval mode; actions (B, T, A) -> codes
 
-The folder (`save_tokenizer` writes it, `export_tokenizer` from a run folder's `policy.pt`):
+The folder (`save_tokenizer` writes it; `icil_paper.interop.tokenizer_export` from a run
+folder's `policy.pt`):
 
     config.json           {"format": "icil_paper.tokenizer/1",
                            "tokenizer": {"type": "lipvq", "latent_dim": 64, ...},  # its config
@@ -33,10 +34,8 @@ that do not fit the config.
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
-import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -44,7 +43,7 @@ from typing import Any
 import torch
 
 from icil_paper.fileio import atomic_write_bytes, atomic_write_json
-from icil_paper.tokenizers.base import ActionTokenizer
+from icil_paper.tokenizers.base import ActionTokenizer, make_tokenizer
 
 FORMAT = "icil_paper.tokenizer/1"
 CONFIG_FILE = "config.json"
@@ -98,8 +97,8 @@ def save_tokenizer(tokenizer: ActionTokenizer, folder: str | Path,
     """
     from safetensors.torch import save as safetensors_bytes
 
-    from icil_paper.provenance import git_state, package_versions
-    from icil_paper.specs import to_dict
+    from icil_paper.config_data import to_dict
+    from icil_paper.setup.provenance import git_state, package_versions
 
     if not tokenizer.fitted:
         raise ValueError(f"the {tokenizer.name} tokenizer is not fitted: call "
@@ -144,27 +143,6 @@ def save_tokenizer(tokenizer: ActionTokenizer, folder: str | Path,
         atomic_write_bytes(folder / name, data)
     atomic_write_json(folder / CONFIG_FILE, config)
     return folder
-
-
-def export_tokenizer(run_dir: str | Path, folder: str | Path) -> Path:
-    """Export the tokenizer of the trained policy in `run_dir` (or a `policy.pt`) to `folder`.
-
-    Raises FileNotFoundError (no policy there), PolicyFileError, or TokenizerFolderError
-    when the policy has no action tokenizer (e.g. ACT's own CVAE).
-    """
-    from icil_paper.train.rundir import load_policy, policy_digest
-
-    policy = load_policy(run_dir)
-    tokenizer = getattr(policy, "tokenizer", None)
-    if not isinstance(tokenizer, ActionTokenizer):
-        raise TokenizerFolderError(f"the {policy.name} policy in {run_dir} has no action "
-                                   "tokenizer to export (train it with --tokenizer NAME)")
-    meta = getattr(policy, "meta", {}) or {}
-    spec = meta.get("spec") or {}
-    source = {"run_dir": Path(run_dir).resolve().name, "run_key": meta.get("key"),
-              "label": spec.get("label"), "steps": meta.get("steps"),
-              "policy": policy.name, "policy_digest": policy_digest(policy)}
-    return save_tokenizer(tokenizer, folder, source=source)
 
 
 # --------------------------------------------------------------------------- reading
@@ -213,8 +191,7 @@ def load_tokenizer(folder: str | Path, map_location: Any = "cpu") -> ActionToken
     from safetensors import SafetensorError
     from safetensors.torch import load as safetensors_load
 
-    from icil_paper.specs import from_dict
-    from icil_paper.tokenizers import make_tokenizer
+    from icil_paper.config_data import from_dict
     from icil_paper.tokenizers.configs import TokenizerConfig
 
     folder = Path(folder)
@@ -248,33 +225,3 @@ def load_tokenizer(folder: str | Path, map_location: Any = "cpu") -> ActionToken
         raise TokenizerFolderError(f"{folder}: its weights do not fit its config ({detail}); "
                                    "export the tokenizer again with this version") from None
     return tokenizer.to(map_location).eval()
-
-
-# --------------------------------------------------------------------------- command line
-def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.cli import Parser
-
-    p = Parser(prog="icil-paper export-tokenizer",
-               description="Write the action tokenizer of a trained policy as a portable folder "
-                           "(config.json, weights.safetensors; no pickle) that "
-                           "icil_paper.tokenizers.load_tokenizer(OUT) loads.")
-    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder (or its policy.pt)")
-    p.add_argument("out", metavar="OUT", help="folder to write (an earlier export there is "
-                                              "replaced)")
-    return p
-
-
-def main(argv: list[str] | None = None) -> int:
-    """`icil-paper export-tokenizer RUN_DIR OUT`."""
-    args = build_parser().parse_args(argv)
-    out = export_tokenizer(args.run_dir, args.out)
-    config = read_config(out)
-    facts = config["facts"]
-    print(f"{out}: the {facts['name']} tokenizer (action_dim {config['action_dim']}, "
-          f"{facts['n_values']} weights in {facts['n_tensors']} tensors); load it with "
-          f"icil_paper.tokenizers.load_tokenizer({str(out)!r})")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -26,12 +26,11 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from icil_paper.config import TokenizerStudyConfig
 from icil_paper.metrics import codebook_usage, smoothness_summary
+from icil_paper.seeding import cpu_threads
 from icil_paper.tokenizers.base import ActionTokenizer, as_trajectory_list
-from icil_paper.tokenizers.configs import TokenizerConfig
+from icil_paper.tokenizers.configs import TokenizerConfig, TokenizerStudyConfig
 from icil_paper.tokenizers.lipschitz_linear import lipschitz_bounds
-from icil_paper.train.optim import cpu_threads
 
 
 def stand_alone(config: TokenizerConfig) -> TokenizerConfig:

@@ -1,4 +1,5 @@
-"""Training: the one loop every policy shares, its run folders, and `icil-paper train`.
+"""Training: the one loop every policy shares, its run folders, its stored records and
+`icil-paper train`.
 
     from icil_paper.runspec import run_spec
     from icil_paper.train import run_dir_for, train_policy
@@ -6,12 +7,13 @@
     result = train_policy(spec, run_dir=run_dir_for(spec, preset.name), preset=preset.name)
 
 - `loop.py`: `train_policy`, `TrainState`, `TrainResult`, `training_demos`.
-- `optim.py`: AdamW with decoupled decay, warm-up + cosine, EMA, CPU thread control.
+- `optim.py`: AdamW with decoupled decay, warm-up + cosine, EMA.
 - `rundir.py`: run folders, safe checkpoint / policy files, metrics lines.
-- `cli.py`: `icil-paper train`.
+- `stored.py`: `train_run`, `load_trained`: stored `train` records (named by
+  `icil_paper.records`), trained once and reused only with the policy file they name.
+- `cli.py`: `icil-paper train` (not imported here: `icil_paper.cli` loads it by name).
 """
 
-from icil_paper.train.cli import main
 from icil_paper.train.loop import TrainResult, TrainState, train_policy, training_demos
 from icil_paper.train.rundir import (
     CONFIG_FILE,
@@ -25,7 +27,9 @@ from icil_paper.train.rundir import (
     run_dir_for,
     runs_root,
 )
+from icil_paper.train.stored import StaleRecordWarning, load_trained, train_run
 
 __all__ = ["CONFIG_FILE", "METRICS_FILE", "POLICY_FILE", "PolicyFileError", "RunFolderError",
-           "TrainResult", "TrainState", "load_policy", "main", "policy_digest", "read_metrics",
-           "run_dir_for", "runs_root", "train_policy", "training_demos"]
+           "StaleRecordWarning", "TrainResult", "TrainState", "load_policy", "load_trained",
+           "policy_digest", "read_metrics", "run_dir_for", "runs_root", "train_policy",
+           "train_run", "training_demos"]

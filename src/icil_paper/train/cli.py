@@ -128,9 +128,9 @@ def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -
 
 def main(argv: list[str] | None = None) -> int:
     """Train (or find trained), write the run folder and a `train` record; say where."""
-    from icil_paper.cells import train_run
     from icil_paper.results import ResultsStore
     from icil_paper.train.rundir import POLICY_FILE, run_dir_for
+    from icil_paper.train.stored import train_run
 
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)

@@ -33,8 +33,9 @@ from typing import Any
 import numpy as np
 import torch
 
+from icil_paper.seeding import cpu_threads
 from icil_paper.train import rundir
-from icil_paper.train.optim import EMA, cosine_schedule, cpu_threads, make_optimizer
+from icil_paper.train.optim import EMA, cosine_schedule, make_optimizer
 
 
 @dataclass
@@ -87,10 +88,12 @@ def training_demos(data: Any, preset: str | None = None, workers: int = 1,
         from icil_paper.data import load_dataset_file
 
         return list(load_dataset_file(data.dataset, obs_keys=data.obs_keys))
-    from icil_paper.config import active_preset_name
     from icil_paper.data import ensure_many, load_demos
 
-    paths = ensure_many(active_preset_name(preset), data.tasks, [data.source],
+    if preset is None:
+        raise ValueError("training_demos needs the preset's name (preset=...): its data sets "
+                         "live under data/<preset>/; or pass the demonstrations (demos=...)")
+    paths = ensure_many(preset, data.tasks, [data.source],
                         n=data.demos_per_task, workers=workers, progress=progress,
                         seed=data.seed, obs=data.obs)
     demos = [demo for task in data.tasks
@@ -116,7 +119,9 @@ def train_policy(spec: Any, run_dir: str | Path | None = None, resume: bool = Tr
         device: "cpu", "cuda", ... (default: cuda when available).
         stop_after: stop (after checkpointing) once this step is reached, as if killed
             there; used to test resuming.
-        preset: the preset whose `data/<preset>/` folder holds the data sets.
+        preset: the name of the preset whose `data/<preset>/` folder holds the data sets
+            (needed unless `demos` or the spec's `dataset` file is given; never read from
+            the environment).
         data_workers: processes that generate missing demonstrations.
     """
     device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
@@ -134,9 +139,8 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
            data_workers) -> TrainResult:
     from tqdm.auto import tqdm
 
-    from icil_paper.batching import batch_to
     from icil_paper.policies import make_policy
-    from icil_paper.policies.backbones import obs_spec_from_obs
+    from icil_paper.policies.batching import batch_to, obs_spec_from_obs
     from icil_paper.seeding import seed_everything
 
     tc = spec.train

@@ -1,26 +1,14 @@
-"""Optimisation: AdamW with decoupled decay on matrices, warm-up + cosine, EMA, CPU threads."""
+"""Optimisation: AdamW with decoupled decay on matrices, warm-up + cosine, EMA (torch's CPU
+threads: `icil_paper.seeding.cpu_threads`)."""
 
 from __future__ import annotations
 
-import contextlib
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import torch
 from torch import nn
-
-
-@contextlib.contextmanager
-def cpu_threads(n: int | None) -> Iterator[None]:
-    """Run a block with `n` torch CPU threads (None or n <= 0: leave torch's setting alone)."""
-    before = torch.get_num_threads()
-    if n is not None and n > 0:
-        torch.set_num_threads(n)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
 
 
 def cosine_schedule(warmup: int, total: int):

@@ -35,6 +35,7 @@ from typing import Any
 from icil_paper.registry import check_name
 from icil_paper.sim.kitchen.tasks import (
     ALL_TASKS,
+    CONTROL_FREQ,
     FAMILIES,
     KINOVA_TASKS,
     KITCHEN_OBJECT_DIM,
@@ -47,8 +48,6 @@ from icil_paper.sim.kitchen.tasks import (
 from icil_paper.sim.suite import Suite
 
 KITCHEN_OBS_DIMS = (KITCHEN_PROPRIO_DIM, KITCHEN_OBJECT_DIM)
-CONTROL_FREQ = 20
-"""Control rate of every kitchen and Kinova task, Hz (robosuite's `control_freq`)."""
 OBJECT_POSITION = (1, 4)
 """The key point (handle, lever tip, knob fin, button, free object) in `obs["object"]`: it
 follows the fixture's joint position (`icil_paper.sim.kitchen.scenes`)."""

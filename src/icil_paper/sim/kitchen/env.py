@@ -51,11 +51,11 @@ from robosuite.models.tasks import ManipulationTask
 from icil_paper.registry import check_name
 from icil_paper.sim import ACTION_DIM
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
-from icil_paper.sim.kitchen import CONTROL_FREQ
 from icil_paper.sim.kitchen.kinova import DynamicsPerturbation, RealityGap
 from icil_paper.sim.kitchen.scenes import Scene, make_scene
 from icil_paper.sim.kitchen.tasks import (
     ALL_TASKS,
+    CONTROL_FREQ,
     KITCHEN_PROPRIO_DIM,
     KitchenTaskSpec,
 )

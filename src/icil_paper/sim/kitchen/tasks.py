@@ -32,6 +32,9 @@ KITCHEN_OBJECT_DIM = 18
 """Width of `object`, the same for every task (layout in `icil_paper.sim.kitchen.scenes`)."""
 
 
+CONTROL_FREQ = 20
+"""Control rate of every kitchen and Kinova task, Hz (robosuite's `control_freq`)."""
+
 @dataclass(frozen=True)
 class KitchenTaskSpec:
     """One task of the kitchen suite."""

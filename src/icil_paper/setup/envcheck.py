@@ -12,8 +12,7 @@ import sys
 import time
 from dataclasses import asdict, dataclass
 
-from icil_paper.config import active_preset_name
-from icil_paper.provenance import host_info, package_versions
+from icil_paper.setup.provenance import host_info, package_versions
 
 
 @dataclass
@@ -65,7 +64,7 @@ print(f"MuJoCo offscreen rendering with MUJOCO_GL={os.environ['MUJOCO_GL']}: 64x
 _FIXES = {
     "robosuite": "run `make setup` (robosuite 1.5.2 needs mujoco 3.3.x, not 4.x)",
     "maniskill": "ManiSkill needs a Vulkan device: `make setup` installs Mesa's lavapipe on "
-                 "Debian 12 as root; see `python -m icil_paper.system_deps`",
+                 "Debian 12 as root; see `python -m icil_paper.setup.system_deps`",
     "offscreen rendering": "install an EGL driver (Debian: libegl1 libegl-mesa0) or set "
                            "MUJOCO_GL=osmesa with libosmesa6",
 }
@@ -92,10 +91,11 @@ def check_simulators() -> list[Check]:
             _run_check("offscreen rendering", _OFFSCREEN)]
 
 
-def environment_report(simulators: bool = True) -> dict:
-    """Everything `icil-paper env` prints, as a dict."""
+def environment_report(preset: str, simulators: bool = True) -> dict:
+    """Everything `icil-paper env` prints, as a dict; `preset` is the name of the preset in
+    force (the command line resolves it from --preset or $ICIL_PRESET)."""
     report = {
-        "preset": active_preset_name(),
+        "preset": preset,
         "host": host_info(),
         "packages": package_versions(),
         "checks": [asdict(c) for c in check_simulators()] if simulators else [],

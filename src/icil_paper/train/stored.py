@@ -1,10 +1,11 @@
-"""Stored training runs: a RunSpec in, a `train` record and a policy file out.
+"""Stored training runs: a RunSpec in, a `train` record and a policy file out (the stored-run
+layer of `train/`, as `eval/stored.py` is of evaluation).
 
     record = train_run(spec, preset.name, store)        # trains only what is missing
     policy = load_trained(spec, preset.name)             # the policy file of that run
 
-The record's config is the run spec's keyed content (`specs.to_dict(spec, keyed_only=True)`),
-so its key is `spec.key()`; it holds the training summary and the loss curve, and names the
+The record is named by `icil_paper.records.train_record(spec)`: its config is the run
+spec's keyed content, so its key is `spec.key()`; it holds the training summary and the loss curve, and names the
 SHA-256 of the policy file it stands for (`files`). A stored record is reported only with
 its file: where the run folder's `policy.pt` is missing (a fresh clone holds records only)
 or is not the file the record was written with, the record is stale, the changed file is
@@ -24,24 +25,19 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from icil_paper.records import train_record
 from icil_paper.results import ResultsStore, files_problem
-from icil_paper.runspec import RunSpec, tasks_tag
-from icil_paper.specs import to_dict
+from icil_paper.runspec import RunSpec
 
 
 class StaleRecordWarning(UserWarning):
     """A stored record whose files are not the ones it was written with; it is recomputed."""
 
 
-def train_record_name(run: RunSpec) -> str:
-    """`<label>__<tasks>__<source>__seed<k>`: the results-store name of a training run."""
-    return f"{run.label}__{tasks_tag(run.data.tasks)}__{run.data.source}__seed{run.seed}"
-
-
 def _policy_problem(record: dict[str, Any], folder: Path) -> str | None:
     """Why `record` does not stand for the policy file in `folder`, or None when it does
     (by its `files` digest, or for an older record without one, by loading the file)."""
-    from icil_paper.train import POLICY_FILE, load_policy, policy_digest
+    from icil_paper.train.rundir import POLICY_FILE, load_policy, policy_digest
 
     path = folder / POLICY_FILE
     if not path.exists():
@@ -67,12 +63,19 @@ def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Pat
     The run folder defaults to `run_dir_for(run, preset)`; training continues from its last
     checkpoint unless `resume=False` (start over).
     """
-    from icil_paper.train import METRICS_FILE, POLICY_FILE, policy_digest, read_metrics, run_dir_for
     from icil_paper.train.loop import finite, train_policy
-    from icil_paper.train.rundir import run_lock, set_aside_damaged
+    from icil_paper.train.rundir import (
+        METRICS_FILE,
+        POLICY_FILE,
+        policy_digest,
+        read_metrics,
+        run_dir_for,
+        run_lock,
+        set_aside_damaged,
+    )
 
     folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset)
-    name, config = train_record_name(run), to_dict(run, keyed_only=True)
+    record_id = train_record(run)
 
     def compute() -> dict[str, Any]:
         result = train_policy(run, run_dir=folder, resume=resume, demos=demos, device=device,
@@ -85,17 +88,17 @@ def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Pat
         return finite(metrics)
 
     with run_lock(folder):
-        record = None if force else store.get("train", name, config)
+        record = None if force else store.get(*record_id)
         if record is not None:
             problem = _policy_problem(record, folder)
             if problem is None:
                 return record
             if (folder / POLICY_FILE).exists():
                 set_aside_damaged(folder / POLICY_FILE, "not the file its train record names")
-            warnings.warn(f"the stored train record {name} is stale: in {folder}, {problem}; "
+            warnings.warn(f"the stored train record {record_id.name} is stale: in {folder}, {problem}; "
                           "computing it again (from the run's checkpoints where they are "
                           "whole)", StaleRecordWarning, stacklevel=2)
-        return store.run("train", name, config, compute, seed=run.seed, force=True,
+        return store.run(*record_id, compute, seed=run.seed, force=True,
                          files=lambda: {POLICY_FILE: folder / POLICY_FILE})
 
 
@@ -103,8 +106,7 @@ def load_trained(run: RunSpec, preset: str, store: ResultsStore | None = None,
                  progress: bool = True, device: str | None = None, data_workers: int = 1):
     """The trained policy of `run`: its policy file, as its `train` record names it (trained,
     or trained again, and recorded where it is missing or stale: `train_run`)."""
-    from icil_paper.train import load_policy, run_dir_for
-    from icil_paper.train.rundir import run_lock
+    from icil_paper.train.rundir import load_policy, run_dir_for, run_lock
 
     folder = run_dir_for(run, preset)
     with run_lock(folder):  # the file checked is the file loaded

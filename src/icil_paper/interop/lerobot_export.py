@@ -7,7 +7,7 @@ environment and imports nothing else of `icil_paper`:
 
     make lerobot-setup       # .venv-lerobot: Python 3.12 with lerobot[dataset] and h5py
     make lerobot-export FILE=data/small/kitchen/open_drawer/generated.hdf5 OUT=lerobot/open_drawer
-    # or: PYTHONPATH=src .venv-lerobot/bin/python -m icil_paper.lerobot_export FILE OUT
+    # or: PYTHONPATH=src .venv-lerobot/bin/python -m icil_paper.interop.lerobot_export FILE OUT
 
 and the result loads with `LeRobotDataset(repo_id, root=OUT)`.
 
@@ -178,7 +178,7 @@ def _write(f: Any, path: Path, partial: Path, repo_id: str, fps: int | None,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.lerobot_export",
+    parser = argparse.ArgumentParser(prog="python -m icil_paper.interop.lerobot_export",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("file", help="a robomimic-layout HDF5 file")
     parser.add_argument("out", help="the new data set's folder (must not exist)")

@@ -2,7 +2,7 @@
 
 ManiSkill's solutions (`mani_skill.examples.motionplanning.panda.solutions`) plan joint-space
 paths with mplib and execute them in `pd_joint_pos`. The policies of this project learn the
-suite's 7-D end-effector delta actions (`maniskill_suite` docstring), so the expert converts:
+suite's 7-D end-effector delta actions (`env.py`'s docstring), so the expert converts:
 
     reset(env, obs)                                          act(obs), every step
     ---------------                                          ----------------------------------
@@ -17,7 +17,7 @@ switches the gripper, the expert first waits (at most `MAX_HOLD` steps) until th
 `GRIP_TOLERANCE` of the pose where the shadow run switched it, so grasps happen where they were
 planned. The recorded demonstration is exactly the 7-D actions that ran in `pd_ee_delta_pose`, and
 both envs rebuild their scene at every reset (`ManiSkillEnv` docstring), so replaying the actions
-from the same seed reproduces the episode bit for bit (checked in `measure_experts` and the
+from the same seed reproduces the episode bit for bit (checked in `data.experts` and the
 tests).
 """
 
@@ -30,11 +30,11 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from icil_paper.sim.maniskill_suite import (
+from icil_paper.sim.maniskill.env import (
     MANISKILL_TASKS,
     POS_SCALE,
     ROT_SCALE,
-    _np,
+    to_numpy,
     wxyz_to_xyzw,
 )
 
@@ -78,8 +78,8 @@ class _ShadowEnv:
             def step(self, action):
                 out = self.env.step(action)
                 pose = self.env.unwrapped.agent.tcp.pose
-                self.trace.append((_np(pose.p).astype(np.float64),
-                                   wxyz_to_xyzw(_np(pose.q).astype(np.float64)),
+                self.trace.append((to_numpy(pose.p).astype(np.float64),
+                                   wxyz_to_xyzw(to_numpy(pose.q).astype(np.float64)),
                                    float(action[-1])))
                 return out
 
@@ -92,7 +92,7 @@ class _ShadowEnv:
                           if k in ("actors", "articulations")}
         with contextlib.redirect_stdout(io.StringIO()):  # the solutions print planner status
             result = solver(self.env, seed=seed)
-        solved = result != -1 and bool(_np(result[-1]["success"]))
+        solved = result != -1 and bool(to_numpy(result[-1]["success"]))
         return list(self.env.trace), solved
 
     def close(self) -> None:
@@ -129,8 +129,8 @@ class MotionPlanningExpert:
                                                             seed)
         if not self.plan:  # the solution failed before moving: hold still
             tcp = base.agent.tcp.pose
-            self.plan = [(_np(tcp.p).astype(np.float64),
-                          wxyz_to_xyzw(_np(tcp.q).astype(np.float64)), 1.0)]
+            self.plan = [(to_numpy(tcp.p).astype(np.float64),
+                          wxyz_to_xyzw(to_numpy(tcp.q).astype(np.float64)), 1.0)]
         self._k = 0
         self._hold = 0
 

@@ -58,6 +58,9 @@ def field_docs(cls: type) -> dict[str, str]:
     for klass in reversed(cls.__mro__):
         if not dataclasses.is_dataclass(klass) or klass is object:
             continue
+        if "__field_docs__" in vars(klass):  # a class built from a registry has no source
+            docs.update(klass.__field_docs__)
+            continue
         try:
             source = textwrap.dedent(inspect.getsource(klass))
         except (OSError, TypeError):
@@ -126,6 +129,8 @@ def from_dict(cls: type, data: Mapping[str, Any]) -> Any:
         raise OverrideError(f"{cls.__name__} must be read from a mapping, got {type(data).__name__}")
     if "type" in data:
         cls = config_class(cls, str(data["type"]))
+    if hasattr(cls, "section_class"):  # a preset section whose fields come from a registry
+        cls = cls.section_class()
     hints = _hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - set(fields) - {"type"})

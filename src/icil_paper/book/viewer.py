@@ -1,6 +1,6 @@
 """How a chapter shows a rerun recording: an embedded viewer, a download link, the picture.
 
-    from icil_paper.viewer import show_recording, show_recordings
+    from icil_paper.book.viewer import show_recording, show_recordings
     show_recording("results/small/chapter01/rollout.rrd")           # a notebook cell's last line
     show_recordings({"open_drawer": ("a.rrd", "a.png"), ...})       # one viewer, a menu
 
@@ -22,7 +22,7 @@ address), and its output is an HTML block that the built page turns into:
 The book's Sphinx extension (`book/_ext/book_assets.py`) copies the staged files into the
 built book's `_static/recordings/`, so the book is self-contained. The viewer is rerun 0.24,
 which reads the recordings that rerun-sdk 0.23 writes (rerun keeps the previous minor
-version's files readable); `python -m icil_paper.browser_check` checks that every recording
+version's files readable); `python -m icil_paper.book.browser_check` checks that every recording
 opens in it.
 """
 

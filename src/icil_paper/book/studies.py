@@ -12,12 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from icil_paper.book.recording import principal_view
 from icil_paper.config import Preset, TokenizerStudyConfig
-from icil_paper.recording import principal_view
+from icil_paper.config_data import to_dict
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import DataSpec
 from icil_paper.sim import ACTION_DIM
-from icil_paper.specs import to_dict
 from icil_paper.tokenizers.configs import TokenizerConfig, lipvq_official
 
 VIEW_STEPS = 40
@@ -83,7 +83,7 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
     With `preset.tokenizer_study.trajectories == "demos"`: the actions of the preset's `generated`
     demonstrations of its kitchen and ManiSkill tasks (made if missing), the last
     `eval_fraction` of each task's demos (at least one) held out. With `"synthetic"`:
-    minimum-jerk trajectories from `icil_paper.trajectories`. The returned dict describes the
+    minimum-jerk trajectories from `icil_paper.data.trajectories`. The returned dict describes the
     choice and goes into every record's config.
     """
     from icil_paper.registry import check_name
@@ -91,13 +91,13 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
     cfg = preset.tokenizer_study
     kind = check_name("tokenizer trajectories", cfg.trajectories, ("demos", "synthetic"))
     if kind == "synthetic":
-        from icil_paper.trajectories import generate_trajectories
+        from icil_paper.data.trajectories import generate_trajectories
 
         train = generate_trajectories(cfg.n_trajectories, seed=preset.seed,
                                       noise=cfg.trajectory_noise)
         test = generate_trajectories(cfg.n_eval_trajectories, seed=preset.seed + 1,
                                      noise=cfg.trajectory_noise)
-        return train, test, {"kind": kind, "generator": "icil_paper.trajectories",
+        return train, test, {"kind": kind, "generator": "icil_paper.data.trajectories",
                              "n": cfg.n_trajectories, "n_eval": cfg.n_eval_trajectories,
                              "noise": cfg.trajectory_noise}
     from icil_paper.data import ensure_many, load_demos
@@ -175,7 +175,7 @@ def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict
     Written to `results/<preset>/tokenizers/latent_trajectories.{rrd,png}` from the stored
     views and the trajectory's actions (no tokenizer is retrained); returns their paths.
     """
-    from icil_paper.recording import record_latent_trajectories
+    from icil_paper.book.recording import record_latent_trajectories
     from icil_paper.results import results_root
 
     _, test, _ = tokenizer_trajectories(preset)
@@ -272,8 +272,8 @@ def icrt_rollout_study(preset: Preset, store: ResultsStore | None = None,
     Returns {"train": the train record's metrics (summary and loss curve), "eval": the eval
     record's metrics (success rate, Wilson interval, per-episode seeds and prompts)}.
     """
-    from icil_paper.cells import load_trained, train_run
-    from icil_paper.evaluate import evaluate_run
+    from icil_paper.eval import evaluate_run
+    from icil_paper.train.stored import load_trained, train_run
 
     store = store or ResultsStore(preset.name)
     run, ev = icrt_specs(preset)
@@ -338,7 +338,7 @@ def expert_study(preset: Preset, store: ResultsStore | None = None,
     Nothing (an empty dict) when the preset sets `expert_seeds = 0`.
     """
     from icil_paper import sim
-    from icil_paper.sim.measure_experts import measure
+    from icil_paper.data.experts import measure
 
     store = store or ResultsStore(preset.name)
     n_seeds = preset.data.expert_seeds

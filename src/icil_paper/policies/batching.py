@@ -28,6 +28,10 @@ Windows for the baselines (BC-Transformer, ACT, MCR), for a step t of one demons
     o_(t-H+1) ... o_(t-1)  o_t                     a_t  a_(t+1) ... a_(t+K-1)
     a_(t-H+1) ... a_(t-1)  a_t   (per-step targets)   (masked past the episode's end)
 
+`ObsSpec` (here, beside the batching that reads it, and below every policy) names the
+observation keys and shapes a policy reads; `as_obs_spec` builds one from a width, a
+mapping of keys to shapes, or an observation dict (`obs_spec_from_obs`).
+
 Every sampler draws from a NumPy Generator, so a batch sequence is reproducible from the
 generator's state (which the training loop checkpoints).
 """
@@ -35,13 +39,92 @@ generator's state (which the training loop checkpoints).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import torch
 from torch import Tensor
 
-from icil_paper.policies.backbones import IMAGE_KEYS, ObsSpec, obs_spec_from_obs
+IMAGE_KEYS = ("rgb", "depth")
+DEFAULT_LOWDIM_KEYS = ("proprio", "object")
+
+
+# --------------------------------------------------------------------------- observation spec
+@dataclass(frozen=True)
+class ObsSpec:
+    """Which observation keys a policy reads, and their sizes."""
+
+    lowdim_keys: tuple[str, ...] = DEFAULT_LOWDIM_KEYS
+    """Low-dimensional keys, concatenated in this order."""
+    lowdim_dim: int = 0
+    """Total width of the concatenated low-dimensional keys."""
+    image: tuple[int, int, int] | None = None
+    """(n_cams, H, W) of the "rgb" key, or None for state-only observations."""
+    depth: bool = False
+    """Whether a "depth" key (n_cams, H, W) accompanies the images (RGB-D)."""
+    lowdim_dims: tuple[int, ...] | None = field(default=None, compare=False)
+    """Width of each low-dimensional key when known (for error messages only)."""
+
+    @property
+    def has_images(self) -> bool:
+        return self.image is not None
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        extra = (("rgb",) if self.image else ()) + (("depth",) if self.depth else ())
+        return self.lowdim_keys + extra
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"lowdim_keys": list(self.lowdim_keys), "lowdim_dim": self.lowdim_dim,
+                "image": list(self.image) if self.image else None, "depth": self.depth}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> ObsSpec:
+        return cls(tuple(d["lowdim_keys"]), int(d["lowdim_dim"]),
+                   tuple(d["image"]) if d.get("image") else None, bool(d.get("depth", False)))
+
+
+def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
+    """Normalize the `obs_dim` argument of `make_policy`.
+
+    - an int: the width of proprio and object state concatenated (state observations);
+    - a mapping key -> size or shape, e.g. {"proprio": 9, "object": 10} or
+      {"proprio": (9,), "object": (10,), "rgb": (2, 84, 84, 3), "depth": (2, 84, 84)};
+    - an ObsSpec.
+    """
+    if isinstance(obs_dim, ObsSpec):
+        return obs_dim
+    if isinstance(obs_dim, (int, np.integer)):
+        if obs_dim < 1:
+            raise ValueError(f"obs_dim must be positive, got {obs_dim}")
+        return ObsSpec(DEFAULT_LOWDIM_KEYS, int(obs_dim))
+    if isinstance(obs_dim, Mapping):
+        lowdim = {k: int(np.prod(v)) if isinstance(v, (tuple, list)) else int(v)
+                  for k, v in obs_dim.items() if k not in IMAGE_KEYS}
+        image = None
+        if "rgb" in obs_dim:
+            shape = tuple(int(s) for s in obs_dim["rgb"])
+            if len(shape) != 4 or shape[-1] != 3:
+                raise ValueError(f"rgb must be shaped (n_cams, H, W, 3), got {shape}")
+            image = shape[:3]
+        if "depth" in obs_dim and image is None:
+            raise ValueError("a depth observation needs an rgb observation beside it")
+        if not lowdim and image is None:
+            raise ValueError(f"no observation keys in {dict(obs_dim)}")
+        return ObsSpec(tuple(lowdim), sum(lowdim.values()), image, "depth" in obs_dim,
+                       tuple(lowdim.values()))
+    raise TypeError(f"obs_dim must be an int, a mapping or an ObsSpec, got {type(obs_dim)}")
+
+
+def obs_spec_from_obs(obs: Mapping[str, np.ndarray], time_axis: bool = True) -> ObsSpec:
+    """The ObsSpec of an observation dict; with `time_axis` the arrays are (T, ...)."""
+    keys = [k for k in DEFAULT_LOWDIM_KEYS + IMAGE_KEYS if k in obs]
+    if not keys:
+        raise ValueError(f"observation has none of the keys {DEFAULT_LOWDIM_KEYS + IMAGE_KEYS}; "
+                         f"it has {sorted(obs)}")
+    return as_obs_spec({k: tuple(np.shape(obs[k])[1:] if time_axis else np.shape(obs[k]))
+                        for k in keys})
 
 
 # --------------------------------------------------------------------------- demonstrations

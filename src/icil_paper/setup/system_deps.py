@@ -3,7 +3,7 @@
 ManiSkill 3 (SAPIEN 3) needs a Vulkan device even for state observations. On a Linux machine
 with no GPU, Mesa's software Vulkan driver (lavapipe) works from Mesa 24.3 on; Debian 12's own
 Mesa (22.3) does not, but its `bookworm-backports` suite has a new enough one. `make setup`
-runs `python -m icil_paper.system_deps --install`, which:
+runs `python -m icil_paper.setup.system_deps --install`, which:
 
 1. probes for a working Vulkan device (a SAPIEN render system in a subprocess);
 2. if there is none, on Debian 12 as root: adds `bookworm-backports` to apt, deriving the
@@ -12,7 +12,7 @@ runs `python -m icil_paper.system_deps --install`, which:
 3. anywhere else (not root, not Debian, no apt): prints what to install by hand and carries on.
    Tests that need ManiSkill then skip with `vulkan_problem()`'s reason.
 
-The book's browser check (`icil_paper.browser_check`) needs Chromium. Where none is found,
+The book's browser check (`icil_paper.book.browser_check`) needs Chromium. Where none is found,
 `--install` installs Debian's `chromium` package with apt-get (root, Debian-like); elsewhere
 it prints what to install and carries on (the browser check and its tests then say so).
 """
@@ -145,7 +145,7 @@ def ensure_vulkan(install: bool) -> None:
 
 def chromium_problem() -> str | None:
     """None when a Chromium executable is found (see `browser_check.find_chromium`)."""
-    from icil_paper.browser_check import find_chromium
+    from icil_paper.book.browser_check import find_chromium
 
     return None if find_chromium() else f"Chromium not found. {MANUAL_CHROMIUM}"
 

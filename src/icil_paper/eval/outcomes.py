@@ -1,6 +1,6 @@
-"""Rollouts that turn a trained policy into a success rate, and `icil-paper eval`.
+"""Episode outcomes: rollouts that turn a trained policy into a success rate.
 
-    from icil_paper.evaluate import evaluate_many, evaluate_policy
+    from icil_paper.eval import evaluate_many, evaluate_policy
     from icil_paper.runspec import eval_spec
     result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
                              prompts=demos, workers=2)
@@ -22,7 +22,7 @@ Each episode i (of `EvalSpec.episodes`) is fixed by the evaluation seed alone:
 - it runs until the task reports success, the episode ends, or `max_steps` (default the
   task's horizon). Actions are clipped to [-1, 1].
 
-The rollout engine (`icil_paper.rollouts`) runs the episodes: in lockstep groups of
+The rollout engine (`icil_paper.eval.rollouts`) runs the episodes: in lockstep groups of
 `batch_size` envs with one batched policy forward pass per step, on `workers` processes
 that each keep one copy of the policy and their envs for the whole call (or, with a
 `rollouts.RolloutPool`, across calls). The same seed gives the same episodes however they
@@ -39,10 +39,7 @@ action tokenizer, its latent tokens of those actions) with a static picture besi
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -50,15 +47,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
 
-from icil_paper.rollouts import Episode, RolloutPool, record_rollout, rollout, run_episodes
+from icil_paper.eval.rollouts import Episode, RolloutPool, run_episodes
 from icil_paper.runspec import EvalSpec
 from icil_paper.stats import wilson_interval
 
-__all__ = ["EvalResult", "RolloutPool", "check_policy_fits", "episode_seed", "eval_record_name",
-           "evaluate_many", "evaluate_policy", "evaluate_run", "evaluate_run_many", "main",
-           "obs_kind", "plan_episodes", "prompt_pool", "record_rollout", "rollout"]
+__all__ = ["EvalResult", "check_policy_fits", "episode_seed", "evaluate_many",
+           "evaluate_policy", "obs_kind", "plan_episodes", "prompt_pool"]
 
 
 @dataclass
@@ -139,11 +134,13 @@ def check_policy_fits(policy: Any, task: str) -> None:
 def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
                 preset: str | None = None, progress: bool = True) -> list[Any]:
     """The prompt demonstrations an EvalSpec draws from (see the module docstring)."""
-    from icil_paper.config import active_preset_name
     from icil_paper.data import ensure_demos, load_demos
 
+    if preset is None:
+        raise ValueError("prompt_pool needs the preset's name (preset=...): prompt data sets "
+                         "live under data/<preset>/")
     task = ev.prompt_task or ev.task
-    path = ensure_demos(active_preset_name(preset), task, ev.prompt_source, n=demos_per_task,
+    path = ensure_demos(preset, task, ev.prompt_source, n=demos_per_task,
                         seed=data_seed, obs=obs, progress=progress)
     demos = load_demos(path, limit=demos_per_task)
     if ev.prompt_steps is not None:
@@ -291,185 +288,3 @@ def evaluate_policy(policy: Any, spec: EvalSpec, prompts: Sequence[Any] | None =
                          record_dir=record_dir, progress=progress, env_options=env_options,
                          env_factory=env_factory, batch_size=batch_size, pool=pool,
                          device=device)[0]
-
-
-def eval_record_name(run: Any, ev: EvalSpec) -> str:
-    """The results-store name of an evaluation: `<label>__<task>__<prompt source>[...]`."""
-    name = f"{run.label}__{ev.task}__{ev.prompt_source}"
-    if ev.prompt_task:
-        name += f"__prompt-{ev.prompt_task.replace('/', '-')}"
-    if ev.prompt_steps:
-        name += f"__first{ev.prompt_steps}"
-    return f"{name}__seed{run.seed}"
-
-
-def _eval_config(run: Any, ev: EvalSpec) -> dict[str, Any]:
-    from icil_paper.specs import to_dict
-
-    return {"run": to_dict(run, keyed_only=True), "eval": to_dict(ev, keyed_only=True)}
-
-
-def _run_prompts(run: Any, ev: EvalSpec, policy: Any, preset: str | None,
-                 progress: bool) -> list[Any] | None:
-    if not policy.uses_prompt:
-        return None
-    return prompt_pool(ev, run.data.obs, run.data.demos_per_task, run.data.seed, preset, progress)
-
-
-def _trained(policy: Any | Callable[[], Any]) -> Any:
-    return policy if isinstance(policy, torch.nn.Module) else policy()
-
-
-def evaluate_run(run: Any, ev: EvalSpec, policy: Any | Callable[[], Any], store: Any,
-                 preset: str | None = None, workers: int = 1, record_dir: str | Path | None = None,
-                 force: bool = False, progress: bool = True, pool: RolloutPool | None = None,
-                 batch_size: int | None = None) -> dict[str, Any]:
-    """The stored evaluation of `run`'s trained policy as `ev` describes, computed if missing.
-
-    `policy` is the trained policy or a function that loads it (called only when the
-    record must be computed). The record's config is the keyed content of both specs, so
-    its key is `runspec.eval_key(run, ev)`. Returns the record. `pool` and `batch_size`
-    go to `evaluate_policy`.
-    """
-    def compute() -> dict[str, Any]:
-        trained = _trained(policy)
-        result = evaluate_policy(trained, ev, prompts=_run_prompts(run, ev, trained, preset, progress),
-                                 workers=workers, record_dir=record_dir, progress=progress,
-                                 pool=pool, batch_size=batch_size)
-        return result.to_dict()
-
-    return store.run("eval", eval_record_name(run, ev), _eval_config(run, ev), compute,
-                     seed=ev.seed, force=force)
-
-
-def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[[], Any],
-                      store: Any, preset: str | None = None, workers: int = 1,
-                      record_dir: str | Path | None = None, force: bool = False,
-                      progress: bool = True, pool: RolloutPool | None = None,
-                      batch_size: int | None = None) -> list[dict[str, Any]]:
-    """`evaluate_run` for many evaluations of one run (a table's tasks): the records that
-    are missing (or all, with `force`) are computed together in one `evaluate_many` call,
-    each stored as it would be by `evaluate_run`. Returns the records, in the order of `evs`.
-    """
-    evs = list(evs)
-    names = [eval_record_name(run, ev) for ev in evs]
-    configs = [_eval_config(run, ev) for ev in evs]
-    records = [None if force else store.get("eval", name, config)
-               for name, config in zip(names, configs, strict=True)]
-    missing = [i for i, r in enumerate(records) if r is None]
-    if missing:
-        trained = _trained(policy)
-        start = time.perf_counter()
-        results = evaluate_many(
-            trained, [evs[i] for i in missing],
-            [_run_prompts(run, evs[i], trained, preset, progress) for i in missing],
-            workers=workers, record_dir=record_dir, progress=progress, pool=pool,
-            batch_size=batch_size)
-        wall = time.perf_counter() - start
-        for i, result in zip(missing, results, strict=True):
-            path = store.write("eval", names[i], configs[i], result.to_dict(), evs[i].seed,
-                               wall / len(missing))
-            records[i] = json.loads(Path(path).read_text())
-    return records
-
-
-# --------------------------------------------------------------------------- CLI
-def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.cli import Parser, add_preset_arguments, positive
-
-    p = Parser(prog="icil-paper eval",
-                                description="Roll out a trained policy; store its success rate.")
-    add_preset_arguments(p)
-    p.add_argument("--run-dir", default=None,
-                   help="folder of a training run (default: the one that --policy, --tokenizer, "
-                        "--train-tasks or --suite, --source and the preset name)")
-    p.add_argument("--policy", default="icrt", help="policy name, to find the default run folder")
-    p.add_argument("--tokenizer", default=None, help="tokenizer name, to find the default run folder")
-    p.add_argument("--tasks", nargs="+", default=None,
-                   help="tasks to evaluate on (default: the tasks the policy was trained on)")
-    p.add_argument("--train-tasks", nargs="+", default=None,
-                   help="the training run's tasks, to find its folder (default: see --suite)")
-    p.add_argument("--suite", choices=("kitchen", "maniskill"), default="kitchen",
-                   help="the training run's suite when --train-tasks is not given")
-    p.add_argument("--source", default="generated", help="the training run's demonstration source")
-    p.add_argument("--prompt-source", default="generated", help="where prompt demonstrations come from")
-    p.add_argument("--eval-seed", type=int, default=None,
-                   help="evaluation seed (default: the preset's seed)")
-    p.add_argument("--episodes", type=positive("--episodes"), default=None,
-                   help="rollouts per task (default: the preset's eval.episodes_per_task)")
-    p.add_argument("--workers", type=positive("--workers"), default=None,
-                   help="parallel rollout processes (default: the preset's eval.workers)")
-    p.add_argument("--max-steps", type=positive("--max-steps"), default=None,
-                   help="step limit per rollout (default: the preset's, else the task's horizon)")
-    p.add_argument("--record", action="store_true", help="write a rerun recording of each rollout")
-    p.add_argument("--force", action="store_true", help="recompute a stored result")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    return p
-
-
-def _check_outputs(run: Any, policy: Any, tasks: Sequence[str], prompt_source: str,
-                   preset: Any) -> None:
-    """Refuse, before any rollout, a results store (and, where a prompt data set must be
-    generated, a data folder) that this process cannot write to."""
-    from icil_paper.data.generate import DATA_ENV_VAR, demo_path
-    from icil_paper.fileio import check_env_folder
-    from icil_paper.results import RESULTS_ENV_VAR
-
-    check_env_folder(RESULTS_ENV_VAR, "results")
-    if policy.uses_prompt and not all(demo_path(preset, t, prompt_source, run.data.obs).exists()
-                                      for t in tasks):
-        check_env_folder(DATA_ENV_VAR, "data")
-
-
-def main(argv: list[str] | None = None) -> int:
-    """`icil-paper eval`: evaluate a trained run on each task; one `eval` record per task."""
-    from icil_paper.cli import preset_from_args
-    from icil_paper.registry import check_name
-    from icil_paper.results import ResultsStore, results_root
-    from icil_paper.runspec import eval_spec, run_spec
-    from icil_paper.sim import all_tasks
-    from icil_paper.train.rundir import CONFIG_FILE, load_policy, read_run_spec, run_dir_for
-
-    args = build_parser().parse_args(argv)
-    preset = preset_from_args(args)
-    valid = all_tasks()
-    for task in (args.tasks or []) + (args.train_tasks or []):
-        check_name("task", task, valid)
-    if args.run_dir:
-        run_dir = Path(args.run_dir)
-        config_path = run_dir / CONFIG_FILE
-        if not config_path.exists():
-            raise FileNotFoundError(f"{run_dir} is not a training run folder (no {CONFIG_FILE})")
-        run = read_run_spec(run_dir)
-    else:
-        train_tasks = args.train_tasks or list(getattr(preset.data, f"{args.suite}_tasks"))
-        run = run_spec(preset, args.policy, args.tokenizer, tasks=train_tasks, source=args.source)
-        run_dir = run_dir_for(run, preset.name)
-    policy = load_policy(run_dir)
-    tasks = args.tasks or list(run.data.tasks)
-    for task in tasks:  # before any prompt data set is generated or env started
-        check_policy_fits(policy, task)
-    _check_outputs(run, policy, tasks, args.prompt_source, preset)
-    store = ResultsStore(preset.name)
-    workers = args.workers or preset.eval.workers
-    record_dir = results_root() / preset.name / "recordings" if args.record else None
-    # one set of worker processes for every task: started, and each task's env built, once
-    pool = RolloutPool(workers) if workers > 1 else None
-    try:
-        for task in tasks:
-            ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
-                           prompt_source=args.prompt_source, max_steps=args.max_steps)
-            record = evaluate_run(run, ev, policy, store, preset.name, workers, record_dir,
-                                  force=args.force, progress=not args.quiet, pool=pool)
-            m = record["metrics"]
-            print(f"{run.label} on {task} (prompts: {args.prompt_source}): success "
-                  f"{m['success_rate']:.3f} [{m['ci_low']:.3f}, {m['ci_high']:.3f}] over "
-                  f"{m['episodes']} episodes")
-    finally:
-        if pool is not None:
-            pool.close()
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,6 +1,6 @@
 """The built book checked in a real browser: every page loads cleanly, offline.
 
-    python -m icil_paper.browser_check [book/_build/html] [--screenshots DIR]
+    python -m icil_paper.book.browser_check [book/_build/html] [--screenshots DIR]
     make browser-check
 
 Serves the built book on a loopback HTTP server and loads every page in headless Chromium
@@ -16,7 +16,7 @@ book needs no network (a CDN script, font or image is caught). A page fails on:
     overflow             a table, cell output or figure wider than the content column or
                          than its own box (scrollWidth > clientWidth: clipped, or scrolled
                          sideways), at the reader's window width (1400 px)
-    recording viewer     a recording block (icil_paper.viewer) whose viewer made no canvas,
+    recording viewer     a recording block (icil_paper.book.viewer) whose viewer made no canvas,
                          or did not report each of its recordings open (a block's menu is
                          switched through them), or that scrolled the page to itself
 

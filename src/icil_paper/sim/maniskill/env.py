@@ -1,4 +1,5 @@
-"""The ManiSkill suite: PickCube-v1, PushCube-v1 and StackCube-v1 as the project's gymnasium envs.
+"""The ManiSkill suite's env: PickCube-v1, PushCube-v1 and StackCube-v1 as the project's gymnasium
+envs (the suite itself, `MANISKILL_SUITE`, is `icil_paper.sim.maniskill`).
 
 ManiSkill 3 runs the Panda arm on SAPIEN; on a machine without a GPU it needs a Vulkan device
 (Mesa's lavapipe, see `icil_paper.sim.rendering`) even for state observations, and uses the
@@ -44,7 +45,6 @@ import numpy as np
 
 from icil_paper.sim import ACTION_DIM
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
-from icil_paper.sim.suite import Suite
 
 PROPRIO_DIM = 9
 MANISKILL_OBJECT_DIM = 21
@@ -95,7 +95,7 @@ MANISKILL_TASKS: dict[str, ManiSkillTask] = {
 }
 
 
-def _np(x: Any) -> np.ndarray:
+def to_numpy(x: Any) -> np.ndarray:
     """First element of a batched ManiSkill tensor as a float32 numpy array."""
     if hasattr(x, "detach"):
         x = x.detach().cpu().numpy()
@@ -129,18 +129,18 @@ def _pose7(p: np.ndarray, q_wxyz: np.ndarray) -> np.ndarray:
 def object_features(task: str, base_env: Any) -> np.ndarray:
     """The suite's object-state vector (MANISKILL_OBJECT_DIM,) read from a ManiSkill env."""
     agent = base_env.agent
-    tcp = _np(agent.tcp.pose.p)
+    tcp = to_numpy(agent.tcp.pose.p)
     if task == "maniskill/stack_cube":
         obj = base_env.cubeA
-        half = float(_np(base_env.cube_half_size)[2])
+        half = float(to_numpy(base_env.cube_half_size)[2])
         b_pose = base_env.cubeB.pose
-        target = _pose7(_np(b_pose.p) + np.array([0.0, 0.0, 2 * half], np.float32), _np(b_pose.q))
+        target = _pose7(to_numpy(b_pose.p) + np.array([0.0, 0.0, 2 * half], np.float32), to_numpy(b_pose.q))
     else:
         obj = base_env.cube if task == "maniskill/pick_cube" else base_env.obj
         goal = base_env.goal_site if task == "maniskill/pick_cube" else base_env.goal_region
-        target = np.concatenate([_np(goal.pose.p), _IDENTITY_QUAT_XYZW]).astype(np.float32)
-    obj_p, obj_q = _np(obj.pose.p), _np(obj.pose.q)
-    grasped = np.array([float(_np(agent.is_grasping(obj)))], np.float32)
+        target = np.concatenate([to_numpy(goal.pose.p), _IDENTITY_QUAT_XYZW]).astype(np.float32)
+    obj_p, obj_q = to_numpy(obj.pose.p), to_numpy(obj.pose.q)
+    grasped = np.array([float(to_numpy(agent.is_grasping(obj)))], np.float32)
     feats = np.concatenate([_pose7(obj_p, obj_q), obj_p - tcp, grasped, target,
                             target[:3] - obj_p]).astype(np.float32)
     out = np.zeros(MANISKILL_OBJECT_DIM, np.float32)
@@ -151,11 +151,11 @@ def object_features(task: str, base_env: Any) -> np.ndarray:
 def proprio_features(base_env: Any) -> np.ndarray:
     """tcp position (3) | tcp quaternion xyzw, canonical sign (4) | finger offsets (2)."""
     pose = base_env.agent.tcp.pose
-    quat = wxyz_to_xyzw(_np(pose.q))
+    quat = wxyz_to_xyzw(to_numpy(pose.q))
     if quat[0] < 0:  # q and -q are one rotation: keep the sign facing the reset orientation
         quat = -quat
-    fingers = _np(base_env.agent.robot.get_qpos())[-2:]
-    return np.concatenate([_np(pose.p), quat, [fingers[0], -fingers[1]]]).astype(np.float32)
+    fingers = to_numpy(base_env.agent.robot.get_qpos())[-2:]
+    return np.concatenate([to_numpy(pose.p), quat, [fingers[0], -fingers[1]]]).astype(np.float32)
 
 
 def policy_to_maniskill_action(action: np.ndarray) -> np.ndarray:
@@ -229,7 +229,7 @@ class ManiSkillEnv(TaskEnv):
                                            ) from exc
             raise
         self.base = self._env.unwrapped
-        root_q = _np(self.base.agent.robot.pose.q)
+        root_q = to_numpy(self.base.agent.robot.pose.q)
         if not np.allclose(np.abs(root_q[0]), 1.0, atol=1e-6):
             raise RuntimeError(f"{task}: the robot base is rotated ({root_q}); the action frame "
                                "assumes a base aligned with the world axes")
@@ -259,26 +259,26 @@ class ManiSkillEnv(TaskEnv):
         obs = self._make_obs(raw)
         info = self._info(info)
         terminated, truncated = self._step_outcome(info["success"])
-        return obs, float(_np(reward)), terminated, truncated, info
+        return obs, float(to_numpy(reward)), terminated, truncated, info
 
     def render(self) -> np.ndarray:
         """An RGB frame (H, W, 3) uint8 from ManiSkill's render camera."""
         frame = self._env.render()
-        return np.ascontiguousarray(_np(frame)).astype(np.uint8)
+        return np.ascontiguousarray(to_numpy(frame)).astype(np.uint8)
 
     def get_state(self) -> np.ndarray:
         """Flat simulator state, as ManiSkill's `get_state()` (float32 values, as float64)."""
-        return _np(self.base.get_state()).astype(np.float64)
+        return to_numpy(self.base.get_state()).astype(np.float64)
 
     def _close(self) -> None:
         self._env.close()
 
     # -----------------------------------------------------------------------------------------
     def _info(self, raw_info: dict) -> dict[str, Any]:
-        info: dict[str, Any] = {"success": bool(_np(raw_info["success"]))}
+        info: dict[str, Any] = {"success": bool(to_numpy(raw_info["success"]))}
         for key, value in raw_info.items():
             if key.startswith("is_"):
-                info[key] = bool(_np(value))
+                info[key] = bool(to_numpy(value))
         return info
 
     def _make_obs(self, raw: Any) -> dict[str, np.ndarray]:
@@ -286,9 +286,9 @@ class ManiSkillEnv(TaskEnv):
                "object": object_features(self.name, self.base)}
         if self.obs_kind in ("rgb", "rgbd"):
             cams = raw["sensor_data"]
-            obs["rgb"] = np.stack([_np(cams[c]["rgb"]) for c in self.cameras]).astype(np.uint8)
+            obs["rgb"] = np.stack([to_numpy(cams[c]["rgb"]) for c in self.cameras]).astype(np.uint8)
             if self.obs_kind == "rgbd":
-                depth = np.stack([_np(cams[c]["depth"])[..., 0] for c in self.cameras])
+                depth = np.stack([to_numpy(cams[c]["depth"])[..., 0] for c in self.cameras])
                 obs["depth"] = (depth.astype(np.float32) / 1000.0)  # millimetres -> metres
         self._last_obs = obs
         return obs
@@ -300,29 +300,3 @@ class ManiSkillEnv(TaskEnv):
 def make_maniskill_env(name: str, obs: str = "state", seed: int = 0, **options) -> ManiSkillEnv:
     """Build a ManiSkill task of the suite (see the module docstring for spaces)."""
     return ManiSkillEnv(name, obs=obs, seed=seed, **options)
-
-
-def make_maniskill_expert(name: str):
-    """The task's motion-planning expert (`icil_paper.sim.maniskill_expert`)."""
-    from icil_paper.sim.maniskill_expert import make_maniskill_expert as make
-
-    return make(name)
-
-
-def maniskill_problem() -> str | None:
-    """None when ManiSkill can start here, else why not (and how to fix it)."""
-    import importlib.util
-
-    if importlib.util.find_spec("mani_skill") is None:
-        return "mani_skill is not installed; install the pinned requirements with `make setup`"
-    from icil_paper.sim.rendering import vulkan_problem
-
-    problem = vulkan_problem()
-    return None if problem is None else f"ManiSkill cannot start: {problem}"
-
-
-MANISKILL_SUITE = Suite(
-    name="maniskill", tasks=tuple(MANISKILL_TASKS), obs_dims=MANISKILL_OBS_DIMS,
-    control_freq=CONTROL_FREQ, make_env=make_maniskill_env, make_expert=make_maniskill_expert,
-    object_position=(0, 3), unavailable=maniskill_problem,
-    description="PickCube, PushCube and StackCube of ManiSkill 3 (Panda, SAPIEN)")

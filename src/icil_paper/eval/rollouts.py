@@ -2,12 +2,12 @@
 lockstep with one batched policy forward pass per step, on worker processes kept for a whole
 evaluation (and, with a `RolloutPool`, for many).
 
-    from icil_paper.rollouts import Episode, run_episodes
+    from icil_paper.eval.rollouts import Episode, run_episodes
     episodes = [Episode(spec=0, task="kitchen/open_drawer", index=i, seed=s, prompt=(2,))
                 for i, s in enumerate(seeds)]
     results = run_episodes(policy, episodes, prompts={0: pool}, obs="state", workers=2)
 
-`icil_paper.evaluate` plans the episodes from `EvalSpec`s and turns these results into
+`icil_paper.eval.outcomes` plans the episodes from `EvalSpec`s and turns these results into
 success rates; this module only runs them. How the work is cut::
 
     episodes, interleaved:   s0e0 s1e0 s2e0 ... s10e0 s0e1 s1e1 ...     (sK = spec K, eJ = episode J)
@@ -161,7 +161,7 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
     return out
 
 
-def rollout(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | None = None,
+def rollout_policy(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | None = None,
             max_steps: int | None = None, keep_trace: bool = False) -> dict[str, Any]:
     """Run one episode: reset the env with `seed`, reset the policy with `prompt`, act until
     success, the episode's end or `max_steps` (default: the env's horizon).
@@ -182,16 +182,16 @@ def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping
         policy: the policy that acted; its tokenizer (if any) gives the latent action tokens.
         task: the task name (for the file name, the title and the object's position).
         ep: the episode's {"index", "seed"}.
-        trace: `rollout(..., keep_trace=True)`'s output ("obs", "actions", "success").
+        trace: `rollout_policy(..., keep_trace=True)`'s output ("obs", "actions", "success").
         record_dir: the folder of `<task>__seed<seed>.rrd` and `.png`.
 
     Returns the `.rrd` path, the `.png` path where rerun is unavailable, or None where
     recording is unavailable altogether.
     """
     try:
-        from icil_paper.recording import record_episode
+        from icil_paper.book.recording import record_episode
     except ImportError:
-        warnings.warn("icil_paper.recording is not available; rollouts are not recorded",
+        warnings.warn("icil_paper.book.recording is not available; rollouts are not recorded",
                       stacklevel=2)
         return None
     actions = np.asarray(trace["actions"], np.float32)
@@ -523,7 +523,7 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
         policy.eval()
     try:
         if pool is None and n_workers == 1:
-            from icil_paper.train.optim import cpu_threads
+            from icil_paper.seeding import cpu_threads
 
             state = WorkerState()
             try:

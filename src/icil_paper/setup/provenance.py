@@ -15,7 +15,7 @@ KEY_PACKAGES = (
     "scikit-learn", "matplotlib",
 )
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
+REPO_ROOT = Path(__file__).resolve().parents[3]
 
 
 def package_versions(names: tuple[str, ...] = KEY_PACKAGES) -> dict[str, str | None]:

@@ -7,7 +7,7 @@ function stores its own result through the results store (`icil_paper.results`),
 store, not the grid, is the record of what is finished: a rerun after a killed driver
 passes `done=` (a predicate that looks the cell up in the store) and skips those cells.
 
-    cells = [Cell(key=spec.key(), target="icil_paper.cells:run_cell",
+    cells = [Cell(key=spec.key(), target="icil_paper.tables.execute:run_cell",
                   kwargs={"spec": spec_dict}, label=spec.label) for spec in specs]
     results = run_grid(cells, executor="local", workers=2, done=is_stored)
 

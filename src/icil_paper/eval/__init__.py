@@ -1,0 +1,37 @@
+"""Evaluation, beside `train/`: rollouts, episode outcomes, stored evaluation records,
+feature measurement and `icil-paper eval`.
+
+    from icil_paper.eval import evaluate_policy, evaluate_run
+    from icil_paper.runspec import eval_spec
+    result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
+                             prompts=demos, workers=2)
+    record = evaluate_run(run, ev, policy, store, preset.name)    # stored, computed once
+
+- `rollouts.py`: the rollout engine (lockstep groups of envs, worker processes,
+  `RolloutPool`, `rollout_policy` for one episode, rerun recordings).
+- `outcomes.py`: episodes planned from an `EvalSpec`, success rates with intervals
+  (`evaluate_policy`, `evaluate_many`, `EvalResult`, `prompt_pool`).
+- `stored.py`: `evaluate_run`, `evaluate_run_many`: `eval` records (named by
+  `icil_paper.records`).
+- `features.py`: `measure_features`, `lipschitz_diagnostics` (Table III's `features` records).
+- `cli.py`: `icil-paper eval`.
+"""
+
+from icil_paper.eval.features import lipschitz_diagnostics, measure_features
+from icil_paper.eval.outcomes import (
+    EvalResult,
+    check_policy_fits,
+    episode_seed,
+    evaluate_many,
+    evaluate_policy,
+    obs_kind,
+    plan_episodes,
+    prompt_pool,
+)
+from icil_paper.eval.rollouts import RolloutPool, record_rollout, rollout_policy, run_episodes
+from icil_paper.eval.stored import evaluate_run, evaluate_run_many
+
+__all__ = ["EvalResult", "RolloutPool", "check_policy_fits", "episode_seed",
+           "evaluate_many", "evaluate_policy", "evaluate_run", "evaluate_run_many",
+           "lipschitz_diagnostics", "measure_features", "obs_kind", "plan_episodes",
+           "prompt_pool", "record_rollout", "rollout_policy", "run_episodes"]

@@ -1,0 +1,85 @@
+"""Stored evaluation records: an evaluation of a training run, computed once and kept.
+
+    from icil_paper.eval import evaluate_run, evaluate_run_many
+    record = evaluate_run(run, ev, policy, store, preset.name)      # computed if missing
+    records = evaluate_run_many(run, [ev1, ev2], load, store, preset.name)
+
+A record is named by `icil_paper.records.eval_record(run, ev)`: kind `eval`, the name
+`<label>__<task>__<prompt source>[...]__seed<k>` and the config `{"run", "eval"}` (the
+keyed content of both specs, so its key is `runspec.eval_key(run, ev)`).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from icil_paper.eval.outcomes import evaluate_many, evaluate_policy, prompt_pool
+from icil_paper.eval.rollouts import RolloutPool
+from icil_paper.records import eval_record
+from icil_paper.runspec import EvalSpec
+
+
+def _run_prompts(run: Any, ev: EvalSpec, policy: Any, preset: str | None,
+                 progress: bool) -> list[Any] | None:
+    if not policy.uses_prompt:
+        return None
+    return prompt_pool(ev, run.data.obs, run.data.demos_per_task, run.data.seed, preset, progress)
+
+
+def _trained(policy: Any | Callable[[], Any]) -> Any:
+    return policy if isinstance(policy, torch.nn.Module) else policy()
+
+
+def evaluate_run(run: Any, ev: EvalSpec, policy: Any | Callable[[], Any], store: Any,
+                 preset: str | None = None, workers: int = 1, record_dir: str | Path | None = None,
+                 force: bool = False, progress: bool = True, pool: RolloutPool | None = None,
+                 batch_size: int | None = None) -> dict[str, Any]:
+    """The stored evaluation of `run`'s trained policy as `ev` describes, computed if missing.
+
+    `policy` is the trained policy or a function that loads it (called only when the
+    record must be computed). The record's config is the keyed content of both specs, so
+    its key is `runspec.eval_key(run, ev)`. Returns the record. `pool` and `batch_size`
+    go to `evaluate_policy`.
+    """
+    def compute() -> dict[str, Any]:
+        trained = _trained(policy)
+        result = evaluate_policy(trained, ev, prompts=_run_prompts(run, ev, trained, preset, progress),
+                                 workers=workers, record_dir=record_dir, progress=progress,
+                                 pool=pool, batch_size=batch_size)
+        return result.to_dict()
+
+    return store.run(*eval_record(run, ev), compute, seed=ev.seed, force=force)
+
+
+def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[[], Any],
+                      store: Any, preset: str | None = None, workers: int = 1,
+                      record_dir: str | Path | None = None, force: bool = False,
+                      progress: bool = True, pool: RolloutPool | None = None,
+                      batch_size: int | None = None) -> list[dict[str, Any]]:
+    """`evaluate_run` for many evaluations of one run (a table's tasks): the records that
+    are missing (or all, with `force`) are computed together in one `evaluate_many` call,
+    each stored as it would be by `evaluate_run`. Returns the records, in the order of `evs`.
+    """
+    evs = list(evs)
+    ids = [eval_record(run, ev) for ev in evs]
+    records = [None if force else store.get(*record_id) for record_id in ids]
+    missing = [i for i, r in enumerate(records) if r is None]
+    if missing:
+        trained = _trained(policy)
+        start = time.perf_counter()
+        results = evaluate_many(
+            trained, [evs[i] for i in missing],
+            [_run_prompts(run, evs[i], trained, preset, progress) for i in missing],
+            workers=workers, record_dir=record_dir, progress=progress, pool=pool,
+            batch_size=batch_size)
+        wall = time.perf_counter() - start
+        for i, result in zip(missing, results, strict=True):
+            path = store.write(*ids[i], result.to_dict(), evs[i].seed, wall / len(missing))
+            records[i] = json.loads(Path(path).read_text())
+    return records

@@ -1,0 +1,71 @@
+"""A trained policy's action tokenizer as a portable folder: `icil-paper export-tokenizer`.
+
+    icil-paper export-tokenizer runs/small/icrt+lipvq__... exported/lipvq
+
+    from icil_paper.interop.tokenizer_export import export_tokenizer
+    export_tokenizer("runs/small/icrt+lipvq__...", "exported/lipvq")
+    from icil_paper.tokenizers import load_tokenizer
+    tokenizer = load_tokenizer("exported/lipvq")
+
+The folder's format, and what loading it checks, are `icil_paper.tokenizers.portable`'s;
+this module reads the run folder (`train.rundir.load_policy`) and writes that folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from icil_paper.tokenizers.base import ActionTokenizer
+from icil_paper.tokenizers.portable import TokenizerFolderError, read_config, save_tokenizer
+
+
+def export_tokenizer(run_dir: str | Path, folder: str | Path) -> Path:
+    """Export the tokenizer of the trained policy in `run_dir` (or a `policy.pt`) to `folder`.
+
+    Raises FileNotFoundError (no policy there), PolicyFileError, or TokenizerFolderError
+    when the policy has no action tokenizer (e.g. ACT's own CVAE).
+    """
+    from icil_paper.train.rundir import load_policy, policy_digest
+
+    policy = load_policy(run_dir)
+    tokenizer = getattr(policy, "tokenizer", None)
+    if not isinstance(tokenizer, ActionTokenizer):
+        raise TokenizerFolderError(f"the {policy.name} policy in {run_dir} has no action "
+                                   "tokenizer to export (train it with --tokenizer NAME)")
+    meta = getattr(policy, "meta", {}) or {}
+    spec = meta.get("spec") or {}
+    source = {"run_dir": Path(run_dir).resolve().name, "run_key": meta.get("key"),
+              "label": spec.get("label"), "steps": meta.get("steps"),
+              "policy": policy.name, "policy_digest": policy_digest(policy)}
+    return save_tokenizer(tokenizer, folder, source=source)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from icil_paper.cli import Parser
+
+    p = Parser(prog="icil-paper export-tokenizer",
+               description="Write the action tokenizer of a trained policy as a portable folder "
+                           "(config.json, weights.safetensors; no pickle) that "
+                           "icil_paper.tokenizers.load_tokenizer(OUT) loads.")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder (or its policy.pt)")
+    p.add_argument("out", metavar="OUT", help="folder to write (an earlier export there is "
+                                              "replaced)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`icil-paper export-tokenizer RUN_DIR OUT`."""
+    args = build_parser().parse_args(argv)
+    out = export_tokenizer(args.run_dir, args.out)
+    config = read_config(out)
+    facts = config["facts"]
+    print(f"{out}: the {facts['name']} tokenizer (action_dim {config['action_dim']}, "
+          f"{facts['n_values']} weights in {facts['n_tensors']} tensors); load it with "
+          f"icil_paper.tokenizers.load_tokenizer({str(out)!r})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
