@@ -4,6 +4,7 @@ import sys
 
 import pytest
 
+from cli_helpers import run_cli
 from icil_paper import cli
 from icil_paper.setup.system_deps import debian_backports_entry
 
@@ -77,20 +78,6 @@ def test_backports_entry_from_one_line_sources_and_none_elsewhere(tmp_path):
 
 
 # --------------------------------------------------------------------------- user errors
-def run_cli(*argv):
-    """(exit status, stderr) of `icil-paper ...` in this process."""
-    import contextlib
-    import io
-
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        try:
-            code = cli.main(list(argv))
-        except SystemExit as exc:  # argparse's own errors
-            code = exc.code
-    return code, err.getvalue()
-
-
 @pytest.mark.parametrize("argv,message", [
     (["train", "--tokenizer", "lipvqq"], "unknown tokenizer 'lipvqq'. Did you mean 'lipvq'"),
     (["train", "--policy", "bc_transformer", "--tokenizer", "vq"], "does not take the 'vq'"),

@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 import torch
 
-from icil_paper import cli
+from cli_helpers import run_cli
 from icil_paper.config import get_preset
 from icil_paper.fileio import LockedError, exclusive_lock, file_sha256
 from icil_paper.records import train_record_name
@@ -65,20 +65,6 @@ def demos():
 def spec(overrides=(), policy="icrt", tokenizer="mlp"):
     preset = get_preset("smoke").with_overrides(list(overrides))
     return run_spec(preset, policy, tokenizer, tasks=TASKS)
-
-
-def run_cli(*argv):
-    """(exit status, stderr) of `icil-paper ...` in this process."""
-    import contextlib
-    import io
-
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        try:
-            code = cli.main(list(argv))
-        except SystemExit as exc:  # argparse's own errors
-            code = exc.code
-    return code, err.getvalue()
 
 
 def one_line_error(code, err, *phrases):
