@@ -307,3 +307,14 @@ def test_scenes_per_seed_give_seed_k_its_own_scene_set():
     # Seed 0 keeps its scenes (and so its records); only the other seeds' evaluations move.
     first = {spec_key(u.eval) for u in cell.units if u.seed_index == 0}
     assert first == {spec_key(u.eval) for u in cell_k.units if u.seed_index == 0}
+
+
+def test_committed_reference_ledger_is_what_the_current_code_computes():
+    """results/reference/claims.json is regenerated whenever the statistics or the claims
+    change (write_ledger); a stale one would put old verdicts into the introduction."""
+    from icil_paper.config import get_preset as preset_named
+
+    root = Path(__file__).resolve().parents[1] / "results"
+    committed = json.loads((root / "reference" / "claims.json").read_text())["claims"]
+    current = claims_ledger(preset_named("reference"), ResultsStore("reference", root=root))
+    assert json.loads(json.dumps(current)) == committed

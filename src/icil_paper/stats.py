@@ -377,23 +377,24 @@ def _episode_noise(x: np.ndarray) -> float:
     return float((p * (1 - p)).sum() / (E * T * T))
 
 
-def seed_values(data, kind: Literal["success", "score"] = "success") -> np.ndarray:
-    """Per-seed values of a row, (seeds,): each seed's mean over tasks and episodes (success
-    outcomes (seeds, tasks, episodes)) or over trajectories (scores (seeds, trajectories))."""
-    x = _as_outcomes(data) if kind == "success" else _as_scores(data)
+def _per_seed(x: np.ndarray) -> np.ndarray:
+    """Each seed's value: its mean over everything else, (seeds, ...) -> (seeds,)."""
     return x.reshape(len(x), -1).mean(axis=1)
 
 
+def _row_variance(x: np.ndarray, kind: str) -> float:
+    """Sample variance (ddof 1) of a row's per-seed values, S >= 2; a success row whose
+    seeds all agree gets one seed's episode noise instead of 0."""
+    return _floored(float(np.var(_per_seed(x), ddof=1)),
+                    _episode_noise(x) if kind == "success" else 0.0)
+
+
 def seed_variance(data, kind: Literal["success", "score"] = "success") -> float | None:
-    """The variance between a row's per-seed values (sample variance, ddof 1; a success row
-    whose seeds all agree gets one seed's episode noise instead of 0); None for a single
-    seed (it cannot be estimated)."""
+    """The variance between a row's per-seed values (outcomes (seeds, tasks, episodes) or
+    scores (seeds, trajectories); a success row whose seeds all agree gets one seed's
+    episode noise instead of 0); None for a single seed (it cannot be estimated)."""
     x = _as_outcomes(data) if kind == "success" else _as_scores(data)
-    if len(x) < 2:
-        return None
-    v = x.reshape(len(x), -1).mean(axis=1)
-    floor = _episode_noise(x) if kind == "success" else 0.0
-    return _floored(float(np.var(v, ddof=1)), floor)
+    return None if len(x) < 2 else _row_variance(x, kind)
 
 
 def _welch_df(va: float, na: int, vb: float, nb: int) -> float:
@@ -426,24 +427,20 @@ def _seeded_difference(xa: np.ndarray, xb: np.ndarray, *, kind: str, scenes: str
     seeds = (len(xa), len(xb))
     episodes = int(xa.size + xb.size)
     pct = f"{100 * level:g}%"
-    va_, vb_ = (x.reshape(len(x), -1).mean(axis=1) for x in (xa, xb))
+    va_, vb_ = _per_seed(xa), _per_seed(xb)
     value = float(va_.mean() - vb_.mean())
     if min(seeds) < 2:
         low, high = fallback()
         return Estimate(value, min(low, value), max(high, value), sum(seeds),
                         f"one seed: episode noise only, {pct} (no verdict)", seeds=seeds,
                         episodes=episodes)
-    floor = (_episode_noise(xa) + _episode_noise(xb)) if kind == "success" else 0.0
     if scenes == "per_seed" and seeds[0] == seeds[1]:
-        d = va_ - vb_
-        var = _floored(float(np.var(d, ddof=1)), floor)
-        return _t_estimate(value, math.sqrt(var / len(d)), len(d) - 1, level,
-                           f"paired t on {len(d)} seeds {pct}", bounds, n=sum(seeds),
+        floor = (_episode_noise(xa) + _episode_noise(xb)) if kind == "success" else 0.0
+        var = _floored(float(np.var(va_ - vb_, ddof=1)), floor)
+        return _t_estimate(value, math.sqrt(var / seeds[0]), seeds[0] - 1, level,
+                           f"paired t on {seeds[0]} seeds {pct}", bounds, n=sum(seeds),
                            seeds=seeds, episodes=episodes)
-    fa = _episode_noise(xa) if kind == "success" else 0.0
-    fb = _episode_noise(xb) if kind == "success" else 0.0
-    var_a = _floored(float(np.var(va_, ddof=1)), fa)
-    var_b = _floored(float(np.var(vb_, ddof=1)), fb)
+    var_a, var_b = _row_variance(xa, kind), _row_variance(xb, kind)
     se = math.sqrt(var_a / seeds[0] + var_b / seeds[1])
     df = _welch_df(var_a, seeds[0], var_b, seeds[1])
     return _t_estimate(value, se, df, level, f"welch t on {seeds[0]}+{seeds[1]} seeds {pct}",
@@ -470,11 +467,11 @@ def success_rate(outcomes, *, n_boot: int = 2000, rng_seed: int = 0,
     pct = f"{100 * level:g}%"
     pooled_low, pooled_high = wilson_interval(int(round(x.sum())), x.size, _z(level))
     if S >= 2:
-        var = seed_variance(x)
-        est = _t_estimate(value, math.sqrt(var / S), S - 1, level, f"t on {S} seeds {pct}",
-                          (0.0, 1.0), n=S, seeds=(S,), episodes=int(x.size))
-        return Estimate(value, min(est.low, pooled_low), max(est.high, pooled_high), S,
-                        est.method, seeds=(S,), episodes=int(x.size), se=est.se, df=est.df)
+        se = math.sqrt(_row_variance(x, "success") / S)
+        half = _t_quantile(level, S - 1) * se
+        return Estimate(value, max(0.0, min(value - half, pooled_low)),
+                        min(1.0, max(value + half, pooled_high)), S, f"t on {S} seeds {pct}",
+                        seeds=(S,), episodes=int(x.size), se=se, df=float(S - 1))
     if T == 1:
         low, high = wilson_interval(int(x.sum()), E, _z(level))
         return Estimate(value, low, high, 1, f"one seed: wilson {pct} (episodes only)",
@@ -567,8 +564,8 @@ def score_mean(scores, *, n_boot: int = 2000, rng_seed: int = 0,
     S = len(x)
     pct = f"{100 * level:g}%"
     if S >= 2:
-        var = seed_variance(x, "score")
-        return _t_estimate(value, math.sqrt(var / S), S - 1, level, f"t on {S} seeds {pct}",
+        return _t_estimate(value, math.sqrt(_row_variance(x, "score") / S), S - 1, level,
+                           f"t on {S} seeds {pct}",
                            (-math.inf, math.inf), n=S, seeds=(S,), episodes=int(x.size))
     low, high = _percentiles(mean_samples(x, n_boot=n_boot, rng_seed=rng_seed), level)
     return Estimate(value, min(low, value), max(high, value), 1,

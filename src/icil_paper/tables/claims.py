@@ -331,19 +331,11 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
     return out
 
 
-def _seeds_of(claim: Claim, tables: dict[str, TableResult]) -> dict[str, int]:
-    compare = claim.compare
-    if isinstance(compare, Correlation):
-        smooth, success = compare.data(tables)
-        return {r: min(len(np.atleast_2d(a)), len(b))
-                for r, a, b in zip(compare.rows, smooth, success, strict=True)}
-    return {r: len(d) for r, d in zip(compare.rows, compare.data(tables), strict=True)}
-
-
-def evaluate_claim(claim: Claim, tables: dict[str, TableResult],
-                   pooled: dict[tuple[str, str], float] | None = None) -> dict[str, Any]:
-    """One ledger entry: the claim, the paper's number, ours with its interval, the verdict,
-    the size reading and the power (the Holm-adjusted verdict is the ledger's to add)."""
+def _evaluate(claim: Claim, tables: dict[str, TableResult],
+              pooled: dict[tuple[str, str], float]) -> tuple[dict[str, Any], Any]:
+    """One ledger entry (the claim, the paper's number, ours with its interval, the verdict,
+    the size reading and the power) and its estimate (None when not run), from which the
+    ledger adds the Holm-adjusted verdict."""
     estimate = claim.compare.estimate(tables)
     paper_value = round(float(claim.paper_value()), 4)
     entry: dict[str, Any] = {"id": claim.id, "claim": claim.claim, "table": claim.table,
@@ -356,19 +348,17 @@ def evaluate_claim(claim: Claim, tables: dict[str, TableResult],
         entry.update(ours=None, ci=None, n=None, episodes=None, seeds=None, method=None,
                      p_value=None, verdict="not run", magnitude=None, mde=None,
                      seeds_needed=None, variance_from=None, power_note=None)
-        return entry
+        return entry, None
     test = stats.decision_p_value(estimate, claim.direction)
     margin_ = EQUIVALENCE_MARGIN if claim.compare.kind == "success" else None
     entry.update(ours=estimate.value, ci=[estimate.low, estimate.high], n=estimate.n,
-                 episodes=estimate.episodes, seeds=_seeds_of(claim, tables),
+                 episodes=estimate.episodes,
+                 seeds=dict(zip(claim.compare.rows, estimate.seeds, strict=True)),
                  method=estimate.method, p_value=None if test is None else test[0],
                  verdict=stats.verdict(estimate, direction=claim.direction),
                  magnitude=stats.magnitude(estimate, claim.direction, paper_value, margin_),
-                 **_power(claim, estimate, tables,
-                          pooled if pooled is not None else _pooled_variances(tables),
-                          paper_value))
-    entry["_estimate"] = estimate
-    return entry
+                 **_power(claim, estimate, tables, pooled, paper_value))
+    return entry, estimate
 
 
 def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[dict[str, Any]]:
@@ -379,12 +369,11 @@ def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[dic
     needed = {c.table for c in all_claims} | {"I"}
     tables = {t: assemble(table_spec(preset, t), store) for t in sorted(needed)}
     pooled = _pooled_variances(tables)
-    entries = [evaluate_claim(c, tables, pooled) for c in all_claims]
-    adjusted = stats.adjusted_verdicts([e.pop("_estimate", None) for e in entries],
-                                       [e["direction"] for e in entries])
+    entries, estimates = zip(*(_evaluate(c, tables, pooled) for c in all_claims), strict=True)
+    adjusted = stats.adjusted_verdicts(estimates, [c.direction for c in all_claims])
     for entry, verdict in zip(entries, adjusted, strict=True):
         entry["adjusted_verdict"] = verdict
-    return entries
+    return list(entries)
 
 
 def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
