@@ -387,6 +387,26 @@ def test_empty_icil_data_counts_as_unset(monkeypatch, tmp_path):
     assert data_root() == tmp_path
 
 
+def test_the_data_folder_travels_in_the_preset_not_the_environment(monkeypatch, tmp_path):
+    """A library user's preset says where its data lives; $ICIL_DATA only fills the presets
+    that `get_preset` returns, and the folder is no part of any key."""
+    from icil_paper.config import Preset, get_preset
+    from icil_paper.data import data_root
+    from icil_paper.runspec import run_spec
+    from icil_paper.setup.provenance import REPO_ROOT
+
+    monkeypatch.setenv("ICIL_DATA", str(tmp_path / "from_env"))
+    mine = Preset(name="smoke").replace(data={"root": str(tmp_path / "mine")})
+    assert data_root(mine) == tmp_path / "mine"
+    assert demo_path(mine, TASK, "generated").is_relative_to(tmp_path / "mine")
+    assert data_root(Preset(name="smoke")) == REPO_ROOT / "data"
+    assert get_preset("smoke").data.root == str(tmp_path / "from_env")
+    spec = run_spec(get_preset("smoke"), policy="icrt", tokenizer="lipvq", tasks=[TASK])
+    moved = run_spec(get_preset("smoke").replace(data={"root": "/elsewhere"}), policy="icrt",
+                     tokenizer="lipvq", tasks=[TASK])
+    assert spec.key() == moved.key()
+
+
 def test_generated_data_sets_say_how_to_build_their_env(fake_kitchen):
     path = ensure_demos("smoke", TASK, "generated", n=1, workers=1, progress=False)
     info = file_info(path)

@@ -173,7 +173,7 @@ def test_every_field_reaches_the_key_of_every_stage_that_reads_it(stage):
 def test_only_execution_knobs_stay_out_of_keys():
     preset = get_preset("small")
     unkeyed = sorted(set(leaf_paths(preset)) - set(keyed_paths(preset)))
-    assert unkeyed == ["data.workers", "eval.record", "eval.workers", "train.ckpt_every",
+    assert unkeyed == ["data.root", "data.workers", "eval.record", "eval.workers", "train.ckpt_every",
                        "train.cpu_threads", "train.log_every"]
     for path in unkeyed:  # each says why in its docstring, through the metadata
         parent = get_path(preset, path.rsplit(".", 1)[0])

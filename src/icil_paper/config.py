@@ -34,6 +34,8 @@ from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY, TokenizerStudyConf
 PRESET_NAMES = ("smoke", "small", "reference", "full")
 DEFAULT_PRESET = "small"
 PRESET_ENV_VAR = "ICIL_PRESET"
+DATA_ENV_VAR = "ICIL_DATA"
+"""Names the data folder (`DataConfig.root`) for the presets `get_preset` returns."""
 OBS_KINDS = ("state", "rgb", "rgbd")
 """Observation kinds (`icil_paper.sim.OBS_KINDS`, named here so configs stay light)."""
 DEMO_SOURCES = ("generated", "human")
@@ -81,6 +83,9 @@ class DataConfig(_Checked):
     """Observation kind recorded and learned from: `state`, `rgb` or `rgbd`."""
     workers: int = field(default=2, metadata=NOT_KEYED)
     """Processes that generate demonstrations in parallel (the demos do not depend on it)."""
+    root: str | None = field(default=None, metadata=NOT_KEYED)
+    """Folder of the data sets (None: `data/` in the repository). `get_preset` fills it from
+    $ICIL_DATA when that is set; a library user passes it here (or `--set data.root=...`)."""
     expert_seeds: int = 50
     """Random scenes per task on which the `experts` stage measures every expert (success,
     open-loop replay, human-source keep rate); 0 skips it, and chapter 04 then reports the
@@ -450,8 +455,12 @@ def check_tasks(preset: Preset) -> None:
 
 
 def get_preset(name: str | None = None, seed: int | None = None) -> Preset:
-    """The named preset (see `active_preset_name`), optionally with another seed."""
+    """The named preset (see `active_preset_name`), optionally with another seed; its data
+    folder is $ICIL_DATA when set (`DataConfig.root`)."""
     preset = _PRESETS[active_preset_name(name)]()
+    data_folder = os.environ.get(DATA_ENV_VAR, "").strip()  # an empty value counts as unset
+    if data_folder:
+        preset = preset.replace(data={"root": data_folder})
     if seed is not None:
         preset = dataclasses.replace(preset, seed=seed)
     return preset

@@ -137,7 +137,7 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
 def check_outputs(preset: Preset) -> None:
     """Refuse, before any stage, output folders this process cannot write to: the results
     store, the run folders and, when a data set of the preset is missing, the data folder."""
-    from icil_paper.data.generate import DATA_ENV_VAR, demo_path
+    from icil_paper.data.generate import check_data_folder, demo_path
     from icil_paper.fileio import check_env_folder
     from icil_paper.results import RESULTS_ENV_VAR
     from icil_paper.train.rundir import RUNS_ENV_VAR
@@ -146,7 +146,7 @@ def check_outputs(preset: Preset) -> None:
     check_env_folder(RUNS_ENV_VAR, "runs")
     tasks = tuple(preset.data.kitchen_tasks) + tuple(preset.data.maniskill_tasks)
     if not all(demo_path(preset, t, s).exists() for t in tasks for s in preset.data.sources):
-        check_env_folder(DATA_ENV_VAR, "data")
+        check_data_folder(preset)
 
 
 def main(argv: list[str] | None = None) -> int:

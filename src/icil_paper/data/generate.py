@@ -5,7 +5,8 @@ One HDF5 file per (preset, task, source) at `demo_path(preset, task, source)`:
     data/<preset>/<suite>/<task>/<source>.hdf5          (state observations)
     data/<preset>/<suite>/<task>/<source>_<obs>.hdf5    (rgb / rgbd observations)
 
-under the repository root, or under $ICIL_DATA when set (an empty value counts as unset).
+under the preset's data folder, `preset.data.root`: `data/` in the repository unless it is set
+(`get_preset` sets it from $ICIL_DATA; an empty value counts as unset).
 
 How a run survives being killed: every finished demo is written at once by the process that
 made it to its own shard file, `<file>.parts/demo_NNNNNN.hdf5`, through a temporary file and an
@@ -36,10 +37,9 @@ from typing import Any
 
 from icil_paper.data.hdf5 import DatasetError, merge_demo_files, verify_file, write_demos
 from icil_paper.data.sources import MAX_ATTEMPTS, SOURCES, demo_seed, expert_rollout, style_dict
-from icil_paper.fileio import folder_from_env, set_aside
+from icil_paper.fileio import check_writable, set_aside
 from icil_paper.registry import check_name
 
-DATA_ENV_VAR = "ICIL_DATA"
 GENERATOR = "icil_paper.data.generate/1"
 """Written into every data set; a change in how demos are made bumps it."""
 
@@ -48,16 +48,41 @@ class DemoGenerationError(RuntimeError):
     """The expert failed every attempt at one demo."""
 
 
-def data_root() -> Path:
-    """Root of the data sets: $ICIL_DATA, else (also when it is empty) `data/` in the
-    repository."""
-    return folder_from_env(DATA_ENV_VAR, "data")
-
-
 def _preset(preset: Any):
     from icil_paper.config import Preset, get_preset
 
     return preset if isinstance(preset, Preset) else get_preset(preset)
+
+
+def _where(preset) -> str:
+    from icil_paper.config import DATA_ENV_VAR
+
+    return (f"data.root={preset.data.root} (set by --set data.root or ${DATA_ENV_VAR})"
+            if preset.data.root else "data/ (data.root is not set)")
+
+
+def data_root(preset: Any = None) -> Path:
+    """Root of the data sets of `preset` (a Preset or a preset name; None: the active one):
+    its `data.root`, else `data/` in the repository. NotADirectoryError, naming the setting,
+    when that is a file."""
+    from icil_paper.setup.provenance import REPO_ROOT
+
+    preset = _preset(preset)
+    path = Path(preset.data.root) if preset.data.root else REPO_ROOT / "data"
+    if path.exists() and not path.is_dir():
+        raise NotADirectoryError(f"{_where(preset)} is a file, not a folder: point it at a "
+                                 "folder (it is created when missing), or unset it for data/")
+    return path
+
+
+def check_data_folder(preset: Any) -> Path:
+    """`data_root(preset)`, refused (naming the setting and how to change it) when this
+    process cannot write there: called before any work by every command that generates."""
+    preset = _preset(preset)
+    path = data_root(preset)
+    check_writable(path, _where(preset), "point data.root (or $ICIL_DATA) at a folder this "
+                   "user can write to")
+    return path
 
 
 def demo_path(preset_name: Any, task: str, source: str, obs: str | None = None) -> Path:
@@ -71,7 +96,7 @@ def demo_path(preset_name: Any, task: str, source: str, obs: str | None = None) 
     if not suite or not rest or any(p in ("", ".", "..") for p in task.split("/")):
         raise ValueError(f"task name {task!r} is not of the form <suite>/<task>")
     stem = source if obs == "state" else f"{source}_{obs}"
-    return data_root() / preset.name / suite / rest / f"{stem}.hdf5"
+    return data_root(preset) / preset.name / suite / rest / f"{stem}.hdf5"
 
 
 def parts_dir(path: Path) -> Path:

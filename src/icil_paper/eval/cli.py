@@ -46,14 +46,14 @@ def _check_outputs(run: Any, policy: Any, tasks: Sequence[str], prompt_source: s
                    preset: Any) -> None:
     """Refuse, before any rollout, a results store (and, where a prompt data set must be
     generated, a data folder) that this process cannot write to."""
-    from icil_paper.data.generate import DATA_ENV_VAR, demo_path
+    from icil_paper.data.generate import check_data_folder, demo_path
     from icil_paper.fileio import check_env_folder
     from icil_paper.results import RESULTS_ENV_VAR
 
     check_env_folder(RESULTS_ENV_VAR, "results")
     if policy.uses_prompt and not all(demo_path(preset, t, prompt_source, run.data.obs).exists()
                                       for t in tasks):
-        check_env_folder(DATA_ENV_VAR, "data")
+        check_data_folder(preset)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -109,7 +109,7 @@ def check_dataset_widths(path: Path, demos) -> None:
 def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -> None:
     """Refuse, before any work, output folders this process cannot write to: the run
     folder, the results store and, when a data set must be generated, the data folder."""
-    from icil_paper.data.generate import DATA_ENV_VAR, demo_path
+    from icil_paper.data.generate import check_data_folder, demo_path
     from icil_paper.fileio import check_env_folder, check_writable
     from icil_paper.results import RESULTS_ENV_VAR
     from icil_paper.train.rundir import RUNS_ENV_VAR
@@ -123,7 +123,7 @@ def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -
     data = spec.data
     if data.dataset is None and not all(demo_path(preset, t, data.source, data.obs).exists()
                                         for t in data.tasks):
-        check_env_folder(DATA_ENV_VAR, "data")
+        check_data_folder(preset)
 
 
 def main(argv: list[str] | None = None) -> int:
