@@ -375,7 +375,7 @@ def _small() -> Preset:
                                rvq={"num_quantizers": 2, "codebook_size": 16},
                                bspline={"chunk": 8, "control_points": 5, "n_bins": 256}),
         policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
-                           history=10, max_seq_len=1024, resnet_width=16, query_len=32,
+                           history=10, max_seq_len=1024, resnet_width=16, query_len=0,
                            pretrain_steps=100, language=False),
         # CI computes every table within minutes: short training, one episode per task
         # (the numbers exercise the code; the reference preset's are worth reading).
@@ -418,7 +418,7 @@ def _full() -> Preset:
                                rvq={"num_quantizers": 2, "codebook_size": 32},
                                bspline={"chunk": 16, "control_points": 8, "n_bins": 256}),
         policies=_policies(d_model=512, n_layer=6, n_head=8, dropout=0.1, chunk_size=16,
-                           history=10, max_seq_len=4096, resnet_width=64, query_len=32,
+                           history=10, max_seq_len=4096, resnet_width=64, query_len=0,
                            pretrain_steps=20000, language=True),
         train=TrainConfig(steps=500_000, batch_size=32, warmup_steps=2000, ckpt_every=5000,
                           ema_decay=0.999, cpu_threads=0),

@@ -85,13 +85,15 @@ class ICRTConfig(PolicyConfig):
     query_actions: bool = True
     """Interleave the query's own past actions with its observations (s1,a1,s2,a2,..., as
     ICRT's code does); False gives Eq. 1 literally (query observations only)."""
-    query_len: int = 32
-    """Query steps per training sequence; 0 trains on whole episodes from step 0 (the
-    window the policy acts with, whatever `query_start` says; the longest episode's
-    tokens, with its prompt, must then fit in `max_seq_len`)."""
-    query_start: str = "random"
-    """Where a training query window starts in its episode: `random` (uniform over the
-    episode) or `episode_start` (always step 0, as rollouts do)."""
+    query_len: int = 0
+    """Query steps per training sequence; 0 (the default) trains on whole episodes from
+    step 0, the window the policy acts with (the longest episode's tokens, with its prompt,
+    must then fit in `max_seq_len`). A positive value trains on windows of that many steps,
+    placed by `query_start`."""
+    query_start: str = "episode_start"
+    """Where a training query window starts in its episode: `episode_start` (step 0, as a
+    rollout does; the default) or `random` (uniform over the episode: ICRT's code, which
+    trains on windows although the policy acts from step 0)."""
 
 
 @register_policy("bc_transformer", "icil_paper.policies.bc_transformer:BCTransformer")

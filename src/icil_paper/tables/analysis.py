@@ -118,7 +118,7 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
         base = VQ if row.startswith("vq") else PAPER
         comparisons.append((f"'{row}' success minus '{base}'", +1,
                             _success_diff(result, row, base), row))
-        if "restart" not in row and "queries" not in row:
+        if "restart" not in row and "windows" not in row:
             comparisons.append((f"'{row}' standardized least energy minus '{base}'", -1,
                                 _smooth_diff(result, row, base), None))
     out = []

@@ -300,8 +300,8 @@ ANALYSIS_VARIANTS = (
     ("c_l init 1", "lipvq", {"lipschitz": {"c_init": 1.0}}),
     ("vq + dead-code restart", "vq", {"dead_code_restart": 100}),
     ("lipvq + dead-code restart", "lipvq", {"dead_code_restart": 100}),
-    ("lipvq, whole-episode queries", "lipvq", {"_policy": {"query_len": 0,
-                                                          "query_start": "episode_start"}}),
+    ("lipvq, 32-step random windows", "lipvq", {"_policy": {"query_len": 32,
+                                                           "query_start": "random"}}),
 )
 """The analysis chapter's rows: (label, tokenizer, changes). Tokenizer changes are fields of
 its config (`lipschitz` a nested section); `_policy` changes ICRT's config."""
