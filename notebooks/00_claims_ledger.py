@@ -24,6 +24,8 @@ from icil_paper.tables.book import (
     forest_plot,
     ledger_details,
     ledger_frame,
+    older_ledger,
+    reference_freshness,
     source_label,
     stale_records,
 )
@@ -106,9 +108,21 @@ display(Markdown(ledger_details(first_ledger)))
 # ## Reference records made by older code
 #
 # A committed reference record whose key the current code no longer computes (a config or
-# a definition changed since it was run) is not used above; it is listed here.
+# a definition changed since it was run) is not used above; it is listed here, and nothing
+# is deleted. While the reference run is being redone, the ledger that the older code
+# computed from those records follows, labelled with that code's commit: read it as a
+# record of the older protocol, not as a result of the current one.
 
 # %% tags=["remove-input"]
 stale = stale_records(REFERENCE)
+fresh = reference_freshness(REFERENCE)
 display(Markdown("None: every committed reference record is current." if not stale else
-                 f"{len(stale)} stale record(s), not used: " + ", ".join(stale[:20])))
+                 f"{fresh['stale']} of {fresh['records']} committed record(s) are stale and "
+                 "not used: " + ", ".join(stale[:20]) + (" ..." if len(stale) > 20 else "")))
+older = older_ledger(REFERENCE) if stale else None
+if older is not None:
+    made_by, older_claims = older
+    display(Markdown(f"**The reference ledger as the older code (commit "
+                     f"`{made_by['commit'][:7]}`) computed it**, {made_by['why_kept']}. "
+                     + summary_sentence(older_claims)))
+    display(ledger_frame(older_claims, "verdicts"))

@@ -469,9 +469,36 @@ def design_sentence(preset: Preset) -> str:
             f"{scenes}")
 
 
+OLDER_LEDGER = "older-code/claims.json"
+"""Under `results/reference/`: the reference ledger as an older version of the code computed
+it (its `made_by` names the commit), kept while the reference run is redone."""
+
+
+def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
+    """How many committed records of `preset_name` the current code still computes
+    ("current") and how many an older version made ("stale", `stale_records`)."""
+    stale = len(stale_records(preset_name))
+    store = ResultsStore(preset_name)
+    total = sum(1 for kind in ("train", "eval", "features") for _ in store.records(kind))
+    return {"records": total, "current": total - stale, "stale": stale}
+
+
+def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dict]] | None:
+    """(made_by, ledger) of the reference ledger an older version of the code computed, or
+    None when there is none."""
+    import json
+
+    path = ResultsStore(preset_name).dir / OLDER_LEDGER
+    if not path.exists():
+        return None
+    data = json.loads(path.read_text())
+    return data["made_by"], data["claims"]
+
+
 def reference_summary(path=None) -> str:
     """The committed reference run's ledger in one sentence (`claims.summary_sentence`), or
-    a sentence saying it is not there."""
+    a sentence saying it is not there; when most of its records were made by older code,
+    the sentence says so and quotes the older code's ledger, labelled with its commit."""
     from pathlib import Path
 
     from icil_paper.tables.claims import load_ledger, summary_sentence
@@ -479,7 +506,19 @@ def reference_summary(path=None) -> str:
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     if not path.exists():
         return f"The reference run's ledger is not there yet ({path.name} is missing)."
-    return summary_sentence(load_ledger(path))
+    text = summary_sentence(load_ledger(path))
+    fresh = reference_freshness(REFERENCE)
+    if not fresh["stale"]:
+        return text
+    text = (f"The reference run is being redone with the current code: {fresh['stale']} of "
+            f"its {fresh['records']} committed records were made by an older version (chapter "
+            "0 lists them) and are not used, so with the current code: " + text)
+    older = older_ledger(REFERENCE)
+    if older is not None:
+        made_by, ledger = older
+        text += (f" With the older code (commit {made_by['commit'][:7]}), from those records: "
+                 + summary_sentence(ledger))
+    return text
 
 
 PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)",
