@@ -53,7 +53,7 @@ import logging
 
 import matplotlib.pyplot as plt
 import numpy as np
-from IPython.display import display
+from IPython.display import Markdown, display
 from matplotlib.colors import ListedColormap
 
 from icil_paper.book.studies import (
@@ -91,8 +91,9 @@ print(f"preset {preset.name}: {len(demos)} demonstrations of {TASK}, "
 # %% [markdown]
 # ## The token layout of a real batch
 #
-# A training batch pairs each query window (`query_len` steps of one demonstration) with a
-# prompt: another full demonstration of the same task. Prompts differ in length, so the
+# A training batch pairs each query (by default a whole demonstration from step 0, as the
+# policy acts; with `query_len > 0`, a window of that many steps) with a prompt: another
+# full demonstration of the same task. Prompts differ in length, so the
 # batch is padded; padding is never attended to and does not shift the positions of real
 # tokens (rotary positions count real tokens only).
 
@@ -253,6 +254,24 @@ recording = record_rollout(trained_policy, TASK, {"index": episode["episode"],
                                                   "seed": episode["seed"]},
                            trace, results_root() / preset.name / "icrt")
 display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}"))
+
+# %% [markdown]
+# ## Training as it acts: whole episodes or windows
+#
+# ICRT's code trains on 32-step query windows that start anywhere in an episode, while the
+# policy acts from step 0 and for a whole episode: at step 100 it attends to 100 query steps
+# of its own, which no training window showed it. Here ICRT trains on whole episodes from
+# step 0 by default (`ICRTConfig.query_len = 0`, `query_start = "episode_start"`), and the
+# window training is an option (`query_len=32`, `query_start="random"`). The analysis table
+# ({doc}`chapter 11 <11_is_it_smoothness>`) trains ICRT + LipVQ-VAE both ways on the kitchen
+# suite; their success, from the records:
+
+# %% tags=["remove-input"]
+from icil_paper.tables.book import load_table, source_label, training_window_sentence
+
+for source, result in load_table(preset, "analysis", compute=False).items():
+    display(Markdown(f"**{source_label(source, result.preset)}.** "
+                     f"{training_window_sentence(result)}"))
 
 # %% [markdown]
 # ## What we found
