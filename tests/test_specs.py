@@ -112,14 +112,15 @@ STAGES = {
                         ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task",
                          "data.obs", "seed", "eval.")),
     "table I (every unit)": (
-        lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval))
+        lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval), spec_key(u.features))
                                   for u in table_spec(p, "I").units())),
         ("policies.mcr.", "policies.act.", "policies.bc_transformer.", "policies.icrt.",
          *(f"tokenizers.{t}." for t in ("mlp", "bin", "fast", "vq", "lfq", "lipvq")),
          "train.", "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
          "tables.baseline_seeds", "tables.image_demos_per_task",
-         "tables.image_episodes_per_task", "tables.image_max_steps")),
+         "tables.image_episodes_per_task", "tables.image_max_steps",
+         "tables.feature_demos_per_task", "tables.feature_steps")),  # its codebook rows
     "table II (every unit)": (
         lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval))
                                   for u in table_spec(p, "II").units())),

@@ -259,11 +259,16 @@ class TablesConfig(_Checked):
     image_max_steps: int | None = None
     """Step limit of MCR's image rollouts; None: the evaluation's (`eval.max_steps`)."""
     feature_demos_per_task: int = 2
-    """Table III: held-out generated demonstrations per task (after the training ones) whose
-    actions the trained policies' tokenizers embed."""
+    """Table III (and the codebook use beside Tables I, IV and Fig. 5): held-out generated
+    demonstrations per task (after the training ones) whose actions the trained policies'
+    tokenizers embed; a task's later ones are read only where its first ones are shorter
+    than its share of `feature_steps`."""
     feature_steps: int = 500
-    """Table III: latent features scored, taken from those trajectories in task order (the
-    paper: 500)."""
+    """Table III: latent features scored (the paper: 500), an equal share
+    `feature_steps // len(data.kitchen_tasks)` from every task's held-out trajectories (45
+    each for the 11 kitchen tasks); the remainder of the division is not scored, nor is the
+    shortfall of a task whose held-out trajectories are shorter than its share
+    (`icil_paper.eval.features`)."""
     prompt_steps: int = 10
     """Prompt ablation: steps kept of the truncated prompt."""
     maniskill_demos_per_task: int | None = None

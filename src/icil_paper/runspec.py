@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig
-from icil_paper.config_data import check_fields, from_dict, spec_key, to_dict
+from icil_paper.config_data import ConfigError, check_fields, from_dict, spec_key, to_dict
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.tokenizers.configs import TokenizerConfig
 
@@ -124,14 +124,28 @@ class EvalSpec:
 class FeatureSpec:
     """Latent features of held-out trajectories through a trained policy's tokenizer (Table III)."""
 
+    CHOICES = {"sampling": ("per_task", "task_order")}
+
     data: DataSpec
     """The held-out demonstrations: indices [start, start + demos_per_task) of each data set."""
     start: int
     """Index of the first held-out demonstration (the training run used the ones before)."""
     steps: int
-    """Latent features kept, from the trajectories in task order (the paper: 500)."""
+    """Latent features scored in all (the paper: 500), drawn as `sampling` says."""
     view_steps: int = 10
     """Fig. 4: steps of the first trajectory whose latents are kept for the t-SNE plot."""
+    sampling: str = "per_task"
+    """How the `steps` features are drawn (`eval.features.held_out_pieces`): `per_task`, an
+    equal share `steps // len(data.tasks)` from every task's held-out trajectories;
+    `task_order`, the first `steps` of the trajectories in task order (the tasks listed
+    last may get none)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        if self.sampling == "per_task" and self.steps // len(self.data.tasks) < 3:
+            raise ConfigError(f"FeatureSpec.steps {self.steps} gives each of the "
+                              f"{len(self.data.tasks)} tasks fewer than the 3 steps a least "
+                              f"energy needs: raise it to at least {3 * len(self.data.tasks)}")
 
 
 def eval_key(run: RunSpec, ev: EvalSpec) -> str:

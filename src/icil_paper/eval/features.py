@@ -1,9 +1,27 @@
 """Feature measurement: the latent features a trained policy's own tokenizer gives held-out
-trajectories (Table III, Fig. 4), and whether Eq. 4 binds in its encoder.
+trajectories (Table III, Fig. 4), its codebook use, and whether Eq. 4 binds in its encoder.
 
     from icil_paper.eval import measure_features
     metrics = measure_features(policy, FeatureSpec(data=..., start=10, steps=500), "small")
-    metrics["least_energy_standardized"], metrics["capped_fraction"]
+    metrics["least_energy_standardized"], metrics["capped_fraction"], metrics["perplexity"]
+
+Which steps are scored (`held_out_pieces`, `FeatureSpec.sampling`): with `per_task` (the
+tables' default) every task of `spec.data.tasks` gets the same share,
+`spec.steps // len(tasks)` steps (500 features over 11 kitchen tasks: 45 each), taken from
+its held-out trajectories in order, each cut to what is left of the task's share:
+
+    task 1: |--- trajectory 1 ---|-- 2 --|        share steps
+    task 2: |-------- trajectory 1 ------|        share steps
+    task 3: |-- trajectory 1 --|                  all it has (shorter than its share)
+
+The remainder of the division (`steps % len(tasks)`, fewer steps than there are tasks) is
+not scored, and a task whose held-out trajectories hold fewer steps than its share gives all
+it has: its shortfall is not made up from other tasks, so that no task weighs more than
+another. A last piece shorter than 3 steps (a least energy needs 3) is dropped. The record
+says what was scored (`tasks_scored`, `steps_per_task`, `trajectories_per_task`,
+`n_features`, `n_trajectories`). Every training seed of a row is measured with the same
+FeatureSpec, so every seed scores the same steps. `task_order` (the first `steps` of the
+trajectories in task order) is the earlier rule, kept to compare with.
 
 Stored as a `features` record (`icil_paper.records.features_record`) by the table
 scheduler (`icil_paper.tables.execute.run_cell`).
@@ -11,46 +29,96 @@ scheduler (`icil_paper.tables.execute.run_cell`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from icil_paper.runspec import FeatureSpec
 
+MIN_PIECE = 3
+"""Fewest steps of a scored piece (a least energy needs three points)."""
 
-def measure_features(policy: Any, spec: FeatureSpec, preset: str) -> dict[str, Any]:
+
+@dataclass(frozen=True)
+class HeldOutPiece:
+    """One scored stretch of a held-out trajectory."""
+
+    task: str
+    """The task whose data set it comes from."""
+    demo: int
+    """Index of the demonstration in that data set."""
+    actions: np.ndarray
+    """Its first steps' actions (T, A), T at most the task's share."""
+
+
+def held_out_pieces(spec: FeatureSpec, preset: Any) -> list[HeldOutPiece]:
+    """The held-out trajectory pieces `spec` scores, in task order (module docstring):
+    demonstrations [start, start + demos_per_task) of each task's data set (generated where
+    missing), cut per `spec.sampling`. Deterministic: the same spec gives the same pieces."""
+    from icil_paper.data import ensure_demos, load_demos
+
+    d = spec.data
+    n = spec.start + d.demos_per_task
+    per_task = spec.sampling == "per_task"
+    share = spec.steps // len(d.tasks)
+    pieces: list[HeldOutPiece] = []
+    left = spec.steps
+    for task in d.tasks:
+        if per_task:
+            left = share
+        path = ensure_demos(preset, task, d.source, n=n, seed=d.seed, obs=d.obs, progress=False)
+        for index, demo in enumerate(load_demos(path, limit=n, images=False)[spec.start:],
+                                     start=spec.start):
+            if left < MIN_PIECE:
+                break
+            actions = np.asarray(demo.actions[:left], np.float32)  # (T, A)
+            if len(actions) < MIN_PIECE:
+                continue
+            pieces.append(HeldOutPiece(task, index, actions))
+            left -= len(actions)
+    if not pieces:
+        raise ValueError(f"no held-out trajectories for {list(d.tasks)} (demos {spec.start}..)")
+    return pieces
+
+
+def coverage(spec: FeatureSpec, pieces: list[HeldOutPiece]) -> dict[str, Any]:
+    """What `pieces` score, for the record: the sampling rule, the tasks asked for and
+    scored, steps and trajectories per task (every task of the spec, 0 where none)."""
+    steps = {t: 0 for t in spec.data.tasks}
+    trajectories = {t: 0 for t in spec.data.tasks}
+    for p in pieces:
+        steps[p.task] += len(p.actions)
+        trajectories[p.task] += 1
+    return {"sampling": spec.sampling, "tasks": list(spec.data.tasks),
+            "tasks_scored": [t for t in spec.data.tasks if steps[t]],
+            "steps_per_task": steps, "trajectories_per_task": trajectories}
+
+
+def measure_features(policy: Any, spec: FeatureSpec, preset: Any) -> dict[str, Any]:
     """Table III's measurement: the latent features a trained policy's own tokenizer gives
-    held-out trajectories (`spec.steps` features in all, in task order).
+    the held-out pieces of `held_out_pieces(spec, preset)`, one trajectory each.
 
     Returns per-trajectory raw and standardized least energy (lists, for intervals), their
-    means, the latent scale sigma, the codes used (discrete tokenizers), and the first
-    `spec.view_steps` latents of the first trajectory (Fig. 4).
+    means, the latent scale sigma, what was scored (`coverage`, `n_features`,
+    `n_trajectories`), for discrete tokenizers the codebook use on those steps
+    (`codes_used` of `codebook_size`, `usage`, `perplexity`: `metrics.codebook_usage`), the
+    Lipschitz facts of the encoder, and the first `spec.view_steps` latents of the first
+    trajectory (Fig. 4).
     """
     import torch
 
-    from icil_paper.data import ensure_demos, load_demos
-    from icil_paper.metrics import least_energy, standardized_least_energies
+    from icil_paper.metrics import codebook_usage, least_energy, standardized_least_energies
 
-    d = spec.data
-    pieces, left = [], spec.steps
-    for task in d.tasks:
-        path = ensure_demos(preset, task, d.source, n=spec.start + d.demos_per_task,
-                            seed=d.seed, obs=d.obs, progress=False)
-        for demo in load_demos(path, limit=spec.start + d.demos_per_task, images=False)[spec.start:]:
-            if left < 3:
-                break
-            piece = np.asarray(demo.actions[:left], np.float32)
-            pieces.append(piece)
-            left -= len(piece)
-    if not pieces:
-        raise ValueError(f"no held-out trajectories for {list(d.tasks)} (demos {spec.start}..)")
+    pieces = held_out_pieces(spec, preset)
+    actions = [p.actions for p in pieces]
     tokenizer = policy.tokenizer
     tokenizer.eval()
     latents, codes = [], []
     with torch.no_grad():
-        for piece in pieces:
+        for piece in actions:
             out = tokenizer(torch.from_numpy(piece)[None].to(policy.device))
-            latents.append(out.embeddings[0].float().cpu().numpy())
+            latents.append(out.embeddings[0].float().cpu().numpy())  # (T, D)
             if out.codes is not None:
                 codes.append(tokenizer.vocabulary_ids(out.codes).cpu().numpy())
     standardized, sigma = standardized_least_energies(latents)
@@ -59,13 +127,15 @@ def measure_features(policy: Any, spec: FeatureSpec, preset: str) -> dict[str, A
                "least_energy_standardized": float(np.mean(standardized)),
                "least_energy_standardized_per_trajectory": [float(x) for x in standardized],
                "latent_scale": float(sigma), "n_features": int(sum(len(z) for z in latents)),
-               "n_trajectories": len(latents),
+               "n_trajectories": len(latents), **coverage(spec, pieces),
                "view": latents[0][:spec.view_steps].tolist(),
-               "view_actions": pieces[0][:spec.view_steps].tolist()}
+               "view_actions": actions[0][:spec.view_steps].tolist()}
     if codes:
-        used = np.unique(np.concatenate(codes))
-        metrics.update(codes_used=int(len(used)), codebook_size=int(tokenizer.codebook_size))
-    metrics.update(lipschitz_diagnostics(tokenizer, np.concatenate(pieces)))
+        size = int(tokenizer.codebook_size)
+        usage = codebook_usage(np.concatenate(codes), size)
+        metrics.update(codes_used=usage["codes_used"], codebook_size=size,
+                       usage=usage["usage"], perplexity=usage["perplexity"])
+    metrics.update(lipschitz_diagnostics(tokenizer, np.concatenate(actions)))
     return metrics
 
 

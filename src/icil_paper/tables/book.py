@@ -627,3 +627,131 @@ def _verdict_words(verdict: str) -> str:
             "inconclusive": "is inconclusive (the interval contains 0)",
             stats.TOO_FEW_SEEDS: "is not decided: one training seed cannot tell its luck "
                                  "from the method (too few seeds)"}.get(verdict, verdict)
+
+
+# --------------------------------------------------------------------------- features and codebooks
+def _codebook_rows(result: TableResult, column: str) -> list[tuple[str, Any]]:
+    """(row label, its `column` cell spec) of every row whose policies' tokenizer has a
+    codebook (`definitions.CODEBOOK_TOKENIZERS`), in the table's order."""
+    from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
+
+    out = []
+    for row in result.spec.rows:
+        cell = row.cells.get(column)
+        tokenizer = cell.units[0].run.tokenizer if cell is not None and cell.units else None
+        if tokenizer is not None and tokenizer.type in CODEBOOK_TOKENIZERS:
+            out.append((row.label, cell))
+    return out
+
+
+def _per_seed_metrics(result: TableResult, label: str, cell_spec, column: str
+                      ) -> list[tuple[int, dict[str, Any] | None]]:
+    """(training seed, its features record's metrics or None while not run) per unit of a
+    features cell, in seed order (`assemble` keeps the metrics in that order)."""
+    units = sorted(cell_spec.units, key=lambda u: u.seed_index)
+    cell = result.cell(label, column)
+    metrics = cell.extra.get("metrics") if cell is not None and cell.estimate is not None else None
+    return [(u.run.seed, metrics[i] if metrics else None) for i, u in enumerate(units)]
+
+
+def codebook_frame(result: TableResult, column: str = "features"):
+    """Codebook use of every VQ-family row (a tokenizer with a codebook), one line per
+    training seed: the distinct codes its trained tokenizer gives the held-out trajectories
+    of Table III (`codes used` of `K`, the codebook size), their share `usage`, and the
+    perplexity of the code distribution (exp of its entropy: how many equally used codes
+    would give it). Values are None while a record is missing ("not run") or older than the
+    perplexity measurement. Index (row, seed)."""
+    import pandas as pd
+
+    lines = []
+    for label, cell_spec in _codebook_rows(result, column):
+        for seed, m in _per_seed_metrics(result, label, cell_spec, column):
+            m = m or {}
+            lines.append({"row": label, "seed": seed, "codes used": m.get("codes_used"),
+                          "K": m.get("codebook_size"), "usage": m.get("usage"),
+                          "perplexity": m.get("perplexity"),
+                          "status": "ok" if m else "not run"})
+    frame = pd.DataFrame(lines, columns=["row", "seed", "codes used", "K", "usage",
+                                         "perplexity", "status"])
+    return frame.set_index(["row", "seed"])
+
+
+def codes_used_sentence(results: dict[str, TableResult], column: str = "features") -> str:
+    """For each source, how many codes each codebook row used of its K on the held-out
+    trajectories, and their perplexity (means over seeds), as a Markdown list: Fig. 5's
+    sentence on its codebook sizes, generated from the features records."""
+    lines = []
+    for source, result in results.items():
+        parts, missing = [], []
+        for label, cell_spec in _codebook_rows(result, column):
+            measured = [m for _, m in _per_seed_metrics(result, label, cell_spec, column)
+                        if m and m.get("codes_used") is not None]
+            if not measured:
+                missing.append(label)
+                continue
+            used = float(np.mean([m["codes_used"] for m in measured]))
+            size = measured[0]["codebook_size"]
+            perplexities = [m["perplexity"] for m in measured if m.get("perplexity") is not None]
+            seeds = "" if len(measured) == 1 else f", mean of {len(measured)} seeds"
+            perplexity = (f", perplexity {np.mean(perplexities):.1f}" if perplexities else "")
+            count = f"{used:.0f}" if len(measured) == 1 else f"{used:.1f}"
+            parts.append(f"{label} used {count} of its {size} codes "
+                         f"({used / size:.0%}{perplexity}{seeds})")
+        name = source_label(source, result.preset)
+        if not parts:
+            lines.append(f"- {name}: not run yet.")
+            continue
+        text = "; ".join(parts)
+        if missing:
+            text += f"; {', '.join(missing)} not run yet"
+        lines.append(f"- {name}: {text}.")
+    return "\n".join(lines)
+
+
+def feature_coverage(metrics: dict[str, Any]) -> dict[str, Any]:
+    """What one features record scored: tasks scored and asked for (None in records older
+    than the per-task sampling), trajectories, features, and the steps of each task."""
+    steps = metrics.get("steps_per_task")
+    return {"tasks_scored": len(metrics["tasks_scored"]) if "tasks_scored" in metrics else None,
+            "tasks": len(metrics["tasks"]) if "tasks" in metrics else None,
+            "trajectories": metrics["n_trajectories"], "features": metrics["n_features"],
+            "steps_per_task": dict(steps) if steps else None}
+
+
+def _coverage_words(c: dict[str, Any]) -> str:
+    if c["tasks"] is None:
+        return (f"{c['trajectories']} trajectories, {c['features']} features (an older record: "
+                "the first features in task order, its tasks not recorded)")
+    steps = c["steps_per_task"]
+    common = max(set(steps.values()), key=list(steps.values()).count)
+    others = [f"{t.split('/', 1)[-1]} {n}" for t, n in steps.items() if n != common]
+    per_task = f"{common} steps each" + (f"; {', '.join(others)}" if others else "")
+    return (f"{c['tasks_scored']} of its {c['tasks']} tasks ({per_task}), "
+            f"{c['trajectories']} held-out trajectories, {c['features']} features")
+
+
+def feature_sampling_sentence(results: dict[str, TableResult], column: str = "least_energy"
+                              ) -> str:
+    """For each source, what Table III's features records scored, per row and seed: tasks
+    scored of the tasks asked for, steps per task, trajectories and features (Markdown,
+    generated from the records; rows that scored the same are named together)."""
+    lines = []
+    for source, result in results.items():
+        groups: dict[str, list[str]] = {}
+        for row in result.spec.rows:
+            cell = result.cell(row.label, column)
+            if cell is None or cell.estimate is None:
+                continue
+            for m in cell.extra["metrics"]:
+                words = _coverage_words(feature_coverage(m))
+                if row.label not in groups.setdefault(words, []):
+                    groups[words].append(row.label)
+        name = source_label(source, result.preset)
+        if not groups:
+            lines.append(f"- {name}: not run yet.")
+        elif len(groups) == 1:
+            lines.append(f"- {name}: every row, each seed: {next(iter(groups))}.")
+        else:
+            lines.append(f"- {name}: " + "; ".join(f"{', '.join(rows)}, each seed: {words}"
+                                                  for words, rows in groups.items()) + ".")
+    return "\n".join(lines)

@@ -107,13 +107,19 @@ def table_i_runs(preset: Preset, policy: str, tokenizer) -> list[RunSpec]:
 # --------------------------------------------------------------------------- the tables
 def table_i(preset: Preset) -> TableSpec:
     tasks = preset.data.kitchen_tasks
-    rows = tuple(Row(label(p, t), _family_cells(preset, table_i_runs(preset, p, t), tasks),
-                     paper.TABLE_I_ROBOCASA[label(p, t)]) for p, t in TABLE_I_ROWS)
+    rows = []
+    for p, t in TABLE_I_ROWS:
+        runs = table_i_runs(preset, p, t)
+        rows.append(Row(label(p, t), _with_codebook(preset, _family_cells(preset, runs, tasks),
+                                                    runs),
+                        paper.TABLE_I_ROBOCASA[label(p, t)]))
     return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",
-                     (*FAMILY_COLUMNS, "avg"), rows, note=(
+                     (*FAMILY_COLUMNS, "avg"), tuple(rows), beside=("features",), note=(
                          "One multi-task policy per row, trained on the generated demonstrations "
                          "of all kitchen tasks and evaluated per task; ICRT prompts come from the "
-                         "generated data sets. avg is the mean over tasks."))
+                         "generated data sets. avg is the mean over tasks. Beside the table, "
+                         "the codebook rows' `features` (Table III's measurement) give their "
+                         "codebook use per seed."))
 
 
 def maniskill_settings(preset: Preset) -> tuple[int, int, int]:
@@ -153,11 +159,37 @@ def table_ii(preset: Preset) -> TableSpec:
 
 
 def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
-    """Table III's held-out trajectories for a run trained on the kitchen tasks."""
+    """Table III's held-out trajectories for a run trained on the kitchen tasks: the
+    `tables.feature_demos_per_task` generated demonstrations after its training ones, of
+    which `tables.feature_steps` features are scored in equal shares per task (`per_task`
+    sampling, `icil_paper.eval.features`). It depends on the run's data only, so every
+    training seed of a row scores the same steps, and every table that measures a run
+    (III, the codebook use beside I, IV and Fig. 5, `analysis`, `beyond`) shares one record."""
     data = DataSpec(tasks=run.data.tasks, source="generated", obs=run.data.obs,
                     demos_per_task=preset.tables.feature_demos_per_task, seed=run.data.seed)
     return FeatureSpec(data=data, start=run.data.demos_per_task,
-                       steps=preset.tables.feature_steps)
+                       steps=preset.tables.feature_steps, sampling="per_task")
+
+
+CODEBOOK_TOKENIZERS = ("vq", "lipvq", "lfq", "fsq", "lipfsq", "rvq", "liprvq")
+"""Tokenizers with a learned or fixed codebook (the VQ family): their rows of Tables I, IV
+and Fig. 5 carry a `features` cell beside the table, for their codebook use."""
+
+
+def _features_cell(preset: Preset, runs: Sequence[RunSpec]) -> Cell:
+    """One feature measurement per training seed of a row (Table III's units for the same
+    runs: the same records)."""
+    return Cell(tuple(Unit(s, run, features=feature_spec(preset, run))
+                      for s, run in enumerate(runs)))
+
+
+def _with_codebook(preset: Preset, cells: dict[str, Cell], runs: Sequence[RunSpec]
+                   ) -> dict[str, Cell]:
+    """`cells`, plus a `features` cell where the runs' tokenizer has a codebook."""
+    tokenizer = runs[0].tokenizer
+    if tokenizer is not None and tokenizer.type in CODEBOOK_TOKENIZERS:
+        cells = {**cells, "features": _features_cell(preset, runs)}
+    return cells
 
 
 def table_iii(preset: Preset) -> TableSpec:
@@ -176,11 +208,17 @@ def table_iii(preset: Preset) -> TableSpec:
 
 def table_iv(preset: Preset) -> TableSpec:
     tasks = preset.data.kitchen_tasks
-    rows = tuple(Row(label(p, t), {"avg": _cell(preset, table_i_runs(preset, p, t), tasks)},
-                     paper.TABLE_IV_LIPSCHITZ[label(p, t)]) for p, t in TABLE_IV_ROWS)
-    return TableSpec("IV", "Lipschitz regularization's impact", ("avg",), rows,
+    rows = []
+    for p, t in TABLE_IV_ROWS:
+        runs = table_i_runs(preset, p, t)
+        rows.append(Row(label(p, t), _with_codebook(preset, {"avg": _cell(preset, runs, tasks)},
+                                                    runs),
+                        paper.TABLE_IV_LIPSCHITZ[label(p, t)]))
+    return TableSpec("IV", "Lipschitz regularization's impact", ("avg",), tuple(rows),
+                     beside=("features",),
                      note="Average success over the kitchen tasks; MLP and VQ-VAE rows are "
-                          "Table I's.")
+                          "Table I's. Beside the table, the codebook rows' `features` give "
+                          "their codebook use per seed.")
 
 
 def table_v(preset: Preset) -> TableSpec:
@@ -247,12 +285,13 @@ def fig5(preset: Preset) -> TableSpec:
         paper_size = paper_sizes[i] if i < len(paper_sizes) else None
         if paper_size is not None and paper_size != size:
             name += f" (the paper's {_power_of_two(paper_size)})"
-        rows.append(Row(name, {"avg": _cell(preset, runs, tasks)},
+        rows.append(Row(name, _with_codebook(preset, {"avg": _cell(preset, runs, tasks)}, runs),
                         {"avg": paper.FIG5_CODEBOOK_SIZE[paper_size]} if paper_size else {}))
     return TableSpec("fig5", "Impact of LipVQ-VAE's codebook size (Fig. 5)", ("avg",),
-                     tuple(rows), note=(
+                     tuple(rows), beside=("features",), note=(
                          f"ICRT + LipVQ-VAE with codebook sizes {list(preset.tables.codebook_sizes)}"
-                         f" (the preset's Table I cell uses {base.codebook_size}); one seed each."))
+                         f" (the preset's Table I cell uses {base.codebook_size}); one seed each. "
+                         "Beside the table, each size's `features` give its codebook use."))
 
 
 def _power_of_two(size: int) -> str:
