@@ -60,6 +60,15 @@ display(Markdown(f"The reference run's design: {design_sentence(get_preset(REFER
 show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table I: average success over the kitchen tasks"))
 
+# %% tags=["hide-input"]
+from icil_paper.tables.book import show_codebook_use
+
+display(Markdown("**Codebook use of the VQ-family rows**, per training seed: the distinct codes "
+                 "each trained tokenizer gives the held-out trajectories of Table III "
+                 "(chapter 8), of its K, and the perplexity of their "
+                 "distribution (how many equally used codes would give it)."))
+show_codebook_use(results)
+
 # %% [markdown]
 # ## By skill family
 #

@@ -20,9 +20,13 @@
 #
 # **How it is computed here.** The tokenizers are the ones trained jointly inside Table I's
 # ICRT policies ({doc}`chapter 6 <06_table1_kitchen>`), as the paper does; the trajectories are held-out `generated`
-# demonstrations (the ones after each data set's training demonstrations), in task order,
-# cut to the preset's number of features (500 by default). Each trajectory's least energy
-# is one sample, so the mean comes with a bootstrap interval. The raw score grows with the
+# demonstrations (the ones after each data set's training demonstrations). The preset's
+# number of features (500 by default, the paper's) is shared equally among the kitchen
+# tasks: each task gives the first `feature_steps // tasks` steps of its held-out
+# trajectories, so that every task is scored and none weighs more than another; the remainder of the division is not scored, and a task whose held-out
+# trajectories are shorter than its share gives what it has. Every training seed scores the
+# same steps. What each record scored is stated under the table. Each trajectory's least
+# energy is one sample, so the mean comes with a bootstrap interval. The raw score grows with the
 # square of the latent scale (multiply a latent by 10 and it scores 100 times higher), so
 # the table also shows the **standardized** least energy, computed on the latents divided by
 # their overall standard deviation $\sigma$ over the held-out set, and $\sigma$ itself:
@@ -43,6 +47,7 @@ from icil_paper.results import results_root
 from icil_paper.tables.assemble import format_cell
 from icil_paper.tables.book import (
     claims_figure,
+    feature_sampling_sentence,
     load_table,
     show_comparison,
     smoothness_success_figure,
@@ -76,6 +81,8 @@ for source, result in smooth.items():
                      "features": cell.extra["metrics"][0]["n_features"]})
 display(pd.DataFrame(rows).set_index(["source", "tokenizer"]) if rows else
         Markdown("*No smoothness records yet.*"))
+display(Markdown("**What was scored** (from the features records):\n\n"
+                 + feature_sampling_sentence(smooth)))
 
 # %% [markdown]
 # ## Fig. 1: smoothness against success

@@ -20,7 +20,10 @@
 # policies; Lip-MLP is the same MLP with every encoder layer a `LipschitzLinear` (Eq. 4)
 # and the $10^{-6} \prod_l \mathrm{softplus}(c_l)$ term of Eq. 5. Fig. 5's sweep is scaled
 # to the preset's model (its third size is the paper's $2^{10}$ position; the preset's
-# Table I cell is one of the four), one training seed per size.
+# Table I cell is one of the four), one training seed per size. Beside each VQ-family row
+# stands its codebook use: the distinct codes its trained tokenizer gives the held-out
+# trajectories of Table III ({doc}`chapter 8 <08_smoothness>`), of its K, and the
+# perplexity of their distribution (how many equally used codes would give it), per seed.
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
@@ -28,7 +31,9 @@ from IPython.display import Markdown, display
 from icil_paper.config import get_preset
 from icil_paper.tables.book import (
     claims_figure,
+    codes_used_sentence,
     load_table,
+    show_codebook_use,
     show_comparison,
     success_figure,
     verdicts,
@@ -45,6 +50,12 @@ fig5 = load_table(preset, "fig5")
 show_comparison(table4, "avg")
 display(success_figure(table4, "avg", title="Table IV: with and without Eq. 4"))
 
+# %% [markdown]
+# Codebook use of Table IV's VQ-VAE and LipVQ-VAE rows, per training seed.
+
+# %% tags=["hide-input"]
+show_codebook_use(table4)
+
 # %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "IV")))
 display(claims_figure(preset, "IV"))
@@ -59,6 +70,14 @@ display(claims_figure(preset, "IV"))
 # %% tags=["hide-input"]
 show_comparison(fig5, "avg")
 display(success_figure(fig5, "avg", title="Fig. 5: LipVQ-VAE's codebook size"))
+
+# %% [markdown]
+# How many of its codes each codebook size used on the held-out trajectories (computed from
+# the features records), then each size's codebook use per seed.
+
+# %% tags=["hide-input"]
+display(Markdown(codes_used_sentence(fig5)))
+show_codebook_use(fig5)
 
 # %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "fig5")))

@@ -15,13 +15,14 @@ from icil_paper.config_data import ConfigError
 from icil_paper.eval.features import held_out_pieces, measure_features
 from icil_paper.records import features_record
 from icil_paper.results import ResultsStore
-from icil_paper.runspec import FeatureSpec, feature_key
+from icil_paper.runspec import feature_key
 from icil_paper.tables import table_spec
 from icil_paper.tables.assemble import assemble
 from icil_paper.tables.book import (
     codebook_frame,
     codes_used_sentence,
     feature_sampling_sentence,
+    show_codebook_use,
 )
 from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
 from icil_paper.tables.execute import plan
@@ -152,14 +153,23 @@ def test_the_codebook_frame_has_a_line_per_codebook_row_and_seed(preset, table_i
         assert list(frame["K"]) == sorted(preset.tables.codebook_sizes)
 
 
-def test_fig5_sentence_names_each_sizes_codes_used(preset):
+def test_fig5_sentence_names_each_sizes_codes_used(preset, monkeypatch):
+    shown = []
+    monkeypatch.setattr("IPython.display.display", lambda *objects: shown.extend(objects))
     spec = table_spec(preset, "fig5")
-    assert "not run yet" in codes_used_sentence({"this build": assemble(spec, ResultsStore(
-        preset.name))})
+    empty = {"this build": assemble(spec, ResultsStore(preset.name))}
+    assert "not run yet" in codes_used_sentence(empty)
+    show_codebook_use(empty)
+    assert [getattr(o, "data", None) for o in shown] == [
+        "**this build (smoke)**: codebook use not run yet."]
     result = assemble(spec, measure(preset, ["fig5"]))
     text = codes_used_sentence({"this build": result})
     frame = codebook_frame(result)
     for (row, _), line in frame.iterrows():
+        perplexity = result.cell(row, "features").extra["metrics"][0]["perplexity"]
         assert f"{row} used {line['codes used']} of its {line['K']} codes" in text
-        assert f"perplexity {line['perplexity']:.1f}" in text
+        assert f"perplexity {perplexity:.1f}" in text
     assert text.startswith("- this build (smoke): ")
+    shown.clear()
+    show_codebook_use({"this build": result})
+    assert shown[1].equals(frame)  # the title, then the frame

@@ -659,8 +659,8 @@ def codebook_frame(result: TableResult, column: str = "features"):
     training seed: the distinct codes its trained tokenizer gives the held-out trajectories
     of Table III (`codes used` of `K`, the codebook size), their share `usage`, and the
     perplexity of the code distribution (exp of its entropy: how many equally used codes
-    would give it). Values are None while a record is missing ("not run") or older than the
-    perplexity measurement. Index (row, seed)."""
+    would give it; rounded to 2 decimals). Values are None while a record is missing ("not
+    run") or older than the perplexity measurement. Index (row, seed)."""
     import pandas as pd
 
     lines = []
@@ -673,7 +673,7 @@ def codebook_frame(result: TableResult, column: str = "features"):
                           "status": "ok" if m else "not run"})
     frame = pd.DataFrame(lines, columns=["row", "seed", "codes used", "K", "usage",
                                          "perplexity", "status"])
-    return frame.set_index(["row", "seed"])
+    return frame.round({"usage": 3, "perplexity": 2}).set_index(["row", "seed"])
 
 
 def codes_used_sentence(results: dict[str, TableResult], column: str = "features") -> str:
@@ -755,3 +755,20 @@ def feature_sampling_sentence(results: dict[str, TableResult], column: str = "le
             lines.append(f"- {name}: " + "; ".join(f"{', '.join(rows)}, each seed: {words}"
                                                   for words, rows in groups.items()) + ".")
     return "\n".join(lines)
+
+
+def show_codebook_use(results: dict[str, TableResult], column: str = "features") -> None:
+    """Each source's `codebook_frame` (the reference run's shown, this build's in a collapsed
+    block beside a reference), or one line for a source whose records are not there yet."""
+    from IPython.display import Markdown, display
+
+    for source, result in results.items():
+        frame = codebook_frame(result, column)
+        title = f"**{source_label(source, result.preset)}**"
+        if frame.empty or (frame["status"] == "not run").all():
+            display(Markdown(f"{title}: codebook use not run yet."))
+        elif source == BUILD and len(results) > 1:
+            display(_collapsed(_build_summary(result), frame))
+        else:
+            display(Markdown(title))
+            display(frame)
