@@ -204,8 +204,12 @@ def test_committed_reference_records_are_current_or_labelled_as_older_code(monke
     of the tables' cells, or the book says that it was made by older code: the introduction's
     summary counts the stale records, chapter 0 lists them, and the older code's ledger is
     kept with the commit that computed it. Nothing is deleted."""
-    from icil_paper.tables.book import older_ledger, reference_freshness, reference_summary
-    from icil_paper.tables.book import stale_records
+    from icil_paper.tables.book import (
+        older_ledger,
+        reference_freshness,
+        reference_summary,
+        stale_records,
+    )
 
     monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
     stale = stale_records("reference")
