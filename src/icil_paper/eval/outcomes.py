@@ -283,7 +283,7 @@ def motion_means(per_episode: Sequence[Mapping[str, Any]]) -> dict[str, float | 
     for name in MOTION_MEASURES:
         values = [e.get(name) for e in per_episode]
         values = [float(v) for v in values if v is not None]
-        out[name] = round(float(np.mean(values)), 6) if values else None
+        out[name] = float(f"{np.mean(values):.7g}") if values else None
     return out
 
 

@@ -176,16 +176,19 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
 def _first_position(env: Any) -> list[np.ndarray] | None:
     """[the env's end-effector position after reset], or None for an env that has no
     `eef_position` (an env of another library, built by a caller's factory)."""
+    read = getattr(env, "eef_position", None)
+    if read is None:
+        return None
     try:
-        return [np.asarray(env.eef_position(), np.float64)]
-    except (AttributeError, NotImplementedError):
+        return [np.asarray(read(), np.float64)]
+    except NotImplementedError:
         return None
 
 
 def motion_record(out: Mapping[str, Any]) -> dict[str, float | None]:
     """The motion smoothness of one rollout of `rollout_batch` as a record stores it:
     `ldlj`, `sparc` (of its end-effector path) and `action_jerk` (of its executed actions),
-    `icil_paper.metrics.motion_smoothness` rounded to 6 digits; None where a measure is
+    `icil_paper.metrics.motion_smoothness` to 7 significant digits; None where a measure is
     undefined (too few steps, no motion, no path: NaN or inf, which a record cannot hold)."""
     from icil_paper.metrics import action_second_difference, motion_smoothness
 
@@ -194,7 +197,7 @@ def motion_record(out: Mapping[str, Any]) -> dict[str, float | None]:
                   "action_jerk": action_second_difference(out["actions"])}
     else:
         values = motion_smoothness(out["eef_path"], out["actions"], out["dt"])
-    return {k: round(v, 6) if math.isfinite(v) else None for k, v in values.items()}
+    return {k: float(f"{v:.7g}") if math.isfinite(v) else None for k, v in values.items()}
 
 
 def rollout_policy(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | None = None,

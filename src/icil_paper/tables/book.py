@@ -109,10 +109,15 @@ MOTION_COLUMNS = {"ldlj": "LDLJ (higher: smoother)", "sparc": "SPARC (higher: sm
 
 
 def _format_estimate(est, digits: int = 3) -> str:
-    """`-12.3 [-13.1, -11.6]` (`digits` significant digits) or `not run`."""
+    """`-12.3 [-13.1, -11.6]` (`digits` significant digits, trailing zeros kept) or
+    `not run`."""
     if est is None:
         return "not run"
-    return unbroken(f"{est.value:.{digits}g} [{est.low:.{digits}g}, {est.high:.{digits}g}]")
+
+    def sig(x: float) -> str:
+        return f"{x:#.{digits}g}".rstrip(".").replace(".e", "e")
+
+    return unbroken(f"{sig(est.value)} [{sig(est.low)}, {sig(est.high)}]")
 
 
 def motion_frame(result: TableResult, column: str = "avg", digits: int = 3):
