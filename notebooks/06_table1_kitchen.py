@@ -43,6 +43,7 @@ from icil_paper.tables.book import (
     design_sentence,
     load_table,
     show_comparison,
+    show_motion,
     show_values,
     success_figure,
     verdicts,
@@ -68,6 +69,21 @@ display(Markdown("**Codebook use of the VQ-family rows**, per training seed: the
                  "(chapter 8), of its K, and the perplexity of their "
                  "distribution (how many equally used codes would give it)."))
 show_codebook_use(results)
+
+# %% [markdown]
+# ## How smoothly the robot moves
+#
+# The paper measures smoothness in the tokenizer's latent space (Table III); the rollouts
+# also say how smoothly the arm itself moved. Every episode's end-effector path is scored
+# by its log dimensionless jerk (LDLJ) and the spectral arc length of its speed profile
+# (SPARC), both higher for smoother motion (a minimum-jerk reach scores -6.6 and -1.4),
+# and its executed commands by their mean squared second difference (action jerk, lower
+# for smoother commands); `icil_paper.metrics` gives the formulas and their sources. Each
+# number is the mean over the row's seeds of each seed's mean over its episodes, with the
+# seed as the unit as for success.
+
+# %% tags=["hide-input"]
+show_motion(results, "avg")
 
 # %% [markdown]
 # ## By skill family

@@ -33,6 +33,7 @@ from icil_paper.tables.book import (
     claims_figure,
     load_table,
     show_comparison,
+    show_motion,
     show_values,
     success_figure,
     verdicts,
@@ -53,6 +54,17 @@ display(Markdown(
 # %% tags=["hide-input"]
 show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table II: average success over the three cube tasks"))
+
+# %% [markdown]
+# ## How smoothly the robot moves
+#
+# Beside success, the smoothness of the motion itself: each episode's end-effector path
+# scored by LDLJ and SPARC (higher: smoother) and its commands by their action jerk (lower:
+# smoother), as in {doc}`chapter 6 <06_table1_kitchen>`, averaged per seed over the three
+# tasks' episodes.
+
+# %% tags=["hide-input"]
+show_motion(results, "avg")
 
 # %% [markdown]
 # ## By task

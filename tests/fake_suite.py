@@ -79,6 +79,9 @@ class ReachEnv(TaskEnv):
     def get_state(self):
         return np.concatenate([self.eef, self.goal]).astype(np.float64)
 
+    def eef_position(self):
+        return self.eef.astype(np.float64)
+
     def _close(self):
         self.closed = True
 

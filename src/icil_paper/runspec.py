@@ -91,6 +91,13 @@ class RunSpec:
         return dataclasses.replace(self, **changes)
 
 
+EVAL_RECORD_VERSION = 2
+"""What an evaluation record holds: 1, each episode's success, steps and return; 2, also
+its motion smoothness (`ldlj`, `sparc`, `action_jerk`). It is in every evaluation's key
+(`EvalSpec.record_version`), so a record of older code is never returned where the current
+contents are expected; raise it whenever a record gains a measurement."""
+
+
 @dataclass(frozen=True)
 class EvalSpec:
     """Rollouts of one trained policy on one task."""
@@ -112,9 +119,14 @@ class EvalSpec:
     ablation: does the prompt carry the task?)."""
     prompt_steps: int | None = None
     """Keep only the first this many steps of each prompt demonstration (None: whole)."""
+    record_version: int = EVAL_RECORD_VERSION
+    """What its record holds (`EVAL_RECORD_VERSION`, the only version this code computes)."""
 
     def __post_init__(self) -> None:
         check_fields(self)
+        if self.record_version != EVAL_RECORD_VERSION:
+            raise ConfigError(f"EvalSpec.record_version {self.record_version}: this code "
+                             f"computes evaluation records of version {EVAL_RECORD_VERSION}")
 
     def to_dict(self) -> dict[str, Any]:
         return to_dict(self)

@@ -28,7 +28,10 @@ that each keep one copy of the policy and their envs for the whole call (or, wit
 `rollouts.RolloutPool`, across calls). The same seed gives the same episodes however they
 are split: for a fixed batch size the outcomes are identical for any number of workers, and
 another batch size changes the policy's actions by float rounding only. The success rate
-comes with a Wilson 95% interval (`icil_paper.stats`).
+comes with a Wilson 95% interval (`icil_paper.stats`). Every episode also scores how
+smoothly the robot moved (its end-effector path's log dimensionless jerk and spectral arc
+length, and its commands' second difference: `icil_paper.metrics`), and the result holds
+their means over the episodes.
 
 Before any rollout the policy's observation and action widths are checked against the
 task's (`check_policy_fits`), so a policy trained on another suite fails with both widths
@@ -49,11 +52,13 @@ from typing import Any
 import numpy as np
 
 from icil_paper.eval.rollouts import Episode, RolloutPool, run_episodes
+from icil_paper.metrics import MOTION_MEASURES
 from icil_paper.runspec import EvalSpec
 from icil_paper.stats import wilson_interval
 
-__all__ = ["EvalResult", "check_policy_fits", "episode_seed", "evaluate_many",
-           "evaluate_policy", "obs_kind", "plan_episodes", "prompt_pool"]
+__all__ = ["EvalResult", "check_policy_fits", "episode_seed",
+           "evaluate_many", "evaluate_policy", "motion_means", "obs_kind", "plan_episodes",
+           "prompt_pool"]
 
 
 @dataclass
@@ -79,8 +84,18 @@ class EvalResult:
     every spec's episodes side by side)."""
     per_episode: list[dict[str, Any]] = field(default_factory=list)
     """One dict per episode: episode, seed, success, steps, return, prompt (indices into the
-    prompt pool), wall_time_s (from its lockstep group's start to its end) and, when
-    recorded, recording."""
+    prompt pool), wall_time_s (from its lockstep group's start to its end), the motion's
+    smoothness ldlj, sparc and action_jerk (`rollouts.motion_record`; None where undefined)
+    and, when recorded, recording."""
+    ldlj: float | None = None
+    """Mean log dimensionless jerk of the end-effector paths (`icil_paper.metrics`; higher
+    is smoother) over the episodes where it is defined; None where it is in none."""
+    sparc: float | None = None
+    """Mean spectral arc length of the end-effector speed profiles (higher is smoother),
+    over the episodes where it is defined."""
+    action_jerk: float | None = None
+    """Mean squared second difference of the executed actions (lower is smoother), over
+    the episodes where it is defined."""
 
     @property
     def outcomes(self) -> np.ndarray:
@@ -257,8 +272,19 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
             task=spec.task, episodes=len(per_episode), successes=successes,
             success_rate=successes / len(per_episode), ci_low=lo, ci_high=hi,
             mean_steps=float(np.mean([r["steps"] for r in per_episode])), wall_time_s=wall,
-            per_episode=per_episode))
+            per_episode=per_episode, **motion_means(per_episode)))
     return results
+
+
+def motion_means(per_episode: Sequence[Mapping[str, Any]]) -> dict[str, float | None]:
+    """Each of `metrics.MOTION_MEASURES` averaged over the episodes where it is defined
+    (None where it is in none, or an episode has no such entry: a record of older code)."""
+    out: dict[str, float | None] = {}
+    for name in MOTION_MEASURES:
+        values = [e.get(name) for e in per_episode]
+        values = [float(v) for v in values if v is not None]
+        out[name] = float(f"{np.mean(values):.7g}") if values else None
+    return out
 
 
 def evaluate_policy(policy: Any, spec: EvalSpec, prompts: Sequence[Any] | None = None,

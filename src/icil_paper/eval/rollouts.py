@@ -20,6 +20,10 @@ success rates; this module only runs them. How the work is cut::
         repeat: actions = policy.select_actions(obs of the running episodes, rows)
                 step each running env with its (clipped) action; an episode ends on
                 success, termination, truncation or its step limit, and leaves the batch
+        per episode: its end-effector path (one `eef_position()` read after reset and
+                after each step) and executed actions become three numbers of motion
+                smoothness (`motion_record`: LDLJ, SPARC, action jerk); only those leave
+                the worker, never the path
 
 Interleaving the specs (one per task in a table's evaluation) means a group needs one env
 per task, so a worker builds each task's env once, as one process stepping those tasks
@@ -111,8 +115,10 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
     Episode b ends when its env reports success, terminates or truncates, or after
     `max_steps[b]` steps (default: the env's horizon). Actions are clipped to [-1, 1].
     Returns per episode {"success", "steps", "return", "wall_time_s"} (seconds from the
-    start until it ended) and, with `keep_trace`, "obs" (the observations acted on),
-    "actions" (T, A) executed and "final_obs".
+    start until it ended), "actions" (T, A) executed, "eef_path" (T + 1, 3) (the end
+    effector's position at reset and after each step, `TaskEnv.eef_position`; None for an
+    env without that accessor) and "dt" (the env's `control_dt`, seconds per step, or None)
+    and, with `keep_trace`, "obs" (the observations acted on) and "final_obs".
     """
     n = len(envs)
     if len(seeds) != n:
@@ -124,6 +130,7 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
     start = time.perf_counter()
     limits = [int(m or env.horizon) for m, env in zip(limits, envs, strict=True)]
     obs = [env.reset(seed=int(seed))[0] for env, seed in zip(envs, seeds, strict=True)]
+    paths: list[list[np.ndarray] | None] = [_first_position(env) for env in envs]
     uses_prompt = getattr(policy, "uses_prompt", False)
     policy.reset_batch([list(p) if uses_prompt and p is not None else None for p in prompts],
                        [getattr(env, "instruction", "") for env in envs])
@@ -139,8 +146,10 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
         for action, i in zip(actions, running, strict=True):
             if keep_trace:
                 seen[i].append(obs[i])
-                taken[i].append(action)
+            taken[i].append(action)
             obs[i], reward, terminated, truncated, info = envs[i].step(action)
+            if paths[i] is not None:
+                paths[i].append(envs[i].eef_position())
             steps[i] += 1
             total[i] += float(reward)
             if info.get("success"):
@@ -152,13 +161,43 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
         running = still
     out = []
     for i, env in enumerate(envs):
-        row: dict[str, Any] = {"success": success[i], "steps": steps[i],
-                               "return": round(total[i], 6), "wall_time_s": round(ended[i], 3)}
+        row: dict[str, Any] = {
+            "success": success[i], "steps": steps[i], "return": round(total[i], 6),
+            "wall_time_s": round(ended[i], 3),
+            "actions": np.asarray(taken[i], np.float32).reshape(-1, env.action_dim),
+            "eef_path": None if paths[i] is None else np.asarray(paths[i], np.float64),
+            "dt": None if paths[i] is None else float(env.control_dt)}
         if keep_trace:
-            row.update(obs=seen[i], final_obs=obs[i],
-                       actions=np.asarray(taken[i], np.float32).reshape(-1, env.action_dim))
+            row.update(obs=seen[i], final_obs=obs[i])
         out.append(row)
     return out
+
+
+def _first_position(env: Any) -> list[np.ndarray] | None:
+    """[the env's end-effector position after reset], or None for an env that has no
+    `eef_position` (an env of another library, built by a caller's factory)."""
+    read = getattr(env, "eef_position", None)
+    if read is None:
+        return None
+    try:
+        return [np.asarray(read(), np.float64)]
+    except NotImplementedError:
+        return None
+
+
+def motion_record(out: Mapping[str, Any]) -> dict[str, float | None]:
+    """The motion smoothness of one rollout of `rollout_batch` as a record stores it:
+    `ldlj`, `sparc` (of its end-effector path) and `action_jerk` (of its executed actions),
+    `icil_paper.metrics.motion_smoothness` to 7 significant digits; None where a measure is
+    undefined (too few steps, no motion, no path: NaN or inf, which a record cannot hold)."""
+    from icil_paper.metrics import action_second_difference, motion_smoothness
+
+    if out.get("eef_path") is None:
+        values = {"ldlj": math.nan, "sparc": math.nan,
+                  "action_jerk": action_second_difference(out["actions"])}
+    else:
+        values = motion_smoothness(out["eef_path"], out["actions"], out["dt"])
+    return {k: float(f"{v:.7g}") if math.isfinite(v) else None for k, v in values.items()}
 
 
 def rollout_policy(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | None = None,
@@ -166,8 +205,9 @@ def rollout_policy(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | Non
     """Run one episode: reset the env with `seed`, reset the policy with `prompt`, act until
     success, the episode's end or `max_steps` (default: the env's horizon).
 
-    Returns {"success", "steps", "return"} and, with `keep_trace`, "obs" (list of the
-    observations acted on), "actions" (T, A) executed (clipped to [-1, 1]) and "final_obs".
+    Returns {"success", "steps", "return", "actions" (T, A) executed (clipped to [-1, 1]),
+    "eef_path" (T + 1, 3), "dt"} (see `rollout_batch`) and, with `keep_trace`, "obs" (list
+    of the observations acted on) and "final_obs".
     """
     out = rollout_batch(policy, [env], [seed], [prompt], [max_steps], keep_trace)[0]
     out.pop("wall_time_s")
@@ -338,7 +378,7 @@ def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
     for ep, out in zip(job.episodes, outs, strict=True):
         row = {"episode": ep.index, "seed": ep.seed, "success": bool(out["success"]),
                "steps": int(out["steps"]), "return": out["return"], "prompt": list(ep.prompt),
-               "wall_time_s": out["wall_time_s"]}
+               "wall_time_s": out["wall_time_s"], **motion_record(out)}
         if job.record_dir is not None:
             row["recording"] = record_rollout(policy, ep.task, {"index": ep.index,
                                                                 "seed": ep.seed},
@@ -481,7 +521,9 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
                  device: str | None = None, desc: str = "rollouts") -> list[dict[str, Any]]:
     """Run every episode (see the module docstring); returns one result dict per episode, in
     the order of `episodes`: episode, seed, success, steps, return, prompt, wall_time_s
-    (seconds from its group's start until it ended) and, with `record_dir`, recording.
+    (seconds from its group's start until it ended), the motion's smoothness `ldlj`,
+    `sparc` and `action_jerk` (`motion_record`; None where undefined) and, with
+    `record_dir`, recording.
 
     Args:
         policy: acts through `reset_batch` / `select_actions` (`icil_paper.policies.base`).

@@ -11,6 +11,9 @@ What every task env has, whatever the simulator::
     env.observation_space                     Dict(proprio=Box, object=Box[, rgb=Box, depth=Box])
     env.metadata                              render_modes ["rgb_array"], render_fps = control rate
     env.render_mode, env.np_random            as gymnasium defines them
+    env.control_dt                            seconds per step (1 / render_fps)
+    env.eef_position()                        (3,) float64 end-effector position, metres,
+                                              read from the simulator (no observation noise)
 
     obs, info = env.reset(seed=None)           info["success"]: the task's predicate, a bool
     obs, reward, terminated, truncated, info = env.step(action)
@@ -86,7 +89,7 @@ class TaskEnv(gym.Env):
 
     A subclass calls `super().__init__(...)`, builds its simulator, sets `observation_space`
     (and `cameras`), and implements `reset` (starting with `self._begin_episode(seed)`),
-    `step`, `render`, and `_close`. `metadata["render_fps"]` is the suite's control rate.
+    `step`, `render`, `eef_position`, and `_close`. `metadata["render_fps"]` is the suite's control rate.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 20}
@@ -132,6 +135,18 @@ class TaskEnv(gym.Env):
     def get_state(self) -> np.ndarray:
         """Flat simulator state (float64), robomimic's `states` entry."""
         raise NotImplementedError
+
+    def eef_position(self) -> np.ndarray:
+        """The end effector's position now, (3,) float64 in metres (world frame), as the
+        simulator has it: observation noise never reaches it. The rollout engine reads it
+        once after reset and after every step to score the motion's smoothness
+        (`icil_paper.metrics.motion_smoothness`)."""
+        raise NotImplementedError
+
+    @property
+    def control_dt(self) -> float:
+        """Seconds of simulated time per env step: 1 / the control rate (`render_fps`)."""
+        return 1.0 / float(self.metadata["render_fps"])
 
     def close(self) -> None:
         """Release the simulator; closing twice is allowed."""

@@ -174,6 +174,10 @@ class SyntheticReachEnv(TaskEnv):
         """The position state and the object noise, float64."""
         return np.concatenate([self.p, self.obj]).astype(np.float64)
 
+    def eef_position(self) -> np.ndarray:
+        """The point's position (3,) float64 (`proprio[:3]`)."""
+        return self.p[:3].astype(np.float64)
+
     @property
     def t(self) -> int:
         """Steps taken in the current episode."""

@@ -8,7 +8,17 @@
 
 A success cell's outcomes are one bool per evaluation episode, shaped (seeds, tasks,
 episodes); its estimate is `stats.success_rate` (a t interval on per-seed values; one seed:
-the episodes' noise only). A smoothness cell's scores are the per-trajectory
+the episodes' noise only). Beside success it holds how smoothly the robot moved: each
+episode's LDLJ, SPARC and action jerk (`icil_paper.metrics`), shaped (seeds, episodes of
+every task), with the seed as the unit as for success (`motion_estimate`: `stats.score_mean`
+on per-seed means, the t interval for several seeds, a bootstrap over episodes for one):
+
+    result.motion_estimate("icrt+lipvq", "avg", "ldlj")    # Estimate or None
+    result.motion_scores("icrt+lipvq", "avg", "ldlj")      # (seeds, episodes), for stats
+
+An episode where a measure is undefined (a few steps, no motion) does not count: each
+seed's mean is over its episodes where it is defined (`motion_scores` fills the others with
+that mean, so that per-seed means, which the statistics read, stay what they are). A smoothness cell's scores are the per-trajectory
 least energies of the held-out trajectories, (seeds, trajectories); its estimate is their
 mean with a bootstrap interval. A cell with a unit whose record is missing has no estimate
 (shown as "not run"); `missing` counts those units.
@@ -21,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.metrics import MOTION_MEASURES
 from icil_paper.records import eval_record, features_record
 from icil_paper.results import ResultsStore
 from icil_paper.stats import Estimate, score_mean, success_rate
@@ -42,22 +53,62 @@ class CellResult:
     Fig. 4 view and every feature record's metrics, per seed."""
     scenes: str = "shared"
     """The evaluation design (`Cell.scenes`): "shared" or "per_seed"."""
+    motion: dict[str, np.ndarray] = field(default_factory=dict)
+    """Success cells: each motion measure's per-episode values (`metrics.MOTION_MEASURES`),
+    (seeds, episodes of every task), NaN where undefined; empty where a record has none."""
 
 
 def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
     by_seed: dict[int, list[list[bool]]] = {}
+    motion: dict[int, list[dict]] = {}
     missing = 0
     for unit in cell.units:
         record = store.get(*eval_record(unit.run, unit.eval))
         if record is None:
             missing += 1
             continue
-        by_seed.setdefault(unit.seed_index, []).append(
-            [bool(e["success"]) for e in record["metrics"]["per_episode"]])
+        episodes = record["metrics"]["per_episode"]
+        by_seed.setdefault(unit.seed_index, []).append([bool(e["success"]) for e in episodes])
+        motion.setdefault(unit.seed_index, []).extend(episodes)
     if missing or not by_seed:
         return CellResult(None, None, missing or len(cell.units))
     data = np.array([by_seed[s] for s in sorted(by_seed)], dtype=bool)  # (S, T, E)
-    return CellResult(success_rate(data), data, 0, scenes=cell.scenes)
+    return CellResult(success_rate(data), data, 0, scenes=cell.scenes,
+                      motion=_motion_values([motion[s] for s in sorted(motion)]))
+
+
+def _motion_values(by_seed: list[list[dict]]) -> dict[str, np.ndarray]:
+    """{measure: (S, episodes)} with NaN where an episode's measure is None; empty where
+    an episode has no motion entries (a record of older code)."""
+    if not all(m in e for episodes in by_seed for e in episodes for m in MOTION_MEASURES):
+        return {}
+    return {m: np.array([[np.nan if e[m] is None else float(e[m]) for e in episodes]
+                         for episodes in by_seed], dtype=np.float64)
+            for m in MOTION_MEASURES}
+
+
+def filled_motion(values: np.ndarray) -> np.ndarray | None:
+    """Per-episode motion values (seeds, episodes) with NaN where undefined -> the same
+    with each seed's NaN entries set to that seed's mean over its defined episodes (its
+    per-seed mean unchanged); None when a seed has no defined episode."""
+    x = np.array(values, dtype=np.float64)
+    defined = np.isfinite(x)
+    if not defined.any(axis=1).all():
+        return None
+    means = np.nanmean(np.where(defined, x, np.nan), axis=1)  # (S,)
+    return np.where(defined, x, means[:, None])
+
+
+def motion_estimate(values: np.ndarray) -> Estimate | None:
+    """A cell's mean motion measure with the seed as the unit (`stats.score_mean`): the t
+    interval on per-seed means (each over the seed's defined episodes) for several seeds,
+    a bootstrap over its defined episodes for one; None when a seed has none defined."""
+    x = filled_motion(values)
+    if x is None:
+        return None
+    if len(x) == 1:
+        return score_mean(x[0][np.isfinite(np.asarray(values, dtype=np.float64)[0])])
+    return score_mean(x)
 
 
 def _smoothness_cell(cell: Cell, store: ResultsStore) -> CellResult:
@@ -103,6 +154,24 @@ class TableResult:
     def outcomes(self, row: str, column: str = "avg") -> np.ndarray | None:
         cell = self.cell(row, column)
         return cell.data if cell else None
+
+    def motion_scores(self, row: str, column: str = "avg",
+                      measure: str = "ldlj") -> np.ndarray | None:
+        """A success cell's per-episode motion measure (seeds, episodes), undefined episodes
+        filled with their seed's mean (`filled_motion`): what `stats`' score comparisons
+        read. None while the cell has no motion values."""
+        cell = self.cell(row, column)
+        if cell is None or measure not in cell.motion:
+            return None
+        return filled_motion(cell.motion[measure])
+
+    def motion_estimate(self, row: str, column: str = "avg",
+                        measure: str = "ldlj") -> Estimate | None:
+        """A success cell's mean motion measure with its interval (`motion_estimate`)."""
+        cell = self.cell(row, column)
+        if cell is None or measure not in cell.motion:
+            return None
+        return motion_estimate(cell.motion[measure])
 
     def scenes(self, *rows: str, column: str = "avg") -> str:
         """"per_seed" when every one of `rows` gives seed k its own scene set k, else

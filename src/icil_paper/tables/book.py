@@ -3,6 +3,7 @@
     results = load_table(preset, "I")               # {"this build": ..., "reference": ...}
     compare_frame(results, "avg")                   # rows x (paper, reference, this build)
     success_figure(results, "avg")                  # bars with 95% intervals, the paper's marks
+    show_motion(results, "avg")                     # success beside LDLJ, SPARC, action jerk
     verdicts(preset, "I")                           # the ledger's sentences, in Markdown
 
 `load_table` computes what this build's results store lacks (through the same function
@@ -100,6 +101,68 @@ def success_figure(results: dict[str, TableResult], column: str = "avg", title: 
     fig.tight_layout()
     plt.close(fig)  # shown once, by the caller's display(fig)
     return fig
+
+
+MOTION_COLUMNS = {"ldlj": "LDLJ (higher: smoother)", "sparc": "SPARC (higher: smoother)",
+                  "action_jerk": "action jerk (lower: smoother)"}
+"""The motion frame's columns beside success (`icil_paper.metrics`)."""
+
+
+def _format_estimate(est, digits: int = 3) -> str:
+    """`-12.3 [-13.1, -11.6]` (`digits` significant digits, trailing zeros kept) or
+    `not run`."""
+    if est is None:
+        return "not run"
+
+    def sig(x: float) -> str:
+        return f"{x:#.{digits}g}".rstrip(".").replace(".e", "e")
+
+    return unbroken(f"{sig(est.value)} [{sig(est.low)}, {sig(est.high)}]")
+
+
+def motion_frame(result: TableResult, column: str = "avg", digits: int = 3):
+    """Rows x (success, LDLJ, SPARC, action jerk) of one column: each row's success and the
+    smoothness of its rollouts' motion (per-seed means of per-episode values, the seed as
+    the unit: `TableResult.motion_estimate`), each `value [95% interval]`."""
+    import pandas as pd
+
+    out = []
+    for row in result.spec.rows:
+        cell = result.cell(row.label, column)
+        line: dict[str, Any] = {"": row.label, "success": unbroken(format_cell(cell, 2))}
+        for measure, name in MOTION_COLUMNS.items():
+            line[name] = ("n/a" if cell is None else
+                          _format_estimate(result.motion_estimate(row.label, column, measure),
+                                           digits))
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
+def motion_note(result: TableResult, column: str = "avg") -> str:
+    """How many of the column's episodes have each measure defined (an episode of a few
+    steps, or one where the arm did not move, has none), as a clause; empty when all do."""
+    counts = {}
+    for row in result.spec.rows:
+        cell = result.cell(row.label, column)
+        for measure in MOTION_COLUMNS:
+            if cell is not None and measure in cell.motion:
+                values = cell.motion[measure]
+                done, total = counts.get(measure, (0, 0))
+                counts[measure] = (done + int(np.isfinite(values).sum()), total + values.size)
+    gaps = [f"{MOTION_COLUMNS[m].split(' (')[0]} {d} of {t}" for m, (d, t) in counts.items()
+            if d < t]
+    return "" if not gaps else "episodes with the measure defined: " + ", ".join(gaps)
+
+
+def show_motion(results: dict[str, TableResult], column: str = "avg", digits: int = 3) -> None:
+    """Success beside the smoothness of the motion that earned it (`motion_frame`), for the
+    reference run, then this build in a collapsed block (`show_per_source`)."""
+    def describe(result: TableResult) -> str:
+        note = motion_note(result, column)
+        return (f"{column}, each episode's value averaged per seed, 95% intervals with the "
+                "seed as the unit" + (f"; {note}" if note else ""))
+
+    show_per_source(results, lambda r: motion_frame(r, column, digits), describe)
 
 
 def verdicts(preset: Preset, table_id: str) -> str:
@@ -346,6 +409,7 @@ def ledger_frame(ledger: list[dict[str, Any]], part: str = "verdicts"):
             ours = ("" if e["ours"] is None else
                     unbroken(f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"))
             paper_cell = (f"{e['paper']:+.3f}" if e.get("paper") is not None
+                          else "—" if e.get("reference_effect") is None
                           else f"({e['reference_effect']:+.3f})")
             rows.append({"claim": e["id"], "seeds": unbroken(_seeds_cell(e.get("seeds"))),
                          "paper": paper_cell, "ours": ours, "verdict": e["verdict"],
@@ -364,7 +428,9 @@ def ledger_details(ledger: list[dict[str, Any]]) -> str:
     lines = []
     for e in ledger:
         note = f" {e['power_note'][0].upper()}{e['power_note'][1:]}." if e.get("power_note") else ""
-        if e.get("paper") is None:
+        if e.get("paper") is None and e.get("reference_effect") is None:
+            note += f" It has no reference size ({e['reference']})."
+        elif e.get("paper") is None:
             note += f" Its reference size in parentheses is {e['reference']}."
         lines.append(f"- **{e['id']}** ({e['quantity']}): *{e['claim']}*{note}")
     return "\n".join(lines)
@@ -407,12 +473,14 @@ def forest_plot(ledger: list[dict[str, Any]], title: str = "", verdict_key: str 
     def panel_of(e):
         quantity = e["quantity"].lower()
         return ("rank correlation" if "correlation" in quantity else
-                "least energy" if "least energy" in quantity else "success difference")
+                "least energy" if "least energy" in quantity else
+                "LDLJ difference" if "ldlj" in quantity else "success difference")
 
     panels = {}
     for e in ledger:
         panels.setdefault(panel_of(e), []).append(e)
-    order = [p for p in ("success difference", "least energy", "rank correlation") if p in panels]
+    order = [p for p in ("success difference", "least energy", "LDLJ difference",
+                         "rank correlation") if p in panels]
     heights = [len(panels[p]) for p in order]
     fig, axes = plt.subplots(len(order), 1, figsize=(8.5, 0.32 * sum(heights) + 1.2 * len(order) + 0.6),
                              gridspec_kw={"height_ratios": heights}, squeeze=False)
@@ -428,7 +496,7 @@ def forest_plot(ledger: list[dict[str, Any]], title: str = "", verdict_key: str 
                 ax.plot(e["ours"], yi, "o", color=colour, ms=5)
             if e.get("paper") is not None:
                 ax.plot(e["paper"], yi, "D", color="black", ms=4, zorder=5)
-            else:  # a claim of ours: the reference effect it is read against
+            elif e.get("reference_effect") is not None:  # the effect a claim of ours is read against
                 ax.plot(e["reference_effect"], yi, "D", mfc="white", mec="black", ms=4, zorder=5)
         ax.axvline(0, color="#57606a", lw=0.8)
         ax.set_yticks(y, [f"{e['id']}  ({e.get(verdict_key) or e['verdict']})"
@@ -443,7 +511,7 @@ def forest_plot(ledger: list[dict[str, Any]], title: str = "", verdict_key: str 
     handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == "too few seeds" else "-", label=v)
                for v, c in VERDICT_COLOURS.items() if v != "not run"]
     handles.append(Line2D([], [], color="black", marker="D", ls="", ms=4, label="the paper"))
-    if any(e.get("paper") is None for e in ledger):
+    if any(e.get("paper") is None and e.get("reference_effect") is not None for e in ledger):
         handles.append(Line2D([], [], mfc="white", mec="black", marker="D", ls="", ms=4,
                               label="reference size (our claims)"))
     fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=len(handles),

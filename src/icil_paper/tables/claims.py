@@ -24,6 +24,15 @@ Its `paper` value is computed from the paper's own numbers (`icil_paper.paper_nu
   ledger's; `variance_from` says which);
 - `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`.
 
+Motion smoothness. The paper says in words that LipVQ-VAE gives smoother motion (the
+abstract; Sec. IV-B on the real robot) but reports no number for it. Its claims here read
+the end-effector paths of the same evaluation episodes (`MotionComparison`: per-episode
+LDLJ, the primary quantity, higher is smoother; `icil_paper.metrics`), with the seed as the
+unit as for success (`stats.paired_score_difference`, best of k by `smoother_margin`), and
+`MotionCorrelation` relates Table III's least energy to Table I's LDLJ across the ICRT
+tokenizers. A claim without a number has `paper` and `reference_effect` None: it is
+decided like every other claim, but neither sized nor planned (only its `mde`).
+
 The chapters' verdict sentences are generated from these entries (`sentence`).
 """
 
@@ -41,6 +50,7 @@ from icil_paper import paper_numbers as paper
 from icil_paper import stats
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json
+from icil_paper.metrics import MOTION_MEASURES, SMOOTHER
 from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import TableResult, assemble
 from icil_paper.tables.definitions import ICRT_TOKENIZERS, table_spec
@@ -71,6 +81,11 @@ class Comparison:
     @property
     def kind(self) -> str:
         return "score" if self.column == "least_energy" else "success"
+
+    @property
+    def pool(self) -> str:
+        """The quantity whose per-seed variances a one-seed row borrows (`_power`)."""
+        return "least_energy" if self.kind == "score" else "success"
 
     @property
     def rows(self) -> tuple[str, ...]:
@@ -113,6 +128,102 @@ class Correlation:
 
 
 @dataclass(frozen=True)
+class MotionComparison:
+    """Rows of one table compared on the motion smoothness of the same episodes
+    (`metrics.MOTION_MEASURES`; per-episode values, the seed as the unit, as for success):
+    `a` minus the one other row, or, with several `others`, `a` against each of them (best
+    of k: a's mean minus the smoothest other row's, `smoother_margin`)."""
+
+    table: str
+    a: str
+    others: tuple[str, ...]
+    measure: str = "ldlj"
+    column: str = "avg"
+    kind: str = "score"
+
+    @property
+    def pool(self) -> str:
+        return self.measure
+
+    @property
+    def rows(self) -> tuple[str, ...]:
+        return (self.a, *self.others)
+
+    def data(self, tables: dict[str, TableResult]) -> list[np.ndarray] | None:
+        data = [tables[self.table].motion_scores(label, self.column, self.measure)
+                for label in self.rows]
+        return None if any(d is None for d in data) else data
+
+    def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
+        data = self.data(tables)
+        if data is None:
+            return None
+        if len(self.others) == 1:
+            return stats.paired_score_difference(*data)
+        return smoother_margin(data[0], data[1:], SMOOTHER[self.measure])
+
+
+def smoother_margin(a: np.ndarray, others: Sequence[np.ndarray], smoother: int) -> stats.Estimate:
+    """Row `a`'s mean score minus that of the smoothest of `others` (`smoother` +1: the
+    highest, as for LDLJ and SPARC; -1: the lowest), all on the same episodes. Its
+    components are `stats.paired_score_difference(a, other)` for each other row, and
+    `stats.verdict` applies the intersection-union test to them, as for every best-of-k
+    claim (`stats.paired_score_margin` is this margin for -1)."""
+    if smoother == -1:
+        return stats.paired_score_margin(a, others)
+    pairwise = [stats.paired_score_difference(a, o, rng_seed=i) for i, o in enumerate(others)]
+    means = [float(np.mean(o)) for o in others]
+    best = int(np.argmax(means))
+    value = float(np.mean(a)) - means[best]
+    closest = pairwise[best]
+    seeds = (pairwise[0].seeds[0], *(c.seeds[1] for c in pairwise))
+    return stats.Estimate(
+        value, min(closest.low, value), max(closest.high, value), n=sum(seeds),
+        method=f"margin over the highest other row: intersection test over {len(pairwise)} "
+               f"rows ({closest.method} to the highest other row)",
+        seeds=seeds, episodes=int(np.size(a) + sum(np.size(o) for o in others)),
+        components=tuple(pairwise))
+
+
+@dataclass(frozen=True)
+class MotionCorrelation:
+    """Spearman correlation across `rows` of Table III's least energy (the latents'
+    smoothness) and the motion smoothness of Table I's rollouts (`measure`, average over
+    the kitchen tasks), with a joint bootstrap: each resample draws every row's training
+    seeds with replacement (the same seeds for both of its quantities), then the held-out
+    trajectories and the evaluation episodes (the same indices for every row), and
+    `stats.rank_correlation_interval` takes the percentiles."""
+
+    rows: tuple[str, ...]
+    measure: str = "ldlj"
+    table: str = "III"
+    kind: str = "correlation"
+    n_boot: int = 2000
+
+    def data(self, tables: dict[str, TableResult]):
+        smooth = [tables["III"].outcomes(r, "least_energy") for r in self.rows]
+        motion = [tables["I"].motion_scores(r, "avg", self.measure) for r in self.rows]
+        return None if any(x is None for x in smooth + motion) else (smooth, motion)
+
+    def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
+        data = self.data(tables)
+        if data is None:
+            return None
+        smooth, motion = ([np.atleast_2d(np.asarray(x, np.float64)) for x in xs] for xs in data)
+        rng = np.random.default_rng(0)
+        traj_idx = rng.integers(0, smooth[0].shape[1], size=(self.n_boot, smooth[0].shape[1]))
+        ep_idx = rng.integers(0, motion[0].shape[1], size=(self.n_boot, motion[0].shape[1]))
+        x = [stats.mean_samples(e, n_boot=self.n_boot, rng_seed=i + 1, idx=traj_idx)
+             for i, e in enumerate(smooth)]
+        y = [stats.mean_samples(m, n_boot=self.n_boot, rng_seed=i + 1, idx=ep_idx)
+             for i, m in enumerate(motion)]
+        seeds = tuple(min(len(e), len(m)) for e, m in zip(smooth, motion, strict=True))
+        return stats.rank_correlation_interval(
+            np.stack(x), np.stack(y), x=np.array([e.mean() for e in smooth]),
+            y=np.array([m.mean() for m in motion]), seeds=seeds)
+
+
+@dataclass(frozen=True)
 class Claim:
     """One claim of the paper and how it is checked."""
 
@@ -126,11 +237,13 @@ class Claim:
     """What is compared, in words."""
     direction: int
     """+1: claimed above 0; -1: claimed below 0."""
-    compare: Comparison | Correlation
+    compare: Comparison | Correlation | MotionComparison | MotionCorrelation
     """The rows it reads and how they are compared."""
-    paper_value: Callable[[], float]
+    paper_value: Callable[[], float] | None
     """The same quantity from the paper's numbers; for a claim of our own (`own`), the
-    effect it is read and planned against (`reference_effect` in the ledger)."""
+    effect it is read and planned against (`reference_effect` in the ledger). None where
+    there is no number: a claim the paper makes in words only (its entry's `paper` and
+    `reference_effect` are None, `reference` says why; nothing is planned)."""
     own: bool = False
     """A claim of this companion, not of the paper (the `beyond` table's): its entry has
     no `paper` value, only `reference_effect`, named in `reference`."""
@@ -173,8 +286,8 @@ def _fig5_rows(preset: Preset) -> tuple[str, list[str]]:
 
 # --------------------------------------------------------------------------- the ledger
 def claims(preset: Preset) -> list[Claim]:
-    """Every claim, in the order of the paper's Sec. IV, then the two of our own (`beyond`:
-    does Eq. 4 help every quantizer?)."""
+    """Every claim, in the order of the paper's Sec. IV, then those of our own (`beyond`:
+    does Eq. 4 help every quantizer?; and do smoother latents go with smoother motion?)."""
     T1, T2, T6, T7 = (paper.TABLE_I_ROBOCASA, paper.TABLE_II_MANISKILL,
                       paper.TABLE_VI_CROSS_DATASET, paper.TABLE_VII_ZERO_SHOT)
     T4, T5 = paper.TABLE_IV_LIPSCHITZ, paper.TABLE_V_SIM_TO_REAL
@@ -243,6 +356,15 @@ def claims(preset: Preset) -> list[Claim]:
               diff("V", "icrt+lipvq", "icrt+bin"),
               lambda: np.mean(list(T5["icrt+lipvq"].values()))
               - np.mean(list(T5["icrt+bin"].values()))),
+        Claim("V-lipvq-smoother-motion", "V", "Our ICRT+LipVQ-VAE approach achieves "
+              "smoother motion (sim-to-real; the abstract: real-world experiments confirm "
+              "smoother, more reliable trajectories).",
+              "ICRT+LipVQ's mean LDLJ of the end-effector path minus the higher of "
+              "BC-Transformer's and ICRT+Bin's (avg of drawers and doors; LDLJ is the primary "
+              "motion quantity, higher is smoother; SPARC and action jerk are shown beside it "
+              "in the chapter)", +1,
+              MotionComparison("V", "icrt+lipvq", ("bc_transformer", "icrt+bin"), "ldlj"),
+              None, reference="none: the paper states it in words, with no number"),
         Claim("VI-mlp-vs-bc", "VI", "Even with the weakest action tokenizer (MLP), ICRT "
               "outperforms BC-Transformer by 4.9% (cross-dataset).",
               "ICRT+MLP minus BC-Transformer (avg)", +1, diff("VI", "icrt+mlp", "bc_transformer"),
@@ -267,36 +389,51 @@ def claims(preset: Preset) -> list[Claim]:
               diff("beyond", "icrt+liprvq", "icrt+rvq"),
               paper_diff(T4, "icrt+lipvq", "icrt+vq"), own=True,
               reference="the paper's Eq. 4 gain for VQ-VAE (Table IV)"),
+        Claim("III-smoother-latents-smoother-motion", "III", "Ours: a smoother action "
+              "representation goes with smoother motion.", "Spearman correlation of "
+              "Table III's least energy and Table I's mean LDLJ of the end-effector path over "
+              "the six ICRT tokenizers (negative: smoother latents go with smoother motion)",
+              -1, MotionCorrelation(TOKENIZER_ROWS, "ldlj"), None, own=True,
+              reference="none: the paper has no motion measurement"),
     ]
 
 
 def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], float]:
-    """(table, kind) -> the mean per-seed variance of its multi-seed rows (success: the
-    "avg" column; score: least energy), and ("*", kind) over every table: what a one-seed
-    row borrows for the power analysis."""
+    """(table, quantity) -> the mean per-seed variance of its multi-seed rows (`success`:
+    the "avg" column; `least_energy`; each motion measure of the "avg" column), and
+    ("*", quantity) over every table: what a one-seed row borrows for the power analysis."""
     pooled: dict[tuple[str, str], list[float]] = {}
+
+    def add(table_id: str, quantity: str, data, kind: str) -> None:
+        var = stats.seed_variance(data, kind)
+        if var is not None:
+            pooled.setdefault((table_id, quantity), []).append(var)
+            pooled.setdefault(("*", quantity), []).append(var)
+
     for table_id, result in tables.items():
-        for (_, column), cell in result.cells.items():
-            kind = ("score" if column == "least_energy" else
-                    "success" if column == "avg" else None)
-            if kind is None or cell.data is None:
+        for (row, column), cell in result.cells.items():
+            if cell.data is None or column not in ("avg", "least_energy"):
                 continue
-            var = stats.seed_variance(cell.data, kind)
-            if var is not None:
-                pooled.setdefault((table_id, kind), []).append(var)
-                pooled.setdefault(("*", kind), []).append(var)
+            if column == "least_energy":
+                add(table_id, "least_energy", cell.data, "score")
+                continue
+            add(table_id, "success", cell.data, "success")
+            for measure in MOTION_MEASURES:
+                scores = result.motion_scores(row, column, measure)
+                if scores is not None:
+                    add(table_id, measure, scores, "score")
     return {k: float(np.mean(v)) for k, v in pooled.items()}
 
 
 def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult],
-           pooled: dict[tuple[str, str], float], paper_value: float) -> dict[str, Any]:
+           pooled: dict[tuple[str, str], float], paper_value: float | None) -> dict[str, Any]:
     """mde, seeds_needed and where each row's seed variance came from (see the module
     docstring). Best of k: planned against the closest other row (smallest pairwise margin
     on the claimed side), the comparison that decides the intersection test."""
     out: dict[str, Any] = {"mde": None, "seeds_needed": None, "variance_from": None,
                            "power_note": None}
     compare = claim.compare
-    if not isinstance(compare, Comparison):
+    if not isinstance(compare, (Comparison, MotionComparison)):
         out["power_note"] = "not planned: a rank correlation across rows has no closed form"
         return out
     data = dict(zip(compare.rows, compare.data(tables), strict=True))
@@ -310,18 +447,20 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
         seeds.append(len(data[label]))
         if var is not None:
             source[label] = "own seeds"
-        elif (compare.table, compare.kind) in pooled:
-            var, source[label] = pooled[(compare.table, compare.kind)], \
+        elif (compare.table, compare.pool) in pooled:
+            var, source[label] = pooled[(compare.table, compare.pool)], \
                 f"pooled over Table {compare.table}'s multi-seed rows"
-        elif ("*", compare.kind) in pooled:
-            var, source[label] = pooled[("*", compare.kind)], "pooled over the ledger's rows"
+        elif ("*", compare.pool) in pooled:
+            var, source[label] = pooled[("*", compare.pool)], "pooled over the ledger's rows"
         else:
             return {**out, "power_note": "no row with two seeds to measure a variance"}
         variances.append(var)
     out["variance_from"] = source
     if min(seeds) >= 2:
         out["mde"] = stats.minimum_detectable(*variances, *seeds)
-    if claim.direction * paper_value > 0:
+    if paper_value is None:
+        out["power_note"] = "no reference effect (no number to plan for): only the mde"
+    elif claim.direction * paper_value > 0:
         out["seeds_needed"] = stats.seeds_needed(*variances, paper_value, max_seeds=MAX_SEEDS)
         if out["seeds_needed"] is None:
             out["power_note"] = (f"the paper's effect ({paper_value:+.3g}) would need more than "
@@ -337,12 +476,13 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
     the size reading and the power) and its estimate (None when not run), from which the
     ledger adds the Holm-adjusted verdict."""
     estimate = claim.compare.estimate(tables)
-    paper_value = round(float(claim.paper_value()), 4)
+    paper_value = (None if claim.paper_value is None
+                   else round(float(claim.paper_value()), 4))
     entry: dict[str, Any] = {"id": claim.id, "claim": claim.claim, "table": claim.table,
                              "quantity": claim.quantity, "direction": claim.direction,
                              "source": "ours" if claim.own else "the paper",
                              "paper": None if claim.own else paper_value}
-    if claim.own:
+    if claim.own or paper_value is None:
         entry.update(reference_effect=paper_value, reference=claim.reference)
     if estimate is None:
         entry.update(ours=None, ci=None, n=None, episodes=None, seeds=None, method=None,
@@ -356,7 +496,8 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
                  seeds=dict(zip(claim.compare.rows, estimate.seeds, strict=True)),
                  method=estimate.method, p_value=None if test is None else test[0],
                  verdict=stats.verdict(estimate, direction=claim.direction),
-                 magnitude=stats.magnitude(estimate, claim.direction, paper_value, margin_),
+                 magnitude=(None if paper_value is None else
+                            stats.magnitude(estimate, claim.direction, paper_value, margin_)),
                  **_power(claim, estimate, tables, pooled, paper_value))
     return entry, estimate
 
@@ -432,9 +573,14 @@ def summary_sentence(ledger: list[dict[str, Any]]) -> str:
 
 def sentence(entry: dict[str, Any]) -> str:
     """The verdict of one ledger entry in words, for the chapters."""
-    paper_words = (f"the paper {entry['paper']:+.3f}" if entry.get("paper") is not None else
-                   f"a claim of ours, read against {entry['reference']} "
-                   f"({entry['reference_effect']:+.3f})")
+    if entry.get("paper") is not None:
+        paper_words = f"the paper {entry['paper']:+.3f}"
+    elif entry.get("reference_effect") is None:
+        paper_words = ("a claim of ours" if entry.get("source") == "ours" else
+                       "the paper") + " with no number to read it against"
+    else:
+        paper_words = (f"a claim of ours, read against {entry['reference']} "
+                       f"({entry['reference_effect']:+.3f})")
     if entry["verdict"] == "not run":
         return f"{entry['quantity']}: not run yet ({paper_words})."
     low, high = entry["ci"]

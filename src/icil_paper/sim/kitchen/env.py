@@ -270,6 +270,11 @@ class KitchenEnv(TaskEnv):
         """Flat MuJoCo state (time, qpos, qvel) as float64, robomimic's `states` entry."""
         return np.asarray(self.sim.get_state().flatten(), dtype=np.float64)
 
+    def eef_position(self) -> np.ndarray:
+        """The grip site's world position (3,) float64, metres: `proprio[:3]` without the
+        Kinova tasks' observation noise."""
+        return self._env.eef_pos().astype(np.float64)
+
     def _close(self) -> None:
         self._env.close()
 

@@ -270,6 +270,10 @@ class ManiSkillEnv(TaskEnv):
         """Flat simulator state, as ManiSkill's `get_state()` (float32 values, as float64)."""
         return to_numpy(self.base.get_state()).astype(np.float64)
 
+    def eef_position(self) -> np.ndarray:
+        """The TCP's world position (3,) float64, metres (`proprio[:3]`)."""
+        return to_numpy(self.base.agent.tcp.pose.p).astype(np.float64)
+
     def _close(self) -> None:
         self._env.close()
 
