@@ -328,7 +328,7 @@ def test_findings_give_each_variant_against_its_base_with_a_verdict_and_the_code
         assert off["variant_codes"] == [1] * seeds and off["base_codes"] == [20] * seeds
         if expect:
             assert {f["verdict"] for f in found.values()} == {expect}
-            assert "no comparison is decided" in summary(result)
+            assert "not decided" in summary(result) and "no comparison" in summary(result)
         else:
             assert off["verdict"] == off["adjusted_verdict"] == "does not hold"
             assert found["prompts from the minibatch"]["adjusted_verdict"] == "holds"
@@ -336,7 +336,8 @@ def test_findings_give_each_variant_against_its_base_with_a_verdict_and_the_code
             assert "'icrt+lipvq (official code)' minus 'icrt+lipvq (paper)' is -" in text
             assert "lower" in text and "higher" in text
         assert collapsed_rows(result) == ["icrt+lipvq (official code)", "detached latent"]
-        assert "'icrt+lipvq (official code)', 'detached latent'" in summary(result)
+        assert ("'icrt+lipvq (official code)', 'detached latent': those policies receive one "
+                "constant action token") in summary(result)
         frame = findings_frame(result)
         assert list(frame.index) == VARIANTS and frame.loc["detached latent", "codes used"] == "1"
         assert codes_frame(result).loc[PAPER_BIN, "codebook"] == "64"

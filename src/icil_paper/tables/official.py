@@ -45,6 +45,11 @@ OUTCOME_WORDS = {"holds": "higher", "does not hold": "lower",
                  "not run": "not run yet"}
 """A verdict on "the variant succeeds more" in words of the two-sided question."""
 
+SHORT_WORDS = {"holds": "higher", "does not hold": "lower",
+               "inconclusive": "no difference detected", stats.TOO_FEW_SEEDS: "not decided",
+               "not run": "not run yet"}
+"""The same, shorter, for the summary sentence (which explains "not decided" once)."""
+
 
 def comparisons() -> list[tuple[str, str]]:
     """(variant, base) of every comparison, in the table's row order."""
@@ -194,15 +199,17 @@ def summary(result: TableResult) -> str:
             parts.append(f"'{f['variant']}' has not run yet")
             continue
         parts.append(f"'{f['variant']}' minus '{f['base']}' is {_interval(est, 2)}: "
-                     f"{OUTCOME_WORDS[f['adjusted_verdict']]}")
+                     f"{SHORT_WORDS[f['adjusted_verdict']]}")
     text = (f"On the same episodes, with {seeds_text} and Holm's correction over the "
             f"{len(found)} comparisons: " + "; ".join(parts) + ".")
     if any(f["adjusted_verdict"] == stats.TOO_FEW_SEEDS for f in found):
         text += (" With a single training seed a row the spread between seeds is unknown, "
-                 "so no comparison is decided.")
+                 "so no comparison that reads such a row is decided.")
     collapsed = collapsed_rows(result)
     if collapsed:
         names = ", ".join(f"'{r}'" for r in collapsed)
+        whose = ("that policy receives" if len(collapsed) == 1
+                 else "those policies receive")
         text += (f" A single code is used on the held-out trajectories at every seed by "
-                 f"{names}: that policy receives one constant action token.")
+                 f"{names}: {whose} one constant action token.")
     return text
