@@ -282,6 +282,10 @@ class TablesConfig(_Checked):
     """Training seeds of every row of the `beyond` table (tokenizers since the paper); its
     VQ-VAE and LipVQ-VAE rows share their first `icrt_seeds` policies with Table I's.
     None: `icrt_seeds`."""
+    official_seeds: int | None = None
+    """Training seeds of every row of the `official` table (the paper against its official
+    code); its paper rows share their first `icrt_seeds` policies with Table I's.
+    None: `icrt_seeds`."""
     scenes_per_seed: bool = False
     """Evaluation design: True gives training seed k of every row its own scene set k
     (evaluation seed `seed` + k), so that scene luck averages out over seeds and two rows
@@ -413,7 +417,7 @@ def _reference() -> Preset:
                             image_demos_per_task=5, image_episodes_per_task=4,
                             feature_demos_per_task=1, maniskill_demos_per_task=40,
                             maniskill_steps=10000, maniskill_episodes_per_task=20,
-                            since_paper_seeds=5),
+                            since_paper_seeds=5, official_seeds=5),
     )
 
 
@@ -436,7 +440,7 @@ def _full() -> Preset:
         # (data.obs), codebooks 2^8 .. 2^11; three seeds for the ICRT rows.
         tables=TablesConfig(icrt_seeds=3, codebook_sizes=(256, 512, 1024, 2048),
                             image_demos_per_task=200, image_episodes_per_task=50,
-                            feature_demos_per_task=2, since_paper_seeds=5),
+                            feature_demos_per_task=2, since_paper_seeds=5, official_seeds=5),
     )
 
 

@@ -62,7 +62,9 @@ STAGES: tuple[Stage, ...] = (
           ("II", "Table II: ACT with each tokenizer on ManiSkill", "07"),
           ("analysis", "is it smoothness? Lipschitz, scale and collapse variants", "11"),
           ("beyond", "tokenizers since the paper: FSQ, residual VQ, B-splines, with and "
-                     "without Eq. 4", "12"))),
+                     "without Eq. 4", "12"),
+          ("official", "the paper against its official code: LipVQ-VAE, Bin and prompts "
+                       "as the code has them", "13"))),
     Stage("claims", "the claims ledger: every claim with its verdict (chapter 00)",
           "icil_paper.reproduce:claims_stage"),
 )
@@ -101,6 +103,7 @@ table_I, table_II, table_III, table_IV, table_V, table_VI, table_VII = (
     _table_stage(t) for t in ("I", "II", "III", "IV", "V", "VI", "VII"))
 table_fig5, table_prompt, table_analysis, table_beyond = (
     _table_stage(t) for t in ("fig5", "prompt", "analysis", "beyond"))
+table_official = _table_stage("official")
 
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:

@@ -16,6 +16,12 @@ query is a window of `query_len` steps of another demonstration of the same task
     o_* : observation token (ObservationEncoder)   a_* : action token (tokenizer embeddings)
     K   : chunk_size, the head predicts K future actions at each query observation token
 
+With `prompt_from="minibatch"` (the official LipVQ-VAE code) the prompt is not chosen by
+task: a minibatch of (P + 1) B distinct demonstrations is drawn at random and its first P B
+prompt its last B, P each, in order (P = 1: the first half prompts the second half), so a
+prompt may show another task than its query. The query count per batch stays B, so only the
+prompt's source differs from the default.
+
 The head reads only the query's observation tokens, so o_qt sees a_q1 .. a_q(t-1) but never
 a_qt, the action it must predict. Prompt positions carry no loss. The batch is padded: a
 prompt shorter than the longest in the batch is padded at its end, and so is a short query;
@@ -46,8 +52,13 @@ import numpy as np
 import torch
 from torch import Tensor
 
+from icil_paper.config_data import field_choices
+from icil_paper.policies.configs import ICRTConfig
+
 IMAGE_KEYS = ("rgb", "depth")
 DEFAULT_LOWDIM_KEYS = ("proprio", "object")
+PROMPT_FROM = field_choices(ICRTConfig)["prompt_from"]
+"""Where a training query's prompt comes from (`ICRTConfig.prompt_from`)."""
 
 
 # --------------------------------------------------------------------------- observation spec
@@ -227,8 +238,9 @@ def chunk_targets(actions: np.ndarray, steps: np.ndarray, chunk: int) -> tuple[n
 # --------------------------------------------------------------------------- ICRT batches
 def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_size: int,
                        prompt_demos: int, rng: np.random.Generator,
-                       action_context: int = 0, query_start: str = "random") -> dict[str, Any]:
-    """Sample B (prompt, query) pairs of the same task (see the module docstring).
+                       action_context: int = 0, query_start: str = "random",
+                       prompt_from: str = "same_task") -> dict[str, Any]:
+    """Sample B (prompt, query) pairs, of the same task by default (see the module docstring).
 
     Returns a dict of tensors (padded; B batch, M prompt steps, N query steps, K chunk):
         prompt_obs {key: (B, M, ...)}, prompt_actions (B, M, A), prompt_valid (B, M) bool,
@@ -238,7 +250,10 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
         query_action_context (B, c, A), the c actions before each query window (edge-padded
         with the first action at an episode's start).
     The prompt is `prompt_demos` other demonstrations of the query's task (the query's own
-    demonstration only when the task has no other). The query window holds `query_len`
+    demonstration only when the task has no other); with `prompt_from="minibatch"`,
+    `prompt_demos` other demonstrations of the same random minibatch, whatever their task
+    (with repeats only when the data set has fewer than (prompt_demos + 1) B
+    demonstrations). The query window holds `query_len`
     steps (0: the whole episode) and starts uniformly at random in its episode
     (`query_start="random"`) or at step 0 (`"episode_start"`, as a rollout does).
     """
@@ -247,12 +262,20 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
     if query_len < 0 or query_start not in ("random", "episode_start"):
         raise ValueError(f"query_len must be >= 0 and query_start 'random' or 'episode_start', "
                          f"got {query_len} and {query_start!r}")
+    if prompt_from not in PROMPT_FROM:
+        raise ValueError(f"prompt_from must be one of {', '.join(PROMPT_FROM)}, got "
+                         f"{prompt_from!r}")
+    pairs = (_minibatch_pairs(len(data), batch_size, prompt_demos, rng)
+             if prompt_from == "minibatch" else None)
     rows = []
-    for _ in range(batch_size):
-        q = int(rng.integers(len(data)))
-        same = [i for i in data.by_task[data.tasks[q]] if i != q] or [q]
-        chosen = rng.choice(len(same), size=prompt_demos, replace=len(same) < prompt_demos)
-        prompt = [same[int(c)] for c in chosen]
+    for b in range(batch_size):
+        if pairs is not None:
+            q, prompt = pairs[b]
+        else:
+            q = int(rng.integers(len(data)))
+            same = [i for i in data.by_task[data.tasks[q]] if i != q] or [q]
+            chosen = rng.choice(len(same), size=prompt_demos, replace=len(same) < prompt_demos)
+            prompt = [same[int(c)] for c in chosen]
         T = int(data.lengths[q])
         n = T if query_len == 0 else min(query_len, T)
         start = int(rng.integers(0, T - n + 1)) if query_start == "random" else 0
@@ -284,6 +307,18 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
     tvalid = np.stack([_pad_end(r["target_valid"], N) for r in rows])
     batch["target_valid"] = torch.from_numpy(tvalid) & batch["query_valid"][:, :, None]
     return batch
+
+
+def _minibatch_pairs(n_demos: int, batch_size: int, prompt_demos: int,
+                    rng: np.random.Generator) -> list[tuple[int, list[int]]]:
+    """The official code's pairing: (query, prompt demonstrations) for B queries, from one
+    random minibatch of (P + 1) B demonstrations (distinct where there are enough), whose
+    first P B prompt the last B, P each in order; tasks are not looked at."""
+    n = (prompt_demos + 1) * batch_size
+    drawn = rng.choice(n_demos, size=n, replace=n_demos < n)
+    prompts = drawn[:prompt_demos * batch_size].reshape(batch_size, prompt_demos)
+    queries = drawn[prompt_demos * batch_size:]
+    return [(int(q), [int(p) for p in ps]) for q, ps in zip(queries, prompts, strict=True)]
 
 
 # --------------------------------------------------------------------------- baseline windows

@@ -74,6 +74,8 @@ register_policy = POLICY_REGISTRY.register
 class ICRTConfig(PolicyConfig):
     """ICRT (Sec. III-A): a causal transformer over prompt demonstrations and the query."""
 
+    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"prompt_from": ("same_task", "minibatch")}
+
     chunk_size: int = 4
     """Future actions predicted per query step (action chunking; the first is executed)."""
     prompt_demos: int = 1
@@ -94,6 +96,11 @@ class ICRTConfig(PolicyConfig):
     """Where a training query window starts in its episode: `episode_start` (step 0, as a
     rollout does; the default) or `random` (uniform over the episode: ICRT's code, which
     trains on windows although the policy acts from step 0)."""
+    prompt_from: str = "same_task"
+    """Where a training query's prompt comes from: `same_task`, other demonstrations of the
+    query's task (the paper, ICRT); `minibatch`, other demonstrations of the same random
+    minibatch whatever their task (the official LipVQ-VAE code, whose first half of a
+    minibatch prompts its second half). Evaluation prompts are the task's either way."""
 
 
 @register_policy("bc_transformer", "icil_paper.policies.bc_transformer:BCTransformer")

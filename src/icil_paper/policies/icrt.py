@@ -157,7 +157,7 @@ class ICRT(BatchedPolicy):
         c = self.config
         return prompt_query_batch(data, batch_size, c.query_len, self.chunk_size,
                                   c.prompt_demos, rng, action_context=self.action_context - 1,
-                                  query_start=c.query_start)
+                                  query_start=c.query_start, prompt_from=c.prompt_from)
 
     def predict(self, batch: Mapping[str, Any]) -> tuple[Tensor, dict[str, Tensor]]:
         """Predicted chunks (B, N, K, A) at every query step, and the tokenizer's losses."""

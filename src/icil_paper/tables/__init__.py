@@ -12,6 +12,7 @@
 - `grid.py`: cells of work on a local process pool or a Ray cluster, skipped when done.
 - `assemble.py`: records -> numbers with intervals (`icil_paper.stats`), as tables.
 - `claims.py`: the claims ledger: every claim of the paper with a computed verdict.
+- `official.py`: the paper against its official code: each departure's effect and verdict.
 - `cli.py`: `icil-paper tables`.
 """
 

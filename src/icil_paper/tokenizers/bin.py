@@ -5,6 +5,13 @@ mapped to one of `n_bins` equal bins of its dimension (values outside the fitted
 the first or last bin), and reconstructed at the bin's centre, so the reconstruction error
 per dimension is at most half a bin width, (high_a - low_a) / (2 n_bins).
 
+The official code's variant (`configs.official_bin()`: `n_bins=20, range="running"`) fits
+nothing beforehand: every training forward pass widens [low_a, high_a] to the min and max
+of the actions seen so far (the first batch sets it), and evaluation uses the range the
+training left in the buffers, so a trained tokenizer is deterministic. Until a training
+batch has been seen the range is [-1, 1]. Early in training the bins move as the range
+grows, so a bin's embedding meets other actions than it started with.
+
 Every (dimension, bin) pair has its own learned embedding; a step's A tokens are pooled by
 their mean into one embedding per step:
 
@@ -23,13 +30,18 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from icil_paper.config_data import field_choices
 from icil_paper.layers import mlp
 from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
 from icil_paper.tokenizers.configs import BinConfig
 
+RANGES = field_choices(BinConfig)["range"]
+"""`fixed` (fitted before training) or `running` (widened by every training batch)."""
+
 
 class BinTokenizer(ActionTokenizer):
-    """Uniform per-dimension bins over fitted ranges, an embedding per (dimension, bin)."""
+    """Uniform per-dimension bins over fitted (or running) ranges, an embedding per
+    (dimension, bin)."""
 
     name = "bin"
     discrete = True
@@ -43,22 +55,47 @@ class BinTokenizer(ActionTokenizer):
         self.n_bins = int(n_bins)
         self.autoencode = config.autoencode
         self.decode_weight = config.decode_weight
+        if config.range not in RANGES:
+            raise ValueError(f"unknown bin range {config.range!r}; valid: {', '.join(RANGES)}")
+        self.range = config.range
         self.register_buffer("low", torch.full((action_dim,), -1.0))
         self.register_buffer("high", torch.full((action_dim,), 1.0))
+        if self.range == "running":
+            self.needs_fit = False  # the range comes from the training batches
+            self._fitted.fill_(True)
+            # Whether a training batch has set the range yet (saved with the tokenizer).
+            self.register_buffer("_range_seen", torch.tensor(False))
         self.embedding = nn.Embedding(action_dim * n_bins, latent_dim)
         self.decoder = mlp([latent_dim, *config.hidden[::-1], action_dim])
         # Token id of bin b of dimension a is a * n_bins + b.
         self.register_buffer("offsets", torch.arange(action_dim) * n_bins, persistent=False)
 
     def _fit(self, trajectories: list[np.ndarray]) -> None:
+        if self.range == "running":
+            return  # nothing is fitted: training batches set the range
         data = np.concatenate(trajectories, axis=0)
-        low, high = data.min(axis=0), data.max(axis=0)
-        # A constant dimension (e.g. an unused rotation axis) still gets a non-empty range.
+        self._set_range(torch.as_tensor(data.min(axis=0)), torch.as_tensor(data.max(axis=0)))
+
+    @torch.no_grad()
+    def _set_range(self, low: Tensor, high: Tensor) -> None:
+        """Store (A,) bounds; a constant dimension (e.g. an unused rotation axis) still gets
+        a non-empty range."""
+        low, high = low.clone(), high.clone()  # copied into the buffers' dtype below
         flat = high - low < 1e-6
         low[flat] -= 1e-3
         high[flat] += 1e-3
-        self.low.copy_(torch.as_tensor(low))
-        self.high.copy_(torch.as_tensor(high))
+        self.low.copy_(low)
+        self.high.copy_(high)
+
+    @torch.no_grad()
+    def _update_running_range(self, actions: Tensor) -> None:
+        """`range="running"`: widen [low, high] to the min and max of `actions` (B, T, A)."""
+        flat = actions.reshape(-1, self.action_dim)
+        low, high = flat.min(dim=0).values, flat.max(dim=0).values
+        if bool(self._range_seen):
+            low, high = torch.minimum(self.low, low), torch.maximum(self.high, high)
+        self._set_range(low, high)
+        self._range_seen.fill_(True)
 
     @property
     def bin_width(self) -> Tensor:
@@ -75,6 +112,8 @@ class BinTokenizer(ActionTokenizer):
         return self.low + (codes.to(self.low.dtype) + 0.5) * self.bin_width
 
     def _forward(self, actions: Tensor) -> TokenizerOutput:
+        if self.range == "running" and self.training:
+            self._update_running_range(actions)
         codes = self.bins(actions)  # (B, T, A)
         tokens = self.embedding(codes + self.offsets)  # (B, T, A, D)
         z = tokens.mean(dim=2)  # (B, T, D)

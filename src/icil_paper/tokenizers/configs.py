@@ -116,8 +116,16 @@ class LipMLPConfig(MLPConfig):
 class BinConfig(TokenizerConfig):
     """`bin`: RT-1 style uniform bins per action dimension."""
 
+    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"range": ("fixed", "running")}
+
     n_bins: int = 256
     """Uniform bins per action dimension (RT-1: 256; the official code: 20)."""
+    range: str = "fixed"
+    """Where each dimension's bin range comes from: `fixed`, the min and max of the training
+    actions, fitted once before training (RT-1's, the paper's); `running`, the min and max
+    of every action seen in training so far, widened by each training batch (the official
+    code; nothing is fitted beforehand). Either way the range is kept in buffers, so a
+    trained tokenizer bins the same at evaluation."""
     autoencode: bool = False
     """Let the decode head's loss train the bin embeddings (stand-alone training)."""
     decode_weight: float = 1.0
@@ -280,6 +288,13 @@ def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConf
         output_activation="sigmoid", straight_through="none", detach_embeddings=True,
         codebook_weight=0.25, commitment_weight=0.25,
         lipschitz=LipschitzOptions(weight=0.0, per_row=True, c_init=1.0, weight_init="randn"))
+
+
+def official_bin(latent_dim: int = 64) -> BinConfig:
+    """The official code's Bin (see `bin.py`): 20 uniform bins per action dimension over
+    the running min and max of the training actions, where the paper names RT-1's 256 bins
+    (fitted ranges)."""
+    return BinConfig(latent_dim=latent_dim, n_bins=20, range="running")
 
 
 # ----------------------------------------------------------------- since the paper

@@ -1,0 +1,215 @@
+"""The paper against its official code: what each departure does to success (chapter 13).
+
+The official code (`andvg3/LipVQ-VAE`) differs from the paper in ways that could each
+explain a result. The `official` table (`definitions.official`) trains ICRT on the kitchen
+suite with the paper's LipVQ-VAE and Bin (Table I's policies) and with the code's versions:
+its LipVQ-VAE with every difference at once, three of its differences alone, its Bin and
+its prompts. Every variant row is compared with the paper's row it departs from, on the
+same episodes:
+
+    variant                        base                  what differs
+    icrt+lipvq (official code)     icrt+lipvq (paper)    every difference of `lipvq_official()`
+    last layer only                icrt+lipvq (paper)    Eq. 4 on the last layer only (sigmoid,
+                                                         per-row bounds), the rest the paper's
+    detached latent                icrt+lipvq (paper)    the policy gets sg[z_q]
+    no Lipschitz loss              icrt+lipvq (paper)    gamma = 0
+    icrt+bin (official code)       icrt+bin (paper)      20 bins over the running min and max
+    prompts from the minibatch     icrt+lipvq (paper)    training prompts of any task
+
+`findings` gives each comparison as (variant, base, success difference with its paired 95%
+interval, verdict, verdict after Holm's correction over the table's comparisons, codes
+used); `summary` the chapter's closing sentences; `differences_frame` what each row changes,
+read from the run specs themselves; `codes_frame` each row's codes used (the official design
+is known to collapse its codebook, so its policy may receive a constant action token). The
+question is two-sided (does the departure change success?): the verdict "holds" reads
+"higher", "does not hold" "lower". No sentence about results is written by hand.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from icil_paper import stats
+from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.definitions import OFFICIAL_ROWS, config_differences
+
+DIRECTION = +1
+"""The verdict is read on "the variant succeeds more than its base"; "does not hold" then
+means it succeeds less."""
+
+OUTCOME_WORDS = {"holds": "higher", "does not hold": "lower",
+                 "inconclusive": "no difference detected (the interval contains 0)",
+                 stats.TOO_FEW_SEEDS: "not decided (a row has a single training seed)",
+                 "not run": "not run yet"}
+"""A verdict on "the variant succeeds more" in words of the two-sided question."""
+
+SHORT_WORDS = {"holds": "higher", "does not hold": "lower",
+               "inconclusive": "no difference detected", stats.TOO_FEW_SEEDS: "not decided",
+               "not run": "not run yet"}
+"""The same, shorter, for the summary sentence (which explains "not decided" once)."""
+
+
+def comparisons() -> list[tuple[str, str]]:
+    """(variant, base) of every comparison, in the table's row order."""
+    return [(row, base) for row, base in OFFICIAL_ROWS if base is not None]
+
+
+def _features(result: TableResult, row: str):
+    cell = result.cell(row, "features")
+    return cell if cell is not None and cell.estimate is not None else None
+
+
+def codes_used(result: TableResult, row: str) -> list[int] | None:
+    """Codes each seed's trained tokenizer uses on the held-out trajectories (None while
+    not run)."""
+    cell = _features(result, row)
+    if cell is None:
+        return None
+    values = [m.get("codes_used") for m in cell.extra["metrics"]]
+    return None if any(v is None for v in values) else [int(v) for v in values]
+
+
+def codebook_size(result: TableResult, row: str) -> int | None:
+    """The row's number of distinct codes (for Bin: action dimensions x bins)."""
+    cell = _features(result, row)
+    if cell is None:
+        return None
+    sizes = {m.get("codebook_size") for m in cell.extra["metrics"]}
+    return sizes.pop() if len(sizes) == 1 else None
+
+
+def findings(result: TableResult) -> list[dict[str, Any]]:
+    """One entry per comparison: `variant`, `base`, `estimate` (success of the variant minus
+    its base on the same episodes, `stats.paired_difference`; None while not run),
+    `verdict` (`stats.verdict`, direction +1), `adjusted_verdict` (after Holm's correction
+    over the table's comparisons), `seeds` (training seeds of each row) and the codes used
+    per seed of each (`variant_codes`, `base_codes`)."""
+    out = []
+    for variant, base in comparisons():
+        xa, xb = result.outcomes(variant, "avg"), result.outcomes(base, "avg")
+        est = (None if xa is None or xb is None else
+               stats.paired_difference(xa, xb, scenes=result.scenes(variant, base)))
+        out.append({"variant": variant, "base": base, "estimate": est,
+                    "verdict": "not run" if est is None else stats.verdict(est, DIRECTION),
+                    "seeds": None if est is None else {variant: len(xa), base: len(xb)},
+                    "variant_codes": codes_used(result, variant),
+                    "base_codes": codes_used(result, base)})
+    adjusted = stats.adjusted_verdicts([f["estimate"] for f in out], [DIRECTION] * len(out))
+    for f, a in zip(out, adjusted, strict=True):
+        f["adjusted_verdict"] = a
+    return out
+
+
+def _interval(est: stats.Estimate, digits: int = 3) -> str:
+    return f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
+
+
+def _codes_text(codes: list[int] | None) -> str:
+    if codes is None:
+        return "-"
+    return f"{np.mean(codes):.3g}" if len(set(codes)) == 1 else (
+        f"{np.mean(codes):.3g} ({min(codes)}-{max(codes)})")
+
+
+def findings_frame(result: TableResult):
+    """The comparisons as a table: variant, base, seeds, success difference [95% interval],
+    the verdict before and after Holm's correction (in words), the codes used (mean over
+    seeds, range where they differ) by the variant and by its base."""
+    import pandas as pd
+
+    rows = []
+    for f in findings(result):
+        est = f["estimate"]
+        seeds = "" if f["seeds"] is None else " v ".join(map(str, f["seeds"].values()))
+        rows.append({"variant": f["variant"], "against": f["base"], "seeds": unbroken(seeds),
+                     "success difference": "not run" if est is None else unbroken(_interval(est)),
+                     "verdict": OUTCOME_WORDS[f["verdict"]],
+                     "after Holm": OUTCOME_WORDS[f["adjusted_verdict"]],
+                     "codes used": _codes_text(f["variant_codes"]),
+                     "base's codes": _codes_text(f["base_codes"])})
+    return pd.DataFrame(rows).set_index("variant").rename_axis(None)
+
+
+def codes_frame(result: TableResult, digits: int = 2):
+    """One row per table row: success with its interval, codes used on the held-out
+    trajectories (mean over seeds, range where they differ), the codebook size, the latent
+    scale sigma and the standardized least energy (means over seeds; "not run" while the
+    features are missing)."""
+    import pandas as pd
+
+    out = []
+    for row in result.spec.rows:
+        line: dict[str, Any] = {"": row.label, "success": unbroken(
+            format_cell(result.cell(row.label, "avg"), digits))}
+        feat = _features(result, row.label)
+        if feat is None:
+            line["codes used"] = "not run"
+        else:
+            size = codebook_size(result, row.label)
+            std = feat.extra["standardized_estimate"]
+            line.update({"codes used": _codes_text(codes_used(result, row.label)),
+                         "codebook": "-" if size is None else str(size),
+                         "σ": f"{float(np.mean(feat.extra['latent_scale'])):.3g}",
+                         "standardized least energy": f"{std.value:.3g}"})
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
+def differences_frame(result: TableResult):
+    """What each variant row changes against its base, read from the two rows' run specs
+    (seed 0): one line per changed field, `policy.` or `tokenizer.` and the two values."""
+    import pandas as pd
+
+    runs = {row.label: row.cells["avg"].units[0].run for row in result.spec.rows}
+    lines = []
+    for variant, base in comparisons():
+        a, b = runs[variant], runs[base]
+        changes = {f"policy.{k}": v for k, v in config_differences(a.policy, b.policy).items()}
+        if type(a.tokenizer) is type(b.tokenizer):
+            changes.update({f"tokenizer.{k}": v for k, v in
+                            config_differences(a.tokenizer, b.tokenizer).items()})
+        for field, (va, vb) in changes.items():
+            lines.append({"variant": variant, "field": field, "variant's": repr(va),
+                          "paper's": repr(vb)})
+    return pd.DataFrame(lines).set_index(["variant", "field"]).rename_axis([None, None])
+
+
+def collapsed_rows(result: TableResult) -> list[str]:
+    """Rows whose trained tokenizer uses a single code on the held-out trajectories at every
+    seed: their policy received (nearly) one constant action token."""
+    return [row.label for row in result.spec.rows
+            if (codes := codes_used(result, row.label)) is not None and max(codes) <= 1]
+
+
+def summary(result: TableResult) -> str:
+    """The chapter's closing sentences, from the numbers: every comparison's difference and
+    its verdict after Holm's correction, then the rows whose codebook collapsed to one code."""
+    found = findings(result)
+    if all(f["estimate"] is None for f in found):
+        return "The official-code cells have not run yet."
+    seeds = sorted({n for f in found if f["seeds"] for n in f["seeds"].values()})
+    seeds_text = (f"{seeds[0]} training seed{'s' if seeds[0] != 1 else ''} a row" if len(seeds) == 1
+                  else f"{seeds[0]}-{seeds[-1]} training seeds a row")
+    parts = []
+    for f in found:
+        est = f["estimate"]
+        if est is None:
+            parts.append(f"'{f['variant']}' has not run yet")
+            continue
+        parts.append(f"'{f['variant']}' minus '{f['base']}' is {_interval(est, 2)}: "
+                     f"{SHORT_WORDS[f['adjusted_verdict']]}")
+    text = (f"On the same episodes, with {seeds_text} and Holm's correction over the "
+            f"{len(found)} comparisons: " + "; ".join(parts) + ".")
+    if any(f["adjusted_verdict"] == stats.TOO_FEW_SEEDS for f in found):
+        text += (" With a single training seed a row the spread between seeds is unknown, "
+                 "so no comparison that reads such a row is decided.")
+    collapsed = collapsed_rows(result)
+    if collapsed:
+        names = ", ".join(f"'{r}'" for r in collapsed)
+        whose = ("that policy receives" if len(collapsed) == 1
+                 else "those policies receive")
+        text += (f" A single code is used on the held-out trajectories at every seed by "
+                 f"{names}: {whose} one constant action token.")
+    return text
