@@ -47,6 +47,7 @@ from icil_paper.tables.book import (
     difference_sentence,
     load_table,
     show_comparison,
+    show_motion,
     show_per_source,
     show_values,
     success_figure,
@@ -84,6 +85,18 @@ show_values(results)
 
 # %% tags=["hide-input"]
 show_per_source(results, analysis_frame)
+
+# %% [markdown]
+# ## Smoothness of the motion
+#
+# Success beside the smoothness of the motion that earned it, as in Table I's chapter: the
+# log dimensionless jerk (LDLJ) and the spectral arc length (SPARC) of the end-effector's
+# path (both higher for smoother motion) and the mean squared second difference of the
+# executed actions (action jerk, lower for smoother commands); `icil_paper.metrics` gives
+# the formulas and their sources. The seed is the unit, as for success.
+
+# %% tags=["hide-input"]
+show_motion(results, "avg")
 
 # %% [markdown]
 # ## Does Eq. 4 help every quantizer?
