@@ -97,7 +97,8 @@ def build_encoder(sizes: Sequence[int], norm: str = "none", activation: str = "r
         last = i == n_layers - 1
         if norm == "lipschitz" or (norm == "lipschitz-last" and last):
             layer = LipschitzLinear(n_in, n_out, per_row=options.per_row, c_init=options.c_init,
-                                    weight_init=options.weight_init)
+                                    weight_init=options.weight_init,
+                                    c_lr_scale=options.c_lr_scale)
         elif norm == "spectral":
             layer = nn.utils.parametrizations.spectral_norm(nn.Linear(n_in, n_out))
         else:

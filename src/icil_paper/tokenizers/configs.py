@@ -82,6 +82,16 @@ class LipschitzOptions:
     so that nothing is rescaled at the start."""
     weight_init: str = "liu"
     """`liu` (randn * sqrt(2 / in_features)) or `randn` (the official code)."""
+    c_lr_scale: float = 1.0
+    """Learning rate of every bound c_l as a multiple of the trainer's (the policy's AdamW,
+    or the stand-alone tokenizer's Adam; the warm-up and cosine schedule scale it alike),
+    without weight decay; 0 keeps the bounds at their initial values. The paper gives no
+    learning rate for c: it trains every parameter with one optimiser, as Liu et al. do,
+    and the default 1 is that. Adam moves c by about its learning rate per step whatever
+    gamma is, so at 1 a bound travels at most about 0.75 in 3000 steps at 5e-4 while it
+    starts at 5-14: Eq. 4 then caps few rows by the end. A multiple of tens lets the
+    paper's gamma push the bounds down until the task loss holds them (the analysis
+    table's `c_l lr` row)."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"weight_init": ("liu", "randn")}
 

@@ -19,6 +19,17 @@ largest absolute row sum of the initial W, so that nothing is rescaled at the st
 (softplus(c) > c). The official LipVQ-VAE code instead keeps one bound per output row,
 initialised to ones, with randn weights; `per_row=True, c_init=1.0, weight_init="randn"`
 gives that variant.
+
+How fast the bounds move. Adam moves each parameter by about its learning rate per step,
+whatever the size of its gradient, so in a run a bound c can travel at most about
+lr * sum_t schedule(t) (0.75 for 3000 steps at 5e-4 with warm-up and cosine decay) while
+Liu et al.'s initial bounds are 5-14 for the encoders here. With nothing capped, the only
+gradient c gets is the Lipschitz term's, which pushes it down at that speed however small
+gamma is; once rows are capped, the task loss pushes back through them. The paper gives no
+learning rate for c (it trains every parameter with one optimiser, as Liu et al. do), so by
+default c shares the trainer's learning rate; `c_lr_scale` multiplies it for the bounds
+alone (`bound_parameter_groups`, which the policy's AdamW and the stand-alone tokenizer's
+Adam both use), so that they can travel their own size within a short budget.
 """
 
 from __future__ import annotations
@@ -38,15 +49,20 @@ class LipschitzLinear(nn.Module):
         per_row: one bound per output row (the official code) instead of one per layer.
         c_init: initial value of c; None uses Liu et al.'s max absolute row sum of W.
         weight_init: "liu" (randn * sqrt(2 / in_features)) or "randn" (the official code).
+        c_lr_scale: the learning rate of c as a multiple of the optimiser's (read by
+            `bound_parameter_groups`; 0 keeps the bounds fixed).
     """
 
     def __init__(self, in_features: int, out_features: int, bias: bool = True,
                  per_row: bool = False, c_init: float | None = None,
-                 weight_init: str = "liu"):
+                 weight_init: str = "liu", c_lr_scale: float = 1.0):
         super().__init__()
+        if not (math.isfinite(c_lr_scale) and c_lr_scale >= 0):
+            raise ValueError(f"c_lr_scale must be a finite number >= 0, got {c_lr_scale}")
         self.in_features = in_features
         self.out_features = out_features
         self.per_row = per_row
+        self.c_lr_scale = float(c_lr_scale)
         if weight_init == "liu":
             weight = torch.randn(out_features, in_features) * math.sqrt(2.0 / in_features)
         elif weight_init == "randn":
@@ -73,17 +89,51 @@ class LipschitzLinear(nn.Module):
         scale = torch.clamp(F.softplus(self.c) / row_sums, max=1.0)  # (out,)
         return self.weight * scale.unsqueeze(1)
 
+    def capped_rows(self) -> Tensor:
+        """(out,) bools: the rows whose absolute sum exceeds the bound, which Eq. 4 rescales."""
+        return self.weight.abs().sum(dim=1) > F.softplus(self.c)
+
     def forward(self, x: Tensor) -> Tensor:
         return F.linear(x, self.normalized_weight(), self.bias)
 
     def extra_repr(self) -> str:
         return (f"in_features={self.in_features}, out_features={self.out_features}, "
-                f"bias={self.bias is not None}, per_row={self.per_row}")
+                f"bias={self.bias is not None}, per_row={self.per_row}, "
+                f"c_lr_scale={self.c_lr_scale:g}")
 
 
 def lipschitz_layers(module: nn.Module) -> list[LipschitzLinear]:
     """Every LipschitzLinear inside `module`, in registration order."""
     return [m for m in module.modules() if isinstance(m, LipschitzLinear)]
+
+
+def bound_parameter_groups(module: nn.Module, lr: float) -> list[dict]:
+    """Optimiser parameter groups for the trainable bounds c of `module`'s LipschitzLinear
+    layers: one group per learning-rate multiple, `{"params": [c, ...], "lr": lr *
+    c_lr_scale, "weight_decay": 0.0}` (sorted by multiple; [] without such layers).
+
+    The bounds are never decayed: decay would pull softplus(c) towards softplus(0) = 0.69,
+    a second pressure on the bound that neither the paper nor Liu et al. describe (their
+    only pressure is L_Lipschitz). A trainer puts every other parameter in its own groups
+    and these beside them; a learning-rate schedule then scales each group alike.
+    """
+    by_scale: dict[float, list[nn.Parameter]] = {}
+    for layer in lipschitz_layers(module):
+        if layer.c.requires_grad:
+            by_scale.setdefault(layer.c_lr_scale, []).append(layer.c)
+    return [{"params": params, "lr": lr * scale, "weight_decay": 0.0}
+            for scale, params in sorted(by_scale.items())]
+
+
+def capped_fraction(module: nn.Module) -> float | None:
+    """The share of all LipschitzLinear rows of `module` that Eq. 4 caps (None without
+    such layers): 0 when no bound binds, 1 when every row is rescaled to its bound."""
+    layers = lipschitz_layers(module)
+    if not layers:
+        return None
+    with torch.no_grad():
+        capped = sum(int(layer.capped_rows().sum()) for layer in layers)
+    return capped / sum(layer.out_features for layer in layers)
 
 
 def lipschitz_loss(module: nn.Module) -> Tensor:

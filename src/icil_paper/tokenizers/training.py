@@ -30,7 +30,7 @@ from icil_paper.metrics import codebook_usage, smoothness_summary
 from icil_paper.seeding import cpu_threads
 from icil_paper.tokenizers.base import ActionTokenizer, as_trajectory_list
 from icil_paper.tokenizers.configs import TokenizerConfig, TokenizerStudyConfig
-from icil_paper.tokenizers.lipschitz_linear import lipschitz_bounds
+from icil_paper.tokenizers.lipschitz_linear import bound_parameter_groups, lipschitz_bounds
 
 
 def stand_alone(config: TokenizerConfig) -> TokenizerConfig:
@@ -61,7 +61,8 @@ def sample_windows(trajectories: Sequence[np.ndarray], batch_size: int, window: 
 def train_tokenizer(tokenizer: ActionTokenizer, trajectories, config: TokenizerStudyConfig,
                     seed: int = 0, progress: bool = True, steps: int | None = None,
                     log_every: int | None = None, threads: int | None = 1) -> dict:
-    """Train `tokenizer` on its own for `config.steps` Adam steps (lr `config.lr`).
+    """Train `tokenizer` on its own for `config.steps` Adam steps (lr `config.lr`; the
+    bounds of Lipschitz layers at their `c_lr_scale` times it).
 
     Fits it first if it has something to fit and is not fitted. Returns
     `{"steps", "wall_time_s", "history"}`; the history has, every `log_every` steps, the
@@ -83,8 +84,10 @@ def _train(tokenizer, trajectories, config, seed, progress, steps, log_every) ->
     steps = config.steps if steps is None else steps
     log_every = log_every or max(1, steps // 50)
     rng = np.random.default_rng(seed)
-    params = [p for p in tokenizer.parameters() if p.requires_grad]
-    optimizer = torch.optim.Adam(params, lr=config.lr)
+    bounds = bound_parameter_groups(tokenizer, config.lr)  # Eq. 4's c at its own lr
+    own_group = {id(p) for group in bounds for p in group["params"]}
+    params = [p for p in tokenizer.parameters() if p.requires_grad and id(p) not in own_group]
+    optimizer = torch.optim.Adam([{"params": params}, *bounds], lr=config.lr)
     history: dict[str, list] = {"step": [], "loss": [], "lipschitz_bounds": []}
     tokenizer.train()
     start = time.perf_counter()

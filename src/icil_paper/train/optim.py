@@ -1,5 +1,5 @@
-"""Optimisation: AdamW with decoupled decay on matrices, warm-up + cosine, EMA (torch's CPU
-threads: `icil_paper.seeding.cpu_threads`)."""
+"""Optimisation: AdamW with decoupled decay on matrices and the Lipschitz bounds' own learning
+rate, warm-up + cosine, EMA (torch's CPU threads: `icil_paper.seeding.cpu_threads`)."""
 
 from __future__ import annotations
 
@@ -24,13 +24,22 @@ def cosine_schedule(warmup: int, total: int):
 def make_optimizer(model: nn.Module, lr: float, weight_decay: float,
                    betas: tuple[float, float]) -> torch.optim.AdamW:
     """AdamW over trainable parameters, with weight decay on matrices (ndim >= 2) only, as
-    nanoGPT, and none on what the model's `no_weight_decay()` names (e.g. a codebook)."""
+    nanoGPT, and none on what the model's `no_weight_decay()` names (e.g. a codebook).
+
+    The bounds c of Lipschitz layers (Eq. 4) get groups of their own, at `lr` times their
+    `c_lr_scale` and without decay (`bound_parameter_groups`); at the default scale 1
+    their updates are those of the no-decay group.
+    """
+    from icil_paper.tokenizers.lipschitz_linear import bound_parameter_groups
+
+    bounds = bound_parameter_groups(model, lr)
+    own_group = {id(p) for group in bounds for p in group["params"]}
     exempt = {id(p) for p in getattr(model, "no_weight_decay", list)()}
-    params = [p for p in model.parameters() if p.requires_grad]
+    params = [p for p in model.parameters() if p.requires_grad and id(p) not in own_group]
     decay = [p for p in params if p.ndim >= 2 and id(p) not in exempt]
     no_decay = [p for p in params if p.ndim < 2 or id(p) in exempt]
     return torch.optim.AdamW([{"params": decay, "weight_decay": weight_decay},
-                              {"params": no_decay, "weight_decay": 0.0}],
+                              {"params": no_decay, "weight_decay": 0.0}, *bounds],
                              lr=lr, betas=tuple(betas))
 
 
