@@ -19,9 +19,11 @@
 # **Three reasons to doubt it at our scale**, each checked below:
 #
 # 1. *The bound may not bind.* Liu et al.'s initialisation sets each $c_\ell$ to its
-#    layer's largest absolute row sum, so nothing is rescaled at the start, and the loss
-#    weight $\gamma = 10^{-6}$ on the product of bounds barely moves them. If almost no row
-#    is capped after training, Eq. 4 is not what makes LipVQ-VAE differ from VQ-VAE.
+#    layer's largest absolute row sum, so nothing is rescaled at the start. Adam then moves
+#    each $c_\ell$ by at most about its learning rate per step, however small or large the
+#    loss weight $\gamma$ on the product of bounds is, and the paper gives no learning rate
+#    of its own for the bounds. If almost no row is capped after training, Eq. 4 is not
+#    what makes LipVQ-VAE differ from VQ-VAE.
 # 2. *Least energy measures scale as well as shape.* It grows with the square of the latent
 #    scale; a bounded encoder has smaller latents, so a lower raw score can be scale. The
 #    standardized least energy (latents divided by their standard deviation $\sigma$ over
@@ -30,22 +32,31 @@
 #    zero least energy whatever the encoder does.
 #
 # **The cells.** ICRT on the kitchen suite (Table I's setting) with VQ-VAE and LipVQ-VAE as
-# Table I trains them, and variants: a Lipschitz loss weight $\gamma = 1$ and initial
-# bounds $c_\ell = 1$ (both make Eq. 4 bind), dead-code restarts (every 100 training steps
-# unused codes jump to random encoder outputs: a standard remedy for collapse), and ICRT
-# trained on whole episodes from step 0, the window it acts with (ICRT trains on 32-step
-# query windows that start anywhere, but acts from step 0 of an episode). Every variant
-# trains the preset's number of ICRT seeds (stated below for each source). For each: success
-# over the kitchen tasks, raw and standardized least energy of its own tokenizer's latent
-# features on held-out trajectories (as in Table III), $\sigma$, the codes used, the share
-# of encoder rows Eq. 4 caps, the product of the bounds and an empirical Lipschitz constant
-# (largest ratio of output to input change over nearby held-out actions, infinity norm).
+# Table I trains them, and variants of them: a Lipschitz loss weight $\gamma = 1$; initial
+# bounds $c_\ell = 1$; the bounds' learning rate raised to a multiple of the trainer's (the
+# row names the multiple; `LipschitzOptions.c_lr_scale`) at the paper's $\gamma$, so that
+# the bounds can travel their own size within our training; dead-code restarts (every 100
+# training steps unused codes jump to random encoder outputs: a standard remedy for
+# collapse); and ICRT trained on its own 32-step query windows that start anywhere in an
+# episode (Table I's rows train on whole episodes from step 0, the window ICRT acts with).
+# Every variant trains the preset's number of ICRT seeds (stated below for each source).
+# For each: success over the kitchen tasks, raw and standardized least energy of its own
+# tokenizer's latent features on held-out trajectories (as in Table III), $\sigma$, the
+# codes used, the share of encoder rows Eq. 4 caps, the product of the bounds and an
+# empirical Lipschitz constant (largest ratio of output to input change over nearby
+# held-out actions, infinity norm).
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.analysis import analysis_frame, conclusion, findings
+from icil_paper.tables.analysis import (
+    analysis_frame,
+    binding_sentence,
+    conclusion,
+    findings,
+    travel_sentence,
+)
 from icil_paper.tables.book import design_sentence, load_table, show_per_source, source_label
 
 preset = get_preset()
@@ -56,12 +67,25 @@ show_per_source(results, analysis_frame,
                 describe=lambda result: design_sentence(get_preset(result.preset)))
 
 # %% [markdown]
+# ## Does Eq. 4 bind?
+#
+# The share of each Lipschitz row's encoder rows that the trained bounds cap, split at the
+# threshold of `icil_paper.tables.analysis.BINDS_AT`, and how far the bounds could move in
+# that row's training at all.
+
+# %% tags=["hide-input"]
+for source, result in results.items():
+    display(Markdown(f"**{source_label(source, result.preset)}.** {binding_sentence(result)} "
+                     f"{travel_sentence(result)}"))
+
+# %% [markdown]
 # ## The comparisons
 #
 # Each line is one comparison on the same episodes (success) or the same held-out
-# trajectories (least energy), with its paired 95% interval and the verdict on the
-# direction the smoothness explanation predicts (LipVQ-VAE and the binding variants
-# smoother and more successful).
+# trajectories (least energy), with its 95% interval and the verdict on the direction
+# named: "smoother" for a least-energy difference (expected below 0), "more successful"
+# for a success difference (expected above 0). Each variant is compared with its base
+# (VQ-VAE for the VQ-VAE variants, the paper's LipVQ-VAE for the others) in both.
 
 # %% tags=["hide-input"]
 for source, result in results.items():

@@ -277,36 +277,6 @@ def test_fig5_rows_stand_beside_the_paper_by_position(preset_name):
         assert [r.label for r in f5.rows] == ["2^8", "2^9", "2^10", "2^11"]
 
 
-def test_the_analysis_conclusion_names_the_variants_whose_success_moved(monkeypatch):
-    """The analysis chapter's closing sentence lists exactly the variants whose success
-    interval against their base excludes 0, largest effect first."""
-    from icil_paper import stats
-    from icil_paper.tables import analysis
-
-    def finding(quantity, value, low, high, direction=+1):
-        est = stats.Estimate(value, low, high, 30, "test")
-        variant = quantity.split("'")[1] if " success minus " in quantity[1:] else None
-        return {"quantity": quantity, "direction": direction, "estimate": est,
-                "variant": variant, "verdict": stats.verdict(est, direction=direction)}
-
-    found = [finding("LipVQ-VAE's standardized least energy minus VQ-VAE's", -5, -20, 10, -1),
-             finding("LipVQ-VAE's success minus VQ-VAE's", 0.01, -0.05, 0.07),
-             finding("'a' success minus 'icrt+lipvq (paper)'", -0.10, -0.15, -0.05),
-             finding("'b' success minus 'icrt+lipvq (paper)'", 0.30, 0.20, 0.40),
-             finding("'c' success minus 'icrt+lipvq (paper)'", 0.05, -0.02, 0.12),
-             finding("'a' standardized least energy minus 'icrt+lipvq (paper)'", -9, -12, -6, -1)]
-    monkeypatch.setattr(analysis, "findings", lambda result: found)
-    monkeypatch.setattr(analysis, "binding", lambda result: {"capped_fraction": None})
-    text = analysis.conclusion(None)
-    assert "cannot decide" in text
-    effects = text.split("excludes 0", 1)[1]
-    assert effects.index("'b'") < effects.index("'a'")
-    assert "+0.30 [+0.20, +0.40]" in effects and "-0.10 [-0.15, -0.05]" in effects
-    assert "'c'" not in effects and "standardized" not in effects
-    found[2:4] = []
-    assert "excludes 0" not in analysis.conclusion(None)
-
-
 def test_the_ledger_keeps_each_interval_on_one_line():
     """The book's ledger writes `ours [low, high]` with non-breaking spaces (a narrow column
     must not break an interval over lines)."""

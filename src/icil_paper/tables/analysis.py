@@ -5,16 +5,22 @@ constant, so neighbouring actions get neighbouring latents, so latent trajectori
 smoother (a lower least energy), and smoother tokens make in-context imitation succeed more.
 Each link can be checked on the `analysis` table's cells:
 
-1. Does Eq. 4 bind? The share of rows whose absolute sum the trained bound caps, the
-   product of the layer bounds and the encoder's empirical Lipschitz constant.
+1. Does Eq. 4 bind? The share of rows whose absolute sum the trained bound caps (a row
+   "binds" at `BINDS_AT` or more: `binding_sentence`), the product of the layer bounds,
+   the encoder's empirical Lipschitz constant, and how far training could move the bounds
+   at all (`travel_sentence`).
 2. Is LipVQ-VAE smoother than VQ-VAE once the latent scale is removed? The raw least energy
    grows with the square of the latent scale; the standardized one does not.
-3. Does LipVQ-VAE succeed more than VQ-VAE, and do the variants in which Eq. 4 binds
-   (gamma = 1, initial bounds of 1) or in which codebook collapse is remedied (dead-code
-   restart) change smoothness and success the way the explanation predicts?
+3. Does LipVQ-VAE succeed more than VQ-VAE, and does each variant (a large gamma, initial
+   bounds of 1, a larger learning rate of the bounds, dead-code restarts, ICRT's 32-step
+   training windows) move smoothness and success together, as the explanation predicts
+   (`variant_effects`, `effect_sentence`, `explanation_check`)? Every variant is compared
+   with its base in both. The window variant too: its tokenizer is trained jointly with
+   the policy on other windows, so its encoder can differ, and its features are measured
+   on the same held-out trajectories as every row's.
 
 `findings` turns each comparison into an estimate with its interval and a verdict
-(`icil_paper.stats`); `conclusion` combines them into the chapter's closing sentence. No
+(`icil_paper.stats`); `conclusion` combines them into the chapter's closing paragraph. No
 sentence about results is written by hand.
 """
 
@@ -100,30 +106,53 @@ def _smooth_diff(result: TableResult, a: str, b: str, standardized: bool = True)
     return stats.paired_score_difference(xa, xb)
 
 
+SMOOTHER = -1
+"""The direction "smoother" of a least-energy difference (lower is smoother)."""
+MORE_SUCCESSFUL = +1
+"""The direction "more successful" of a success difference."""
+
+BINDS_AT = 0.5
+"""Eq. 4 *binds* in a row when at least this share of its encoder's rows (all Lipschitz
+layers together, the mean over training seeds) is capped after training: a majority of the
+encoder's units then have the scale the bound gives them, not the one their weights would.
+One capped row is not enough: with Liu et al.'s initialisation the bound starts at the
+largest row sum, so a bound that has barely moved caps that row and the next few, which
+changes little of what the encoder computes. Below 50% the row says "does not bind"."""
+
+
+def _base(row: str) -> str:
+    """The row a variant is compared with: VQ-VAE's for the VQ-VAE variants, the paper's
+    LipVQ-VAE for the others."""
+    return VQ if row.startswith("vq") else PAPER
+
+
 def findings(result: TableResult) -> list[dict[str, Any]]:
     """The comparisons of the module docstring: quantity, claimed direction, estimate,
-    verdict, and `variant`: the variant row a success comparison tests against its base
-    (None for the other comparisons)."""
+    verdict, `kind` ("success", "smoothness" on the standardized score, or "raw smoothness"),
+    and `variant` and `base`: the rows compared (the variant is None for LipVQ-VAE against
+    VQ-VAE). Every variant is compared with its base in success and in standardized least
+    energy: the smoothness explanation predicts both to move together."""
     rows = [r.label for r in result.spec.rows]
     comparisons = [
-        ("LipVQ-VAE's standardized least energy minus VQ-VAE's", -1,
-         _smooth_diff(result, PAPER, VQ), None),
-        ("LipVQ-VAE's raw least energy minus VQ-VAE's", -1,
-         _smooth_diff(result, PAPER, VQ, standardized=False), None),
-        ("LipVQ-VAE's success minus VQ-VAE's", +1, _success_diff(result, PAPER, VQ), None),
+        ("LipVQ-VAE's standardized least energy minus VQ-VAE's", SMOOTHER,
+         _smooth_diff(result, PAPER, VQ), None, PAPER, "smoothness"),
+        ("LipVQ-VAE's raw least energy minus VQ-VAE's", SMOOTHER,
+         _smooth_diff(result, PAPER, VQ, standardized=False), None, PAPER, "raw smoothness"),
+        ("LipVQ-VAE's success minus VQ-VAE's", MORE_SUCCESSFUL,
+         _success_diff(result, PAPER, VQ), None, PAPER, "success"),
     ]
     for row in rows:
         if row in (PAPER, VQ):
             continue
-        base = VQ if row.startswith("vq") else PAPER
-        comparisons.append((f"'{row}' success minus '{base}'", +1,
-                            _success_diff(result, row, base), row))
-        if "restart" not in row and "windows" not in row:
-            comparisons.append((f"'{row}' standardized least energy minus '{base}'", -1,
-                                _smooth_diff(result, row, base), None))
+        base = _base(row)
+        comparisons.append((f"'{row}' success minus '{base}'", MORE_SUCCESSFUL,
+                            _success_diff(result, row, base), row, base, "success"))
+        comparisons.append((f"'{row}' standardized least energy minus '{base}'", SMOOTHER,
+                            _smooth_diff(result, row, base), row, base, "smoothness"))
     out = []
-    for quantity, direction, est, variant in comparisons:
+    for quantity, direction, est, variant, base, kind in comparisons:
         out.append({"quantity": quantity, "direction": direction, "variant": variant,
+                    "row": variant or PAPER, "base": base if variant else VQ, "kind": kind,
                     "estimate": est, "verdict": "not run" if est is None
                     else stats.verdict(est, direction=direction)})
     return out
@@ -132,27 +161,198 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
 def binding(result: TableResult) -> dict[str, float | None]:
     """Eq. 4 in the paper's LipVQ-VAE after training: share of rows capped, product of
     bounds, empirical Lipschitz constant (means over seeds; None while not run)."""
-    feat = _features(result, PAPER)
+    return _binding_facts(result, PAPER)
+
+
+def _binding_facts(result: TableResult, row: str) -> dict[str, float | None]:
+    feat = _features(result, row)
     if feat is None:
         return {"capped_fraction": None, "bound_product": None, "empirical_lipschitz": None}
     return {k: _mean_metric(feat, k)
             for k in ("capped_fraction", "bound_product", "empirical_lipschitz")}
 
 
+def _lipschitz_row(row) -> bool:
+    """Whether a row's encoder has Lipschitz layers (read from its RunSpec's tokenizer)."""
+    cell = row.cells.get("features")
+    tok = cell.units[0].run.tokenizer if cell is not None and cell.units else None
+    return (tok is not None and hasattr(tok, "lipschitz")
+            and getattr(tok, "norm", "lipschitz") in ("lipschitz", "lipschitz-last"))
+
+
+def capped_shares(result: TableResult) -> dict[str, float | None]:
+    """{row: share of its encoder's rows that Eq. 4 caps after training, mean over seeds}
+    for every row whose encoder has Lipschitz layers, in table order; None for a row whose
+    features have not run yet."""
+    return {row.label: _binding_facts(result, row.label)["capped_fraction"]
+            for row in result.spec.rows if _lipschitz_row(row)}
+
+
+def binding_rows(result: TableResult, threshold: float = BINDS_AT) -> list[str]:
+    """The rows in which Eq. 4 binds: a capped share of at least `threshold` (`BINDS_AT`)."""
+    return [row for row, share in capped_shares(result).items()
+            if share is not None and share >= threshold]
+
+
+def binding_sentence(result: TableResult, threshold: float = BINDS_AT) -> str:
+    """Which rows Eq. 4 binds in, from the records: each Lipschitz row with its capped share
+    and product of bounds, split at `threshold` (the rule of `BINDS_AT`)."""
+    shares = capped_shares(result)
+    measured = {row: share for row, share in shares.items() if share is not None}
+    if not measured:
+        return "Whether Eq. 4 binds is not measured yet (no Lipschitz row has run)."
+
+    def listed(rows):
+        parts = []
+        for row in rows:
+            product = _binding_facts(result, row)["bound_product"]
+            parts.append(f"'{row}' ({100 * measured[row]:.0f}% of rows capped, product of "
+                         f"bounds {_short(product)})")
+        return "; ".join(parts)
+
+    binds = [row for row in measured if measured[row] >= threshold]
+    loose = [row for row in measured if measured[row] < threshold]
+    rule = (f"Eq. 4 binds where at least {100 * threshold:.0f}% of the encoder's rows are "
+            "capped after training (mean over seeds)")
+    sentences = [f"{rule}: it binds in {listed(binds)}." if binds
+                 else f"{rule}: it binds in none of the rows."]
+    if loose:
+        sentences.append(f"It does not bind in {listed(loose)}.")
+    waiting = [row for row, share in shares.items() if share is None]
+    if waiting:
+        sentences.append(f"Not run yet: {', '.join(repr(r) for r in waiting)}.")
+    return " ".join(sentences)
+
+
+def bound_travel(result: TableResult) -> dict[str, float]:
+    """{Lipschitz row: the most a bound c_l can move in its training}, from its RunSpec:
+    Adam moves a parameter by at most about its learning rate per step, so the bound
+    travels at most lr * c_lr_scale * sum_t schedule(t) (warm-up, then cosine)."""
+    from icil_paper.train.optim import cosine_schedule
+
+    out = {}
+    for row in result.spec.rows:
+        if not _lipschitz_row(row):
+            continue
+        run = row.cells["features"].units[0].run
+        schedule = cosine_schedule(run.train.warmup_steps, run.train.steps)
+        out[row.label] = (run.train.lr * run.tokenizer.lipschitz.c_lr_scale
+                          * sum(schedule(t) for t in range(run.train.steps)))
+    return out
+
+
+def travel_sentence(result: TableResult) -> str:
+    """How far the bounds can move in training against how large they are: the largest
+    possible travel of c_l (`bound_travel`, rows of equal travel together) and each
+    Lipschitz row's trained bounds, layer by layer (means over seeds)."""
+    travel = bound_travel(result)
+    if not travel:
+        return ""
+    by_travel: dict[str, list[str]] = {}
+    for row, value in travel.items():
+        by_travel.setdefault(_short(value), []).append(f"'{row}'")
+    moves = "; ".join(f"{value} in {', '.join(rows)}" for value, rows in by_travel.items())
+    trained = []
+    for row in travel:
+        feat = _features(result, row)
+        bounds = [] if feat is None else [m.get("layer_bounds") for m in feat.extra["metrics"]]
+        if bounds and all(b is not None for b in bounds):
+            mean = np.mean(np.array(bounds, dtype=np.float64), axis=0)
+            trained.append(f"'{row}' {', '.join(_short(b) for b in mean)}")
+    text = ("The most a bound c_l can move in training (its learning rate times the sum of "
+            f"the schedule's factors): {moves}.")
+    if trained:
+        text += (" The trained bounds softplus(c_l), layer by layer (mean over seeds): "
+                 f"{'; '.join(trained)}.")
+    return text
+
+
+_SMOOTH_WORDS = {"holds": "smoother", "does not hold": "less smooth",
+                 "inconclusive": "not measurably different in smoothness",
+                 stats.TOO_FEW_SEEDS: "undecided in smoothness (too few seeds)",
+                 "not run": "not yet measured in smoothness"}
+_SUCCESS_WORDS = {"holds": "more successful", "does not hold": "less successful",
+                  "inconclusive": "not measurably different in success",
+                  stats.TOO_FEW_SEEDS: "undecided in success (too few seeds)",
+                  "not run": "not yet measured in success"}
+
+
+def _interval(est, digits: int) -> str:
+    if est is None:
+        return "not run"
+    return (f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
+            if digits else f"{_short(est.value)} [{_short(est.low)}, {_short(est.high)}]")
+
+
+def variant_effects(result: TableResult) -> list[dict[str, Any]]:
+    """One entry per variant row: `variant`, `base`, its `smoothness` and `success`
+    findings against the base (`findings`), and `binds` (True, False, or None when it has
+    no Lipschitz layers or has not run)."""
+    found = findings(result)
+    shares = capped_shares(result)
+    out = []
+    for row in [r.label for r in result.spec.rows if r.label not in (PAPER, VQ)]:
+        mine = {f["kind"]: f for f in found if f["variant"] == row}
+        share = shares.get(row)
+        out.append({"variant": row, "base": _base(row), "smoothness": mine["smoothness"],
+                    "success": mine["success"],
+                    "binds": None if share is None else share >= BINDS_AT})
+    return out
+
+
+def effect_sentence(effect: dict[str, Any]) -> str:
+    """One variant against its base, e.g. "'c_l init 1' against 'icrt+lipvq (paper)':
+    smoother (standardized least energy -159 [-288, -3]) and not measurably different in
+    success (success -0.02 [-0.10, +0.07])"; "yet" joins the two where they move in
+    opposite directions (smoother yet less successful), against the explanation."""
+    smooth, success = effect["smoothness"], effect["success"]
+    s_word, x_word = _SMOOTH_WORDS[smooth["verdict"]], _SUCCESS_WORDS[success["verdict"]]
+    # "yet" where the two move against the explanation's prediction
+    against = {smooth["verdict"], success["verdict"]} == {"holds", "does not hold"}
+    return (f"'{effect['variant']}' against '{effect['base']}': {s_word} (standardized least "
+            f"energy {_interval(smooth['estimate'], 0)}) {'yet' if against else 'and'} "
+            f"{x_word} (success {_interval(success['estimate'], 2)})")
+
+
+def explanation_check(effects: list[dict[str, Any]]) -> str:
+    """What the variants say about the explanation's prediction that a smoother encoder
+    succeeds more: the variants measured smoother or less smooth than their base, split by
+    whether success moved with smoothness, against it or not measurably; and the variants
+    whose success moved with no measurable change of smoothness ('' when none is decided)."""
+    decided = ("holds", "does not hold")
+    groups: dict[str, list[str]] = {"with": [], "against": [], "unmoved": [], "alone": []}
+    for e in effects:
+        smooth, success = e["smoothness"]["verdict"], e["success"]["verdict"]
+        name = f"'{e['variant']}'"
+        if smooth in decided:
+            if success in decided:
+                groups["with" if smooth == success else "against"].append(name)
+            elif success == "inconclusive":
+                groups["unmoved"].append(name)
+        elif smooth == "inconclusive" and success in decided:
+            groups["alone"].append(name)
+    words = {"with": "success moved with smoothness (the explanation's prediction) in",
+             "against": "success moved against smoothness in",
+             "unmoved": "smoothness moved but success did not measurably in",
+             "alone": "success moved with no measurable change of smoothness in"}
+    parts = [f"{words[k]} {', '.join(v)}" for k, v in groups.items() if v]
+    if not parts:
+        return ""
+    text = "; ".join(parts)
+    return f"Across the variants, {text}."
+
+
 def conclusion(result: TableResult) -> str:
-    """The closing sentence, from the numbers: the explanation survives when LipVQ-VAE is
-    both smoother on the standardized score and more successful than VQ-VAE; it fails when
-    either is measured the other way; otherwise the data cannot tell."""
+    """The closing paragraph, from the numbers: which rows Eq. 4 binds in; the verdict on
+    the explanation (it survives when LipVQ-VAE is both smoother on the standardized score
+    and more successful than VQ-VAE, fails when either is measured the other way, else the
+    data cannot tell); each variant's smoothness and success against its base, with
+    intervals; and whether success moved with smoothness across the variants."""
     found = {f["quantity"]: f for f in findings(result)}
     smoother = found["LipVQ-VAE's standardized least energy minus VQ-VAE's"]["verdict"]
     better = found["LipVQ-VAE's success minus VQ-VAE's"]["verdict"]
-    b = binding(result)
     if smoother == "not run" or better == "not run":
         return "The analysis cells have not run yet."
-    bind = ("" if b["capped_fraction"] is None else
-            f"In the paper's LipVQ-VAE, Eq. 4 caps {100 * b['capped_fraction']:.0f}% of the "
-            f"encoder's rows after training (product of bounds {b['bound_product']:.3g}, "
-            f"empirical Lipschitz constant {b['empirical_lipschitz']:.3g}). ")
     if smoother == "holds" and better == "holds":
         verdict = ("the smoothness explanation survives: once the latent scale is removed "
                    "LipVQ-VAE is smoother than VQ-VAE, and it succeeds more")
@@ -165,19 +365,10 @@ def conclusion(result: TableResult) -> str:
         verdict = ("the data cannot decide the smoothness explanation: LipVQ-VAE's standardized "
                    f"smoothness is {smoother} and its success advantage {better} against "
                    "VQ-VAE at this number of seeds and episodes")
-    return f"{bind}In this run, {verdict}.{_variant_effects(found.values())}"
-
-
-def _variant_effects(found) -> str:
-    """A sentence naming every variant whose success interval against its base excludes 0,
-    largest effect first ('' when none does)."""
-    moved = sorted((f for f in found if f["variant"] is not None
-                    and f["verdict"] in ("holds", "does not hold")),
-                   key=lambda f: -abs(f["estimate"].value))
-    if not moved:
-        return ""
-    parts = [f"{f['quantity'].replace(' success minus ', ' against ')} "
-             f"{f['estimate'].value:+.2f} [{f['estimate'].low:+.2f}, {f['estimate'].high:+.2f}]"
-             for f in moved]
-    return (" The variants whose success interval excludes 0 (success difference, 95% "
-            f"interval): {'; '.join(parts)}.")
+    effects = variant_effects(result)
+    parts = [binding_sentence(result), f"In this run, {verdict}."]
+    if effects:
+        parts.append("Each variant against its base (95% intervals): "
+                     + "; ".join(effect_sentence(e) for e in effects) + ".")
+        parts.append(explanation_check(effects))
+    return " ".join(p for p in parts if p)
