@@ -89,10 +89,6 @@ class LipschitzLinear(nn.Module):
         scale = torch.clamp(F.softplus(self.c) / row_sums, max=1.0)  # (out,)
         return self.weight * scale.unsqueeze(1)
 
-    def capped_rows(self) -> Tensor:
-        """(out,) bools: the rows whose absolute sum exceeds the bound, which Eq. 4 rescales."""
-        return self.weight.abs().sum(dim=1) > F.softplus(self.c)
-
     def forward(self, x: Tensor) -> Tensor:
         return F.linear(x, self.normalized_weight(), self.bias)
 
@@ -123,17 +119,6 @@ def bound_parameter_groups(module: nn.Module, lr: float) -> list[dict]:
             by_scale.setdefault(layer.c_lr_scale, []).append(layer.c)
     return [{"params": params, "lr": lr * scale, "weight_decay": 0.0}
             for scale, params in sorted(by_scale.items())]
-
-
-def capped_fraction(module: nn.Module) -> float | None:
-    """The share of all LipschitzLinear rows of `module` that Eq. 4 caps (None without
-    such layers): 0 when no bound binds, 1 when every row is rescaled to its bound."""
-    layers = lipschitz_layers(module)
-    if not layers:
-        return None
-    with torch.no_grad():
-        capped = sum(int(layer.capped_rows().sum()) for layer in layers)
-    return capped / sum(layer.out_features for layer in layers)
 
 
 def lipschitz_loss(module: nn.Module) -> Tensor:
