@@ -129,17 +129,17 @@ def _base(row: str) -> str:
 def findings(result: TableResult) -> list[dict[str, Any]]:
     """The comparisons of the module docstring: quantity, claimed direction, estimate,
     verdict, `kind` ("success", "smoothness" on the standardized score, or "raw smoothness"),
-    and `variant` and `base`: the rows compared (the variant is None for LipVQ-VAE against
-    VQ-VAE). Every variant is compared with its base in success and in standardized least
+    `row` and `base`: the rows compared, and `variant`: the row, or None for LipVQ-VAE
+    against VQ-VAE. Every variant is compared with its base in success and in standardized least
     energy: the smoothness explanation predicts both to move together."""
     rows = [r.label for r in result.spec.rows]
     comparisons = [
         ("LipVQ-VAE's standardized least energy minus VQ-VAE's", SMOOTHER,
-         _smooth_diff(result, PAPER, VQ), None, PAPER, "smoothness"),
+         _smooth_diff(result, PAPER, VQ), PAPER, VQ, "smoothness"),
         ("LipVQ-VAE's raw least energy minus VQ-VAE's", SMOOTHER,
-         _smooth_diff(result, PAPER, VQ, standardized=False), None, PAPER, "raw smoothness"),
+         _smooth_diff(result, PAPER, VQ, standardized=False), PAPER, VQ, "raw smoothness"),
         ("LipVQ-VAE's success minus VQ-VAE's", MORE_SUCCESSFUL,
-         _success_diff(result, PAPER, VQ), None, PAPER, "success"),
+         _success_diff(result, PAPER, VQ), PAPER, VQ, "success"),
     ]
     for row in rows:
         if row in (PAPER, VQ):
@@ -149,19 +149,10 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
                             _success_diff(result, row, base), row, base, "success"))
         comparisons.append((f"'{row}' standardized least energy minus '{base}'", SMOOTHER,
                             _smooth_diff(result, row, base), row, base, "smoothness"))
-    out = []
-    for quantity, direction, est, variant, base, kind in comparisons:
-        out.append({"quantity": quantity, "direction": direction, "variant": variant,
-                    "row": variant or PAPER, "base": base if variant else VQ, "kind": kind,
-                    "estimate": est, "verdict": "not run" if est is None
-                    else stats.verdict(est, direction=direction)})
-    return out
-
-
-def binding(result: TableResult) -> dict[str, float | None]:
-    """Eq. 4 in the paper's LipVQ-VAE after training: share of rows capped, product of
-    bounds, empirical Lipschitz constant (means over seeds; None while not run)."""
-    return _binding_facts(result, PAPER)
+    return [{"quantity": quantity, "direction": direction, "kind": kind, "row": row,
+             "base": base, "variant": None if row == PAPER else row, "estimate": est,
+             "verdict": "not run" if est is None else stats.verdict(est, direction=direction)}
+            for quantity, direction, est, row, base, kind in comparisons]
 
 
 def _binding_facts(result: TableResult, row: str) -> dict[str, float | None]:
