@@ -347,8 +347,8 @@ ANALYSIS_VARIANTS = (
 its config (`lipschitz` a nested section); `_policy` changes ICRT's config. The `c_l lr`
 row keeps the paper's gamma and raises the bounds' learning rate (`c_lr_scale`, a multiple
 of the trainer's) so far that the bounds can travel their own size (5-14 at Liu et al.'s
-initialisation) within the reference preset's training: the loss, not the learning rate,
-then decides where they end, and chapter 11 measures whether Eq. 4 binds."""
+initialisation) within the reference preset's training, so that the loss rather than the
+learning rate can decide where they end; chapter 11 measures whether Eq. 4 then binds."""
 
 
 def _variant(preset: Preset, tokenizer: str, changes: dict) -> tuple:
