@@ -211,7 +211,7 @@ class DoorScene(ArticulatedScene):
     builder = staticmethod(fx.cabinet_with_door)
     name = "cabinet"
     layouts = {"generated": Box2(x=(0.12, 0.17), y=(0.02, 0.10), yaw=(-0.2, 0.2)),
-               "human": Box2(x=(0.16, 0.22), y=(0.08, 0.17), yaw=(-0.35, 0.15))}
+               "human": Box2(x=(0.16, 0.22), y=(0.08, 0.17), yaw=(-0.1, 0.35))}
     init = {"open": (0.0, 0.05), "close": (0.9, 1.4)}
     threshold = {"open": (">=", 1.0), "close": ("<=", 0.08)}
 
