@@ -80,7 +80,8 @@ display(claims_figure(preset, "V"))
 # %% tags=["hide-input"]
 table6 = load_table(preset, "VI")
 show_comparison(table6, "avg")
-display(success_figure(table6, "avg", title="Table VI: Table I's policies on the human-like scenes"))
+display(success_figure(table6, "avg",
+                       title="Table VI: Table I's policies on the human-like scenes"))
 show_values(table6)
 display(Markdown(verdicts(preset, "VI")))
 display(claims_figure(preset, "VI"))

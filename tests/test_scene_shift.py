@@ -197,9 +197,9 @@ def _old_file(path, source: str, seed: int) -> None:
                 obs={k: np.stack([v] * 3) for k, v in obs.items()}, task=TASK, source=source,
                 instruction=env.instruction, seed=seed)
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_demos(path, [demo], file_attrs={"task": TASK, "source": source, "obs_kind": "state",
-                                          "base_seed": 7, "generator": "icil_paper.data.generate/1"},
-                names=["demo_0"])
+    attrs = {"task": TASK, "source": source, "obs_kind": "state", "base_seed": 7,
+             "generator": "icil_paper.data.generate/1"}
+    write_demos(path, [demo], file_attrs=attrs, names=["demo_0"])
 
 
 def test_an_old_human_data_set_is_set_aside_and_made_again(shifted_kitchen):

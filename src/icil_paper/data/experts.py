@@ -19,8 +19,8 @@ For each task of the suite and each of `--seeds` random scene seeds this runs
 Each suite's record (rates, failing seeds, the seeds, provenance) goes atomically to
 `results/experts/<suite>.json`, and one table of every task measured is printed. The
 project requires every expert rate (on each scene distribution) to be at least 0.9: the exit
-status is 1 when one is below. Here, in `data/`, because it measures the sources that generate the data sets
-(`data.sources`), over the suites of `icil_paper.sim` below it.
+status is 1 when one is below. Here, in `data/`, because it measures the sources that
+generate the data sets (`data.sources`), over the suites of `icil_paper.sim` below it.
 """
 
 from __future__ import annotations

@@ -2,14 +2,16 @@
 
 Numbering follows the paper's source: Table I RoboCasa (our kitchen suite), II ManiSkill,
 III smoothness, IV Lipschitz ablation, V sim-to-real (our perturbed Kinova3 stand-in),
-VI cross-dataset (MimicGen -> human: our generated -> human-like sources), VII zero-shot;
-Fig. 5 codebook size; and a prompt ablation of our own (does the prompt carry the task?).
+VI cross-dataset (MimicGen -> human: our generated -> human-like scenes and sources),
+VII zero-shot; Fig. 5 codebook size; and a prompt ablation of our own (does the prompt carry
+the task?).
 
 Shared cells: Tables III, IV, V, VI and the prompt ablation reuse Table I's trained
-policies (the same RunSpecs; Table VI evaluates them on the `human` scene distribution), Fig. 5 reuses Table I's LipVQ-VAE run at the preset's
-codebook size, and the `beyond` table of our own (tokenizers since the paper) Table I's
-VQ-VAE and LipVQ-VAE runs, so each policy is trained once. Every row is evaluated on the same episodes
-(the same evaluation seed), so two rows can be compared episode by episode.
+policies (the same RunSpecs; Table VI evaluates them on the `human` scene distribution),
+Fig. 5 reuses Table I's LipVQ-VAE run at the preset's codebook size, and the `beyond` table
+of our own (tokenizers since the paper) Table I's VQ-VAE and LipVQ-VAE runs, so each policy
+is trained once. Every row is evaluated on the same episodes (the same evaluation seed), so
+two rows can be compared episode by episode.
 """
 
 from __future__ import annotations

@@ -23,7 +23,8 @@ Scene distributions. Every scene draws its layout from one of `SCENE_DISTRIBUTIO
 option `scenes`), with the same random draws in the same order, so only the ranges differ:
 
 - `generated` (the default): our stand-in for MimicGen's scenes. Every data set of the
-  `generated` source and every table but Table VI are drawn from it.
+  `generated` source, the Kinova tasks' data sets of both sources (their suite offers no
+  other) and every table but Table VI are drawn from it.
 - `human`: our stand-in for the scenes of RoboCasa's human data set, which the paper's
   cross-dataset table (Table VI) transfers to and describes as having "sparser object
   arrangements". Each fixture stands elsewhere on the counter: the cabinets further back and
@@ -31,10 +32,10 @@ option `scenes`), with the same random draws in the same order, so only the rang
   the centre line, each turned over a wider range of yaw; the free object and its target lie
   further apart, with more open counter between them. The ranges overlap the generated
   ones only in part (each scene's `layouts`, or `object_layouts` and `target_layouts`),
-  so a policy trained on generated scenes meets fixture poses it has seen few or none of. The `human` source's demonstrations are
-  generated on it (`icil_paper.data.sources`). Every layout stays within the scripted
-  experts' reach (their success on both distributions: `python -m icil_paper.data.experts
-  --suites kitchen`, shown in chapter 4).
+  so a policy trained on generated scenes meets fixture poses it has seen few or none of.
+  The `human` source's demonstrations are generated on it (`icil_paper.data.sources`).
+  Every layout stays within the scripted experts' reach (their success on both
+  distributions: `python -m icil_paper.data.experts --suites kitchen`, shown in chapter 4).
 
 Where x is measured from the counter's centre towards the far edge (the robot's base is at
 x = -0.56) and y to the robot's left; yaw turns a fixture anticlockwise seen from above.
