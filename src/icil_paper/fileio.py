@@ -99,8 +99,9 @@ def file_sha256(path: str | Path) -> str:
     return h.hexdigest()
 
 
-def reserve_aside_name(path: Path, is_dir: bool = False) -> Path:
-    """Create, exclusively, an empty `<name>.corrupt-<time>[-k]` beside `path`.
+def reserve_aside_name(path: Path, is_dir: bool = False, why: str = "corrupt") -> Path:
+    """Create, exclusively, an empty `<name>.<why>-<time>[-k]` beside `path` (`why`:
+    "corrupt" for a damaged file, "outdated" for one an older code version made).
 
     The time has microseconds, and a name already taken gets the next free suffix; the
     exclusive create makes the name this caller's alone, so a set-aside file is never
@@ -109,7 +110,7 @@ def reserve_aside_name(path: Path, is_dir: bool = False) -> Path:
     """
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
     for k in range(1, 10_000):
-        aside = path.with_name(f"{path.name}.corrupt-{stamp}" + (f"-{k}" if k > 1 else ""))
+        aside = path.with_name(f"{path.name}.{why}-{stamp}" + (f"-{k}" if k > 1 else ""))
         try:
             if is_dir:
                 os.mkdir(aside)
@@ -122,17 +123,18 @@ def reserve_aside_name(path: Path, is_dir: bool = False) -> Path:
     raise RuntimeError(f"no free name to set {path} aside under")  # pragma: no cover
 
 
-def set_aside(path: Path, folder: Path | None = None) -> Path | None:
+def set_aside(path: Path, folder: Path | None = None, why: str = "corrupt") -> Path | None:
     """Move a damaged file (or folder) to a unique `<name>.corrupt-<time>[-k]` name, in
     `folder` (default: beside it); nothing is deleted. Returns the new path, or None when
-    the file is gone (another process set it aside first)."""
+    the file is gone (another process set it aside first). `why="outdated"` names a file
+    that is whole but was made by an older code version `<name>.outdated-<time>[-k]`."""
     path = Path(path)
     try:
         is_dir = path.is_dir()
     except OSError:
         is_dir = False
     target = Path(folder) / path.name if folder is not None else path
-    aside = reserve_aside_name(target, is_dir)
+    aside = reserve_aside_name(target, is_dir, why)
     try:
         os.replace(path, aside)
     except BaseException as exc:

@@ -27,6 +27,10 @@ from icil_paper.config_data import ConfigError, check_fields, from_dict, spec_ke
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.tokenizers.configs import TokenizerConfig
 
+SCENE_DISTRIBUTIONS = ("generated", "human")
+"""Scene distributions an evaluation can name (`icil_paper.sim.kitchen.SCENE_DISTRIBUTIONS`,
+named here so specs stay light); the first is every suite's default."""
+
 
 @dataclass(frozen=True)
 class DataSpec:
@@ -102,7 +106,7 @@ contents are expected; raise it whenever a record gains a measurement."""
 class EvalSpec:
     """Rollouts of one trained policy on one task."""
 
-    CHOICES = {"prompt_source": DEMO_SOURCES}
+    CHOICES = {"prompt_source": DEMO_SOURCES, "scenes": SCENE_DISTRIBUTIONS}
 
     task: str
     """The task rolled out."""
@@ -119,6 +123,10 @@ class EvalSpec:
     ablation: does the prompt carry the task?)."""
     prompt_steps: int | None = None
     """Keep only the first this many steps of each prompt demonstration (None: whole)."""
+    scenes: str = "generated"
+    """The scene distribution the episodes' layouts are drawn from: `generated` (every
+    table's but VI's) or `human` (Table VI's cross-dataset shift; kitchen tasks only, see
+    `icil_paper.sim.kitchen.scenes`)."""
     record_version: int = EVAL_RECORD_VERSION
     """What its record holds (`EVAL_RECORD_VERSION`, the only version this code computes)."""
 
@@ -208,14 +216,15 @@ def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerCon
 
 def eval_spec(preset: Preset, task: str, episodes: int | None = None, seed: int | None = None,
               prompt_source: str = "generated", prompt_task: str | None = None,
-              prompt_steps: int | None = None, max_steps: int | None = None) -> EvalSpec:
+              prompt_steps: int | None = None, max_steps: int | None = None,
+              scenes: str = "generated") -> EvalSpec:
     """The evaluation a preset describes on `task` (episodes and step limit from `preset.eval`)."""
     return EvalSpec(task=task,
                     episodes=preset.eval.episodes_per_task if episodes is None else int(episodes),
                     seed=preset.seed if seed is None else int(seed),
                     max_steps=preset.eval.max_steps if max_steps is None else max_steps,
                     prompt_source=prompt_source, prompt_task=prompt_task,
-                    prompt_steps=prompt_steps)
+                    prompt_steps=prompt_steps, scenes=scenes)
 
 
 def tasks_tag(tasks: Sequence[str]) -> str:

@@ -350,6 +350,8 @@ def expert_study(preset: Preset, store: ResultsStore | None = None,
             continue
         config = {"suite": suite, "n_seeds": n_seeds, "seed": preset.seed, "human": True,
                   "tasks": list(sim.tasks_of(suite))}
+        if sim.get_suite(suite).scenes:  # the expert is measured on each scene distribution
+            config["scenes"] = list(sim.get_suite(suite).scenes)
         records[suite] = store.run(
             "experts", suite, config,
             lambda suite=suite: measure(suite, n_seeds, preset.seed, preset.data.workers),

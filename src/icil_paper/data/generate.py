@@ -22,6 +22,17 @@ A damaged data set file or shard (one that HDF5 cannot read, or whose checksums 
 block a re-run: it is set aside under a unique name beside the data set (`set_aside`, never
 deleted), named in a warning, and its demos are generated again. Every run reads back all of
 a file but its image arrays; `full_check=True` (`icil-paper demos`) reads those too.
+
+Every file records the `generator` that made it. A file (or shard) made by an older generator
+that made its source's demonstrations differently (`OLDER_GENERATORS`) is never reused: it is
+set aside in the same way (as `<name>.outdated-<time>`), with a warning naming both
+generators, and generated again. A
+file written for another task, source, observation kind, base seed or scene distribution is
+refused with an error instead (that is a wrong setting, not old data).
+
+Scenes: the envs of a data set are built with its source's options
+(`sources.source_env_options`): the `human` source's kitchen demos are played on the kitchen
+suite's `human` scene distribution. The file's `scenes` attribute and its `env_args` say so.
 """
 
 from __future__ import annotations
@@ -36,12 +47,28 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper.data.hdf5 import DatasetError, merge_demo_files, verify_file, write_demos
-from icil_paper.data.sources import MAX_ATTEMPTS, SOURCES, demo_seed, expert_rollout, style_dict
+from icil_paper.data.sources import (
+    MAX_ATTEMPTS,
+    SOURCES,
+    demo_seed,
+    expert_rollout,
+    source_env_options,
+    style_dict,
+)
 from icil_paper.fileio import check_writable, set_aside
 from icil_paper.registry import check_name
 
-GENERATOR = "icil_paper.data.generate/1"
-"""Written into every data set; a change in how demos are made bumps it."""
+GENERATOR = "icil_paper.data.generate/2"
+"""Written into every data set; a change in how demos are made bumps it (and lists the old
+value in `OLDER_GENERATORS`)."""
+OLDER_GENERATORS: dict[str, tuple[str, ...]] = {
+    "icil_paper.data.generate/1": ("generated",),
+}
+"""Earlier values of `GENERATOR`, each with the sources whose data sets it made exactly as
+this one does; its files of any other source are outdated and made again (module
+docstring). 1 -> 2: the `human` source's kitchen demos moved to the `human` scenes."""
+DEFAULT_SCENES = "generated"
+"""The `scenes` attribute a file without one was made on (files before generator 2)."""
 
 
 class DemoGenerationError(RuntimeError):
@@ -199,21 +226,42 @@ def _damage(path: Path, images: bool = True) -> str | None:
     return None
 
 
-def _usable_shards(path: Path) -> dict[int, Path]:
-    """The finished shards of a data set; damaged ones are set aside beside it, with a warning."""
+def outdated(info: dict[str, Any], source: str) -> str | None:
+    """None when a file (its `file_info`) of `source` holds what this code's generator makes,
+    else why not: it was made by a generator that made that source's demos differently."""
+    made_by = info.get("generator")
+    if made_by is None or str(made_by) == GENERATOR:
+        return None
+    if source in OLDER_GENERATORS.get(str(made_by), ()):
+        return None
+    return (f"was made by {made_by}, which made {source} demonstrations differently from "
+            f"this code's {GENERATOR}")
+
+
+def _usable_shards(path: Path, source: str) -> dict[int, Path]:
+    """The finished shards of a data set; damaged or outdated ones are set aside beside it,
+    with a warning."""
     shards = _finished_shards(path)
     for index, shard in sorted(shards.items()):
-        problem = _damage(shard)  # one demo each: cheap to read whole
+        why = "outdated"
+        try:
+            problem = outdated(verify_file(shard), source)  # one demo each: cheap to read whole
+        except DatasetError as exc:
+            problem, why = str(exc), "corrupt"
+        else:
+            problem = problem and f"{shard}: {problem}"
         if problem is not None:
-            moved = set_aside(shard, path.parent)
+            moved = set_aside(shard, path.parent, why)
             warnings.warn(f"{problem}; moved it to {moved}; demo {index} will be generated "
                           "again", stacklevel=3)
             del shards[index]
     return shards
 
 
-def _check_compatible(path: Path, attrs: dict[str, Any], info: dict[str, Any]) -> None:
-    for key in ("task", "source", "obs_kind", "base_seed", "generator"):
+def _check_compatible(path: Path, attrs: dict[str, Any], info: dict[str, Any],
+                      keys: tuple[str, ...] = ("task", "source", "obs_kind", "base_seed")) -> None:
+    info = {"scenes": DEFAULT_SCENES, **info}
+    for key in keys:
         if key in info and str(info[key]) != str(attrs[key]):
             raise DatasetError(
                 f"{path}: was written with {key}={info[key]!r} but this run asks for "
@@ -231,6 +279,15 @@ class _Plan:
     attrs: dict[str, Any]
     have: set[int]
     missing: list[int]
+    env_options: dict[str, Any]
+    """`make_env` options of its envs: the caller's and the source's (`source_env_options`)."""
+
+
+def _env_options(task: str, source: str, env_options: dict[str, Any]) -> dict[str, Any]:
+    if "scenes" in env_options:
+        raise ValueError("a data set's scene distribution follows its source "
+                         "(sources.SOURCE_SCENES); generate without a `scenes` option")
+    return {**env_options, **source_env_options(source, task)}
 
 
 def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
@@ -241,10 +298,12 @@ def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
     check_name("demo source", source, SOURCES)
     path = demo_path(preset, task, source, obs)
     control_freq = int(get_suite(suite_of(task)).control_freq)
+    options = _env_options(task, source, env_options)
     attrs: dict[str, Any] = {
         "task": task, "source": source, "obs_kind": obs, "base_seed": base_seed,
         "action_dim": ACTION_DIM, "generator": GENERATOR, "control_freq": control_freq,
-        "env_args": robomimic_env_args(task, obs, env_options, control_freq),
+        "scenes": options.get("scenes", DEFAULT_SCENES),
+        "env_args": robomimic_env_args(task, obs, options, control_freq),
     }
     if source == "human":
         attrs["operator_style"] = json.dumps(style_dict())
@@ -258,11 +317,18 @@ def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
                           stacklevel=3)
         else:
             _check_compatible(path, attrs, info)
-            existing = info["demos"]
+            problem = outdated(info, source)
+            if problem is None:  # made as this code makes it: its scenes must match too
+                _check_compatible(path, attrs, info, ("scenes",))
+                existing = info["demos"]
+            else:
+                moved = set_aside(path, why="outdated")
+                warnings.warn(f"{path}: {problem}; moved it to {moved} and generating the data "
+                              "set again", stacklevel=3)
     have = {int(name.split("_")[1]) for name in existing}
-    shards = _usable_shards(path)
+    shards = _usable_shards(path, source)
     missing = [i for i in range(n) if i not in have and i not in shards]
-    return _Plan(task, source, path, attrs, have, missing)
+    return _Plan(task, source, path, attrs, have, missing, options)
 
 
 def _merge(plan: _Plan) -> None:
@@ -308,7 +374,7 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
             for stale in folder.glob(".*.tmp"):  # temporary files of a killed run
                 stale.unlink(missing_ok=True)
         jobs += [_Job(plan.task, plan.source, obs, i, base_seed, str(shard_path(plan.path, i)),
-                      plan.attrs, env_options) for i in plan.missing]
+                      plan.attrs, plan.env_options) for i in plan.missing]
     if jobs:
         label = (f"{plans[0].task} [{plans[0].source}]" if len(plans) == 1
                  else f"{len(plans)} data sets")

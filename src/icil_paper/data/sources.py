@@ -8,7 +8,11 @@ RoboCasa's human demonstrations. Neither can be downloaded here, so:
   temporally correlated hand noise (an Ornstein-Uhlenbeck process on the motion dims),
   hesitations (the operator stops for a few steps, the expert's clock stops with them), varying
   speed (a slowly drifting speed factor scales the motion) and small corrections (now and then
-  the motion overshoots for a few steps; the closed-loop expert then steers back).
+  the motion overshoots for a few steps; the closed-loop expert then steers back). In a suite
+  with named scene distributions (the kitchen suite) its episodes are also played on the
+  suite's `human` scenes (`source_env_options`): the paper's human data set differs from
+  MimicGen's in its object arrangements too, not only in who drives the robot. Elsewhere
+  (ManiSkill, the Kinova tasks) it shares the `generated` source's scene distribution.
 
 Only successful episodes become demos. Seeds: the scene of demo `index` of a data set with base
 seed `b` is `env_seed = b + SOURCE_SEED_OFFSET[source] + index + attempt * ATTEMPT_STRIDE`,
@@ -36,6 +40,25 @@ MAX_ATTEMPTS = 20
 """Failed episodes of one demo after which generation gives up with an error."""
 EVAL_SEED_BASE = 100_000_000
 """First seed of evaluation episodes: above every seed that demo generation can use."""
+
+
+SOURCE_SCENES = {"generated": "generated", "human": "human"}
+"""The scene distribution each source's episodes are played on, where a task's suite offers
+it (`icil_paper.sim.scene_distributions`); elsewhere the suite's only one."""
+
+
+def source_env_options(source: str, task: str) -> dict[str, Any]:
+    """The `make_env` options a source's episodes of `task` are played with: `scenes` where
+    the task's suite offers the source's scene distribution other than as its default, else
+    none (so the `generated` source's envs, and every env of ManiSkill, are built as before)."""
+    check_name("demo source", source, SOURCES)
+    from icil_paper.sim import scene_distributions
+
+    offered = scene_distributions(task)
+    scenes = SOURCE_SCENES[source]
+    if scenes in offered and scenes != offered[0]:
+        return {"scenes": scenes}
+    return {}
 
 
 def demo_seed(base_seed: int, source: str, index: int, attempt: int = 0) -> int:

@@ -19,6 +19,10 @@ Each episode i (of `EvalSpec.episodes`) is fixed by the evaluation seed alone:
   from the prompt pool with `np.random.default_rng([seed, i])`; the pool is the first
   demonstrations of the task's data set from `EvalSpec.prompt_source` (or of another task's,
   `prompt_task`, for the prompt ablation), each cut to `prompt_steps` if that is set;
+- its env draws the scene's layout from `EvalSpec.scenes` (the `scenes` option of
+  `make_env`, passed where it is not the default `generated`; a suite without named scene
+  distributions refuses another one), so the same episode seed gives a differently
+  arranged scene on the `human` distribution;
 - it runs until the task reports success, the episode ends, or `max_steps` (default the
   task's horizon). Actions are clipped to [-1, 1].
 
@@ -53,12 +57,12 @@ import numpy as np
 
 from icil_paper.eval.rollouts import Episode, RolloutPool, run_episodes
 from icil_paper.metrics import MOTION_MEASURES
-from icil_paper.runspec import EvalSpec
+from icil_paper.runspec import SCENE_DISTRIBUTIONS, EvalSpec
 from icil_paper.stats import wilson_interval
 
-__all__ = ["EvalResult", "check_policy_fits", "episode_seed",
-           "evaluate_many", "evaluate_policy", "motion_means", "obs_kind", "plan_episodes",
-           "prompt_pool"]
+__all__ = ["EvalResult", "check_policy_fits", "episode_seed", "evaluate_many",
+           "evaluate_policy", "motion_means", "obs_kind", "plan_episodes", "prompt_pool",
+           "scene_options"]
 
 
 @dataclass
@@ -175,11 +179,30 @@ def _first_steps(demo: Any, n: int) -> Any:
 
 
 # --------------------------------------------------------------------------- evaluation
+def scene_options(spec: EvalSpec) -> tuple[tuple[str, Any], ...]:
+    """The env options of `spec`'s scene distribution: none for the default (so envs of
+    every suite are built as they always were), else `(("scenes", spec.scenes),)`."""
+    return () if spec.scenes == SCENE_DISTRIBUTIONS[0] else (("scenes", spec.scenes),)
+
+
+def _check_scenes(spec: EvalSpec) -> None:
+    """A scene distribution other than the default must be one the task's suite offers."""
+    from icil_paper.sim import scene_distributions
+
+    if scene_options(spec) and spec.scenes not in scene_distributions(spec.task):
+        offered = scene_distributions(spec.task)
+        raise ValueError(f"{spec.task} has no {spec.scenes!r} scene distribution (its suite "
+                         + (f"offers {list(offered)})" if offered else "has only its own)")
+                         + "; evaluate it with scenes='generated'")
+
+
 def plan_episodes(spec: EvalSpec, pool_size: int = 0, prompt_demos: int = 1,
                   spec_index: int = 0) -> list[Episode]:
-    """The episodes of `spec` (see the module docstring): env seeds and, with a prompt pool
-    of `pool_size` demonstrations, the indices of each episode's `prompt_demos` prompts."""
+    """The episodes of `spec` (see the module docstring): env seeds, env options (its scene
+    distribution) and, with a prompt pool of `pool_size` demonstrations, the indices of each
+    episode's `prompt_demos` prompts."""
     plan = []
+    options = scene_options(spec)
     for i in range(spec.episodes):
         chosen: tuple[int, ...] = ()
         if pool_size:
@@ -188,7 +211,7 @@ def plan_episodes(spec: EvalSpec, pool_size: int = 0, prompt_demos: int = 1,
                                                        replace=pool_size < prompt_demos))
         plan.append(Episode(spec=spec_index, task=spec.task, index=i,
                             seed=episode_seed(spec.seed, i), prompt=chosen,
-                            max_steps=spec.max_steps))
+                            max_steps=spec.max_steps, env_options=options))
     return plan
 
 
@@ -252,6 +275,7 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
         _check_spec(spec)
         if env_factory is None:
             check_policy_fits(policy, spec.task)
+            _check_scenes(spec)
         if policy.uses_prompt and not pool_i:
             raise ValueError(f"{policy.name} needs prompt demonstrations for {spec.task} "
                              "(pass prompts=, e.g. prompt_pool(spec, ...))")

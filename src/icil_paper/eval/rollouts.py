@@ -84,11 +84,16 @@ class Episode:
     """Indices into its evaluation's prompt pool (empty: no prompt)."""
     max_steps: int | None = None
     """Step limit; None: the env's horizon."""
+    env_options: tuple[tuple[str, Any], ...] = ()
+    """Options of its env beyond the call's (`EnvSetup.options`), as sorted (name, value)
+    pairs: its evaluation's scene distribution (`EvalSpec.scenes`) where that is not the
+    default."""
 
 
 @dataclass(frozen=True)
 class EnvSetup:
-    """How every env of a call is built: `factory(task, obs=obs, seed=seed, **options)`."""
+    """How every env of a call is built: `factory(task, obs=obs, seed=seed, **options)`,
+    with an episode's own `env_options` added."""
 
     obs: str = "state"
     """Observation kind: state, rgb or rgbd."""
@@ -97,11 +102,11 @@ class EnvSetup:
     factory: Callable[..., Any] | None = None
     """A picklable callable; None: `icil_paper.sim.make_env`."""
 
-    def make(self, task: str, seed: int) -> Any:
+    def make(self, task: str, seed: int, options: tuple[tuple[str, Any], ...] = ()) -> Any:
         factory = self.factory
         if factory is None:
             from icil_paper.sim import make_env as factory
-        return factory(task, obs=self.obs, seed=seed, **dict(self.options))
+        return factory(task, obs=self.obs, seed=seed, **{**dict(self.options), **dict(options)})
 
 
 # --------------------------------------------------------------------------- lockstep rollouts
@@ -332,16 +337,17 @@ class WorkerState:
     policy_key: str | None = None
 
     def envs_for(self, setup: EnvSetup, episodes: Sequence[Episode]) -> list[Any]:
-        """One env per episode, built where this worker has too few for a task."""
+        """One env per episode, built where this worker has too few for a task (and the
+        episode's own env options: a task on two scene distributions has two envs)."""
         out, used = [], {}
         for ep in episodes:
-            key = (setup.factory, setup.obs, repr(setup.options), ep.task)
+            key = (setup.factory, setup.obs, repr(setup.options), ep.task, repr(ep.env_options))
             pool = self.envs.setdefault(key, [])
-            k = used.get(ep.task, 0)
+            k = used.get(key, 0)
             if k == len(pool):
-                pool.append(setup.make(ep.task, ep.seed))
+                pool.append(setup.make(ep.task, ep.seed, ep.env_options))
             out.append(pool[k])
-            used[ep.task] = k + 1
+            used[key] = k + 1
         return out
 
     def policy_for(self, ref: Any) -> Any:

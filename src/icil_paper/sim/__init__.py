@@ -65,7 +65,7 @@ GYM_NAMESPACE = "icil_paper"
 __all__ = ["ACTION_DIM", "ALL_SUITES", "OBS_KINDS", "SUITES", "SUITE_ENTRIES", "TASKS",
            "SuiteUnavailable", "UnknownNameError", "all_tasks", "get_suite", "gym_id",
            "make_env", "make_expert", "object_position", "obs_dims", "register_gym_envs",
-           "suite_of", "suite_unavailable", "tasks_of"]
+           "scene_distributions", "suite_of", "suite_unavailable", "tasks_of"]
 
 
 class SuiteUnavailable(ImportError):
@@ -143,11 +143,18 @@ def make_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
 
     `options` go to the suite: for ManiSkill `sim_backend`, `camera_size`, `horizon`,
     `render_size`; every suite takes `render_mode` ("rgb_array" or None); the kitchen suite
-    documents its own (`icil_paper.sim.kitchen.make_kitchen_env`).
+    documents its own (`icil_paper.sim.kitchen.make_kitchen_env`), among them `scenes`, the
+    scene distribution (`scene_distributions(name)` lists a task's).
     """
     check_name("observation kind", obs, OBS_KINDS)
     suite = suite_of(name)
     return get_suite(suite).make_env(name, obs=obs, seed=seed, **options)
+
+
+def scene_distributions(name: str) -> tuple[str, ...]:
+    """The named scene distributions a task's env offers through `make_env(..., scenes=)`,
+    the default first; empty when its suite has a single one (and takes no such option)."""
+    return tuple(get_suite(suite_of(name)).scenes)
 
 
 def make_expert(name: str):

@@ -51,5 +51,8 @@ class Suite:
     zero_shot_split: Mapping[str, Sequence[str]] | None = None
     """Tasks trained on and held out in the zero-shot setting ({"train": ..., "test": ...}),
     for suites that define one."""
+    scenes: tuple[str, ...] = ()
+    """Named scene distributions that `make_env`'s `scenes` option selects, the default
+    first; empty when the suite has one and takes no such option."""
     description: str = ""
     """One line on what the suite is."""

@@ -17,6 +17,9 @@ Public names:
 - `KITCHEN_TASKS`, `KINOVA_TASKS`: full task name -> `KitchenTaskSpec` (family, horizon,
   instruction, ...); `TASK_FAMILIES`: the paper's seven columns -> kitchen task names;
   `KITCHEN_ZERO_SHOT_SPLIT`: held-out tasks of the zero-shot table.
+- `SCENE_DISTRIBUTIONS = ("generated", "human")`: where the layouts of a scene are drawn from
+  (the env option `scenes`): our stand-ins for MimicGen's scenes and for those of RoboCasa's
+  human data set (Table VI's cross-dataset shift), described in `scenes.py`.
 - `KITCHEN_OBS_DIMS = (P, O) = (9, 18)`, the widths of `proprio` and `object` for every task
   (Kinova tasks included).
 - `make_kitchen_env(name, obs="state", seed=0, **options)`, `make_kitchen_expert(name)`.
@@ -42,6 +45,7 @@ from icil_paper.sim.kitchen.tasks import (
     KITCHEN_PROPRIO_DIM,
     KITCHEN_TASKS,
     KITCHEN_ZERO_SHOT_SPLIT,
+    SCENE_DISTRIBUTIONS,
     TASK_FAMILIES,
     KitchenTaskSpec,
 )
@@ -59,7 +63,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 __all__ = ["KITCHEN_TASKS", "KINOVA_TASKS", "ALL_TASKS", "TASK_FAMILIES", "FAMILIES",
            "KITCHEN_ZERO_SHOT_SPLIT", "KITCHEN_OBS_DIMS", "KITCHEN_PROPRIO_DIM",
            "KITCHEN_OBJECT_DIM", "KitchenTaskSpec", "make_kitchen_env", "make_kitchen_expert",
-           "KITCHEN_SUITE", "KINOVA_SUITE", "CONTROL_FREQ", "robosuite_problem"]
+           "KITCHEN_SUITE", "KINOVA_SUITE", "CONTROL_FREQ", "SCENE_DISTRIBUTIONS",
+           "robosuite_problem"]
 
 
 def _import_robosuite_quietly() -> None:
@@ -97,11 +102,15 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
     Options: `camera_size` (default 84, square images), `horizon` (override the task's),
     `obs_noise_std` (override the Kinova tasks' observation noise; 0 turns it off),
     `initialization_noise` (robosuite's robot joint noise, "default" or None),
-    `render_mode` ("rgb_array" or None, gymnasium's).
-    Raises `UnknownNameError` listing the valid names for an unknown task or obs kind.
+    `render_mode` ("rgb_array" or None, gymnasium's), `scenes` (the scene distribution of
+    `SCENE_DISTRIBUTIONS`, default "generated"; "human" is Table VI's, `scenes.py`).
+    Raises `UnknownNameError` listing the valid names for an unknown task, obs kind or scene
+    distribution.
     """
     check_name("kitchen task", name, ALL_TASKS)
     check_name("observation kind", obs, ("state", "rgb", "rgbd"))
+    check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
+               SCENE_DISTRIBUTIONS)
     _import_robosuite_quietly()
     from icil_paper.sim.kitchen.env import KitchenEnv
 
@@ -120,7 +129,7 @@ KITCHEN_SUITE = Suite(
     name="kitchen", tasks=tuple(KITCHEN_TASKS), obs_dims=KITCHEN_OBS_DIMS,
     control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,
     object_position=OBJECT_POSITION, unavailable=robosuite_problem,
-    zero_shot_split=KITCHEN_ZERO_SHOT_SPLIT,
+    zero_shot_split=KITCHEN_ZERO_SHOT_SPLIT, scenes=SCENE_DISTRIBUTIONS,
     description="kitchen skill tasks on robosuite (Panda), RoboCasa's seven skill families")
 KINOVA_SUITE = Suite(
     name="kinova", tasks=tuple(KINOVA_TASKS), obs_dims=KITCHEN_OBS_DIMS,

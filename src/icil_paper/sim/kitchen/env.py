@@ -57,6 +57,7 @@ from icil_paper.sim.kitchen.tasks import (
     ALL_TASKS,
     CONTROL_FREQ,
     KITCHEN_PROPRIO_DIM,
+    SCENE_DISTRIBUTIONS,
     KitchenTaskSpec,
 )
 
@@ -193,18 +194,20 @@ class KitchenEnv(TaskEnv):
     """A kitchen (or Kinova) task as a `gymnasium.Env` (see the module docstring and
     `icil_paper.sim.base`).
 
-    `reset(seed)` re-seeds the episode: the layout, the robot's initial joint noise, the Kinova
-    perturbation and observation noise all follow from it (the layout, joint noise and
-    perturbation are drawn from `np_random`, seeded with the episode's seed). `reset()` without
-    a seed uses the constructor's seed first, then seeds drawn from a generator seeded by the
-    last explicit seed.
+    `scenes` names the distribution the layouts are drawn from (`SCENE_DISTRIBUTIONS`, see
+    `icil_paper.sim.kitchen.scenes`). `reset(seed)` re-seeds the episode: the layout, the
+    robot's initial joint noise, the Kinova perturbation and observation noise all follow
+    from it (the layout, joint noise and perturbation are drawn from `np_random`, seeded with
+    the episode's seed). `reset()` without a seed uses the constructor's seed first, then
+    seeds drawn from a generator seeded by the last explicit seed.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
 
     def __init__(self, name: str, obs: str = "state", seed: int = 0, camera_size: int = 84,
                  horizon: int | None = None, obs_noise_std: float | None = None,
-                 initialization_noise="default", render_mode: str | None = None):
+                 initialization_noise="default", render_mode: str | None = None,
+                 scenes: str = SCENE_DISTRIBUTIONS[0]):
         check_name("kitchen task", name, ALL_TASKS)
         self.task_spec: KitchenTaskSpec = ALL_TASKS[name]
         super().__init__(name, obs, seed, horizon=int(horizon or self.task_spec.horizon),
@@ -214,7 +217,8 @@ class KitchenEnv(TaskEnv):
         gap = RealityGap() if self.task_spec.perturbed else None
         self.obs_noise_std = float(obs_noise_std if obs_noise_std is not None
                                    else (gap.obs_noise_std if gap else 0.0))
-        self.scene = make_scene(self.task_spec.scene, self.task_spec.goal)
+        self.scene = make_scene(self.task_spec.scene, self.task_spec.goal, scenes)
+        self.scenes = self.scene.scenes
         with _quiet_robosuite():
             self._env = KitchenSceneEnv(self.scene, robot=self.task_spec.robot,
                                         horizon=self.horizon, offscreen=obs != "state",

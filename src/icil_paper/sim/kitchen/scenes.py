@@ -18,6 +18,27 @@ every task)::
 
 Quaternions are made unique by a sign convention (w >= 0) so that they do not flip between
 steps. Positions are world coordinates in metres; the counter top is at z = COUNTER_Z.
+
+Scene distributions. Every scene draws its layout from one of `SCENE_DISTRIBUTIONS` (the env
+option `scenes`), with the same random draws in the same order, so only the ranges differ:
+
+- `generated` (the default): our stand-in for MimicGen's scenes. Every data set of the
+  `generated` source, the Kinova tasks' data sets of both sources (their suite offers no
+  other) and every table but Table VI are drawn from it.
+- `human`: our stand-in for the scenes of RoboCasa's human data set, which the paper's
+  cross-dataset table (Table VI) transfers to and describes as having "sparser object
+  arrangements". Each fixture stands elsewhere on the counter: the cabinets further back and
+  further out to their side, the faucet, stove and appliance further from the robot and off
+  the centre line, each turned over a wider range of yaw; the free object and its target lie
+  further apart, with more open counter between them. The ranges overlap the generated
+  ones only in part (each scene's `layouts`, or `object_layouts` and `target_layouts`),
+  so a policy trained on generated scenes meets fixture poses it has seen few or none of.
+  The `human` source's demonstrations are generated on it (`icil_paper.data.sources`).
+  Every layout stays within the scripted experts' reach (their success on both
+  distributions: `python -m icil_paper.data.experts --suites kitchen`, shown in chapter 4).
+
+Where x is measured from the counter's centre towards the far edge (the robot's base is at
+x = -0.56) and y to the robot's left; yaw turns a fixture anticlockwise seen from above.
 """
 
 from __future__ import annotations
@@ -26,8 +47,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from icil_paper.registry import check_name
 from icil_paper.sim.kitchen import fixtures as fx
-from icil_paper.sim.kitchen.tasks import KITCHEN_OBJECT_DIM
+from icil_paper.sim.kitchen.tasks import KITCHEN_OBJECT_DIM, SCENE_DISTRIBUTIONS
 
 COUNTER_Z = 0.8
 """Height of the counter (robosuite TableArena top) in metres."""
@@ -72,6 +94,8 @@ class Scene:
     """Base class: one fixture (or fixture + free object) on the counter."""
 
     goal: str
+    scenes: str = SCENE_DISTRIBUTIONS[0]
+    """The scene distribution its layouts are drawn from (module docstring)."""
 
     def build(self) -> list:
         raise NotImplementedError
@@ -120,18 +144,21 @@ class ArticulatedScene(Scene):
     """A fixture with one joint; success is the joint passing a threshold."""
 
     builder = None
-    layout: Box2
+    layouts: dict[str, Box2]
+    """Fixture position and yaw on the counter, per scene distribution."""
     init: dict[str, tuple[float, float]]
     """Initial joint range per goal."""
     threshold: dict[str, tuple[str, float]]
     """Per goal: (">=" or "<=", joint value) that counts as success."""
     name = "fixture"
 
-    def __init__(self, goal: str):
+    def __init__(self, goal: str, scenes: str = SCENE_DISTRIBUTIONS[0]):
         if goal not in self.init:
             raise ValueError(f"{type(self).__name__} has no goal {goal!r}; "
                              f"goals: {list(self.init)}")
         self.goal = goal
+        self.scenes = check_name("scene distribution", scenes, SCENE_DISTRIBUTIONS)
+        self.layout = self.layouts[scenes]
         self.fixture, self.geometry = type(self).builder(self.name)
         self._latched = False
 
@@ -184,7 +211,8 @@ class DoorScene(ArticulatedScene):
 
     builder = staticmethod(fx.cabinet_with_door)
     name = "cabinet"
-    layout = Box2(x=(0.12, 0.17), y=(0.02, 0.10), yaw=(-0.2, 0.2))
+    layouts = {"generated": Box2(x=(0.12, 0.17), y=(0.02, 0.10), yaw=(-0.2, 0.2)),
+               "human": Box2(x=(0.16, 0.22), y=(0.08, 0.17), yaw=(-0.1, 0.35))}
     init = {"open": (0.0, 0.05), "close": (0.9, 1.4)}
     threshold = {"open": (">=", 1.0), "close": ("<=", 0.08)}
 
@@ -194,7 +222,8 @@ class DrawerScene(ArticulatedScene):
 
     builder = staticmethod(fx.cabinet_with_drawer)
     name = "drawer_cabinet"
-    layout = Box2(x=(0.12, 0.17), y=(-0.08, 0.08), yaw=(-0.2, 0.2))
+    layouts = {"generated": Box2(x=(0.12, 0.17), y=(-0.08, 0.08), yaw=(-0.2, 0.2)),
+               "human": Box2(x=(0.16, 0.22), y=(-0.17, -0.03), yaw=(-0.1, 0.35))}
     init = {"open": (0.0, 0.01), "close": (0.12, 0.17)}
     threshold = {"open": (">=", 0.12), "close": ("<=", 0.015)}
 
@@ -204,7 +233,8 @@ class LeverScene(ArticulatedScene):
 
     builder = staticmethod(fx.faucet_lever)
     name = "faucet"
-    layout = Box2(x=(0.0, 0.08), y=(-0.02, 0.10), yaw=(-0.2, 0.2))
+    layouts = {"generated": Box2(x=(0.0, 0.08), y=(-0.02, 0.10), yaw=(-0.2, 0.2)),
+               "human": Box2(x=(0.06, 0.14), y=(-0.14, 0.0), yaw=(-0.35, 0.35))}
     init = {"on": (0.0, 0.1), "off": (0.9, 1.2)}
     threshold = {"on": (">=", 0.8), "off": ("<=", 0.15)}
 
@@ -214,7 +244,8 @@ class KnobScene(ArticulatedScene):
 
     builder = staticmethod(fx.stove_knob)
     name = "stove"
-    layout = Box2(x=(-0.02, 0.08), y=(-0.10, 0.10), yaw=(-0.3, 0.3))
+    layouts = {"generated": Box2(x=(-0.02, 0.08), y=(-0.10, 0.10), yaw=(-0.3, 0.3)),
+               "human": Box2(x=(0.06, 0.16), y=(-0.18, 0.02), yaw=(-0.5, 0.5))}
     init = {"on": (0.0, 0.1), "off": (1.1, 1.5)}
     threshold = {"on": (">=", 1.0), "off": ("<=", 0.2)}
 
@@ -225,7 +256,8 @@ class ButtonScene(ArticulatedScene):
 
     builder = staticmethod(fx.button_box)
     name = "appliance"
-    layout = Box2(x=(-0.02, 0.08), y=(-0.10, 0.10), yaw=(-0.3, 0.3))
+    layouts = {"generated": Box2(x=(-0.02, 0.08), y=(-0.10, 0.10), yaw=(-0.3, 0.3)),
+               "human": Box2(x=(0.06, 0.16), y=(-0.02, 0.18), yaw=(-0.5, 0.5))}
     init = {"press": (0.0, 0.0)}
     threshold = {"press": ("<=", -0.008)}
 
@@ -241,8 +273,16 @@ class ButtonScene(ArticulatedScene):
 class FreeObjectScene(Scene):
     """A free object on the counter and a static target fixture."""
 
-    object_layout: Box2
-    target_layout: Box2
+    object_layouts: dict[str, Box2]
+    """The free object's position (y: distance from the centre line, on a side drawn per
+    episode) and yaw, per scene distribution."""
+    target_layouts: dict[str, Box2]
+    """The target's position (y: on the other side) and yaw, per scene distribution."""
+
+    def _choose(self, scenes: str) -> None:
+        self.scenes = check_name("scene distribution", scenes, SCENE_DISTRIBUTIONS)
+        self.object_layout = self.object_layouts[scenes]
+        self.target_layout = self.target_layouts[scenes]
 
     def bind(self, sim) -> None:
         m = sim.model
@@ -281,14 +321,18 @@ class PickPlaceScene(FreeObjectScene):
     """A small box on the counter and an open bin; success when the box rests inside the bin
     and the gripper has let go of it."""
 
-    object_layout = Box2(x=(-0.08, 0.06), y=(0.08, 0.18), yaw=(-np.pi / 4, np.pi / 4))
-    target_layout = Box2(x=(-0.02, 0.08), y=(0.06, 0.14), yaw=(-0.3, 0.3))
+    object_layouts = {
+        "generated": Box2(x=(-0.08, 0.06), y=(0.08, 0.18), yaw=(-np.pi / 4, np.pi / 4)),
+        "human": Box2(x=(-0.14, 0.0), y=(0.14, 0.24), yaw=(-np.pi / 4, np.pi / 4))}
+    target_layouts = {"generated": Box2(x=(-0.02, 0.08), y=(0.06, 0.14), yaw=(-0.3, 0.3)),
+                      "human": Box2(x=(0.04, 0.14), y=(0.12, 0.2), yaw=(-0.5, 0.5))}
     obj_half = (0.02, 0.02, 0.025)
 
-    def __init__(self, goal: str = "place"):
+    def __init__(self, goal: str = "place", scenes: str = SCENE_DISTRIBUTIONS[0]):
         from robosuite.models.objects import BoxObject
 
         self.goal = goal
+        self._choose(scenes)
         self.obj_half_height = self.obj_half[2]
         self.obj = BoxObject(name="box", size=self.obj_half, rgba=(0.85, 0.2, 0.15, 1.0),
                              friction=(1.2, 0.005, 0.0001), density=500)
@@ -305,14 +349,17 @@ class InsertionScene(FreeObjectScene):
     """An upright round peg and a block with a square hole; success when the peg is at least
     2 cm deep in the hole."""
 
-    object_layout = Box2(x=(-0.08, 0.06), y=(0.08, 0.18), yaw=(0.0, 0.0))
-    target_layout = Box2(x=(-0.02, 0.08), y=(0.06, 0.14), yaw=(-0.3, 0.3))
+    object_layouts = {"generated": Box2(x=(-0.08, 0.06), y=(0.08, 0.18), yaw=(0.0, 0.0)),
+                      "human": Box2(x=(-0.14, 0.0), y=(0.14, 0.24), yaw=(0.0, 0.0))}
+    target_layouts = {"generated": Box2(x=(-0.02, 0.08), y=(0.06, 0.14), yaw=(-0.3, 0.3)),
+                      "human": Box2(x=(0.04, 0.14), y=(0.12, 0.2), yaw=(-0.5, 0.5))}
     peg_radius, peg_half_height = 0.015, 0.04
 
-    def __init__(self, goal: str = "insert"):
+    def __init__(self, goal: str = "insert", scenes: str = SCENE_DISTRIBUTIONS[0]):
         from robosuite.models.objects import CylinderObject
 
         self.goal = goal
+        self._choose(scenes)
         self.obj_half_height = self.peg_half_height
         self.obj = CylinderObject(name="peg", size=(self.peg_radius, self.peg_half_height),
                                   rgba=(0.9, 0.75, 0.2, 1.0), friction=(1.2, 0.005, 0.0001),
@@ -331,5 +378,7 @@ SCENES = {"pick_place": PickPlaceScene, "door": DoorScene, "drawer": DrawerScene
           "button": ButtonScene}
 
 
-def make_scene(scene: str, goal: str) -> Scene:
-    return SCENES[scene](goal)
+def make_scene(scene: str, goal: str, scenes: str = SCENE_DISTRIBUTIONS[0]) -> Scene:
+    """The scene of a task (`KitchenTaskSpec.scene`, `.goal`) drawing its layouts from the
+    scene distribution `scenes` (module docstring)."""
+    return SCENES[scene](goal, scenes)

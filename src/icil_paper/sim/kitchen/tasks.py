@@ -35,6 +35,11 @@ KITCHEN_OBJECT_DIM = 18
 CONTROL_FREQ = 20
 """Control rate of every kitchen and Kinova task, Hz (robosuite's `control_freq`)."""
 
+SCENE_DISTRIBUTIONS = ("generated", "human")
+"""Named distributions a scene's layout is drawn from (the env option `scenes`; the first is
+the default): `generated`, our stand-in for MimicGen's scenes, and `human`, for those of
+RoboCasa's human data set (the layouts are in `icil_paper.sim.kitchen.scenes`)."""
+
 @dataclass(frozen=True)
 class KitchenTaskSpec:
     """One task of the kitchen suite."""
