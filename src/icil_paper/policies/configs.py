@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from icil_paper.config_data import ConfigError, check_fields
+from icil_paper.policies.batching import PROMPT_FROM
 from icil_paper.registry import ComponentRegistry, check_name
 
 
@@ -74,7 +75,7 @@ register_policy = POLICY_REGISTRY.register
 class ICRTConfig(PolicyConfig):
     """ICRT (Sec. III-A): a causal transformer over prompt demonstrations and the query."""
 
-    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"prompt_from": ("same_task", "minibatch")}
+    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"prompt_from": PROMPT_FROM}
 
     chunk_size: int = 4
     """Future actions predicted per query step (action chunking; the first is executed)."""
