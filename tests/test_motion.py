@@ -21,10 +21,11 @@ from icil_paper.metrics import (
 )
 from icil_paper.policies.base import Policy
 from icil_paper.policies.configs import ICRTConfig
-from icil_paper.records import eval_record_name, features_record
+from icil_paper.records import features_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import EVAL_RECORD_VERSION, EvalSpec, eval_key
 from icil_paper.sim.synthetic import expert_action, make_synthetic_env, task_goal
+from record_helpers import write_eval_record
 
 REACH = np.array([0.2, 0.1, -0.05])  # metres
 
@@ -287,14 +288,7 @@ def motion_records(preset, store, table_id, ldlj_of, success=0.5, seed=0, undefi
                     if motion:
                         per[-1].update(ldlj=None if gap else value,
                                        sparc=None if gap else value / 5, action_jerk=0.1)
-                successes = sum(e["success"] for e in per)
-                store.write("eval", eval_record_name(unit.run, unit.eval),
-                            {"run": to_dict(unit.run, keyed_only=True),
-                             "eval": to_dict(unit.eval, keyed_only=True)},
-                            {"task": unit.eval.task, "episodes": n, "successes": successes,
-                             "success_rate": successes / n, "ci_low": 0.0, "ci_high": 1.0,
-                             "mean_steps": 50.0, "wall_time_s": 0.0, "per_episode": per},
-                            seed=unit.run.seed, wall_time_s=0.0)
+                write_eval_record(store, unit, per, mean_steps=50.0)
 
 
 def test_a_cell_estimates_motion_with_the_seed_as_the_unit():

@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 from icil_paper.config import get_preset
-from icil_paper.config_data import spec_key, to_dict
-from icil_paper.records import eval_record_name
+from icil_paper.config_data import spec_key
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key
 from icil_paper.tables import TABLES, table_spec
 from icil_paper.tables.assemble import assemble
 from icil_paper.tables.claims import claims, claims_ledger, write_ledger
 from icil_paper.tables.execute import plan
+from record_helpers import write_eval_record
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -101,14 +101,7 @@ def fake_records(preset, store, table_id, rate_of, episodes=None, seed=0):
                 n = episodes or unit.eval.episodes
                 per = [{"episode": i, "success": bool(rng.random() < rate_of(row.label)),
                         "steps": 5} for i in range(n)]
-                successes = sum(e["success"] for e in per)
-                store.write("eval", eval_record_name(unit.run, unit.eval),
-                            {"run": to_dict(unit.run, keyed_only=True),
-                             "eval": to_dict(unit.eval, keyed_only=True)},
-                            {"task": unit.eval.task, "episodes": n, "successes": successes,
-                             "success_rate": successes / n, "ci_low": 0.0, "ci_high": 1.0,
-                             "mean_steps": 5.0, "wall_time_s": 0.0, "per_episode": per},
-                            seed=unit.run.seed, wall_time_s=0.0)
+                write_eval_record(store, unit, per, mean_steps=5.0)
 
 
 def test_records_become_estimates_and_claims_get_their_verdicts():
