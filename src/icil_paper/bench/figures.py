@@ -48,6 +48,17 @@ def _records(kind: str, prefix: str = "", tasks: str = "") -> list[dict]:
     return out
 
 
+def _cell(kind: str, field: str) -> float:
+    """A kind of cell's `seed_cost_s` or `floor_ratio` (its steady cell, the next seed in a
+    worker that ran one), or `first_floor_ratio` (its first cell in a fresh process)."""
+    cell = next(c for c in _bench("cells")["cells"] if c["kind"] == kind)
+    return cell["first"]["floor_ratio"] if field == "first_floor_ratio" else cell[field]
+
+
+def _compiled(kind: str, field: str) -> float:
+    return next(c for c in _bench("cells")["compile"] if c["kind"] == kind)[field]
+
+
 def _median_wall(kind: str, prefix: str, tasks: str) -> float:
     """Median `wall_time_s` of those records."""
     values = [r["wall_time_s"] for r in _records(kind, prefix, tasks)]
@@ -84,6 +95,14 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                      lambda: _latency("full", 1600, "step_ms_kv_cache")),
     "policies.full_1600_recompute_ms": ("results/bench/policies.json",
                                         lambda: _latency("full", 1600, "step_ms_recompute")),
+    **{f"cells.{kind}.{field}": ("results/bench/cells.json",
+                                 lambda kind=kind, field=field: _cell(kind, field))
+       for kind in ("kitchen_icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
+       for field in ("seed_cost_s", "floor_ratio", "first_floor_ratio")},
+    **{f"cells.compile.{kind}.{field}": ("results/bench/cells.json",
+                                         lambda kind=kind, field=field: _compiled(kind, field))
+       for kind in ("kitchen_icrt_lipvq", "act_maniskill")
+       for field in ("eager_step_ms", "compiled_step_ms", "warmup_s")},
     "reference.icrt_train_s": ("results/reference/train",
                                lambda: _median_wall("train", "icrt_lipvq", "kitchen")),
     "reference.bc_eval_s": ("results/reference/eval",

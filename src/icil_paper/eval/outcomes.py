@@ -241,7 +241,8 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
                   workers: int = 1, record_dir: str | Path | None = None, progress: bool = True,
                   env_options: Mapping[str, Any] | None = None,
                   env_factory: Callable[..., Any] | None = None, batch_size: int | None = None,
-                  pool: RolloutPool | None = None, device: str | None = None) -> list[EvalResult]:
+                  pool: RolloutPool | None = None, device: str | None = None,
+                  keep_envs: bool = False) -> list[EvalResult]:
     """Evaluate one policy on many specs (e.g. every task of a table) in one call; returns
     one EvalResult per spec, in order. Each result equals what `evaluate_policy` gives for
     that spec alone, up to float rounding in the policy (see the module docstring).
@@ -260,6 +261,7 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
             `rollouts.default_batch_size`: one episode per spec per group).
         pool: a `RolloutPool` whose worker processes (and their envs) to use and keep.
         device: where worker processes run the policy (default: the policy's device).
+        keep_envs: keep this process's envs for the next call (`rollouts.run_episodes`).
     """
     specs = list(specs)
     if not specs:
@@ -285,7 +287,7 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
     rows = run_episodes(policy, episodes, prompts=dict(enumerate(pools)), obs=obs_kind(policy),
                         workers=workers, batch_size=batch_size, env_factory=env_factory,
                         env_options=env_options, record_dir=record_dir, progress=progress,
-                        pool=pool, device=device, desc=desc)
+                        pool=pool, device=device, desc=desc, keep_envs=keep_envs)
     wall = round(time.perf_counter() - start, 3)
     results = []
     for i, spec in enumerate(specs):

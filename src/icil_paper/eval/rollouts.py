@@ -63,6 +63,8 @@ from typing import Any
 import numpy as np
 import torch
 
+from icil_paper.timing import phase
+
 MAX_BATCH = 16
 """Largest default group: beyond this the per-step cost of stepping the envs in turn dwarfs
 the batched forward pass, and fewer, longer groups balance worse over workers."""
@@ -134,27 +136,32 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
         raise ValueError(f"{n} envs need {n} prompts and step limits")
     start = time.perf_counter()
     limits = [int(m or env.horizon) for m, env in zip(limits, envs, strict=True)]
-    obs = [env.reset(seed=int(seed))[0] for env, seed in zip(envs, seeds, strict=True)]
-    paths: list[list[np.ndarray] | None] = [_first_position(env) for env in envs]
+    with phase("eval.reset"):
+        obs = [env.reset(seed=int(seed))[0] for env, seed in zip(envs, seeds, strict=True)]
+        paths: list[list[np.ndarray] | None] = [_first_position(env) for env in envs]
     uses_prompt = getattr(policy, "uses_prompt", False)
-    policy.reset_batch([list(p) if uses_prompt and p is not None else None for p in prompts],
-                       [getattr(env, "instruction", "") for env in envs])
+    with phase("eval.policy"):  # the prompt's prefill
+        policy.reset_batch([list(p) if uses_prompt and p is not None else None
+                            for p in prompts], [getattr(env, "instruction", "") for env in envs])
     steps, success, total = [0] * n, [False] * n, [0.0] * n
     ended = [0.0] * n
     seen: list[list[Any]] = [[] for _ in range(n)]
     taken: list[list[np.ndarray]] = [[] for _ in range(n)]
     running = list(range(n))
     while running:
-        actions = np.asarray(policy.select_actions([obs[i] for i in running], rows=running))
-        actions = np.clip(actions, -1.0, 1.0).astype(np.float32)
+        with phase("eval.policy"):
+            actions = np.asarray(policy.select_actions([obs[i] for i in running], rows=running))
+            actions = np.clip(actions, -1.0, 1.0).astype(np.float32)
         still = []
         for action, i in zip(actions, running, strict=True):
             if keep_trace:
                 seen[i].append(obs[i])
             taken[i].append(action)
-            obs[i], reward, terminated, truncated, info = envs[i].step(action)
+            with phase("eval.sim"):
+                obs[i], reward, terminated, truncated, info = envs[i].step(action)
             if paths[i] is not None:
-                paths[i].append(envs[i].eef_position())
+                with phase("eval.motion"):
+                    paths[i].append(envs[i].eef_position())
             steps[i] += 1
             total[i] += float(reward)
             if info.get("success"):
@@ -345,7 +352,8 @@ class WorkerState:
             pool = self.envs.setdefault(key, [])
             k = used.get(key, 0)
             if k == len(pool):
-                pool.append(setup.make(ep.task, ep.seed, ep.env_options))
+                with phase("eval.env_build"):
+                    pool.append(setup.make(ep.task, ep.seed, ep.env_options))
             out.append(pool[k])
             used[key] = k + 1
         return out
@@ -382,9 +390,11 @@ def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
                          keep_trace=job.record_dir is not None)
     results = []
     for ep, out in zip(job.episodes, outs, strict=True):
+        with phase("eval.motion"):
+            motion = motion_record(out)
         row = {"episode": ep.index, "seed": ep.seed, "success": bool(out["success"]),
                "steps": int(out["steps"]), "return": out["return"], "prompt": list(ep.prompt),
-               "wall_time_s": out["wall_time_s"], **motion_record(out)}
+               "wall_time_s": out["wall_time_s"], **motion}
         if job.record_dir is not None:
             row["recording"] = record_rollout(policy, ep.task, {"index": ep.index,
                                                                 "seed": ep.seed},
@@ -394,6 +404,11 @@ def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
 
 
 _STATE: WorkerState | None = None  # a worker process's state, kept between groups
+
+KEPT_ENVS = 32
+"""Most environments a process keeps between `run_episodes(..., keep_envs=True)` calls
+(about 115 MB each for a kitchen task with state observations); beyond it they are closed
+and built again as needed."""
 
 
 def worker_state() -> WorkerState:
@@ -524,7 +539,8 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
                  env_factory: Callable[..., Any] | None = None,
                  env_options: Mapping[str, Any] | None = None, record_dir: str | Path | None = None,
                  progress: bool = True, pool: RolloutPool | None = None,
-                 device: str | None = None, desc: str = "rollouts") -> list[dict[str, Any]]:
+                 device: str | None = None, desc: str = "rollouts",
+                 keep_envs: bool = False) -> list[dict[str, Any]]:
     """Run every episode (see the module docstring); returns one result dict per episode, in
     the order of `episodes`: episode, seed, success, steps, return, prompt, wall_time_s
     (seconds from its group's start until it ended), the motion's smoothness `ldlj`,
@@ -544,6 +560,10 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
         record_dir: write a rerun recording of each rollout there.
         pool: worker processes to use (and keep) instead of starting new ones.
         device: where worker processes run the policy (default: the policy's device).
+        keep_envs: in this process (one worker, no pool), keep the envs for the next call
+            (`worker_state()`, at most `KEPT_ENVS`), as a pool's workers do: a grid worker
+            that evaluates cell after cell builds each task's env once. Results do not
+            change: every episode resets its env from its own seed.
     """
     if not episodes:
         return []
@@ -573,7 +593,9 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
         if pool is None and n_workers == 1:
             from icil_paper.seeding import cpu_threads
 
-            state = WorkerState()
+            state = worker_state() if keep_envs else WorkerState()
+            if sum(map(len, state.envs.values())) > KEPT_ENVS:
+                state.close()
             try:
                 with cpu_threads(1):  # small batched steps gain nothing from a thread pool
                     for job in group_jobs(episodes, prompts, policy, setup, batch, record_dir):
@@ -581,7 +603,8 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
                             by_episode[ep.spec, ep.index] = row
                         bar.update(len(job.episodes))
             finally:
-                state.close()
+                if not keep_envs:
+                    state.close()
         else:
             own = pool is None
             pool = pool or RolloutPool(n_workers)

@@ -23,6 +23,7 @@ from icil_paper.eval.outcomes import evaluate_many, evaluate_policy, prompt_pool
 from icil_paper.eval.rollouts import RolloutPool
 from icil_paper.records import eval_record
 from icil_paper.runspec import EvalSpec
+from icil_paper.timing import phase
 
 
 def _run_prompts(run: Any, ev: EvalSpec, policy: Any, preset: str | None,
@@ -61,25 +62,30 @@ def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[
                       store: Any, preset: str | None = None, workers: int = 1,
                       record_dir: str | Path | None = None, force: bool = False,
                       progress: bool = True, pool: RolloutPool | None = None,
-                      batch_size: int | None = None) -> list[dict[str, Any]]:
+                      batch_size: int | None = None,
+                      keep_envs: bool = False) -> list[dict[str, Any]]:
     """`evaluate_run` for many evaluations of one run (a table's tasks): the records that
     are missing (or all, with `force`) are computed together in one `evaluate_many` call,
     each stored as it would be by `evaluate_run`. Returns the records, in the order of `evs`.
+    `keep_envs` keeps this process's envs for the next call (`rollouts.run_episodes`).
     """
     evs = list(evs)
     ids = [eval_record(run, ev) for ev in evs]
     records = [None if force else store.get(*record_id) for record_id in ids]
     missing = [i for i, r in enumerate(records) if r is None]
     if missing:
-        trained = _trained(policy)
+        with phase("eval.load_policy"):
+            trained = _trained(policy)
         start = time.perf_counter()
+        with phase("eval.prompts"):
+            prompts = [_run_prompts(run, evs[i], trained, preset, progress) for i in missing]
         results = evaluate_many(
-            trained, [evs[i] for i in missing],
-            [_run_prompts(run, evs[i], trained, preset, progress) for i in missing],
+            trained, [evs[i] for i in missing], prompts,
             workers=workers, record_dir=record_dir, progress=progress, pool=pool,
-            batch_size=batch_size)
+            batch_size=batch_size, keep_envs=keep_envs)
         wall = time.perf_counter() - start
         for i, result in zip(missing, results, strict=True):
-            path = store.write(*ids[i], result.to_dict(), evs[i].seed, wall / len(missing))
-            records[i] = json.loads(Path(path).read_text())
+            with phase("eval.write"):
+                path = store.write(*ids[i], result.to_dict(), evs[i].seed, wall / len(missing))
+                records[i] = json.loads(Path(path).read_text())
     return records

@@ -11,7 +11,9 @@
 3. Each RunPlan becomes one grid cell (`icil_paper.tables.grid`): `run_cell` trains the policy
    (or finds it), evaluates it and measures its features, writing one record per result
    through the results store. A cell whose records all exist is skipped, so a killed run
-   resumes where it stopped.
+   resumes where it stopped. A grid worker keeps its environments from cell to cell
+   (`keep_envs`), so it builds each task's env once (`python -m icil_paper.bench.cells`
+   measures what a cell costs, phase by phase).
 
 Records are named by `icil_paper.records` (`train_record`, `eval_record`,
 `features_record`; their keys are the content keys of the specs), written by
@@ -130,9 +132,10 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
             policy = load_trained(run_spec, preset, store, progress=progress)
         return policy
 
-    # every task of the cell side by side: one batched policy forward per step
+    # every task of the cell side by side: one batched policy forward per step; the envs
+    # stay in this (grid worker) process for its next cell, which then builds none
     records = evaluate_run_many(run_spec, [from_dict(EvalSpec, e) for e in evals], get_policy,
-                                store, preset, workers=1, progress=progress)
+                                store, preset, workers=1, progress=progress, keep_envs=True)
     successes = [r["metrics"]["success_rate"] for r in records]
     for f_dict in features:
         spec = from_dict(FeatureSpec, f_dict)

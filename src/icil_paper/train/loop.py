@@ -34,6 +34,7 @@ import numpy as np
 import torch
 
 from icil_paper.seeding import cpu_threads
+from icil_paper.timing import phase
 from icil_paper.train import rundir
 from icil_paper.train.optim import EMA, cosine_schedule, make_optimizer
 
@@ -147,18 +148,22 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
     if run_dir is not None:  # before any work: a wrong folder fails fast
         rundir.prepare_run_dir(run_dir, spec, resume)
     rng = seed_everything(spec.seed)
-    demos = list(demos) if demos is not None else training_demos(spec.data, preset,
-                                                                   data_workers, progress)
+    with phase("train.data"):
+        demos = list(demos) if demos is not None else training_demos(spec.data, preset,
+                                                                       data_workers, progress)
     if not demos:
         raise ValueError("no demonstrations to train on")
     obs_spec = obs_spec_from_obs(demos[0].obs)
     action_dim = int(np.asarray(demos[0].actions).shape[1])
-    model = make_policy(spec.policy, obs_spec, action_dim, spec.tokenizer)
     key = spec.key()
-    ckpt = rundir.load_checkpoint(run_dir, key, device) if run_dir and resume else None
-
-    data = model.prepare(demos, pretrain=ckpt is None, progress=progress)
-    model.to(device)
+    with phase("train.checkpoint"):
+        ckpt = rundir.load_checkpoint(run_dir, key, device) if run_dir and resume else None
+    with phase("train.prepare"):  # normalisation, tokenizer fitting, MCR's pre-training
+        model = make_policy(spec.policy, obs_spec, action_dim, spec.tokenizer)
+        data = model.prepare(demos, pretrain=ckpt is None, progress=progress)
+        model.to(device)
+    if tc.compile:  # in place: the state dict keeps its names; compiled on the first step
+        model.compile(dynamic=True)
     optimizer = make_optimizer(model, tc.lr, tc.weight_decay, tc.betas)
     scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer,
                                                   cosine_schedule(tc.warmup_steps, tc.steps))
@@ -176,7 +181,8 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
                dynamic_ncols=True)
     last_loss = float("nan")
     while state.step < tc.steps:
-        loss, info, grad_norm = _step(state, data, tc, device, batch_to)
+        with phase("train.step"):
+            loss, info, grad_norm = _step(state, data, tc, device, batch_to)
         last_loss = float(loss)
         bar.update(1)
         step = state.step
@@ -187,10 +193,12 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
             history.append(line)
             bar.set_postfix(loss=f"{last_loss:.4f}")
             if metrics_path is not None:
-                rundir.append_metrics(metrics_path, line)
+                with phase("train.log"):
+                    rundir.append_metrics(metrics_path, line)
         if run_dir is not None and (step % tc.ckpt_every == 0 or step == tc.steps
                                     or step == stop_after):
-            rundir.save_checkpoint(run_dir, state.state_dict(key))
+            with phase("train.checkpoint"):
+                rundir.save_checkpoint(run_dir, state.state_dict(key))
         if stop_after is not None and step >= stop_after:
             break
     bar.close()
@@ -209,8 +217,9 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
                "steps_per_s": round(trained / wall, 3) if trained and wall > 0 else None,
                "n_params": model.n_params(), "n_demos": len(demos), "device": str(device)}
     if run_dir is not None and state.step >= tc.steps:
-        rundir.save_policy(run_dir / rundir.POLICY_FILE, model,
-                           {"key": key, "spec": spec.to_dict(), "steps": state.step})
+        with phase("train.checkpoint"):
+            rundir.save_policy(run_dir / rundir.POLICY_FILE, model,
+                               {"key": key, "spec": spec.to_dict(), "steps": state.step})
     return TrainResult(model, run_dir, metrics, history)
 
 

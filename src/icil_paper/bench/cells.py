@@ -1,0 +1,328 @@
+"""What one seed of each kind of cell costs, phase by phase, against its compute floor.
+
+    python -m icil_paper.bench.cells                     # a tenth of each reference cell
+    python -m icil_paper.bench.cells --full              # the reference preset's own cells
+    python -m icil_paper.bench.cells --kinds act_maniskill --scale 0.05 --compile-steps 0
+
+A kind of cell is one seed of a reference-preset cell, taken from the tables' own plan
+(`tables.execute.plan`), and run the way the grid runs it (`tables.execute.run_cell`), in a
+fresh process of its own, against empty results and runs folders (a temporary folder;
+the data sets are the preset's, generated first and not timed):
+
+    kitchen_icrt_lipvq   Table I's ICRT + LipVQ-VAE: trained on the 11 kitchen tasks,
+                         evaluated on each
+    bc_transformer       Table I's BC-Transformer, the same tasks
+    act_maniskill        Table II's ACT on ManiSkill's first task (one policy per task)
+    kinova_eval          Table V: the ICRT + LipVQ-VAE policy above (already trained, so
+                         only loaded) evaluated on the Kinova tasks
+
+Each process runs two seeds of its kind one after the other, as a grid worker runs cell
+after cell: `first` pays the process start and builds the environments, `steady` (the
+next seed) is what each later cell costs, and its ratio is the kind's `floor_ratio`. Each
+cell's wall time is split into the phases the library marks (`icil_paper.timing`):
+
+    process_start      interpreter start and imports, up to the cell's first line
+    train.data         loading the demonstrations       train.prepare  normalisation,
+    train.step         the optimiser steps                             tokenizer fitting
+    train.checkpoint   checkpoints and the policy file  train.log      metric lines
+    eval.load_policy   loading the trained policy       eval.prompts   the prompt pools
+    eval.env_build     creating environments            eval.reset     resets
+    eval.sim           simulator steps                  eval.policy    policy forward passes
+    eval.motion        the end-effector path and its smoothness
+    eval.write         the evaluation records           other          everything unmarked
+
+and compared with its compute floor: the training steps times the measured time of one
+step (`train.step`'s seconds), plus the evaluation's environment steps divided by the raw
+simulator rate on the same tasks (`raw_rates`: the scripted expert's steps, `env.step`
+alone, measured in the same process after the first cell). `floor_ratio = wall / floor`
+(the target is <= 1.25). `--scale` shortens every cell (training steps, checkpoint interval
+and episodes per task alike), so every phase runs in proportion. `compile` compares eager
+training with `torch.compile` (`TrainConfig.compile`) on the kinds that train longest
+(`compile_cost`). The record goes to results/bench/cells.json with provenance
+(`save_benchmark`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+KINDS = ("kitchen_icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
+"""The kinds of cell measured, in the order they run (kinova_eval reuses the first's policy)."""
+
+TARGET = 1.25
+"""The floor ratio every kind of cell should stay within."""
+
+RAW_STEPS = 150
+"""Zero-action steps per task that measure the raw simulator rate."""
+
+
+# --------------------------------------------------------------------------- which cell
+def kind_cell(preset: Any, kind: str) -> tuple[Any, list[Any]]:
+    """(run, evaluations) of one seed of `kind` at `preset`, from the tables' plan."""
+    from icil_paper.tables.definitions import table_spec
+    from icil_paper.tables.execute import plan
+
+    table, policy, tokenizer = {"kitchen_icrt_lipvq": ("I", "icrt", "lipvq"),
+                                "bc_transformer": ("I", "bc_transformer", None),
+                                "act_maniskill": ("II", "act", None),
+                                "kinova_eval": ("V", "icrt", "lipvq")}[kind]
+    for p in plan([table_spec(preset, table)]):
+        tok = getattr(p.run.tokenizer, "type", None) if p.run.tokenizer else None
+        if p.run.policy.type == policy and tok == tokenizer:
+            return p.run, list(p.evals.values())
+    raise ValueError(f"table {table} at preset {preset.name!r} has no {kind} cell")
+
+
+def shortened(run: Any, evals: list[Any], scale: float | None) -> tuple[Any, list[Any]]:
+    """The cell at `scale` of its size: training steps and episodes per task times `scale`
+    (at least 1 episode; checkpoints as often, relative to the run's length). None keeps
+    the preset's."""
+    if scale is None:
+        return run, evals
+    steps = max(1, round(run.train.steps * scale))
+    run = run.replace(train=dataclasses.replace(
+        run.train, steps=steps, ckpt_every=max(1, round(run.train.ckpt_every * scale)),
+        warmup_steps=max(1, round(run.train.warmup_steps * scale))))
+    evals = [dataclasses.replace(ev, episodes=max(1, round(ev.episodes * scale)))
+             for ev in evals]
+    return run, evals
+
+
+# --------------------------------------------------------------------------- in the child
+def raw_rates(evals: list[Any], obs: str, steps: int = RAW_STEPS) -> dict[str, float]:
+    """Simulator steps per second on each evaluation's task (its scenes), on one thread,
+    driven by the task's scripted expert from the evaluation's first episode seeds (so the
+    arm moves and makes contact as a policy's does; zero actions step faster), counting
+    `env.step` alone: not environment creation, resets or the expert's own computation."""
+    from icil_paper.eval.outcomes import episode_seed
+    from icil_paper.seeding import cpu_threads
+    from icil_paper.sim import make_env, make_expert
+
+    rates = {}
+    with cpu_threads(1):
+        for ev in evals:
+            options = {"scenes": ev.scenes} if ev.scenes != "generated" else {}
+            env = make_env(ev.task, obs=obs, seed=ev.seed, **options)
+            expert = make_expert(ev.task)
+            spent, done, episode = 0.0, 0, 0
+            while done < steps:
+                obs_, _ = env.reset(seed=episode_seed(ev.seed, episode))
+                expert.reset(env, obs_)
+                for _ in range(min(env.horizon, steps - done)):
+                    action = expert.act(obs_)
+                    t = time.perf_counter()
+                    obs_, _, terminated, truncated, _ = env.step(action)
+                    spent += time.perf_counter() - t
+                    done += 1
+                    if terminated or truncated:
+                        break
+                episode += 1
+            env.close()
+            rates[ev.task] = steps / spent
+    return rates
+
+
+def _cell_cost(preset: Any, run: Any, evals: list[Any], rates: dict[str, float] | None,
+               before_s: float = 0.0) -> dict[str, Any]:
+    """Run one cell through `run_cell` and split its wall time (plus `before_s`, the
+    process start charged to it) by phase; the floor uses `rates` (measured after the
+    first cell: `raw_rates`)."""
+    import icil_paper.tables.execute as execute
+    from icil_paper.config_data import to_dict
+    from icil_paper.records import eval_record
+    from icil_paper.results import ResultsStore
+    from icil_paper.timing import recording
+
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    with recording() as phases:
+        execute.run_cell(preset.name, run.to_dict(), [to_dict(e) for e in evals], [])
+    wall = time.perf_counter() - wall0 + before_s
+    cpu = time.process_time() - cpu0
+    store = ResultsStore(preset.name)
+    per_task = {ev.task: store.get(*eval_record(run, ev))["metrics"]["per_episode"]
+                for ev in evals}
+    env_steps = {task: sum(e["steps"] for e in rows) for task, rows in per_task.items()}
+    rates = rates or raw_rates(evals, run.data.obs)
+    split = {name: v["wall_s"] for name, v in phases.as_dict().items()}
+    if before_s:
+        split["process_start"] = round(before_s, 3)
+    split["other"] = round(wall - sum(split.values()), 3)
+    steps = phases.count.get("train.step", 0)
+    train_floor = split.get("train.step", 0.0)
+    sim_floor = sum(n / rates[task] for task, n in env_steps.items())
+    floor = train_floor + sim_floor
+    return {"seed": run.seed, "run_key": run.key(), "train_steps": steps,
+            "episodes": sum(len(rows) for rows in per_task.values()),
+            "env_steps": sum(env_steps.values()),
+            "wall_s": round(wall, 3), "cpu_s": round(cpu, 3),
+            "phases_s": dict(sorted(split.items(), key=lambda kv: -kv[1])),
+            "step_ms": round(1000 * train_floor / steps, 3) if steps else None,
+            "raw_steps_per_s": {t: round(r, 2) for t, r in rates.items()},
+            "floor_s": {"train": round(train_floor, 3), "sim": round(sim_floor, 3),
+                        "total": round(floor, 3)},
+            "floor_ratio": round(wall / floor, 4) if floor > 0 else None}
+
+
+def measure(kind: str, preset_name: str, scale: float | None, started: float
+            ) -> dict[str, Any]:
+    """Run two seeds of `kind` one after the other in this process, as a grid worker runs
+    cells (see the module docstring); `started` is the time.time() at which the parent
+    launched this process. The first seed pays the process start (interpreter, imports)
+    and builds the environments; the second (`steady`) is what every later cell of a
+    grid worker costs, and its `floor_ratio` is the kind's."""
+    from icil_paper.config import get_preset
+
+    preset = get_preset(preset_name)
+    run, evals = shortened(*kind_cell(preset, kind), scale)
+    for module in ("icil_paper.eval", "icil_paper.train.stored", "icil_paper.policies",
+                   f"icil_paper.sim.{'maniskill' if kind == 'act_maniskill' else 'kitchen'}"):
+        __import__(module)
+    process_start = time.time() - started
+    first = _cell_cost(preset, run, evals, None, before_s=process_start)
+    rates = first["raw_steps_per_s"]
+    second = run.replace(seed=run.seed + 1)
+    if kind == "kinova_eval":  # it evaluates a trained policy: train the second one untimed
+        execute_training(preset, second)
+    steady = _cell_cost(preset, second, evals, rates)
+    return {"kind": kind, "run": run.label, "tasks": [ev.task for ev in evals],
+            "first": first, "steady": steady, "floor_ratio": steady["floor_ratio"],
+            "seed_cost_s": steady["wall_s"]}
+
+
+def execute_training(preset: Any, run: Any) -> None:
+    """Train `run` (untimed): the evaluation-only kind evaluates a trained policy."""
+    from icil_paper.results import ResultsStore
+    from icil_paper.train.stored import train_run
+
+    train_run(run, preset.name, ResultsStore(preset.name), progress=False)
+
+
+# --------------------------------------------------------------------------- compilation
+def compile_cost(kind: str, preset_name: str, steps: int) -> dict[str, Any]:
+    """Training of `kind` eager against `torch.compile` (`TrainConfig.compile`), one thread,
+    in this process: `steps` eager steps, then two compiled runs of `steps` steps. The
+    first compiled run pays the compilation (`warmup_s`: its excess over the second; a
+    process that compiled before, or inductor's cache on disk, makes it smaller); the
+    second gives the compiled step (`compiled_step_ms`: every shape it meets compiled).
+    `reference_saving_s`: what compiling would save on one reference cell (its steps times
+    the difference, less one warm-up); negative: eager is cheaper."""
+    import torch
+
+    from icil_paper.config import get_preset
+    from icil_paper.timing import recording
+    from icil_paper.train.loop import train_policy
+
+    run, _ = kind_cell(get_preset(preset_name), kind)
+    torch.set_num_threads(1)
+
+    def train(compiled: bool) -> tuple[float, float]:
+        spec = run.replace(train=dataclasses.replace(
+            run.train, steps=steps, compile=compiled,
+            warmup_steps=min(run.train.warmup_steps, steps)))
+        with recording() as phases:
+            result = train_policy(spec, run_dir=None, preset=preset_name, progress=False)
+        return phases.wall["train.step"], float(result.metrics["final_loss"])
+
+    eager, eager_loss = train(False)
+    first, _ = train(True)
+    warm, compiled_loss = train(True)
+    eager_ms, compiled_ms = 1000 * eager / steps, 1000 * warm / steps
+    warmup = first - warm
+    full = run.train.steps
+    return {"kind": kind, "steps": steps, "eager_step_ms": round(eager_ms, 3),
+            "compiled_step_ms": round(compiled_ms, 3),
+            "speedup": round(eager_ms / compiled_ms, 3), "warmup_s": round(warmup, 2),
+            "final_loss": {"eager": eager_loss, "compiled": compiled_loss},
+            "reference_steps": full,
+            "reference_saving_s": round(full * (eager_ms - compiled_ms) / 1000 - warmup, 1)}
+
+
+# --------------------------------------------------------------------------- the parent
+def run_kinds(kinds: list[str], preset_name: str, scale: float | None,
+              folder: Path) -> list[dict[str, Any]]:
+    """Each kind in a fresh process sharing `folder` as its results and runs store."""
+    env = {**os.environ, "ICIL_RESULTS": str(folder / "results"),
+           "ICIL_RUNS": str(folder / "runs"), "PYTHONUNBUFFERED": "1"}
+    out = []
+    for kind in kinds:
+        result_file = folder / f"{kind}.json"
+        cmd = [sys.executable, "-m", "icil_paper.bench.cells", "--child", kind,
+               "--preset", preset_name, "--started", repr(time.time()), "--out", str(result_file)]
+        cmd += ["--full"] if scale is None else ["--scale", str(scale)]
+        print(f"== {kind}", flush=True)
+        subprocess.run(cmd, env=env, check=True)
+        result = json.loads(result_file.read_text())
+        for which in ("first", "steady"):
+            r = result[which]
+            print(f"   {which}: wall {r['wall_s']:.1f} s, floor {r['floor_s']['total']:.1f} s, "
+                  f"ratio {r['floor_ratio']:.3f}: {r['phases_s']}", flush=True)
+        out.append(result)
+    return out
+
+
+def ensure_kind_data(preset_name: str, kinds: list[str]) -> None:
+    """Generate the data sets the cells read (not timed: a table run does it once)."""
+    from icil_paper.config import get_preset
+    from icil_paper.tables.execute import RunPlan, ensure_data
+
+    preset = get_preset(preset_name)
+    plans = []
+    for kind in kinds:
+        run, evals = kind_cell(preset, kind)
+        for seed in (run.seed, run.seed + 1):
+            plans.append(RunPlan(run.replace(seed=seed),
+                                 {str(i): ev for i, ev in enumerate(evals)}))
+    ensure_data(preset, plans)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
+    parser.add_argument("--preset", default="reference")
+    parser.add_argument("--scale", type=float, default=0.1,
+                        help="training steps and episodes per task as a fraction of the "
+                             "preset's (default 0.1)")
+    parser.add_argument("--full", action="store_true", help="the preset's cells unshortened")
+    parser.add_argument("--compile-steps", type=int, default=300,
+                        help="steps of the eager / compiled comparison (0: skip it)")
+    parser.add_argument("--out", default=None)
+    parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--started", type=float, default=None, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    scale = None if args.full else args.scale
+    if args.child:
+        from icil_paper.fileio import atomic_write_json
+
+        atomic_write_json(Path(args.out), measure(args.child, args.preset, scale, args.started))
+        return
+    from icil_paper.bench import save_benchmark
+
+    kinds = list(args.kinds)
+    if "kinova_eval" in kinds and "kitchen_icrt_lipvq" not in kinds:
+        kinds.insert(kinds.index("kinova_eval"), "kitchen_icrt_lipvq")  # it trains the policy
+    ensure_kind_data(args.preset, kinds)
+    with tempfile.TemporaryDirectory(prefix="icil-cells-") as tmp:
+        cells = run_kinds(kinds, args.preset, scale, Path(tmp))
+    compiled = []
+    for kind in ("kitchen_icrt_lipvq", "act_maniskill") if args.compile_steps else ():
+        if kind in kinds:
+            compiled.append(compile_cost(kind, args.preset, args.compile_steps))
+            print(f"   compile {compiled[-1]}", flush=True)
+    record = {"preset": args.preset, "scale": scale, "target_floor_ratio": TARGET,
+              "cells": cells, "compile": compiled,
+              "floor_ratio": {c["kind"]: c["floor_ratio"] for c in cells},
+              "seed_cost_s": {c["kind"]: c["seed_cost_s"] for c in cells}}
+    save_benchmark("cells", record, args.out)
+
+
+if __name__ == "__main__":
+    main()
