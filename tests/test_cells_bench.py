@@ -76,19 +76,28 @@ def test_a_worker_that_keeps_its_envs_writes_the_same_records(tmp_path, monkeypa
     rollouts._close_state()
 
 
-def test_the_kept_envs_are_capped(monkeypatch):
+def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch):
     from icil_paper.sim.synthetic import make_synthetic_env
 
     rollouts._close_state()
-    monkeypatch.setattr(rollouts, "KEPT_ENVS", 1)
+    monkeypatch.setattr(rollouts, "KEPT_ENVS", 2)
     policy = _ZeroPolicy()
-    episodes = [rollouts.Episode(spec=i, task=f"synthetic/task{i}", index=0, seed=i,
-                                 max_steps=3) for i in range(3)]
-    for _ in range(2):
-        rollouts.run_episodes(policy, episodes, env_factory=make_synthetic_env,
-                              progress=False, keep_envs=True)
-        kept = sum(map(len, rollouts.worker_state().envs.values()))
-        assert kept == 3  # closed before the second call (over the cap), then built again
+
+    def episodes(tasks):
+        return [rollouts.Episode(spec=i, task=f"synthetic/task{t}", index=0, seed=i,
+                                 max_steps=3) for i, t in enumerate(tasks)]
+
+    def kept():
+        return sorted(key[3] for key in rollouts.worker_state().envs)
+
+    rollouts.run_episodes(policy, episodes([0, 1]), env_factory=make_synthetic_env,
+                          progress=False, keep_envs=True)
+    assert kept() == ["synthetic/task0", "synthetic/task1"]
+    before = rollouts.worker_state().envs[next(iter(rollouts.worker_state().envs))][0]
+    rollouts.run_episodes(policy, episodes([0, 2]), env_factory=make_synthetic_env,
+                          progress=False, keep_envs=True)
+    assert kept() == ["synthetic/task0", "synthetic/task2"]  # task1's, unused, was closed
+    assert rollouts.worker_state().envs[next(iter(rollouts.worker_state().envs))][0] is before
     rollouts._close_state()
 
 

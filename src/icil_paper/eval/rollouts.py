@@ -348,7 +348,7 @@ class WorkerState:
         episode's own env options: a task on two scene distributions has two envs)."""
         out, used = [], {}
         for ep in episodes:
-            key = (setup.factory, setup.obs, repr(setup.options), ep.task, repr(ep.env_options))
+            key = self.env_key(setup, ep)
             pool = self.envs.setdefault(key, [])
             k = used.get(key, 0)
             if k == len(pool):
@@ -357,6 +357,19 @@ class WorkerState:
             out.append(pool[k])
             used[key] = k + 1
         return out
+
+    @staticmethod
+    def env_key(setup: EnvSetup, ep: Episode) -> tuple[Any, ...]:
+        return (setup.factory, setup.obs, repr(setup.options), ep.task, repr(ep.env_options))
+
+    def trim(self, setup: EnvSetup, episodes: Sequence[Episode], most: int) -> None:
+        """Close the envs that `episodes` do not use while more than `most` are kept."""
+        needed = {self.env_key(setup, ep) for ep in episodes}
+        for key in [k for k in self.envs if k not in needed]:
+            if sum(map(len, self.envs.values())) <= most:
+                break
+            for env in self.envs.pop(key):
+                env.close()
 
     def policy_for(self, ref: Any) -> Any:
         if not isinstance(ref, _PolicyFile):
@@ -405,10 +418,11 @@ def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
 
 _STATE: WorkerState | None = None  # a worker process's state, kept between groups
 
-KEPT_ENVS = 32
-"""Most environments a process keeps between `run_episodes(..., keep_envs=True)` calls
-(about 115 MB each for a kitchen task with state observations); beyond it they are closed
-and built again as needed."""
+KEPT_ENVS = 26
+"""Most environments a process keeps between `run_episodes(..., keep_envs=True)` calls:
+one ICRT cell's (11 kitchen tasks on two scene distributions and 4 Kinova tasks), at about
+170 MB each for a kitchen task with state observations. Beyond it the envs a call does not
+use are closed (oldest first), before the call and after it."""
 
 
 def worker_state() -> WorkerState:
@@ -594,8 +608,7 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
             from icil_paper.seeding import cpu_threads
 
             state = worker_state() if keep_envs else WorkerState()
-            if sum(map(len, state.envs.values())) > KEPT_ENVS:
-                state.close()
+            state.trim(setup, episodes, KEPT_ENVS)
             try:
                 with cpu_threads(1):  # small batched steps gain nothing from a thread pool
                     for job in group_jobs(episodes, prompts, policy, setup, batch, record_dir):
@@ -603,7 +616,9 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
                             by_episode[ep.spec, ep.index] = row
                         bar.update(len(job.episodes))
             finally:
-                if not keep_envs:
+                if keep_envs:  # keep what this call used, the likeliest next
+                    state.trim(setup, episodes, KEPT_ENVS)
+                else:
                     state.close()
         else:
             own = pool is None
