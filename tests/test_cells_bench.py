@@ -81,7 +81,9 @@ def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch)
 
     rollouts._close_state()
     monkeypatch.setattr(rollouts, "KEPT_ENVS", 2)
-    policy = _ZeroPolicy()
+    from icil_paper.bench.eval import ZeroActions
+
+    policy = ZeroActions()
 
     def episodes(tasks):
         return [rollouts.Episode(spec=i, task=f"synthetic/task{t}", index=0, seed=i,
@@ -99,18 +101,6 @@ def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch)
     assert kept() == ["synthetic/task0", "synthetic/task2"]  # task1's, unused, was closed
     assert rollouts.worker_state().envs[next(iter(rollouts.worker_state().envs))][0] is before
     rollouts._close_state()
-
-
-class _ZeroPolicy:
-    uses_prompt = False
-
-    def reset_batch(self, prompts, instructions=None):
-        pass
-
-    def select_actions(self, obs, rows=None):
-        import numpy as np
-
-        return np.zeros((len(obs), 7), np.float32)
 
 
 @pytest.mark.parametrize("kind", ["kitchen_icrt_lipvq", "bc_transformer", "act_maniskill",

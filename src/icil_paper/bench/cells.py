@@ -62,7 +62,7 @@ TARGET = 1.25
 """The floor ratio every kind of cell should stay within."""
 
 RAW_STEPS = 150
-"""Zero-action steps per task that measure the raw simulator rate."""
+"""Expert-driven simulator steps per task that measure the raw simulator rate (`raw_rates`)."""
 
 
 # --------------------------------------------------------------------------- which cell
