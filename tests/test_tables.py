@@ -304,3 +304,30 @@ def test_committed_reference_ledger_is_what_the_current_code_computes():
     committed = json.loads((root / "reference" / "claims.json").read_text())["claims"]
     current = claims_ledger(preset_named("reference"), ResultsStore("reference", root=root))
     assert json.loads(json.dumps(current)) == committed
+
+
+def test_row_seeds_give_single_rows_their_own_seeds_and_refuse_unknown_rows():
+    import dataclasses
+
+    from icil_paper.config_data import ConfigError
+    from icil_paper.registry import UnknownNameError
+    from icil_paper.tables.definitions import check_row_seeds
+
+    preset = small_preset("tables.icrt_seeds=2", "tables.row_seeds=I:icrt+mlp=4,II:*=3,beyond:icrt+fsq=5")
+    t1, t2, beyond = (table_spec(preset, t) for t in ("I", "II", "beyond"))
+    assert len(run_keys(t1, "icrt+mlp")) == 4 and len(run_keys(t1, "icrt+vq")) == 2
+    assert len(run_keys(t1, "bc_transformer")) == 1  # baseline_seeds
+    assert {len({u.run.key() for u in c.units}) for r in t2.rows
+            for col, c in r.cells.items() if col != "avg"} == {3}
+    assert len(run_keys(beyond, "icrt+fsq")) == 5
+    # A row that shares Table I's runs has at least Table I's seeds, and the same first runs
+    assert run_keys(t1, "icrt+lipvq") <= run_keys(beyond, "icrt+lipvq")
+    check_row_seeds(preset)
+    with pytest.raises(UnknownNameError, match="icrt\\+lipvq"):
+        check_row_seeds(small_preset("tables.row_seeds=I:icrt+lipv=3"))
+    with pytest.raises(UnknownNameError, match="table"):
+        check_row_seeds(small_preset("tables.row_seeds=XI:icrt+lipvq=3"))
+    with pytest.raises(ValueError, match="TABLE:row=N"):
+        small_preset("tables.row_seeds=I:icrt+lipvq=0")
+    with pytest.raises(ConfigError, match="TABLE:row=N"):
+        dataclasses.replace(preset.tables, row_seeds=("icrt+lipvq=3",))

@@ -290,11 +290,40 @@ class TablesConfig(_Checked):
     """Training seeds of every row of the `official` table (the paper against its official
     code); its paper rows share their first `icrt_seeds` policies with Table I's.
     None: `icrt_seeds`."""
+    row_seeds: tuple[str, ...] = ()
+    """Training seeds of single rows, as "TABLE:row=N" ("I:icrt+lipvq=10"; "TABLE:*=N" for
+    every row of a table that no entry names). A row not named keeps its table's default:
+    `icrt_seeds` or `baseline_seeds` (Table I, and so the tables that share its runs: III,
+    IV, V, VI and the prompt ablation), `since_paper_seeds` (`beyond`), `official_seeds`
+    (`official`), `icrt_seeds` (`analysis`), one seed (Tables II and VII, Fig. 5, whose rows
+    are named by codebook size: "fig5:256=5"). A row that shares Table I's runs (the VQ-VAE
+    and LipVQ-VAE rows of `beyond` and `analysis`, the paper's rows of `official`) has at
+    least Table I's seeds. `icil_paper.tables.definitions.check_row_seeds` refuses a name
+    that no table has."""
     scenes_per_seed: bool = False
     """Evaluation design: True gives training seed k of every row its own scene set k
     (evaluation seed `seed` + k), so that scene luck averages out over seeds and two rows
     are paired by seed index; False evaluates every seed on the same scenes
     (`icil_paper.stats` explains both)."""
+
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.seeds_by_row()
+
+    def seeds_by_row(self) -> dict[str, int]:
+        """`row_seeds` as {"TABLE:row": seeds} (ConfigError for an entry not "TABLE:row=N"
+        with N >= 1)."""
+        from icil_paper.config_data import ConfigError
+
+        out = {}
+        for entry in self.row_seeds:
+            name, sep, number = entry.rpartition("=")
+            if not sep or ":" not in name or not number.strip().isdigit() or int(number) < 1:
+                raise ConfigError(f"TablesConfig.row_seeds: {entry!r} should read "
+                                  "TABLE:row=N with N >= 1, e.g. I:icrt+lipvq=10")
+            out[name.strip()] = int(number)
+        return out
 
 
 @dataclass(frozen=True)

@@ -366,9 +366,9 @@ def check_range(path: str, value: Any, annotation: Any = None,
             raise error(f"{path} is a fraction and must be below 1, got {v}")
 
 
-EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks"})
+EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks", "row_seeds"})
 """Tuple fields that may be empty (an MLP without hidden layers, a preset without ManiSkill
-tasks); every other tuple field, and every string field, needs a value."""
+tasks, no row with seeds of its own); every other tuple field, and every string field, needs a value."""
 
 
 def field_choices(cls: type) -> dict[str, tuple[str, ...]]:

@@ -155,6 +155,7 @@ def check_outputs(preset: Preset) -> None:
 def main(argv: list[str] | None = None) -> int:
     from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
     from icil_paper.config import check_tasks
+    from icil_paper.tables.definitions import check_row_seeds
 
     parser = Parser(prog="icil-paper reproduce", description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
@@ -185,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
                          "on that cluster, or leave --ray-address out")
     preset = preset_from_args(args)
     check_tasks(preset)
+    check_row_seeds(preset)
     if args.stages:
         from icil_paper.registry import check_name
 

@@ -99,13 +99,23 @@ def _family_cells(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
     return cells
 
 
-def _seeds(preset: Preset, policy: str) -> int:
-    return preset.tables.icrt_seeds if policy == "icrt" else preset.tables.baseline_seeds
+def row_seeds(preset: Preset, table: str, row: str, default: int) -> int:
+    """Training seeds of one row: `tables.row_seeds`' entry for "TABLE:row", else for
+    "TABLE:*", else `default`."""
+    named = preset.tables.seeds_by_row()
+    return named.get(f"{table}:{row}", named.get(f"{table}:*", default))
+
+
+def table_i_seeds(preset: Preset, policy: str, tokenizer: str | None) -> int:
+    """Training seeds of one Table I row (and of every table that shares its runs)."""
+    default = preset.tables.icrt_seeds if policy == "icrt" else preset.tables.baseline_seeds
+    return row_seeds(preset, "I", label(policy, tokenizer), default)
 
 
 def table_i_runs(preset: Preset, policy: str, tokenizer) -> list[RunSpec]:
     """The runs of one Table I row (shared by Tables III, IV, V, VI and the prompt ablation)."""
-    return _runs(preset, policy, tokenizer, preset.data.kitchen_tasks, _seeds(preset, policy))
+    return _runs(preset, policy, tokenizer, preset.data.kitchen_tasks,
+                 table_i_seeds(preset, policy, tokenizer))
 
 
 # --------------------------------------------------------------------------- the tables
@@ -150,7 +160,8 @@ def table_ii(preset: Preset) -> TableSpec:
         cells = {}
         per_task = []
         for column, task in zip(MANISKILL_COLUMNS, preset.data.maniskill_tasks, strict=False):
-            runs = [state_run(run) for run in _runs(preset, policy, tokenizer, [task], 1)]
+            seeds = row_seeds(preset, "II", label(policy, tokenizer), 1)
+            runs = [state_run(run) for run in _runs(preset, policy, tokenizer, [task], seeds)]
             cells[column] = _cell(evaluated, runs, [task])
             per_task += list(cells[column].units)
         cells["avg"] = Cell(tuple(per_task))
@@ -272,7 +283,8 @@ def table_vii(preset: Preset) -> TableSpec:
     held_out = [t for t in held_out if t in preset.data.kitchen_tasks]
     rows = []
     for policy, tokenizer in TABLE_I_ROWS:
-        runs = _runs(preset, policy, tokenizer, train, 1)
+        seeds = row_seeds(preset, "VII", label(policy, tokenizer), 1)
+        runs = _runs(preset, policy, tokenizer, train, seeds)
         rows.append(Row(label(policy, tokenizer), _family_cells(preset, runs, held_out),
                         paper.TABLE_VII_ZERO_SHOT[label(policy, tokenizer)]))
     return TableSpec("VII", "Zero-shot robotic manipulation results", (*FAMILY_COLUMNS, "avg"),
@@ -291,7 +303,10 @@ def fig5(preset: Preset) -> TableSpec:
     paper_sizes = sorted(paper.FIG5_CODEBOOK_SIZE)
     for i, size in enumerate(sorted(preset.tables.codebook_sizes)):
         tok = dataclasses.replace(base, codebook_size=size)
-        runs = _runs(preset, "icrt", tok, tasks, 1)
+        seeds = row_seeds(preset, "fig5", str(size), 1)
+        if size == base.codebook_size:  # Table I's runs
+            seeds = max(seeds, table_i_seeds(preset, "icrt", "lipvq"))
+        runs = _runs(preset, "icrt", tok, tasks, seeds)
         name = _power_of_two(size)
         paper_size = paper_sizes[i] if i < len(paper_sizes) else None
         if paper_size is not None and paper_size != size:
@@ -301,7 +316,7 @@ def fig5(preset: Preset) -> TableSpec:
     return TableSpec("fig5", "Impact of LipVQ-VAE's codebook size (Fig. 5)", ("avg",),
                      tuple(rows), beside=("features",), note=(
                          f"ICRT + LipVQ-VAE with codebook sizes {list(preset.tables.codebook_sizes)}"
-                         f" (the preset's Table I cell uses {base.codebook_size}); one seed each. "
+                         f" (the preset's Table I cell uses {base.codebook_size}). "
                          "Beside the table, each size's `features` give its codebook use."))
 
 
@@ -380,8 +395,10 @@ def analysis(preset: Preset) -> TableSpec:
     rows = []
     for name, tokenizer, changes in ANALYSIS_VARIANTS:
         policy, tok = _variant(preset, tokenizer, changes)
-        runs = [r.replace(policy=policy) for r in _runs(preset, "icrt", tok, tasks,
-                                                       preset.tables.icrt_seeds)]
+        seeds = row_seeds(preset, "analysis", name, preset.tables.icrt_seeds)
+        if not changes:  # Table I's runs
+            seeds = max(seeds, table_i_seeds(preset, "icrt", tokenizer))
+        runs = [r.replace(policy=policy) for r in _runs(preset, "icrt", tok, tasks, seeds)]
         features = Cell(tuple(Unit(s, run, features=feature_spec(preset, run))
                               for s, run in enumerate(runs)))
         rows.append(Row(name, {"avg": _cell(preset, runs, tasks), "features": features}))
@@ -411,7 +428,10 @@ def beyond(preset: Preset) -> TableSpec:
     tasks = preset.data.kitchen_tasks
     rows = []
     for tokenizer in SINCE_PAPER_TOKENIZERS:
-        runs = _runs(preset, "icrt", tokenizer, tasks, since_paper_seeds(preset))
+        seeds = row_seeds(preset, "beyond", label("icrt", tokenizer), since_paper_seeds(preset))
+        if tokenizer in ICRT_TOKENIZERS:  # Table I's runs
+            seeds = max(seeds, table_i_seeds(preset, "icrt", tokenizer))
+        runs = _runs(preset, "icrt", tokenizer, tasks, seeds)
         cells = _family_cells(preset, runs, tasks)
         cells["features"] = Cell(tuple(Unit(s, run, features=feature_spec(preset, run))
                                        for s, run in enumerate(runs)))
@@ -542,8 +562,10 @@ def official(preset: Preset) -> TableSpec:
     rows = []
     for name, _ in OFFICIAL_ROWS:
         policy, tok = configs[name]
-        runs = [r.replace(policy=policy) for r in _runs(preset, "icrt", tok, tasks,
-                                                       official_seeds(preset))]
+        seeds = row_seeds(preset, "official", name, official_seeds(preset))
+        if name in paper_rows:  # Table I's runs
+            seeds = max(seeds, table_i_seeds(preset, "icrt", paper_rows[name].split("+")[1]))
+        runs = [r.replace(policy=policy) for r in _runs(preset, "icrt", tok, tasks, seeds)]
         cells = _family_cells(preset, runs, tasks)
         cells["features"] = Cell(tuple(Unit(s, run, features=feature_spec(preset, run))
                                        for s, run in enumerate(runs)))
@@ -564,3 +586,23 @@ def official(preset: Preset) -> TableSpec:
 
 
 TABLES["official"] = official
+
+
+def check_row_seeds(preset: Preset) -> None:
+    """Refuse, before any work, a `tables.row_seeds` entry that names no table or no row of
+    its table (UnknownNameError with a "did you mean"); Fig. 5's rows are its codebook sizes,
+    Table I's include the rows of the tables that share its runs (Table IV's Lip-MLP)."""
+    from icil_paper.registry import check_name
+
+    for name in preset.tables.seeds_by_row():
+        table, row = name.split(":", 1)
+        check_name("tables.row_seeds table", table, TABLES)
+        if row == "*":
+            continue
+        if table == "fig5":
+            rows = [str(s) for s in preset.tables.codebook_sizes]
+        else:
+            rows = [r.label for r in table_spec(preset, table).rows]
+            if table == "I":
+                rows += [r.label for r in table_spec(preset, "IV").rows]
+        check_name(f"tables.row_seeds row of table {table}", row, list(dict.fromkeys(rows)))

@@ -168,14 +168,14 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
                   kwargs={"preset": preset.name, "run": p.run.to_dict(),
                           "evals": [to_dict(e) for e in p.evals.values()],
                           "features": [to_dict(f) for f in p.features.values()]},
-                  gpus=gpus_per_cell, label=_cell_label(p.run))
+                  gpus=gpus_per_cell, label=cell_label(p.run))
              for p in todo]
     return run_grid(cells, executor=executor, workers=workers or preset.eval.workers,
                     ray_address=ray_address, progress=progress,
                     done=lambda c: plan_done(store, next(p for p in todo if p.run.key() == c.key)))
 
 
-def _cell_label(run: RunSpec) -> str:
+def cell_label(run: RunSpec) -> str:
     from icil_paper.runspec import tasks_tag
 
     return f"{run.label} {tasks_tag(run.data.tasks)} seed{run.seed}"
