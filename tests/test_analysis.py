@@ -158,7 +158,8 @@ def test_analysis_variants_keep_the_rows_and_raise_the_bounds_lr_at_the_papers_g
     assert tok.lipschitz.weight == preset.tokenizers.lipvq.lipschitz.weight == 1e-6
     assert tok.lipschitz.c_lr_scale > 1
     travel = analysis.bound_travel(TableResult(spec, {}, "reference"))
-    assert travel[analysis.PAPER] == pytest.approx(0.75, abs=0.01)  # 3000 steps at 5e-4
+    # Adam moves a bound about lr / 2 a step under the cosine schedule: 0.75 in 3000 steps at 5e-4
+    assert travel[analysis.PAPER] == pytest.approx(0.75 * preset.train.steps / 3000, abs=0.01)
     assert travel[_label("c_lr")] > 5 * travel[analysis.PAPER]
 
 

@@ -16,6 +16,7 @@ from icil_paper.eval import rollouts
 from icil_paper.records import eval_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import EvalSpec, run_spec
+from icil_paper.tables.definitions import maniskill_settings
 from icil_paper.timing import phase, recording
 
 TASKS = ["kitchen/open_drawer", "kitchen/press_button"]
@@ -114,7 +115,8 @@ def test_the_benchmark_cells_are_the_reference_tables_cells(kind):
     table = {"act_maniskill": "II", "kinova_eval": "V"}.get(kind, "I")
     units = [u for u in table_spec(preset, table).units() if u.run.key() == run.key()]
     assert units and {u.eval.task for u in units if u.eval} == {ev.task for ev in evals}
-    assert run.train.steps == (10000 if kind == "act_maniskill" else preset.train.steps)
+    assert run.train.steps == (maniskill_settings(preset)[1] if kind == "act_maniskill"
+                               else preset.train.steps)
     short, short_evals = shortened(run, evals, 0.1)
     assert short.train.steps == round(run.train.steps * 0.1)
     assert all(e.episodes == max(1, round(ev.episodes * 0.1))

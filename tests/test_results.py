@@ -1,5 +1,6 @@
 import json
 import os
+import time
 import warnings
 
 import numpy as np
@@ -26,6 +27,17 @@ def test_run_writes_a_record_with_provenance(tmp_path):
     path = store.path_for("tokenizer", "lipvq", config_hash(CONFIG))
     assert path.parent == tmp_path / "smoke" / "tokenizer"
     assert not list(path.parent.glob("*.tmp")), "temporary files must not be left behind"
+
+
+def test_a_record_carries_the_cpu_time_of_its_computation(tmp_path):
+    def busy():
+        deadline = time.process_time() + 0.2
+        while time.process_time() < deadline:
+            pass
+        return {"x": 1.0}
+
+    record = ResultsStore("smoke", root=tmp_path).run("tokenizer", "busy", CONFIG, busy)
+    assert 0.15 <= record["cpu_time_s"] <= record["wall_time_s"] + 0.05
 
 
 def test_existing_result_is_skipped_unless_forced(tmp_path):

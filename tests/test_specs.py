@@ -47,7 +47,9 @@ def _other_values(annotation, value, choices=None):
         value = value or 0.0
         yield from (value * 1.5 + 0.125, value / 2 + 0.0625)  # the second stays below 1
     elif annotation is str:
-        yield from ([c for c in choices if c != value] if choices else [(value or "") + "-changed"])
+        # (a name-shaped value for the fields that read "TABLE:row=N")
+        yield from ([c for c in choices if c != value] if choices
+                    else [(value or "") + "-changed", "I:*=2"])
     elif origin is tuple and len(args) == 2 and args[1] is Ellipsis:
         value = tuple(value or ())
         for extra in _other_values(args[0], None, choices):
@@ -118,7 +120,7 @@ STAGES = {
          *(f"tokenizers.{t}." for t in ("mlp", "bin", "fast", "vq", "lfq", "lipvq")),
          "train.", "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
-         "tables.baseline_seeds", "tables.image_demos_per_task",
+         "tables.baseline_seeds", "tables.row_seeds", "tables.image_demos_per_task",
          "tables.image_episodes_per_task", "tables.image_max_steps",
          "tables.feature_demos_per_task", "tables.feature_steps")),  # its codebook rows
     "table II (every unit)": (
@@ -140,8 +142,8 @@ STAGES = {
                                         "bspline")),
          "train.", "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
-         "tables.since_paper_seeds", "tables.feature_demos_per_task",
-         "tables.feature_steps")),
+         "tables.since_paper_seeds", "tables.row_seeds",  # Table I's seeds: "I:*=2"
+         "tables.feature_demos_per_task", "tables.feature_steps")),
     "tokenizer study liprvq": (lambda p: spec_key(study_spec(p, p.tokenizers.liprvq)),
                                ("tokenizers.liprvq.", "tokenizer_study.", "data.demos_per_task",
                                 "data.kitchen_tasks", "data.maniskill_tasks", "seed")),

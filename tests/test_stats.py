@@ -321,3 +321,21 @@ def test_one_episode_per_task_still_gets_an_interval():
     assert verdict(diff) == "too few seeds"
     three = paired_difference(np.repeat(x, 3, axis=0), np.repeat(y, 3, axis=0))
     assert three.low <= 0 < three.high and verdict(three) == "inconclusive"
+
+
+def test_episodes_per_seed_is_the_cheapest_narrowest_design():
+    from icil_paper.stats import episodes_per_seed
+
+    seed_var, episode_var, train_cost, episode_cost = 0.0016, 0.02, 200.0, 16.0
+    best = episodes_per_seed(seed_var, episode_var, train_cost, episode_cost)
+
+    def variance_times_cost(e):
+        return (seed_var + episode_var / e) * (train_cost + e * episode_cost)
+
+    grid = np.linspace(0.5, 50, 2000)
+    assert abs(grid[np.argmin([variance_times_cost(e) for e in grid])] - best) < 0.05
+    # seeds that differ more call for fewer episodes; dearer training for more
+    assert episodes_per_seed(4 * seed_var, episode_var, train_cost, episode_cost) < best
+    assert episodes_per_seed(seed_var, episode_var, 4 * train_cost, episode_cost) > best
+    with pytest.raises(ValueError, match="seed_var"):
+        episodes_per_seed(0.0, episode_var, train_cost, episode_cost)

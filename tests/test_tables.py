@@ -39,8 +39,11 @@ def test_every_table_builds_and_every_row_is_evaluated_on_the_same_episodes(pres
     for table_id in TABLES:
         spec = table_spec(preset, table_id)
         assert spec.rows and spec.columns
-        seeds = {u.eval.seed for u in spec.units() if u.eval is not None}
-        assert seeds <= {preset.seed}, f"table {table_id}: rows are not paired"
+        # every row's seed k plays the same scenes: the preset's, or scene set k
+        seeds = {(u.seed_index, u.eval.seed) for u in spec.units() if u.eval is not None}
+        scene_of = ((lambda k: preset.seed + k) if preset.tables.scenes_per_seed
+                    else (lambda k: preset.seed))
+        assert all(seed == scene_of(k) for k, seed in seeds), f"table {table_id}: rows are not paired"
         for row in spec.rows:
             assert set(row.cells) <= set(spec.columns) | set(spec.beside), (table_id, row.label)
 
@@ -51,7 +54,7 @@ def test_tables_share_the_policies_the_paper_shares():
     for label in ("icrt+mlp", "icrt+vq", "icrt+lipvq"):
         assert run_keys(t4, label) == run_keys(t1, label), label
         assert len(run_keys(t1, label)) == preset.tables.icrt_seeds
-    assert len(run_keys(t1, "act")) == 1
+    assert len(run_keys(t1, "act")) == preset.tables.baseline_seeds
     # Table VI evaluates Table I's policies on the human-like scenes (ICRT with human-like
     # prompts): the same runs, no evaluation of Table I's
     t1_evals = {eval_key(u.run, u.eval) for u in t1.units()}
@@ -331,3 +334,14 @@ def test_row_seeds_give_single_rows_their_own_seeds_and_refuse_unknown_rows():
         small_preset("tables.row_seeds=I:icrt+lipvq=0")
     with pytest.raises(ConfigError, match="TABLE:row=N"):
         dataclasses.replace(preset.tables, row_seeds=("icrt+lipvq=3",))
+
+
+def test_cells_run_seed_major_so_a_stopped_run_keeps_rows_balanced(monkeypatch):
+    from icil_paper.tables import execute, grid
+
+    captured = []
+    monkeypatch.setattr(execute, "ensure_data", lambda *a, **k: None)
+    monkeypatch.setattr(grid, "run_grid", lambda cells, **k: captured.extend(cells) or {})
+    execute.run_tables(small_preset("tables.icrt_seeds=3"), ["IV"], progress=False)
+    seeds = [c.kwargs["run"]["seed"] for c in captured]
+    assert len(captured) == 12 and seeds == sorted(seeds)

@@ -74,6 +74,13 @@ def _slug(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
 
 
+def cpu_seconds() -> float:
+    """CPU seconds of this process and of its finished child processes (user + system):
+    the difference of two calls is what a computation cost on the cores."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
 class ResultsStore:
     """Records of one preset: `results/<preset>/<kind>/<name>__<config hash>.json`."""
 
@@ -106,8 +113,10 @@ class ResultsStore:
         return record
 
     def write(self, kind: str, name: str, config: Mapping[str, Any], metrics: Mapping[str, Any],
-              seed: int, wall_time_s: float, extra: Mapping[str, Any] | None = None) -> Path:
-        """Atomically write one record and return its path."""
+              seed: int, wall_time_s: float, extra: Mapping[str, Any] | None = None,
+              cpu_time_s: float | None = None) -> Path:
+        """Atomically write one record and return its path; `cpu_time_s` (`cpu_seconds`
+        spent computing it) is kept where given, for the run's cost."""
         _check_finite_metrics(metrics)
         chash = config_hash(config)
         git = git_state()
@@ -125,6 +134,7 @@ class ResultsStore:
             "host": host_info(),
             "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "wall_time_s": round(float(wall_time_s), 3),
+            **({} if cpu_time_s is None else {"cpu_time_s": round(float(cpu_time_s), 3)}),
             "metrics": dict(metrics),
             **(dict(extra) if extra else {}),
         }
@@ -155,13 +165,13 @@ class ResultsStore:
                     return record
             if seed is None:
                 seed = int(config.get("seed", 0)) if isinstance(config, Mapping) else 0
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), cpu_seconds()
             metrics = compute()
             extra = None
             if files is not None:
                 extra = {"files": {str(k): file_sha256(v) for k, v in files().items()}}
             path = self.write(kind, name, config, metrics, seed, time.perf_counter() - start,
-                              extra)
+                              extra, cpu_time_s=cpu_seconds() - cpu)
         return json.loads(path.read_text())
 
     def records(self, kind: str | None = None) -> list[dict[str, Any]]:

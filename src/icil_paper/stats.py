@@ -886,3 +886,22 @@ def seeds_needed(var_a: float, var_b: float, effect: float, *, level: float = 1 
         else:
             lo = mid + 1
     return lo
+
+
+def episodes_per_seed(seed_var: float, episode_var: float, train_cost: float,
+                      episode_cost: float) -> float:
+    """Episodes per task and seed that make a row's mean narrowest for its compute.
+
+    A row of S seeds with E episodes per task has variance (seed_var + episode_var / E) / S
+    and costs S (train_cost + E episode_cost): `seed_var` is the spread of the seeds' true
+    success (episode noise removed), `episode_var` the episode noise of one seed's value
+    at one episode per task (sum_t p_t (1 - p_t) / T^2), `train_cost` a seed's fixed cost and
+    `episode_cost` the cost of one more episode on every task. The product of variance and
+    cost is smallest at E = sqrt(episode_var train_cost / (seed_var episode_cost)), the
+    optimum of two-stage sampling (Cochran 1977, "Sampling Techniques", Sec. 10.6): where
+    seeds differ much more than episodes, spend the compute on seeds."""
+    for name, value in (("seed_var", seed_var), ("episode_var", episode_var),
+                        ("train_cost", train_cost), ("episode_cost", episode_cost)):
+        if not value > 0 or not math.isfinite(value):
+            raise ValueError(f"episodes_per_seed: {name} must be a positive number, got {value}")
+    return math.sqrt(episode_var * train_cost / (seed_var * episode_cost))

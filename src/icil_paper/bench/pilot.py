@@ -21,6 +21,7 @@ the rows.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 from typing import Any
 
@@ -28,6 +29,7 @@ SETTINGS: dict[str, tuple[str, tuple[str, ...]]] = {
     "kitchen_10": ("I", ("data.demos_per_task=10",)),
     "kitchen_30": ("I", ("data.demos_per_task=30",)),
     "kitchen_10_1500": ("I", ("data.demos_per_task=10", "train.steps=1500")),
+    "kitchen_10_2000": ("I", ("data.demos_per_task=10", "train.steps=2000")),
     "maniskill_40": ("II", ("tables.maniskill_demos_per_task=40",)),
     "maniskill_100": ("II", ("tables.maniskill_demos_per_task=100",)),
     "maniskill_40_5000": ("II", ("tables.maniskill_demos_per_task=40",
@@ -144,14 +146,16 @@ def main(argv: list[str] | None = None) -> None:
     cells = sorted(cells.values(), key=lambda c: "icrt" not in c.label)  # longest first
     run_grid(cells, workers=args.workers)
     store = ResultsStore("reference")
-    record = {"settings": {}}
+    out = Path(args.out or root / "bench" / "pilot.json")
+    # settings not rerun keep their stored summary (a pilot is run a setting at a time)
+    record = {"settings": json.loads(out.read_text())["settings"] if out.exists() else {}}
     for name in args.settings:
         summary = _summary(name, store)
         record["settings"][name] = {"table": SETTINGS[name][0],
                                     "overrides": list(SETTINGS[name][1]),
                                     "rows": summary, "informative": informative(summary)}
         print(f"== {name}: {record['settings'][name]}", flush=True)
-    save_benchmark("pilot", record, args.out or root / "bench" / "pilot.json")
+    save_benchmark("pilot", record, out)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ import torch
 from icil_paper.eval.outcomes import evaluate_many, evaluate_policy, prompt_pool
 from icil_paper.eval.rollouts import RolloutPool
 from icil_paper.records import eval_record
+from icil_paper.results import cpu_seconds
 from icil_paper.runspec import EvalSpec
 from icil_paper.timing import phase
 
@@ -76,16 +77,17 @@ def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[
     if missing:
         with phase("eval.load_policy"):
             trained = _trained(policy)
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), cpu_seconds()
         with phase("eval.prompts"):
             prompts = [_run_prompts(run, evs[i], trained, preset, progress) for i in missing]
         results = evaluate_many(
             trained, [evs[i] for i in missing], prompts,
             workers=workers, record_dir=record_dir, progress=progress, pool=pool,
             batch_size=batch_size, keep_envs=keep_envs)
-        wall = time.perf_counter() - start
+        wall, cpu = time.perf_counter() - start, cpu_seconds() - cpu
         for i, result in zip(missing, results, strict=True):
             with phase("eval.write"):
-                path = store.write(*ids[i], result.to_dict(), evs[i].seed, wall / len(missing))
+                path = store.write(*ids[i], result.to_dict(), evs[i].seed, wall / len(missing),
+                                   cpu_time_s=cpu / len(missing))
                 records[i] = json.loads(Path(path).read_text())
     return records

@@ -163,6 +163,9 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
     todo = [p for p in plans if not plan_done(store, p)]
     if not todo:
         return {}
+    # seed-major (every row's first seed, then every row's second, ...): a run stopped
+    # part-way leaves every row with about the same number of seeds
+    todo.sort(key=lambda p: p.run.seed)
     ensure_data(preset, todo, progress=progress)
     cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
                   kwargs={"preset": preset.name, "run": p.run.to_dict(),

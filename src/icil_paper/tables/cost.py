@@ -1,0 +1,174 @@
+"""What a preset's run cost, computed from its records: `results/<preset>/cost.json`.
+
+    python -m icil_paper.tables.cost --preset reference    # writes results/reference/cost.json
+
+Every record carries the wall time and CPU time of its computation (`ResultsStore.write`:
+a training run, one task's evaluation, one features measurement). A record belongs to the
+first stage of `icil-paper reproduce` whose tables plan it (Table IV's runs are Table I's,
+so they count under `table-I`) and to a kind of cell: policy, suite and observations
+("icrt kitchen state"); records of the other stages (tokenizers, Lipschitz study, data)
+count under their kind. Records the current plan does not name (made by older code) are
+counted apart and not summed in.
+
+Sittings: records whose finish times lie less than `SITTING_GAP_S` apart belong to one
+sitting; a sitting's elapsed time runs from its first record's start (finish minus wall
+time) to its last finish. Summed record wall time over elapsed time is how many cells ran
+at once; CPU time over wall time below 1 says the cells waited for the cores (other work
+on the machine, or more processes than cores).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from icil_paper.config import Preset
+from icil_paper.fileio import atomic_write_json
+from icil_paper.results import ResultsStore, config_hash
+
+SITTING_GAP_S = 1800.0
+"""Records further apart than this (half an hour) start a new sitting."""
+
+
+def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]:
+    """Record path -> (stage, kind of cell) for every record the table stages plan."""
+    from icil_paper.records import eval_record, features_record, train_record
+    from icil_paper.reproduce import STAGES
+    from icil_paper.tables.definitions import table_spec
+    from icil_paper.tables.execute import plan
+
+    out: dict[Path, tuple[str, str]] = {}
+    for stage in STAGES:
+        if not stage.name.startswith("table-"):
+            continue
+        for p in plan([table_spec(preset, stage.name.removeprefix("table-"))]):
+            suite = p.run.data.tasks[0].split("/", 1)[0]
+            kind = f"{p.run.policy.type} {suite} {p.run.data.obs}"
+            ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
+                   *(features_record(p.run, f) for f in p.features.values())]
+            for record_id in ids:
+                path = store.path_for(record_id.kind, record_id.name, config_hash(record_id.config))
+                out.setdefault(path, (stage.name, kind))
+    return out
+
+
+def _add(total: dict[str, float], record: dict[str, Any]) -> None:
+    total["records"] += 1
+    total["wall_s"] += float(record.get("wall_time_s") or 0.0)
+    total["cpu_s"] += float(record.get("cpu_time_s") or 0.0)
+    total["without_cpu_time"] += "cpu_time_s" not in record
+    if record["kind"] == "train":
+        total["cells"] += 1
+        total["train_steps"] += int(record["metrics"].get("steps") or 0)
+    if record["kind"] == "eval":
+        total["episodes"] += int(record["metrics"].get("episodes") or 0)
+
+
+def _sittings(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    spans = []
+    for r in records:
+        end = datetime.fromisoformat(r["finished"]).timestamp()
+        spans.append((end - float(r.get("wall_time_s") or 0.0), end, r))
+    spans.sort(key=lambda s: s[1])
+    out: list[dict[str, Any]] = []
+    for start, end, r in spans:
+        if out and end - out[-1]["_end"] <= SITTING_GAP_S:
+            s = out[-1]
+            s["_start"], s["_end"] = min(s["_start"], start), end
+        else:
+            s = {"_start": start, "_end": end, "records": 0, "wall_s": 0.0, "cpu_s": 0.0,
+                 "commits": set()}
+            out.append(s)
+        s["records"] += 1
+        s["wall_s"] += float(r.get("wall_time_s") or 0.0)
+        s["cpu_s"] += float(r.get("cpu_time_s") or 0.0)
+        s["commits"].add(r.get("git_commit", "")[:7])
+    for s in out:
+        elapsed = s["_end"] - s.pop("_start")
+        end = s.pop("_end")
+        s.update(ended=datetime.fromtimestamp(end).astimezone().isoformat(timespec="seconds"),
+                 elapsed_s=round(elapsed, 1), wall_s=round(s["wall_s"], 1),
+                 cpu_s=round(s["cpu_s"], 1), commits=sorted(s["commits"]),
+                 cells_at_once=round(s["wall_s"] / elapsed, 2) if elapsed > 0 else None)
+    return out
+
+
+def _rounded(groups: dict[str, dict[str, float]]) -> dict[str, dict[str, Any]]:
+    out = {}
+    for name, t in sorted(groups.items()):
+        out[name] = {k: (round(v, 1) if k.endswith("_s") else int(v)) for k, v in t.items()}
+        measured = t["wall_s"] and not t["without_cpu_time"]
+        out[name]["cpu_per_wall"] = round(t["cpu_s"] / t["wall_s"], 3) if measured else None
+    return out
+
+
+def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any]:
+    """The cost of the preset's records (see the module docstring)."""
+    from icil_paper.tables.design import planned_seeds
+
+    store = store or ResultsStore(preset.name)
+    planned = _planned(preset, store)
+    new = lambda: defaultdict(float)  # noqa: E731
+    by_stage: dict[str, dict[str, float]] = defaultdict(new)
+    by_kind: dict[str, dict[str, float]] = defaultdict(new)
+    total, older = new(), new()
+    current, hosts = [], set()
+    for path in sorted(store.dir.glob("*/*.json")):
+        if path.name == "claims.json":
+            continue
+        record = json.loads(path.read_text())
+        if "kind" not in record or "wall_time_s" not in record:
+            continue
+        where = planned.get(path)
+        if where is None and record["kind"] in ("train", "eval", "features"):
+            _add(older, record)
+            continue
+        stage, kind = where or (record["kind"], record["kind"])
+        for group in (by_stage[stage], by_kind[kind], total):
+            _add(group, record)
+        current.append(record)
+        host = record.get("host") or {}
+        hosts.add((host.get("cpu_count"), host.get("gpu"), host.get("platform", "")))
+    seeds = planned_seeds(preset)
+    return {
+        "preset": preset.name,
+        "total": _rounded({"all": total})["all"] if total else {},
+        "by_stage": _rounded(by_stage),
+        "by_kind": _rounded(by_kind),
+        "planned_cells": len({p for p, (_, _) in planned.items() if p.parent.name == "train"}),
+        "planned_rows": len(seeds),
+        "planned_seeds": sum(seeds.values()),
+        "older_code": _rounded({"older": older})["older"] if older else {},
+        "machines": [{"cpu_count": c, "gpu": g, "platform": p} for c, g, p in sorted(
+            hosts, key=str)],
+        "sittings": _sittings(current),
+    }
+
+
+def write_cost(preset: Preset, store: ResultsStore | None = None) -> Path:
+    """Write `results/<preset>/cost.json` atomically; returns its path."""
+    store = store or ResultsStore(preset.name)
+    path = store.dir / "cost.json"
+    atomic_write_json(path, run_cost(preset, store))
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    from icil_paper.cli import add_preset_arguments, preset_from_args
+
+    parser = argparse.ArgumentParser(prog="python -m icil_paper.tables.cost",
+                                     description=__doc__.split("\n\n")[0])
+    add_preset_arguments(parser)
+    path = write_cost(preset_from_args(parser.parse_args(argv)))
+    cost = json.loads(path.read_text())
+    print(f"wrote {path}: {cost['total']}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,230 @@
+"""The reference run's design, computed: seeds per row from the claims' power, episodes
+from the split of seed and episode variance, and what the run costs.
+
+    python -m icil_paper.tables.design             # the arithmetic behind the reference preset
+    check_design(preset, ledger)                   # rows with fewer seeds than the rule asks
+
+**The rule.** A claim is *decidable* when the ledger's power analysis (`seeds_needed`,
+`icil_paper.tables.claims`) says `DECIDABLE_SEEDS` seeds a row or fewer detect the paper's
+effect at 80% power; the same arithmetic, read the other way, excludes the paper's effect
+when the truth is 0. Every row a decidable claim reads gets at least `DECIDABLE_SEEDS`
+training seeds, every other row a claim reads at least `OTHER_SEEDS`. The variances behind
+`seeds_needed` are the records' own: the reference ledger's where it has them, else those
+of the ledger the older code computed from its records (`older-code/claims.json`).
+
+**Episodes.** With S seeds of E episodes per task a row's mean has variance
+(seed_var + episode_var / E) / S and costs S (train + E episode): `stats.episodes_per_seed`
+gives the E that is narrowest for its compute.
+
+**Cost.** Each trained run of the plan costs its optimizer steps at the measured step time
+of its kind plus its episodes at the measured simulator rate (`results/bench/cells.json`,
+`python -m icil_paper.bench.cells`); the run's records carry what it really cost
+(`results/reference/cost.json`, `icil_paper.tables.cost`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+from icil_paper.config import Preset
+from icil_paper.tables.definitions import TABLES, table_spec
+
+DECIDABLE_SEEDS = 10
+"""Seeds of every row of a claim whose `seeds_needed` is at most this."""
+OTHER_SEEDS = 5
+"""Seeds of every other row a claim reads."""
+
+TABLE_IDS = (*TABLES, "official")
+
+
+def planned_seeds(preset: Preset) -> dict[tuple[str, str], int]:
+    """(table, row) -> the training seeds the preset gives that row."""
+    out = {}
+    for table_id in TABLE_IDS:
+        for row in table_spec(preset, table_id).rows:
+            indices = {u.seed_index for cell in row.cells.values() for u in cell.units}
+            out[table_id, row.label] = len(indices)
+    return out
+
+
+def claim_rows(preset: Preset) -> dict[str, tuple[tuple[str, str], ...]]:
+    """Claim id -> the (table, row) pairs it reads."""
+    from icil_paper.tables.claims import claims
+
+    return {c.id: tuple((c.compare.table, row) for row in c.compare.rows)
+            for c in claims(preset)}
+
+
+def required_seeds(entry: dict[str, Any]) -> int:
+    """The seeds the rule asks of every row of a ledger entry."""
+    needed = entry.get("seeds_needed")
+    return DECIDABLE_SEEDS if needed is not None and needed <= DECIDABLE_SEEDS else OTHER_SEEDS
+
+
+def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    """Claim id -> the ledger entry whose power analysis the design reads: the preset's own
+    committed ledger where it has `seeds_needed` or a decided verdict, else the older
+    code's (`older-code/claims.json`), else the not-run entry."""
+    from icil_paper.results import results_root
+
+    folder = Path(root or results_root()) / preset.name
+    ledgers = []
+    for path in (folder / "claims.json", folder / "older-code" / "claims.json"):
+        if path.exists():
+            ledgers.append({e["id"]: e for e in json.loads(path.read_text())["claims"]})
+    out = {}
+    for claim_id in claim_rows(preset):
+        entries = [ledger[claim_id] for ledger in ledgers if claim_id in ledger]
+        planned = [e for e in entries if e.get("seeds_needed") is not None
+                   or e.get("mde") is not None]
+        out[claim_id] = (planned or entries or [{"id": claim_id}])[0]
+    return out
+
+
+def check_design(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[str]:
+    """Rows with fewer seeds than the rule asks, one line each (empty: the preset follows
+    the rule for `ledger`, claim id -> entry)."""
+    seeds = planned_seeds(preset)
+    out = []
+    for claim_id, rows in claim_rows(preset).items():
+        want = required_seeds(ledger.get(claim_id, {}))
+        for table, row in rows:
+            have = seeds.get((table, row))
+            if have is not None and have < want:
+                out.append(f"{claim_id}: table {table} row {row} has {have} seeds, the rule "
+                           f"asks {want} (seeds_needed "
+                           f"{ledger.get(claim_id, {}).get('seeds_needed')})")
+    return out
+
+
+def expected_half_width(entry: dict[str, Any], seeds: int) -> float | None:
+    """The 95% half-width a claim's difference is expected to have at `seeds` seeds a row,
+    from its ledger entry's minimum detectable difference at the seeds it was computed with
+    (both rows' variances taken alike): mde = (t_.975 + t_.8) se, se ~ 1 / sqrt(S)."""
+    from scipy.stats import t
+
+    mde, rows = entry.get("mde"), entry.get("seeds") or {}
+    if mde is None or not rows:
+        return None
+    old = sorted(rows.values())[:2]
+    old_df = max(sum(old) - 2, 1)
+    se = mde / (t.ppf(0.975, old_df) + t.ppf(0.8, old_df))
+    var = se**2 / sum(1 / s for s in old)
+    new_se = math.sqrt(2 * var / seeds)
+    return float(t.ppf(0.975, 2 * seeds - 2) * new_se)
+
+
+# --------------------------------------------------------------------------- cost
+def _kind(run) -> str:
+    suite = run.data.tasks[0].split("/", 1)[0]
+    return f"{run.policy.type} {suite} {run.data.obs}"
+
+
+def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
+    """Measured rates from `results/bench/cells.json`: seconds per optimizer step by
+    policy, env steps per second and per episode by suite."""
+    from icil_paper.results import results_root
+
+    record = json.loads(Path(path or results_root() / "bench" / "cells.json").read_text())
+    step_s, env_rate, steps_per_episode = {}, {}, {}
+    for cell in record["cells"]:
+        steady = cell["steady"]
+        policy = cell["run"].split("+")[0]
+        if steady.get("step_ms"):
+            step_s.setdefault(policy, steady["step_ms"] / 1000)
+        suite = "kinova" if cell["kind"] == "kinova_eval" else cell["tasks"][0].split("/")[0]
+        sim = steady["phases_s"].get("eval.sim")
+        if sim and steady["episodes"]:
+            env_rate.setdefault(suite, steady["env_steps"] / sim)
+            steps_per_episode.setdefault(suite, steady["env_steps"] / steady["episodes"])
+    return {"step_s": step_s, "env_steps_per_s": env_rate,
+            "env_steps_per_episode": steps_per_episode}
+
+
+IMAGE_SLOWDOWN = 10.0
+"""Image rollouts and image training cost about ten times their state counterparts on CPU
+(NOTES: 107 vs 9.8-11.1 steps/s with two cameras); MCR's cells are not in cells.json."""
+
+
+def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The estimated cost of every trained run the preset's tables plan, by kind of cell:
+    cells, optimizer steps, episodes and core-seconds (train and evaluation)."""
+    from icil_paper.tables.execute import plan
+
+    rates = rates or cell_rates()
+    plans = plan([table_spec(preset, t) for t in TABLE_IDS])
+    kinds: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
+    for p in plans:
+        k = kinds[_kind(p.run)]
+        images = IMAGE_SLOWDOWN if p.run.data.obs != "state" else 1.0
+        step_s = rates["step_s"].get(p.run.policy.type, rates["step_s"]["act"])
+        k["cells"] += 1
+        k["train_steps"] += p.run.train.steps
+        k["train_s"] += p.run.train.steps * step_s * images
+        for ev in p.evals.values():
+            suite = ev.task.split("/", 1)[0]
+            steps = rates["env_steps_per_episode"].get(suite, 200.0)
+            if ev.max_steps:
+                steps = min(steps, ev.max_steps)
+            k["episodes"] += ev.episodes
+            k["eval_s"] += ev.episodes * steps / rates["env_steps_per_s"].get(suite, 150.0) * images
+    total = sum(k["train_s"] + k["eval_s"] for k in kinds.values())
+    return {"kinds": {name: {f: round(v, 1) for f, v in k.items()} for name, k in kinds.items()},
+            "cells": len(plans), "core_s": round(total, 1),
+            "wall_h_at_2": round(total / 2 / 3600, 2)}
+
+
+def report(preset: Preset) -> dict[str, Any]:
+    """Every claim's rows, planned and required seeds, `seeds_needed` and expected
+    half-width, the rule's violations and the plan's cost."""
+    ledger = design_ledger(preset)
+    seeds = planned_seeds(preset)
+    claims_out = []
+    for claim_id, rows in claim_rows(preset).items():
+        entry = ledger[claim_id]
+        planned = min((seeds.get(r, 0) for r in rows), default=0)
+        claims_out.append({
+            "id": claim_id, "rows": {f"{t}:{r}": seeds.get((t, r)) for t, r in rows},
+            "seeds_needed": entry.get("seeds_needed"), "required": required_seeds(entry),
+            "paper": entry.get("paper", entry.get("reference_effect")),
+            "half_width_now": (None if not entry.get("ci") else
+                               round((entry["ci"][1] - entry["ci"][0]) / 2, 4)),
+            "expected_half_width": (None if planned < 2 else
+                                    _round(expected_half_width(entry, planned)))})
+    return {"preset": preset.name, "claims": claims_out,
+            "violations": check_design(preset, ledger), "cost": plan_cost(preset)}
+
+
+def _round(x: float | None) -> float | None:
+    return None if x is None else round(x, 4)
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    from icil_paper.cli import add_preset_arguments, preset_from_args
+
+    parser = argparse.ArgumentParser(prog="python -m icil_paper.tables.design",
+                                     description=__doc__.split("\n\n")[0])
+    add_preset_arguments(parser)
+    args = parser.parse_args(argv)
+    out = report(preset_from_args(args))
+    for c in out["claims"]:
+        print(f"{c['id']:<38} needed {str(c['seeds_needed']):>5}  required {c['required']:>2}  "
+              f"hw now {c['half_width_now']}  expected {c['expected_half_width']}  "
+              f"rows {c['rows']}")
+    for line in out["violations"]:
+        print("violation:", line)
+    for name, k in sorted(out["cost"]["kinds"].items()):
+        print(f"{name:<28} {k}")
+    print(f"{out['cost']['cells']} cells, {out['cost']['core_s'] / 3600:.1f} core-hours, "
+          f"{out['cost']['wall_h_at_2']} h at two cells at a time")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

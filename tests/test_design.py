@@ -1,0 +1,71 @@
+"""The reference run's design and cost: the seeds each row gets follow the power rule for
+the ledger's `seeds_needed`, and what a run cost is summed from its records."""
+
+from __future__ import annotations
+
+import json
+
+from icil_paper.config import get_preset
+from icil_paper.records import train_record
+from icil_paper.results import ResultsStore
+from icil_paper.tables import table_spec
+from icil_paper.tables.cost import run_cost
+from icil_paper.tables.design import (
+    DECIDABLE_SEEDS,
+    OTHER_SEEDS,
+    check_design,
+    claim_rows,
+    design_ledger,
+    planned_seeds,
+)
+from record_helpers import write_eval_record
+
+TASKS = "data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door"
+
+
+def smoke(*overrides):
+    return get_preset("smoke").with_overrides([TASKS, *overrides])
+
+
+def test_a_decidable_claim_asks_ten_seeds_of_every_row_it_reads():
+    preset = smoke("tables.icrt_seeds=5", "tables.baseline_seeds=5")
+    rows = claim_rows(preset)["I-tokenizer-gap"]
+    assert rows == (("I", "icrt+lipvq"), ("I", "icrt+mlp"))
+    ledger = {"I-tokenizer-gap": {"seeds_needed": 6}}
+    problems = [p for p in check_design(preset, ledger) if p.startswith("I-tokenizer-gap")]
+    assert len(problems) == 2 and f"asks {DECIDABLE_SEEDS}" in problems[0]
+    more = smoke("tables.icrt_seeds=5", "tables.baseline_seeds=5",
+                 "tables.row_seeds=I:icrt+lipvq=10,I:icrt+mlp=10")
+    assert not [p for p in check_design(more, ledger) if p.startswith("I-tokenizer-gap")]
+    # an undecidable claim asks only OTHER_SEEDS
+    assert not [p for p in check_design(preset, {"I-tokenizer-gap": {"seeds_needed": 40}})
+                if p.startswith("I-tokenizer-gap")]
+    few = smoke("tables.icrt_seeds=2")
+    assert any(f"asks {OTHER_SEEDS}" in p for p in check_design(few, {}))
+
+
+def test_the_reference_preset_follows_the_rule_for_its_ledger():
+    preset = get_preset("reference")
+    assert check_design(preset, design_ledger(preset)) == []
+    seeds = planned_seeds(preset)
+    assert seeds["I", "icrt+lipvq"] >= DECIDABLE_SEEDS and seeds["I", "bc_transformer"] >= 10
+    assert min(seeds[r] for rows in claim_rows(preset).values() for r in rows) >= OTHER_SEEDS
+    assert preset.tables.scenes_per_seed  # seeds are evaluated on scene sets of their own
+
+
+def test_the_cost_sums_each_records_time_under_its_stage_and_kind(tmp_path):
+    preset = smoke()
+    store = ResultsStore(preset.name, root=tmp_path)
+    unit = table_spec(preset, "I").row("icrt+lipvq").cells["avg"].units[0]
+    episodes = [{"success": True, "steps": 5}] * 2
+    write_eval_record(store, unit, episodes, 5.0)
+    store.write(*train_record(unit.run), {"steps": 5}, seed=0, wall_time_s=10.0, cpu_time_s=18.0)
+    stray = train_record(unit.run.replace(seed=99))  # a run no table plans: older code
+    store.write(*stray, {"steps": 5}, seed=99, wall_time_s=4.0, cpu_time_s=4.0)
+    cost = json.loads(json.dumps(run_cost(preset, store)))
+    assert cost["by_stage"]["table-I"]["records"] == 2
+    kitchen = cost["by_kind"]["icrt kitchen state"]
+    assert kitchen["cells"] == 1 and kitchen["train_steps"] == 5 and kitchen["episodes"] == 2
+    assert cost["total"]["wall_s"] == 10.0 and cost["older_code"]["records"] == 1
+    assert cost["total"]["without_cpu_time"] == 1 and cost["total"]["cpu_per_wall"] is None
+    assert len(cost["sittings"]) == 1 and cost["sittings"][0]["records"] == 2
