@@ -28,6 +28,7 @@ from icil_paper.tables.book import (
     reference_freshness,
     source_label,
     stale_records,
+    undecided_power,
 )
 from icil_paper.tables.claims import claims_ledger, summary_sentence, write_ledger
 
@@ -47,6 +48,10 @@ for source, p in sources:
 for source, (p, ledger) in ledgers.items():
     heading = source_label(source, p.name)
     display(Markdown(f"## {heading[0].upper()}{heading[1:]}\n\n{summary_sentence(ledger)}"))
+    undecided = undecided_power(ledger)
+    if undecided:
+        display(Markdown("**Undecided after Holm, and what these seeds could detect:**\n\n"
+                         + undecided))
     display(forest_plot(ledger, title=f"{heading[0].upper()}{heading[1:]}: each claim's 95% "
                                       "interval, the paper's value, the verdict after Holm"))
     display(Markdown("**Verdicts** (the seeds of each row: the claim's row first)"))

@@ -339,3 +339,14 @@ def test_episodes_per_seed_is_the_cheapest_narrowest_design():
     assert episodes_per_seed(seed_var, episode_var, 4 * train_cost, episode_cost) > best
     with pytest.raises(ValueError, match="seed_var"):
         episodes_per_seed(0.0, episode_var, train_cost, episode_cost)
+
+
+def test_power_at_the_minimum_detectable_difference_is_the_planned_power():
+    from icil_paper.stats import POWER, minimum_detectable, power_at
+
+    mde = minimum_detectable(0.0025, 0.004, 10, 6)
+    assert power_at(0.0025, 0.004, 10, 6, mde) == pytest.approx(POWER, abs=1e-6)
+    assert power_at(0.0025, 0.004, 10, 6, mde / 2) < POWER < power_at(0.0025, 0.004, 10, 6, 2 * mde)
+    assert power_at(0.0025, 0.004, 20, 20, mde) > POWER  # more seeds, more power
+    with pytest.raises(ValueError, match="2 seeds"):
+        power_at(0.0025, 0.004, 1, 6, mde)

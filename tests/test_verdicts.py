@@ -206,3 +206,20 @@ def test_seeds_needed_reach_the_planned_power_in_simulation():
     assert seeds_needed(var_a, var_b, 1e-4, max_seeds=50) is None
     with pytest.raises(ValueError, match="at least 2 seeds"):
         minimum_detectable(var_a, var_b, 1, 5)
+
+
+def test_chapter_0_lists_each_undecided_claim_with_its_power():
+    from icil_paper.tables.book import undecided_power
+
+    held = {"id": "a", "adjusted_verdict": "holds", "ours": 0.1, "ci": [0.05, 0.15]}
+    open_ = {"id": "b", "adjusted_verdict": "inconclusive", "ours": 0.01, "ci": [-0.04, 0.06],
+             "paper": 0.041, "power": 0.23, "mde": 0.071, "seeds_needed": 26}
+    unplanned = {"id": "c", "adjusted_verdict": "too few seeds", "ours": 0.0, "ci": [-0.1, 0.1],
+                 "paper": None, "reference_effect": None, "power": None, "mde": None,
+                 "seeds_needed": None, "power_note": "no reference effect"}
+    text = undecided_power([held, open_, unplanned])
+    assert "**a**" not in text
+    assert ("**b**: inconclusive, ours +0.010 [-0.040, +0.060]; power 23% to detect the "
+            "paper's +0.041 at these seeds; detects 0.071 with 80% power; 26 seeds a row") in text
+    assert "**c**: too few seeds" in text and "no reference effect" in text
+    assert undecided_power([held]) == ""

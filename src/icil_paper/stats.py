@@ -869,6 +869,24 @@ def minimum_detectable(var_a: float, var_b: float, seeds_a: int, seeds_b: int, *
     return float((_t_quantile(level, df) + t.ppf(power, df)) * se)
 
 
+def power_at(var_a: float, var_b: float, seeds_a: int, seeds_b: int, effect: float, *,
+             level: float = 1 - ALPHA) -> float:
+    """The probability that a two-sided test at `level` on these seeds detects a true
+    difference `effect` (given per-seed variances var_a, var_b): 1 - T_df(t_{(1+level)/2, df}
+    - |effect| / se), Welch's df; the far tail is left out (the inverse of
+    `minimum_detectable`: power_at(..., minimum_detectable(...)) = POWER)."""
+    from scipy.stats import t
+
+    if min(seeds_a, seeds_b) < 2:
+        raise ValueError(f"a design needs at least 2 seeds a row to detect anything, got "
+                         f"{seeds_a} and {seeds_b}")
+    se = math.sqrt(var_a / seeds_a + var_b / seeds_b)
+    if se == 0:
+        return 1.0 if effect else 1 - level
+    df = _welch_df(var_a, seeds_a, var_b, seeds_b)
+    return float(t.sf(_t_quantile(level, df) - abs(float(effect)) / se, df))
+
+
 def seeds_needed(var_a: float, var_b: float, effect: float, *, level: float = 1 - ALPHA,
                  power: float = POWER, max_seeds: int = 1000) -> int | None:
     """Seeds per row (both rows alike, at least 2) for which `minimum_detectable` reaches

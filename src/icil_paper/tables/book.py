@@ -398,7 +398,8 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
 def ledger_frame(ledger: list[dict[str, Any]], part: str = "verdicts"):
     """The claims ledger as a table, in two parts that each fit the book's column:
     "verdicts" (the seeds a row, the paper, ours [95% interval], the verdict before and
-    after Holm's correction) and "power" (the size reading, mde, seeds needed)."""
+    after Holm's correction) and "power" (the size reading, mde, the power to detect the
+    paper's effect, seeds needed)."""
     import pandas as pd
 
     if part not in ("verdicts", "power"):
@@ -418,9 +419,34 @@ def ledger_frame(ledger: list[dict[str, Any]], part: str = "verdicts"):
             needed = e.get("seeds_needed")
             rows.append({"claim": e["id"], "size vs the paper": e.get("magnitude") or "",
                          "mde": "" if e.get("mde") is None else f"{e['mde']:.3f}",
+                         "power": "" if e.get("power") is None else f"{e['power']:.0%}",
                          "seeds needed": ("" if e["verdict"] == "not run" else
                                           str(needed) if needed else "—")})
     return pd.DataFrame(rows).set_index("claim").rename_axis(None)
+
+
+def undecided_power(ledger: list[dict[str, Any]]) -> str:
+    """A Markdown list of the claims left undecided after Holm's correction, each with what
+    its design could detect: the power to detect the paper's effect at its seeds, the mde
+    and the seeds a row that would reach 80% power. Empty when none is undecided."""
+    lines = []
+    for e in ledger:
+        if e.get("adjusted_verdict") not in ("inconclusive", "too few seeds"):
+            continue
+        effect = e.get("paper", e.get("reference_effect"))
+        parts = [f"{e['adjusted_verdict']}, ours {e['ours']:+.3f} "
+                 f"[{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"]
+        if e.get("power") is not None:
+            parts.append(f"power {e['power']:.0%} to detect the paper's {effect:+.3f} at "
+                         f"these seeds")
+        if e.get("mde") is not None:
+            parts.append(f"detects {e['mde']:.3f} with 80% power")
+        if e.get("seeds_needed"):
+            parts.append(f"{e['seeds_needed']} seeds a row would detect the paper's effect")
+        elif e.get("power_note"):
+            parts.append(e["power_note"])
+        lines.append(f"- **{e['id']}**: " + "; ".join(parts) + ".")
+    return "\n".join(lines)
 
 
 def ledger_details(ledger: list[dict[str, Any]]) -> str:

@@ -18,8 +18,9 @@ Its `paper` value is computed from the paper's own numbers (`icil_paper.paper_nu
   otherwise decide about one by chance);
 - `magnitude`: our interval against the paper's own size (`stats.magnitude`; success
   differences also say when they lie within +-`EQUIVALENCE_MARGIN` of 0);
-- `mde` and `seeds_needed`: the smallest difference this design detects at 80% power and
-  the seeds per row that detect the paper's effect, from the measured per-seed variances
+- `mde`, `power` and `seeds_needed`: the smallest difference this design detects at 80%
+  power, the probability that this design detects the paper's effect, and the seeds per
+  row that detect it with 80% power, from the measured per-seed variances
   (a one-seed row borrows the pooled variance of its table's multi-seed rows, else of the
   ledger's; `variance_from` says which);
 - `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`.
@@ -430,8 +431,8 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
     """mde, seeds_needed and where each row's seed variance came from (see the module
     docstring). Best of k: planned against the closest other row (smallest pairwise margin
     on the claimed side), the comparison that decides the intersection test."""
-    out: dict[str, Any] = {"mde": None, "seeds_needed": None, "variance_from": None,
-                           "power_note": None}
+    out: dict[str, Any] = {"mde": None, "power": None, "seeds_needed": None,
+                           "variance_from": None, "power_note": None}
     compare = claim.compare
     if not isinstance(compare, (Comparison, MotionComparison)):
         out["power_note"] = "not planned: a rank correlation across rows has no closed form"
@@ -461,6 +462,8 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
     if paper_value is None:
         out["power_note"] = "no reference effect (no number to plan for): only the mde"
     elif claim.direction * paper_value > 0:
+        if min(seeds) >= 2:
+            out["power"] = stats.power_at(*variances, *seeds, paper_value)
         out["seeds_needed"] = stats.seeds_needed(*variances, paper_value, max_seeds=MAX_SEEDS)
         if out["seeds_needed"] is None:
             out["power_note"] = (f"the paper's effect ({paper_value:+.3g}) would need more than "
@@ -486,7 +489,7 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
         entry.update(reference_effect=paper_value, reference=claim.reference)
     if estimate is None:
         entry.update(ours=None, ci=None, n=None, episodes=None, seeds=None, method=None,
-                     p_value=None, verdict="not run", magnitude=None, mde=None,
+                     p_value=None, verdict="not run", magnitude=None, mde=None, power=None,
                      seeds_needed=None, variance_from=None, power_note=None)
         return entry, None
     test = stats.decision_p_value(estimate, claim.direction)
