@@ -8,19 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from icil_paper.bench.figures import FIGURES, figure
+from icil_paper.bench.figures import FIGURES, MARKED, figure, printed_at, significant_digits
 
 README = Path(__file__).resolve().parents[1] / "README.md"
-MARKED = re.compile(r"(\d[\d,]*(?:\.\d+)?)\s*[^\s<]*\s*<!-- figure: ([\w.]+) -->")
-
-
-def significant_digits(printed: str) -> int:
-    """"15.6" -> 3, "0.074" -> 2, "241" -> 3, "290" -> 2 (an integer's trailing zeros are
-    not significant)."""
-    digits = printed.replace(",", "")
-    if "." in digits:
-        return len(digits.replace(".", "").lstrip("0"))
-    return len(digits.lstrip("0").rstrip("0")) or 1
 
 
 def rounded(value: float, digits: int) -> float:
@@ -30,7 +20,7 @@ def rounded(value: float, digits: int) -> float:
 
 
 def marked_figures() -> list[tuple[str, str]]:
-    return MARKED.findall(README.read_text())
+    return [(printed, name) for printed, _, name in MARKED.findall(README.read_text())]
 
 
 def test_the_readme_marks_its_measured_figures():
@@ -54,3 +44,8 @@ def test_rounding_rules():
     assert significant_digits("15.6") == 3 and significant_digits("0.074") == 2
     assert significant_digits("290") == 2 and significant_digits("1217") == 4
     assert rounded(1217.497, 4) == 1217 and rounded(287.3, 2) == 290
+
+
+def test_update_readme_prints_each_figure_as_it_was_printed():
+    assert printed_at(6.2349, "6.2") == "6.2" and printed_at(241.6, "241") == "242"
+    assert printed_at(0.0741, "0.074") == "0.074" and printed_at(12.0, "6.50") == "12.00"

@@ -1,6 +1,7 @@
 """The README's measured figures, computed from the records they quote.
 
-    python -m icil_paper.bench.figures          # every figure with its value and source
+    python -m icil_paper.bench.figures                  # every figure with its value and source
+    python -m icil_paper.bench.figures --update-readme  # rewrite the README's figures
 
 A figure in the README is written as the number followed by a marker naming it,
 `15.6 steps/s <!-- figure: policies.train_small_steps_per_s -->`, and
@@ -12,10 +13,10 @@ cannot leave an old number in the README.
 from __future__ import annotations
 
 import json
-import statistics
+import re
 from collections.abc import Callable
-from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[3]
 BENCH = ROOT / "results" / "bench"
@@ -35,19 +36,6 @@ def _latency(size: str, tokens: int, field: str) -> float:
                 if t["size"] == size and t["prompt_tokens"] == tokens)
 
 
-def _records(kind: str, prefix: str = "", tasks: str = "") -> list[dict]:
-    """Reference records of `kind` whose file name starts with the policy label `prefix`
-    (`icrt_lipvq`) and whose task tag starts with `tasks` (`kitchen` for a multi-task
-    run, `kitchen_` for per-task evaluations)."""
-    out = []
-    for path in sorted((REFERENCE / kind).glob("*.json")):
-        label, tag = path.name.split("__")[:2]
-        if (not prefix or label == prefix) and tag.startswith(tasks) and (
-                tasks.endswith("_") or not tasks or tag == tasks):
-            out.append(json.loads(path.read_text()))
-    return out
-
-
 def _cell(kind: str, field: str) -> float:
     """A kind of cell's `seed_cost_s` or `floor_ratio` (its steady cell, the next seed in a
     worker that ran one), or `first_floor_ratio` (its first cell in a fresh process)."""
@@ -59,19 +47,28 @@ def _compiled(kind: str, field: str) -> float:
     return next(c for c in _bench("cells")["compile"] if c["kind"] == kind)[field]
 
 
-def _median_wall(kind: str, prefix: str, tasks: str) -> float:
-    """Median `wall_time_s` of those records."""
-    values = [r["wall_time_s"] for r in _records(kind, prefix, tasks)]
-    if not values:
-        raise ValueError(f"no reference {kind} record of {prefix} on {tasks}")
-    return float(statistics.median(values))
+def _cost(*path: str) -> float:
+    """A field of the reference run's `cost.json` (`python -m icil_paper.tables.cost`)."""
+    value: Any = json.loads((REFERENCE / "cost.json").read_text())
+    for key in path:
+        value = value[key]
+    return float(value)
 
 
-def _span_hours() -> float:
-    """From the start of the first reference record to the end of the last, in hours."""
-    records = [r for kind in ("train", "eval", "features") for r in _records(kind)]
-    ends = sorted((datetime.fromisoformat(r["finished"]), r["wall_time_s"]) for r in records)
-    return ((ends[-1][0] - ends[0][0]).total_seconds() + ends[0][1]) / 3600
+def _cost_hours(field: str) -> float:
+    """Hours of the reference run: `elapsed` (the sittings' elapsed times summed: the
+    machine's hours), `wall` (every record's wall time summed: cell-hours) or `cpu`."""
+    cost = json.loads((REFERENCE / "cost.json").read_text())
+    if field == "elapsed":
+        return sum(s["elapsed_s"] for s in cost["sittings"]) / 3600
+    return cost["total"][f"{field}_s"] / 3600
+
+
+def _cell_seconds(kind: str) -> float:
+    """The mean wall time of one cell of a kind (its training, evaluations and features);
+    0 while no cell of that kind has finished."""
+    k = json.loads((REFERENCE / "cost.json").read_text())["by_kind"].get(kind)
+    return k["wall_s"] / k["cells"] if k and k.get("cells") else 0.0
 
 
 FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
@@ -103,19 +100,18 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                          lambda kind=kind, field=field: _compiled(kind, field))
        for kind in ("kitchen_icrt_lipvq", "act_maniskill")
        for field in ("eager_step_ms", "compiled_step_ms", "warmup_s")},
-    "reference.icrt_train_s": ("results/reference/train",
-                               lambda: _median_wall("train", "icrt_lipvq", "kitchen")),
-    "reference.bc_eval_s": ("results/reference/eval",
-                            lambda: _median_wall("eval", "bc_transformer", "kitchen_")),
-    "reference.icrt_eval_s": ("results/reference/eval",
-                              lambda: _median_wall("eval", "icrt_lipvq", "kitchen_")),
-    "reference.bc_train_s": ("results/reference/train",
-                             lambda: _median_wall("train", "bc_transformer", "kitchen")),
-    "reference.act_train_s": ("results/reference/train",
-                              lambda: _median_wall("train", "act", "kitchen")),
-    "reference.mcr_eval_s": ("results/reference/eval",
-                             lambda: _median_wall("eval", "mcr", "kitchen_")),
-    "reference.span_hours": ("results/reference (finish times)", _span_hours),
+    "cost.cells": ("results/reference/cost.json", lambda: _cost("total", "cells")),
+    "cost.planned_cells": ("results/reference/cost.json", lambda: _cost("planned_cells")),
+    "cost.episodes": ("results/reference/cost.json", lambda: _cost("total", "episodes")),
+    "cost.sittings": ("results/reference/cost.json",
+                      lambda: len(json.loads((REFERENCE / "cost.json").read_text())["sittings"])),
+    **{f"cost.{field}_hours": ("results/reference/cost.json",
+                               lambda field=field: _cost_hours(field))
+       for field in ("elapsed", "wall", "cpu")},
+    **{f"cost.{name}_cell_s": ("results/reference/cost.json",
+                               lambda kind=kind: _cell_seconds(kind))
+       for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),
+                          ("act_maniskill", "act maniskill state"), ("mcr", "mcr kitchen rgb"))},
 }
 """Figure name -> (the records it comes from, a function computing it from them)."""
 
@@ -127,7 +123,54 @@ def figure(name: str) -> float:
     return float(FIGURES[name][1]())
 
 
-def main() -> None:
+MARKED = re.compile(r"(\d[\d,]*(?:\.\d+)?)(\s*[^\s<]*\s*)<!-- figure: ([\w.]+) -->")
+"""A README figure: the printed number, what follows it (a unit), and its marker."""
+
+
+def significant_digits(printed: str) -> int:
+    """"15.6" -> 3, "0.074" -> 2, "241" -> 3, "290" -> 2 (an integer's trailing zeros are
+    not significant)."""
+    digits = printed.replace(",", "")
+    if "." in digits:
+        return len(digits.replace(".", "").lstrip("0"))
+    return len(digits.lstrip("0").rstrip("0")) or 1
+
+
+def printed_at(value: float, printed: str) -> str:
+    """`value` printed as `printed` was: with as many decimals, or as a whole number."""
+    if "." in printed:
+        return f"{value:.{len(printed.split('.')[1])}f}"
+    return str(int(round(value)))
+
+
+def update_readme(path: Path = ROOT / "README.md") -> list[str]:
+    """Rewrite every marked figure of the README with its current value, printed as it
+    was; returns the figures that changed."""
+    text = path.read_text()
+    changed = []
+
+    def replace(m: re.Match) -> str:
+        printed, between, name = m.groups()
+        new = printed_at(figure(name), printed.replace(",", ""))
+        if new != printed:
+            changed.append(f"{name}: {printed} -> {new}")
+        return f"{new}{between}<!-- figure: {name} -->"
+
+    path.write_text(MARKED.sub(replace, text))
+    return changed
+
+
+def main(argv: list[str] | None = None) -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--update-readme", action="store_true",
+                        help="rewrite the README's figures with their current values")
+    args = parser.parse_args(argv)
+    if args.update_readme:
+        for line in update_readme():
+            print(line)
+        return
     for name, (source, _) in FIGURES.items():
         print(f"{name:40s} {figure(name):12.4g}   {source}")
 

@@ -160,3 +160,39 @@ def main(argv: list[str] | None = None) -> None:
 
 if __name__ == "__main__":
     main()
+
+
+def pilot_frame(path: str | None = None, table: str = "I"):
+    """The stored pilot (`results/bench/pilot.json`) as a table: one line per setting and
+    row (its demonstrations per task and training steps), its success per family and on
+    average (Table II: per task); and, per setting, the columns that its rows cannot
+    separate (every row at 0, or every one at 1; `informative`).
+    Returns (frame, {setting: [uninformative columns]})."""
+    import pandas as pd
+
+    from icil_paper.results import results_root
+    from icil_paper.tables.definitions import FAMILY_COLUMNS
+
+    record = json.loads(open(path or results_root() / "bench" / "pilot.json").read())
+    lines, flat = [], {}
+    for name, setting in record["settings"].items():
+        if setting["table"] != table:
+            continue
+        for row in setting["rows"]:
+            where = (f"{row['demos_per_task']} demos, {row['train_steps']} steps, "
+                     f"{row['episodes_per_task']} episodes")
+            if table == "I":
+                tasks = [v for v in row["tasks"].values() if v is not None]
+                lines.append({"setting": where, "row": row["row"],
+                              **{c: row["families"].get(c) for c in FAMILY_COLUMNS},
+                              "avg": round(sum(tasks) / len(tasks), 3) if tasks else None})
+            else:  # one policy per task
+                for task, value in row["tasks"].items():
+                    lines.append({"setting": where, "row": row["row"],
+                                  "task": task.split("/", 1)[1], "success": value})
+        label = lines[-1]["setting"] if lines else name
+        flat[label] = sorted(c.split("/")[-1] for c, ok in informative(setting["rows"]).items()
+                             if not ok)
+    frame = pd.DataFrame(lines).set_index(["setting", "row"] if table == "I"
+                                          else ["setting", "task"])
+    return frame.sort_index(), flat

@@ -29,6 +29,9 @@ from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json
 from icil_paper.results import ResultsStore, config_hash
 
+FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "without_cpu_time")
+"""What is summed over records, for every group (stage, kind of cell, the total)."""
+
 SITTING_GAP_S = 1800.0
 """Records further apart than this (half an hour) start a new sitting."""
 
@@ -111,7 +114,8 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
 
     store = store or ResultsStore(preset.name)
     planned = _planned(preset, store)
-    new = lambda: defaultdict(float)  # noqa: E731
+    def new() -> dict[str, float]:
+        return defaultdict(float, dict.fromkeys(FIELDS, 0.0))
     by_stage: dict[str, dict[str, float]] = defaultdict(new)
     by_kind: dict[str, dict[str, float]] = defaultdict(new)
     total, older = new(), new()
@@ -135,13 +139,13 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
     seeds = planned_seeds(preset)
     return {
         "preset": preset.name,
-        "total": _rounded({"all": total})["all"] if total else {},
+        "total": _rounded({"all": total})["all"],
         "by_stage": _rounded(by_stage),
         "by_kind": _rounded(by_kind),
         "planned_cells": len({p for p, (_, _) in planned.items() if p.parent.name == "train"}),
         "planned_rows": len(seeds),
         "planned_seeds": sum(seeds.values()),
-        "older_code": _rounded({"older": older})["older"] if older else {},
+        "older_code": _rounded({"older": older})["older"],
         "machines": [{"cpu_count": c, "gpu": g, "platform": p} for c, g, p in sorted(
             hosts, key=str)],
         "sittings": _sittings(current),
