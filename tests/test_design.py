@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from icil_paper.config import get_preset
 from icil_paper.records import train_record
 from icil_paper.results import ResultsStore
@@ -69,3 +71,23 @@ def test_the_cost_sums_each_records_time_under_its_stage_and_kind(tmp_path):
     assert cost["total"]["wall_s"] == 10.0 and cost["older_code"]["records"] == 1
     assert cost["total"]["without_cpu_time"] == 1 and cost["total"]["cpu_per_wall"] is None
     assert len(cost["sittings"]) == 1 and cost["sittings"][0]["records"] == 2
+
+
+def test_expected_half_width_shrinks_with_seeds_and_matches_the_ledgers_own():
+    from scipy.stats import t
+
+    from icil_paper import stats
+    from icil_paper.tables.design import expected_half_width
+
+    var = 0.0025
+    mde = stats.minimum_detectable(var, var, 3, 3)
+    entry = {"mde": mde, "seeds": {"a": 3, "b": 3}}
+    at_3 = expected_half_width(entry, 3)
+    assert at_3 == pytest.approx(t.ppf(0.975, 4) * (2 * var / 3) ** 0.5, rel=1e-6)
+    assert expected_half_width(entry, 10) < at_3
+    # a one-seed row: read back from seeds_needed for the paper's effect
+    needed = stats.seeds_needed(var, var, 0.088)
+    from_needed = expected_half_width({"seeds_needed": needed, "paper": 0.088,
+                                       "seeds": {"a": 3, "b": 1}}, 10)
+    assert from_needed == pytest.approx(expected_half_width(entry, 10), rel=0.15)
+    assert expected_half_width({"seeds": {"a": 1}}, 10) is None

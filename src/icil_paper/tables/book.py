@@ -559,6 +559,20 @@ def design_sentence(preset: Preset) -> str:
     scenes = ("seed k of every row on its own scene set k" if t.scenes_per_seed
               else "every seed on the same scenes")
     episodes = preset.eval.episodes_per_task
+    tables: dict[str, list[str]] = {}  # table -> "5 a row" and "act 10" phrases
+    for name, n in t.seeds_by_row().items():
+        table, row = name.split(":", 1)
+        phrase = f"{n} a row" if row == "*" else f"{row} {n}"
+        tables.setdefault(table, []).insert(0 if row == "*" else len(tables.get(table, [])),
+                                            phrase)
+    for table, n in (("beyond", t.since_paper_seeds), ("official", t.official_seeds)):
+        if n and n != t.icrt_seeds:
+            tables.setdefault(table, []).insert(0, f"{n} a row")
+    if tables:
+        seeds += (" (Table I's rows, shared by Tables III-VI), except "
+                  + "; ".join(f"table {table}: {', '.join(parts)}"
+                              for table, parts in tables.items())
+                  + " (a row that is one of Table I's keeps its seeds)")
     return (f"{seeds}, {episodes} episode{'s' if episodes != 1 else ''} per task and seed, "
             f"{scenes}")
 

@@ -66,9 +66,10 @@ def required_seeds(entry: dict[str, Any]) -> int:
 
 
 def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, dict[str, Any]]:
-    """Claim id -> the ledger entry whose power analysis the design reads: the preset's own
-    committed ledger where it has `seeds_needed` or a decided verdict, else the older
-    code's (`older-code/claims.json`), else the not-run entry."""
+    """Claim id -> the ledger entry whose power analysis the design reads: of the preset's
+    own committed ledger and the older code's (`older-code/claims.json`), the one whose
+    variances rest on more training seeds (`n`, a run in progress has few), among those
+    with a power analysis; else the not-run entry."""
     from icil_paper.results import results_root
 
     folder = Path(root or results_root()) / preset.name
@@ -81,6 +82,7 @@ def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, d
         entries = [ledger[claim_id] for ledger in ledgers if claim_id in ledger]
         planned = [e for e in entries if e.get("seeds_needed") is not None
                    or e.get("mde") is not None]
+        planned.sort(key=lambda e: -(e.get("n") or 0))  # stable: the current ledger on ties
         out[claim_id] = (planned or entries or [{"id": claim_id}])[0]
     return out
 
@@ -103,17 +105,25 @@ def check_design(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[str]
 
 def expected_half_width(entry: dict[str, Any], seeds: int) -> float | None:
     """The 95% half-width a claim's difference is expected to have at `seeds` seeds a row,
-    from its ledger entry's minimum detectable difference at the seeds it was computed with
-    (both rows' variances taken alike): mde = (t_.975 + t_.8) se, se ~ 1 / sqrt(S)."""
+    from its ledger entry (both rows' per-seed variances taken alike, v): the minimum
+    detectable difference at the seeds it was computed with, mde = (t_.975 + t_.8) se with
+    se^2 = v (1/S_a + 1/S_b); or, where a row had one seed (no mde), `seeds_needed` n for the
+    paper's effect d, d = (t_.975 + t_.8) sqrt(2 v / n). Then t_.975 sqrt(2 v / seeds)."""
     from scipy.stats import t
 
+    def quantiles(df: float) -> float:
+        return t.ppf(0.975, df) + t.ppf(0.8, df)
+
     mde, rows = entry.get("mde"), entry.get("seeds") or {}
-    if mde is None or not rows:
+    needed, effect = entry.get("seeds_needed"), entry.get("paper", entry.get("reference_effect"))
+    if mde is not None and rows:
+        old = sorted(rows.values())[:2]
+        se = mde / quantiles(max(sum(old) - 2, 1))
+        var = se**2 / sum(1 / s for s in old)
+    elif needed and effect:
+        var = needed * (effect / quantiles(2 * needed - 2)) ** 2 / 2
+    else:
         return None
-    old = sorted(rows.values())[:2]
-    old_df = max(sum(old) - 2, 1)
-    se = mde / (t.ppf(0.975, old_df) + t.ppf(0.8, old_df))
-    var = se**2 / sum(1 / s for s in old)
     new_se = math.sqrt(2 * var / seeds)
     return float(t.ppf(0.975, 2 * seeds - 2) * new_se)
 
