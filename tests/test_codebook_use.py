@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 import fake_suite
@@ -136,7 +137,7 @@ def test_codebook_rows_share_table_iii_records(preset):
 @pytest.mark.parametrize("table_id, rows, seeds", [
     ("I", ["icrt+vq", "icrt+lfq", "icrt+lipvq"], [0, 1]),
     ("IV", ["icrt+vq", "icrt+lipvq"], [0, 1]),
-    ("fig5", None, [0]),  # every size
+    ("fig5", None, None),  # every size: one seed, Table I's seeds at Table I's size
 ])
 def test_the_codebook_frame_has_a_line_per_codebook_row_and_seed(preset, table_id, rows, seeds):
     spec = table_spec(preset, table_id)
@@ -145,12 +146,19 @@ def test_the_codebook_frame_has_a_line_per_codebook_row_and_seed(preset, table_i
     assert set(empty["status"]) == {"not run"} and empty["codes used"].isna().all()
     store = measure(preset, [table_id])
     frame = codebook_frame(assemble(spec, store))
-    assert list(frame.index) == [(r, s) for r in rows for s in seeds]
+    if seeds is None:
+        seeds_of = {r.label: sorted({u.seed_index for u in r.cells["avg"].units})
+                    for r in spec.rows}
+        assert sorted(len(s) for s in seeds_of.values()) == [1, 1, 1,
+                                                            preset.tables.icrt_seeds]
+    else:
+        seeds_of = dict.fromkeys(rows, seeds)
+    assert list(frame.index) == [(r, s) for r in rows for s in seeds_of[r]]
     assert (frame["status"] == "ok").all()
     assert ((1 <= frame["codes used"]) & (frame["codes used"] <= frame["K"])).all()
     assert ((1 <= frame["perplexity"]) & (frame["perplexity"] <= frame["codes used"])).all()
     if table_id == "fig5":
-        assert list(frame["K"]) == sorted(preset.tables.codebook_sizes)
+        assert sorted(set(frame["K"])) == sorted(preset.tables.codebook_sizes)
 
 
 def test_fig5_sentence_names_each_sizes_codes_used(preset, monkeypatch):
@@ -165,9 +173,12 @@ def test_fig5_sentence_names_each_sizes_codes_used(preset, monkeypatch):
     result = assemble(spec, measure(preset, ["fig5"]))
     text = codes_used_sentence({"this build": result})
     frame = codebook_frame(result)
-    for (row, _), line in frame.iterrows():
-        perplexity = result.cell(row, "features").extra["metrics"][0]["perplexity"]
-        assert f"{row} used {line['codes used']} of its {line['K']} codes" in text
+    for row, lines in frame.groupby(level=0, sort=False):  # means over a row's seeds
+        metrics = result.cell(row, "features").extra["metrics"]
+        perplexity = np.mean([m["perplexity"] for m in metrics])
+        used = lines["codes used"].mean()
+        count = f"{used:.0f}" if len(lines) == 1 else f"{used:.1f}"
+        assert f"{row} used {count} of its {lines['K'].iloc[0]} codes" in text
         assert f"perplexity {perplexity:.1f}" in text
     assert text.startswith("- this build (smoke): ")
     shown.clear()
