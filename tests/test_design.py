@@ -15,6 +15,7 @@ from icil_paper.tables.cost import run_cost
 from icil_paper.tables.design import (
     DECIDABLE_SEEDS,
     OTHER_SEEDS,
+    TABLE_IDS,
     check_design,
     claim_rows,
     design_ledger,
@@ -69,6 +70,8 @@ def test_the_cost_sums_each_records_time_under_its_stage_and_kind(tmp_path):
     kitchen = cost["by_kind"]["icrt kitchen state"]
     assert kitchen["cells"] == 1 and kitchen["train_steps"] == 5 and kitchen["episodes"] == 2
     assert cost["total"]["wall_s"] == 10.0 and cost["older_code"]["records"] == 1
+    assert cost["finished_cells"] == 1 and cost["planned_cells"] == len(
+        {u.run.key() for t in TABLE_IDS for u in table_spec(preset, t).units()})
     assert cost["total"]["without_cpu_time"] == 1 and cost["total"]["cpu_per_wall"] is None
     assert len(cost["sittings"]) == 1 and cost["sittings"][0]["records"] == 2
 

@@ -6,8 +6,8 @@ Every record carries the wall time and CPU time of its computation (`ResultsStor
 a training run, one task's evaluation, one features measurement). A record belongs to the
 first stage of `icil-paper reproduce` whose tables plan it (Table IV's runs are Table I's,
 so they count under `table-I`) and to a kind of cell: policy, suite and observations
-("icrt kitchen state"); records of the other stages (tokenizers, Lipschitz study, data)
-count under their kind. Records the current plan does not name (made by older code) are
+("icrt kitchen state"); chapter 02's run counts as stage `icrt`, and records of the other
+stages (tokenizers, Lipschitz study, showcase) under their kind. Records the current plan does not name (made by older code) are
 counted apart and not summed in.
 
 Sittings: records whose finish times lie less than `SITTING_GAP_S` apart belong to one
@@ -37,7 +37,9 @@ SITTING_GAP_S = 1800.0
 
 
 def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]:
-    """Record path -> (stage, kind of cell) for every record the table stages plan."""
+    """Record path -> (stage, kind of cell) for every record the table stages plan, and
+    chapter 02's run (stage `icrt`)."""
+    from icil_paper.book.studies import icrt_specs
     from icil_paper.records import eval_record, features_record, train_record
     from icil_paper.reproduce import STAGES
     from icil_paper.tables.definitions import table_spec
@@ -55,6 +57,10 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
             for record_id in ids:
                 path = store.path_for(record_id.kind, record_id.name, config_hash(record_id.config))
                 out.setdefault(path, (stage.name, kind))
+    run, ev = icrt_specs(preset)
+    for record_id in (train_record(run), eval_record(run, ev)):
+        path = store.path_for(record_id.kind, record_id.name, config_hash(record_id.config))
+        out.setdefault(path, ("icrt", "icrt study"))
     return out
 
 
@@ -142,7 +148,10 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
         "total": _rounded({"all": total})["all"],
         "by_stage": _rounded(by_stage),
         "by_kind": _rounded(by_kind),
-        "planned_cells": len({p for p, (_, _) in planned.items() if p.parent.name == "train"}),
+        "planned_cells": sum(1 for p, (stage, _) in planned.items()
+                             if p.parent.name == "train" and stage.startswith("table-")),
+        "finished_cells": int(sum(t["cells"] for stage, t in by_stage.items()
+                                  if stage.startswith("table-"))),
         "planned_rows": len(seeds),
         "planned_seeds": sum(seeds.values()),
         "older_code": _rounded({"older": older})["older"],
