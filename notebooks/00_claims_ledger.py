@@ -26,6 +26,7 @@ from icil_paper.tables.book import (
     ledger_frame,
     older_ledger,
     reference_freshness,
+    reference_progress,
     source_label,
     stale_records,
     undecided_power,
@@ -47,7 +48,9 @@ for source, p in sources:
 # %% tags=["remove-input"]
 for source, (p, ledger) in ledgers.items():
     heading = source_label(source, p.name)
-    display(Markdown(f"## {heading[0].upper()}{heading[1:]}\n\n{summary_sentence(ledger)}"))
+    progress = reference_progress() if p.name == REFERENCE else ""
+    display(Markdown(f"## {heading[0].upper()}{heading[1:]}\n\n{progress}\n\n"
+                     f"{summary_sentence(ledger)}"))
     undecided = undecided_power(ledger)
     if undecided:
         display(Markdown("**Undecided after Holm, and what these seeds could detect:**\n\n"

@@ -72,8 +72,8 @@ from icil_paper.bench.pilot import pilot_frame
 frame, flat = pilot_frame(table="I")
 display(frame)
 display(Markdown("Columns that no row of a setting separates (every row at 0, or every one "
-                 "at 1): " + "; ".join(f"{setting}: {', '.join(cols) or 'none'}"
-                                       for setting, cols in flat.items()) + "."))
+                 "at 1):\n\n" + "\n".join(f"- {setting}: {', '.join(cols) or 'none'}"
+                                          for setting, cols in flat.items())))
 
 # %% [markdown]
 # ## Average success over the kitchen tasks

@@ -94,3 +94,17 @@ def test_expected_half_width_shrinks_with_seeds_and_matches_the_ledgers_own():
                                        "seeds": {"a": 3, "b": 1}}, 10)
     assert from_needed == pytest.approx(expected_half_width(entry, 10), rel=0.15)
     assert expected_half_width({"seeds": {"a": 1}}, 10) is None
+
+
+def test_reference_progress_says_how_many_cells_are_done(tmp_path):
+    from icil_paper.tables.book import reference_progress
+
+    path = tmp_path / "cost.json"
+    sittings = [{"elapsed_s": 3600.0}, {"elapsed_s": 1800.0}]
+    path.write_text(json.dumps({"finished_cells": 12, "planned_cells": 370,
+                                "sittings": sittings}))
+    text = reference_progress(path)
+    assert "12 of its 370 trained cells" in text and "2 sittings, 1.5 hours" in text
+    path.write_text(json.dumps({"finished_cells": 370, "planned_cells": 370,
+                                "sittings": sittings}))
+    assert reference_progress(path) == "" and reference_progress(tmp_path / "none") == ""

@@ -603,6 +603,27 @@ def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dic
     return data["made_by"], data["claims"]
 
 
+def reference_progress(path=None) -> str:
+    """Where the committed reference run stands, from its `cost.json`: the table cells
+    finished of those planned and the machine time so far; empty once every cell is done
+    (or when there is no cost.json)."""
+    import json
+    from pathlib import Path
+
+    path = Path(path) if path else ResultsStore(REFERENCE).dir / "cost.json"
+    if not path.exists():
+        return ""
+    cost = json.loads(path.read_text())
+    done, planned = cost.get("finished_cells", 0), cost.get("planned_cells", 0)
+    if not planned or done >= planned:
+        return ""
+    hours = sum(s["elapsed_s"] for s in cost["sittings"]) / 3600
+    return (f"The reference run is in progress: {done} of its {planned} trained cells have "
+            f"finished ({len(cost['sittings'])} sittings, {hours:.1f} hours of machine time "
+            "so far; `results/reference/cost.json`). A claim whose rows are not all trained "
+            "yet shows as *not run*.")
+
+
 def reference_summary(path=None) -> str:
     """The committed reference run's ledger in one sentence (`claims.summary_sentence`), or
     a sentence saying it is not there; when most of its records were made by older code,
@@ -615,12 +636,14 @@ def reference_summary(path=None) -> str:
     if not path.exists():
         return f"The reference run's ledger is not there yet ({path.name} is missing)."
     text = summary_sentence(load_ledger(path))
+    progress = reference_progress(path.with_name("cost.json"))
     fresh = reference_freshness(REFERENCE)
     if not fresh["stale"]:
-        return text
-    text = (f"The reference run is being redone with the current code: {fresh['stale']} of "
-            f"its {fresh['records']} committed records were made by an older version (chapter "
-            "0 lists them) and are not used, so with the current code: " + text)
+        return f"{progress} {text}".strip()
+    text = (f"{progress or 'The reference run is being redone with the current code.'} "
+            f"{fresh['stale']} of its {fresh['records']} committed records were made by an "
+            "older version (chapter 0 lists them) and are not used, so with the current code: "
+            + text)
     older = older_ledger(REFERENCE)
     if older is not None:
         made_by, ledger = older
