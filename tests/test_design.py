@@ -4,6 +4,7 @@ the ledger's `seeds_needed`, and what a run cost is summed from its records."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -18,11 +19,13 @@ from icil_paper.tables.design import (
     TABLE_IDS,
     check_design,
     claim_rows,
+    design_frame,
     design_ledger,
     planned_seeds,
 )
 from record_helpers import write_eval_record
 
+ROOT = Path(__file__).resolve().parents[1]
 TASKS = "data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door"
 
 
@@ -49,11 +52,16 @@ def test_a_decidable_claim_asks_ten_seeds_of_every_row_it_reads():
 
 def test_the_reference_preset_follows_the_rule_for_its_ledger():
     preset = get_preset("reference")
-    assert check_design(preset, design_ledger(preset)) == []
+    ledger = design_ledger(preset, root=ROOT / "results")  # the committed ledgers
+    assert ledger["I-tokenizer-gap"]["seeds_needed"] is not None
+    assert check_design(preset, ledger) == []
     seeds = planned_seeds(preset)
     assert seeds["I", "icrt+lipvq"] >= DECIDABLE_SEEDS and seeds["I", "bc_transformer"] >= 10
     assert min(seeds[r] for rows in claim_rows(preset).values() for r in rows) >= OTHER_SEEDS
     assert preset.tables.scenes_per_seed  # seeds are evaluated on scene sets of their own
+    frame = design_frame(preset)  # chapter 00's table
+    assert list(frame.index) == list(claim_rows(preset))
+    assert (frame["planned"] >= frame["required"]).all()
 
 
 def test_the_cost_sums_each_records_time_under_its_stage_and_kind(tmp_path):

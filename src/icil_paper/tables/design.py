@@ -74,9 +74,11 @@ def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, d
 
     folder = Path(root or results_root()) / preset.name
     ledgers = []
-    for path in (folder / "claims.json", folder / "older-code" / "claims.json"):
+    for path, older in ((folder / "claims.json", False),
+                        (folder / "older-code" / "claims.json", True)):
         if path.exists():
-            ledgers.append({e["id"]: e for e in json.loads(path.read_text())["claims"]})
+            ledgers.append({e["id"]: {**e, "older": older}
+                            for e in json.loads(path.read_text())["claims"]})
     out = {}
     for claim_id in claim_rows(preset):
         entries = [ledger[claim_id] for ledger in ledgers if claim_id in ledger]
@@ -135,11 +137,16 @@ def _kind(run) -> str:
 
 
 def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
-    """Measured rates from `results/bench/cells.json`: seconds per optimizer step by
-    policy, env steps per second and per episode by suite."""
+    """Measured rates from `results/bench/cells.json` (the results folder's, else the one
+    committed with the repository): seconds per optimizer step by policy, env steps per
+    second and per episode by suite."""
     from icil_paper.results import results_root
 
-    record = json.loads(Path(path or results_root() / "bench" / "cells.json").read_text())
+    if path is None:
+        path = results_root() / "bench" / "cells.json"
+        if not path.exists():
+            path = Path(__file__).resolve().parents[3] / "results" / "bench" / "cells.json"
+    record = json.loads(Path(path).read_text())
     step_s, env_rate, steps_per_episode = {}, {}, {}
     for cell in record["cells"]:
         steady = cell["steady"]
@@ -238,3 +245,24 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+def design_frame(preset: Preset):
+    """`report` as a table for the book: per claim, the seeds a row the power analysis asks
+    (`seeds_needed`) and where its variances came from, the seeds the rule requires, the
+    fewest seeds the preset gives one of its rows, and the expected 95% half-width there."""
+    import pandas as pd
+
+    ledger = design_ledger(preset)
+    lines = []
+    for c in report(preset)["claims"]:
+        entry = ledger[c["id"]]
+        planned_from = entry.get("seeds_needed") is not None or entry.get("mde") is not None
+        source = ("no power analysis" if not planned_from else
+                  f"{entry['n']} seeds" + (" (older code)" if entry.get("older") else ""))
+        lines.append({"claim": c["id"], "seeds needed": c["seeds_needed"] or "—",
+                      "from": source, "required": c["required"],
+                      "planned": min(c["rows"].values()),
+                      "expected ±": ("" if c["expected_half_width"] is None
+                                     else f"{c['expected_half_width']:.3f}")})
+    return pd.DataFrame(lines).set_index("claim").rename_axis(None)
