@@ -87,3 +87,16 @@ def test_table_cells_ask_for_the_gpus_given_on_the_command_line(monkeypatch):
     with pytest.raises(SystemExit) as exc:
         reproduce.main(["--preset", "smoke", "--stages", "table-V", "--gpus-per-cell", "-1"])
     assert exc.value.code == 2
+
+
+def test_the_first_table_stage_computes_every_chosen_tables_cells(monkeypatch):
+    """Each policy is trained once and evaluated for every chosen table in its own cell, so
+    no later stage needs a checkpoint of an earlier sitting."""
+    from icil_paper.tables import execute
+
+    calls = []
+    monkeypatch.setattr(execute, "run_tables", lambda preset, ids, **kw: calls.append(list(ids)))
+    reproduce.run_stages(get_preset("smoke"), ["table-I", "table-V", "claims"])
+    assert calls == [["I", "V"], ["I", "V"]]  # the second finds every record done
+    reproduce.run_stages(get_preset("smoke"), ["table-V"])
+    assert calls[-1] == ["V"]

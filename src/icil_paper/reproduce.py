@@ -7,7 +7,9 @@ same functions, so after `reproduce` they only load. `make reproduce` then build
 
 The table stages fan their cells (one trained policy each, with its evaluations) out over
 `--workers` processes (`--executor local`, the default) or a Ray cluster (`--executor ray`,
-`--ray-address HOST:PORT` to join one); cells shared between tables are computed once.
+`--ray-address HOST:PORT` to join one). The first table stage of an invocation computes the
+cells of every table stage chosen (`TOGETHER`): a policy shared by several tables is
+trained once and evaluated for all of them in one cell.
 """
 
 from __future__ import annotations
@@ -86,6 +88,14 @@ def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None
 GRID = {"executor": "local", "workers": None, "ray_address": None, "gpus_per_cell": 0.0}
 """How the table stages run their cells (set from the command line)."""
 
+TOGETHER: list[str] = []
+"""The tables of this invocation's table stages (set by `run_stages`). The first table stage
+computes the cells of all of them, so that each policy is trained once and evaluated for
+every table that reads it in the same cell: its checkpoint (under `runs/`, not committed)
+need not outlive the sitting, and a run resumed elsewhere from the committed records never
+trains a policy again only to evaluate it for another table. The later table stages then
+find their records done."""
+
 
 def _table_stage(table_id: str):
     def stage(preset: Preset, store: ResultsStore, force: bool) -> None:
@@ -94,7 +104,7 @@ def _table_stage(table_id: str):
         if force:
             raise ValueError("--force does not apply to the table stages: delete the records "
                              f"under {store.dir} to recompute them")
-        run_tables(preset, [table_id], **GRID)
+        run_tables(preset, TOGETHER if table_id in TOGETHER else [table_id], **GRID)
     stage.__doc__ = f"Compute every missing cell of table {table_id}."
     return stage
 
@@ -125,6 +135,7 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
 
             check_name("stage", name, names)
     store = ResultsStore(preset.name)
+    TOGETHER[:] = [s.name.removeprefix("table-") for s in chosen if s.name.startswith("table-")]
     timings = {}
     for stage in tqdm(chosen, desc=f"reproduce [{preset.name}]", unit="stage"):
         tqdm.write(f"== {stage.name}: {stage.description}")
