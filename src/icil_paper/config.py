@@ -464,12 +464,15 @@ def _reference() -> Preset:
     stay undecided unless their true size is larger (`python -m icil_paper.tables.design`
     prints each claim's expected half-width).
 
-    Episodes: seeds differ much more than episodes (seed variance about 0.0016 against an
-    episode variance of sum_t p_t (1 - p_t) / T^2 = 0.002-0.004 for one episode per task at
-    the pilot's rates), and a seed costs about 240 s of training against about 16 s per
-    episode on every task, so `stats.episodes_per_seed` puts the narrowest design for the
-    compute at 4-6 episodes per task: 5, with each seed on its own scene set
-    (`scenes_per_seed`), so that scene luck averages out over seeds too.
+    Episodes: a seed's true success varies by about 0.0016 (variance, the older records)
+    against an episode variance of sum_t p_t (1 - p_t) / T^2 = 0.007 (ICRT + LipVQ-VAE) to
+    0.012 (BC-Transformer) for one episode per task at the pilot's 2000-step rates, and an
+    ICRT seed costs about 215 s of training against 11-23 s per episode on every task (Table
+    I's evaluation alone, or with Tables V and VI's), so `stats.episodes_per_seed` puts the
+    narrowest design for the compute at 6-9 episodes per task. Variance times cost is flat
+    there: 5 episodes is within 2-4% of the optimum for ICRT and cuts the evaluation by a
+    third, so 5, with each seed on its own scene set (`scenes_per_seed`), so that scene
+    luck averages out over seeds too.
 
     Task scale, from the pilot (`python -m icil_paper.bench.pilot`, `results/bench/pilot.json`,
     one seed of ICRT + LipVQ-VAE and BC-Transformer on 10 episodes a task, shown in chapter
