@@ -8,9 +8,18 @@ from pathlib import Path
 
 import pytest
 
-from icil_paper.bench.figures import FIGURES, MARKED, figure, printed_at, significant_digits
+from icil_paper.bench.figures import FIGURES, MARKED, figure, printed_at
 
 README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def significant_digits(printed: str) -> int:
+    """"15.6" -> 3, "0.074" -> 2, "241" -> 3, "290" -> 2 (an integer's trailing zeros are
+    not significant)."""
+    digits = printed.replace(",", "")
+    if "." in digits:
+        return len(digits.replace(".", "").lstrip("0"))
+    return len(digits.lstrip("0").rstrip("0")) or 1
 
 
 def rounded(value: float, digits: int) -> float:

@@ -446,7 +446,7 @@ their runs (Tables III-VI, the paper's rows of `official` and `beyond`)."""
 
 def _reference() -> Preset:
     """The committed reference run: designed from power so that its claims can be decided,
-    at a cost a 2-core machine carries in about ten hours at two cells at a time.
+    at a cost a 2-core machine carries in about 10.5-12 hours at two cells at a time.
 
     Seeds (`icil_paper.tables.design`, whose rule `tests/test_design.py` checks): a claim is
     decidable when the ledger's power analysis (`seeds_needed`, from the records' own
@@ -479,8 +479,8 @@ def _reference() -> Preset:
     06): at 3000 training steps ICRT + LipVQ-VAE sat at 0.9-1.0 on 9 of 11 kitchen tasks
     (average 0.81), where tokenizers cannot differ; at 2000 steps it averages 0.55 with
     doors, drawers and levers at 0.85-0.9 and buttons at 0.6 (BC-Transformer 0.35); at 1500
-    it falls to 0.43. Thirty demonstrations a task instead of ten helped no family. Knobs,
-    pick-and-place and insertion stay at or near 0 for both rows at 1500-2000 steps, and
+    it falls to 0.43. Thirty demonstrations a task instead of ten did not lift ICRT +
+    LipVQ-VAE on any family (knobs fell from 1.0 to 0). Knobs, pick-and-place and insertion stay at or near 0 for both rows at 1500-2000 steps, and
     ManiSkill's Stack Cube at 0 at every setting: the chapters report such columns as
     uninformative rather than averaging them in silently. ManiSkill's ACT with 40
     demonstrations reaches 0.2 (Pick Cube) and 0.8 (Push Cube) at 5000 steps, 0.3 and 0.45

@@ -852,6 +852,17 @@ def magnitude(estimate: Estimate, direction: int, paper_value: float,
     return out
 
 
+def _design_se(var_a: float, var_b: float, seeds_a: int, seeds_b: int) -> tuple[float, float]:
+    """(se, Welch df) of a difference of two rows with these per-seed variances and seeds."""
+    if min(seeds_a, seeds_b) < 2:
+        raise ValueError(f"a design needs at least 2 seeds a row to detect anything, got "
+                         f"{seeds_a} and {seeds_b}")
+    if var_a < 0 or var_b < 0:
+        raise ValueError(f"variances must be >= 0, got {var_a} and {var_b}")
+    return (math.sqrt(var_a / seeds_a + var_b / seeds_b),
+            _welch_df(var_a, seeds_a, var_b, seeds_b))
+
+
 def minimum_detectable(var_a: float, var_b: float, seeds_a: int, seeds_b: int, *,
                        level: float = 1 - ALPHA, power: float = POWER) -> float:
     """The smallest true difference a - b that a two-sided test at `level` detects with
@@ -859,13 +870,7 @@ def minimum_detectable(var_a: float, var_b: float, seeds_a: int, seeds_b: int, *
     (t_{(1+level)/2, df} + t_{power, df}) sqrt(var_a/S_a + var_b/S_b), Welch's df."""
     from scipy.stats import t
 
-    if min(seeds_a, seeds_b) < 2:
-        raise ValueError(f"a design needs at least 2 seeds a row to detect anything, got "
-                         f"{seeds_a} and {seeds_b}")
-    if var_a < 0 or var_b < 0:
-        raise ValueError(f"variances must be >= 0, got {var_a} and {var_b}")
-    se = math.sqrt(var_a / seeds_a + var_b / seeds_b)
-    df = _welch_df(var_a, seeds_a, var_b, seeds_b)
+    se, df = _design_se(var_a, var_b, seeds_a, seeds_b)
     return float((_t_quantile(level, df) + t.ppf(power, df)) * se)
 
 
@@ -877,13 +882,9 @@ def power_at(var_a: float, var_b: float, seeds_a: int, seeds_b: int, effect: flo
     `minimum_detectable`: power_at(..., minimum_detectable(...)) = POWER)."""
     from scipy.stats import t
 
-    if min(seeds_a, seeds_b) < 2:
-        raise ValueError(f"a design needs at least 2 seeds a row to detect anything, got "
-                         f"{seeds_a} and {seeds_b}")
-    se = math.sqrt(var_a / seeds_a + var_b / seeds_b)
+    se, df = _design_se(var_a, var_b, seeds_a, seeds_b)
     if se == 0:
         return 1.0 if effect else 1 - level
-    df = _welch_df(var_a, seeds_a, var_b, seeds_b)
     return float(t.sf(_t_quantile(level, df) - abs(float(effect)) / se, df))
 
 

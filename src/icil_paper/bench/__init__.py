@@ -12,6 +12,16 @@ from pathlib import Path
 from typing import Any
 
 
+def bench_path(name: str) -> Path:
+    """`results/bench/<name>.json` of the results folder in use, else the one committed with
+    the repository (the measurements a reader's own results folder does not hold)."""
+    from icil_paper.results import results_root
+
+    path = results_root() / "bench" / f"{name}.json"
+    committed = Path(__file__).resolve().parents[3] / "results" / "bench" / f"{name}.json"
+    return path if path.exists() else committed
+
+
 def save_benchmark(name: str, record: dict[str, Any], out: str | Path | None = None) -> Path:
     """Add provenance to `record` and write it atomically to `out` (default
     results/bench/<name>.json); returns the path."""

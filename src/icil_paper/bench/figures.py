@@ -47,18 +47,15 @@ def _compiled(kind: str, field: str) -> float:
     return next(c for c in _bench("cells")["compile"] if c["kind"] == kind)[field]
 
 
-def _cost(*path: str) -> float:
-    """A field of the reference run's `cost.json` (`python -m icil_paper.tables.cost`)."""
-    value: Any = json.loads((REFERENCE / "cost.json").read_text())
-    for key in path:
-        value = value[key]
-    return float(value)
+def _cost() -> dict[str, Any]:
+    """The reference run's `cost.json` (`python -m icil_paper.tables.cost`)."""
+    return json.loads((REFERENCE / "cost.json").read_text())
 
 
 def _cost_hours(field: str) -> float:
     """Hours of the reference run: `elapsed` (the sittings' elapsed times summed: the
     machine's hours), `wall` (every record's wall time summed: cell-hours) or `cpu`."""
-    cost = json.loads((REFERENCE / "cost.json").read_text())
+    cost = _cost()
     if field == "elapsed":
         return sum(s["elapsed_s"] for s in cost["sittings"]) / 3600
     return cost["total"][f"{field}_s"] / 3600
@@ -67,7 +64,7 @@ def _cost_hours(field: str) -> float:
 def _cell_seconds(kind: str) -> float:
     """The mean wall time of one cell of a kind (its training, evaluations and features);
     0 while no cell of that kind has finished."""
-    k = json.loads((REFERENCE / "cost.json").read_text())["by_kind"].get(kind)
+    k = _cost()["by_kind"].get(kind)
     return k["wall_s"] / k["cells"] if k and k.get("cells") else 0.0
 
 
@@ -100,11 +97,10 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                          lambda kind=kind, field=field: _compiled(kind, field))
        for kind in ("kitchen_icrt_lipvq", "act_maniskill")
        for field in ("eager_step_ms", "compiled_step_ms", "warmup_s")},
-    "cost.cells": ("results/reference/cost.json", lambda: _cost("finished_cells")),
-    "cost.planned_cells": ("results/reference/cost.json", lambda: _cost("planned_cells")),
-    "cost.episodes": ("results/reference/cost.json", lambda: _cost("total", "episodes")),
-    "cost.sittings": ("results/reference/cost.json",
-                      lambda: len(json.loads((REFERENCE / "cost.json").read_text())["sittings"])),
+    "cost.cells": ("results/reference/cost.json", lambda: _cost()["finished_cells"]),
+    "cost.planned_cells": ("results/reference/cost.json", lambda: _cost()["planned_cells"]),
+    "cost.episodes": ("results/reference/cost.json", lambda: _cost()["total"]["episodes"]),
+    "cost.sittings": ("results/reference/cost.json", lambda: len(_cost()["sittings"])),
     **{f"cost.{field}_hours": ("results/reference/cost.json",
                                lambda field=field: _cost_hours(field))
        for field in ("elapsed", "wall", "cpu")},
@@ -125,15 +121,6 @@ def figure(name: str) -> float:
 
 MARKED = re.compile(r"(\d[\d,]*(?:\.\d+)?)(\s*[^\s<]*\s*)<!-- figure: ([\w.]+) -->")
 """A README figure: the printed number, what follows it (a unit), and its marker."""
-
-
-def significant_digits(printed: str) -> int:
-    """"15.6" -> 3, "0.074" -> 2, "241" -> 3, "290" -> 2 (an integer's trailing zeros are
-    not significant)."""
-    digits = printed.replace(",", "")
-    if "." in digits:
-        return len(digits.replace(".", "").lstrip("0"))
-    return len(digits.lstrip("0").rstrip("0")) or 1
 
 
 def printed_at(value: float, printed: str) -> str:

@@ -170,10 +170,10 @@ def pilot_frame(path: str | None = None, table: str = "I"):
     Returns (frame, {setting: [uninformative columns]})."""
     import pandas as pd
 
-    from icil_paper.results import results_root
+    from icil_paper.bench import bench_path
     from icil_paper.tables.definitions import FAMILY_COLUMNS
 
-    record = json.loads(open(path or results_root() / "bench" / "pilot.json").read())
+    record = json.loads(open(path or bench_path("pilot")).read())
     lines, flat = [], {}
     for name, setting in record["settings"].items():
         if setting["table"] != table:

@@ -43,6 +43,7 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
     from icil_paper.records import eval_record, features_record, train_record
     from icil_paper.reproduce import STAGES
     from icil_paper.tables.definitions import table_spec
+    from icil_paper.tables.design import cell_kind
     from icil_paper.tables.execute import plan
 
     out: dict[Path, tuple[str, str]] = {}
@@ -50,8 +51,7 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
         if not stage.name.startswith("table-"):
             continue
         for p in plan([table_spec(preset, stage.name.removeprefix("table-"))]):
-            suite = p.run.data.tasks[0].split("/", 1)[0]
-            kind = f"{p.run.policy.type} {suite} {p.run.data.obs}"
+            kind = cell_kind(p.run)
             ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
                    *(features_record(p.run, f) for f in p.features.values())]
             for record_id in ids:

@@ -38,7 +38,8 @@ DECIDABLE_SEEDS = 10
 OTHER_SEEDS = 5
 """Seeds of every other row a claim reads."""
 
-TABLE_IDS = (*TABLES, "official")
+TABLE_IDS = tuple(TABLES)
+"""Every table the reference run computes (`TABLES` holds the official-code table too)."""
 
 
 def planned_seeds(preset: Preset) -> dict[tuple[str, str], int]:
@@ -131,7 +132,8 @@ def expected_half_width(entry: dict[str, Any], seeds: int) -> float | None:
 
 
 # --------------------------------------------------------------------------- cost
-def _kind(run) -> str:
+def cell_kind(run) -> str:
+    """A run's kind of cell: policy, suite and observations ("icrt kitchen state")."""
     suite = run.data.tasks[0].split("/", 1)[0]
     return f"{run.policy.type} {suite} {run.data.obs}"
 
@@ -140,13 +142,9 @@ def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
     """Measured rates from `results/bench/cells.json` (the results folder's, else the one
     committed with the repository): seconds per optimizer step by policy, env steps per
     second and per episode by suite."""
-    from icil_paper.results import results_root
+    from icil_paper.bench import bench_path
 
-    if path is None:
-        path = results_root() / "bench" / "cells.json"
-        if not path.exists():
-            path = Path(__file__).resolve().parents[3] / "results" / "bench" / "cells.json"
-    record = json.loads(Path(path).read_text())
+    record = json.loads(Path(path or bench_path("cells")).read_text())
     step_s, env_rate, steps_per_episode = {}, {}, {}
     for cell in record["cells"]:
         steady = cell["steady"]
@@ -176,7 +174,7 @@ def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, 
     plans = plan([table_spec(preset, t) for t in TABLE_IDS])
     kinds: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for p in plans:
-        k = kinds[_kind(p.run)]
+        k = kinds[cell_kind(p.run)]
         images = IMAGE_SLOWDOWN if p.run.data.obs != "state" else 1.0
         step_s = rates["step_s"].get(p.run.policy.type, rates["step_s"]["act"])
         k["cells"] += 1
