@@ -116,3 +116,21 @@ def test_reference_progress_says_how_many_cells_are_done(tmp_path):
     path.write_text(json.dumps({"finished_cells": 370, "planned_cells": 370,
                                 "sittings": sittings}))
     assert reference_progress(path) == "" and reference_progress(tmp_path / "none") == ""
+
+
+def test_the_projection_prices_unfinished_cells_at_their_measured_rate(tmp_path):
+    preset = smoke()
+    store = ResultsStore(preset.name, root=tmp_path)
+    unit = table_spec(preset, "I").row("icrt+lipvq").cells["avg"].units[0]
+    store.write(*train_record(unit.run), {"steps": 5}, seed=0, wall_time_s=10.0, cpu_time_s=18.0)
+    projection = run_cost(preset, store)["projection"]
+    group = projection["groups"]["table-I / icrt kitchen state"]
+    assert group["finished_cells"] == 1 and group["rate_from"] == "records"
+    assert group["cpu_s_per_cell"] == 18.0
+    assert group["remaining_cpu_s"] == (group["planned_cells"] - 1) * 18.0
+    estimated = [g for g in projection["groups"].values() if g["rate_from"] == "cells.json"]
+    assert estimated and all(g["finished_cells"] == 0 for g in estimated)
+    total_s = sum(g["remaining_cpu_s"] for g in projection["groups"].values())
+    assert projection["remaining_cpu_hours"] == pytest.approx(total_s / 3600, abs=0.01)
+    assert projection["wall_hours_at_2"] == pytest.approx(projection["cpu_hours"] / 2, abs=0.01)
+    assert 0 < projection["from_records"] < 1

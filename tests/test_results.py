@@ -314,3 +314,31 @@ def test_atomic_writes_get_the_usual_file_mode(tmp_path, umask):
         assert stat.S_IMODE(p.stat().st_mode) == 0o666 & ~umask, oct(p.stat().st_mode)
     assert path.read_bytes() == b"again"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.bin", "r.json"]
+
+
+def test_a_record_written_into_results_does_not_make_the_code_dirty(tmp_path, monkeypatch):
+    import subprocess
+
+    from icil_paper.setup import provenance
+
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True)
+
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "r.json").write_text("{}")
+    (tmp_path / "code.py").write_text("x = 1\n")
+    git("init", "-q")
+    git("add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "init")
+    monkeypatch.setattr(provenance, "REPO_ROOT", tmp_path)
+
+    def dirty():
+        provenance.git_state.cache_clear()
+        return provenance.git_state()["dirty"]
+
+    assert dirty() is False
+    (tmp_path / "results" / "r.json").write_text('{"a": 1}')
+    assert dirty() is False
+    (tmp_path / "code.py").write_text("x = 2\n")
+    assert dirty() is True
+    provenance.git_state.cache_clear()

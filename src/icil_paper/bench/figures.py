@@ -104,6 +104,11 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
     **{f"cost.{field}_hours": ("results/reference/cost.json",
                                lambda field=field: _cost_hours(field))
        for field in ("elapsed", "wall", "cpu")},
+    **{f"cost.projected_{field}": ("results/reference/cost.json",
+                                   lambda field=field: _cost()["projection"][field])
+       for field in ("cpu_hours", "wall_hours_at_2", "target_wall_hours")},
+    "cost.projected_from_records_pct": ("results/reference/cost.json",
+                                        lambda: 100 * _cost()["projection"]["from_records"]),
     **{f"cost.{name}_cell_s": ("results/reference/cost.json",
                                lambda kind=kind: _cell_seconds(kind))
        for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),

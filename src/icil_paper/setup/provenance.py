@@ -31,7 +31,8 @@ def package_versions(names: tuple[str, ...] = KEY_PACKAGES) -> dict[str, str | N
 
 @functools.lru_cache(maxsize=1)
 def git_state() -> dict[str, str | bool | None]:
-    """The commit of the checkout the library runs from, and whether it had local changes."""
+    """The commit of the checkout the library runs from, and whether it had local changes
+    to tracked files outside `results/` (records a run writes do not make its code dirty)."""
     def git(*args: str) -> str | None:
         try:
             out = subprocess.run(["git", "-C", str(REPO_ROOT), *args], capture_output=True,
@@ -41,7 +42,7 @@ def git_state() -> dict[str, str | bool | None]:
         return out.stdout.strip() if out.returncode == 0 else None
 
     commit = git("rev-parse", "HEAD")
-    status = git("status", "--porcelain", "--untracked-files=no")
+    status = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)results")
     return {"commit": commit, "dirty": bool(status) if status is not None else None}
 
 

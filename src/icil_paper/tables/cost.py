@@ -15,6 +15,12 @@ sitting; a sitting's elapsed time runs from its first record's start (finish min
 time) to its last finish. Summed record wall time over elapsed time is how many cells ran
 at once; CPU time over wall time below 1 says the cells waited for the cores (other work
 on the machine, or more processes than cores).
+
+Projection: the CPU time still to come is each unfinished cell at the CPU time per cell
+its stage and kind have measured so far (`cells.json`'s estimate, `design.plan_cost`, for a
+stage and kind with no finished cell yet); the run's wall time on an idle machine at two
+cells at a time is the whole CPU time over two (CPU time per wall second was 0.99 for cells
+that had the cores to themselves), set beside `TARGET_WALL_HOURS`.
 """
 
 from __future__ import annotations
@@ -34,6 +40,10 @@ FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "wit
 
 SITTING_GAP_S = 1800.0
 """Records further apart than this (half an hour) start a new sitting."""
+
+TARGET_WALL_HOURS = 10.0
+"""The reference run's budget: wall hours on the 2-core machine at two cells at a time."""
+CELLS_AT_ONCE = 2
 
 
 def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]:
@@ -124,6 +134,7 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
         return defaultdict(float, dict.fromkeys(FIELDS, 0.0))
     by_stage: dict[str, dict[str, float]] = defaultdict(new)
     by_kind: dict[str, dict[str, float]] = defaultdict(new)
+    by_group: dict[tuple[str, str], dict[str, float]] = defaultdict(new)
     total, older = new(), new()
     current, hosts = [], set()
     for path in sorted(store.dir.glob("*/*.json")):
@@ -137,7 +148,7 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
             _add(older, record)
             continue
         stage, kind = where or (record["kind"], record["kind"])
-        for group in (by_stage[stage], by_kind[kind], total):
+        for group in (by_stage[stage], by_kind[kind], by_group[stage, kind], total):
             _add(group, record)
         current.append(record)
         host = record.get("host") or {}
@@ -158,6 +169,47 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
         "machines": [{"cpu_count": c, "gpu": g, "platform": p} for c, g, p in sorted(
             hosts, key=str)],
         "sittings": _sittings(current),
+        "projection": _projection(preset, planned, by_group, total["cpu_s"]),
+    }
+
+
+def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
+                by_group: dict[tuple[str, str], dict[str, float]],
+                cpu_so_far: float) -> dict[str, Any]:
+    """The whole run's CPU time and idle-machine wall time (see the module docstring)."""
+    from icil_paper.tables.design import plan_cost
+
+    cells: dict[tuple[str, str], int] = defaultdict(int)
+    for path, group in planned.items():
+        if path.parent.name == "train":
+            cells[group] += 1
+    estimate = {kind: (k["train_s"] + k["eval_s"]) / k["cells"]
+                for kind, k in plan_cost(preset)["kinds"].items() if k["cells"]}
+    groups, remaining, from_records = {}, 0.0, 0.0
+    for (stage, kind), n in sorted(cells.items()):
+        done = by_group.get((stage, kind))
+        finished = int(done["cells"]) if done else 0
+        measured = finished and not done["without_cpu_time"]
+        policy = kind.split()[0]  # chapter 02's "icrt study" is priced as an ICRT cell
+        per_cell = done["cpu_s"] / finished if measured else estimate.get(kind, next(
+            (v for k, v in estimate.items() if k.split()[0] == policy), None))
+        if per_cell is None:
+            raise KeyError(f"no cost estimate for cells of kind {kind!r}: run "
+                           "`python -m icil_paper.bench.cells` to measure one")
+        left = max(n - finished, 0) * per_cell
+        remaining += left
+        from_records += left if measured else 0.0
+        groups[f"{stage} / {kind}"] = {
+            "planned_cells": n, "finished_cells": finished, "cpu_s_per_cell": round(per_cell, 1),
+            "rate_from": "records" if measured else "cells.json", "remaining_cpu_s": round(left, 1)}
+    cpu_total = cpu_so_far + remaining
+    return {
+        "groups": groups,
+        "remaining_cpu_hours": round(remaining / 3600, 2),
+        "cpu_hours": round(cpu_total / 3600, 2),
+        "wall_hours_at_2": round(cpu_total / CELLS_AT_ONCE / 3600, 2),
+        "target_wall_hours": TARGET_WALL_HOURS,
+        "from_records": round((cpu_so_far + from_records) / cpu_total, 3) if cpu_total else None,
     }
 
 
