@@ -164,8 +164,8 @@ if __name__ == "__main__":
 
 def pilot_frame(path: str | None = None, table: str = "I"):
     """The stored pilot (`results/bench/pilot.json`) as a table: one line per setting and
-    row (its demonstrations per task and training steps), its success per family and on
-    average (Table II: per task); and, per setting, the columns that its rows cannot
+    row (its demonstrations per task and training steps), its success per family (Table
+    II: per task) and on average; and, per setting, the columns that its rows cannot
     separate (every row at 0, or every one at 1; `informative`).
     Returns (frame, {setting: [uninformative columns]})."""
     import pandas as pd
@@ -178,21 +178,22 @@ def pilot_frame(path: str | None = None, table: str = "I"):
     for name, setting in record["settings"].items():
         if setting["table"] != table:
             continue
+        merged: dict[tuple[str, str], dict] = {}  # Table II stores one row per task
         for row in setting["rows"]:
             where = (f"{row['demos_per_task']} demos, {row['train_steps']} steps, "
                      f"{row['episodes_per_task']} episodes")
+            line = merged.setdefault((where, row["row"]), {"columns": {}, "tasks": {}})
+            line["tasks"].update(row["tasks"])
             if table == "I":
-                tasks = [v for v in row["tasks"].values() if v is not None]
-                lines.append({"setting": where, "row": row["row"],
-                              **{c: row["families"].get(c) for c in FAMILY_COLUMNS},
-                              "avg": round(sum(tasks) / len(tasks), 3) if tasks else None})
-            else:  # one policy per task
-                for task, value in row["tasks"].items():
-                    lines.append({"setting": where, "row": row["row"],
-                                  "task": task.split("/", 1)[1], "success": value})
+                line["columns"].update({c: row["families"].get(c) for c in FAMILY_COLUMNS})
+            else:
+                line["columns"].update({t.split("/", 1)[1]: v for t, v in row["tasks"].items()})
+        for (where, label), line in merged.items():
+            tasks = [v for v in line["tasks"].values() if v is not None]
+            lines.append({"setting": where, "row": label, **line["columns"],
+                          "avg": round(sum(tasks) / len(tasks), 3) if tasks else None})
         label = lines[-1]["setting"] if lines else name
         flat[label] = sorted(c.split("/")[-1] for c, ok in informative(setting["rows"]).items()
                              if not ok)
-    frame = pd.DataFrame(lines).set_index(["setting", "row"] if table == "I"
-                                          else ["setting", "task"])
+    frame = pd.DataFrame(lines).set_index(["setting", "row"])
     return frame.sort_index(), flat
