@@ -134,3 +134,19 @@ def test_the_projection_prices_unfinished_cells_at_their_measured_rate(tmp_path)
     assert projection["remaining_cpu_hours"] == pytest.approx(total_s / 3600, abs=0.01)
     assert projection["wall_hours_at_2"] == pytest.approx(projection["cpu_hours"] / 2, abs=0.01)
     assert 0 < projection["from_records"] < 1
+
+
+def test_a_resumed_cell_does_not_lower_the_training_rate(tmp_path):
+    preset = smoke("tables.icrt_seeds=2")
+    store = ResultsStore(preset.name, root=tmp_path)
+    units = [cell.units for cell in [table_spec(preset, "I").row("icrt+lipvq").cells["avg"]]][0]
+    fresh, resumed = sorted({u.run.seed: u.run for u in units}.values(), key=lambda r: r.seed)
+    store.write(*train_record(fresh), {"steps": 5, "resumed_from_step": 0}, seed=fresh.seed,
+                wall_time_s=20.0, cpu_time_s=20.0)
+    store.write(*train_record(resumed), {"steps": 5, "resumed_from_step": 4},
+                seed=resumed.seed, wall_time_s=2.0, cpu_time_s=2.0)
+    cost = run_cost(preset, store)
+    kitchen = cost["by_kind"]["icrt kitchen state"]
+    assert kitchen["cells"] == 2 and kitchen["resumed_cells"] == 1
+    group = cost["projection"]["groups"]["table-I / icrt kitchen state"]
+    assert group["cpu_s_per_cell"] == 20.0  # not (20 + 2) / 2

@@ -76,6 +76,7 @@ def test_resume_equals_uninterrupted_training(tmp_path, demos, policy, tokenizer
         f.write(json.dumps({"step": 5, "loss": -1.0}) + "\n" + '{"step": 6, "lo')
     resumed = train_policy(s, run_dir=tmp_path / "b", **kw)
     assert resumed.metrics["steps"] == 7
+    assert (straight.metrics["resumed_from_step"], resumed.metrics["resumed_from_step"]) == (0, 4)
     assert states_equal(straight.policy, resumed.policy)
 
     def logged(run):

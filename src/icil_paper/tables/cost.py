@@ -35,8 +35,12 @@ from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json
 from icil_paper.results import ResultsStore, config_hash
 
-FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "without_cpu_time")
-"""What is summed over records, for every group (stage, kind of cell, the total)."""
+FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
+          "resumed_cells", "resumed_cpu_s", "without_cpu_time")
+"""What is summed over records, for every group (stage, kind of cell, the total). A cell
+whose training resumed from a checkpoint (`resumed_from_step` above 0: its sitting ended
+mid-training) has a train record that times only the steps after the checkpoint:
+`resumed_cells` counts such cells and `resumed_cpu_s` their training's recorded CPU time."""
 
 SITTING_GAP_S = 1800.0
 """Records further apart than this (half an hour) start a new sitting."""
@@ -80,8 +84,13 @@ def _add(total: dict[str, float], record: dict[str, Any]) -> None:
     total["cpu_s"] += float(record.get("cpu_time_s") or 0.0)
     total["without_cpu_time"] += "cpu_time_s" not in record
     if record["kind"] == "train":
+        cpu = float(record.get("cpu_time_s") or 0.0)
         total["cells"] += 1
         total["train_steps"] += int(record["metrics"].get("steps") or 0)
+        total["train_cpu_s"] += cpu
+        if record["metrics"].get("resumed_from_step"):
+            total["resumed_cells"] += 1
+            total["resumed_cpu_s"] += cpu
     if record["kind"] == "eval":
         total["episodes"] += int(record["metrics"].get("episodes") or 0)
 
@@ -173,6 +182,17 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
     }
 
 
+def _cpu_per_cell(group: dict[str, float]) -> float:
+    """A finished cell's CPU time: its evaluations' and features' on average over every
+    cell, plus its training's on average over the cells trained in one go (a resumed
+    cell's train record times only its last part)."""
+    evaluation = (group["cpu_s"] - group["train_cpu_s"]) / group["cells"]
+    whole = group["cells"] - group["resumed_cells"]
+    if not whole:
+        return evaluation + group["train_cpu_s"] / group["cells"]
+    return evaluation + (group["train_cpu_s"] - group["resumed_cpu_s"]) / whole
+
+
 def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
                 by_group: dict[tuple[str, str], dict[str, float]],
                 cpu_so_far: float) -> dict[str, Any]:
@@ -191,7 +211,7 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
         finished = int(done["cells"]) if done else 0
         measured = finished and not done["without_cpu_time"]
         policy = kind.split()[0]  # chapter 02's "icrt study" is priced as an ICRT cell
-        per_cell = done["cpu_s"] / finished if measured else estimate.get(kind, next(
+        per_cell = _cpu_per_cell(done) if measured else estimate.get(kind, next(
             (v for k, v in estimate.items() if k.split()[0] == policy), None))
         if per_cell is None:
             raise KeyError(f"no cost estimate for cells of kind {kind!r}: run "

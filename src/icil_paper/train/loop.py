@@ -48,7 +48,9 @@ class TrainResult:
     run_dir: Path | None
     """Where checkpoints, metrics and the policy were written (None: nothing written)."""
     metrics: dict[str, Any] = field(default_factory=dict)
-    """Final loss, steps, wall time, steps per second, parameter count, demos, device."""
+    """Final loss, steps, the step this call resumed from (0: trained from scratch; its
+    wall time counts only this call's steps), wall time, steps per second, parameter
+    count, demos, device."""
     history: list[dict[str, Any]] = field(default_factory=list)
     """The metric lines of this call (not of earlier, resumed-from calls)."""
 
@@ -213,7 +215,8 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
     else:
         logged = rundir.read_metrics(metrics_path) if metrics_path else []
         final_loss = logged[-1]["loss"] if logged else None
-    metrics = {"final_loss": final_loss, "steps": state.step, "wall_time_s": round(wall, 3),
+    metrics = {"final_loss": final_loss, "steps": state.step, "resumed_from_step": start,
+               "wall_time_s": round(wall, 3),
                "steps_per_s": round(trained / wall, 3) if trained and wall > 0 else None,
                "n_params": model.n_params(), "n_demos": len(demos), "device": str(device)}
     if run_dir is not None and state.step >= tc.steps:
