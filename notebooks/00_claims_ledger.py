@@ -113,8 +113,10 @@ for source, (p, ledger) in ledgers.items():
 # seeds on every row it reads, every other row a claim reads gets 5. Below, per claim: the
 # seeds a row its power analysis asks for the paper's effect (*seeds needed*), the records
 # those variances came from (before this run finished, the older code's), the seeds the
-# rule requires, the fewest seeds the preset gives one of its rows, and the 95% half-width
-# of the difference expected at those seeds. The episodes per task (5) follow from the
+# rule requires, the fewest seeds the preset gives one of its rows (*planned*) and the
+# fewest of them one of its rows has finished so far (*finished*: the claim is decided once
+# this reaches *planned*), and the 95% half-width of the difference expected at the planned
+# seeds. The episodes per task (5) follow from the
 # split between seed and episode variance (`stats.episodes_per_seed`); the `reference`
 # preset's docstring gives that arithmetic and the run's estimated cost.
 

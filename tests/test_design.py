@@ -150,3 +150,22 @@ def test_a_resumed_cell_does_not_lower_the_training_rate(tmp_path):
     assert kitchen["cells"] == 2 and kitchen["resumed_cells"] == 1
     group = cost["projection"]["groups"]["table-I / icrt kitchen state"]
     assert group["cpu_s_per_cell"] == 20.0  # not (20 + 2) / 2
+
+
+def test_a_seed_counts_as_finished_once_every_record_its_row_reads_is_there(tmp_path):
+    from icil_paper.records import features_record
+    from icil_paper.tables.design import finished_seeds
+
+    preset = smoke("tables.icrt_seeds=2")
+    store = ResultsStore(preset.name, root=tmp_path)
+    units = [u for cell in table_spec(preset, "I").row("icrt+lipvq").cells.values()
+             for u in cell.units if u.seed_index == 0]
+    measured = [u for u in units if u.features is not None]
+    assert measured  # the row's features cell counts too
+    for unit in {u.eval.task: u for u in units if u.eval is not None}.values():
+        write_eval_record(store, unit, [{"success": True, "steps": 5}], 5.0)
+    assert finished_seeds(preset, store)["I", "icrt+lipvq"] == 0  # its features are missing
+    store.write(*features_record(measured[0].run, measured[0].features), {}, seed=0,
+                wall_time_s=1.0)
+    finished = finished_seeds(preset, store)
+    assert finished["I", "icrt+lipvq"] == 1 and finished["I", "icrt+mlp"] == 0

@@ -52,6 +52,27 @@ def planned_seeds(preset: Preset) -> dict[tuple[str, str], int]:
     return out
 
 
+def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
+    """(table, row) -> how many of the row's training seeds have every record its cells read
+    (a row reads a claim's verdict only once all its planned seeds have)."""
+    from icil_paper.records import eval_record, features_record
+    from icil_paper.results import ResultsStore, config_hash
+
+    store = store or ResultsStore(preset.name)
+    out = {}
+    for table_id in TABLE_IDS:
+        for row in table_spec(preset, table_id).rows:
+            whole: dict[int, bool] = {}
+            for cell in row.cells.values():
+                for u in cell.units:
+                    record = (eval_record(u.run, u.eval) if u.eval is not None
+                              else features_record(u.run, u.features))
+                    path = store.path_for(record.kind, record.name, config_hash(record.config))
+                    whole[u.seed_index] = whole.get(u.seed_index, True) and path.exists()
+            out[table_id, row.label] = sum(whole.values())
+    return out
+
+
 def claim_rows(preset: Preset) -> dict[str, tuple[tuple[str, str], ...]]:
     """Claim id -> the (table, row) pairs it reads."""
     from icil_paper.tables.claims import claims
@@ -248,10 +269,13 @@ if __name__ == "__main__":
 def design_frame(preset: Preset):
     """`report` as a table for the book: per claim, the seeds a row the power analysis asks
     (`seeds_needed`) and where its variances came from, the seeds the rule requires, the
-    fewest seeds the preset gives one of its rows, and the expected 95% half-width there."""
+    fewest seeds the preset gives one of its rows and the fewest one of them has finished
+    (`finished_seeds`), and the expected 95% half-width at the planned seeds."""
     import pandas as pd
 
     ledger = design_ledger(preset)
+    finished = finished_seeds(preset)
+    rows = claim_rows(preset)
     lines = []
     for c in report(preset)["claims"]:
         entry = ledger[c["id"]]
@@ -261,6 +285,7 @@ def design_frame(preset: Preset):
         lines.append({"claim": c["id"], "seeds needed": c["seeds_needed"] or "—",
                       "from": source, "required": c["required"],
                       "planned": min(c["rows"].values()),
+                      "finished": min(finished[r] for r in rows[c["id"]]),
                       "expected ±": ("" if c["expected_half_width"] is None
                                      else f"{c['expected_half_width']:.3f}")})
     return pd.DataFrame(lines).set_index("claim").rename_axis(None)
