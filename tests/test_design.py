@@ -169,3 +169,14 @@ def test_a_seed_counts_as_finished_once_every_record_its_row_reads_is_there(tmp_
                 wall_time_s=1.0)
     finished = finished_seeds(preset, store)
     assert finished["I", "icrt+lipvq"] == 1 and finished["I", "icrt+mlp"] == 0
+
+
+def test_the_interim_check_reads_every_row_at_the_seeds_finished_so_far(tmp_path):
+    from icil_paper.tables.design import at_seeds, interim_check
+
+    preset = smoke()
+    assert set(planned_seeds(at_seeds(get_preset("reference"), 3)).values()) == {3}
+    store = ResultsStore(preset.name, root=tmp_path)
+    assert interim_check(preset, store=store) == (0, None)  # nothing finished: no variance
+    seeds, problems = interim_check(preset, seeds=2, store=store)
+    assert seeds == 2 and problems == check_design(preset, {})  # no records: no power either

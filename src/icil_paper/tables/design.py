@@ -3,6 +3,7 @@ from the split of seed and episode variance, and what the run costs.
 
     python -m icil_paper.tables.design             # the arithmetic behind the reference preset
     check_design(preset, ledger)                   # rows with fewer seeds than the rule asks
+    python -m icil_paper.tables.design --interim   # the rule against the seeds finished so far
 
 **The rule.** A claim is *decidable* when the ledger's power analysis (`seeds_needed`,
 `icil_paper.tables.claims`) says `DECIDABLE_SEEDS` seeds a row or fewer detect the paper's
@@ -239,33 +240,6 @@ def _round(x: float | None) -> float | None:
     return None if x is None else round(x, 4)
 
 
-def main(argv: list[str] | None = None) -> int:
-    import argparse
-
-    from icil_paper.cli import add_preset_arguments, preset_from_args
-
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.tables.design",
-                                     description=__doc__.split("\n\n")[0])
-    add_preset_arguments(parser)
-    args = parser.parse_args(argv)
-    out = report(preset_from_args(args))
-    for c in out["claims"]:
-        print(f"{c['id']:<38} needed {str(c['seeds_needed']):>5}  required {c['required']:>2}  "
-              f"hw now {c['half_width_now']}  expected {c['expected_half_width']}  "
-              f"rows {c['rows']}")
-    for line in out["violations"]:
-        print("violation:", line)
-    for name, k in sorted(out["cost"]["kinds"].items()):
-        print(f"{name:<28} {k}")
-    print(f"{out['cost']['cells']} cells, {out['cost']['core_s'] / 3600:.1f} core-hours, "
-          f"{out['cost']['wall_h_at_2']} h at two cells at a time")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
-
-
 def design_frame(preset: Preset):
     """`report` as a table for the book: per claim, the seeds a row the power analysis asks
     (`seeds_needed`) and where its variances came from, the seeds the rule requires, the
@@ -289,3 +263,75 @@ def design_frame(preset: Preset):
                       "expected ±": ("" if c["expected_half_width"] is None
                                      else f"{c['expected_half_width']:.3f}")})
     return pd.DataFrame(lines).set_index("claim").rename_axis(None)
+
+
+def at_seeds(preset: Preset, seeds: int) -> Preset:
+    """The preset with every row of every table at `seeds` training seeds (its first ones:
+    the same runs, so the same records)."""
+    from dataclasses import replace
+
+    tables = replace(preset.tables, icrt_seeds=seeds, baseline_seeds=seeds,
+                     since_paper_seeds=seeds, official_seeds=seeds,
+                     row_seeds=tuple(f"{t}:*={seeds}" for t in TABLE_IDS))
+    return replace(preset, tables=tables)
+
+
+def interim_check(preset: Preset, seeds: int | None = None, store=None
+                  ) -> tuple[int, list[str] | None]:
+    """The rule checked against a ledger computed from the first `seeds` seeds of every row
+    (default: the most that every claim's rows have finished): a preview, while the run is
+    under way, of rows whose claim the new records make decidable with `DECIDABLE_SEEDS`
+    seeds or fewer, so that they can be topped up before the run ends. Returns (seeds, the
+    rows below the rule), or (seeds, None) below two seeds (no variance to read)."""
+    from icil_paper.results import ResultsStore
+    from icil_paper.tables.claims import claims_ledger
+
+    store = store or ResultsStore(preset.name)
+    if seeds is None:
+        finished = finished_seeds(preset, store)
+        seeds = min(finished[r] for rows in claim_rows(preset).values() for r in rows)
+    if seeds < 2:
+        return seeds, None
+    ledger = claims_ledger(at_seeds(preset, seeds), store)
+    return seeds, check_design(preset, {e["id"]: e for e in ledger})
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    from icil_paper.cli import add_preset_arguments, preset_from_args
+
+    parser = argparse.ArgumentParser(prog="python -m icil_paper.tables.design",
+                                     description=__doc__.split("\n\n")[0])
+    add_preset_arguments(parser)
+    parser.add_argument("--interim", action="store_true",
+                        help="also check the rule against a ledger of the seeds every claim's "
+                             "rows have finished so far (a preview: which rows to top up)")
+    args = parser.parse_args(argv)
+    preset = preset_from_args(args)
+    out = report(preset)
+    for c in out["claims"]:
+        print(f"{c['id']:<38} needed {str(c['seeds_needed']):>5}  required {c['required']:>2}  "
+              f"hw now {c['half_width_now']}  expected {c['expected_half_width']}  "
+              f"rows {c['rows']}")
+    for line in out["violations"]:
+        print("violation:", line)
+    for name, k in sorted(out["cost"]["kinds"].items()):
+        print(f"{name:<28} {k}")
+    print(f"{out['cost']['cells']} cells, {out['cost']['core_s'] / 3600:.1f} core-hours, "
+          f"{out['cost']['wall_h_at_2']} h at two cells at a time")
+    if args.interim:
+        seeds, problems = interim_check(preset)
+        if problems is None:
+            print(f"interim: the claims' rows have {seeds} finished seeds in common; a "
+                  "variance needs 2")
+        else:
+            print(f"interim, at the {seeds} seeds every claim's rows have finished: "
+                  f"{len(problems)} rows below the rule")
+            for line in problems:
+                print("  top up:", line)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
