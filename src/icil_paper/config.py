@@ -434,7 +434,7 @@ def _small() -> Preset:
 
 REFERENCE_ROW_SEEDS = (
     "I:mcr=5",  # image rows: no claim reads them; ten times a state cell on CPU
-    "II:*=5", "II:act=10", "II:act+lipvq=10", "II:mcr=3",
+    "II:*=10", "II:bc_transformer=5", "II:mcr=3",  # every ACT row: see `_reference`
     "VII:*=5", "VII:mcr=3",
     "fig5:*=5",
     "analysis:*=3",  # no claim reads them; chapter 11's own comparisons
@@ -446,7 +446,7 @@ their runs (Tables III-VI, the paper's rows of `official` and `beyond`)."""
 
 def _reference() -> Preset:
     """The committed reference run: designed from power so that its claims can be decided,
-    at a cost a 2-core machine carries in about 10.5-12 hours at two cells at a time.
+    at a cost meant to fit in ten hours of a 2-core machine at two cells at a time.
 
     Seeds (`icil_paper.tables.design`, whose rule `tests/test_design.py` checks): a claim is
     decidable when the ledger's power analysis (`seeds_needed`, from the records' own
@@ -462,7 +462,11 @@ def _reference() -> Preset:
     2.1 * 0.05 * sqrt(2/10) = 0.047 (0.066 at 5 seeds): enough for the paper's 8.8-point
     tokenizer gap and 5.5-point Lipschitz gain, not for its 0.2-4-point differences, which
     stay undecided unless their true size is larger (`python -m icil_paper.tables.design`
-    prints each claim's expected half-width).
+    prints each claim's expected half-width). Table II's other ACT rows (Bin, FAST, VQ-VAE,
+    LFQ-VAE) get 10 as well: the interim check at the run's first two seeds
+    (`python -m icil_paper.tables.design --interim`) put II-lipvq-best and II-lipvq-vs-lfq
+    at 12 seeds needed, just above the rule's line, and an ACT cell on one ManiSkill task
+    costs about 57 CPU-seconds, so their 60 extra cells cost about one CPU-hour.
 
     Episodes: a seed's true success varies by about 0.0016 (variance, the older records)
     against an episode variance of sum_t p_t (1 - p_t) / T^2 = 0.007 (ICRT + LipVQ-VAE) to
@@ -489,11 +493,12 @@ def _reference() -> Preset:
     MCR (images; no claim reads its rows) gets 5 seeds in Table I and 3 elsewhere, with 2
     image episodes a task: an image cell costs about ten times a state cell on CPU.
 
-    Cost (`python -m icil_paper.tables.design --preset reference`, from the rates measured
-    in `results/bench/cells.json`): 370 trained cells, about 24 core-hours, 12 hours at two
-    cells at a time; the pilot's cells ran 10% faster in training and 25% faster in
-    evaluation than those rates, which puts it near 10.5 hours. What the run really cost
-    is `results/reference/cost.json` (`python -m icil_paper.tables.cost`)."""
+    Cost: before the run, from the rates measured in `results/bench/cells.json`
+    (`python -m icil_paper.tables.design --preset reference`), 370 trained cells came to
+    about 24 core-hours, 12 hours at two cells at a time. What the run really costs, and
+    the whole run projected from the CPU time its finished cells measured (430 cells with
+    Table II's extra seeds), is in `results/reference/cost.json`
+    (`python -m icil_paper.tables.cost`)."""
     small = _small()
     return dataclasses.replace(
         small, name="reference",
