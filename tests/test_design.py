@@ -113,6 +113,10 @@ def test_reference_progress_says_how_many_cells_are_done(tmp_path):
                                 "sittings": sittings}))
     text = reference_progress(path)
     assert "12 of its 370 trained cells" in text and "2 sittings, 1.5 hours" in text
+    assert "whole run" not in text  # no projection in this cost.json
+    path.write_text(json.dumps({"finished_cells": 12, "planned_cells": 370,
+                                "sittings": sittings, "projection": {"wall_hours_at_2": 9.24}}))
+    assert "the whole run comes to 9.2 hours" in reference_progress(path)
     path.write_text(json.dumps({"finished_cells": 370, "planned_cells": 370,
                                 "sittings": sittings}))
     assert reference_progress(path) == "" and reference_progress(tmp_path / "none") == ""

@@ -605,7 +605,8 @@ def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dic
 
 def reference_progress(path=None) -> str:
     """Where the committed reference run stands, from its `cost.json`: the table cells
-    finished of those planned and the machine time so far; empty once every cell is done
+    finished of those planned, the machine time so far and the whole run's projected wall
+    time (`projection`); empty once every cell is done
     (or when there is no cost.json)."""
     import json
     from pathlib import Path
@@ -618,10 +619,15 @@ def reference_progress(path=None) -> str:
     if not planned or done >= planned:
         return ""
     hours = sum(s["elapsed_s"] for s in cost["sittings"]) / 3600
+    projection = cost.get("projection")
+    whole = ("" if not projection else
+             f" At the CPU time its finished cells took, the whole run comes to "
+             f"{projection['wall_hours_at_2']:.1f} hours on an idle 2-core machine at two "
+             "cells at a time.")
     return (f"The reference run is in progress: {done} of its {planned} trained cells have "
             f"finished ({len(cost['sittings'])} sittings, {hours:.1f} hours of machine time "
-            "so far; `results/reference/cost.json`). A claim whose rows are not all trained "
-            "yet shows as *not run*.")
+            f"so far; `results/reference/cost.json`).{whole} A claim whose rows are not all "
+            "trained yet shows as *not run*.")
 
 
 def reference_summary(path=None) -> str:
