@@ -92,9 +92,13 @@ class ResultsStore:
     def path_for(self, kind: str, name: str, chash: str) -> Path:
         return self.dir / _slug(kind) / f"{_slug(name)}__{chash}.json"
 
+    def record_path(self, kind: str, name: str, config: Mapping[str, Any]) -> Path:
+        """Where the record of (kind, name, config) lives: `store.record_path(*record_id)`."""
+        return self.path_for(kind, name, config_hash(config))
+
     def lock(self, kind: str, name: str, config: Mapping[str, Any]):
         """The lock of one record (`fileio.exclusive_lock`): its one writer at a time."""
-        path = self.path_for(kind, name, config_hash(config))
+        path = self.record_path(kind, name, config)
         return exclusive_lock(path.with_name(f".{path.stem}.lock"), what=f"the record {path}")
 
     def get(self, kind: str, name: str, config: Mapping[str, Any]) -> dict[str, Any] | None:

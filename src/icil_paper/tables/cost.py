@@ -33,7 +33,7 @@ from typing import Any
 
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json
-from icil_paper.results import ResultsStore, config_hash
+from icil_paper.results import ResultsStore
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
           "resumed_cells", "resumed_cpu_s", "without_cpu_time")
@@ -69,11 +69,11 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
             ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
                    *(features_record(p.run, f) for f in p.features.values())]
             for record_id in ids:
-                path = store.path_for(record_id.kind, record_id.name, config_hash(record_id.config))
+                path = store.record_path(*record_id)
                 out.setdefault(path, (stage.name, kind))
     run, ev = icrt_specs(preset)
     for record_id in (train_record(run), eval_record(run, ev)):
-        path = store.path_for(record_id.kind, record_id.name, config_hash(record_id.config))
+        path = store.record_path(*record_id)
         out.setdefault(path, ("icrt", "icrt study"))
     return out
 
@@ -210,9 +210,11 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
         done = by_group.get((stage, kind))
         finished = int(done["cells"]) if done else 0
         measured = finished and not done["without_cpu_time"]
-        policy = kind.split()[0]  # chapter 02's "icrt study" is priced as an ICRT cell
-        per_cell = _cpu_per_cell(done) if measured else estimate.get(kind, next(
-            (v for k, v in estimate.items() if k.split()[0] == policy), None))
+        if measured:
+            per_cell = _cpu_per_cell(done)
+        else:  # chapter 02's "icrt study" is priced as an ICRT cell
+            per_cell = estimate.get(kind) or next(
+                (v for k, v in estimate.items() if k.split()[0] == kind.split()[0]), None)
         if per_cell is None:
             raise KeyError(f"no cost estimate for cells of kind {kind!r}: run "
                            "`python -m icil_paper.bench.cells` to measure one")

@@ -57,7 +57,7 @@ def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
     """(table, row) -> how many of the row's training seeds have every record its cells read
     (a row reads a claim's verdict only once all its planned seeds have)."""
     from icil_paper.records import eval_record, features_record
-    from icil_paper.results import ResultsStore, config_hash
+    from icil_paper.results import ResultsStore
 
     store = store or ResultsStore(preset.name)
     out = {}
@@ -68,8 +68,8 @@ def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
                 for u in cell.units:
                     record = (eval_record(u.run, u.eval) if u.eval is not None
                               else features_record(u.run, u.features))
-                    path = store.path_for(record.kind, record.name, config_hash(record.config))
-                    whole[u.seed_index] = whole.get(u.seed_index, True) and path.exists()
+                    done = store.record_path(*record).exists()
+                    whole[u.seed_index] = whole.get(u.seed_index, True) and done
             out[table_id, row.label] = sum(whole.values())
     return out
 
