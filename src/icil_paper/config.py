@@ -484,9 +484,10 @@ def _reference() -> Preset:
     (average 0.81), where tokenizers cannot differ; at 2000 steps it averages 0.55 with
     doors, drawers and levers at 0.85-0.9 and buttons at 0.6 (BC-Transformer 0.35); at 1500
     it falls to 0.43. Thirty demonstrations a task instead of ten did not lift ICRT +
-    LipVQ-VAE on any family (knobs fell from 1.0 to 0). Knobs, pick-and-place and insertion stay at or near 0 for both rows at 1500-2000 steps, and
-    ManiSkill's Stack Cube at 0 at every setting: the chapters report such columns as
-    uninformative rather than averaging them in silently. ManiSkill's ACT with 40
+    LipVQ-VAE on any family (knobs fell from 1.0 to 0). Knobs, pick-and-place and
+    insertion stay at or near 0 for both rows at 1500-2000 steps, and ManiSkill's Stack
+    Cube at 0 at every setting: the chapters report such columns as uninformative rather
+    than averaging them in silently. ManiSkill's ACT with 40
     demonstrations reaches 0.2 (Pick Cube) and 0.8 (Push Cube) at 5000 steps, 0.3 and 0.45
     at 10000: 5000 costs half as much.
 
