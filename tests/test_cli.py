@@ -77,6 +77,25 @@ def test_backports_entry_from_one_line_sources_and_none_elsewhere(tmp_path):
     assert debian_backports_entry(tmp_path) is None
 
 
+def test_apt_get_install_updates_first_and_names_the_command_that_failed(monkeypatch):
+    from icil_paper.setup import system_deps
+
+    ran = []
+
+    def fake_run(cmd, env):
+        ran.append(cmd)
+        assert env["DEBIAN_FRONTEND"] == "noninteractive"
+        return subprocess.CompletedProcess(cmd, 100 if "install" in cmd else 0)
+
+    monkeypatch.setattr(system_deps.subprocess, "run", fake_run)
+    why = system_deps.apt_get_install("chromium")
+    assert ran == [["apt-get", "update", "-qq"], ["apt-get", "install", "-y", "-qq", "chromium"]]
+    assert why == "`apt-get install -y -qq chromium` failed"
+    monkeypatch.setattr(system_deps.subprocess, "run",
+                        lambda cmd, env: subprocess.CompletedProcess(cmd, 0))
+    assert system_deps.apt_get_install("chromium") is None
+
+
 # --------------------------------------------------------------------------- user errors
 @pytest.mark.parametrize("argv,message", [
     (["train", "--tokenizer", "lipvqq"], "unknown tokenizer 'lipvqq'. Did you mean 'lipvq'"),

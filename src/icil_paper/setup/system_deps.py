@@ -99,27 +99,39 @@ def debian_backports_entry(sources_dir: Path = Path("/etc/apt")) -> str | None:
     return None
 
 
-def install_lavapipe() -> str | None:
-    """Install lavapipe from bookworm-backports; None on success, else why it could not."""
+def apt_get_problem() -> str | None:
+    """None where apt-get can install packages here, else why it cannot."""
     if sys.platform != "linux":
         return f"not Linux ({sys.platform})"
     if os.geteuid() != 0:
         return "not root"
     if shutil.which("apt-get") is None:
         return "no apt-get (not a Debian-like system)"
+    return None
+
+
+def apt_get_install(*args: str) -> str | None:
+    """`apt-get update`, then `apt-get install -y ARGS`, printing each command; None on
+    success, else which command failed."""
+    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+    for cmd in (["apt-get", "update", "-qq"], ["apt-get", "install", "-y", "-qq", *args]):
+        print("+", " ".join(cmd), flush=True)
+        if subprocess.run(cmd, env=env).returncode != 0:
+            return f"`{' '.join(cmd)}` failed"
+    return None
+
+
+def install_lavapipe() -> str | None:
+    """Install lavapipe from bookworm-backports; None on success, else why it could not."""
+    problem = apt_get_problem()
+    if problem:
+        return problem
     entry = debian_backports_entry()
     if entry is None:
         return "no Debian 12 (bookworm) apt source found to derive the backports mirror from"
     if not BACKPORTS_SOURCE.exists() or BACKPORTS_SOURCE.read_text() != entry:
         BACKPORTS_SOURCE.write_text(entry)
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    for cmd in (["apt-get", "update", "-qq"],
-                ["apt-get", "install", "-y", "-qq", "-t", "bookworm-backports",
-                 "mesa-vulkan-drivers", "libvulkan1"]):
-        print("+", " ".join(cmd), flush=True)
-        if subprocess.run(cmd, env=env).returncode != 0:
-            return f"`{' '.join(cmd)}` failed"
-    return None
+    return apt_get_install("-t", "bookworm-backports", "mesa-vulkan-drivers", "libvulkan1")
 
 
 def ensure_vulkan(install: bool) -> None:
@@ -152,19 +164,7 @@ def chromium_problem() -> str | None:
 
 def install_chromium() -> str | None:
     """Install Debian's chromium with apt-get; None on success, else why it could not."""
-    if sys.platform != "linux":
-        return f"not Linux ({sys.platform})"
-    if os.geteuid() != 0:
-        return "not root"
-    if shutil.which("apt-get") is None:
-        return "no apt-get (not a Debian-like system)"
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    for cmd in (["apt-get", "update", "-qq"],
-                ["apt-get", "install", "-y", "-qq", "chromium"]):
-        print("+", " ".join(cmd), flush=True)
-        if subprocess.run(cmd, env=env).returncode != 0:
-            return f"`{' '.join(cmd)}` failed"
-    return None
+    return apt_get_problem() or apt_get_install("chromium")
 
 
 def ensure_chromium(install: bool) -> None:
