@@ -61,6 +61,15 @@ def _cost_hours(field: str) -> float:
     return cost["total"][f"{field}_s"] / 3600
 
 
+def _claims(field: str) -> int:
+    """A count of the reference ledger's `summary` (after Holm's correction): `claims`, a
+    verdict (`holds`, `does not hold`, `not run`), `undecided` or `size_excluded`."""
+    from icil_paper.tables.claims import summary
+
+    s = summary(json.loads((REFERENCE / "claims.json").read_text())["claims"])
+    return s["counts"][field] if field in s["counts"] else s[field]
+
+
 def _cell_seconds(kind: str) -> float:
     """The mean wall time of one cell of a kind (its training, evaluations and features);
     0 while no cell of that kind has finished."""
@@ -109,6 +118,10 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
        for field in ("cpu_hours", "wall_hours_at_2", "target_wall_hours")},
     "cost.projected_from_records_pct": ("results/reference/cost.json",
                                         lambda: 100 * _cost()["projection"]["from_records"]),
+    **{f"claims.{name}": ("results/reference/claims.json", lambda field=field: _claims(field))
+       for name, field in (("total", "claims"), ("holds", "holds"),
+                           ("do_not_hold", "does not hold"), ("undecided", "undecided"),
+                           ("size_excluded", "size_excluded"), ("not_run", "not run"))},
     **{f"cost.{name}_cell_s": ("results/reference/cost.json",
                                lambda kind=kind: _cell_seconds(kind))
        for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),
