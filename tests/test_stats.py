@@ -309,6 +309,22 @@ def test_a_row_that_always_fails_or_succeeds_is_not_known_exactly(outcome, seeds
     assert row.low <= low + 1e-12 and row.high >= high - 1e-12
 
 
+def test_seeds_equal_to_rounding_get_the_episode_noise_not_a_zero_width():
+    """Three seeds, each one episode (of 20) apart on its own scenes: the per-seed
+    differences are all -0.05 but differ in the 17th digit, which must not make a
+    zero-width interval that decides the claim."""
+    rng = np.random.default_rng(0)
+    b = rng.random((3, 4, 5)) < 0.5
+    a = b.copy()
+    for k in range(3):
+        t, e = np.argwhere(a[k])[0]
+        a[k, t, e] = False
+    per_seed = a.reshape(3, -1).mean(1) - b.reshape(3, -1).mean(1)
+    assert np.allclose(per_seed, -0.05) and np.var(per_seed, ddof=1) > 0  # the rounding
+    diff = paired_difference(a, b, scenes="per_seed")
+    assert diff.high - diff.low > 0.1 and verdict(diff) == "inconclusive"
+
+
 def test_one_episode_per_task_still_gets_an_interval():
     """Resampling within a task cannot vary a single episode; the tasks are pooled instead."""
     x = np.zeros((1, 11, 1), dtype=bool)

@@ -33,8 +33,9 @@ at the edge of the statistical precipice", who also treat runs as the unit).
   with the Welch-Satterthwaite degrees of freedom; and *scenes per seed index* (seed k of
   every row is evaluated on scene set k), where seed k of row a and seed k of row b share
   their scenes and the interval is the paired t interval on the per-seed differences
-  d_k = v_{a,k} - v_{b,k} (df = S - 1). Where a row's seeds all have the same value (a row
-  at 0 or 1 on every seed), its variance is taken as the episode noise of one seed's value,
+  d_k = v_{a,k} - v_{b,k} (df = S - 1). Where a row's seeds (or the paired differences)
+  all have the same value, to rounding (a row at 0 or 1 on every seed; three seeds each
+  one episode apart), the variance is taken as the episode noise of one seed's value,
   sum_t p~_t (1 - p~_t) / (E T^2) with the Agresti-Coull p~_t = (k_t + 2) / (n_t + 4), so
   that it keeps an honest width instead of a zero one.
 - Assumptions: seeds are independent draws of the training randomness; per-seed values are
@@ -362,10 +363,14 @@ def mean_samples(scores, *, n_boot: int = 2000, rng_seed: int = 0,
 
 # ------------------------------------------------------------------- seed-level building blocks
 
-def _floored(var: float, floor: float) -> float:
-    """A per-seed sample variance, or the episode noise `floor` where the seeds' values are
-    all equal (a row at 0 or 1 on every seed is not known exactly)."""
-    return var if var > 0 else floor
+def _floored_variance(values: np.ndarray, floor: float) -> float:
+    """The sample variance (ddof 1) of per-seed values, or the episode noise `floor` where
+    they are all equal (a row at 0 or 1 on every seed is not known exactly). Equal means
+    equal to rounding: three seeds one episode apart, -0.05 each, have a variance of 1e-33
+    in floating point, which would otherwise give an interval of zero width."""
+    if np.allclose(values, values[0], rtol=1e-9, atol=1e-12):
+        return floor
+    return float(np.var(values, ddof=1))
 
 
 def _episode_noise(x: np.ndarray) -> float:
@@ -385,8 +390,7 @@ def _per_seed(x: np.ndarray) -> np.ndarray:
 def _row_variance(x: np.ndarray, kind: str) -> float:
     """Sample variance (ddof 1) of a row's per-seed values, S >= 2; a success row whose
     seeds all agree gets one seed's episode noise instead of 0."""
-    return _floored(float(np.var(_per_seed(x), ddof=1)),
-                    _episode_noise(x) if kind == "success" else 0.0)
+    return _floored_variance(_per_seed(x), _episode_noise(x) if kind == "success" else 0.0)
 
 
 def seed_variance(data, kind: Literal["success", "score"] = "success") -> float | None:
@@ -436,7 +440,7 @@ def _seeded_difference(xa: np.ndarray, xb: np.ndarray, *, kind: str, scenes: str
                         episodes=episodes)
     if scenes == "per_seed" and seeds[0] == seeds[1]:
         floor = (_episode_noise(xa) + _episode_noise(xb)) if kind == "success" else 0.0
-        var = _floored(float(np.var(va_ - vb_, ddof=1)), floor)
+        var = _floored_variance(va_ - vb_, floor)
         return _t_estimate(value, math.sqrt(var / seeds[0]), seeds[0] - 1, level,
                            f"paired t on {seeds[0]} seeds {pct}", bounds, n=sum(seeds),
                            seeds=seeds, episodes=episodes)
