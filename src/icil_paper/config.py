@@ -487,9 +487,9 @@ def _reference() -> Preset:
     LipVQ-VAE on any family (knobs fell from 1.0 to 0). Knobs, pick-and-place and
     insertion stay at or near 0 for both rows at 1500-2000 steps, and ManiSkill's Stack
     Cube at 0 at every setting: the chapters report such columns as uninformative rather
-    than averaging them in silently. ManiSkill's ACT with 40
-    demonstrations reaches 0.2 (Pick Cube) and 0.8 (Push Cube) at 5000 steps, 0.3 and 0.45
-    at 10000: 5000 costs half as much.
+    than averaging them in silently. ManiSkill's ACT with 40 demonstrations reaches 0.2
+    (Pick Cube) and 0.8 (Push Cube) at 5000 steps, 0.3 and 0.45 at 10000: 5000 costs half
+    as much.
 
     MCR (images; no claim reads its rows) gets 5 seeds in Table I and 3 elsewhere, with 2
     image episodes a task: an image cell costs about ten times a state cell on CPU.
