@@ -115,11 +115,16 @@ def test_reference_progress_says_how_many_cells_are_done(tmp_path):
     assert "12 of its 370 trained cells" in text and "2 sittings, 1.5 hours" in text
     assert "whole run" not in text  # no projection in this cost.json
     path.write_text(json.dumps({"finished_cells": 12, "planned_cells": 370,
-                                "sittings": sittings, "projection": {"wall_hours_at_2": 9.24}}))
-    assert "the whole run comes to 9.2 hours" in reference_progress(path)
+                                "sittings": sittings, "projection": {"wall_hours_at_2": 9.24,
+                                                                     "target_wall_hours": 10.0}}))
+    text = reference_progress(path)
+    assert "the whole run comes to 9.2 hours" in text and "the target is 10 hours" in text
     path.write_text(json.dumps({"finished_cells": 370, "planned_cells": 370,
-                                "sittings": sittings}))
-    assert reference_progress(path) == "" and reference_progress(tmp_path / "none") == ""
+                                "sittings": sittings, "projection": {"wall_hours_at_2": 10.9}}))
+    text = reference_progress(path)
+    assert "finished: all 370 trained cells" in text and "10.9 hours" in text
+    assert "not run" not in text
+    assert reference_progress(tmp_path / "none") == ""
 
 
 def test_the_projection_prices_unfinished_cells_at_their_measured_rate(tmp_path):

@@ -606,8 +606,8 @@ def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dic
 def reference_progress(path=None) -> str:
     """Where the committed reference run stands, from its `cost.json`: the table cells
     finished of those planned, the machine time so far and the whole run's projected wall
-    time (`projection`); empty once every cell is done
-    (or when there is no cost.json)."""
+    time against its target (`projection`); once every cell is done, what the whole run
+    cost. Empty when there is no cost.json."""
     import json
     from pathlib import Path
 
@@ -616,18 +616,24 @@ def reference_progress(path=None) -> str:
         return ""
     cost = json.loads(path.read_text())
     done, planned = cost.get("finished_cells", 0), cost.get("planned_cells", 0)
-    if not planned or done >= planned:
+    if not planned:
         return ""
     hours = sum(s["elapsed_s"] for s in cost["sittings"]) / 3600
+    sittings = f"{len(cost['sittings'])} sittings, {hours:.1f} hours of machine time"
     projection = cost.get("projection")
-    whole = ("" if not projection else
-             f" At the CPU time its finished cells took, the whole run comes to "
-             f"{projection['wall_hours_at_2']:.1f} hours on an idle 2-core machine at two "
-             "cells at a time.")
+    whole = ""
+    if projection:
+        target = projection.get("target_wall_hours")
+        against = f" (the target is {target:g} hours)" if target else ""
+        whole = (f" At the CPU time its cells took, the whole run comes to "
+                 f"{projection['wall_hours_at_2']:.1f} hours on an idle 2-core machine at "
+                 f"two cells at a time{against}.")
+    if done >= planned:
+        return (f"The reference run is finished: all {planned} trained cells ({sittings}; "
+                f"`results/reference/cost.json`).{whole}")
     return (f"The reference run is in progress: {done} of its {planned} trained cells have "
-            f"finished ({len(cost['sittings'])} sittings, {hours:.1f} hours of machine time "
-            f"so far; `results/reference/cost.json`).{whole} A claim whose rows are not all "
-            "trained yet shows as *not run*.")
+            f"finished ({sittings} so far; `results/reference/cost.json`).{whole} A claim "
+            "whose rows are not all trained yet shows as *not run*.")
 
 
 def reference_summary(path=None) -> str:
