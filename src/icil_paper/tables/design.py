@@ -276,13 +276,11 @@ def at_seeds(preset: Preset, seeds: int) -> Preset:
     return replace(preset, tables=tables)
 
 
-def interim_check(preset: Preset, seeds: int | None = None, store=None
-                  ) -> tuple[int, list[str] | None]:
-    """The rule checked against a ledger computed from the first `seeds` seeds of every row
-    (default: the most that every claim's rows have finished): a preview, while the run is
-    under way, of rows whose claim the new records make decidable with `DECIDABLE_SEEDS`
-    seeds or fewer, so that they can be topped up before the run ends. Returns (seeds, the
-    rows below the rule), or (seeds, None) below two seeds (no variance to read)."""
+def interim_ledger(preset: Preset, seeds: int | None = None, store=None
+                   ) -> tuple[int, list[dict[str, Any]] | None]:
+    """The ledger computed from the first `seeds` seeds of every row (default: the most
+    that every claim's rows have finished), or None below two seeds (no variance to read).
+    Returns (seeds, ledger)."""
     from icil_paper.results import ResultsStore
     from icil_paper.tables.claims import claims_ledger
 
@@ -292,7 +290,18 @@ def interim_check(preset: Preset, seeds: int | None = None, store=None
         seeds = min(finished[r] for rows in claim_rows(preset).values() for r in rows)
     if seeds < 2:
         return seeds, None
-    ledger = claims_ledger(at_seeds(preset, seeds), store)
+    return seeds, claims_ledger(at_seeds(preset, seeds), store)
+
+
+def interim_check(preset: Preset, seeds: int | None = None, store=None
+                  ) -> tuple[int, list[str] | None]:
+    """The rule checked against `interim_ledger`: a preview, while the run is under way,
+    of rows whose claim the new records make decidable with `DECIDABLE_SEEDS` seeds or
+    fewer, so that they can be topped up before the run ends. Returns (seeds, the rows
+    below the rule), or (seeds, None) below two seeds."""
+    seeds, ledger = interim_ledger(preset, seeds, store)
+    if ledger is None:
+        return seeds, None
     return seeds, check_design(preset, {e["id"]: e for e in ledger})
 
 
@@ -321,13 +330,17 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{out['cost']['cells']} cells, {out['cost']['core_s'] / 3600:.1f} core-hours, "
           f"{out['cost']['wall_h_at_2']} h at two cells at a time")
     if args.interim:
-        seeds, problems = interim_check(preset)
-        if problems is None:
+        seeds, ledger = interim_ledger(preset)
+        if ledger is None:
             print(f"interim: the claims' rows have {seeds} finished seeds in common; a "
                   "variance needs 2")
         else:
+            problems = check_design(preset, {e["id"]: e for e in ledger})
             print(f"interim, at the {seeds} seeds every claim's rows have finished: "
                   f"{len(problems)} rows below the rule")
+            for e in ledger:
+                print(f"  {e['id']:<38} seeds needed {str(e.get('seeds_needed')):>5}  "
+                      f"verdict {e.get('verdict')}")
             for line in problems:
                 print("  top up:", line)
     return 0
