@@ -345,3 +345,32 @@ def test_cells_run_seed_major_so_a_stopped_run_keeps_rows_balanced(monkeypatch):
     execute.run_tables(small_preset("tables.icrt_seeds=3"), ["IV"], progress=False)
     seeds = [c.kwargs["run"]["seed"] for c in captured]
     assert len(captured) == 12 and seeds == sorted(seeds)
+
+
+def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeypatch):
+    """Chapter 0 turns the committed reference ledger into prose, a forest plot and two
+    tables; a claim of a shape the older ledgers lacked (an undecided row added since the
+    paper, sized by its reference effect) once broke the book build. Every piece runs here on
+    the ledger as committed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from icil_paper.tables.book import (
+        forest_plot,
+        ledger_details,
+        ledger_frame,
+        reference_progress,
+        undecided_power,
+    )
+    from icil_paper.tables.claims import summary_sentence
+    from icil_paper.tables.design import design_frame
+
+    monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
+    ledger = json.loads((ROOT / "results" / "reference" / "claims.json").read_text())["claims"]
+    assert summary_sentence(ledger) and ledger_details(ledger)
+    undecided_power(ledger)
+    forest_plot(ledger, title="reference")
+    for kind in ("verdicts", "power"):
+        assert len(ledger_frame(ledger, kind)) == len(ledger)
+    assert "reference run" in reference_progress()
+    assert len(design_frame(get_preset("reference")))

@@ -235,8 +235,14 @@ def test_chapter_0_lists_each_undecided_claim_with_its_power():
     unplanned = {"id": "c", "adjusted_verdict": "too few seeds", "ours": 0.0, "ci": [-0.1, 0.1],
                  "paper": None, "reference_effect": None, "power": None, "mde": None,
                  "seeds_needed": None, "power_note": "no reference effect"}
-    text = undecided_power([held, open_, unplanned])
+    beyond = {"id": "d", "adjusted_verdict": "inconclusive", "ours": 0.02, "ci": [-0.03, 0.07],
+              "paper": None, "reference_effect": 0.055, "power": 0.31, "mde": 0.098,
+              "seeds_needed": 14}
+    text = undecided_power([held, open_, unplanned, beyond])
     assert "**a**" not in text
+    assert ("**d**: inconclusive, ours +0.020 [-0.030, +0.070]; power 31% to detect the "
+            "reference +0.055 at these seeds; detects 0.098 with 80% power; 14 seeds a row "
+            "would detect the reference effect") in text
     assert ("**b**: inconclusive, ours +0.010 [-0.040, +0.060]; power 23% to detect the "
             "paper's +0.041 at these seeds; detects 0.071 with 80% power; 26 seeds a row") in text
     assert "**c**: too few seeds" in text and "no reference effect" in text

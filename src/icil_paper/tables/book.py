@@ -433,16 +433,21 @@ def undecided_power(ledger: list[dict[str, Any]]) -> str:
     for e in ledger:
         if e.get("adjusted_verdict") not in ("inconclusive", "too few seeds"):
             continue
-        effect = e.get("paper", e.get("reference_effect"))
+        # A claim the paper does not make (a row added since) is sized by its reference
+        # effect, e.g. the paper's Eq. 4 gain for VQ-VAE; the sentence says which it is.
+        if e.get("paper") is not None:
+            effect, whose = e["paper"], "the paper's"
+        else:
+            effect, whose = e.get("reference_effect"), "the reference"
         parts = [f"{e['adjusted_verdict']}, ours {e['ours']:+.3f} "
                  f"[{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"]
-        if e.get("power") is not None:
-            parts.append(f"power {e['power']:.0%} to detect the paper's {effect:+.3f} at "
+        if e.get("power") is not None and effect is not None:
+            parts.append(f"power {e['power']:.0%} to detect {whose} {effect:+.3f} at "
                          f"these seeds")
         if e.get("mde") is not None:
             parts.append(f"detects {e['mde']:.3f} with 80% power")
-        if e.get("seeds_needed"):
-            parts.append(f"{e['seeds_needed']} seeds a row would detect the paper's effect")
+        if e.get("seeds_needed") and effect is not None:
+            parts.append(f"{e['seeds_needed']} seeds a row would detect {whose} effect")
         elif e.get("power_note"):
             parts.append(e["power_note"])
         lines.append(f"- **{e['id']}**: " + "; ".join(parts) + ".")
