@@ -22,6 +22,7 @@ import numpy as np
 from icil_paper.config import Preset, get_preset
 from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import TableResult, assemble, format_cell, unbroken
+from icil_paper.tables.claims import sizing_effect
 from icil_paper.tables.definitions import table_spec
 
 REFERENCE = "reference"
@@ -435,10 +436,8 @@ def undecided_power(ledger: list[dict[str, Any]]) -> str:
             continue
         # A claim the paper does not make (a row added since) is sized by its reference
         # effect, e.g. the paper's Eq. 4 gain for VQ-VAE; the sentence says which it is.
-        if e.get("paper") is not None:
-            effect, whose = e["paper"], "the paper's"
-        else:
-            effect, whose = e.get("reference_effect"), "the reference"
+        effect = sizing_effect(e)
+        whose = "the paper's" if e.get("paper") is not None else "the reference"
         parts = [f"{e['adjusted_verdict']}, ours {e['ours']:+.3f} "
                  f"[{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"]
         if e.get("power") is not None and effect is not None:

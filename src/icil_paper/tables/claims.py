@@ -530,6 +530,12 @@ def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
     return str(path)
 
 
+def sizing_effect(entry: dict[str, Any]) -> float | None:
+    """The effect a ledger entry is sized against: the paper's value, or for a claim of our
+    own (no `paper` value) its `reference_effect`; None where the claim has no number."""
+    return entry["paper"] if entry.get("paper") is not None else entry.get("reference_effect")
+
+
 def summary(ledger: list[dict[str, Any]], adjusted: bool = True) -> dict[str, Any]:
     """What a reader asks first: how many claims hold, do not hold, exclude the paper's
     size, or remain undecided (after Holm's correction by default), and which undecided

@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper.config import Preset
+from icil_paper.tables.claims import sizing_effect
 from icil_paper.tables.definitions import TABLES, table_spec
 
 DECIDABLE_SEEDS = 10
@@ -140,7 +141,7 @@ def expected_half_width(entry: dict[str, Any], seeds: int) -> float | None:
         return t.ppf(0.975, df) + t.ppf(0.8, df)
 
     mde, rows = entry.get("mde"), entry.get("seeds") or {}
-    needed, effect = entry.get("seeds_needed"), entry.get("paper", entry.get("reference_effect"))
+    needed, effect = entry.get("seeds_needed"), sizing_effect(entry)
     if mde is not None and rows:
         old = sorted(rows.values())[:2]
         se = mde / quantiles(max(sum(old) - 2, 1))
@@ -227,7 +228,7 @@ def report(preset: Preset) -> dict[str, Any]:
         claims_out.append({
             "id": claim_id, "rows": {f"{t}:{r}": seeds.get((t, r)) for t, r in rows},
             "seeds_needed": entry.get("seeds_needed"), "required": required_seeds(entry),
-            "paper": entry.get("paper", entry.get("reference_effect")),
+            "paper": sizing_effect(entry),
             "half_width_now": (None if not entry.get("ci") else
                                round((entry["ci"][1] - entry["ci"][0]) / 2, 4)),
             "expected_half_width": (None if planned < 2 else
