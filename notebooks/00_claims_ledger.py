@@ -114,7 +114,7 @@ for source, (p, ledger) in ledgers.items():
 # seeds a row its power analysis asks for the paper's effect (*seeds needed*), the records
 # those variances came from (before this run finished, the older code's), the seeds the
 # rule requires, the fewest seeds the preset gives one of its rows (*planned*) and the
-# fewest of them one of its rows has finished so far (*finished*: the claim is decided once
+# fewest of them one of its rows has finished (*finished*: the ledger reads the claim once
 # this reaches *planned*), and the 95% half-width of the difference expected at the planned
 # seeds. The episodes per task (5) follow from the
 # split between seed and episode variance (`stats.episodes_per_seed`); the `reference`
@@ -137,9 +137,9 @@ display(Markdown(ledger_details(first_ledger)))
 #
 # A committed reference record whose key the current code no longer computes (a config or
 # a definition changed since it was run) is not used above; it is listed here, and nothing
-# is deleted. While the reference run is being redone, the ledger that the older code
-# computed from those records follows, labelled with that code's commit: read it as a
-# record of the older protocol, not as a result of the current one.
+# is deleted. The ledger that the older code computed from those records follows,
+# labelled with that code's commit: read it as a record of the older protocol, not as a
+# result of the current one.
 
 # %% tags=["remove-input"]
 stale = stale_records(REFERENCE)
