@@ -640,10 +640,22 @@ def reference_progress(path=None) -> str:
             "whose rows are not all trained yet shows as *not run*.")
 
 
+def decided_claims(ledger: list[dict[str, Any]]) -> str:
+    """The claims decided after Holm's correction, by id: "Held: ... Did not hold: ...";
+    empty when none is decided."""
+    parts = []
+    for verdict, label in (("holds", "Held"), ("does not hold", "Did not hold")):
+        ids = [e["id"] for e in ledger if e.get("adjusted_verdict") == verdict]
+        if ids:
+            parts.append(f"{label}: {', '.join(ids)}.")
+    return " ".join(parts)
+
+
 def reference_summary(path=None) -> str:
-    """The committed reference run's ledger in one sentence (`claims.summary_sentence`), or
-    a sentence saying it is not there; when most of its records were made by older code,
-    the sentence says so and quotes the older code's ledger, labelled with its commit."""
+    """The committed reference run's ledger in one sentence (`claims.summary_sentence`) and
+    the claims it decided, or a sentence saying it is not there. Records made by older code
+    are counted; while the current ledger still has claims not run, the older code's ledger
+    is quoted too, labelled with its commit (once every claim is read, chapter 0 keeps it)."""
     from pathlib import Path
 
     from icil_paper.tables.claims import load_ledger, summary_sentence
@@ -651,20 +663,22 @@ def reference_summary(path=None) -> str:
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     if not path.exists():
         return f"The reference run's ledger is not there yet ({path.name} is missing)."
-    text = summary_sentence(load_ledger(path))
+    ledger = load_ledger(path)
+    text = f"{summary_sentence(ledger)} {decided_claims(ledger)}".strip()
     progress = reference_progress(path.with_name("cost.json"))
     fresh = reference_freshness(REFERENCE)
     if not fresh["stale"]:
         return f"{progress} {text}".strip()
+    in_progress = any(e["verdict"] == "not run" for e in ledger)
     text = (f"{progress or 'The reference run is being redone with the current code.'} "
             f"{fresh['stale']} of its {fresh['records']} committed records were made by an "
-            "older version (chapter 0 lists them) and are not used, so with the current code: "
-            + text)
-    older = older_ledger(REFERENCE)
+            "older version of the code and are not used (chapter 0 lists them, with the "
+            f"ledger that code computed). With the current code: {text[0].lower()}{text[1:]}")
+    older = older_ledger(REFERENCE) if in_progress else None
     if older is not None:
-        made_by, ledger = older
+        made_by, older_claims = older
         text += (f" With the older code (commit {made_by['commit'][:7]}), from those records: "
-                 + summary_sentence(ledger))
+                 + summary_sentence(older_claims))
     return text
 
 
