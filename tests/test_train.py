@@ -26,6 +26,7 @@ from icil_paper.train import (
     run_dir_for,
     train_policy,
 )
+from icil_paper.train import rundir
 from icil_paper.train.optim import cosine_schedule
 from icil_paper.train.rundir import CHECKPOINT, PREVIOUS_CHECKPOINT, DamagedFileWarning
 
@@ -84,6 +85,28 @@ def test_resume_equals_uninterrupted_training(tmp_path, demos, policy, tokenizer
                 for x in read_metrics(tmp_path / run / METRICS_FILE)]
 
     assert logged("a") == logged("b")
+
+
+def test_rng_states_restore_from_a_checkpoint_mapped_off_the_cpu():
+    # Resuming on a GPU loads the checkpoint with map_location="cuda", which moves the RNG
+    # states off the CPU; torch's setters take CPU ByteTensors only. A tensor of another
+    # dtype stands in for that here (the GPU case runs in the test below).
+    rng = np.random.default_rng(0)
+    state = dict(rundir.rng_state(rng))
+    expected = torch.rand(3)
+    state["torch"] = state["torch"].to(torch.int64)
+    rundir.set_rng_state(rng, state)
+    assert torch.equal(torch.rand(3), expected)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
+def test_a_run_killed_on_the_gpu_resumes_there(tmp_path, demos):
+    s = spec("icrt", "lipvq", ["train.steps=7", "train.ckpt_every=3"])
+    kw = dict(demos=demos, progress=False, device="cuda")
+    killed = train_policy(s, run_dir=tmp_path, stop_after=4, **kw)
+    assert killed.metrics["steps"] == 4
+    resumed = train_policy(s, run_dir=tmp_path, **kw)
+    assert (resumed.metrics["steps"], resumed.metrics["resumed_from_step"]) == (7, 4)
 
 
 def test_checkpoint_and_policy_files_are_safe_to_load(tmp_path, demos):

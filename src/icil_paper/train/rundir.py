@@ -191,15 +191,21 @@ def rng_state(rng: np.random.Generator) -> dict[str, Any]:
     return state
 
 
+def _cpu_bytes(tensor: torch.Tensor) -> torch.Tensor:
+    # torch's RNG setters take CPU ByteTensors only; a checkpoint loaded with
+    # map_location="cuda" (resuming on a GPU) holds its RNG states on the GPU.
+    return tensor.to(device="cpu", dtype=torch.uint8)
+
+
 def set_rng_state(rng: np.random.Generator, state: Mapping[str, Any]) -> None:
     rng.bit_generator.state = json.loads(state["numpy"])
-    torch.set_rng_state(state["torch"])
+    torch.set_rng_state(_cpu_bytes(state["torch"]))
     version, internal, gauss = json.loads(state["python"])
     random.setstate((version, tuple(internal), gauss))
     kind, keys, pos, has_gauss, cached = json.loads(state["numpy_global"])
     np.random.set_state((kind, np.asarray(keys, dtype=np.uint32), pos, has_gauss, cached))
     if "cuda" in state and torch.cuda.is_available():
-        torch.cuda.set_rng_state_all(state["cuda"])
+        torch.cuda.set_rng_state_all([_cpu_bytes(t) for t in state["cuda"]])
 
 
 # --------------------------------------------------------------------------- safe torch files
