@@ -928,3 +928,249 @@ def episodes_per_seed(seed_var: float, episode_var: float, train_cost: float,
         if not value > 0 or not math.isfinite(value):
             raise ValueError(f"episodes_per_seed: {name} must be a positive number, got {value}")
     return math.sqrt(episode_var * train_cost / (seed_var * episode_cost))
+
+
+# ------------------------------------------------------------------------- seeds in stages
+
+Spending = Literal["obf", "pocock"]
+
+_GRID = 201
+"""Points of the Simpson grid on which `_boundaries` integrates the sub-densities (the
+boundaries agree with a 401-point grid's to 1e-9)."""
+_LEVELS = np.unique(np.r_[np.geomspace(1e-20, 0.5, 201), ALPHA])
+"""Levels at which `SequentialDesign` tabulates its boundaries for the repeated p-values
+(log-linear interpolation between them; `ALPHA` itself is one, so a look's decision at
+the claim's own level is exact)."""
+
+
+def spent_alpha(t, alpha: float = ALPHA, spending: Spending = "obf"):
+    """The two-sided type I error spent by information fraction t in (0, 1] (Lan and DeMets
+    1983): "obf" 2 - 2 Phi(z_{1-alpha/2} / sqrt(t)) (O'Brien-Fleming type), "pocock"
+    alpha ln(1 + (e - 1) t) (Pocock type). Both spend `alpha` at t = 1."""
+    from scipy.special import ndtr, ndtri
+
+    t = np.asarray(t, dtype=np.float64)
+    if spending == "obf":
+        return 2 * ndtr(ndtri(alpha / 2) / np.sqrt(t))  # tail form: exact at tiny alpha
+    if spending == "pocock":
+        return alpha * np.log1p((math.e - 1) * t)
+    raise ValueError(f"spending must be 'obf' or 'pocock', got {spending!r}")
+
+
+def _simpson(n: int, width: float) -> np.ndarray:
+    w = np.ones(n)
+    w[1:-1:2], w[2:-1:2] = 4.0, 2.0
+    return w * width / (3 * (n - 1))
+
+
+def _boundaries(fractions: tuple[float, ...], alpha: float, spending: Spending) -> np.ndarray:
+    """Two-sided boundaries c_k on the z scale at information fractions t_k: under no
+    difference, P(|Z_j| < c_j for j < k, |Z_k| >= c_k) = alpha(t_k) - alpha(t_{k-1}).
+
+    The score S_k = Z_k sqrt(t_k) is a Brownian motion at times t_k; its sub-density on the
+    continuation region is carried from look to look by numerical integration (Armitage,
+    McPherson and Rowe 1969; Jennison and Turnbull 2000, ch. 19), Simpson's rule on
+    `_GRID` points."""
+    from scipy.optimize import brentq
+    from scipy.special import ndtr, ndtri
+
+    spent = spent_alpha(np.asarray(fractions), alpha, spending)
+    out = np.empty(len(fractions))
+    out[0] = -ndtri(spent[0] / 2)
+    s = f = w = None
+    for k in range(len(fractions)):
+        if k == 0:
+            b = out[0] * math.sqrt(fractions[0])
+            s = np.linspace(-b, b, _GRID)
+            w = _simpson(_GRID, 2 * b)
+            f = np.exp(-s * s / (2 * fractions[0])) / math.sqrt(2 * math.pi * fractions[0])
+            continue
+        sd = math.sqrt(fractions[k] - fractions[k - 1])
+        root = math.sqrt(fractions[k])
+        increment = float(spent[k] - spent[k - 1])
+
+        def exit_(c, s=s, f=f, w=w, sd=sd, root=root):
+            tails = ndtr((s - c * root) / sd) + ndtr((-c * root - s) / sd)
+            return float((w * f * tails).sum())
+
+        if increment <= 0 or exit_(40.0) >= increment:
+            out[k:] = np.inf  # nothing left to spend: no decision at this look
+            break
+        out[k] = brentq(lambda c: exit_(c) - increment, 0.0, 40.0, xtol=1e-10)
+        b = out[k] * root
+        u = np.linspace(-b, b, _GRID)
+        kernel = np.exp(-((u[:, None] - s[None, :]) ** 2) / (2 * sd * sd))
+        f, s, w = kernel @ (w * f) / (math.sqrt(2 * math.pi) * sd), u, _simpson(_GRID, 2 * b)
+    return out
+
+
+@dataclass(frozen=True)
+class SequentialDesign:
+    """A group-sequential design over training seeds: looks at `stages` seeds a row (the
+    last is the most any row gets), two-sided boundaries from Lan-DeMets alpha spending
+    (see the module docstring, "Seeds in stages").
+
+        design = SequentialDesign((5, 10, 15))
+        design.boundaries()                 # z boundaries per look: about 3.71, 2.51, 1.99
+        design.nominal_levels()             # the same as two-sided p-value thresholds
+        design.repeated_p_value(p, look)    # a look's t-test p-value -> the design's p-value
+    """
+
+    stages: tuple[int, ...]
+    """Seeds a row at each look, increasing; each a look's *cumulative* seeds."""
+    alpha: float = ALPHA
+    """Two-sided type I error of each claim's test over all its looks."""
+    spending: Spending = "obf"
+    """The spending function: "obf" (O'Brien-Fleming type) or "pocock" (Pocock type)."""
+
+    def __post_init__(self):
+        stages = tuple(int(s) for s in self.stages)
+        if not stages or stages[0] < 2 or any(b <= a for a, b in zip(stages, stages[1:])):
+            raise ValueError(f"stages must be increasing seed counts, each at least 2 (a "
+                             f"variance needs two seeds), got {self.stages}")
+        object.__setattr__(self, "stages", stages)
+        _check_level(1 - self.alpha)
+        spent_alpha(1.0, self.alpha, self.spending)  # checks `spending`
+
+    @property
+    def fractions(self) -> tuple[float, ...]:
+        """Information fractions t_k = n_k / n_K (a difference's variance falls as 1/n)."""
+        return tuple(s / self.stages[-1] for s in self.stages)
+
+    def boundaries(self, alpha: float | None = None) -> np.ndarray:
+        """z boundaries c_k of every look at level `alpha` (default: the design's)."""
+        return _boundaries(self.fractions, self.alpha if alpha is None else alpha,
+                           self.spending)
+
+    def nominal_levels(self, alpha: float | None = None) -> np.ndarray:
+        """Each look's boundary as a two-sided p-value: a look decides a claim when its
+        t-test p-value is at most this (Jennison and Turnbull 2000, Sec. 11.4)."""
+        from scipy.special import ndtr
+
+        return 2 * ndtr(-self.boundaries(alpha))
+
+    def look_of(self, seeds: int) -> int | None:
+        """Index of the last look a claim whose rows have `seeds` seeds has reached (None
+        before the first)."""
+        reached = [k for k, s in enumerate(self.stages) if s <= seeds]
+        return reached[-1] if reached else None
+
+    def repeated_p_value(self, p, look: int):
+        """The design's p-value of a look's nominal two-sided p-value `p` (scalar or
+        array): the smallest level alpha' whose boundary at this look the statistic
+        crosses, the repeated p-value of Jennison and Turnbull (2000, Sec. 9.1). Under no
+        difference P(min over looks <= u) <= u for every u, whatever decides the looks
+        that happen. Values that no level up to 0.5 reaches are reported as 1."""
+        table = _level_table(self)[:, look]  # log nominal level at each of `_LEVELS`
+        logp = np.log(np.clip(np.asarray(p, dtype=np.float64), 1e-300, 1.0))
+        ok = np.isfinite(table)
+        out = np.exp(np.interp(logp, table[ok], np.log(_LEVELS[ok])))
+        return np.where(logp > table[ok][-1], 1.0, out)
+
+    def describe(self) -> str:
+        """The design in one sentence (for the ledger and the chapters)."""
+        levels = ", ".join(f"{p:.3g}" for p in self.nominal_levels())
+        name = {"obf": "O'Brien-Fleming", "pocock": "Pocock"}[self.spending]
+        return (f"looks at {', '.join(map(str, self.stages))} seeds a row; {name}-type "
+                f"alpha spending (Lan and DeMets 1983) at {self.alpha:g} two-sided per claim: "
+                f"a look decides a claim when its t-test p-value is at most {levels}")
+
+
+_TABLES: dict[SequentialDesign, np.ndarray] = {}
+
+
+def _level_table(design: SequentialDesign) -> np.ndarray:
+    """(levels, looks) log nominal p-value thresholds at each of `_LEVELS` (cached)."""
+    from scipy.special import ndtr
+
+    if design not in _TABLES:
+        c = np.stack([_boundaries(design.fractions, a, design.spending) for a in _LEVELS])
+        with np.errstate(divide="ignore"):
+            table = np.log(2 * ndtr(-c))  # -inf where a look has nothing to spend
+        table[~np.isfinite(table)] = -np.inf
+        finite = np.where(np.isfinite(table), table, np.nan)
+        for k in range(table.shape[1]):  # the map must be monotone to be inverted
+            col = finite[:, k][~np.isnan(finite[:, k])]
+            if np.any(np.diff(col) <= 0):
+                raise ValueError(f"boundaries of look {k} are not monotone in the level")
+        _TABLES[design] = np.where(np.isfinite(table), table, np.nan)
+    return _TABLES[design]
+
+
+def sequential_estimate(estimate: Estimate, design: SequentialDesign, look: int) -> Estimate:
+    """`estimate` (computed on the first `design.stages[look]` seeds of each row) with its
+    p-values (its components' too) replaced by the design's repeated p-values: what
+    `decision_p_value` reads for the group-sequential test of one look."""
+    import dataclasses
+
+    def swap(e: Estimate) -> Estimate:
+        p = None if e.p_value is None else float(design.repeated_p_value(e.p_value, look))
+        return dataclasses.replace(e, p_value=p)
+
+    return dataclasses.replace(swap(estimate),
+                               components=tuple(swap(c) for c in estimate.components))
+
+
+def sequential_p_value(looks: Sequence[Estimate], direction: int, design: SequentialDesign
+                       ) -> list[tuple[float, Verdict] | None]:
+    """A claim's test at every look so far: looks[k] is its estimate on the first
+    `design.stages[k]` seeds a row. Returns, per look, the running (p, side): the smallest
+    of `decision_p_value` over the looks up to it, on repeated p-values (a best-of-k
+    estimate combines its components' repeated p-values as `decision_p_value` does: the
+    intersection-union max, or Bonferroni). None where no look up to it can be tested."""
+    out: list[tuple[float, Verdict] | None] = []
+    best = None
+    for k, est in enumerate(looks):
+        test = decision_p_value(sequential_estimate(est, design, k), direction)
+        if test is not None and (best is None or test[0] < best[0]):
+            best = test
+        out.append(best)
+    return out
+
+
+def sequential_holm(p_by_look: Sequence[Sequence[float | None]], alpha: float = ALPHA
+                    ) -> list[int | None]:
+    """Holm's correction at every look: p_by_look[i][k] is claim i's running design p-value
+    at look k (`sequential_p_value`; None: not tested). Returns, per claim, the first look
+    at which Holm over every claim's p-value at that look rejects it (None: never). The
+    running p-values only fall, so once rejected a claim stays rejected; this is the
+    sequentially rejective group-sequential procedure of Maurer and Bretz (2013) for
+    Holm's graph, with a claim's alpha passed on when it is rejected."""
+    looks = max((len(p) for p in p_by_look), default=0)
+    decided: list[int | None] = [None] * len(p_by_look)
+    for k in range(looks):
+        ps = [None if not p else p[min(k, len(p) - 1)] for p in p_by_look]
+        for i, r in enumerate(holm(ps, alpha)):
+            if r and decided[i] is None:
+                decided[i] = k
+    return decided
+
+
+def stage_seeds_needed(var_a, var_b, effect, design: SequentialDesign, *,
+                       power: float = POWER, max_seeds: int = 1000):
+    """Seeds a row at which a claim reaches `power` against `effect` under the design: the
+    first stage n_k whose boundary (`nominal_levels`) detects it (`minimum_detectable` at
+    that level, Welch's df), else, past the last stage, `seeds_needed` at the last look's
+    level; None where even `max_seeds` does not. Vectorised over var_a, var_b and effect
+    (numpy arrays; nan for None)."""
+    from scipy.stats import t
+
+    va, vb, eff = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64)
+                                        for x in (var_a, var_b, effect)))
+    shape = va.shape
+    va, vb, eff = va.ravel(), vb.ravel(), np.abs(eff.ravel())
+    levels = design.nominal_levels()
+    out = np.full(va.shape, np.nan)
+    for n, a in zip(design.stages, levels, strict=True):
+        se = np.sqrt(va / n + vb / n)
+        ua, ub = va / n, vb / n
+        den = (ua * ua + ub * ub) / (n - 1)
+        df = np.where(den > 0, (ua + ub) ** 2 / np.where(den > 0, den, 1.0), 2 * n - 2)
+        mde = (t.ppf(1 - a / 2, df) + t.ppf(power, df)) * se
+        out = np.where(np.isnan(out) & (mde <= eff) & (eff > 0), n, out)
+    last = float(levels[-1])
+    for i in np.flatnonzero(np.isnan(out)):
+        needed = seeds_needed(float(va[i]), float(vb[i]), float(eff[i]), level=1 - last,
+                              power=power, max_seeds=max_seeds)
+        out[i] = np.nan if needed is None else max(needed, design.stages[-1] + 1)
+    return out.reshape(shape)
