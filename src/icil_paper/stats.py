@@ -1146,15 +1146,24 @@ def sequential_holm(p_by_look: Sequence[Sequence[float | None]], alpha: float = 
     return decided
 
 
+def _mde_arrays(va: np.ndarray, vb: np.ndarray, n, level, power: float) -> np.ndarray:
+    """`minimum_detectable` at n seeds a row, vectorised over arrays of variances, seeds and
+    two-sided levels (1 - `level` is the test's p-value threshold)."""
+    from scipy.stats import t
+
+    ua, ub = va / n, vb / n
+    den = (ua * ua + ub * ub) / (n - 1)
+    df = np.where(den > 0, (ua + ub) ** 2 / np.where(den > 0, den, 1.0), 2 * n - 2)
+    return (t.ppf(0.5 + level / 2, df) + t.ppf(power, df)) * np.sqrt(ua + ub)
+
+
 def stage_seeds_needed(var_a, var_b, effect, design: SequentialDesign, *,
                        power: float = POWER, max_seeds: int = 1000):
     """Seeds a row at which a claim reaches `power` against `effect` under the design: the
     first stage n_k whose boundary (`nominal_levels`) detects it (`minimum_detectable` at
-    that level, Welch's df), else, past the last stage, `seeds_needed` at the last look's
-    level; None where even `max_seeds` does not. Vectorised over var_a, var_b and effect
-    (numpy arrays; nan for None)."""
-    from scipy.stats import t
-
+    that level, Welch's df), else, past the last stage, the seeds at which the last look's
+    level would (`seeds_needed` at that level); nan where even `max_seeds` does not or the
+    effect is 0. Vectorised over var_a, var_b and effect."""
     va, vb, eff = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64)
                                         for x in (var_a, var_b, effect)))
     shape = va.shape
@@ -1162,15 +1171,17 @@ def stage_seeds_needed(var_a, var_b, effect, design: SequentialDesign, *,
     levels = design.nominal_levels()
     out = np.full(va.shape, np.nan)
     for n, a in zip(design.stages, levels, strict=True):
-        se = np.sqrt(va / n + vb / n)
-        ua, ub = va / n, vb / n
-        den = (ua * ua + ub * ub) / (n - 1)
-        df = np.where(den > 0, (ua + ub) ** 2 / np.where(den > 0, den, 1.0), 2 * n - 2)
-        mde = (t.ppf(1 - a / 2, df) + t.ppf(power, df)) * se
-        out = np.where(np.isnan(out) & (mde <= eff) & (eff > 0), n, out)
-    last = float(levels[-1])
-    for i in np.flatnonzero(np.isnan(out)):
-        needed = seeds_needed(float(va[i]), float(vb[i]), float(eff[i]), level=1 - last,
-                              power=power, max_seeds=max_seeds)
-        out[i] = np.nan if needed is None else max(needed, design.stages[-1] + 1)
+        hit = np.isnan(out) & (eff > 0) & (_mde_arrays(va, vb, n, 1 - a, power) <= eff)
+        out[hit] = n
+    # past the last stage: bisection on n at the last look's level, all claims at once
+    rest = np.flatnonzero(np.isnan(out) & (eff > 0) & np.isfinite(eff))
+    level = 1 - float(levels[-1])
+    lo = np.full(rest.size, design.stages[-1] + 1)
+    hi = np.full(rest.size, max(max_seeds, design.stages[-1] + 1))
+    ok = _mde_arrays(va[rest], vb[rest], hi, level, power) <= eff[rest]
+    while np.any(lo < hi):
+        mid = (lo + hi) // 2
+        fits = _mde_arrays(va[rest], vb[rest], mid, level, power) <= eff[rest]
+        hi, lo = np.where(fits, mid, hi), np.where(fits, lo, mid + 1)
+    out[rest] = np.where(ok, lo, np.nan)
     return out.reshape(shape)
