@@ -23,7 +23,15 @@ Its `paper` value is computed from the paper's own numbers (`icil_paper.paper_nu
   row that detect it with 80% power, from the measured per-seed variances
   (a one-seed row borrows the pooled variance of its table's multi-seed rows, else of the
   ledger's; `variance_from` says which);
-- `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`.
+- `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`;
+- with seeds in stages (a preset's `tables.seed_stages`, `stats.SequentialDesign`): `look`,
+  in words, the look at which the claim was decided ("decided at look 2 of 3 (10 seeds a
+  row)") or "undecided at N seeds, needs M" (and whether its rows go on); `sequential`,
+  each look's seeds, t-test p-value and the design's running repeated p-value, the
+  claim's p-value, `decided_at` (seeds a row), `next` (the stage its rows go on to, else
+  None) and `needs` (`stage_seeds_needed`, also the entry's `stage_seeds_needed`); and
+  `adjusted_verdict` is then Holm's correction at every look on the design's p-values
+  (`stats.sequential_holm`), the one to quote.
 
 Motion smoothness. The paper says in words that LipVQ-VAE gives smoother motion (the
 abstract; Sec. IV-B on the real robot) but reports no number for it. Its claims here read

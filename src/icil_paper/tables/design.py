@@ -4,6 +4,8 @@ from the split of seed and episode variance, and what the run costs.
     python -m icil_paper.tables.design             # the arithmetic behind the reference preset
     check_design(preset, ledger)                   # rows with fewer seeds than the rule asks
     python -m icil_paper.tables.design --interim   # the rule against the seeds finished so far
+    python -m icil_paper.tables.design --stages    # seeds in stages: each claim's look and
+                                                   # the rows that go on to the next stage
 
 **The rule.** A claim is *decidable* when the ledger's power analysis (`seeds_needed`,
 `icil_paper.tables.claims`) says `DECIDABLE_SEEDS` seeds a row or fewer detect the paper's
