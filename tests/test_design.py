@@ -208,6 +208,8 @@ def test_the_stage_rule_sends_on_only_rows_of_undecided_claims_a_stage_can_decid
     assert ("IV", "icrt+lip-mlp") in plan["stop"]
     nothing = stage_plan(preset, [])
     assert not nothing["continue"] and nothing["stop"]
+    with pytest.raises(ValueError, match="seed_stages.*increasing"):  # OverrideError
+        smoke("tables.seed_stages=10,5")
 
 
 def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys):

@@ -319,7 +319,7 @@ class TablesConfig(_Checked):
         super().__post_init__()
         self.seeds_by_row()
         stages = self.seed_stages
-        if stages and (stages[0] < 2 or any(b <= a for a, b in zip(stages, stages[1:]))):
+        if stages and (stages[0] < 2 or any(b <= a for a, b in zip(stages[:-1], stages[1:], strict=True))):
             from icil_paper.config_data import ConfigError
 
             raise ConfigError(f"TablesConfig.seed_stages: {stages} should be increasing seed "
@@ -493,6 +493,12 @@ def _reference() -> Preset:
     (`python -m icil_paper.tables.design --interim`) put II-lipvq-best and II-lipvq-vs-lfq
     at 12 seeds needed, just above the rule's line, and an ACT cell on one ManiSkill task
     costs about 57 CPU-seconds, so their 60 extra cells cost about one CPU-hour.
+
+    Seeds in stages (`REFERENCE_SEED_STAGES`, `tables.seed_stages`): the seeds above are
+    what the fixed design planned; under the stage schedule the ledger looks at 5, 10 and
+    15 seeds a row with group-sequential boundaries, and
+    `python -m icil_paper.tables.design --preset reference --stages` says which rows go on
+    to the next stage (`row_seeds` entries of the next sitting).
 
     Episodes: a seed's true success varies by about 0.0016 (variance, the older records)
     against an episode variance of sum_t p_t (1 - p_t) / T^2 = 0.007 (ICRT + LipVQ-VAE) to

@@ -137,7 +137,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -1044,7 +1044,7 @@ def _boundaries(fractions: tuple[float, ...], alpha: float, spending: Spending) 
         if increment <= 0 or exit_(40.0) >= increment:
             out[k:] = np.inf  # nothing left to spend: no decision at this look
             break
-        out[k] = brentq(lambda c: exit_(c) - increment, 0.0, 40.0, xtol=1e-10)
+        out[k] = brentq(lambda c, inc=increment: exit_(c) - inc, 0.0, 40.0, xtol=1e-10)
         b = out[k] * root
         u = np.linspace(-b, b, _GRID)
         kernel = np.exp(-((u[:, None] - s[None, :]) ** 2) / (2 * sd * sd))
@@ -1073,7 +1073,7 @@ class SequentialDesign:
 
     def __post_init__(self):
         stages = tuple(int(s) for s in self.stages)
-        if not stages or stages[0] < 2 or any(b <= a for a, b in zip(stages, stages[1:])):
+        if not stages or stages[0] < 2 or any(b <= a for a, b in zip(stages[:-1], stages[1:], strict=True)):
             raise ValueError(f"stages must be increasing seed counts, each at least 2 (a "
                              f"variance needs two seeds), got {self.stages}")
         object.__setattr__(self, "stages", stages)
@@ -1149,14 +1149,11 @@ def sequential_estimate(estimate: Estimate, design: SequentialDesign, look: int)
     """`estimate` (computed on the first `design.stages[look]` seeds of each row) with its
     p-values (its components' too) replaced by the design's repeated p-values: what
     `decision_p_value` reads for the group-sequential test of one look."""
-    import dataclasses
-
     def swap(e: Estimate) -> Estimate:
         p = None if e.p_value is None else float(design.repeated_p_value(e.p_value, look))
-        return dataclasses.replace(e, p_value=p)
+        return replace(e, p_value=p)
 
-    return dataclasses.replace(swap(estimate),
-                               components=tuple(swap(c) for c in estimate.components))
+    return replace(swap(estimate), components=tuple(swap(c) for c in estimate.components))
 
 
 def sequential_p_value(looks: Sequence[Estimate], direction: int, design: SequentialDesign

@@ -50,7 +50,7 @@ from __future__ import annotations
 import json
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -548,8 +548,6 @@ def stage_design(preset: Preset) -> stats.SequentialDesign | None:
 
 def first_seeds(tables: dict[str, TableResult], seeds: int) -> dict[str, TableResult]:
     """The tables as they stood at a look: every cell's first `seeds` training seeds."""
-    from dataclasses import replace
-
     def cut(cell):
         if cell.data is None:
             return cell

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from collections import Counter, defaultdict
 from pathlib import Path
 from typing import Any
@@ -434,8 +435,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _print_stages(preset: Preset) -> int:
-    import sys
-
     from icil_paper.tables.claims import claims_ledger, stage_design
 
     design = stage_design(preset)
