@@ -231,3 +231,5 @@ def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys
     assert stages_paragraph(get_preset("smoke")) == ""
     assert main(["--preset", "smoke", "--stages"]) == 2
     assert "seed_stages" in capsys.readouterr().err
+    assert main(["--preset", "smoke", "--set", "tables.seed_stages=10,5", "--stages"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1  # one line, no traceback

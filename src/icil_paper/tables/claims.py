@@ -593,8 +593,8 @@ def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
         elif entry["verdict"] == "not run":
             entry["look"] = "not run"
         else:
-            if run and run[-1]:
-                entry["adjusted_verdict"] = "inconclusive"
+            if entry["adjusted_verdict"] in ("holds", "does not hold"):
+                entry["adjusted_verdict"] = "inconclusive"  # not at a look's boundary
             needs = record["needs"]
             if k < 0:
                 entry["look"] = (f"undecided at {seeds} seeds: before the first look "

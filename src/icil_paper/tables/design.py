@@ -403,7 +403,11 @@ def main(argv: list[str] | None = None) -> int:
                              "(tables.seed_stages) to the ledger of its records: each claim's "
                              "look, and which rows go on to the next stage")
     args = parser.parse_args(argv)
-    preset = preset_from_args(args)
+    try:
+        preset = preset_from_args(args)
+    except ValueError as exc:  # a bad --set or preset name: one line, no traceback
+        print(exc, file=sys.stderr)
+        return 2
     if args.stages:
         return _print_stages(preset)
     out = report(preset)
