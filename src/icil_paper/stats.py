@@ -105,7 +105,10 @@ look to look is its *repeated p-value* (ibid., Sec. 9.1): at look k, the smalles
 alpha' whose boundary c_k(alpha') the look's statistic crosses (`repeated_p_value`,
 tabulated over levels); the claim's p-value is the smallest over its looks so far
 (`sequential_p_value`). For every u, P(some look's repeated p-value <= u) <= u under no
-difference, whichever looks happen, so rows may stop or go on for any reason. A best-of-k
+difference, whichever looks happen, so rows may stop or go on for any reason. (The
+stage-wise ordering p-value, the other common choice, presumes that a trial ends at its
+first crossing; here a decided claim's rows may go on for another claim that shares them,
+and its later looks must not undo it.) A best-of-k
 claim combines its pairwise repeated p-values as `decision_p_value` does (the intersection-
 union maximum, or Bonferroni for "does not hold"). Holm's correction is applied to these
 p-values over the ledger at every look (`sequential_holm`): a claim is decided at the first
