@@ -251,3 +251,38 @@ def test_library_variance_matches_the_stage_rule_reading():
     est = paired_difference(x[0, :5], x[1, :5], scenes="per_seed")
     p, _ = _paired(x[None, 0].mean(axis=(2, 3)), x[None, 1].mean(axis=(2, 3)), 5)
     assert decision_p_value(est)[0] == pytest.approx(float(p[0]), rel=1e-9)
+
+
+def test_the_ledger_records_the_look_of_each_decision(monkeypatch):
+    """`claims._sequential`'s bookkeeping, on given running p-values: the look of each
+    decision (a claim whose rows stopped at 5 seeds can still be decided when Holm passes
+    it the alpha of a claim decided at 10), and for undecided claims whether their rows go
+    on or what they would need."""
+    from types import SimpleNamespace
+
+    from icil_paper import stats
+    from icil_paper.tables import claims as ledger_code
+
+    runs = {"a": [(0.3, "holds"), (1e-4, "holds")],            # decided at its second look
+            "b": [(0.015, "does not hold")],                    # rows stopped at 5 seeds
+            "c": [(0.5, "holds"), (0.4, "holds")],              # a stage can decide it
+            "d": [(0.5, "holds"), (0.4, "holds")]}              # beyond the schedule
+    monkeypatch.setattr(stats, "sequential_p_value",
+                        lambda looks, direction, design: runs[looks[0]][:len(looks)])
+    monkeypatch.setattr(stats, "decision_p_value", lambda e, d: (0.5, "holds"))
+    claims = [SimpleNamespace(direction=+1, compare=SimpleNamespace(estimate=lambda t, i=i: i))
+              for i in runs]
+    seeds = {"a": 10, "b": 5, "c": 10, "d": 10}
+    entries = [{"id": i, "seeds": {"x": seeds[i], "y": 12}, "verdict": "inconclusive",
+                "adjusted_verdict": "holds" if i == "d" else "inconclusive",
+                "stage_seeds_needed": 40 if i == "d" else 15} for i in runs]
+    ledger_code._sequential(claims, entries, {}, DESIGN)
+    a, b, c, d = entries
+    assert a["look"] == "decided at look 2 of 3 (10 seeds a row)"
+    assert a["sequential"]["decided_at"] == 10 and a["adjusted_verdict"] == "holds"
+    assert b["look"].startswith("decided at look 1 of 3 (5 seeds a row), after Holm's")
+    assert b["adjusted_verdict"] == "does not hold" and b["sequential"]["decided_at"] == 5
+    assert c["look"] == "undecided at 10 seeds (needs 15): continues to 15"
+    assert c["sequential"]["next"] == 15 and c["adjusted_verdict"] == "inconclusive"
+    assert d["look"] == "undecided at 10 seeds, needs 40" and d["sequential"]["next"] is None
+    assert d["adjusted_verdict"] == "inconclusive"  # the fixed design's Holm decides nothing

@@ -584,12 +584,18 @@ def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
                        "design_p_value": None if run[j] is None else run[j][0]}
                       for j in range(len(run))],
             "p_value": run[-1][0] if run and run[-1] else None,
-            "decided_at": None if k_dec is None else design.stages[k_dec],
-            "next": None, "needs": entry.get("stage_seeds_needed")}
+            "decided_at": None, "next": None, "needs": entry.get("stage_seeds_needed")}
         if k_dec is not None:
-            entry["adjusted_verdict"] = run[k_dec][1]
-            entry["look"] = (f"decided at look {k_dec + 1} of {last + 1} "
-                             f"({design.stages[k_dec]} seeds a row)")
+            # a claim whose rows stopped earlier is decided on its last look's data, at a
+            # later look of the ledger when Holm passed it the alpha of claims decided there
+            own = min(k_dec, k)
+            record["decided_at"] = design.stages[own]
+            entry["adjusted_verdict"] = run[own][1]
+            entry["look"] = (f"decided at look {own + 1} of {last + 1} "
+                             f"({design.stages[own]} seeds a row)")
+            if k_dec > own:
+                entry["look"] += (f", after Holm's correction at the ledger's look {k_dec + 1} "
+                                  f"({design.stages[k_dec]} seeds a row)")
         elif entry["verdict"] == "not run":
             entry["look"] = "not run"
         else:
