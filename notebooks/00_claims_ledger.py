@@ -121,9 +121,11 @@ for source, (p, ledger) in ledgers.items():
 # preset's docstring gives that arithmetic and the run's estimated cost.
 
 # %% tags=["remove-input"]
-from icil_paper.tables.design import design_frame
+from icil_paper.tables.design import design_frame, stages_paragraph
 
 display(design_frame(get_preset(REFERENCE)))
+reference_ledger = next(ledger for p, ledger in ledgers.values() if p.name == REFERENCE)
+display(Markdown(stages_paragraph(get_preset(REFERENCE), reference_ledger)))
 
 # %% [markdown]
 # ## What each claim compares

@@ -189,3 +189,47 @@ def test_the_interim_check_reads_every_row_at_the_seeds_finished_so_far(tmp_path
     assert interim_check(preset, store=store) == (0, None)  # nothing finished: no variance
     seeds, problems = interim_check(preset, seeds=2, store=store)
     assert seeds == 2 and problems == check_design(preset, {})  # no records: no power either
+
+
+def test_the_stage_rule_sends_on_only_rows_of_undecided_claims_a_stage_can_decide():
+    from icil_paper.tables.design import stage_plan
+
+    preset = smoke("tables.icrt_seeds=5", "tables.baseline_seeds=5", "tables.seed_stages=5,10,15")
+    ledger = [{"id": "I-tokenizer-gap", "sequential": {"next": 10}},   # undecided, decidable
+              {"id": "I-lipvq-vs-bc", "sequential": {"next": None}},   # decided
+              {"id": "I-lipvq-vs-lfq", "sequential": {"next": None}}]  # stops undecided
+    plan = stage_plan(preset, ledger)
+    assert plan["continue"]["I", "icrt+mlp"] == (10, ["I-tokenizer-gap"])
+    assert plan["continue"]["I", "icrt+lipvq"] == (10, ["I-tokenizer-gap"])
+    assert ("I", "bc_transformer") in plan["stop"] and ("I", "icrt+lfq") in plan["stop"]
+    # Table IV's MLP row trains Table I's runs: it goes on with them
+    seeds, why = plan["continue"]["IV", "icrt+mlp"]
+    assert seeds == 10 and why == ["runs of I:icrt+mlp"]
+    assert ("IV", "icrt+lip-mlp") in plan["stop"]
+    nothing = stage_plan(preset, [])
+    assert not nothing["continue"] and nothing["stop"]
+    with pytest.raises(ValueError, match="seed_stages.*increasing"):  # OverrideError
+        smoke("tables.seed_stages=10,5")
+
+
+def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys):
+    from icil_paper.tables.design import main, stages_paragraph
+
+    preset = get_preset("reference")
+    assert preset.tables.seed_stages == (5, 10, 15)
+    ledger = json.loads((ROOT / "results" / "reference" / "claims.json").read_text())["claims"]
+    for e in ledger:
+        seq, look = e["sequential"], e["look"]
+        decided = e["adjusted_verdict"] in ("holds", "does not hold")
+        assert decided == look.startswith("decided at look") == (seq["decided_at"] is not None)
+        if decided:  # decided at its boundary: the design's p-value is below the level
+            assert seq["p_value"] <= 0.05 and seq["decided_at"] in seq["stages"]
+        elif e["verdict"] != "not run":
+            assert look.startswith(f"undecided at {seq['seeds'] if seq['seeds'] < 15 else 15}")
+    text = stages_paragraph(preset, ledger)
+    assert "O'Brien-Fleming" in text and "repeated p-value" in text and "claims are decided" in text
+    assert stages_paragraph(get_preset("smoke")) == ""
+    assert main(["--preset", "smoke", "--stages"]) == 2
+    assert "seed_stages" in capsys.readouterr().err
+    assert main(["--preset", "smoke", "--set", "tables.seed_stages=10,5", "--stages"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1  # one line, no traceback

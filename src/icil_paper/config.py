@@ -305,11 +305,25 @@ class TablesConfig(_Checked):
     (evaluation seed `seed` + k), so that scene luck averages out over seeds and two rows
     are paired by seed index; False evaluates every seed on the same scenes
     (`icil_paper.stats` explains both)."""
+    seed_stages: tuple[int, ...] = ()
+    """Seeds in stages: the seeds a row has at each look of the group-sequential design
+    (`stats.SequentialDesign`, O'Brien-Fleming-type alpha spending), e.g. (5, 10, 15): the
+    ledger decides a claim only at a look's boundary, Holm's correction reads the design's
+    repeated p-values, and after each look the rows of claims that are all decided stop,
+    rows of undecided claims that a later stage can decide at the paper's effect go on to
+    the next stage, and the others stop (`python -m icil_paper.tables.design --stages`
+    prints which). Empty: a fixed design, every claim read once at the seeds it has."""
 
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self.seeds_by_row()
+        stages = self.seed_stages
+        if stages and (stages[0] < 2 or any(b <= a for a, b in zip(stages[:-1], stages[1:], strict=True))):
+            from icil_paper.config_data import ConfigError
+
+            raise ConfigError(f"TablesConfig.seed_stages: {stages} should be increasing seed "
+                              "counts, each at least 2, e.g. 5,10,15")
 
     def seeds_by_row(self) -> dict[str, int]:
         """`row_seeds` as {"TABLE:row": seeds} (ConfigError for an entry not "TABLE:row=N"
@@ -444,6 +458,18 @@ but MCR has the preset's 10 (`icrt_seeds`, `baseline_seeds`), as have the rows t
 their runs (Tables III-VI, the paper's rows of `official` and `beyond`)."""
 
 
+REFERENCE_SEED_STAGES = (5, 10, 15)
+"""The reference preset's looks (`TablesConfig.seed_stages`): 5 seeds a row, then up to 10,
+then up to 15. At the measured seed spread (a per-seed standard deviation of about 0.05 in
+kitchen success plus 0.04-0.05 of episode noise at 11 tasks x 5 episodes) a difference of
+two rows has a 95% half-width of about 0.12 at 5 seeds, 0.07 at 10 and 0.05 at 15: large
+effects (the +0.36 of ICRT + LipVQ-VAE over BC-Transformer) are decided at 5 or 10, the
+paper's 5-9-point gaps need the last stage, and its 0.2-4-point ones stop where they are
+with the seeds they would need in the ledger. O'Brien-Fleming-type spending keeps the last
+look's level at 0.044 (against 0.05 for a single look), so a claim that runs to 15 seeds
+loses little power for the early looks (`stats.SequentialDesign`)."""
+
+
 def _reference() -> Preset:
     """The committed reference run: designed from power so that its claims can be decided,
     at a cost meant to fit in ten hours of a 2-core machine at two cells at a time.
@@ -467,6 +493,12 @@ def _reference() -> Preset:
     (`python -m icil_paper.tables.design --interim`) put II-lipvq-best and II-lipvq-vs-lfq
     at 12 seeds needed, just above the rule's line, and an ACT cell on one ManiSkill task
     costs about 57 CPU-seconds, so their 60 extra cells cost about one CPU-hour.
+
+    Seeds in stages (`REFERENCE_SEED_STAGES`, `tables.seed_stages`): the seeds above are
+    what the fixed design planned; under the stage schedule the ledger looks at 5, 10 and
+    15 seeds a row with group-sequential boundaries, and
+    `python -m icil_paper.tables.design --preset reference --stages` says which rows go on
+    to the next stage (`row_seeds` entries of the next sitting).
 
     Episodes: a seed's true success varies by about 0.0016 (variance, the older records)
     against an episode variance of sum_t p_t (1 - p_t) / T^2 = 0.007 (ICRT + LipVQ-VAE) to
@@ -513,7 +545,8 @@ def _reference() -> Preset:
                             feature_demos_per_task=1, maniskill_demos_per_task=40,
                             maniskill_steps=5000, maniskill_episodes_per_task=10,
                             since_paper_seeds=5, official_seeds=5,
-                            row_seeds=REFERENCE_ROW_SEEDS, scenes_per_seed=True),
+                            row_seeds=REFERENCE_ROW_SEEDS, scenes_per_seed=True,
+                            seed_stages=REFERENCE_SEED_STAGES),
     )
 
 

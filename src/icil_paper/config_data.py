@@ -366,7 +366,8 @@ def check_range(path: str, value: Any, annotation: Any = None,
             raise error(f"{path} is a fraction and must be below 1, got {v}")
 
 
-EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks", "row_seeds"})
+EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks", "row_seeds",
+                           "seed_stages"})
 """Tuple fields that may be empty (an MLP without hidden layers, a preset without ManiSkill
 tasks, no row with seeds of its own); every other tuple field, and every string field, needs a value."""
 

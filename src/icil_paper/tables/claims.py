@@ -23,7 +23,15 @@ Its `paper` value is computed from the paper's own numbers (`icil_paper.paper_nu
   row that detect it with 80% power, from the measured per-seed variances
   (a one-seed row borrows the pooled variance of its table's multi-seed rows, else of the
   ledger's; `variance_from` says which);
-- `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`.
+- `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`;
+- with seeds in stages (a preset's `tables.seed_stages`, `stats.SequentialDesign`): `look`,
+  in words, the look at which the claim was decided ("decided at look 2 of 3 (10 seeds a
+  row)") or "undecided at N seeds, needs M" (and whether its rows go on); `sequential`,
+  each look's seeds, t-test p-value and the design's running repeated p-value, the
+  claim's p-value, `decided_at` (seeds a row), `next` (the stage its rows go on to, else
+  None) and `needs` (`stage_seeds_needed`, also the entry's `stage_seeds_needed`); and
+  `adjusted_verdict` is then Holm's correction at every look on the design's p-values
+  (`stats.sequential_holm`), the one to quote.
 
 Motion smoothness. The paper says in words that LipVQ-VAE gives smoother motion (the
 abstract; Sec. IV-B on the real robot) but reports no number for it. Its claims here read
@@ -42,7 +50,7 @@ from __future__ import annotations
 import json
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -427,7 +435,8 @@ def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], f
 
 
 def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult],
-           pooled: dict[tuple[str, str], float], paper_value: float | None) -> dict[str, Any]:
+           pooled: dict[tuple[str, str], float], paper_value: float | None,
+           design: stats.SequentialDesign | None = None) -> dict[str, Any]:
     """mde, seeds_needed and where each row's seed variance came from (see the module
     docstring). Best of k: planned against the closest other row (smallest pairwise margin
     on the claimed side), the comparison that decides the intersection test."""
@@ -465,6 +474,10 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
         if min(seeds) >= 2:
             out["power"] = stats.power_at(*variances, *seeds, paper_value)
         out["seeds_needed"] = stats.seeds_needed(*variances, paper_value, max_seeds=MAX_SEEDS)
+        if design is not None:
+            needed = stats.stage_seeds_needed(*variances, paper_value, design,
+                                              max_seeds=MAX_SEEDS)
+            out["stage_seeds_needed"] = None if np.isnan(needed) else int(needed)
         if out["seeds_needed"] is None:
             out["power_note"] = (f"the paper's effect ({paper_value:+.3g}) would need more than "
                                  f"{MAX_SEEDS} seeds a row")
@@ -474,7 +487,8 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
 
 
 def _evaluate(claim: Claim, tables: dict[str, TableResult],
-              pooled: dict[tuple[str, str], float]) -> tuple[dict[str, Any], Any]:
+              pooled: dict[tuple[str, str], float],
+              design: stats.SequentialDesign | None = None) -> tuple[dict[str, Any], Any]:
     """One ledger entry (the claim, the paper's number, ours with its interval, the verdict,
     the size reading and the power) and its estimate (None when not run), from which the
     ledger adds the Holm-adjusted verdict."""
@@ -501,7 +515,7 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
                  verdict=stats.verdict(estimate, direction=claim.direction),
                  magnitude=(None if paper_value is None else
                             stats.magnitude(estimate, claim.direction, paper_value, margin_)),
-                 **_power(claim, estimate, tables, pooled, paper_value))
+                 **_power(claim, estimate, tables, pooled, paper_value, design))
     return entry, estimate
 
 
@@ -513,11 +527,97 @@ def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[dic
     needed = {c.table for c in all_claims} | {"I"}
     tables = {t: assemble(table_spec(preset, t), store) for t in sorted(needed)}
     pooled = _pooled_variances(tables)
-    entries, estimates = zip(*(_evaluate(c, tables, pooled) for c in all_claims), strict=True)
+    design = stage_design(preset)
+    entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in all_claims),
+                             strict=True)
     adjusted = stats.adjusted_verdicts(estimates, [c.direction for c in all_claims])
     for entry, verdict in zip(entries, adjusted, strict=True):
         entry["adjusted_verdict"] = verdict
+    if design is not None:
+        _sequential(all_claims, list(entries), tables, design)
     return list(entries)
+
+
+# --------------------------------------------------------------------------- seeds in stages
+def stage_design(preset: Preset) -> stats.SequentialDesign | None:
+    """The preset's group-sequential design (`TablesConfig.seed_stages`), None for a fixed
+    design."""
+    stages = preset.tables.seed_stages
+    return stats.SequentialDesign(tuple(stages)) if stages else None
+
+
+def first_seeds(tables: dict[str, TableResult], seeds: int) -> dict[str, TableResult]:
+    """The tables as they stood at a look: every cell's first `seeds` training seeds."""
+    def cut(cell):
+        if cell.data is None:
+            return cell
+        return replace(cell, data=cell.data[:seeds],
+                       motion={m: v[:seeds] for m, v in cell.motion.items()})
+
+    return {t: replace(r, cells={k: cut(c) for k, c in r.cells.items()})
+            for t, r in tables.items()}
+
+
+def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
+                tables: dict[str, TableResult], design: stats.SequentialDesign) -> None:
+    """Add each entry's `sequential` record and `look`, and replace `adjusted_verdict` by
+    the group-sequential Holm verdict (`stats.sequential_holm` on the repeated p-values
+    of every look the claim's rows have reached; module docstring of `icil_paper.stats`)."""
+    at_look = {n: first_seeds(tables, n) for n in design.stages}
+    runs: list[list] = []
+    nominal: list[list] = []
+    for claim, entry in zip(all_claims, entries, strict=True):
+        seeds = min((entry.get("seeds") or {}).values(), default=0)
+        looks = [] if entry["verdict"] == "not run" else [
+            claim.compare.estimate(at_look[n]) for n in design.stages if n <= seeds]
+        runs.append(stats.sequential_p_value(looks, claim.direction, design))
+        nominal.append([stats.decision_p_value(e, claim.direction) for e in looks])
+    decided = stats.sequential_holm([[None if t is None else t[0] for t in r] for r in runs])
+    last = len(design.stages) - 1
+    for entry, run, nom, k_dec in zip(entries, runs, nominal, decided, strict=True):
+        seeds = min((entry.get("seeds") or {}).values(), default=0)
+        k = len(run) - 1  # the last look reached (-1: none)
+        record: dict[str, Any] = {
+            "stages": list(design.stages), "seeds": seeds,
+            "looks": [{"seeds": design.stages[j],
+                       "p_value": None if nom[j] is None else nom[j][0],
+                       "design_p_value": None if run[j] is None else run[j][0]}
+                      for j in range(len(run))],
+            "p_value": run[-1][0] if run and run[-1] else None,
+            "decided_at": None, "next": None, "needs": entry.get("stage_seeds_needed")}
+        if k_dec is not None:
+            # a claim whose rows stopped earlier is decided on its last look's data, at a
+            # later look of the ledger when Holm passed it the alpha of claims decided there
+            own = min(k_dec, k)
+            record["decided_at"] = design.stages[own]
+            entry["adjusted_verdict"] = run[own][1]
+            entry["look"] = (f"decided at look {own + 1} of {last + 1} "
+                             f"({design.stages[own]} seeds a row)")
+            if k_dec > own:
+                entry["look"] += (f", after Holm's correction at the ledger's look {k_dec + 1} "
+                                  f"({design.stages[k_dec]} seeds a row)")
+        elif entry["verdict"] == "not run":
+            entry["look"] = "not run"
+        else:
+            if entry["adjusted_verdict"] in ("holds", "does not hold"):
+                entry["adjusted_verdict"] = "inconclusive"  # not at a look's boundary
+            needs = record["needs"]
+            if k < 0:
+                entry["look"] = (f"undecided at {seeds} seeds: before the first look "
+                                 f"({design.stages[0]} seeds a row)")
+                record["next"] = design.stages[0]
+            elif k < last and needs is not None and needs <= design.stages[-1]:
+                record["next"] = design.stages[k + 1]
+                planned = (f"needs {needs}" if needs > design.stages[k] else
+                           f"80% power at the paper's effect from {needs}")
+                entry["look"] = (f"undecided at {design.stages[k]} seeds ({planned}): "
+                                 f"continues to {design.stages[k + 1]}")
+            elif needs is not None:
+                entry["look"] = f"undecided at {design.stages[k]} seeds, needs {needs}"
+            else:
+                entry["look"] = (f"undecided at {design.stages[k]} seeds, "
+                                 f"{entry.get('power_note') or 'needs more than ' + str(MAX_SEEDS)}")
+        entry["sequential"] = record
 
 
 def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:

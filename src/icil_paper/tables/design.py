@@ -4,6 +4,8 @@ from the split of seed and episode variance, and what the run costs.
     python -m icil_paper.tables.design             # the arithmetic behind the reference preset
     check_design(preset, ledger)                   # rows with fewer seeds than the rule asks
     python -m icil_paper.tables.design --interim   # the rule against the seeds finished so far
+    python -m icil_paper.tables.design --stages    # seeds in stages: each claim's look and
+                                                   # the rows that go on to the next stage
 
 **The rule.** A claim is *decidable* when the ledger's power analysis (`seeds_needed`,
 `icil_paper.tables.claims`) says `DECIDABLE_SEEDS` seeds a row or fewer detect the paper's
@@ -27,7 +29,8 @@ from __future__ import annotations
 
 import json
 import math
-from collections import defaultdict
+import sys
+from collections import Counter, defaultdict
 from pathlib import Path
 from typing import Any
 
@@ -306,6 +309,84 @@ def interim_check(preset: Preset, seeds: int | None = None, store=None
     return seeds, check_design(preset, {e["id"]: e for e in ledger})
 
 
+# --------------------------------------------------------------------------- stages
+def stage_plan(preset: Preset, ledger: list[dict[str, Any]]) -> dict[str, Any]:
+    """The stage rule applied to a ledger computed with the preset's `seed_stages`
+    (`claims_ledger`): which rows go on to the next stage and which stop.
+
+    A row goes on when a claim that reads it is undecided and a stage of the schedule can
+    decide it at the paper's effect (its entry's `sequential["next"]`); every other row
+    stops where it is (its claims all decided, or undecided with the seeds they would need
+    in the ledger's `look`). Returns {"continue": {(table, row): (next seeds, [claim ids])},
+    "stop": {(table, row): [claim ids]}}; rows no claim reads are in neither."""
+    by_id = {e["id"]: e for e in ledger}
+    go: dict[tuple[str, str], tuple[int, list[str]]] = {}
+    readers: dict[tuple[str, str], list[str]] = defaultdict(list)
+    for claim_id, rows in claim_rows(preset).items():
+        entry = by_id.get(claim_id, {})
+        nxt = (entry.get("sequential") or {}).get("next")
+        for row in rows:
+            readers[row].append(claim_id)
+            if nxt:
+                seeds, ids = go.get(row, (0, []))
+                go[row] = (max(seeds, nxt), [*ids, claim_id])
+    # A row that trains the same runs as a row that goes on (Table I's policies are
+    # evaluated again for Tables III-VI) goes on with it.
+    runs = {row: _first_runs(preset, *row) for row in readers}
+    direct = dict(go)
+    for row in readers:
+        if row in go:
+            continue
+        shared = [(other, direct[other]) for other in direct if runs[row] & runs[other]]
+        if shared:
+            go[row] = (max(s for _, (s, _) in shared),
+                       [f"runs of {t}:{r}" for (t, r), _ in shared])
+    return {"continue": go,
+            "stop": {row: ids for row, ids in readers.items() if row not in go}}
+
+
+def _first_runs(preset: Preset, table: str, row: str) -> frozenset[str]:
+    """The keys of a row's first training seed's runs."""
+    spec = table_spec(preset, table).row(row)
+    return frozenset(u.run.key() for cell in spec.cells.values() for u in cell.units
+                     if u.seed_index == 0)
+
+
+def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None) -> str:
+    """The method of seeds in stages in a few sentences, for chapter 0; with a ledger
+    computed under the preset's stages, what it decided at each look and which claims go
+    on. Empty for a preset without stages."""
+    from icil_paper.tables.claims import stage_design
+
+    design = stage_design(preset)
+    if design is None:
+        return ""
+    text = (f"Seeds are allocated in stages: {design.describe()}. Each claim's p-value is "
+            "the design's repeated p-value, the smallest level at whose boundary one of its "
+            "looks so far would have decided it (Jennison and Turnbull 2000, Sec. 9.1), and "
+            "Holm's correction over the ledger is applied to these at every look, so a "
+            "claim decided early stays decided and the 5% familywise level holds whichever "
+            "rows go on (Maurer and Bretz 2013). After a look, rows whose claims are all "
+            "decided stop; rows of an undecided claim go on to the next stage when the "
+            "measured per-seed variances give a stage of the schedule 80% power at its "
+            "boundary against the paper's effect; the others stop, and the ledger says how "
+            "many seeds a row they would need.")
+    if not ledger:
+        return text
+    seq = [e for e in ledger if e.get("sequential")]
+    decided = Counter(e["sequential"]["decided_at"] for e in seq
+                      if e["sequential"]["decided_at"] is not None)
+    going = [e["id"] for e in seq if e["sequential"]["next"]]
+    looks = "; ".join(f"{decided[n]} at {n} seeds a row" for n in design.stages if decided[n])
+    stopped = len(seq) - sum(decided.values()) - len(going)
+    text += (f" In this ledger {sum(decided.values())} of {len(ledger)} claims are decided"
+             + (f" ({looks})" if looks else "") + f"; {len(going)} undecided "
+             f"{'claim goes' if len(going) == 1 else 'claims go'} on to the next stage"
+             + (f" ({', '.join(going)})" if going else "")
+             + f", and {stopped} stop undecided.")
+    return text
+
+
 def main(argv: list[str] | None = None) -> int:
     import argparse
 
@@ -317,8 +398,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--interim", action="store_true",
                         help="also check the rule against a ledger of the seeds every claim's "
                              "rows have finished so far (a preview: which rows to top up)")
+    parser.add_argument("--stages", action="store_true",
+                        help="apply the stage rule of the preset's seed stages "
+                             "(tables.seed_stages) to the ledger of its records: each claim's "
+                             "look, and which rows go on to the next stage")
     args = parser.parse_args(argv)
-    preset = preset_from_args(args)
+    try:
+        preset = preset_from_args(args)
+    except ValueError as exc:  # a bad --set or preset name: one line, no traceback
+        print(exc, file=sys.stderr)
+        return 2
+    if args.stages:
+        return _print_stages(preset)
     out = report(preset)
     for c in out["claims"]:
         print(f"{c['id']:<38} needed {str(c['seeds_needed']):>5}  required {c['required']:>2}  "
@@ -344,6 +435,28 @@ def main(argv: list[str] | None = None) -> int:
                       f"verdict {e.get('verdict')}")
             for line in problems:
                 print("  top up:", line)
+    return 0
+
+
+def _print_stages(preset: Preset) -> int:
+    from icil_paper.tables.claims import claims_ledger, stage_design
+
+    design = stage_design(preset)
+    if design is None:
+        print(f"preset {preset.name!r} has no seed stages: set them, e.g. "
+              "--set tables.seed_stages=5,10,15", file=sys.stderr)
+        return 2
+    ledger = claims_ledger(preset)
+    print(design.describe())
+    for e in ledger:
+        p = (e.get("sequential") or {}).get("p_value")
+        print(f"  {e['id']:<38} {e['adjusted_verdict']:<14} design p "
+              f"{'-' if p is None else f'{p:.3g}':>9}  {e.get('look', '')}")
+    plan = stage_plan(preset, ledger)
+    for (table, row), (seeds, ids) in sorted(plan["continue"].items()):
+        print(f"continue  {table}:{row} to {seeds} seeds  ({', '.join(ids)})")
+    for (table, row), ids in sorted(plan["stop"].items()):
+        print(f"stop      {table}:{row}  ({', '.join(ids)})")
     return 0
 
 

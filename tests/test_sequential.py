@@ -1,0 +1,288 @@
+"""Seeds in stages: the group-sequential design spends its alpha as planned, its repeated
+p-values invert its boundaries, and the whole procedure (looks, Holm at every look, rows
+that stop or go on by the stage rule) decides at most about 5% of claims with no true
+difference while detecting a true +0.10 with fewer seeds, on average, than a fixed design
+of the same power.
+
+The simulated rows follow the reference run's kitchen design and measured spreads: 11 tasks
+x 5 episodes per seed, a training seed that shifts every task's rate (spread 0.05), scenes
+per seed index (seed k of every row on scene set k, difficulty spread 0.2), so that a
+claim's test is the paired t on per-seed differences (`stats.paired_difference` with
+scenes="per_seed"). The per-look t-tests are vectorised over trials here; a test checks
+that they, and the claims' p-values, equal the library's on individual trials.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import t as student
+
+from icil_paper.stats import (
+    ALPHA,
+    SequentialDesign,
+    decision_p_value,
+    holm,
+    paired_difference,
+    paired_margin,
+    seed_variance,
+    sequential_holm,
+    sequential_p_value,
+    spent_alpha,
+    stage_seeds_needed,
+)
+
+TASK_RATES = np.array([0.0, 0.0, 0.1, 0.3, 0.4, 0.5, 0.6, 0.7, 0.9, 1.0, 1.0])
+EPISODES = 5
+SEED_SPREAD = 0.05
+SCENE_SPREAD = 0.2
+DESIGN = SequentialDesign((5, 10, 15))
+
+
+def _outcomes(rng, trials: int, shifts, seeds: int = 15) -> np.ndarray:
+    """Bools (trials, rows, seeds, tasks, episodes); scene sets shared by seed index."""
+    shifts = np.asarray(shifts, dtype=np.float32)[None, :, None, None, None]
+    scene = rng.normal(0, SCENE_SPREAD, (trials, 1, seeds, len(TASK_RATES), EPISODES))
+    seed = rng.normal(0, SEED_SPREAD, (trials, len(shifts[0]), seeds, 1, 1))
+    p = np.clip(TASK_RATES[None, None, None, :, None] + shifts + seed + scene, 0, 1)
+    return rng.random(p.shape, dtype=np.float32) < p
+
+
+def _paired(va: np.ndarray, vb: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Two-sided paired-t p-values and signs of a - b on the first n seeds, (trials,)."""
+    d = va[:, :n] - vb[:, :n]
+    stat = d.mean(1) / (d.std(1, ddof=1) / np.sqrt(n))
+    return 2 * student.sf(np.abs(stat), n - 1), np.sign(d.mean(1))
+
+
+def _simulate(outcomes: np.ndarray, claims, effects, design: SequentialDesign = DESIGN):
+    """The whole procedure on every trial. claims: (a, (others...)) row indices, claimed
+    above 0 (one other: a difference; several: best of k). effects: each claim's planning
+    effect (the stage rule's "paper's effect"). Returns (sides (trials, claims): +1 holds,
+    -1 does not hold, 0 undecided; decided look (trials, claims), -1 undecided; the rows'
+    final seeds (trials, rows); the running p-values (trials, claims, looks))."""
+    v = outcomes.mean(axis=(3, 4))  # (trials, rows, seeds): per-seed values
+    trials, rows, _ = v.shape
+    C, K = len(claims), len(design.stages)
+    row_seeds = np.full((trials, rows), design.stages[0])
+    running = np.full((trials, C), np.inf)
+    run_side = np.zeros((trials, C))
+    p_by_look = np.full((trials, C, K), np.nan)
+    side = np.zeros((trials, C))
+    look = np.full((trials, C), -1)
+    for k, n in enumerate(design.stages):
+        for c, (a, others) in enumerate(claims):
+            looked = row_seeds[:, [a, *others]].min(1) >= n
+            tests = [_paired(v[:, a], v[:, o], n) for o in others]
+            r = np.stack([design.repeated_p_value(p, k) for p, _ in tests])  # (others, trials)
+            signs = np.stack([s for _, s in tests])
+            if len(others) == 1:
+                p, s = r[0], signs[0]
+            else:  # `decision_p_value`: intersection-union max, or Bonferroni
+                p_hold = np.where((signs > 0).all(0), r.max(0), 1.0)
+                p_against = np.minimum(1.0, len(others) * np.where(signs <= 0, r, np.inf).min(0))
+                p, s = np.minimum(p_hold, p_against), np.where(p_hold <= p_against, 1.0, -1.0)
+            better = looked & (p < running[:, c])
+            running[better, c], run_side[better, c] = p[better], s[better]
+        p_by_look[:, :, k] = running
+        for i in range(trials):  # Holm over the claims at this look (the library's)
+            rejected = holm([None if not np.isfinite(p) else p for p in running[i]])
+            for c in np.flatnonzero(rejected):
+                if look[i, c] < 0:
+                    look[i, c], side[i, c] = k, run_side[i, c]
+        if k == K - 1:
+            break
+        grow = np.zeros((trials, rows), dtype=bool)
+        for c, (a, others) in enumerate(claims):
+            seen = row_seeds[:, [a, *others]].min(1) >= n
+            tests = [_paired(v[:, a], v[:, o], n) for o in others]
+            closest = np.argmin(np.stack([v[:, a, :n].mean(1) - v[:, o, :n].mean(1)
+                                          for o in others]), axis=0)
+            vb = np.stack([v[:, o, :n].var(1, ddof=1) for o in others])[closest,
+                                                                         np.arange(trials)]
+            needs = stage_seeds_needed(v[:, a, :n].var(1, ddof=1), vb, effects[c], design)
+            go = seen & (look[:, c] < 0) & (needs <= design.stages[-1])
+            grow[:, [a, *others]] |= go[:, None]
+        row_seeds = np.where(grow & (row_seeds >= n), design.stages[k + 1], row_seeds)
+    return side, look, row_seeds, p_by_look
+
+
+# ------------------------------------------------------------------------------ the design
+
+@pytest.mark.parametrize("spending", ["obf", "pocock"])
+def test_boundaries_spend_the_planned_alpha_at_each_look(spending):
+    design = SequentialDesign((5, 10, 15), spending=spending)
+    c = design.boundaries()
+    rng = np.random.default_rng(0)
+    t = np.asarray(design.fractions)
+    steps = rng.normal(size=(200_000, 3)) * np.sqrt(np.diff(np.r_[0.0, t]))
+    z = steps.cumsum(1) / np.sqrt(t)  # the looks' z statistics under no difference
+    cross = np.abs(z) >= c
+    first = np.where(cross.any(1), cross.argmax(1), -1)
+    planned = np.diff(np.r_[0.0, spent_alpha(t, ALPHA, spending)])
+    for k in range(3):
+        share = np.mean(first == k)
+        assert abs(share - planned[k]) < 4 * np.sqrt(planned[k] / 200_000) + 1e-4, (k, share)
+    assert np.mean(first >= 0) == pytest.approx(ALPHA, abs=0.002)
+    if spending == "obf":  # the first look is the normal quantile at the spent alpha
+        assert c[0] == pytest.approx(1.959964 / np.sqrt(1 / 3), rel=1e-6)
+        assert c[0] > c[1] > c[2] > 1.96  # strict early, close to a single look's at the end
+        assert design.nominal_levels()[-1] > 0.04
+    else:
+        assert np.ptp(c) < 0.05  # Pocock: about the same boundary at every look
+
+
+def test_repeated_p_values_invert_the_boundaries():
+    for level in (1e-4, 0.001, 0.01, ALPHA, 0.2):
+        nominal = DESIGN.nominal_levels(level)
+        for k in range(3):
+            assert DESIGN.repeated_p_value(nominal[k], k) == pytest.approx(level, rel=1e-3)
+    p = np.geomspace(1e-12, 1, 50)
+    for k in range(3):
+        r = DESIGN.repeated_p_value(p, k)
+        assert (np.diff(r) >= 0).all() and (r >= p * (1 - 1e-9)).all()  # never below nominal
+    assert DESIGN.repeated_p_value(0.9, 2) == 1.0
+    assert DESIGN.look_of(4) is None and DESIGN.look_of(12) == 1 and DESIGN.look_of(15) == 2
+    with pytest.raises(ValueError, match="increasing"):
+        SequentialDesign((5, 5, 10))
+    with pytest.raises(ValueError, match="spending"):
+        SequentialDesign((5, 10), spending="haybittle")
+
+
+def test_holm_at_every_look_passes_alpha_on():
+    # Look 0: 0.001 <= 0.05/2 is rejected, 0.04 is not; look 1: 0.04 <= 0.05/1.
+    assert sequential_holm([[0.001, 0.001], [0.3, 0.04]]) == [0, 1]
+    # A running p-value never rises, and a claim with fewer looks carries its last one.
+    assert sequential_holm([[0.01], [0.3, 0.2, 0.02]]) == [0, 2]
+    assert sequential_holm([[0.2, 0.2], [None, None]]) == [None, None]
+
+
+def test_stage_seeds_needed_reads_the_boundaries():
+    var = 0.0045  # a row's per-seed variance at the measured spreads
+    needs = stage_seeds_needed([var, var, var], [var, var, var], [0.10, 0.05, 0.3], DESIGN)
+    assert needs[2] == 5 and needs[0] in (10, 15) and needs[1] > 15
+    # past the last stage it is `seeds_needed` at the last look's level
+    from icil_paper.stats import seeds_needed
+
+    level = 1 - DESIGN.nominal_levels()[-1]
+    assert needs[1] == seeds_needed(var, var, 0.05, level=level)
+    assert np.isnan(stage_seeds_needed(var, var, 0.0, DESIGN))
+
+
+# ------------------------------------------------------------------ the whole procedure
+
+def test_the_simulation_computes_what_the_library_computes():
+    """The vectorised t-tests, repeated p-values, best-of-k combination and Holm equal
+    `paired_difference`/`paired_margin` + `sequential_p_value` + `sequential_holm`."""
+    rng = np.random.default_rng(5)
+    x = _outcomes(rng, 6, [0.06, 0.0, 0.0, 0.03])
+    claims = [(0, (1,)), (3, (2,)), (0, (1, 2, 3))]
+    side, look, _, p_by_look = _simulate(x, claims, [1.0, 1.0, 1.0])  # every row goes on
+    for i in range(len(x)):
+        runs = []
+        for c, (a, others) in enumerate(claims):
+            looks = []
+            for n in DESIGN.stages:
+                rows = [x[i, r, :n] for r in others]
+                looks.append(paired_difference(x[i, a, :n], rows[0], scenes="per_seed")
+                             if len(rows) == 1 else
+                             paired_margin(x[i, a, :n], rows, scenes="per_seed"))
+            run = sequential_p_value(looks, +1, DESIGN)
+            runs.append([p for p, _ in run])
+            np.testing.assert_allclose([p for p, _ in run], p_by_look[i, c], rtol=1e-9)
+        decided = sequential_holm(runs)
+        assert [-1 if d is None else d for d in decided] == list(look[i])
+
+
+@pytest.mark.parametrize("effect", [0.07, 1.0])
+def test_no_difference_is_decided_at_most_about_five_percent(effect):
+    """One claim, two rows, no true difference: through the looks at 5, 10 and 15 seeds,
+    with rows that stop when the stage rule says the paper's effect (`effect`; 1.0: every
+    row goes on, the worst case) cannot be decided."""
+    rng = np.random.default_rng(11)
+    side, look, seeds, _ = _simulate(_outcomes(rng, 3000, [0.0, 0.0]), [(0, (1,))], [effect])
+    holds, against = np.mean(side == 1), np.mean(side == -1)
+    assert holds + against <= 0.065 and holds <= 0.035 and against <= 0.035, (holds, against)
+    if effect == 1.0:
+        assert holds + against >= 0.03  # calibrated, not merely conservative
+        assert (seeds[look[:, 0] < 0] == 15).all()  # undecided rows went on to the end
+    else:
+        assert 0.2 < np.mean(seeds[:, 0] < 15) < 1, np.mean(seeds[:, 0] < 15)  # some stop early
+
+
+def test_holm_over_a_ledger_keeps_the_familywise_level():
+    """Table I's shape: LipVQ-VAE against five other rows (five differences and the best
+    of k), one of them truly 0.3 worse: Holm at every look passes that claim's alpha on to
+    the others, and a decision on any claim with no true difference (or against the truth)
+    happens in at most about 5% of ledgers."""
+    rng = np.random.default_rng(12)
+    x = _outcomes(rng, 1500, [0.0, -0.3, 0.0, 0.0, 0.0, 0.0])
+    claims = [(0, (1,)), (0, (2,)), (0, (3,)), (0, (4,)), (0, (5,)), (0, (1, 2, 3, 4, 5))]
+    side, look, seeds, _ = _simulate(x, claims, [0.1] * 6)
+    assert np.mean(side[:, 0] == 1) > 0.95  # the true difference is decided
+    wrong = (side[:, 1:] != 0).any(1) | (side[:, 0] == -1)
+    assert wrong.mean() <= 0.065, wrong.mean()
+    assert np.mean((look[:, 0] >= 0) & (look[:, 0] <= 1)) > 0.9  # by 10 seeds a row
+
+
+def test_a_true_ten_point_difference_holds_with_fewer_seeds_than_a_fixed_design():
+    rng = np.random.default_rng(13)
+    x = _outcomes(rng, 3000, [0.14, 0.0])
+    v = x.mean(axis=(3, 4))
+    true = float((v[:, 0] - v[:, 1]).mean())
+    assert 0.09 < true < 0.11  # tasks at 0 or 1 clip part of the shift: +0.10 remains
+    side, look, seeds, _ = _simulate(x, [(0, (1,))], [0.10])
+    power = np.mean(side == 1)
+    assert power >= 0.8 and np.mean(side == -1) == 0, power
+    expected = seeds.mean()
+    # the fixed design of the same power: the fewest seeds whose single look at 5% reaches
+    # it on the same simulated rows (16: more than the 15 simulated)
+    fixed = next((n for n in range(5, 16)
+                  if np.mean(_paired(v[:, 0], v[:, 1], n)[0] <= ALPHA) >= power), 16)
+    print(f"power {power:.3f}, expected seeds a row {expected:.2f}, fixed design {fixed}")
+    assert expected < fixed and expected < 15, (expected, fixed, power)
+    assert np.mean((look >= 0) & (look <= 1)) > 0.3  # many stop at 10 seeds or fewer
+
+
+def test_library_variance_matches_the_stage_rule_reading():
+    rng = np.random.default_rng(3)
+    x = _outcomes(rng, 1, [0.0, 0.0])[0]
+    assert seed_variance(x[0, :5]) == pytest.approx(x[0, :5].mean(axis=(1, 2)).var(ddof=1))
+    est = paired_difference(x[0, :5], x[1, :5], scenes="per_seed")
+    p, _ = _paired(x[None, 0].mean(axis=(2, 3)), x[None, 1].mean(axis=(2, 3)), 5)
+    assert decision_p_value(est)[0] == pytest.approx(float(p[0]), rel=1e-9)
+
+
+def test_the_ledger_records_the_look_of_each_decision(monkeypatch):
+    """`claims._sequential`'s bookkeeping, on given running p-values: the look of each
+    decision (a claim whose rows stopped at 5 seeds can still be decided when Holm passes
+    it the alpha of a claim decided at 10), and for undecided claims whether their rows go
+    on or what they would need."""
+    from types import SimpleNamespace
+
+    from icil_paper import stats
+    from icil_paper.tables import claims as ledger_code
+
+    runs = {"a": [(0.3, "holds"), (1e-4, "holds")],            # decided at its second look
+            "b": [(0.015, "does not hold")],                    # rows stopped at 5 seeds
+            "c": [(0.5, "holds"), (0.4, "holds")],              # a stage can decide it
+            "d": [(0.5, "holds"), (0.4, "holds")]}              # beyond the schedule
+    monkeypatch.setattr(stats, "sequential_p_value",
+                        lambda looks, direction, design: runs[looks[0]][:len(looks)])
+    monkeypatch.setattr(stats, "decision_p_value", lambda e, d: (0.5, "holds"))
+    claims = [SimpleNamespace(direction=+1, compare=SimpleNamespace(estimate=lambda t, i=i: i))
+              for i in runs]
+    seeds = {"a": 10, "b": 5, "c": 10, "d": 10}
+    entries = [{"id": i, "seeds": {"x": seeds[i], "y": 12}, "verdict": "inconclusive",
+                "adjusted_verdict": "holds" if i == "d" else "inconclusive",
+                "stage_seeds_needed": 40 if i == "d" else 15} for i in runs]
+    ledger_code._sequential(claims, entries, {}, DESIGN)
+    a, b, c, d = entries
+    assert a["look"] == "decided at look 2 of 3 (10 seeds a row)"
+    assert a["sequential"]["decided_at"] == 10 and a["adjusted_verdict"] == "holds"
+    assert b["look"].startswith("decided at look 1 of 3 (5 seeds a row), after Holm's")
+    assert b["adjusted_verdict"] == "does not hold" and b["sequential"]["decided_at"] == 5
+    assert c["look"] == "undecided at 10 seeds (needs 15): continues to 15"
+    assert c["sequential"]["next"] == 15 and c["adjusted_verdict"] == "inconclusive"
+    assert d["look"] == "undecided at 10 seeds, needs 40" and d["sequential"]["next"] is None
+    assert d["adjusted_verdict"] == "inconclusive"  # the fixed design's Holm decides nothing
