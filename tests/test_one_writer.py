@@ -39,3 +39,34 @@ def test_two_concurrent_demos_runs_of_one_data_set_lose_nothing(tmp_path):
         assert a.seed == b.seed and np.array_equal(a.actions, b.actions), a.name
         assert all(np.array_equal(a.obs[k], b.obs[k]) for k in b.obs), a.name
     assert not list(path.parent.glob(".*.lock")) and not list(path.parent.glob("*.parts"))
+
+
+def test_the_data_folder_is_the_specs_not_the_environments(tmp_path, monkeypatch):
+    """`ICIL_DATA=A icil-paper train ... --set data.root=B`: the data set is generated
+    under B only (the command carries its preset down, never re-reading $ICIL_DATA)."""
+    from cli_helpers import run_cli
+
+    a, b = tmp_path / "A", tmp_path / "B"
+    monkeypatch.setenv("ICIL_DATA", str(a))
+    monkeypatch.setenv("ICIL_RUNS", str(tmp_path / "runs"))
+    code, err = run_cli("train", "--preset", "smoke", "--tasks", "kitchen/open_drawer",
+                        "--tokenizer", "mlp", "--set", f"data.root={b}",
+                        "--set", "data.demos_per_task=1", "--steps", "2", "--quiet")
+    assert code == 0, err
+    assert not a.exists(), "nothing under $ICIL_DATA when data.root says otherwise"
+    assert len(load_demos(b / "smoke" / "kitchen" / "open_drawer" / "generated.hdf5")) == 1
+
+
+def test_only_the_preset_reads_the_data_folder_from_the_environment():
+    """$ICIL_DATA is folded into the preset where presets are made (`config.get_preset`,
+    which the command line calls once); no other module reads it."""
+    from pathlib import Path
+
+    import icil_paper
+
+    src = Path(icil_paper.__file__).parent
+    readers = sorted(str(p.relative_to(src)) for p in src.rglob("*.py")
+                     for line in p.read_text().splitlines()
+                     if ("environ" in line or "getenv" in line)
+                     and ("ICIL_DATA" in line or "DATA_ENV_VAR" in line))
+    assert readers == ["config.py"], readers

@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
         for task in tasks:
             ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
                            prompt_source=args.prompt_source, max_steps=args.max_steps)
-            record = evaluate_run(run, ev, policy, store, preset.name, workers, record_dir,
+            record = evaluate_run(run, ev, policy, store, preset, workers, record_dir,
                                   force=args.force, progress=not args.quiet, pool=pool)
             m = record["metrics"]
             print(f"{run.label} on {task} (prompts: {args.prompt_source}): success "

@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     run_dir = Path(args.run_dir) if args.run_dir else run_dir_for(spec, preset.name)
     check_outputs(spec, preset, run_dir, explicit_run_dir=bool(args.run_dir))
     # a stored record is reused only with the policy file it names (`train_run`)
-    record = train_run(spec, preset.name, ResultsStore(preset.name), run_dir=run_dir,
+    record = train_run(spec, preset, ResultsStore(preset.name), run_dir=run_dir,
                        force=args.no_resume, resume=not args.no_resume,
                        progress=not args.quiet, device=args.device,
                        data_workers=preset.data.workers, demos=demos)

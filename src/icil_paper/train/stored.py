@@ -53,15 +53,21 @@ def _policy_problem(record: dict[str, Any], folder: Path) -> str | None:
     return None
 
 
-def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Path | None = None,
+def preset_name(preset: Any) -> str:
+    """The name of a Preset, or the name itself."""
+    return preset if isinstance(preset, str) else preset.name
+
+
+def train_run(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Path | None = None,
               force: bool = False, resume: bool = True, progress: bool = True,
               device: str | None = None, data_workers: int = 1,
               demos: Any = None) -> dict[str, Any]:
     """The `train` record of `run`, training it first if the store has none (or `force`),
     or if the run folder's policy file is not the one the record names (module docstring).
 
-    The run folder defaults to `run_dir_for(run, preset)`; training continues from its last
-    checkpoint unless `resume=False` (start over).
+    `preset` is the Preset whose data folder (`data.root`) holds the data sets, or its
+    name. The run folder defaults to `run_dir_for(run, <its name>)`; training continues from
+    its last checkpoint unless `resume=False` (start over).
     """
     from icil_paper.train.loop import finite, train_policy
     from icil_paper.train.rundir import (
@@ -74,7 +80,7 @@ def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Pat
         set_aside_damaged,
     )
 
-    folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset)
+    folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset_name(preset))
     record_id = train_record(run)
 
     def compute() -> dict[str, Any]:
@@ -102,14 +108,14 @@ def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Pat
                          files=lambda: {POLICY_FILE: folder / POLICY_FILE})
 
 
-def load_trained(run: RunSpec, preset: str, store: ResultsStore | None = None,
+def load_trained(run: RunSpec, preset: Any, store: ResultsStore | None = None,
                  progress: bool = True, device: str | None = None, data_workers: int = 1):
     """The trained policy of `run`: its policy file, as its `train` record names it (trained,
     or trained again, and recorded where it is missing or stale: `train_run`)."""
     from icil_paper.train.rundir import load_policy, run_dir_for, run_lock
 
-    folder = run_dir_for(run, preset)
+    folder = run_dir_for(run, preset_name(preset))
     with run_lock(folder):  # the file checked is the file loaded
-        train_run(run, preset, store or ResultsStore(preset), progress=progress,
+        train_run(run, preset, store or ResultsStore(preset_name(preset)), progress=progress,
                   device=device, data_workers=data_workers)
         return load_policy(folder, map_location=device or "cpu")
