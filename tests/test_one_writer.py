@@ -70,3 +70,56 @@ def test_only_the_preset_reads_the_data_folder_from_the_environment():
                      if ("environ" in line or "getenv" in line)
                      and ("ICIL_DATA" in line or "DATA_ENV_VAR" in line))
     assert readers == ["config.py"], readers
+
+
+def _kitchen_dataset(path):
+    """A small robomimic-layout file of kitchen/open_drawer's widths (7-D actions, 27-D state)."""
+    import h5py
+
+    rng = np.random.default_rng(0)
+    with h5py.File(path, "w") as f:
+        f.create_group("data").attrs["task"] = "kitchen/open_drawer"
+        for i in range(2):
+            g = f.create_group(f"data/demo_{i}")
+            g.attrs["num_samples"] = 12
+            g["actions"] = rng.uniform(-1, 1, (12, 7)).astype(np.float32)
+            g["obs/proprio"] = rng.normal(size=(12, 9)).astype(np.float32)
+            g["obs/object"] = rng.normal(size=(12, 18)).astype(np.float32)
+    return path
+
+
+def test_eval_never_stores_another_runs_policy_under_a_runs_key(tmp_path, monkeypatch):
+    """A 3-step run's policy.pt copied over a 4-step run's, then `eval --run-dir` on the
+    4-step run: the foreign file is set aside (kept) and the 4-step run's own policy is
+    restored from its checkpoints before anything is rolled out or stored."""
+    import shutil
+    import warnings
+
+    from cli_helpers import run_cli
+    from icil_paper.fileio import file_sha256
+    from icil_paper.results import ResultsStore
+    from icil_paper.train import POLICY_FILE, load_policy
+
+    monkeypatch.setenv("ICIL_RUNS", str(tmp_path / "runs"))
+    data = _kitchen_dataset(tmp_path / "drawer.hdf5")
+    runs = {}
+    for steps in (3, 4):
+        runs[steps] = tmp_path / f"run{steps}"
+        code, err = run_cli("train", "--preset", "smoke", "--policy", "act", "--dataset",
+                            str(data), "--steps", str(steps), "--run-dir", str(runs[steps]),
+                            "--quiet")
+        assert code == 0, err
+    own = file_sha256(runs[4] / POLICY_FILE)
+    shutil.copyfile(runs[3] / POLICY_FILE, runs[4] / POLICY_FILE)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        code, err = run_cli("eval", "--preset", "smoke", "--run-dir", str(runs[4]),
+                            "--episodes", "1", "--max-steps", "3", "--quiet")
+    assert code == 0, err
+    assert file_sha256(runs[4] / POLICY_FILE) == own, "the 4-step run's own policy is back"
+    assert load_policy(runs[4]).meta["steps"] == 4
+    (aside,) = runs[4].glob(f"{POLICY_FILE}.corrupt-*")
+    assert file_sha256(aside) == file_sha256(runs[3] / POLICY_FILE), "set aside, not deleted"
+    assert any("trained for the run of key" in str(w.message) for w in caught)
+    (record,) = ResultsStore("smoke").records("eval")
+    assert record["config"]["run"]["train"]["steps"] == 4

@@ -62,6 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     from icil_paper.eval.outcomes import check_policy_fits
     from icil_paper.eval.rollouts import RolloutPool
     from icil_paper.eval.stored import evaluate_run
+    from icil_paper.train.stored import trusted_policy
     from icil_paper.registry import check_name
     from icil_paper.results import ResultsStore, results_root
     from icil_paper.runspec import eval_spec, run_spec
@@ -89,6 +90,10 @@ def main(argv: list[str] | None = None) -> int:
         check_policy_fits(policy, task)
     _check_outputs(run, policy, tasks, args.prompt_source, preset)
     store = ResultsStore(preset.name)
+    # only the policy its train record names, trained for this run's key (else set aside
+    # and computed again): an evaluation is never stored under another run's key
+    policy = trusted_policy(run, preset, store, run_dir, progress=not args.quiet,
+                            data_workers=preset.data.workers)
     workers = args.workers or preset.eval.workers
     record_dir = results_root() / preset.name / "recordings" if args.record else None
     # one set of worker processes for every task: started, and each task's env built, once

@@ -14,6 +14,10 @@ checkpoints (bit for bit the same policy on CPU). A record written before record
 their files is verified by loading its policy file and comparing the weights' digest with
 the record's `policy_digest`.
 
+Evaluation trusts a policy file only with its record (`trusted_policy`): its own key must be
+the run's and the run's record must name it; otherwise it is set aside and the run computed
+again, so an evaluation is never stored under another run's key.
+
 The run folder's lock (`train.rundir.run_lock`) is held from that check to the new record,
 so two processes asking for one run train it once: the second waits, then finds the record
 and its file as the first one left them.
@@ -106,6 +110,43 @@ def train_run(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Pat
                           "whole)", StaleRecordWarning, stacklevel=2)
         return store.run(*record_id, compute, seed=run.seed, force=True,
                          files=lambda: {POLICY_FILE: folder / POLICY_FILE})
+
+
+def policy_key_problem(path: Path, run: RunSpec) -> str | None:
+    """Why the policy file at `path` is not `run`'s by its own record of the run it was
+    trained for (the key in its meta), or None when it is. A damaged file raises
+    PolicyFileError (one line naming it)."""
+    from icil_paper.train.rundir import load_policy
+
+    key = getattr(load_policy(path), "meta", {}).get("key")
+    if key != run.key():
+        return (f"{path.name} was trained for the run of key {key}, not this run's "
+                f"{run.key()}")
+    return None
+
+
+def trusted_policy(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Path,
+                   progress: bool = True, device: str | None = None, data_workers: int = 1):
+    """The policy file in `run_dir`, loaded only once it is known to be `run`'s: its own key
+    is `run.key()` and the stored `train` record of `run` names its SHA-256 (`train_run`).
+
+    A policy file of another run, or one that its record does not name, is set aside (kept,
+    with a warning) and the run is computed again from its checkpoints, so an evaluation is
+    never stored under the key of a run whose policy it did not roll out. A damaged file
+    raises PolicyFileError naming it.
+    """
+    from icil_paper.train.rundir import POLICY_FILE, load_policy, run_lock, set_aside_damaged
+
+    folder = Path(run_dir)
+    with run_lock(folder):  # the file checked is the file loaded
+        path = folder / POLICY_FILE
+        if path.exists():
+            problem = policy_key_problem(path, run)
+            if problem is not None:
+                set_aside_damaged(path, problem)
+        train_run(run, preset, store, run_dir=folder, progress=progress, device=device,
+                  data_workers=data_workers)
+        return load_policy(folder, map_location=device or "cpu")
 
 
 def load_trained(run: RunSpec, preset: Any, store: ResultsStore | None = None,
