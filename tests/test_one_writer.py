@@ -123,3 +123,94 @@ def test_eval_never_stores_another_runs_policy_under_a_runs_key(tmp_path, monkey
     assert any("trained for the run of key" in str(w.message) for w in caught)
     (record,) = ResultsStore("smoke").records("eval")
     assert record["config"]["run"]["train"]["steps"] == 4
+
+
+def test_a_record_with_fields_of_the_wrong_type_is_recomputed(tmp_path, monkeypatch):
+    """A train record whose `files` is a string (not a map): set aside as corrupt and the
+    run's record computed again, not an AttributeError."""
+    import json
+    import warnings
+
+    from cli_helpers import run_cli
+    from icil_paper.results import CorruptRecordWarning, ResultsStore
+
+    monkeypatch.setenv("ICIL_RUNS", str(tmp_path / "runs"))
+    data = _kitchen_dataset(tmp_path / "drawer.hdf5")
+    args = ["train", "--preset", "smoke", "--policy", "act", "--dataset", str(data),
+            "--steps", "2", "--quiet"]
+    assert run_cli(*args)[0] == 0
+    (path,) = ResultsStore("smoke").dir.glob("train/*.json")
+    record = json.loads(path.read_text())
+    path.write_text(json.dumps({**record, "files": "policy.pt"}))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        code, err = run_cli(*args)
+    assert code == 0, err
+    assert any(w.category is CorruptRecordWarning and "'files' is a string" in str(w.message)
+               for w in caught), [str(w.message) for w in caught]
+    assert isinstance(json.loads(path.read_text())["files"], dict)
+
+
+def test_the_planning_commands_name_a_damaged_file_in_one_line(tmp_path):
+    """`python -m icil_paper.tables.design --interim` on a truncated claims.json and
+    `python -m icil_paper.tables.cost` with a truncated train record: exit 2, one line
+    naming the file and the fix (no JSONDecodeError traceback)."""
+    store = tmp_path / "results" / "smoke"
+    (store / "train").mkdir(parents=True)
+    env = {**os.environ, "ICIL_RESULTS": str(tmp_path / "results")}
+    claims = store / "claims.json"
+    claims.write_text('{"claims": [{"id": "x", "verd')
+    cmd = [sys.executable, "-m", "icil_paper.tables.design", "--preset", "smoke", "--interim"]
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2, done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
+    assert str(claims) in done.stderr and "icil-paper reproduce" in done.stderr
+    claims.unlink()
+    record = store / "train" / "icrt__x__generated__seed0__0123456789abcdef.json"
+    record.write_text('{"schema": 1, "kind": "train", "wall_')
+    cmd = [sys.executable, "-m", "icil_paper.tables.cost", "--preset", "smoke"]
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2, done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
+    assert str(record) in done.stderr and "move it out of the results folder" in done.stderr
+    assert not (store / "cost.json").exists()
+
+
+def test_the_cost_loader_names_a_field_of_the_wrong_type(tmp_path):
+    import pytest
+
+    from icil_paper.fileio import UnreadableFileError
+    from icil_paper.tables.cost import read_cost
+
+    path = tmp_path / "cost.json"
+    path.write_text('{"preset": "smoke", "total": "3 hours"}')
+    with pytest.raises(UnreadableFileError, match=r"cost.json is not .*'total' is a string, "
+                                                  r"not an object.*tables.cost"):
+        read_cost(path)
+
+
+def test_write_protected_output_folders_are_refused_up_front(tmp_path):
+    """`icil-paper demos` into a read-only data folder and `icil-paper export-tokenizer`
+    into a read-only OUT: one line naming the folder, exit 2, nothing generated."""
+    from test_reliability import _run_with_read_only, one_line_error
+
+    from icil_paper.config import get_preset
+    from icil_paper.runspec import run_spec
+    from icil_paper.sim.synthetic import synthetic_demos
+    from icil_paper.train import train_policy
+
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    env = {**os.environ, "ICIL_DATA": str(locked / "data")}
+    out = _run_with_read_only(locked, [*ICIL, "demos", "--preset", "smoke", "--task", TASK,
+                                       "--n", "2", "--no-progress"], env)
+    one_line_error(out.returncode, out.stderr, "cannot write to data.root=", "data.root")
+    assert not (locked / "data").exists()
+    run = run_spec(get_preset("smoke").with_overrides(["train.steps=2"]), "icrt", "mlp",
+                   tasks=["synthetic/task0"])
+    train_policy(run, run_dir=tmp_path / "run", progress=False,
+                 demos=synthetic_demos(n_tasks=1, per_task=2, steps=(10, 12), seed=0))
+    out = _run_with_read_only(locked, [*ICIL, "export-tokenizer", str(tmp_path / "run"),
+                                       str(locked / "out")], env)
+    one_line_error(out.returncode, out.stderr, f"cannot write to OUT {locked / 'out'}")
+    assert not (locked / "out").exists()

@@ -62,12 +62,12 @@ def main(argv: list[str] | None = None) -> int:
     from icil_paper.eval.outcomes import check_policy_fits
     from icil_paper.eval.rollouts import RolloutPool
     from icil_paper.eval.stored import evaluate_run
-    from icil_paper.train.stored import trusted_policy
     from icil_paper.registry import check_name
     from icil_paper.results import ResultsStore, results_root
     from icil_paper.runspec import eval_spec, run_spec
     from icil_paper.sim import all_tasks
     from icil_paper.train.rundir import CONFIG_FILE, load_policy, read_run_spec, run_dir_for
+    from icil_paper.train.stored import trusted_policy
 
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
