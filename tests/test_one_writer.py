@@ -192,12 +192,11 @@ def test_the_cost_loader_names_a_field_of_the_wrong_type(tmp_path):
 def test_write_protected_output_folders_are_refused_up_front(tmp_path):
     """`icil-paper demos` into a read-only data folder and `icil-paper export-tokenizer`
     into a read-only OUT: one line naming the folder, exit 2, nothing generated."""
-    from test_reliability import _run_with_read_only, one_line_error
-
     from icil_paper.config import get_preset
     from icil_paper.runspec import run_spec
     from icil_paper.sim.synthetic import synthetic_demos
     from icil_paper.train import train_policy
+    from test_reliability import _run_with_read_only, one_line_error
 
     locked = tmp_path / "locked"
     locked.mkdir()
