@@ -111,6 +111,14 @@ def test_eval_never_stores_another_runs_policy_under_a_runs_key(tmp_path, monkey
         assert code == 0, err
     own = file_sha256(runs[4] / POLICY_FILE)
     shutil.copyfile(runs[3] / POLICY_FILE, runs[4] / POLICY_FILE)
+    # a run folder that cannot be written: nothing can be set aside, so one line naming it
+    from test_reliability import _run_with_read_only, one_line_error
+
+    out = _run_with_read_only(runs[4], [*ICIL, "eval", "--preset", "smoke", "--run-dir",
+                                        str(runs[4]), "--episodes", "1", "--max-steps", "3",
+                                        "--quiet"], dict(os.environ))
+    one_line_error(out.returncode, out.stderr, str(runs[4] / POLICY_FILE),
+                   "is not this run's trained policy")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         code, err = run_cli("eval", "--preset", "smoke", "--run-dir", str(runs[4]),

@@ -115,15 +115,18 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
 
     Arguments are JSON (what a grid worker receives); every result is written to the
     results store of `preset` as it finishes. `data_root` is the driver's data folder
-    (`DataConfig.root`, None: `data/`): the cell reads the data sets the driver generated,
-    wherever its spec put them, never a folder the environment names. Returns a short summary.
+    (`DataConfig.root`; None: the named preset's): the cell reads the data sets the driver
+    generated wherever the driver's spec put them (`--set data.root`), not where the
+    environment would. Returns a short summary.
     """
     from icil_paper.eval import evaluate_run_many, measure_features
     from icil_paper.seeding import seed_everything
     from icil_paper.train.stored import load_trained, train_run
 
     store = ResultsStore(preset)
-    preset = get_preset(preset).replace(data={"root": data_root})
+    preset = get_preset(preset)
+    if data_root is not None:
+        preset = preset.replace(data={"root": data_root})
     run_spec = RunSpec.from_dict(run)
     seed_everything(run_spec.seed)
     trained = train_run(run_spec, preset, store, progress=progress)

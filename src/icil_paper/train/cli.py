@@ -141,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
     if demos is None:  # the data sets (generated where missing, one writer at a time)
         demos = training_demos(spec.data, preset, preset.data.workers, not args.quiet)
     # what only the data's episode lengths decide, before any run folder or training step
-    spec.policy.check_episode_length(max(len(d) for d in demos))
+    spec.policy.check_episode_length(max(len(d.actions) for d in demos))
     # a stored record is reused only with the policy file it names (`train_run`)
     record = train_run(spec, preset, ResultsStore(preset.name), run_dir=run_dir,
                        force=args.no_resume, resume=not args.no_resume,

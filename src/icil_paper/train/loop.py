@@ -157,7 +157,7 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
                                                                        data_workers, progress)
     if not demos:
         raise ValueError("no demonstrations to train on")
-    spec.policy.check_episode_length(max(len(d) for d in demos))  # before any step
+    spec.policy.check_episode_length(max(len(d.actions) for d in demos))  # before any step
     obs_spec = obs_spec_from_obs(demos[0].obs)
     action_dim = int(np.asarray(demos[0].actions).shape[1])
     key = spec.key()

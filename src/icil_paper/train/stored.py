@@ -25,6 +25,7 @@ and its file as the first one left them.
 
 from __future__ import annotations
 
+import os
 import warnings
 from pathlib import Path
 from typing import Any
@@ -132,12 +133,30 @@ def trusted_policy(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str 
 
     A policy file of another run, or one that its record does not name, is set aside (kept,
     with a warning) and the run is computed again from its checkpoints, so an evaluation is
-    never stored under the key of a run whose policy it did not roll out. A damaged file
-    raises PolicyFileError naming it.
+    never stored under the key of a run whose policy it did not roll out. In a run folder
+    this process cannot write to, nothing can be set aside: such a file is a PolicyFileError
+    naming it instead, as is a damaged file anywhere.
     """
-    from icil_paper.train.rundir import POLICY_FILE, load_policy, run_lock, set_aside_damaged
+    from icil_paper.train.rundir import (
+        POLICY_FILE,
+        PolicyFileError,
+        load_policy,
+        run_lock,
+        set_aside_damaged,
+    )
 
     folder = Path(run_dir)
+    if folder.is_dir() and not os.access(folder, os.W_OK):  # read-only: check, never write
+        path = folder / POLICY_FILE
+        record = store.get(*train_record(run))
+        problem = policy_key_problem(path, run) or (
+            f"the results store has no train record of run {run.key()}" if record is None
+            else _policy_problem(record, folder))
+        if problem is not None:
+            raise PolicyFileError(f"{path} is not this run's trained policy ({problem}); "
+                                  "train the run again where its folder can be written "
+                                  "(icil-paper train), or restore the file")
+        return load_policy(folder, map_location=device or "cpu")
     with run_lock(folder):  # the file checked is the file loaded
         path = folder / POLICY_FILE
         if path.exists():
