@@ -109,12 +109,14 @@ LEROBOT_VENV ?= .venv-lerobot
 # Empty: .ci/find-python312 looks for a Python 3.12 that runs (a pyenv shim of an unselected
 # version does not); PYTHON312=/path/to/python3.12 chooses one.
 PYTHON312 ?=
+# exported, not pasted into the recipe: a path with quotes or spaces reaches the finder as it is
+export PYTHON312
 LEROBOT_STAMP := $(LEROBOT_VENV)/.installed-lerobot-0.6.1
 
 lerobot-setup: $(LEROBOT_STAMP)
 
 $(LEROBOT_STAMP):
-	@test -x $(LEROBOT_VENV)/bin/python || { py=$$(PYTHON312='$(PYTHON312)' .ci/find-python312) \
+	@test -x $(LEROBOT_VENV)/bin/python || { py=$$(.ci/find-python312) \
 		&& echo "lerobot-setup: $(LEROBOT_VENV) from $$py" && "$$py" -m venv $(LEROBOT_VENV); }
 	$(LEROBOT_VENV)/bin/pip install --quiet --progress-bar off 'lerobot[dataset]==0.6.1' h5py
 	@touch $@

@@ -135,11 +135,14 @@ def test_eval_cli_stores_one_record_per_task(tmp_path, demos, monkeypatch):
     import icil_paper.eval.stored as stored
     from icil_paper.results import ResultsStore
     from icil_paper.train import run_dir_for
+    from icil_paper.train.stored import train_run
 
     monkeypatch.setenv("ICIL_RUNS", str(tmp_path))
     spec = run_spec(get_preset("smoke"), "icrt", "mlp",
                     tasks=["kitchen/open_drawer", "kitchen/close_drawer"])
-    train_policy(spec, run_dir=run_dir_for(spec, "smoke"), demos=demos, progress=False)
+    # with its train record: evaluation trusts a policy file only with the record naming it
+    train_run(spec, "smoke", ResultsStore("smoke"), run_dir=run_dir_for(spec, "smoke"),
+              demos=demos, progress=False)
     calls = []
     real = stored.evaluate_policy
 

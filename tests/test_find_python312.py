@@ -124,3 +124,18 @@ def test_make_lerobot_setup_names_the_fix_instead_of_running_a_shim(bin_dir, tmp
     assert done.returncode != 0 and not venv.exists()
     assert "lerobot-setup: no Python 3.12 runs here" in done.stderr
     assert "command not found" not in done.stderr  # the shim's own failure (exit 127) is gone
+
+
+@pytest.mark.parametrize("folder", ["it's mine", 'say "3.12"', "a b; echo hi"])
+def test_make_lerobot_setup_takes_any_path_in_python312(bin_dir, tmp_path, folder):
+    """The path reaches the finder as it is: quotes, spaces and shell words in it are not
+    pasted into the recipe's shell line."""
+    chosen = fake_python(tmp_path / folder / "python", "3.12")
+    venv = tmp_path / "venv-lerobot"
+    env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "HOME": str(tmp_path)}
+    done = subprocess.run(["make", "--no-print-directory", "-C", str(REPO_ROOT), "lerobot-setup",
+                           f"LEROBOT_VENV={venv}", f"PYTHON312={chosen}"], env=env,
+                          capture_output=True, text=True, timeout=60)
+    # the fake interpreter makes no environment, so pip is missing after it: only the
+    # finder's choice is checked here
+    assert f"lerobot-setup: {venv} from {chosen}\n" in done.stdout, done.stderr

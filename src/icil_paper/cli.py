@@ -149,5 +149,23 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
+def run_module(prog: str, command: Any, argv: list[str] | None = None) -> int:
+    """`command(argv)` (a module's `main`, run as `python -m ...`) with the errors of the
+    command line: a user error is one line naming the problem and the fix and exit status
+    2 (`--debug` shows the traceback), as for `icil-paper` itself."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    try:
+        return int(command([a for a in argv if a != "--debug"]) or 0)
+    except USER_ERRORS as exc:
+        if debug:
+            raise
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        print(f"{prog}: error: {message} (--debug shows the traceback)", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        return 0
+
+
 if __name__ == "__main__":
     sys.exit(main())

@@ -23,7 +23,7 @@ import sys
 import tempfile
 import threading
 import zipfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
@@ -242,18 +242,52 @@ def load_file(path: str | Path, parse: Callable[[Path], T], what: str, fix: str,
         raise error(f"{path} is damaged or not {what} ({_detail(exc)}); {fix}") from None
 
 
+JSON_TYPES = {dict: "an object", list: "a list", str: "a string", int: "an integer",
+              float: "a number", bool: "true or false", type(None): "null"}
+"""How a field-type problem names each JSON type."""
+
+
+def json_type_problem(obj: Any, fields: Mapping[str, type | tuple[type, ...]]) -> str | None:
+    """Why the JSON object `obj` does not hold fields of the `fields` types ({name: type or
+    types}; a field that is absent is not checked here), or None. An int counts as a
+    float, a bool as neither."""
+    for name, types in fields.items():
+        if name not in obj:
+            continue
+        types = types if isinstance(types, tuple) else (types,)
+        value = obj[name]
+        ok = any(isinstance(value, t) and not (isinstance(value, bool) and t is not bool)
+                 or (t is float and isinstance(value, int) and not isinstance(value, bool))
+                 for t in types)
+        if not ok:
+            wanted = " or ".join(JSON_TYPES.get(t, t.__name__) for t in types)
+            found = JSON_TYPES.get(type(value), type(value).__name__)
+            return f"its {name!r} is {found}, not {wanted}"
+    return None
+
+
 def read_json(path: str | Path, what: str, fix: str, keys: Sequence[str] = (),
-              error: type[UnreadableFileError] = UnreadableFileError) -> Any:
+              error: type[UnreadableFileError] = UnreadableFileError,
+              fields: Mapping[str, type | tuple[type, ...]] | None = None) -> Any:
     """The JSON in `path`, read through `load_file`; with `keys`, it must be an object
-    holding each of them."""
+    holding each of them; with `fields` ({name: type or types}), each field it holds must
+    be of its type (`json_type_problem`). Every problem is one `error` naming the file,
+    what it should be and `fix`:
+
+        cost = read_json(path, "a run's cost (cost.json)", "regenerate it: python -m "
+                         "icil_paper.tables.cost", keys=("total",), fields={"total": dict})
+    """
     def parse(p: Path) -> Any:
         obj = json.loads(p.read_bytes().decode("utf-8"))
-        if keys:
+        if keys or fields:
             if not isinstance(obj, dict):
                 raise ValueError(f"it holds a JSON {type(obj).__name__}, not an object")
             missing = [k for k in keys if k not in obj]
             if missing:
                 raise KeyError(f"it has no {', '.join(repr(k) for k in missing)}")
+            problem = json_type_problem(obj, fields or {})
+            if problem:
+                raise error(f"{p} is not {what} ({problem}); {fix}")
         return obj
 
     return load_file(path, parse, what, fix, error)

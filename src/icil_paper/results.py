@@ -41,6 +41,8 @@ from icil_paper.fileio import (
     exclusive_lock,
     file_sha256,
     folder_from_env,
+    json_type_problem,
+    read_json,
     set_aside,
 )
 from icil_paper.setup.provenance import git_state, host_info, package_versions
@@ -49,6 +51,12 @@ SCHEMA_VERSION = 1
 RESULTS_ENV_VAR = "ICIL_RESULTS"
 REQUIRED_KEYS = ("schema", "kind", "name", "preset", "config", "config_hash", "seed",
                  "git_commit", "packages", "host", "wall_time_s", "metrics")
+FIELD_TYPES: dict[str, type | tuple[type, ...]] = {
+    "schema": int, "kind": str, "name": str, "preset": str, "config": dict,
+    "config_hash": str, "seed": int, "git_commit": (str, type(None)), "packages": dict,
+    "host": dict, "wall_time_s": float, "cpu_time_s": float, "metrics": dict, "files": dict}
+"""The JSON type of every field a record may hold: a record with another (a `files` that is
+a string, say) is corrupt like a damaged one (`fileio.json_type_problem`)."""
 
 
 class CorruptRecordWarning(UserWarning):
@@ -254,6 +262,19 @@ def files_problem(record: Mapping[str, Any], folder: str | Path) -> str | None:
     return None
 
 
+RECORD_FIX = ("move it out of the results folder (the command that needs it computes it "
+              "again) or restore it from git")
+"""What to do about a damaged record that a command reads without setting it aside."""
+
+
+def read_record_file(path: str | Path) -> dict[str, Any]:
+    """The JSON object of a record file, read through `fileio.read_json` with the record's
+    field types (`FIELD_TYPES`): a damaged one, or one whose fields have the wrong types,
+    raises UnreadableFileError naming it and the fix. For commands that read records to
+    report on them (`tables.cost`); `ResultsStore.get` sets a damaged record aside instead."""
+    return read_json(path, "a result record (a JSON object)", RECORD_FIX, fields=FIELD_TYPES)
+
+
 def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,
                                       tuple[int, int] | None]:
     """(record, None, identity) for a valid record, (None, problem, identity) otherwise.
@@ -276,6 +297,12 @@ def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,
     missing = [k for k in REQUIRED_KEYS if k not in record]
     if missing:
         return None, f"missing keys {missing}", identity
+    problem = json_type_problem(record, FIELD_TYPES)
+    if problem is None and not all(isinstance(k, str) and isinstance(v, str)
+                                   for k, v in record.get("files", {}).items()):
+        problem = "its 'files' are not {name: SHA-256}"
+    if problem is not None:
+        return None, problem, identity
     if record["schema"] != SCHEMA_VERSION:
         return None, f"schema {record['schema']} is not {SCHEMA_VERSION}", identity
     if config_hash(record["config"]) != record["config_hash"]:

@@ -72,7 +72,7 @@ def _numbers_problem(args: argparse.Namespace) -> str | None:
 
 def main(argv: list[str] | None = None) -> int:
     from icil_paper.cli import preset_from_args
-    from icil_paper.data.generate import demo_path, ensure_many, preset_tasks
+    from icil_paper.data.generate import check_data_folder, demo_path, ensure_many, preset_tasks
     from icil_paper.seeding import seed_everything
 
     args = build_parser().parse_args(argv)
@@ -98,6 +98,9 @@ def main(argv: list[str] | None = None) -> int:
         build_parser().error("give --task (or --task all), --check FILE or --list")
     if "all" in tasks:
         tasks = list(preset_tasks(preset, available=True))
+    obs = args.obs or preset.data.obs
+    if not all(demo_path(preset, t, s, obs).exists() for t in tasks for s in sources):
+        check_data_folder(preset)  # a folder it cannot write to: one line, before any work
     paths = ensure_many(preset, tasks, sources, n=args.n, workers=args.workers,
                         progress=not args.no_progress, obs=args.obs, full_check=True)
     for (task, source), path in paths.items():

@@ -18,6 +18,12 @@ the missing indices and merges. Because demo `i`'s scenes and operator noise dep
 `i` and the base seed (`sources.demo_seed`), the result equals that of an uninterrupted run, with
 any number of worker processes.
 
+One writer per data set: `ensure_many` holds each data set's lock (`.<file>.lock` beside
+it, `fileio.exclusive_lock`, as training holds its run folder's) from reading what is there
+to the merge, so a second `icil-paper demos` or `train` that needs the same data set waits
+(saying for whom on stderr) and then finds it whole; shards are merged by the holder only.
+A holder that is killed releases the lock with its process.
+
 A damaged data set file or shard (one that HDF5 cannot read, or whose checksums fail) does not
 block a re-run: it is set aside under a unique name beside the data set (`set_aside`, never
 deleted), named in a warning, and its demos are generated again. Every run reads back all of
@@ -37,7 +43,9 @@ suite's `human` scene distribution. The file's `scenes` attribute and its `env_a
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import shutil
 import time
 import warnings
@@ -55,7 +63,7 @@ from icil_paper.data.sources import (
     source_env_options,
     style_dict,
 )
-from icil_paper.fileio import check_writable, set_aside
+from icil_paper.fileio import check_writable, exclusive_lock, set_aside
 from icil_paper.registry import check_name
 
 GENERATOR = "icil_paper.data.generate/2"
@@ -364,8 +372,39 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
     workers = int(preset.data.workers if workers is None else workers)
     base_seed = int(preset.seed if seed is None else seed)
     obs = obs or preset.data.obs
-    plans = [_plan(preset, task, source, n, base_seed, obs, env_options, full_check)
-             for task in dict.fromkeys(tasks) for source in dict.fromkeys(sources)]
+    pairs = [(task, source) for task in dict.fromkeys(tasks) for source in dict.fromkeys(sources)]
+    with contextlib.ExitStack() as locks:
+        # one writer per data set (as one per run folder): a second `demos` or `train` that
+        # needs it waits here, then finds it whole; sorted, so two callers never deadlock
+        for path in sorted({demo_path(preset, task, source, obs) for task, source in pairs}):
+            locks.enter_context(data_set_lock(path))
+        plans = [_plan(preset, task, source, n, base_seed, obs, env_options, full_check)
+                 for task, source in pairs]
+        _generate(plans, obs, base_seed, workers, progress)
+    return {(plan.task, plan.source): plan.path for plan in plans}
+
+
+def lock_path(path: Path) -> Path:
+    """The lock file of a data set: `.<name>.lock` beside it (removed when released)."""
+    return path.with_name(f".{path.name}.lock")
+
+
+def data_set_lock(path: Path) -> contextlib.AbstractContextManager:
+    """The lock of the data set at `path` (`fileio.exclusive_lock`), held by the one process
+    that plans, generates and merges its demos. A folder this process cannot write to takes
+    no lock: nothing can be generated there, only a whole data set read."""
+    folder = Path(os.path.abspath(path)).parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not os.access(folder, os.W_OK):  # a read-only mount or folder (access(2) says EROFS)
+        return contextlib.nullcontext()
+    return exclusive_lock(lock_path(path), what=f"the data set {path}")
+
+
+def _generate(plans: list[_Plan], obs: str, base_seed: int, workers: int,
+              progress: bool) -> None:
+    """Generate every missing demo of `plans` (one pool for all) and merge each data set;
+    the caller holds their locks."""
     jobs = []
     for plan in plans:
         folder = parts_dir(plan.path)
@@ -381,7 +420,6 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
         _run_jobs(jobs, workers, progress, f"demos {label}")
     for plan in plans:
         _merge(plan)
-    return {(plan.task, plan.source): plan.path for plan in plans}
 
 
 def ensure_demos(preset: Any, task: str, source: str, n: int | None = None,

@@ -67,6 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     from icil_paper.runspec import eval_spec, run_spec
     from icil_paper.sim import all_tasks
     from icil_paper.train.rundir import CONFIG_FILE, load_policy, read_run_spec, run_dir_for
+    from icil_paper.train.stored import trusted_policy
 
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
@@ -89,6 +90,10 @@ def main(argv: list[str] | None = None) -> int:
         check_policy_fits(policy, task)
     _check_outputs(run, policy, tasks, args.prompt_source, preset)
     store = ResultsStore(preset.name)
+    # only the policy its train record names, trained for this run's key (else set aside
+    # and computed again): an evaluation is never stored under another run's key
+    policy = trusted_policy(run, preset, store, run_dir, progress=not args.quiet,
+                            data_workers=preset.data.workers)
     workers = args.workers or preset.eval.workers
     record_dir = results_root() / preset.name / "recordings" if args.record else None
     # one set of worker processes for every task: started, and each task's env built, once
@@ -97,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         for task in tasks:
             ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
                            prompt_source=args.prompt_source, max_steps=args.max_steps)
-            record = evaluate_run(run, ev, policy, store, preset.name, workers, record_dir,
+            record = evaluate_run(run, ev, policy, store, preset, workers, record_dir,
                                   force=args.force, progress=not args.quiet, pool=pool)
             m = record["metrics"]
             print(f"{run.label} on {task} (prompts: {args.prompt_source}): success "

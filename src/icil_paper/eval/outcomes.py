@@ -151,12 +151,13 @@ def check_policy_fits(policy: Any, task: str) -> None:
 
 
 def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
-                preset: str | None = None, progress: bool = True) -> list[Any]:
-    """The prompt demonstrations an EvalSpec draws from (see the module docstring)."""
+                preset: Any = None, progress: bool = True) -> list[Any]:
+    """The prompt demonstrations an EvalSpec draws from (see the module docstring), in the
+    data folder of `preset` (a Preset, whose `data.root` says where, or a preset's name)."""
     from icil_paper.data import ensure_demos, load_demos
 
     if preset is None:
-        raise ValueError("prompt_pool needs the preset's name (preset=...): prompt data sets "
+        raise ValueError("prompt_pool needs the preset (preset=...): prompt data sets "
                          "live under data/<preset>/")
     task = ev.prompt_task or ev.task
     path = ensure_demos(preset, task, ev.prompt_source, n=demos_per_task,

@@ -27,7 +27,7 @@ from icil_paper.runspec import EvalSpec
 from icil_paper.timing import phase
 
 
-def _run_prompts(run: Any, ev: EvalSpec, policy: Any, preset: str | None,
+def _run_prompts(run: Any, ev: EvalSpec, policy: Any, preset: Any,
                  progress: bool) -> list[Any] | None:
     if not policy.uses_prompt:
         return None
@@ -39,14 +39,15 @@ def _trained(policy: Any | Callable[[], Any]) -> Any:
 
 
 def evaluate_run(run: Any, ev: EvalSpec, policy: Any | Callable[[], Any], store: Any,
-                 preset: str | None = None, workers: int = 1, record_dir: str | Path | None = None,
+                 preset: Any = None, workers: int = 1, record_dir: str | Path | None = None,
                  force: bool = False, progress: bool = True, pool: RolloutPool | None = None,
                  batch_size: int | None = None) -> dict[str, Any]:
     """The stored evaluation of `run`'s trained policy as `ev` describes, computed if missing.
 
     `policy` is the trained policy or a function that loads it (called only when the
     record must be computed). The record's config is the keyed content of both specs, so
-    its key is `runspec.eval_key(run, ev)`. Returns the record. `pool` and `batch_size`
+    its key is `runspec.eval_key(run, ev)`. `preset` (a Preset, or a preset's name) locates
+    the prompt data sets (`outcomes.prompt_pool`). Returns the record. `pool` and `batch_size`
     go to `evaluate_policy`.
     """
     def compute() -> dict[str, Any]:
@@ -60,7 +61,7 @@ def evaluate_run(run: Any, ev: EvalSpec, policy: Any | Callable[[], Any], store:
 
 
 def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[[], Any],
-                      store: Any, preset: str | None = None, workers: int = 1,
+                      store: Any, preset: Any = None, workers: int = 1,
                       record_dir: str | Path | None = None, force: bool = False,
                       progress: bool = True, pool: RolloutPool | None = None,
                       batch_size: int | None = None,

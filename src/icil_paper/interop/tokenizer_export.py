@@ -17,6 +17,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from icil_paper.fileio import check_writable
 from icil_paper.tokenizers.base import ActionTokenizer
 from icil_paper.tokenizers.portable import TokenizerFolderError, read_config, save_tokenizer
 
@@ -25,9 +26,12 @@ def export_tokenizer(run_dir: str | Path, folder: str | Path) -> Path:
     """Export the tokenizer of the trained policy in `run_dir` (or a `policy.pt`) to `folder`.
 
     Raises FileNotFoundError (no policy there), PolicyFileError, or TokenizerFolderError
-    when the policy has no action tokenizer (e.g. ACT's own CVAE).
+    when the policy has no action tokenizer (e.g. ACT's own CVAE); a `folder` this process
+    cannot write to is refused first (FolderNotWritableError, a PermissionError).
     """
     from icil_paper.train.rundir import load_policy, policy_digest
+
+    check_writable(Path(folder), f"OUT {folder}", "pass a folder this user can write to")
 
     policy = load_policy(run_dir)
     tokenizer = getattr(policy, "tokenizer", None)

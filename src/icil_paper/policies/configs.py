@@ -59,6 +59,11 @@ class PolicyConfig:
         """The registry name of this config's policy."""
         return self.type
 
+    def check_episode_length(self, longest: int) -> None:
+        """Refuse (ConfigError naming the field and the fix) a config that cannot train on
+        episodes of up to `longest` steps; called once the data sets' lengths are known,
+        before any run folder or training step. Nothing to check for most policies."""
+
 
 POLICY_REGISTRY = ComponentRegistry("policy", PolicyConfig)
 """Every policy by name: its config class (`configs`) and its model, imported on first use.
@@ -102,6 +107,26 @@ class ICRTConfig(PolicyConfig):
     query's task (the paper, ICRT); `minibatch`, other demonstrations of the same random
     minibatch whatever their task (the official LipVQ-VAE code, whose first half of a
     minibatch prompts its second half). Evaluation prompts are the task's either way."""
+
+    def sequence_tokens(self, longest: int) -> int:
+        """Tokens of the longest training sequence on episodes of up to `longest` steps:
+        two (observation, action) per prompt step of `prompt_demos` episodes, then two per
+        query step (one without `query_actions`) of a whole episode or a `query_len` window
+        (`policies.icrt.ICRT.sequence`)."""
+        query = longest if self.query_len == 0 else min(self.query_len, longest)
+        return 2 * self.prompt_demos * longest + (2 if self.query_actions else 1) * query
+
+    def check_episode_length(self, longest: int) -> None:
+        n = self.sequence_tokens(longest)
+        if n > self.max_seq_len:
+            window = ("whole episodes (query_len=0)" if self.query_len == 0
+                      else f"query windows of {self.query_len} steps")
+            raise ConfigError(
+                f"ICRTConfig.max_seq_len={self.max_seq_len} is below the {n} tokens of a "
+                f"training sequence on these demonstrations ({self.prompt_demos} prompt "
+                f"episode(s) and {window}, episodes of up to {longest} steps): raise "
+                f"policies.icrt.max_seq_len to at least {n}, or train on shorter query windows "
+                "(policies.icrt.query_len)")
 
 
 @register_policy("bc_transformer", "icil_paper.policies.bc_transformer:BCTransformer")

@@ -25,15 +25,14 @@ that had the cores to themselves), set beside `TARGET_WALL_HOURS`.
 
 from __future__ import annotations
 
-import json
 from collections import defaultdict
 from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 from icil_paper.config import Preset
-from icil_paper.fileio import atomic_write_json
-from icil_paper.results import ResultsStore
+from icil_paper.fileio import atomic_write_json, read_json
+from icil_paper.results import ResultsStore, read_record_file
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
           "resumed_cells", "resumed_cpu_s", "without_cpu_time")
@@ -149,7 +148,7 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
     for path in sorted(store.dir.glob("*/*.json")):
         if path.name == "claims.json":
             continue
-        record = json.loads(path.read_text())
+        record = read_record_file(path)
         if "kind" not in record or "wall_time_s" not in record:
             continue
         where = planned.get(path)
@@ -235,6 +234,16 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
     }
 
 
+COST_FIX = "regenerate it: python -m icil_paper.tables.cost --preset <preset>"
+
+
+def read_cost(path: str | Path) -> dict[str, Any]:
+    """A run's `cost.json` (`write_cost`), through `fileio.read_json`: a damaged one, or one
+    whose sections have the wrong types, is one line naming it and the fix."""
+    return read_json(path, "a run's cost (cost.json)", COST_FIX, keys=("preset", "total"),
+                     fields={"preset": str, "total": dict, "by_stage": dict, "by_kind": dict})
+
+
 def write_cost(preset: Preset, store: ResultsStore | None = None) -> Path:
     """Write `results/<preset>/cost.json` atomically; returns its path."""
     store = store or ResultsStore(preset.name)
@@ -252,10 +261,12 @@ def main(argv: list[str] | None = None) -> int:
                                      description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
     path = write_cost(preset_from_args(parser.parse_args(argv)))
-    cost = json.loads(path.read_text())
+    cost = read_cost(path)
     print(f"wrote {path}: {cost['total']}")
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from icil_paper.cli import run_module
+
+    raise SystemExit(run_module("python -m icil_paper.tables.cost", main))

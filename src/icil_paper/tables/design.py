@@ -27,7 +27,6 @@ of its kind plus its episodes at the measured simulator rate (`results/bench/cel
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from collections import Counter, defaultdict
@@ -35,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper.config import Preset
+from icil_paper.fileio import UnreadableFileError, read_json
 from icil_paper.tables.claims import sizing_effect
 from icil_paper.tables.definitions import TABLES, table_spec
 
@@ -92,6 +92,20 @@ def required_seeds(entry: dict[str, Any]) -> int:
     return DECIDABLE_SEEDS if needed is not None and needed <= DECIDABLE_SEEDS else OTHER_SEEDS
 
 
+def read_ledger(path: str | Path) -> dict[str, Any]:
+    """A claims ledger (`claims.json`), through `fileio.read_json`: a damaged one, or one
+    whose `claims` are not objects with an `id`, is one line naming it and the fix."""
+    fix = ("regenerate it (`icil-paper reproduce --preset <preset>` writes the ledger) or "
+           "restore it from git")
+    ledger = read_json(path, "a claims ledger (claims.json)", fix, keys=("claims",))
+    claims = ledger["claims"]
+    if not isinstance(claims, list) or not all(isinstance(e, dict) and "id" in e
+                                               for e in claims):
+        raise UnreadableFileError(f"{path} is not a claims ledger (its 'claims' must be a "
+                                  f"list of objects with an 'id'); {fix}")
+    return ledger
+
+
 def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, dict[str, Any]]:
     """Claim id -> the ledger entry whose power analysis the design reads: of the preset's
     own committed ledger and the older code's (`older-code/claims.json`), the one whose
@@ -105,7 +119,7 @@ def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, d
                         (folder / "older-code" / "claims.json", True)):
         if path.exists():
             ledgers.append({e["id"]: {**e, "older": older}
-                            for e in json.loads(path.read_text())["claims"]})
+                            for e in read_ledger(path)["claims"]})
     out = {}
     for claim_id in claim_rows(preset):
         entries = [ledger[claim_id] for ledger in ledgers if claim_id in ledger]
@@ -170,7 +184,9 @@ def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
     second and per episode by suite."""
     from icil_paper.bench import bench_path
 
-    record = json.loads(Path(path or bench_path("cells")).read_text())
+    record = read_json(Path(path or bench_path("cells")), "a cell benchmark (cells.json)",
+                       "measure it again: make bench (or restore it from git)", keys=("cells",),
+                       fields={"cells": list})
     step_s, env_rate, steps_per_episode = {}, {}, {}
     for cell in record["cells"]:
         steady = cell["steady"]
@@ -461,4 +477,6 @@ def _print_stages(preset: Preset) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from icil_paper.cli import run_module
+
+    raise SystemExit(run_module("python -m icil_paper.tables.design", main))

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper.config import Preset
+from icil_paper.config import Preset, get_preset
 from icil_paper.config_data import from_dict, to_dict
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
@@ -110,17 +110,23 @@ def ensure_data(preset: Preset, plans: Sequence[RunPlan], progress: bool = True)
 
 # --------------------------------------------------------------------------- one cell
 def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
-             progress: bool = False) -> dict[str, Any]:
+             progress: bool = False, data_root: str | None = None) -> dict[str, Any]:
     """Train one run (or find it trained), evaluate it and measure its features.
 
     Arguments are JSON (what a grid worker receives); every result is written to the
-    results store of `preset` as it finishes. Returns a short summary.
+    results store of `preset` as it finishes. `data_root` is the driver's data folder
+    (`DataConfig.root`; None: the named preset's): the cell reads the data sets the driver
+    generated wherever the driver's spec put them (`--set data.root`), not where the
+    environment would. Returns a short summary.
     """
     from icil_paper.eval import evaluate_run_many, measure_features
     from icil_paper.seeding import seed_everything
     from icil_paper.train.stored import load_trained, train_run
 
     store = ResultsStore(preset)
+    preset = get_preset(preset)
+    if data_root is not None:
+        preset = preset.replace(data={"root": data_root})
     run_spec = RunSpec.from_dict(run)
     seed_everything(run_spec.seed)
     trained = train_run(run_spec, preset, store, progress=progress)
@@ -168,7 +174,8 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
     todo.sort(key=lambda p: p.run.seed)
     ensure_data(preset, todo, progress=progress)
     cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
-                  kwargs={"preset": preset.name, "run": p.run.to_dict(),
+                  kwargs={"preset": preset.name, "data_root": preset.data.root,
+                          "run": p.run.to_dict(),
                           "evals": [to_dict(e) for e in p.evals.values()],
                           "features": [to_dict(f) for f in p.features.values()]},
                   gpus=gpus_per_cell, label=cell_label(p.run))

@@ -43,6 +43,10 @@ class TokenizerConfig:
 
     type: ClassVar[str] = ""
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = TOKENIZER_CHOICES
+    AT_LEAST: ClassVar[dict[str, int]] = {}
+    """Integer fields (or each integer of a tuple field) with a floor above the 1 of every
+    count, by field name: the tokenizer's own constructor check, made when the config is
+    built (merged over the bases, as CHOICES)."""
 
     latent_dim: int = 64
     """Width D of the action embedding (and of each codebook entry)."""
@@ -51,6 +55,15 @@ class TokenizerConfig:
 
     def __post_init__(self) -> None:
         check_fields(self)  # ranges, empty values, CHOICES: before any work
+        floors: dict[str, int] = {}
+        for klass in reversed(type(self).__mro__):
+            floors.update(vars(klass).get("AT_LEAST", {}))
+        for name, low in floors.items():
+            value = getattr(self, name)
+            many = isinstance(value, (tuple, list))
+            if value is not None and any(v < low for v in (value if many else [value])):
+                raise ConfigError(f"{type(self).__name__}.{name} must be at least {low}"
+                                  f"{' each' if many else ''}, got {value}")
 
     @property
     def name(self) -> str:
@@ -127,6 +140,7 @@ class BinConfig(TokenizerConfig):
     """`bin`: RT-1 style uniform bins per action dimension."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"range": ("fixed", "running")}
+    AT_LEAST: ClassVar[dict[str, int]] = {"n_bins": 2}
 
     n_bins: int = 256
     """Uniform bins per action dimension (RT-1: 256; the official code: 20)."""
@@ -146,6 +160,8 @@ class BinConfig(TokenizerConfig):
 @dataclass(frozen=True)
 class FASTConfig(TokenizerConfig):
     """`fast`: DCT of action chunks, rounded, then byte-pair encoded (Pertsch et al. 2025)."""
+
+    AT_LEAST: ClassVar[dict[str, int]] = {"vocab_size": 2}
 
     chunk: int = 8
     """Action steps per DCT chunk."""
@@ -184,6 +200,8 @@ class NormedEncoderConfig(TokenizerConfig):
 @dataclass(frozen=True)
 class VQConfig(NormedEncoderConfig):
     """`vq`: VQ-VAE over single actions (van den Oord et al. 2017)."""
+
+    AT_LEAST: ClassVar[dict[str, int]] = {"codebook_size": 2}
 
     codebook_size: int = 1024
     """K, the number of codebook entries (the paper: 2^10)."""
@@ -313,6 +331,8 @@ def official_bin(latent_dim: int = 64) -> BinConfig:
 class FSQConfig(NormedEncoderConfig):
     """`fsq`: finite scalar quantization (Mentzer et al. 2023) of one action per step."""
 
+    AT_LEAST: ClassVar[dict[str, int]] = {"levels": 3}
+
     levels: tuple[int, ...] = (8, 5, 5, 5)
     """Quantization levels of each code dimension (at least 3 each); the encoder outputs
     len(levels) numbers and the implicit codebook has prod(levels) codes (FSQ's choice for
@@ -334,6 +354,8 @@ class LipFSQConfig(FSQConfig):
 @dataclass(frozen=True)
 class RVQConfig(NormedEncoderConfig):
     """`rvq`: residual vector quantization (VQ-BeT's tokenizer; Lee et al. 2024)."""
+
+    AT_LEAST: ClassVar[dict[str, int]] = {"codebook_size": 2}
 
     num_quantizers: int = 2
     """Residual levels: each quantizes what the levels before it left (VQ-BeT: 2)."""
@@ -373,6 +395,15 @@ class BSplineConfig(TokenizerConfig):
     """Let the decode head's loss train the token embeddings (stand-alone training)."""
     decode_weight: float = 1.0
     """Weight of the decode head's loss."""
+
+    AT_LEAST: ClassVar[dict[str, int]] = {"control_points": 4, "n_bins": 2}
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.control_points > self.chunk:
+            raise ConfigError(f"BSplineConfig.control_points ({self.control_points}) must be at "
+                              f"most chunk ({self.chunk}): a clamped cubic B-spline fits no "
+                              "more control points than the chunk has steps")
 
 
 TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = TOKENIZER_REGISTRY.configs

@@ -129,6 +129,7 @@ def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -
 def main(argv: list[str] | None = None) -> int:
     """Train (or find trained), write the run folder and a `train` record; say where."""
     from icil_paper.results import ResultsStore
+    from icil_paper.train.loop import training_demos
     from icil_paper.train.rundir import POLICY_FILE, run_dir_for
     from icil_paper.train.stored import train_run
 
@@ -137,8 +138,12 @@ def main(argv: list[str] | None = None) -> int:
     spec, preset, demos = spec_from_args(args, preset)
     run_dir = Path(args.run_dir) if args.run_dir else run_dir_for(spec, preset.name)
     check_outputs(spec, preset, run_dir, explicit_run_dir=bool(args.run_dir))
+    if demos is None:  # the data sets (generated where missing, one writer at a time)
+        demos = training_demos(spec.data, preset, preset.data.workers, not args.quiet)
+    # what only the data's episode lengths decide, before any run folder or training step
+    spec.policy.check_episode_length(max(len(d.actions) for d in demos))
     # a stored record is reused only with the policy file it names (`train_run`)
-    record = train_run(spec, preset.name, ResultsStore(preset.name), run_dir=run_dir,
+    record = train_run(spec, preset, ResultsStore(preset.name), run_dir=run_dir,
                        force=args.no_resume, resume=not args.no_resume,
                        progress=not args.quiet, device=args.device,
                        data_workers=preset.data.workers, demos=demos)

@@ -83,10 +83,11 @@ class TrainState:
         self.step = int(ckpt["step"])
 
 
-def training_demos(data: Any, preset: str | None = None, workers: int = 1,
+def training_demos(data: Any, preset: Any = None, workers: int = 1,
                    progress: bool = True) -> list[Any]:
     """The demonstrations a DataSpec names: the first `demos_per_task` of each task's data
-    set (generated where missing, under `data/<preset>/`), or the `dataset` file's."""
+    set (generated where missing, under `<data.root>/<preset>/`), or the `dataset` file's.
+    `preset` is the Preset (whose `data.root` locates the data sets) or a preset's name."""
     if data.dataset is not None:
         from icil_paper.data import load_dataset_file
 
@@ -94,7 +95,7 @@ def training_demos(data: Any, preset: str | None = None, workers: int = 1,
     from icil_paper.data import ensure_many, load_demos
 
     if preset is None:
-        raise ValueError("training_demos needs the preset's name (preset=...): its data sets "
+        raise ValueError("training_demos needs the preset (preset=...): its data sets "
                          "live under data/<preset>/; or pass the demonstrations (demos=...)")
     paths = ensure_many(preset, data.tasks, [data.source],
                         n=data.demos_per_task, workers=workers, progress=progress,
@@ -110,7 +111,7 @@ def training_demos(data: Any, preset: str | None = None, workers: int = 1,
 def train_policy(spec: Any, run_dir: str | Path | None = None, resume: bool = True,
                  demos: Sequence[Any] | None = None, device: str | None = None,
                  progress: bool = True, stop_after: int | None = None,
-                 preset: str | None = None, data_workers: int = 1) -> TrainResult:
+                 preset: Any = None, data_workers: int = 1) -> TrainResult:
     """Train the policy a RunSpec describes; see the module docstring.
 
     Args:
@@ -122,9 +123,10 @@ def train_policy(spec: Any, run_dir: str | Path | None = None, resume: bool = Tr
         device: "cpu", "cuda", ... (default: cuda when available).
         stop_after: stop (after checkpointing) once this step is reached, as if killed
             there; used to test resuming.
-        preset: the name of the preset whose `data/<preset>/` folder holds the data sets
-            (needed unless `demos` or the spec's `dataset` file is given; never read from
-            the environment).
+        preset: the Preset whose data folder (`data.root`, `<root>/<name>/`) holds the data
+            sets, or its name (then the data folder is `get_preset(name)`'s); needed unless
+            `demos` or the spec's `dataset` file is given. A command passes the Preset it
+            built, so the data folder is the one its spec names.
         data_workers: processes that generate missing demonstrations.
     """
     device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
@@ -155,6 +157,7 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
                                                                        data_workers, progress)
     if not demos:
         raise ValueError("no demonstrations to train on")
+    spec.policy.check_episode_length(max(len(d.actions) for d in demos))  # before any step
     obs_spec = obs_spec_from_obs(demos[0].obs)
     action_dim = int(np.asarray(demos[0].actions).shape[1])
     key = spec.key()

@@ -14,6 +14,10 @@ checkpoints (bit for bit the same policy on CPU). A record written before record
 their files is verified by loading its policy file and comparing the weights' digest with
 the record's `policy_digest`.
 
+Evaluation trusts a policy file only with its record (`trusted_policy`): its own key must be
+the run's and the run's record must name it; otherwise it is set aside and the run computed
+again, so an evaluation is never stored under another run's key.
+
 The run folder's lock (`train.rundir.run_lock`) is held from that check to the new record,
 so two processes asking for one run train it once: the second waits, then finds the record
 and its file as the first one left them.
@@ -21,6 +25,7 @@ and its file as the first one left them.
 
 from __future__ import annotations
 
+import os
 import warnings
 from pathlib import Path
 from typing import Any
@@ -53,15 +58,21 @@ def _policy_problem(record: dict[str, Any], folder: Path) -> str | None:
     return None
 
 
-def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Path | None = None,
+def preset_name(preset: Any) -> str:
+    """The name of a Preset, or the name itself."""
+    return preset if isinstance(preset, str) else preset.name
+
+
+def train_run(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Path | None = None,
               force: bool = False, resume: bool = True, progress: bool = True,
               device: str | None = None, data_workers: int = 1,
               demos: Any = None) -> dict[str, Any]:
     """The `train` record of `run`, training it first if the store has none (or `force`),
     or if the run folder's policy file is not the one the record names (module docstring).
 
-    The run folder defaults to `run_dir_for(run, preset)`; training continues from its last
-    checkpoint unless `resume=False` (start over).
+    `preset` is the Preset whose data folder (`data.root`) holds the data sets, or its
+    name. The run folder defaults to `run_dir_for(run, <its name>)`; training continues from
+    its last checkpoint unless `resume=False` (start over).
     """
     from icil_paper.train.loop import finite, train_policy
     from icil_paper.train.rundir import (
@@ -74,7 +85,7 @@ def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Pat
         set_aside_damaged,
     )
 
-    folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset)
+    folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset_name(preset))
     record_id = train_record(run)
 
     def compute() -> dict[str, Any]:
@@ -102,14 +113,69 @@ def train_run(run: RunSpec, preset: str, store: ResultsStore, run_dir: str | Pat
                          files=lambda: {POLICY_FILE: folder / POLICY_FILE})
 
 
-def load_trained(run: RunSpec, preset: str, store: ResultsStore | None = None,
+def policy_key_problem(path: Path, run: RunSpec) -> str | None:
+    """Why the policy file at `path` is not `run`'s by its own record of the run it was
+    trained for (the key in its meta), or None when it is. A damaged file raises
+    PolicyFileError (one line naming it)."""
+    from icil_paper.train.rundir import load_policy
+
+    key = getattr(load_policy(path), "meta", {}).get("key")
+    if key != run.key():
+        return (f"{path.name} was trained for the run of key {key}, not this run's "
+                f"{run.key()}")
+    return None
+
+
+def trusted_policy(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Path,
+                   progress: bool = True, device: str | None = None, data_workers: int = 1):
+    """The policy file in `run_dir`, loaded only once it is known to be `run`'s: its own key
+    is `run.key()` and the stored `train` record of `run` names its SHA-256 (`train_run`).
+
+    A policy file of another run, or one that its record does not name, is set aside (kept,
+    with a warning) and the run is computed again from its checkpoints, so an evaluation is
+    never stored under the key of a run whose policy it did not roll out. In a run folder
+    this process cannot write to, nothing can be set aside: such a file is a PolicyFileError
+    naming it instead, as is a damaged file anywhere.
+    """
+    from icil_paper.train.rundir import (
+        POLICY_FILE,
+        PolicyFileError,
+        load_policy,
+        run_lock,
+        set_aside_damaged,
+    )
+
+    folder = Path(run_dir)
+    if folder.is_dir() and not os.access(folder, os.W_OK):  # read-only: check, never write
+        path = folder / POLICY_FILE
+        record = store.get(*train_record(run))
+        problem = policy_key_problem(path, run) or (
+            f"the results store has no train record of run {run.key()}" if record is None
+            else _policy_problem(record, folder))
+        if problem is not None:
+            raise PolicyFileError(f"{path} is not this run's trained policy ({problem}); "
+                                  "train the run again where its folder can be written "
+                                  "(icil-paper train), or restore the file")
+        return load_policy(folder, map_location=device or "cpu")
+    with run_lock(folder):  # the file checked is the file loaded
+        path = folder / POLICY_FILE
+        if path.exists():
+            problem = policy_key_problem(path, run)
+            if problem is not None:
+                set_aside_damaged(path, problem)
+        train_run(run, preset, store, run_dir=folder, progress=progress, device=device,
+                  data_workers=data_workers)
+        return load_policy(folder, map_location=device or "cpu")
+
+
+def load_trained(run: RunSpec, preset: Any, store: ResultsStore | None = None,
                  progress: bool = True, device: str | None = None, data_workers: int = 1):
     """The trained policy of `run`: its policy file, as its `train` record names it (trained,
     or trained again, and recorded where it is missing or stale: `train_run`)."""
     from icil_paper.train.rundir import load_policy, run_dir_for, run_lock
 
-    folder = run_dir_for(run, preset)
+    folder = run_dir_for(run, preset_name(preset))
     with run_lock(folder):  # the file checked is the file loaded
-        train_run(run, preset, store or ResultsStore(preset), progress=progress,
+        train_run(run, preset, store or ResultsStore(preset_name(preset)), progress=progress,
                   device=device, data_workers=data_workers)
         return load_policy(folder, map_location=device or "cpu")
