@@ -24,6 +24,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -47,6 +48,8 @@ PILOT_SEEDS = 2
 """Seeds a row gets before its variance is measured (2: the fewest that measure one)."""
 MAX_SEEDS = 10
 """The most seeds a row is planned up to by default (the reference design's)."""
+SHARED_SIZES = ("latent_dim", "codebook_size")
+"""The tokenizer fields every preset gives all its tokenizers alike (`config._tokenizers`)."""
 REPORT_FILE = "compare.json"
 PLOT_FILE = "compare.png"
 
@@ -65,6 +68,28 @@ def check_tokenizers(tokenizer: str, against: Sequence[str]) -> None:
     if tokenizer in against or len(set(against)) != len(against):
         raise ValueError(f"compare {tokenizer} against other tokenizers, each once; got "
                          f"--against {' '.join(against)}")
+
+
+def with_registered(preset: Preset) -> Preset:
+    """`preset` with a config for every tokenizer registered since it was built (a plugin
+    loaded afterwards), each given the values the preset gives all of its tokenizers alike
+    (`latent_dim`, `codebook_size`), as `get_preset` does for one registered before."""
+    section = preset.tokenizers
+    base = next(c for c in type(section).__mro__ if "REGISTRY" in vars(c))
+    current = {f.name: getattr(section, f.name) for f in dataclasses.fields(section)}
+    new = {name: cls for name, cls in base.REGISTRY.configs.items()
+           if name.replace("-", "_") not in current}
+    if not new:
+        return preset
+    for name, cls in new.items():
+        shared = {}
+        for f in dataclasses.fields(cls):
+            values = {repr(getattr(c, f.name)): getattr(c, f.name) for c in current.values()
+                      if hasattr(c, f.name)}
+            if f.name in SHARED_SIZES and len(values) == 1:
+                shared[f.name] = next(iter(values.values()))
+        current[name.replace("-", "_")] = cls(**shared)
+    return dataclasses.replace(preset, tokenizers=base(**current))
 
 
 def _run(preset: Preset, spec, executor: str, workers: int | None, ray_address: str | None,
@@ -133,6 +158,7 @@ def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGA
             progress: bool = True) -> dict[str, Any]:
     """Run (or load) the comparison and return its report (module docstring)."""
     against = tuple(against)
+    preset = with_registered(preset)
     check_tokenizers(tokenizer, against)
     if not effect > 0:
         raise ValueError(f"--effect must be a difference of success above 0, got {effect}")
