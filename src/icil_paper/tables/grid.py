@@ -237,7 +237,8 @@ def _execute(target: str, kwargs: Mapping[str, Any], job: Mapping[str, Any]) -> 
     if os.path.isdir(job["cwd"]):
         os.chdir(job["cwd"])
     try:
-        plugins.load_plugins(job.get("plugins", ()))  # the driver's --plugin modules and files
+        if job.get("plugins"):  # the driver's --plugin modules and files (entry points:
+            plugins.load_plugins(job["plugins"])  # the registries find them on first use)
         module, _, name = target.partition(":")
         fn = getattr(importlib.import_module(module), name)
         with _torch_threads(job["threads"]):
