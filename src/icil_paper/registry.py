@@ -12,6 +12,11 @@ from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
 
+ENTRY_POINT_LOADER = "icil_paper.plugins:load_entry_points"
+"""What loads and checks a registry's entry points, imported on first use (it imports this
+module)."""
+
+
 class UnknownNameError(ValueError):
     """A preset, task, policy or tokenizer name that does not exist."""
 
@@ -111,9 +116,8 @@ class ComponentRegistry(Registry):
         if self._discovered:
             return
         self._discovered = True  # set first: a plugin's own registrations come back here
-        from icil_paper import plugins  # imports this module: imported on use, not at the top
-
-        plugins.load_entry_points(self)
+        module, _, function = ENTRY_POINT_LOADER.partition(":")
+        getattr(importlib.import_module(module), function)(self)
 
     def register(self, name: str, model: str):
         """A class decorator registering a config class of `self.base` under `name`."""
