@@ -290,6 +290,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="parallel cells (default: the preset's eval.workers)")
     parser.add_argument("--ray-address", default=None, metavar="HOST:PORT",
                         help="with --executor ray: join this cluster (default: start one here)")
+    parser.add_argument("--gpus-per-cell", type=float, default=0.0, metavar="N",
+                        help="with --executor ray: GPUs each cell asks for")
     parser.add_argument("--out", default=None, metavar="DIR",
                         help="folder of compare.json and compare.png (default: "
                              "results/<preset>/compare/<tokenizer>)")
@@ -297,6 +299,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.ray_address is not None and args.executor != "ray":
         parser.error("--ray-address is for --executor ray")
+    if not 0 <= args.gpus_per_cell <= 64:
+        parser.error(f"--gpus-per-cell must be between 0 and 64, got {args.gpus_per_cell}")
     if not 0 < args.effect < 1:
         parser.error(f"--effect must be a difference of success between 0 and 1, got "
                      f"{args.effect}")
@@ -316,7 +320,8 @@ def main(argv: list[str] | None = None) -> int:
     report = compare(preset, args.tokenizer, args.against, effect=args.effect,
                      seeds=args.seeds, pilot_seeds=args.pilot_seeds, max_seeds=args.max_seeds,
                      executor=args.executor, workers=args.workers,
-                     ray_address=args.ray_address, progress=not args.quiet)
+                     ray_address=args.ray_address, gpus_per_cell=args.gpus_per_cell,
+                     progress=not args.quiet)
     json_path, png_path = write(report, out)
     print("\n".join(lines(report)))
     print(f"report {json_path}; forest plot {png_path}")
