@@ -59,8 +59,7 @@ from icil_paper.book.own_tokenizer import (
     write_example,
 )
 from icil_paper.config import get_preset
-from icil_paper.tables import claims
-from icil_paper.tables.compare import MAX_SEEDS, PLOT_FILE, lines
+from icil_paper.tables.compare import MAX_SEEDS, PLOT_FILE, lines, sentence
 
 preset = get_preset()  # reads ICIL_PRESET
 
@@ -104,7 +103,7 @@ entry = report["comparisons"][0]
 seeds = report["seed_plan"]
 display(Markdown(
     f"In this build ({report['preset']} preset) `{EXAMPLE_NAME}` against LipVQ-VAE: "
-    f"{claims.sentence(entry)} "
+    f"{sentence(entry)} "
     + (f"The design detects a difference of {entry['mde']:.3f} with 80% power; the effect of "
        f"interest, {report['effect']:g}, it detects with probability {entry['power']:.2f}. "
        if entry.get("power") is not None else "")

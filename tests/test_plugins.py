@@ -242,11 +242,13 @@ def _plugin_records(results: Path, n_bins: int) -> list[dict]:
     return [r for r in records if r["config"]["run"]["tokenizer"]["n_bins"] == n_bins]
 
 
+@pytest.mark.slow
 def test_compare_runs_a_plugin_file_on_the_local_pool_and_on_ray(
         tmp_path, folders, clean_plugins, capsys):
     assert _compare(tmp_path, "local") == 0, capsys.readouterr().err
     out = capsys.readouterr().out
     assert f"icrt+{EXAMPLE_NAME} minus icrt+lipvq" in out and "seeds: fixed at 2" in out
+    assert "the paper's" not in out  # sized against --effect
     _check_report(tmp_path / "out-local", 32)
     made = _plugin_records(folders["results"], 32)
     assert len(made) == 2 and all(r["plugins"][0]["sha256"] for r in made)  # in the workers

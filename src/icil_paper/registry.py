@@ -11,7 +11,6 @@ import importlib
 from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
-
 ENTRY_POINT_LOADER = "icil_paper.plugins:load_entry_points"
 """What loads and checks a registry's entry points, imported on first use (it imports this
 module)."""

@@ -194,6 +194,21 @@ def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGA
             "seed_plan": seed_plan, "comparisons": entries, "plugins": used}
 
 
+OWN_WORDS = {"the paper's size": "the size of the effect of interest",
+             "the paper's effect": "the effect of interest"}
+"""The ledger's words for a claim sized against the paper's number, as a comparison of
+one's own reads them (its reference is `--effect`)."""
+
+
+def sentence(entry: dict[str, Any]) -> str:
+    """A comparison in the claims ledger's words (`claims.sentence`), sized against the
+    effect of interest instead of a paper's number."""
+    text = claims_mod.sentence(entry)
+    for ledger, own in OWN_WORDS.items():
+        text = text.replace(ledger, own)
+    return text
+
+
 def lines(report: dict[str, Any]) -> list[str]:
     """The report in words: the rows, each comparison in the ledger's words, the plan."""
     out = [f"{report['tokenizer']} against {', '.join(report['against'])} on Table I's "
@@ -204,7 +219,7 @@ def lines(report: dict[str, Any]) -> list[str]:
                                    f"[{value['ci'][0]:.3f}, {value['ci'][1]:.3f}], "
                                    f"{value['seeds']} seeds"))
     for entry in report["comparisons"]:
-        out.append(f"  {claims_mod.sentence(entry)}")
+        out.append(f"  {sentence(entry)}")
         if entry.get("power") is not None:
             out.append(f"    power at {report['effect']:g}: {entry['power']:.2f}; smallest "
                        f"detectable difference {entry['mde']:.3f}")
