@@ -107,6 +107,17 @@ def folders(tmp_path, monkeypatch):
     return out
 
 
+def _forget_plugins() -> None:
+    """This process as one that never loaded a plugin (`clean_plugins` restores it)."""
+    for kind in plugins.REGISTRIES:
+        reg = plugins.registry(kind)
+        for name in (n for n in list(reg._configs) if plugins.owner(kind, n)):
+            reg._configs.pop(name)
+            reg._entries.pop(name)
+            reg._loaded.pop(name, None)
+    plugins._LOADED.clear()
+
+
 @pytest.mark.parametrize("case", list(BAD))
 def test_a_bad_plugin_stops_every_command_with_one_line_before_writing(
         case, tmp_path, folders, clean_plugins, capsys):
@@ -157,14 +168,7 @@ def test_the_example_plugin_trains_exports_and_is_named_in_its_records(
     assert "plugins=" in capsys.readouterr().out
     tok = load_tokenizer(out)  # the plugin is loaded in this process
     assert tok.name == EXAMPLE_NAME and tok.config.n_bins == 8
-    # a process without the plugin: the folder and the policy file name the plugin
-    for kind in plugins.REGISTRIES:
-        reg = plugins.registry(kind)
-        for name in (n for n in list(reg._configs) if plugins.owner(kind, n)):
-            reg._configs.pop(name)
-            reg._entries.pop(name)
-            reg._loaded.pop(name, None)
-    plugins._LOADED.clear()
+    _forget_plugins()  # a process without the plugin: the folder and the policy file name it
     with pytest.raises(TokenizerFolderError, match=f"plugin {path} \\(sha256 {digest[:12]}\\)"):
         load_tokenizer(out)
     assert cli.main(["export-tokenizer", str(run_dir), str(tmp_path / "again")]) == 2
@@ -216,9 +220,9 @@ def test_an_installed_entry_point_is_found_by_the_registry_and_trains(
     assert "entry point 'vq'" in err and "a name a built-in already has" in err
 
 
-def _compare(tmp_path, executor: str, *extra: str) -> int:
+def _compare(tmp_path, executor: str, *extra: str, source: str = GOOD) -> int:
     path = tmp_path / "chunk_bins.py"
-    path.write_text(GOOD)
+    path.write_text(source)
     return cli.main(["compare", "--plugin", str(path), "--preset", "smoke", "--tokenizer",
                      EXAMPLE_NAME, "--seeds", "2", "--set", f"data.kitchen_tasks={TASK}",
                      "--executor", executor, "--workers", "2", "--quiet",
@@ -252,6 +256,12 @@ def test_compare_runs_a_plugin_file_on_the_local_pool_and_on_ray(
     _check_report(tmp_path / "out-local", 32)
     made = _plugin_records(folders["results"], 32)
     assert len(made) == 2 and all(r["plugins"][0]["sha256"] for r in made)  # in the workers
+
+    # the file edited (as a fresh process sees it): its stored cells are reused, and said so
+    _forget_plugins()
+    assert _compare(tmp_path, "local", source=GOOD + "# edited\n") == 0
+    assert "warning: 2 stored icrt+chunkbins cell(s) were made by another version" in \
+        capsys.readouterr().out
 
     ray = pytest.importorskip("ray", reason="Ray is not installed")
     if ray.is_initialized():

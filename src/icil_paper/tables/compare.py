@@ -34,6 +34,7 @@ from icil_paper import plugins, stats
 from icil_paper.config import Preset
 from icil_paper.config_data import to_dict
 from icil_paper.fileio import atomic_write_json
+from icil_paper.records import train_record
 from icil_paper.results import ResultsStore
 from icil_paper.tables import claims as claims_mod
 from icil_paper.tables.assemble import TableResult, assemble
@@ -150,6 +151,23 @@ def plan_seeds(result: TableResult, tokenizer: str, against: Sequence[str], effe
     return {"needed": worst, "planned": planned, "note": note}
 
 
+def other_versions(spec, store: ResultsStore) -> dict[str, int]:
+    """Row -> how many of its stored training records a plugin made at another version or
+    file digest than the one loaded now (a record is reused by its config, not its code)."""
+    current = {(name, p.sha256, p.version) for p in plugins.loaded()
+               for names in p.names.values() for name in names}
+    out: dict[str, int] = {}
+    runs = {u.run.key(): (row.label, u.run) for row in spec.rows
+            for cell in row.cells.values() for u in cell.units}
+    for label_, run in runs.values():
+        record = store.get(*train_record(run))
+        for made in (record or {}).get("plugins") or []:
+            for name in made["names"].get("tokenizer", []):
+                if (name, made.get("sha256"), made.get("version")) not in current:
+                    out[label_] = out.get(label_, 0) + 1
+    return out
+
+
 def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGAINST,
             effect: float = DEFAULT_EFFECT, seeds: int | None = None,
             pilot_seeds: int = PILOT_SEEDS, max_seeds: int = MAX_SEEDS,
@@ -180,6 +198,7 @@ def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGA
             _run(preset, icrt_rows(preset, counts), **run)
             result = assemble(icrt_rows(preset, counts), store)
     seed_plan["seeds"] = counts
+    stale = other_versions(icrt_rows(preset, counts), store)
     entries = claims_mod.evaluate_claims(_claims(tokenizer, against, effect), {"I": result})
     rows = {}
     for name in names:
@@ -191,7 +210,8 @@ def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGA
     return {"preset": preset.name, "tokenizer": tokenizer, "against": list(against),
             "protocol": "Table I: ICRT on every kitchen task, average success",
             "familywise_level": stats.ALPHA, "effect": effect, "rows": rows,
-            "seed_plan": seed_plan, "comparisons": entries, "plugins": used}
+            "seed_plan": seed_plan, "comparisons": entries, "plugins": used,
+            "other_versions": stale, "records": str(store.dir)}
 
 
 OWN_WORDS = {"the paper's size": "the size of the effect of interest",
@@ -230,6 +250,10 @@ def lines(report: dict[str, Any]) -> list[str]:
                               f"pilot {plan_['pilot']} a row, then {plan_.get('note')}"))
     for p in report["plugins"]:
         out.append(f"  plugin: {plugins.needed_by([p])}")
+    for row, n in (report.get("other_versions") or {}).items():
+        out.append(f"  warning: {n} stored {row} cell(s) were made by another version of its "
+                   f"plugin and are reused; delete their records under {report['records']} "
+                   "to recompute them")
     return out
 
 
