@@ -207,6 +207,13 @@ def test_an_installed_entry_point_is_found_by_the_registry_and_trains(
     (named,) = record["plugins"]
     assert (named["source"], named["distribution"], named["version"]) == (
         "entry point", "toks41", "0.3")
+    # the chapter's comparison, through the installed package
+    assert cli.main(["compare", "--preset", "smoke", "--tokenizer", "pcatok", "--seeds", "2",
+                     "--set", f"data.kitchen_tasks={TASK}", "--executor", "serial", "--quiet",
+                     "--out", str(tmp_path / "out")]) == 0, capsys.readouterr().err
+    report = json.loads((tmp_path / "out" / "compare.json").read_text())
+    assert report["comparisons"][0]["verdict"] in VERDICTS
+    assert report["plugins"][0]["version"] == "0.3"
     # an entry point that clashes with a built-in stops the command in one line
     (tmp_path / "site" / "toks41-0.3.dist-info" / "entry_points.txt").write_text(
         "[icil_paper.tokenizers]\nvq = toks41.clash\n")
