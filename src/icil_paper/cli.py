@@ -19,6 +19,7 @@ import sys
 from typing import Any
 
 from icil_paper.config import PRESET_NAMES
+from icil_paper.plugins import load_plugins
 from icil_paper.tables.grid import RayUnavailable
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
@@ -154,8 +155,6 @@ def main(argv: list[str] | None = None) -> int:
     try:
         rest, plugin_specs = split_plugins(rest)
         if plugin_specs or command in SUBCOMMANDS:
-            from icil_paper.plugins import load_plugins
-
             load_plugins(plugin_specs)  # entry points too: a bad plugin stops here, before work
         if command == "env":
             return _env(rest)

@@ -25,7 +25,8 @@ Executors
 
 Every executor runs a cell the same way: the driver's `ICIL_*` (and `MUJOCO_GL`) environment
 variables, its working directory and its import path are applied in the worker for the
-call, the plugins it loaded by name or file (`icil_paper.plugins`) are loaded there, torch runs on `threads` intra-op threads (1 by default, since cells run side by side),
+call, the plugins it loaded by name or file (`icil_paper.plugins`) are loaded there first,
+torch runs on `threads` intra-op threads (1 by default, since cells run side by side),
 and what the function returns is passed through JSON. Each function seeds itself
 (`icil_paper.seeding.seed_everything`), so the same cells give the same results whatever
 the executor and worker count.
