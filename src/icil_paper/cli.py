@@ -27,7 +27,7 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
     RayUnavailable)
 """What a command reports in one line (exit 2) instead of a traceback. ValueError covers
 UnknownNameError, OverrideError, ConfigError, DatasetError, RunFolderError,
-UnreadableFileError (PolicyFileError among them), TokenizerFolderError and
+UnreadableFileError (PolicyFileError among them), TokenizerFolderError, PluginError and
 json.JSONDecodeError, whose messages name the problem; PermissionError covers
 FolderNotWritableError (an output folder refused before any work); RayUnavailable says why
 Ray could not be imported, started or reached."""
