@@ -276,6 +276,10 @@ def forest_plot(report: dict[str, Any], path: str | Path) -> Path:
     ax.axvline(0, color="black", lw=1)
     for x in (-effect, effect):
         ax.axvline(x, color="grey", lw=1, ls="--")
+    lows = [e["ci"][0] for e in entries] + [-effect]
+    highs = [e["ci"][1] for e in entries] + [effect]
+    span = max(highs) - min(lows)
+    ax.set_xlim(min(lows) - 0.05 * span, max(highs) + 0.35 * span)  # room for the verdict
     ax.set_yticks(range(len(entries)))
     ax.set_yticklabels([e["quantity"].split(",")[0] for e in entries], fontsize=8)
     ax.set_ylim(-0.7, len(entries) - 0.3)
