@@ -19,6 +19,7 @@ import sys
 from typing import Any
 
 from icil_paper.config import PRESET_NAMES
+from icil_paper.plugins import load_plugins
 from icil_paper.tables.grid import RayUnavailable
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
@@ -26,7 +27,7 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
     RayUnavailable)
 """What a command reports in one line (exit 2) instead of a traceback. ValueError covers
 UnknownNameError, OverrideError, ConfigError, DatasetError, RunFolderError,
-UnreadableFileError (PolicyFileError among them), TokenizerFolderError and
+UnreadableFileError (PolicyFileError among them), TokenizerFolderError, PluginError and
 json.JSONDecodeError, whose messages name the problem; PermissionError covers
 FolderNotWritableError (an output folder refused before any work); RayUnavailable says why
 Ray could not be imported, started or reached."""
@@ -81,6 +82,8 @@ SUBCOMMANDS = {
     "eval": ("icil_paper.eval.cli", "roll out a trained policy and store its success rate"),
     "tables": ("icil_paper.tables.cli", "print the paper's tables and claims from the results store"),
     "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
+    "compare": ("icil_paper.tables.compare",
+                "a tokenizer against LipVQ-VAE on Table I's protocol: difference, verdict, power"),
     "export-tokenizer": ("icil_paper.interop.tokenizer_export",
                          "write a trained policy's tokenizer as a portable folder (safetensors)"),
 }
@@ -101,6 +104,26 @@ def _env(argv: list[str]) -> int:
     return 0
 
 
+def split_plugins(argv: list[str]) -> tuple[list[str], list[str]]:
+    """(argv without them, the values of every `--plugin X` / `--plugin=X`)."""
+    rest, specs = [], []
+    i = 0
+    while i < len(argv):
+        arg = argv[i]
+        if arg == "--plugin":
+            if i + 1 >= len(argv) or argv[i + 1].startswith("--"):
+                raise ValueError("--plugin needs a module name or a .py file path")
+            specs.append(argv[i + 1])
+            i += 2
+            continue
+        if arg.startswith("--plugin="):
+            specs.append(arg.split("=", 1)[1])
+        else:
+            rest.append(arg)
+        i += 1
+    return rest, specs
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog="icil-paper",
@@ -111,7 +134,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("env", help="report packages, hardware, simulators and the active preset",
                    add_help=False)
     parser.epilog = ("--debug anywhere on the command line shows a traceback instead of a "
-                     "one-line error.")
+                     "one-line error. --plugin MODULE_OR_FILE (repeatable) on any command "
+                     "loads a module or .py file that registers tokenizers or policies "
+                     "(icil_paper.plugins); installed packages' entry points of the groups "
+                     "icil_paper.tokenizers and icil_paper.policies are loaded too.")
     for name, (_, help_text) in SUBCOMMANDS.items():
         sub.add_parser(name, help=help_text, add_help=False)
     return parser
@@ -127,6 +153,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     command, rest = argv[0], argv[1:]
     try:
+        rest, plugin_specs = split_plugins(rest)
+        if plugin_specs or command in SUBCOMMANDS:
+            load_plugins(plugin_specs)  # entry points too: a bad plugin stops here, before work
         if command == "env":
             return _env(rest)
         if command not in SUBCOMMANDS:

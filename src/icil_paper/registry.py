@@ -11,9 +11,22 @@ import importlib
 from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
+ENTRY_POINT_LOADER = "icil_paper.plugins:load_entry_points"
+"""What loads and checks a registry's entry points, imported on first use (it imports this
+module)."""
+
 
 class UnknownNameError(ValueError):
     """A preset, task, policy or tokenizer name that does not exist."""
+
+
+class NameClashError(ValueError):
+    """A component registered under a name another class already holds."""
+
+    def __init__(self, kind: str, name: str, message: str):
+        super().__init__(message)
+        self.kind = kind
+        self.name = name
 
 
 def check_name(kind: str, name: str, valid: Iterable[str]) -> str:
@@ -41,6 +54,7 @@ class Registry(Mapping[str, Any]):
         self._loaded: dict[str, Any] = {}
 
     def __getitem__(self, name: str) -> Any:
+        self.discover()
         check_name(self.kind, name, self._entries)
         if name not in self._loaded:
             module, _, attribute = self._entries[name].partition(":")
@@ -48,10 +62,15 @@ class Registry(Mapping[str, Any]):
         return self._loaded[name]
 
     def __iter__(self) -> Iterator[str]:
+        self.discover()
         return iter(self._entries)
 
     def __len__(self) -> int:
+        self.discover()
         return len(self._entries)
+
+    def discover(self) -> None:
+        """Load what else adds entries (plugins: `ComponentRegistry`); nothing here."""
 
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}, {list(self._entries)})"
@@ -72,12 +91,32 @@ class ComponentRegistry(Registry):
     on first use, or a bare attribute name of the config's own module (a component written
     as one file). The registry's names, the presets' sections (`icil_paper.config`) and the
     command line's choices are read from it.
+
+    Plugins: on first use (`configs`, a name looked up, the names listed) the registry loads
+    the entry points of its `group` (`icil_paper.tokenizers`, `icil_paper.policies`) that
+    installed packages declare, through `icil_paper.plugins`, which checks each of them.
     """
 
-    def __init__(self, kind: str, base: type):
+    def __init__(self, kind: str, base: type, group: str | None = None):
         super().__init__(kind, {})
         self.base = base
-        self.configs: dict[str, type] = {}
+        self.group = group
+        self._configs: dict[str, type] = {}
+        self._discovered = group is None
+
+    @property
+    def configs(self) -> dict[str, type]:
+        """name -> config class, in registration order (built-ins, then plugins)."""
+        self.discover()
+        return self._configs
+
+    def discover(self) -> None:
+        """Load this registry's entry-point plugins, once (`icil_paper.plugins`)."""
+        if self._discovered:
+            return
+        self._discovered = True  # set first: a plugin's own registrations come back here
+        module, _, function = ENTRY_POINT_LOADER.partition(":")
+        getattr(importlib.import_module(module), function)(self)
 
     def register(self, name: str, model: str):
         """A class decorator registering a config class of `self.base` under `name`."""
@@ -86,14 +125,15 @@ class ComponentRegistry(Registry):
             if not (isinstance(cls, type) and issubclass(cls, self.base)):
                 raise TypeError(f"register({name!r}) decorates a subclass of "
                                 f"{self.base.__name__}, got {cls!r}")
-            old = self.configs.get(name)
+            old = self._configs.get(name)
             if old is not None and (old.__module__, old.__qualname__) != (cls.__module__,
                                                                           cls.__qualname__):
-                raise ValueError(f"{self.kind} {name!r} is registered twice: by "
-                                 f"{old.__module__}.{old.__qualname__} and "
-                                 f"{cls.__module__}.{cls.__qualname__}; rename one")
+                raise NameClashError(self.kind, name,
+                                     f"{self.kind} {name!r} is registered twice: by "
+                                     f"{old.__module__}.{old.__qualname__} and "
+                                     f"{cls.__module__}.{cls.__qualname__}; rename one")
             cls.type = name
-            self.configs[name] = cls
+            self._configs[name] = cls
             self._entries[name] = model if ":" in model else f"{cls.__module__}:{model}"
             self._loaded.pop(name, None)
             return cls

@@ -67,6 +67,9 @@ STAGES: tuple[Stage, ...] = (
                      "without Eq. 4", "12"),
           ("official", "the paper against its official code: LipVQ-VAE, Bin and prompts "
                        "as the code has them", "13"))),
+    Stage("own-tokenizer", "a tokenizer of one file, loaded as a plugin, against LipVQ-VAE "
+          "on Table I's protocol (chapter 14)",
+          "icil_paper.book.own_tokenizer:own_tokenizer_study"),
     Stage("claims", "the claims ledger: every claim with its verdict (chapter 00)",
           "icil_paper.reproduce:claims_stage"),
 )

@@ -35,6 +35,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from icil_paper import plugins
 from icil_paper.config_data import canonical_json, content_hash
 from icil_paper.fileio import (
     atomic_write_json,
@@ -150,6 +151,9 @@ class ResultsStore:
             "metrics": dict(metrics),
             **(dict(extra) if extra else {}),
         }
+        used = plugins.record_of(record["config"])  # which plugin (version, digest) made it
+        if used:
+            record["plugins"] = used
         path = self.path_for(kind, name, chash)
         atomic_write_json(path, record)
         return path

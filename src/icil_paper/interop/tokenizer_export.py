@@ -1,6 +1,7 @@
 """A trained policy's action tokenizer as a portable folder: `icil-paper export-tokenizer`.
 
     icil-paper export-tokenizer runs/small/icrt+lipvq__... exported/lipvq
+    icil-paper export-tokenizer --plugin ./pca.py runs/small/icrt+pca__... exported/pca
 
     from icil_paper.interop.tokenizer_export import export_tokenizer
     export_tokenizer("runs/small/icrt+lipvq__...", "exported/lipvq")
@@ -65,9 +66,12 @@ def main(argv: list[str] | None = None) -> int:
     out = export_tokenizer(args.run_dir, args.out)
     config = read_config(out)
     facts = config["facts"]
+    needs = [p["path"] if p.get("source") == "file" else p["spec"]
+             for p in config.get("plugins") or []]
+    also = f", plugins={needs!r}" if needs else ""
     print(f"{out}: the {facts['name']} tokenizer (action_dim {config['action_dim']}, "
           f"{facts['n_values']} weights in {facts['n_tensors']} tensors); load it with "
-          f"icil_paper.tokenizers.load_tokenizer({str(out)!r})")
+          f"icil_paper.tokenizers.load_tokenizer({str(out)!r}{also})")
     return 0
 
 

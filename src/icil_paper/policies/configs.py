@@ -65,7 +65,7 @@ class PolicyConfig:
         before any run folder or training step. Nothing to check for most policies."""
 
 
-POLICY_REGISTRY = ComponentRegistry("policy", PolicyConfig)
+POLICY_REGISTRY = ComponentRegistry("policy", PolicyConfig, "icil_paper.policies")
 """Every policy by name: its config class (`configs`) and its model, imported on first use.
 A policy is added by one decorator on its config class, `register_policy`; the preset's
 `policies` section and the CLI's choices are derived from it."""
@@ -169,7 +169,7 @@ class MCRConfig(PolicyConfig):
     """Learning rate of the pre-training."""
 
 
-POLICY_CONFIGS: dict[str, type[PolicyConfig]] = POLICY_REGISTRY.configs
+POLICY_CONFIGS: dict[str, type[PolicyConfig]] = POLICY_REGISTRY._configs
 """Registry name -> config class, in registration order."""
 
 

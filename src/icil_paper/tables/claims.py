@@ -719,3 +719,16 @@ def sentence(entry: dict[str, Any]) -> str:
 def load_ledger(path) -> list[dict[str, Any]]:
     with open(path) as f:
         return json.load(f)["claims"]
+
+
+def evaluate_claims(chosen: Sequence[Claim], tables: dict[str, TableResult]
+                    ) -> list[dict[str, Any]]:
+    """Ledger entries of `chosen` claims on assembled `tables` (as `claims_ledger` makes
+    them: the verdict, the size reading and the power, each row's variance pooled over
+    `tables` where it has one seed), Holm-adjusted over `chosen` (`icil-paper compare`)."""
+    pooled = _pooled_variances(tables)
+    entries, estimates = zip(*(_evaluate(c, tables, pooled) for c in chosen), strict=True)
+    adjusted = stats.adjusted_verdicts(estimates, [c.direction for c in chosen])
+    for entry, verdict in zip(entries, adjusted, strict=True):
+        entry["adjusted_verdict"] = verdict
+    return list(entries)

@@ -606,3 +606,19 @@ def check_row_seeds(preset: Preset) -> None:
             if table == "I":
                 rows += [r.label for r in table_spec(preset, "IV").rows]
         check_name(f"tables.row_seeds row of table {table}", row, list(dict.fromkeys(rows)))
+
+
+def icrt_rows(preset: Preset, seeds: dict[str, int]) -> TableSpec:
+    """Table I's protocol for chosen ICRT tokenizers at chosen training seeds (tokenizer ->
+    seeds; `icil-paper compare`): each row's runs and evaluations are those Table I has for
+    that tokenizer (its first seeds are the same records), so stored cells are reused, and a
+    tokenizer Table I does not have (a plugin's) is trained and evaluated the same way."""
+    tasks = preset.data.kitchen_tasks
+    rows = tuple(Row(label("icrt", tok), _family_cells(preset, _runs(preset, "icrt", tok, tasks,
+                                                                      n), tasks),
+                     paper.TABLE_I_ROBOCASA.get(label("icrt", tok), {}))
+                 for tok, n in seeds.items())
+    return TableSpec("I", "ICRT tokenizers on Table I's protocol (our kitchen suite)",
+                     (*FAMILY_COLUMNS, "avg"), rows, note=(
+                         "Table I's runs and evaluations for the chosen tokenizers; avg is "
+                         "the mean over tasks."))

@@ -25,7 +25,8 @@ Executors
 
 Every executor runs a cell the same way: the driver's `ICIL_*` (and `MUJOCO_GL`) environment
 variables, its working directory and its import path are applied in the worker for the
-call, torch runs on `threads` intra-op threads (1 by default, since cells run side by side),
+call, the plugins it loaded by name or file (`icil_paper.plugins`) are loaded there first,
+torch runs on `threads` intra-op threads (1 by default, since cells run side by side),
 and what the function returns is passed through JSON. Each function seeds itself
 (`icil_paper.seeding.seed_everything`), so the same cells give the same results whatever
 the executor and worker count.
@@ -82,6 +83,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from typing import Any
 
+from icil_paper import plugins
 from icil_paper.results import canonical_json
 
 EXECUTORS = ("serial", "local", "ray")
@@ -222,7 +224,7 @@ def _job(threads: int | None) -> dict[str, Any]:
     env = {k: v for k, v in os.environ.items() if k.startswith(FORWARDED_ENV)}
     path = [os.path.abspath(p or os.curdir) for p in sys.path]
     return {"env": env, "cwd": os.getcwd(), "path": [p for p in path if os.path.isdir(p)],
-            "threads": threads}
+            "threads": threads, "plugins": plugins.named()}
 
 
 def _execute(target: str, kwargs: Mapping[str, Any], job: Mapping[str, Any]) -> Any:
@@ -236,6 +238,8 @@ def _execute(target: str, kwargs: Mapping[str, Any], job: Mapping[str, Any]) -> 
     if os.path.isdir(job["cwd"]):
         os.chdir(job["cwd"])
     try:
+        if job.get("plugins"):  # the driver's --plugin modules and files (entry points:
+            plugins.load_plugins(job["plugins"])  # the registries find them on first use)
         module, _, name = target.partition(":")
         fn = getattr(importlib.import_module(module), name)
         with _torch_threads(job["threads"]):

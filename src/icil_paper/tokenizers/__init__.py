@@ -50,7 +50,10 @@ and, where it has that field, `codebook_size`; `icil_paper.config` may add its o
     class ToyTokenizer(ActionTokenizer): ...
 
 `--set tokenizers.toy.scale=2 --tokenizer toy` then works on the command line once the
-module is imported (`tests/test_registration.py` runs one end to end).
+module is imported (`tests/test_registration.py` runs one end to end). Outside the package
+the module is a plugin: `--plugin FILE_OR_MODULE` on any command, or an entry point of the
+group `icil_paper.tokenizers` that the registry loads on first use (`icil_paper.plugins`;
+`icil-paper compare` reads it against LipVQ-VAE, chapter 14).
 """
 
 from __future__ import annotations

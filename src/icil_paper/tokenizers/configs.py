@@ -71,7 +71,7 @@ class TokenizerConfig:
         return self.type
 
 
-TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig)
+TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig, "icil_paper.tokenizers")
 """Every action tokenizer by name: its config class (`configs`) and its model, imported on
 first use. A tokenizer is added by one decorator on its config class, `register_tokenizer`;
 the preset's `tokenizers` section and the CLI's choices are derived from it."""
@@ -406,7 +406,7 @@ class BSplineConfig(TokenizerConfig):
                               "more control points than the chunk has steps")
 
 
-TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = TOKENIZER_REGISTRY.configs
+TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = TOKENIZER_REGISTRY._configs
 """Registry name -> config class, in registration order: the paper's, in the order of
 Table I (mlp first), then the tokenizers that came after it (`SINCE_PAPER`), then any
 registered later (a module of one's own that uses `register_tokenizer`)."""

@@ -36,14 +36,16 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import torch
 
+from icil_paper import plugins
 from icil_paper.fileio import atomic_write_bytes, atomic_write_json
 from icil_paper.tokenizers.base import ActionTokenizer, make_tokenizer
+from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY
 
 FORMAT = "icil_paper.tokenizer/1"
 CONFIG_FILE = "config.json"
@@ -133,6 +135,8 @@ def save_tokenizer(tokenizer: ActionTokenizer, folder: str | Path,
                   "context_steps": tokenizer.context_steps,
                   "n_tensors": len(tensors), "n_values": sum(t.numel() for t in tensors.values())},
         "source": dict(source or {}),
+        **({"plugins": used} if (used := plugins.record_of(to_dict(tokenizer.config)))
+           else {}),
         "provenance": {"git": git_state(),
                        "packages": package_versions(("torch", "safetensors", "tokenizers",
                                                      "vector-quantize-pytorch"))},
@@ -183,10 +187,33 @@ def _read_checked(folder: Path, name: str, expected: str) -> bytes:
     return data
 
 
-def load_tokenizer(folder: str | Path, map_location: Any = "cpu") -> ActionTokenizer:
+def _check_plugins(folder: Path, config: Mapping[str, Any], specs: Sequence[str]) -> None:
+    """Load `specs`; refuse a tokenizer type that no loaded code registers, naming the
+    plugin the folder says it needs."""
+    plugins.load_plugins(specs)
+    name = (config.get("tokenizer") or {}).get("type")
+    if not isinstance(name, str) or name in TOKENIZER_REGISTRY.configs:
+        return
+    needs = config.get("plugins") or []
+    if needs:
+        first = needs[0]["path"] if needs[0].get("source") == "file" else needs[0]["spec"]
+        raise TokenizerFolderError(
+            f"{folder} holds the tokenizer {name!r} of the plugin {plugins.needed_by(needs)}, which is "
+            f"not loaded: load it first (load_tokenizer({str(folder)!r}, plugins=[{first!r}]), "
+            f"or --plugin {first} on the command line)")
+    raise TokenizerFolderError(f"{folder} holds the tokenizer {name!r}, which this version does "
+                               "not register and no loaded plugin provides; load the plugin "
+                               "that registers it (plugins=[...] or --plugin)")
+
+
+def load_tokenizer(folder: str | Path, map_location: Any = "cpu",
+                   plugins: Sequence[str] = ()) -> ActionTokenizer:
     """The tokenizer an exported folder holds, rebuilt from its config, in eval mode.
 
-    Raises FileNotFoundError (no folder) or TokenizerFolderError (module docstring).
+    `plugins`: modules or files to load first (`icil_paper.plugins.load_plugins`), for a
+    tokenizer a plugin registers; the folder's `plugins` entry names the ones it needs.
+    Raises FileNotFoundError (no folder), TokenizerFolderError (module docstring; a
+    tokenizer whose plugin is not loaded, naming it) or PluginError.
     """
     from safetensors import SafetensorError
     from safetensors.torch import load as safetensors_load
@@ -196,6 +223,7 @@ def load_tokenizer(folder: str | Path, map_location: Any = "cpu") -> ActionToken
 
     folder = Path(folder)
     config = read_config(folder)
+    _check_plugins(folder, config, plugins)
     files = config.get("files") or {}
     if WEIGHTS_FILE not in files:
         raise TokenizerFolderError(f"{folder / CONFIG_FILE} names no {WEIGHTS_FILE}; export "

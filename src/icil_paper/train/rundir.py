@@ -49,6 +49,8 @@ from icil_paper.fileio import (
     read_json,
     set_aside,
 )
+from icil_paper.plugins import needed_by, record_of
+from icil_paper.registry import UnknownNameError
 
 RUNS_ENV_VAR = "ICIL_RUNS"
 CHECKPOINT = "checkpoint.pt"
@@ -267,8 +269,10 @@ def load_checkpoint(run_dir: Path, key: str, map_location: Any = "cpu") -> dict[
 
 def save_policy(path: Path, policy: Any, meta: Mapping[str, Any]) -> None:
     """Write a trained policy: its spec (JSON), its weights and `meta` (JSON)."""
+    used = record_of(policy.spec)  # the plugins that loading it needs, named on failure
+    meta = {**meta, "plugins": used} if used else dict(meta)
     save_tensors(Path(path), {"format": POLICY_FORMAT, "spec": json.dumps(policy.spec),
-                              "meta": json.dumps(dict(meta)), "state_dict": policy.state_dict()})
+                              "meta": json.dumps(meta), "state_dict": policy.state_dict()})
 
 
 def load_policy(path: str | Path, map_location: Any = "cpu"):
@@ -287,6 +291,13 @@ def load_policy(path: str | Path, map_location: Any = "cpu"):
     try:
         policy = build_policy(json.loads(blob["spec"]))
         policy.load_state_dict(blob["state_dict"])
+    except UnknownNameError as exc:
+        needs = json.loads(blob.get("meta") or "{}").get("plugins")
+        if not needs:
+            raise PolicyFileError(f"{path}: {exc}") from None
+        raise PolicyFileError(f"{path} needs the plugin {needed_by(needs)}, which is not "
+                              f"loaded: pass --plugin {needs[0].get('path') or needs[0]['spec']}"
+                              " (or icil_paper.plugins.load_plugins first)") from None
     except (KeyError, ValueError, RuntimeError, TypeError) as exc:
         raise PolicyFileError(f"{path}: its weights do not fit its spec ({exc})") from None
     policy.meta = json.loads(blob.get("meta") or "{}")

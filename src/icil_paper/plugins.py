@@ -1,0 +1,408 @@
+"""Tokenizers and policies from outside the package: plugins, checked before any work.
+
+A plugin is a Python module that registers one or more components with the decorators of
+the library (`@register_tokenizer`, `@register_policy`) when it is imported. Three ways in:
+
+    icil-paper train --plugin my_tokenizers --tokenizer pca     # an importable module
+    icil-paper train --plugin ./pca.py --tokenizer pca          # a file
+    # an installed package that declares an entry point (pyproject.toml):
+    #   [project.entry-points."icil_paper.tokenizers"]
+    #   pca = "my_tokenizers.pca"
+    from icil_paper.plugins import load_plugins; load_plugins(["./pca.py"])   # from code
+
+Entry points of the groups `icil_paper.tokenizers` and `icil_paper.policies` are loaded by
+the registries themselves on first use (`registry.ComponentRegistry.discover`), in every
+process, grid workers included. Plugins named with `--plugin` (or `load_plugins`) travel
+with each grid cell (`tables.grid`: the job's `plugins`) and are loaded in the worker before
+the cell's function is imported. Every record the results store writes names the plugins
+that registered a component its config uses (`record_of`): which module or file, at which
+package version or file SHA-256.
+
+Each plugin is checked as it is loaded, and a bad one raises `PluginError` (a ValueError:
+one line and exit 2 at the command line, before any work): a module or file that does not
+exist or fails to import, one that registers nothing, a name that a built-in (or another
+plugin) already holds, a config class with a field without a default or whose
+`__post_init__` does not check its values (it must call `super().__post_init__()`), and a
+tokenizer whose output on a probe batch of actions has the wrong shape.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import importlib.metadata
+import importlib.util
+import sys
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from icil_paper.registry import ComponentRegistry, NameClashError
+
+REGISTRIES = {"tokenizer": ("icil_paper.tokenizers.configs", "TOKENIZER_REGISTRY"),
+              "policy": ("icil_paper.policies.configs", "POLICY_REGISTRY")}
+"""kind -> (module, attribute) of the registry a plugin adds to (imported on use)."""
+VALIDATION_PROBE = {"tokenizer": "latent_dim", "policy": "n_layer"}
+"""A field of each kind's base config that its checks refuse at -1: a config class whose
+`__post_init__` lets -1 through does not validate its values."""
+PROBE_BATCH = (2, 16)
+"""(B, T) of the random actions a plugin tokenizer is probed with."""
+PROBE_ACTION_DIM = 7
+
+
+class PluginError(ValueError):
+    """A plugin that cannot be used; the message names it, the problem and the fix."""
+
+
+@dataclass(frozen=True)
+class Plugin:
+    """One loaded plugin and what it registered."""
+
+    spec: str
+    """What was named: a module, a file path, or `name = value` of an entry point."""
+    source: str
+    """`module`, `file` or `entry point`."""
+    module: str
+    """The name the module is imported under (a file: `icil_plugin_<stem>_<digest>`)."""
+    names: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    """kind (`tokenizer`, `policy`) -> the names it registered."""
+    path: str | None = None
+    """The module's file."""
+    sha256: str | None = None
+    """SHA-256 of that file."""
+    distribution: str | None = None
+    """The installed package that provides it, where there is one."""
+    version: str | None = None
+    """That package's version."""
+
+    def record(self) -> dict[str, Any]:
+        """The plugin as a stored record names it (JSON)."""
+        return {"spec": self.spec, "source": self.source, "module": self.module,
+                "names": {k: list(v) for k, v in self.names.items()}, "path": self.path,
+                "sha256": self.sha256, "distribution": self.distribution,
+                "version": self.version}
+
+    def describe(self) -> str:
+        """One line: the plugin and its version or digest."""
+        return needed_by([self.record()])
+
+
+_LOADED: dict[str, Plugin] = {}
+"""Loaded plugins by their spec (a file by its resolved path)."""
+
+
+def registry(kind: str) -> ComponentRegistry:
+    module, attribute = REGISTRIES[kind]
+    return getattr(importlib.import_module(module), attribute)
+
+
+def loaded() -> list[Plugin]:
+    """Every plugin loaded in this process (entry points included), in load order."""
+    return list(_LOADED.values())
+
+
+def named() -> list[str]:
+    """The specs of the plugins loaded by name or file (not entry points): what a grid
+    worker loads before it runs a cell."""
+    return [(p.path if p.source == "file" else p.spec) for p in _LOADED.values()
+            if p.source != "entry point"]
+
+
+def owner(kind: str, name: str) -> Plugin | None:
+    """The plugin that registered component `name` of `kind`, or None (a built-in)."""
+    return next((p for p in _LOADED.values() if name in p.names.get(kind, ())), None)
+
+
+def record_of(config: Any) -> list[dict[str, Any]]:
+    """The records of the plugins whose components a (JSON) config names by `type`."""
+    if not _LOADED:
+        return []
+    types = set(_types(config))
+    return [p.record() for p in _LOADED.values()
+            if any(n in types for names in p.names.values() for n in names)]
+
+
+def _types(value: Any) -> Iterable[str]:
+    if isinstance(value, Mapping):
+        if isinstance(value.get("type"), str):
+            yield value["type"]
+        for v in value.values():
+            yield from _types(v)
+    elif isinstance(value, (list, tuple)):
+        for v in value:
+            yield from _types(v)
+
+
+# --------------------------------------------------------------------------- loading
+def load_plugins(specs: Sequence[str]) -> list[Plugin]:
+    """Load the entry-point plugins, then each module or file of `specs`, checked (module
+    docstring); return the plugins of `specs`. Loading one twice returns it again."""
+    for kind in REGISTRIES:
+        registry(kind).discover()
+    return [load_plugin(spec) for spec in specs]
+
+
+def _is_file(spec: str) -> bool:
+    return spec.endswith(".py") or "/" in spec or "\\" in spec or Path(spec).is_file()
+
+
+def load_plugin(spec: str) -> Plugin:
+    """Import one module (a dotted name) or file (a path) and check what it registered."""
+    if not isinstance(spec, str) or not spec.strip():
+        raise PluginError("--plugin needs a module name or a .py file, got an empty value")
+    key = str(Path(spec).resolve()) if _is_file(spec) else spec
+    if key in _LOADED:
+        return _LOADED[key]
+    for kind in REGISTRIES:
+        registry(kind).discover()
+    if _is_file(spec):
+        path = Path(spec).resolve()
+        if not path.is_file():
+            raise PluginError(f"plugin {spec}: no such file; pass the path of a .py file "
+                              "that registers a tokenizer or policy, or an importable module")
+        digest = hashlib.sha256(str(path).encode()).hexdigest()[:8]
+        module_name = f"icil_plugin_{_identifier(path.stem)}_{digest}"
+        source = "file"
+    else:
+        module_name, source, path = spec, "module", None
+        try:
+            found = importlib.util.find_spec(spec)
+        except (ImportError, ValueError):
+            found = None
+        if found is None:
+            raise PluginError(f"plugin {spec}: no module named {spec!r} on the import path; "
+                              "install the package that provides it, or pass a .py file")
+    names = _import_checked(spec, module_name, path)
+    plugin = _describe(spec, source, module_name, names)
+    _LOADED[key] = plugin
+    return plugin
+
+
+def load_entry_points(reg: ComponentRegistry) -> None:
+    """Load the entry points of `reg.group` (called by the registry on first use)."""
+    if not reg.group:
+        return
+    for ep in importlib.metadata.entry_points(group=reg.group):
+        spec = f"{ep.name} = {ep.value}"
+        if spec in _LOADED:
+            continue
+        where = f"entry point {ep.name!r} of group {reg.group}"
+        dist = getattr(ep, "dist", None)
+        if dist is not None:
+            where += f" (package {dist.metadata['Name']} {dist.version})"
+        module_name = ep.value.partition(":")[0].strip()
+        before = _registered()
+        try:
+            ep.load()
+        except NameClashError as exc:
+            _forget(before)
+            raise _clash(where, exc) from None
+        except ImportError as exc:
+            _forget(before)
+            raise PluginError(f"{where}: cannot import {ep.value!r} ({_line(exc)}); "
+                              "reinstall the package or remove it") from None
+        except Exception as exc:
+            _forget(before)
+            raise PluginError(f"{where}: importing {ep.value!r} failed ({_line(exc)}); "
+                              "fix the module or uninstall the package") from None
+        names = _new_names(before)
+        if not names.get(reg.kind) and ep.name not in reg._configs:
+            _forget(before)
+            raise PluginError(f"{where}: {ep.value!r} registers no {reg.kind} (and none "
+                              f"named {ep.name!r}); decorate its config class with "
+                              f"@register_{reg.kind}")
+        _check_names(where, names, before)
+        plugin = _describe(spec, "entry point", module_name, names)
+        if dist is not None:
+            plugin = dataclasses.replace(plugin, distribution=dist.metadata["Name"],
+                                         version=dist.version)
+        _LOADED[spec] = plugin
+
+
+def _identifier(text: str) -> str:
+    out = "".join(c if c.isalnum() or c == "_" else "_" for c in text)
+    return out if out and not out[0].isdigit() else f"_{out}"
+
+
+def _line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _registered() -> dict[str, dict[str, type]]:
+    return {kind: dict(registry(kind)._configs) for kind in REGISTRIES}
+
+
+def _new_names(before: Mapping[str, Mapping[str, type]]) -> dict[str, tuple[str, ...]]:
+    return {kind: tuple(n for n in registry(kind)._configs if n not in before[kind])
+            for kind in REGISTRIES}
+
+
+def _forget(before: Mapping[str, Mapping[str, type]]) -> None:
+    """Unregister what a failed plugin registered, so the process stays as it was."""
+    for kind, names in _new_names(before).items():
+        reg = registry(kind)
+        for name in names:
+            reg._configs.pop(name, None)
+            reg._entries.pop(name, None)
+            reg._loaded.pop(name, None)
+
+
+def _clash(where: str, exc: NameClashError) -> PluginError:
+    holder = owner(exc.kind, exc.name)
+    by = f"the plugin {holder.spec}" if holder else "a built-in"
+    return PluginError(f"{where} registers the {exc.kind} {exc.name!r}, a name {by} "
+                       "already has; register it under another name")
+
+
+def _import_checked(spec: str, module_name: str, path: Path | None) -> dict[str, tuple]:
+    where = f"plugin {spec}"
+    before = _registered()
+    try:
+        if path is None:
+            importlib.import_module(module_name)
+        else:
+            loader_spec = importlib.util.spec_from_file_location(module_name, path)
+            module = importlib.util.module_from_spec(loader_spec)
+            sys.modules[module_name] = module  # dataclasses look the module up by name
+            loader_spec.loader.exec_module(module)
+    except NameClashError as exc:
+        _forget(before)
+        sys.modules.pop(module_name, None)
+        raise _clash(where, exc) from None
+    except Exception as exc:
+        _forget(before)
+        sys.modules.pop(module_name, None)
+        if isinstance(exc, TypeError) and "non-default argument" in str(exc):
+            raise PluginError(f"{where}: a config class has a field without a default "
+                              f"({_line(exc)}); give every field a default, so that a "
+                              "preset can build it") from exc
+        raise PluginError(f"{where}: importing it failed ({_line(exc)}); fix the "
+                          "module") from exc
+    names = _new_names(before)
+    if not any(names.values()):
+        sys.modules.pop(module_name, None)
+        raise PluginError(f"{where} registers nothing: decorate its config class with "
+                          "@register_tokenizer(name, 'Class') or @register_policy(name, "
+                          "'Class') (see icil_paper.plugins)")
+    try:
+        _check_names(where, names, before)
+    except PluginError:
+        _forget(before)
+        sys.modules.pop(module_name, None)
+        raise
+    return names
+
+
+def _check_names(where: str, names: Mapping[str, tuple[str, ...]],
+                 before: Mapping[str, Mapping[str, type]]) -> None:
+    for kind, new in names.items():
+        for name in new:
+            cls = registry(kind)._configs[name]
+            check_config_class(where, kind, name, cls)
+            if kind == "tokenizer":
+                probe_tokenizer(where, name, cls)
+
+
+def check_config_class(where: str, kind: str, name: str, cls: type) -> None:
+    """Every field has a default, the defaults pass the class's own checks, and its
+    `__post_init__` checks values (refuses -1 for the base's `VALIDATION_PROBE` field)."""
+    missing = [f.name for f in dataclasses.fields(cls) if f.init
+               and f.default is dataclasses.MISSING
+               and f.default_factory is dataclasses.MISSING]
+    if missing:
+        raise PluginError(f"{where}: the config class {cls.__name__} of {kind} {name!r} has "
+                          f"fields without a default ({', '.join(missing)}); give each a "
+                          "default, so that a preset can build it")
+    try:
+        config = cls()
+    except Exception as exc:
+        raise PluginError(f"{where}: the default config of {kind} {name!r} fails its own "
+                          f"checks ({_line(exc)}); fix its defaults") from None
+    probe = VALIDATION_PROBE[kind]
+    try:
+        dataclasses.replace(config, **{probe: -1})
+    except ValueError:
+        return
+    except Exception as exc:
+        raise PluginError(f"{where}: the config class {cls.__name__} of {kind} {name!r} "
+                          f"fails on a bad value with {_line(exc)} instead of a ValueError; "
+                          "let its __post_init__ call super().__post_init__()") from None
+    raise PluginError(f"{where}: the config class {cls.__name__} of {kind} {name!r} does "
+                      f"not check its values ({probe}=-1 passes); its __post_init__ must "
+                      "call super().__post_init__()")
+
+
+def probe_tokenizer(where: str, name: str, cls: type) -> None:
+    """Build the tokenizer from its default config, fit it where it needs fitting, and
+    check the shapes of its output on a random batch (B, T, A) = PROBE_BATCH + (7,)."""
+    (b, t), a = PROBE_BATCH, PROBE_ACTION_DIM
+    with warnings.catch_warnings():  # a broken encoder's broadcasting warnings say less
+        warnings.simplefilter("ignore")
+        try:
+            problem = _probe_problem(cls(), (b, t, a))
+        except Exception as exc:
+            problem = f"raises {_line(exc)}"
+    if problem:
+        raise PluginError(f"{where}: the tokenizer {name!r}, on a probe batch of actions "
+                          f"shaped {(b, t, a)}, {problem}; fix its encoder")
+
+
+def _probe_problem(config: Any, shape: tuple[int, int, int]) -> str | None:
+    import numpy as np
+    import torch
+
+    from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, make_tokenizer
+
+    b, t, a = shape
+    tok = make_tokenizer(config, a)
+    if not isinstance(tok, ActionTokenizer):
+        return f"builds a {type(tok).__name__}, not an ActionTokenizer"
+    rng = np.random.default_rng(0)
+    if not tok.fitted:
+        tok.fit(rng.uniform(-1, 1, size=(4, t, a)))
+    with torch.no_grad():
+        out = tok(torch.as_tensor(rng.uniform(-1, 1, size=shape), dtype=torch.float32))
+    if not isinstance(out, TokenizerOutput):
+        return f"returns a {type(out).__name__}, not a TokenizerOutput"
+    if tuple(out.embeddings.shape) != (b, t, config.latent_dim):
+        return (f"returns embeddings of shape {tuple(out.embeddings.shape)}, expected "
+                f"(B, T, latent_dim) = {(b, t, config.latent_dim)}")
+    if tuple(out.reconstruction.shape) != shape:
+        return (f"returns a reconstruction of shape {tuple(out.reconstruction.shape)}, "
+                f"expected (B, T, A) = {shape}")
+    return None
+
+
+def _describe(spec: str, source: str, module_name: str,
+              names: Mapping[str, tuple[str, ...]]) -> Plugin:
+    module = sys.modules.get(module_name)
+    file = getattr(module, "__file__", None)
+    sha = hashlib.sha256(Path(file).read_bytes()).hexdigest() if file and Path(
+        file).is_file() else None
+    dist = version = None
+    if source == "module":
+        top = module_name.split(".")[0]
+        dists = importlib.metadata.packages_distributions().get(top) or []
+        if dists:
+            dist = dists[0]
+            try:
+                version = importlib.metadata.version(dist)
+            except importlib.metadata.PackageNotFoundError:
+                dist = None
+    return Plugin(spec=spec, source=source, module=module_name,
+                  names={k: tuple(v) for k, v in names.items() if v}, path=file,
+                  sha256=sha, distribution=dist, version=version)
+
+
+def needed_by(records: Sequence[Mapping[str, Any]]) -> str:
+    """The plugins of stored records (`Plugin.record`) in words, with versions or digests."""
+    def one(p: Mapping[str, Any]) -> str:
+        at = (f"{p['distribution']} {p['version']}" if p.get("version")
+              else f"sha256 {p['sha256'][:12]}" if p.get("sha256") else "no version")
+        return f"{p['spec']} ({at})"
+
+    return ", ".join(one(p) for p in records)

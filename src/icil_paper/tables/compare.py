@@ -1,0 +1,375 @@
+"""`icil-paper compare`: a tokenizer against the paper's, on Table I's protocol, with a verdict.
+
+    icil-paper compare --plugin ./my_tok.py --tokenizer mine --against lipvq --preset small
+    report = compare(preset, "mine", against=("lipvq",), effect=0.05)   # from code
+
+1. Rows: `icrt+<tokenizer>` and `icrt+<other>` for each `--against` tokenizer, each with
+   Table I's runs and evaluations (`definitions.icrt_rows`): every record already stored is
+   reused (at the reference preset, LipVQ-VAE's ten reference seeds), the rest are trained
+   and evaluated as grid cells (`--executor local|ray`, as `reproduce`).
+2. Seeds: with `--seeds N` every row gets N. Otherwise every row first gets `pilot_seeds`
+   (or the seeds Table I stores for it, if more); the per-seed variances measured there give
+   the seeds a row that detect `--effect` (a difference in average success) with 80% power
+   (`stats.seeds_needed`), and the rows are brought up to that, at most `--max-seeds`. The
+   report says what was planned, and the power the design has at the effect.
+3. The verdict is the claims ledger's (`claims.evaluate_claims`): "<tokenizer> succeeds more
+   often than <other>" as a claim of our own, read against the effect: the difference of
+   average success with its seed-level 95% interval, the verdict and its Holm-adjusted form
+   over the comparisons, the size reading, the smallest detectable difference, the power
+   and the seeds a row that would detect the effect, in the ledger's words (`sentence`).
+4. Output: the lines printed, `compare.json` (the entries, the rows' success with their
+   intervals, the seed plan, the plugins) and `compare.png` (a forest plot), in
+   `results/<preset>/compare/<tokenizer>/` unless `--out` names a folder.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from icil_paper import plugins, stats
+from icil_paper.config import Preset
+from icil_paper.config_data import to_dict
+from icil_paper.fileio import atomic_write_json
+from icil_paper.records import train_record
+from icil_paper.results import ResultsStore
+from icil_paper.tables import claims as claims_mod
+from icil_paper.tables.assemble import TableResult, assemble
+from icil_paper.tables.definitions import icrt_rows, label, table_i_seeds
+from icil_paper.tables.execute import cell_label, ensure_data, plan, plan_done
+
+DEFAULT_AGAINST = ("lipvq",)
+DEFAULT_EFFECT = 0.05
+"""A difference of 5 points of average success: the size of the gaps the paper reports
+(`claims.EQUIVALENCE_MARGIN`)."""
+PILOT_SEEDS = 2
+"""Seeds a row gets before its variance is measured (2: the fewest that measure one)."""
+MAX_SEEDS = 10
+"""The most seeds a row is planned up to by default (the reference design's)."""
+SHARED_SIZES = ("latent_dim", "codebook_size")
+"""The tokenizer fields every preset gives all its tokenizers alike (`config._tokenizers`)."""
+REPORT_FILE = "compare.json"
+PLOT_FILE = "compare.png"
+
+
+def check_tokenizers(tokenizer: str, against: Sequence[str]) -> None:
+    """Every name registered and taken by ICRT, and none compared with itself (ValueError)."""
+    from icil_paper.policies import resolve_tokenizer
+    from icil_paper.registry import check_name
+    from icil_paper.tokenizers import REGISTRY
+
+    if not against:
+        raise ValueError("--against needs at least one tokenizer (default: lipvq)")
+    for name in (tokenizer, *against):
+        check_name("tokenizer", name, list(REGISTRY))
+        resolve_tokenizer("icrt", name)
+    if tokenizer in against or len(set(against)) != len(against):
+        raise ValueError(f"compare {tokenizer} against other tokenizers, each once; got "
+                         f"--against {' '.join(against)}")
+
+
+def with_registered(preset: Preset) -> Preset:
+    """`preset` with a config for every tokenizer registered since it was built (a plugin
+    loaded afterwards), each given the values the preset gives all of its tokenizers alike
+    (`latent_dim`, `codebook_size`), as `get_preset` does for one registered before."""
+    section = preset.tokenizers
+    base = next(c for c in type(section).__mro__ if "REGISTRY" in vars(c))
+    current = {f.name: getattr(section, f.name) for f in dataclasses.fields(section)}
+    new = {name: cls for name, cls in base.REGISTRY.configs.items()
+           if name.replace("-", "_") not in current}
+    if not new:
+        return preset
+    for name, cls in new.items():
+        shared = {}
+        for f in dataclasses.fields(cls):
+            values = {repr(getattr(c, f.name)): getattr(c, f.name) for c in current.values()
+                      if hasattr(c, f.name)}
+            if f.name in SHARED_SIZES and len(values) == 1:
+                shared[f.name] = next(iter(values.values()))
+        current[name.replace("-", "_")] = cls(**shared)
+    return dataclasses.replace(preset, tokenizers=base(**current))
+
+
+def _run(preset: Preset, spec, executor: str, workers: int | None, ray_address: str | None,
+         gpus_per_cell: float, progress: bool) -> None:
+    """Compute every missing record of `spec` (as `execute.run_tables` does for a table)."""
+    from icil_paper.tables.grid import Cell, run_grid
+
+    store = ResultsStore(preset.name)
+    todo = [p for p in plan([spec]) if not plan_done(store, p)]
+    if not todo:
+        return
+    todo.sort(key=lambda p: p.run.seed)
+    ensure_data(preset, todo, progress=progress)
+    cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
+                  kwargs={"preset": preset.name, "run": p.run.to_dict(),
+                          "evals": [to_dict(e) for e in p.evals.values()],
+                          "features": [to_dict(f) for f in p.features.values()]},
+                  gpus=gpus_per_cell, label=cell_label(p.run)) for p in todo]
+    by_key = {p.run.key(): p for p in todo}
+    run_grid(cells, executor=executor, workers=workers or preset.eval.workers,
+             ray_address=ray_address, progress=progress,
+             done=lambda c: plan_done(store, by_key[c.key]))
+
+
+def _claims(tokenizer: str, against: Sequence[str], effect: float) -> list[claims_mod.Claim]:
+    a = label("icrt", tokenizer)
+    return [claims_mod.Claim(
+        id=f"compare-{tokenizer}-vs-{other}", table="I",
+        claim=f"{a} succeeds more often than {label('icrt', other)} on Table I's protocol",
+        quantity=f"{a} minus {label('icrt', other)}, average success over the kitchen tasks",
+        direction=+1, compare=claims_mod.diff("I", a, label("icrt", other)),
+        paper_value=lambda: effect, own=True,
+        reference=f"the effect of interest (--effect {effect:g})") for other in against]
+
+
+def plan_seeds(result: TableResult, tokenizer: str, against: Sequence[str], effect: float,
+               max_seeds: int) -> dict[str, Any]:
+    """The seeds a row that detect `effect` against the least favourable other row, from
+    the measured per-seed variances (`stats.seeds_needed`), capped at `max_seeds`."""
+    a = label("icrt", tokenizer)
+    var_a = stats.seed_variance(result.outcomes(a), "success")
+    needed = []
+    for other in against:
+        var_b = stats.seed_variance(result.outcomes(label("icrt", other)), "success")
+        if var_a is None or var_b is None:
+            return {"needed": None, "planned": None,
+                    "note": "a row has fewer than 2 seeds: no variance to plan from"}
+        needed.append(stats.seeds_needed(var_a, var_b, effect, max_seeds=claims_mod.MAX_SEEDS))
+    worst = None if any(n is None for n in needed) else max(needed)
+    planned = max_seeds if worst is None else min(worst, max_seeds)
+    if worst is None:
+        note = (f"detecting {effect:g} would need more than {claims_mod.MAX_SEEDS} seeds a "
+                f"row; capped at --max-seeds {max_seeds}")
+    elif worst > max_seeds:
+        note = f"{worst} seeds a row would detect {effect:g}; capped at --max-seeds {max_seeds}"
+    else:
+        note = f"{worst} seeds a row detect {effect:g} with 80% power"
+    return {"needed": worst, "planned": planned, "note": note}
+
+
+def other_versions(spec, store: ResultsStore) -> dict[str, int]:
+    """Row -> how many of its stored training records a plugin made at another version or
+    file digest than the one loaded now (a record is reused by its config, not its code)."""
+    current = {(name, p.sha256, p.version) for p in plugins.loaded()
+               for names in p.names.values() for name in names}
+    out: dict[str, int] = {}
+    runs = {u.run.key(): (row.label, u.run) for row in spec.rows
+            for cell in row.cells.values() for u in cell.units}
+    for label_, run in runs.values():
+        record = store.get(*train_record(run))
+        for made in (record or {}).get("plugins") or []:
+            for name in made["names"].get("tokenizer", []):
+                if (name, made.get("sha256"), made.get("version")) not in current:
+                    out[label_] = out.get(label_, 0) + 1
+    return out
+
+
+def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGAINST,
+            effect: float = DEFAULT_EFFECT, seeds: int | None = None,
+            pilot_seeds: int = PILOT_SEEDS, max_seeds: int = MAX_SEEDS,
+            executor: str = "local", workers: int | None = None,
+            ray_address: str | None = None, gpus_per_cell: float = 0.0,
+            progress: bool = True) -> dict[str, Any]:
+    """Run (or load) the comparison and return its report (module docstring)."""
+    against = tuple(against)
+    preset = with_registered(preset)
+    check_tokenizers(tokenizer, against)
+    if not effect > 0:
+        raise ValueError(f"--effect must be a difference of success above 0, got {effect}")
+    names = (tokenizer, *against)
+    stored = {t: table_i_seeds(preset, "icrt", t) for t in names}
+    first = seeds or pilot_seeds
+    counts = {t: max(first, stored[t] if seeds is None else 0) for t in names}
+    run = dict(executor=executor, workers=workers, ray_address=ray_address,
+               gpus_per_cell=gpus_per_cell, progress=progress)
+    _run(preset, icrt_rows(preset, counts), **run)
+    store = ResultsStore(preset.name)
+    result = assemble(icrt_rows(preset, counts), store)
+    seed_plan: dict[str, Any] = {"fixed": seeds, "pilot": None if seeds else first,
+                                 "max_seeds": max_seeds, "effect": effect}
+    if seeds is None:
+        seed_plan.update(plan_seeds(result, tokenizer, against, effect, max_seeds))
+        if seed_plan["planned"] and seed_plan["planned"] > min(counts.values()):
+            counts = {t: max(n, seed_plan["planned"]) for t, n in counts.items()}
+            _run(preset, icrt_rows(preset, counts), **run)
+            result = assemble(icrt_rows(preset, counts), store)
+    seed_plan["seeds"] = counts
+    stale = other_versions(icrt_rows(preset, counts), store)
+    entries = claims_mod.evaluate_claims(_claims(tokenizer, against, effect), {"I": result})
+    rows = {}
+    for name in names:
+        est = result.estimate(label("icrt", name))
+        rows[label("icrt", name)] = None if est is None else {
+            "success": est.value, "ci": [est.low, est.high], "seeds": counts[name]}
+    used = [p.record() for p in plugins.loaded()
+            if any(n in names for n in p.names.get("tokenizer", ()))]
+    return {"preset": preset.name, "tokenizer": tokenizer, "against": list(against),
+            "protocol": "Table I: ICRT on every kitchen task, average success",
+            "familywise_level": stats.ALPHA, "effect": effect, "rows": rows,
+            "seed_plan": seed_plan, "comparisons": entries, "plugins": used,
+            "other_versions": stale, "records": str(store.dir)}
+
+
+OWN_WORDS = {"the paper's size": "the size of the effect of interest",
+             "the paper's effect": "the effect of interest"}
+"""The ledger's words for a claim sized against the paper's number, as a comparison of
+one's own reads them (its reference is `--effect`)."""
+
+
+def sentence(entry: dict[str, Any]) -> str:
+    """A comparison in the claims ledger's words (`claims.sentence`), sized against the
+    effect of interest instead of a paper's number."""
+    text = claims_mod.sentence(entry)
+    for ledger, own in OWN_WORDS.items():
+        text = text.replace(ledger, own)
+    return text
+
+
+def lines(report: dict[str, Any]) -> list[str]:
+    """The report in words: the rows, each comparison in the ledger's words, the plan."""
+    out = [f"{report['tokenizer']} against {', '.join(report['against'])} on Table I's "
+           f"protocol ({report['preset']} preset):"]
+    for row, value in report["rows"].items():
+        out.append(f"  {row}: " + ("not run" if value is None else
+                                   f"average success {value['success']:.3f} "
+                                   f"[{value['ci'][0]:.3f}, {value['ci'][1]:.3f}], "
+                                   f"{value['seeds']} seeds"))
+    for entry in report["comparisons"]:
+        out.append(f"  {sentence(entry)}")
+        if entry.get("power") is not None:
+            out.append(f"    power at {report['effect']:g}: {entry['power']:.2f}; smallest "
+                       f"detectable difference {entry['mde']:.3f}")
+        elif entry.get("power_note"):
+            out.append(f"    power: {entry['power_note']}")
+    plan_ = report["seed_plan"]
+    out.append("  seeds: " + (f"fixed at {plan_['fixed']} a row" if plan_["fixed"] else
+                              f"pilot {plan_['pilot']} a row, then {plan_.get('note')}"))
+    for p in report["plugins"]:
+        out.append(f"  plugin: {plugins.needed_by([p])}")
+    for row, n in (report.get("other_versions") or {}).items():
+        out.append(f"  warning: {n} stored {row} cell(s) were made by another version of its "
+                   f"plugin and are reused; delete their records under {report['records']} "
+                   "to recompute them")
+    return out
+
+
+def forest_plot(report: dict[str, Any], path: str | Path) -> Path:
+    """Each comparison's difference with its 95% interval, 0 and +-effect marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    entries = [e for e in report["comparisons"] if e["ci"] is not None]
+    fig, ax = plt.subplots(figsize=(6.5, 1.2 + 0.6 * max(1, len(entries))))
+    effect = report["effect"]
+    for y, e in enumerate(entries):
+        low, high = e["ci"]
+        ax.plot([low, high], [y, y], color="C0", lw=2)
+        ax.plot([e["ours"]], [y], "o", color="C0")
+        ax.annotate(e.get("adjusted_verdict") or e["verdict"], (high, y), xytext=(6, 0),
+                    textcoords="offset points", va="center", fontsize=8)
+    ax.axvline(0, color="black", lw=1)
+    for x in (-effect, effect):
+        ax.axvline(x, color="grey", lw=1, ls="--")
+    lows = [e["ci"][0] for e in entries] + [-effect]
+    highs = [e["ci"][1] for e in entries] + [effect]
+    span = max(highs) - min(lows)
+    ax.set_xlim(min(lows) - 0.05 * span, max(highs) + 0.35 * span)  # room for the verdict
+    ax.set_yticks(range(len(entries)))
+    ax.set_yticklabels([e["quantity"].split(",")[0] for e in entries], fontsize=8)
+    ax.set_ylim(-0.7, len(entries) - 0.3)
+    ax.set_xlabel(f"difference of average success (95% interval; dashed: ±{effect:g})")
+    ax.set_title(f"{report['tokenizer']} on Table I's protocol ({report['preset']})", fontsize=9)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def write(report: dict[str, Any], folder: str | Path) -> tuple[Path, Path]:
+    """`compare.json` and `compare.png` in `folder`."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(folder / REPORT_FILE, report)
+    return folder / REPORT_FILE, forest_plot(report, folder / PLOT_FILE)
+
+
+def default_folder(preset: Preset, tokenizer: str) -> Path:
+    return ResultsStore(preset.name).dir / "compare" / tokenizer
+
+
+def main(argv: list[str] | None = None) -> int:
+    from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
+    from icil_paper.config import check_tasks
+    from icil_paper.fileio import check_env_folder, check_writable
+    from icil_paper.results import RESULTS_ENV_VAR
+    from icil_paper.train.rundir import RUNS_ENV_VAR
+
+    parser = Parser(prog="icil-paper compare", description=__doc__.split("\n\n")[0])
+    add_preset_arguments(parser)
+    parser.add_argument("--tokenizer", required=True,
+                        help="the tokenizer to compare (a built-in or a --plugin's)")
+    parser.add_argument("--against", nargs="+", default=list(DEFAULT_AGAINST),
+                        help="the tokenizers it is compared with (default: lipvq)")
+    parser.add_argument("--effect", type=float, default=DEFAULT_EFFECT,
+                        help="the difference of average success to detect (default 0.05)")
+    parser.add_argument("--seeds", type=positive("--seeds"), default=None,
+                        help="training seeds a row (default: planned from the variances)")
+    parser.add_argument("--pilot-seeds", type=positive("--pilot-seeds"), default=PILOT_SEEDS,
+                        help=f"seeds a row before planning (default {PILOT_SEEDS})")
+    parser.add_argument("--max-seeds", type=positive("--max-seeds"), default=MAX_SEEDS,
+                        help=f"the most seeds a row is planned up to (default {MAX_SEEDS})")
+    parser.add_argument("--executor", choices=("local", "ray", "serial"), default="local",
+                        help="how the cells run: a local process pool (default), Ray, or "
+                             "one after the other in this process")
+    parser.add_argument("--workers", type=positive("--workers"), default=None,
+                        help="parallel cells (default: the preset's eval.workers)")
+    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT",
+                        help="with --executor ray: join this cluster (default: start one here)")
+    parser.add_argument("--gpus-per-cell", type=float, default=0.0, metavar="N",
+                        help="with --executor ray: GPUs each cell asks for")
+    parser.add_argument("--out", default=None, metavar="DIR",
+                        help="folder of compare.json and compare.png (default: "
+                             "results/<preset>/compare/<tokenizer>)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    args = parser.parse_args(argv)
+    if args.ray_address is not None and args.executor != "ray":
+        parser.error("--ray-address is for --executor ray")
+    if not 0 <= args.gpus_per_cell <= 64:
+        parser.error(f"--gpus-per-cell must be between 0 and 64, got {args.gpus_per_cell}")
+    if not 0 < args.effect < 1:
+        parser.error(f"--effect must be a difference of success between 0 and 1, got "
+                     f"{args.effect}")
+    if args.pilot_seeds < 2 and args.seeds is None:
+        parser.error("--pilot-seeds must be at least 2 (one seed measures no variance)")
+    preset = preset_from_args(args)
+    check_tasks(preset)
+    check_tokenizers(args.tokenizer, args.against)
+    check_env_folder(RESULTS_ENV_VAR, "results")
+    check_env_folder(RUNS_ENV_VAR, "runs")
+    out = Path(args.out) if args.out else default_folder(preset, args.tokenizer)
+    check_writable(out, f"the report folder {out}", "pass another --out")
+    if args.executor == "ray" and args.ray_address:
+        from icil_paper.tables.grid import check_reachable
+
+        check_reachable(args.ray_address)
+    report = compare(preset, args.tokenizer, args.against, effect=args.effect,
+                     seeds=args.seeds, pilot_seeds=args.pilot_seeds, max_seeds=args.max_seeds,
+                     executor=args.executor, workers=args.workers,
+                     ray_address=args.ray_address, gpus_per_cell=args.gpus_per_cell,
+                     progress=not args.quiet)
+    json_path, png_path = write(report, out)
+    print("\n".join(lines(report)))
+    print(f"report {json_path}; forest plot {png_path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
