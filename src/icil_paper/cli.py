@@ -81,6 +81,8 @@ SUBCOMMANDS = {
     "eval": ("icil_paper.eval.cli", "roll out a trained policy and store its success rate"),
     "tables": ("icil_paper.tables.cli", "print the paper's tables and claims from the results store"),
     "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
+    "plan": ("icil_paper.tables.decide", "the seeds, cells and CPU-hours that would decide every "
+             "undecided claim, and the run that computes them"),
     "export-tokenizer": ("icil_paper.interop.tokenizer_export",
                          "write a trained policy's tokenizer as a portable folder (safetensors)"),
 }
