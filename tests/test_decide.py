@@ -10,9 +10,9 @@ import pytest
 from cli_helpers import run_cli
 from icil_paper.config import get_preset
 from icil_paper.tables.decide import make_plan, seeds_entry_name
+from icil_paper.tables.definitions import TABLES, table_spec
 from icil_paper.tables.design import planned_seeds
 from icil_paper.tables.execute import plan
-from icil_paper.tables.definitions import TABLES, table_spec
 
 LEDGER = [
     {"id": "I-lipvq-vs-bc", "table": "I", "verdict": "holds", "seeds_needed": 40},

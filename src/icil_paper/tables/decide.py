@@ -28,7 +28,6 @@ without it the preset's own seeds apply). The plan is written to
 
 from __future__ import annotations
 
-import math
 import re
 import sys
 from collections import defaultdict

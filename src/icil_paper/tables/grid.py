@@ -355,19 +355,27 @@ def _node_id() -> str | None:
     return ray.get_runtime_context().get_node_id()
 
 
-def read_inputs(cell: Cell, folders: Mapping[str, str]) -> list[tuple[str, str, str, bytes]]:
-    """The files `cell.inputs` names that exist in the driver's `folders`, with their SHA-256."""
+def read_inputs(cell: Cell, folders: Mapping[str, str],
+                cache: dict[tuple[str, str], tuple[str, bytes] | None] | None = None
+                ) -> list[tuple[str, str, str, bytes]]:
+    """The files `cell.inputs` names that exist in the driver's `folders`, with their SHA-256
+    (`cache` keeps each file read once over a grid: a data set many cells read)."""
+    cache = {} if cache is None else cache
     found = []
     for var, paths in cell.inputs.items():
         if var not in folders:
             raise ValueError(f"cell {cell.label}: input folder {var} is not one of the grid's "
                              f"folders ({', '.join(folders)})")
         for path in paths:
-            try:
-                data = (Path(folders[var]) / _relative(path, "input")).read_bytes()
-            except FileNotFoundError:
-                continue  # not made yet: the cell makes it
-            found.append((var, path, _sha256(data), data))
+            if (var, path) not in cache:
+                try:
+                    data = (Path(folders[var]) / _relative(path, "input")).read_bytes()
+                except FileNotFoundError:  # not made yet: the cell makes it
+                    cache[var, path] = None
+                else:
+                    cache[var, path] = (_sha256(data), data)
+            if cache[var, path] is not None:
+                found.append((var, path, *cache[var, path]))
     return found
 
 
@@ -711,13 +719,14 @@ def _run_ray(todo: list[Cell], job: dict[str, Any], workers: int, ray_address: s
             task = ray.remote(_execute_detached)
             job = {**job, "folders": list(folders)}
             stored: dict[tuple[str, str, str], Any] = {}  # one object per distinct file
+            read: dict[tuple[str, str], Any] = {}
         else:
             task = ray.remote(_execute)
         for cell in todo:
             options = task.options(num_cpus=cell.cpus, num_gpus=cell.gpus, max_retries=retries,
                                    retry_exceptions=False, name=cell.label[:100])
             if folders:
-                inputs = read_inputs(cell, folders)
+                inputs = read_inputs(cell, folders, read)
                 sent[cell.key] = inputs
                 shipped = []
                 for var, path, digest, data in inputs:
