@@ -95,7 +95,7 @@ class Cluster:
                 self.groups[name] = subprocess.Popen(
                     cmd, env={**self.env, "TMPDIR": str(tmp)}, stdout=sink,
                     stderr=subprocess.STDOUT, start_new_session=True)
-            end = time.time() + 120
+            end = time.time() + 75  # a node joins in about 25 s on a busy 2-core machine
             while time.time() < end and self.groups[name].poll() is None:
                 if "will now block" in log.read_text(errors="replace"):  # joined
                     return tmp
