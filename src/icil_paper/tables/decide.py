@@ -34,7 +34,14 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
 from icil_paper.config import Preset
+from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
+from icil_paper.records import eval_record, features_record, train_record
+from icil_paper.results import ResultsStore
+from icil_paper.tables.definitions import TABLES, table_spec
+from icil_paper.tables.design import cell_kind, claim_rows, planned_seeds
+from icil_paper.tables.execute import plan
 
 DECIDED = ("holds", "does not hold")
 """Verdicts that settle a claim; every other one is planned."""
@@ -103,12 +110,6 @@ def make_plan(preset: Preset, ledger: list[dict[str, Any]], cost: dict[str, Any]
               cores: int = DEFAULT_CORES, max_seeds: int | None = None,
               store: Any = None) -> dict[str, Any]:
     """The plan for `ledger`'s undecided claims (module docstring) as JSON."""
-    from icil_paper.records import eval_record, features_record, train_record
-    from icil_paper.results import ResultsStore
-    from icil_paper.tables.definitions import TABLES, table_spec
-    from icil_paper.tables.design import cell_kind, claim_rows, planned_seeds
-    from icil_paper.tables.execute import plan
-
     store = store or ResultsStore(preset.name)
     rows_of = claim_rows(preset)
     have = planned_seeds(preset)
@@ -197,10 +198,6 @@ def format_plan(result: dict[str, Any]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
-    from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
-    from icil_paper.results import ResultsStore
-
     parser = Parser(prog="icil-paper plan", description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
     parser.add_argument("--cores", type=positive("--cores"), default=DEFAULT_CORES,

@@ -28,12 +28,14 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper.config import Preset
+from icil_paper.config import DATA_ENV_VAR, Preset
 from icil_paper.config_data import from_dict, to_dict
+from icil_paper.data.generate import data_root, demo_path
 from icil_paper.records import eval_record, features_record, train_record
-from icil_paper.results import ResultsStore
+from icil_paper.results import RESULTS_ENV_VAR, ResultsStore, results_root
 from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec, eval_key, feature_key
 from icil_paper.tables.spec import TableSpec
+from icil_paper.train.rundir import RUNS_ENV_VAR, run_dir_for, runs_root
 
 
 @dataclass
@@ -185,11 +187,6 @@ def cell_folders(preset: Preset) -> dict[str, str]:
     """{environment variable: folder} of every folder a cell reads or writes: the results
     store, the run folders and the data sets (a Ray node gets private copies of them:
     `tables.grid`, "Cells that share no files with the driver")."""
-    from icil_paper.config import DATA_ENV_VAR
-    from icil_paper.data.generate import data_root
-    from icil_paper.results import RESULTS_ENV_VAR, results_root
-    from icil_paper.train.rundir import RUNS_ENV_VAR, runs_root
-
     return {RESULTS_ENV_VAR: str(results_root()), RUNS_ENV_VAR: str(runs_root()),
             DATA_ENV_VAR: str(data_root(preset))}
 
@@ -197,11 +194,6 @@ def cell_folders(preset: Preset) -> dict[str, str]:
 def plan_inputs(preset: Preset, p: RunPlan, store: ResultsStore) -> dict[str, tuple[str, ...]]:
     """The files of `cell_folders` a plan's cell reads, relative to their folders: its data
     sets, its records and its run folder (those that exist are sent; the rest it makes)."""
-    from icil_paper.config import DATA_ENV_VAR
-    from icil_paper.data.generate import data_root, demo_path
-    from icil_paper.results import RESULTS_ENV_VAR
-    from icil_paper.train.rundir import RUNS_ENV_VAR, run_dir_for, runs_root
-
     data, runs = data_root(preset), runs_root()
     demos = {demo_path(preset, task, source, obs).relative_to(data).as_posix()
              for task, source, obs, _ in data_needs([p])}
