@@ -187,13 +187,14 @@ def test_cells_on_nodes_without_the_drivers_files(tmp_path):
         # --gpus-per-cell 1: only node A (the one with a GPU) runs cells
         out = _reproduce(env, "--stages", GPU_STAGE, "--executor", "ray",
                          "--ray-address", cluster.address, "--gpus-per-cell", "1")
+        got = _records(driver / "results")
+        assert got, "no record came back to the driver's store: " + out[-2000:]
+        assert set(got) <= set(expected)
+        assert all(_same(got[k]["metrics"], expected[k]["metrics"]) for k in got)
         placement = re.findall(r"cells by node: (.*)", out)
         assert placement, out[-2000:]
         assert all(" 1 GPUs)" in part for part in placement[-1].split("; ")), placement
         assert list(tmp_b.glob("icil-cell-*")) == [] and not any(driver.glob("**/icil-cell-*"))
-        got = _records(driver / "results")
-        assert got and set(got) <= set(expected)
-        assert all(_same(got[k]["metrics"], expected[k]["metrics"]) for k in got)
 
         # a node killed while it runs a cell: the cell runs again on the other node
         log = tmp_path / "kill-run.log"
