@@ -95,6 +95,9 @@ for source, (p, ledger) in ledgers.items():
 # is the number of seeds a row that would detect the paper's effect with 80% power at this
 # number of episodes ("—": more than 1000, or nothing to plan). Both come from the measured
 # per-seed variances.
+# `icil-paper plan --preset reference` turns *seeds needed* into a run: the cells and
+# CPU-hours each undecided claim would cost, and the command that computes exactly those
+# cells on a Ray cluster (the README's "On a cluster").
 #
 # Two sources: the **reference run** (records committed under `results/reference/`: the
 # numbers worth reading) and **this build** (the preset this book was built with; on CI the

@@ -198,3 +198,55 @@ def test_ray_reports_a_raising_cell(tmp_path, monkeypatch, ray_session):
     assert len(_calls(calls, "bad")) == 1
     assert set(err.value.results) == {"draw-c0", "draw-c1"}
     assert set(_records()) == {"c0", "c1"}
+
+
+# --------------------------------------------------------------------------- no shared files
+def test_a_detached_cell_works_in_private_folders_and_its_records_come_back(tmp_path,
+                                                                           monkeypatch):
+    from icil_paper.tables.grid import _execute_detached, _job, install_files, read_inputs
+
+    serial, serial_records = _serial_reference(tmp_path, monkeypatch)
+    driver = tmp_path / "driver" / "results"
+    monkeypatch.setenv("ICIL_RESULTS", str(driver))
+    folders = {"ICIL_RESULTS": str(driver)}
+    job = {**_job(1), "folders": list(folders)}
+    cells = _draws(tmp_path / "detached" / "calls")
+    for cell in cells:
+        before = sorted(driver.rglob("*"))
+        answer = _execute_detached(cell.target, cell.kwargs, job, read_inputs(cell, folders))
+        assert sorted(driver.rglob("*")) == before  # it wrote only into its private folder
+        assert answer["result"]["metrics"] == serial[cell.key]["metrics"]
+        assert [f[1].split("/")[:2] for f in answer["files"]] == [["smoke", grid_cells.KIND]]
+        assert install_files(answer["files"], folders) == 1
+    assert _records() == serial_records
+    # a cell sent its stored record finds it there: nothing computed, nothing comes back
+    stored = ResultsStore("smoke").record_path(grid_cells.KIND, "c0", {"name": "c0", "seed": 0})
+    cell = Cell(key="again", target=cells[0].target, kwargs=cells[0].kwargs,
+                inputs={"ICIL_RESULTS": (stored.relative_to(driver).as_posix(),)})
+    answer = _execute_detached(cell.target, cell.kwargs, job, read_inputs(cell, folders))
+    assert answer["files"] == [] and len(_calls(tmp_path / "detached" / "calls", "c0")) == 2
+
+
+def test_returned_files_are_checked_before_any_is_written(tmp_path):
+    import hashlib
+    import json
+
+    from icil_paper.tables.grid import install_files
+
+    folders = {"ICIL_RESULTS": str(tmp_path / "results"), "ICIL_RUNS": str(tmp_path / "runs")}
+    policy = b"weights"
+    digest = hashlib.sha256(policy).hexdigest()
+    record = json.dumps({"files": {"policy.pt": digest}}).encode()
+    good = [("ICIL_RUNS", "smoke/run1/policy.pt", digest, policy),
+            ("ICIL_RESULTS", "smoke/train/r.json", hashlib.sha256(record).hexdigest(), record)]
+    damaged = [good[0][:3] + (b"weightz",), good[1]]
+    with pytest.raises(ValueError, match="damaged"):
+        install_files(damaged, folders)
+    with pytest.raises(ValueError, match="did not come back"):
+        install_files(good[1:], folders)  # a record without the file it names
+    with pytest.raises(ValueError, match="inside its folder"):
+        install_files([("ICIL_RUNS", "../evil", digest, policy)], folders)
+    assert not any(tmp_path.rglob("*.*"))  # nothing written by a refused answer
+    assert install_files(good, folders) == 2
+    assert (tmp_path / "runs/smoke/run1/policy.pt").read_bytes() == policy
+    assert json.loads((tmp_path / "results/smoke/train/r.json").read_text())["files"]

@@ -52,6 +52,18 @@ def _cost() -> dict[str, Any]:
     return json.loads((REFERENCE / "cost.json").read_text())
 
 
+def _plan(field: str) -> float:
+    """The reference run's plan for its undecided claims (`icil-paper plan`, written to
+    `plan.json`): its total `cells`, `cpu_hours`, `wall_hours` at `cores`, or the number of
+    `undecided` claims it lists."""
+    plan = json.loads((REFERENCE / "plan.json").read_text())
+    if field == "cores":
+        return plan["cores"]
+    if field == "undecided":
+        return len(plan["claims"])
+    return plan["total"][field]
+
+
 def _cost_hours(field: str) -> float:
     """Hours of the reference run: `elapsed` (the sittings' elapsed times summed: the
     machine's hours), `wall` (every record's wall time summed: cell-hours) or `cpu`."""
@@ -116,6 +128,9 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
     **{f"cost.projected_{field}": ("results/reference/cost.json",
                                    lambda field=field: _cost()["projection"][field])
        for field in ("cpu_hours", "wall_hours_at_2", "target_wall_hours")},
+    **{f"plan.{field}": ("results/reference/plan.json",
+                         lambda field=field: _plan(field))
+       for field in ("cells", "cpu_hours", "wall_hours", "cores", "undecided")},
     "cost.projected_from_records_pct": ("results/reference/cost.json",
                                         lambda: 100 * _cost()["projection"]["from_records"]),
     **{f"claims.{name}": ("results/reference/claims.json", lambda field=field: _claims(field))

@@ -28,12 +28,14 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper.config import Preset, get_preset
+from icil_paper.config import DATA_ENV_VAR, Preset, get_preset
 from icil_paper.config_data import from_dict, to_dict
+from icil_paper.data.generate import data_root, demo_path
 from icil_paper.records import eval_record, features_record, train_record
-from icil_paper.results import ResultsStore
+from icil_paper.results import RESULTS_ENV_VAR, ResultsStore, results_root
 from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec, eval_key, feature_key
 from icil_paper.tables.spec import TableSpec
+from icil_paper.train.rundir import RUNS_ENV_VAR, run_dir_for, runs_root
 
 
 @dataclass
@@ -173,16 +175,46 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
     # part-way leaves every row with about the same number of seeds
     todo.sort(key=lambda p: p.run.seed)
     ensure_data(preset, todo, progress=progress)
+    folders = cell_folders(preset)
     cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
-                  kwargs={"preset": preset.name, "data_root": preset.data.root,
+                  # a Ray cell reads the copies in its node's private data folder
+                  # (cell_folders), not the driver's path
+                  kwargs={"preset": preset.name,
+                          "data_root": None if executor == "ray" else preset.data.root,
                           "run": p.run.to_dict(),
                           "evals": [to_dict(e) for e in p.evals.values()],
                           "features": [to_dict(f) for f in p.features.values()]},
-                  gpus=gpus_per_cell, label=cell_label(p.run))
+                  gpus=gpus_per_cell, label=cell_label(p.run),
+                  inputs=plan_inputs(preset, p, store) if executor == "ray" else {})
              for p in todo]
+    by_key = {p.run.key(): p for p in todo}
     return run_grid(cells, executor=executor, workers=workers or preset.eval.workers,
-                    ray_address=ray_address, progress=progress,
-                    done=lambda c: plan_done(store, next(p for p in todo if p.run.key() == c.key)))
+                    ray_address=ray_address, progress=progress, folders=folders,
+                    done=lambda c: plan_done(store, by_key[c.key]))
+
+
+def cell_folders(preset: Preset) -> dict[str, str]:
+    """{environment variable: folder} of every folder a cell reads or writes: the results
+    store, the run folders and the data sets (a Ray node gets private copies of them:
+    `tables.grid`, "Cells that share no files with the driver")."""
+    return {RESULTS_ENV_VAR: str(results_root()), RUNS_ENV_VAR: str(runs_root()),
+            DATA_ENV_VAR: str(data_root(preset))}
+
+
+def plan_inputs(preset: Preset, p: RunPlan, store: ResultsStore) -> dict[str, tuple[str, ...]]:
+    """The files of `cell_folders` a plan's cell reads, relative to their folders: its data
+    sets, its records and its run folder (those that exist are sent; the rest it makes)."""
+    data, runs = data_root(preset), runs_root()
+    demos = {demo_path(preset, task, source, obs).relative_to(data).as_posix()
+             for task, source, obs, _ in data_needs([p])}
+    ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
+           *(features_record(p.run, f) for f in p.features.values())]
+    records = [store.record_path(*i).relative_to(store.root).as_posix() for i in ids]
+    folder = run_dir_for(p.run, preset.name)
+    run_files = sorted(f.relative_to(runs).as_posix() for f in folder.glob("*")
+                       if f.is_file() and not f.name.startswith(".")) if folder.is_dir() else []
+    return {DATA_ENV_VAR: tuple(sorted(demos)), RESULTS_ENV_VAR: tuple(records),
+            RUNS_ENV_VAR: tuple(run_files)}
 
 
 def cell_label(run: RunSpec) -> str:

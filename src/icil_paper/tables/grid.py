@@ -21,7 +21,8 @@ Executors
 - `ray`: one Ray task per cell with `num_cpus=cell.cpus`, `num_gpus=cell.gpus`. Without an
   address a private local Ray with `workers` CPUs is started and shut down at the end; with
   `ray_address` the driver joins that cluster (and only disconnects at the end). A Ray
-  session the caller already started is used as it is.
+  session the caller already started is used as it is. With `folders`, cells share no files
+  with the driver (below).
 
 Every executor runs a cell the same way: the driver's `ICIL_*` (and `MUJOCO_GL`) environment
 variables, its working directory and its import path are applied in the worker for the
@@ -41,50 +42,74 @@ every other cell first (their results are stored by then), then raises one `Grid
 lists each failed cell's label and one-line reason; `GridError.failures` holds the full
 tracebacks.
 
-Scale out: the grid on a Ray cluster
-------------------------------------
-1. Every node needs the same environment at the same path: this repository (installed as
-   `make setup` does, in `.venv`) and the inputs the cells read. `results/`, `runs/` and
-   `data/` (or the folders `ICIL_RESULTS`, `ICIL_RUNS` and `ICIL_DATA` name) must be one
-   shared filesystem (NFS or similar) mounted at the same path on every node, or cells on
-   one node cannot see what cells on another wrote. Relative paths are taken from the
-   driver's working directory, which must exist on each node.
-2. Ray's token authentication: create the token once on the head
-   (`ray get-auth-token --generate`, it lands in `~/.ray/auth_token`) and copy that file
-   to every node and to the machine that runs the driver (or set `RAY_AUTH_TOKEN`).
-3. On the head node: `.venv/bin/ray start --head --port 6379 --num-cpus <cores>` (add
-   `--num-gpus N` where there are GPUs). On every other node:
-   `.venv/bin/ray start --address HEAD:6379`.
-4. On any node (or a machine that reaches the head):
-   `icil-paper reproduce --executor ray --ray-address HEAD:6379`.
-   Each cell becomes one task that Ray places where its CPUs/GPUs are free. A node that
-   dies takes its running cells with it; Ray runs them again elsewhere (`retries` times).
-   If the driver dies, run the same command again: finished cells are skipped.
-5. `ray stop` on every node when done. Worker output is not echoed to the driver; it is in
+Cells that share no files with the driver (`folders`, Ray)
+-----------------------------------------------------------
+Most Ray clusters share no filesystem: a node sees neither the driver's data sets nor its
+results store, and what a cell writes there stays there. Given `folders` ({environment
+variable: the driver's folder}, e.g. `ICIL_RESULTS`, `ICIL_RUNS`, `ICIL_DATA`), a Ray cell
+runs detached (`_execute_detached`):
+
+1. the driver reads the files the cell names in `Cell.inputs` ({variable: paths relative to
+   that folder}: the data sets it reads, its records and run folder where they exist) and
+   puts each into Ray's object store once (a data set read by fifty cells travels once);
+2. on the node, the cell gets a private empty folder for each variable (the variable points
+   there, its working directory is a private folder too), the inputs are written into them
+   (their SHA-256 checked), and the cell runs as anywhere else;
+3. every file the cell wrote or changed there (hidden files, i.e. locks and temporary files,
+   excepted) comes back with its SHA-256, and the private folders are removed;
+4. the driver checks every file's digest, and that every record among them (a JSON file in
+   the `ICIL_RESULTS` folder) that names files (`files`: {name: SHA-256}) came back with
+   those files, before it writes anything; then it writes them into its own folders
+   atomically, records last, and asks `done(cell)`: a cell whose records are not all there
+   failed.
+
+Nothing relies on a path the driver and a node share; a node killed mid-cell takes only its
+private folders with it, and Ray runs the cell again on another node (`retries`). The local
+pool and the serial executor share the driver's files and run cells in place.
+
+On a cluster
+------------
+1. Every node: this repository installed as `make setup` does (`.venv`), at any path.
+2. Ray's token authentication: `ray get-auth-token --generate` on the head (it lands in
+   `~/.ray/auth_token`); copy that file to every node and to the driver's machine (or set
+   `RAY_AUTH_TOKEN`).
+3. Head: `.venv/bin/ray start --head --port 6379` (`--num-cpus 0` keeps cells off it); every
+   other node: `.venv/bin/ray start --address HEAD:6379` (`--num-gpus N` where there are GPUs).
+4. Driver (any machine that reaches the head, holding the results store):
+   `icil-paper reproduce --executor ray --ray-address HEAD:6379`. Each cell is one task that
+   Ray places where its CPUs (and `--gpus-per-cell` GPUs: only nodes with GPUs) are free; its
+   records come back into the driver's store. If the driver dies, run the same command
+   again: finished cells are skipped.
+5. End each node's `ray start` when done. Worker output is not echoed to the driver; it is in
    `/tmp/ray/session_latest/logs` on each node.
 """
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import json
 import logging
 import multiprocessing as mp
 import os
 import re
+import shutil
 import signal
 import socket
 import sys
+import tempfile
 import traceback
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from multiprocessing.connection import wait
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 from icil_paper import plugins
-from icil_paper.results import canonical_json
+from icil_paper.fileio import atomic_write_bytes
+from icil_paper.results import RESULTS_ENV_VAR, canonical_json
 
 EXECUTORS = ("serial", "local", "ray")
 LOCAL_RAY_ATTEMPTS = 3
@@ -112,6 +137,9 @@ class Cell:
     """GPUs the cell needs (a Ray task's `num_gpus`)."""
     label: str = ""
     """What progress and error messages call the cell; the key when empty."""
+    inputs: Mapping[str, tuple[str, ...]] = field(default_factory=dict, hash=False)
+    """Files the cell reads, {environment variable: paths relative to the folder it names},
+    sent to a node that does not share the driver's files (`run_grid(folders=...)`)."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.key, str) or not self.key:
@@ -126,7 +154,12 @@ class Cell:
         if not self.cpus > 0 or self.gpus < 0:
             raise ValueError(f"cell {self.key}: cpus must be > 0 and gpus >= 0, got "
                              f"cpus={self.cpus}, gpus={self.gpus}")
+        inputs = {str(var): tuple(str(p) for p in paths) for var, paths in self.inputs.items()}
+        for var, paths in inputs.items():
+            for p in paths:
+                _relative(p, f"cell {self.key}: input {var}")
         object.__setattr__(self, "kwargs", kwargs)
+        object.__setattr__(self, "inputs", inputs)
         object.__setattr__(self, "label", self.label or self.key)
 
 
@@ -158,7 +191,8 @@ class RayUnavailable(RuntimeError):
 
 def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
              ray_address: str | None = None, done: Callable[[Cell], bool] | None = None,
-             retries: int = 2, progress: bool = True, threads: int | None = 1) -> dict[str, Any]:
+             retries: int = 2, progress: bool = True, threads: int | None = 1,
+             folders: Mapping[str, str | Path] | None = None) -> dict[str, Any]:
     """Run every cell that `done` does not call finished; return {key: what it returned}.
 
     Args:
@@ -170,6 +204,9 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
         retries: runs more of a cell whose worker process died (not of one that raised).
         progress: a tqdm bar over cells.
         threads: torch intra-op threads in each cell (None: leave torch's setting).
+        folders: {environment variable: the driver's folder} of every folder cells read
+            and write; with executor "ray", cells then share no files with the driver
+            (module docstring). The local and serial executors run in these folders.
 
     Returns:
         The JSON results of the cells that ran, in the grid's order (skipped ones are absent).
@@ -185,6 +222,7 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
     if not isinstance(retries, int) or retries < 0:
         raise ValueError(f"retries must be a non-negative integer, got {retries!r}")
+    folders = {str(var): os.path.abspath(path) for var, path in (folders or {}).items()}
     seen: set[str] = set()
     for cell in cells:
         if not isinstance(cell, Cell):
@@ -207,7 +245,7 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
         elif executor == "local":
             _run_local(todo, job, workers, retries, tracker)
         else:
-            _run_ray(todo, job, workers, ray_address, retries, tracker)
+            _run_ray(todo, job, workers, ray_address, retries, tracker, folders, done)
     finally:
         bar.close()
     results = {c.key: tracker.results[c.key] for c in todo if c.key in tracker.results}
@@ -252,6 +290,135 @@ def _execute(target: str, kwargs: Mapping[str, Any], job: Mapping[str, Any]) -> 
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def _relative(path: str, what: str) -> PurePosixPath:
+    """`path` as a relative path that stays inside its folder (ValueError otherwise)."""
+    rel = PurePosixPath(path)
+    if rel.is_absolute() or not rel.parts or ".." in rel.parts:
+        raise ValueError(f"{what}: {path!r} is not a relative path inside its folder")
+    return rel
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _fetch(blob: Any) -> bytes:
+    """A file's bytes: given, or from Ray's object store."""
+    if isinstance(blob, bytes):
+        return blob
+    import ray
+
+    return ray.get(blob)
+
+
+def _execute_detached(target: str, kwargs: Mapping[str, Any], job: Mapping[str, Any],
+                      inputs: list[tuple[str, str, str, Any]]) -> dict[str, Any]:
+    """Run one cell in private folders on this node (module docstring, "Cells that share no
+    files with the driver"): `inputs` are (variable, relative path, SHA-256, bytes or an
+    object reference). Returns {"result", "files": [(variable, path, SHA-256, bytes)],
+    "node"}."""
+    scratch = Path(tempfile.mkdtemp(prefix="icil-cell-"))
+    try:
+        roots = {var: scratch / f"folder{i}" for i, var in enumerate(job["folders"])}
+        given: dict[tuple[str, str], str] = {}
+        for var, path, digest, blob in inputs:
+            data = _fetch(blob)
+            if _sha256(data) != digest:
+                raise RuntimeError(f"the input {path} arrived damaged (its SHA-256 differs)")
+            target_path = roots[var] / _relative(path, "input")
+            target_path.parent.mkdir(parents=True, exist_ok=True)
+            target_path.write_bytes(data)
+            given[var, path] = digest
+        for root in roots.values():
+            root.mkdir(parents=True, exist_ok=True)
+        (scratch / "cwd").mkdir()
+        env = {**job["env"], **{var: str(root) for var, root in roots.items()}}
+        result = _execute(target, kwargs, {**job, "env": env, "cwd": str(scratch / "cwd")})
+        files = []
+        for var, root in roots.items():
+            for path in sorted(root.rglob("*")):
+                rel = path.relative_to(root)
+                if any(part.startswith(".") for part in rel.parts) or not path.is_file():
+                    continue  # locks and temporary files stay
+                data = path.read_bytes()
+                digest = _sha256(data)
+                if given.get((var, rel.as_posix())) != digest:
+                    files.append((var, rel.as_posix(), digest, data))
+        return {"result": result, "files": files, "node": _node_id()}
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _node_id() -> str | None:
+    """The Ray node this process runs on (None outside Ray)."""
+    ray = sys.modules.get("ray")
+    if ray is None or not ray.is_initialized():
+        return None
+    return ray.get_runtime_context().get_node_id()
+
+
+def read_inputs(cell: Cell, folders: Mapping[str, str],
+                cache: dict[tuple[str, str], tuple[str, bytes] | None] | None = None
+                ) -> list[tuple[str, str, str, bytes]]:
+    """The files `cell.inputs` names that exist in the driver's `folders`, with their SHA-256
+    (`cache` keeps each file read once over a grid: a data set many cells read)."""
+    cache = {} if cache is None else cache
+    found = []
+    for var, paths in cell.inputs.items():
+        if var not in folders:
+            raise ValueError(f"cell {cell.label}: input folder {var} is not one of the grid's "
+                             f"folders ({', '.join(folders)})")
+        for path in paths:
+            if (var, path) not in cache:
+                try:
+                    data = (Path(folders[var]) / _relative(path, "input")).read_bytes()
+                except FileNotFoundError:  # not made yet: the cell makes it
+                    cache[var, path] = None
+                else:
+                    cache[var, path] = (_sha256(data), data)
+            if cache[var, path] is not None:
+                found.append((var, path, *cache[var, path]))
+    return found
+
+
+def install_files(files: list[tuple[str, str, str, bytes]], folders: Mapping[str, str],
+                  sent: Iterable[tuple[str, str, str, Any]] = ()) -> int:
+    """Write the files a detached cell returned into the driver's `folders`; return how many.
+
+    Everything is checked before anything is written: each file's SHA-256, its path (inside
+    its folder), and that each record among them (a JSON file in the `ICIL_RESULTS` folder)
+    that names files came back with files of those names and digests (or was sent them:
+    `sent`, the cell's inputs). Then files are written atomically, records last. ValueError
+    names the first problem.
+    """
+    checked = []
+    shipped = {(PurePosixPath(path).name, digest) for _, path, digest, _ in sent}
+    for var, path, digest, data in files:
+        if var not in folders:
+            raise ValueError(f"a file came back for the folder {var}, which is not one of the "
+                             f"grid's ({', '.join(folders)})")
+        rel = _relative(path, f"a file returned for {var}")
+        if _sha256(data) != digest:
+            raise ValueError(f"{path} came back damaged (its SHA-256 differs from the node's)")
+        checked.append((var, Path(folders[var]) / rel, data))
+        shipped.add((rel.name, digest))
+    for var, target, data in checked:
+        if var != RESULTS_ENV_VAR or target.suffix != ".json":
+            continue
+        try:
+            named = json.loads(data).get("files") or {}
+        except (ValueError, AttributeError):
+            raise ValueError(f"the record {target.name} came back unreadable") from None
+        for name, digest in named.items():
+            if (name, digest) not in shipped:
+                raise ValueError(f"the record {target.name} names {name} (SHA-256 "
+                                 f"{str(digest)[:12]}..), which did not come back with it")
+    checked.sort(key=lambda f: f[0] == RESULTS_ENV_VAR)  # records last: never one without its files
+    for _, target, data in checked:
+        atomic_write_bytes(target, data)
+    return len(checked)
 
 
 @contextmanager
@@ -534,12 +701,15 @@ def _use_ray_token_if_present() -> None:
 
 
 def _run_ray(todo: list[Cell], job: dict[str, Any], workers: int, ray_address: str | None,
-             retries: int, tracker: _Tracker) -> None:
+             retries: int, tracker: _Tracker, folders: Mapping[str, str] | None = None,
+             done: Callable[[Cell], bool] | None = None) -> None:
     connected = connect_ray(workers, ray_address)
     import ray
     from ray.exceptions import RayTaskError
 
     refs: dict[Any, Cell] = {}
+    sent: dict[str, list] = {}
+    nodes: dict[str | None, int] = {}
     tracker.started()
     try:
         total = ray.cluster_resources()
@@ -549,11 +719,27 @@ def _run_ray(todo: list[Cell], job: dict[str, Any], workers: int, ray_address: s
                 raise ValueError(f"cell {cell.label} needs {cell.cpus} CPUs and {cell.gpus} "
                                  f"GPUs; this Ray has {total.get('CPU', 0)} and "
                                  f"{total.get('GPU', 0)}")
-        task = ray.remote(_execute)
+        if folders:
+            task = ray.remote(_execute_detached)
+            job = {**job, "folders": list(folders)}
+            stored: dict[tuple[str, str, str], Any] = {}  # one object per distinct file
+            read: dict[tuple[str, str], Any] = {}
+        else:
+            task = ray.remote(_execute)
         for cell in todo:
-            ref = task.options(num_cpus=cell.cpus, num_gpus=cell.gpus, max_retries=retries,
-                               retry_exceptions=False, name=cell.label[:100]).remote(
-                cell.target, cell.kwargs, job)
+            options = task.options(num_cpus=cell.cpus, num_gpus=cell.gpus, max_retries=retries,
+                                   retry_exceptions=False, name=cell.label[:100])
+            if folders:
+                inputs = read_inputs(cell, folders, read)
+                sent[cell.key] = inputs
+                shipped = []
+                for var, path, digest, data in inputs:
+                    if (var, path, digest) not in stored:
+                        stored[var, path, digest] = ray.put(data)
+                    shipped.append((var, path, digest, stored[var, path, digest]))
+                ref = options.remote(cell.target, cell.kwargs, job, shipped)
+            else:
+                ref = options.remote(cell.target, cell.kwargs, job)
             refs[ref] = cell
         while refs:
             ready, _ = ray.wait(list(refs), num_returns=1)
@@ -564,14 +750,41 @@ def _run_ray(todo: list[Cell], job: dict[str, Any], workers: int, ray_address: s
                 except RayTaskError as exc:  # the function raised
                     cause = exc.cause if isinstance(exc.cause, BaseException) else exc
                     tracker.failed(cell, _one_line(cause), str(exc), 1)
+                    continue
                 except ray.exceptions.RayError as exc:  # the worker (or its node) died
                     tracker.failed(cell, f"the worker died in each of {retries + 1} attempts "
                                    f"({type(exc).__name__})", str(exc), retries + 1)
-                else:
-                    tracker.ok(cell, result)
+                    continue
+                if folders:
+                    try:
+                        install_files(result["files"], folders, sent.pop(cell.key))
+                    except (ValueError, OSError) as exc:
+                        tracker.failed(cell, f"its files did not come back whole: {exc}",
+                                       traceback.format_exc(), 1)
+                        continue
+                    if done is not None and not done(cell):
+                        tracker.failed(cell, "its node finished it, but its records are not "
+                                       "all in the driver's store", "", 1)
+                        continue
+                    nodes[result["node"]] = nodes.get(result["node"], 0) + 1
+                    result = result["result"]
+                tracker.ok(cell, result)
+        if nodes:
+            tracker.bar.write(_placement(nodes, ray.nodes()))
     finally:
         for ref in refs:  # left only when the driver stops early (Ctrl-C, an error)
             ray.cancel(ref, force=True)
         if connected:
             ray.shutdown()
 
+
+def _placement(counts: Mapping[str | None, int], nodes: list[dict[str, Any]]) -> str:
+    """One line: how many cells ran on each node, with its address and GPUs."""
+    info = {n.get("NodeID"): n for n in nodes}
+    parts = []
+    for node, n in sorted(counts.items(), key=lambda item: -item[1]):
+        about = info.get(node, {})
+        gpus = about.get("Resources", {}).get("GPU", 0)
+        parts.append(f"{str(node)[:12]} ({about.get('NodeManagerAddress', '?')}, "
+                     f"{gpus:g} GPUs): {n}")
+    return "cells by node: " + "; ".join(parts)
