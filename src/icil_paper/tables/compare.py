@@ -32,14 +32,13 @@ from typing import Any
 
 from icil_paper import plugins, stats
 from icil_paper.config import Preset
-from icil_paper.config_data import to_dict
 from icil_paper.fileio import atomic_write_json
 from icil_paper.records import train_record
 from icil_paper.results import ResultsStore
 from icil_paper.tables import claims as claims_mod
 from icil_paper.tables.assemble import TableResult, assemble
 from icil_paper.tables.definitions import icrt_rows, label, table_i_seeds
-from icil_paper.tables.execute import cell_label, ensure_data, plan, plan_done
+from icil_paper.tables.execute import run_specs
 
 DEFAULT_AGAINST = ("lipvq",)
 DEFAULT_EFFECT = 0.05
@@ -91,28 +90,6 @@ def with_registered(preset: Preset) -> Preset:
                 shared[f.name] = next(iter(values.values()))
         current[name.replace("-", "_")] = cls(**shared)
     return dataclasses.replace(preset, tokenizers=base(**current))
-
-
-def _run(preset: Preset, spec, executor: str, workers: int | None, ray_address: str | None,
-         gpus_per_cell: float, progress: bool) -> None:
-    """Compute every missing record of `spec` (as `execute.run_tables` does for a table)."""
-    from icil_paper.tables.grid import Cell, run_grid
-
-    store = ResultsStore(preset.name)
-    todo = [p for p in plan([spec]) if not plan_done(store, p)]
-    if not todo:
-        return
-    todo.sort(key=lambda p: p.run.seed)
-    ensure_data(preset, todo, progress=progress)
-    cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
-                  kwargs={"preset": preset.name, "run": p.run.to_dict(),
-                          "evals": [to_dict(e) for e in p.evals.values()],
-                          "features": [to_dict(f) for f in p.features.values()]},
-                  gpus=gpus_per_cell, label=cell_label(p.run)) for p in todo]
-    by_key = {p.run.key(): p for p in todo}
-    run_grid(cells, executor=executor, workers=workers or preset.eval.workers,
-             ray_address=ray_address, progress=progress,
-             done=lambda c: plan_done(store, by_key[c.key]))
 
 
 def _claims(tokenizer: str, against: Sequence[str], effect: float) -> list[claims_mod.Claim]:
@@ -186,7 +163,7 @@ def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGA
     counts = {t: max(first, stored[t] if seeds is None else 0) for t in names}
     run = dict(executor=executor, workers=workers, ray_address=ray_address,
                gpus_per_cell=gpus_per_cell, progress=progress)
-    _run(preset, icrt_rows(preset, counts), **run)
+    run_specs(preset, [icrt_rows(preset, counts)], **run)
     store = ResultsStore(preset.name)
     result = assemble(icrt_rows(preset, counts), store)
     seed_plan: dict[str, Any] = {"fixed": seeds, "pilot": None if seeds else first,
@@ -195,7 +172,7 @@ def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGA
         seed_plan.update(plan_seeds(result, tokenizer, against, effect, max_seeds))
         if seed_plan["planned"] and seed_plan["planned"] > min(counts.values()):
             counts = {t: max(n, seed_plan["planned"]) for t, n in counts.items()}
-            _run(preset, icrt_rows(preset, counts), **run)
+            run_specs(preset, [icrt_rows(preset, counts)], **run)
             result = assemble(icrt_rows(preset, counts), store)
     seed_plan["seeds"] = counts
     stale = other_versions(icrt_rows(preset, counts), store)

@@ -163,12 +163,21 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
     docstring. Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
     Returns the grid's summaries by run key."""
     from icil_paper.tables.definitions import TABLES, table_spec
-    from icil_paper.tables.grid import Cell, run_grid
 
     ids = list(table_ids or TABLES)
-    plans = plan([table_spec(preset, t) for t in ids])
+    return run_specs(preset, [table_spec(preset, t) for t in ids], executor=executor,
+                     workers=workers, ray_address=ray_address, gpus_per_cell=gpus_per_cell,
+                     progress=progress)
+
+
+def run_specs(preset: Preset, specs: Sequence[TableSpec], executor: str = "local",
+              workers: int | None = None, ray_address: str | None = None,
+              gpus_per_cell: float = 0.0, progress: bool = True) -> dict[str, Any]:
+    """Compute every missing record of `specs` as grid cells (`run_tables`' arguments)."""
+    from icil_paper.tables.grid import Cell, run_grid
+
     store = ResultsStore(preset.name)
-    todo = [p for p in plans if not plan_done(store, p)]
+    todo = [p for p in plan(specs) if not plan_done(store, p)]
     if not todo:
         return {}
     # seed-major (every row's first seed, then every row's second, ...): a run stopped
