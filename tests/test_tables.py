@@ -235,6 +235,7 @@ def test_committed_reference_records_are_current_or_labelled_as_older_code(monke
 
 @pytest.mark.sim
 @pytest.mark.slow
+@pytest.mark.ray
 def test_the_executors_give_the_same_records(tmp_path, monkeypatch):
     """`icil-paper reproduce --stages table-IV` serial, on a local pool and on Ray: the same
     records (metrics without wall times), so a grid's numbers do not depend on how it ran."""
