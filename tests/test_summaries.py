@@ -48,3 +48,52 @@ def test_scores_intervals_and_verdicts_follow_the_records():
 def test_an_empty_label_is_refused():
     with pytest.raises(ValueError, match="no seed's record for \\['x'\\]"):
         SeedRecords({"x": []})
+
+
+def _lipschitz_seed(empirical: float, bound: float = 2.0) -> dict:
+    return {"empirical_inf_r0.1": empirical / 2, "empirical_inf_r1": empirical,
+            "bound_inf": bound, "bound_2": 1.5, "bound_softplus_product": bound,
+            "c_history": [[1.0, 2.0], [0.9, 2.2]], "history_step": [0, 100],
+            "reconstruction_mse": 0.01}
+
+
+def test_chapter_3_findings_flag_a_violated_bound_and_quote_the_records():
+    from icil_paper.book.summaries import BOUND_RTOL, bound_holds, lipschitz_findings
+
+    radii = (0.1, 1.0)
+    assert bound_holds([_lipschitz_seed(2.0 * (1 + BOUND_RTOL / 2))], radii)  # float rounding
+    assert not bound_holds([_lipschitz_seed(1.0), _lipschitz_seed(2.1)], radii)
+    by_seed = {label: [_lipschitz_seed(1.0), _lipschitz_seed(1.2)]
+               for label in ("lipvq (paper)", "vq + spectral norm", "vq (no normalization)",
+                             "lipvq (official code)")}
+    by_seed["vq (no normalization)"][1] = _lipschitz_seed(3.0)
+    text = lipschitz_findings(by_seed, radii, lr=1e-3)
+    assert "each of its 2 seed(s)" in text
+    assert "lipvq (paper): held" in text and "vq (no normalization): VIOLATED" in text
+    assert "layer 1: 1 -> 0.9 (-10.0%)" in text and "drifts up by 0.0005 per step" in text
+
+
+def test_chapter_5_findings_rank_compare_and_flag_collapse():
+    from icil_paper.book.summaries import SeedRecords, tokenizer_findings
+
+    names = ["mlp", "bin", "vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq", "fast", "bspline",
+             "lipvq-data-init", "vq-data-init", "lipvq-official"]
+    smooth_rank = {name: i for i, name in enumerate(names)}  # mlp smoothest ... official last
+
+    def seed(name, s):
+        energy = (1.0 + smooth_rank[name] + 0.01 * s + 0.001 * np.arange(20)).tolist()
+        return {"least_energy_per_trajectory": energy,
+                "least_energy_standardized_per_trajectory": energy,
+                "latent_scale": 1.0, "usage": 0.05 if name == "lipvq-official" else 0.5,
+                "codes_used": 1 if name == "lipvq-official" else 8, "codebook_size": 16,
+                "reconstruction_mse": 0.01, "encode_decode_actions_per_s": 1000.0 * (1 + smooth_rank[name]),
+                "tokens_per_step": 1.0, "codes_used_per_level": [8, 7]}
+
+    seeds = SeedRecords({name: [seed(name, s) for s in range(3)] for name in names})
+    paper = {"mlp": 1.0, "bin": 2.0, "vq": 3.0, "lipvq": 0.5}
+    text = tokenizer_findings(seeds, paper, ["mlp", "bin", "vq", "lipvq", "fsq"])
+    assert "Paper's smoothness ranking (smoothest first): lipvq, mlp, bin, vq." in text
+    assert "Our least energy ranking: mlp, bin, vq, lipvq; rank correlation with the paper's -0.20" in text
+    assert "lipvq minus vq on least energy:" in text and ": lipvq is less smooth" in text
+    assert "Codebook collapse (under 10% of codes used" in text and "lipvq-official (1 of 16)" in text
+    assert "Residual VQ uses 8 / 7 codes per level (of 8 each)" in text
