@@ -97,3 +97,41 @@ def test_chapter_5_findings_rank_compare_and_flag_collapse():
     assert "lipvq minus vq on least energy:" in text and ": lipvq is less smooth" in text
     assert "Codebook collapse (under 10% of codes used" in text and "lipvq-official (1 of 16)" in text
     assert "Residual VQ uses 8 / 7 codes per level (of 8 each)" in text
+
+
+def test_chapter_4_reads_expert_measurements_written_by_hand_and_states_the_requirement(
+        tmp_path):
+    import json
+    import os
+    from pathlib import Path
+
+    import pandas as pd
+
+    from icil_paper.book.studies import expert_measurements
+    from icil_paper.book.summaries import demonstration_findings
+    from icil_paper.config import get_preset
+
+    preset = get_preset("smoke")  # data.expert_seeds = 0: the preset measures nothing itself
+    folder = Path(os.environ["ICIL_RESULTS"]) / "experts"
+    folder.mkdir(parents=True)
+    task = {"episodes": 50, "expert_success_rate": 0.86, "replay_success_rate": 1.0,
+            "mean_length": 120.0}
+    (folder / "kinova.json").write_text(json.dumps({"tasks": {"kinova/open_drawer": task},
+                                                       "git_commit": "abcdef0123"}))
+    rows = expert_measurements(preset)
+    assert rows == [{"task": "kinova/open_drawer", "seeds": 50, "expert": 0.86,
+                     "expert, human scenes": None, "replay": 1.0, "human kept": None,
+                     "mean length": 120.0, "from": "abcdef01"}]
+    kept = pd.DataFrame({"generated: success over data-set scenes": [0.95, 1.0]},
+                        index=["kinova/open_drawer", "kinova/close_drawer"])
+    summary = pd.DataFrame(
+        [{"task": "kinova/open_drawer", "source": s, "mean_length": n, "still_fraction": still,
+          "least_energy_per_step": e}
+         for s, n, still, e in (("generated", 100, 0.1, 1.0), ("human", 150, 0.3, 2.0))]
+    ).set_index(["task", "source"])
+    text = demonstration_findings({"kinova/open_drawer": {"success": True}}, kept,
+                                  pd.DataFrame(rows), summary, ["kinova/open_drawer"], "smoke")
+    assert "succeeded on 1 of 1 shown tasks." in text
+    assert "every task meets 0.9 there." in text
+    assert "ranges from 0.86 to 0.86; below 0.9: ['kinova/open_drawer']." in text
+    assert "human demos are 1.50x as long" in text and "(less smooth, as" in text
