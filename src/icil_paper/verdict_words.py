@@ -1,9 +1,9 @@
 """The words the book prints for a verdict: one table per kind of sentence, keyed by
-`stats.Verdict`. No other module spells a verdict (`tests/test_verdicts.py` scans the
+`stats.Verdict`. No other module spells a verdict (`tests/test_vocabulary.py` scans the
 sources for one).
 
     from icil_paper.stats import Verdict
-    from icil_paper.verdict_words import CLAIM, SMOOTHER
+    from icil_paper.verdict_words import SMOOTHER, claim_words
     SMOOTHER[Verdict.HOLDS]                    # "smoother"
     claim_words(Verdict.HOLDS, side="above")   # "holds: our interval lies above 0"
 
