@@ -32,7 +32,7 @@ SRC_HASH = $(shell { find src -name '*.py' | LC_ALL=C sort | xargs cat; echo $(P
 
 help:
 	@echo "make setup      create $(VENV), install requirements, the package and the book's npm assets; check Vulkan and Chromium"
-	@echo "make test       the fast test suite (under 10 minutes on 2 cores)"
+	@echo "make test       the whole test suite, on both cores (pytest-xdist; CI allows it 8 minutes on 2 cores)"
 	@echo "make reproduce  run the experiments at PRESET=$(PRESET) and build the book"
 	@echo "make book       execute the notebooks and build the book into $(BOOK_OUT)/html"
 	@echo "make browser-check  load every page of the built book in headless Chromium, offline"
@@ -71,7 +71,7 @@ $(NODE_STAMP): book/package.json book/package-lock.json
 		"everything but the book works without it"; fi
 
 test: setup
-	$(BIN)/python -m pytest -q --durations=15
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=15
 
 reproduce: setup
 	$(BIN)/icil-paper reproduce --preset $(PRESET)

@@ -21,15 +21,15 @@ from icil_paper.config import get_preset
 from icil_paper.results import ResultsStore
 from icil_paper.tables.book import (
     REFERENCE,
-    forest_plot,
+    collapsed_markdown,
     ledger_details,
     ledger_frame,
     older_ledger,
+    reference_bookkeeping,
     reference_freshness,
-    reference_progress,
+    show_ledger,
     source_label,
     stale_records,
-    undecided_power,
 )
 from icil_paper.tables.claims import claims_ledger, summary_sentence, write_ledger
 
@@ -47,20 +47,8 @@ for source, p in sources:
 
 # %% tags=["remove-input"]
 for source, (p, ledger) in ledgers.items():
-    heading = source_label(source, p.name)
-    progress = reference_progress() if p.name == REFERENCE else ""
-    display(Markdown(f"## {heading[0].upper()}{heading[1:]}\n\n{progress}\n\n"
-                     f"{summary_sentence(ledger)}"))
-    undecided = undecided_power(ledger)
-    if undecided:
-        display(Markdown("**Undecided after Holm, and what these seeds could detect:**\n\n"
-                         + undecided))
-    display(forest_plot(ledger, title=f"{heading[0].upper()}{heading[1:]}: each claim's 95% "
-                                      "interval, the paper's value, the verdict after Holm"))
-    display(Markdown("**Verdicts** (the seeds of each row: the claim's row first)"))
-    display(ledger_frame(ledger, "verdicts"))
-    display(Markdown("**Size and power**"))
-    display(ledger_frame(ledger, "power"))
+    progress = reference_bookkeeping() if p.name == REFERENCE else ""
+    show_ledger(ledger, source_label(source, p.name), progress)
 
 # %% [markdown]
 # ## How to read the ledger
@@ -149,9 +137,12 @@ display(Markdown(ledger_details(first_ledger)))
 # %% tags=["remove-input"]
 stale = stale_records(REFERENCE)
 fresh = reference_freshness(REFERENCE)
-display(Markdown("None: every committed reference record is current." if not stale else
-                 f"{fresh['stale']} of {fresh['records']} committed record(s) are stale and "
-                 "not used: " + ", ".join(stale[:20]) + (" ..." if len(stale) > 20 else "")))
+if not stale:
+    display(Markdown("None: every committed reference record is current."))
+else:
+    display(collapsed_markdown(f"{fresh['stale']} of {fresh['records']} committed records are "
+                               "stale and not used. Open to see them.",
+                               "\n".join(f"- `{name}`" for name in stale)))
 older = older_ledger(REFERENCE) if stale else None
 if older is not None:
     made_by, older_claims = older

@@ -62,11 +62,11 @@ from icil_paper.book.studies import (
     icrt_rollout_study,
     icrt_specs,
 )
+from icil_paper.book.summaries import icrt_findings
 from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
 from icil_paper.eval import record_rollout, rollout_policy
-from icil_paper.paper_numbers import TABLE_I_ROBOCASA
 from icil_paper.policies import make_policy
 from icil_paper.policies.batching import obs_spec_from_obs
 from icil_paper.policies.transformer import causal_mask
@@ -282,20 +282,6 @@ for source, result in load_table(preset, "analysis", compute=False).items():
 # policies properly.
 
 # %%
-paper = TABLE_I_ROBOCASA["icrt+lipvq"]["drawers"]
-loss_drop = m["loss"][0] / max(m["loss"][-1], 1e-12)
-held = "within" if m["ci_low"] <= paper <= m["ci_high"] else "outside"
-print(
-    f"- The token layout, mask and loss coverage above are computed from a real batch: the "
-    f"loss reached {int((reached & sup).sum())} supervised query tokens and "
-    f"{int((reached & (seg == 0) & valid).sum())} prompt tokens, as Sec. III-A describes "
-    f"(no loss on the prompt).\n"
-    f"- Training ({m['train']['steps']} steps, preset '{preset.name}') lowered the total loss "
-    f"{loss_drop:.1f}-fold.\n"
-    f"- On {TASK}, ICRT + LipVQ-VAE succeeded in {m['successes']} of {m['episodes']} rollouts "
-    f"({m['success_rate']:.2f}, 95% CI {m['ci_low']:.2f}-{m['ci_high']:.2f}). The paper reports "
-    f"{paper:.2f} on RoboCasa's drawer family after 500K iterations on MimicGen data; its number "
-    f"lies {held} our interval of {m['episodes']} episode(s). Our task, data and training "
-    f"budget are stand-ins at a much smaller scale, so this chapter checks the mechanics, not "
-    f"the paper's number."
-)
+print(icrt_findings(m, query_tokens=int((reached & sup).sum()),
+                    prompt_tokens=int((reached & (seg == 0) & valid).sum()),
+                    task=TASK, preset_name=preset.name))

@@ -73,7 +73,7 @@ import pandas as pd
 
 from icil_paper.book.studies import LIPSCHITZ_RADII as RADII
 from icil_paper.book.studies import lipschitz_study
-from icil_paper.book.summaries import SeedRecords
+from icil_paper.book.summaries import SeedRecords, lipschitz_findings
 from icil_paper.config import get_preset
 from icil_paper.results import ResultsStore
 
@@ -151,36 +151,4 @@ plt.tight_layout()
 # ## What we found
 
 # %%
-holds = {label: all(max(m[f"empirical_inf_r{r:g}"] for r in RADII) <= m["bound_inf"] * (1 + 1e-5)
-                    for m in ms)
-         for label, ms in by_seed.items()}
-start, end = c_hist[0], c_hist[-1]
-drift = float(np.mean(end - start)) / paper["history_step"][-1]
-change = ", ".join(f"layer {i + 1}: {a:.3g} -> {b:.3g} ({(b - a) / a:+.1%})"
-                   for i, (a, b) in enumerate(zip(start, end, strict=True)))
-lip, spec, plain = (records["lipvq (paper)"], records["vq + spectral norm"],
-                    records["vq (no normalization)"])
-emp = {label: max(m[f"empirical_inf_r{r:g}"] for r in RADII) for label, m in records.items()}
-lines = [
-    f"Bound check (inf-norm, every model and each of its {n_seeds} seed(s)): "
-    + "; ".join(f"{k}: {'held' if v else 'VIOLATED'}" for k, v in holds.items()) + ".",
-    f"LipVQ-VAE's per-layer bounds softplus(c_l) over {paper['history_step'][-1]} steps: {change}. "
-    f"Their product ends at {paper['bound_softplus_product']:.4g}; the empirical constant is "
-    f"{emp['lipvq (paper)']:.4g}, {emp['lipvq (paper)'] / paper['bound_softplus_product']:.2%} "
-    "of it.",
-    f"With Liu et al.'s initialisation (c_l = the largest initial row sum) nothing is rescaled "
-    "at the start. The 1e-6 weight does not make the bounds' steps small: Adam scales every "
-    "parameter's step to about the learning rate, so softplus(c_l) drifts "
-    f"{'down' if drift < 0 else 'up'} by {abs(drift):.2g}"
-    f" per step on average (learning rate {preset.tokenizer_study.lr:g}), {np.max(np.abs(end - start) / start):.2%}"
-    " of its value at most in this run. The constraint bites only once a row's sum "
-    "reaches its shrinking bound.",
-    f"Spectral normalization gives a 2-norm bound of {spec['bound_2']:.3g} (about 1 per "
-    f"layer) and an inf-norm bound of {spec['bound_inf']:.3g}; its empirical inf-norm "
-    f"constant is {emp['vq + spectral norm']:.3g} against {emp['lipvq (paper)']:.3g} for "
-    f"LipVQ-VAE and {emp['vq (no normalization)']:.3g} without normalization.",
-    f"Reconstruction MSE: LipVQ-VAE {lip['reconstruction_mse']:.4g}, spectral "
-    f"{spec['reconstruction_mse']:.4g}, unnormalized {plain['reconstruction_mse']:.4g}, "
-    f"official-code variant {records['lipvq (official code)']['reconstruction_mse']:.4g}.",
-]
-print("\n\n".join(lines))
+print(lipschitz_findings(by_seed, RADII, preset.tokenizer_study.lr))

@@ -37,20 +37,24 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering on CPU (set before robosuite)
 
-import json
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 from IPython.display import display
 
 from icil_paper import sim
-from icil_paper.book.studies import demo_stage, expert_study, showcase_study, shown_tasks
+from icil_paper.book.studies import (
+    demo_stage,
+    expert_measurements,
+    showcase_study,
+    shown_tasks,
+)
+from icil_paper.book.summaries import demonstration_findings
 from icil_paper.book.viewer import show_recordings
 from icil_paper.config import get_preset
 from icil_paper.data import SOURCES, load_demos, zero_shot_split
 from icil_paper.data.stats import data_set_stats, keep_rate
-from icil_paper.results import ResultsStore, results_root
+from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
 
 preset = get_preset()  # reads ICIL_PRESET
@@ -129,22 +133,7 @@ kept = pd.DataFrame(kept).pivot(index="task", columns="source", values="keep rat
 kept.columns = [f"{c}: success over data-set scenes" for c in kept.columns]
 display(kept)
 
-expert_rows = []
-measured = {suite: {"tasks": record["tasks"], "commit": "this preset's store"}
-            for suite, record in expert_study(preset, store).items()}
-for suite in sim.SUITES:
-    path = results_root() / "experts" / f"{suite}.json"
-    if suite not in measured and path.exists():
-        record = json.loads(path.read_text())
-        measured[suite] = {"tasks": record["tasks"], "commit": (record.get("git_commit") or "")[:8]}
-for record in measured.values():
-    for task, entry in record["tasks"].items():
-        expert_rows.append({"task": task, "seeds": entry["episodes"],
-                            "expert": entry["expert_success_rate"],
-                            "expert, human scenes": entry.get("expert_success_rate_human_scenes"),
-                            "replay": entry.get("replay_success_rate"),
-                            "human kept": entry.get("human_success_rate"),
-                            "mean length": entry["mean_length"], "from": record["commit"]})
+expert_rows = expert_measurements(preset, store)  # this preset's, else results/experts/
 experts = pd.DataFrame(expert_rows)
 if expert_rows:
     display(experts)
@@ -226,34 +215,4 @@ except ImportError as exc:
 # ## What we found
 
 # %%
-lines = []
-failed_shown = [t for t, e in showcase.items() if not e["success"]]
-lines.append(f"Demo 0 of the generated source succeeded on {len(showcase) - len(failed_shown)} "
-             f"of {len(showcase)} shown tasks" + (f" (failed: {failed_shown})." if failed_shown
-                                                  else "."))
-generated_rate = kept["generated: success over data-set scenes"]
-low_kept = generated_rate[generated_rate < 0.9]
-lines.append(f"Over the scenes the {preset.name} data sets were generated on, the experts "
-             f"succeeded in {generated_rate.min():.0%}-{generated_rate.max():.0%} of attempts "
-             f"per task; " + ("every task meets 0.9 there." if low_kept.empty else
-                             f"below 0.9: {list(low_kept.index)}."))
-if len(experts):
-    low = experts[experts.expert < 0.9]
-    lines.append(f"Over {int(experts.seeds.min())}+ random scenes per task, the expert success "
-                 f"rate ranges from {experts.expert.min():.2f} to {experts.expert.max():.2f}; "
-                 + ("every measured expert meets the 0.9 requirement."
-                    if low.empty else f"below 0.9: {list(low.task)}."))
-    if experts.replay.notna().all():
-        lines.append(f"Replaying the stored actions of successful episodes open loop succeeds "
-                     f"again in {experts.replay.min():.0%}-{experts.replay.max():.0%} of them.")
-for task in DATA_TASKS:
-    g, h = summary.loc[(task, "generated")], summary.loc[(task, "human")]
-    energy = h.least_energy_per_step / max(g.least_energy_per_step, 1e-12)
-    lines.append(
-        f"{task}: human demos are {h.mean_length / g.mean_length:.2f}x as long as generated "
-        f"ones ({h.mean_length:.0f} vs {g.mean_length:.0f} steps), stand still in "
-        f"{h.still_fraction:.0%} vs {g.still_fraction:.0%} of steps, and their least energy "
-        f"per step is {energy:.3g}x the generated demos' "
-        + ("(less smooth, as the human source is meant to be)." if energy > 1 else
-           "(NOT less smooth: the human source does not differ as intended here)."))
-print("\n".join(lines))
+print(demonstration_findings(showcase, kept, experts, summary, DATA_TASKS, preset.name))

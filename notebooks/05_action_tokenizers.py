@@ -93,10 +93,9 @@ from IPython.display import display
 
 from icil_paper import stats
 from icil_paper.book.studies import tokenizer_latent_recording, tokenizer_study
-from icil_paper.book.summaries import SeedRecords
+from icil_paper.book.summaries import SeedRecords, tokenizer_findings
 from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
-from icil_paper.metrics import ascending, rank_correlation
 from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
 from icil_paper.results import ResultsStore
 from icil_paper.tokenizers import TOKENIZERS
@@ -197,46 +196,4 @@ display(show_recording(latent_recording["rrd"], latent_recording["png"],
 # it holds when the whole 95% interval lies below 0.
 
 # %%
-paper_names = [k for k in TOKENIZERS if k in SMOOTHNESS]
-lines = [f"Paper's smoothness ranking (smoothest first): {', '.join(ascending(SMOOTHNESS))}."]
-for key in score_keys:
-    ours = {k: float(seeds.scores(k, key).mean()) for k in paper_names}
-    lines.append(f"Our {key.replace('_', ' ')} ranking: {', '.join(ascending(ours))}; rank "
-                 f"correlation with the paper's {rank_correlation(ours, SMOOTHNESS):+.2f}.")
-
-
-for key in score_keys:
-    lines.append("LipVQ-VAE against VQ-VAE (the Lipschitz constraint alone): "
-                 + seeds.compare("lipvq", "vq", key) + ".")
-    lines.append("With codebooks initialised from encoder outputs: "
-                 + seeds.compare("lipvq-data-init", "vq-data-init", key) + ".")
-    lines.append("Eq. 4 on FSQ's encoder: " + seeds.compare("lipfsq", "fsq", key) + ".")
-    lines.append("Eq. 4 on residual VQ's encoder: " + seeds.compare("liprvq", "rvq", key) + ".")
-lines.append(f"Latent scale σ: LipVQ-VAE {seeds.mean('lipvq', 'latent_scale'):.3g}, VQ-VAE "
-             f"{seeds.mean('vq', 'latent_scale'):.3g}; the raw least energy scales with σ².")
-low_usage = [k for k in records if seeds.mean(k, "usage") is not None and seeds.mean(k, "usage") < 0.1]
-if low_usage:
-    lines.append("Codebook collapse (under 10% of codes used on held-out data, mean over "
-                 "seeds): " + ", ".join(f"{k} ({seeds.mean(k, 'codes_used'):.0f} of "
-                                        f"{seeds.mean(k, 'codebook_size'):.0f})" for k in low_usage)
-                 + ".")
-lines.append(
-    f"The official code's LipVQ variant (sigmoid output, no straight-through) uses "
-    f"{seeds.mean('lipvq-official', 'codes_used'):.0f} code(s) and reconstructs with MSE "
-    f"{seeds.mean('lipvq-official', 'reconstruction_mse'):.4g}, against "
-    f"{seeds.mean('lipvq', 'codes_used'):.0f} codes and {seeds.mean('lipvq', 'reconstruction_mse'):.4g} "
-    "for the paper's.")
-rates = {k: seeds.mean(k, "encode_decode_actions_per_s") for k in records}
-fastest, slowest = max(rates, key=rates.get), min(rates, key=rates.get)
-lines.append(
-    f"Throughput (encode + decode, one core): from {rates[slowest]:,.0f} actions/s ({slowest}) "
-    f"to {rates[fastest]:,.0f} ({fastest}). FAST emits {seeds.mean('fast', 'tokens_per_step'):.2f} "
-    f"tokens per step, bin {seeds.mean('bin', 'tokens_per_step'):.0f}, B-spline "
-    f"{seeds.mean('bspline', 'tokens_per_step'):.2f}, the others one embedding per step.")
-lines.append(
-    f"Residual VQ uses {seeds.per_level('rvq')} codes per level (of "
-    f"{seeds.mean('rvq', 'codebook_size') / len(records['rvq'][0]['codes_used_per_level']):.0f} "
-    f"each), {seeds.per_level('liprvq')} with Eq. 4; FSQ {seeds.mean('fsq', 'codes_used'):.0f} of its "
-    f"{seeds.mean('fsq', 'codebook_size'):.0f} grid points, {seeds.mean('lipfsq', 'codes_used'):.0f} with "
-    "Eq. 4.")
-print("\n\n".join(lines))
+print(tokenizer_findings(seeds, SMOOTHNESS, list(TOKENIZERS), score_keys))

@@ -67,13 +67,9 @@ display(Markdown(f"The reference run's design: {design_sentence(get_preset(REFER
 # family between 0 and 1, they do not rank the rows.
 
 # %% tags=["hide-input"]
-from icil_paper.bench.pilot import pilot_frame
+from icil_paper.bench.pilot import show_pilot
 
-frame, flat = pilot_frame(table="I")
-display(frame)
-display(Markdown("Columns that no row of a setting separates (every row at 0, or every one "
-                 "at 1):\n\n" + "\n".join(f"- {setting}: {', '.join(cols) or 'none'}"
-                                          for setting, cols in flat.items())))
+show_pilot(table="I")
 
 # %% [markdown]
 # ## Average success over the kitchen tasks

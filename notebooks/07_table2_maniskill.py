@@ -68,13 +68,9 @@ display(success_figure(results, "avg", title="Table II: average success over the
 # task between 0 and 1, they do not rank the rows.
 
 # %% tags=["hide-input"]
-from icil_paper.bench.pilot import pilot_frame
+from icil_paper.bench.pilot import show_pilot
 
-frame, flat = pilot_frame(table="II")
-display(frame)
-display(Markdown("Columns that no row of a setting separates (every row at 0, or every one "
-                 "at 1):\n\n" + "\n".join(f"- {setting}: {', '.join(cols) or 'none'}"
-                                          for setting, cols in flat.items())))
+show_pilot(table="II")
 
 # %% [markdown]
 # ## How smoothly the robot moves

@@ -49,6 +49,7 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
+from icil_paper import verdict_words
 from icil_paper.config import get_preset
 from icil_paper.tables.analysis import (
     analysis_frame,
@@ -92,7 +93,7 @@ for source, result in results.items():
     lines = [f"**{source_label(source, result.preset)}**", ""]
     for f in findings(result):
         est = f["estimate"]
-        value = ("not run" if est is None else
+        value = (verdict_words.MISSING if est is None else
                  f"{est.value:+.3f} [{est.low:+.3f}, {est.high:+.3f}]")
         expected = "below 0" if f["direction"] < 0 else "above 0"
         lines.append(f"- {f['quantity']}: {value} (expected {expected}): {f['verdict']}")

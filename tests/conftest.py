@@ -2,11 +2,32 @@
 
 from __future__ import annotations
 
+import fcntl
 import os
 
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_ray_at_a_time(request, tmp_path_factory):
+    """`make test` runs the files on both cores (pytest-xdist, `-n 2 --dist loadfile`: a
+    file's module-scoped fixtures are built once, on one worker). A file with tests marked
+    `ray` holds a lock shared by the workers while it runs, so that two local Rays never
+    start at once: on 2 busy cores the second one's raylet misses Ray's 30 s start-up limit."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER")
+    if worker is None or not any(item.get_closest_marker("ray") for item in request.session.items
+                                 if item.module is request.module):
+        yield
+        return
+    lock = tmp_path_factory.getbasetemp().parent / "ray.lock"  # the workers' common folder
+    with open(lock, "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 @pytest.fixture(autouse=True)

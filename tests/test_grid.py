@@ -143,6 +143,7 @@ def test_done_skips_finished_cells(tmp_path, monkeypatch):
 # The first test starts (and stops) its own Ray through run_grid; the later ones share one
 # session (a local Ray takes 10-25 s to start on 2 busy cores), which run_grid leaves open.
 @pytest.mark.slow
+@pytest.mark.ray
 def test_ray_gives_the_serial_records_and_shuts_down(tmp_path, monkeypatch):
     ray = pytest.importorskip("ray", reason="Ray is not installed")
     if ray.is_initialized():
@@ -173,6 +174,7 @@ def ray_session():
 
 
 @pytest.mark.slow
+@pytest.mark.ray
 def test_ray_retries_a_killed_worker(tmp_path, monkeypatch, ray_session):
     calls = _use_folder(tmp_path, monkeypatch, "ray")
     cells = [*_draws(calls, 2),
@@ -190,6 +192,7 @@ def test_ray_retries_a_killed_worker(tmp_path, monkeypatch, ray_session):
 
 
 @pytest.mark.slow
+@pytest.mark.ray
 def test_ray_reports_a_raising_cell(tmp_path, monkeypatch, ray_session):
     calls = _use_folder(tmp_path, monkeypatch, "ray")
     cells = [grid_cells.cell("raises", "bad", calls_dir=str(calls)), *_draws(calls, 2)]

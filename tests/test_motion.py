@@ -331,8 +331,8 @@ def test_records_without_motion_entries_leave_success_alone():
     assert result.estimate("icrt+lipvq") is not None and result.complete
     assert result.motion_estimate("icrt+lipvq") is None
     assert result.motion_scores("icrt+lipvq") is None
-    entry = {e["id"]: e for e in claims_ledger(preset, store)}["V-lipvq-smoother-motion"]
-    assert entry["verdict"] == "not run"
+    entry = {e.id: e for e in claims_ledger(preset, store)}["V-lipvq-smoother-motion"]
+    assert entry.verdict == "not run"
 
 
 def test_the_motion_claims_get_verdicts():
@@ -343,20 +343,20 @@ def test_the_motion_claims_get_verdicts():
     store = ResultsStore(preset.name)
     smooth = {"icrt+lipvq": -8.0, "icrt+bin": -14.0, "bc_transformer": -15.0}
     motion_records(preset, store, "V", lambda row, s: smooth.get(row, -12.0) + 0.3 * s)
-    entry = {e["id"]: e for e in claims_ledger(preset, store)}["V-lipvq-smoother-motion"]
-    assert entry["verdict"] == "holds" and entry["ours"] == pytest.approx(6.0, abs=0.5)
-    assert entry["paper"] is None and entry["reference_effect"] is None
-    assert entry["seeds"] == {"icrt+lipvq": 3, "bc_transformer": 3, "icrt+bin": 3}
-    assert entry["mde"] > 0 and entry["seeds_needed"] is None and entry["magnitude"] is None
-    assert "intersection test" in entry["method"]
+    entry = {e.id: e for e in claims_ledger(preset, store)}["V-lipvq-smoother-motion"]
+    assert entry.verdict == "holds" and entry.ours == pytest.approx(6.0, abs=0.5)
+    assert entry.paper is None and entry.reference_effect is None
+    assert entry.seeds == {"icrt+lipvq": 3, "bc_transformer": 3, "icrt+bin": 3}
+    assert entry.mde > 0 and entry.seeds_needed is None and entry.magnitude is None
+    assert "intersection test" in entry.method
 
     reversed_ = small_preset("eval.episodes_per_task=20", "tables.icrt_seeds=3",
                              "tables.baseline_seeds=3", "seed=1")
     store = ResultsStore(reversed_.name)
     worse = {"icrt+lipvq": -16.0, "icrt+bin": -10.0, "bc_transformer": -9.0}
     motion_records(reversed_, store, "V", lambda row, s: worse.get(row, -12.0) + 0.3 * s)
-    entry = {e["id"]: e for e in claims_ledger(reversed_, store)}["V-lipvq-smoother-motion"]
-    assert entry["verdict"] == "does not hold"
+    entry = {e.id: e for e in claims_ledger(reversed_, store)}["V-lipvq-smoother-motion"]
+    assert entry.verdict == "does not hold"
 
     from icil_paper.tables.claims import sentence
 
@@ -370,8 +370,8 @@ def test_one_seed_motion_claims_are_not_decided():
     store = ResultsStore(preset.name)
     motion_records(preset, store, "V",
                    lambda row, s: {"icrt+lipvq": -5.0}.get(row, -20.0))
-    entry = {e["id"]: e for e in claims_ledger(preset, store)}["V-lipvq-smoother-motion"]
-    assert entry["verdict"] == entry["adjusted_verdict"] == "too few seeds"
+    entry = {e.id: e for e in claims_ledger(preset, store)}["V-lipvq-smoother-motion"]
+    assert entry.verdict == entry.adjusted_verdict == "too few seeds"
 
 
 def test_smoother_latents_and_smoother_motion_are_correlated_across_tokenizers():
@@ -391,11 +391,11 @@ def test_smoother_latents_and_smoother_motion_are_correlated_across_tokenizers()
                          "least_energy_standardized_per_trajectory": energy,
                          "latent_scale": 1.0, "view": [[0.0, 0.0]]},
                         seed=unit.run.seed, wall_time_s=0.0)
-    entry = {e["id"]: e for e in claims_ledger(preset, store)}[
+    entry = {e.id: e for e in claims_ledger(preset, store)}[
         "III-smoother-latents-smoother-motion"]
-    assert entry["ours"] == pytest.approx(-1.0)  # lower energy, higher LDLJ, row for row
-    assert entry["verdict"] == "holds" and entry["source"] == "ours"
-    assert entry["seeds"] == {r: 3 for r in TOKENIZER_ROWS}
+    assert entry.ours == pytest.approx(-1.0)  # lower energy, higher LDLJ, row for row
+    assert entry.verdict == "holds" and entry.source == "ours"
+    assert entry.seeds == {r: 3 for r in TOKENIZER_ROWS}
 
 
 def test_the_book_shows_motion_beside_success():

@@ -1,4 +1,5 @@
-"""Every measured figure of the README is the value of the record it names."""
+"""Every measured figure of the README and CONTRIBUTING.md is the value of the record it
+names."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from icil_paper.bench.figures import FIGURES, MARKED, figure, printed_at
+from icil_paper.bench.figures import DOCUMENTS, FIGURES, MARKED, figure, printed_at
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -29,7 +30,8 @@ def rounded(value: float, digits: int) -> float:
 
 
 def marked_figures() -> list[tuple[str, str]]:
-    return [(printed, name) for printed, _, name in MARKED.findall(README.read_text())]
+    return [(printed, name) for path in DOCUMENTS
+            for printed, _, name in MARKED.findall(path.read_text())]
 
 
 def test_the_readme_marks_its_measured_figures():
@@ -37,8 +39,10 @@ def test_the_readme_marks_its_measured_figures():
     assert len(names) >= 15
     unknown = sorted(set(names) - set(FIGURES))
     assert not unknown, f"README figures with no computation in bench/figures.py: {unknown}"
-    markers = re.findall(r"<!-- figure: ([\w.]+) -->", README.read_text())
+    markers = [m for path in DOCUMENTS
+               for m in re.findall(r"<!-- figure: ([\w.]+) -->", path.read_text())]
     assert len(markers) == len(names), "a marker that does not follow a number"
+    assert README in DOCUMENTS and all(p.exists() for p in DOCUMENTS)
 
 
 @pytest.mark.parametrize("printed,name", marked_figures())

@@ -37,3 +37,47 @@ def test_code_passes_ruff():
     out = subprocess.run([str(ruff), "check", "src", "tests", "notebooks", "book/_ext"], cwd=ROOT,
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def _layout_block() -> list[str]:
+    text = (ROOT / "CONTRIBUTING.md").read_text()
+    section = text.split("\n## Layout\n", 1)[1].split("\n## ", 1)[0]
+    return section.split("```", 2)[1].strip("\n").splitlines()
+
+
+def test_the_layout_section_is_true_to_the_tree():
+    """CONTRIBUTING.md's layout names every module at the top of the library and every
+    folder below it, and names nothing that does not exist."""
+    import re
+
+    lines = _layout_block()
+    src = ROOT / "src" / "icil_paper"
+    start = next(i for i, line in enumerate(lines) if line.startswith("src/icil_paper/"))
+    end = next(i for i, line in enumerate(lines) if i > start and not line.startswith(" "))
+    library = lines[start + 1:end]
+    top = [line.split()[0].rstrip(",") for line in lines[:lines.index("")] if line[:1].strip()]
+    for name in ",".join(top).split(","):  # "_toc.yml, _config.yml" names two files
+        if name and not name.startswith("src/"):
+            assert (ROOT / name.strip().rstrip("/")).exists(), f"layout names a missing {name}"
+    listed = [line.split()[0] for line in library if re.match(r"  \S", line)]
+    for name in listed:
+        assert (src / name.rstrip(",/")).exists(), f"layout names a missing src/icil_paper/{name}"
+    mentioned = set(re.findall(r"\b(\w+\.py)\b", "\n".join(library)))
+    everywhere = {p.name for p in src.rglob("*.py")}
+    assert mentioned <= everywhere, f"layout names missing modules: {mentioned - everywhere}"
+    modules = sorted(p.name for p in src.glob("*.py") if p.name != "__init__.py")
+    packages = sorted(f"{p.name}/" for p in src.iterdir()
+                      if p.is_dir() and (p / "__init__.py").exists())
+    assert not set(modules) - mentioned, f"modules the layout omits: {set(modules) - mentioned}"
+    assert not set(packages) - set(listed), f"folders the layout omits: {set(packages) - set(listed)}"
+    count = int(re.search(r"(\d+) modules at the top", lines[start]).group(1))
+    assert count == len(modules), f"the layout says {count} modules at the top, there are {len(modules)}"
+
+
+def test_the_readme_reads_in_five_minutes():
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) <= 150
+    for heading in ("## Two commands", "## What you get", "## Presets", "## On a cluster",
+                    "## Where to go next"):
+        assert heading in readme
+    assert "CONTRIBUTING.md" in readme

@@ -120,28 +120,28 @@ def test_records_become_estimates_and_claims_get_their_verdicts():
     assert 0.8 < est.value < 1.0 and est.low < est.value < est.high
     assert result.outcomes("icrt+lipvq", "avg").shape == (3, 3, 40)  # seeds, tasks, episodes
     assert result.cell("icrt+lipvq", "pick_place") is None  # no such task in this preset
-    ledger = {e["id"]: e for e in claims_ledger(preset, store)}
-    assert ledger["I-lipvq-vs-bc"]["verdict"] == "holds"
-    assert ledger["I-lipvq-vs-bc"]["adjusted_verdict"] == "holds"
-    assert ledger["I-lipvq-vs-bc"]["seeds"] == {"icrt+lipvq": 3, "bc_transformer": 3}
-    assert ledger["I-lipvq-vs-bc"]["n"] == 6 and ledger["I-lipvq-vs-bc"]["episodes"] == 720
-    assert ledger["I-lipvq-vs-bc"]["mde"] > 0 and ledger["I-lipvq-vs-bc"]["seeds_needed"] >= 2
-    assert ledger["I-lipvq-best"]["verdict"] == "holds"
-    assert ledger["I-mlp-below-bc"]["verdict"] == "does not hold"  # BC 0.02 is below MLP 0.5
-    assert ledger["I-mlp-below-bc"]["magnitude"] == "paper's size excluded"
-    assert ledger["II-lipvq-best"]["verdict"] == "not run"
-    assert ledger["I-lipvq-vs-bc"]["paper"] == pytest.approx(0.530 - 0.477, abs=1e-4)
-    lo, hi = ledger["I-lipvq-vs-bc"]["ci"]
-    assert lo <= ledger["I-lipvq-vs-bc"]["ours"] <= hi
+    ledger = {e.id: e for e in claims_ledger(preset, store)}
+    assert ledger["I-lipvq-vs-bc"].verdict == "holds"
+    assert ledger["I-lipvq-vs-bc"].adjusted_verdict == "holds"
+    assert ledger["I-lipvq-vs-bc"].seeds == {"icrt+lipvq": 3, "bc_transformer": 3}
+    assert ledger["I-lipvq-vs-bc"].n == 6 and ledger["I-lipvq-vs-bc"].episodes == 720
+    assert ledger["I-lipvq-vs-bc"].mde > 0 and ledger["I-lipvq-vs-bc"].seeds_needed >= 2
+    assert ledger["I-lipvq-best"].verdict == "holds"
+    assert ledger["I-mlp-below-bc"].verdict == "does not hold"  # BC 0.02 is below MLP 0.5
+    assert ledger["I-mlp-below-bc"].magnitude == "paper's size excluded"
+    assert ledger["II-lipvq-best"].verdict == "not run"
+    assert ledger["I-lipvq-vs-bc"].paper == pytest.approx(0.530 - 0.477, abs=1e-4)
+    lo, hi = ledger["I-lipvq-vs-bc"].ci
+    assert lo <= ledger["I-lipvq-vs-bc"].ours <= hi
 
 
 def test_equal_rows_are_inconclusive_and_reversed_ones_do_not_hold():
     preset = small_preset("eval.episodes_per_task=30", "tables.icrt_seeds=3")
     store = ResultsStore(preset.name)
     fake_records(preset, store, "IV", lambda row: 0.9 if row == "icrt+vq" else 0.5)
-    ledger = {e["id"]: e for e in claims_ledger(preset, store)}
-    assert ledger["IV-vq"]["verdict"] == "does not hold"  # LipVQ 0.5 vs VQ 0.9
-    assert ledger["IV-mlp"]["verdict"] == "inconclusive"  # both 0.5
+    ledger = {e.id: e for e in claims_ledger(preset, store)}
+    assert ledger["IV-vq"].verdict == "does not hold"  # LipVQ 0.5 vs VQ 0.9
+    assert ledger["IV-mlp"].verdict == "inconclusive"  # both 0.5
 
 
 def test_one_seed_rows_are_never_decided():
@@ -149,11 +149,11 @@ def test_one_seed_rows_are_never_decided():
     store = ResultsStore(preset.name)
     fake_records(preset, store, "I",
                  lambda row: {"icrt+lipvq": 0.95, "bc_transformer": 0.02}.get(row, 0.5))
-    ledger = {e["id"]: e for e in claims_ledger(preset, store)}
+    ledger = {e.id: e for e in claims_ledger(preset, store)}
     entry = ledger["I-lipvq-vs-bc"]
-    assert entry["ci"][0] > 0.5  # the episodes alone would say so, ...
-    assert entry["verdict"] == entry["adjusted_verdict"] == "too few seeds"  # ... seeds cannot
-    assert entry["seeds"] == {"icrt+lipvq": 1, "bc_transformer": 1} and entry["mde"] is None
+    assert entry.ci[0] > 0.5  # the episodes alone would say so, ...
+    assert entry.verdict == entry.adjusted_verdict == "too few seeds"  # ... seeds cannot
+    assert entry.seeds == {"icrt+lipvq": 1, "bc_transformer": 1} and entry.mde is None
 
 
 def test_missing_records_show_as_not_run_and_the_ledger_is_written(tmp_path):
@@ -235,6 +235,7 @@ def test_committed_reference_records_are_current_or_labelled_as_older_code(monke
 
 @pytest.mark.sim
 @pytest.mark.slow
+@pytest.mark.ray
 def test_the_executors_give_the_same_records(tmp_path, monkeypatch):
     """`icil-paper reproduce --stages table-IV` serial, on a local pool and on Ray: the same
     records (metrics without wall times), so a grid's numbers do not depend on how it ran."""
@@ -312,7 +313,7 @@ def test_committed_reference_ledger_is_what_the_current_code_computes():
     root = Path(__file__).resolve().parents[1] / "results"
     committed = json.loads((root / "reference" / "claims.json").read_text())["claims"]
     current = claims_ledger(preset_named("reference"), ResultsStore("reference", root=root))
-    assert json.loads(json.dumps(current)) == committed
+    assert json.loads(json.dumps([e.to_dict() for e in current])) == committed
 
 
 def test_row_seeds_give_single_rows_their_own_seeds_and_refuse_unknown_rows():
@@ -361,11 +362,16 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
     import matplotlib
 
     matplotlib.use("Agg")
+    from IPython.core.interactiveshell import InteractiveShell
+
     from icil_paper.tables.book import (
         forest_plot,
         ledger_details,
         ledger_frame,
+        reference_answers,
+        reference_bookkeeping,
         reference_progress,
+        show_ledger,
         undecided_power,
     )
     from icil_paper.tables.claims import summary_sentence
@@ -380,3 +386,16 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
         assert len(ledger_frame(ledger, kind)) == len(ledger)
     assert "reference run" in reference_progress()
     assert len(design_frame(get_preset("reference")))
+    InteractiveShell.instance()  # display() outside a kernel prints; here it must not fail
+    from icil_paper.tables import book
+
+    # (the stale-record count is the other test's: it plans every table, a minute's work)
+    monkeypatch.setattr(book, "reference_freshness",
+                        lambda name: {"records": 10, "current": 8, "stale": 2})
+    bookkeeping = reference_bookkeeping()
+    assert bookkeeping.startswith(reference_progress())
+    assert bookkeeping.endswith("2 of its 10 committed records were made by an older version "
+                                "of the code and are not used (chapter 0 lists them).")
+    show_ledger(ledger, "reference run", bookkeeping)
+    answers = reference_answers()
+    assert [line[:6] for line in answers.splitlines()] == ["- **Q1", "- **Q2", "- **Q3"]

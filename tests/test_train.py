@@ -24,9 +24,9 @@ from icil_paper.train import (
     policy_digest,
     read_metrics,
     run_dir_for,
+    rundir,
     train_policy,
 )
-from icil_paper.train import rundir
 from icil_paper.train.optim import cosine_schedule
 from icil_paper.train.rundir import CHECKPOINT, PREVIOUS_CHECKPOINT, DamagedFileWarning
 

@@ -146,6 +146,14 @@ def _computed(marker: str) -> str:
 
     if marker == "reference-summary":
         return reference_summary()
+    if marker == "reference-answers":
+        from icil_paper.tables.book import reference_answers
+
+        return reference_answers()
+    if marker == "reference-bookkeeping":
+        from icil_paper.tables.book import reference_bookkeeping
+
+        return reference_bookkeeping()
     if marker == "reference-design":
         return design_sentence(get_preset(REFERENCE))
     if marker == "preset-table":
@@ -153,7 +161,8 @@ def _computed(marker: str) -> str:
 
         return preset_table()
     raise ExtensionError(f"unknown computed marker <!-- computed: {marker} --> (known: "
-                         "reference-summary, reference-design, preset-table)")
+                         "reference-summary, reference-answers, reference-bookkeeping, "
+                         "reference-design, preset-table)")
 
 
 def _substitute_computed(app: Sphinx, docname: str, source: list[str]) -> None:

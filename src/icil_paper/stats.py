@@ -141,6 +141,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from enum import Enum
 from typing import Any, Literal
 
 import numpy as np
@@ -154,9 +155,25 @@ ALPHA = 0.05
 POWER = 0.8
 """The power that `minimum_detectable` and `seeds_needed` plan for."""
 
-Verdict = Literal["holds", "does not hold", "inconclusive", "too few seeds"]
+class Verdict(str, Enum):
+    """A claim's verdict (`verdict`). A str enum: it is stored in JSON as its value and
+    compares equal to it; the words a chapter prints for it are in `icil_paper.verdict_words`."""
+
+    HOLDS = "holds"
+    DOES_NOT_HOLD = "does not hold"
+    INCONCLUSIVE = "inconclusive"
+    TOO_FEW_SEEDS = "too few seeds"
+    """A row behind the estimate has a single training seed: the spread between seeds is
+    unknown, nothing is decided."""
+    NOT_RUN = "not run"
+    """A record the claim reads is missing (the ledger's, never `verdict`'s)."""
+
+    __str__ = str.__str__
+    __format__ = str.__format__
+
+
 Scenes = Literal["shared", "per_seed"]
-TOO_FEW_SEEDS = "too few seeds"
+TOO_FEW_SEEDS = Verdict.TOO_FEW_SEEDS
 
 
 @dataclass(frozen=True)
@@ -788,10 +805,10 @@ def _check_direction(direction: int) -> None:
 def _interval_verdict(low: float, high: float, direction: int, threshold: float) -> Verdict:
     low, high, threshold = _oriented(low, high, direction, threshold)
     if low > threshold:
-        return "holds"
+        return Verdict.HOLDS
     if high < threshold:
-        return "does not hold"
-    return "inconclusive"
+        return Verdict.DOES_NOT_HOLD
+    return Verdict.INCONCLUSIVE
 
 
 def verdict(estimate: Estimate, direction: int = +1, threshold: float = 0.0) -> Verdict:
@@ -811,15 +828,15 @@ def verdict(estimate: Estimate, direction: int = +1, threshold: float = 0.0) -> 
         return _interval_verdict(estimate.low, estimate.high, direction, threshold)
     pairwise = [_interval_verdict(c.low, c.high, direction, threshold)
                 for c in estimate.components]
-    if all(v == "holds" for v in pairwise):
-        return "holds"
+    if all(v == Verdict.HOLDS for v in pairwise):
+        return Verdict.HOLDS
     k = len(estimate.components)
     strict = 1 - ALPHA / k if k > 1 else 1 - ALPHA
     for c in estimate.components:
         low, high = c.interval(strict) if c.se is not None else (c.low, c.high)
-        if _interval_verdict(low, high, direction, threshold) == "does not hold":
-            return "does not hold"
-    return "inconclusive"
+        if _interval_verdict(low, high, direction, threshold) == Verdict.DOES_NOT_HOLD:
+            return Verdict.DOES_NOT_HOLD
+    return Verdict.INCONCLUSIVE
 
 
 def decision_p_value(estimate: Estimate, direction: int = +1) -> tuple[float, Verdict] | None:
@@ -834,7 +851,7 @@ def decision_p_value(estimate: Estimate, direction: int = +1) -> tuple[float, Ve
     if not estimate.components:
         if estimate.p_value is None:
             return None
-        side = "holds" if direction * estimate.value > 0 else "does not hold"
+        side = Verdict.HOLDS if direction * estimate.value > 0 else Verdict.DOES_NOT_HOLD
         return float(estimate.p_value), side
     comps = estimate.components
     if any(c.p_value is None for c in comps):
@@ -843,7 +860,7 @@ def decision_p_value(estimate: Estimate, direction: int = +1) -> tuple[float, Ve
     against = [c for c in comps if direction * c.value <= 0]
     p_hold = max(c.p_value for c in comps) if len(claimed) == len(comps) else 1.0
     p_against = (min(1.0, len(comps) * min(c.p_value for c in against)) if against else 1.0)
-    return (p_hold, "holds") if p_hold <= p_against else (p_against, "does not hold")
+    return (p_hold, Verdict.HOLDS) if p_hold <= p_against else (p_against, Verdict.DOES_NOT_HOLD)
 
 
 def holm(p_values: Sequence[float | None], alpha: float = ALPHA) -> list[bool]:
@@ -865,7 +882,7 @@ def holm(p_values: Sequence[float | None], alpha: float = ALPHA) -> list[bool]:
 
 
 def adjusted_verdicts(estimates: Sequence[Estimate | None], directions: Sequence[int],
-                      alpha: float = ALPHA) -> list[str]:
+                      alpha: float = ALPHA) -> list[Verdict]:
     """Each claim's verdict after Holm's correction over all of them: a claim Holm rejects
     keeps the side its test decided ("holds" or "does not hold"), any other testable claim is
     "inconclusive"; "too few seeds" and "not run" (estimate None) stay as they are."""
@@ -875,11 +892,11 @@ def adjusted_verdicts(estimates: Sequence[Estimate | None], directions: Sequence
     out = []
     for e, d, t, r in zip(estimates, directions, tests, rejected, strict=True):
         if e is None:
-            out.append("not run")
+            out.append(Verdict.NOT_RUN)
         elif t is None:
             out.append(verdict(e, d))
         else:
-            out.append(t[1] if r else "inconclusive")
+            out.append(t[1] if r else Verdict.INCONCLUSIVE)
     return out
 
 

@@ -1,9 +1,10 @@
-"""The README's measured figures, computed from the records they quote.
+"""The measured figures of the README and CONTRIBUTING.md, computed from the records they
+quote.
 
     python -m icil_paper.bench.figures                  # every figure with its value and source
-    python -m icil_paper.bench.figures --update-readme  # rewrite the README's figures
+    python -m icil_paper.bench.figures --update-readme  # rewrite both files' figures
 
-A figure in the README is written as the number followed by a marker naming it,
+A figure in either file (`DOCUMENTS`) is written as the number followed by a marker naming it,
 `15.6 steps/s <!-- figure: policies.train_small_steps_per_s -->`, and
 `tests/test_readme_figures.py` checks each printed number against `FIGURES` at the printed
 precision (its significant digits), so a benchmark or reference record that changes
@@ -18,9 +19,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from icil_paper.stats import Verdict
+
 ROOT = Path(__file__).resolve().parents[3]
 BENCH = ROOT / "results" / "bench"
 REFERENCE = ROOT / "results" / "reference"
+DOCUMENTS = (ROOT / "README.md", ROOT / "CONTRIBUTING.md")
+"""The files whose measured figures carry markers."""
 
 
 def _bench(name: str) -> dict:
@@ -133,10 +138,12 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
        for field in ("cells", "cpu_hours", "wall_hours", "cores", "undecided")},
     "cost.projected_from_records_pct": ("results/reference/cost.json",
                                         lambda: 100 * _cost()["projection"]["from_records"]),
-    **{f"claims.{name}": ("results/reference/claims.json", lambda field=field: _claims(field))
-       for name, field in (("total", "claims"), ("holds", "holds"),
-                           ("do_not_hold", "does not hold"), ("undecided", "undecided"),
-                           ("size_excluded", "size_excluded"), ("not_run", "not run"))},
+    **{name: ("results/reference/claims.json", lambda field=field: _claims(field))
+       for name, field in (("claims.total", "claims"), ("claims.holds", Verdict.HOLDS),
+                           ("claims.do_not_hold", Verdict.DOES_NOT_HOLD),
+                           ("claims.undecided", "undecided"),
+                           ("claims.size_excluded", "size_excluded"),
+                           ("claims.not_run", Verdict.NOT_RUN))},
     **{f"cost.{name}_cell_s": ("results/reference/cost.json",
                                lambda kind=kind: _cell_seconds(kind))
        for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),
@@ -163,9 +170,9 @@ def printed_at(value: float, printed: str) -> str:
     return str(int(round(value)))
 
 
-def update_readme(path: Path = ROOT / "README.md") -> list[str]:
-    """Rewrite every marked figure of the README with its current value, printed as it
-    was; returns the figures that changed."""
+def update_readme(path: Path = DOCUMENTS[0]) -> list[str]:
+    """Rewrite every marked figure of `path` with its current value, printed as it was;
+    returns the figures that changed."""
     text = path.read_text()
     changed = []
 
@@ -185,11 +192,13 @@ def main(argv: list[str] | None = None) -> None:
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--update-readme", action="store_true",
-                        help="rewrite the README's figures with their current values")
+                        help="rewrite the figures of the README and CONTRIBUTING.md with their "
+                             "current values")
     args = parser.parse_args(argv)
     if args.update_readme:
-        for line in update_readme():
-            print(line)
+        for path in DOCUMENTS:
+            for line in update_readme(path):
+                print(f"{path.name}: {line}")
         return
     for name, (source, _) in FIGURES.items():
         print(f"{name:40s} {figure(name):12.4g}   {source}")

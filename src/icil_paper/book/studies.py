@@ -359,6 +359,33 @@ def expert_study(preset: Preset, store: ResultsStore | None = None,
     return records
 
 
+def expert_measurements(preset: Preset, store: ResultsStore | None = None) -> list[dict]:
+    """One row per task of every expert measurement there is: this preset's (`expert_study`)
+    and, for a suite it did not measure, the one `python -m icil_paper.data.experts` wrote
+    to `results/experts/<suite>.json` (`from` names its commit). Rows: task, seeds, expert
+    success (on the generated and on the human-like scenes), open-loop replay success, the
+    human source's kept share and the mean length."""
+    import json
+
+    from icil_paper import sim
+    from icil_paper.results import results_root
+
+    measured = {suite: {"tasks": record["tasks"], "commit": "this preset's store"}
+                for suite, record in expert_study(preset, store).items()}
+    for suite in sim.SUITES:
+        path = results_root() / "experts" / f"{suite}.json"
+        if suite not in measured and path.exists():
+            record = json.loads(path.read_text())
+            measured[suite] = {"tasks": record["tasks"],
+                               "commit": (record.get("git_commit") or "")[:8]}
+    return [{"task": task, "seeds": entry["episodes"], "expert": entry["expert_success_rate"],
+             "expert, human scenes": entry.get("expert_success_rate_human_scenes"),
+             "replay": entry.get("replay_success_rate"),
+             "human kept": entry.get("human_success_rate"),
+             "mean length": entry["mean_length"], "from": record["commit"]}
+            for record in measured.values() for task, entry in record["tasks"].items()]
+
+
 def demo_stage(preset: Preset, store: ResultsStore | None = None, force: bool = False) -> dict:
     """Make every data set of the preset (all its tasks, both sources); return their paths.
 

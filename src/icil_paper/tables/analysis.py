@@ -30,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper import stats
+from icil_paper import stats, verdict_words
+from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult
 
 PAPER = "icrt+lipvq (paper)"
@@ -68,7 +69,7 @@ def analysis_frame(result: TableResult, digits: int = 2):
                                 "success": unbroken(format_cell(result.cell(row.label, "avg"),
                                                                 digits))}
         if feat is None:
-            line["least energy"] = "not run"
+            line["least energy"] = verdict_words.MISSING
         else:
             std = feat.extra["standardized_estimate"]
             line.update({
@@ -154,7 +155,7 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
                             _smooth_diff(result, row, base), row, base, "smoothness"))
     return [{"quantity": quantity, "direction": direction, "kind": kind, "row": row,
              "base": base, "variant": None if row == PAPER else row, "estimate": est,
-             "verdict": "not run" if est is None else stats.verdict(est, direction=direction)}
+             "verdict": Verdict.NOT_RUN if est is None else stats.verdict(est, direction=direction)}
             for quantity, direction, est, row, base, kind in comparisons]
 
 
@@ -261,19 +262,9 @@ def travel_sentence(result: TableResult) -> str:
     return text
 
 
-_SMOOTH_WORDS = {"holds": "smoother", "does not hold": "less smooth",
-                 "inconclusive": "not measurably different in smoothness",
-                 stats.TOO_FEW_SEEDS: "undecided in smoothness (too few seeds)",
-                 "not run": "not yet measured in smoothness"}
-_SUCCESS_WORDS = {"holds": "more successful", "does not hold": "less successful",
-                  "inconclusive": "not measurably different in success",
-                  stats.TOO_FEW_SEEDS: "undecided in success (too few seeds)",
-                  "not run": "not yet measured in success"}
-
-
 def _interval(est, digits: int) -> str:
     if est is None:
-        return "not run"
+        return verdict_words.MISSING
     return (f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
             if digits else f"{_short(est.value)} [{_short(est.low)}, {_short(est.high)}]")
 
@@ -300,9 +291,10 @@ def effect_sentence(effect: dict[str, Any]) -> str:
     success (success -0.02 [-0.10, +0.07])"; "yet" joins the two where they move in
     opposite directions (smoother yet less successful), against the explanation."""
     smooth, success = effect["smoothness"], effect["success"]
-    s_word, x_word = _SMOOTH_WORDS[smooth["verdict"]], _SUCCESS_WORDS[success["verdict"]]
+    s_word = verdict_words.ANALYSIS_SMOOTH[smooth["verdict"]]
+    x_word = verdict_words.ANALYSIS_SUCCESS[success["verdict"]]
     # "yet" where the two move against the explanation's prediction
-    against = {smooth["verdict"], success["verdict"]} == {"holds", "does not hold"}
+    against = {smooth["verdict"], success["verdict"]} == set(verdict_words.DECIDED)
     return (f"'{effect['variant']}' against '{effect['base']}': {s_word} (standardized least "
             f"energy {_interval(smooth['estimate'], 0)}) {'yet' if against else 'and'} "
             f"{x_word} (success {_interval(success['estimate'], 2)})")
@@ -313,7 +305,7 @@ def explanation_check(effects: list[dict[str, Any]]) -> str:
     succeeds more: the variants measured smoother or less smooth than their base, split by
     whether success moved with smoothness, against it or not measurably; and the variants
     whose success moved with no measurable change of smoothness ('' when none is decided)."""
-    decided = ("holds", "does not hold")
+    decided = verdict_words.DECIDED
     groups: dict[str, list[str]] = {"with": [], "against": [], "unmoved": [], "alone": []}
     for e in effects:
         smooth, success = e["smoothness"]["verdict"], e["success"]["verdict"]
@@ -321,9 +313,9 @@ def explanation_check(effects: list[dict[str, Any]]) -> str:
         if smooth in decided:
             if success in decided:
                 groups["with" if smooth == success else "against"].append(name)
-            elif success == "inconclusive":
+            elif success == Verdict.INCONCLUSIVE:
                 groups["unmoved"].append(name)
-        elif smooth == "inconclusive" and success in decided:
+        elif smooth == Verdict.INCONCLUSIVE and success in decided:
             groups["alone"].append(name)
     words = {"with": "success moved with smoothness (the explanation's prediction) in",
              "against": "success moved against smoothness in",
@@ -345,14 +337,14 @@ def conclusion(result: TableResult) -> str:
     found = {f["quantity"]: f for f in findings(result)}
     smoother = found["LipVQ-VAE's standardized least energy minus VQ-VAE's"]["verdict"]
     better = found["LipVQ-VAE's success minus VQ-VAE's"]["verdict"]
-    if smoother == "not run" or better == "not run":
+    if Verdict.NOT_RUN in (smoother, better):
         return "The analysis cells have not run yet."
-    if smoother == "holds" and better == "holds":
+    if smoother == better == Verdict.HOLDS:
         verdict = ("the smoothness explanation survives: once the latent scale is removed "
                    "LipVQ-VAE is smoother than VQ-VAE, and it succeeds more")
-    elif "does not hold" in (smoother, better):
+    elif Verdict.DOES_NOT_HOLD in (smoother, better):
         what = [name for name, v in (("smoother (standardized)", smoother),
-                                     ("more successful", better)) if v == "does not hold"]
+                                     ("more successful", better)) if v == Verdict.DOES_NOT_HOLD]
         verdict = ("the smoothness explanation does not survive: LipVQ-VAE was measured "
                    f"not {' and not '.join(what)} than VQ-VAE")
     else:

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper import verdict_words
 from icil_paper.metrics import MOTION_MEASURES
 from icil_paper.records import eval_record, features_record
 from icil_paper.results import ResultsStore
@@ -202,7 +203,7 @@ class TableResult:
                              "high": est.high if est else None,
                              "n": est.n if est else None,
                              "status": ("n/a" if cell is None else
-                                        "ok" if est else "not run"),
+                                        "ok" if est else verdict_words.MISSING),
                              **({"paper": row.paper.get(column)} if paper else {})})
         return pd.DataFrame(rows)
 
@@ -253,7 +254,7 @@ def format_cell(cell: CellResult | None, digits: int = 2) -> str:
         return "n/a"
     est = cell.estimate
     if est is None:
-        return "not run"
+        return verdict_words.MISSING
     return f"{est.value:.{digits}f} [{est.low:.{digits}f}, {est.high:.{digits}f}]"
 
 

@@ -19,10 +19,12 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper import verdict_words
 from icil_paper.config import Preset, get_preset
 from icil_paper.results import ResultsStore
+from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, assemble, format_cell, unbroken
-from icil_paper.tables.claims import sizing_effect
+from icil_paper.tables.claims import CLAIM_LABELS, LedgerEntry, as_entry, sizing_effect
 from icil_paper.tables.definitions import table_spec
 
 REFERENCE = "reference"
@@ -113,7 +115,7 @@ def _format_estimate(est, digits: int = 3) -> str:
     """`-12.3 [-13.1, -11.6]` (`digits` significant digits, trailing zeros kept) or
     `not run`."""
     if est is None:
-        return "not run"
+        return verdict_words.MISSING
 
     def sig(x: float) -> str:
         return f"{x:#.{digits}g}".rstrip(".").replace(".e", "e")
@@ -176,11 +178,11 @@ def verdicts(preset: Preset, table_id: str) -> str:
         sources.insert(0, (f"{REFERENCE} run", get_preset(REFERENCE)))
     lines = []
     for source, p in sources:
-        entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e["table"] == table_id]
+        entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
         if not entries:
             continue
         lines.append(f"**{source_label(source, p.name)}**\n")
-        lines += [f"- *{e['claim']}* {sentence(e)}" for e in entries]
+        lines += [f"- *{e.claim}* {sentence(e)}" for e in entries]
         lines.append("")
     return "\n".join(lines)
 
@@ -213,6 +215,60 @@ def _collapsed(summary: str, frame) -> Any:
 
     return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
                 f"{frame.to_html(classes='dataframe')}</details>")
+
+
+def _markdown_html(text: str) -> str:
+    """The little Markdown the ledger's lists use (items, **bold**, *italic*, `code`) as
+    HTML, for a collapsed block (HTML output is not read as Markdown)."""
+    import html
+    import re
+
+    def inline(line: str) -> str:
+        line = html.escape(line, quote=False)
+        line = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", line)
+        line = re.sub(r"\*(.+?)\*", r"<i>\1</i>", line)
+        return re.sub(r"`(.+?)`", r"<code>\1</code>", line)
+
+    items = [line[2:] for line in text.splitlines() if line.startswith("- ")]
+    if not items:
+        return f"<p>{inline(text)}</p>"
+    return "<ul>" + "".join(f"<li>{inline(i)}</li>" for i in items) + "</ul>"
+
+
+def collapsed_markdown(summary: str, text: str) -> Any:
+    """A Markdown list (or paragraph) inside a closed <details> block."""
+    from IPython.display import HTML
+
+    return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
+                f"{_markdown_html(text)}</details>")
+
+
+def show_ledger(ledger: list[LedgerEntry | dict[str, Any]], heading: str,
+                progress: str = "") -> None:
+    """Chapter 0's view of one ledger: the forest plot first (each row labelled by what its
+    claim says), the counts in one sentence and the verdicts; then, collapsed, the power of
+    each undecided claim and the size-and-power table; the run's bookkeeping (`progress`)
+    last."""
+    from IPython.display import Markdown, display
+
+    from icil_paper.tables.claims import summary_sentence
+
+    ledger = [as_entry(e) for e in ledger]
+    display(Markdown(f"## {heading[0].upper()}{heading[1:]}"))
+    display(forest_plot(ledger, title=f"{heading[0].upper()}{heading[1:]}: each claim's 95% "
+                                      "interval, the paper's value, the verdict after Holm"))
+    display(Markdown(summary_sentence(ledger)))
+    display(Markdown("**Verdicts** (the seeds of each row: the claim's row first)"))
+    display(ledger_frame(ledger, "verdicts"))
+    undecided = undecided_power(ledger)
+    if undecided:
+        n = len(undecided.splitlines())
+        display(collapsed_markdown(f"Undecided after Holm ({n} claims): what these seeds "
+                                   "could detect. Open to see them.", undecided))
+    display(_collapsed("Size and power of every claim. Open to see them.",
+                       ledger_frame(ledger, "power")))
+    if progress:
+        display(Markdown(progress))
 
 
 def _build_summary(result: TableResult) -> str:
@@ -319,7 +375,7 @@ def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
             else:
                 cell = result.cell(row.label, column)
                 if cell is None or cell.estimate is None:
-                    line[column] = "n/a" if cell is None else "not run"
+                    line[column] = "n/a" if cell is None else verdict_words.MISSING
                     continue
                 value = cell.estimate.value
             line[column] = "" if value is None else round(float(value), digits)
@@ -396,11 +452,12 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
     return f"{counts[0]} v {' '.join(map(str, counts[1:]))}" if len(counts) > 1 else str(counts[0])
 
 
-def ledger_frame(ledger: list[dict[str, Any]], part: str = "verdicts"):
+def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdicts"):
     """The claims ledger as a table, in two parts that each fit the book's column:
     "verdicts" (the seeds a row, the paper, ours [95% interval], the verdict before and
     after Holm's correction) and "power" (the size reading, mde, the power to detect the
     paper's effect, seeds needed)."""
+    ledger = [as_entry(e) for e in ledger]
     import pandas as pd
 
     if part not in ("verdicts", "power"):
@@ -408,61 +465,63 @@ def ledger_frame(ledger: list[dict[str, Any]], part: str = "verdicts"):
     rows = []
     for e in ledger:
         if part == "verdicts":
-            ours = ("" if e["ours"] is None else
-                    unbroken(f"{e['ours']:+.3f} [{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"))
-            paper_cell = (f"{e['paper']:+.3f}" if e.get("paper") is not None
-                          else "—" if e.get("reference_effect") is None
-                          else f"({e['reference_effect']:+.3f})")
-            rows.append({"claim": e["id"], "seeds": unbroken(_seeds_cell(e.get("seeds"))),
-                         "paper": paper_cell, "ours": ours, "verdict": e["verdict"],
-                         "after Holm": e.get("adjusted_verdict", "")})
+            ours = ("" if e.ours is None else
+                    unbroken(f"{e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"))
+            paper_cell = (f"{e.paper:+.3f}" if e.paper is not None
+                          else "—" if e.reference_effect is None
+                          else f"({e.reference_effect:+.3f})")
+            rows.append({"claim": e.id, "seeds": unbroken(_seeds_cell(e.seeds)),
+                         "paper": paper_cell, "ours": ours, "verdict": e.verdict,
+                         "after Holm": (e.adjusted_verdict or "")})
         else:
-            needed = e.get("seeds_needed")
-            rows.append({"claim": e["id"], "size vs the paper": e.get("magnitude") or "",
-                         "mde": "" if e.get("mde") is None else f"{e['mde']:.3f}",
-                         "power": "" if e.get("power") is None else f"{e['power']:.0%}",
-                         "seeds needed": ("" if e["verdict"] == "not run" else
+            needed = e.seeds_needed
+            rows.append({"claim": e.id, "size vs the paper": e.magnitude or "",
+                         "mde": "" if e.mde is None else f"{e.mde:.3f}",
+                         "power": "" if e.power is None else f"{e.power:.0%}",
+                         "seeds needed": ("" if e.verdict == Verdict.NOT_RUN else
                                           str(needed) if needed else "—")})
     return pd.DataFrame(rows).set_index("claim").rename_axis(None)
 
 
-def undecided_power(ledger: list[dict[str, Any]]) -> str:
+def undecided_power(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
     """A Markdown list of the claims left undecided after Holm's correction, each with what
     its design could detect: the power to detect the paper's effect at its seeds, the mde
     and the seeds a row that would reach 80% power. Empty when none is undecided."""
+    ledger = [as_entry(e) for e in ledger]
     lines = []
     for e in ledger:
-        if e.get("adjusted_verdict") not in ("inconclusive", "too few seeds"):
+        if e.adjusted_verdict not in verdict_words.UNDECIDED:
             continue
         # A claim the paper does not make (a row added since) is sized by its reference
         # effect, e.g. the paper's Eq. 4 gain for VQ-VAE; the sentence says which it is.
         effect = sizing_effect(e)
-        whose = "the paper's" if e.get("paper") is not None else "the reference"
-        parts = [f"{e['adjusted_verdict']}, ours {e['ours']:+.3f} "
-                 f"[{e['ci'][0]:+.3f}, {e['ci'][1]:+.3f}]"]
-        if e.get("power") is not None and effect is not None:
-            parts.append(f"power {e['power']:.0%} to detect {whose} {effect:+.3f} at "
+        whose = "the paper's" if e.paper is not None else "the reference"
+        parts = [f"{e.adjusted_verdict}, ours {e.ours:+.3f} "
+                 f"[{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"]
+        if e.power is not None and effect is not None:
+            parts.append(f"power {e.power:.0%} to detect {whose} {effect:+.3f} at "
                          f"these seeds")
-        if e.get("mde") is not None:
-            parts.append(f"detects {e['mde']:.3f} with 80% power")
-        if e.get("seeds_needed") and effect is not None:
-            parts.append(f"{e['seeds_needed']} seeds a row would detect {whose} effect")
-        elif e.get("power_note"):
-            parts.append(e["power_note"])
-        lines.append(f"- **{e['id']}**: " + "; ".join(parts) + ".")
+        if e.mde is not None:
+            parts.append(f"detects {e.mde:.3f} with 80% power")
+        if e.seeds_needed and effect is not None:
+            parts.append(f"{e.seeds_needed} seeds a row would detect {whose} effect")
+        elif e.power_note:
+            parts.append(e.power_note)
+        lines.append(f"- **{e.id}**: " + "; ".join(parts) + ".")
     return "\n".join(lines)
 
 
-def ledger_details(ledger: list[dict[str, Any]]) -> str:
+def ledger_details(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
     """Each claim's quantity, the paper's sentence and the power note, as a Markdown list."""
+    ledger = [as_entry(e) for e in ledger]
     lines = []
     for e in ledger:
-        note = f" {e['power_note'][0].upper()}{e['power_note'][1:]}." if e.get("power_note") else ""
-        if e.get("paper") is None and e.get("reference_effect") is None:
-            note += f" It has no reference size ({e['reference']})."
-        elif e.get("paper") is None:
-            note += f" Its reference size in parentheses is {e['reference']}."
-        lines.append(f"- **{e['id']}** ({e['quantity']}): *{e['claim']}*{note}")
+        note = f" {e.power_note[0].upper()}{e.power_note[1:]}." if e.power_note else ""
+        if e.paper is None and e.reference_effect is None:
+            note += f" It has no reference size ({e.reference})."
+        elif e.paper is None:
+            note += f" Its reference size in parentheses is {e.reference}."
+        lines.append(f"- **{e.id}** ({e.quantity}): *{e.claim}*{note}")
     return "\n".join(lines)
 
 
@@ -486,22 +545,27 @@ def difference_sentence(results: dict[str, TableResult], a: str, b: str,
     return "\n".join(lines)
 
 
-VERDICT_COLOURS = {"holds": "#1a7f37", "does not hold": "#cf222e", "inconclusive": "#9a6700",
-                   "too few seeds": "#8c959f", "not run": "#d0d7de"}
-"""The verdicts' colours in the forest plot (green, red, amber, grey, light grey)."""
+VERDICT_COLOURS = verdict_words.COLOURS
 
 
-def forest_plot(ledger: list[dict[str, Any]], title: str = "", verdict_key: str = "adjusted_verdict"):
-    """One row per claim: our estimate and 95% interval (coloured by the verdict after
-    Holm's correction), the paper's value as a black diamond and the zero line. Success
+def row_label(entry: LedgerEntry) -> str:
+    """A forest plot's row: what the claim says in a few words, its id beside it."""
+    label = CLAIM_LABELS.get(entry.id)
+    return f"{label}  [{entry.id}]" if label else entry.id
+
+
+def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", verdict_key: str = "adjusted_verdict"):
+    """One row per claim, labelled by what it says (`row_label`): our estimate and 95%
+    interval (coloured by the verdict after Holm's correction), the paper's value as a black diamond and the zero line. Success
     differences share one panel; least-energy and correlation claims, on other scales, get
     their own. Rows a single-seed row reads are drawn dashed (their interval is the
     episodes' noise only)."""
+    ledger = [as_entry(e) for e in ledger]
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
     def panel_of(e):
-        quantity = e["quantity"].lower()
+        quantity = e.quantity.lower()
         return ("rank correlation" if "correlation" in quantity else
                 "least energy" if "least energy" in quantity else
                 "LDLJ difference" if "ldlj" in quantity else "success difference")
@@ -512,36 +576,35 @@ def forest_plot(ledger: list[dict[str, Any]], title: str = "", verdict_key: str 
     order = [p for p in ("success difference", "least energy", "LDLJ difference",
                          "rank correlation") if p in panels]
     heights = [len(panels[p]) for p in order]
-    fig, axes = plt.subplots(len(order), 1, figsize=(8.5, 0.32 * sum(heights) + 1.2 * len(order) + 0.6),
+    fig, axes = plt.subplots(len(order), 1, figsize=(10.5, 0.32 * sum(heights) + 1.2 * len(order) + 0.6),
                              gridspec_kw={"height_ratios": heights}, squeeze=False)
     for ax, name in zip(axes[:, 0], order, strict=True):
         entries = panels[name]
         y = np.arange(len(entries))[::-1]
         for yi, e in zip(y, entries, strict=True):
-            verdict = e.get(verdict_key) or e["verdict"]
+            verdict = getattr(e, verdict_key) or e.verdict
             colour = VERDICT_COLOURS.get(verdict, "black")
-            if e["ours"] is not None:
-                style = "--" if verdict == "too few seeds" else "-"
-                ax.plot(e["ci"], [yi, yi], style, color=colour, lw=2.2)
-                ax.plot(e["ours"], yi, "o", color=colour, ms=5)
-            if e.get("paper") is not None:
-                ax.plot(e["paper"], yi, "D", color="black", ms=4, zorder=5)
-            elif e.get("reference_effect") is not None:  # the effect a claim of ours is read against
-                ax.plot(e["reference_effect"], yi, "D", mfc="white", mec="black", ms=4, zorder=5)
+            if e.ours is not None:
+                style = "--" if verdict == Verdict.TOO_FEW_SEEDS else "-"
+                ax.plot(e.ci, [yi, yi], style, color=colour, lw=2.2)
+                ax.plot(e.ours, yi, "o", color=colour, ms=5)
+            if e.paper is not None:
+                ax.plot(e.paper, yi, "D", color="black", ms=4, zorder=5)
+            elif e.reference_effect is not None:  # the effect a claim of ours is read against
+                ax.plot(e.reference_effect, yi, "D", mfc="white", mec="black", ms=4, zorder=5)
         ax.axvline(0, color="#57606a", lw=0.8)
-        ax.set_yticks(y, [f"{e['id']}  ({e.get(verdict_key) or e['verdict']})"
-                          for e in entries], fontsize=8)
+        ax.set_yticks(y, [row_label(e) for e in entries], fontsize=8)
         ax.set_ylim(-0.7, len(entries) - 0.3)
-        sides = {e["direction"] for e in entries}
+        sides = {e.direction for e in entries}
         side = ("" if len(sides) > 1 else
                 " (the paper claims above 0)" if sides == {1} else " (the paper claims below 0)")
         ax.set_xlabel(name + side, fontsize=8)
         ax.tick_params(axis="x", labelsize=8)
         ax.grid(axis="x", color="#eaeef2", lw=0.6)
-    handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == "too few seeds" else "-", label=v)
-               for v, c in VERDICT_COLOURS.items() if v != "not run"]
+    handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == Verdict.TOO_FEW_SEEDS else "-",
+                      label=str(v)) for v, c in VERDICT_COLOURS.items() if v != Verdict.NOT_RUN]
     handles.append(Line2D([], [], color="black", marker="D", ls="", ms=4, label="the paper"))
-    if any(e.get("paper") is None and e.get("reference_effect") is not None for e in ledger):
+    if any(e.paper is None and e.reference_effect is not None for e in ledger):
         handles.append(Line2D([], [], mfc="white", mec="black", marker="D", ls="", ms=4,
                               label="reference size (our claims)"))
     fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=len(handles),
@@ -640,12 +703,13 @@ def reference_progress(path=None) -> str:
             "whose rows are not all trained yet shows as *not run*.")
 
 
-def decided_claims(ledger: list[dict[str, Any]]) -> str:
+def decided_claims(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
     """The claims decided after Holm's correction, by id: "Held: ... Did not hold: ...";
     empty when none is decided."""
+    ledger = [as_entry(e) for e in ledger]
     parts = []
-    for verdict, label in (("holds", "Held"), ("does not hold", "Did not hold")):
-        ids = [e["id"] for e in ledger if e.get("adjusted_verdict") == verdict]
+    for verdict, label in verdict_words.DECIDED_LABELS.items():
+        ids = [e.id for e in ledger if e.adjusted_verdict == verdict]
         if ids:
             parts.append(f"{label}: {', '.join(ids)}.")
     return " ".join(parts)
@@ -669,7 +733,7 @@ def reference_summary(path=None) -> str:
     fresh = reference_freshness(REFERENCE)
     if not fresh["stale"]:
         return f"{progress} {text}".strip()
-    in_progress = any(e["verdict"] == "not run" for e in ledger)
+    in_progress = any(e.verdict == Verdict.NOT_RUN for e in ledger)
     text = (f"{progress or 'The reference run is being redone with the current code.'} "
             f"{fresh['stale']} of its {fresh['records']} committed records were made by an "
             "older version of the code and are not used (chapter 0 lists them, with the "
@@ -680,6 +744,32 @@ def reference_summary(path=None) -> str:
         text += (f" With the older code (commit {made_by['commit'][:7]}), from those records: "
                  + summary_sentence(older_claims))
     return text
+
+
+def reference_answers(path=None) -> str:
+    """Sec. IV's three questions answered from the committed reference ledger
+    (`questions.answers_markdown`: one sentence each, with the numbers that carry it), or a
+    sentence saying the ledger is not there."""
+    from pathlib import Path
+
+    from icil_paper.tables.claims import load_ledger
+    from icil_paper.tables.questions import answers_markdown
+
+    path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
+    if not path.exists():
+        return f"The reference run's ledger is not there yet ({path.name} is missing)."
+    return answers_markdown(load_ledger(path))
+
+
+def reference_bookkeeping(preset_name: str = REFERENCE) -> str:
+    """Where the committed reference run stands (`reference_progress`) and how many of its
+    records an older version of the code made (chapter 0 lists them)."""
+    fresh = reference_freshness(preset_name)
+    text = reference_progress()
+    if fresh["stale"]:
+        text += (f" {fresh['stale']} of its {fresh['records']} committed records were made by "
+                 "an older version of the code and are not used (chapter 0 lists them).")
+    return text.strip()
 
 
 PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)",
@@ -709,17 +799,11 @@ def claims_figure(preset: Preset, table_id: str):
     from icil_paper.tables.claims import claims_ledger
 
     p = get_preset(REFERENCE)
-    entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e["table"] == table_id]
+    entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
     if not entries:
         return None
     return forest_plot(entries, title=f"Table {table_id}'s claims, reference run: 95% "
                                       "intervals, the paper's values, the verdict after Holm")
-
-
-SMOOTHER_WORDS = {"holds": "smoother", "does not hold": "less smooth",
-                  "inconclusive": "not distinguishable (the interval contains 0)",
-                  "too few seeds": "not decided (a single training seed)"}
-"""A least-energy verdict (claimed: lower) in words."""
 
 
 def smoother_sentence(a: str, b: str, a_scores, b_scores, quantity: str) -> str:
@@ -729,7 +813,7 @@ def smoother_sentence(a: str, b: str, a_scores, b_scores, quantity: str) -> str:
     from icil_paper import stats
 
     est = stats.paired_score_difference(a_scores, b_scores)
-    words = SMOOTHER_WORDS[stats.verdict(est, direction=-1)]
+    words = verdict_words.SMOOTHER[stats.verdict(est, direction=-1)]
     return (f"{a} minus {b} on {quantity}: {est.value:+.4g} [{est.low:+.4g}, {est.high:+.4g}]"
             f": {a} is {words}")
 
@@ -773,21 +857,12 @@ def training_window_sentence(result: TableResult) -> str:
             f"windows, {eb.value:.2f} [{eb.low:.2f}, {eb.high:.2f}]. Whole episodes minus "
             f"windows: {diff.value:+.2f} [{diff.low:+.2f}, {diff.high:+.2f}] "
             f"({_seeds_words(result, WHOLE_EPISODES)}); that whole episodes help "
-            f"{_verdict_words(verdict)}.")
+            f"{verdict_words.TRAINING_WINDOW[verdict]}.")
 
 
 def _seeds_words(result: TableResult, row: str) -> str:
     cell = result.spec.row(row).cells["avg"]
     return f"{cell.seeds} training seed{'s' if cell.seeds != 1 else ''} a row"
-
-
-def _verdict_words(verdict: str) -> str:
-    from icil_paper import stats
-
-    return {"holds": "holds", "does not hold": "does not hold (windows do better)",
-            "inconclusive": "is inconclusive (the interval contains 0)",
-            stats.TOO_FEW_SEEDS: "is not decided: one training seed cannot tell its luck "
-                                 "from the method (too few seeds)"}.get(verdict, verdict)
 
 
 # --------------------------------------------------------------------------- features and codebooks
@@ -831,7 +906,7 @@ def codebook_frame(result: TableResult, column: str = "features"):
             lines.append({"row": label, "seed": seed, "codes used": m.get("codes_used"),
                           "K": m.get("codebook_size"), "usage": m.get("usage"),
                           "perplexity": m.get("perplexity"),
-                          "status": "ok" if m else "not run"})
+                          "status": "ok" if m else verdict_words.MISSING})
     frame = pd.DataFrame(lines, columns=["row", "seed", "codes used", "K", "usage",
                                          "perplexity", "status"])
     return frame.round({"usage": 3, "perplexity": 2}).set_index(["row", "seed"])
@@ -926,7 +1001,7 @@ def show_codebook_use(results: dict[str, TableResult], column: str = "features")
     for source, result in results.items():
         frame = codebook_frame(result, column)
         title = f"**{source_label(source, result.preset)}**"
-        if frame.empty or (frame["status"] == "not run").all():
+        if frame.empty or (frame["status"] == verdict_words.MISSING).all():
             display(Markdown(f"{title}: codebook use not run yet."))
         elif source == BUILD and len(results) > 1:
             display(_collapsed(_build_summary(result), frame))

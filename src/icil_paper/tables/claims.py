@@ -1,6 +1,6 @@
 """The claims ledger: every claim of the paper's Sec. IV, checked against our numbers.
 
-    ledger = claims_ledger(preset, store)          # list of dicts, one per claim
+    ledger = claims_ledger(preset, store)          # list of LedgerEntry, one per claim
     write_ledger(preset, store)                   # results/<preset>/claims.json
     summary(ledger)                               # counts of the verdicts after Holm
 
@@ -50,17 +50,18 @@ from __future__ import annotations
 import json
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
 
 from icil_paper import paper_numbers as paper
-from icil_paper import stats
+from icil_paper import stats, verdict_words
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json
 from icil_paper.metrics import MOTION_MEASURES, SMOOTHER
 from icil_paper.results import ResultsStore
+from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, assemble
 from icil_paper.tables.definitions import ICRT_TOKENIZERS, table_spec
 
@@ -74,7 +75,7 @@ the size of the gaps the paper reports) is reported as equivalent to 0 at that m
 MAX_SEEDS = 1000
 """`seeds_needed` searches up to this many seeds a row."""
 
-VERDICTS = ("holds", "does not hold", "inconclusive", stats.TOO_FEW_SEEDS, "not run")
+VERDICTS = verdict_words.LEDGER_ORDER
 
 
 @dataclass(frozen=True)
@@ -260,6 +261,95 @@ class Claim:
     """What the reference effect of an own claim is."""
 
 
+@dataclass
+class LedgerEntry:
+    """One claim of the ledger as `claims_ledger` computes it and `claims.json` stores it
+    (`to_dict` gives the stored form, key for key; `from_dict` reads it back). Fields a
+    newer ledger adds are kept in `extra` and read as attributes too."""
+
+    id: str = ""
+    claim: str = ""
+    """The paper's sentence (or its gist)."""
+    table: str = ""
+    quantity: str = ""
+    """What is compared, in words."""
+    direction: int = +1
+    """+1: claimed above 0; -1: claimed below 0."""
+    source: str = "the paper"
+    """"the paper" or "ours" (a claim of this companion)."""
+    paper: float | None = None
+    """The same quantity from the paper's numbers (None for a claim of ours or in words)."""
+    reference_effect: float | None = None
+    """For a claim with no `paper` value: the effect it is sized against, if any."""
+    reference: str | None = None
+    """What `reference_effect` is (stored only for a claim with no `paper` value)."""
+    ours: float | None = None
+    ci: list[float] | None = None
+    """Our 95% interval [low, high]."""
+    n: int | None = None
+    episodes: int | None = None
+    seeds: dict[str, int] | None = None
+    """Row -> its training seeds."""
+    method: str | None = None
+    p_value: float | None = None
+    verdict: Verdict | str = Verdict.NOT_RUN
+    magnitude: str | None = None
+    mde: float | None = None
+    power: float | None = None
+    seeds_needed: int | None = None
+    variance_from: dict[str, str] | None = None
+    power_note: str | None = None
+    adjusted_verdict: Verdict | str | None = None
+    """The verdict after Holm's correction over the ledger (the one to quote)."""
+    extra: dict[str, Any] = field(default_factory=dict)
+    """Fields this class does not name, in stored order."""
+    order: tuple[str, ...] = field(default=(), repr=False, compare=False)
+    """The stored keys in their stored order (empty: the order of the fields)."""
+
+    def __getattr__(self, name: str) -> Any:
+        extra = self.__dict__.get("extra")
+        if extra is not None and name in extra:
+            return extra[name]
+        raise AttributeError(f"ledger entry has no field {name!r}")
+
+    @property
+    def run(self) -> bool:
+        return self.verdict != Verdict.NOT_RUN
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> LedgerEntry:
+        names = {f.name for f in fields(cls)} - {"extra", "order"}
+        known = {k: v for k, v in data.items() if k in names}
+        for key in ("verdict", "adjusted_verdict"):
+            if known.get(key) in _VERDICT_VALUES:
+                known[key] = Verdict(known[key])
+        return cls(**known, extra={k: v for k, v in data.items() if k not in names},
+                   order=tuple(data))
+
+    def to_dict(self) -> dict[str, Any]:
+        order = self.order or tuple(self._stored_fields()) + tuple(self.extra)
+        return {k: (self.extra[k] if k in self.extra else getattr(self, k)) for k in order}
+
+    def _stored_fields(self):
+        for f in fields(self):
+            if f.name in ("extra", "order"):
+                continue
+            if f.name in ("reference_effect", "reference") and not (
+                    self.source == "ours" or self.paper is None):
+                continue
+            if f.name == "adjusted_verdict" and self.adjusted_verdict is None:
+                continue
+            yield f.name
+
+
+_VERDICT_VALUES = {v.value for v in Verdict}
+
+
+def as_entry(entry: LedgerEntry | dict[str, Any]) -> LedgerEntry:
+    """A ledger entry as a `LedgerEntry` (a stored one, a dict, is read with `from_dict`)."""
+    return entry if isinstance(entry, LedgerEntry) else LedgerEntry.from_dict(entry)
+
+
 # --------------------------------------------------------------------------- helpers
 def diff(table: str, a: str, b: str, column: str = "avg") -> Comparison:
     return Comparison(table, a, (b,), column)
@@ -407,6 +497,35 @@ def claims(preset: Preset) -> list[Claim]:
     ]
 
 
+CLAIM_LABELS = {
+    "I-lipvq-best": "LipVQ-VAE best tokenizer, kitchen",
+    "I-lipvq-vs-bc": "ICRT+LipVQ-VAE beats BC-Transformer, kitchen",
+    "I-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE, kitchen",
+    "I-tokenizer-gap": "LipVQ-VAE beats MLP tokenizer, kitchen",
+    "I-mlp-below-bc": "MLP tokenizer below BC-Transformer",
+    "II-lipvq-best": "LipVQ-VAE best tokenizer in ACT, ManiSkill",
+    "II-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE in ACT",
+    "II-lipvq-vs-act": "ACT+LipVQ-VAE beats ACT",
+    "III-lipvq-smoothest": "LipVQ-VAE's latents smoothest",
+    "III-smoother-succeeds": "smoother latents, more success",
+    "IV-mlp": "Eq. 4 helps the MLP tokenizer",
+    "IV-vq": "Eq. 4 helps VQ-VAE",
+    "IV-vq-over-mlp": "VQ-VAE beats MLP tokenizer",
+    "fig5-best": "codebook of 2^10 best",
+    "V-lipvq-vs-bc": "sim-to-real: beats BC-Transformer",
+    "V-lipvq-vs-bin": "sim-to-real: beats Bin",
+    "V-lipvq-smoother-motion": "sim-to-real: smoother motion",
+    "VI-mlp-vs-bc": "cross-dataset: ICRT+MLP beats BC-Transformer",
+    "VI-lipvq-best": "cross-dataset: LipVQ-VAE best",
+    "VII-lipvq-vs-bc": "zero-shot: beats BC-Transformer",
+    "VII-lipvq-best": "zero-shot: LipVQ-VAE best",
+    "beyond-eq4-fsq": "ours: Eq. 4 helps FSQ",
+    "beyond-eq4-rvq": "ours: Eq. 4 helps residual VQ",
+    "III-smoother-latents-smoother-motion": "ours: smoother latents, smoother motion",
+}
+"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
+
+
 def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], float]:
     """(table, quantity) -> the mean per-seed variance of its multi-seed rows (`success`:
     the "avg" column; `least_energy`; each motion measure of the "avg" column), and
@@ -503,7 +622,7 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
         entry.update(reference_effect=paper_value, reference=claim.reference)
     if estimate is None:
         entry.update(ours=None, ci=None, n=None, episodes=None, seeds=None, method=None,
-                     p_value=None, verdict="not run", magnitude=None, mde=None, power=None,
+                     p_value=None, verdict=Verdict.NOT_RUN, magnitude=None, mde=None, power=None,
                      seeds_needed=None, variance_from=None, power_note=None)
         return entry, None
     test = stats.decision_p_value(estimate, claim.direction)
@@ -519,7 +638,7 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
     return entry, estimate
 
 
-def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[dict[str, Any]]:
+def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[LedgerEntry]:
     """Every claim evaluated on the records of `store` (default: the preset's), with the
     verdicts after Holm's correction over the ledger (`adjusted_verdict`)."""
     store = store or ResultsStore(preset.name)
@@ -535,7 +654,7 @@ def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[dic
         entry["adjusted_verdict"] = verdict
     if design is not None:
         _sequential(all_claims, list(entries), tables, design)
-    return list(entries)
+    return [LedgerEntry.from_dict(e) for e in entries]
 
 
 # --------------------------------------------------------------------------- seeds in stages
@@ -568,7 +687,7 @@ def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
     nominal: list[list] = []
     for claim, entry in zip(all_claims, entries, strict=True):
         seeds = min((entry.get("seeds") or {}).values(), default=0)
-        looks = [] if entry["verdict"] == "not run" else [
+        looks = [] if entry["verdict"] == Verdict.NOT_RUN else [
             claim.compare.estimate(at_look[n]) for n in design.stages if n <= seeds]
         runs.append(stats.sequential_p_value(looks, claim.direction, design))
         nominal.append([stats.decision_p_value(e, claim.direction) for e in looks])
@@ -596,11 +715,11 @@ def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
             if k_dec > own:
                 entry["look"] += (f", after Holm's correction at the ledger's look {k_dec + 1} "
                                   f"({design.stages[k_dec]} seeds a row)")
-        elif entry["verdict"] == "not run":
-            entry["look"] = "not run"
+        elif entry["verdict"] == Verdict.NOT_RUN:
+            entry["look"] = Verdict.NOT_RUN.value
         else:
-            if entry["adjusted_verdict"] in ("holds", "does not hold"):
-                entry["adjusted_verdict"] = "inconclusive"  # not at a look's boundary
+            if entry["adjusted_verdict"] in (Verdict.HOLDS, Verdict.DOES_NOT_HOLD):
+                entry["adjusted_verdict"] = Verdict.INCONCLUSIVE  # not at a look's boundary
             needs = record["needs"]
             if k < 0:
                 entry["look"] = (f"undecided at {seeds} seeds: before the first look "
@@ -626,49 +745,49 @@ def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
     path = store.dir / "claims.json"
     atomic_write_json(path, {"preset": preset.name, "familywise_level": stats.ALPHA,
                              "equivalence_margin": EQUIVALENCE_MARGIN,
-                             "claims": claims_ledger(preset, store)})
+                             "claims": [e.to_dict() for e in claims_ledger(preset, store)]})
     return str(path)
 
 
-def sizing_effect(entry: dict[str, Any]) -> float | None:
+def sizing_effect(entry: LedgerEntry | dict[str, Any]) -> float | None:
     """The effect a ledger entry is sized against: the paper's value, or for a claim of our
     own (no `paper` value) its `reference_effect`; None where the claim has no number."""
-    return entry["paper"] if entry.get("paper") is not None else entry.get("reference_effect")
+    e = as_entry(entry)
+    return e.paper if e.paper is not None else e.reference_effect
 
 
-def summary(ledger: list[dict[str, Any]], adjusted: bool = True) -> dict[str, Any]:
+def summary(ledger: Sequence[LedgerEntry | dict[str, Any]], adjusted: bool = True
+            ) -> dict[str, Any]:
     """What a reader asks first: how many claims hold, do not hold, exclude the paper's
     size, or remain undecided (after Holm's correction by default), and which undecided
     claims this design could decide with more seeds."""
-    key = "adjusted_verdict" if adjusted else "verdict"
-    counts = Counter(e[key] for e in ledger)
-    undecided = [e for e in ledger if e[key] in ("inconclusive", stats.TOO_FEW_SEEDS)]
+    entries = [as_entry(e) for e in ledger]
+    verdict_of = ((lambda e: e.adjusted_verdict) if adjusted else (lambda e: e.verdict))
+    counts = Counter(verdict_of(e) for e in entries)
+    undecided = [e for e in entries if verdict_of(e) in verdict_words.UNDECIDED]
     return {
-        "claims": len(ledger),
+        "claims": len(entries),
         "counts": {v: counts.get(v, 0) for v in VERDICTS},
-        "decided": counts.get("holds", 0) + counts.get("does not hold", 0),
-        "size_excluded": sum(1 for e in ledger
-                             if (e.get("magnitude") or "").startswith("paper's size excluded")),
-        "within_margin": sum(1 for e in ledger if "within ±" in (e.get("magnitude") or "")),
+        "decided": sum(counts.get(v, 0) for v in verdict_words.DECIDED),
+        "size_excluded": sum(1 for e in entries
+                             if (e.magnitude or "").startswith("paper's size excluded")),
+        "within_margin": sum(1 for e in entries if "within ±" in (e.magnitude or "")),
         "decidable_with_10_seeds": sum(1 for e in undecided
-                                       if e.get("seeds_needed") and e["seeds_needed"] <= 10),
+                                       if e.seeds_needed and e.seeds_needed <= 10),
         "undecided": len(undecided),
     }
 
 
-def summary_sentence(ledger: list[dict[str, Any]]) -> str:
+def summary_sentence(ledger: Sequence[LedgerEntry | dict[str, Any]]) -> str:
     """`summary` in one sentence, for the introduction and chapter 0."""
     s = summary(ledger)
     c = s["counts"]
-    if c["not run"] == s["claims"]:
+    if c[Verdict.NOT_RUN] == s["claims"]:
         return f"None of the {s['claims']} claims has its records yet: every one is not run."
-    parts = [f"{c['holds']} {'holds' if c['holds'] == 1 else 'hold'}",
-             f"{c['does not hold']} {'does' if c['does not hold'] == 1 else 'do'} not hold",
-             f"{c['inconclusive']} {'is' if c['inconclusive'] == 1 else 'are'} inconclusive",
-             f"{c[stats.TOO_FEW_SEEDS]} {'reads' if c[stats.TOO_FEW_SEEDS] == 1 else 'read'} "
-             "a row with a single training seed (too few seeds)"]
-    if c["not run"]:
-        parts.append(f"{c['not run']} are not run yet")
+    parts = [verdict_words.counted(v, c[v]) for v in VERDICTS if v != Verdict.NOT_RUN]
+    if c[Verdict.NOT_RUN]:
+        parts.append(verdict_words.counted(Verdict.NOT_RUN, c[Verdict.NOT_RUN]))
+
     def claims_(k: int, one: str, many: str) -> str:
         return f"{k} {one if k == 1 else many}"
 
@@ -680,45 +799,43 @@ def summary_sentence(ledger: list[dict[str, Any]]) -> str:
             "seeds a row.")
 
 
-def sentence(entry: dict[str, Any]) -> str:
+def paper_words(entry: LedgerEntry) -> str:
+    """What a ledger entry is read against, in words: "the paper +0.053", "a claim of ours,
+    read against <reference> (+0.055)", or "... with no number to read it against"."""
+    if entry.paper is not None:
+        return f"the paper {entry.paper:+.3f}"
+    if entry.reference_effect is None:
+        return (("a claim of ours" if entry.source == "ours" else "the paper")
+                + " with no number to read it against")
+    return f"a claim of ours, read against {entry.reference} ({entry.reference_effect:+.3f})"
+
+
+def sentence(entry: LedgerEntry | dict[str, Any]) -> str:
     """The verdict of one ledger entry in words, for the chapters."""
-    if entry.get("paper") is not None:
-        paper_words = f"the paper {entry['paper']:+.3f}"
-    elif entry.get("reference_effect") is None:
-        paper_words = ("a claim of ours" if entry.get("source") == "ours" else
-                       "the paper") + " with no number to read it against"
-    else:
-        paper_words = (f"a claim of ours, read against {entry['reference']} "
-                       f"({entry['reference_effect']:+.3f})")
-    if entry["verdict"] == "not run":
-        return f"{entry['quantity']}: not run yet ({paper_words})."
-    low, high = entry["ci"]
-    side = "above" if entry["direction"] > 0 else "below"
-    seeds = ", ".join(f"{r} {k}" for r, k in (entry.get("seeds") or {}).items())
-    words = {"holds": f"holds: our interval lies {side} 0",
-             "does not hold": "does not hold: our interval lies on the other side of 0",
-             "inconclusive": "is inconclusive: our interval contains 0",
-             stats.TOO_FEW_SEEDS: "is not decided: a row it reads has a single training "
-                                  "seed, so the spread between seeds is unknown"
-             }[entry["verdict"]]
-    out = (f"{entry['quantity']}: {paper_words}, ours {entry['ours']:+.3f} "
-           f"[{low:+.3f}, {high:+.3f}] (seeds: {seeds}); the claim {words}")
-    if entry["verdict"] == "inconclusive" and "intersection test" in (entry["method"] or ""):
-        out += (" (best of k: it holds only if every pairwise interval lies on the claimed "
-                "side, and does not hold only if one row beats it at the Bonferroni level)")
-    adjusted = entry.get("adjusted_verdict")
-    if adjusted and adjusted != entry["verdict"]:
-        out += f"; after Holm's correction over the ledger it is {adjusted}"
-    if entry.get("magnitude") and entry["magnitude"] != stats.TOO_FEW_SEEDS:
-        out += f"; {entry['magnitude']}"
-    if entry.get("seeds_needed"):
-        out += f"; about {entry['seeds_needed']} seeds a row would detect the paper's effect"
+    e = as_entry(entry)
+    against = paper_words(e)
+    if not e.run:
+        return f"{e.quantity}: not run yet ({against})."
+    low, high = e.ci
+    side = "above" if e.direction > 0 else "below"
+    seeds = ", ".join(f"{r} {k}" for r, k in (e.seeds or {}).items())
+    out = (f"{e.quantity}: {against}, ours {e.ours:+.3f} [{low:+.3f}, {high:+.3f}] "
+           f"(seeds: {seeds}); the claim {verdict_words.claim_words(e.verdict, side)}")
+    if e.verdict == Verdict.INCONCLUSIVE and "intersection test" in (e.method or ""):
+        out += f" ({verdict_words.BEST_OF_K_INCONCLUSIVE})"
+    if e.adjusted_verdict and e.adjusted_verdict != e.verdict:
+        out += f"; after Holm's correction over the ledger it is {e.adjusted_verdict}"
+    if e.magnitude and e.magnitude != Verdict.TOO_FEW_SEEDS:
+        out += f"; {e.magnitude}"
+    if e.seeds_needed:
+        out += f"; about {e.seeds_needed} seeds a row would detect the paper's effect"
     return out + "."
 
 
-def load_ledger(path) -> list[dict[str, Any]]:
+def load_ledger(path) -> list[LedgerEntry]:
+    """The entries of a stored `claims.json`."""
     with open(path) as f:
-        return json.load(f)["claims"]
+        return [LedgerEntry.from_dict(e) for e in json.load(f)["claims"]]
 
 
 def evaluate_claims(chosen: Sequence[Claim], tables: dict[str, TableResult]

@@ -45,10 +45,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.claims:
         ledger = claims_ledger(preset, store)
         if args.format == "json":
-            print(json.dumps(ledger, indent=2))
+            print(json.dumps([e.to_dict() for e in ledger], indent=2))
         else:
             for entry in ledger:
-                print(f"[{entry['adjusted_verdict']}] {entry['id']} (Table {entry['table']}): "
+                print(f"[{entry.adjusted_verdict}] {entry.id} (Table {entry.table}): "
                       f"{sentence(entry)}")
         return 0
     ids = [check_name("table", t, TABLES) for t in (args.table or TABLES)]

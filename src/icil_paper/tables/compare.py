@@ -211,7 +211,7 @@ def lines(report: dict[str, Any]) -> list[str]:
     out = [f"{report['tokenizer']} against {', '.join(report['against'])} on Table I's "
            f"protocol ({report['preset']} preset):"]
     for row, value in report["rows"].items():
-        out.append(f"  {row}: " + ("not run" if value is None else
+        out.append(f"  {row}: " + (stats.Verdict.NOT_RUN.value if value is None else
                                    f"average success {value['success']:.3f} "
                                    f"[{value['ci'][0]:.3f}, {value['ci'][1]:.3f}], "
                                    f"{value['seeds']} seeds"))

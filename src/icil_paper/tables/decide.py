@@ -39,11 +39,12 @@ from icil_paper.config import Preset
 from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
+from icil_paper.stats import Verdict
 from icil_paper.tables.definitions import TABLES, table_spec
 from icil_paper.tables.design import cell_kind, claim_rows, planned_seeds
 from icil_paper.tables.execute import plan
 
-DECIDED = ("holds", "does not hold")
+DECIDED = (Verdict.HOLDS, Verdict.DOES_NOT_HOLD)
 """Verdicts that settle a claim; every other one is planned."""
 SHARES_TABLE_I = ("III", "IV", "V", "VI", "prompt")
 """Tables whose rows are Table I's runs: their seeds are Table I's row seeds."""

@@ -322,7 +322,7 @@ def interim_check(preset: Preset, seeds: int | None = None, store=None
     seeds, ledger = interim_ledger(preset, seeds, store)
     if ledger is None:
         return seeds, None
-    return seeds, check_design(preset, {e["id"]: e for e in ledger})
+    return seeds, check_design(preset, {e.id: e.to_dict() for e in ledger})
 
 
 # --------------------------------------------------------------------------- stages
@@ -443,12 +443,12 @@ def main(argv: list[str] | None = None) -> int:
             print(f"interim: the claims' rows have {seeds} finished seeds in common; a "
                   "variance needs 2")
         else:
-            problems = check_design(preset, {e["id"]: e for e in ledger})
+            problems = check_design(preset, {e.id: e.to_dict() for e in ledger})
             print(f"interim, at the {seeds} seeds every claim's rows have finished: "
                   f"{len(problems)} rows below the rule")
             for e in ledger:
-                print(f"  {e['id']:<38} seeds needed {str(e.get('seeds_needed')):>5}  "
-                      f"verdict {e.get('verdict')}")
+                print(f"  {e.id:<38} seeds needed {str(e.seeds_needed):>5}  "
+                      f"verdict {e.verdict}")
             for line in problems:
                 print("  top up:", line)
     return 0

@@ -31,7 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper import stats
+from icil_paper import stats, verdict_words
+from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, format_cell, unbroken
 from icil_paper.tables.definitions import OFFICIAL_ROWS, config_differences
 
@@ -39,15 +40,10 @@ DIRECTION = +1
 """The verdict is read on "the variant succeeds more than its base"; "does not hold" then
 means it succeeds less."""
 
-OUTCOME_WORDS = {"holds": "higher", "does not hold": "lower",
-                 "inconclusive": "no difference detected (the interval contains 0)",
-                 stats.TOO_FEW_SEEDS: "not decided (a row has a single training seed)",
-                 "not run": "not run yet"}
+OUTCOME_WORDS = verdict_words.OUTCOME
 """A verdict on "the variant succeeds more" in words of the two-sided question."""
 
-SHORT_WORDS = {"holds": "higher", "does not hold": "lower",
-               "inconclusive": "no difference detected", stats.TOO_FEW_SEEDS: "not decided",
-               "not run": "not run yet"}
+SHORT_WORDS = verdict_words.OUTCOME_SHORT
 """The same, shorter, for the summary sentence (which explains "not decided" once)."""
 
 
@@ -92,7 +88,7 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
         est = (None if xa is None or xb is None else
                stats.paired_difference(xa, xb, scenes=result.scenes(variant, base)))
         out.append({"variant": variant, "base": base, "estimate": est,
-                    "verdict": "not run" if est is None else stats.verdict(est, DIRECTION),
+                    "verdict": Verdict.NOT_RUN if est is None else stats.verdict(est, DIRECTION),
                     "seeds": None if est is None else {variant: len(xa), base: len(xb)},
                     "variant_codes": codes_used(result, variant),
                     "base_codes": codes_used(result, base)})
@@ -124,7 +120,7 @@ def findings_frame(result: TableResult):
         est = f["estimate"]
         seeds = "" if f["seeds"] is None else " v ".join(map(str, f["seeds"].values()))
         rows.append({"variant": f["variant"], "against": f["base"], "seeds": unbroken(seeds),
-                     "success difference": "not run" if est is None else unbroken(_interval(est)),
+                     "success difference": verdict_words.MISSING if est is None else unbroken(_interval(est)),
                      "verdict": OUTCOME_WORDS[f["verdict"]],
                      "after Holm": OUTCOME_WORDS[f["adjusted_verdict"]],
                      "codes used": _codes_text(f["variant_codes"]),
@@ -145,7 +141,7 @@ def codes_frame(result: TableResult, digits: int = 2):
             format_cell(result.cell(row.label, "avg"), digits))}
         feat = _features(result, row.label)
         if feat is None:
-            line["codes used"] = "not run"
+            line["codes used"] = verdict_words.MISSING
         else:
             size = codebook_size(result, row.label)
             std = feat.extra["standardized_estimate"]

@@ -25,7 +25,8 @@ from __future__ import annotations
 from typing import Any
 
 from icil_paper import paper_numbers as paper
-from icil_paper import stats
+from icil_paper import stats, verdict_words
+from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, format_cell
 
 SHIFT_DIRECTION = -1
@@ -63,7 +64,7 @@ def shift_rows(before: TableResult, after: TableResult,
         est = row_shift(before, after, spec_row.label, column)
         out.append({"row": spec_row.label, "before": before.cell(spec_row.label, column),
                     "after": after.cell(spec_row.label, column), "estimate": est,
-                    "verdict": ("not run" if est is None
+                    "verdict": (Verdict.NOT_RUN if est is None
                                 else stats.verdict(est, direction=SHIFT_DIRECTION)),
                     "paper": _paper_change(spec_row.label, column)})
     return out
@@ -83,7 +84,7 @@ def shift_frame(before: TableResult, after: TableResult, column: str = "avg",
             "": r["row"],
             f"{i} (generated scenes)": format_cell(r["before"], digits),
             f"{vi} (human scenes)": format_cell(r["after"], digits),
-            f"{vi} - {i}": ("not run" if est is None else
+            f"{vi} - {i}": (verdict_words.MISSING if est is None else
                             f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, "
                             f"{est.high:+.{digits}f}]"),
             "lower on the human scenes?": r["verdict"],
@@ -99,14 +100,13 @@ def shift_sentence(before: TableResult, after: TableResult, column: str = "avg")
     measured = [r for r in rows if r["estimate"] is not None]
     if not measured:
         return f"No row has both its Table {before.spec.id} and Table {after.spec.id} records yet."
-    counts = {v: sum(r["verdict"] == v for r in measured)
-              for v in ("holds", "does not hold", "inconclusive", stats.TOO_FEW_SEEDS)}
+    counts = {v: sum(r["verdict"] == v for r in measured) for v in Verdict}
     mean = sum(r["estimate"].value for r in measured) / len(measured)
     paper_changes = [r["paper"] for r in rows if r["paper"] is not None]
     text = (f"On the human-like scenes, {len(measured)} of {len(rows)} rows measured: mean "
             f"change {mean:+.3f} in {column} success; lower (the interval below 0) for "
-            f"{counts['holds']}, higher for {counts['does not hold']}, inconclusive for "
-            f"{counts['inconclusive']}, and {counts[stats.TOO_FEW_SEEDS]} with a single "
+            f"{counts[Verdict.HOLDS]}, higher for {counts[Verdict.DOES_NOT_HOLD]}, inconclusive for "
+            f"{counts[Verdict.INCONCLUSIVE]}, and {counts[Verdict.TOO_FEW_SEEDS]} with a single "
             "training seed (too few seeds to decide)")
     if paper_changes:
         text += (f"; the paper's rows change by {sum(paper_changes) / len(paper_changes):+.3f} "

@@ -1,0 +1,127 @@
+"""The words the book prints for a verdict: one table per kind of sentence, keyed by
+`stats.Verdict`. No other module spells a verdict (`tests/test_vocabulary.py` scans the
+sources for one).
+
+    from icil_paper.stats import Verdict
+    from icil_paper.verdict_words import SMOOTHER, claim_words
+    SMOOTHER[Verdict.HOLDS]                    # "smoother"
+    claim_words(Verdict.HOLDS, side="above")   # "holds: our interval lies above 0"
+
+A verdict is read on a claimed direction; each table below names the claim it reads (a
+least-energy difference claimed lower, a success difference claimed higher, ...).
+"""
+
+from __future__ import annotations
+
+from icil_paper.stats import Verdict
+
+HOLDS, DOES_NOT_HOLD, INCONCLUSIVE, TOO_FEW_SEEDS, NOT_RUN = Verdict
+DECIDED = (HOLDS, DOES_NOT_HOLD)
+"""The verdicts that decide a claim, one way or the other."""
+UNDECIDED = (INCONCLUSIVE, TOO_FEW_SEEDS)
+"""The verdicts of a claim that was run and not decided."""
+LEDGER_ORDER = (HOLDS, DOES_NOT_HOLD, INCONCLUSIVE, TOO_FEW_SEEDS, NOT_RUN)
+"""The order in which counts of verdicts are listed."""
+
+# --------------------------------------------------------------------------- claims ledger
+_CLAIM = {
+    HOLDS: "holds: our interval lies {side} 0",
+    DOES_NOT_HOLD: "does not hold: our interval lies on the other side of 0",
+    INCONCLUSIVE: "is inconclusive: our interval contains 0",
+    TOO_FEW_SEEDS: "is not decided: a row it reads has a single training seed, so the spread "
+                   "between seeds is unknown",
+}
+
+
+def claim_words(verdict: Verdict, side: str) -> str:
+    """"the claim <words>" of a ledger entry; `side` is "above" or "below" (the claimed
+    side of 0)."""
+    return _CLAIM[Verdict(verdict)].format(side=side)
+
+
+BEST_OF_K_INCONCLUSIVE = ("best of k: it holds only if every pairwise interval lies on the "
+                          "claimed side, and does not hold only if one row beats it at the "
+                          "Bonferroni level")
+"""Why a best-of-k claim is inconclusive more often than a single difference."""
+
+DECIDED_LABELS = {HOLDS: "Held", DOES_NOT_HOLD: "Did not hold"}
+"""The headings of the lists of decided claims."""
+
+COLOURS = {HOLDS: "#1a7f37", DOES_NOT_HOLD: "#cf222e", INCONCLUSIVE: "#9a6700",
+           TOO_FEW_SEEDS: "#8c959f", NOT_RUN: "#d0d7de"}
+"""The verdicts' colours in the forest plot (green, red, amber, grey, light grey)."""
+
+
+def counted(verdict: Verdict, k: int) -> str:
+    """"3 hold", "1 does not hold", ...: `k` claims with this verdict, as the ledger's summary
+    sentence counts them."""
+    one = k == 1
+    return {HOLDS: f"{k} {'holds' if one else 'hold'}",
+            DOES_NOT_HOLD: f"{k} {'does' if one else 'do'} not hold",
+            INCONCLUSIVE: f"{k} {'is' if one else 'are'} inconclusive",
+            TOO_FEW_SEEDS: f"{k} {'reads' if one else 'read'} a row with a single training "
+                           "seed (too few seeds)",
+            NOT_RUN: f"{k} {'is' if one else 'are'} not run yet"}[Verdict(verdict)]
+
+
+# --------------------------------------------------------------------------- tables' sentences
+SMOOTHER = {HOLDS: "smoother", DOES_NOT_HOLD: "less smooth",
+            INCONCLUSIVE: "not distinguishable (the interval contains 0)",
+            TOO_FEW_SEEDS: "not decided (a single training seed)"}
+"""A least-energy difference (claimed: lower, the first row smoother) in words."""
+
+ANALYSIS_SMOOTH = {HOLDS: "smoother", DOES_NOT_HOLD: "less smooth",
+                   INCONCLUSIVE: "not measurably different in smoothness",
+                   TOO_FEW_SEEDS: "undecided in smoothness (too few seeds)",
+                   NOT_RUN: "not yet measured in smoothness"}
+"""The analysis table's smoothness finding (claimed: the variant is smoother)."""
+
+ANALYSIS_SUCCESS = {HOLDS: "more successful", DOES_NOT_HOLD: "less successful",
+                    INCONCLUSIVE: "not measurably different in success",
+                    TOO_FEW_SEEDS: "undecided in success (too few seeds)",
+                    NOT_RUN: "not yet measured in success"}
+"""The analysis table's success finding (claimed: the variant succeeds more)."""
+
+OUTCOME = {HOLDS: "higher", DOES_NOT_HOLD: "lower",
+           INCONCLUSIVE: "no difference detected (the interval contains 0)",
+           TOO_FEW_SEEDS: "not decided (a row has a single training seed)",
+           NOT_RUN: "not run yet"}
+"""A two-sided question read as "the variant succeeds more" (the official code's table):
+holds reads "higher", does not hold "lower"."""
+
+OUTCOME_SHORT = {HOLDS: "higher", DOES_NOT_HOLD: "lower",
+                 INCONCLUSIVE: "no difference detected", TOO_FEW_SEEDS: "not decided",
+                 NOT_RUN: "not run yet"}
+"""`OUTCOME` in a few words, for a list."""
+
+TRAINING_WINDOW = {HOLDS: "holds", DOES_NOT_HOLD: "does not hold (windows do better)",
+                   INCONCLUSIVE: "is inconclusive (the interval contains 0)",
+                   TOO_FEW_SEEDS: "is not decided: one training seed cannot tell its luck "
+                                  "from the method (too few seeds)"}
+"""Chapter 02's "that whole episodes help <words>" (whole episodes minus random windows,
+claimed higher)."""
+
+CLAIMED = {+1: "higher", -1: "lower"}
+"""The claimed side of a difference in words."""
+
+MISSING = NOT_RUN.value
+"""What a table cell or a finding shows while a record it reads is missing (the ledger's
+verdict for a claim that reads it)."""
+
+
+def answer(verdicts) -> str:
+    """A question's answer from the verdicts (after Holm) of the claims that decide it:
+    "Yes" when every one holds, "No" when every one does not hold, "In part" when some are
+    decided either way, "Not decided at this scale" when none is, "Not run yet" when none
+    has its records."""
+    verdicts = [Verdict(v) for v in verdicts]
+    run = [v for v in verdicts if v != NOT_RUN]
+    if not run:
+        return "Not run yet"
+    decided = [v for v in run if v in DECIDED]
+    if decided and len(decided) == len(run) and len(set(decided)) == 1:
+        return "Yes" if decided[0] == HOLDS else "No"
+    if decided:
+        return "In part (" + ", ".join(counted(v, verdicts.count(v)) for v in LEDGER_ORDER
+                                       if v in verdicts) + ")"
+    return "Not decided at this scale"

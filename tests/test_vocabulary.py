@@ -1,0 +1,143 @@
+"""One vocabulary: a verdict is a `stats.Verdict`, and the words a chapter prints for it come
+from `icil_paper.verdict_words` alone."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from icil_paper import verdict_words
+from icil_paper.stats import Verdict
+
+
+# --------------------------------------------------------------------------- one vocabulary
+def verdict_literals(source: str, skip_class: str | None = None) -> list[tuple[int, str]]:
+    """(line, text) of each string literal in `source` (docstrings aside) that spells a
+    verdict: equal to a `stats.Verdict` value, or containing "does not hold"."""
+    import ast
+
+    from icil_paper.stats import Verdict
+
+    values = {v.value for v in Verdict}
+    tree = ast.parse(source)
+    skipped = {id(n.value) for n in ast.walk(tree)
+               if isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant)}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ClassDef) and node.name == skip_class:
+            skipped |= {id(n) for n in ast.walk(node)}
+    return [(n.lineno, n.value) for n in ast.walk(tree)
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and id(n) not in skipped
+            and (n.value in values or "does not hold" in n.value)]
+
+
+def test_verdict_literals_are_found_in_code_and_not_in_docstrings():
+    source = ('"""holds"""\nx = "holds"\ny = f"it does not hold: {x}"\n'
+              'def f():\n    """does not hold"""\n    return {"inconclusive": 1}\n'
+              'class Verdict:\n    HOLDS = "holds"\n')
+    assert verdict_literals(source, skip_class="Verdict") == [
+        (2, "holds"), (3, "it does not hold: "), (6, "inconclusive")]
+    assert (8, "holds") in verdict_literals(source)
+
+
+def test_no_verdict_is_spelled_outside_the_vocabulary():
+    """A verdict is a `stats.Verdict`; the words printed for it come from
+    `icil_paper.verdict_words`, never from a literal in another module or a chapter."""
+    root = Path(__file__).resolve().parents[1]
+    files = sorted([*(root / "src" / "icil_paper").rglob("*.py"), *(root / "notebooks").glob("*.py")])
+    found = {}
+    for path in files:
+        rel = path.relative_to(root).as_posix()
+        if rel == "src/icil_paper/verdict_words.py":
+            continue
+        skip = "Verdict" if rel == "src/icil_paper/stats.py" else None
+        hits = verdict_literals(path.read_text(), skip_class=skip)
+        if hits:
+            found[rel] = hits
+    assert not found, f"verdicts spelled outside icil_paper.verdict_words: {found}"
+
+
+
+def test_every_table_of_words_covers_the_verdicts_it_can_be_given():
+    decided_or_not = set(Verdict) - {Verdict.NOT_RUN}
+    for name in ("SMOOTHER", "TRAINING_WINDOW"):
+        assert set(getattr(verdict_words, name)) == decided_or_not, name
+    for name in ("ANALYSIS_SMOOTH", "ANALYSIS_SUCCESS", "OUTCOME", "OUTCOME_SHORT", "COLOURS"):
+        assert set(getattr(verdict_words, name)) == set(Verdict), name
+    assert set(verdict_words.LEDGER_ORDER) == set(Verdict)
+    for v in decided_or_not:
+        assert verdict_words.claim_words(v, "above")
+    assert verdict_words.claim_words("holds", "below") == "holds: our interval lies below 0"
+    assert [verdict_words.counted(Verdict.DOES_NOT_HOLD, k) for k in (1, 2)] == [
+        "1 does not hold", "2 do not hold"]
+
+
+def test_a_stored_ledger_entry_reads_by_attribute_and_writes_back_key_for_key():
+    """claims.json keeps its format: every committed entry read as a `LedgerEntry` is
+    written back as the same keys in the same order; a field a newer ledger adds is kept
+    in place and read as an attribute."""
+    import json
+
+    from icil_paper.tables.claims import LedgerEntry, load_ledger
+
+    path = Path(__file__).resolve().parents[1] / "results" / "reference" / "claims.json"
+    stored = json.loads(path.read_text())["claims"]
+    entries = load_ledger(path)
+    for raw, entry in zip(stored, entries, strict=True):
+        assert list(entry.to_dict().items()) == list(raw.items())
+        assert entry.id == raw["id"] and entry.verdict == raw["verdict"]
+        assert isinstance(entry.adjusted_verdict, Verdict)
+    newer = {**stored[0], "looks": [1, 2]}
+    newer = {k: newer[k] for k in ["id", "looks", *[k for k in stored[0] if k != "id"]]}
+    entry = LedgerEntry.from_dict(newer)
+    assert entry.looks == [1, 2] and list(entry.to_dict()) == list(newer)
+    try:
+        entry.no_such_field  # noqa: B018
+    except AttributeError as exc:
+        assert "no_such_field" in str(exc)
+    else:
+        raise AssertionError("an unknown field must raise AttributeError")
+
+
+def test_a_question_is_answered_by_the_verdicts_of_its_claims():
+    from icil_paper.verdict_words import answer
+
+    H, N, I, F, R = Verdict
+    assert answer([H, H]) == "Yes" and answer([N]) == "No"
+    assert answer([I, F]) == "Not decided at this scale"
+    assert answer([R, R]) == "Not run yet"
+    assert answer([H, N, I]) == "In part (1 holds, 1 does not hold, 1 is inconclusive)"
+    assert answer([H, I, R]).startswith("In part (1 holds")
+
+
+def test_the_introduction_answers_the_three_questions_with_their_numbers():
+    """Each answer quotes every claim that decides it: our number, interval, the paper's
+    and the verdict after Holm, and its first word follows those verdicts."""
+    from icil_paper.config import get_preset
+    from icil_paper.tables.claims import CLAIM_LABELS, claims, load_ledger
+    from icil_paper.tables.questions import QUESTIONS, answers
+    from icil_paper.verdict_words import answer
+
+    path = Path(__file__).resolve().parents[1] / "results" / "reference" / "claims.json"
+    ledger = {e.id: e for e in load_ledger(path)}
+    assert {c.id for c in claims(get_preset("reference"))} == set(CLAIM_LABELS)
+    for question, text in answers(list(ledger.values())):
+        assert text.startswith(answer([ledger[c].adjusted_verdict for c in question.decides]))
+        for claim_id in (*question.decides, *question.beside):
+            e = ledger[claim_id]
+            assert (f"{CLAIM_LABELS[claim_id]}: {e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"
+                    f" against the paper's {e.paper:+.3f}, {e.adjusted_verdict}") in text
+    assert [q.key for q in QUESTIONS] == ["Q1", "Q2", "Q3"]
+
+
+def test_forest_plot_rows_say_what_each_claim_says_beside_its_id():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from icil_paper.tables.book import forest_plot, row_label
+    from icil_paper.tables.claims import CLAIM_LABELS, load_ledger
+
+    path = Path(__file__).resolve().parents[1] / "results" / "reference" / "claims.json"
+    ledger = load_ledger(path)
+    fig = forest_plot(ledger)
+    shown = [t.get_text() for ax in fig.axes for t in ax.get_yticklabels()]
+    assert sorted(shown) == sorted(row_label(e) for e in ledger)
+    assert row_label(ledger[0]) == f"{CLAIM_LABELS[ledger[0].id]}  [{ledger[0].id}]"
