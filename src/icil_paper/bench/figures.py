@@ -32,12 +32,12 @@ def _bench(name: str) -> dict:
     return json.loads((BENCH / f"{name}.json").read_text())
 
 
-def _training(size: str, field: str) -> float:
-    return next(t[field] for t in _bench("policies")["training"] if t["size"] == size)
+def _training(size: str, field: str, bench: str = "policies") -> float:
+    return next(t[field] for t in _bench(bench)["training"] if t["size"] == size)
 
 
-def _latency(size: str, tokens: int, field: str) -> float:
-    return next(t[field] for t in _bench("policies")["latency"]
+def _latency(size: str, tokens: int, field: str, bench: str = "policies") -> float:
+    return next(t[field] for t in _bench(bench)["latency"]
                 if t["size"] == size and t["prompt_tokens"] == tokens)
 
 
@@ -115,6 +115,19 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                      lambda: _latency("full", 1600, "step_ms_kv_cache")),
     "policies.full_1600_recompute_ms": ("results/bench/policies.json",
                                         lambda: _latency("full", 1600, "step_ms_recompute")),
+    # the same benchmark on one GPU (`--device cuda --out results/bench/policies_cuda.json`)
+    "policies_cuda.train_full_steps_per_s": (
+        "results/bench/policies_cuda.json",
+        lambda: _training("full", "steps_per_s", "policies_cuda")),
+    "policies_cuda.train_full_peak_mib": (
+        "results/bench/policies_cuda.json",
+        lambda: _training("full", "peak_memory_mib", "policies_cuda")),
+    "policies_cuda.full_1600_cached_ms": (
+        "results/bench/policies_cuda.json",
+        lambda: _latency("full", 1600, "step_ms_kv_cache", "policies_cuda")),
+    "policies_cuda.full_1600_recompute_ms": (
+        "results/bench/policies_cuda.json",
+        lambda: _latency("full", 1600, "step_ms_recompute", "policies_cuda")),
     **{f"cells.{kind}.{field}": ("results/bench/cells.json",
                                  lambda kind=kind, field=field: _cell(kind, field))
        for kind in ("kitchen_icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
