@@ -92,6 +92,20 @@ display(Markdown("**Codebook use of the VQ-family rows**, per training seed: the
 show_codebook_use(results)
 
 # %% [markdown]
+# ## What a prompt adds over the instruction
+#
+# Every row reads the task's language instruction (a learned bag of words standing in for
+# the paper's CLIP); ICRT reads a demonstration of the task besides. The prompt ablation
+# (chapter 10) gives ICRT + LipVQ-VAE another task's prompt, or only the first steps of its
+# own; beside it, the baselines that read the instruction and no prompt. A prompt that
+# carries the task lifts ICRT above them; a wrong one shows what is left of it.
+
+# %% tags=["hide-input"]
+from icil_paper.tables.book import prompt_beside_baselines
+
+display(prompt_beside_baselines(results, load_table(preset, "prompt")))
+
+# %% [markdown]
 # ## How smoothly the robot moves
 #
 # The paper measures smoothness in the tokenizer's latent space (Table III); the rollouts

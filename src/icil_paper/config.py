@@ -397,7 +397,7 @@ def _smoke() -> Preset:
                                bspline={"chunk": 4, "control_points": 4, "n_bins": 32}),
         policies=_policies(d_model=32, n_layer=1, n_head=2, dropout=0.0, chunk_size=2,
                            history=4, max_seq_len=1024, resnet_width=8, query_len=8,
-                           pretrain_steps=3, language=False),
+                           pretrain_steps=3, language=True),
         train=TrainConfig(steps=5, batch_size=2, warmup_steps=1, ckpt_every=2, log_every=1),
         eval=EvalConfig(episodes_per_task=1, max_steps=10, workers=1),
         tokenizer_study=TokenizerStudyConfig(steps=30, batch_size=8, window=8, n_trajectories=12,
@@ -418,7 +418,7 @@ def _small() -> Preset:
                                bspline={"chunk": 8, "control_points": 5, "n_bins": 256}),
         policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
                            history=10, max_seq_len=1024, resnet_width=16, query_len=0,
-                           pretrain_steps=100, language=False),
+                           pretrain_steps=100, language=True),
         # CI computes every table within minutes: short training, one episode per task
         # (the numbers exercise the code; the reference preset's are worth reading). ICRT
         # trains on whole episodes (about 1.4x the cost of a step on 32-step windows), so

@@ -236,6 +236,36 @@ def show_comparison(results: dict[str, TableResult], column: str = "avg",
     display(_collapsed(_build_summary(build), frame[["paper", build_column]]))
 
 
+PROMPT_BASELINES = ("bc_transformer", "act")
+"""Table I's rows that read the instruction and no prompt, shown beside the prompt ablation."""
+
+
+def prompt_beside_baselines(table1: dict[str, TableResult], prompt: dict[str, TableResult],
+                            digits: int = 3):
+    """The prompt ablation's rows (ICRT + LipVQ-VAE with its task's prompt, another task's,
+    the first steps of its own) beside Table I's baselines, which read the task's language
+    instruction and no prompt: what a prompt adds over the instruction alone. One column
+    per source (reference run, this build), average success with its 95% interval."""
+    import pandas as pd
+
+    out = []
+    any_prompt = next(iter(prompt.values()))
+    for row in any_prompt.spec.rows:
+        line: dict[str, Any] = {"": f"ICRT + LipVQ-VAE, {row.label}",
+                                "reads": "instruction and prompt"}
+        for source, result in prompt.items():
+            line[source_label(source, result.preset)] = format_cell(
+                result.cell(row.label, "avg"), digits)
+        out.append(line)
+    for label in PROMPT_BASELINES:
+        line = {"": label, "reads": "instruction only"}
+        for source, result in table1.items():
+            line[source_label(source, result.preset)] = format_cell(
+                result.cell(label, "avg"), digits)
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
 def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, float]:
     """Columns (families or tasks; not "avg") where every row (whose label starts with
     `prefix`, e.g. "icrt+" for the tokenizers) is at 0, or every one at 1: they cannot

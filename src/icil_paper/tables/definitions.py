@@ -58,14 +58,19 @@ def families(tasks: Sequence[str]) -> dict[str, list[str]]:
 
 # --------------------------------------------------------------------------- building blocks
 def _runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str], seeds: int) -> list[RunSpec]:
-    """One RunSpec per training seed (preset.seed, preset.seed + 1, ...)."""
-    base = run_spec(preset, policy, tokenizer, tasks=tasks)
+    """One RunSpec per training seed (preset.seed, preset.seed + 1, ...); seed k trains on
+    demonstration set k (`run_spec`), so that seed k of every row shares its data, as it
+    shares its evaluation scenes (`_eval`) and, for ICRT, its backbone's initial weights and
+    batch order."""
+    runs = [run_spec(preset, policy, tokenizer, tasks=tasks, seed=preset.seed + s)
+            for s in range(seeds)]
     if policy == "mcr":  # image observations; fewer demonstrations (rendering is costly)
         suite = tasks[0].split("/", 1)[0]
         obs = "rgbd" if suite == "maniskill" else "rgb"
-        base = base.replace(data=dataclasses.replace(
-            base.data, obs=obs, demos_per_task=preset.tables.image_demos_per_task))
-    return [base.replace(seed=preset.seed + s) for s in range(seeds)]
+        runs = [run.replace(data=dataclasses.replace(
+            run.data, obs=obs, demos_per_task=preset.tables.image_demos_per_task))
+            for run in runs]
+    return runs
 
 
 def _eval(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
@@ -177,8 +182,9 @@ def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
     """Table III's held-out trajectories for a run trained on the kitchen tasks: the
     `tables.feature_demos_per_task` generated demonstrations after its training ones, of
     which `tables.feature_steps` features are scored in equal shares per task (`per_task`
-    sampling, `icil_paper.eval.features`). It depends on the run's data only, so every
-    training seed of a row scores the same steps, and every table that measures a run
+    sampling, `icil_paper.eval.features`), from the run's own demonstration set. It
+    depends on the run's data only, so seed k of every row scores the same steps, and every
+    table that measures a run
     (III, the codebook use beside I, IV and Fig. 5, `analysis`, `beyond`) shares one record."""
     data = DataSpec(tasks=run.data.tasks, source="generated", obs=run.data.obs,
                     demos_per_task=preset.tables.feature_demos_per_task, seed=run.data.seed)
