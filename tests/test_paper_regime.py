@@ -65,3 +65,54 @@ def test_two_seeds_of_a_row_train_on_different_demonstration_files():
     first, *others = runs.values()
     for other in others:  # seed k of every row: the same data set
         assert [r.data for r in other[:3]] == [r.data for r in first[:3]]
+
+
+TWINS = (("mlp", "lip-mlp"), ("vq", "lipvq"), ("fsq", "lipfsq"), ("rvq", "liprvq"))
+
+
+def _icrt(preset, tokenizer, seed=0):
+    from icil_paper.seeding import seed_everything
+
+    seed_everything(seed)
+    config = dataclasses.replace(preset.policies.icrt, query_len=6)
+    return make_policy(config, SPEC, 7, preset.tokenizers.get(tokenizer))
+
+
+@pytest.mark.parametrize("plain, lipschitz", TWINS)
+def test_a_lipschitz_tokenizer_starts_as_its_plain_twin(plain, lipschitz):
+    """Under one seed, Lip-MLP is MLP at step 0 (LipVQ-VAE is VQ-VAE, ...): the same
+    weights, no row capped, the same embeddings; only Eq. 4's cap and loss differ later."""
+    from icil_paper.tokenizers.lipschitz_linear import lipschitz_layers
+
+    preset = get_preset("reference")
+    a, b = _icrt(preset, plain), _icrt(preset, lipschitz)
+    layers = lipschitz_layers(b.tokenizer)
+    assert layers and all(float(torch.nn.functional.softplus(layer.c.detach()))
+                          >= float(layer.weight.abs().sum(1).max()) for layer in layers)
+    x = torch.randn(4, 9, 7)
+    with torch.no_grad():
+        za, zb = a.tokenizer(x).embeddings, b.tokenizer(x).embeddings
+    assert torch.equal(za, zb)
+    # Liu et al.'s initialisation (the analysis row) is another function at step 0
+    liu = dataclasses.replace(preset.tokenizers.get(lipschitz), lipschitz=dataclasses.replace(
+        preset.tokenizers.get(lipschitz).lipschitz, weight_init="liu"))
+    torch.manual_seed(0)
+    other = make_policy(dataclasses.replace(preset.policies.icrt, query_len=6), SPEC, 7, liu)
+    with torch.no_grad():
+        assert not torch.allclose(other.tokenizer(x).embeddings, za)
+
+
+def test_every_icrt_row_starts_from_the_same_backbone():
+    """Common random numbers: under one seed, every ICRT row's observation encoder,
+    transformer and head start from the same weights whatever its tokenizer."""
+    from icil_paper.tables.definitions import ICRT_TOKENIZERS
+
+    preset = get_preset("reference")
+    policies = [_icrt(preset, tok) for tok in (*ICRT_TOKENIZERS, "lip-mlp")]
+    for part in ("obs_encoder", "transformer", "head", "action_proj", "type_emb"):
+        first = getattr(policies[0], part).state_dict()
+        for policy in policies[1:]:
+            other = getattr(policy, part).state_dict()
+            assert all(torch.equal(first[k], other[k]) for k in first), part
+    assert not torch.equal(_icrt(preset, "mlp", seed=1).head[0].weight,
+                           policies[0].head[0].weight)
