@@ -116,3 +116,34 @@ def test_every_icrt_row_starts_from_the_same_backbone():
             assert all(torch.equal(first[k], other[k]) for k in first), part
     assert not torch.equal(_icrt(preset, "mlp", seed=1).head[0].weight,
                            policies[0].head[0].weight)
+
+
+def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not():
+    from icil_paper.bench.pilot import REGIME_ROWS, regime_plans, regime_preset
+    from icil_paper.tables.definitions import table_spec
+    from icil_paper.tables.execute import plan
+
+    preset = get_preset("reference")
+    reference = plan([table_spec(preset, "I")])
+    used = ({p.run.seed for p in reference}, {p.run.data.seed for p in reference},
+            {ev.seed for p in reference for ev in p.evals.values()})
+    pilot = regime_plans(regime_preset(10, 500), seeds=2)
+    assert {p.run.label for p in pilot} == {f"{a}+{b}" if b else a for a, b in REGIME_ROWS}
+    mine = ({p.run.seed for p in pilot}, {p.run.data.seed for p in pilot},
+            {ev.seed for p in pilot for ev in p.evals.values()})
+    for ours, theirs in zip(mine, used, strict=True):
+        assert ours and not ours & theirs
+    # the bounds' rate follows the pilot's budget as the presets' follows theirs
+    assert regime_preset(10, 2000).tokenizers.lipvq.lipschitz.c_lr_scale == pytest.approx(
+        preset.tokenizers.lipvq.lipschitz.c_lr_scale)
+    assert regime_preset(10, 500).tokenizers.lipvq.lipschitz.c_lr_scale > 3 * \
+        preset.tokenizers.lipvq.lipschitz.c_lr_scale
+
+
+def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise():
+    from icil_paper.bench.pilot import plateau
+
+    rising = {500: [0.2, 0.25], 1000: [0.5, 0.55], 2000: [0.7, 0.72], 4000: [0.71, 0.73]}
+    assert plateau(rising, episodes=55) == 2000
+    assert plateau({500: [0.1, 0.1], 1000: [0.4, 0.41], 2000: [0.8, 0.79]}, 55) is None
+    assert plateau({500: [0.3], 1000: [0.32], 2000: [0.6]}, 55) == 500  # binomial noise

@@ -429,3 +429,45 @@ def pilot_frame(path: str | None = None, table: str = "I"):
                              if not ok)
     frame = pd.DataFrame(lines).set_index(["setting", "row"])
     return frame.sort_index(), flat
+
+
+def regime_summary(path: str | None = None) -> tuple[Any, str]:
+    """The stored regime pilot (`results/bench/regime.json`) as (frame, sentence): one line
+    per row, its success per family at the chosen budget, and its learning curve; the
+    sentence says which budget was chosen, whether the learning curve of ICRT + LipVQ-VAE
+    reached a plateau, which of its families lie outside `REGIME_RANGE` and the capped share
+    of encoder rows per seed. (None, sentence) when there is no record."""
+    import pandas as pd
+
+    from icil_paper.bench import bench_path
+
+    source = path or bench_path("regime")
+    if not os.path.exists(source):
+        return None, ("The regime pilot has not been run here (`python -m "
+                      "icil_paper.bench.pilot regime` writes `results/bench/regime.json`).")
+    record = json.loads(open(source).read())
+    lines = []
+    for row, fam in record["families"].items():
+        line = {"row": row, **fam}
+        for steps, value in record["learning_curve"].get(row, {}).items():
+            line[f"avg at {steps} steps"] = value
+        lines.append(line)
+    frame = pd.DataFrame(lines).set_index("row") if lines else None
+    low, high = REGIME_RANGE
+    outside = [f for f, ok in record.get("within_range", {}).items() if not ok]
+    steps = record.get("train_steps")
+    text = (f"{record['seeds']} pilot seed(s) (seed indices {record['seed_indices']}, which "
+            f"the reference run does not use), {record['demos_per_task']} demonstrations a "
+            f"task; budgets {record['budgets']}. ")
+    if steps is None:
+        text += "No budget has all its records yet."
+    else:
+        text += (f"ICRT + LipVQ-VAE's learning curve {'levels off' if record['plateau_reached'] else 'still rises'} "
+                 f"at {steps} steps; there, its families outside [{low}, {high}]: "
+                 f"{', '.join(outside) or 'none'}.")
+    shares = {row: [None if v is None else round(v, 3) for v in s]
+              for row, s in record.get("capped_share", {}).items()}
+    if shares:
+        text += " Capped share of encoder rows per seed: " + "; ".join(
+            f"{row} {s}" for row, s in shares.items()) + "."
+    return frame, text
