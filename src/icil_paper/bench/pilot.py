@@ -308,7 +308,8 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
         "train_steps": at, "plateau_reached": chosen is not None,
         "demos_per_task": demos_per_task, "seeds": seeds,
         "seed_indices": list(range(REGIME_SEED, REGIME_SEED + seeds)),
-        "budgets": list(budgets), "families": {}, "maniskill": {},
+        "budgets": list(budgets), "budgets_done": sorted(b for b, v in lip.items() if v),
+        "families": {}, "maniskill": {},
         "learning_curve": {row: {str(b): _mean(v) for b, v in sorted(c.items())}
                            for row, c in curve.items()},
         "capped_share": {}}
@@ -459,8 +460,13 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     text = (f"{record['seeds']} pilot seed(s) (seed indices {record['seed_indices']}, which "
             f"the reference run does not use), {record['demos_per_task']} demonstrations a "
             f"task; budgets {record['budgets']}. ")
+    done = record.get("budgets_done", record["budgets"])
     if steps is None:
         text += "No budget has all its records yet."
+    elif not record["plateau_reached"] and len(done) < len(record["budgets"]):
+        text += (f"The learning curve is incomplete: ICRT + LipVQ-VAE has every record at "
+                 f"{done} steps only, so no plateau is chosen yet; the families below are "
+                 f"at {steps} steps.")
     else:
         text += (f"ICRT + LipVQ-VAE's learning curve {'levels off' if record['plateau_reached'] else 'still rises'} "
                  f"at {steps} steps; there, its families outside [{low}, {high}]: "
