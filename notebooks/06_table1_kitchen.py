@@ -87,9 +87,8 @@ display(Markdown("Columns that no row of a setting separates (every row at 0, or
 # ICRT + LipVQ-VAE's level alone, never from a comparison between rows.
 
 # %% tags=["hide-input"]
-from icil_paper.bench.pilot import regime_summary
-
 from icil_paper import paper_numbers
+from icil_paper.bench.pilot import regime_summary
 
 paper_lipvq = [v for k, v in paper_numbers.TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
 display(Markdown(f"The paper's ICRT + LipVQ-VAE over its seven families: "

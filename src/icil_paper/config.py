@@ -26,10 +26,15 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from icil_paper import paper_numbers
 from icil_paper.config_data import NOT_KEYED, check_fields, field_docs, to_dict, with_overrides
 from icil_paper.policies.configs import POLICY_REGISTRY
 from icil_paper.registry import ComponentRegistry, check_name
-from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY, TokenizerStudyConfig
+from icil_paper.tokenizers.configs import (
+    TOKENIZER_REGISTRY,
+    LipschitzOptions,
+    TokenizerStudyConfig,
+)
 
 PRESET_NAMES = ("smoke", "small", "reference", "full")
 DEFAULT_PRESET = "small"
@@ -389,10 +394,10 @@ def bound_travel(train: TrainConfig, c_lr_scale: float = 1.0) -> float:
     return train.lr * c_lr_scale * schedule_sum(train.warmup_steps, train.steps)
 
 
-PAPER_TRAIN = TrainConfig(steps=500_000, warmup_steps=2000)
+PAPER_TRAIN = TrainConfig(steps=paper_numbers.ITERATIONS["kitchen"], warmup_steps=2000)
 """The paper's RoboCasa training as the `full` preset runs it: 500K iterations
 (`paper_numbers.ITERATIONS`) at the trainer's learning rate, 2000 warm-up steps."""
-PAPER_MANISKILL_TRAIN = TrainConfig(steps=30_000, warmup_steps=2000)
+PAPER_MANISKILL_TRAIN = TrainConfig(steps=paper_numbers.ITERATIONS["maniskill"], warmup_steps=2000)
 """The paper's ManiSkill training: 30K iterations (`paper_numbers.ITERATIONS`)."""
 
 
@@ -412,8 +417,6 @@ def _lipschitz_twins(train: TrainConfig, c_lr_scale: float | None = None
     `fsq`, `rvq`) built from the same seed and differs from it only by Eq. 4 (Liu et al.'s
     initialisation is an analysis row); and bounds that can travel as far as in the paper's
     500K iterations (`matching_c_lr_scale`, unless `c_lr_scale` is given)."""
-    from icil_paper.tokenizers.configs import LipschitzOptions
-
     scale = matching_c_lr_scale(train) if c_lr_scale is None else c_lr_scale
     options = LipschitzOptions(weight_init="linear", c_lr_scale=round(scale, 3))
     return {name: {"lipschitz": options} for name in ("lip-mlp", "lipvq", "lipfsq", "liprvq")}

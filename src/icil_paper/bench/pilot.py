@@ -198,15 +198,19 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False) -> list[Any]:
     .. REGIME_SEED + seeds - 1, each evaluated on every task on its own scene set, and the
     Lipschitz rows' tokenizer features (their capped share of rows)."""
     from icil_paper.runspec import eval_key, feature_key, run_spec
-    from icil_paper.tables.definitions import _eval, feature_spec, maniskill_settings
-    from icil_paper.tables.definitions import maniskill_tokenizer
+    from icil_paper.tables.definitions import (
+        feature_spec,
+        maniskill_settings,
+        maniskill_tokenizer,
+        table_eval,
+    )
     from icil_paper.tables.execute import RunPlan
 
     out = []
     for k in range(REGIME_SEED, REGIME_SEED + seeds):
         for policy, tokenizer in REGIME_ROWS:
             run = run_spec(preset, policy, tokenizer, seed=preset.seed + k)
-            evals = [_eval(preset, run, task, k) for task in preset.data.kitchen_tasks]
+            evals = [table_eval(preset, run, task, k) for task in preset.data.kitchen_tasks]
             features = ([feature_spec(preset, run)] if tokenizer and "lip" in tokenizer else [])
             out.append(RunPlan(run, {eval_key(run, e): e for e in evals},
                                {feature_key(run, f): f for f in features}))
@@ -220,7 +224,7 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False) -> list[Any]:
                 train = dataclasses.replace(run.train, steps=steps)
                 run = run.replace(data=dataclasses.replace(run.data, demos_per_task=demos),
                                   train=train, tokenizer=maniskill_tokenizer(run, train))
-                ev = _eval(evaluated, run, task, k)
+                ev = table_eval(evaluated, run, task, k)
                 out.append(RunPlan(run, {eval_key(run, ev): ev}))
     return out
 

@@ -37,7 +37,6 @@ from icil_paper.policies.batching import DemoSet, ObsSpec, as_demo_set, as_obs_s
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.tokenizers.configs import TokenizerConfig
 
-
 TOKENIZER_SEED_OFFSET = 0x5EED
 """Added to torch's seed for the stream a policy's tokenizer is built from (`make_tokenizer`)."""
 

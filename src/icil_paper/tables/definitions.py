@@ -97,6 +97,12 @@ def _eval(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
                      scenes=scenes, **prompt)
 
 
+def table_eval(preset: Preset, run: RunSpec, task: str, seed_index: int = 0) -> EvalSpec:
+    """The evaluation every table gives training seed `seed_index` of a row on `task`
+    (`_eval`: its episodes, scene set and prompts); the pilots evaluate as the tables do."""
+    return _eval(preset, run, task, seed_index)
+
+
 def _cell(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str], **prompt) -> Cell:
     return Cell(tuple(Unit(s, run, _eval(preset, run, task, s, **prompt))
                       for s, run in enumerate(runs) for task in tasks))

@@ -40,7 +40,6 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-
 WEIGHT_INITS = ("liu", "randn", "linear")
 """`LipschitzLinear`'s weight initialisations (`LipschitzOptions.weight_init`)."""
 
