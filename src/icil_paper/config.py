@@ -569,14 +569,16 @@ def _reference() -> Preset:
 
     Projected cost at these settings (`tables.design.plan_cost`, from the rates of
     `results/bench/cells.json`, measured before policies read the instruction, which adds
-    one bag-of-words lookup per step): 433 trained cells, 25.8 core-hours of training and
-    evaluation (17.7 of training), 12.9 hours at two cells at a time, plus the generation of
-    10 demonstration sets (4230 demonstrations; `results/bench/datasets.json` gives the CPU
-    time per demonstration, which `plan_cost` adds). That is above the 12-hour target; the
-    issue's rule is to cut episodes per seed before seeds (4 episodes: 12.25 hours, 3: 11.6,
-    before the data), but the regime pilot (`python -m icil_paper.bench.pilot regime`) is
-    to set the training steps and demonstrations first, so the episodes stay at 5 until it
-    has.
+    one bag-of-words lookup per step, and of `results/bench/datasets.json`): 433 trained
+    cells, 25.8 core-hours of training and evaluation (17.7 of training), and 2.1
+    core-hours to generate the 10 demonstration sets (4230 demonstrations at 0.90
+    CPU-seconds per kitchen and 1.8 per ManiSkill demonstration, images ten times that;
+    about nine tenths of it is new, since every seed used to share set 0): 14.0 hours at
+    two cells at a time, above the 12-hour target. The rule is to cut episodes per seed
+    before seeds, but 4 episodes a task give 13.3 hours and 3 give 12.6, so the target
+    cannot be met by episodes alone; and the regime pilot (`python -m
+    icil_paper.bench.pilot regime`) is to set the training steps and demonstrations
+    first. The episodes therefore stay at 5 until the regime is chosen.
 
     Cost: before the run, from the rates measured in `results/bench/cells.json`
     (`python -m icil_paper.tables.design --preset reference`), 370 trained cells came to
