@@ -147,3 +147,20 @@ def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise
     assert plateau(rising, episodes=55) == 2000
     assert plateau({500: [0.1, 0.1], 1000: [0.4, 0.41], 2000: [0.8, 0.79]}, 55) is None
     assert plateau({500: [0.3], 1000: [0.32], 2000: [0.6]}, 55) == 500  # binomial noise
+
+
+def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
+    import json
+
+    from icil_paper.tables.definitions import TABLES, table_spec
+    from icil_paper.tables.design import data_cost
+    from icil_paper.tables.execute import plan
+
+    rates = tmp_path / "datasets.json"
+    rates.write_text(json.dumps({"suites": {"kitchen": {"cpu_s_per_demo": 1.0},
+                                            "maniskill": {"cpu_s_per_demo": 2.0}}}))
+    for name, sets in (("small", 1), ("reference", 10)):
+        preset = get_preset(name)
+        cost = data_cost(plan([table_spec(preset, t) for t in TABLES]), rates)
+        assert cost["demonstration_sets"] == sets
+        assert cost["core_s"] >= cost["demos"] * 1.0 > 0  # every demo priced (images more)
