@@ -164,3 +164,27 @@ def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
         cost = data_cost(plan([table_spec(preset, t) for t in TABLES]), rates)
         assert cost["demonstration_sets"] == sets
         assert cost["core_s"] >= cost["demos"] * 1.0 > 0  # every demo priced (images more)
+
+
+def test_seed_correlations_pair_rows_by_seed_index():
+    from icil_paper import stats
+    from icil_paper.tables.assemble import CellResult, TableResult
+    from icil_paper.tables.book import seed_correlation_sentence, seed_correlations
+    from icil_paper.tables.definitions import table_spec
+
+    spec = table_spec(get_preset("smoke"), "IV")
+    labels = [row.label for row in spec.rows]
+    rates = {labels[0]: [0.2, 0.4, 0.6, 0.8], labels[1]: [0.3, 0.5, 0.7, 0.9],
+             labels[2]: [0.9, 0.7, 0.5, 0.3], labels[3]: [0.5, 0.5, 0.5]}
+    cells = {}
+    for label, per_seed in rates.items():
+        data = np.zeros((len(per_seed), 2, 10), bool)
+        for s, rate in enumerate(per_seed):
+            data[s, :, :round(rate * 10)] = True
+        cells[label, "avg"] = CellResult(stats.success_rate(data), data, 0)
+    r = seed_correlations(TableResult(spec, cells, "smoke"))
+    assert r[labels[0], labels[1]] == pytest.approx(1.0)
+    assert r[labels[0], labels[2]] == pytest.approx(-1.0)
+    assert not any(labels[3] in pair for pair in r)  # a constant row has no correlation
+    assert "mean r = " in seed_correlation_sentence({"this build": TableResult(spec, cells,
+                                                                              "smoke")})
