@@ -297,8 +297,8 @@ def seed_correlation_sentence(results: dict[str, TableResult], column: str = "av
     for source, result in results.items():
         r = seed_correlations(result, column)
         if not r:
-            parts.append(f"{source_label(source, result.preset)}: fewer than 3 seeds a row, "
-                         "no correlation")
+            parts.append(f"{source_label(source, result.preset)}: no two rows have results "
+                         "at 3 seed indices or more (nothing to correlate)")
             continue
         icrt = [v for (a, b), v in r.items() if a.startswith("icrt") and b.startswith("icrt")]
         text = (f"{source_label(source, result.preset)}: mean r = {np.mean(list(r.values())):.2f} "
