@@ -192,7 +192,8 @@ def regime_preset(demos_per_task: int, steps: int, overrides: tuple[str, ...] = 
     return preset.replace(tokenizers=dataclasses.replace(preset.tokenizers, **changes))
 
 
-def regime_plans(preset: Any, seeds: int, maniskill: bool = False) -> list[Any]:
+def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
+                 rows: tuple[tuple[str, str | None], ...] = REGIME_ROWS) -> list[Any]:
     """RunPlans of the regime pilot at one setting: every row of `REGIME_ROWS` (and, with
     `maniskill`, `REGIME_MANISKILL_ROWS` on each ManiSkill task) at seed indices REGIME_SEED
     .. REGIME_SEED + seeds - 1, each evaluated on every task on its own scene set, and the
@@ -208,7 +209,7 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False) -> list[Any]:
 
     out = []
     for k in range(REGIME_SEED, REGIME_SEED + seeds):
-        for policy, tokenizer in REGIME_ROWS:
+        for policy, tokenizer in rows:
             run = run_spec(preset, policy, tokenizer, seed=preset.seed + k)
             evals = [table_eval(preset, run, task, k) for task in preset.data.kitchen_tasks]
             features = ([feature_spec(preset, run)] if tokenizer and "lip" in tokenizer else [])
@@ -352,6 +353,9 @@ def regime_main(argv: list[str] | None = None) -> None:
     parser.add_argument("--budgets", type=int, nargs="+", default=list(REGIME_BUDGETS))
     parser.add_argument("--seeds", type=int, default=2)
     parser.add_argument("--maniskill", action="store_true")
+    parser.add_argument("--rows", nargs="+", default=None,
+                        help="train only these kitchen rows (labels such as icrt+lipvq); the "
+                             "record still reports every row that has records")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--summary-only", action="store_true",
                         help="write regime.json from the stored records without training")
@@ -369,11 +373,16 @@ def regime_main(argv: list[str] | None = None) -> None:
     os.environ["ICIL_RESULTS"] = str(root / PILOT_FOLDER)
     os.environ.setdefault("ICIL_RUNS", str(Path("runs") / PILOT_FOLDER))
     budgets = tuple(sorted(set(args.budgets)))
+    labels = {(f"{p}+{t}" if t else p): (p, t) for p, t in REGIME_ROWS}
+    unknown = sorted(set(args.rows or ()) - set(labels))
+    if unknown:
+        parser.error(f"unknown rows {unknown}; the regime pilot's rows are {sorted(labels)}")
+    rows = tuple(labels[r] for r in args.rows) if args.rows else REGIME_ROWS
     if not args.summary_only:
         store = ResultsStore("reference")
         for steps in budgets:  # the cheapest budget first: a stopped pilot has its start
             preset = regime_preset(args.demos, steps)
-            todo = [p for p in regime_plans(preset, args.seeds, args.maniskill)
+            todo = [p for p in regime_plans(preset, args.seeds, args.maniskill, rows)
                     if not plan_done(store, p)]
             if not todo:
                 continue
