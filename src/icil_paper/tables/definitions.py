@@ -28,6 +28,7 @@ from icil_paper.config import (
     bound_travel,
 )
 from icil_paper.runspec import DataSpec, EvalSpec, RunSpec, eval_spec, run_spec
+from icil_paper.seeding import data_set_seed
 from icil_paper.tables.spec import Cell, FeatureSpec, Row, TableSpec, Unit
 
 FAMILY_COLUMNS = paper.FAMILIES
@@ -209,14 +210,17 @@ def table_ii(preset: Preset) -> TableSpec:
 
 def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
     """Table III's held-out trajectories for a run trained on the kitchen tasks: the
-    `tables.feature_demos_per_task` generated demonstrations after its training ones, of
-    which `tables.feature_steps` features are scored in equal shares per task (`per_task`
-    sampling, `icil_paper.eval.features`), from the run's own demonstration set. It
-    depends on the run's data only, so seed k of every row scores the same steps, and every
-    table that measures a run
-    (III, the codebook use beside I, IV and Fig. 5, `analysis`, `beyond`) shares one record."""
+    `tables.feature_demos_per_task` generated demonstrations after the training ones of
+    demonstration set 0 (the preset's data seed), of which `tables.feature_steps` features
+    are scored in equal shares per task (`per_task` sampling, `icil_paper.eval.features`).
+    Every training seed trains on its own set (`_runs`), so no seed has seen them: set 0's
+    runs stop before them and the other seeds' never read set 0. It depends on the run's
+    data size only, so every training seed of a row scores the same steps, and every table
+    that measures a run (III, the codebook use beside I, IV and Fig. 5, `analysis`,
+    `beyond`) shares one record."""
     data = DataSpec(tasks=run.data.tasks, source="generated", obs=run.data.obs,
-                    demos_per_task=preset.tables.feature_demos_per_task, seed=run.data.seed)
+                    demos_per_task=preset.tables.feature_demos_per_task,
+                    seed=data_set_seed(preset.seed, 0))
     return FeatureSpec(data=data, start=run.data.demos_per_task,
                        steps=preset.tables.feature_steps, sampling="per_task")
 
