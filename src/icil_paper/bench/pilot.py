@@ -244,12 +244,28 @@ def _per_seed(store: Any, plans: list[Any]) -> dict[str, list[dict[str, Any]]]:
         capped = None
         for f in p.features.values():
             record = store.get(*features_record(p.run, f))
+            if record is None:  # measured on other held-out trajectories: the share of
+                record = _any_features(store, p.run, f)  # capped rows is the weights' alone
             if record is not None:
                 capped = record["metrics"].get("capped_fraction")
         suite = p.run.data.tasks[0].split("/", 1)[0]
         rows.setdefault(f"{suite}:{p.run.label}", []).append(
             {"seed": p.run.seed, "tasks": tasks, "capped": capped})
     return rows
+
+
+def _any_features(store: Any, run: Any, spec: Any) -> dict[str, Any] | None:
+    """A features record of `run` whatever held-out trajectories it scored (None: none)."""
+    from icil_paper.config_data import canonical_json
+    from icil_paper.records import features_record
+
+    kind, name, config = features_record(run, spec)
+    wanted = canonical_json(config["run"])
+    for record in store.records(kind):
+        if (record.get("name") == name
+                and canonical_json(record.get("config", {}).get("run")) == wanted):
+            return record
+    return None
 
 
 def _mean(values: list[float | None]) -> float | None:
