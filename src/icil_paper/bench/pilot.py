@@ -479,8 +479,9 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     lines = []
     for row, fam in record["families"].items():
         line = {"row": row, **fam}
-        for steps, value in record["learning_curve"].get(row, {}).items():
-            line[f"avg at {steps} steps"] = value
+        curve = record["learning_curve"].get(row, {})
+        for steps in sorted(curve, key=int):
+            line[f"avg at {steps} steps"] = curve[steps]
         lines.append(line)
     frame = pd.DataFrame(lines).set_index("row") if lines else None
     low, high = REGIME_RANGE
