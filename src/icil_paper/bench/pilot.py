@@ -470,6 +470,7 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     import pandas as pd
 
     from icil_paper.bench import bench_path
+    from icil_paper.tables.definitions import FAMILY_COLUMNS
 
     source = path or bench_path("regime")
     if not os.path.exists(source):
@@ -478,7 +479,7 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     record = json.loads(open(source).read())
     lines = []
     for row, fam in record["families"].items():
-        line = {"row": row, **fam}
+        line = {"row": row, **{column: fam.get(column) for column in FAMILY_COLUMNS}}
         curve = record["learning_curve"].get(row, {})
         for steps in sorted(curve, key=int):
             line[f"avg at {steps} steps"] = curve[steps]
