@@ -571,9 +571,9 @@ def _reference() -> Preset:
     `results/bench/cells.json`, measured before policies read the instruction, which adds
     one bag-of-words lookup per step, and of `results/bench/datasets.json`): 433 trained
     cells, 25.8 core-hours of training and evaluation (17.7 of training), and 2.1
-    core-hours to generate the 10 demonstration sets (4230 demonstrations at 0.90
+    core-hours to generate the 10 demonstration sets (4131 demonstrations at 0.90
     CPU-seconds per kitchen and 1.8 per ManiSkill demonstration, images ten times that;
-    about nine tenths of it is new, since every seed used to share set 0): 14.0 hours at
+    about nine tenths of it is new, since every seed used to share set 0): 13.95 hours at
     two cells at a time, above the 12-hour target. The rule is to cut episodes per seed
     before seeds, but 4 episodes a task give 13.3 hours and 3 give 12.6, so the target
     cannot be met by episodes alone; and the regime pilot (`python -m
