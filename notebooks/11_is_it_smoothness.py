@@ -32,10 +32,13 @@
 #    zero least energy whatever the encoder does.
 #
 # **The cells.** ICRT on the kitchen suite (Table I's setting) with VQ-VAE and LipVQ-VAE as
-# Table I trains them, and variants of them: a Lipschitz loss weight $\gamma = 1$; initial
-# bounds $c_\ell = 1$; the bounds' learning rate raised to a multiple of the trainer's (the
-# row names the multiple; `LipschitzOptions.c_lr_scale`) at the paper's $\gamma$, so that
-# the bounds can travel their own size within our training; dead-code restarts (every 100
+# Table I trains them (LipVQ-VAE starting as VQ-VAE's twin, nn.Linear's weights with
+# $c_\ell$ at the largest row sum, its bounds learning at the multiple of the trainer's rate
+# that lets them travel as far as over the paper's 500K iterations: chapter 3), and variants
+# of them: a Lipschitz loss weight $\gamma = 1$; initial bounds $c_\ell = 1$; the bounds at
+# the trainer's shared rate (the paper's literal setting, under which they stay within
+# about 0.5 of their start in our training); Liu et al.'s initialisation (the paper's,
+# whose action tokens start several times larger than the plain MLP's); dead-code restarts (every 100
 # training steps unused codes jump to random encoder outputs: a standard remedy for
 # collapse); and ICRT trained on its own 32-step query windows that start anywhere in an
 # episode (Table I's rows train on whole episodes from step 0, the window ICRT acts with).

@@ -205,7 +205,7 @@ def test_padded_batch_matches_single_examples(demos):
                 "prompt_valid": pv[pv][None],
                 "query_obs": {k: v[b:b + 1, qv] for k, v in batch["query_obs"].items()},
                 "query_actions": batch["query_actions"][b:b + 1, qv],
-                "query_valid": qv[qv][None], "instruction": [""],
+                "query_valid": qv[qv][None], "instruction": [batch["instruction"][b]],
             }
             single, _ = policy.predict(one)
             torch.testing.assert_close(pred[b, qv], single[0], atol=1e-5, rtol=0)

@@ -261,7 +261,9 @@ PROBE_SPECS = [EvalSpec(task=f"synthetic/task{k}", episodes=5, seed=k, max_steps
 
 
 def test_outcomes_do_not_depend_on_batch_size_or_workers(demos, pool):
-    policy = build("icrt", "lipvq", demos)
+    # without the instruction: this seed's untrained policy then acts varied enough for the
+    # probe (some episodes succeed early, some run to the limit)
+    policy = build("icrt", "lipvq", demos, language=False)
     prompts = {s.task: [d for d in demos if d.task == s.task] for s in PROBE_SPECS}
 
     def run(**kw):

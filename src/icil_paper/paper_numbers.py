@@ -13,6 +13,10 @@ from __future__ import annotations
 SOURCE = ("Vuong, Vu, An, Reid. Action Tokenizer Matters in In-Context Imitation Learning. "
           "2025. Numbers as printed in the paper.")
 
+# Training iterations (Sec. IV-A): RoboCasa 500K, following RoboCasa's standard setting;
+# ManiSkill 30K, following ManiSkill's baselines.
+ITERATIONS = {"kitchen": 500_000, "maniskill": 30_000}
+
 # The paper's seven RoboCasa skill families (columns of Tables I, VI and VII).
 FAMILIES = ("pick_place", "doors", "drawers", "levers", "knobs", "insertion", "buttons")
 

@@ -25,6 +25,7 @@ from typing import Any
 from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig
 from icil_paper.config_data import ConfigError, check_fields, from_dict, spec_key, to_dict
 from icil_paper.policies.configs import PolicyConfig
+from icil_paper.seeding import data_set_seed
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 SCENE_DISTRIBUTIONS = ("generated", "human")
@@ -190,13 +191,18 @@ def policy_obs(policy: PolicyConfig, obs: str) -> str:
 
 def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerConfig | None = None,
              tasks: Sequence[str] | None = None, source: str = "generated",
-             obs: str | None = None, seed: int | None = None) -> RunSpec:
+             obs: str | None = None, seed: int | None = None,
+             data_set: int | None = None) -> RunSpec:
     """The run a preset describes for `policy` (+ `tokenizer`) on `tasks`.
 
     policy, tokenizer: registry names (their configs come from the preset) or, for the
         tokenizer, a config; None gives the policy's default tokenizer (ICRT: `mlp`).
     tasks: default the preset's kitchen tasks. obs: default the preset's (MCR: `rgb`).
-    seed: training seed (default the preset's); the data seed is always the preset's.
+    seed: training seed (default the preset's).
+    data_set: the demonstration set trained on (`seeding.data_set_seed`); default k for
+        training seed preset.seed + k, so that training seed k of every table row trains
+        on set k (its own expert seeds): seed k of two rows shares its data, two seeds of
+        a row do not. A seed below the preset's trains on set 0.
     """
     from icil_paper.policies import resolve_tokenizer
 
@@ -207,11 +213,15 @@ def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerCon
         default = resolve_tokenizer(policy, None)
         tokenizer = preset.tokenizers.get(default.type) if default is not None else None
     tokenizer = resolve_tokenizer(policy, tokenizer)
+    seed = preset.seed if seed is None else int(seed)
+    if data_set is None:
+        data_set = max(0, seed - preset.seed)
     data = DataSpec(tasks=tuple(tasks or preset.data.kitchen_tasks), source=source,
                     obs=policy_obs(policy_cfg, obs or preset.data.obs),
-                    demos_per_task=preset.data.demos_per_task, seed=preset.seed)
+                    demos_per_task=preset.data.demos_per_task,
+                    seed=data_set_seed(preset.seed, data_set))
     return RunSpec(data=data, policy=policy_cfg, tokenizer=tokenizer, train=preset.train,
-                   seed=preset.seed if seed is None else int(seed))
+                   seed=seed)
 
 
 def eval_spec(preset: Preset, task: str, episodes: int | None = None, seed: int | None = None,

@@ -1,4 +1,5 @@
-"""The one seeding function of the project, and torch's CPU thread control.
+"""The one seeding function of the project, torch's CPU thread control, and the base seeds
+of a preset's demonstration sets (`data_set_seed`).
 
 Every entry point (CLI command, notebook, test) calls `seed_everything` once with the
 run's seed; nothing else in the library seeds a global generator. `cpu_threads(n)` runs a
@@ -53,3 +54,30 @@ def seed_everything(seed: int, deterministic: bool = True) -> np.random.Generato
             if hasattr(torch.backends, "cudnn"):
                 torch.backends.cudnn.benchmark = False
     return np.random.default_rng(seed)
+
+
+DATA_SET_STRIDE = 10_000
+"""Seed step between the demonstration sets of a preset: set k of base seed b is generated
+from base seed b + k * DATA_SET_STRIDE (`data_set_seed`), so that its demos' scenes are its
+own as long as a set holds fewer demos than this (and b stays below it)."""
+DATA_SETS = 50
+"""Demonstration sets a preset can have: set k's generated demos stay below the `human`
+source's seeds (`data.sources.SOURCE_SEED_OFFSET`, 500_000) for k < 500_000 / DATA_SET_STRIDE."""
+
+
+def data_set_seed(base_seed: int, index: int) -> int:
+    """The base seed of demonstration set `index` of a preset whose seed is `base_seed`:
+    training seed k of every table row trains on set k (`runspec.run_spec`), so two seeds
+    of a row never share their demonstrations, and seed k of two rows always does."""
+    if not 0 <= int(index) < DATA_SETS:
+        raise ValueError(f"demonstration set {index} out of range: a preset has sets 0 .. "
+                         f"{DATA_SETS - 1} (one per training seed)")
+    if not 0 <= int(base_seed) < DATA_SET_STRIDE:
+        raise ValueError(f"base seed {base_seed} must lie in [0, {DATA_SET_STRIDE}) so that "
+                         "the preset's demonstration sets do not overlap")
+    return int(base_seed) + int(index) * DATA_SET_STRIDE
+
+
+def data_set_index(seed: int) -> int:
+    """Which demonstration set a base seed belongs to (0 for every seed below the stride)."""
+    return int(seed) // DATA_SET_STRIDE

@@ -78,13 +78,23 @@ def _cost_hours(field: str) -> float:
     return cost["total"][f"{field}_s"] / 3600
 
 
-def _claims(field: str) -> int:
+def _claims(field: str, ledger: str = "claims.json") -> int:
     """A count of the reference ledger's `summary` (after Holm's correction): `claims`, a
-    verdict (`holds`, `does not hold`, `not run`), `undecided` or `size_excluded`."""
+    verdict (`holds`, `does not hold`, `not run`), `undecided` or `size_excluded`; `ledger`
+    under `results/reference/` (`older-code/claims.json`: the older code's)."""
     from icil_paper.tables.claims import summary
 
-    s = summary(json.loads((REFERENCE / "claims.json").read_text())["claims"])
+    s = summary(json.loads((REFERENCE / ledger).read_text())["claims"])
     return s["counts"][field] if field in s["counts"] else s[field]
+
+
+def _projected_hours() -> float:
+    """The reference preset's projected hours at two cells at a time
+    (`tables.design.plan_cost`, from `results/bench/cells.json` and `datasets.json`)."""
+    from icil_paper.config import get_preset
+    from icil_paper.tables.design import plan_cost
+
+    return plan_cost(get_preset("reference"))["wall_h_at_2"]
 
 
 def _cell_seconds(kind: str) -> float:
@@ -157,6 +167,12 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                            ("claims.undecided", "undecided"),
                            ("claims.size_excluded", "size_excluded"),
                            ("claims.not_run", Verdict.NOT_RUN))},
+    **{f"older_claims.{name}": ("results/reference/older-code/claims.json",
+                                lambda field=field: _claims(field, "older-code/claims.json"))
+       for name, field in (("total", "claims"), ("holds", Verdict.HOLDS),
+                           ("do_not_hold", Verdict.DOES_NOT_HOLD), ("undecided", "undecided"),
+                           ("size_excluded", "size_excluded"))},
+    "design.projected_wall_hours_at_2": ("results/bench/cells.json", _projected_hours),
     **{f"cost.{name}_cell_s": ("results/reference/cost.json",
                                lambda kind=kind: _cell_seconds(kind))
        for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),

@@ -21,6 +21,7 @@ the rows.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 from typing import Any
@@ -158,8 +159,269 @@ def main(argv: list[str] | None = None) -> None:
     save_benchmark("pilot", record, out)
 
 
+# --------------------------------------------------------------------------- the regime
+REGIME_ROWS = (("icrt", "lipvq"), ("icrt", "lip-mlp"), ("bc_transformer", None))
+"""The kitchen rows the regime pilot trains; only ICRT + LipVQ-VAE's level sets the regime,
+the others are reported beside it."""
+REGIME_MANISKILL_ROWS = (("act", "lipvq"),)
+"""The ManiSkill rows of the regime pilot (one policy per task, as Table II)."""
+REGIME_SEED = 20
+"""The regime pilot's first seed index: its training seeds, demonstration sets
+(`seeding.data_set_seed`) and scene sets are preset.seed + 20, 21, ...; the reference run
+uses 0-9, so choosing the regime cannot select for a result the reference run reports."""
+REGIME_BUDGETS = (500, 1000, 2000, 4000)
+"""Training steps of the regime pilot's learning curve (at least three)."""
+REGIME_RANGE = (0.1, 0.9)
+"""Every family of ICRT + LipVQ-VAE at its plateau should lie in this range."""
+
+
+def regime_preset(demos_per_task: int, steps: int, overrides: tuple[str, ...] = ()) -> Any:
+    """The reference preset at a pilot setting (demonstrations per task, training steps),
+    its Lipschitz bounds' learning-rate multiple matched to those steps as the presets match
+    theirs (`config.matching_c_lr_scale`)."""
+    from icil_paper.config import get_preset, matching_c_lr_scale
+
+    preset = get_preset("reference").with_overrides(
+        [f"data.demos_per_task={demos_per_task}", f"train.steps={steps}", *overrides])
+    scale = round(matching_c_lr_scale(preset.train), 3)
+    changes = {}
+    for field in ("lip_mlp", "lipvq", "lipfsq", "liprvq"):
+        tok = getattr(preset.tokenizers, field)
+        changes[field] = dataclasses.replace(tok, lipschitz=dataclasses.replace(
+            tok.lipschitz, c_lr_scale=scale))
+    return preset.replace(tokenizers=dataclasses.replace(preset.tokenizers, **changes))
+
+
+def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
+                 rows: tuple[tuple[str, str | None], ...] = REGIME_ROWS) -> list[Any]:
+    """RunPlans of the regime pilot at one setting: every row of `REGIME_ROWS` (and, with
+    `maniskill`, `REGIME_MANISKILL_ROWS` on each ManiSkill task) at seed indices REGIME_SEED
+    .. REGIME_SEED + seeds - 1, each evaluated on every task on its own scene set, and the
+    Lipschitz rows' tokenizer features (their capped share of rows)."""
+    from icil_paper.runspec import eval_key, feature_key, run_spec
+    from icil_paper.tables.definitions import (
+        feature_spec,
+        maniskill_settings,
+        maniskill_tokenizer,
+        table_eval,
+    )
+    from icil_paper.tables.execute import RunPlan
+
+    out = []
+    for k in range(REGIME_SEED, REGIME_SEED + seeds):
+        for policy, tokenizer in rows:
+            run = run_spec(preset, policy, tokenizer, seed=preset.seed + k)
+            evals = [table_eval(preset, run, task, k) for task in preset.data.kitchen_tasks]
+            features = ([feature_spec(preset, run)] if tokenizer and "lip" in tokenizer else [])
+            out.append(RunPlan(run, {eval_key(run, e): e for e in evals},
+                               {feature_key(run, f): f for f in features}))
+        if not maniskill:
+            continue
+        demos, steps, episodes = maniskill_settings(preset)
+        evaluated = preset.replace(eval={"episodes_per_task": episodes})
+        for policy, tokenizer in REGIME_MANISKILL_ROWS:
+            for task in preset.data.maniskill_tasks:
+                run = run_spec(preset, policy, tokenizer, tasks=[task], seed=preset.seed + k)
+                train = dataclasses.replace(run.train, steps=steps)
+                run = run.replace(data=dataclasses.replace(run.data, demos_per_task=demos),
+                                  train=train, tokenizer=maniskill_tokenizer(run, train))
+                ev = table_eval(evaluated, run, task, k)
+                out.append(RunPlan(run, {eval_key(run, ev): ev}))
+    return out
+
+
+def _per_seed(store: Any, plans: list[Any]) -> dict[str, list[dict[str, Any]]]:
+    """{row label: [per seed: {"tasks": {task: success}, "capped": share or None}]} from the
+    stored records (None where a record is missing)."""
+    from icil_paper.records import eval_record, features_record
+
+    rows: dict[str, list[dict[str, Any]]] = {}
+    for p in plans:
+        tasks = {}
+        for ev in p.evals.values():
+            record = store.get(*eval_record(p.run, ev))
+            tasks[ev.task] = None if record is None else record["metrics"]["success_rate"]
+        capped = None
+        for f in p.features.values():
+            record = store.get(*features_record(p.run, f))
+            if record is None:  # measured on other held-out trajectories: the share of
+                record = _any_features(store, p.run, f)  # capped rows is the weights' alone
+            if record is not None:
+                capped = record["metrics"].get("capped_fraction")
+        suite = p.run.data.tasks[0].split("/", 1)[0]
+        rows.setdefault(f"{suite}:{p.run.label}", []).append(
+            {"seed": p.run.seed, "tasks": tasks, "capped": capped})
+    return rows
+
+
+def _any_features(store: Any, run: Any, spec: Any) -> dict[str, Any] | None:
+    """A features record of `run` whatever held-out trajectories it scored (None: none)."""
+    from icil_paper.config_data import canonical_json
+    from icil_paper.records import features_record
+
+    kind, name, config = features_record(run, spec)
+    wanted = canonical_json(config["run"])
+    for record in store.records(kind):
+        if (record.get("name") == name
+                and canonical_json(record.get("config", {}).get("run")) == wanted):
+            return record
+    return None
+
+
+def _mean(values: list[float | None]) -> float | None:
+    values = [v for v in values if v is not None]
+    return round(float(sum(values) / len(values)), 4) if values else None
+
+
+def plateau(curve: dict[int, list[float]], episodes: int) -> int | None:
+    """The first budget of a learning curve ({steps: per-seed averages}) after which the next
+    budget gains nothing beyond noise: its mean gain is within two standard errors (from the
+    per-seed spread with two seeds or more, else the episodes' binomial noise of `episodes`
+    rollouts in all). None when every budget still gains."""
+    import math
+
+    budgets = sorted(curve)
+    for a, b in zip(budgets, budgets[1:], strict=False):
+        x, y = curve[a], curve[b]
+        if not x or not y:
+            return None
+        mx, my = sum(x) / len(x), sum(y) / len(y)
+        if len(x) > 1 and len(y) > 1:
+            vx = sum((v - mx) ** 2 for v in x) / (len(x) - 1)
+            vy = sum((v - my) ** 2 for v in y) / (len(y) - 1)
+            se = math.sqrt(vx / len(x) + vy / len(y))
+        else:
+            p = min(max((mx + my) / 2, 0.05), 0.95)
+            se = math.sqrt(2 * p * (1 - p) / max(1, episodes))
+        if my - mx <= 2 * se:
+            return a
+    return None
+
+
+def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
+                  maniskill: bool = False) -> dict[str, Any]:
+    """The regime pilot's record (`results/bench/regime.json`'s schema) from the stored
+    records of every budget: the learning curve of every row, the plateau of ICRT +
+    LipVQ-VAE (`plateau`), and at that budget (or the last one, when no plateau is reached)
+    each row's success per family (ManiSkill: per task) and its capped share of encoder
+    rows per seed. Difficulty is read from ICRT + LipVQ-VAE's level alone."""
+    from icil_paper.results import ResultsStore
+    from icil_paper.tables.definitions import families
+
+    store = ResultsStore("reference")
+    curve: dict[str, dict[int, list[float]]] = {}
+    by_budget = {}
+    for steps in budgets:
+        preset = regime_preset(demos_per_task, steps)
+        rows = _per_seed(store, regime_plans(preset, seeds, maniskill))
+        by_budget[steps] = rows
+        for label, per_seed in rows.items():
+            if label.startswith("kitchen:"):
+                averages = [_mean(list(s["tasks"].values())) for s in per_seed
+                            if None not in s["tasks"].values()]
+                curve.setdefault(label.split(":", 1)[1], {})[steps] = averages
+    preset = regime_preset(demos_per_task, budgets[-1])
+    kitchen_episodes = preset.eval.episodes_per_task * len(preset.data.kitchen_tasks)
+    lip = curve.get("icrt+lipvq", {})
+    chosen = plateau({b: v for b, v in lip.items() if v}, kitchen_episodes * seeds)
+    at = chosen if chosen is not None else max((b for b, v in lip.items() if v), default=None)
+    record: dict[str, Any] = {
+        "train_steps": at, "plateau_reached": chosen is not None,
+        "demos_per_task": demos_per_task, "seeds": seeds,
+        "seed_indices": list(range(REGIME_SEED, REGIME_SEED + seeds)),
+        "budgets": list(budgets), "budgets_done": sorted(b for b, v in lip.items() if v),
+        "families": {}, "maniskill": {},
+        "learning_curve": {row: {str(b): _mean(v) for b, v in sorted(c.items())}
+                           for row, c in curve.items()},
+        "capped_share": {}}
+    for label, per_seed in (by_budget.get(at, {}) if at is not None else {}).items():
+        suite, row = label.split(":", 1)
+        if suite == "kitchen":
+            fam = {}
+            for column, tasks in families(list(preset.data.kitchen_tasks)).items():
+                fam[column] = _mean([_mean([s["tasks"].get(t) for t in tasks])
+                                     for s in per_seed])
+            record["families"][row] = fam
+            shares = [s["capped"] for s in per_seed]
+            if any(v is not None for v in shares):
+                record["capped_share"][row] = shares
+        else:
+            for s in per_seed:
+                for task, value in s["tasks"].items():
+                    record["maniskill"].setdefault(row, {}).setdefault(
+                        task.split("/", 1)[1], []).append(value)
+    for row, tasks in record["maniskill"].items():
+        record["maniskill"][row] = {t: _mean(v) for t, v in tasks.items()}
+    low, high = REGIME_RANGE
+    fam = record["families"].get("icrt+lipvq", {})
+    record["within_range"] = {f: (v is not None and low <= v <= high) for f, v in fam.items()}
+    return record
+
+
+def regime_main(argv: list[str] | None = None) -> None:
+    """`python -m icil_paper.bench.pilot regime`: train and evaluate the regime pilot's cells
+    not yet stored (resumable: every finished record is kept under `results/pilot/`), then
+    write `results/bench/regime.json`."""
+    from pathlib import Path
+
+    parser = argparse.ArgumentParser(prog="pilot regime", description=regime_main.__doc__)
+    parser.add_argument("--demos", type=int, default=10, help="demonstrations per task")
+    parser.add_argument("--budgets", type=int, nargs="+", default=list(REGIME_BUDGETS))
+    parser.add_argument("--seeds", type=int, default=2)
+    parser.add_argument("--maniskill", action="store_true")
+    parser.add_argument("--rows", nargs="+", default=None,
+                        help="train only these kitchen rows (labels such as icrt+lipvq); the "
+                             "record still reports every row that has records")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--summary-only", action="store_true",
+                        help="write regime.json from the stored records without training")
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args(argv)
+    if len(args.budgets) < 3 or min(args.budgets) < 1 or args.seeds < 1 or args.demos < 1:
+        parser.error("give at least three positive budgets, and positive --seeds and --demos")
+    from icil_paper.bench import save_benchmark
+    from icil_paper.config_data import to_dict
+    from icil_paper.results import ResultsStore, results_root
+    from icil_paper.tables.execute import cell_label, ensure_data, plan_done
+    from icil_paper.tables.grid import Cell, run_grid
+
+    root = results_root()
+    os.environ["ICIL_RESULTS"] = str(root / PILOT_FOLDER)
+    os.environ.setdefault("ICIL_RUNS", str(Path("runs") / PILOT_FOLDER))
+    budgets = tuple(sorted(set(args.budgets)))
+    labels = {(f"{p}+{t}" if t else p): (p, t) for p, t in REGIME_ROWS}
+    unknown = sorted(set(args.rows or ()) - set(labels))
+    if unknown:
+        parser.error(f"unknown rows {unknown}; the regime pilot's rows are {sorted(labels)}")
+    rows = tuple(labels[r] for r in args.rows) if args.rows else REGIME_ROWS
+    if not args.summary_only:
+        store = ResultsStore("reference")
+        for steps in budgets:  # the cheapest budget first: a stopped pilot has its start
+            preset = regime_preset(args.demos, steps)
+            todo = [p for p in regime_plans(preset, args.seeds, args.maniskill, rows)
+                    if not plan_done(store, p)]
+            if not todo:
+                continue
+            ensure_data(preset, todo, progress=False)
+            cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
+                          kwargs={"preset": preset.name, "run": p.run.to_dict(),
+                                  "evals": [to_dict(e) for e in p.evals.values()],
+                                  "features": [to_dict(f) for f in p.features.values()]},
+                          label=f"regime {steps}: {cell_label(p.run)}") for p in todo]
+            run_grid(cells, workers=args.workers)
+    record = regime_record(args.demos, budgets, args.seeds, args.maniskill)
+    print(json.dumps({k: record[k] for k in ("train_steps", "learning_curve", "families",
+                                             "capped_share", "within_range")}), flush=True)
+    save_benchmark("regime", record, args.out or root / "bench" / "regime.json")
+
+
 if __name__ == "__main__":
-    main()
+    import sys
+
+    if sys.argv[1:2] == ["regime"]:
+        regime_main(sys.argv[2:])
+    else:
+        main()
 
 
 def pilot_frame(path: str | None = None, table: str = "I"):
@@ -214,3 +476,52 @@ def show_pilot(table: str = "I", path: str | None = None) -> None:
     frame, flat = pilot_frame(path, table=table)
     display(frame)
     display(Markdown(uninformative_markdown(flat)))
+
+
+def regime_summary(path: str | None = None) -> tuple[Any, str]:
+    """The stored regime pilot (`results/bench/regime.json`) as (frame, sentence): one line
+    per row, its success per family at the chosen budget, and its learning curve; the
+    sentence says which budget was chosen, whether the learning curve of ICRT + LipVQ-VAE
+    reached a plateau, which of its families lie outside `REGIME_RANGE` and the capped share
+    of encoder rows per seed. (None, sentence) when there is no record."""
+    import pandas as pd
+
+    from icil_paper.bench import bench_path
+    from icil_paper.tables.definitions import FAMILY_COLUMNS
+
+    source = path or bench_path("regime")
+    if not os.path.exists(source):
+        return None, ("The regime pilot has not been run here (`python -m "
+                      "icil_paper.bench.pilot regime` writes `results/bench/regime.json`).")
+    record = json.loads(open(source).read())
+    lines = []
+    for row, fam in record["families"].items():
+        line = {"row": row, **{column: fam.get(column) for column in FAMILY_COLUMNS}}
+        curve = record["learning_curve"].get(row, {})
+        for steps in sorted(curve, key=int):
+            line[f"avg at {steps} steps"] = curve[steps]
+        lines.append(line)
+    frame = pd.DataFrame(lines).set_index("row") if lines else None
+    low, high = REGIME_RANGE
+    outside = [f for f, ok in record.get("within_range", {}).items() if not ok]
+    steps = record.get("train_steps")
+    text = (f"{record['seeds']} pilot seed(s) (seed indices {record['seed_indices']}, which "
+            f"the reference run does not use), {record['demos_per_task']} demonstrations a "
+            f"task; budgets {record['budgets']}. ")
+    done = record.get("budgets_done", record["budgets"])
+    if steps is None:
+        text += "No budget has all its records yet."
+    elif not record["plateau_reached"] and len(done) < len(record["budgets"]):
+        text += (f"The learning curve is incomplete: ICRT + LipVQ-VAE has every record at "
+                 f"{done} steps only, so no plateau is chosen yet; the families below are "
+                 f"at {steps} steps.")
+    else:
+        text += (f"ICRT + LipVQ-VAE's learning curve {'levels off' if record['plateau_reached'] else 'still rises'} "
+                 f"at {steps} steps; there, its families outside [{low}, {high}]: "
+                 f"{', '.join(outside) or 'none'}.")
+    shares = {row: [None if v is None else round(v, 3) for v in s]
+              for row, s in record.get("capped_share", {}).items()}
+    if shares:
+        text += " Capped share of encoder rows per seed: " + "; ".join(
+            f"{row} {s}" for row, s in shares.items()) + "."
+    return frame, text

@@ -1,9 +1,12 @@
 """Parallel, resumable demonstration generation: `ensure_demos` and `demo_path`.
 
-One HDF5 file per (preset, task, source) at `demo_path(preset, task, source)`:
+One HDF5 file per (preset, task, source, demonstration set) at
+`demo_path(preset, task, source, seed=...)`; training seed k of a table row trains on set k,
+whose base seed is `seeding.data_set_seed(preset.seed, k)`:
 
     data/<preset>/<suite>/<task>/<source>.hdf5          (state observations)
     data/<preset>/<suite>/<task>/<source>_<obs>.hdf5    (rgb / rgbd observations)
+    data/<preset>/<suite>/<task>/<source>.set<k>.hdf5   (demonstration set k > 0)
 
 under the preset's data folder, `preset.data.root`: `data/` in the repository unless it is set
 (`get_preset` sets it from $ICIL_DATA; an empty value counts as unset).
@@ -65,6 +68,7 @@ from icil_paper.data.sources import (
 )
 from icil_paper.fileio import check_writable, exclusive_lock, set_aside
 from icil_paper.registry import check_name
+from icil_paper.seeding import data_set_index
 
 GENERATOR = "icil_paper.data.generate/2"
 """Written into every data set; a change in how demos are made bumps it (and lists the old
@@ -120,8 +124,11 @@ def check_data_folder(preset: Any) -> Path:
     return path
 
 
-def demo_path(preset_name: Any, task: str, source: str, obs: str | None = None) -> Path:
-    """Where the data set of (preset, task, source) lives (see the module docstring)."""
+def demo_path(preset_name: Any, task: str, source: str, obs: str | None = None,
+              seed: int | None = None) -> Path:
+    """Where the data set of (preset, task, source) lives (see the module docstring);
+    `seed`, its base seed (default the preset's), names demonstration set k > 0
+    (`seeding.data_set_seed`) as `<stem>.set<k>.hdf5`."""
     from icil_paper.sim import OBS_KINDS
 
     preset = _preset(preset_name)
@@ -131,6 +138,9 @@ def demo_path(preset_name: Any, task: str, source: str, obs: str | None = None) 
     if not suite or not rest or any(p in ("", ".", "..") for p in task.split("/")):
         raise ValueError(f"task name {task!r} is not of the form <suite>/<task>")
     stem = source if obs == "state" else f"{source}_{obs}"
+    index = data_set_index(preset.seed if seed is None else seed)
+    if index:
+        stem = f"{stem}.set{index}"
     return data_root(preset) / preset.name / suite / rest / f"{stem}.hdf5"
 
 
@@ -304,7 +314,7 @@ def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
     from icil_paper.sim import ACTION_DIM, get_suite, suite_of
 
     check_name("demo source", source, SOURCES)
-    path = demo_path(preset, task, source, obs)
+    path = demo_path(preset, task, source, obs, seed=base_seed)
     control_freq = int(get_suite(suite_of(task)).control_freq)
     options = _env_options(task, source, env_options)
     attrs: dict[str, Any] = {

@@ -37,6 +37,9 @@ from icil_paper.policies.batching import DemoSet, ObsSpec, as_demo_set, as_obs_s
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.tokenizers.configs import TokenizerConfig
 
+TOKENIZER_SEED_OFFSET = 0x5EED
+"""Added to torch's seed for the stream a policy's tokenizer is built from (`make_tokenizer`)."""
+
 
 class Policy(nn.Module):
     """Base class of ICRT and the baselines.
@@ -78,12 +81,21 @@ class Policy(nn.Module):
                                   separate=separate)
 
     def make_tokenizer(self) -> nn.Module | None:
-        """The action tokenizer `tokenizer_config` describes (None without one)."""
+        """The action tokenizer `tokenizer_config` describes (None without one).
+
+        Common random numbers: it is built from a random stream of its own, forked from
+        torch's (seeded from the seed torch was last seeded with), so that building it
+        draws nothing from the stream the rest of the policy is built from. Under one
+        training seed every row of a policy then starts from the same backbone, whatever its
+        tokenizer, and twins (`lip-mlp` and `mlp`, `lipvq` and `vq`, ... with the presets'
+        `weight_init="linear"`) start from the same tokenizer weights."""
         if self.tokenizer_config is None:
             return None
         from icil_paper.tokenizers import make_tokenizer
 
-        return make_tokenizer(self.tokenizer_config, self.action_dim)
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed((torch.initial_seed() + TOKENIZER_SEED_OFFSET) % 2**63)
+            return make_tokenizer(self.tokenizer_config, self.action_dim)
 
     def no_weight_decay(self) -> list[nn.Parameter]:
         """Parameters the optimiser must not decay (the tokenizer's, if it names any)."""

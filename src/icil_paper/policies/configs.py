@@ -44,8 +44,12 @@ class PolicyConfig:
     resnet_width: int = 64
     """First-stage channels of the ResNet-18 image backbone (torchvision's is 64)."""
     language: bool = False
-    """Add a learned hashed bag-of-words embedding of the instruction to every observation
-    token (stands in for CLIP, which cannot be downloaded here)."""
+    """Add a learned hashed bag-of-words embedding of the task's language instruction to
+    every observation token (`backbones.HashedTextEmbedding`; it stands in for the paper's
+    CLIP, which cannot be downloaded here). The paper conditions every policy on the
+    instruction (Sec. III-B), so every preset sets it for every policy; ICRT reads its
+    prompt besides. False (a bare config's default) gives a policy no task information but
+    what it sees (and ICRT its prompt): the older presets' baselines."""
 
     def __post_init__(self) -> None:
         check_fields(self)  # ranges, empty values, CHOICES: before any work

@@ -236,6 +236,36 @@ def bound_travel(result: TableResult) -> dict[str, float]:
     return out
 
 
+def bound_travel_frame():
+    """How far a bound c_l can travel (Adam's step, about its learning rate, times the sum of
+    the schedule's factors: `config.bound_travel`) over the paper's 500K iterations and over
+    each preset's training, at the trainer's shared rate and at the preset's `c_lr_scale`
+    (`config.matching_c_lr_scale`): one row per preset (and the paper's run)."""
+    import pandas as pd
+
+    from icil_paper.config import (
+        PAPER_TRAIN,
+        PRESET_NAMES,
+        bound_travel,
+        get_preset,
+        schedule_sum,
+    )
+
+    paper = bound_travel(PAPER_TRAIN)
+    rows = [("the paper (500K iterations)", PAPER_TRAIN, 1.0)]
+    rows += [(f"`{name}` preset", p.train, p.tokenizers.lipvq.lipschitz.c_lr_scale)
+             for name in PRESET_NAMES for p in [get_preset(name)]]
+    out = []
+    for label, train, scale in rows:
+        out.append({"": label, "steps": train.steps, "warm-up": train.warmup_steps,
+                    "lr": train.lr,
+                    "sum of schedule factors": schedule_sum(train.warmup_steps, train.steps),
+                    "travel at the shared rate": bound_travel(train),
+                    "c_lr_scale": scale, "travel": bound_travel(train, scale),
+                    "travel / paper's": bound_travel(train, scale) / paper})
+    return pd.DataFrame(out).set_index("")
+
+
 def travel_sentence(result: TableResult) -> str:
     """How far the bounds can move in training against how large they are: the largest
     possible travel of c_l (`bound_travel`, rows of equal travel together) and each

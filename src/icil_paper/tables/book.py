@@ -292,6 +292,80 @@ def show_comparison(results: dict[str, TableResult], column: str = "avg",
     display(_collapsed(_build_summary(build), frame[["paper", build_column]]))
 
 
+PROMPT_BASELINES = ("bc_transformer", "act")
+"""Table I's rows that read the instruction and no prompt, shown beside the prompt ablation."""
+
+
+def prompt_beside_baselines(table1: dict[str, TableResult], prompt: dict[str, TableResult],
+                            digits: int = 3):
+    """The prompt ablation's rows (ICRT + LipVQ-VAE with its task's prompt, another task's,
+    the first steps of its own) beside Table I's baselines, which read the task's language
+    instruction and no prompt: what a prompt adds over the instruction alone. One column
+    per source (reference run, this build), average success with its 95% interval."""
+    import pandas as pd
+
+    out = []
+    any_prompt = next(iter(prompt.values()))
+    for row in any_prompt.spec.rows:
+        line: dict[str, Any] = {"": f"ICRT + LipVQ-VAE, {row.label}",
+                                "reads": "instruction and prompt"}
+        for source, result in prompt.items():
+            line[source_label(source, result.preset)] = format_cell(
+                result.cell(row.label, "avg"), digits)
+        out.append(line)
+    for label in PROMPT_BASELINES:
+        line = {"": label, "reads": "instruction only"}
+        for source, result in table1.items():
+            line[source_label(source, result.preset)] = format_cell(
+                result.cell(label, "avg"), digits)
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
+def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[str, str], float]:
+    """{(row a, row b): Pearson r of their per-seed success at the same seed index}, over
+    the seed indices both rows have (at least 3, and neither row constant over them).
+
+    Seed k of every row shares its demonstration set, its evaluation scenes and, for the
+    ICRT rows, its backbone's initial weights and batch order (common random numbers): the
+    larger r, the more a paired comparison by seed index gains over an unpaired one."""
+    per_seed = {}
+    for row in result.spec.rows:
+        cell = result.cell(row.label, column)
+        if cell is not None and cell.data is not None and np.ndim(cell.data) >= 2:
+            data = np.asarray(cell.data, dtype=np.float64)
+            per_seed[row.label] = data.reshape(len(data), -1).mean(axis=1)
+    out = {}
+    labels = list(per_seed)
+    for i, a in enumerate(labels):
+        for b in labels[i + 1:]:
+            n = min(len(per_seed[a]), len(per_seed[b]))
+            x, y = per_seed[a][:n], per_seed[b][:n]
+            if n >= 3 and x.std() > 0 and y.std() > 0:
+                out[a, b] = float(np.corrcoef(x, y)[0, 1])
+    return out
+
+
+def seed_correlation_sentence(results: dict[str, TableResult], column: str = "avg") -> str:
+    """The mean cross-row correlation of per-seed success in each source (`seed_correlations`),
+    over every pair of rows and over the pairs of ICRT rows."""
+    parts = []
+    for source, result in results.items():
+        r = seed_correlations(result, column)
+        if not r:
+            parts.append(f"{source_label(source, result.preset)}: no two rows have results "
+                         "at 3 seed indices or more (nothing to correlate)")
+            continue
+        icrt = [v for (a, b), v in r.items() if a.startswith("icrt") and b.startswith("icrt")]
+        text = (f"{source_label(source, result.preset)}: mean r = {np.mean(list(r.values())):.2f} "
+                f"over {len(r)} pairs of rows")
+        if icrt:
+            text += f", {np.mean(icrt):.2f} over the {len(icrt)} pairs of ICRT rows"
+        parts.append(text)
+    return ("Correlation of per-seed success between two rows at the same seed index: "
+            + "; ".join(parts) + ".")
+
+
 def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, float]:
     """Columns (families or tasks; not "avg") where every row (whose label starts with
     `prefix`, e.g. "icrt+" for the tokenizers) is at 0, or every one at 1: they cannot

@@ -20,8 +20,15 @@ import dataclasses
 from collections.abc import Callable, Sequence
 
 from icil_paper import paper_numbers as paper
-from icil_paper.config import Preset
+from icil_paper.config import (
+    PAPER_MANISKILL_TRAIN,
+    PAPER_TRAIN,
+    Preset,
+    TrainConfig,
+    bound_travel,
+)
 from icil_paper.runspec import DataSpec, EvalSpec, RunSpec, eval_spec, run_spec
+from icil_paper.seeding import data_set_seed
 from icil_paper.tables.spec import Cell, FeatureSpec, Row, TableSpec, Unit
 
 FAMILY_COLUMNS = paper.FAMILIES
@@ -58,14 +65,19 @@ def families(tasks: Sequence[str]) -> dict[str, list[str]]:
 
 # --------------------------------------------------------------------------- building blocks
 def _runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str], seeds: int) -> list[RunSpec]:
-    """One RunSpec per training seed (preset.seed, preset.seed + 1, ...)."""
-    base = run_spec(preset, policy, tokenizer, tasks=tasks)
+    """One RunSpec per training seed (preset.seed, preset.seed + 1, ...); seed k trains on
+    demonstration set k (`run_spec`), so that seed k of every row shares its data, as it
+    shares its evaluation scenes (`_eval`) and, for ICRT, its backbone's initial weights and
+    batch order."""
+    runs = [run_spec(preset, policy, tokenizer, tasks=tasks, seed=preset.seed + s)
+            for s in range(seeds)]
     if policy == "mcr":  # image observations; fewer demonstrations (rendering is costly)
         suite = tasks[0].split("/", 1)[0]
         obs = "rgbd" if suite == "maniskill" else "rgb"
-        base = base.replace(data=dataclasses.replace(
-            base.data, obs=obs, demos_per_task=preset.tables.image_demos_per_task))
-    return [base.replace(seed=preset.seed + s) for s in range(seeds)]
+        runs = [run.replace(data=dataclasses.replace(
+            run.data, obs=obs, demos_per_task=preset.tables.image_demos_per_task))
+            for run in runs]
+    return runs
 
 
 def _eval(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
@@ -84,6 +96,12 @@ def _eval(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
     seed = preset.seed + seed_index if preset.tables.scenes_per_seed else None
     return eval_spec(preset, task, episodes=episodes, seed=seed, max_steps=max_steps,
                      scenes=scenes, **prompt)
+
+
+def table_eval(preset: Preset, run: RunSpec, task: str, seed_index: int = 0) -> EvalSpec:
+    """The evaluation every table gives training seed `seed_index` of a row on `task`
+    (`_eval`: its episodes, scene set and prompts); the pilots evaluate as the tables do."""
+    return _eval(preset, run, task, seed_index)
 
 
 def _cell(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str], **prompt) -> Cell:
@@ -145,6 +163,22 @@ def maniskill_settings(preset: Preset) -> tuple[int, int, int]:
             t.maniskill_episodes_per_task or preset.eval.episodes_per_task)
 
 
+def maniskill_tokenizer(run: RunSpec, train: TrainConfig):
+    """`run`'s tokenizer for Table II's training `train`: a Lipschitz tokenizer's bounds get
+    the learning-rate multiple that lets them travel, relative to the paper's 30K ManiSkill
+    iterations, as far as the preset's multiple lets them in its kitchen training relative
+    to the paper's 500K (`config.matching_c_lr_scale`); every other tokenizer is unchanged."""
+    tok = run.tokenizer
+    options = getattr(tok, "lipschitz", None)
+    lipschitz = getattr(tok, "norm", "lipschitz").startswith("lipschitz")  # lip-mlp: always
+    if options is None or not lipschitz or train == run.train:
+        return tok
+    factor = (bound_travel(run.train) / bound_travel(train)
+              * bound_travel(PAPER_MANISKILL_TRAIN) / bound_travel(PAPER_TRAIN))
+    return dataclasses.replace(tok, lipschitz=dataclasses.replace(
+        options, c_lr_scale=round(options.c_lr_scale * factor, 3)))
+
+
 def table_ii(preset: Preset) -> TableSpec:
     demos, steps, episodes = maniskill_settings(preset)
     evaluated = preset.replace(eval={"episodes_per_task": episodes})  # MCR: image episodes
@@ -152,8 +186,9 @@ def table_ii(preset: Preset) -> TableSpec:
     def state_run(run: RunSpec) -> RunSpec:  # MCR's image runs keep their data and steps
         if run.policy.type == "mcr":
             return run
+        train = dataclasses.replace(run.train, steps=steps)
         return run.replace(data=dataclasses.replace(run.data, demos_per_task=demos),
-                           train=dataclasses.replace(run.train, steps=steps))
+                           train=train, tokenizer=maniskill_tokenizer(run, train))
 
     rows = []
     for policy, tokenizer in TABLE_II_ROWS:
@@ -175,13 +210,17 @@ def table_ii(preset: Preset) -> TableSpec:
 
 def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
     """Table III's held-out trajectories for a run trained on the kitchen tasks: the
-    `tables.feature_demos_per_task` generated demonstrations after its training ones, of
-    which `tables.feature_steps` features are scored in equal shares per task (`per_task`
-    sampling, `icil_paper.eval.features`). It depends on the run's data only, so every
-    training seed of a row scores the same steps, and every table that measures a run
-    (III, the codebook use beside I, IV and Fig. 5, `analysis`, `beyond`) shares one record."""
+    `tables.feature_demos_per_task` generated demonstrations after the training ones of
+    demonstration set 0 (the preset's data seed), of which `tables.feature_steps` features
+    are scored in equal shares per task (`per_task` sampling, `icil_paper.eval.features`).
+    Every training seed trains on its own set (`_runs`), so no seed has seen them: set 0's
+    runs stop before them and the other seeds' never read set 0. It depends on the run's
+    data size only, so every training seed of a row scores the same steps, and every table
+    that measures a run (III, the codebook use beside I, IV and Fig. 5, `analysis`,
+    `beyond`) shares one record."""
     data = DataSpec(tasks=run.data.tasks, source="generated", obs=run.data.obs,
-                    demos_per_task=preset.tables.feature_demos_per_task, seed=run.data.seed)
+                    demos_per_task=preset.tables.feature_demos_per_task,
+                    seed=data_set_seed(preset.seed, 0))
     return FeatureSpec(data=data, start=run.data.demos_per_task,
                        steps=preset.tables.feature_steps, sampling="per_task")
 
@@ -363,18 +402,22 @@ ANALYSIS_VARIANTS = (
     ("icrt+lipvq (paper)", "lipvq", {}),
     ("gamma = 1", "lipvq", {"lipschitz": {"weight": 1.0}}),
     ("c_l init 1", "lipvq", {"lipschitz": {"c_init": 1.0}}),
-    ("c_l lr x100", "lipvq", {"lipschitz": {"c_lr_scale": 100.0}}),
+    ("c_l at the shared rate", "lipvq", {"lipschitz": {"c_lr_scale": 1.0}}),
+    ("Liu et al. init", "lipvq", {"lipschitz": {"weight_init": "liu"}}),
     ("vq + dead-code restart", "vq", {"dead_code_restart": 100}),
     ("lipvq + dead-code restart", "lipvq", {"dead_code_restart": 100}),
     ("lipvq, 32-step random windows", "lipvq", {"_policy": {"query_len": 32,
                                                            "query_start": "random"}}),
 )
 """The analysis chapter's rows: (label, tokenizer, changes). Tokenizer changes are fields of
-its config (`lipschitz` a nested section); `_policy` changes ICRT's config. The `c_l lr`
-row keeps the paper's gamma and raises the bounds' learning rate (`c_lr_scale`, a multiple
-of the trainer's) so far that the bounds can travel their own size (5-14 at Liu et al.'s
-initialisation) within the reference preset's training, so that the loss rather than the
-learning rate can decide where they end; chapter 11 measures whether Eq. 4 then binds."""
+its config (`lipschitz` a nested section); `_policy` changes ICRT's config. The presets'
+Lipschitz tokenizers start as their plain twins (nn.Linear's initialisation, c at the
+initial largest row sum) and their bounds learn at the multiple of the trainer's rate that
+lets them travel as far as in the paper's 500K iterations (`config.matching_c_lr_scale`).
+`c_l at the shared rate` is the paper's literal setting at our budget (one rate for every
+parameter: the bounds stay within about 0.5 of where they start), and the `Liu et al.
+init` row starts from Liu et al.'s weights (8x larger action tokens at step 0
+than the plain MLP's), as the paper writes them; chapter 11 measures whether Eq. 4 binds."""
 
 
 def _variant(preset: Preset, tokenizer: str, changes: dict) -> tuple:

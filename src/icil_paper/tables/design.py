@@ -229,10 +229,36 @@ def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, 
                 steps = min(steps, ev.max_steps)
             k["episodes"] += ev.episodes
             k["eval_s"] += ev.episodes * steps / rates["env_steps_per_s"].get(suite, 150.0) * images
-    total = sum(k["train_s"] + k["eval_s"] for k in kinds.values())
+    data = data_cost(plans)
+    total = sum(k["train_s"] + k["eval_s"] for k in kinds.values()) + data["core_s"]
     return {"kinds": {name: {f: round(v, 1) for f, v in k.items()} for name, k in kinds.items()},
-            "cells": len(plans), "core_s": round(total, 1),
+            "data": data, "cells": len(plans), "core_s": round(total, 1),
             "wall_h_at_2": round(total / 2 / 3600, 2)}
+
+
+def data_cost(plans, path: str | Path | None = None) -> dict[str, Any]:
+    """What generating the plans' demonstration sets costs: the sets (one per task, source,
+    observation kind and demonstration set: training seed k reads set k), their
+    demonstrations, and core-seconds at the per-demonstration CPU time measured by
+    `python -m icil_paper.bench.datasets` (`results/bench/datasets.json`; images
+    `IMAGE_SLOWDOWN` times a state demonstration; 0 where nothing was measured)."""
+    from icil_paper.bench import bench_path
+    from icil_paper.tables.execute import data_needs
+
+    source = Path(path or bench_path("datasets"))
+    measured = (read_json(source, "the data-set generation benchmark (datasets.json)",
+                          "regenerate it: python -m icil_paper.bench.datasets",
+                          keys=("suites",), fields={"suites": dict})
+                if source.exists() else {"suites": {}})
+    rates = {suite: m["cpu_s_per_demo"] for suite, m in measured["suites"].items()}
+    needs = data_needs(plans)
+    demos = sum(needs.values())
+    core = sum(n * rates.get(task.split("/", 1)[0], 0.0)
+               * (IMAGE_SLOWDOWN if obs != "state" else 1.0)
+               for (task, _, obs, _), n in needs.items())
+    sets = {seed for (_, _, _, seed) in needs}
+    return {"data_sets": len(needs), "demonstration_sets": len(sets), "demos": demos,
+            "core_s": round(core, 1), "measured": sorted(rates)}
 
 
 def report(preset: Preset) -> dict[str, Any]:

@@ -94,7 +94,11 @@ class LipschitzOptions:
     """Initial c of every layer; None is Liu et al.'s: the layer's largest absolute row sum,
     so that nothing is rescaled at the start."""
     weight_init: str = "liu"
-    """`liu` (randn * sqrt(2 / in_features)) or `randn` (the official code)."""
+    """`liu` (randn * sqrt(2 / in_features), Liu et al.'s and the paper's), `randn` (the
+    official code) or `linear` (`nn.Linear`'s own initialisation: with `c_init` None, a
+    Lipschitz encoder then starts as the same function as its plain twin built from the same
+    seed, `mlp` for `lip-mlp`, `vq` for `lipvq`, so that the two differ only by Eq. 4; the
+    presets' choice)."""
     c_lr_scale: float = 1.0
     """Learning rate of every bound c_l as a multiple of the trainer's (the policy's AdamW,
     or the stand-alone tokenizer's Adam; the warm-up and cosine schedule scale it alike),
@@ -103,10 +107,11 @@ class LipschitzOptions:
     and the default 1 is that. Adam moves c by about its learning rate per step whatever
     gamma is, so at 1 a bound stays within about 0.75 of where it starts (5-14 at Liu et
     al.'s initialisation) in 3000 steps at 5e-4. A larger multiple lets the bounds travel
-    their own size in such a run; the analysis table's `c_l lr` row measures whether Eq. 4
-    then binds."""
+    their own size in such a run: the presets set the multiple at which they can travel as
+    far as at the shared rate over the paper's 500K iterations (`config.matching_c_lr_scale`),
+    and the analysis table's `c_l at the shared rate` row keeps the default 1."""
 
-    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"weight_init": ("liu", "randn")}
+    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"weight_init": ("liu", "randn", "linear")}
 
     def __post_init__(self) -> None:
         check_fields(self)

@@ -40,6 +40,9 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+WEIGHT_INITS = ("liu", "randn", "linear")
+"""`LipschitzLinear`'s weight initialisations (`LipschitzOptions.weight_init`)."""
+
 
 class LipschitzLinear(nn.Module):
     """A linear layer whose weight is row-normalized as in Eq. 4 on every forward pass.
@@ -48,7 +51,10 @@ class LipschitzLinear(nn.Module):
         in_features, out_features, bias: as for `torch.nn.Linear`.
         per_row: one bound per output row (the official code) instead of one per layer.
         c_init: initial value of c; None uses Liu et al.'s max absolute row sum of W.
-        weight_init: "liu" (randn * sqrt(2 / in_features)) or "randn" (the official code).
+        weight_init: "liu" (randn * sqrt(2 / in_features), zero bias), "randn" (the official
+            code) or "linear" (`nn.Linear`'s own initialisation, weight then bias, from the
+            same random numbers: with c at the largest row sum, the layer is then at step 0
+            exactly the `nn.Linear` that the same seed would build, its twin).
         c_lr_scale: the learning rate of c as a multiple of the optimiser's (read by
             `bound_parameter_groups`; 0 keeps the bounds fixed).
     """
@@ -63,14 +69,26 @@ class LipschitzLinear(nn.Module):
         self.out_features = out_features
         self.per_row = per_row
         self.c_lr_scale = float(c_lr_scale)
+        bias_init = None
         if weight_init == "liu":
             weight = torch.randn(out_features, in_features) * math.sqrt(2.0 / in_features)
         elif weight_init == "randn":
             weight = torch.randn(out_features, in_features)
+        elif weight_init == "linear":  # nn.Linear's, drawn in its order: a twin of nn.Linear
+            weight = torch.empty(out_features, in_features)
+            nn.init.kaiming_uniform_(weight, a=math.sqrt(5))
+            if bias:
+                bound = 1.0 / math.sqrt(in_features)
+                bias_init = torch.empty(out_features).uniform_(-bound, bound)
         else:
-            raise ValueError(f"unknown weight_init {weight_init!r}; valid: 'liu', 'randn'")
+            raise ValueError(f"unknown weight_init {weight_init!r}; valid: "
+                             f"{', '.join(repr(w) for w in WEIGHT_INITS)}")
         self.weight = nn.Parameter(weight)  # (out, in), the unnormalized weight
-        self.bias = nn.Parameter(torch.zeros(out_features)) if bias else None
+        if bias:
+            self.bias = nn.Parameter(bias_init if bias_init is not None
+                                     else torch.zeros(out_features))
+        else:
+            self.bias = None
         shape = (out_features,) if per_row else ()
         if c_init is None:
             c = weight.abs().sum(dim=1).max().expand(shape).clone()
