@@ -167,11 +167,13 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                            ("claims.undecided", "undecided"),
                            ("claims.size_excluded", "size_excluded"),
                            ("claims.not_run", Verdict.NOT_RUN))},
-    **{f"older_claims.{name}": ("results/reference/older-code/claims.json",
-                                lambda field=field: _claims(field, "older-code/claims.json"))
-       for name, field in (("total", "claims"), ("holds", Verdict.HOLDS),
-                           ("do_not_hold", Verdict.DOES_NOT_HOLD), ("undecided", "undecided"),
-                           ("size_excluded", "size_excluded"))},
+    **{name: ("results/reference/older-code/claims.json",
+              lambda field=field: _claims(field, "older-code/claims.json"))
+       for name, field in (("older_claims.total", "claims"),
+                           ("older_claims.holds", Verdict.HOLDS),
+                           ("older_claims.do_not_hold", Verdict.DOES_NOT_HOLD),
+                           ("older_claims.undecided", "undecided"),
+                           ("older_claims.size_excluded", "size_excluded"))},
     "design.projected_wall_hours_at_2": ("results/bench/cells.json", _projected_hours),
     **{f"cost.{name}_cell_s": ("results/reference/cost.json",
                                lambda kind=kind: _cell_seconds(kind))

@@ -820,19 +820,41 @@ def reference_summary(path=None) -> str:
     return text
 
 
-def reference_answers(path=None) -> str:
-    """Sec. IV's three questions answered from the committed reference ledger
-    (`questions.answers_markdown`: one sentence each, with the numbers that carry it), or a
-    sentence saying the ledger is not there."""
+def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
+    """(ledger, made_by) that answers the paper's questions on the first page: the committed
+    reference ledger, or, while none of its claims has run under the current protocol, the
+    ledger the older code computed (`older_ledger`) with its `made_by`; ([], None) when
+    neither is there."""
     from pathlib import Path
 
-    from icil_paper.tables.claims import load_ledger
-    from icil_paper.tables.questions import answers_markdown
+    from icil_paper.tables.claims import as_entry, load_ledger
 
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
-    if not path.exists():
-        return f"The reference run's ledger is not there yet ({path.name} is missing)."
-    return answers_markdown(load_ledger(path))
+    ledger = load_ledger(path) if path.exists() else []
+    if any(e.run for e in ledger):
+        return ledger, None
+    older = older_ledger(REFERENCE)
+    if older is None:
+        return ledger, None
+    made_by, claims = older
+    return [as_entry(e) for e in claims], made_by
+
+
+def reference_answers(path=None) -> str:
+    """Sec. IV's three questions answered from the reference ledger (`answering_ledger`;
+    `questions.answers_markdown`: one sentence each, with the numbers that carry it), saying
+    so when the answers come from the older protocol's ledger."""
+    from icil_paper.tables.questions import answers_markdown
+
+    ledger, made_by = answering_ledger(path)
+    if not ledger:
+        return "The reference run's ledger is not there yet (claims.json is missing)."
+    if made_by is None:
+        return answers_markdown(ledger)
+    return (f"No claim has run yet under the current protocol (the reference run is to be "
+            f"redone). The older protocol's ledger (commit {made_by['commit'][:7]}: baselines "
+            f"without the task's instruction, one demonstration set for every seed) answered:"
+            f"\n\n" + answers_markdown(ledger))
 
 
 def reference_bookkeeping(preset_name: str = REFERENCE) -> str:
