@@ -744,11 +744,12 @@ def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dic
     return data["made_by"], data["claims"]
 
 
-def reference_progress(path=None) -> str:
+def reference_progress(path=None, older: bool = False) -> str:
     """Where the committed reference run stands, from its `cost.json`: the table cells
     finished of those planned, the machine time so far and the whole run's projected wall
     time against its target (`projection`); once every cell is done, what the whole run
-    cost. Empty when there is no cost.json."""
+    cost (`older`: every record is older code, so the run is the older protocol's). Empty
+    when there is no cost.json."""
     import json
     from pathlib import Path
 
@@ -769,6 +770,10 @@ def reference_progress(path=None) -> str:
         whole = (f" At the CPU time its cells took, the whole run comes to "
                  f"{projection['wall_hours_at_2']:.1f} hours on an idle 2-core machine at "
                  f"two cells at a time{against}.")
+    if done >= planned and older:
+        return (f"The reference run of the older protocol finished all {planned} trained cells "
+                f"({sittings}; `results/reference/cost.json`).{whole} Under the current "
+                "protocol it is to be redone.")
     if done >= planned:
         return (f"The reference run is finished: all {planned} trained cells ({sittings}; "
                 f"`results/reference/cost.json`).{whole}")
@@ -803,8 +808,9 @@ def reference_summary(path=None) -> str:
         return f"The reference run's ledger is not there yet ({path.name} is missing)."
     ledger = load_ledger(path)
     text = f"{summary_sentence(ledger)} {decided_claims(ledger)}".strip()
-    progress = reference_progress(path.with_name("cost.json"))
     fresh = reference_freshness(REFERENCE)
+    progress = reference_progress(path.with_name("cost.json"),
+                                  older=fresh["stale"] == fresh["records"])
     if not fresh["stale"]:
         return f"{progress} {text}".strip()
     in_progress = any(e.verdict == Verdict.NOT_RUN for e in ledger)
@@ -861,7 +867,7 @@ def reference_bookkeeping(preset_name: str = REFERENCE) -> str:
     """Where the committed reference run stands (`reference_progress`) and how many of its
     records an older version of the code made (chapter 0 lists them)."""
     fresh = reference_freshness(preset_name)
-    text = reference_progress()
+    text = reference_progress(older=fresh["stale"] == fresh["records"])
     if fresh["stale"]:
         text += (f" {fresh['stale']} of its {fresh['records']} committed records were made by "
                  "an older version of the code and are not used (chapter 0 lists them).")
