@@ -16,7 +16,7 @@ from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key
 from icil_paper.tables import TABLES, table_spec
 from icil_paper.tables.assemble import assemble
-from icil_paper.tables.claims import claims, claims_ledger, write_ledger
+from icil_paper.tables.claims import as_entry, claims, claims_ledger, write_ledger
 from icil_paper.tables.execute import plan
 from record_helpers import write_eval_record
 
@@ -398,4 +398,8 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
                                 "of the code and are not used (chapter 0 lists them).")
     show_ledger(ledger, "reference run", bookkeeping)
     answers = reference_answers()
-    assert [line[:6] for line in answers.splitlines()] == ["- **Q1", "- **Q2", "- **Q3"]
+    # the three questions, from the older protocol's ledger (said so) while none has run
+    assert [line[:6] for line in answers.splitlines() if line.startswith("- **")] == [
+        "- **Q1", "- **Q2", "- **Q3"]
+    if not any(as_entry(e).run for e in ledger):
+        assert answers.startswith("No claim has run yet under the current protocol")
