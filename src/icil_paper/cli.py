@@ -63,6 +63,36 @@ def preset_from_args(args: argparse.Namespace) -> Any:
     return preset.with_overrides(args.overrides)
 
 
+def add_executor_arguments(parser: argparse.ArgumentParser) -> None:
+    """--executor, --workers, --ray-address and --gpus-per-cell, shared by every command that
+    runs table cells (`reproduce`, `compare`); `check_executor_arguments` checks them."""
+    parser.add_argument("--executor", choices=("local", "ray", "serial"), default="local",
+                        help="how the cells run: a local process pool (default), a Ray "
+                             "cluster, or one after the other in this process")
+    parser.add_argument("--workers", type=positive("--workers"), default=None,
+                        help="parallel cells (default: the preset's eval.workers)")
+    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT",
+                        help="with --executor ray: join this cluster (default: start one here)")
+    parser.add_argument("--gpus-per-cell", type=float, default=0.0, metavar="N",
+                        help="with --executor ray: GPUs each cell asks for (e.g. 1 on GPU "
+                             "nodes; its training and rollouts then run on that GPU)")
+
+
+def check_executor_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse, through `parser.error`, executor arguments that do not go together."""
+    if not 0 <= args.gpus_per_cell <= 64:
+        parser.error(f"--gpus-per-cell must be between 0 and 64, got {args.gpus_per_cell}")
+    if args.ray_address is not None:
+        if not args.ray_address.strip():
+            parser.error("--ray-address is empty: give the Ray head as HOST:PORT (e.g. "
+                         "--ray-address 127.0.0.1:6379) or `auto`, or leave it out to start a "
+                         "local Ray")
+        if args.executor != "ray":
+            parser.error(f"--ray-address {args.ray_address} is for --executor ray (this run's "
+                         f"executor is {args.executor}): add --executor ray to run the cells "
+                         "on that cluster, or leave --ray-address out")
+
+
 def positive(name: str):
     """An argparse type: an integer >= 1, refused before any work with a message naming it."""
     def parse(text: str) -> int:

@@ -167,7 +167,13 @@ def check_outputs(preset: Preset) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
+    from icil_paper.cli import (
+        Parser,
+        add_executor_arguments,
+        add_preset_arguments,
+        check_executor_arguments,
+        preset_from_args,
+    )
     from icil_paper.config import check_tasks
     from icil_paper.tables.definitions import check_row_seeds
 
@@ -176,28 +182,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--stages", nargs="+", default=None,
                         help=f"run only these stages ({', '.join(s.name for s in STAGES)})")
     parser.add_argument("--force", action="store_true", help="recompute stored results")
-    parser.add_argument("--executor", choices=("local", "ray", "serial"), default="local",
-                        help="how the table cells run: a local process pool (default), a Ray "
-                             "cluster, or one after the other in this process")
-    parser.add_argument("--workers", type=positive("--workers"), default=None,
-                        help="parallel cells (default: the preset's eval.workers)")
-    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT",
-                        help="with --executor ray: join this cluster (default: start one here)")
-    parser.add_argument("--gpus-per-cell", type=float, default=0.0, metavar="N",
-                        help="with --executor ray: GPUs each cell asks for (e.g. 1 on GPU "
-                             "nodes; its training and rollouts then run on that GPU)")
+    add_executor_arguments(parser)
     args = parser.parse_args(argv)
-    if not 0 <= args.gpus_per_cell <= 64:
-        parser.error(f"--gpus-per-cell must be between 0 and 64, got {args.gpus_per_cell}")
-    if args.ray_address is not None:
-        if not args.ray_address.strip():
-            parser.error("--ray-address is empty: give the Ray head as HOST:PORT (e.g. "
-                         "--ray-address 127.0.0.1:6379) or `auto`, or leave it out to start a "
-                         "local Ray")
-        if args.executor != "ray":
-            parser.error(f"--ray-address {args.ray_address} is for --executor ray (this run's "
-                         f"executor is {args.executor}): add --executor ray to run the cells "
-                         "on that cluster, or leave --ray-address out")
+    check_executor_arguments(parser, args)
     preset = preset_from_args(args)
     check_tasks(preset)
     check_row_seeds(preset)

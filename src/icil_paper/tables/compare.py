@@ -283,7 +283,14 @@ def default_folder(preset: Preset, tokenizer: str) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
+    from icil_paper.cli import (
+        Parser,
+        add_executor_arguments,
+        add_preset_arguments,
+        check_executor_arguments,
+        positive,
+        preset_from_args,
+    )
     from icil_paper.config import check_tasks
     from icil_paper.fileio import check_env_folder, check_writable
     from icil_paper.results import RESULTS_ENV_VAR
@@ -303,24 +310,13 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"seeds a row before planning (default {PILOT_SEEDS})")
     parser.add_argument("--max-seeds", type=positive("--max-seeds"), default=MAX_SEEDS,
                         help=f"the most seeds a row is planned up to (default {MAX_SEEDS})")
-    parser.add_argument("--executor", choices=("local", "ray", "serial"), default="local",
-                        help="how the cells run: a local process pool (default), Ray, or "
-                             "one after the other in this process")
-    parser.add_argument("--workers", type=positive("--workers"), default=None,
-                        help="parallel cells (default: the preset's eval.workers)")
-    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT",
-                        help="with --executor ray: join this cluster (default: start one here)")
-    parser.add_argument("--gpus-per-cell", type=float, default=0.0, metavar="N",
-                        help="with --executor ray: GPUs each cell asks for")
+    add_executor_arguments(parser)
     parser.add_argument("--out", default=None, metavar="DIR",
                         help="folder of compare.json and compare.png (default: "
                              "results/<preset>/compare/<tokenizer>)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
-    if args.ray_address is not None and args.executor != "ray":
-        parser.error("--ray-address is for --executor ray")
-    if not 0 <= args.gpus_per_cell <= 64:
-        parser.error(f"--gpus-per-cell must be between 0 and 64, got {args.gpus_per_cell}")
+    check_executor_arguments(parser, args)
     if not 0 < args.effect < 1:
         parser.error(f"--effect must be a difference of success between 0 and 1, got "
                      f"{args.effect}")
