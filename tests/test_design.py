@@ -233,3 +233,18 @@ def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys
     assert "seed_stages" in capsys.readouterr().err
     assert main(["--preset", "smoke", "--set", "tables.seed_stages=10,5", "--stages"]) == 2
     assert capsys.readouterr().err.count("\n") == 1  # one line, no traceback
+
+
+def test_the_stage_prose_and_plan_read_typed_ledger_entries():
+    # chapter 0 and `design --stages` pass the ledger as `claims_ledger`/`load_ledger` give
+    # it (typed entries), not as the stored dicts
+    from icil_paper.tables.claims import load_ledger
+    from icil_paper.tables.design import stage_plan, stages_paragraph
+
+    preset = get_preset("reference")
+    ledger = load_ledger(ROOT / "results" / "reference" / "claims.json")
+    text = stages_paragraph(preset, ledger)
+    assert text.startswith("Seeds are allocated in stages") and f"of {len(ledger)} claims" in text
+    assert stages_paragraph(preset, [e.to_dict() for e in ledger]) == text
+    plan = stage_plan(preset, ledger)
+    assert plan == stage_plan(preset, [e.to_dict() for e in ledger])

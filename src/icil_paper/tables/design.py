@@ -35,7 +35,7 @@ from typing import Any
 
 from icil_paper.config import Preset
 from icil_paper.fileio import UnreadableFileError, read_json
-from icil_paper.tables.claims import sizing_effect
+from icil_paper.tables.claims import as_entry, sizing_effect
 from icil_paper.tables.definitions import TABLES, table_spec
 
 DECIDABLE_SEEDS = 10
@@ -361,12 +361,11 @@ def stage_plan(preset: Preset, ledger: list[dict[str, Any]]) -> dict[str, Any]:
     stops where it is (its claims all decided, or undecided with the seeds they would need
     in the ledger's `look`). Returns {"continue": {(table, row): (next seeds, [claim ids])},
     "stop": {(table, row): [claim ids]}}; rows no claim reads are in neither."""
-    by_id = {e["id"]: e for e in ledger}
+    by_id = {e.id: e for e in map(as_entry, ledger)}
     go: dict[tuple[str, str], tuple[int, list[str]]] = {}
     readers: dict[tuple[str, str], list[str]] = defaultdict(list)
     for claim_id, rows in claim_rows(preset).items():
-        entry = by_id.get(claim_id, {})
-        nxt = (entry.get("sequential") or {}).get("next")
+        nxt = (getattr(by_id.get(claim_id), "sequential", None) or {}).get("next")
         for row in rows:
             readers[row].append(claim_id)
             if nxt:
@@ -415,10 +414,10 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
             "many seeds a row they would need.")
     if not ledger:
         return text
-    seq = [e for e in ledger if e.get("sequential")]
-    decided = Counter(e["sequential"]["decided_at"] for e in seq
-                      if e["sequential"]["decided_at"] is not None)
-    going = [e["id"] for e in seq if e["sequential"]["next"]]
+    seq = [(e.id, e.sequential) for e in map(as_entry, ledger)
+           if getattr(e, "sequential", None)]
+    decided = Counter(s["decided_at"] for _, s in seq if s["decided_at"] is not None)
+    going = [claim_id for claim_id, s in seq if s["next"]]
     looks = "; ".join(f"{decided[n]} at {n} seeds a row" for n in design.stages if decided[n])
     stopped = len(seq) - sum(decided.values()) - len(going)
     text += (f" In this ledger {sum(decided.values())} of {len(ledger)} claims are decided"
@@ -490,10 +489,10 @@ def _print_stages(preset: Preset) -> int:
         return 2
     ledger = claims_ledger(preset)
     print(design.describe())
-    for e in ledger:
-        p = (e.get("sequential") or {}).get("p_value")
-        print(f"  {e['id']:<38} {e['adjusted_verdict']:<14} design p "
-              f"{'-' if p is None else f'{p:.3g}':>9}  {e.get('look', '')}")
+    for e in map(as_entry, ledger):
+        p = (getattr(e, "sequential", None) or {}).get("p_value")
+        print(f"  {e.id:<38} {str(e.adjusted_verdict):<14} design p "
+              f"{'-' if p is None else f'{p:.3g}':>9}  {getattr(e, 'look', '')}")
     plan = stage_plan(preset, ledger)
     for (table, row), (seeds, ids) in sorted(plan["continue"].items()):
         print(f"continue  {table}:{row} to {seeds} seeds  ({', '.join(ids)})")
