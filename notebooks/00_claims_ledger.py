@@ -25,10 +25,8 @@ from icil_paper.tables.book import (
     ledger_details,
     ledger_frame,
     older_ledger,
-    reference_bookkeeping,
     reference_freshness,
-    show_ledger,
-    source_label,
+    show_ledgers,
     stale_records,
 )
 from icil_paper.tables.claims import claims_ledger, summary_sentence, write_ledger
@@ -46,9 +44,7 @@ for source, p in sources:
     ledgers[source] = (p, claims_ledger(p, store))
 
 # %% tags=["remove-input"]
-for source, (p, ledger) in ledgers.items():
-    progress = reference_bookkeeping() if p.name == REFERENCE else ""
-    show_ledger(ledger, source_label(source, p.name), progress)
+show_ledgers(ledgers)
 
 # %% [markdown]
 # ## How to read the ledger

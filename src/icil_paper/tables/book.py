@@ -271,6 +271,24 @@ def show_ledger(ledger: list[LedgerEntry | dict[str, Any]], heading: str,
         display(Markdown(progress))
 
 
+def show_ledgers(ledgers: dict[str, tuple[Any, list]]) -> None:
+    """Chapter 0's opening: `show_ledger` for each source ({source: (preset, ledger)}); while
+    no claim of the reference ledger has run under the current protocol, the older
+    protocol's ledger (`older_ledger`) follows it, headed with its commit, so the chapter
+    opens on numbers."""
+    for source, (preset, ledger) in ledgers.items():
+        reference = preset.name == REFERENCE
+        show_ledger(ledger, source_label(source, preset.name),
+                    reference_bookkeeping() if reference else "")
+        older = (older_ledger(REFERENCE)
+                 if reference and not any(as_entry(e).run for e in ledger) else None)
+        if older is not None:
+            made_by, claims = older
+            show_ledger(claims, f"reference run of the older protocol (commit "
+                                f"{made_by['commit'][:7]}: baselines without the task's "
+                                "instruction, one demonstration set for every seed)")
+
+
 def _build_summary(result: TableResult) -> str:
     return (f"This build's numbers ({result.preset} preset): they test the code, not the "
             "paper. Open to see them.")
