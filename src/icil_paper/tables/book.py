@@ -284,9 +284,10 @@ def show_ledgers(ledgers: dict[str, tuple[Any, list]]) -> None:
                  if reference and not any(as_entry(e).run for e in ledger) else None)
         if older is not None:
             made_by, claims = older
-            show_ledger(claims, f"reference run of the older protocol (commit "
-                                f"{made_by['commit'][:7]}: baselines without the task's "
-                                "instruction, one demonstration set for every seed)")
+            show_ledger(claims, f"older protocol (commit {made_by['commit'][:7]})",
+                        "The older protocol's baselines did not read the task's instruction "
+                        "and its training seeds shared one demonstration set: read this "
+                        "ledger as a record of that protocol, not of the paper's regime.")
 
 
 def _build_summary(result: TableResult) -> str:
