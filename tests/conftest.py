@@ -30,6 +30,16 @@ def _one_ray_at_a_time(request, tmp_path_factory):
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
+@pytest.fixture()
+def folders(tmp_path, monkeypatch):
+    """Private data, runs and results folders (none exists yet), for tests of commands."""
+    out = {name: tmp_path / name for name in ("data", "runs", "results")}
+    monkeypatch.setenv("ICIL_DATA", str(out["data"]))
+    monkeypatch.setenv("ICIL_RUNS", str(out["runs"]))
+    monkeypatch.setenv("ICIL_RESULTS", str(out["results"]))
+    return out
+
+
 @pytest.fixture(autouse=True)
 def _isolated_results(tmp_path, monkeypatch):
     monkeypatch.setenv("ICIL_RESULTS", str(tmp_path / "results"))

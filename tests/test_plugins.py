@@ -98,15 +98,6 @@ def clean_plugins():
             sys.modules.pop(name, None)
 
 
-@pytest.fixture
-def folders(tmp_path, monkeypatch):
-    out = {k: tmp_path / k for k in ("results", "runs", "data")}
-    monkeypatch.setenv("ICIL_RESULTS", str(out["results"]))
-    monkeypatch.setenv("ICIL_RUNS", str(out["runs"]))
-    monkeypatch.setenv("ICIL_DATA", str(out["data"]))
-    return out
-
-
 def _forget_plugins() -> None:
     """This process as one that never loaded a plugin (`clean_plugins` restores it)."""
     for kind in plugins.REGISTRIES:

@@ -91,16 +91,6 @@ def write_dataset(path, action_width=3, state=(9, 6), task=None, n=3, seed=0):
     return path
 
 
-@pytest.fixture()
-def folders(tmp_path, monkeypatch):
-    """Private data, runs and results folders (none exists yet)."""
-    out = {name: tmp_path / name for name in ("data", "runs", "results")}
-    monkeypatch.setenv("ICIL_DATA", str(out["data"]))
-    monkeypatch.setenv("ICIL_RUNS", str(out["runs"]))
-    monkeypatch.setenv("ICIL_RESULTS", str(out["results"]))
-    return out
-
-
 def nothing_written(folders):
     return not any(p.exists() for p in folders.values())
 

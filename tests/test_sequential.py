@@ -31,11 +31,9 @@ from icil_paper.stats import (
     spent_alpha,
     stage_seeds_needed,
 )
+from simulated_rows import SCENE_SPREAD, SEED_SPREAD, TASK_RATES
 
-TASK_RATES = np.array([0.0, 0.0, 0.1, 0.3, 0.4, 0.5, 0.6, 0.7, 0.9, 1.0, 1.0])
 EPISODES = 5
-SEED_SPREAD = 0.05
-SCENE_SPREAD = 0.2
 DESIGN = SequentialDesign((5, 10, 15))
 
 
