@@ -47,7 +47,6 @@ The chapters' verdict sentences are generated from these entries (`sentence`).
 
 from __future__ import annotations
 
-import json
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields, replace
@@ -58,7 +57,7 @@ import numpy as np
 from icil_paper import paper_numbers as paper
 from icil_paper import stats, verdict_words
 from icil_paper.config import Preset
-from icil_paper.fileio import atomic_write_json
+from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
 from icil_paper.metrics import MOTION_MEASURES, SMOOTHER
 from icil_paper.results import ResultsStore
 from icil_paper.stats import Verdict
@@ -832,10 +831,23 @@ def sentence(entry: LedgerEntry | dict[str, Any]) -> str:
     return out + "."
 
 
+def read_ledger(path) -> dict[str, Any]:
+    """A claims ledger (`claims.json`), through `fileio.read_json`: a damaged one, or one
+    whose `claims` are not objects with an `id`, is one line naming it and the fix."""
+    fix = ("regenerate it (`icil-paper reproduce --preset <preset>` writes the ledger) or "
+           "restore it from git")
+    ledger = read_json(path, "a claims ledger (claims.json)", fix, keys=("claims",))
+    claims = ledger["claims"]
+    if not isinstance(claims, list) or not all(isinstance(e, dict) and "id" in e
+                                               for e in claims):
+        raise UnreadableFileError(f"{path} is not a claims ledger (its 'claims' must be a "
+                                  f"list of objects with an 'id'); {fix}")
+    return ledger
+
+
 def load_ledger(path) -> list[LedgerEntry]:
-    """The entries of a stored `claims.json`."""
-    with open(path) as f:
-        return [LedgerEntry.from_dict(e) for e in json.load(f)["claims"]]
+    """The entries of a stored `claims.json` (`read_ledger`)."""
+    return [LedgerEntry.from_dict(e) for e in read_ledger(path)["claims"]]
 
 
 def evaluate_claims(chosen: Sequence[Claim], tables: dict[str, TableResult]

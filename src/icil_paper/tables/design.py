@@ -34,8 +34,8 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper.config import Preset
-from icil_paper.fileio import UnreadableFileError, read_json
-from icil_paper.tables.claims import as_entry, sizing_effect
+from icil_paper.fileio import read_json
+from icil_paper.tables.claims import as_entry, read_ledger, sizing_effect
 from icil_paper.tables.definitions import TABLES, table_spec
 
 DECIDABLE_SEEDS = 10
@@ -90,20 +90,6 @@ def required_seeds(entry: dict[str, Any]) -> int:
     """The seeds the rule asks of every row of a ledger entry."""
     needed = entry.get("seeds_needed")
     return DECIDABLE_SEEDS if needed is not None and needed <= DECIDABLE_SEEDS else OTHER_SEEDS
-
-
-def read_ledger(path: str | Path) -> dict[str, Any]:
-    """A claims ledger (`claims.json`), through `fileio.read_json`: a damaged one, or one
-    whose `claims` are not objects with an `id`, is one line naming it and the fix."""
-    fix = ("regenerate it (`icil-paper reproduce --preset <preset>` writes the ledger) or "
-           "restore it from git")
-    ledger = read_json(path, "a claims ledger (claims.json)", fix, keys=("claims",))
-    claims = ledger["claims"]
-    if not isinstance(claims, list) or not all(isinstance(e, dict) and "id" in e
-                                               for e in claims):
-        raise UnreadableFileError(f"{path} is not a claims ledger (its 'claims' must be a "
-                                  f"list of objects with an 'id'); {fix}")
-    return ledger
 
 
 def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, dict[str, Any]]:
