@@ -33,6 +33,14 @@ SCENE_DISTRIBUTIONS = ("generated", "human")
 named here so specs stay light); the first is every suite's default."""
 
 
+SUITE_VERSION = 2
+"""The version of the task suites' scenes and success checks (`icil_paper.sim`), in every
+`DataSpec`'s and `EvalSpec`'s key, so that no run or record made on an older suite is
+returned for the current one; raise it whenever a layout range, fixture or success check
+changes. 1: the first kitchen suite; 2: the kitchen families' layout ranges and the
+insertion hole set by the regime pilot (`icil_paper.sim.kitchen.scenes`)."""
+
+
 @dataclass(frozen=True)
 class DataSpec:
     """The demonstrations a policy is trained on."""
@@ -55,6 +63,8 @@ class DataSpec:
     """The SHA-256 of `dataset` (so that a changed file is a different run)."""
     obs_keys: tuple[str, ...] | None = None
     """`dataset` only: the observation keys read from it (None: the documented default)."""
+    suite_version: int = SUITE_VERSION
+    """The task suites' version the demonstrations were made on (`SUITE_VERSION`)."""
 
     def __post_init__(self) -> None:
         check_fields(self)  # a task list, a source, an observation kind: before any work
@@ -130,6 +140,8 @@ class EvalSpec:
     `icil_paper.sim.kitchen.scenes`)."""
     record_version: int = EVAL_RECORD_VERSION
     """What its record holds (`EVAL_RECORD_VERSION`, the only version this code computes)."""
+    suite_version: int = SUITE_VERSION
+    """The task suites' version the episodes are played on (`SUITE_VERSION`)."""
 
     def __post_init__(self) -> None:
         check_fields(self)

@@ -70,15 +70,17 @@ from icil_paper.fileio import check_writable, exclusive_lock, set_aside
 from icil_paper.registry import check_name
 from icil_paper.seeding import data_set_index
 
-GENERATOR = "icil_paper.data.generate/2"
+GENERATOR = "icil_paper.data.generate/3"
 """Written into every data set; a change in how demos are made bumps it (and lists the old
 value in `OLDER_GENERATORS`)."""
 OLDER_GENERATORS: dict[str, tuple[str, ...]] = {
-    "icil_paper.data.generate/1": ("generated",),
+    "icil_paper.data.generate/1": (),
+    "icil_paper.data.generate/2": (),
 }
 """Earlier values of `GENERATOR`, each with the sources whose data sets it made exactly as
 this one does; its files of any other source are outdated and made again (module
-docstring). 1 -> 2: the `human` source's kitchen demos moved to the `human` scenes."""
+docstring). 1 -> 2: the `human` source's kitchen demos moved to the `human` scenes; 2 -> 3:
+the kitchen suite's second version (`runspec.SUITE_VERSION`), whose layouts differ."""
 DEFAULT_SCENES = "generated"
 """The `scenes` attribute a file without one was made on (files before generator 2)."""
 

@@ -311,7 +311,7 @@ def bin_container(name: str = "bin", inner_half: float = 0.07, wall_h: float = 0
     return CodeFixture(name, root, (outer, outer, wall_h / 2)), geometry
 
 
-def hole_block(name: str = "hole_block", hole_half: float = 0.026, height: float = 0.05
+def hole_block(name: str = "hole_block", hole_half: float = 0.030, height: float = 0.05
                ) -> tuple[CodeFixture, FixtureGeometry]:
     """A block with a square through-hole (the insertion target), built from four boxes."""
     b = _Builder()

@@ -222,7 +222,7 @@ class DrawerScene(ArticulatedScene):
 
     builder = staticmethod(fx.cabinet_with_drawer)
     name = "drawer_cabinet"
-    layouts = {"generated": Box2(x=(0.12, 0.17), y=(-0.08, 0.08), yaw=(-0.2, 0.2)),
+    layouts = {"generated": Box2(x=(0.09, 0.20), y=(-0.14, 0.14), yaw=(-0.4, 0.4)),
                "human": Box2(x=(0.16, 0.22), y=(-0.17, -0.03), yaw=(-0.1, 0.35))}
     init = {"open": (0.0, 0.01), "close": (0.12, 0.17)}
     threshold = {"open": (">=", 0.12), "close": ("<=", 0.015)}
@@ -233,7 +233,7 @@ class LeverScene(ArticulatedScene):
 
     builder = staticmethod(fx.faucet_lever)
     name = "faucet"
-    layouts = {"generated": Box2(x=(0.0, 0.08), y=(-0.02, 0.10), yaw=(-0.2, 0.2)),
+    layouts = {"generated": Box2(x=(-0.04, 0.12), y=(-0.08, 0.16), yaw=(-0.4, 0.4)),
                "human": Box2(x=(0.06, 0.14), y=(-0.14, 0.0), yaw=(-0.35, 0.35))}
     init = {"on": (0.0, 0.1), "off": (0.9, 1.2)}
     threshold = {"on": (">=", 0.8), "off": ("<=", 0.15)}
@@ -244,7 +244,7 @@ class KnobScene(ArticulatedScene):
 
     builder = staticmethod(fx.stove_knob)
     name = "stove"
-    layouts = {"generated": Box2(x=(-0.02, 0.08), y=(-0.10, 0.10), yaw=(-0.3, 0.3)),
+    layouts = {"generated": Box2(x=(-0.04, 0.10), y=(-0.14, 0.14), yaw=(-0.45, 0.45)),
                "human": Box2(x=(0.06, 0.16), y=(-0.18, 0.02), yaw=(-0.5, 0.5))}
     init = {"on": (0.0, 0.1), "off": (1.1, 1.5)}
     threshold = {"on": (">=", 1.0), "off": ("<=", 0.2)}
@@ -256,7 +256,7 @@ class ButtonScene(ArticulatedScene):
 
     builder = staticmethod(fx.button_box)
     name = "appliance"
-    layouts = {"generated": Box2(x=(-0.02, 0.08), y=(-0.10, 0.10), yaw=(-0.3, 0.3)),
+    layouts = {"generated": Box2(x=(-0.07, 0.13), y=(-0.20, 0.20), yaw=(-0.6, 0.6)),
                "human": Box2(x=(0.06, 0.16), y=(-0.02, 0.18), yaw=(-0.5, 0.5))}
     init = {"press": (0.0, 0.0)}
     threshold = {"press": ("<=", -0.008)}
@@ -322,9 +322,9 @@ class PickPlaceScene(FreeObjectScene):
     and the gripper has let go of it."""
 
     object_layouts = {
-        "generated": Box2(x=(-0.08, 0.06), y=(0.08, 0.18), yaw=(-np.pi / 4, np.pi / 4)),
+        "generated": Box2(x=(-0.03, 0.01), y=(0.11, 0.15), yaw=(-0.2, 0.2)),
         "human": Box2(x=(-0.14, 0.0), y=(0.14, 0.24), yaw=(-np.pi / 4, np.pi / 4))}
-    target_layouts = {"generated": Box2(x=(-0.02, 0.08), y=(0.06, 0.14), yaw=(-0.3, 0.3)),
+    target_layouts = {"generated": Box2(x=(0.01, 0.05), y=(0.08, 0.12), yaw=(-0.1, 0.1)),
                       "human": Box2(x=(0.04, 0.14), y=(0.12, 0.2), yaw=(-0.5, 0.5))}
     obj_half = (0.02, 0.02, 0.025)
 
@@ -349,9 +349,9 @@ class InsertionScene(FreeObjectScene):
     """An upright round peg and a block with a square hole; success when the peg is at least
     2 cm deep in the hole."""
 
-    object_layouts = {"generated": Box2(x=(-0.08, 0.06), y=(0.08, 0.18), yaw=(0.0, 0.0)),
+    object_layouts = {"generated": Box2(x=(-0.03, 0.01), y=(0.11, 0.15), yaw=(0.0, 0.0)),
                       "human": Box2(x=(-0.14, 0.0), y=(0.14, 0.24), yaw=(0.0, 0.0))}
-    target_layouts = {"generated": Box2(x=(-0.02, 0.08), y=(0.06, 0.14), yaw=(-0.3, 0.3)),
+    target_layouts = {"generated": Box2(x=(0.01, 0.05), y=(0.08, 0.12), yaw=(-0.1, 0.1)),
                       "human": Box2(x=(0.04, 0.14), y=(0.12, 0.2), yaw=(-0.5, 0.5))}
     peg_radius, peg_half_height = 0.015, 0.04
 
