@@ -126,6 +126,8 @@ LOWER = {
     "icil_paper.data": ("icil_paper.book", "icil_paper.tables"),
     "icil_paper.viz": ("icil_paper.book",),
     "icil_paper.setup": ("icil_paper.book",),
+    "icil_paper.tables": ("icil_paper.planning",),
+    "icil_paper.bench": ("icil_paper.planning", "icil_paper.book"),
 }
 """Package (or module) -> the higher ones it must not import."""
 

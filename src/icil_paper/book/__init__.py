@@ -6,6 +6,8 @@ checked. Chapters import from here and call; they define no experiments of their
 - `summaries.py`: what chapters show of those records: means over training seeds,
   intervals, verdicts in words (`SeedRecords`).
 - `browser_check.py`: the built book in Chromium (`make browser-check`).
+- `figures.py`: the measured figures of the README and CONTRIBUTING.md, from their records
+  (`python -m icil_paper.book.figures --update-readme`).
 
 Recordings and the viewer that embeds them are `icil_paper.viz`.
 
