@@ -27,7 +27,7 @@ SRC_HASH = $(shell { find src -name '*.py' | LC_ALL=C sort | xargs cat; echo $(P
 	find results/$(PRESET) results/reference -name '*.json' -printf '%p %T@\n' 2>/dev/null \
 	| LC_ALL=C sort; } | sha256sum | cut -c1-16)
 
-.PHONY: help setup test test-all reproduce experiments book browser-check bench lint clean \
+.PHONY: help setup test test-all reproduce experiments book browser-check bench pilot lint clean \
 	lerobot-setup lerobot-export
 
 help:
@@ -37,6 +37,7 @@ help:
 	@echo "make book       execute the notebooks and build the book into $(BOOK_OUT)/html"
 	@echo "make browser-check  load every page of the built book in headless Chromium, offline"
 	@echo "make bench      throughput benchmarks (results/bench/*.json)"
+	@echo "make pilot      the task-scale pilot (results/bench/pilot.json); PILOT_ARGS=regime: the regime pilot"
 	@echo "make lint       ruff"
 	@echo "make lerobot-setup   a separate .venv-lerobot (Python 3.12, lerobot) for the LeRobot exporter"
 	@echo "make lerobot-export FILE=data.hdf5 OUT=folder   a data set as a LeRobotDataset (v3.0)"
@@ -99,9 +100,19 @@ book: setup
 browser-check: setup
 	$(BIN)/python -m icil_paper.book.browser_check $(BOOK_OUT)/html --screenshots $(BOOK_OUT)/screenshots
 
+# The benchmarks CONTRIBUTING.md's "Benchmarks" section lists, one module of bench/ each
+# (tests/test_repository.py keeps the three equal).
+BENCHMARKS := eval tokenizers policies sim kitchen cells datasets
 bench: setup
-	@for m in $$(ls src/icil_paper/bench/*.py | xargs -n1 basename | grep -v __init__ | sed 's/\.py$$//'); do \
+	@for m in $(BENCHMARKS); do \
 		echo "== bench $$m"; $(BIN)/python -m icil_paper.bench.$$m || exit 1; done
+
+# The pilot behind the reference preset's task scale (results/bench/pilot.json); with
+# PILOT_ARGS=regime, the regime pilot (results/bench/regime.json). Trains and evaluates cells
+# at the reference scale; a rerun skips what is stored.
+PILOT_ARGS ?=
+pilot: setup
+	$(BIN)/python -m icil_paper.planning.pilot $(PILOT_ARGS)
 
 # LeRobot 0.6 needs Python >= 3.12 and numpy >= 2, which robosuite and ManiSkill here cannot
 # share: it gets an environment of its own, used only by icil_paper.interop.lerobot_export.

@@ -96,7 +96,7 @@ show_ledgers(ledgers)
 # ## How the reference run was designed
 #
 # The reference run's seeds were planned from the ledger's own power analysis
-# (`icil_paper.tables.design`): a claim that 10 seeds a row or fewer could decide gets 10
+# (`icil_paper.planning.design`): a claim that 10 seeds a row or fewer could decide gets 10
 # seeds on every row it reads, every other row a claim reads gets 5. Below, per claim: the
 # seeds a row its power analysis asks for the paper's effect (*seeds needed*), the records
 # those variances came from (before this run finished, the older code's), the seeds the
@@ -108,7 +108,7 @@ show_ledgers(ledgers)
 # preset's docstring gives that arithmetic and the run's estimated cost.
 
 # %% tags=["remove-input"]
-from icil_paper.tables.design import design_frame, stages_paragraph
+from icil_paper.planning.design import design_frame, stages_paragraph
 
 display(design_frame(get_preset(REFERENCE)))
 reference_ledger = next(ledger for p, ledger in ledgers.values() if p.name == REFERENCE)

@@ -63,7 +63,6 @@ from icil_paper.book.studies import (
     icrt_specs,
 )
 from icil_paper.book.summaries import icrt_findings
-from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
 from icil_paper.eval import record_rollout, rollout_policy
@@ -74,6 +73,7 @@ from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import cpu_threads, seed_everything
 from icil_paper.sim import make_env
 from icil_paper.train import load_trained
+from icil_paper.viz.viewer import show_recording
 
 logging.getLogger("robosuite_logs").disabled = True  # robosuite's import-time chatter
 preset = get_preset()  # reads ICIL_PRESET

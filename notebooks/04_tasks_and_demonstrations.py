@@ -50,12 +50,12 @@ from icil_paper.book.studies import (
     shown_tasks,
 )
 from icil_paper.book.summaries import demonstration_findings
-from icil_paper.book.viewer import show_recordings
 from icil_paper.config import get_preset
 from icil_paper.data import SOURCES, load_demos, zero_shot_split
 from icil_paper.data.stats import data_set_stats, keep_rate
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
+from icil_paper.viz.viewer import show_recordings
 
 preset = get_preset()  # reads ICIL_PRESET
 seed_everything(preset.seed)

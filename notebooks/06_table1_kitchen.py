@@ -60,14 +60,14 @@ display(Markdown(f"The reference run's design: {design_sentence(get_preset(REFER
 #
 # A family where every row succeeds always, or never, cannot tell the rows apart, and
 # averaging it in shrinks every difference. Before the reference run, a one-seed pilot
-# (`python -m icil_paper.bench.pilot`) trained the rows that bound this table's range at
+# (`python -m icil_paper.planning.pilot`) trained the rows that bound this table's range at
 # several settings of the reference preset and evaluated them as the table does; the
 # reference preset takes the setting that keeps the best row away from 0 and 1 on the most
 # families (the preset's docstring gives the reasoning). One seed: these numbers place a
 # family between 0 and 1, they do not rank the rows.
 
 # %% tags=["hide-input"]
-from icil_paper.bench.pilot import show_pilot
+from icil_paper.planning.pilot import show_pilot
 
 show_pilot(table="I")
 
@@ -76,7 +76,7 @@ show_pilot(table="I")
 #
 # In the paper, after 500K iterations, ICRT + LipVQ-VAE lies well inside (0, 1) on every
 # RoboCasa family (below): trained to its plateau, and neither at the floor nor at the ceiling. The
-# regime pilot (`python -m icil_paper.bench.pilot regime`) trains ICRT + LipVQ-VAE, ICRT +
+# regime pilot (`python -m icil_paper.planning.pilot regime`) trains ICRT + LipVQ-VAE, ICRT +
 # Lip-MLP and BC-Transformer at several budgets on training seeds, demonstration sets and
 # scene sets that the reference run never uses, finds where ICRT + LipVQ-VAE's learning
 # curve levels off (no gain beyond noise at the next budget), and reads the difficulty from
@@ -84,7 +84,7 @@ show_pilot(table="I")
 
 # %% tags=["hide-input"]
 from icil_paper import paper_numbers
-from icil_paper.bench.pilot import regime_summary
+from icil_paper.planning.pilot import regime_summary
 
 paper_lipvq = [v for k, v in paper_numbers.TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
 display(Markdown(f"The paper's ICRT + LipVQ-VAE over its seven families: "

@@ -60,7 +60,7 @@ display(success_figure(results, "avg", title="Table II: average success over the
 #
 # A task where every row succeeds always, or never, cannot tell the rows apart, and
 # averaging it in shrinks every difference. Before the reference run, a one-seed pilot
-# (`python -m icil_paper.bench.pilot`) trained ACT, the row every other row of this table
+# (`python -m icil_paper.planning.pilot`) trained ACT, the row every other row of this table
 # builds on, at several settings of the reference preset and evaluated it as the table
 # does; the
 # reference preset takes the setting that keeps the best row away from 0 and 1 on the most
@@ -68,7 +68,7 @@ display(success_figure(results, "avg", title="Table II: average success over the
 # task between 0 and 1, they do not rank the rows.
 
 # %% tags=["hide-input"]
-from icil_paper.bench.pilot import show_pilot
+from icil_paper.planning.pilot import show_pilot
 
 show_pilot(table="II")
 

@@ -40,8 +40,6 @@ import numpy as np
 import pandas as pd
 from IPython.display import Markdown, display
 
-from icil_paper.book.recording import record_latent_trajectories
-from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
 from icil_paper.results import results_root
 from icil_paper.tables.assemble import format_cell
@@ -55,6 +53,8 @@ from icil_paper.tables.book import (
     tsne_paths,
     verdicts,
 )
+from icil_paper.viz.recording import record_latent_trajectories
+from icil_paper.viz.viewer import show_recording
 
 preset = get_preset()
 smooth = load_table(preset, "III")

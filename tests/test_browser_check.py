@@ -13,6 +13,7 @@ from urllib.parse import unquote, urlsplit
 import pytest
 
 from icil_paper.book import browser_check
+from icil_paper.setup.system_deps import find_chromium
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(browser_check.unavailable() is not None,
@@ -143,8 +144,8 @@ CHAPTER = """# %% [markdown]
 # %%
 import numpy as np
 
-from icil_paper.book.recording import record_episode
-from icil_paper.book.viewer import show_recordings
+from icil_paper.viz.recording import record_episode
+from icil_paper.viz.viewer import show_recordings
 
 rng = np.random.default_rng(0)
 recordings = {}
@@ -204,7 +205,7 @@ def test_built_book_with_a_recording_passes_offline(tmp_path):
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=browser_check.find_chromium(),
+        browser = p.chromium.launch(executable_path=find_chromium(),
                                     args=list(browser_check.CHROMIUM_ARGS))
         pg = browser.new_page()
         pg.goto((html / "notebooks" / "recorded.html").as_uri(), wait_until="load")

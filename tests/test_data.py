@@ -601,7 +601,7 @@ def test_cli_generates_checks_and_lists(fake_kitchen, capsys):
 
 
 def test_recording_writes_rrd_and_picture(tmp_path):
-    from icil_paper.book.recording import record_episode
+    from icil_paper.viz.recording import record_episode
 
     demo = _demo(T=6, images=True)
     paths = record_episode(tmp_path / "rec" / "demo.rrd", demo.obs, demo.actions,

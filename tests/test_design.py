@@ -9,11 +9,8 @@ from pathlib import Path
 import pytest
 
 from icil_paper.config import get_preset
-from icil_paper.records import train_record
-from icil_paper.results import ResultsStore
-from icil_paper.tables import table_spec
-from icil_paper.tables.cost import run_cost
-from icil_paper.tables.design import (
+from icil_paper.planning.cost import run_cost
+from icil_paper.planning.design import (
     DECIDABLE_SEEDS,
     OTHER_SEEDS,
     TABLE_IDS,
@@ -23,6 +20,9 @@ from icil_paper.tables.design import (
     design_ledger,
     planned_seeds,
 )
+from icil_paper.records import train_record
+from icil_paper.results import ResultsStore
+from icil_paper.tables import table_spec
 from record_helpers import write_eval_record
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,7 +88,7 @@ def test_expected_half_width_shrinks_with_seeds_and_matches_the_ledgers_own():
     from scipy.stats import t
 
     from icil_paper import stats
-    from icil_paper.tables.design import expected_half_width
+    from icil_paper.planning.design import expected_half_width
 
     var = 0.0025
     mde = stats.minimum_detectable(var, var, 3, 3)
@@ -162,8 +162,8 @@ def test_a_resumed_cell_does_not_lower_the_training_rate(tmp_path):
 
 
 def test_a_seed_counts_as_finished_once_every_record_its_row_reads_is_there(tmp_path):
+    from icil_paper.planning.design import finished_seeds
     from icil_paper.records import features_record
-    from icil_paper.tables.design import finished_seeds
 
     preset = smoke("tables.icrt_seeds=2")
     store = ResultsStore(preset.name, root=tmp_path)
@@ -181,7 +181,7 @@ def test_a_seed_counts_as_finished_once_every_record_its_row_reads_is_there(tmp_
 
 
 def test_the_interim_check_reads_every_row_at_the_seeds_finished_so_far(tmp_path):
-    from icil_paper.tables.design import at_seeds, interim_check
+    from icil_paper.planning.design import at_seeds, interim_check
 
     preset = smoke()
     assert set(planned_seeds(at_seeds(get_preset("reference"), 3)).values()) == {3}
@@ -192,7 +192,7 @@ def test_the_interim_check_reads_every_row_at_the_seeds_finished_so_far(tmp_path
 
 
 def test_the_stage_rule_sends_on_only_rows_of_undecided_claims_a_stage_can_decide():
-    from icil_paper.tables.design import stage_plan
+    from icil_paper.planning.design import stage_plan
 
     preset = smoke("tables.icrt_seeds=5", "tables.baseline_seeds=5", "tables.seed_stages=5,10,15")
     ledger = [{"id": "I-tokenizer-gap", "sequential": {"next": 10}},   # undecided, decidable
@@ -213,7 +213,7 @@ def test_the_stage_rule_sends_on_only_rows_of_undecided_claims_a_stage_can_decid
 
 
 def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys):
-    from icil_paper.tables.design import main, stages_paragraph
+    from icil_paper.planning.design import main, stages_paragraph
 
     preset = get_preset("reference")
     assert preset.tables.seed_stages == (5, 10, 15)
@@ -238,8 +238,8 @@ def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys
 def test_the_stage_prose_and_plan_read_typed_ledger_entries():
     # chapter 0 and `design --stages` pass the ledger as `claims_ledger`/`load_ledger` give
     # it (typed entries), not as the stored dicts
+    from icil_paper.planning.design import stage_plan, stages_paragraph
     from icil_paper.tables.claims import load_ledger
-    from icil_paper.tables.design import stage_plan, stages_paragraph
 
     preset = get_preset("reference")
     ledger = load_ledger(ROOT / "results" / "reference" / "claims.json")

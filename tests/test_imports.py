@@ -121,8 +121,13 @@ LOWER = {
                        "icil_paper.tables", "icil_paper.policies"),
     "icil_paper.train": ("icil_paper.eval", "icil_paper.tables", "icil_paper.book.studies",
                          "icil_paper.reproduce", "icil_paper.tables.grid"),
-    "icil_paper.eval": ("icil_paper.tables", "icil_paper.book.studies", "icil_paper.reproduce",
+    "icil_paper.eval": ("icil_paper.tables", "icil_paper.book", "icil_paper.reproduce",
                         "icil_paper.tables.grid"),
+    "icil_paper.data": ("icil_paper.book", "icil_paper.tables"),
+    "icil_paper.viz": ("icil_paper.book",),
+    "icil_paper.setup": ("icil_paper.book",),
+    "icil_paper.tables": ("icil_paper.planning",),
+    "icil_paper.bench": ("icil_paper.planning", "icil_paper.book"),
 }
 """Package (or module) -> the higher ones it must not import."""
 

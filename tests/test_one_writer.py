@@ -160,15 +160,15 @@ def test_a_record_with_fields_of_the_wrong_type_is_recomputed(tmp_path, monkeypa
 
 
 def test_the_planning_commands_name_a_damaged_file_in_one_line(tmp_path):
-    """`python -m icil_paper.tables.design --interim` on a truncated claims.json and
-    `python -m icil_paper.tables.cost` with a truncated train record: exit 2, one line
+    """`python -m icil_paper.planning.design --interim` on a truncated claims.json and
+    `python -m icil_paper.planning.cost` with a truncated train record: exit 2, one line
     naming the file and the fix (no JSONDecodeError traceback)."""
     store = tmp_path / "results" / "smoke"
     (store / "train").mkdir(parents=True)
     env = {**os.environ, "ICIL_RESULTS": str(tmp_path / "results")}
     claims = store / "claims.json"
     claims.write_text('{"claims": [{"id": "x", "verd')
-    cmd = [sys.executable, "-m", "icil_paper.tables.design", "--preset", "smoke", "--interim"]
+    cmd = [sys.executable, "-m", "icil_paper.planning.design", "--preset", "smoke", "--interim"]
     done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 2, done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
@@ -176,7 +176,7 @@ def test_the_planning_commands_name_a_damaged_file_in_one_line(tmp_path):
     claims.unlink()
     record = store / "train" / "icrt__x__generated__seed0__0123456789abcdef.json"
     record.write_text('{"schema": 1, "kind": "train", "wall_')
-    cmd = [sys.executable, "-m", "icil_paper.tables.cost", "--preset", "smoke"]
+    cmd = [sys.executable, "-m", "icil_paper.planning.cost", "--preset", "smoke"]
     done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 2, done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
@@ -188,12 +188,12 @@ def test_the_cost_loader_names_a_field_of_the_wrong_type(tmp_path):
     import pytest
 
     from icil_paper.fileio import UnreadableFileError
-    from icil_paper.tables.cost import read_cost
+    from icil_paper.planning.cost import read_cost
 
     path = tmp_path / "cost.json"
     path.write_text('{"preset": "smoke", "total": "3 hours"}')
     with pytest.raises(UnreadableFileError, match=r"cost.json is not .*'total' is a string, "
-                                                  r"not an object.*tables.cost"):
+                                                  r"not an object.*planning.cost"):
         read_cost(path)
 
 

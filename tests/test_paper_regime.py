@@ -119,7 +119,7 @@ def test_every_icrt_row_starts_from_the_same_backbone():
 
 
 def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not():
-    from icil_paper.bench.pilot import REGIME_ROWS, regime_plans, regime_preset
+    from icil_paper.planning.pilot import REGIME_ROWS, regime_plans, regime_preset
     from icil_paper.tables.definitions import table_spec
     from icil_paper.tables.execute import plan
 
@@ -141,7 +141,7 @@ def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not(
 
 
 def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise():
-    from icil_paper.bench.pilot import plateau
+    from icil_paper.planning.pilot import plateau
 
     rising = {500: [0.2, 0.25], 1000: [0.5, 0.55], 2000: [0.7, 0.72], 4000: [0.71, 0.73]}
     assert plateau(rising, episodes=55) == 2000
@@ -152,8 +152,8 @@ def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise
 def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
     import json
 
+    from icil_paper.planning.design import data_cost
     from icil_paper.tables.definitions import TABLES, table_spec
-    from icil_paper.tables.design import data_cost
     from icil_paper.tables.execute import plan
 
     rates = tmp_path / "datasets.json"

@@ -2,7 +2,7 @@
 
 import json
 
-from icil_paper.bench.pilot import pilot_frame
+from icil_paper.planning.pilot import pilot_frame
 
 
 def _row(row, tasks, families=None, steps=2000):
@@ -36,7 +36,7 @@ def test_table_one_averages_over_tasks_and_flags_columns_no_row_separates(tmp_pa
 
 
 def test_the_chapters_list_each_settings_uninformative_columns():
-    from icil_paper.bench.pilot import uninformative_markdown
+    from icil_paper.planning.pilot import uninformative_markdown
 
     text = uninformative_markdown({"a": ["insertion", "knobs"], "b": []})
     assert text.endswith("\n\n- a: insertion, knobs\n- b: none")

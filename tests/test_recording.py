@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from icil_paper.book.recording import principal_view, record_latent_trajectories
+from icil_paper.viz.recording import principal_view, record_latent_trajectories
 
 
 def test_principal_view_finds_the_direction_of_motion_and_pads_narrow_latents():
@@ -52,7 +52,7 @@ def test_latent_recording_rejects_bad_views(tmp_path):
 
 def test_failed_recording_leaves_only_the_picture(tmp_path, monkeypatch):
     pytest.importorskip("rerun")
-    import icil_paper.book.recording as recording
+    import icil_paper.viz.recording as recording
 
     def fail_midway(path, *args):
         with recording._rrd_stream(path):

@@ -74,6 +74,38 @@ def test_the_layout_section_is_true_to_the_tree():
     assert count == len(modules), f"the layout says {count} modules at the top, there are {len(modules)}"
 
 
+def _documented_benchmarks() -> list[str]:
+    """The benchmarks CONTRIBUTING.md's Benchmarks section says `make bench` runs: the
+    backticked names of its first paragraph."""
+    import re
+
+    section = (ROOT / "CONTRIBUTING.md").read_text().split("\n## Benchmarks\n", 1)[1]
+    paragraph = section.strip().split("\n\n", 1)[0]
+    assert paragraph.startswith("`make bench` runs"), paragraph[:80]
+    return re.findall(r"`(\w+)`", paragraph.split("Each writes", 1)[0])
+
+
+def _make_benchmarks() -> list[str]:
+    import re
+
+    found = re.search(r"^BENCHMARKS := (.+)$", (ROOT / "Makefile").read_text(), re.MULTILINE)
+    assert found, "the Makefile names no BENCHMARKS"
+    return found.group(1).split()
+
+
+def test_make_bench_runs_exactly_the_documented_benchmarks():
+    """`make bench` runs the benchmarks CONTRIBUTING.md lists, each a module of bench/, and
+    bench/ holds nothing else (the pilots are planning/, the README's figures book/)."""
+    documented, made = _documented_benchmarks(), _make_benchmarks()
+    assert documented, "CONTRIBUTING.md's Benchmarks section lists no benchmark"
+    assert sorted(made) == sorted(documented), \
+        f"make bench runs {made}, CONTRIBUTING.md lists {documented}"
+    modules = sorted(p.stem for p in (ROOT / "src" / "icil_paper" / "bench").glob("*.py")
+                     if p.name != "__init__.py")
+    assert sorted(documented) == modules, f"bench/ holds {modules}, documented: {documented}"
+    assert "\npilot: " in (ROOT / "Makefile").read_text()  # the pilot runs on its own
+
+
 def test_the_readme_reads_in_five_minutes():
     readme = (ROOT / "README.md").read_text()
     assert len(readme.splitlines()) <= 150

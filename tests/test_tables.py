@@ -364,6 +364,7 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
     matplotlib.use("Agg")
     from IPython.core.interactiveshell import InteractiveShell
 
+    from icil_paper.planning.design import design_frame
     from icil_paper.tables.book import (
         forest_plot,
         ledger_details,
@@ -375,7 +376,6 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
         undecided_power,
     )
     from icil_paper.tables.claims import summary_sentence
-    from icil_paper.tables.design import design_frame
 
     monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
     ledger = json.loads((ROOT / "results" / "reference" / "claims.json").read_text())["claims"]

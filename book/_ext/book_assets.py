@@ -7,7 +7,7 @@ into the book's `_static/`:
                                 `mathjax_path` in _config.yml points here, not at a CDN
     vendor/rerun-web-viewer/    npm `@rerun-io/web-viewer` (index.js, re_viewer.js, .wasm)
     recordings/                 the recordings that executed chapters staged with
-                                `icil_paper.book.viewer.show_recording`
+                                `icil_paper.viz.viewer.show_recording`
 
 and it adds `book/_static/` (recording-viewer.js, recordings.css, tables.css) to every page. In a
 Markdown page, `<!-- computed: reference-summary -->` becomes the reference run's claims
@@ -105,7 +105,7 @@ def copy_viewer(node_modules: Path, static_out: Path) -> Path:
 
 def copy_recordings(staging: Path, static_out: Path) -> int:
     """The staged recordings into `static_out/recordings`; returns how many files."""
-    from icil_paper.book.viewer import RECORDINGS_URL_DIR
+    from icil_paper.viz.viewer import RECORDINGS_URL_DIR
 
     if not staging.is_dir():
         return 0
@@ -127,7 +127,7 @@ def _check_installed(app: Sphinx) -> None:
 def _copy_assets(app: Sphinx, exception: Exception | None) -> None:
     if exception is not None or app.builder.format != "html":
         return
-    from icil_paper.book.viewer import RECORDINGS_STAGING
+    from icil_paper.viz.viewer import RECORDINGS_STAGING
 
     static_out = Path(app.outdir) / "_static"
     copy_mathjax(NODE_MODULES, static_out)

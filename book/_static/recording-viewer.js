@@ -1,6 +1,6 @@
 // Starts the embedded rerun web viewer for every recording block of a page.
 //
-// `icil_paper.book.viewer.show_recording` writes a block like
+// `icil_paper.viz.viewer.show_recording` writes a block like
 //   <figure class="icil-recording" data-recordings='[{"label", "rrd", "png"}]' data-height="480px">
 //     <div class="icil-recording-viewer"></div>
 //     <img class="icil-recording-fallback" src="...png">

@@ -14,6 +14,10 @@ Submodules are imported lazily so that `import icil_paper` stays cheap:
 - `icil_paper.train`, `icil_paper.eval`   training and evaluation: each its loop, its stored
   records (named by `icil_paper.records`) and its command
 - `icil_paper.tables`     the paper's tables as specs, executed on a grid of cells
+- `icil_paper.planning`   above the tables: the seed design, a run's cost, the plan for the
+  undecided claims (`icil-paper plan`) and the pilots
+- `icil_paper.bench`      throughput benchmarks (`make bench`)
+- `icil_paper.viz`        rerun recordings of episodes and the viewer that embeds them in a page
 - `icil_paper.book`, `icil_paper.setup`, `icil_paper.interop`   the chapters' studies and the
   book's tools; this machine's checks and provenance; exports for other code bases
 """

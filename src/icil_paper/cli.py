@@ -114,7 +114,7 @@ SUBCOMMANDS = {
     "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
     "compare": ("icil_paper.tables.compare",
                 "a tokenizer against LipVQ-VAE on Table I's protocol: difference, verdict, power"),
-    "plan": ("icil_paper.tables.decide", "the seeds, cells and CPU-hours that would decide every "
+    "plan": ("icil_paper.planning.decide", "the seeds, cells and CPU-hours that would decide every "
              "undecided claim, and the run that computes them"),
     "export-tokenizer": ("icil_paper.interop.tokenizer_export",
                          "write a trained policy's tokenizer as a portable folder (safetensors)"),

@@ -316,7 +316,7 @@ class TablesConfig(_Checked):
     ledger decides a claim only at a look's boundary, Holm's correction reads the design's
     repeated p-values, and after each look the rows of claims that are all decided stop,
     rows of undecided claims that a later stage can decide at the paper's effect go on to
-    the next stage, and the others stop (`python -m icil_paper.tables.design --stages`
+    the next stage, and the others stop (`python -m icil_paper.planning.design --stages`
     prints which). Empty: a fixed design, every claim read once at the seeds it has."""
 
 
@@ -536,7 +536,7 @@ def _reference() -> Preset:
     """The committed reference run: designed from power so that its claims can be decided,
     at a cost meant to fit in ten hours of a 2-core machine at two cells at a time.
 
-    Seeds (`icil_paper.tables.design`, whose rule `tests/test_design.py` checks): a claim is
+    Seeds (`icil_paper.planning.design`, whose rule `tests/test_design.py` checks): a claim is
     decidable when the ledger's power analysis (`seeds_needed`, from the records' own
     per-seed variances; before this run, those of the older code's records,
     `results/reference/older-code/claims.json`) says 10 seeds a row or fewer detect the
@@ -549,17 +549,17 @@ def _reference() -> Preset:
     stand-in), so a difference of two 10-seed rows has an expected 95% half-width of about
     2.1 * 0.05 * sqrt(2/10) = 0.047 (0.066 at 5 seeds): enough for the paper's 8.8-point
     tokenizer gap and 5.5-point Lipschitz gain, not for its 0.2-4-point differences, which
-    stay undecided unless their true size is larger (`python -m icil_paper.tables.design`
+    stay undecided unless their true size is larger (`python -m icil_paper.planning.design`
     prints each claim's expected half-width). Table II's other ACT rows (Bin, FAST, VQ-VAE,
     LFQ-VAE) get 10 as well: the interim check at the run's first two seeds
-    (`python -m icil_paper.tables.design --interim`) put II-lipvq-best and II-lipvq-vs-lfq
+    (`python -m icil_paper.planning.design --interim`) put II-lipvq-best and II-lipvq-vs-lfq
     at 12 seeds needed, just above the rule's line, and an ACT cell on one ManiSkill task
     costs about 57 CPU-seconds, so their 60 extra cells cost about one CPU-hour.
 
     Seeds in stages (`REFERENCE_SEED_STAGES`, `tables.seed_stages`): the seeds above are
     what the fixed design planned; under the stage schedule the ledger looks at 5, 10 and
     15 seeds a row with group-sequential boundaries, and
-    `python -m icil_paper.tables.design --preset reference --stages` says which rows go on
+    `python -m icil_paper.planning.design --preset reference --stages` says which rows go on
     to the next stage (`row_seeds` entries of the next sitting).
 
     Episodes: a seed's true success varies by about 0.0016 (variance, the older records)
@@ -572,7 +572,7 @@ def _reference() -> Preset:
     third, so 5, with each seed on its own scene set (`scenes_per_seed`), so that scene
     luck averages out over seeds too.
 
-    Task scale, from the pilot (`python -m icil_paper.bench.pilot`, `results/bench/pilot.json`,
+    Task scale, from the pilot (`python -m icil_paper.planning.pilot`, `results/bench/pilot.json`,
     one seed of ICRT + LipVQ-VAE and BC-Transformer on 10 episodes a task, shown in chapter
     06): at 3000 training steps ICRT + LipVQ-VAE sat at 0.9-1.0 on 9 of 11 kitchen tasks
     (average 0.81), where tokenizers cannot differ; at 2000 steps it averages 0.55 with
@@ -599,7 +599,7 @@ def _reference() -> Preset:
     125 as over the paper's 500K iterations instead of 0.5 (Table II's: 6.0, against the
     paper's 30K ManiSkill iterations).
 
-    Projected cost at these settings (`tables.design.plan_cost`, from the rates of
+    Projected cost at these settings (`planning.design.plan_cost`, from the rates of
     `results/bench/cells.json`, measured before policies read the instruction, which adds
     one bag-of-words lookup per step, and of `results/bench/datasets.json`): 433 trained
     cells, 25.8 core-hours of training and evaluation (17.7 of training), and 2.1
@@ -609,15 +609,15 @@ def _reference() -> Preset:
     two cells at a time, above the 12-hour target. The rule is to cut episodes per seed
     before seeds, but 4 episodes a task give 13.3 hours and 3 give 12.6, so the target
     cannot be met by episodes alone; and the regime pilot (`python -m
-    icil_paper.bench.pilot regime`) is to set the training steps and demonstrations
+    icil_paper.planning.pilot regime`) is to set the training steps and demonstrations
     first. The episodes therefore stay at 5 until the regime is chosen.
 
     Cost: before the run, from the rates measured in `results/bench/cells.json`
-    (`python -m icil_paper.tables.design --preset reference`), 370 trained cells came to
+    (`python -m icil_paper.planning.design --preset reference`), 370 trained cells came to
     about 24 core-hours, 12 hours at two cells at a time. What the run really costs, and
     the whole run projected from the CPU time its finished cells measured (430 cells with
     Table II's extra seeds), is in `results/reference/cost.json`
-    (`python -m icil_paper.tables.cost`)."""
+    (`python -m icil_paper.planning.cost`)."""
     small = _small()
     train = TrainConfig(steps=2000, batch_size=8, warmup_steps=100, ckpt_every=500)
     return dataclasses.replace(

@@ -275,7 +275,7 @@ def read_json(path: str | Path, what: str, fix: str, keys: Sequence[str] = (),
     what it should be and `fix`:
 
         cost = read_json(path, "a run's cost (cost.json)", "regenerate it: python -m "
-                         "icil_paper.tables.cost", keys=("total",), fields={"total": dict})
+                         "icil_paper.planning.cost", keys=("total",), fields={"total": dict})
     """
     def parse(p: Path) -> Any:
         obj = json.loads(p.read_bytes().decode("utf-8"))

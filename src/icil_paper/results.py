@@ -275,7 +275,7 @@ def read_record_file(path: str | Path) -> dict[str, Any]:
     """The JSON object of a record file, read through `fileio.read_json` with the record's
     field types (`FIELD_TYPES`): a damaged one, or one whose fields have the wrong types,
     raises UnreadableFileError naming it and the fix. For commands that read records to
-    report on them (`tables.cost`); `ResultsStore.get` sets a damaged record aside instead."""
+    report on them (`planning.cost`); `ResultsStore.get` sets a damaged record aside instead."""
     return read_json(path, "a result record (a JSON object)", RECORD_FIX, fields=FIELD_TYPES)
 
 

@@ -117,7 +117,7 @@ sequentially rejective group-sequential procedure of Maurer and Bretz (2013, "Mu
 testing in group sequential trials using graphical approaches", Stat. Biopharm. Res. 5)
 for Holm's graph: a rejected claim passes its alpha on to the others at every later look.
 
-The stage rule (`icil_paper.tables.design.stage_plan`): after a look, rows whose claims are
+The stage rule (`icil_paper.planning.design.stage_plan`): after a look, rows whose claims are
 all decided stop; a row goes on to the next stage when a claim that reads it is undecided
 and `stage_seeds_needed` (the first stage whose boundary detects the paper's effect with
 80% power, at the measured per-seed variances) is within the schedule; the others stop,

@@ -8,7 +8,7 @@ so a preset with S seeds a row generates S sets of each suite. This measures one
 `generated` source, state observations) of the kitchen tasks and of the ManiSkill tasks in
 this process (one worker), on a set index that no table uses, in a folder of its own that is
 removed afterwards: CPU seconds (this process: generation runs in it with one worker) and
-wall seconds per demonstration. `tables.design.plan_cost` multiplies them by the
+wall seconds per demonstration. `planning.design.plan_cost` multiplies them by the
 demonstrations the preset's plan asks for.
 """
 

@@ -4,7 +4,8 @@
     make browser-check
 
 Serves the built book on a loopback HTTP server and loads every page in headless Chromium
-(Debian's `chromium`, driven by Playwright's Python package; no browser is downloaded).
+(Debian's `chromium`, found by `setup.system_deps.find_chromium` and driven by Playwright's
+Python package; no browser is downloaded).
 Every request that leaves the loopback server is blocked, so the check passes only if the
 book needs no network (a CDN script, font or image is caught). A page fails on:
 
@@ -16,7 +17,7 @@ book needs no network (a CDN script, font or image is caught). A page fails on:
     overflow             a table, cell output or figure wider than the content column or
                          than its own box (scrollWidth > clientWidth: clipped, or scrolled
                          sideways), at the reader's window width (1400 px)
-    recording viewer     a recording block (icil_paper.book.viewer) whose viewer made no canvas,
+    recording viewer     a recording block (icil_paper.viz.viewer) whose viewer made no canvas,
                          or did not report each of its recordings open (a block's menu is
                          switched through them), or that scrolled the page to itself
 
@@ -31,9 +32,7 @@ from __future__ import annotations
 import argparse
 import functools
 import http.server
-import os
 import re
-import shutil
 import sys
 import threading
 import time
@@ -43,8 +42,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import unquote, urldefrag, urlsplit
 
+from icil_paper.setup.system_deps import find_chromium
+
 DEFAULT_HTML = Path("book/_build/html")
-CHROMIUM_CANDIDATES = ("chromium", "chromium-browser", "google-chrome")
 # Chromium on a machine with no display and no network: no first-run, sync or component
 # update traffic (those requests would be refused, many at a time). WebGL falls back to
 # Chromium's software rasteriser, which the rerun viewer runs on.
@@ -165,18 +165,6 @@ class Report:
     @property
     def ok(self) -> bool:
         return not self.problems
-
-
-def find_chromium() -> str | None:
-    """The Chromium executable: $ICIL_CHROMIUM, else the first of CHROMIUM_CANDIDATES on PATH."""
-    explicit = os.environ.get("ICIL_CHROMIUM")
-    if explicit:
-        return explicit if Path(explicit).is_file() else None
-    for name in CHROMIUM_CANDIDATES:
-        path = shutil.which(name)
-        if path:
-            return path
-    return None
 
 
 def unavailable() -> str | None:

@@ -12,13 +12,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from icil_paper.book.recording import principal_view
 from icil_paper.config import Preset, TokenizerStudyConfig
 from icil_paper.config_data import to_dict
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import DataSpec
 from icil_paper.sim import ACTION_DIM
 from icil_paper.tokenizers.configs import TokenizerConfig, lipvq_official
+from icil_paper.viz.recording import principal_view
 
 VIEW_STEPS = 40
 """Steps of one held-out trajectory kept (in principal components) for latent plots."""
@@ -175,8 +175,8 @@ def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict
     Written to `results/<preset>/tokenizers/latent_trajectories.{rrd,png}` from the stored
     views and the trajectory's actions (no tokenizer is retrained); returns their paths.
     """
-    from icil_paper.book.recording import record_latent_trajectories
     from icil_paper.results import results_root
+    from icil_paper.viz.recording import record_latent_trajectories
 
     _, test, _ = tokenizer_trajectories(preset)
     actions = test[0][:VIEW_STEPS]

@@ -32,9 +32,9 @@ def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[st
     Files: `<out_dir>/<suite>__<task>.frame.png`, `.rrd` and `.png` (the recording and its
     static picture).
     """
-    from icil_paper.book.recording import record_episode
     from icil_paper.data.sources import demo_seed, expert_rollout, make_source
     from icil_paper.sim import make_env, object_position, suite_of
+    from icil_paper.viz.recording import record_episode
 
     out_dir = Path(out_dir)
     stem = task.replace("/", "__")

@@ -241,9 +241,9 @@ def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping
     recording is unavailable altogether.
     """
     try:
-        from icil_paper.book.recording import record_episode
+        from icil_paper.viz.recording import record_episode
     except ImportError:
-        warnings.warn("icil_paper.book.recording is not available; rollouts are not recorded",
+        warnings.warn("icil_paper.viz.recording is not available; rollouts are not recorded",
                       stacklevel=2)
         return None
     actions = np.asarray(trace["actions"], np.float32)

@@ -12,7 +12,8 @@ runs `python -m icil_paper.setup.system_deps --install`, which:
 3. anywhere else (not root, not Debian, no apt): prints what to install by hand and carries on.
    Tests that need ManiSkill then skip with `vulkan_problem()`'s reason.
 
-The book's browser check (`icil_paper.book.browser_check`) needs Chromium. Where none is found,
+The book's browser check (`icil_paper.book.browser_check`) needs Chromium, found by
+`find_chromium` ($ICIL_CHROMIUM, else the first candidate on PATH). Where none is found,
 `--install` installs Debian's `chromium` package with apt-get (root, Debian-like); elsewhere
 it prints what to install and carries on (the browser check and its tests then say so).
 """
@@ -42,6 +43,9 @@ MANUAL_CHROMIUM = (
     "on Ubuntu `apt-get install chromium-browser`; or set ICIL_CHROMIUM to a Chromium or "
     "Chrome executable."
 )
+
+CHROMIUM_CANDIDATES = ("chromium", "chromium-browser", "google-chrome")
+"""Executables tried, in order, on PATH when $ICIL_CHROMIUM is not set."""
 
 _PROBE = """
 import sapien
@@ -155,10 +159,21 @@ def ensure_vulkan(install: bool) -> None:
               "  Everything else works; ManiSkill tests will be skipped with this reason.")
 
 
-def chromium_problem() -> str | None:
-    """None when a Chromium executable is found (see `browser_check.find_chromium`)."""
-    from icil_paper.book.browser_check import find_chromium
+def find_chromium() -> str | None:
+    """The Chromium executable: $ICIL_CHROMIUM, else the first of CHROMIUM_CANDIDATES on PATH.
+    The book's browser check launches the one found here."""
+    explicit = os.environ.get("ICIL_CHROMIUM")
+    if explicit:
+        return explicit if Path(explicit).is_file() else None
+    for name in CHROMIUM_CANDIDATES:
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
 
+
+def chromium_problem() -> str | None:
+    """None when a Chromium executable is found (`find_chromium`)."""
     return None if find_chromium() else f"Chromium not found. {MANUAL_CHROMIUM}"
 
 

@@ -1,11 +1,11 @@
 """The reference run's design, computed: seeds per row from the claims' power, episodes
 from the split of seed and episode variance, and what the run costs.
 
-    python -m icil_paper.tables.design             # the arithmetic behind the reference preset
-    check_design(preset, ledger)                   # rows with fewer seeds than the rule asks
-    python -m icil_paper.tables.design --interim   # the rule against the seeds finished so far
-    python -m icil_paper.tables.design --stages    # seeds in stages: each claim's look and
-                                                   # the rows that go on to the next stage
+    python -m icil_paper.planning.design             # the arithmetic behind the reference preset
+    check_design(preset, ledger)                     # rows with fewer seeds than the rule asks
+    python -m icil_paper.planning.design --interim   # the rule against the seeds finished so far
+    python -m icil_paper.planning.design --stages    # seeds in stages: each claim's look and
+                                                     # the rows that go on to the next stage
 
 **The rule.** A claim is *decidable* when the ledger's power analysis (`seeds_needed`,
 `icil_paper.tables.claims`) says `DECIDABLE_SEEDS` seeds a row or fewer detect the paper's
@@ -22,7 +22,7 @@ gives the E that is narrowest for its compute.
 **Cost.** Each trained run of the plan costs its optimizer steps at the measured step time
 of its kind plus its episodes at the measured simulator rate (`results/bench/cells.json`,
 `python -m icil_paper.bench.cells`); the run's records carry what it really cost
-(`results/reference/cost.json`, `icil_paper.tables.cost`).
+(`results/reference/cost.json`, `icil_paper.planning.cost`).
 """
 
 from __future__ import annotations
@@ -419,7 +419,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from icil_paper.cli import add_preset_arguments, preset_from_args
 
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.tables.design",
+    parser = argparse.ArgumentParser(prog="python -m icil_paper.planning.design",
                                      description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
     parser.add_argument("--interim", action="store_true",
@@ -490,4 +490,4 @@ def _print_stages(preset: Preset) -> int:
 if __name__ == "__main__":
     from icil_paper.cli import run_module
 
-    raise SystemExit(run_module("python -m icil_paper.tables.design", main))
+    raise SystemExit(run_module("python -m icil_paper.planning.design", main))

@@ -11,7 +11,7 @@ a row the claim needs to detect the paper's effect at 80% power (`seeds_needed`,
 the tables under it and counts the cells (trained policies with their evaluations) whose
 records the store does not hold yet: exactly those a run with that override computes. Each
 cell is priced at the CPU time its kind of cell took in the preset's own run
-(`results/<preset>/cost.json`, `icil_paper.tables.cost`): its training, plus its records'
+(`results/<preset>/cost.json`, `icil_paper.planning.cost`): its training, plus its records'
 evaluations at the kind's CPU time per evaluation record. Wall time at N cores is the CPU
 time over N (one cell per core), never less than the costliest cell.
 
@@ -37,11 +37,11 @@ from typing import Any
 from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
 from icil_paper.config import Preset
 from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
+from icil_paper.planning.design import cell_kind, claim_rows, planned_seeds
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
 from icil_paper.stats import Verdict
 from icil_paper.tables.definitions import TABLES, table_spec
-from icil_paper.tables.design import cell_kind, claim_rows, planned_seeds
 from icil_paper.tables.execute import plan
 
 DECIDED = (Verdict.HOLDS, Verdict.DOES_NOT_HOLD)
@@ -215,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
                              ("cost.json", "a run's cost", ("by_kind",))):
         path = store.dir / name
         fix = (f"run `icil-paper reproduce --preset {preset.name}` first (its claims stage "
-               "writes claims.json; `python -m icil_paper.tables.cost` writes cost.json)")
+               "writes claims.json; `python -m icil_paper.planning.cost` writes cost.json)")
         try:
             inputs[name] = read_json(path, what, fix, keys=keys)
         except FileNotFoundError:

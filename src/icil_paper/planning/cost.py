@@ -1,6 +1,6 @@
 """What a preset's run cost, computed from its records: `results/<preset>/cost.json`.
 
-    python -m icil_paper.tables.cost --preset reference    # writes results/reference/cost.json
+    python -m icil_paper.planning.cost --preset reference    # writes results/reference/cost.json
 
 Every record carries the wall time and CPU time of its computation (`ResultsStore.write`:
 a training run, one task's evaluation, one features measurement). A record belongs to the
@@ -53,10 +53,10 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
     """Record path -> (stage, kind of cell) for every record the table stages plan, and
     chapter 02's run (stage `icrt`)."""
     from icil_paper.book.studies import icrt_specs
+    from icil_paper.planning.design import cell_kind
     from icil_paper.records import eval_record, features_record, train_record
     from icil_paper.reproduce import STAGES
     from icil_paper.tables.definitions import table_spec
-    from icil_paper.tables.design import cell_kind
     from icil_paper.tables.execute import plan
 
     out: dict[Path, tuple[str, str]] = {}
@@ -134,7 +134,7 @@ def _rounded(groups: dict[str, dict[str, float]]) -> dict[str, dict[str, Any]]:
 
 def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any]:
     """The cost of the preset's records (see the module docstring)."""
-    from icil_paper.tables.design import planned_seeds
+    from icil_paper.planning.design import planned_seeds
 
     store = store or ResultsStore(preset.name)
     planned = _planned(preset, store)
@@ -196,7 +196,7 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
                 by_group: dict[tuple[str, str], dict[str, float]],
                 cpu_so_far: float) -> dict[str, Any]:
     """The whole run's CPU time and idle-machine wall time (see the module docstring)."""
-    from icil_paper.tables.design import plan_cost
+    from icil_paper.planning.design import plan_cost
 
     cells: dict[tuple[str, str], int] = defaultdict(int)
     for path, group in planned.items():
@@ -234,7 +234,7 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
     }
 
 
-COST_FIX = "regenerate it: python -m icil_paper.tables.cost --preset <preset>"
+COST_FIX = "regenerate it: python -m icil_paper.planning.cost --preset <preset>"
 
 
 def read_cost(path: str | Path) -> dict[str, Any]:
@@ -257,7 +257,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from icil_paper.cli import add_preset_arguments, preset_from_args
 
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.tables.cost",
+    parser = argparse.ArgumentParser(prog="python -m icil_paper.planning.cost",
                                      description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
     path = write_cost(preset_from_args(parser.parse_args(argv)))
@@ -269,4 +269,4 @@ def main(argv: list[str] | None = None) -> int:
 if __name__ == "__main__":
     from icil_paper.cli import run_module
 
-    raise SystemExit(run_module("python -m icil_paper.tables.cost", main))
+    raise SystemExit(run_module("python -m icil_paper.planning.cost", main))

@@ -1,6 +1,6 @@
 """How a chapter shows a rerun recording: an embedded viewer, a download link, the picture.
 
-    from icil_paper.book.viewer import show_recording, show_recordings
+    from icil_paper.viz.viewer import show_recording, show_recordings
     show_recording("results/small/chapter01/rollout.rrd")           # a notebook cell's last line
     show_recordings({"open_drawer": ("a.rrd", "a.png"), ...})       # one viewer, a menu
 

@@ -1,6 +1,6 @@
 """Recordings of demonstrations and rollouts: a rerun `.rrd` file and a static picture beside it.
 
-    from icil_paper.book.recording import record_episode
+    from icil_paper.viz.recording import record_episode
     paths = record_episode("runs/demo.rrd", demo.obs, demo.actions, latents=z)
     # paths["rrd"]: open with `rerun runs/demo.rrd`;  paths["png"]: the same episode, static
 

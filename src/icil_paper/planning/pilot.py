@@ -1,7 +1,7 @@
 """The pilot that sets the reference preset's task scale: is each family and task informative?
 
-    python -m icil_paper.bench.pilot                      # every setting, 2 cells at a time
-    python -m icil_paper.bench.pilot --settings kitchen_30
+    python -m icil_paper.planning.pilot                      # every setting, 2 cells at a time
+    python -m icil_paper.planning.pilot --settings kitchen_30
 
 A row whose success is 0 or 1 on a family for every row of a table cannot tell the rows
 apart there: averaging it in only dilutes the differences. The reference preset's task
@@ -359,7 +359,7 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
 
 
 def regime_main(argv: list[str] | None = None) -> None:
-    """`python -m icil_paper.bench.pilot regime`: train and evaluate the regime pilot's cells
+    """`python -m icil_paper.planning.pilot regime`: train and evaluate the regime pilot's cells
     not yet stored (resumable: every finished record is kept under `results/pilot/`), then
     write `results/bench/regime.json`."""
     from pathlib import Path
@@ -492,7 +492,7 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     source = path or bench_path("regime")
     if not os.path.exists(source):
         return None, ("The regime pilot has not been run here (`python -m "
-                      "icil_paper.bench.pilot regime` writes `results/bench/regime.json`).")
+                      "icil_paper.planning.pilot regime` writes `results/bench/regime.json`).")
     record = json.loads(open(source).read())
     lines = []
     for row, fam in record["families"].items():

@@ -1,8 +1,8 @@
 """The measured figures of the README and CONTRIBUTING.md, computed from the records they
 quote.
 
-    python -m icil_paper.bench.figures                  # every figure with its value and source
-    python -m icil_paper.bench.figures --update-readme  # rewrite both files' figures
+    python -m icil_paper.book.figures                  # every figure with its value and source
+    python -m icil_paper.book.figures --update-readme  # rewrite both files' figures
 
 A figure in either file (`DOCUMENTS`) is written as the number followed by a marker naming it,
 `15.6 steps/s <!-- figure: policies.train_small_steps_per_s -->`, and
@@ -53,7 +53,7 @@ def _compiled(kind: str, field: str) -> float:
 
 
 def _cost() -> dict[str, Any]:
-    """The reference run's `cost.json` (`python -m icil_paper.tables.cost`)."""
+    """The reference run's `cost.json` (`python -m icil_paper.planning.cost`)."""
     return json.loads((REFERENCE / "cost.json").read_text())
 
 
@@ -90,9 +90,9 @@ def _claims(field: str, ledger: str = "claims.json") -> int:
 
 def _projected_hours() -> float:
     """The reference preset's projected hours at two cells at a time
-    (`tables.design.plan_cost`, from `results/bench/cells.json` and `datasets.json`)."""
+    (`planning.design.plan_cost`, from `results/bench/cells.json` and `datasets.json`)."""
     from icil_paper.config import get_preset
-    from icil_paper.tables.design import plan_cost
+    from icil_paper.planning.design import plan_cost
 
     return plan_cost(get_preset("reference"))["wall_h_at_2"]
 

@@ -1,0 +1,15 @@
+"""Planning a run: how many seeds, what it costs, what would decide the rest, and the pilots.
+
+- `design.py`: the seed design of the reference preset, from the claims' power and the
+  split of seed and episode variance, and its projected cost
+  (`python -m icil_paper.planning.design`).
+- `cost.py`: what a preset's run cost, from its records (`results/<preset>/cost.json`).
+- `decide.py`: `icil-paper plan`, the seeds, cells and CPU-hours that would decide every
+  undecided claim.
+- `pilot.py`: the pilots behind the reference preset's task scale and training regime
+  (`make pilot`, `python -m icil_paper.planning.pilot [regime]`).
+
+Planning sits above the paper's tables: it reads `icil_paper.tables` (specs, plans, the
+claims ledger), and nothing in `icil_paper.tables` imports it. Nothing is imported here, so
+each module loads only what it needs.
+"""
