@@ -17,31 +17,20 @@
 import pandas as pd
 from IPython.display import Markdown, display
 
+from icil_paper.book.ledger import chapter_ledgers, reference_ledger, show_stale_records
 from icil_paper.config import get_preset
-from icil_paper.results import ResultsStore
 from icil_paper.tables.book import (
     REFERENCE,
-    collapsed_markdown,
     ledger_details,
-    ledger_frame,
     older_ledger,
     reference_freshness,
     show_ledgers,
     stale_records,
 )
-from icil_paper.tables.claims import claims_ledger, summary_sentence, write_ledger
 
 pd.set_option("display.max_colwidth", None)
 preset = get_preset()
-sources = [("this build", preset)]
-if preset.name != REFERENCE:
-    sources.insert(0, ("reference run", get_preset(REFERENCE)))
-ledgers = {}
-for source, p in sources:
-    store = ResultsStore(p.name)
-    if p.name == preset.name:
-        write_ledger(p, store)
-    ledgers[source] = (p, claims_ledger(p, store))
+ledgers = chapter_ledgers(preset)  # writes this build's ledger, reads the reference run's
 
 # %% tags=["remove-input"]
 show_ledgers(ledgers)
@@ -111,15 +100,13 @@ show_ledgers(ledgers)
 from icil_paper.planning.design import design_frame, stages_paragraph
 
 display(design_frame(get_preset(REFERENCE)))
-reference_ledger = next(ledger for p, ledger in ledgers.values() if p.name == REFERENCE)
-display(Markdown(stages_paragraph(get_preset(REFERENCE), reference_ledger)))
+display(Markdown(stages_paragraph(get_preset(REFERENCE), reference_ledger(ledgers))))
 
 # %% [markdown]
 # ## What each claim compares
 
 # %% tags=["remove-input"]
-first_ledger = next(iter(ledgers.values()))[1]
-display(Markdown(ledger_details(first_ledger)))
+display(Markdown(ledger_details(reference_ledger(ledgers))))
 
 # %% [markdown]
 # ## Reference records made by older code
@@ -132,17 +119,4 @@ display(Markdown(ledger_details(first_ledger)))
 
 # %% tags=["remove-input"]
 stale = stale_records(REFERENCE)
-fresh = reference_freshness(REFERENCE)
-if not stale:
-    display(Markdown("None: every committed reference record is current."))
-else:
-    display(collapsed_markdown(f"{fresh['stale']} of {fresh['records']} committed records are "
-                               "stale and not used. Open to see them.",
-                               "\n".join(f"- `{name}`" for name in stale)))
-older = older_ledger(REFERENCE) if stale else None
-if older is not None:
-    made_by, older_claims = older
-    display(Markdown(f"**The reference ledger as the older code (commit "
-                     f"`{made_by['commit'][:7]}`) computed it**, {made_by['why_kept']}. "
-                     + summary_sentence(older_claims)))
-    display(ledger_frame(older_claims, "verdicts"))
+show_stale_records(stale, reference_freshness(REFERENCE), older_ledger(REFERENCE))

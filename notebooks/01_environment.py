@@ -18,10 +18,14 @@
 # up as a failed row with the fix to apply instead of stopping the book.
 
 # %% tags=["hide-input"]
-from icil_paper.config import field_docs, get_preset
+import pandas as pd
+
+from icil_paper.book.environment import capabilities, preset_fields
+from icil_paper.config import get_preset
 from icil_paper.setup.envcheck import environment_report, format_report
 
 preset = get_preset()  # reads ICIL_PRESET; `make reproduce` sets it from PRESET (default small)
+pd.set_option("display.max_colwidth", 90)  # the preset's docstrings, wrapped to the page
 
 # %%
 report = environment_report(preset.name)
@@ -37,40 +41,10 @@ print(format_report(report))
 # one config per tokenizer and per policy.
 
 # %%
-import dataclasses
-
-import pandas as pd
-
-
-def leaves(config, path):
-    """(path, value, docstring) of every leaf field of a config, nested ones expanded."""
-    docs = field_docs(type(config))
-    for f in dataclasses.fields(config):
-        value = getattr(config, f.name)
-        if dataclasses.is_dataclass(value):
-            yield from leaves(value, f"{path}.{f.name}")
-        else:
-            yield f"{path}.{f.name}", value, docs.get(f.name, "")
-
-
-rows = [{"field": name, "value": str(value), "meaning": doc}
-        for section in ("data", "train", "eval", "tables", "tokenizer_study")
-        for name, value, doc in leaves(getattr(preset, section), section)]
-rows += [{"field": name, "value": str(value), "meaning": doc}
-         for name, value, doc in leaves(preset.policies.icrt, "policies.icrt")]
-rows += [{"field": name, "value": str(value), "meaning": doc}
-         for name, value, doc in leaves(preset.tokenizers.lipvq, "tokenizers.lipvq")]
-pd.set_option("display.max_colwidth", 90)
-pd.DataFrame(rows).set_index("field")
+preset_fields(preset)
 
 # %% [markdown]
 # ## What works here
 
 # %%
-failed = [c for c in report["checks"] if not c["ok"]]
-device = (report.get("torch") or {}).get("device", "cpu")
-print(f"Preset {preset.name!r}, seed {preset.seed}, training on {device}.")
-for c in report["checks"]:
-    print(("works:  " if c["ok"] else "FAILED: ") + f"{c['name']} ({c['detail']})")
-if failed:
-    print("\nChapters that need a failed capability skip those experiments and say so.")
+print(capabilities(report, preset))

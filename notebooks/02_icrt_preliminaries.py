@@ -52,26 +52,39 @@
 import logging
 
 import matplotlib.pyplot as plt
-import numpy as np
 from IPython.display import Markdown, display
 from matplotlib.colors import ListedColormap
 
+from icil_paper.book.display import show_sources
+from icil_paper.book.method import (
+    attention_mask_figure,
+    coverage_sentence,
+    icrt_findings,
+    loss_coverage,
+    loss_gradient_figure,
+    mask_summary,
+    replay_episode,
+    replay_sentence,
+    rollout_figure,
+    run_description,
+    study_metrics,
+    success_line,
+    training_figure,
+)
 from icil_paper.book.studies import (
     ICRT_DEMO_TASK,
     ICRT_DEMO_TOKENIZER,
     icrt_rollout_study,
     icrt_specs,
 )
-from icil_paper.book.summaries import icrt_findings
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
-from icil_paper.eval import record_rollout, rollout_policy
+from icil_paper.eval import record_rollout
 from icil_paper.policies import make_policy
 from icil_paper.policies.batching import obs_spec_from_obs
 from icil_paper.policies.transformer import causal_mask
 from icil_paper.results import ResultsStore, results_root
-from icil_paper.seeding import cpu_threads, seed_everything
-from icil_paper.sim import make_env
+from icil_paper.seeding import seed_everything
 from icil_paper.train import load_trained
 from icil_paper.viz.viewer import show_recording
 
@@ -83,10 +96,7 @@ run, evaluation = icrt_specs(preset)  # the run spec (data, configs, training) a
 rng = seed_everything(run.seed)
 demos = load_demos(ensure_demos(preset, TASK, "generated", n=run.data.demos_per_task),
                    limit=run.data.demos_per_task)
-print(f"preset {preset.name}: {len(demos)} demonstrations of {TASK}, "
-      f"{min(len(d.actions) for d in demos)}-{max(len(d.actions) for d in demos)} steps; "
-      f"policy d_model={run.policy.d_model}, {run.policy.n_layer} layers, "
-      f"{run.train.steps} training steps; run key {run.key()}")
+print(run_description(preset.name, run, demos, TASK))
 
 # %% [markdown]
 # ## The token layout of a real batch
@@ -98,6 +108,7 @@ print(f"preset {preset.name}: {len(demos)} demonstrations of {TASK}, "
 # tokens (rotary positions count real tokens only).
 
 # %%
+# teaches: Eq. 1's token layout, read from a real batch
 policy = make_policy(run.policy, obs_spec_from_obs(demos[0].obs), 7, run.tokenizer)
 data = policy.prepare(demos)
 batch = policy.sample_batch(data, 3, rng)
@@ -125,8 +136,8 @@ labels = [f"{names[(int(roles['segment'][b, i]), int(roles['kind'][b, i]))]}{int
 M = int(batch["prompt_valid"][b].sum())
 print("sequence 0:", " ".join(labels[:6]), "...", " ".join(labels[2 * M - 2:2 * M + 6]), "...",
       " ".join(labels[-4:]))
-print(f"  prompt: {M} steps = {2 * M} tokens; query: {int(batch['query_valid'][b].sum())} steps; "
-      f"padded length {role.shape[1]} tokens")
+Q = int(batch["query_valid"][b].sum())
+print(f"  prompt: {M} steps = {2 * M} tokens; query: {Q} steps; padded length {role.shape[1]} tokens")
 
 # %% [markdown]
 # ## The attention mask
@@ -138,17 +149,8 @@ print(f"  prompt: {M} steps = {2 * M} tokens; query: {int(batch['query_valid'][b
 # %%
 b = int(batch["prompt_valid"].sum(1).argmin())  # the shortest prompt shows its padding
 mask = causal_mask(roles["valid"][b:b + 1])[0, 0].numpy()
-M_pad = batch["prompt_valid"].shape[1]
-fig, ax = plt.subplots(figsize=(5.5, 5.5))
-ax.imshow(mask, cmap="gray", interpolation="nearest")
-ax.axvline(2 * M_pad - 0.5, color="#DD8452")
-ax.axhline(2 * M_pad - 0.5, color="#DD8452")
-ax.set_xlabel("key position")
-ax.set_ylabel("query position")
-ax.set_title(f"sequence {b}: causal mask with prompt padding\n(orange line: prompt | query)")
-plt.show()
-print(f"keys attended to: {int(mask.sum())} of {mask.size}; padded prompt steps in this "
-      f"sequence: {M_pad - int(batch['prompt_valid'][b].sum())}")
+display(attention_mask_figure(mask, batch, b))
+print(mask_summary(mask, batch, b))
 
 # %% [markdown]
 # ## What the loss covers
@@ -160,21 +162,10 @@ print(f"keys attended to: {int(mask.sum())} of {mask.size}; padded prompt steps 
 # exactly zero on the prompt, on action tokens and on padding.
 
 # %%
-grad = policy.token_loss_gradients(batch)
-fig, ax = plt.subplots(figsize=(12, 2.2))
-for b in range(grad.shape[0]):
-    ax.plot(grad[b].numpy(), lw=1, label=f"sequence {b}")
-ax.set_xlabel("token position")
-ax.set_ylabel("|dL/dh|")
-ax.legend(loc="upper left", frameon=False)
-ax.set_title("loss gradient at the transformer's output")
-plt.show()
-sup, valid, seg = roles["supervised"], roles["valid"], roles["segment"]
-reached = grad > 0
-print(f"loss reaches {int((reached & sup).sum())} of {int(sup.sum())} supervised query "
-      f"observation tokens, {int((reached & (seg == 0) & valid).sum())} of "
-      f"{int(((seg == 0) & valid).sum())} prompt tokens, and "
-      f"{int((reached & ~sup).sum())} tokens that are not supervised")
+grads = policy.token_loss_gradients(batch)  # (B, L) |dL/dh| at each output position
+display(loss_gradient_figure(grads))
+coverage = loss_coverage(roles, grads)
+print(coverage_sentence(coverage))
 
 # %% [markdown]
 # ## A small ICRT, trained and rolled out
@@ -187,19 +178,9 @@ print(f"loss reaches {int((reached & sup).sum())} of {int(sup.sum())} supervised
 
 # %%
 study = icrt_rollout_study(preset, store)  # trains and evaluates, or loads the stored records
-m = {**study["train"], **study["eval"], "train": study["train"]}
-
-fig, ax = plt.subplots(figsize=(6, 3))
-ax.plot(m["loss_steps"], m["loss"], label="total loss")
-ax.plot(m["loss_steps"], m["action_l1"], label="action L1 (query steps)")
-ax.set_yscale("log")
-ax.set_xlabel("step")
-ax.legend(frameon=False)
-ax.set_title(f"ICRT + {TOKENIZER} on {TASK}")
-plt.show()
-print(f"success {m['successes']}/{m['episodes']} = {m['success_rate']:.2f} "
-      f"(Wilson 95% CI {m['ci_low']:.2f}-{m['ci_high']:.2f}), mean episode length "
-      f"{m['mean_steps']:.0f} steps")
+m = study_metrics(study)  # the train and eval records merged
+display(training_figure(m, f"ICRT + {TOKENIZER} on {TASK}"))
+print(success_line(m))
 
 # %% [markdown]
 # One rollout, step by step: the trained policy, prompted with a demonstration it was
@@ -209,39 +190,11 @@ print(f"success {m['successes']}/{m['episodes']} = {m['success_rate']:.2f} "
 
 # %%
 trained_policy = load_trained(run, preset.name, store)
-# show a successful evaluation episode when there is one (replayed: same seed, same prompt)
-episode = next((e for e in m["per_episode"] if e["success"]), m["per_episode"][0])
-prompt = [demos[i] for i in episode["prompt"]]
-env = make_env(TASK, obs="state", seed=episode["seed"])
-with cpu_threads(1):  # as in the evaluation workers, so the replay matches the stored episode
-    trace = rollout_policy(trained_policy, env, episode["seed"], prompt, evaluation.max_steps,
-                    keep_trace=True)
-env.close()
-
-eef = np.stack([o["proprio"][:3] for o in trace["obs"]])
-fig, axes = plt.subplots(1, 3, figsize=(13, 3.2))
-axes[0].plot(prompt[0].obs["proprio"][:, 0], prompt[0].obs["proprio"][:, 1], "--", label="prompt demo")
-axes[0].plot(eef[:, 0], eef[:, 1], label="rollout")
-axes[0].set_title("end effector, top view (proprio x, y)")
-axes[0].legend(frameon=False)
-for i, name in enumerate(("dx", "dy", "dz")):
-    line, = axes[1].plot(trace["actions"][:, i], label=name)
-    axes[1].plot(prompt[0].actions[:, i], "--", color=line.get_color(), lw=0.8)
-axes[1].set_title("position deltas (dashed: prompt demo)")
-axes[1].legend(frameon=False)
-axes[2].plot(prompt[0].actions[:, -1], "--", label="prompt demo")
-axes[2].plot(trace["actions"][:, -1], label="rollout")
-axes[2].set_title("gripper command")
-axes[2].set_ylim(-1.1, 1.1)  # the command's full range, so a constant command reads as one
-axes[2].legend(frameon=False)
-for a in axes[1:]:
-    a.set_xlabel("step")
-plt.tight_layout()
-plt.show()
-print(f"episode {episode['episode']} (env seed {episode['seed']}): "
-      f"{'success' if trace['success'] else 'no success'} after {trace['steps']} steps "
-      f"(the stored evaluation: {'success' if episode['success'] else 'no success'} after "
-      f"{episode['steps']} steps)")
+# a successful evaluation episode when there is one, replayed: same seed, same prompt
+episode, prompt, trace = replay_episode(trained_policy, demos, m["per_episode"], TASK,
+                                        evaluation.max_steps)
+display(rollout_figure(trace, prompt[0]))
+print(replay_sentence(episode, trace))
 
 # %% [markdown]
 # The same rollout as a rerun recording, in the embedded viewer: the end effector's path
@@ -267,11 +220,9 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # suite; their success, from the records:
 
 # %% tags=["remove-input"]
-from icil_paper.tables.book import load_table, source_label, training_window_sentence
+from icil_paper.tables.book import load_table, training_window_sentence
 
-for source, result in load_table(preset, "analysis", compute=False).items():
-    display(Markdown(f"**{source_label(source, result.preset)}.** "
-                     f"{training_window_sentence(result)}"))
+show_sources(load_table(preset, "analysis", compute=False), training_window_sentence)
 
 # %% [markdown]
 # ## What we found
@@ -282,6 +233,4 @@ for source, result in load_table(preset, "analysis", compute=False).items():
 # policies properly.
 
 # %%
-print(icrt_findings(m, query_tokens=int((reached & sup).sum()),
-                    prompt_tokens=int((reached & (seg == 0) & valid).sum()),
-                    task=TASK, preset_name=preset.name))
+display(Markdown(icrt_findings(m, coverage, TASK, preset.name)))

@@ -67,13 +67,17 @@
 # the book uses the paper's version everywhere else.
 
 # %% tags=["hide-input"]
-import matplotlib.pyplot as plt
-import numpy as np
-import pandas as pd
+from IPython.display import Markdown, display
 
+from icil_paper.book.method import (
+    bound_figure,
+    bound_history_figure,
+    lipschitz_findings,
+    lipschitz_frame,
+)
 from icil_paper.book.studies import LIPSCHITZ_RADII as RADII
 from icil_paper.book.studies import lipschitz_study
-from icil_paper.book.summaries import SeedRecords, lipschitz_findings
+from icil_paper.book.summaries import SeedRecords
 from icil_paper.config import get_preset
 from icil_paper.results import ResultsStore
 
@@ -82,11 +86,11 @@ store = ResultsStore(preset.name)
 
 # %%
 by_seed = lipschitz_study(preset, store)  # trains what the results store lacks
-n_seeds = SeedRecords(by_seed).n_seeds
+seeds = SeedRecords(by_seed)
 # One table row per encoder: the mean over training seeds (the bound check below runs on
 # every seed); the training curves are seed 0's.
-records = SeedRecords(by_seed).seed_means()
-print(f"{n_seeds} training seed(s) per encoder")
+records = seeds.seed_means()
+print(f"{seeds.n_seeds} training seed(s) per encoder")
 
 # %% [markdown]
 # ## Does the bound hold?
@@ -99,53 +103,17 @@ print(f"{n_seeds} training seed(s) per encoder")
 # $\prod_\ell \mathrm{softplus}(c_\ell)$).
 
 # %%
-rows = []
-for label, m in records.items():
-    emp_inf = max(m[f"empirical_inf_r{r:g}"] for r in RADII)
-    emp_2 = max(m[f"empirical_2_r{r:g}"] for r in RADII)
-    rows.append({
-        "encoder": label,
-        "prod softplus(c_l)": m["bound_softplus_product"],
-        "bound (inf)": m["bound_inf"], "empirical (inf)": emp_inf,
-        "bound (2)": m["bound_2"], "empirical (2)": emp_2,
-        "recon MSE": m["reconstruction_mse"],
-        "least energy": m["latent_least_energy"],
-        "standardized LE": m["latent_least_energy_standardized"],
-        "latent scale σ": m["latent_scale"],
-    })
-table = pd.DataFrame(rows).set_index("encoder")
-table.style.format(precision=4)
+lipschitz_frame(records, RADII).style.format(precision=4)
 
 # %%
-fig, ax = plt.subplots(figsize=(7, 3.5))
-x = np.arange(len(records))
-for k, m in enumerate(records.values()):
-    emp = [m[f"empirical_inf_r{r:g}"] for r in RADII]
-    ax.plot([k] * len(RADII), emp, "o", color="C0", alpha=0.6,
-            label="empirical, by radius" if k == 0 else None)
-    ax.plot(k, m["bound_inf"], "_", color="C3", markersize=30, mew=2,
-            label="bound prod ||W_l||_inf" if k == 0 else None)
-ax.set_yscale("log")
-ax.set_xticks(x, list(records), rotation=15)
-ax.set_ylabel("Lipschitz constant (inf-norm)")
-ax.legend()
-ax.set_title("Empirical Lipschitz constant vs. its bound")
-plt.tight_layout()
+display(bound_figure(records, RADII))
 
 # %% [markdown]
 # ## How each $c_\ell$ moves in training
 
 # %%
-paper = records["lipvq (paper)"]
-c_hist = np.array(paper["c_history"])  # (logged steps, layers)
-fig, ax = plt.subplots(figsize=(7, 3.5))
-for layer in range(c_hist.shape[1]):
-    ax.plot(paper["history_step"], c_hist[:, layer], label=f"layer {layer + 1}")
-ax.set_xlabel("training step")
-ax.set_ylabel("softplus(c_l)")
-ax.set_title("LipVQ-VAE (paper): per-layer Lipschitz bounds during training")
-ax.legend()
-plt.tight_layout()
+display(bound_history_figure(records["lipvq (paper)"],
+                             "LipVQ-VAE (paper): per-layer Lipschitz bounds during training"))
 
 # %% [markdown]
 # ## How far a bound can travel, in the paper and here
@@ -167,8 +135,6 @@ plt.tight_layout()
 # a row (`c_l at the shared rate`).
 
 # %% tags=["hide-input"]
-from IPython.display import display
-
 from icil_paper.tables.analysis import bound_travel_frame
 
 display(bound_travel_frame().style.format(precision=3))
@@ -177,4 +143,4 @@ display(bound_travel_frame().style.format(precision=3))
 # ## What we found
 
 # %%
-print(lipschitz_findings(by_seed, RADII, preset.tokenizer_study.lr))
+display(Markdown(lipschitz_findings(by_seed, RADII, preset.tokenizer_study.lr)))

@@ -37,22 +37,34 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering on CPU (set before robosuite)
 
-import matplotlib.pyplot as plt
-import numpy as np
 import pandas as pd
-from IPython.display import display
+from IPython.display import Markdown, display
 
-from icil_paper import sim
+from icil_paper.book.components import (
+    data_tasks,
+    demo_stats,
+    demo_summary,
+    demonstration_findings,
+    demos_figure,
+    first_frames_figure,
+    keep_rates,
+    load_data_sets,
+    no_expert_measurement,
+    setup_lines,
+    show_demo_summary,
+    showcase_frame,
+    showcase_recordings,
+    task_registry,
+    zero_shot_lines,
+)
+from icil_paper.book.display import show_frame_or
 from icil_paper.book.studies import (
     demo_stage,
     expert_measurements,
     showcase_study,
     shown_tasks,
 )
-from icil_paper.book.summaries import demonstration_findings
 from icil_paper.config import get_preset
-from icil_paper.data import SOURCES, load_demos, zero_shot_split
-from icil_paper.data.stats import data_set_stats, keep_rate
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
 from icil_paper.viz.viewer import show_recordings
@@ -60,15 +72,9 @@ from icil_paper.viz.viewer import show_recordings
 preset = get_preset()  # reads ICIL_PRESET
 seed_everything(preset.seed)
 store = ResultsStore(preset.name)
-# the smoke preset shows one task per suite; the others show every task
-SHOWN_TASKS = shown_tasks(preset)
-# the data sets examined in full: one kitchen and one ManiSkill task, both sources
-DATA_TASKS = [t for t in ("kitchen/open_drawer", "maniskill/pick_cube") if t in sim.all_tasks()]
-print(f"preset {preset.name}: {len(SHOWN_TASKS)} tasks shown, data sets of {DATA_TASKS} with "
-      f"{preset.data.demos_per_task} demos per source")
-unavailable = {s: sim.suite_unavailable(s) for s in sim.SUITES if sim.suite_unavailable(s)}
-if unavailable:
-    print("suites that cannot run here:", unavailable)
+SHOWN_TASKS = shown_tasks(preset)  # the smoke preset shows one task per suite, others all
+DATA_TASKS = data_tasks()  # the data sets examined in full: one kitchen, one ManiSkill task
+print(setup_lines(preset.name, SHOWN_TASKS, DATA_TASKS, preset.data.demos_per_task))
 
 # %% [markdown]
 # ## The task registry
@@ -77,10 +83,7 @@ if unavailable:
 # loop needs. Observation widths are shared within a suite (object states zero-padded).
 
 # %%
-registry = pd.DataFrame([{"task": t, "suite": sim.suite_of(t),
-                          "proprio, object": sim.obs_dims(sim.suite_of(t))}
-                         for t in sim.all_tasks()])
-display(registry)
+display(task_registry())
 
 # %% [markdown]
 # ## Run or load: a frame and a recorded demonstration of every task
@@ -91,22 +94,10 @@ display(registry)
 
 # %%
 showcase = showcase_study(preset, store)  # runs what is missing, else loads
-shown = pd.DataFrame(showcase.values())[["task", "instruction", "success", "length", "horizon",
-                                         "seconds"]]
-display(shown)
+display(showcase_frame(showcase))
 
 # %%
-cols = 6
-rows = int(np.ceil(len(showcase) / cols))
-fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.8 * rows), squeeze=False)
-for ax in axes.flat:
-    ax.axis("off")
-for ax, (task, entry) in zip(axes.flat, showcase.items(), strict=False):
-    ax.imshow(plt.imread(entry["frame"]))
-    ax.set_title(task, fontsize=8)
-fig.suptitle("first scene of every task (seed of demo 0)")
-plt.tight_layout()
-plt.show()
+display(first_frames_figure(showcase))
 
 # %% [markdown]
 # ## Expert success rates
@@ -125,21 +116,10 @@ plt.show()
 
 # %%
 data_sets = demo_stage(preset, store)  # every task, both sources (cheap once they exist)
-kept = []
-for (task, source), path in data_sets.items():
-    ds = load_demos(path, action_dim=7, limit=preset.data.demos_per_task, images=False)
-    kept.append({"task": task, "source": source, "demos": len(ds), "keep rate": keep_rate(ds)})
-kept = pd.DataFrame(kept).pivot(index="task", columns="source", values="keep rate")
-kept.columns = [f"{c}: success over data-set scenes" for c in kept.columns]
+kept = keep_rates(data_sets, preset.data.demos_per_task)
 display(kept)
-
-expert_rows = expert_measurements(preset, store)  # this preset's, else results/experts/
-experts = pd.DataFrame(expert_rows)
-if expert_rows:
-    display(experts)
-else:
-    print(f"no fresh-scene measurement under the {preset.name} preset (data.expert_seeds = 0); "
-          "see the command above")
+experts = pd.DataFrame(expert_measurements(preset, store))  # this preset's, else results/experts/
+show_frame_or(experts, no_expert_measurement(preset.name))
 
 # %% [markdown]
 # ## Run or load: the two demonstration sources
@@ -149,40 +129,13 @@ else:
 # uses the same files. Here, one kitchen and one ManiSkill task in detail.
 
 # %%
-demos = {(task, source): load_demos(data_sets[task, source], action_dim=7,
-                                    limit=preset.data.demos_per_task, images=False)
-         for task in DATA_TASKS for source in SOURCES}
-stats = pd.DataFrame([row for ds in demos.values() for row in data_set_stats(ds)])
-summary = stats.groupby(["task", "source"]).agg(
-    demos=("length", "size"), mean_length=("length", "mean"), std_length=("length", "std"),
-    least_energy_per_step=("least_energy_per_step", "mean"),
-    still_fraction=("still_fraction", "mean"),
-    gripper_switches=("gripper_switches", "mean"))
-summary["keep_rate"] = [keep_rate(demos[key]) for key in summary.index]
-short = {"mean_length": "mean length", "std_length": "std", "least_energy_per_step":
-         "least energy / step", "still_fraction": "still", "gripper_switches": "gripper switches",
-         "keep_rate": "kept"}  # short headers, so that the table fits the page
-with pd.option_context("display.float_format", "{:.3g}".format):
-    display(summary.rename(columns=short))
+demos = load_data_sets(data_sets, DATA_TASKS, preset.data.demos_per_task)
+stats = demo_stats(demos)  # one row per demonstration
+summary = demo_summary(demos, stats)  # by task and source
+show_demo_summary(summary)
 
 # %%
-fig, axes = plt.subplots(1, 1 + len(DATA_TASKS), figsize=(5 * (1 + len(DATA_TASKS)), 3.4))
-bins = np.linspace(stats.length.min(), stats.length.max() + 1, 13)
-for source, color in zip(SOURCES, ("tab:blue", "tab:orange"), strict=True):
-    axes[0].hist(stats[stats.source == source].length, bins=bins, color=color, alpha=0.6,
-                 label=source)
-axes[0].set(xlabel="demo length [steps]", ylabel="demos",
-            title=f"demo lengths ({', '.join(t.split('/')[1] for t in DATA_TASKS)})")
-axes[0].legend(fontsize=8)
-for ax, task in zip(axes[1:], DATA_TASKS, strict=True):
-    for source, color in zip(SOURCES, ("tab:blue", "tab:orange"), strict=True):
-        demo = demos[task, source][0]
-        ax.plot(demo.actions[:, 0], color=color, label=f"{source} dx")
-        ax.plot(demo.actions[:, 2], color=color, ls="--", label=f"{source} dz")
-    ax.set(xlabel="step", ylabel="action", title=f"{task}: demo 0 of each source")
-    ax.legend(fontsize=7)
-plt.tight_layout()
-plt.show()
+display(demos_figure(demos, stats, DATA_TASKS))
 
 # %% [markdown]
 # ## Recordings
@@ -193,8 +146,7 @@ plt.show()
 # static picture shows where the viewer cannot start.
 
 # %% tags=["hide-input"]
-display(show_recordings({task: (entry["rrd"], entry["picture"])
-                         for task, entry in showcase.items()}))
+display(show_recordings(showcase_recordings(showcase)))
 
 # %% [markdown]
 # ## Generalization settings
@@ -204,15 +156,11 @@ display(show_recordings({task: (entry["rrd"], entry["picture"])
 # perturbed Kinova arm.
 
 # %%
-try:
-    train_tasks, held_out = zero_shot_split()
-    print("zero-shot: train on", list(train_tasks))
-    print("           hold out", list(held_out))
-except ImportError as exc:
-    print("kitchen suite unavailable:", exc)
+print(zero_shot_lines())
 
 # %% [markdown]
 # ## What we found
 
 # %%
-print(demonstration_findings(showcase, kept, experts, summary, DATA_TASKS, preset.name))
+display(Markdown(demonstration_findings(showcase, kept, experts, summary, DATA_TASKS,
+                                        preset.name)))

@@ -87,28 +87,29 @@
 # the metrics (`icil_paper.book.studies.tokenizer_trajectories`).
 
 # %%
-import matplotlib.pyplot as plt
-import pandas as pd
-from IPython.display import display
+from IPython.display import Markdown, display
 
-from icil_paper import stats
+from icil_paper.book.components import (
+    paper_tokenizer_smoothness,
+    smoothness_figure,
+    tokenizer_findings,
+    tokenizer_frames,
+)
 from icil_paper.book.studies import tokenizer_latent_recording, tokenizer_study
-from icil_paper.book.summaries import SeedRecords, tokenizer_findings
+from icil_paper.book.summaries import SeedRecords
 from icil_paper.config import get_preset
-from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
 from icil_paper.results import ResultsStore
 from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.viz.viewer import show_recording
 
 preset = get_preset()  # reads ICIL_PRESET
 store = ResultsStore(preset.name)
-SMOOTHNESS = {k.split("+")[1]: v for k, v in TABLE_III_SMOOTHNESS.items()}  # the paper's
+SMOOTHNESS = paper_tokenizer_smoothness()  # the paper's least energy (Table III), by tokenizer
 
 # %%
 records = tokenizer_study(preset, store)  # {label: [metrics per seed]}; trains what is missing
 seeds = SeedRecords(records)  # means, intervals and verdicts over training seeds
-n_seeds = seeds.n_seeds
-print(f"{len(records)} tokenizers, {n_seeds} training seed(s) each")
+print(f"{len(records)} tokenizers, {seeds.n_seeds} training seed(s) each")
 
 # %% [markdown]
 # ## The table
@@ -128,51 +129,12 @@ print(f"{len(records)} tokenizers, {n_seeds} training seed(s) each")
 # whether a low score comes from the Lipschitz bound or from codebook collapse.
 
 # %%
-rows, smooth_rows = [], []
-for label in records:
-    rows.append({
-        "tokenizer": label,
-        "recon MSE": seeds.mean(label, "reconstruction_mse"),
-        "decode MSE": seeds.mean(label, "decode_mse"),
-        "codebook": seeds.mean(label, "codebook_size"),
-        "usage": seeds.mean(label, "usage"),
-        "perplexity": seeds.mean(label, "perplexity"),
-        "tokens/step": seeds.mean(label, "tokens_per_step"),
-        "codes/level": seeds.per_level(label),
-        "encode act/s": seeds.mean(label, "encode_actions_per_s"),
-    })
-    smooth_rows.append({
-        "tokenizer": label,
-        "least energy": seeds.with_interval(label, "least_energy"),
-        "standardized": seeds.with_interval(label, "least_energy_standardized"),
-        "latent scale σ": seeds.mean(label, "latent_scale"),
-        "paper least energy": SMOOTHNESS.get(label),
-    })
-formats = {"codebook": "{:,.0f}", "usage": "{:.1%}", "perplexity": "{:.1f}",
-           "tokens/step": "{:.2f}", "encode act/s": "{:,.0f}", "latent scale σ": "{:.3g}",
-           "recon MSE": "{:.3g}", "decode MSE": "{:.3g}", "paper least energy": "{:.2f}"}
-for table in (rows, smooth_rows):
-    frame = pd.DataFrame(table).set_index("tokenizer")
-    display(frame.style.format({c: formats[c] for c in frame.columns if c in formats},
-                               na_rep="-"))
+properties, smoothness = tokenizer_frames(seeds, SMOOTHNESS)
+display(properties)
+display(smoothness)
 
 # %%
-score_keys = ["least_energy", "least_energy_standardized"]
-labels = list(records)
-fig, axes = plt.subplots(1, 3, figsize=(14, 3.6))
-for ax, key in zip(axes[:2], score_keys, strict=True):
-    ests = [stats.score_mean(seeds.scores(k, key)) for k in labels]
-    ax.bar(range(len(labels)), [e.value for e in ests],
-           yerr=[[e.value - e.low for e in ests], [e.high - e.value for e in ests]], capsize=3,
-           color=["C3" if k == "lipvq" else "C0" for k in labels])
-    ax.set_xticks(range(len(labels)), labels, rotation=60)
-    ax.set_yscale("log")
-    ax.set_title(key.replace("_", " ") + " (ours, lower is smoother)")
-paper_labels = [k for k in labels if k in SMOOTHNESS]
-axes[2].bar(range(len(paper_labels)), [SMOOTHNESS[k] for k in paper_labels], color="C7")
-axes[2].set_xticks(range(len(paper_labels)), paper_labels, rotation=60)
-axes[2].set_title("least energy (the paper, Table III)")
-plt.tight_layout()
+display(smoothness_figure(seeds, SMOOTHNESS))
 
 # %% [markdown]
 # ## Latent trajectories
@@ -196,4 +158,4 @@ display(show_recording(latent_recording["rrd"], latent_recording["png"],
 # it holds when the whole 95% interval lies below 0.
 
 # %%
-print(tokenizer_findings(seeds, SMOOTHNESS, list(TOKENIZERS), score_keys))
+display(Markdown(tokenizer_findings(seeds, SMOOTHNESS, list(TOKENIZERS))))

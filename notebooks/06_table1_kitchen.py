@@ -37,6 +37,7 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
+from icil_paper.book.experiments import design_paragraph, paper_lipvq_range
 from icil_paper.config import get_preset
 from icil_paper.tables.book import (
     REFERENCE,
@@ -52,8 +53,8 @@ from icil_paper.tables.book import (
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "I")  # computes what this build's results store lacks
-display(Markdown(f"The reference run's design: {design_sentence(get_preset(REFERENCE))}. "
-                 f"This build's (`{preset.name}`): {design_sentence(preset)}."))
+display(Markdown(design_paragraph(preset.name, design_sentence(get_preset(REFERENCE)),
+                                  design_sentence(preset))))
 
 # %% [markdown]
 # ## The task scale: the pilot behind the reference preset
@@ -83,12 +84,9 @@ show_pilot(table="I")
 # ICRT + LipVQ-VAE's level alone, never from a comparison between rows.
 
 # %% tags=["hide-input"]
-from icil_paper import paper_numbers
 from icil_paper.planning.pilot import regime_summary
 
-paper_lipvq = [v for k, v in paper_numbers.TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
-display(Markdown(f"The paper's ICRT + LipVQ-VAE over its seven families: "
-                 f"{min(paper_lipvq):.2f} to {max(paper_lipvq):.2f}."))
+display(Markdown(paper_lipvq_range()))
 regime, regime_text = regime_summary()
 if regime is not None:
     display(regime)
@@ -102,18 +100,23 @@ from icil_paper.tables.book import seed_correlation_sentence
 
 show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table I: average success over the kitchen tasks"))
-display(Markdown(
-    "Seed k of every row trains on demonstration set k and plays scene set k, and the ICRT "
-    "rows of seed k start from the same backbone and draw the same batches (common random "
-    "numbers). " + seed_correlation_sentence(results)))
+
+# %% [markdown]
+# Seed k of every row trains on demonstration set k and plays scene set k, and the ICRT
+# rows of seed k start from the same backbone and draw the same batches (common random
+# numbers).
+
+# %% tags=["hide-input"]
+display(Markdown(seed_correlation_sentence(results)))
+
+# %% [markdown]
+# **Codebook use of the VQ-family rows**, per training seed: the distinct codes each trained
+# tokenizer gives the held-out trajectories of Table III (chapter 8), of its K, and the
+# perplexity of their distribution (how many equally used codes would give it).
 
 # %% tags=["hide-input"]
 from icil_paper.tables.book import show_codebook_use
 
-display(Markdown("**Codebook use of the VQ-family rows**, per training seed: the distinct codes "
-                 "each trained tokenizer gives the held-out trajectories of Table III "
-                 "(chapter 8), of its K, and the perplexity of their "
-                 "distribution (how many equally used codes would give it)."))
 show_codebook_use(results)
 
 # %% [markdown]

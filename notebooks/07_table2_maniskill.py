@@ -28,6 +28,7 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
+from icil_paper.book.experiments import maniskill_paragraph
 from icil_paper.config import get_preset
 from icil_paper.tables.book import (
     claims_figure,
@@ -42,14 +43,7 @@ from icil_paper.tables.definitions import maniskill_settings
 
 preset = get_preset()
 results = load_table(preset, "II")
-demos, steps, episodes = maniskill_settings(preset)
-display(Markdown(
-    f"Each state policy of this build's preset (`{preset.name}`) learns one task from "
-    f"{demos} demonstrations in {steps} steps and is rolled out in {episodes} "
-    f"episode{'s' if episodes != 1 else ''} per task; MCR learns from "
-    f"{preset.tables.image_demos_per_task} image demonstrations per task. The reference "
-    "preset gives these single-task runs more data and steps than Table I's multi-task "
-    "ones (`tables.maniskill_*` in `src/icil_paper/config.py`)."))
+display(Markdown(maniskill_paragraph(preset, maniskill_settings(preset))))
 
 # %% tags=["hide-input"]
 show_comparison(results, "avg")

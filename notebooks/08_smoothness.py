@@ -34,22 +34,25 @@
 # {doc}`Chapter 5 <05_action_tokenizers>` measures the same tokenizers trained alone, as a supplement.
 
 # %% tags=["hide-input"]
-
-import matplotlib.pyplot as plt
-import numpy as np
-import pandas as pd
 from IPython.display import Markdown, display
 
+from icil_paper.book.display import show_frame_or
+from icil_paper.book.experiments import (
+    FIG4_TITLE,
+    NO_SMOOTHNESS,
+    standardized_frame,
+    tsne_actions,
+    tsne_figure,
+)
 from icil_paper.config import get_preset
 from icil_paper.results import results_root
-from icil_paper.tables.assemble import format_cell
 from icil_paper.tables.book import (
+    BUILD,
     claims_figure,
     feature_sampling_sentence,
     load_table,
     show_comparison,
     smoothness_success_figure,
-    source_label,
     tsne_paths,
     verdicts,
 )
@@ -65,22 +68,7 @@ success = load_table(preset, "I")
 
 # %%
 show_comparison(smooth, "least_energy")
-rows = []
-for source, result in smooth.items():
-    for row in result.spec.rows:
-        cell = result.cell(row.label, "least_energy")
-        if cell is None or cell.estimate is None:
-            continue
-        std = cell.extra["standardized_estimate"]
-        codes = [m.get("codes_used") for m in cell.extra["metrics"]]
-        rows.append({"source": source_label(source, result.preset), "tokenizer": row.label,
-                     "raw": format_cell(cell, 3),
-                     "standardized": f"{std.value:.3f} [{std.low:.3f}, {std.high:.3f}]",
-                     "latent scale σ": round(float(np.mean(cell.extra["latent_scale"])), 4),
-                     "codes used": None if codes[0] is None else round(float(np.mean(codes)), 1),
-                     "features": cell.extra["metrics"][0]["n_features"]})
-display(pd.DataFrame(rows).set_index(["source", "tokenizer"]) if rows else
-        Markdown("*No smoothness records yet.*"))
+show_frame_or(standardized_frame(smooth), NO_SMOOTHNESS)
 display(Markdown("**What was scored** (from the features records):\n\n"
                  + feature_sampling_sentence(smooth)))
 
@@ -103,26 +91,16 @@ display(smoothness_success_figure(smooth, success, standardized=True))
 # build. The recording shows the same paths with the action curves on a time line.
 
 # %%
-build = smooth["this build"]
+build = smooth[BUILD]
 paths = tsne_paths(build)
-if paths:
-    fig, axes = plt.subplots(1, len(paths), figsize=(2.6 * len(paths), 2.8))
-    for ax, (label, xy) in zip(np.atleast_1d(axes), paths.items(), strict=False):
-        ax.plot(xy[:, 0], xy[:, 1], color="0.7", zorder=1)
-        ax.scatter(xy[:, 0], xy[:, 1], c=np.arange(len(xy)), cmap="viridis", zorder=2)
-        ax.set_title(label.split("+")[1])
-        ax.set_xticks([]), ax.set_yticks([])
-    fig.tight_layout()
-    plt.show()
-    first = build.cell(build.spec.rows[0].label, "least_energy").extra["metrics"][0]
-    recording = record_latent_trajectories(
-        results_root() / preset.name / "smoothness" / "fig4_tsne.rrd",
-        np.asarray(first["view_actions"]), paths,
-        title="Fig. 4: the first steps of one held-out trajectory in each tokenizer's "
-              "latent space (t-SNE, colour = time)")
-    display(show_recording(recording["rrd"], recording["png"], label="Fig. 4 (t-SNE paths)"))
+if not paths:
+    display(Markdown(NO_SMOOTHNESS))
 else:
-    display(Markdown("*No smoothness records yet.*"))
+    display(tsne_figure(paths))
+    recording = record_latent_trajectories(
+        results_root() / preset.name / "smoothness" / "fig4_tsne.rrd", tsne_actions(build),
+        paths, title=FIG4_TITLE)
+    display(show_recording(recording["rrd"], recording["png"], label="Fig. 4 (t-SNE paths)"))
 
 # %% [markdown]
 # ## Which claims held

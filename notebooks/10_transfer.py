@@ -48,10 +48,10 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
+from icil_paper.book.experiments import prompt_differences
 from icil_paper.config import get_preset
 from icil_paper.tables.book import (
     claims_figure,
-    difference_sentence,
     load_table,
     show_comparison,
     show_motion,
@@ -129,7 +129,4 @@ show_comparison(prompt, "avg")
 display(success_figure(prompt, "avg", title="ICRT + LipVQ-VAE with right, wrong and truncated prompts"))
 
 # %%
-labels = [r.label for r in prompt["this build"].spec.rows]
-display(Markdown("The right prompt against the other two (paired over the same episodes):\n\n"
-                 + difference_sentence(prompt, labels[0], labels[1]) + "\n"
-                 + difference_sentence(prompt, labels[0], labels[2])))
+display(Markdown(prompt_differences(prompt)))

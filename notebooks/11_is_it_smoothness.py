@@ -50,9 +50,8 @@
 # held-out actions, infinity norm).
 
 # %% tags=["hide-input"]
-from IPython.display import Markdown, display
-
-from icil_paper import verdict_words
+from icil_paper.book.display import show_sources
+from icil_paper.book.experiments import comparison_list
 from icil_paper.config import get_preset
 from icil_paper.tables.analysis import (
     analysis_frame,
@@ -61,7 +60,7 @@ from icil_paper.tables.analysis import (
     findings,
     travel_sentence,
 )
-from icil_paper.tables.book import design_sentence, load_table, show_per_source, source_label
+from icil_paper.tables.book import design_sentence, load_table, show_per_source
 
 preset = get_preset()
 results = load_table(preset, "analysis")
@@ -78,9 +77,7 @@ show_per_source(results, analysis_frame,
 # that row's training at all.
 
 # %% tags=["hide-input"]
-for source, result in results.items():
-    display(Markdown(f"**{source_label(source, result.preset)}.** {binding_sentence(result)} "
-                     f"{travel_sentence(result)}"))
+show_sources(results, binding_sentence, travel_sentence)
 
 # %% [markdown]
 # ## The comparisons
@@ -92,19 +89,10 @@ for source, result in results.items():
 # (VQ-VAE for the VQ-VAE variants, the paper's LipVQ-VAE for the others) in both.
 
 # %% tags=["hide-input"]
-for source, result in results.items():
-    lines = [f"**{source_label(source, result.preset)}**", ""]
-    for f in findings(result):
-        est = f["estimate"]
-        value = (verdict_words.MISSING if est is None else
-                 f"{est.value:+.3f} [{est.low:+.3f}, {est.high:+.3f}]")
-        expected = "below 0" if f["direction"] < 0 else "above 0"
-        lines.append(f"- {f['quantity']}: {value} (expected {expected}): {f['verdict']}")
-    display(Markdown("\n".join(lines)))
+show_sources(results, lambda result: comparison_list(findings(result)), sep="\n\n")
 
 # %% [markdown]
 # ## Verdict
 
 # %% tags=["hide-input"]
-for source, result in results.items():
-    display(Markdown(f"**{source_label(source, result.preset)}.** {conclusion(result)}"))
+show_sources(results, conclusion)

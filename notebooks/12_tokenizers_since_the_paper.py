@@ -40,11 +40,11 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
+from icil_paper.book.experiments import eq4_differences
 from icil_paper.config import get_preset
 from icil_paper.tables.analysis import analysis_frame
 from icil_paper.tables.book import (
     claims_figure,
-    difference_sentence,
     load_table,
     show_comparison,
     show_motion,
@@ -106,8 +106,6 @@ show_motion(results, "avg")
 # about this table ({doc}`chapter 0 <00_claims_ledger>`), where it holds claims about it.
 
 # %% tags=["hide-input"]
-pairs = [("icrt+lipvq", "icrt+vq"), ("icrt+lipfsq", "icrt+fsq"), ("icrt+liprvq", "icrt+rvq")]
-display(Markdown("\n\n".join(f"**{a} against {b}**\n\n" + difference_sentence(results, a, b)
-                             for a, b in pairs)))
+display(Markdown(eq4_differences(results)))
 display(Markdown(verdicts(preset, "beyond")))
 display(claims_figure(preset, "beyond"))

@@ -49,6 +49,8 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
+from icil_paper.book.display import show_sources
+from icil_paper.book.experiments import official_seeds_sentence
 from icil_paper.config import get_preset
 from icil_paper.tables.book import (
     REFERENCE,
@@ -56,7 +58,6 @@ from icil_paper.tables.book import (
     show_comparison,
     show_per_source,
     show_values,
-    source_label,
     success_figure,
 )
 from icil_paper.tables.definitions import official_seeds
@@ -64,8 +65,8 @@ from icil_paper.tables.official import codes_frame, differences_frame, findings_
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "official")  # computes what this build's results store lacks
-display(Markdown(f"Training seeds a row: {official_seeds(get_preset(REFERENCE))} in the "
-                 f"reference run, {official_seeds(preset)} in this build (`{preset.name}`)."))
+display(Markdown(official_seeds_sentence(preset.name, official_seeds(get_preset(REFERENCE)),
+                                         official_seeds(preset))))
 
 # %% [markdown]
 # ## What is compared
@@ -104,8 +105,7 @@ show_values(results)
 
 # %% tags=["hide-input"]
 show_per_source(results, findings_frame)
-for source, result in results.items():
-    display(Markdown(f"**{source_label(source, result.preset)}.** {summary(result)}"))
+show_sources(results, summary)
 
 # %% [markdown]
 # ## Codes used

@@ -52,14 +52,14 @@
 from IPython.display import Image, Markdown, display
 
 from icil_paper.book.own_tokenizer import (
-    CHAPTER_MAX_SEEDS,
-    EXAMPLE_NAME,
     example_folder,
+    own_tokenizer_findings,
     own_tokenizer_study,
+    seed_cap_line,
     write_example,
 )
 from icil_paper.config import get_preset
-from icil_paper.tables.compare import MAX_SEEDS, PLOT_FILE, lines, sentence
+from icil_paper.tables.compare import PLOT_FILE, lines
 
 preset = get_preset()  # reads ICIL_PRESET
 
@@ -87,8 +87,7 @@ display(Markdown(f"`{path.name}`:\n\n```python\n{path.read_text()}```"))
 # says how much power that design has and how many seeds a row would detect the effect.
 
 # %%
-print(f"seeds a row at most in this build ({preset.name}): "
-      f"{CHAPTER_MAX_SEEDS.get(preset.name, MAX_SEEDS)}")
+print(seed_cap_line(preset))
 report = own_tokenizer_study(preset)  # computes what this build's results store lacks
 print("\n".join(lines(report)))
 
@@ -99,15 +98,4 @@ display(Image(filename=str(example_folder(preset) / PLOT_FILE)))
 # ## What we found
 
 # %% tags=["hide-input"]
-entry = report["comparisons"][0]
-seeds = report["seed_plan"]
-display(Markdown(
-    f"In this build ({report['preset']} preset) `{EXAMPLE_NAME}` against LipVQ-VAE: "
-    f"{sentence(entry)} "
-    + (f"The design detects a difference of {entry['mde']:.3f} with 80% power; the effect of "
-       f"interest, {report['effect']:g}, it detects with probability {entry['power']:.2f}. "
-       if entry.get("power") is not None else "")
-    + f"Seeds: {seeds.get('note') or 'fixed'}. "
-    "At the small preset these numbers test the code, not the question (200 training "
-    "steps, one episode per task); at the reference preset the same command reuses "
-    "LipVQ-VAE's reference cells and plans the new row's seeds from their variance."))
+display(Markdown(own_tokenizer_findings(report)))

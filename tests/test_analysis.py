@@ -144,8 +144,8 @@ def test_chapter_11_types_no_result():
     for typed in ("both make Eq. 4 bind", "make Eq. 4 bind)", "barely moves them",
                   "binds in", "is smoother than", "succeeds more than"):
         assert typed not in prose, typed
-    for call in ("binding_sentence(result)", "travel_sentence(result)", "conclusion(result)",
-                 "findings(result)"):
+    for call in ("show_sources(results, binding_sentence, travel_sentence)",
+                 "show_sources(results, conclusion)", "comparison_list(findings(result))"):
         assert call in source, call
 
 

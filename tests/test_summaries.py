@@ -1,5 +1,6 @@
 """The chapters' seed summaries (`icil_paper.book.summaries`): means over seeds, intervals
-and verdicts computed from the records a study stores."""
+and verdicts computed from the records a study stores; and the findings of chapters 02-05
+built on them (`icil_paper.book.method`, `icil_paper.book.components`)."""
 
 from __future__ import annotations
 
@@ -58,7 +59,7 @@ def _lipschitz_seed(empirical: float, bound: float = 2.0) -> dict:
 
 
 def test_chapter_3_findings_flag_a_violated_bound_and_quote_the_records():
-    from icil_paper.book.summaries import BOUND_RTOL, bound_holds, lipschitz_findings
+    from icil_paper.book.method import BOUND_RTOL, bound_holds, lipschitz_findings
 
     radii = (0.1, 1.0)
     assert bound_holds([_lipschitz_seed(2.0 * (1 + BOUND_RTOL / 2))], radii)  # float rounding
@@ -74,7 +75,7 @@ def test_chapter_3_findings_flag_a_violated_bound_and_quote_the_records():
 
 
 def test_chapter_5_findings_rank_compare_and_flag_collapse():
-    from icil_paper.book.summaries import SeedRecords, tokenizer_findings
+    from icil_paper.book.components import tokenizer_findings
 
     names = ["mlp", "bin", "vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq", "fast", "bspline",
              "lipvq-data-init", "vq-data-init", "lipvq-official"]
@@ -107,8 +108,8 @@ def test_chapter_4_reads_expert_measurements_written_by_hand_and_states_the_requ
 
     import pandas as pd
 
+    from icil_paper.book.components import demonstration_findings
     from icil_paper.book.studies import expert_measurements
-    from icil_paper.book.summaries import demonstration_findings
     from icil_paper.config import get_preset
 
     preset = get_preset("smoke")  # data.expert_seeds = 0: the preset measures nothing itself
@@ -138,15 +139,16 @@ def test_chapter_4_reads_expert_measurements_written_by_hand_and_states_the_requ
 
 
 def test_chapter_2_findings_place_the_papers_number_against_our_interval():
-    from icil_paper.book.summaries import icrt_findings
+    from icil_paper.book.method import icrt_findings
     from icil_paper.paper_numbers import TABLE_I_ROBOCASA
 
     paper = TABLE_I_ROBOCASA["icrt+lipvq"]["drawers"]
     m = {"loss": [4.0, 1.0], "train": {"steps": 200}, "successes": 1, "episodes": 4,
          "success_rate": 0.25, "ci_low": 0.0, "ci_high": paper - 0.01}
-    text = icrt_findings(m, query_tokens=12, prompt_tokens=0, task="kitchen/open_drawer",
-                         preset_name="smoke")
+    coverage = {"query_reached": 12, "query": 12, "prompt_reached": 0, "prompt": 20,
+                "unsupervised_reached": 0}
+    text = icrt_findings(m, coverage, task="kitchen/open_drawer", preset_name="smoke")
     assert "the loss reached 12 supervised query tokens and 0 prompt tokens" in text
     assert "lowered the total loss 4.0-fold" in text and "lies outside our interval" in text
     m["ci_high"] = paper + 0.01
-    assert "lies within our interval of 4 episode(s)" in icrt_findings(m, 12, 0, "t", "smoke")
+    assert "lies within our interval of 4 episode(s)" in icrt_findings(m, coverage, "t", "smoke")

@@ -1,0 +1,372 @@
+"""The chapters on what the experiments are made of: the tasks and their demonstrations
+(chapter 04) and the action tokenizers trained alone (chapter 05). Frames, figures and
+findings, each computed from the stages' records.
+
+    display(task_registry())                               # chapter 04
+    summary = demo_summary(demos, demo_stats(demos))       # both sources, per task
+    display(Markdown(demonstration_findings(...)))
+    properties, smoothness = tokenizer_frames(seeds, paper_tokenizer_smoothness())  # 05
+    display(Markdown(tokenizer_findings(seeds, paper, list(TOKENIZERS))))
+
+Figures are closed before they are returned, so each shows once, where the chapter
+displays it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from IPython.display import display
+
+from icil_paper import sim, stats
+from icil_paper.book.summaries import SeedRecords
+from icil_paper.data import SOURCES, load_demos, zero_shot_split
+from icil_paper.data.stats import data_set_stats, keep_rate
+from icil_paper.metrics import ascending, rank_correlation
+from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
+
+# --------------------------------------------------------------------------- chapter 04
+DATA_TASKS = ("kitchen/open_drawer", "maniskill/pick_cube")
+"""The tasks whose data sets chapter 04 examines in full, both sources: one kitchen task
+and one ManiSkill task."""
+
+
+def data_tasks() -> list[str]:
+    """`DATA_TASKS` that are registered here."""
+    return [t for t in DATA_TASKS if t in sim.all_tasks()]
+
+
+def setup_lines(preset_name: str, shown: Sequence[str], tasks: Sequence[str],
+                demos_per_task: int) -> str:
+    """What chapter 04 shows under this preset (how many tasks, the data sets examined in
+    full, their demonstrations per source) and the suites that cannot run here, with why."""
+    lines = [f"preset {preset_name}: {len(shown)} tasks shown, data sets of {list(tasks)} with "
+             f"{demos_per_task} demos per source"]
+    unavailable = {s: sim.suite_unavailable(s) for s in sim.SUITES if sim.suite_unavailable(s)}
+    if unavailable:
+        lines.append(f"suites that cannot run here: {unavailable}")
+    return "\n".join(lines)
+
+
+def task_registry() -> pd.DataFrame:
+    """Every registered task: its suite and the (proprio, object) widths of its observations."""
+    return pd.DataFrame([{"task": t, "suite": sim.suite_of(t),
+                          "proprio, object": sim.obs_dims(sim.suite_of(t))}
+                         for t in sim.all_tasks()])
+
+
+SHOWCASE_COLUMNS = ["task", "instruction", "success", "length", "horizon", "seconds"]
+"""The showcase records' columns chapter 04 lists."""
+
+
+def showcase_frame(showcase: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
+    """One row per shown task (`studies.showcase_study`): its instruction, whether demo 0
+    succeeded, its length against the horizon and the seconds it took."""
+    return pd.DataFrame(showcase.values())[SHOWCASE_COLUMNS]
+
+
+def first_frames_figure(showcase: Mapping[str, Mapping[str, Any]], cols: int = 6):
+    """A grid of every shown task's first scene (the picture its showcase record names)."""
+    rows = int(np.ceil(len(showcase) / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.8 * rows), squeeze=False)
+    for ax in axes.flat:
+        ax.axis("off")
+    for ax, (task, entry) in zip(axes.flat, showcase.items(), strict=False):
+        ax.imshow(plt.imread(entry["frame"]))
+        ax.set_title(task, fontsize=8)
+    fig.suptitle("first scene of every task (seed of demo 0)")
+    fig.tight_layout()
+    plt.close(fig)
+    return fig
+
+
+def showcase_recordings(showcase: Mapping[str, Mapping[str, Any]]) -> dict[str, tuple[str, str]]:
+    """{task: (its rerun recording, its static picture)}, for `viewer.show_recordings`."""
+    return {task: (entry["rrd"], entry["picture"]) for task, entry in showcase.items()}
+
+
+def load_data_sets(data_sets: Mapping[tuple[str, str], str | Path], tasks: Sequence[str],
+                   limit: int) -> dict[tuple[str, str], list]:
+    """{(task, source): the first `limit` demonstrations} of `tasks` in every source, read
+    from `data_sets` ({(task, source): file}, `studies.demo_stage`), without images."""
+    return {(task, source): load_demos(data_sets[task, source], action_dim=sim.ACTION_DIM,
+                                       limit=limit, images=False)
+            for task in tasks for source in SOURCES}
+
+
+KEPT_COLUMN = "{source}: success over data-set scenes"
+"""The header of a source's keep rate in `keep_rates` (the success over the scenes its data
+set was generated on)."""
+
+
+def keep_rates(data_sets: Mapping[tuple[str, str], str | Path], limit: int) -> pd.DataFrame:
+    """Task x source: the share of attempts that succeeded and were kept as demonstrations
+    (`data.stats.keep_rate`), for every data set of `studies.demo_stage`."""
+    rows = []
+    for (task, source), path in data_sets.items():
+        demos = load_demos(path, action_dim=sim.ACTION_DIM, limit=limit, images=False)
+        rows.append({"task": task, "source": source, "keep rate": keep_rate(demos)})
+    kept = pd.DataFrame(rows).pivot(index="task", columns="source", values="keep rate")
+    kept.columns = [KEPT_COLUMN.format(source=c) for c in kept.columns]
+    return kept
+
+
+def no_expert_measurement(preset_name: str) -> str:
+    """What chapter 04 says when no expert was measured over fresh scenes."""
+    return (f"No fresh-scene measurement under the {preset_name} preset (`data.expert_seeds` "
+            "= 0); see the command above.")
+
+
+def demo_stats(demos: Mapping[tuple[str, str], Sequence[Any]]) -> pd.DataFrame:
+    """One row per demonstration of `load_data_sets`' data sets (`data.stats.data_set_stats`:
+    task, source, length, least energy per step, still fraction, gripper switches)."""
+    return pd.DataFrame([row for ds in demos.values() for row in data_set_stats(ds)])
+
+
+def demo_summary(demos: Mapping[tuple[str, str], Sequence[Any]],
+                 stats_frame: pd.DataFrame) -> pd.DataFrame:
+    """By (task, source): the demonstrations, their mean and spread of length, least energy
+    per step, still fraction and gripper switches (means), and the keep rate."""
+    summary = stats_frame.groupby(["task", "source"]).agg(
+        demos=("length", "size"), mean_length=("length", "mean"), std_length=("length", "std"),
+        least_energy_per_step=("least_energy_per_step", "mean"),
+        still_fraction=("still_fraction", "mean"),
+        gripper_switches=("gripper_switches", "mean"))
+    summary["keep_rate"] = [keep_rate(demos[key]) for key in summary.index]
+    return summary
+
+
+SUMMARY_HEADERS = {"mean_length": "mean length", "std_length": "std",
+                   "least_energy_per_step": "least energy / step", "still_fraction": "still",
+                   "gripper_switches": "gripper switches", "keep_rate": "kept"}
+"""Short headers for `demo_summary`, so that the table fits the page."""
+
+
+def show_demo_summary(summary: pd.DataFrame) -> None:
+    """Display `demo_summary` with short headers and three significant digits."""
+    with pd.option_context("display.float_format", "{:.3g}".format):
+        display(summary.rename(columns=SUMMARY_HEADERS))
+
+
+def demos_figure(demos: Mapping[tuple[str, str], Sequence[Any]], stats_frame: pd.DataFrame,
+                 tasks: Sequence[str]):
+    """The lengths of both sources' demonstrations (histogram), then for each of `tasks` the
+    x and z deltas of demo 0 of each source."""
+    colors = dict(zip(SOURCES, ("tab:blue", "tab:orange"), strict=True))
+    fig, axes = plt.subplots(1, 1 + len(tasks), figsize=(5 * (1 + len(tasks)), 3.4))
+    axes = np.atleast_1d(axes)
+    bins = np.linspace(stats_frame.length.min(), stats_frame.length.max() + 1, 13)
+    for source, color in colors.items():
+        axes[0].hist(stats_frame[stats_frame.source == source].length, bins=bins, color=color,
+                     alpha=0.6, label=source)
+    axes[0].set(xlabel="demo length [steps]", ylabel="demos",
+                title=f"demo lengths ({', '.join(t.split('/')[1] for t in tasks)})")
+    axes[0].legend(fontsize=8)
+    for ax, task in zip(axes[1:], tasks, strict=True):
+        for source, color in colors.items():
+            demo = demos[task, source][0]
+            ax.plot(demo.actions[:, 0], color=color, label=f"{source} dx")
+            ax.plot(demo.actions[:, 2], color=color, ls="--", label=f"{source} dz")
+        ax.set(xlabel="step", ylabel="action", title=f"{task}: demo 0 of each source")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    plt.close(fig)
+    return fig
+
+
+def zero_shot_lines() -> str:
+    """The kitchen suite's zero-shot split (trained tasks, held-out tasks), or why it is not
+    available here."""
+    try:
+        train_tasks, held_out = zero_shot_split()
+    except ImportError as exc:
+        return f"kitchen suite unavailable: {exc}"
+    return f"zero-shot: train on {list(train_tasks)}\n           hold out {list(held_out)}"
+
+
+EXPERT_REQUIREMENT = 0.9
+"""The success an expert must reach over random scenes (the paper's data need it)."""
+
+
+def demonstration_findings(showcase: Mapping[str, Mapping[str, Any]], kept, experts, summary,
+                           tasks: Sequence[str], preset_name: str) -> str:
+    """Chapter 04's "What we found": whether each shown task's demo 0 succeeded
+    (`showcase`), the experts' success over the scenes the data sets were generated on
+    (`kept`, a frame with a "generated: success over data-set scenes" column) and over fresh
+    scenes with replay (`experts`, `studies.expert_measurements` as a frame), and, for each of
+    `tasks`, how the human source's demos differ from the generated ones (`summary`, by
+    (task, source): mean length, still fraction, least energy per step)."""
+    lines = []
+    failed_shown = [t for t, e in showcase.items() if not e["success"]]
+    lines.append(f"Demo 0 of the generated source succeeded on "
+                 f"{len(showcase) - len(failed_shown)} of {len(showcase)} shown tasks"
+                 + (f" (failed: {failed_shown})." if failed_shown else "."))
+    generated_rate = kept[KEPT_COLUMN.format(source="generated")]
+    low_kept = generated_rate[generated_rate < EXPERT_REQUIREMENT]
+    lines.append(f"Over the scenes the {preset_name} data sets were generated on, the experts "
+                 f"succeeded in {generated_rate.min():.0%}-{generated_rate.max():.0%} of "
+                 "attempts per task; " + ("every task meets 0.9 there." if low_kept.empty else
+                                          f"below 0.9: {list(low_kept.index)}."))
+    if len(experts):
+        low = experts[experts.expert < EXPERT_REQUIREMENT]
+        lines.append(f"Over {int(experts.seeds.min())}+ random scenes per task, the expert "
+                     f"success rate ranges from {experts.expert.min():.2f} to "
+                     f"{experts.expert.max():.2f}; "
+                     + ("every measured expert meets the 0.9 requirement."
+                        if low.empty else f"below 0.9: {list(low.task)}."))
+        if experts.replay.notna().all():
+            lines.append(f"Replaying the stored actions of successful episodes open loop "
+                         f"succeeds again in {experts.replay.min():.0%}-"
+                         f"{experts.replay.max():.0%} of them.")
+    for task in tasks:
+        g, h = summary.loc[(task, "generated")], summary.loc[(task, "human")]
+        energy = h.least_energy_per_step / max(g.least_energy_per_step, 1e-12)
+        lines.append(
+            f"{task}: human demos are {h.mean_length / g.mean_length:.2f}x as long as generated "
+            f"ones ({h.mean_length:.0f} vs {g.mean_length:.0f} steps), stand still in "
+            f"{h.still_fraction:.0%} vs {g.still_fraction:.0%} of steps, and their least energy "
+            f"per step is {energy:.3g}x the generated demos' "
+            + ("(less smooth, as the human source is meant to be)." if energy > 1 else
+               "(NOT less smooth: the human source does not differ as intended here)."))
+    return "\n\n".join(lines)
+
+
+# --------------------------------------------------------------------------- chapter 05
+TOKENIZER_SCORES = ("least_energy", "least_energy_standardized")
+"""The latent smoothness scores chapter 05 ranks the tokenizers by (lower is smoother)."""
+
+LOW_USAGE = 0.1
+"""A codebook that uses under this share of its codes on held-out data has collapsed."""
+
+
+def paper_tokenizer_smoothness() -> dict[str, float]:
+    """The paper's least energy of each tokenizer (Table III), by tokenizer name ("lipvq")."""
+    return {row.split("+")[1]: v for row, v in TABLE_III_SMOOTHNESS.items()}
+
+
+TOKENIZER_FORMATS = {"codebook": "{:,.0f}", "usage": "{:.1%}", "perplexity": "{:.1f}",
+                     "tokens/step": "{:.2f}", "encode act/s": "{:,.0f}",
+                     "latent scale σ": "{:.3g}", "recon MSE": "{:.3g}", "decode MSE": "{:.3g}",
+                     "paper least energy": "{:.2f}"}
+"""How chapter 05's tables print each column."""
+
+
+def _styled(rows: list[dict[str, Any]]):
+    frame = pd.DataFrame(rows).set_index("tokenizer")
+    return frame.style.format({c: f for c, f in TOKENIZER_FORMATS.items() if c in frame.columns},
+                              na_rep="-")
+
+
+def tokenizer_frames(seeds: SeedRecords, paper_smoothness: Mapping[str, float]):
+    """Chapter 05's two tables (styled), one row per tokenizer, means over training seeds:
+    what it is (reconstruction and decode error, codebook, usage, perplexity, tokens per
+    step, codes per level, throughput), then its smoothness (raw and standardized least
+    energy with their 95% intervals, the latent scale, the paper's least energy)."""
+    properties, smoothness = [], []
+    for label in seeds.records:
+        properties.append({
+            "tokenizer": label,
+            "recon MSE": seeds.mean(label, "reconstruction_mse"),
+            "decode MSE": seeds.mean(label, "decode_mse"),
+            "codebook": seeds.mean(label, "codebook_size"),
+            "usage": seeds.mean(label, "usage"),
+            "perplexity": seeds.mean(label, "perplexity"),
+            "tokens/step": seeds.mean(label, "tokens_per_step"),
+            "codes/level": seeds.per_level(label),
+            "encode act/s": seeds.mean(label, "encode_actions_per_s"),
+        })
+        smoothness.append({
+            "tokenizer": label,
+            "least energy": seeds.with_interval(label, "least_energy"),
+            "standardized": seeds.with_interval(label, "least_energy_standardized"),
+            "latent scale σ": seeds.mean(label, "latent_scale"),
+            "paper least energy": paper_smoothness.get(label),
+        })
+    return _styled(properties), _styled(smoothness)
+
+
+def smoothness_figure(seeds: SeedRecords, paper_smoothness: Mapping[str, float],
+                      keys: Sequence[str] = TOKENIZER_SCORES):
+    """Each tokenizer's mean score of each of `keys` with its 95% interval (LipVQ-VAE in
+    red, log scale), then the paper's least energy of the tokenizers it has."""
+    labels = list(seeds.records)
+    fig, axes = plt.subplots(1, len(keys) + 1, figsize=(14, 3.6))
+    for ax, key in zip(axes[:-1], keys, strict=True):
+        ests = [stats.score_mean(seeds.scores(k, key)) for k in labels]
+        ax.bar(range(len(labels)), [e.value for e in ests],
+               yerr=[[e.value - e.low for e in ests], [e.high - e.value for e in ests]],
+               capsize=3, color=["C3" if k == "lipvq" else "C0" for k in labels])
+        ax.set_xticks(range(len(labels)), labels, rotation=60)
+        ax.set_yscale("log")
+        ax.set_title(key.replace("_", " ") + " (ours, lower is smoother)")
+    paper_labels = [k for k in labels if k in paper_smoothness]
+    axes[-1].bar(range(len(paper_labels)), [paper_smoothness[k] for k in paper_labels],
+                 color="C7")
+    axes[-1].set_xticks(range(len(paper_labels)), paper_labels, rotation=60)
+    axes[-1].set_title("least energy (the paper, Table III)")
+    fig.tight_layout()
+    plt.close(fig)
+    return fig
+
+
+def tokenizer_findings(seeds: SeedRecords, paper_smoothness: Mapping[str, float],
+                       tokenizers: Sequence[str], keys: Sequence[str] = TOKENIZER_SCORES) -> str:
+    """Chapter 05's "What we found", from the tokenizer study's records (`seeds`): our
+    smoothness rankings against the paper's (`paper_smoothness`, tokenizer -> its Table III
+    least energy; `tokenizers` the registry's names, in order), the paired smoothness
+    comparisons of each Lipschitz variant with its base, the latent scale, codebook
+    collapse, the official code's variant, throughput and codes used per level."""
+    records = seeds.records
+    paper_names = [k for k in tokenizers if k in paper_smoothness]
+    lines = [f"Paper's smoothness ranking (smoothest first): "
+             f"{', '.join(ascending(paper_smoothness))}."]
+    for key in keys:
+        ours = {k: float(seeds.scores(k, key).mean()) for k in paper_names}
+        lines.append(f"Our {key.replace('_', ' ')} ranking: {', '.join(ascending(ours))}; rank "
+                     f"correlation with the paper's "
+                     f"{rank_correlation(ours, paper_smoothness):+.2f}.")
+    for key in keys:
+        lines.append("LipVQ-VAE against VQ-VAE (the Lipschitz constraint alone): "
+                     + seeds.compare("lipvq", "vq", key) + ".")
+        lines.append("With codebooks initialised from encoder outputs: "
+                     + seeds.compare("lipvq-data-init", "vq-data-init", key) + ".")
+        lines.append("Eq. 4 on FSQ's encoder: " + seeds.compare("lipfsq", "fsq", key) + ".")
+        lines.append("Eq. 4 on residual VQ's encoder: " + seeds.compare("liprvq", "rvq", key)
+                     + ".")
+    lines.append(f"Latent scale σ: LipVQ-VAE {seeds.mean('lipvq', 'latent_scale'):.3g}, VQ-VAE "
+                 f"{seeds.mean('vq', 'latent_scale'):.3g}; the raw least energy scales with σ².")
+    low_usage = [k for k in records
+                 if seeds.mean(k, "usage") is not None and seeds.mean(k, "usage") < LOW_USAGE]
+    if low_usage:
+        lines.append(f"Codebook collapse (under {LOW_USAGE:.0%} of codes used on held-out data, "
+                     "mean over seeds): "
+                     + ", ".join(f"{k} ({seeds.mean(k, 'codes_used'):.0f} of "
+                                 f"{seeds.mean(k, 'codebook_size'):.0f})" for k in low_usage)
+                     + ".")
+    lines.append(
+        f"The official code's LipVQ variant (sigmoid output, no straight-through) uses "
+        f"{seeds.mean('lipvq-official', 'codes_used'):.0f} code(s) and reconstructs with MSE "
+        f"{seeds.mean('lipvq-official', 'reconstruction_mse'):.4g}, against "
+        f"{seeds.mean('lipvq', 'codes_used'):.0f} codes and "
+        f"{seeds.mean('lipvq', 'reconstruction_mse'):.4g} for the paper's.")
+    rates = {k: seeds.mean(k, "encode_decode_actions_per_s") for k in records}
+    fastest, slowest = max(rates, key=rates.get), min(rates, key=rates.get)
+    lines.append(
+        f"Throughput (encode + decode, one core): from {rates[slowest]:,.0f} actions/s "
+        f"({slowest}) to {rates[fastest]:,.0f} ({fastest}). FAST emits "
+        f"{seeds.mean('fast', 'tokens_per_step'):.2f} tokens per step, bin "
+        f"{seeds.mean('bin', 'tokens_per_step'):.0f}, B-spline "
+        f"{seeds.mean('bspline', 'tokens_per_step'):.2f}, the others one embedding per step.")
+    levels = len(records["rvq"][0]["codes_used_per_level"])
+    lines.append(
+        f"Residual VQ uses {seeds.per_level('rvq')} codes per level (of "
+        f"{seeds.mean('rvq', 'codebook_size') / levels:.0f} each), "
+        f"{seeds.per_level('liprvq')} with Eq. 4; FSQ {seeds.mean('fsq', 'codes_used'):.0f} of "
+        f"its {seeds.mean('fsq', 'codebook_size'):.0f} grid points, "
+        f"{seeds.mean('lipfsq', 'codes_used'):.0f} with Eq. 4.")
+    return "\n\n".join(lines)

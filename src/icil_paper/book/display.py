@@ -1,0 +1,41 @@
+"""Display helpers the chapters share: a paragraph per source of a table, and a frame or the
+line that says why there is none.
+
+    show_sources(results, binding_sentence, travel_sentence)
+    # **reference run.** <binding sentence> <travel sentence>
+    # **this build (small).** ...
+    show_frame_or(frame, "*No smoothness records yet.*")
+
+`results` is what `tables.book.load_table` returns, {source: TableResult}; each part is a
+function of one source's TableResult that returns Markdown text.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from IPython.display import Markdown, display
+
+from icil_paper.tables.book import source_label
+
+
+def source_paragraph(source: str, result: Any, *parts: Callable[[Any], str],
+                     sep: str = " ") -> str:
+    """"**<source>.** <part 1> <part 2> ...": one source's sentences after its name in bold
+    (`tables.book.source_label`: "this build (small)", "reference run"), each part separated
+    from the name and from the next by `sep` ("\n\n" puts a Markdown list under the name)."""
+    return sep.join([f"**{source_label(source, result.preset)}.**",
+                     *(part(result) for part in parts)])
+
+
+def show_sources(results: Mapping[str, Any], *parts: Callable[[Any], str],
+                 sep: str = " ") -> None:
+    """Display one paragraph per source of a table (`source_paragraph`)."""
+    for source, result in results.items():
+        display(Markdown(source_paragraph(source, result, *parts, sep=sep)))
+
+
+def show_frame_or(frame: Any, message: str) -> None:
+    """Display `frame`, or `message` (Markdown) where it is None or has no rows."""
+    display(Markdown(message) if frame is None or len(frame) == 0 else frame)

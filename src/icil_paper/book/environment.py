@@ -1,0 +1,58 @@
+"""Chapter 01's views of the machine and the preset: every field of the active preset with
+its docstring, and what works here in one line per check.
+
+    preset_fields(preset)                     # frame: field -> value, meaning
+    print(capabilities(environment_report(preset.name), preset))
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import pandas as pd
+
+from icil_paper.config import Preset, field_docs
+
+PRESET_SECTIONS = ("data", "train", "eval", "tables", "tokenizer_study", "policies.icrt",
+                   "tokenizers.lipvq")
+"""The parts of a preset chapter 01 lists: the shared sections, then the configs of the
+paper's policy and tokenizer (every other component's config reads the same way)."""
+
+
+def config_fields(config: Any, path: str) -> Iterator[tuple[str, Any, str]]:
+    """(dotted path, value, docstring) of every leaf field of a config dataclass, nested
+    dataclasses expanded."""
+    docs = field_docs(type(config))
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if dataclasses.is_dataclass(value):
+            yield from config_fields(value, f"{path}.{f.name}")
+        else:
+            yield f"{path}.{f.name}", value, docs.get(f.name, "")
+
+
+def preset_fields(preset: Preset, sections: Sequence[str] = PRESET_SECTIONS) -> pd.DataFrame:
+    """One row per leaf field of the preset's `sections` (dotted: "policies.icrt"): its value
+    and its docstring, indexed by the dotted path `--set` takes."""
+    rows = []
+    for section in sections:
+        config = preset
+        for part in section.split("."):
+            config = getattr(config, part)
+        rows += [{"field": name, "value": str(value), "meaning": doc}
+                 for name, value, doc in config_fields(config, section)]
+    return pd.DataFrame(rows).set_index("field")
+
+
+def capabilities(report: dict, preset: Preset) -> str:
+    """What works here, from `setup.envcheck.environment_report`: the preset, its seed and
+    the training device, then one line per check ("works:" or "FAILED:", with its detail)."""
+    device = (report.get("torch") or {}).get("device", "cpu")
+    lines = [f"Preset {preset.name!r}, seed {preset.seed}, training on {device}."]
+    lines += [("works:  " if c["ok"] else "FAILED: ") + f"{c['name']} ({c['detail']})"
+              for c in report["checks"]]
+    if any(not c["ok"] for c in report["checks"]):
+        lines.append("\nChapters that need a failed capability skip those experiments and say so.")
+    return "\n".join(lines)

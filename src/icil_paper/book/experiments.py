@@ -1,0 +1,168 @@
+"""The chapters on the experiments (the paper's Sec. IV, chapters 06-13): the sentences and
+frames they show beside the tables of `icil_paper.tables`, each computed from the tables'
+results or the preset.
+
+    display(Markdown(maniskill_paragraph(preset, maniskill_settings(preset))))   # chapter 07
+    show_frame_or(standardized_frame(smooth), NO_SMOOTHNESS)     # chapter 08: Table III
+    display(Markdown(prompt_differences(prompt)))                # chapter 10: the prompts
+    comparison_list(findings(result))                            # chapter 11: a Markdown list
+    display(Markdown(eq4_differences(results)))                  # chapter 12: Eq. 4 or not
+
+`results` is what `tables.book.load_table` returns, {source: TableResult}. Where a chapter
+reads a number from a function of `icil_paper.tables` (a design sentence, the settings of
+Table II, the seeds of a row), it calls that function and passes the result here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
+from icil_paper import verdict_words
+from icil_paper.config import Preset
+from icil_paper.paper_numbers import TABLE_I_ROBOCASA
+from icil_paper.tables.assemble import TableResult, format_cell
+from icil_paper.tables.book import BUILD, difference_sentence, source_label
+
+Results = Mapping[str, TableResult]
+"""{source: TableResult}, as `tables.book.load_table` returns them."""
+
+
+# --------------------------------------------------------------------------- chapter 06
+def design_paragraph(preset_name: str, reference_design: str, build_design: str) -> str:
+    """The reference run's seeds and episodes, then this build's (each in the words of
+    `tables.book.design_sentence`)."""
+    return (f"The reference run's design: {reference_design}. "
+            f"This build's (`{preset_name}`): {build_design}.")
+
+
+def paper_lipvq_range() -> str:
+    """The range of the paper's ICRT + LipVQ-VAE over its seven skill families (Table I)."""
+    families = [v for k, v in TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
+    return (f"The paper's ICRT + LipVQ-VAE over its seven families: {min(families):.2f} to "
+            f"{max(families):.2f}.")
+
+
+# --------------------------------------------------------------------------- chapter 07
+def maniskill_paragraph(preset: Preset, settings: tuple[int, int, int]) -> str:
+    """Table II's training and evaluation under this build's preset: the demonstrations,
+    steps and episodes of the state policies (`settings`, from
+    `tables.definitions.maniskill_settings`) and MCR's image demonstrations."""
+    demos, steps, episodes = settings
+    return (f"Each state policy of this build's preset (`{preset.name}`) learns one task from "
+            f"{demos} demonstrations in {steps} steps and is rolled out in {episodes} "
+            f"episode{'s' if episodes != 1 else ''} per task; MCR learns from "
+            f"{preset.tables.image_demos_per_task} image demonstrations per task. The "
+            "reference preset gives these single-task runs more data and steps than Table I's "
+            "multi-task ones (`tables.maniskill_*` in `src/icil_paper/config.py`).")
+
+
+# --------------------------------------------------------------------------- chapter 08
+NO_SMOOTHNESS = "*No smoothness records yet.*"
+"""What chapter 08 shows where no tokenizer's features were scored yet."""
+
+
+def _interval(est: Any, digits: int = 3) -> str:
+    return f"{est.value:.{digits}f} [{est.low:.{digits}f}, {est.high:.{digits}f}]"
+
+
+def standardized_frame(smooth: Results) -> pd.DataFrame | None:
+    """Table III beside its standardized score, one row per (source, tokenizer) that has
+    features records: the raw least energy and the standardized one with their 95%
+    intervals, the latent scale σ, the codes used (means over seeds) and the features
+    scored. None when no row has records."""
+    rows = []
+    for source, result in smooth.items():
+        for row in result.spec.rows:
+            cell = result.cell(row.label, "least_energy")
+            if cell is None or cell.estimate is None:
+                continue
+            metrics = cell.extra["metrics"]
+            codes = [m.get("codes_used") for m in metrics]
+            rows.append({"source": source_label(source, result.preset), "tokenizer": row.label,
+                         "raw": format_cell(cell, 3),
+                         "standardized": _interval(cell.extra["standardized_estimate"]),
+                         "latent scale σ": round(float(np.mean(cell.extra["latent_scale"])), 4),
+                         "codes used": (None if codes[0] is None
+                                        else round(float(np.mean(codes)), 1)),
+                         "features": metrics[0]["n_features"]})
+    return pd.DataFrame(rows).set_index(["source", "tokenizer"]) if rows else None
+
+
+def tsne_figure(paths: Mapping[str, np.ndarray]):
+    """Fig. 4: each tokenizer's t-SNE path (`tables.book.tsne_paths`, {row: (steps, 2)}),
+    points coloured by time."""
+    fig, axes = plt.subplots(1, len(paths), figsize=(2.6 * len(paths), 2.8))
+    for ax, (label, xy) in zip(np.atleast_1d(axes), paths.items(), strict=False):
+        ax.plot(xy[:, 0], xy[:, 1], color="0.7", zorder=1)
+        ax.scatter(xy[:, 0], xy[:, 1], c=np.arange(len(xy)), cmap="viridis", zorder=2)
+        ax.set_title(label.split("+")[1])
+        ax.set_xticks([]), ax.set_yticks([])
+    fig.tight_layout()
+    plt.close(fig)
+    return fig
+
+
+FIG4_TITLE = ("Fig. 4: the first steps of one held-out trajectory in each tokenizer's latent "
+              "space (t-SNE, colour = time)")
+"""The title of Fig. 4's recording."""
+
+
+def tsne_actions(smooth: TableResult) -> np.ndarray:
+    """(steps, A) the actions of the held-out trajectory Fig. 4 follows (seed 0's features
+    record of the table's first row)."""
+    first = smooth.cell(smooth.spec.rows[0].label, "least_energy").extra["metrics"][0]
+    return np.asarray(first["view_actions"])
+
+
+# --------------------------------------------------------------------------- chapter 10
+def prompt_differences(prompt: Results) -> str:
+    """The prompt ablation's right prompt against the wrong one and the truncated one (its
+    first row against its second and third), paired over the same episodes, in Markdown."""
+    labels = [r.label for r in prompt[BUILD].spec.rows]
+    return ("The right prompt against the other two (paired over the same episodes):\n\n"
+            + "\n".join(difference_sentence(prompt, labels[0], other) for other in labels[1:3]))
+
+
+# --------------------------------------------------------------------------- chapter 11
+EXPECTED = {-1: "below 0", +1: "above 0"}
+"""Where the analysis table's comparisons are expected, by their claimed direction."""
+
+
+def comparison_list(found: Sequence[Mapping[str, Any]]) -> str:
+    """The analysis table's comparisons (`tables.analysis.findings`) as a Markdown list: each
+    quantity, its estimate with its 95% interval (or that it has not run), where it is
+    expected and the verdict."""
+    lines = []
+    for f in found:
+        est = f["estimate"]
+        value = (verdict_words.MISSING if est is None else
+                 f"{est.value:+.3f} [{est.low:+.3f}, {est.high:+.3f}]")
+        lines.append(f"- {f['quantity']}: {value} (expected {EXPECTED[f['direction']]}): "
+                     f"{f['verdict']}")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- chapter 12
+EQ4_PAIRS = (("icrt+lipvq", "icrt+vq"), ("icrt+lipfsq", "icrt+fsq"),
+             ("icrt+liprvq", "icrt+rvq"))
+"""Each quantizer with Eq. 4 against itself without (chapter 12)."""
+
+
+def eq4_differences(results: Results, pairs: Sequence[tuple[str, str]] = EQ4_PAIRS) -> str:
+    """Each Eq. 4 variant minus its quantizer on the same episodes, with its paired interval
+    and verdict for every source (`tables.book.difference_sentence`), in Markdown."""
+    return "\n\n".join(f"**{a} against {b}**\n\n" + difference_sentence(results, a, b)
+                       for a, b in pairs)
+
+
+# --------------------------------------------------------------------------- chapter 13
+def official_seeds_sentence(preset_name: str, reference_seeds: int, build_seeds: int) -> str:
+    """The training seeds of every row of the official-code table, in the reference run and
+    in this build (each from `tables.definitions.official_seeds`)."""
+    return (f"Training seeds a row: {reference_seeds} in the reference run, {build_seeds} in "
+            f"this build (`{preset_name}`).")

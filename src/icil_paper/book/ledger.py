@@ -1,0 +1,79 @@
+"""Chapter 00's sources and its list of stale records.
+
+    ledgers = chapter_ledgers(preset)        # {"reference run": (preset, ledger), "this build": ...}
+    reference_ledger(ledgers)                # the reference run's entries
+    show_stale_records(stale_records(REFERENCE), reference_freshness(REFERENCE),
+                       older_ledger(REFERENCE))
+
+This build's ledger is written (`results/<preset>/claims.json`) before it is read; the
+reference run's is read from its committed records and never written here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from IPython.display import Markdown, display
+
+from icil_paper.config import Preset, get_preset
+from icil_paper.results import ResultsStore
+from icil_paper.tables.book import BUILD, REFERENCE, collapsed_markdown, ledger_frame
+from icil_paper.tables.claims import claims_ledger, summary_sentence, write_ledger
+
+Ledgers = dict[str, tuple[Preset, list]]
+"""{source: (its preset, its ledger entries)}, the reference run first."""
+
+
+def chapter_ledgers(preset: Preset) -> Ledgers:
+    """The ledgers chapter 0 shows: the reference run's (read from its committed records,
+    when the build is another preset) and this build's (written to its store, then read)."""
+    sources = [(BUILD, preset)]
+    if preset.name != REFERENCE:
+        sources.insert(0, (f"{REFERENCE} run", get_preset(REFERENCE)))
+    ledgers = {}
+    for source, p in sources:
+        store = ResultsStore(p.name)
+        if p.name == preset.name:
+            write_ledger(p, store)
+        ledgers[source] = (p, claims_ledger(p, store))
+    return ledgers
+
+
+def reference_ledger(ledgers: Ledgers) -> list:
+    """The reference run's entries among `chapter_ledgers`' sources."""
+    return next(ledger for p, ledger in ledgers.values() if p.name == REFERENCE)
+
+
+NO_STALE = "None: every committed reference record is current."
+"""What chapter 0 says when every committed reference record is current."""
+
+
+def stale_summary(stale: Sequence[str], freshness: Mapping[str, int]) -> tuple[str, str]:
+    """(the line of the collapsed block, the Markdown list inside it) for the stale records
+    (`tables.book.stale_records`; `freshness` from `tables.book.reference_freshness`)."""
+    line = (f"{freshness['stale']} of {freshness['records']} committed records are stale and "
+            "not used. Open to see them.")
+    return line, "\n".join(f"- `{name}`" for name in stale)
+
+
+def older_ledger_heading(made_by: Mapping[str, Any], claims: Sequence[Any]) -> str:
+    """The paragraph above the older code's ledger: its commit, why it is kept, and its
+    counts of verdicts (`tables.claims.summary_sentence`)."""
+    return (f"**The reference ledger as the older code (commit `{made_by['commit'][:7]}`) "
+            f"computed it**, {made_by['why_kept']}. " + summary_sentence(claims))
+
+
+def show_stale_records(stale: Sequence[str], freshness: Mapping[str, int],
+                       older: tuple[Mapping[str, Any], list] | None) -> None:
+    """Chapter 0's stale records, collapsed (or the line saying there are none), then the
+    ledger the older code computed from them (`tables.book.older_ledger`) with its verdicts,
+    where there are stale records and that ledger is kept."""
+    if not stale:
+        display(Markdown(NO_STALE))
+        return
+    display(collapsed_markdown(*stale_summary(stale, freshness)))
+    if older is not None:
+        made_by, claims = older
+        display(Markdown(older_ledger_heading(made_by, claims)))
+        display(ledger_frame(claims, "verdicts"))

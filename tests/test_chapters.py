@@ -1,0 +1,532 @@
+"""Chapters call and show: a chapter's code cells are short (they call a library function
+and show what it returns), no cell builds a sentence from numbers inline, and the functions
+the chapters call work on the committed reference records or on small made-up input."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+CHAPTERS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
+
+CELL_LIMIT = 12
+"""The most lines of code a chapter's code cell may hold (import statements, comments and
+blank lines not counted): enough to call a few functions and show their results."""
+
+TEACHES = "# teaches:"
+"""The first line of a cell that teaches the method in code and may be longer."""
+TEACHING_CELLS = {
+    "02_icrt_preliminaries.py": ["Eq. 1's token layout, read from a real batch"],
+}
+"""Every cell allowed to be longer, by chapter: the text after its `# teaches:` tag. A tag
+that is not listed here fails the test, so that the exemption does not spread."""
+
+
+# --------------------------------------------------------------------------- the rules
+def code_cells(path: Path) -> list[str]:
+    """The sources of a py:percent chapter's code cells, in order."""
+    import jupytext
+
+    return [c.source for c in jupytext.read(path).cells if c.cell_type == "code"]
+
+
+def code_lines(source: str) -> int:
+    """Lines of a cell that hold code: not blank, not a comment, not part of an import."""
+    imports = {line for node in ast.walk(ast.parse(source))
+               if isinstance(node, (ast.Import, ast.ImportFrom))
+               for line in range(node.lineno, node.end_lineno + 1)}
+    return sum(1 for i, line in enumerate(source.splitlines(), start=1)
+               if line.strip() and not line.lstrip().startswith("#") and i not in imports)
+
+
+def _text(node: ast.AST) -> bool:
+    """A string built from pieces: an f-string, a literal, or a sum of them."""
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
+        return _text(node.left) or _text(node.right)
+    return isinstance(node, ast.JoinedStr) or (isinstance(node, ast.Constant)
+                                                and isinstance(node.value, str))
+
+
+def sentences_built_inline(source: str) -> list[int]:
+    """First lines of the f-strings, and sums of strings holding an f-string, that span more
+    than one line of a cell: a sentence made from numbers in the chapter."""
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        spans = node.end_lineno > node.lineno if hasattr(node, "end_lineno") else False
+        if isinstance(node, ast.JoinedStr) and spans:
+            found.add(node.lineno)
+        elif (isinstance(node, ast.BinOp) and spans and _text(node)
+              and any(isinstance(n, ast.JoinedStr) for n in ast.walk(node))):
+            found.add(node.lineno)
+    return sorted(found)
+
+
+def teaching_tag(source: str) -> str | None:
+    """The text after a cell's `# teaches:` tag (its first line), else None."""
+    first = source.lstrip("\n").splitlines()[0] if source.strip() else ""
+    return first[len(TEACHES):].strip() if first.startswith(TEACHES) else None
+
+
+def problems(path: Path) -> list[str]:
+    """What breaks the rules in one chapter: each long untagged cell, each tag not in
+    `TEACHING_CELLS`, each sentence built over several lines."""
+    out = []
+    allowed = TEACHING_CELLS.get(path.name, [])
+    for k, source in enumerate(code_cells(path), start=1):
+        tag, n = teaching_tag(source), code_lines(source)
+        if tag is not None and tag not in allowed:
+            out.append(f"{path.name} cell {k}: '{TEACHES} {tag}' is not a listed teaching cell")
+        if tag is None and n > CELL_LIMIT:
+            out.append(f"{path.name} cell {k}: {n} lines of code (at most {CELL_LIMIT}): move "
+                       f"the logic into a library function and call it")
+        for line in sentences_built_inline(source):
+            out.append(f"{path.name} cell {k}, line {line}: a sentence built from numbers "
+                       f"over several lines: compute it in a library function")
+    return out
+
+
+# --------------------------------------------------------------------------- the chapters
+def test_the_rules_find_long_cells_sentences_built_inline_and_unlisted_tags(tmp_path):
+    short = "from x import (\n    a,\n    b,\n)\n\n# a comment\nshow(a(b))\n"
+    assert code_lines(short) == 1
+    assert sentences_built_inline('print(f"one line {x}")\nprint("a " + f(x))\n') == []
+    assert sentences_built_inline('print(f"{x} and "\n      f"{y}")\n') == [1]
+    assert sentences_built_inline('s = ("plain " +\n     f"{x}")\n') == [1]
+    assert sentences_built_inline('s = ("static text, "\n     "no numbers")\n') == []
+    long = "\n".join(f"x{i} = {i}" for i in range(CELL_LIMIT + 1))
+    chapter = tmp_path / "02_icrt_preliminaries.py"
+    chapter.write_text(f"# %%\n{long}\n\n# %%\n{TEACHES} Eq. 1's token layout, read from a "
+                       f"real batch\n{long}\n\n# %%\n{TEACHES} something else\n{long}\n")
+    found = problems(chapter)
+    assert len(found) == 2, found
+    assert "cell 1: 13 lines of code" in found[0] and "'# teaches: something" in found[1]
+
+
+@pytest.mark.parametrize("path", CHAPTERS, ids=lambda p: p.stem)
+def test_a_chapter_calls_the_library_and_shows_what_it_returns(path):
+    """Each code cell is short or a listed teaching cell, and builds no sentence over
+    several lines: findings and sentences are library functions (`icil_paper.book`)."""
+    assert not problems(path)
+
+
+def test_every_listed_teaching_cell_exists():
+    for name, tags in TEACHING_CELLS.items():
+        found = [teaching_tag(s) for s in code_cells(ROOT / "notebooks" / name)]
+        assert [t for t in found if t is not None] == tags, name
+
+
+# --------------------------------------------------------------------------- what the cells call
+@pytest.fixture()
+def shown(monkeypatch):
+    """What the book's display helpers display, in order (instead of a notebook's output)."""
+    from icil_paper.book import components, display, ledger
+
+    out = []
+    for module in (display, ledger, components):
+        monkeypatch.setattr(module, "display", out.append)
+    return out
+
+
+def _success(rates, tasks: int = 2, episodes: int = 10):
+    """A success cell: seed s succeeds in a share rates[s] of every task's episodes."""
+    import numpy as np
+
+    from icil_paper import stats
+    from icil_paper.tables.assemble import CellResult
+
+    data = np.zeros((len(rates), tasks, episodes), bool)
+    for s, rate in enumerate(rates):
+        data[s, :, :round(rate * episodes)] = True
+    return CellResult(stats.success_rate(data), data, 0)
+
+
+def _smoothness(energy: float, codes: int | None = 4):
+    """A smoothness cell of 3 seeds x 5 trajectories near `energy`, with its features
+    records (seed 0's holding the view of Fig. 4)."""
+    import numpy as np
+
+    from icil_paper import stats
+    from icil_paper.tables.assemble import CellResult
+
+    scores = energy + np.arange(15, dtype=float).reshape(3, 5) / 10
+    metrics = [{"codes_used": codes, "n_features": 40, "view_actions": [[0.0] * 7] * 6}
+               for _ in range(3)]
+    return CellResult(stats.score_mean(scores), scores, 0,
+                      {"standardized_estimate": stats.score_mean(scores / 2),
+                       "latent_scale": [0.5, 0.7, 0.9], "metrics": metrics})
+
+
+def _table(table_id: str, cells) -> object:
+    """A table of the smoke preset's rows with the given cells ({(row, column): cell})."""
+    from icil_paper.config import get_preset
+    from icil_paper.tables.assemble import TableResult
+    from icil_paper.tables.definitions import table_spec
+
+    return TableResult(table_spec(get_preset("smoke"), table_id), dict(cells), "smoke")
+
+
+def test_display_helpers_name_each_source_and_say_when_there_is_nothing(shown):
+    import pandas as pd
+
+    from icil_paper.book.display import show_frame_or, show_sources, source_paragraph
+
+    result = _table("prompt", {})
+    assert source_paragraph("this build", result, lambda r: "a.", lambda r: "b.") == (
+        "**this build (smoke).** a. b.")
+    assert source_paragraph("smoke run", result, lambda r: "- x", sep="\n\n") == (
+        "**smoke run.**\n\n- x")
+    show_sources({"reference run": result, "this build": result}, lambda r: r.preset)
+    assert [m.data for m in shown] == ["**reference run (smoke).** smoke",
+                                       "**this build (smoke).** smoke"]
+    frame = pd.DataFrame({"a": [1]})
+    show_frame_or(frame, "none")
+    show_frame_or(None, "*none*")
+    show_frame_or(frame.iloc[:0], "*empty*")
+    assert shown[2] is frame and [m.data for m in shown[3:]] == ["*none*", "*empty*"]
+
+
+def test_chapter_0_ledgers_write_this_builds_and_list_stale_records(shown, monkeypatch):
+    import os
+    from pathlib import Path
+
+    from icil_paper.book.ledger import (
+        NO_STALE,
+        chapter_ledgers,
+        older_ledger_heading,
+        reference_ledger,
+        show_stale_records,
+        stale_summary,
+    )
+    from icil_paper.config import get_preset
+    from icil_paper.tables.book import older_ledger
+
+    ledgers = chapter_ledgers(get_preset("smoke"))
+    assert list(ledgers) == ["reference run", "this build"]
+    assert (Path(os.environ["ICIL_RESULTS"]) / "smoke" / "claims.json").is_file()
+    assert not (Path(os.environ["ICIL_RESULTS"]) / "reference" / "claims.json").exists()
+    assert reference_ledger(ledgers) is ledgers["reference run"][1]
+    line, listing = stale_summary(["train/a.json", "eval/b.json"], {"stale": 2, "records": 9})
+    assert line.startswith("2 of 9 committed records are stale")
+    assert listing == "- `train/a.json`\n- `eval/b.json`"
+
+    monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))  # the committed older ledger
+    made_by, claims = older_ledger("reference")
+    heading = older_ledger_heading(made_by, claims)
+    assert f"commit `{made_by['commit'][:7]}`" in heading and made_by["why_kept"] in heading
+    show_stale_records([], {}, (made_by, claims))
+    assert [m.data for m in shown] == [NO_STALE]  # no stale record: no older ledger either
+    show_stale_records(["train/a.json"], {"stale": 1, "records": 3}, (made_by, claims))
+    assert "train/a.json" in shown[1].data and shown[2].data == heading
+    assert len(shown[3]) == len(claims)  # the older ledger's verdicts, one row a claim
+
+
+def test_chapter_1_lists_every_preset_field_with_its_docstring_and_what_works():
+    from icil_paper.book.environment import capabilities, config_fields, preset_fields
+    from icil_paper.config import get_preset
+
+    preset = get_preset("smoke")
+    frame = preset_fields(preset)
+    assert frame.loc["train.steps", "value"] == str(preset.train.steps)
+    assert frame.loc["train.steps", "meaning"]  # every field has its docstring
+    assert {"policies.icrt.d_model", "tokenizers.lipvq.codebook_size"} <= set(frame.index)
+    nested = [name for name, _, _ in config_fields(preset.tokenizers.lipvq, "lipvq")]
+    assert any(name.count(".") > 1 for name in nested)  # the Lipschitz options, expanded
+    report = {"torch": {"device": "cpu"},
+              "checks": [{"name": "robosuite", "ok": True, "detail": "steps"},
+                         {"name": "maniskill", "ok": False, "detail": "no Vulkan"}]}
+    text = capabilities(report, preset)
+    assert text.splitlines()[:3] == ["Preset 'smoke', seed 0, training on cpu.",
+                                     "works:  robosuite (steps)",
+                                     "FAILED: maniskill (no Vulkan)"]
+    assert "skip those experiments" in text
+    report["checks"] = report["checks"][:1]
+    assert "skip" not in capabilities(report, preset)
+
+
+def test_chapter_2_counts_the_tokens_the_loss_reaches_and_replays_a_stored_episode(
+        monkeypatch):
+    from types import SimpleNamespace
+
+    import numpy as np
+    import torch
+    from matplotlib.figure import Figure
+
+    from icil_paper.book import method
+
+    # one sequence: 2 prompt tokens, a padded one, then query obs, action, obs, action
+    roles = {"segment": torch.tensor([[0, 0, 0, 1, 1, 1, 1]]),
+             "valid": torch.tensor([[True, True, False, True, True, True, True]]),
+             "supervised": torch.tensor([[False, False, False, True, False, True, False]])}
+    grads = torch.tensor([[0.0, 0.0, 0.0, 0.5, 0.0, 0.2, 0.0]])
+    coverage = method.loss_coverage(roles, grads)
+    assert coverage == {"query_reached": 2, "query": 2, "prompt_reached": 0, "prompt": 2,
+                        "unsupervised_reached": 0}
+    assert method.coverage_sentence(coverage).startswith("loss reaches 2 of 2 supervised")
+    grads[0, 1] = 1.0  # a loss that leaked onto the prompt is counted as such
+    assert method.loss_coverage(roles, grads)["prompt_reached"] == 1
+    assert method.loss_coverage(roles, grads)["unsupervised_reached"] == 1
+    assert isinstance(method.loss_gradient_figure(grads), Figure)
+
+    batch = {"prompt_valid": torch.tensor([[True, True], [True, False]])}
+    mask = np.tril(np.ones((6, 6)))
+    assert method.mask_summary(mask, batch, 1) == (
+        "keys attended to: 21 of 36; padded prompt steps in this sequence: 1")
+    assert isinstance(method.attention_mask_figure(mask, batch, 1), Figure)
+
+    study = {"train": {"steps": 5, "loss": [2.0, 1.0]}, "eval": {"successes": 1, "episodes": 2}}
+    m = method.study_metrics(study)
+    assert m["loss"] == [2.0, 1.0] and m["successes"] == 1 and m["train"]["steps"] == 5
+    m.update(success_rate=0.5, ci_low=0.1, ci_high=0.9, mean_steps=40.2, loss_steps=[0, 5],
+             action_l1=[1.0, 0.5])
+    assert method.success_line(m) == ("success 1/2 = 0.50 (Wilson 95% CI 0.10-0.90), mean "
+                                      "episode length 40 steps")
+    assert isinstance(method.training_figure(m, "t"), Figure)
+    run = SimpleNamespace(policy=SimpleNamespace(d_model=32, n_layer=2),
+                          train=SimpleNamespace(steps=5), key=lambda: "abc")
+    demos = [SimpleNamespace(actions=np.zeros((n, 7))) for n in (30, 50)]
+    assert method.run_description("smoke", run, demos, "kitchen/open_drawer") == (
+        "preset smoke: 2 demonstrations of kitchen/open_drawer, 30-50 steps; policy "
+        "d_model=32, 2 layers, 5 training steps; run key abc")
+
+    episodes = [{"episode": 0, "seed": 7, "prompt": [1], "success": False, "steps": 9},
+                {"episode": 1, "seed": 8, "prompt": [0], "success": True, "steps": 4}]
+    assert method.shown_episode(episodes) is episodes[1]
+    assert method.shown_episode(episodes[:1]) is episodes[0]  # none succeeded: the first
+    closed = []
+    env = SimpleNamespace(close=lambda: closed.append(True))
+    monkeypatch.setattr(method, "make_env", lambda task, obs, seed: env)
+
+    def rollout(policy, env_, seed, prompt, max_steps, keep_trace):
+        assert env_ is env and seed == 8 and prompt == [demos[0]] and max_steps == 60
+        return {"success": True, "steps": 4, "obs": [{"proprio": np.zeros(9)}] * 4,
+                "actions": np.zeros((4, 7))}
+
+    monkeypatch.setattr(method, "rollout_policy", rollout)
+    episode, prompt, trace = method.replay_episode("policy", demos, episodes, "t", 60)
+    assert episode is episodes[1] and prompt == [demos[0]] and closed == [True]
+    assert method.replay_sentence(episode, trace) == (
+        "episode 1 (env seed 8): success after 4 steps (the stored evaluation: success after "
+        "4 steps)")
+    demo = SimpleNamespace(obs={"proprio": np.zeros((5, 9))}, actions=np.zeros((5, 7)))
+    assert isinstance(method.rollout_figure(trace, demo), Figure)
+
+
+def _lipschitz_record(bound: float, empirical: float) -> dict:
+    return {"bound_softplus_product": bound, "bound_inf": bound, "bound_2": 1.0,
+            "empirical_inf_r0.1": empirical / 2, "empirical_inf_r1": empirical,
+            "empirical_2_r0.1": 0.3, "empirical_2_r1": 0.4, "reconstruction_mse": 0.01,
+            "latent_least_energy": 0.2, "latent_least_energy_standardized": 0.3,
+            "latent_scale": 0.5, "c_history": [[1.0, 2.0], [1.1, 2.1], [1.2, 2.2]],
+            "history_step": [0, 50, 100]}
+
+
+def test_chapter_3_table_and_figures_read_each_encoders_largest_estimate():
+    from matplotlib.figure import Figure
+
+    from icil_paper.book.method import (
+        bound_figure,
+        bound_history_figure,
+        empirical_constant,
+        lipschitz_frame,
+    )
+
+    radii = (0.1, 1.0)
+    records = {"lipvq (paper)": _lipschitz_record(2.0, 1.5),
+               "vq (no normalization)": _lipschitz_record(9.0, 3.0)}
+    assert empirical_constant(records["lipvq (paper)"], radii) == 1.5
+    assert empirical_constant(records["lipvq (paper)"], radii, "2") == 0.4
+    frame = lipschitz_frame(records, radii)
+    assert list(frame.index) == list(records)
+    assert frame.loc["vq (no normalization)", "empirical (inf)"] == 3.0
+    assert frame.loc["lipvq (paper)", "bound (inf)"] == 2.0
+    fig = bound_figure(records, radii)
+    assert [t.get_text() for t in fig.axes[0].get_xticklabels()] == list(records)
+    history = bound_history_figure(records["lipvq (paper)"], "bounds")
+    assert isinstance(history, Figure) and len(history.axes[0].lines) == 2  # one per layer
+
+
+def _demo(task: str, source: str, steps: int, attempt: int):
+    import numpy as np
+
+    from icil_paper.data.hdf5 import Demo
+
+    rng = np.random.default_rng(steps)
+    actions = rng.uniform(-1, 1, (steps, 7)).astype(np.float32)
+    return Demo(actions=actions, obs={"proprio": np.zeros((steps, 9), np.float32),
+                                      "object": np.zeros((steps, 3), np.float32)},
+                task=task, source=source, meta={"attempt": attempt})
+
+
+def test_chapter_4_tables_and_figures_from_small_data_sets(tmp_path, shown):
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from icil_paper.book import components as c
+    from icil_paper.data.hdf5 import write_demos
+
+    tasks = c.data_tasks()
+    assert tasks == [t for t in c.DATA_TASKS if t in tasks] and tasks
+    text = c.setup_lines("smoke", ["a", "b"], tasks, 3)
+    assert text.startswith(f"preset smoke: 2 tasks shown, data sets of {tasks} with 3 demos")
+    registry = c.task_registry()
+    assert {"kitchen/open_drawer", "maniskill/pick_cube"} <= set(registry.task)
+
+    task = "kitchen/open_drawer"
+    data_sets = {}
+    for source, attempts in (("generated", (0, 0, 1)), ("human", (1, 1, 2))):
+        demos = [_demo(task, source, 20 + 10 * i, a) for i, a in enumerate(attempts)]
+        data_sets[task, source] = write_demos(tmp_path / f"{source}.hdf5", demos)
+    kept = c.keep_rates(data_sets, limit=3)
+    assert kept.loc[task, c.KEPT_COLUMN.format(source="generated")] == pytest.approx(3 / 4)
+    assert kept.loc[task, c.KEPT_COLUMN.format(source="human")] == pytest.approx(3 / 7)
+    demos = c.load_data_sets(data_sets, [task], limit=2)
+    assert {k: len(v) for k, v in demos.items()} == {(task, "generated"): 2, (task, "human"): 2}
+    stats = c.demo_stats(demos)
+    summary = c.demo_summary(demos, stats)
+    assert summary.loc[(task, "human"), "mean_length"] == 25
+    assert summary.loc[(task, "generated"), "keep_rate"] == pytest.approx(1.0)
+    c.show_demo_summary(summary)
+    assert "least energy / step" in shown[0].columns
+    assert isinstance(c.demos_figure(demos, stats, [task]), Figure)
+
+    plt.imsave(tmp_path / "frame.png", np.zeros((4, 4, 3)))
+    showcase = {task: {"task": task, "instruction": "open the drawer", "success": True,
+                       "length": 30, "horizon": 200, "seconds": 1.0, "extra": 0,
+                       "frame": str(tmp_path / "frame.png"), "rrd": "a.rrd",
+                       "picture": "a.png"}}
+    assert list(c.showcase_frame(showcase).columns) == c.SHOWCASE_COLUMNS
+    assert c.showcase_recordings(showcase) == {task: ("a.rrd", "a.png")}
+    assert isinstance(c.first_frames_figure(showcase), Figure)
+    assert "smoke preset" in c.no_expert_measurement("smoke")
+    assert c.zero_shot_lines().startswith(("zero-shot: train on", "kitchen suite unavailable"))
+
+
+def test_chapter_5_tables_and_figure_from_made_up_seed_records():
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from icil_paper.book.components import (
+        paper_tokenizer_smoothness,
+        smoothness_figure,
+        tokenizer_frames,
+    )
+    from icil_paper.book.summaries import SeedRecords
+    from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
+
+    paper = paper_tokenizer_smoothness()
+    assert paper["lipvq"] == TABLE_III_SMOOTHNESS["icrt+lipvq"] and "icrt+lipvq" not in paper
+
+    def seed(energy, s):
+        scores = (energy + 0.01 * s + 0.001 * np.arange(10)).tolist()
+        return {"least_energy_per_trajectory": scores,
+                "least_energy_standardized_per_trajectory": scores, "latent_scale": 0.5,
+                "usage": 0.25, "codebook_size": 16, "reconstruction_mse": 0.01,
+                "decode_mse": 0.02, "perplexity": 3.0, "tokens_per_step": 1.0,
+                "encode_actions_per_s": 1000.0}
+
+    seeds = SeedRecords({"lipvq": [seed(1.0, s) for s in range(3)],
+                         "mine": [seed(2.0, s) for s in range(3)]})
+    properties, smoothness = tokenizer_frames(seeds, paper)
+    assert list(properties.data.index) == ["lipvq", "mine"]
+    assert properties.data.loc["mine", "usage"] == 0.25
+    assert smoothness.data.loc["lipvq", "paper least energy"] == paper["lipvq"]
+    assert np.isnan(smoothness.data.loc["mine", "paper least energy"])  # not the paper's
+    html = smoothness.to_html()
+    assert "25.0%" in properties.to_html() and "-" in html
+    fig = smoothness_figure(seeds, paper)
+    assert isinstance(fig, Figure) and len(fig.axes) == 3
+
+
+def test_chapters_6_to_8_sentences_and_table_iii_beside_its_standardized_score():
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from icil_paper.book import experiments as ex
+    from icil_paper.config import get_preset
+    from icil_paper.paper_numbers import TABLE_I_ROBOCASA
+
+    assert ex.design_paragraph("small", "A", "B") == (
+        "The reference run's design: A. This build's (`small`): B.")
+    lipvq = [v for k, v in TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
+    assert ex.paper_lipvq_range().endswith(f"{min(lipvq):.2f} to {max(lipvq):.2f}.")
+    preset = get_preset("smoke")
+    text = ex.maniskill_paragraph(preset, (4, 30, 1))
+    assert "learns one task from 4 demonstrations in 30 steps" in text
+    assert "in 1 episode per task" in text and "episodes per task" not in text
+
+    smooth = _table("III", {("icrt+vq", "least_energy"): _smoothness(1.0),
+                            ("icrt+lipvq", "least_energy"): _smoothness(0.5, codes=None)})
+    assert ex.standardized_frame({"this build": _table("III", {})}) is None
+    frame = ex.standardized_frame({"this build": smooth})
+    assert list(frame.index) == [("this build (smoke)", "icrt+vq"),
+                                 ("this build (smoke)", "icrt+lipvq")]
+    row = frame.loc[("this build (smoke)", "icrt+vq")]
+    assert row["latent scale σ"] == 0.7 and row["codes used"] == 4 and row["features"] == 40
+    assert row["raw"] == "1.700 [" + row["raw"].split("[")[1]  # mean of 1.0 + 0.0 ... 1.4
+    assert np.isnan(frame.loc[("this build (smoke)", "icrt+lipvq"), "codes used"])  # no codes
+    paths = {"icrt+vq": [[0.0, 0.0], [1.0, 1.0]], "icrt+lipvq": [[0.0, 1.0], [1.0, 0.0]]}
+    fig = ex.tsne_figure({k: np.array(v) for k, v in paths.items()})
+    assert isinstance(fig, Figure) and [a.get_title() for a in fig.axes] == ["vq", "lipvq"]
+    assert ex.tsne_actions(_table("III", {("icrt+mlp", "least_energy"): _smoothness(1.0)})
+                           ).shape == (6, 7)
+
+
+def test_chapters_10_to_13_sentences_from_made_up_tables():
+    from icil_paper.book import experiments as ex
+    from icil_paper.stats import Estimate, Verdict
+
+    right, wrong = "right prompt", "another task's prompt"  # the smoke preset's rows
+    prompt = {"this build": _table("prompt", {(right, "avg"): _success([0.8, 0.9, 0.7]),
+                                              (wrong, "avg"): _success([0.2, 0.3, 0.1])})}
+    text = ex.prompt_differences(prompt)
+    assert text.startswith("The right prompt against the other two")
+    assert f"'{right}' minus '{wrong}' = +0.600" in text and "not run yet" in text
+
+    beyond = {"this build": _table("beyond", {("icrt+lipfsq", "avg"): _success([0.5] * 3),
+                                              ("icrt+fsq", "avg"): _success([0.5] * 3)})}
+    text = ex.eq4_differences(beyond)
+    assert [line for line in text.splitlines() if line.startswith("**")] == [
+        f"**{a} against {b}**" for a, b in ex.EQ4_PAIRS]
+    assert "'icrt+lipfsq' minus 'icrt+fsq' = +0.000" in text
+
+    found = [{"quantity": "q1", "direction": -1, "estimate": None, "verdict": Verdict.NOT_RUN},
+             {"quantity": "q2", "direction": +1, "verdict": Verdict.HOLDS,
+              "estimate": Estimate(0.2, 0.1, 0.3, 6, "t")}]
+    assert ex.comparison_list(found) == (
+        "- q1: not run (expected below 0): not run\n"
+        "- q2: +0.200 [+0.100, +0.300] (expected above 0): holds")
+    assert ex.official_seeds_sentence("small", 5, 2) == (
+        "Training seeds a row: 5 in the reference run, 2 in this build (`small`).")
+
+
+def test_chapter_14_reads_the_comparisons_report():
+    import json
+
+    from icil_paper.book.own_tokenizer import (
+        CHAPTER_MAX_SEEDS,
+        EXAMPLE_NAME,
+        own_tokenizer_findings,
+        seed_cap_line,
+    )
+    from icil_paper.config import get_preset
+    from icil_paper.tables.compare import MAX_SEEDS, sentence
+
+    assert seed_cap_line(get_preset("small")).endswith(f"(small): {CHAPTER_MAX_SEEDS['small']}")
+    assert seed_cap_line(get_preset("reference")).endswith(f"(reference): {MAX_SEEDS}")
+    ledger = json.loads((ROOT / "results" / "reference" / "claims.json").read_text())["claims"]
+    entry = {**ledger[0], "power": 0.42, "mde": 0.123}
+    report = {"preset": "small", "effect": 0.05, "comparisons": [entry],
+              "seed_plan": {"note": "2 a row"}}
+    text = own_tokenizer_findings(report)
+    assert text.startswith(f"In this build (small preset) `{EXAMPLE_NAME}` against LipVQ-VAE: "
+                           + sentence(entry))
+    assert "difference of 0.123 with 80% power" in text and "probability 0.42" in text
+    assert "Seeds: 2 a row." in text
+    report["comparisons"] = [{**entry, "power": None}]
+    report["seed_plan"] = {}
+    text = own_tokenizer_findings(report)
+    assert "80% power" not in text and "Seeds: fixed." in text
