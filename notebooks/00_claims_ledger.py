@@ -18,10 +18,9 @@ import pandas as pd
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
+from icil_paper.paper import claims_ledger, write_ledger
 from icil_paper.results import ResultsStore
 from icil_paper.tables.book import (
-    REFERENCE,
-    collapsed_markdown,
     ledger_details,
     ledger_frame,
     older_ledger,
@@ -29,7 +28,8 @@ from icil_paper.tables.book import (
     show_ledgers,
     stale_records,
 )
-from icil_paper.tables.claims import claims_ledger, summary_sentence, write_ledger
+from icil_paper.tables.claims import summary_sentence
+from icil_paper.tables.display import REFERENCE, collapsed_markdown
 
 pd.set_option("display.max_colwidth", None)
 preset = get_preset()

@@ -267,7 +267,9 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # suite; their success, from the records:
 
 # %% tags=["remove-input"]
-from icil_paper.tables.book import load_table, source_label, training_window_sentence
+from icil_paper.paper.analysis import training_window_sentence
+from icil_paper.tables.book import load_table
+from icil_paper.tables.display import source_label
 
 for source, result in load_table(preset, "analysis", compute=False).items():
     display(Markdown(f"**{source_label(source, result.preset)}.** "

@@ -169,7 +169,7 @@ plt.tight_layout()
 # %% tags=["hide-input"]
 from IPython.display import display
 
-from icil_paper.tables.analysis import bound_travel_frame
+from icil_paper.paper.analysis import bound_travel_frame
 
 display(bound_travel_frame().style.format(precision=3))
 

@@ -96,7 +96,7 @@ from icil_paper.book.studies import tokenizer_latent_recording, tokenizer_study
 from icil_paper.book.summaries import SeedRecords, tokenizer_findings
 from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
-from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
+from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
 from icil_paper.results import ResultsStore
 from icil_paper.tokenizers import TOKENIZERS
 

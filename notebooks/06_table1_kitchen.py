@@ -38,16 +38,13 @@
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.book import (
+from icil_paper.tables.book import claims_figure, design_sentence, load_table, verdicts
+from icil_paper.tables.display import (
     REFERENCE,
-    claims_figure,
-    design_sentence,
-    load_table,
     show_comparison,
     show_motion,
     show_values,
     success_figure,
-    verdicts,
 )
 
 preset = get_preset()  # reads ICIL_PRESET
@@ -83,10 +80,10 @@ show_pilot(table="I")
 # ICRT + LipVQ-VAE's level alone, never from a comparison between rows.
 
 # %% tags=["hide-input"]
-from icil_paper import paper_numbers
 from icil_paper.bench.pilot import regime_summary
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 
-paper_lipvq = [v for k, v in paper_numbers.TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
+paper_lipvq = [v for k, v in TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
 display(Markdown(f"The paper's ICRT + LipVQ-VAE over its seven families: "
                  f"{min(paper_lipvq):.2f} to {max(paper_lipvq):.2f}."))
 regime, regime_text = regime_summary()
@@ -98,7 +95,7 @@ display(Markdown(regime_text))
 # ## Average success over the kitchen tasks
 
 # %% tags=["hide-input"]
-from icil_paper.tables.book import seed_correlation_sentence
+from icil_paper.tables.display import seed_correlation_sentence
 
 show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table I: average success over the kitchen tasks"))
@@ -108,7 +105,7 @@ display(Markdown(
     "numbers). " + seed_correlation_sentence(results)))
 
 # %% tags=["hide-input"]
-from icil_paper.tables.book import show_codebook_use
+from icil_paper.tables.display import show_codebook_use
 
 display(Markdown("**Codebook use of the VQ-family rows**, per training seed: the distinct codes "
                  "each trained tokenizer gives the held-out trajectories of Table III "
@@ -126,7 +123,7 @@ show_codebook_use(results)
 # carries the task lifts ICRT above them; a wrong one shows what is left of it.
 
 # %% tags=["hide-input"]
-from icil_paper.tables.book import prompt_beside_baselines
+from icil_paper.paper.prompt_ablation import prompt_beside_baselines
 
 display(prompt_beside_baselines(results, load_table(preset, "prompt")))
 

@@ -43,18 +43,15 @@ from IPython.display import Markdown, display
 from icil_paper.book.recording import record_latent_trajectories
 from icil_paper.book.viewer import show_recording
 from icil_paper.config import get_preset
+from icil_paper.paper.table_iii import (
+    feature_sampling_sentence,
+    smoothness_success_figure,
+    tsne_paths,
+)
 from icil_paper.results import results_root
 from icil_paper.tables.assemble import format_cell
-from icil_paper.tables.book import (
-    claims_figure,
-    feature_sampling_sentence,
-    load_table,
-    show_comparison,
-    smoothness_success_figure,
-    source_label,
-    tsne_paths,
-    verdicts,
-)
+from icil_paper.tables.book import claims_figure, load_table, verdicts
+from icil_paper.tables.display import show_comparison, source_label
 
 preset = get_preset()
 smooth = load_table(preset, "III")

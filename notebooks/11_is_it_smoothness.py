@@ -54,14 +54,15 @@ from IPython.display import Markdown, display
 
 from icil_paper import verdict_words
 from icil_paper.config import get_preset
-from icil_paper.tables.analysis import (
+from icil_paper.paper.analysis import (
     analysis_frame,
     binding_sentence,
     conclusion,
     findings,
     travel_sentence,
 )
-from icil_paper.tables.book import design_sentence, load_table, show_per_source, source_label
+from icil_paper.tables.book import design_sentence, load_table
+from icil_paper.tables.display import show_per_source, source_label
 
 preset = get_preset()
 results = load_table(preset, "analysis")
@@ -74,7 +75,7 @@ show_per_source(results, analysis_frame,
 # ## Does Eq. 4 bind?
 #
 # The share of each Lipschitz row's encoder rows that the trained bounds cap, split at the
-# threshold of `icil_paper.tables.analysis.BINDS_AT`, and how far the bounds could move in
+# threshold of `icil_paper.paper.analysis.BINDS_AT`, and how far the bounds could move in
 # that row's training at all.
 
 # %% tags=["hide-input"]

@@ -41,17 +41,15 @@
 from IPython.display import Markdown, display
 
 from icil_paper.config import get_preset
-from icil_paper.tables.analysis import analysis_frame
-from icil_paper.tables.book import (
-    claims_figure,
+from icil_paper.paper.analysis import analysis_frame
+from icil_paper.tables.book import claims_figure, load_table, verdicts
+from icil_paper.tables.display import (
     difference_sentence,
-    load_table,
     show_comparison,
     show_motion,
     show_per_source,
     show_values,
     success_figure,
-    verdicts,
 )
 
 preset = get_preset()  # reads ICIL_PRESET

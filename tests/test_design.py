@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from icil_paper.config import get_preset
+from icil_paper.paper import table_spec
 from icil_paper.records import train_record
 from icil_paper.results import ResultsStore
-from icil_paper.tables import table_spec
 from icil_paper.tables.cost import run_cost
 from icil_paper.tables.design import (
     DECIDABLE_SEEDS,

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from icil_paper.metrics import ascending, rank_correlation
-from icil_paper.paper_numbers import TABLE_I_ROBOCASA
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 
 
 class SeedRecords:
@@ -63,8 +63,8 @@ class SeedRecords:
 
     def compare(self, a: str, b: str, key: str) -> str:
         """Is `a` smoother than `b` on `key`? The paired difference and its verdict in words
-        (`tables.book.smoother_sentence`: lower is smoother)."""
-        from icil_paper.tables.book import smoother_sentence
+        (`tables.display.smoother_sentence`: lower is smoother)."""
+        from icil_paper.tables.display import smoother_sentence
 
         return smoother_sentence(a, b, self.scores(a, key), self.scores(b, key),
                                  key.replace("_", " "))
