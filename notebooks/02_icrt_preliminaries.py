@@ -220,7 +220,8 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # suite; their success, from the records:
 
 # %% tags=["remove-input"]
-from icil_paper.tables.book import load_table, training_window_sentence
+from icil_paper.paper.analysis import training_window_sentence
+from icil_paper.tables.book import load_table
 
 show_sources(load_table(preset, "analysis", compute=False), training_window_sentence)
 

@@ -70,10 +70,10 @@
 from IPython.display import Markdown, display
 
 from icil_paper.book.method import (
-    bound_figure,
-    bound_history_figure,
-    lipschitz_findings,
-    lipschitz_frame,
+                             bound_figure,
+                             bound_history_figure,
+                             lipschitz_findings,
+                             lipschitz_frame,
 )
 from icil_paper.book.studies import LIPSCHITZ_RADII as RADII
 from icil_paper.book.studies import lipschitz_study
@@ -135,7 +135,7 @@ display(bound_history_figure(records["lipvq (paper)"],
 # a row (`c_l at the shared rate`).
 
 # %% tags=["hide-input"]
-from icil_paper.tables.analysis import bound_travel_frame
+from icil_paper.paper.analysis import bound_travel_frame
 
 display(bound_travel_frame().style.format(precision=3))
 

@@ -90,10 +90,10 @@
 from IPython.display import Markdown, display
 
 from icil_paper.book.components import (
-    paper_tokenizer_smoothness,
-    smoothness_figure,
-    tokenizer_findings,
-    tokenizer_frames,
+                       paper_tokenizer_smoothness,
+                       smoothness_figure,
+                       tokenizer_findings,
+                       tokenizer_frames,
 )
 from icil_paper.book.studies import tokenizer_latent_recording, tokenizer_study
 from icil_paper.book.summaries import SeedRecords

@@ -39,17 +39,8 @@ from IPython.display import Markdown, display
 
 from icil_paper.book.experiments import design_paragraph, paper_lipvq_range
 from icil_paper.config import get_preset
-from icil_paper.tables.book import (
-    REFERENCE,
-    claims_figure,
-    design_sentence,
-    load_table,
-    show_comparison,
-    show_motion,
-    show_values,
-    success_figure,
-    verdicts,
-)
+from icil_paper.tables.book import REFERENCE, claims_figure, design_sentence, load_table, verdicts
+from icil_paper.tables.display import show_comparison, show_motion, show_values, success_figure
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "I")  # computes what this build's results store lacks
@@ -96,7 +87,7 @@ display(Markdown(regime_text))
 # ## Average success over the kitchen tasks
 
 # %% tags=["hide-input"]
-from icil_paper.tables.book import seed_correlation_sentence
+from icil_paper.tables.display import seed_correlation_sentence
 
 show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table I: average success over the kitchen tasks"))
@@ -115,7 +106,7 @@ display(Markdown(seed_correlation_sentence(results)))
 # perplexity of their distribution (how many equally used codes would give it).
 
 # %% tags=["hide-input"]
-from icil_paper.tables.book import show_codebook_use
+from icil_paper.tables.display import show_codebook_use
 
 show_codebook_use(results)
 
@@ -129,7 +120,7 @@ show_codebook_use(results)
 # carries the task lifts ICRT above them; a wrong one shows what is left of it.
 
 # %% tags=["hide-input"]
-from icil_paper.tables.book import prompt_beside_baselines
+from icil_paper.paper.prompt_ablation import prompt_beside_baselines
 
 display(prompt_beside_baselines(results, load_table(preset, "prompt")))
 

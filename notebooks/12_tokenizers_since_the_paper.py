@@ -42,16 +42,14 @@ from IPython.display import Markdown, display
 
 from icil_paper.book.experiments import eq4_differences
 from icil_paper.config import get_preset
-from icil_paper.tables.analysis import analysis_frame
-from icil_paper.tables.book import (
-    claims_figure,
-    load_table,
-    show_comparison,
-    show_motion,
-    show_per_source,
-    show_values,
-    success_figure,
-    verdicts,
+from icil_paper.paper.analysis import analysis_frame
+from icil_paper.tables.book import claims_figure, load_table, verdicts
+from icil_paper.tables.display import (
+                       show_comparison,
+                       show_motion,
+                       show_per_source,
+                       show_values,
+                       success_figure,
 )
 
 preset = get_preset()  # reads ICIL_PRESET

@@ -52,16 +52,21 @@ from IPython.display import Markdown, display
 from icil_paper.book.display import show_sources
 from icil_paper.book.experiments import official_seeds_sentence
 from icil_paper.config import get_preset
-from icil_paper.tables.book import (
+from icil_paper.paper.official import (
+    codes_frame,
+    differences_frame,
+    findings_frame,
+    official_seeds,
+    summary,
+)
+from icil_paper.tables.book import load_table
+from icil_paper.tables.display import (
     REFERENCE,
-    load_table,
     show_comparison,
     show_per_source,
     show_values,
     success_figure,
 )
-from icil_paper.tables.definitions import official_seeds
-from icil_paper.tables.official import codes_frame, differences_frame, findings_frame, summary
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "official")  # computes what this build's results store lacks

@@ -12,9 +12,9 @@ import torch
 
 from icil_paper import stats
 from icil_paper.config import get_preset
-from icil_paper.tables import analysis
+from icil_paper.paper import analysis, table_spec
+from icil_paper.paper.analysis import ANALYSIS_VARIANTS
 from icil_paper.tables.assemble import CellResult, TableResult
-from icil_paper.tables.definitions import ANALYSIS_VARIANTS, table_spec
 
 SEEDS, TASKS, EPISODES, TRAJECTORIES = 3, 2, 20, 8
 NOTEBOOK = Path(__file__).resolve().parents[1] / "notebooks" / "11_is_it_smoothness.py"

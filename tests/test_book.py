@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from icil_paper.book import viewer
+from icil_paper.viz import viewer
 
 ROOT = Path(__file__).resolve().parents[1]
 

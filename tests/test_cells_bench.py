@@ -13,10 +13,10 @@ import torch
 from icil_paper.config import get_preset
 from icil_paper.config_data import to_dict
 from icil_paper.eval import rollouts
+from icil_paper.paper.table_ii import maniskill_settings
 from icil_paper.records import eval_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import EvalSpec, run_spec
-from icil_paper.tables.definitions import maniskill_settings
 from icil_paper.timing import phase, recording
 
 TASKS = ["kitchen/open_drawer", "kitchen/press_button"]
@@ -108,7 +108,7 @@ def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch)
                                   "kinova_eval"])
 def test_the_benchmark_cells_are_the_reference_tables_cells(kind):
     from icil_paper.bench.cells import kind_cell, shortened
-    from icil_paper.tables.definitions import table_spec
+    from icil_paper.paper import table_spec
 
     preset = get_preset("reference")
     run, evals = kind_cell(preset, kind)

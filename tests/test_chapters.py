@@ -162,8 +162,8 @@ def _smoothness(energy: float, codes: int | None = 4):
 def _table(table_id: str, cells) -> object:
     """A table of the smoke preset's rows with the given cells ({(row, column): cell})."""
     from icil_paper.config import get_preset
+    from icil_paper.paper import table_spec
     from icil_paper.tables.assemble import TableResult
-    from icil_paper.tables.definitions import table_spec
 
     return TableResult(table_spec(get_preset("smoke"), table_id), dict(cells), "smoke")
 
@@ -415,7 +415,7 @@ def test_chapter_5_tables_and_figure_from_made_up_seed_records():
         tokenizer_frames,
     )
     from icil_paper.book.summaries import SeedRecords
-    from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
+    from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
 
     paper = paper_tokenizer_smoothness()
     assert paper["lipvq"] == TABLE_III_SMOOTHNESS["icrt+lipvq"] and "icrt+lipvq" not in paper
@@ -447,7 +447,7 @@ def test_chapters_6_to_8_sentences_and_table_iii_beside_its_standardized_score()
 
     from icil_paper.book import experiments as ex
     from icil_paper.config import get_preset
-    from icil_paper.paper_numbers import TABLE_I_ROBOCASA
+    from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 
     assert ex.design_paragraph("small", "A", "B") == (
         "The reference run's design: A. This build's (`small`): B.")

@@ -14,18 +14,15 @@ import fake_suite
 from icil_paper.config import get_preset
 from icil_paper.config_data import ConfigError
 from icil_paper.eval.features import held_out_pieces, measure_features
+from icil_paper.paper import table_spec
+from icil_paper.paper.table_iii import feature_sampling_sentence
+from icil_paper.paper.table_iv import codes_used_sentence
 from icil_paper.records import features_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import feature_key
-from icil_paper.tables import table_spec
 from icil_paper.tables.assemble import assemble
-from icil_paper.tables.book import (
-    codebook_frame,
-    codes_used_sentence,
-    feature_sampling_sentence,
-    show_codebook_use,
-)
 from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
+from icil_paper.tables.display import codebook_frame, show_codebook_use
 from icil_paper.tables.execute import plan
 
 SHARE = 9

@@ -9,9 +9,9 @@ import pytest
 
 from cli_helpers import run_cli
 from icil_paper.config import get_preset
+from icil_paper.paper import TABLES, table_spec
 from icil_paper.planning.decide import make_plan, seeds_entry_name
 from icil_paper.planning.design import planned_seeds
-from icil_paper.tables.definitions import TABLES, table_spec
 from icil_paper.tables.execute import plan
 
 LEDGER = [

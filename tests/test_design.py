@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from icil_paper.config import get_preset
+from icil_paper.paper import table_spec
 from icil_paper.planning.cost import run_cost
 from icil_paper.planning.design import (
     DECIDABLE_SEEDS,
@@ -22,7 +23,6 @@ from icil_paper.planning.design import (
 )
 from icil_paper.records import train_record
 from icil_paper.results import ResultsStore
-from icil_paper.tables import table_spec
 from record_helpers import write_eval_record
 
 ROOT = Path(__file__).resolve().parents[1]

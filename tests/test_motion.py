@@ -270,7 +270,7 @@ def motion_records(preset, store, table_id, ldlj_of, success=0.5, seed=0, undefi
     """An eval record for every unit of a table: per-episode LDLJ drawn around
     ldlj_of(row, seed index) (sd 1), SPARC around LDLJ / 5, action jerk 0.1; a share
     `undefined` of the episodes has no value; `motion` False: no motion entries at all."""
-    from icil_paper.tables import table_spec
+    from icil_paper.paper import table_spec
 
     rng = np.random.default_rng(seed)
     for row in table_spec(preset, table_id).rows:
@@ -292,7 +292,7 @@ def motion_records(preset, store, table_id, ldlj_of, success=0.5, seed=0, undefi
 
 
 def test_a_cell_estimates_motion_with_the_seed_as_the_unit():
-    from icil_paper.tables import table_spec
+    from icil_paper.paper import table_spec
     from icil_paper.tables.assemble import assemble, filled_motion
 
     preset = small_preset("eval.episodes_per_task=20", "tables.icrt_seeds=3")
@@ -320,9 +320,8 @@ def test_a_cell_estimates_motion_with_the_seed_as_the_unit():
 def test_records_without_motion_entries_leave_success_alone():
     """Records that hold no motion entries (written by hand, or by older code under its
     own key) still give success; their motion is not run, and so are its claims."""
-    from icil_paper.tables import table_spec
+    from icil_paper.paper import claims_ledger, table_spec
     from icil_paper.tables.assemble import assemble
-    from icil_paper.tables.claims import claims_ledger
 
     preset = small_preset("eval.episodes_per_task=10", "tables.icrt_seeds=2")
     store = ResultsStore(preset.name)
@@ -336,7 +335,7 @@ def test_records_without_motion_entries_leave_success_alone():
 
 
 def test_the_motion_claims_get_verdicts():
-    from icil_paper.tables.claims import claims_ledger
+    from icil_paper.paper import claims_ledger
 
     preset = small_preset("eval.episodes_per_task=20", "tables.icrt_seeds=3",
                           "tables.baseline_seeds=3")
@@ -364,7 +363,7 @@ def test_the_motion_claims_get_verdicts():
 
 
 def test_one_seed_motion_claims_are_not_decided():
-    from icil_paper.tables.claims import claims_ledger
+    from icil_paper.paper import claims_ledger
 
     preset = small_preset("eval.episodes_per_task=20")  # one seed a row
     store = ResultsStore(preset.name)
@@ -375,8 +374,8 @@ def test_one_seed_motion_claims_are_not_decided():
 
 
 def test_smoother_latents_and_smoother_motion_are_correlated_across_tokenizers():
-    from icil_paper.tables import table_spec
-    from icil_paper.tables.claims import TOKENIZER_ROWS, claims_ledger
+    from icil_paper.paper import claims_ledger, table_spec
+    from icil_paper.tables.definitions import TOKENIZER_ROWS
 
     preset = small_preset("eval.episodes_per_task=10", "tables.icrt_seeds=3")
     store = ResultsStore(preset.name)
@@ -399,9 +398,9 @@ def test_smoother_latents_and_smoother_motion_are_correlated_across_tokenizers()
 
 
 def test_the_book_shows_motion_beside_success():
-    from icil_paper.tables import table_spec
+    from icil_paper.paper import table_spec
     from icil_paper.tables.assemble import assemble
-    from icil_paper.tables.book import motion_frame, motion_note
+    from icil_paper.tables.display import motion_frame, motion_note
 
     preset = small_preset("eval.episodes_per_task=10", "tables.icrt_seeds=2")
     store = ResultsStore(preset.name)

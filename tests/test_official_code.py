@@ -12,15 +12,15 @@ import torch
 
 from icil_paper.config import get_preset
 from icil_paper.config_data import field_choices, spec_key, to_dict
+from icil_paper.paper import table_spec
+from icil_paper.paper.official import OFFICIAL_ROWS, config_differences
 from icil_paper.policies.batching import PROMPT_FROM, DemoSet, prompt_query_batch
 from icil_paper.policies.configs import ICRTConfig
 from icil_paper.records import eval_record_name, features_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import run_spec
 from icil_paper.sim.synthetic import synthetic_demos
-from icil_paper.tables import table_spec
 from icil_paper.tables.assemble import assemble
-from icil_paper.tables.definitions import OFFICIAL_ROWS, config_differences
 from icil_paper.tokenizers import make_tokenizer
 from icil_paper.tokenizers.bin import RANGES
 from icil_paper.tokenizers.configs import (
@@ -307,7 +307,7 @@ def _fake_records(preset, store, rate_of, codes_of):
 
 
 def test_findings_give_each_variant_against_its_base_with_a_verdict_and_the_codes():
-    from icil_paper.tables.official import (
+    from icil_paper.paper.official import (
         codes_frame,
         collapsed_rows,
         differences_frame,

@@ -12,9 +12,10 @@ import torch
 from icil_paper.config import PRESET_NAMES, get_preset
 from icil_paper.data.generate import demo_path
 from icil_paper.data.sources import demo_seed
+from icil_paper.paper.table_i import TABLE_I_ROWS
 from icil_paper.policies import make_policy
 from icil_paper.sim.synthetic import synthetic_demos
-from icil_paper.tables.definitions import TABLE_I_ROWS, table_i_runs
+from icil_paper.tables.definitions import table_i_runs
 
 torch.set_num_threads(1)
 SPEC = {"proprio": 9, "object": 6}
@@ -119,8 +120,8 @@ def test_every_icrt_row_starts_from_the_same_backbone():
 
 
 def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not():
+    from icil_paper.paper import table_spec
     from icil_paper.planning.pilot import REGIME_ROWS, regime_plans, regime_preset
-    from icil_paper.tables.definitions import table_spec
     from icil_paper.tables.execute import plan
 
     preset = get_preset("reference")
@@ -152,8 +153,8 @@ def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise
 def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
     import json
 
+    from icil_paper.paper import TABLES, table_spec
     from icil_paper.planning.design import data_cost
-    from icil_paper.tables.definitions import TABLES, table_spec
     from icil_paper.tables.execute import plan
 
     rates = tmp_path / "datasets.json"
@@ -168,9 +169,9 @@ def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
 
 def test_seed_correlations_pair_rows_by_seed_index():
     from icil_paper import stats
+    from icil_paper.paper import table_spec
     from icil_paper.tables.assemble import CellResult, TableResult
-    from icil_paper.tables.book import seed_correlation_sentence, seed_correlations
-    from icil_paper.tables.definitions import table_spec
+    from icil_paper.tables.display import seed_correlation_sentence, seed_correlations
 
     spec = table_spec(get_preset("smoke"), "IV")
     labels = [row.label for row in spec.rows]

@@ -418,7 +418,7 @@ def test_every_preset_and_table_passes_the_checks():
     analysis variants, `whole-episode queries` included) and change no key (the committed
     reference records stay current: tests/test_tables.py)."""
     from icil_paper.config import PRESET_NAMES
-    from icil_paper.tables.definitions import TABLES, table_spec
+    from icil_paper.paper import TABLES, table_spec
 
     units = 0
     for name in PRESET_NAMES:
@@ -474,9 +474,9 @@ def _run_with_read_only(folder: Path, cmd: list[str], env: dict) -> subprocess.C
 
 def test_a_read_only_results_folder_is_refused_before_training(tmp_path):
     from icil_paper.config_data import to_dict
+    from icil_paper.paper import table_spec
     from icil_paper.records import eval_record_name
     from icil_paper.results import config_hash
-    from icil_paper.tables.definitions import table_spec
 
     path = write_dataset(tmp_path / "reach.hdf5")
     results = tmp_path / "results"

@@ -22,13 +22,15 @@ from icil_paper.data.generate import GENERATOR, OLDER_GENERATORS, outdated
 from icil_paper.data.sources import source_env_options
 from icil_paper.eval import evaluate_many, plan_episodes
 from icil_paper.eval.rollouts import EnvSetup, Episode, WorkerState
+from icil_paper.paper import table_spec
+from icil_paper.paper.table_i import TABLE_I_ROWS
+from icil_paper.paper.table_vi import shift_frame, shift_rows, shift_sentence
 from icil_paper.registry import Registry, UnknownNameError
 from icil_paper.runspec import SCENE_DISTRIBUTIONS, EvalSpec, eval_key
 from icil_paper.stats import Estimate
 from icil_paper.tables.assemble import CellResult, TableResult
-from icil_paper.tables.definitions import TABLE_I_ROWS, label, table_spec
+from icil_paper.tables.definitions import label
 from icil_paper.tables.spec import Cell, Row, TableSpec
-from icil_paper.tables.transfer import shift_frame, shift_rows, shift_sentence
 
 TASK = "kitchen/reach_a"
 HUMAN_GOAL_SHIFT = np.array([0.05, -0.04, 0.0])

@@ -21,8 +21,8 @@ from icil_paper.config_data import (
     spec_key,
     to_dict,
 )
+from icil_paper.paper import table_spec
 from icil_paper.runspec import eval_key, eval_spec, run_spec
-from icil_paper.tables import table_spec
 from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.tokenizers.configs import TokenizerConfig
 

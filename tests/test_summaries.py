@@ -140,7 +140,7 @@ def test_chapter_4_reads_expert_measurements_written_by_hand_and_states_the_requ
 
 def test_chapter_2_findings_place_the_papers_number_against_our_interval():
     from icil_paper.book.method import icrt_findings
-    from icil_paper.paper_numbers import TABLE_I_ROBOCASA
+    from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 
     paper = TABLE_I_ROBOCASA["icrt+lipvq"]["drawers"]
     m = {"loss": [4.0, 1.0], "train": {"steps": 200}, "successes": 1, "episodes": 4,

@@ -12,11 +12,11 @@ import pytest
 
 from icil_paper.config import get_preset
 from icil_paper.config_data import spec_key
+from icil_paper.paper import TABLES, claims, claims_ledger, table_spec, write_ledger
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key
-from icil_paper.tables import TABLES, table_spec
 from icil_paper.tables.assemble import assemble
-from icil_paper.tables.claims import as_entry, claims, claims_ledger, write_ledger
+from icil_paper.tables.claims import as_entry
 from icil_paper.tables.execute import plan
 from record_helpers import write_eval_record
 
@@ -271,11 +271,11 @@ def test_the_executors_give_the_same_records(tmp_path, monkeypatch):
 def test_fig5_rows_stand_beside_the_paper_by_position(preset_name):
     """The preset's i-th codebook size is compared with the paper's i-th (2^8 .. 2^11), and
     its label names the paper's size where the two differ."""
-    from icil_paper import paper_numbers as paper
+    from icil_paper.paper.table_iv import FIG5_CODEBOOK_SIZE
 
     f5 = table_spec(get_preset(preset_name), "fig5")
-    assert [r.paper["avg"] for r in f5.rows] == [paper.FIG5_CODEBOOK_SIZE[s] for s in
-                                                 sorted(paper.FIG5_CODEBOOK_SIZE)]
+    assert [r.paper["avg"] for r in f5.rows] == [FIG5_CODEBOOK_SIZE[s] for s in
+                                                 sorted(FIG5_CODEBOOK_SIZE)]
     if preset_name == "small":
         assert f5.rows[0].label == "2^6 (the paper's 2^8)"
     else:
@@ -320,8 +320,8 @@ def test_row_seeds_give_single_rows_their_own_seeds_and_refuse_unknown_rows():
     import dataclasses
 
     from icil_paper.config_data import ConfigError
+    from icil_paper.paper import check_row_seeds
     from icil_paper.registry import UnknownNameError
-    from icil_paper.tables.definitions import check_row_seeds
 
     preset = small_preset("tables.icrt_seeds=2", "tables.row_seeds=I:icrt+mlp=4,II:*=3,beyond:icrt+fsq=5")
     t1, t2, beyond = (table_spec(preset, t) for t in ("I", "II", "beyond"))

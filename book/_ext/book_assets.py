@@ -142,7 +142,8 @@ def _computed(marker: str) -> str:
     from the committed reference run and the presets (a page is not executed, so it cannot
     compute them itself; nothing about results is typed into it)."""
     from icil_paper.config import get_preset
-    from icil_paper.tables.book import REFERENCE, design_sentence, reference_summary
+    from icil_paper.tables.book import design_sentence, reference_summary
+    from icil_paper.tables.display import REFERENCE
 
     if marker == "reference-summary":
         return reference_summary()

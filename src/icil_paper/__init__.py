@@ -13,7 +13,10 @@ Submodules are imported lazily so that `import icil_paper` stays cheap:
 - `icil_paper.policies`   ICRT and the baselines
 - `icil_paper.train`, `icil_paper.eval`   training and evaluation: each its loop, its stored
   records (named by `icil_paper.records`) and its command
-- `icil_paper.tables`     the paper's tables as specs, executed on a grid of cells
+- `icil_paper.paper`      one module per result of the paper (Table V in `paper/table_v.py`):
+  its table spec, its claims, the paper's numbers and what its chapter shows
+- `icil_paper.tables`     what the results are built from: specs executed on a grid of cells,
+  assembled with intervals, the claims engine, the views every chapter shares
 - `icil_paper.planning`   above the tables: the seed design, a run's cost, the plan for the
   undecided claims (`icil-paper plan`) and the pilots
 - `icil_paper.bench`      throughput benchmarks (`make bench`)

@@ -250,7 +250,7 @@ class EvalConfig(_Checked):
 
 @dataclass(frozen=True)
 class TablesConfig(_Checked):
-    """The paper's tables and figures (`icil_paper.tables`): seeds, sweeps and sizes."""
+    """The paper's tables and figures (`icil_paper.paper`): seeds, sweeps and sizes."""
 
     icrt_seeds: int = 1
     """Training seeds of every ICRT row of Table I (and so of Tables III, IV, V and VI,
@@ -303,7 +303,7 @@ class TablesConfig(_Checked):
     (`official`), `icrt_seeds` (`analysis`), one seed (Tables II and VII, Fig. 5, whose rows
     are named by codebook size: "fig5:256=5"). A row that shares Table I's runs (the VQ-VAE
     and LipVQ-VAE rows of `beyond` and `analysis`, the paper's rows of `official`) has at
-    least Table I's seeds. `icil_paper.tables.definitions.check_row_seeds` refuses a name
+    least Table I's seeds. `icil_paper.paper.check_row_seeds` refuses a name
     that no table has."""
     scenes_per_seed: bool = False
     """Evaluation design: True gives training seed k of every row its own scene set k

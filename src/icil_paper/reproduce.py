@@ -121,7 +121,7 @@ table_official = _table_stage("official")
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
     """Write results/<preset>/claims.json from the tables' records."""
-    from icil_paper.tables.claims import write_ledger
+    from icil_paper.paper import write_ledger
 
     write_ledger(preset, store)
 
@@ -175,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
         preset_from_args,
     )
     from icil_paper.config import check_tasks
-    from icil_paper.tables.definitions import check_row_seeds
+    from icil_paper.paper import check_row_seeds
 
     parser = Parser(prog="icil-paper reproduce", description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)

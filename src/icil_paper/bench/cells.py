@@ -68,7 +68,7 @@ RAW_STEPS = 150
 # --------------------------------------------------------------------------- which cell
 def kind_cell(preset: Any, kind: str) -> tuple[Any, list[Any]]:
     """(run, evaluations) of one seed of `kind` at `preset`, from the tables' plan."""
-    from icil_paper.tables.definitions import table_spec
+    from icil_paper.paper import table_spec
     from icil_paper.tables.execute import plan
 
     table, policy, tokenizer = {"kitchen_icrt_lipvq": ("I", "icrt", "lipvq"),

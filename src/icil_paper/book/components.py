@@ -28,7 +28,7 @@ from icil_paper.book.summaries import SeedRecords
 from icil_paper.data import SOURCES, load_demos, zero_shot_split
 from icil_paper.data.stats import data_set_stats, keep_rate
 from icil_paper.metrics import ascending, rank_correlation
-from icil_paper.paper_numbers import TABLE_III_SMOOTHNESS
+from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
 
 # --------------------------------------------------------------------------- chapter 04
 DATA_TASKS = ("kitchen/open_drawer", "maniskill/pick_cube")

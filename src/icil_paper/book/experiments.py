@@ -24,9 +24,10 @@ import pandas as pd
 
 from icil_paper import verdict_words
 from icil_paper.config import Preset
-from icil_paper.paper_numbers import TABLE_I_ROBOCASA
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.tables.assemble import TableResult, format_cell
-from icil_paper.tables.book import BUILD, difference_sentence, source_label
+from icil_paper.tables.book import BUILD, source_label
+from icil_paper.tables.display import difference_sentence
 
 Results = Mapping[str, TableResult]
 """{source: TableResult}, as `tables.book.load_table` returns them."""

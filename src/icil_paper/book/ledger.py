@@ -17,9 +17,10 @@ from typing import Any
 from IPython.display import Markdown, display
 
 from icil_paper.config import Preset, get_preset
+from icil_paper.paper import claims_ledger, write_ledger
 from icil_paper.results import ResultsStore
 from icil_paper.tables.book import BUILD, REFERENCE, collapsed_markdown, ledger_frame
-from icil_paper.tables.claims import claims_ledger, summary_sentence, write_ledger
+from icil_paper.tables.claims import summary_sentence
 
 Ledgers = dict[str, tuple[Preset, list]]
 """{source: (its preset, its ledger entries)}, the reference run first."""

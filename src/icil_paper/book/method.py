@@ -23,7 +23,7 @@ import pandas as pd
 
 from icil_paper.book.summaries import SeedRecords
 from icil_paper.eval import rollout_policy
-from icil_paper.paper_numbers import TABLE_I_ROBOCASA
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env
 

@@ -61,8 +61,8 @@ class SeedRecords:
 
     def compare(self, a: str, b: str, key: str) -> str:
         """Is `a` smoother than `b` on `key`? The paired difference and its verdict in words
-        (`tables.book.smoother_sentence`: lower is smoother)."""
-        from icil_paper.tables.book import smoother_sentence
+        (`tables.display.smoother_sentence`: lower is smoother)."""
+        from icil_paper.tables.display import smoother_sentence
 
         return smoother_sentence(a, b, self.scores(a, key), self.scores(b, key),
                                  key.replace("_", " "))

@@ -53,10 +53,10 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
     """Record path -> (stage, kind of cell) for every record the table stages plan, and
     chapter 02's run (stage `icrt`)."""
     from icil_paper.book.studies import icrt_specs
+    from icil_paper.paper import table_spec
     from icil_paper.planning.design import cell_kind
     from icil_paper.records import eval_record, features_record, train_record
     from icil_paper.reproduce import STAGES
-    from icil_paper.tables.definitions import table_spec
     from icil_paper.tables.execute import plan
 
     out: dict[Path, tuple[str, str]] = {}

@@ -37,11 +37,11 @@ from typing import Any
 from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
 from icil_paper.config import Preset
 from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
+from icil_paper.paper import TABLES, table_spec
 from icil_paper.planning.design import cell_kind, claim_rows, planned_seeds
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
 from icil_paper.stats import Verdict
-from icil_paper.tables.definitions import TABLES, table_spec
 from icil_paper.tables.execute import plan
 
 DECIDED = (Verdict.HOLDS, Verdict.DOES_NOT_HOLD)

@@ -35,8 +35,8 @@ from typing import Any
 
 from icil_paper.config import Preset
 from icil_paper.fileio import read_json
+from icil_paper.paper import TABLES, table_spec
 from icil_paper.tables.claims import as_entry, read_ledger, sizing_effect
-from icil_paper.tables.definitions import TABLES, table_spec
 
 DECIDABLE_SEEDS = 10
 """Seeds of every row of a claim whose `seeds_needed` is at most this."""
@@ -80,7 +80,7 @@ def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
 
 def claim_rows(preset: Preset) -> dict[str, tuple[tuple[str, str], ...]]:
     """Claim id -> the (table, row) pairs it reads."""
-    from icil_paper.tables.claims import claims
+    from icil_paper.paper import claims
 
     return {c.id: tuple((c.compare.table, row) for row in c.compare.rows)
             for c in claims(preset)}
@@ -313,8 +313,8 @@ def interim_ledger(preset: Preset, seeds: int | None = None, store=None
     """The ledger computed from the first `seeds` seeds of every row (default: the most
     that every claim's rows have finished), or None below two seeds (no variance to read).
     Returns (seeds, ledger)."""
+    from icil_paper.paper import claims_ledger
     from icil_paper.results import ResultsStore
-    from icil_paper.tables.claims import claims_ledger
 
     store = store or ResultsStore(preset.name)
     if seeds is None:
@@ -466,7 +466,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _print_stages(preset: Preset) -> int:
-    from icil_paper.tables.claims import claims_ledger, stage_design
+    from icil_paper.paper import claims_ledger
+    from icil_paper.tables.claims import stage_design
 
     design = stage_design(preset)
     if design is None:

@@ -57,7 +57,7 @@ def setting_preset(name: str) -> Any:
 def setting_plans(name: str) -> list[Any]:
     """The tables' RunPlans of the setting's rows (the first training seed only), their
     evaluations without the features."""
-    from icil_paper.tables.definitions import table_spec
+    from icil_paper.paper import table_spec
     from icil_paper.tables.execute import RunPlan, plan
 
     preset = setting_preset(name)
@@ -98,7 +98,7 @@ def _summary(name: str, store: Any) -> list[dict[str, Any]]:
 def informative(summary: list[dict[str, Any]]) -> dict[str, bool]:
     """Column (family, or task where rows have no families) -> whether the setting's rows
     can be told apart there: False where every row is at 0, or every row at 1 (the rule of
-    `icil_paper.tables.book.uninformative_columns`)."""
+    `icil_paper.tables.display.uninformative_columns`)."""
     values: dict[str, list[float | None]] = {}
     for row in summary:
         for column, value in (row["families"] or row["tasks"]).items():
@@ -198,13 +198,9 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
     `maniskill`, `REGIME_MANISKILL_ROWS` on each ManiSkill task) at seed indices REGIME_SEED
     .. REGIME_SEED + seeds - 1, each evaluated on every task on its own scene set, and the
     Lipschitz rows' tokenizer features (their capped share of rows)."""
+    from icil_paper.paper.table_ii import maniskill_settings, maniskill_tokenizer
     from icil_paper.runspec import eval_key, feature_key, run_spec
-    from icil_paper.tables.definitions import (
-        feature_spec,
-        maniskill_settings,
-        maniskill_tokenizer,
-        table_eval,
-    )
+    from icil_paper.tables.definitions import feature_spec, table_eval
     from icil_paper.tables.execute import RunPlan
 
     out = []

@@ -1,34 +1,54 @@
-"""What the table chapters show: the paper, the reference run and this build, side by side.
+"""What the book reads across the paper's results: tables loaded per source, the claims
+ledger's views and the reference run's bookkeeping.
 
-    results = load_table(preset, "I")               # {"this build": ..., "reference": ...}
-    compare_frame(results, "avg")                   # rows x (paper, reference, this build)
-    success_figure(results, "avg")                  # bars with 95% intervals, the paper's marks
-    show_motion(results, "avg")                     # success beside LDLJ, SPARC, action jerk
+    results = load_table(preset, "I")               # {"reference run": ..., "this build": ...}
     verdicts(preset, "I")                           # the ledger's sentences, in Markdown
+    claims_figure(preset, "I")                      # the forest plot of one table's claims
+    show_ledgers(ledgers)                           # chapter 0: every claim, its verdict, power
+    reference_summary()                             # the introduction: the reference run
 
 `load_table` computes what this build's results store lacks (through the same function
 `icil-paper reproduce` calls, so after `make reproduce` it only loads) and reads the
 reference run's committed records (`results/reference/`) without computing anything: a
 reference cell that is not there yet shows as "not run", and a committed record whose key
 the current code no longer computes is listed as stale (`stale_records`).
+
+This module reads every result (`icil_paper.paper`: the table specs, the claims and their
+labels); how one result is shown lives in its module there, and the views every result
+shares (`compare_frame`, `success_figure`, `show_motion`, ...) in `tables.display`.
 """
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from icil_paper import verdict_words
-from icil_paper.config import Preset, get_preset
+from icil_paper.config import PRESET_NAMES, Preset, get_preset
+from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, table_spec
 from icil_paper.results import ResultsStore
+from icil_paper.runspec import eval_key, feature_key
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, assemble, format_cell, unbroken
-from icil_paper.tables.claims import CLAIM_LABELS, LedgerEntry, as_entry, sizing_effect
-from icil_paper.tables.definitions import table_spec
-
-REFERENCE = "reference"
-BUILD = "this build"
+from icil_paper.tables.assemble import TableResult, assemble, unbroken
+from icil_paper.tables.claims import (
+    LedgerEntry,
+    as_entry,
+    load_ledger,
+    sentence,
+    sizing_effect,
+    summary_sentence,
+)
+from icil_paper.tables.display import (
+    BUILD,
+    REFERENCE,
+    collapsed_frame,
+    collapsed_markdown,
+    source_label,
+)
+from icil_paper.tables.questions import answers_markdown
 
 
 def load_table(preset: Preset, table_id: str, compute: bool = True,
@@ -47,132 +67,9 @@ def load_table(preset: Preset, table_id: str, compute: bool = True,
     return results
 
 
-def source_label(source: str, preset_name: str) -> str:
-    """"this build (small)"; "reference run" (its preset is in its name already)."""
-    return source if preset_name in source else f"{source} ({preset_name})"
-
-
-def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: int = 3):
-    """Rows x (paper, reference, this build) for one column, as `value [low, high]`."""
-    import pandas as pd
-
-    any_result = next(iter(results.values()))
-    out = []
-    for row in any_result.spec.rows:
-        line: dict[str, Any] = {"": row.label}
-        value = row.paper.get(column)
-        line["paper"] = "" if value is None else f"{value:.{digits}f}"
-        for source, result in results.items():
-            line[source_label(source, result.preset)] = format_cell(result.cell(row.label, column),
-                                                              digits)
-        out.append(line)
-    return pd.DataFrame(out).set_index("")
-
-
-def success_figure(results: dict[str, TableResult], column: str = "avg", title: str = "",
-                   ylabel: str = "success rate"):
-    """Grouped bars per row: each source's estimate with its 95% interval; the paper's
-    number as a black mark. With a reference run beside it, this build is left out (its
-    numbers test the code; they are in the collapsed block under the table)."""
-    import matplotlib.pyplot as plt
-
-    if len(results) > 1:
-        results = {k: v for k, v in results.items() if k != BUILD}
-
-    spec = next(iter(results.values())).spec
-    labels = [r.label for r in spec.rows]
-    fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(labels) + 2), 3.6))
-    width = 0.8 / max(1, len(results))
-    x = np.arange(len(labels))
-    for k, (source, result) in enumerate(results.items()):
-        vals, lo, hi = [], [], []
-        for label in labels:
-            est = result.estimate(label, column)
-            vals.append(est.value if est else np.nan)
-            lo.append(est.value - est.low if est else 0.0)
-            hi.append(est.high - est.value if est else 0.0)
-        ax.bar(x + (k - (len(results) - 1) / 2) * width, vals, width, yerr=[lo, hi], capsize=3,
-               label=source_label(source, result.preset), alpha=0.85)
-    paper = [next(r for r in spec.rows if r.label == label).paper.get(column) for label in labels]
-    if any(p is not None for p in paper):
-        ax.scatter(x, [np.nan if p is None else p for p in paper], marker="_", s=400,
-                   color="black", zorder=5, label="the paper")
-    ax.set_xticks(x, labels, rotation=30, ha="right")
-    ax.set_ylabel(ylabel)
-    ax.set_title(title or f"Table {spec.id}, {column}")
-    ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
-    plt.close(fig)  # shown once, by the caller's display(fig)
-    return fig
-
-
-MOTION_COLUMNS = {"ldlj": "LDLJ (higher: smoother)", "sparc": "SPARC (higher: smoother)",
-                  "action_jerk": "action jerk (lower: smoother)"}
-"""The motion frame's columns beside success (`icil_paper.metrics`)."""
-
-
-def _format_estimate(est, digits: int = 3) -> str:
-    """`-12.3 [-13.1, -11.6]` (`digits` significant digits, trailing zeros kept) or
-    `not run`."""
-    if est is None:
-        return verdict_words.MISSING
-
-    def sig(x: float) -> str:
-        return f"{x:#.{digits}g}".rstrip(".").replace(".e", "e")
-
-    return unbroken(f"{sig(est.value)} [{sig(est.low)}, {sig(est.high)}]")
-
-
-def motion_frame(result: TableResult, column: str = "avg", digits: int = 3):
-    """Rows x (success, LDLJ, SPARC, action jerk) of one column: each row's success and the
-    smoothness of its rollouts' motion (per-seed means of per-episode values, the seed as
-    the unit: `TableResult.motion_estimate`), each `value [95% interval]`."""
-    import pandas as pd
-
-    out = []
-    for row in result.spec.rows:
-        cell = result.cell(row.label, column)
-        line: dict[str, Any] = {"": row.label, "success": unbroken(format_cell(cell, 2))}
-        for measure, name in MOTION_COLUMNS.items():
-            line[name] = ("n/a" if cell is None else
-                          _format_estimate(result.motion_estimate(row.label, column, measure),
-                                           digits))
-        out.append(line)
-    return pd.DataFrame(out).set_index("")
-
-
-def motion_note(result: TableResult, column: str = "avg") -> str:
-    """How many of the column's episodes have each measure defined (an episode of a few
-    steps, or one where the arm did not move, has none), as a clause; empty when all do."""
-    counts = {}
-    for row in result.spec.rows:
-        cell = result.cell(row.label, column)
-        for measure in MOTION_COLUMNS:
-            if cell is not None and measure in cell.motion:
-                values = cell.motion[measure]
-                done, total = counts.get(measure, (0, 0))
-                counts[measure] = (done + int(np.isfinite(values).sum()), total + values.size)
-    gaps = [f"{MOTION_COLUMNS[m].split(' (')[0]} {d} of {t}" for m, (d, t) in counts.items()
-            if d < t]
-    return "" if not gaps else "episodes with the measure defined: " + ", ".join(gaps)
-
-
-def show_motion(results: dict[str, TableResult], column: str = "avg", digits: int = 3) -> None:
-    """Success beside the smoothness of the motion that earned it (`motion_frame`), for the
-    reference run, then this build in a collapsed block (`show_per_source`)."""
-    def describe(result: TableResult) -> str:
-        note = motion_note(result, column)
-        return (f"{column}, each episode's value averaged per seed, 95% intervals with the "
-                "seed as the unit" + (f"; {note}" if note else ""))
-
-    show_per_source(results, lambda r: motion_frame(r, column, digits), describe)
-
-
 def verdicts(preset: Preset, table_id: str) -> str:
     """The claims ledger's sentences about one table, for the reference run and this build,
     as Markdown (generated from the numbers, never written by hand)."""
-    from icil_paper.tables.claims import claims_ledger, sentence
-
     sources = [(BUILD, preset)]
     if preset.name != REFERENCE:
         sources.insert(0, (f"{REFERENCE} run", get_preset(REFERENCE)))
@@ -187,13 +84,22 @@ def verdicts(preset: Preset, table_id: str) -> str:
     return "\n".join(lines)
 
 
+def claims_figure(preset: Preset, table_id: str):
+    """The forest plot of one table's claims in the reference run's ledger (this build's
+    when the book is built with the reference preset); None when the table has no claim."""
+    p = get_preset(REFERENCE)
+    entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
+    if not entries:
+        return None
+    return forest_plot(entries, title=f"Table {table_id}'s claims, reference run: 95% "
+                                      "intervals, the paper's values, the verdict after Holm")
+
+
 def stale_records(preset_name: str = REFERENCE) -> list[str]:
     """Records in `results/<preset>/` (train, eval, features) whose key neither a current
     cell of any table nor chapter 02's run computes: results of an older version of the
     code or presets."""
     from icil_paper.book.studies import icrt_specs
-    from icil_paper.runspec import eval_key, feature_key
-    from icil_paper.tables.definitions import TABLES
     from icil_paper.tables.execute import plan
 
     preset = get_preset(preset_name)
@@ -209,40 +115,7 @@ def stale_records(preset_name: str = REFERENCE) -> list[str]:
                   for r in store.records(kind) if r["config_hash"] not in keys)
 
 
-def _collapsed(summary: str, frame) -> Any:
-    """A frame inside a closed <details> block (the reader opens it)."""
-    from IPython.display import HTML
-
-    return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
-                f"{frame.to_html(classes='dataframe')}</details>")
-
-
-def _markdown_html(text: str) -> str:
-    """The little Markdown the ledger's lists use (items, **bold**, *italic*, `code`) as
-    HTML, for a collapsed block (HTML output is not read as Markdown)."""
-    import html
-    import re
-
-    def inline(line: str) -> str:
-        line = html.escape(line, quote=False)
-        line = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", line)
-        line = re.sub(r"\*(.+?)\*", r"<i>\1</i>", line)
-        return re.sub(r"`(.+?)`", r"<code>\1</code>", line)
-
-    items = [line[2:] for line in text.splitlines() if line.startswith("- ")]
-    if not items:
-        return f"<p>{inline(text)}</p>"
-    return "<ul>" + "".join(f"<li>{inline(i)}</li>" for i in items) + "</ul>"
-
-
-def collapsed_markdown(summary: str, text: str) -> Any:
-    """A Markdown list (or paragraph) inside a closed <details> block."""
-    from IPython.display import HTML
-
-    return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
-                f"{_markdown_html(text)}</details>")
-
-
+# --------------------------------------------------------------------------- the claims ledger
 def show_ledger(ledger: list[LedgerEntry | dict[str, Any]], heading: str,
                 progress: str = "") -> None:
     """Chapter 0's view of one ledger: the forest plot first (each row labelled by what its
@@ -250,8 +123,6 @@ def show_ledger(ledger: list[LedgerEntry | dict[str, Any]], heading: str,
     each undecided claim and the size-and-power table; the run's bookkeeping (`progress`)
     last."""
     from IPython.display import Markdown, display
-
-    from icil_paper.tables.claims import summary_sentence
 
     ledger = [as_entry(e) for e in ledger]
     display(Markdown(f"## {heading[0].upper()}{heading[1:]}"))
@@ -265,8 +136,8 @@ def show_ledger(ledger: list[LedgerEntry | dict[str, Any]], heading: str,
         n = len(undecided.splitlines())
         display(collapsed_markdown(f"Undecided after Holm ({n} claims): what these seeds "
                                    "could detect. Open to see them.", undecided))
-    display(_collapsed("Size and power of every claim. Open to see them.",
-                       ledger_frame(ledger, "power")))
+    display(collapsed_frame("Size and power of every claim. Open to see them.",
+                            ledger_frame(ledger, "power")))
     if progress:
         display(Markdown(progress))
 
@@ -288,253 +159,6 @@ def show_ledgers(ledgers: dict[str, tuple[Any, list]]) -> None:
                         "The older protocol's baselines did not read the task's instruction "
                         "and its training seeds shared one demonstration set: read this "
                         "ledger as a record of that protocol, not of the paper's regime.")
-
-
-def _build_summary(result: TableResult) -> str:
-    return (f"This build's numbers ({result.preset} preset): they test the code, not the "
-            "paper. Open to see them.")
-
-
-def show_comparison(results: dict[str, TableResult], column: str = "avg",
-                    digits: int = 3) -> None:
-    """The paper and the reference run side by side; this build's numbers below, in a
-    collapsed block (shown open when the book is built with the reference preset itself)."""
-    from IPython.display import display
-
-    frame = compare_frame(results, column, digits)
-    build = results.get(BUILD)
-    if build is None or len(results) == 1:
-        display(frame)
-        return
-    build_column = source_label(BUILD, build.preset)
-    display(frame.drop(columns=[build_column]))
-    display(_collapsed(_build_summary(build), frame[["paper", build_column]]))
-
-
-PROMPT_BASELINES = ("bc_transformer", "act")
-"""Table I's rows that read the instruction and no prompt, shown beside the prompt ablation."""
-
-
-def prompt_beside_baselines(table1: dict[str, TableResult], prompt: dict[str, TableResult],
-                            digits: int = 3):
-    """The prompt ablation's rows (ICRT + LipVQ-VAE with its task's prompt, another task's,
-    the first steps of its own) beside Table I's baselines, which read the task's language
-    instruction and no prompt: what a prompt adds over the instruction alone. One column
-    per source (reference run, this build), average success with its 95% interval."""
-    import pandas as pd
-
-    out = []
-    any_prompt = next(iter(prompt.values()))
-    for row in any_prompt.spec.rows:
-        line: dict[str, Any] = {"": f"ICRT + LipVQ-VAE, {row.label}",
-                                "reads": "instruction and prompt"}
-        for source, result in prompt.items():
-            line[source_label(source, result.preset)] = format_cell(
-                result.cell(row.label, "avg"), digits)
-        out.append(line)
-    for label in PROMPT_BASELINES:
-        line = {"": label, "reads": "instruction only"}
-        for source, result in table1.items():
-            line[source_label(source, result.preset)] = format_cell(
-                result.cell(label, "avg"), digits)
-        out.append(line)
-    return pd.DataFrame(out).set_index("")
-
-
-def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[str, str], float]:
-    """{(row a, row b): Pearson r of their per-seed success at the same seed index}, over
-    the seed indices both rows have (at least 3, and neither row constant over them).
-
-    Seed k of every row shares its demonstration set, its evaluation scenes and, for the
-    ICRT rows, its backbone's initial weights and batch order (common random numbers): the
-    larger r, the more a paired comparison by seed index gains over an unpaired one."""
-    per_seed = {}
-    for row in result.spec.rows:
-        cell = result.cell(row.label, column)
-        if cell is not None and cell.data is not None and np.ndim(cell.data) >= 2:
-            data = np.asarray(cell.data, dtype=np.float64)
-            per_seed[row.label] = data.reshape(len(data), -1).mean(axis=1)
-    out = {}
-    labels = list(per_seed)
-    for i, a in enumerate(labels):
-        for b in labels[i + 1:]:
-            n = min(len(per_seed[a]), len(per_seed[b]))
-            x, y = per_seed[a][:n], per_seed[b][:n]
-            if n >= 3 and x.std() > 0 and y.std() > 0:
-                out[a, b] = float(np.corrcoef(x, y)[0, 1])
-    return out
-
-
-def seed_correlation_sentence(results: dict[str, TableResult], column: str = "avg") -> str:
-    """The mean cross-row correlation of per-seed success in each source (`seed_correlations`),
-    over every pair of rows and over the pairs of ICRT rows."""
-    parts = []
-    for source, result in results.items():
-        r = seed_correlations(result, column)
-        if not r:
-            parts.append(f"{source_label(source, result.preset)}: no two rows have results "
-                         "at 3 seed indices or more (nothing to correlate)")
-            continue
-        icrt = [v for (a, b), v in r.items() if a.startswith("icrt") and b.startswith("icrt")]
-        text = (f"{source_label(source, result.preset)}: mean r = {np.mean(list(r.values())):.2f} "
-                f"over {len(r)} pairs of rows")
-        if icrt:
-            text += f", {np.mean(icrt):.2f} over the {len(icrt)} pairs of ICRT rows"
-        parts.append(text)
-    return ("Correlation of per-seed success between two rows at the same seed index: "
-            + "; ".join(parts) + ".")
-
-
-def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, float]:
-    """Columns (families or tasks; not "avg") where every row (whose label starts with
-    `prefix`, e.g. "icrt+" for the tokenizers) is at 0, or every one at 1: they cannot
-    separate those rows. Column -> the value every row has."""
-    rows = [r for r in result.spec.rows if r.label.startswith(prefix)]
-    out = {}
-    for column in result.spec.columns:
-        if column in ("avg", "features", "least_energy"):
-            continue
-        cells = [result.cell(r.label, column) for r in rows]
-        cells = [c for c in cells if c is not None]
-        values = [c.estimate.value for c in cells if c.estimate is not None]
-        if len(values) >= 2 and len(values) == len(cells) and (
-                all(v == 0.0 for v in values) or all(v == 1.0 for v in values)):
-            out[column] = values[0]
-    return out
-
-
-def uninformative_note(results: dict[str, TableResult]) -> str:
-    """A sentence per source naming its columns where every row is at 0 or at 1, and the
-    share of the average they make (they add the same to every row, so differences in the
-    average are diluted by that share). Empty when there are none."""
-    lines = []
-    for source, result in results.items():
-        flat = uninformative_columns(result)
-        if not flat and not uninformative_columns(result, "icrt+"):
-            continue
-        spec_row = result.spec.rows[0]
-        tasks = {c: len({u.eval.task for u in cell.units if u.eval is not None})
-                 for c, cell in spec_row.cells.items() if c not in ("avg", "features")}
-        total = sum(tasks.values())
-        share = sum(tasks.get(c, 0) for c in flat) / total if total else 0.0
-        named = ", ".join(f"{c} (every row {v:.0f})" for c, v in flat.items())
-        lines.append(f"- {source_label(source, result.preset)}: {named} cannot separate the "
-                     f"rows; they hold {share:.0%} of the tasks in the average, so every "
-                     f"difference in the average is diluted to {1 - share:.0%} of its size "
-                     "on the tasks that can separate them.")
-        icrt = {c: v for c, v in uninformative_columns(result, "icrt+").items() if c not in flat}
-        if icrt:
-            named = ", ".join(f"{c} (every ICRT row {v:.0f})" for c, v in icrt.items())
-            lines.append(f"- {source_label(source, result.preset)}: {named} cannot separate "
-                         "the ICRT tokenizers from one another.")
-    return "" if not lines else ("**Uninformative columns** (computed):\n\n" + "\n".join(lines))
-
-
-def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
-    """Display the paper's point values, then the reference run's, then this build's in a
-    collapsed block (a one-line note for a source that has not computed the table yet), and
-    the columns where every row is at 0 or 1."""
-    from IPython.display import Markdown, display
-
-    first = next(iter(results.values()))
-    display(Markdown("**The paper**"))
-    display(values_frame(first, digits, paper=True))
-    for source, result in results.items():
-        title = f"**{source_label(source, result.preset)}**"
-        if not any(c.estimate is not None for c in result.cells.values()):
-            display(Markdown(f"{title}: not run yet."))
-            continue
-        if source == BUILD and len(results) > 1:
-            display(_collapsed(_build_summary(result), values_frame(result, digits)))
-            continue
-        display(Markdown(title))
-        display(values_frame(result, digits))
-    note = uninformative_note(results)
-    if note:
-        display(Markdown(note))
-
-
-def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
-    """Point values only (rows x columns), compact enough for the wide family tables; with
-    `paper`, the paper's numbers instead of ours."""
-    import pandas as pd
-
-    out = []
-    for row in result.spec.rows:
-        line: dict[str, Any] = {"": row.label}
-        for column in result.spec.columns:
-            if paper:
-                value = row.paper.get(column)
-            else:
-                cell = result.cell(row.label, column)
-                if cell is None or cell.estimate is None:
-                    line[column] = "n/a" if cell is None else verdict_words.MISSING
-                    continue
-                value = cell.estimate.value
-            line[column] = "" if value is None else round(float(value), digits)
-        out.append(line)
-    return pd.DataFrame(out).set_index("")
-
-
-def smoothness_success_figure(smooth: dict[str, TableResult], success: dict[str, TableResult],
-                              standardized: bool = False):
-    """Fig. 1: least energy (Table III) against average success (Table I) of the six ICRT
-    tokenizers, with 95% intervals on both axes; the paper's points beside ours (the paper's
-    on its own axis, since the scales differ)."""
-    import matplotlib.pyplot as plt
-
-    from icil_paper import paper_numbers as paper
-
-    rows = [r.label for r in next(iter(smooth.values())).spec.rows]
-    n = len(smooth) + 1
-    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.6))
-    for ax, (source, result) in zip(axes, smooth.items(), strict=False):
-        for label in rows:
-            cell = result.cell(label, "least_energy")
-            s_est = (cell.extra.get("standardized_estimate") if cell and standardized
-                     else cell.estimate if cell else None)
-            y_est = success[source].estimate(label, "avg")
-            if s_est is None or y_est is None:
-                continue
-            ax.errorbar(s_est.value, y_est.value,
-                        xerr=[[s_est.value - s_est.low], [s_est.high - s_est.value]],
-                        yerr=[[y_est.value - y_est.low], [y_est.high - y_est.value]],
-                        fmt="o", capsize=3)
-            ax.annotate(label.split("+")[1], (s_est.value, y_est.value), fontsize=8,
-                        xytext=(4, 4), textcoords="offset points")
-        ax.set_xlabel(("standardized " if standardized else "") + "least energy (lower: smoother)")
-        ax.set_ylabel("average success")
-        ax.set_title(source_label(source, result.preset))
-    ax = axes[-1]
-    for label in rows:
-        x, y = paper.TABLE_III_SMOOTHNESS[label], paper.TABLE_I_ROBOCASA[label]["avg"]
-        ax.scatter(x, y, color="black")
-        ax.annotate(label.split("+")[1], (x, y), fontsize=8, xytext=(4, 4),
-                    textcoords="offset points")
-    ax.set_xlabel("least energy (the paper)")
-    ax.set_ylabel("average success (the paper)")
-    ax.set_title("the paper (Table III vs Table I)")
-    fig.tight_layout()
-    plt.close(fig)  # shown once, by the caller's display(fig)
-    return fig
-
-
-def tsne_paths(smooth: TableResult, seed: int = 0) -> dict[str, np.ndarray]:
-    """Fig. 4: each tokenizer's latents of the first steps of one held-out trajectory,
-    projected to 2-D by t-SNE (scikit-learn), {row label: (steps, 2)} (seed 0's policy)."""
-    from sklearn.manifold import TSNE
-
-    paths = {}
-    for row in smooth.spec.rows:
-        cell = smooth.cell(row.label, "least_energy")
-        if cell is None or cell.estimate is None:
-            continue
-        z = np.asarray(cell.extra["view"][0], dtype=np.float64)  # (steps, D)
-        z = z + 1e-9 * np.random.default_rng(seed).standard_normal(z.shape)  # ties in codes
-        perplexity = max(1.0, min(5.0, (len(z) - 1) / 3))
-        paths[row.label] = TSNE(n_components=2, perplexity=perplexity, init="pca",
-                                random_state=seed).fit_transform(z)
-    return paths
 
 
 def _seeds_cell(seeds: dict[str, int] | None) -> str:
@@ -618,24 +242,16 @@ def ledger_details(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def difference_sentence(results: dict[str, TableResult], a: str, b: str,
-                        column: str = "avg", direction: int = +1) -> str:
-    """`a` minus `b` on the same episodes, with its paired interval and the verdict on
-    "a is higher" (direction +1) for each source, in Markdown."""
-    from icil_paper import stats
-
-    lines = []
-    for source, result in results.items():
-        xa, xb = result.outcomes(a, column), result.outcomes(b, column)
-        if xa is None or xb is None:
-            lines.append(f"- {source_label(source, result.preset)}: not run yet.")
-            continue
-        est = stats.paired_difference(xa, xb)
-        claimed = "higher" if direction > 0 else "lower"
-        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = {est.value:+.3f} "
-                     f"[{est.low:+.3f}, {est.high:+.3f}]; '{a}' is {claimed}: "
-                     f"{stats.verdict(est, direction)}.")
-    return "\n".join(lines)
+def decided_claims(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
+    """The claims decided after Holm's correction, by id: "Held: ... Did not hold: ...";
+    empty when none is decided."""
+    ledger = [as_entry(e) for e in ledger]
+    parts = []
+    for verdict, label in verdict_words.DECIDED_LABELS.items():
+        ids = [e.id for e in ledger if e.adjusted_verdict == verdict]
+        if ids:
+            parts.append(f"{label}: {', '.join(ids)}.")
+    return " ".join(parts)
 
 
 VERDICT_COLOURS = verdict_words.COLOURS
@@ -708,6 +324,7 @@ def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", ver
     return fig
 
 
+# --------------------------------------------------------------------------- the reference run
 def design_sentence(preset: Preset) -> str:
     """The preset's seeds and episodes in words (never typed into a chapter): "3 training
     seeds for the ICRT rows and 1 for the other rows, 10 episodes per task and seed"."""
@@ -754,8 +371,6 @@ def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
 def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dict]] | None:
     """(made_by, ledger) of the reference ledger an older version of the code computed, or
     None when there is none."""
-    import json
-
     path = ResultsStore(preset_name).dir / OLDER_LEDGER
     if not path.exists():
         return None
@@ -769,9 +384,6 @@ def reference_progress(path=None, older: bool = False) -> str:
     time against its target (`projection`); once every cell is done, what the whole run
     cost (`older`: every record is older code, so the run is the older protocol's). Empty
     when there is no cost.json."""
-    import json
-    from pathlib import Path
-
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "cost.json"
     if not path.exists():
         return ""
@@ -801,27 +413,11 @@ def reference_progress(path=None, older: bool = False) -> str:
             "whose rows are not all trained yet shows as *not run*.")
 
 
-def decided_claims(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
-    """The claims decided after Holm's correction, by id: "Held: ... Did not hold: ...";
-    empty when none is decided."""
-    ledger = [as_entry(e) for e in ledger]
-    parts = []
-    for verdict, label in verdict_words.DECIDED_LABELS.items():
-        ids = [e.id for e in ledger if e.adjusted_verdict == verdict]
-        if ids:
-            parts.append(f"{label}: {', '.join(ids)}.")
-    return " ".join(parts)
-
-
 def reference_summary(path=None) -> str:
     """The committed reference run's ledger in one sentence (`claims.summary_sentence`) and
     the claims it decided, or a sentence saying it is not there. Records made by older code
     are counted; while the current ledger still has claims not run, the older code's ledger
     is quoted too, labelled with its commit (once every claim is read, chapter 0 keeps it)."""
-    from pathlib import Path
-
-    from icil_paper.tables.claims import load_ledger, summary_sentence
-
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     if not path.exists():
         return f"The reference run's ledger is not there yet ({path.name} is missing)."
@@ -850,10 +446,6 @@ def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
     reference ledger, or, while none of its claims has run under the current protocol, the
     ledger the older code computed (`older_ledger`) with its `made_by`; ([], None) when
     neither is there."""
-    from pathlib import Path
-
-    from icil_paper.tables.claims import as_entry, load_ledger
-
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     ledger = load_ledger(path) if path.exists() else []
     if any(e.run for e in ledger):
@@ -869,8 +461,6 @@ def reference_answers(path=None) -> str:
     """Sec. IV's three questions answered from the reference ledger (`answering_ledger`;
     `questions.answers_markdown`: one sentence each, with the numbers that carry it), saying
     so when the answers come from the older protocol's ledger."""
-    from icil_paper.tables.questions import answers_markdown
-
     ledger, made_by = answering_ledger(path)
     if not ledger:
         return "The reference run's ledger is not there yet (claims.json is missing)."
@@ -901,8 +491,6 @@ PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)
 
 def preset_table() -> str:
     """The presets' scale as a Markdown table, read from the presets themselves."""
-    from icil_paper.config import PRESET_NAMES
-
     lines = ["| preset | meant for | training steps | demonstrations per task | episodes "
              "per task | training seeds (ICRT / other rows) |", "|---|---|---|---|---|---|"]
     for name in PRESET_NAMES:
@@ -911,221 +499,3 @@ def preset_table() -> str:
                      f"{p.data.demos_per_task} | {p.eval.episodes_per_task} | "
                      f"{p.tables.icrt_seeds} / {p.tables.baseline_seeds} |")
     return "\n".join(lines)
-
-
-
-def claims_figure(preset: Preset, table_id: str):
-    """The forest plot of one table's claims in the reference run's ledger (this build's
-    when the book is built with the reference preset); None when the table has no claim."""
-    from icil_paper.tables.claims import claims_ledger
-
-    p = get_preset(REFERENCE)
-    entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
-    if not entries:
-        return None
-    return forest_plot(entries, title=f"Table {table_id}'s claims, reference run: 95% "
-                                      "intervals, the paper's values, the verdict after Holm")
-
-
-def smoother_sentence(a: str, b: str, a_scores, b_scores, quantity: str) -> str:
-    """"a minus b on <quantity>: +0.1 [-0.2, +0.4]: a is smoother" from per-trajectory
-    scores (seeds, trajectories) of two tokenizers on the same trajectories (lower is
-    smoother; `stats.paired_score_difference` and its verdict)."""
-    from icil_paper import stats
-
-    est = stats.paired_score_difference(a_scores, b_scores)
-    words = verdict_words.SMOOTHER[stats.verdict(est, direction=-1)]
-    return (f"{a} minus {b} on {quantity}: {est.value:+.4g} [{est.low:+.4g}, {est.high:+.4g}]"
-            f": {a} is {words}")
-
-
-def show_per_source(results: dict[str, TableResult], make_frame, describe=None) -> None:
-    """One frame per source (`make_frame(result)`): the reference run's shown, this build's
-    in a collapsed block when there is a reference beside it. `describe(result)` adds a
-    sentence after the source's name."""
-    from IPython.display import Markdown, display
-
-    for source, result in results.items():
-        extra = f": {describe(result)}" if describe else ""
-        if source == BUILD and len(results) > 1:
-            display(_collapsed(_build_summary(result) + extra, make_frame(result)))
-            continue
-        display(Markdown(f"**{source_label(source, result.preset)}**{extra}"))
-        display(make_frame(result))
-
-
-WHOLE_EPISODES = "icrt+lipvq (paper)"
-RANDOM_WINDOWS = "lipvq, 32-step random windows"
-"""The analysis table's two ways of training ICRT + LipVQ-VAE: whole episodes from step 0
-(the default: the window the policy acts with) and ICRT's random 32-step query windows."""
-
-
-def training_window_sentence(result: TableResult) -> str:
-    """Chapter 02's comparison of the two training windows, from the analysis table: each
-    row's success and the difference (whole episodes minus windows) with its 95% interval
-    and verdict (`icil_paper.stats`), or a sentence saying the cells are not run yet."""
-    from icil_paper import stats
-
-    a, b = result.outcomes(WHOLE_EPISODES), result.outcomes(RANDOM_WINDOWS)
-    if a is None or b is None:
-        return ("The analysis table's two training windows have not run yet in this source "
-                "(chapter 11 computes them).")
-    ea, eb = result.estimate(WHOLE_EPISODES), result.estimate(RANDOM_WINDOWS)
-    diff = stats.paired_difference(a, b, scenes=result.scenes(WHOLE_EPISODES, RANDOM_WINDOWS))
-    verdict = stats.verdict(diff, direction=+1)
-    return (f"Trained on whole episodes from step 0, ICRT + LipVQ-VAE succeeds "
-            f"{ea.value:.2f} [{ea.low:.2f}, {ea.high:.2f}]; trained on random 32-step "
-            f"windows, {eb.value:.2f} [{eb.low:.2f}, {eb.high:.2f}]. Whole episodes minus "
-            f"windows: {diff.value:+.2f} [{diff.low:+.2f}, {diff.high:+.2f}] "
-            f"({_seeds_words(result, WHOLE_EPISODES)}); that whole episodes help "
-            f"{verdict_words.TRAINING_WINDOW[verdict]}.")
-
-
-def _seeds_words(result: TableResult, row: str) -> str:
-    cell = result.spec.row(row).cells["avg"]
-    return f"{cell.seeds} training seed{'s' if cell.seeds != 1 else ''} a row"
-
-
-# --------------------------------------------------------------------------- features and codebooks
-def _codebook_rows(result: TableResult, column: str) -> list[tuple[str, Any]]:
-    """(row label, its `column` cell spec) of every row whose policies' tokenizer has a
-    codebook (`definitions.CODEBOOK_TOKENIZERS`), in the table's order."""
-    from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
-
-    out = []
-    for row in result.spec.rows:
-        cell = row.cells.get(column)
-        tokenizer = cell.units[0].run.tokenizer if cell is not None and cell.units else None
-        if tokenizer is not None and tokenizer.type in CODEBOOK_TOKENIZERS:
-            out.append((row.label, cell))
-    return out
-
-
-def _per_seed_metrics(result: TableResult, label: str, cell_spec, column: str
-                      ) -> list[tuple[int, dict[str, Any] | None]]:
-    """(training seed, its features record's metrics or None while not run) per unit of a
-    features cell, in seed order (`assemble` keeps the metrics in that order)."""
-    units = sorted(cell_spec.units, key=lambda u: u.seed_index)
-    cell = result.cell(label, column)
-    metrics = cell.extra.get("metrics") if cell is not None and cell.estimate is not None else None
-    return [(u.run.seed, metrics[i] if metrics else None) for i, u in enumerate(units)]
-
-
-def codebook_frame(result: TableResult, column: str = "features"):
-    """Codebook use of every VQ-family row (a tokenizer with a codebook), one line per
-    training seed: the distinct codes its trained tokenizer gives the held-out trajectories
-    of Table III (`codes used` of `K`, the codebook size), their share `usage`, and the
-    perplexity of the code distribution (exp of its entropy: how many equally used codes
-    would give it; rounded to 2 decimals). Values are None while a record is missing ("not
-    run") or older than the perplexity measurement. Index (row, seed)."""
-    import pandas as pd
-
-    lines = []
-    for label, cell_spec in _codebook_rows(result, column):
-        for seed, m in _per_seed_metrics(result, label, cell_spec, column):
-            m = m or {}
-            lines.append({"row": label, "seed": seed, "codes used": m.get("codes_used"),
-                          "K": m.get("codebook_size"), "usage": m.get("usage"),
-                          "perplexity": m.get("perplexity"),
-                          "status": "ok" if m else verdict_words.MISSING})
-    frame = pd.DataFrame(lines, columns=["row", "seed", "codes used", "K", "usage",
-                                         "perplexity", "status"])
-    return frame.round({"usage": 3, "perplexity": 2}).set_index(["row", "seed"])
-
-
-def codes_used_sentence(results: dict[str, TableResult], column: str = "features") -> str:
-    """For each source, how many codes each codebook row used of its K on the held-out
-    trajectories, and their perplexity (means over seeds), as a Markdown list: Fig. 5's
-    sentence on its codebook sizes, generated from the features records."""
-    lines = []
-    for source, result in results.items():
-        parts, missing = [], []
-        for label, cell_spec in _codebook_rows(result, column):
-            measured = [m for _, m in _per_seed_metrics(result, label, cell_spec, column)
-                        if m and m.get("codes_used") is not None]
-            if not measured:
-                missing.append(label)
-                continue
-            used = float(np.mean([m["codes_used"] for m in measured]))
-            size = measured[0]["codebook_size"]
-            perplexities = [m["perplexity"] for m in measured if m.get("perplexity") is not None]
-            seeds = "" if len(measured) == 1 else f", mean of {len(measured)} seeds"
-            perplexity = (f", perplexity {np.mean(perplexities):.1f}" if perplexities else "")
-            count = f"{used:.0f}" if len(measured) == 1 else f"{used:.1f}"
-            parts.append(f"{label} used {count} of its {size} codes "
-                         f"({used / size:.0%}{perplexity}{seeds})")
-        name = source_label(source, result.preset)
-        if not parts:
-            lines.append(f"- {name}: not run yet.")
-            continue
-        text = "; ".join(parts)
-        if missing:
-            text += f"; {', '.join(missing)} not run yet"
-        lines.append(f"- {name}: {text}.")
-    return "\n".join(lines)
-
-
-def feature_coverage(metrics: dict[str, Any]) -> dict[str, Any]:
-    """What one features record scored: tasks scored and asked for (None in records older
-    than the per-task sampling), trajectories, features, and the steps of each task."""
-    steps = metrics.get("steps_per_task")
-    return {"tasks_scored": len(metrics["tasks_scored"]) if "tasks_scored" in metrics else None,
-            "tasks": len(metrics["tasks"]) if "tasks" in metrics else None,
-            "trajectories": metrics["n_trajectories"], "features": metrics["n_features"],
-            "steps_per_task": dict(steps) if steps else None}
-
-
-def _coverage_words(c: dict[str, Any]) -> str:
-    if c["tasks"] is None:
-        return (f"{c['trajectories']} trajectories, {c['features']} features (an older record: "
-                "the first features in task order, its tasks not recorded)")
-    steps = c["steps_per_task"]
-    common = max(set(steps.values()), key=list(steps.values()).count)
-    others = [f"{t.split('/', 1)[-1]} {n}" for t, n in steps.items() if n != common]
-    per_task = f"{common} steps each" + (f"; {', '.join(others)}" if others else "")
-    return (f"{c['tasks_scored']} of its {c['tasks']} tasks ({per_task}), "
-            f"{c['trajectories']} held-out trajectories, {c['features']} features")
-
-
-def feature_sampling_sentence(results: dict[str, TableResult], column: str = "least_energy"
-                              ) -> str:
-    """For each source, what Table III's features records scored, per row and seed: tasks
-    scored of the tasks asked for, steps per task, trajectories and features (Markdown,
-    generated from the records; rows that scored the same are named together)."""
-    lines = []
-    for source, result in results.items():
-        groups: dict[str, list[str]] = {}
-        for row in result.spec.rows:
-            cell = result.cell(row.label, column)
-            if cell is None or cell.estimate is None:
-                continue
-            for m in cell.extra["metrics"]:
-                words = _coverage_words(feature_coverage(m))
-                if row.label not in groups.setdefault(words, []):
-                    groups[words].append(row.label)
-        name = source_label(source, result.preset)
-        if not groups:
-            lines.append(f"- {name}: not run yet.")
-        elif len(groups) == 1:
-            lines.append(f"- {name}: every row, each seed: {next(iter(groups))}.")
-        else:
-            lines.append(f"- {name}: " + "; ".join(f"{', '.join(rows)}, each seed: {words}"
-                                                  for words, rows in groups.items()) + ".")
-    return "\n".join(lines)
-
-
-def show_codebook_use(results: dict[str, TableResult], column: str = "features") -> None:
-    """Each source's `codebook_frame` (the reference run's shown, this build's in a collapsed
-    block beside a reference), or one line for a source whose records are not there yet."""
-    from IPython.display import Markdown, display
-
-    for source, result in results.items():
-        frame = codebook_frame(result, column)
-        title = f"**{source_label(source, result.preset)}**"
-        if frame.empty or (frame["status"] == verdict_words.MISSING).all():
-            display(Markdown(f"{title}: codebook use not run yet."))
-        elif source == BUILD and len(results) > 1:
-            display(_collapsed(_build_summary(result), frame))
-        else:
-            display(Markdown(title))
-            display(frame)

@@ -1,14 +1,21 @@
-"""The claims ledger: every claim of the paper's Sec. IV, checked against our numbers.
+"""The claims engine: a claim of the paper checked against our numbers, and the ledger.
 
+    from icil_paper.paper import claims_ledger, write_ledger
     ledger = claims_ledger(preset, store)          # list of LedgerEntry, one per claim
     write_ledger(preset, store)                   # results/<preset>/claims.json
     summary(ledger)                               # counts of the verdicts after Holm
 
+Each result declares its claims in its own module of `icil_paper.paper` (Table V's in
+`paper/table_v.py`, with `diff`, `margin` and `paper_diff` from here), and
+`icil_paper.paper.claims` collects them in the ledger's order; this module evaluates them
+(`ledger_entries`, `evaluate_claims`) and says them in words (`sentence`,
+`summary_sentence`).
+
 Each claim is a quantity with a claimed direction: "LipVQ-VAE beats BC-Transformer by 5.3
 points on Table I" is the difference of the two rows' average success, claimed above 0.
-Its `paper` value is computed from the paper's own numbers (`icil_paper.paper_numbers`),
-`ours` from our records, `ci` is our 95% interval with the training seed as the unit (see
-`icil_paper.stats`), and each entry carries:
+Its `paper` value is computed from the paper's own numbers (each beside its table in
+`icil_paper.paper`), `ours` from our records, `ci` is our 95% interval with the training
+seed as the unit (see `icil_paper.stats`), and each entry carries:
 
 - `verdict`: the rule of `icil_paper.stats` on the interval: `holds`, `does not hold`,
   `inconclusive`, `too few seeds` (a row it reads has one training seed), or `not run` (a
@@ -54,18 +61,12 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper import paper_numbers as paper
 from icil_paper import stats, verdict_words
 from icil_paper.config import Preset
-from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
+from icil_paper.fileio import UnreadableFileError, read_json
 from icil_paper.metrics import MOTION_MEASURES, SMOOTHER
-from icil_paper.results import ResultsStore
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, assemble
-from icil_paper.tables.definitions import ICRT_TOKENIZERS, table_spec
-
-TOKENIZER_ROWS = tuple(f"icrt+{t}" for t in ICRT_TOKENIZERS)
-ACT_TOKENIZER_ROWS = ("act+bin", "act+fast", "act+vq", "act+lfq", "act+lipvq")
+from icil_paper.tables.assemble import TableResult
 
 EQUIVALENCE_MARGIN = 0.05
 """A success difference whose whole interval lies within +-0.05 of 0 (5 points of success,
@@ -262,7 +263,7 @@ class Claim:
 
 @dataclass
 class LedgerEntry:
-    """One claim of the ledger as `claims_ledger` computes it and `claims.json` stores it
+    """One claim of the ledger as `ledger_entries` computes it and `claims.json` stores it
     (`to_dict` gives the stored form, key for key; `from_dict` reads it back). Fields a
     newer ledger adds are kept in `extra` and read as attributes too."""
 
@@ -366,165 +367,7 @@ def paper_margin(rows: dict, a: str, others: Sequence[str], column: str = "avg")
     return lambda: rows[a][column] - max(rows[o][column] for o in others)
 
 
-def _paper_correlation() -> float:
-    from scipy.stats import spearmanr
-
-    energy = [paper.TABLE_III_SMOOTHNESS[r] for r in TOKENIZER_ROWS]
-    success = [paper.TABLE_I_ROBOCASA[r]["avg"] for r in TOKENIZER_ROWS]
-    return float(spearmanr(energy, success).statistic)
-
-
-def _fig5_rows(preset: Preset) -> tuple[str, list[str]]:
-    """The sweep row at the paper's 2^10 position (the third of four; its label names the
-    paper's size where the preset's differs) and the others."""
-    labels = [r.label for r in table_spec(preset, "fig5").rows]
-    best = labels[min(2, len(labels) - 1)]
-    return best, [x for x in labels if x != best]
-
-
 # --------------------------------------------------------------------------- the ledger
-def claims(preset: Preset) -> list[Claim]:
-    """Every claim, in the order of the paper's Sec. IV, then those of our own (`beyond`:
-    does Eq. 4 help every quantizer?; and do smoother latents go with smoother motion?)."""
-    T1, T2, T6, T7 = (paper.TABLE_I_ROBOCASA, paper.TABLE_II_MANISKILL,
-                      paper.TABLE_VI_CROSS_DATASET, paper.TABLE_VII_ZERO_SHOT)
-    T4, T5 = paper.TABLE_IV_LIPSCHITZ, paper.TABLE_V_SIM_TO_REAL
-    others = [r for r in TOKENIZER_ROWS if r != "icrt+lipvq"]
-    act_others = [r for r in ACT_TOKENIZER_ROWS if r != "act+lipvq"]
-    f5_best, f5_others = _fig5_rows(preset)
-    return [
-        Claim("I-lipvq-best", "I", "Among all action tokenizers, LipVQ-VAE achieves the highest "
-              "performance.", "ICRT+LipVQ minus the best other ICRT tokenizer (avg)", +1,
-              margin("I", "icrt+lipvq", others), paper_margin(T1, "icrt+lipvq", others)),
-        Claim("I-lipvq-vs-bc", "I", "Integrating LipVQ-VAE into ICRT achieves a 5.3% improvement "
-              "over BC-Transformer.", "ICRT+LipVQ minus BC-Transformer (avg)", +1,
-              diff("I", "icrt+lipvq", "bc_transformer"),
-              paper_diff(T1, "icrt+lipvq", "bc_transformer")),
-        Claim("I-lipvq-vs-lfq", "I", "LipVQ-VAE surpasses the second-best tokenizer, LFQ-VAE, by "
-              "4.1%.", "ICRT+LipVQ minus ICRT+LFQ (avg)", +1,
-              diff("I", "icrt+lipvq", "icrt+lfq"), paper_diff(T1, "icrt+lipvq", "icrt+lfq")),
-        Claim("I-tokenizer-gap", "I", "An 8.8% performance gap between the best (LipVQ-VAE) and "
-              "worst (MLP) tokenizers.", "ICRT+LipVQ minus ICRT+MLP (avg)", +1,
-              diff("I", "icrt+lipvq", "icrt+mlp"), paper_diff(T1, "icrt+lipvq", "icrt+mlp")),
-        Claim("I-mlp-below-bc", "I", "An ineffective tokenizer can degrade performance, with MLP "
-              "underperforming BC-Transformer by 3.5%.", "BC-Transformer minus ICRT+MLP (avg)",
-              +1, diff("I", "bc_transformer", "icrt+mlp"),
-              paper_diff(T1, "bc_transformer", "icrt+mlp")),
-        Claim("II-lipvq-best", "II", "LipVQ-VAE still achieves the highest performance among all "
-              "action tokenizers.", "ACT+LipVQ minus the best other ACT+tokenizer (avg)", +1,
-              margin("II", "act+lipvq", act_others), paper_margin(T2, "act+lipvq", act_others)),
-        Claim("II-lipvq-vs-lfq", "II", "LipVQ-VAE exceeds LFQ-VAE by 6%.",
-              "ACT+LipVQ minus ACT+LFQ (avg)", +1, diff("II", "act+lipvq", "act+lfq"),
-              paper_diff(T2, "act+lipvq", "act+lfq")),
-        Claim("II-lipvq-vs-act", "II", "A 19.7% performance gap in favor of our method over the "
-              "original ACT.", "ACT+LipVQ minus ACT (avg)", +1, diff("II", "act+lipvq", "act"),
-              paper_diff(T2, "act+lipvq", "act")),
-        Claim("III-lipvq-smoothest", "III", "Among all tokenizers, LipVQ-VAE achieves the best "
-              "smoothness score.", "LipVQ's least energy minus the lowest other tokenizer's",
-              -1, margin("III", "icrt+lipvq", others, "least_energy"),
-              lambda: paper.TABLE_III_SMOOTHNESS["icrt+lipvq"]
-              - min(paper.TABLE_III_SMOOTHNESS[r] for r in others)),
-        Claim("III-smoother-succeeds", "III", "A clear positive correlation: smoother action "
-              "tokenization leads to higher manipulation success rates.",
-              "Spearman correlation of least energy and Table I success over the six ICRT "
-              "tokenizers (negative: smoother goes with more success)", -1,
-              Correlation(TOKENIZER_ROWS), _paper_correlation),
-        Claim("IV-mlp", "IV", "Incorporating Lipschitz regularization improves performance by "
-              "2.3% for the MLP tokenizer.", "ICRT+Lip-MLP minus ICRT+MLP (avg)", +1,
-              diff("IV", "icrt+lip-mlp", "icrt+mlp"),
-              paper_diff(T4, "icrt+lip-mlp", "icrt+mlp")),
-        Claim("IV-vq", "IV", "Incorporating Lipschitz regularization improves performance by "
-              "5.5% for VQ-VAE.", "ICRT+LipVQ minus ICRT+VQ (avg)", +1,
-              diff("IV", "icrt+lipvq", "icrt+vq"), paper_diff(T4, "icrt+lipvq", "icrt+vq")),
-        Claim("IV-vq-over-mlp", "IV", "VQ-VAE outperforms MLP in both regularized and "
-              "non-regularized settings.", "ICRT+VQ minus ICRT+MLP (avg; the regularized pair "
-              "is in the chapter)", +1, diff("IV", "icrt+vq", "icrt+mlp"),
-              paper_diff(T4, "icrt+vq", "icrt+mlp")),
-        Claim("fig5-best", "fig5", "The codebook size of 2^10 yields the best performance.",
-              f"LipVQ at {f5_best} minus the best other size of the sweep (avg)", +1, margin("fig5", f5_best, f5_others),
-              lambda: paper.FIG5_CODEBOOK_SIZE[1024] - max(
-                  v for k, v in paper.FIG5_CODEBOOK_SIZE.items() if k != 1024)),
-        Claim("V-lipvq-vs-bc", "V", "ICRT+LipVQ-VAE reaches around 12% while the baselines "
-              "struggle to exceed 2% (sim-to-real).", "ICRT+LipVQ minus BC-Transformer (avg "
-              "of drawers and doors)", +1, diff("V", "icrt+lipvq", "bc_transformer"),
-              lambda: np.mean(list(T5["icrt+lipvq"].values()))
-              - np.mean(list(T5["bc_transformer"].values()))),
-        Claim("V-lipvq-vs-bin", "V", "ICRT+LipVQ-VAE achieves notably higher success than ICRT "
-              "with bin discretization (sim-to-real).", "ICRT+LipVQ minus ICRT+Bin (avg)", +1,
-              diff("V", "icrt+lipvq", "icrt+bin"),
-              lambda: np.mean(list(T5["icrt+lipvq"].values()))
-              - np.mean(list(T5["icrt+bin"].values()))),
-        Claim("V-lipvq-smoother-motion", "V", "Our ICRT+LipVQ-VAE approach achieves "
-              "smoother motion (sim-to-real; the abstract: real-world experiments confirm "
-              "smoother, more reliable trajectories).",
-              "ICRT+LipVQ's mean LDLJ of the end-effector path minus the higher of "
-              "BC-Transformer's and ICRT+Bin's (avg of drawers and doors; LDLJ is the primary "
-              "motion quantity, higher is smoother; SPARC and action jerk are shown beside it "
-              "in the chapter)", +1,
-              MotionComparison("V", "icrt+lipvq", ("bc_transformer", "icrt+bin"), "ldlj"),
-              None, reference="none: the paper states it in words, with no number"),
-        Claim("VI-mlp-vs-bc", "VI", "Even with the weakest action tokenizer (MLP), ICRT "
-              "outperforms BC-Transformer by 4.9% (cross-dataset).",
-              "ICRT+MLP minus BC-Transformer (avg)", +1, diff("VI", "icrt+mlp", "bc_transformer"),
-              paper_diff(T6, "icrt+mlp", "bc_transformer")),
-        Claim("VI-lipvq-best", "VI", "LipVQ-VAE improves other action tokenizers by 2.3% "
-              "(cross-dataset).", "ICRT+LipVQ minus the best other ICRT tokenizer (avg)", +1,
-              margin("VI", "icrt+lipvq", others), paper_margin(T6, "icrt+lipvq", others)),
-        Claim("VII-lipvq-vs-bc", "VII", "Our approach surpasses BC-Transformer by 2.4% "
-              "(zero-shot).", "ICRT+LipVQ minus BC-Transformer (avg over held-out tasks)", +1,
-              diff("VII", "icrt+lipvq", "bc_transformer"),
-              paper_diff(T7, "icrt+lipvq", "bc_transformer")),
-        Claim("VII-lipvq-best", "VII", "LipVQ-VAE outperforms other tokenizers by at least 0.2% "
-              "(zero-shot).", "ICRT+LipVQ minus the best other ICRT tokenizer (avg)", +1,
-              margin("VII", "icrt+lipvq", others), paper_margin(T7, "icrt+lipvq", others)),
-        Claim("beyond-eq4-fsq", "beyond", "Ours: Eq. 4's Lipschitz normalisation helps FSQ as "
-              "it helps VQ-VAE.", "ICRT+Lip-FSQ minus ICRT+FSQ (avg)", +1,
-              diff("beyond", "icrt+lipfsq", "icrt+fsq"),
-              paper_diff(T4, "icrt+lipvq", "icrt+vq"), own=True,
-              reference="the paper's Eq. 4 gain for VQ-VAE (Table IV)"),
-        Claim("beyond-eq4-rvq", "beyond", "Ours: Eq. 4's Lipschitz normalisation helps residual "
-              "VQ as it helps VQ-VAE.", "ICRT+Lip-RVQ minus ICRT+RVQ (avg)", +1,
-              diff("beyond", "icrt+liprvq", "icrt+rvq"),
-              paper_diff(T4, "icrt+lipvq", "icrt+vq"), own=True,
-              reference="the paper's Eq. 4 gain for VQ-VAE (Table IV)"),
-        Claim("III-smoother-latents-smoother-motion", "III", "Ours: a smoother action "
-              "representation goes with smoother motion.", "Spearman correlation of "
-              "Table III's least energy and Table I's mean LDLJ of the end-effector path over "
-              "the six ICRT tokenizers (negative: smoother latents go with smoother motion)",
-              -1, MotionCorrelation(TOKENIZER_ROWS, "ldlj"), None, own=True,
-              reference="none: the paper has no motion measurement"),
-    ]
-
-
-CLAIM_LABELS = {
-    "I-lipvq-best": "LipVQ-VAE best tokenizer, kitchen",
-    "I-lipvq-vs-bc": "ICRT+LipVQ-VAE beats BC-Transformer, kitchen",
-    "I-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE, kitchen",
-    "I-tokenizer-gap": "LipVQ-VAE beats MLP tokenizer, kitchen",
-    "I-mlp-below-bc": "MLP tokenizer below BC-Transformer",
-    "II-lipvq-best": "LipVQ-VAE best tokenizer in ACT, ManiSkill",
-    "II-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE in ACT",
-    "II-lipvq-vs-act": "ACT+LipVQ-VAE beats ACT",
-    "III-lipvq-smoothest": "LipVQ-VAE's latents smoothest",
-    "III-smoother-succeeds": "smoother latents, more success",
-    "IV-mlp": "Eq. 4 helps the MLP tokenizer",
-    "IV-vq": "Eq. 4 helps VQ-VAE",
-    "IV-vq-over-mlp": "VQ-VAE beats MLP tokenizer",
-    "fig5-best": "codebook of 2^10 best",
-    "V-lipvq-vs-bc": "sim-to-real: beats BC-Transformer",
-    "V-lipvq-vs-bin": "sim-to-real: beats Bin",
-    "V-lipvq-smoother-motion": "sim-to-real: smoother motion",
-    "VI-mlp-vs-bc": "cross-dataset: ICRT+MLP beats BC-Transformer",
-    "VI-lipvq-best": "cross-dataset: LipVQ-VAE best",
-    "VII-lipvq-vs-bc": "zero-shot: beats BC-Transformer",
-    "VII-lipvq-best": "zero-shot: LipVQ-VAE best",
-    "beyond-eq4-fsq": "ours: Eq. 4 helps FSQ",
-    "beyond-eq4-rvq": "ours: Eq. 4 helps residual VQ",
-    "III-smoother-latents-smoother-motion": "ours: smoother latents, smoother motion",
-}
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
-
-
 def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], float]:
     """(table, quantity) -> the mean per-seed variance of its multi-seed rows (`success`:
     the "avg" column; `least_energy`; each motion measure of the "avg" column), and
@@ -637,23 +480,29 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
     return entry, estimate
 
 
-def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[LedgerEntry]:
-    """Every claim evaluated on the records of `store` (default: the preset's), with the
-    verdicts after Holm's correction over the ledger (`adjusted_verdict`)."""
-    store = store or ResultsStore(preset.name)
-    all_claims = claims(preset)
-    needed = {c.table for c in all_claims} | {"I"}
-    tables = {t: assemble(table_spec(preset, t), store) for t in sorted(needed)}
+def ledger_entries(preset: Preset, chosen: Sequence[Claim], tables: dict[str, TableResult]
+                   ) -> list[LedgerEntry]:
+    """`chosen` claims evaluated on the assembled `tables` they read (every claim's table and
+    Table I, which the correlations read), with the verdicts after Holm's correction over
+    `chosen` (`adjusted_verdict`) and, with the preset's seed stages, the group-sequential
+    ones (`icil_paper.paper.claims_ledger` gives it every claim of the paper)."""
     pooled = _pooled_variances(tables)
     design = stage_design(preset)
-    entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in all_claims),
+    entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in chosen),
                              strict=True)
-    adjusted = stats.adjusted_verdicts(estimates, [c.direction for c in all_claims])
+    adjusted = stats.adjusted_verdicts(estimates, [c.direction for c in chosen])
     for entry, verdict in zip(entries, adjusted, strict=True):
         entry["adjusted_verdict"] = verdict
     if design is not None:
-        _sequential(all_claims, list(entries), tables, design)
+        _sequential(list(chosen), list(entries), tables, design)
     return [LedgerEntry.from_dict(e) for e in entries]
+
+
+def ledger_file(preset: Preset, entries: Sequence[LedgerEntry]) -> dict[str, Any]:
+    """What `claims.json` holds: the preset, the familywise level, the equivalence margin
+    and every entry in its stored form."""
+    return {"preset": preset.name, "familywise_level": stats.ALPHA,
+            "equivalence_margin": EQUIVALENCE_MARGIN, "claims": [e.to_dict() for e in entries]}
 
 
 # --------------------------------------------------------------------------- seeds in stages
@@ -736,16 +585,6 @@ def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
                 entry["look"] = (f"undecided at {design.stages[k]} seeds, "
                                  f"{entry.get('power_note') or 'needs more than ' + str(MAX_SEEDS)}")
         entry["sequential"] = record
-
-
-def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
-    """Write `results/<preset>/claims.json` (atomically) and return its path."""
-    store = store or ResultsStore(preset.name)
-    path = store.dir / "claims.json"
-    atomic_write_json(path, {"preset": preset.name, "familywise_level": stats.ALPHA,
-                             "equivalence_margin": EQUIVALENCE_MARGIN,
-                             "claims": [e.to_dict() for e in claims_ledger(preset, store)]})
-    return str(path)
 
 
 def sizing_effect(entry: LedgerEntry | dict[str, Any]) -> float | None:
@@ -852,7 +691,7 @@ def load_ledger(path) -> list[LedgerEntry]:
 
 def evaluate_claims(chosen: Sequence[Claim], tables: dict[str, TableResult]
                     ) -> list[dict[str, Any]]:
-    """Ledger entries of `chosen` claims on assembled `tables` (as `claims_ledger` makes
+    """Ledger entries of `chosen` claims on assembled `tables` (as `ledger_entries` makes
     them: the verdict, the size reading and the power, each row's variance pooled over
     `tables` where it has one seed), Holm-adjusted over `chosen` (`icil-paper compare`)."""
     pooled = _pooled_variances(tables)

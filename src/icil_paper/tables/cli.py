@@ -19,7 +19,7 @@ from icil_paper.cli import Parser, add_preset_arguments, preset_from_args
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.tables.definitions import TABLES
+    from icil_paper.paper import TABLES
 
     p = Parser(prog="icil-paper tables", description=__doc__.split("\n\n")[0])
     add_preset_arguments(p)
@@ -33,11 +33,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from icil_paper.paper import TABLES, claims_ledger, table_spec
     from icil_paper.registry import check_name
     from icil_paper.results import ResultsStore
     from icil_paper.tables.assemble import assemble
-    from icil_paper.tables.claims import claims_ledger, sentence
-    from icil_paper.tables.definitions import TABLES, table_spec
+    from icil_paper.tables.claims import sentence
 
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)

@@ -162,7 +162,7 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
     """Compute every missing record of the chosen tables (default: all); see the module
     docstring. Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
     Returns the grid's summaries by run key."""
-    from icil_paper.tables.definitions import TABLES, table_spec
+    from icil_paper.paper import TABLES, table_spec
 
     ids = list(table_ids or TABLES)
     return run_specs(preset, [table_spec(preset, t) for t in ids], executor=executor,

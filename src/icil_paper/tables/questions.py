@@ -17,7 +17,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from icil_paper import verdict_words
-from icil_paper.tables.claims import CLAIM_LABELS, LedgerEntry, as_entry
+from icil_paper.paper import CLAIM_LABELS
+from icil_paper.tables.claims import LedgerEntry, as_entry
 
 
 @dataclass(frozen=True)

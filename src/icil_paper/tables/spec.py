@@ -90,7 +90,7 @@ class TableSpec:
     """Columns measured beside the table's numbers but not shown among them (`wide`,
     `values_frame`, the Markdown and JSON tables read `columns` only): `features`, the
     latent features of each codebook row's policies, whose codebook use
-    `book.codebook_frame` shows."""
+    `display.codebook_frame` shows."""
 
     def row(self, label: str) -> Row:
         for row in self.rows:

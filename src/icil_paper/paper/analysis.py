@@ -1,9 +1,15 @@
-"""Is it smoothness? The analysis of the paper's explanation (the analysis chapter).
+"""The analysis table (our own): is it smoothness? The paper's explanation checked, chapter 11.
+
+    spec(preset)                 # ICRT with VQ-VAE, LipVQ-VAE and their variants x avg, features
+    analysis_frame(result)       # success, least energy (raw, standardized), scale, Eq. 4's facts
+    conclusion(result)           # the chapter's closing paragraph, from the numbers
+    training_window_sentence(result)   # chapter 02: whole episodes against 32-step windows
 
 The paper explains LipVQ-VAE's success by smoothness: Eq. 4 bounds the encoder's Lipschitz
 constant, so neighbouring actions get neighbouring latents, so latent trajectories are
 smoother (a lower least energy), and smoother tokens make in-context imitation succeed more.
-Each link can be checked on the `analysis` table's cells:
+Each link can be checked on the table's cells (`ANALYSIS_VARIANTS`; its VQ-VAE and
+LipVQ-VAE rows are Table I's policies):
 
 1. Does Eq. 4 bind? The share of rows whose absolute sum the trained bound caps (a row
    "binds" at `BINDS_AT` or more: `binding_sentence`), the product of the layer bounds,
@@ -26,14 +32,79 @@ sentence about results is written by hand.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
 
-from icil_paper import stats, verdict_words
+from icil_paper import config, stats, verdict_words
+from icil_paper.config import Preset
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult
+from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.definitions import (
+    features_cell,
+    row_seeds,
+    seed_runs,
+    table_i_seeds,
+    tasks_cell,
+)
+from icil_paper.tables.spec import Row, TableSpec
 
+ANALYSIS_VARIANTS = (
+    ("icrt+vq", "vq", {}),
+    ("icrt+lipvq (paper)", "lipvq", {}),
+    ("gamma = 1", "lipvq", {"lipschitz": {"weight": 1.0}}),
+    ("c_l init 1", "lipvq", {"lipschitz": {"c_init": 1.0}}),
+    ("c_l at the shared rate", "lipvq", {"lipschitz": {"c_lr_scale": 1.0}}),
+    ("Liu et al. init", "lipvq", {"lipschitz": {"weight_init": "liu"}}),
+    ("vq + dead-code restart", "vq", {"dead_code_restart": 100}),
+    ("lipvq + dead-code restart", "lipvq", {"dead_code_restart": 100}),
+    ("lipvq, 32-step random windows", "lipvq", {"_policy": {"query_len": 32,
+                                                           "query_start": "random"}}),
+)
+"""The analysis chapter's rows: (label, tokenizer, changes). Tokenizer changes are fields of
+its config (`lipschitz` a nested section); `_policy` changes ICRT's config. The presets'
+Lipschitz tokenizers start as their plain twins (nn.Linear's initialisation, c at the
+initial largest row sum) and their bounds learn at the multiple of the trainer's rate that
+lets them travel as far as in the paper's 500K iterations (`config.matching_c_lr_scale`).
+`c_l at the shared rate` is the paper's literal setting at our budget (one rate for every
+parameter: the bounds stay within about 0.5 of where they start), and the `Liu et al.
+init` row starts from Liu et al.'s weights (8x larger action tokens at step 0
+than the plain MLP's), as the paper writes them; chapter 11 measures whether Eq. 4 binds."""
+
+
+def _variant(preset: Preset, tokenizer: str, changes: dict) -> tuple:
+    changes = dict(changes)
+    policy = dataclasses.replace(preset.policies.icrt, **changes.pop("_policy", {}))
+    tok = preset.tokenizers.get(tokenizer)
+    if "lipschitz" in changes:
+        changes["lipschitz"] = dataclasses.replace(tok.lipschitz, **changes["lipschitz"])
+    return policy, dataclasses.replace(tok, **changes)
+
+
+def spec(preset: Preset) -> TableSpec:
+    """Is it smoothness? Table IV's cells and variants meant to make Eq. 4 bind (a large
+    gamma, small initial bounds, a larger learning rate of the bounds), that remedy codebook
+    collapse, and that train on ICRT's own 32-step random windows instead of whole
+    episodes; success and the trained encoders' smoothness and Lipschitz facts."""
+    tasks = preset.data.kitchen_tasks
+    rows = []
+    for name, tokenizer, changes in ANALYSIS_VARIANTS:
+        policy, tok = _variant(preset, tokenizer, changes)
+        seeds = row_seeds(preset, "analysis", name, preset.tables.icrt_seeds)
+        if not changes:  # Table I's runs
+            seeds = max(seeds, table_i_seeds(preset, "icrt", tokenizer))
+        runs = [r.replace(policy=policy) for r in seed_runs(preset, "icrt", tok, tasks, seeds)]
+        rows.append(Row(name, {"avg": tasks_cell(preset, runs, tasks),
+                               "features": features_cell(preset, runs)}))
+    return TableSpec("analysis", "Is it smoothness? Lipschitz bound, latent scale and collapse",
+                     ("avg", "features"), tuple(rows), note=(
+                         "ICRT with VQ-VAE and LipVQ-VAE variants on the kitchen suite; "
+                         "`features` holds each trained encoder's least energy (raw and "
+                         "standardized), latent scale, codes used and Lipschitz facts."))
+
+
+# --------------------------------------------------------------------------- the findings
 PAPER = "icrt+lipvq (paper)"
 VQ = "icrt+vq"
 
@@ -54,8 +125,6 @@ def analysis_frame(result: TableResult, digits: int = 2):
     latent scale sigma, codes used, share of encoder rows Eq. 4 caps, product of the bounds
     and the empirical Lipschitz constant (means over seeds; "-" where it does not apply)."""
     import pandas as pd
-
-    from icil_paper.tables.assemble import format_cell, unbroken
 
     def number(value, percent=False):
         if value is None:
@@ -243,26 +312,18 @@ def bound_travel_frame():
     (`config.matching_c_lr_scale`): one row per preset (and the paper's run)."""
     import pandas as pd
 
-    from icil_paper.config import (
-        PAPER_TRAIN,
-        PRESET_NAMES,
-        bound_travel,
-        get_preset,
-        schedule_sum,
-    )
-
-    paper = bound_travel(PAPER_TRAIN)
-    rows = [("the paper (500K iterations)", PAPER_TRAIN, 1.0)]
+    paper = config.bound_travel(config.PAPER_TRAIN)
+    rows = [("the paper (500K iterations)", config.PAPER_TRAIN, 1.0)]
     rows += [(f"`{name}` preset", p.train, p.tokenizers.lipvq.lipschitz.c_lr_scale)
-             for name in PRESET_NAMES for p in [get_preset(name)]]
+             for name in config.PRESET_NAMES for p in [config.get_preset(name)]]
     out = []
     for label, train, scale in rows:
         out.append({"": label, "steps": train.steps, "warm-up": train.warmup_steps,
                     "lr": train.lr,
-                    "sum of schedule factors": schedule_sum(train.warmup_steps, train.steps),
-                    "travel at the shared rate": bound_travel(train),
-                    "c_lr_scale": scale, "travel": bound_travel(train, scale),
-                    "travel / paper's": bound_travel(train, scale) / paper})
+                    "sum of schedule factors": config.schedule_sum(train.warmup_steps, train.steps),
+                    "travel at the shared rate": config.bound_travel(train),
+                    "c_lr_scale": scale, "travel": config.bound_travel(train, scale),
+                    "travel / paper's": config.bound_travel(train, scale) / paper})
     return pd.DataFrame(out).set_index("")
 
 
@@ -388,3 +449,34 @@ def conclusion(result: TableResult) -> str:
                      + "; ".join(effect_sentence(e) for e in effects) + ".")
         parts.append(explanation_check(effects))
     return " ".join(p for p in parts if p)
+
+
+# --------------------------------------------------------------------------- chapter 02's windows
+WHOLE_EPISODES = PAPER
+RANDOM_WINDOWS = "lipvq, 32-step random windows"
+"""The analysis table's two ways of training ICRT + LipVQ-VAE: whole episodes from step 0
+(the default: the window the policy acts with) and ICRT's random 32-step query windows."""
+
+
+def training_window_sentence(result: TableResult) -> str:
+    """Chapter 02's comparison of the two training windows, from the analysis table: each
+    row's success and the difference (whole episodes minus windows) with its 95% interval
+    and verdict (`icil_paper.stats`), or a sentence saying the cells are not run yet."""
+    a, b = result.outcomes(WHOLE_EPISODES), result.outcomes(RANDOM_WINDOWS)
+    if a is None or b is None:
+        return ("The analysis table's two training windows have not run yet in this source "
+                "(chapter 11 computes them).")
+    ea, eb = result.estimate(WHOLE_EPISODES), result.estimate(RANDOM_WINDOWS)
+    diff = stats.paired_difference(a, b, scenes=result.scenes(WHOLE_EPISODES, RANDOM_WINDOWS))
+    verdict = stats.verdict(diff, direction=+1)
+    return (f"Trained on whole episodes from step 0, ICRT + LipVQ-VAE succeeds "
+            f"{ea.value:.2f} [{ea.low:.2f}, {ea.high:.2f}]; trained on random 32-step "
+            f"windows, {eb.value:.2f} [{eb.low:.2f}, {eb.high:.2f}]. Whole episodes minus "
+            f"windows: {diff.value:+.2f} [{diff.low:+.2f}, {diff.high:+.2f}] "
+            f"({_seeds_words(result, WHOLE_EPISODES)}); that whole episodes help "
+            f"{verdict_words.TRAINING_WINDOW[verdict]}.")
+
+
+def _seeds_words(result: TableResult, row: str) -> str:
+    cell = result.spec.row(row).cells["avg"]
+    return f"{cell.seeds} training seed{'s' if cell.seeds != 1 else ''} a row"

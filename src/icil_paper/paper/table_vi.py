@@ -1,8 +1,11 @@
-"""What the cross-dataset shift changes: each row of Table I beside its Table VI self.
+"""Table VI: cross-dataset (generated -> human-like scenes and prompts), chapter 10, and the
+shift of each Table I row to its Table VI self.
 
-    from icil_paper.tables.transfer import shift_frame, shift_sentence
-    shift_frame(table_i, table_vi)        # TableResults -> one line per row
+    spec(preset)                          # Table I's rows x seven skill families + avg
+    claims(preset)                        # VI-mlp-vs-bc, VI-lipvq-best
+    shift_frame(table_i, table_vi)        # TableResults -> one line per row: VI - I
     shift_sentence(table_i, table_vi)     # the same, counted in one sentence
+    TABLE_VI_CROSS_DATASET                # the paper's numbers, as printed
 
 Table VI evaluates Table I's trained policies (the same runs, the same training seeds) on
 the kitchen suite's `human` scene distribution, ICRT rows with the human-like source's
@@ -17,18 +20,91 @@ book (`icil_paper.stats`).
 
 The verdict reads the claim "the shift lowers this row's success" (direction -1 on
 VI - I): "holds" when the whole interval lies below 0. The paper's own change (its Table VI
-minus its Table I, `icil_paper.paper_numbers`) is shown beside ours.
+minus its Table I, `TABLE_VI_CROSS_DATASET` minus `table_i.TABLE_I_ROBOCASA`) is shown
+beside ours.
+
+Shown (chapter 10) with the views every result shares (`tables.display`), then the shift
+(`show_shift`).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from icil_paper import paper_numbers as paper
 from icil_paper import stats, verdict_words
+from icil_paper.config import Preset
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA, TABLE_I_ROWS
+from icil_paper.paper_numbers import family_rows
 from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, format_cell
+from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
+from icil_paper.tables.definitions import (
+    FAMILY_COLUMNS,
+    TOKENIZER_ROWS,
+    family_cells,
+    label,
+    table_i_runs,
+)
+from icil_paper.tables.display import show_per_source
+from icil_paper.tables.spec import Row, TableSpec
 
+# The paper's Table VI: cross-dataset, trained on MimicGen data, prompted / evaluated with
+# human data.
+TABLE_VI_CROSS_DATASET = family_rows({
+    "mcr":            (0.00, 0.24, 0.20, 0.12, 0.00, 0.00, 0.19, 0.096),
+    "act":            (0.00, 0.10, 0.15, 0.13, 0.09, 0.08, 0.05, 0.066),
+    "bc_transformer": (0.25, 0.41, 0.73, 0.62, 0.28, 0.18, 0.64, 0.408),
+    "icrt+mlp":       (0.21, 0.61, 0.87, 0.77, 0.30, 0.36, 0.52, 0.457),
+    "icrt+bin":       (0.26, 0.75, 0.79, 0.74, 0.31, 0.29, 0.60, 0.495),
+    "icrt+fast":      (0.30, 0.63, 0.77, 0.74, 0.36, 0.39, 0.42, 0.481),
+    "icrt+vq":        (0.21, 0.70, 0.83, 0.77, 0.36, 0.31, 0.60, 0.483),
+    "icrt+lfq":       (0.29, 0.65, 0.82, 0.79, 0.38, 0.28, 0.62, 0.503),
+    "icrt+lipvq":     (0.32, 0.76, 0.83, 0.71, 0.38, 0.42, 0.64, 0.525),
+})
+
+
+def spec(preset: Preset) -> TableSpec:
+    """Table I's policies (the same runs) on the kitchen suite's `human` scene distribution,
+    every row alike; ICRT's prompts come from the human-like source (whose demonstrations
+    are played on those scenes too). Episode i of a task has the same seed as in Table I, so
+    each row's change from Table I is measured on paired episodes."""
+    tasks = preset.data.kitchen_tasks
+    rows = tuple(Row(label(p, t), family_cells(preset, table_i_runs(preset, p, t), tasks,
+                                               scenes="human", prompt_source="human"),
+                     TABLE_VI_CROSS_DATASET[label(p, t)]) for p, t in TABLE_I_ROWS)
+    return TableSpec("VI", "Cross-dataset robotic manipulation (generated -> human-like)",
+                     (*FAMILY_COLUMNS, "avg"), rows, note=(
+                         "Table I's policies, trained on the generated demonstrations, "
+                         "evaluated on the human-like scene distribution (fixtures placed "
+                         "elsewhere on the counter and turned further, free objects further "
+                         "from their targets): every row faces the shift. ICRT rows are "
+                         "prompted with the human-like source's demonstrations (teleoperation-"
+                         "like operator on those scenes). avg is the mean over tasks."))
+
+
+def claims(preset: Preset) -> list[Claim]:
+    """Table VI's claims, in the order of the paper's Sec. IV."""
+    T6 = TABLE_VI_CROSS_DATASET
+    others = [r for r in TOKENIZER_ROWS if r != "icrt+lipvq"]
+    return [
+        Claim("VI-mlp-vs-bc", "VI", "Even with the weakest action tokenizer (MLP), ICRT "
+              "outperforms BC-Transformer by 4.9% (cross-dataset).",
+              "ICRT+MLP minus BC-Transformer (avg)", +1, diff("VI", "icrt+mlp", "bc_transformer"),
+              paper_diff(T6, "icrt+mlp", "bc_transformer")),
+        Claim("VI-lipvq-best", "VI", "LipVQ-VAE improves other action tokenizers by 2.3% "
+              "(cross-dataset).", "ICRT+LipVQ minus the best other ICRT tokenizer (avg)", +1,
+              margin("VI", "icrt+lipvq", others), paper_margin(T6, "icrt+lipvq", others)),
+    ]
+
+
+CLAIM_LABELS = {
+    "VI-mlp-vs-bc": "cross-dataset: ICRT+MLP beats BC-Transformer",
+    "VI-lipvq-best": "cross-dataset: LipVQ-VAE best",
+}
+"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
+
+
+# --------------------------------------------------------------------------- the shift from Table I
 SHIFT_DIRECTION = -1
 """The claim each row's difference is read against: Table VI - Table I below 0."""
 
@@ -49,8 +125,8 @@ def row_shift(before: TableResult, after: TableResult, row: str,
 
 
 def _paper_change(row: str, column: str) -> float | None:
-    a = paper.TABLE_VI_CROSS_DATASET.get(row, {}).get(column)
-    b = paper.TABLE_I_ROBOCASA.get(row, {}).get(column)
+    a = TABLE_VI_CROSS_DATASET.get(row, {}).get(column)
+    b = TABLE_I_ROBOCASA.get(row, {}).get(column)
     return None if a is None or b is None else float(a) - float(b)
 
 
@@ -117,9 +193,7 @@ def shift_sentence(before: TableResult, after: TableResult, column: str = "avg")
 def show_shift(before: dict[str, TableResult], after: dict[str, TableResult],
                column: str = "avg") -> None:
     """`shift_frame` per source (the reference run's, this build's collapsed beside it), for
-    `load_table`'s results of Table I and Table VI; each with its `shift_sentence`."""
-    from icil_paper.tables.book import show_per_source
-
+    `tables.book.load_table`'s results of Table I and Table VI; each with its `shift_sentence`."""
     by_preset = {r.preset: r for r in before.values()}
     shown = {k: r for k, r in after.items() if r.preset in by_preset}
     show_per_source(shown, lambda r: shift_frame(by_preset[r.preset], r, column),

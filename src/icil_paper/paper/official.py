@@ -1,11 +1,15 @@
-"""The paper against its official code: what each departure does to success (chapter 13).
+"""The paper against its official code: what each departure does to success, chapter 13.
+
+    spec(preset)                 # the paper's LipVQ-VAE and Bin, the official code's, x families
+    findings_frame(result)       # each variant against its base: difference, verdict, codes
+    summary(result)              # the chapter's closing sentences, from the numbers
 
 The official code (`andvg3/LipVQ-VAE`) differs from the paper in ways that could each
-explain a result. The `official` table (`definitions.official`) trains ICRT on the kitchen
-suite with the paper's LipVQ-VAE and Bin (Table I's policies) and with the code's versions:
-its LipVQ-VAE with every difference at once, three of its differences alone, its Bin and
-its prompts. Every variant row is compared with the paper's row it departs from, on the
-same episodes:
+explain a result. The `official` table (`spec`) trains ICRT on the kitchen suite with the
+paper's LipVQ-VAE and Bin (Table I's policies, the paper's numbers Table I's) and with the
+code's versions: its LipVQ-VAE with every difference at once, three of its differences
+alone, its Bin and its prompts. Every variant row is compared with the paper's row it
+departs from, on the same episodes:
 
     variant                        base                  what differs
     icrt+lipvq (official code)     icrt+lipvq (paper)    every difference of `lipvq_official()`
@@ -27,15 +31,149 @@ question is two-sided (does the departure change success?): the verdict "holds" 
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from icil_paper import stats, verdict_words
+from icil_paper.config import Preset
+from icil_paper.config_data import get_path, replace_path
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, format_cell, unbroken
-from icil_paper.tables.definitions import OFFICIAL_ROWS, config_differences
+from icil_paper.tables.definitions import (
+    FAMILY_COLUMNS,
+    family_cells,
+    features_cell,
+    label,
+    row_seeds,
+    seed_runs,
+    table_i_seeds,
+)
+from icil_paper.tables.spec import Row, TableSpec
+from icil_paper.tokenizers.configs import BinConfig, LipVQConfig, lipvq_official, official_bin
 
+OFFICIAL_PAPER_LIPVQ = "icrt+lipvq (paper)"
+OFFICIAL_PAPER_BIN = "icrt+bin (paper)"
+OFFICIAL_ROWS = (
+    (OFFICIAL_PAPER_LIPVQ, None),
+    ("icrt+lipvq (official code)", OFFICIAL_PAPER_LIPVQ),
+    ("last layer only", OFFICIAL_PAPER_LIPVQ),
+    ("detached latent", OFFICIAL_PAPER_LIPVQ),
+    ("no Lipschitz loss", OFFICIAL_PAPER_LIPVQ),
+    (OFFICIAL_PAPER_BIN, None),
+    ("icrt+bin (official code)", OFFICIAL_PAPER_BIN),
+    ("prompts from the minibatch", OFFICIAL_PAPER_LIPVQ),
+)
+"""The `official` table's rows in order: (label, the paper's row it is compared with; None
+for the paper's own rows)."""
+
+
+OFFICIAL_SINGLE_DIFFERENCES = {
+    "last layer only": ("norm", "output_activation", "lipschitz.per_row", "lipschitz.c_init",
+                        "lipschitz.weight_init"),
+    "detached latent": ("detach_embeddings",),
+    "no Lipschitz loss": ("lipschitz.weight",),
+}
+"""The official LipVQ-VAE's differences measured one at a time: row -> the fields it takes
+from `lipvq_official()` (the values are that config's; every other field is the paper's).
+The last layer alone is normalised as the official code does it: one bound per output row,
+initialised to ones, randn weights, a sigmoid after it."""
+
+
+def _leaf_values(config, prefix: str = "") -> dict[str, object]:
+    out = {}
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if dataclasses.is_dataclass(value):
+            out.update(_leaf_values(value, f"{prefix}{f.name}."))
+        else:
+            out[f"{prefix}{f.name}"] = value
+    return out
+
+
+def config_differences(a, b) -> dict[str, tuple[object, object]]:
+    """{dotted field path: (value in `a`, value in `b`)} for every leaf field where two
+    configs of the same class differ (nested configs expanded)."""
+    va, vb = _leaf_values(a), _leaf_values(b)
+    return {path: (va[path], vb[path]) for path in va if va[path] != vb[path]}
+
+
+def _take_fields(base, source, paths: Sequence[str]):
+    """`base` with the fields at `paths` set to `source`'s values."""
+    for path in paths:
+        base = replace_path(base, path, get_path(source, path))
+    return base
+
+
+def official_configs(preset: Preset) -> dict[str, tuple]:
+    """Row -> (ICRT config, tokenizer config) of every `official` row. The official-code
+    rows take every field in which `lipvq_official()` / `official_bin()` differ from the
+    paper's defaults onto the preset's own config (so sizes stay the preset's); the
+    single-difference rows take `OFFICIAL_SINGLE_DIFFERENCES`' fields only; the minibatch
+    row changes ICRT's `prompt_from` only."""
+    icrt, lipvq, bin_ = preset.policies.icrt, preset.tokenizers.lipvq, preset.tokenizers.bin
+    off_lipvq = lipvq_official(lipvq.latent_dim, lipvq.codebook_size)
+    off_bin = official_bin(bin_.latent_dim)
+    all_lipvq = config_differences(off_lipvq, LipVQConfig(latent_dim=lipvq.latent_dim,
+                                                          codebook_size=lipvq.codebook_size))
+    all_bin = config_differences(off_bin, BinConfig(latent_dim=bin_.latent_dim))
+    out = {OFFICIAL_PAPER_LIPVQ: (icrt, lipvq),
+           "icrt+lipvq (official code)": (icrt, _take_fields(lipvq, off_lipvq, all_lipvq))}
+    for name, paths in OFFICIAL_SINGLE_DIFFERENCES.items():
+        out[name] = (icrt, _take_fields(lipvq, off_lipvq, paths))
+    out[OFFICIAL_PAPER_BIN] = (icrt, bin_)
+    out["icrt+bin (official code)"] = (icrt, _take_fields(bin_, off_bin, all_bin))
+    out["prompts from the minibatch"] = (dataclasses.replace(icrt, prompt_from="minibatch"),
+                                         lipvq)
+    return out
+
+
+def official_seeds(preset: Preset) -> int:
+    """Training seeds of every `official` row: `tables.official_seeds`, else `icrt_seeds`."""
+    return preset.tables.official_seeds or preset.tables.icrt_seeds
+
+
+def spec(preset: Preset) -> TableSpec:
+    """The paper against its official code: ICRT on the kitchen suite with the paper's
+    LipVQ-VAE and Bin (Table I's policies, the same RunSpecs, with more seeds where
+    `official_seeds` asks for them), the official code's LipVQ-VAE (every difference at
+    once), each of three of its differences alone, the official Bin (20 running bins) and
+    prompts drawn from the training minibatch; Table I's protocol and episodes, success per
+    family and on average, and each trained tokenizer's latent features (codes used: the
+    official design is known to collapse its codebook)."""
+    tasks = preset.data.kitchen_tasks
+    configs = official_configs(preset)
+    paper_rows = {OFFICIAL_PAPER_LIPVQ: label("icrt", "lipvq"),
+                  OFFICIAL_PAPER_BIN: label("icrt", "bin")}
+    rows = []
+    for name, _ in OFFICIAL_ROWS:
+        policy, tok = configs[name]
+        seeds = row_seeds(preset, "official", name, official_seeds(preset))
+        if name in paper_rows:  # Table I's runs
+            seeds = max(seeds, table_i_seeds(preset, "icrt", paper_rows[name].split("+")[1]))
+        runs = [r.replace(policy=policy) for r in seed_runs(preset, "icrt", tok, tasks, seeds)]
+        cells = family_cells(preset, runs, tasks)
+        cells["features"] = features_cell(preset, runs)
+        rows.append(Row(name, cells, TABLE_I_ROBOCASA[paper_rows[name]]
+                        if name in paper_rows else {}))
+    return TableSpec("official", "The paper against its official code (our kitchen suite, "
+                                 "Table I's protocol)",
+                     (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
+                         "ICRT with the paper's LipVQ-VAE and Bin (Table I's policies) beside "
+                         "the official code's: its LipVQ-VAE with every difference (last "
+                         "layer only normalised, per-row bounds, sigmoid output, GELU, no "
+                         "straight-through estimator, codebook weight 0.25, no Lipschitz "
+                         "term, the policy given the detached latent), three of them alone, "
+                         "its Bin (20 bins over the running min and max) and its prompts "
+                         "(other demonstrations of the training minibatch, any task). "
+                         "`features` holds each trained tokenizer's codes used, latent scale "
+                         "and least energy on held-out trajectories."))
+
+
+# --------------------------------------------------------------------------- the findings
 DIRECTION = +1
 """The verdict is read on "the variant succeeds more than its base"; "does not hold" then
 means it succeeds less."""

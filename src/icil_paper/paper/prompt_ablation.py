@@ -1,0 +1,87 @@
+"""The prompt ablation (our own): does the prompt carry the task? Chapters 06 and 10.
+
+    spec(preset)                              # ICRT + LipVQ-VAE: right, another task's, cut prompt
+    prompt_beside_baselines(table1, prompt)   # beside Table I's rows that read no prompt
+
+Table I's ICRT + LipVQ-VAE (the same runs) evaluated with its task's prompt, with the prompt
+of another task (the same fixture's opposite goal where there is one: `other_task`), and
+with only the first `tables.prompt_steps` steps of its own prompt. The paper has no such
+table and no claim about it; chapter 10 compares the right prompt with the other two
+(`display.difference_sentence`), chapter 06 sets it beside the baselines that read the
+task's instruction and no prompt.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from icil_paper.config import Preset
+from icil_paper.tables.assemble import TableResult, format_cell
+from icil_paper.tables.definitions import evaluation, table_i_runs, tasks_cell
+from icil_paper.tables.display import source_label
+from icil_paper.tables.spec import Cell, Row, TableSpec, Unit
+
+
+def other_task(task: str, tasks: Sequence[str]) -> str:
+    """The task whose prompt stands in as the wrong one: the same fixture's opposite goal
+    (open/close, on/off) where there is one, else the next task of the list."""
+    suite, name = task.split("/", 1)
+    swaps = [f"{suite}/{b}{name[len(a):]}" for a, b in (("open_", "close_"), ("close_", "open_"))
+             if name.startswith(a)]
+    swaps += [f"{suite}/{name[:-len(a)]}{b}" for a, b in (("_on", "_off"), ("_off", "_on"))
+              if name.endswith(a)]
+    for candidate in swaps:
+        if candidate in tasks:
+            return candidate
+    return tasks[(list(tasks).index(task) + 1) % len(tasks)]
+
+
+def spec(preset: Preset) -> TableSpec:
+    """The prompt ablation: Table I's ICRT + LipVQ-VAE runs with the right prompt, another
+    task's (`other_task`) and the first `tables.prompt_steps` steps of its own."""
+    tasks = list(preset.data.kitchen_tasks)
+    runs = table_i_runs(preset, "icrt", "lipvq")
+    right = tasks_cell(preset, runs, tasks)
+    wrong = Cell(tuple(Unit(s, run, evaluation(preset, run, task, s,
+                                               prompt_task=other_task(task, tasks)))
+                       for s, run in enumerate(runs) for task in tasks))
+    short = tasks_cell(preset, runs, tasks, prompt_steps=preset.tables.prompt_steps)
+    rows = (Row("right prompt", {"avg": right}),
+            Row("another task's prompt", {"avg": wrong}),
+            Row(f"first {preset.tables.prompt_steps} prompt steps", {"avg": short}))
+    return TableSpec("prompt", "Does the prompt carry the task? (ICRT + LipVQ-VAE)", ("avg",),
+                     rows, note=(
+                         "Table I's ICRT + LipVQ-VAE with its task's prompt, with the prompt of "
+                         "another task (the same fixture's opposite goal where there is one), "
+                         "and with only the first steps of its own prompt."))
+
+
+PROMPT_BASELINES = ("bc_transformer", "act")
+"""Table I's rows that read the instruction and no prompt, shown beside the prompt ablation."""
+
+
+def prompt_beside_baselines(table1: dict[str, TableResult], prompt: dict[str, TableResult],
+                            digits: int = 3):
+    """The prompt ablation's rows (ICRT + LipVQ-VAE with its task's prompt, another task's,
+    the first steps of its own) beside Table I's baselines, which read the task's language
+    instruction and no prompt: what a prompt adds over the instruction alone. One column
+    per source (reference run, this build), average success with its 95% interval."""
+    import pandas as pd
+
+    out = []
+    any_prompt = next(iter(prompt.values()))
+    for row in any_prompt.spec.rows:
+        line: dict[str, Any] = {"": f"ICRT + LipVQ-VAE, {row.label}",
+                                "reads": "instruction and prompt"}
+        for source, result in prompt.items():
+            line[source_label(source, result.preset)] = format_cell(
+                result.cell(row.label, "avg"), digits)
+        out.append(line)
+    for label in PROMPT_BASELINES:
+        line = {"": label, "reads": "instruction only"}
+        for source, result in table1.items():
+            line[source_label(source, result.preset)] = format_cell(
+                result.cell(label, "avg"), digits)
+        out.append(line)
+    return pd.DataFrame(out).set_index("")

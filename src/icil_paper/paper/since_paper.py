@@ -1,0 +1,94 @@
+"""The tokenizers since the paper (our own `beyond` table), chapter 12.
+
+    spec(preset)                 # ICRT + VQ-VAE, LipVQ-VAE, FSQ, Lip-FSQ, RVQ, Lip-RVQ, B-spline
+    claims(preset)               # beyond-eq4-fsq, beyond-eq4-rvq (claims of our own)
+
+ICRT with FSQ, residual VQ (each without and with Eq. 4) and B-spline control points beside
+Table I's VQ-VAE and LipVQ-VAE policies (the same RunSpecs, with more seeds where
+`tables.since_paper_seeds` asks for them), trained and evaluated as Table I's rows, with
+each trained tokenizer's latent features (as in Table III and the analysis table). Its
+paper's numbers are Table I's, for those two rows only. Its claims are ours: does Eq. 4
+help FSQ and residual VQ as it helps VQ-VAE? They are read against the paper's Eq. 4 gain
+for VQ-VAE (Table IV).
+
+Shown (chapter 12) with the views every result shares (`tables.display`) and the analysis
+table's frame (`analysis.analysis_frame`).
+"""
+
+from __future__ import annotations
+
+from icil_paper.config import Preset
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA
+from icil_paper.paper.table_iv import TABLE_IV_LIPSCHITZ
+from icil_paper.tables.claims import Claim, diff, paper_diff
+from icil_paper.tables.definitions import (
+    FAMILY_COLUMNS,
+    ICRT_TOKENIZERS,
+    family_cells,
+    features_cell,
+    label,
+    row_seeds,
+    seed_runs,
+    table_i_seeds,
+)
+from icil_paper.tables.spec import Row, TableSpec
+
+SINCE_PAPER_TOKENIZERS = ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq", "bspline")
+"""ICRT's tokenizers in the `beyond` table: Table I's VQ-VAE and LipVQ-VAE, then FSQ,
+residual VQ (each without and with Eq. 4) and B-spline control points."""
+
+
+def since_paper_seeds(preset: Preset) -> int:
+    """Training seeds of every `beyond` row: `tables.since_paper_seeds`, else `icrt_seeds`."""
+    return preset.tables.since_paper_seeds or preset.tables.icrt_seeds
+
+
+def spec(preset: Preset) -> TableSpec:
+    """Tokenizers since the paper: ICRT with each of `SINCE_PAPER_TOKENIZERS` on the kitchen
+    suite, Table I's protocol and episodes; success per family and on average, and each
+    trained tokenizer's latent features (as in Table III and the analysis table). Its VQ-VAE
+    and LipVQ-VAE rows are Table I's policies (the same RunSpecs, trained once), with more
+    seeds where `since_paper_seeds` asks for them."""
+    tasks = preset.data.kitchen_tasks
+    rows = []
+    for tokenizer in SINCE_PAPER_TOKENIZERS:
+        seeds = row_seeds(preset, "beyond", label("icrt", tokenizer), since_paper_seeds(preset))
+        if tokenizer in ICRT_TOKENIZERS:  # Table I's runs
+            seeds = max(seeds, table_i_seeds(preset, "icrt", tokenizer))
+        runs = seed_runs(preset, "icrt", tokenizer, tasks, seeds)
+        cells = family_cells(preset, runs, tasks)
+        cells["features"] = features_cell(preset, runs)
+        name = label("icrt", tokenizer)
+        rows.append(Row(name, cells, TABLE_I_ROBOCASA.get(name, {})))
+    return TableSpec("beyond", "Tokenizers since the paper (our kitchen suite, Table I's protocol)",
+                     (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
+                         "ICRT with FSQ, residual VQ (each without and with Eq. 4) and "
+                         "B-spline control points beside Table I's VQ-VAE and LipVQ-VAE "
+                         "policies, trained and evaluated as Table I's rows (the paper's "
+                         "numbers are its Table I's, for those two rows only); `features` "
+                         "holds each trained tokenizer's least energy on held-out "
+                         "trajectories, its latent scale, codes used and Lipschitz facts."))
+
+
+def claims(preset: Preset) -> list[Claim]:
+    """The claims of our own on the `beyond` table: does Eq. 4 help every quantizer?"""
+    T4 = TABLE_IV_LIPSCHITZ
+    return [
+        Claim("beyond-eq4-fsq", "beyond", "Ours: Eq. 4's Lipschitz normalisation helps FSQ as "
+              "it helps VQ-VAE.", "ICRT+Lip-FSQ minus ICRT+FSQ (avg)", +1,
+              diff("beyond", "icrt+lipfsq", "icrt+fsq"),
+              paper_diff(T4, "icrt+lipvq", "icrt+vq"), own=True,
+              reference="the paper's Eq. 4 gain for VQ-VAE (Table IV)"),
+        Claim("beyond-eq4-rvq", "beyond", "Ours: Eq. 4's Lipschitz normalisation helps residual "
+              "VQ as it helps VQ-VAE.", "ICRT+Lip-RVQ minus ICRT+RVQ (avg)", +1,
+              diff("beyond", "icrt+liprvq", "icrt+rvq"),
+              paper_diff(T4, "icrt+lipvq", "icrt+vq"), own=True,
+              reference="the paper's Eq. 4 gain for VQ-VAE (Table IV)"),
+    ]
+
+
+CLAIM_LABELS = {
+    "beyond-eq4-fsq": "ours: Eq. 4 helps FSQ",
+    "beyond-eq4-rvq": "ours: Eq. 4 helps residual VQ",
+}
+"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

@@ -1,0 +1,104 @@
+"""Table I: every policy on RoboCasa (our kitchen suite), chapter 06.
+
+    spec(preset)                 # nine rows x seven skill families + avg (+ features beside)
+    claims(preset)               # I-lipvq-best, I-lipvq-vs-bc, I-lipvq-vs-lfq, ...
+    TABLE_I_ROBOCASA             # the paper's numbers, as printed
+
+One multi-task policy per row (MCR, ACT, BC-Transformer, ICRT with each of the paper's six
+tokenizers), trained on the generated demonstrations of every kitchen task and evaluated per
+task; avg is the mean over tasks. Its policies are the ones Tables III, IV, V, VI, the
+prompt ablation, Fig. 5, the analysis, `beyond` and `official` tables reuse
+(`definitions.table_i_runs`). Beside the table, the codebook rows carry Table III's
+features, for their codebook use (`display.show_codebook_use`).
+
+Shown (chapter 06) with the views every result shares (`tables.display`: `show_comparison`,
+`success_figure`, `seed_correlation_sentence`, `show_codebook_use`, `show_motion`,
+`show_values`), beside the prompt ablation (`prompt_ablation.prompt_beside_baselines`).
+"""
+
+from __future__ import annotations
+
+from icil_paper.config import Preset
+from icil_paper.paper_numbers import family_rows
+from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
+from icil_paper.tables.definitions import (
+    FAMILY_COLUMNS,
+    TOKENIZER_ROWS,
+    family_cells,
+    label,
+    table_i_runs,
+    with_codebook,
+)
+from icil_paper.tables.spec import Row, TableSpec
+
+TABLE_I_ROWS = (("mcr", None), ("act", None), ("bc_transformer", None), ("icrt", "mlp"),
+                ("icrt", "bin"), ("icrt", "fast"), ("icrt", "vq"), ("icrt", "lfq"),
+                ("icrt", "lipvq"))
+"""(policy, tokenizer) of Table I's rows, in the paper's order (also Tables VI's and VII's)."""
+
+# The paper's Table I: success rates on RoboCasa (MimicGen data).
+TABLE_I_ROBOCASA = family_rows({
+    "mcr":            (0.00, 0.31, 0.18, 0.17, 0.02, 0.01, 0.22, 0.120),
+    "act":            (0.01, 0.13, 0.17, 0.15, 0.12, 0.07, 0.06, 0.083),
+    "bc_transformer": (0.29, 0.55, 0.78, 0.62, 0.31, 0.24, 0.78, 0.477),
+    "icrt+mlp":       (0.20, 0.61, 0.81, 0.70, 0.32, 0.35, 0.64, 0.442),
+    "icrt+bin":       (0.25, 0.75, 0.78, 0.81, 0.32, 0.34, 0.59, 0.483),
+    "icrt+fast":      (0.30, 0.59, 0.80, 0.57, 0.39, 0.19, 0.63, 0.471),
+    "icrt+vq":        (0.20, 0.70, 0.84, 0.77, 0.27, 0.18, 0.70, 0.475),
+    "icrt+lfq":       (0.27, 0.69, 0.83, 0.77, 0.40, 0.27, 0.68, 0.489),
+    "icrt+lipvq":     (0.32, 0.80, 0.84, 0.68, 0.41, 0.41, 0.59, 0.530),
+})
+
+
+def spec(preset: Preset) -> TableSpec:
+    """Table I at the preset's sizes: every row's runs (`table_i_runs`), a cell per
+    family and "avg", and the codebook rows' features beside."""
+    tasks = preset.data.kitchen_tasks
+    rows = []
+    for p, t in TABLE_I_ROWS:
+        runs = table_i_runs(preset, p, t)
+        rows.append(Row(label(p, t), with_codebook(preset, family_cells(preset, runs, tasks),
+                                                   runs),
+                        TABLE_I_ROBOCASA[label(p, t)]))
+    return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",
+                     (*FAMILY_COLUMNS, "avg"), tuple(rows), beside=("features",), note=(
+                         "One multi-task policy per row, trained on the generated demonstrations "
+                         "of all kitchen tasks and evaluated per task; ICRT prompts come from the "
+                         "generated data sets. avg is the mean over tasks. Beside the table, "
+                         "the codebook rows' `features` (Table III's measurement) give their "
+                         "codebook use per seed."))
+
+
+def claims(preset: Preset) -> list[Claim]:
+    """Table I's claims, in the order of the paper's Sec. IV."""
+    T1 = TABLE_I_ROBOCASA
+    others = [r for r in TOKENIZER_ROWS if r != "icrt+lipvq"]
+    return [
+        Claim("I-lipvq-best", "I", "Among all action tokenizers, LipVQ-VAE achieves the highest "
+              "performance.", "ICRT+LipVQ minus the best other ICRT tokenizer (avg)", +1,
+              margin("I", "icrt+lipvq", others), paper_margin(T1, "icrt+lipvq", others)),
+        Claim("I-lipvq-vs-bc", "I", "Integrating LipVQ-VAE into ICRT achieves a 5.3% improvement "
+              "over BC-Transformer.", "ICRT+LipVQ minus BC-Transformer (avg)", +1,
+              diff("I", "icrt+lipvq", "bc_transformer"),
+              paper_diff(T1, "icrt+lipvq", "bc_transformer")),
+        Claim("I-lipvq-vs-lfq", "I", "LipVQ-VAE surpasses the second-best tokenizer, LFQ-VAE, by "
+              "4.1%.", "ICRT+LipVQ minus ICRT+LFQ (avg)", +1,
+              diff("I", "icrt+lipvq", "icrt+lfq"), paper_diff(T1, "icrt+lipvq", "icrt+lfq")),
+        Claim("I-tokenizer-gap", "I", "An 8.8% performance gap between the best (LipVQ-VAE) and "
+              "worst (MLP) tokenizers.", "ICRT+LipVQ minus ICRT+MLP (avg)", +1,
+              diff("I", "icrt+lipvq", "icrt+mlp"), paper_diff(T1, "icrt+lipvq", "icrt+mlp")),
+        Claim("I-mlp-below-bc", "I", "An ineffective tokenizer can degrade performance, with MLP "
+              "underperforming BC-Transformer by 3.5%.", "BC-Transformer minus ICRT+MLP (avg)",
+              +1, diff("I", "bc_transformer", "icrt+mlp"),
+              paper_diff(T1, "bc_transformer", "icrt+mlp")),
+    ]
+
+
+CLAIM_LABELS = {
+    "I-lipvq-best": "LipVQ-VAE best tokenizer, kitchen",
+    "I-lipvq-vs-bc": "ICRT+LipVQ-VAE beats BC-Transformer, kitchen",
+    "I-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE, kitchen",
+    "I-tokenizer-gap": "LipVQ-VAE beats MLP tokenizer, kitchen",
+    "I-mlp-below-bc": "MLP tokenizer below BC-Transformer",
+}
+"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

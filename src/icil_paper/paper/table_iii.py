@@ -1,0 +1,204 @@
+"""Table III with Figs. 1 and 4: the smoothness of the tokenizers' latent features, chapter 08.
+
+    spec(preset)                         # six ICRT tokenizers x least_energy
+    claims(preset)                       # III-lipvq-smoothest, III-smoother-succeeds, and ours
+    smoothness_success_figure(smooth, success)   # Fig. 1: least energy against Table I success
+    tsne_paths(smooth["this build"])     # Fig. 4: one held-out trajectory in each latent space
+    TABLE_III_SMOOTHNESS                 # the paper's numbers, as printed
+
+The least energy of the latent features that Table I's trained ICRT policies' own
+tokenizers give held-out generated trajectories (`definitions.feature_spec`: the same
+records as the codebook use beside Tables I and IV). Its claims: LipVQ-VAE's latents are
+the smoothest, smoother latents go with more success (a rank correlation with Table I's
+success), and, a claim of our own, with smoother motion (`MotionCorrelation`: Table I's
+LDLJ of the end-effector path).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from icil_paper.config import Preset
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA
+from icil_paper.tables.assemble import TableResult
+from icil_paper.tables.claims import Claim, Correlation, MotionCorrelation, margin
+from icil_paper.tables.definitions import (
+    ICRT_TOKENIZERS,
+    TOKENIZER_ROWS,
+    feature_spec,
+    label,
+    table_i_runs,
+)
+from icil_paper.tables.display import source_label
+from icil_paper.tables.spec import Cell, Row, TableSpec, Unit
+
+# The paper's Table III: least-energy smoothness of 500 latent features (lower is smoother).
+TABLE_III_SMOOTHNESS = {"icrt+mlp": 5.71, "icrt+bin": 12.57, "icrt+fast": 5.67, "icrt+vq": 4.79,
+                        "icrt+lfq": 2.34, "icrt+lipvq": 0.63}
+
+
+def spec(preset: Preset) -> TableSpec:
+    """Table III: the features of each ICRT tokenizer's Table I runs on held-out trajectories
+    (`feature_spec`), one unit per training seed."""
+    rows = []
+    for tokenizer in ICRT_TOKENIZERS:
+        runs = table_i_runs(preset, "icrt", tokenizer)
+        units = tuple(Unit(s, run, features=feature_spec(preset, run))
+                      for s, run in enumerate(runs))
+        rows.append(Row(label("icrt", tokenizer), {"least_energy": Cell(units)},
+                        {"least_energy": TABLE_III_SMOOTHNESS[label("icrt", tokenizer)]}))
+    return TableSpec("III", "Smoothness of the action tokenizers' latent features",
+                     ("least_energy",), tuple(rows), measure="smoothness", note=(
+                         "Least energy of the latent features that Table I's trained ICRT "
+                         "policies' own tokenizers give held-out generated trajectories."))
+
+
+def _paper_correlation() -> float:
+    from scipy.stats import spearmanr
+
+    energy = [TABLE_III_SMOOTHNESS[r] for r in TOKENIZER_ROWS]
+    success = [TABLE_I_ROBOCASA[r]["avg"] for r in TOKENIZER_ROWS]
+    return float(spearmanr(energy, success).statistic)
+
+
+def claims(preset: Preset) -> list[Claim]:
+    """Table III's claims, in the order of the paper's Sec. IV, then ours (the ledger puts
+    it after the paper's: `icil_paper.paper.claims`)."""
+    others = [r for r in TOKENIZER_ROWS if r != "icrt+lipvq"]
+    return [
+        Claim("III-lipvq-smoothest", "III", "Among all tokenizers, LipVQ-VAE achieves the best "
+              "smoothness score.", "LipVQ's least energy minus the lowest other tokenizer's",
+              -1, margin("III", "icrt+lipvq", others, "least_energy"),
+              lambda: TABLE_III_SMOOTHNESS["icrt+lipvq"]
+              - min(TABLE_III_SMOOTHNESS[r] for r in others)),
+        Claim("III-smoother-succeeds", "III", "A clear positive correlation: smoother action "
+              "tokenization leads to higher manipulation success rates.",
+              "Spearman correlation of least energy and Table I success over the six ICRT "
+              "tokenizers (negative: smoother goes with more success)", -1,
+              Correlation(TOKENIZER_ROWS), _paper_correlation),
+        Claim("III-smoother-latents-smoother-motion", "III", "Ours: a smoother action "
+              "representation goes with smoother motion.", "Spearman correlation of "
+              "Table III's least energy and Table I's mean LDLJ of the end-effector path over "
+              "the six ICRT tokenizers (negative: smoother latents go with smoother motion)",
+              -1, MotionCorrelation(TOKENIZER_ROWS, "ldlj"), None, own=True,
+              reference="none: the paper has no motion measurement"),
+    ]
+
+
+CLAIM_LABELS = {
+    "III-lipvq-smoothest": "LipVQ-VAE's latents smoothest",
+    "III-smoother-succeeds": "smoother latents, more success",
+    "III-smoother-latents-smoother-motion": "ours: smoother latents, smoother motion",
+}
+"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
+
+
+# --------------------------------------------------------------------------- Figs. 1 and 4
+def smoothness_success_figure(smooth: dict[str, TableResult], success: dict[str, TableResult],
+                              standardized: bool = False):
+    """Fig. 1: least energy (Table III) against average success (Table I) of the six ICRT
+    tokenizers, with 95% intervals on both axes; the paper's points beside ours (the paper's
+    on its own axis, since the scales differ)."""
+    import matplotlib.pyplot as plt
+
+    rows = [r.label for r in next(iter(smooth.values())).spec.rows]
+    n = len(smooth) + 1
+    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.6))
+    for ax, (source, result) in zip(axes, smooth.items(), strict=False):
+        for name in rows:
+            cell = result.cell(name, "least_energy")
+            s_est = (cell.extra.get("standardized_estimate") if cell and standardized
+                     else cell.estimate if cell else None)
+            y_est = success[source].estimate(name, "avg")
+            if s_est is None or y_est is None:
+                continue
+            ax.errorbar(s_est.value, y_est.value,
+                        xerr=[[s_est.value - s_est.low], [s_est.high - s_est.value]],
+                        yerr=[[y_est.value - y_est.low], [y_est.high - y_est.value]],
+                        fmt="o", capsize=3)
+            ax.annotate(name.split("+")[1], (s_est.value, y_est.value), fontsize=8,
+                        xytext=(4, 4), textcoords="offset points")
+        ax.set_xlabel(("standardized " if standardized else "") + "least energy (lower: smoother)")
+        ax.set_ylabel("average success")
+        ax.set_title(source_label(source, result.preset))
+    ax = axes[-1]
+    for name in rows:
+        x, y = TABLE_III_SMOOTHNESS[name], TABLE_I_ROBOCASA[name]["avg"]
+        ax.scatter(x, y, color="black")
+        ax.annotate(name.split("+")[1], (x, y), fontsize=8, xytext=(4, 4),
+                    textcoords="offset points")
+    ax.set_xlabel("least energy (the paper)")
+    ax.set_ylabel("average success (the paper)")
+    ax.set_title("the paper (Table III vs Table I)")
+    fig.tight_layout()
+    plt.close(fig)  # shown once, by the caller's display(fig)
+    return fig
+
+
+def tsne_paths(smooth: TableResult, seed: int = 0) -> dict[str, np.ndarray]:
+    """Fig. 4: each tokenizer's latents of the first steps of one held-out trajectory,
+    projected to 2-D by t-SNE (scikit-learn), {row label: (steps, 2)} (seed 0's policy)."""
+    from sklearn.manifold import TSNE
+
+    paths = {}
+    for row in smooth.spec.rows:
+        cell = smooth.cell(row.label, "least_energy")
+        if cell is None or cell.estimate is None:
+            continue
+        z = np.asarray(cell.extra["view"][0], dtype=np.float64)  # (steps, D)
+        z = z + 1e-9 * np.random.default_rng(seed).standard_normal(z.shape)  # ties in codes
+        perplexity = max(1.0, min(5.0, (len(z) - 1) / 3))
+        paths[row.label] = TSNE(n_components=2, perplexity=perplexity, init="pca",
+                                random_state=seed).fit_transform(z)
+    return paths
+
+
+def feature_coverage(metrics: dict[str, Any]) -> dict[str, Any]:
+    """What one features record scored: tasks scored and asked for (None in records older
+    than the per-task sampling), trajectories, features, and the steps of each task."""
+    steps = metrics.get("steps_per_task")
+    return {"tasks_scored": len(metrics["tasks_scored"]) if "tasks_scored" in metrics else None,
+            "tasks": len(metrics["tasks"]) if "tasks" in metrics else None,
+            "trajectories": metrics["n_trajectories"], "features": metrics["n_features"],
+            "steps_per_task": dict(steps) if steps else None}
+
+
+def _coverage_words(c: dict[str, Any]) -> str:
+    if c["tasks"] is None:
+        return (f"{c['trajectories']} trajectories, {c['features']} features (an older record: "
+                "the first features in task order, its tasks not recorded)")
+    steps = c["steps_per_task"]
+    common = max(set(steps.values()), key=list(steps.values()).count)
+    others = [f"{t.split('/', 1)[-1]} {n}" for t, n in steps.items() if n != common]
+    per_task = f"{common} steps each" + (f"; {', '.join(others)}" if others else "")
+    return (f"{c['tasks_scored']} of its {c['tasks']} tasks ({per_task}), "
+            f"{c['trajectories']} held-out trajectories, {c['features']} features")
+
+
+def feature_sampling_sentence(results: dict[str, TableResult], column: str = "least_energy"
+                              ) -> str:
+    """For each source, what Table III's features records scored, per row and seed: tasks
+    scored of the tasks asked for, steps per task, trajectories and features (Markdown,
+    generated from the records; rows that scored the same are named together)."""
+    lines = []
+    for source, result in results.items():
+        groups: dict[str, list[str]] = {}
+        for row in result.spec.rows:
+            cell = result.cell(row.label, column)
+            if cell is None or cell.estimate is None:
+                continue
+            for m in cell.extra["metrics"]:
+                words = _coverage_words(feature_coverage(m))
+                if row.label not in groups.setdefault(words, []):
+                    groups[words].append(row.label)
+        name = source_label(source, result.preset)
+        if not groups:
+            lines.append(f"- {name}: not run yet.")
+        elif len(groups) == 1:
+            lines.append(f"- {name}: every row, each seed: {next(iter(groups))}.")
+        else:
+            lines.append(f"- {name}: " + "; ".join(f"{', '.join(rows)}, each seed: {words}"
+                                                  for words, rows in groups.items()) + ".")
+    return "\n".join(lines)

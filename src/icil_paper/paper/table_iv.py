@@ -1,0 +1,173 @@
+"""Table IV with Fig. 5: Eq. 4's Lipschitz regularization and LipVQ-VAE's codebook size,
+chapter 09.
+
+    spec(preset)                 # MLP, Lip-MLP, VQ-VAE, LipVQ-VAE x avg (+ features beside)
+    fig5_spec(preset)            # LipVQ-VAE at the preset's codebook sizes x avg
+    claims(preset)               # IV-mlp, IV-vq, IV-vq-over-mlp, fig5-best
+    codes_used_sentence(fig5)    # Fig. 5's sentence: codes used of each size's K
+    TABLE_IV_LIPSCHITZ, FIG5_CODEBOOK_SIZE   # the paper's numbers, as printed
+
+Table IV's MLP and VQ-VAE rows, and Fig. 5's size at the preset's codebook size, are Table
+I's policies (the same runs); Fig. 5's sweep is scaled to the preset's model (its i-th size
+stands beside the paper's i-th, 2^8 .. 2^11). Beside both, the codebook rows carry Table
+III's features, for their codebook use (`display.show_codebook_use`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from icil_paper.config import Preset
+from icil_paper.tables.assemble import TableResult
+from icil_paper.tables.claims import Claim, diff, margin, paper_diff
+from icil_paper.tables.definitions import (
+    label,
+    row_seeds,
+    seed_runs,
+    table_i_runs,
+    table_i_seeds,
+    tasks_cell,
+    with_codebook,
+)
+from icil_paper.tables.display import codebook_rows, per_seed_metrics, source_label
+from icil_paper.tables.spec import Row, TableSpec
+
+TABLE_IV_ROWS = (("icrt", "mlp"), ("icrt", "lip-mlp"), ("icrt", "vq"), ("icrt", "lipvq"))
+
+# The paper's Table IV: impact of Lipschitz regularization (RoboCasa average success).
+TABLE_IV_LIPSCHITZ = {
+    "icrt+mlp": {"avg": 0.442},
+    "icrt+lip-mlp": {"avg": 0.465},
+    "icrt+vq": {"avg": 0.475},
+    "icrt+lipvq": {"avg": 0.530},
+}
+
+# The paper's Fig. 5: LipVQ-VAE codebook size vs RoboCasa average success (from the official
+# plotting code).
+FIG5_CODEBOOK_SIZE = {256: 0.475, 512: 0.509, 1024: 0.530, 2048: 0.511}
+
+
+def spec(preset: Preset) -> TableSpec:
+    """Table IV: Table I's ICRT runs with MLP, Lip-MLP, VQ-VAE and LipVQ-VAE, average success
+    over the kitchen tasks, the codebook rows' features beside."""
+    tasks = preset.data.kitchen_tasks
+    rows = []
+    for p, t in TABLE_IV_ROWS:
+        runs = table_i_runs(preset, p, t)
+        cells = with_codebook(preset, {"avg": tasks_cell(preset, runs, tasks)}, runs)
+        rows.append(Row(label(p, t), cells, TABLE_IV_LIPSCHITZ[label(p, t)]))
+    return TableSpec("IV", "Lipschitz regularization's impact", ("avg",), tuple(rows),
+                     beside=("features",),
+                     note="Average success over the kitchen tasks; MLP and VQ-VAE rows are "
+                          "Table I's. Beside the table, the codebook rows' `features` give "
+                          "their codebook use per seed.")
+
+
+def fig5_spec(preset: Preset) -> TableSpec:
+    """Fig. 5: ICRT + LipVQ-VAE at each of the preset's `tables.codebook_sizes`, its i-th size
+    beside the paper's i-th; the size of Table I's cell reuses Table I's runs."""
+    tasks = preset.data.kitchen_tasks
+    base = preset.tokenizers.lipvq
+    rows = []
+    # the sweep is scaled to the preset's model: its i-th size stands beside the paper's
+    # i-th (2^8 .. 2^11), whatever their absolute values
+    paper_sizes = sorted(FIG5_CODEBOOK_SIZE)
+    for i, size in enumerate(sorted(preset.tables.codebook_sizes)):
+        tok = dataclasses.replace(base, codebook_size=size)
+        seeds = row_seeds(preset, "fig5", str(size), 1)
+        if size == base.codebook_size:  # Table I's runs
+            seeds = max(seeds, table_i_seeds(preset, "icrt", "lipvq"))
+        runs = seed_runs(preset, "icrt", tok, tasks, seeds)
+        name = _power_of_two(size)
+        paper_size = paper_sizes[i] if i < len(paper_sizes) else None
+        if paper_size is not None and paper_size != size:
+            name += f" (the paper's {_power_of_two(paper_size)})"
+        cells = with_codebook(preset, {"avg": tasks_cell(preset, runs, tasks)}, runs)
+        rows.append(Row(name, cells,
+                        {"avg": FIG5_CODEBOOK_SIZE[paper_size]} if paper_size else {}))
+    return TableSpec("fig5", "Impact of LipVQ-VAE's codebook size (Fig. 5)", ("avg",),
+                     tuple(rows), beside=("features",), note=(
+                         f"ICRT + LipVQ-VAE with codebook sizes {list(preset.tables.codebook_sizes)}"
+                         f" (the preset's Table I cell uses {base.codebook_size}). "
+                         "Beside the table, each size's `features` give its codebook use."))
+
+
+def _power_of_two(size: int) -> str:
+    """"2^8" for 256; other sizes as they are."""
+    exponent = size.bit_length() - 1
+    return f"2^{exponent}" if 2**exponent == size else str(size)
+
+
+def fig5_rows(preset: Preset) -> tuple[str, list[str]]:
+    """The sweep row at the paper's 2^10 position (the third of four; its label names the
+    paper's size where the preset's differs) and the others."""
+    labels = [r.label for r in fig5_spec(preset).rows]
+    best = labels[min(2, len(labels) - 1)]
+    return best, [x for x in labels if x != best]
+
+
+def claims(preset: Preset) -> list[Claim]:
+    """Table IV's and Fig. 5's claims, in the order of the paper's Sec. IV."""
+    T4 = TABLE_IV_LIPSCHITZ
+    f5_best, f5_others = fig5_rows(preset)
+    return [
+        Claim("IV-mlp", "IV", "Incorporating Lipschitz regularization improves performance by "
+              "2.3% for the MLP tokenizer.", "ICRT+Lip-MLP minus ICRT+MLP (avg)", +1,
+              diff("IV", "icrt+lip-mlp", "icrt+mlp"),
+              paper_diff(T4, "icrt+lip-mlp", "icrt+mlp")),
+        Claim("IV-vq", "IV", "Incorporating Lipschitz regularization improves performance by "
+              "5.5% for VQ-VAE.", "ICRT+LipVQ minus ICRT+VQ (avg)", +1,
+              diff("IV", "icrt+lipvq", "icrt+vq"), paper_diff(T4, "icrt+lipvq", "icrt+vq")),
+        Claim("IV-vq-over-mlp", "IV", "VQ-VAE outperforms MLP in both regularized and "
+              "non-regularized settings.", "ICRT+VQ minus ICRT+MLP (avg; the regularized pair "
+              "is in the chapter)", +1, diff("IV", "icrt+vq", "icrt+mlp"),
+              paper_diff(T4, "icrt+vq", "icrt+mlp")),
+        Claim("fig5-best", "fig5", "The codebook size of 2^10 yields the best performance.",
+              f"LipVQ at {f5_best} minus the best other size of the sweep (avg)", +1,
+              margin("fig5", f5_best, f5_others),
+              lambda: FIG5_CODEBOOK_SIZE[1024] - max(
+                  v for k, v in FIG5_CODEBOOK_SIZE.items() if k != 1024)),
+    ]
+
+
+CLAIM_LABELS = {
+    "IV-mlp": "Eq. 4 helps the MLP tokenizer",
+    "IV-vq": "Eq. 4 helps VQ-VAE",
+    "IV-vq-over-mlp": "VQ-VAE beats MLP tokenizer",
+    "fig5-best": "codebook of 2^10 best",
+}
+"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
+
+
+def codes_used_sentence(results: dict[str, TableResult], column: str = "features") -> str:
+    """For each source, how many codes each codebook row used of its K on the held-out
+    trajectories, and their perplexity (means over seeds), as a Markdown list: Fig. 5's
+    sentence on its codebook sizes, generated from the features records."""
+    lines = []
+    for source, result in results.items():
+        parts, missing = [], []
+        for row, cell_spec in codebook_rows(result, column):
+            measured = [m for _, m in per_seed_metrics(result, row, cell_spec, column)
+                        if m and m.get("codes_used") is not None]
+            if not measured:
+                missing.append(row)
+                continue
+            used = float(np.mean([m["codes_used"] for m in measured]))
+            size = measured[0]["codebook_size"]
+            perplexities = [m["perplexity"] for m in measured if m.get("perplexity") is not None]
+            seeds = "" if len(measured) == 1 else f", mean of {len(measured)} seeds"
+            perplexity = (f", perplexity {np.mean(perplexities):.1f}" if perplexities else "")
+            count = f"{used:.0f}" if len(measured) == 1 else f"{used:.1f}"
+            parts.append(f"{row} used {count} of its {size} codes "
+                         f"({used / size:.0%}{perplexity}{seeds})")
+        name = source_label(source, result.preset)
+        if not parts:
+            lines.append(f"- {name}: not run yet.")
+            continue
+        text = "; ".join(parts)
+        if missing:
+            text += f"; {', '.join(missing)} not run yet"
+        lines.append(f"- {name}: {text}.")
+    return "\n".join(lines)

@@ -1,0 +1,85 @@
+"""Table VII: zero-shot, trained on some kitchen tasks and evaluated on the held-out ones,
+chapter 10.
+
+    spec(preset)                 # Table I's rows x the families with a held-out task + avg
+    claims(preset)               # VII-lipvq-vs-bc, VII-lipvq-best
+    TABLE_VII_ZERO_SHOT          # the paper's numbers, as printed
+
+Table I's rows, each trained on the training tasks of `data.splits.zero_shot_split` (one
+direction of each two-task family is held out) with its own runs (one seed unless
+`tables.row_seeds` says otherwise), and evaluated on the held-out tasks only; families
+without a held-out task are n/a.
+
+Shown (chapter 10) with the views every result shares (`tables.display`).
+"""
+
+from __future__ import annotations
+
+from icil_paper.config import Preset
+from icil_paper.data.splits import zero_shot_split
+from icil_paper.paper.table_i import TABLE_I_ROWS
+from icil_paper.paper_numbers import family_rows
+from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
+from icil_paper.tables.definitions import (
+    FAMILY_COLUMNS,
+    TOKENIZER_ROWS,
+    family_cells,
+    label,
+    row_seeds,
+    seed_runs,
+)
+from icil_paper.tables.spec import Row, TableSpec
+
+# The paper's Table VII: zero-shot, trained on some tasks and evaluated on held-out ones.
+TABLE_VII_ZERO_SHOT = family_rows({
+    "mcr":            (0.00, 0.00, 0.00, 0.06, 0.04, 0.01, 0.00, 0.021),
+    "act":            (0.00, 0.00, 0.00, 0.05, 0.04, 0.01, 0.00, 0.019),
+    "bc_transformer": (0.00, 0.00, 0.00, 0.10, 0.20, 0.00, 0.00, 0.028),
+    "icrt+mlp":       (0.00, 0.01, 0.00, 0.19, 0.22, 0.01, 0.02, 0.047),
+    "icrt+bin":       (0.01, 0.01, 0.00, 0.16, 0.24, 0.01, 0.02, 0.046),
+    "icrt+fast":      (0.00, 0.00, 0.00, 0.20, 0.12, 0.01, 0.00, 0.041),
+    "icrt+vq":        (0.00, 0.00, 0.00, 0.16, 0.20, 0.01, 0.02, 0.041),
+    "icrt+lfq":       (0.01, 0.01, 0.00, 0.24, 0.14, 0.02, 0.02, 0.049),
+    "icrt+lipvq":     (0.01, 0.00, 0.00, 0.25, 0.24, 0.00, 0.02, 0.052),
+})
+
+
+def spec(preset: Preset) -> TableSpec:
+    """Table VII: each of Table I's rows trained on the training tasks of the zero-shot split
+    and evaluated on the held-out ones, a cell per family that has one and "avg"."""
+    train, held_out = zero_shot_split()
+    train = [t for t in train if t in preset.data.kitchen_tasks]
+    held_out = [t for t in held_out if t in preset.data.kitchen_tasks]
+    rows = []
+    for policy, tokenizer in TABLE_I_ROWS:
+        seeds = row_seeds(preset, "VII", label(policy, tokenizer), 1)
+        runs = seed_runs(preset, policy, tokenizer, train, seeds)
+        rows.append(Row(label(policy, tokenizer), family_cells(preset, runs, held_out),
+                        TABLE_VII_ZERO_SHOT[label(policy, tokenizer)]))
+    return TableSpec("VII", "Zero-shot robotic manipulation results", (*FAMILY_COLUMNS, "avg"),
+                     tuple(rows), note=(
+                         f"Trained on {len(train)} kitchen tasks, evaluated on the {len(held_out)} "
+                         "held out (one direction of each two-task family); families without a "
+                         "held-out task are n/a."))
+
+
+def claims(preset: Preset) -> list[Claim]:
+    """Table VII's claims, in the order of the paper's Sec. IV."""
+    T7 = TABLE_VII_ZERO_SHOT
+    others = [r for r in TOKENIZER_ROWS if r != "icrt+lipvq"]
+    return [
+        Claim("VII-lipvq-vs-bc", "VII", "Our approach surpasses BC-Transformer by 2.4% "
+              "(zero-shot).", "ICRT+LipVQ minus BC-Transformer (avg over held-out tasks)", +1,
+              diff("VII", "icrt+lipvq", "bc_transformer"),
+              paper_diff(T7, "icrt+lipvq", "bc_transformer")),
+        Claim("VII-lipvq-best", "VII", "LipVQ-VAE outperforms other tokenizers by at least 0.2% "
+              "(zero-shot).", "ICRT+LipVQ minus the best other ICRT tokenizer (avg)", +1,
+              margin("VII", "icrt+lipvq", others), paper_margin(T7, "icrt+lipvq", others)),
+    ]
+
+
+CLAIM_LABELS = {
+    "VII-lipvq-vs-bc": "zero-shot: beats BC-Transformer",
+    "VII-lipvq-best": "zero-shot: LipVQ-VAE best",
+}
+"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

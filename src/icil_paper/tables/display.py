@@ -1,0 +1,447 @@
+"""What every result's chapter shows the same way: frames, figures and sentences per source.
+
+    results = load_table(preset, "I")     # tables.book: {"reference run": ..., "this build": ...}
+    compare_frame(results, "avg")         # rows x (paper, reference, this build)
+    success_figure(results, "avg")        # bars with 95% intervals, the paper's marks
+    show_motion(results, "avg")           # success beside LDLJ, SPARC, action jerk
+    show_per_source(results, make_frame)  # any frame per source, the reference run's first
+
+A chapter shows the paper's numbers, the reference run's and this build's side by side;
+with a reference run beside it, this build's numbers (which test the code, not the paper)
+are in a collapsed block (`collapsed_frame`). What only one result shows (Table III's
+Figs. 1 and 4, Table VI's shift, the analysis table's findings, ...) lives in that result's
+module of `icil_paper.paper`; loading, the ledger's views and the reference run's
+bookkeeping in `icil_paper.tables.book`. Nothing here reads the list of results, so every
+result's module can use it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from icil_paper import stats, verdict_words
+from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
+
+REFERENCE = "reference"
+"""The reference preset, whose committed records every chapter shows beside this build's."""
+BUILD = "this build"
+"""The source name of this build's results (its preset is the one the book is built with)."""
+
+
+def source_label(source: str, preset_name: str) -> str:
+    """"this build (small)"; "reference run" (its preset is in its name already)."""
+    return source if preset_name in source else f"{source} ({preset_name})"
+
+
+def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: int = 3):
+    """Rows x (paper, reference, this build) for one column, as `value [low, high]`."""
+    import pandas as pd
+
+    any_result = next(iter(results.values()))
+    out = []
+    for row in any_result.spec.rows:
+        line: dict[str, Any] = {"": row.label}
+        value = row.paper.get(column)
+        line["paper"] = "" if value is None else f"{value:.{digits}f}"
+        for source, result in results.items():
+            line[source_label(source, result.preset)] = format_cell(result.cell(row.label, column),
+                                                              digits)
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
+def success_figure(results: dict[str, TableResult], column: str = "avg", title: str = "",
+                   ylabel: str = "success rate"):
+    """Grouped bars per row: each source's estimate with its 95% interval; the paper's
+    number as a black mark. With a reference run beside it, this build is left out (its
+    numbers test the code; they are in the collapsed block under the table)."""
+    import matplotlib.pyplot as plt
+
+    if len(results) > 1:
+        results = {k: v for k, v in results.items() if k != BUILD}
+
+    spec = next(iter(results.values())).spec
+    labels = [r.label for r in spec.rows]
+    fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(labels) + 2), 3.6))
+    width = 0.8 / max(1, len(results))
+    x = np.arange(len(labels))
+    for k, (source, result) in enumerate(results.items()):
+        vals, lo, hi = [], [], []
+        for label in labels:
+            est = result.estimate(label, column)
+            vals.append(est.value if est else np.nan)
+            lo.append(est.value - est.low if est else 0.0)
+            hi.append(est.high - est.value if est else 0.0)
+        ax.bar(x + (k - (len(results) - 1) / 2) * width, vals, width, yerr=[lo, hi], capsize=3,
+               label=source_label(source, result.preset), alpha=0.85)
+    paper = [next(r for r in spec.rows if r.label == label).paper.get(column) for label in labels]
+    if any(p is not None for p in paper):
+        ax.scatter(x, [np.nan if p is None else p for p in paper], marker="_", s=400,
+                   color="black", zorder=5, label="the paper")
+    ax.set_xticks(x, labels, rotation=30, ha="right")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title or f"Table {spec.id}, {column}")
+    ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    plt.close(fig)  # shown once, by the caller's display(fig)
+    return fig
+
+
+def show_comparison(results: dict[str, TableResult], column: str = "avg",
+                    digits: int = 3) -> None:
+    """The paper and the reference run side by side; this build's numbers below, in a
+    collapsed block (shown open when the book is built with the reference preset itself)."""
+    from IPython.display import display
+
+    frame = compare_frame(results, column, digits)
+    build = results.get(BUILD)
+    if build is None or len(results) == 1:
+        display(frame)
+        return
+    build_column = source_label(BUILD, build.preset)
+    display(frame.drop(columns=[build_column]))
+    display(collapsed_frame(_build_summary(build), frame[["paper", build_column]]))
+
+
+def _build_summary(result: TableResult) -> str:
+    return (f"This build's numbers ({result.preset} preset): they test the code, not the "
+            "paper. Open to see them.")
+
+
+def show_per_source(results: dict[str, TableResult], make_frame, describe=None) -> None:
+    """One frame per source (`make_frame(result)`): the reference run's shown, this build's
+    in a collapsed block when there is a reference beside it. `describe(result)` adds a
+    sentence after the source's name."""
+    from IPython.display import Markdown, display
+
+    for source, result in results.items():
+        extra = f": {describe(result)}" if describe else ""
+        if source == BUILD and len(results) > 1:
+            display(collapsed_frame(_build_summary(result) + extra, make_frame(result)))
+            continue
+        display(Markdown(f"**{source_label(source, result.preset)}**{extra}"))
+        display(make_frame(result))
+
+
+def collapsed_frame(summary: str, frame) -> Any:
+    """A frame inside a closed <details> block (the reader opens it)."""
+    from IPython.display import HTML
+
+    return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
+                f"{frame.to_html(classes='dataframe')}</details>")
+
+
+def _markdown_html(text: str) -> str:
+    """The little Markdown the ledger's lists use (items, **bold**, *italic*, `code`) as
+    HTML, for a collapsed block (HTML output is not read as Markdown)."""
+    import html
+    import re
+
+    def inline(line: str) -> str:
+        line = html.escape(line, quote=False)
+        line = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", line)
+        line = re.sub(r"\*(.+?)\*", r"<i>\1</i>", line)
+        return re.sub(r"`(.+?)`", r"<code>\1</code>", line)
+
+    items = [line[2:] for line in text.splitlines() if line.startswith("- ")]
+    if not items:
+        return f"<p>{inline(text)}</p>"
+    return "<ul>" + "".join(f"<li>{inline(i)}</li>" for i in items) + "</ul>"
+
+
+def collapsed_markdown(summary: str, text: str) -> Any:
+    """A Markdown list (or paragraph) inside a closed <details> block."""
+    from IPython.display import HTML
+
+    return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
+                f"{_markdown_html(text)}</details>")
+
+
+MOTION_COLUMNS = {"ldlj": "LDLJ (higher: smoother)", "sparc": "SPARC (higher: smoother)",
+                  "action_jerk": "action jerk (lower: smoother)"}
+"""The motion frame's columns beside success (`icil_paper.metrics`)."""
+
+
+def _format_estimate(est, digits: int = 3) -> str:
+    """`-12.3 [-13.1, -11.6]` (`digits` significant digits, trailing zeros kept) or
+    `not run`."""
+    if est is None:
+        return verdict_words.MISSING
+
+    def sig(x: float) -> str:
+        return f"{x:#.{digits}g}".rstrip(".").replace(".e", "e")
+
+    return unbroken(f"{sig(est.value)} [{sig(est.low)}, {sig(est.high)}]")
+
+
+def motion_frame(result: TableResult, column: str = "avg", digits: int = 3):
+    """Rows x (success, LDLJ, SPARC, action jerk) of one column: each row's success and the
+    smoothness of its rollouts' motion (per-seed means of per-episode values, the seed as
+    the unit: `TableResult.motion_estimate`), each `value [95% interval]`."""
+    import pandas as pd
+
+    out = []
+    for row in result.spec.rows:
+        cell = result.cell(row.label, column)
+        line: dict[str, Any] = {"": row.label, "success": unbroken(format_cell(cell, 2))}
+        for measure, name in MOTION_COLUMNS.items():
+            line[name] = ("n/a" if cell is None else
+                          _format_estimate(result.motion_estimate(row.label, column, measure),
+                                           digits))
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
+def motion_note(result: TableResult, column: str = "avg") -> str:
+    """How many of the column's episodes have each measure defined (an episode of a few
+    steps, or one where the arm did not move, has none), as a clause; empty when all do."""
+    counts = {}
+    for row in result.spec.rows:
+        cell = result.cell(row.label, column)
+        for measure in MOTION_COLUMNS:
+            if cell is not None and measure in cell.motion:
+                values = cell.motion[measure]
+                done, total = counts.get(measure, (0, 0))
+                counts[measure] = (done + int(np.isfinite(values).sum()), total + values.size)
+    gaps = [f"{MOTION_COLUMNS[m].split(' (')[0]} {d} of {t}" for m, (d, t) in counts.items()
+            if d < t]
+    return "" if not gaps else "episodes with the measure defined: " + ", ".join(gaps)
+
+
+def show_motion(results: dict[str, TableResult], column: str = "avg", digits: int = 3) -> None:
+    """Success beside the smoothness of the motion that earned it (`motion_frame`), for the
+    reference run, then this build in a collapsed block (`show_per_source`)."""
+    def describe(result: TableResult) -> str:
+        note = motion_note(result, column)
+        return (f"{column}, each episode's value averaged per seed, 95% intervals with the "
+                "seed as the unit" + (f"; {note}" if note else ""))
+
+    show_per_source(results, lambda r: motion_frame(r, column, digits), describe)
+
+
+def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
+    """Point values only (rows x columns), compact enough for the wide family tables; with
+    `paper`, the paper's numbers instead of ours."""
+    import pandas as pd
+
+    out = []
+    for row in result.spec.rows:
+        line: dict[str, Any] = {"": row.label}
+        for column in result.spec.columns:
+            if paper:
+                value = row.paper.get(column)
+            else:
+                cell = result.cell(row.label, column)
+                if cell is None or cell.estimate is None:
+                    line[column] = "n/a" if cell is None else verdict_words.MISSING
+                    continue
+                value = cell.estimate.value
+            line[column] = "" if value is None else round(float(value), digits)
+        out.append(line)
+    return pd.DataFrame(out).set_index("")
+
+
+def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
+    """Display the paper's point values, then the reference run's, then this build's in a
+    collapsed block (a one-line note for a source that has not computed the table yet), and
+    the columns where every row is at 0 or 1."""
+    from IPython.display import Markdown, display
+
+    first = next(iter(results.values()))
+    display(Markdown("**The paper**"))
+    display(values_frame(first, digits, paper=True))
+    for source, result in results.items():
+        title = f"**{source_label(source, result.preset)}**"
+        if not any(c.estimate is not None for c in result.cells.values()):
+            display(Markdown(f"{title}: not run yet."))
+            continue
+        if source == BUILD and len(results) > 1:
+            display(collapsed_frame(_build_summary(result), values_frame(result, digits)))
+            continue
+        display(Markdown(title))
+        display(values_frame(result, digits))
+    note = uninformative_note(results)
+    if note:
+        display(Markdown(note))
+
+
+def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, float]:
+    """Columns (families or tasks; not "avg") where every row (whose label starts with
+    `prefix`, e.g. "icrt+" for the tokenizers) is at 0, or every one at 1: they cannot
+    separate those rows. Column -> the value every row has."""
+    rows = [r for r in result.spec.rows if r.label.startswith(prefix)]
+    out = {}
+    for column in result.spec.columns:
+        if column in ("avg", "features", "least_energy"):
+            continue
+        cells = [result.cell(r.label, column) for r in rows]
+        cells = [c for c in cells if c is not None]
+        values = [c.estimate.value for c in cells if c.estimate is not None]
+        if len(values) >= 2 and len(values) == len(cells) and (
+                all(v == 0.0 for v in values) or all(v == 1.0 for v in values)):
+            out[column] = values[0]
+    return out
+
+
+def uninformative_note(results: dict[str, TableResult]) -> str:
+    """A sentence per source naming its columns where every row is at 0 or at 1, and the
+    share of the average they make (they add the same to every row, so differences in the
+    average are diluted by that share). Empty when there are none."""
+    lines = []
+    for source, result in results.items():
+        flat = uninformative_columns(result)
+        if not flat and not uninformative_columns(result, "icrt+"):
+            continue
+        spec_row = result.spec.rows[0]
+        tasks = {c: len({u.eval.task for u in cell.units if u.eval is not None})
+                 for c, cell in spec_row.cells.items() if c not in ("avg", "features")}
+        total = sum(tasks.values())
+        share = sum(tasks.get(c, 0) for c in flat) / total if total else 0.0
+        named = ", ".join(f"{c} (every row {v:.0f})" for c, v in flat.items())
+        lines.append(f"- {source_label(source, result.preset)}: {named} cannot separate the "
+                     f"rows; they hold {share:.0%} of the tasks in the average, so every "
+                     f"difference in the average is diluted to {1 - share:.0%} of its size "
+                     "on the tasks that can separate them.")
+        icrt = {c: v for c, v in uninformative_columns(result, "icrt+").items() if c not in flat}
+        if icrt:
+            named = ", ".join(f"{c} (every ICRT row {v:.0f})" for c, v in icrt.items())
+            lines.append(f"- {source_label(source, result.preset)}: {named} cannot separate "
+                         "the ICRT tokenizers from one another.")
+    return "" if not lines else ("**Uninformative columns** (computed):\n\n" + "\n".join(lines))
+
+
+def difference_sentence(results: dict[str, TableResult], a: str, b: str,
+                        column: str = "avg", direction: int = +1) -> str:
+    """`a` minus `b` on the same episodes, with its paired interval and the verdict on
+    "a is higher" (direction +1) for each source, in Markdown."""
+    lines = []
+    for source, result in results.items():
+        xa, xb = result.outcomes(a, column), result.outcomes(b, column)
+        if xa is None or xb is None:
+            lines.append(f"- {source_label(source, result.preset)}: not run yet.")
+            continue
+        est = stats.paired_difference(xa, xb)
+        claimed = "higher" if direction > 0 else "lower"
+        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = {est.value:+.3f} "
+                     f"[{est.low:+.3f}, {est.high:+.3f}]; '{a}' is {claimed}: "
+                     f"{stats.verdict(est, direction)}.")
+    return "\n".join(lines)
+
+
+def smoother_sentence(a: str, b: str, a_scores, b_scores, quantity: str) -> str:
+    """"a minus b on <quantity>: +0.1 [-0.2, +0.4]: a is smoother" from per-trajectory
+    scores (seeds, trajectories) of two tokenizers on the same trajectories (lower is
+    smoother; `stats.paired_score_difference` and its verdict)."""
+    est = stats.paired_score_difference(a_scores, b_scores)
+    words = verdict_words.SMOOTHER[stats.verdict(est, direction=-1)]
+    return (f"{a} minus {b} on {quantity}: {est.value:+.4g} [{est.low:+.4g}, {est.high:+.4g}]"
+            f": {a} is {words}")
+
+
+def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[str, str], float]:
+    """{(row a, row b): Pearson r of their per-seed success at the same seed index}, over
+    the seed indices both rows have (at least 3, and neither row constant over them).
+
+    Seed k of every row shares its demonstration set, its evaluation scenes and, for the
+    ICRT rows, its backbone's initial weights and batch order (common random numbers): the
+    larger r, the more a paired comparison by seed index gains over an unpaired one."""
+    per_seed = {}
+    for row in result.spec.rows:
+        cell = result.cell(row.label, column)
+        if cell is not None and cell.data is not None and np.ndim(cell.data) >= 2:
+            data = np.asarray(cell.data, dtype=np.float64)
+            per_seed[row.label] = data.reshape(len(data), -1).mean(axis=1)
+    out = {}
+    labels = list(per_seed)
+    for i, a in enumerate(labels):
+        for b in labels[i + 1:]:
+            n = min(len(per_seed[a]), len(per_seed[b]))
+            x, y = per_seed[a][:n], per_seed[b][:n]
+            if n >= 3 and x.std() > 0 and y.std() > 0:
+                out[a, b] = float(np.corrcoef(x, y)[0, 1])
+    return out
+
+
+def seed_correlation_sentence(results: dict[str, TableResult], column: str = "avg") -> str:
+    """The mean cross-row correlation of per-seed success in each source (`seed_correlations`),
+    over every pair of rows and over the pairs of ICRT rows."""
+    parts = []
+    for source, result in results.items():
+        r = seed_correlations(result, column)
+        if not r:
+            parts.append(f"{source_label(source, result.preset)}: no two rows have results "
+                         "at 3 seed indices or more (nothing to correlate)")
+            continue
+        icrt = [v for (a, b), v in r.items() if a.startswith("icrt") and b.startswith("icrt")]
+        text = (f"{source_label(source, result.preset)}: mean r = {np.mean(list(r.values())):.2f} "
+                f"over {len(r)} pairs of rows")
+        if icrt:
+            text += f", {np.mean(icrt):.2f} over the {len(icrt)} pairs of ICRT rows"
+        parts.append(text)
+    return ("Correlation of per-seed success between two rows at the same seed index: "
+            + "; ".join(parts) + ".")
+
+
+# --------------------------------------------------------------------------- features and codebooks
+def codebook_rows(result: TableResult, column: str) -> list[tuple[str, Any]]:
+    """(row label, its `column` cell spec) of every row whose policies' tokenizer has a
+    codebook (`definitions.CODEBOOK_TOKENIZERS`), in the table's order."""
+    out = []
+    for row in result.spec.rows:
+        cell = row.cells.get(column)
+        tokenizer = cell.units[0].run.tokenizer if cell is not None and cell.units else None
+        if tokenizer is not None and tokenizer.type in CODEBOOK_TOKENIZERS:
+            out.append((row.label, cell))
+    return out
+
+
+def per_seed_metrics(result: TableResult, label: str, cell_spec, column: str
+                      ) -> list[tuple[int, dict[str, Any] | None]]:
+    """(training seed, its features record's metrics or None while not run) per unit of a
+    features cell, in seed order (`assemble` keeps the metrics in that order)."""
+    units = sorted(cell_spec.units, key=lambda u: u.seed_index)
+    cell = result.cell(label, column)
+    metrics = cell.extra.get("metrics") if cell is not None and cell.estimate is not None else None
+    return [(u.run.seed, metrics[i] if metrics else None) for i, u in enumerate(units)]
+
+
+def codebook_frame(result: TableResult, column: str = "features"):
+    """Codebook use of every VQ-family row (a tokenizer with a codebook), one line per
+    training seed: the distinct codes its trained tokenizer gives the held-out trajectories
+    of Table III (`codes used` of `K`, the codebook size), their share `usage`, and the
+    perplexity of the code distribution (exp of its entropy: how many equally used codes
+    would give it; rounded to 2 decimals). Values are None while a record is missing ("not
+    run") or older than the perplexity measurement. Index (row, seed)."""
+    import pandas as pd
+
+    lines = []
+    for label, cell_spec in codebook_rows(result, column):
+        for seed, m in per_seed_metrics(result, label, cell_spec, column):
+            m = m or {}
+            lines.append({"row": label, "seed": seed, "codes used": m.get("codes_used"),
+                          "K": m.get("codebook_size"), "usage": m.get("usage"),
+                          "perplexity": m.get("perplexity"),
+                          "status": "ok" if m else verdict_words.MISSING})
+    frame = pd.DataFrame(lines, columns=["row", "seed", "codes used", "K", "usage",
+                                         "perplexity", "status"])
+    return frame.round({"usage": 3, "perplexity": 2}).set_index(["row", "seed"])
+
+
+def show_codebook_use(results: dict[str, TableResult], column: str = "features") -> None:
+    """Each source's `codebook_frame` (the reference run's shown, this build's in a collapsed
+    block beside a reference), or one line for a source whose records are not there yet."""
+    from IPython.display import Markdown, display
+
+    for source, result in results.items():
+        frame = codebook_frame(result, column)
+        title = f"**{source_label(source, result.preset)}**"
+        if frame.empty or (frame["status"] == verdict_words.MISSING).all():
+            display(Markdown(f"{title}: codebook use not run yet."))
+        elif source == BUILD and len(results) > 1:
+            display(collapsed_frame(_build_summary(result), frame))
+        else:
+            display(Markdown(title))
+            display(frame)
