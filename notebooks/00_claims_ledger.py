@@ -24,6 +24,7 @@ from icil_paper.tables.book import (
     ledger_details,
     older_ledger,
     reference_freshness,
+    retired_records,
     show_ledgers,
     stale_records,
 )
@@ -112,11 +113,14 @@ display(Markdown(ledger_details(reference_ledger(ledgers))))
 # ## Reference records made by older code
 #
 # A committed reference record whose key the current code no longer computes (a config or
-# a definition changed since it was run) is not used above; it is listed here, and nothing
-# is deleted. The ledger that the older code computed from those records follows,
+# a definition changed since it was run) is not used above; it is listed here until
+# `icil-paper tables --preset reference --retire-stale` moves it out of the store, beside
+# the older ledger, and nothing is deleted. The ledger that the older code computed from
+# those records follows,
 # labelled with that code's commit: read it as a record of the older protocol, not as a
 # result of the current one.
 
 # %% tags=["remove-input"]
 stale = stale_records(REFERENCE)
-show_stale_records(stale, reference_freshness(REFERENCE), older_ledger(REFERENCE))
+show_stale_records(stale, reference_freshness(REFERENCE), older_ledger(REFERENCE),
+                   retired_records(REFERENCE))

@@ -203,9 +203,11 @@ def test_committed_reference_records_are_current_or_labelled_as_older_code(monke
     summary counts the stale records, chapter 0 lists them, and the older code's ledger is
     kept with the commit that computed it. Nothing is deleted."""
     from icil_paper.tables.book import (
+        OLDER_RECORDS,
         older_ledger,
         reference_freshness,
         reference_summary,
+        retired_records,
         stale_records,
     )
 
@@ -213,11 +215,16 @@ def test_committed_reference_records_are_current_or_labelled_as_older_code(monke
     stale = stale_records("reference")
     fresh = reference_freshness("reference")
     assert fresh["stale"] == len(stale) and fresh["current"] + fresh["stale"] == fresh["records"]
+    assert not stale, ("records of older code are left in the reference store: move them out "
+                       "with `icil-paper tables --preset reference --retire-stale`")
     summary = reference_summary()
-    if not stale:
+    retired = retired_records("reference")
+    if not retired:
         assert "older" not in summary
         return
-    assert f"{len(stale)} of its {fresh['records']} committed records" in summary
+    moved = ROOT / "results" / "reference" / OLDER_RECORDS
+    assert sum(retired.values()) == sum(1 for _ in moved.glob("*/*.json"))
+    assert f"The {sum(retired.values())} records an older version" in summary
     older = older_ledger("reference")
     assert older is not None, "stale reference records need the older code's ledger beside them"
     made_by, ledger = older
@@ -231,6 +238,33 @@ def test_committed_reference_records_are_current_or_labelled_as_older_code(monke
         assert (e["id"] in summary) == (e["adjusted_verdict"] in ("holds", "does not hold"))
     chapter = (ROOT / "notebooks" / "00_claims_ledger.py").read_text()
     assert "stale_records(REFERENCE)" in chapter and "older_ledger(REFERENCE)" in chapter
+    assert "retired_records(REFERENCE)" in chapter
+
+
+def test_retiring_moves_only_stale_records_out_of_the_store_and_counts_them(tmp_path,
+                                                                           monkeypatch):
+    """`retire_stale_records` moves each stale record whole to older-code/records/<kind>/,
+    keeps the current ones in place, counts the moved ones by commit, and a second call
+    moves nothing."""
+    from icil_paper.results import ResultsStore
+    from icil_paper.tables import book
+
+    monkeypatch.setenv("ICIL_RESULTS", str(tmp_path))
+    store = ResultsStore("reference")
+    name = "icrt+lipvq__kitchen_open_door"
+    old_path = store.write("eval", name, {"a": 1}, {"success_rate": 0.5}, seed=0, wall_time_s=1)
+    new_path = store.write("eval", name, {"a": 2}, {"success_rate": 0.6}, seed=0, wall_time_s=1)
+    old = json.loads(old_path.read_text())
+    # both records share a name: only the one whose key is no longer computed may move
+    current = json.loads(new_path.read_text())["config_hash"]
+    monkeypatch.setattr(book, "current_keys", lambda preset_name: {current})
+    moved = book.retire_stale_records("reference")
+    assert moved == {str(old["git_commit"] or "unknown"): 1}
+    target = store.dir / book.OLDER_RECORDS / "eval" / old_path.name
+    assert not old_path.exists() and json.loads(target.read_text()) == old
+    assert new_path.exists()
+    assert book.retired_records("reference") == moved
+    assert book.retire_stale_records("reference") == {}
 
 
 @pytest.mark.sim

@@ -19,7 +19,13 @@ from IPython.display import Markdown, display
 from icil_paper.config import Preset, get_preset
 from icil_paper.paper import claims_ledger, write_ledger
 from icil_paper.results import ResultsStore
-from icil_paper.tables.book import BUILD, REFERENCE, collapsed_markdown, ledger_frame
+from icil_paper.tables.book import (
+    BUILD,
+    OLDER_RECORDS,
+    REFERENCE,
+    collapsed_markdown,
+    ledger_frame,
+)
 from icil_paper.tables.claims import summary_sentence
 
 Ledgers = dict[str, tuple[Preset, list]]
@@ -65,15 +71,30 @@ def older_ledger_heading(made_by: Mapping[str, Any], claims: Sequence[Any]) -> s
             f"computed it**, {made_by['why_kept']}. " + summary_sentence(claims))
 
 
+def retired_sentence(retired: Mapping[str, int]) -> str:
+    """What chapter 0 says of the records moved out of the reference store
+    (`tables.book.retired_records`, {commit: records}); empty when there are none."""
+    if not retired:
+        return ""
+    commits = ", ".join(f"{n} by `{commit[:7]}`" for commit, n in retired.items())
+    return (f"{sum(retired.values())} records made by older versions of the code ({commits}) "
+            f"were moved out of the store to `results/reference/{OLDER_RECORDS}/`, each with "
+            "its provenance; none is used above.")
+
+
 def show_stale_records(stale: Sequence[str], freshness: Mapping[str, int],
-                       older: tuple[Mapping[str, Any], list] | None) -> None:
-    """Chapter 0's stale records, collapsed (or the line saying there are none), then the
-    ledger the older code computed from them (`tables.book.older_ledger`) with its verdicts,
-    where there are stale records and that ledger is kept."""
-    if not stale:
-        display(Markdown(NO_STALE))
+                       older: tuple[Mapping[str, Any], list] | None,
+                       retired: Mapping[str, int] | None = None) -> None:
+    """Chapter 0's stale records, collapsed (or the line saying there are none), the records
+    moved out of the store (`retired`, `tables.book.retired_records`), then the ledger the
+    older code computed from them (`tables.book.older_ledger`) with its verdicts, where
+    there are such records and that ledger is kept."""
+    display(collapsed_markdown(*stale_summary(stale, freshness)) if stale
+            else Markdown(NO_STALE))
+    if retired:
+        display(Markdown(retired_sentence(retired)))
+    if not stale and not retired:
         return
-    display(collapsed_markdown(*stale_summary(stale, freshness)))
     if older is not None:
         made_by, claims = older
         display(Markdown(older_ledger_heading(made_by, claims)))

@@ -21,6 +21,7 @@ shares (`compare_frame`, `success_figure`, `show_motion`, ...) in `tables.displa
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +29,7 @@ import numpy as np
 
 from icil_paper import verdict_words
 from icil_paper.config import PRESET_NAMES, Preset, get_preset
+from icil_paper.fileio import atomic_write_json
 from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, table_spec
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key, feature_key
@@ -95,10 +97,9 @@ def claims_figure(preset: Preset, table_id: str):
                                       "intervals, the paper's values, the verdict after Holm")
 
 
-def stale_records(preset_name: str = REFERENCE) -> list[str]:
-    """Records in `results/<preset>/` (train, eval, features) whose key neither a current
-    cell of any table nor chapter 02's run computes: results of an older version of the
-    code or presets."""
+def current_keys(preset_name: str = REFERENCE) -> set[str]:
+    """The keys of every record (train, eval, features) that a current cell of any table or
+    chapter 02's run computes at the preset."""
     from icil_paper.book.studies import icrt_specs
     from icil_paper.tables.execute import plan
 
@@ -110,9 +111,60 @@ def stale_records(preset_name: str = REFERENCE) -> list[str]:
         keys.update(feature_key(p.run, f) for f in p.features.values())
     run, ev = icrt_specs(preset)
     keys.update((run.key(), eval_key(run, ev)))
+    return keys
+
+
+def stale_records(preset_name: str = REFERENCE) -> list[str]:
+    """Records in `results/<preset>/` (train, eval, features) whose key neither a current
+    cell of any table nor chapter 02's run computes (`current_keys`): results of an older
+    version of the code or presets."""
+    keys = current_keys(preset_name)
     store = ResultsStore(preset_name)
     return sorted(f"{r['kind']}/{r['name']}" for kind in ("train", "eval", "features")
                   for r in store.records(kind) if r["config_hash"] not in keys)
+
+
+OLDER_RECORDS = "older-code/records"
+"""Under `results/<preset>/`: the records an older version of the code made, moved out of
+the store by `retire_stale_records`, beside the older ledger (`OLDER_LEDGER`)."""
+
+
+def retired_records(preset_name: str = REFERENCE) -> dict[str, int]:
+    """{commit: records} that `retire_stale_records` moved out of `results/<preset>/`
+    ({} when none were)."""
+    path = ResultsStore(preset_name).dir / OLDER_RECORDS / "made_by.json"
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
+    """Move every stale record (`stale_records`: no current cell computes its key) of
+    `results/<preset>/` out of the store, to
+    `older-code/records/<kind>/` beside the older ledger, so that every record left in the
+    store is one the current code computes. Each file moves whole (a rename on one file
+    system) and keeps its provenance (`git_commit`); `older-code/records/made_by.json`
+    counts them by the commit that made them. Returns {commit: records moved}."""
+    store = ResultsStore(preset_name)
+    keys = current_keys(preset_name)
+    older = store.dir / OLDER_RECORDS
+    manifest_path = older / "made_by.json"
+    counts: dict[str, int] = (json.loads(manifest_path.read_text())
+                              if manifest_path.exists() else {})
+    moved: dict[str, int] = {}
+    for kind in ("train", "eval", "features"):
+        for record in store.records(kind):
+            if record["config_hash"] in keys:
+                continue
+            source = store.path_for(kind, record["name"], record["config_hash"])
+            target = older / kind / source.name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(source, target)
+            commit = str(record.get("git_commit") or "unknown")
+            moved[commit] = moved.get(commit, 0) + 1
+    for commit, n in moved.items():
+        counts[commit] = counts.get(commit, 0) + n
+    if moved:
+        atomic_write_json(manifest_path, dict(sorted(counts.items())))
+    return moved
 
 
 # --------------------------------------------------------------------------- the claims ledger
@@ -424,15 +476,22 @@ def reference_summary(path=None) -> str:
     ledger = load_ledger(path)
     text = f"{summary_sentence(ledger)} {decided_claims(ledger)}".strip()
     fresh = reference_freshness(REFERENCE)
+    retired = sum(retired_records(REFERENCE).values())
     progress = reference_progress(path.with_name("cost.json"),
                                   older=fresh["stale"] == fresh["records"])
-    if not fresh["stale"]:
-        return f"{progress} {text}".strip()
     in_progress = any(e.verdict == Verdict.NOT_RUN for e in ledger)
+    if not fresh["stale"] and not (retired and in_progress):
+        return f"{progress} {text}".strip()
+    if fresh["stale"]:
+        older_records = (f"{fresh['stale']} of its {fresh['records']} committed records were "
+                         "made by an older version of the code and are not used (chapter 0 "
+                         "lists them, with the ledger that code computed).")
+    else:
+        older_records = (f"The {retired} records an older version of the code made are kept "
+                         f"beside the store, in `results/reference/{OLDER_RECORDS}/`, with the "
+                         "ledger that code computed (chapter 0).")
     text = (f"{progress or 'The reference run is being redone with the current code.'} "
-            f"{fresh['stale']} of its {fresh['records']} committed records were made by an "
-            "older version of the code and are not used (chapter 0 lists them, with the "
-            f"ledger that code computed). With the current code: {text[0].lower()}{text[1:]}")
+            f"{older_records} With the current code: {text[0].lower()}{text[1:]}")
     older = older_ledger(REFERENCE) if in_progress else None
     if older is not None:
         made_by, older_claims = older

@@ -4,6 +4,7 @@
     icil-paper tables --table I IV --format csv
     icil-paper tables --claims                            # the claims ledger
     icil-paper tables --format json > tables.json
+    icil-paper tables --preset reference --retire-stale   # older code's records out of the store
 
 Cells whose records are missing print as `not run`; `icil-paper reproduce --stages tables`
 computes them.
@@ -29,6 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="markdown (default), CSV (one line per cell) or JSON")
     p.add_argument("--claims", action="store_true", help="print the claims ledger instead")
     p.add_argument("--no-paper", action="store_true", help="leave out the paper's numbers")
+    p.add_argument("--retire-stale", action="store_true",
+                   help="move the records no current table computes (an older version of the "
+                        "code made them) to results/<preset>/older-code/records/ and stop")
     return p
 
 
@@ -42,6 +46,13 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
     store = ResultsStore(preset.name)
+    if args.retire_stale:
+        from icil_paper.tables.book import OLDER_RECORDS, retire_stale_records
+
+        moved = retire_stale_records(preset.name)
+        print(f"moved {sum(moved.values())} records to {store.dir / OLDER_RECORDS}"
+              + "".join(f"\n  {n} made by {commit}" for commit, n in moved.items()))
+        return 0
     if args.claims:
         ledger = claims_ledger(preset, store)
         if args.format == "json":
