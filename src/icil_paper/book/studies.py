@@ -14,8 +14,8 @@ import numpy as np
 
 from icil_paper.config import Preset, TokenizerStudyConfig
 from icil_paper.config_data import to_dict
-from icil_paper.results import ResultsStore
-from icil_paper.runspec import DataSpec
+from icil_paper.results import ResultsStore, config_hash
+from icil_paper.runspec import SUITE_VERSION, DataSpec
 from icil_paper.sim import ACTION_DIM
 from icil_paper.tokenizers.configs import TokenizerConfig, lipvq_official
 from icil_paper.viz.recording import principal_view
@@ -303,6 +303,8 @@ class ShowcaseSpec:
     """Base seed of the scene and of demo 0."""
     files: tuple[str, ...] = ("frame.png", "rrd", "png")
     """The files written: the frame, the rerun recording and its static picture."""
+    suite_version: int = SUITE_VERSION
+    """The task suites' version the scene is drawn from (`runspec.SUITE_VERSION`)."""
 
 
 def showcase_study(preset: Preset, store: ResultsStore | None = None,
@@ -395,3 +397,20 @@ def demo_stage(preset: Preset, store: ResultsStore | None = None, force: bool = 
     from icil_paper.data import SOURCES, ensure_many, preset_tasks
 
     return ensure_many(preset, preset_tasks(preset, available=True), SOURCES)
+
+
+def study_keys(preset: Preset) -> dict[str, set[str]]:
+    """{kind: keys} of the records the chapters' own studies compute at the preset: the
+    tokenizers trained alone (`tokenizer`), the Lipschitz study (`lipschitz`) and the
+    showcase (`showcase`), so that a record of an older version of them can be told apart."""
+    keys: dict[str, set[str]] = {"tokenizer": set(), "lipschitz": set(), "showcase": set()}
+    for kind, runs, radii in (("tokenizer", tokenizer_runs(preset), ()),
+                              ("lipschitz", lipschitz_models(preset), LIPSCHITZ_RADII)):
+        for _, config in runs:
+            for s in range(preset.tokenizer_study.seeds):
+                spec = dataclasses.replace(study_spec(preset, config, radii=radii),
+                                           seed=preset.seed + s)
+                keys[kind].add(config_hash(to_dict(spec, keyed_only=True)))
+    keys["showcase"] = {config_hash(to_dict(ShowcaseSpec(task=task, seed=preset.seed)))
+                        for task in shown_tasks(preset)}
+    return keys

@@ -97,10 +97,14 @@ def claims_figure(preset: Preset, table_id: str):
                                       "intervals, the paper's values, the verdict after Holm")
 
 
+RECORD_KINDS = ("train", "eval", "features", "tokenizer", "lipschitz", "showcase")
+"""The kinds of record a preset's run computes and `stale_records` checks."""
+
+
 def current_keys(preset_name: str = REFERENCE) -> set[str]:
-    """The keys of every record (train, eval, features) that a current cell of any table or
-    chapter 02's run computes at the preset."""
-    from icil_paper.book.studies import icrt_specs
+    """The keys of every record that a current cell of any table, chapter 02's run or one
+    of the chapters' own studies (`book.studies.study_keys`) computes at the preset."""
+    from icil_paper.book.studies import icrt_specs, study_keys
     from icil_paper.tables.execute import plan
 
     preset = get_preset(preset_name)
@@ -111,16 +115,17 @@ def current_keys(preset_name: str = REFERENCE) -> set[str]:
         keys.update(feature_key(p.run, f) for f in p.features.values())
     run, ev = icrt_specs(preset)
     keys.update((run.key(), eval_key(run, ev)))
+    for study in study_keys(preset).values():
+        keys.update(study)
     return keys
 
 
 def stale_records(preset_name: str = REFERENCE) -> list[str]:
-    """Records in `results/<preset>/` (train, eval, features) whose key neither a current
-    cell of any table nor chapter 02's run computes (`current_keys`): results of an older
-    version of the code or presets."""
+    """Records in `results/<preset>/` (of `RECORD_KINDS`) whose key no current cell or
+    study computes (`current_keys`): results of an older version of the code or presets."""
     keys = current_keys(preset_name)
     store = ResultsStore(preset_name)
-    return sorted(f"{r['kind']}/{r['name']}" for kind in ("train", "eval", "features")
+    return sorted(f"{r['kind']}/{r['name']}" for kind in RECORD_KINDS
                   for r in store.records(kind) if r["config_hash"] not in keys)
 
 
@@ -150,7 +155,7 @@ def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
     counts: dict[str, int] = (json.loads(manifest_path.read_text())
                               if manifest_path.exists() else {})
     moved: dict[str, int] = {}
-    for kind in ("train", "eval", "features"):
+    for kind in RECORD_KINDS:
         for record in store.records(kind):
             if record["config_hash"] in keys:
                 continue
@@ -416,7 +421,7 @@ def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
     ("current") and how many an older version made ("stale", `stale_records`)."""
     stale = len(stale_records(preset_name))
     store = ResultsStore(preset_name)
-    total = sum(1 for kind in ("train", "eval", "features") for _ in store.records(kind))
+    total = sum(1 for kind in RECORD_KINDS for _ in store.records(kind))
     return {"records": total, "current": total - stale, "stale": stale}
 
 
