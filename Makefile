@@ -38,7 +38,7 @@ help:
 	@echo "make browser-check  load every page of the built book in headless Chromium, offline"
 	@echo "make bench      throughput benchmarks (results/bench/*.json)"
 	@echo "make pilot      the task-scale pilot (results/bench/pilot.json); PILOT_ARGS=regime: the regime pilot"
-	@echo "make lint       ruff"
+	@echo "make lint       ruff, and the package's import layers (lint-imports)"
 	@echo "make lerobot-setup   a separate .venv-lerobot (Python 3.12, lerobot) for the LeRobot exporter"
 	@echo "make lerobot-export FILE=data.hdf5 OUT=folder   a data set as a LeRobotDataset (v3.0)"
 
@@ -136,8 +136,11 @@ lerobot-export: lerobot-setup
 	@test -n "$(FILE)" -a -n "$(OUT)" || { echo "usage: make lerobot-export FILE=data.hdf5 OUT=folder"; exit 2; }
 	PYTHONPATH=src $(LEROBOT_VENV)/bin/python -m icil_paper.interop.lerobot_export "$(FILE)" "$(OUT)"
 
+# ruff, then the import contracts of pyproject.toml ([tool.importlinter]: the layers, no
+# import loop between packages) on this checkout's src/.
 lint: setup
 	$(BIN)/ruff check src tests notebooks book/_ext
+	PYTHONPATH=src $(BIN)/lint-imports
 
 clean:
 	rm -rf $(BOOK_OUT) .pytest_cache

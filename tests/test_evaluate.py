@@ -131,7 +131,6 @@ def test_a_policy_of_another_suite_is_refused_before_rollouts(demos):
 
 def test_eval_cli_stores_one_record_per_task(tmp_path, demos, monkeypatch):
     import icil_paper.eval.cli as eval_cli
-    import icil_paper.eval.outcomes as outcomes
     import icil_paper.eval.stored as stored
     from icil_paper.results import ResultsStore
     from icil_paper.train import run_dir_for
@@ -155,7 +154,7 @@ def test_eval_cli_stores_one_record_per_task(tmp_path, demos, monkeypatch):
     monkeypatch.setattr(stored, "prompt_pool", lambda *a, **k: demos)
     # the policy learnt synthetic demos and acts in the synthetic env: the kitchen widths
     # do not apply
-    monkeypatch.setattr(outcomes, "check_policy_fits", lambda policy, task: None)
+    monkeypatch.setattr(eval_cli, "check_policy_fits", lambda policy, task: None)
     argv = ["--preset", "smoke", "--tasks", "kitchen/open_drawer", "kitchen/close_drawer",
             "--train-tasks", "kitchen/open_drawer", "kitchen/close_drawer",
             "--episodes", "2", "--workers", "1", "--quiet"]

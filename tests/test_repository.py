@@ -30,7 +30,8 @@ def test_no_source_file_is_ignored_by_git():
 
 
 def test_code_passes_ruff():
-    """`make lint` as part of the suite, so that style drift fails CI (ruff is pinned)."""
+    """`make lint`'s ruff as part of the suite, so that style drift fails CI (ruff is pinned;
+    the import layers, `make lint`'s lint-imports, run in CI's own lint phase)."""
     ruff = Path(sys.executable).with_name("ruff")
     if not ruff.exists():
         pytest.skip("ruff is not installed beside this Python (make setup installs it)")

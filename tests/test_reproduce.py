@@ -9,6 +9,7 @@ from icil_paper import reproduce
 from icil_paper.config import get_preset
 from icil_paper.registry import UnknownNameError
 from icil_paper.results import ResultsStore
+from icil_paper.stages import Stage
 
 CALLS: list[tuple[str, bool]] = []
 
@@ -22,8 +23,8 @@ def _counting_stage(preset, store, force):
 @pytest.fixture
 def probe_stages(monkeypatch):
     CALLS.clear()
-    stages = (reproduce.Stage("probe", "a test stage", f"{__name__}:_counting_stage"),
-              reproduce.Stage("other", "never chosen here", f"{__name__}:_missing_function"))
+    stages = (Stage("probe", "a test stage", f"{__name__}:_counting_stage"),
+              Stage("other", "never chosen here", f"{__name__}:_missing_function"))
     monkeypatch.setattr(reproduce, "STAGES", stages)
 
 
@@ -92,10 +93,8 @@ def test_table_cells_ask_for_the_gpus_given_on_the_command_line(monkeypatch):
 def test_the_first_table_stage_computes_every_chosen_tables_cells(monkeypatch):
     """Each policy is trained once and evaluated for every chosen table in its own cell, so
     no later stage needs a checkpoint of an earlier sitting."""
-    from icil_paper.tables import execute
-
     calls = []
-    monkeypatch.setattr(execute, "run_tables", lambda preset, ids, **kw: calls.append(list(ids)))
+    monkeypatch.setattr(reproduce, "run_tables", lambda preset, ids, **kw: calls.append(list(ids)))
     reproduce.run_stages(get_preset("smoke"), ["table-I", "table-V", "claims"])
     assert calls == [["I", "V"], ["I", "V"]]  # the second finds every record done
     reproduce.run_stages(get_preset("smoke"), ["table-V"])

@@ -224,11 +224,11 @@ def test_ema_weights_are_the_returned_policy(demos):
 
 
 def test_train_cli_writes_run_and_record(tmp_path, demos, monkeypatch):
-    import icil_paper.train.loop as loop
+    import icil_paper.train.cli as train_cli
     from icil_paper.results import ResultsStore
     from icil_paper.train.cli import main
 
-    monkeypatch.setattr(loop, "training_demos", lambda *a, **k: demos)
+    monkeypatch.setattr(train_cli, "training_demos", lambda *a, **k: demos)
     args = ["--preset", "smoke", "--policy", "act", "--tokenizer", "lipvq", "--tasks",
             "kitchen/open_drawer", "--run-dir", str(tmp_path / "run"), "--quiet"]
     assert main(args + ["--set", "train.steps=3"]) == 0
@@ -239,11 +239,11 @@ def test_train_cli_writes_run_and_record(tmp_path, demos, monkeypatch):
 
 
 def test_set_changes_the_run_folder_and_record(tmp_path, demos, monkeypatch):
-    import icil_paper.train.loop as loop
+    import icil_paper.train.cli as train_cli
     from icil_paper.results import ResultsStore
     from icil_paper.train.cli import main
 
-    monkeypatch.setattr(loop, "training_demos", lambda *a, **k: demos)
+    monkeypatch.setattr(train_cli, "training_demos", lambda *a, **k: demos)
     monkeypatch.setenv("ICIL_RUNS", str(tmp_path))
     base = ["--preset", "smoke", "--tasks", "kitchen/open_drawer", "--quiet"]
     assert main(base + ["--set", "train.steps=3"]) == 0

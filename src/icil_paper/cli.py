@@ -3,7 +3,8 @@
 Each subcommand is a module-level `main(argv)` imported only when used, so `--help` is fast
 and one broken part of the library does not take the others down. Every command that takes
 a preset also takes `--seed` and `--set SECTION.FIELD=VALUE` (repeatable), typed and
-checked against the config dataclasses (`add_preset_arguments`, `preset_from_args`).
+checked against the config dataclasses (`icil_paper.commands`, which every command's
+module builds its parser from: this module sits on top and no other imports it).
 
 A user error (an unknown name, a bad value, a missing or damaged file) ends the command
 with one line naming the problem and the fix, and exit status 2; `--debug` (anywhere on the
@@ -16,94 +17,29 @@ import argparse
 import importlib
 import json
 import sys
-from typing import Any
 
-from icil_paper.config import PRESET_NAMES
+from icil_paper import commands
+from icil_paper.commands import (  # noqa: F401 (all but Parser: see below)
+    Parser,
+    add_executor_arguments,
+    add_preset_arguments,
+    check_executor_arguments,
+    positive,
+    preset_from_args,
+)
+from icil_paper.config import PRESET_NAMES, active_preset_name
 from icil_paper.plugins import load_plugins
+from icil_paper.setup.envcheck import environment_report, format_report
 from icil_paper.tables.grid import RayUnavailable
 
-USER_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError,
-    RayUnavailable)
-"""What a command reports in one line (exit 2) instead of a traceback. ValueError covers
-UnknownNameError, OverrideError, ConfigError, DatasetError, RunFolderError,
-UnreadableFileError (PolicyFileError among them), TokenizerFolderError, PluginError and
-json.JSONDecodeError, whose messages name the problem; PermissionError covers
-FolderNotWritableError (an output folder refused before any work); RayUnavailable says why
-Ray could not be imported, started or reached."""
+# TEMPORARY: every name imported from `commands` but Parser is here only because
+# tables/cli.py and tables/compare.py still import it from this module; once they import it
+# from icil_paper.commands (`make lint` reports those imports until then), it goes.
 
-
-class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors: the problem and where to look, not the whole usage."""
-
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (--help lists the options)\n")
-
-
-def add_preset_arguments(parser: argparse.ArgumentParser) -> None:
-    """--preset, --seed and --set, shared by every command that takes a preset."""
-    parser.add_argument("--preset", choices=PRESET_NAMES, default=None,
-                        help="preset (default: $ICIL_PRESET or small)")
-    parser.add_argument("--seed", type=int, default=None, help="override the preset's seed")
-    parser.add_argument("--set", dest="overrides", action="append", default=[],
-                        metavar="SECTION.FIELD=VALUE",
-                        help="change one field of the preset, typed and checked (repeatable), "
-                             "e.g. --set train.steps=300 --set tokenizers.lipvq.codebook_size=512")
-
-
-def preset_from_args(args: argparse.Namespace) -> Any:
-    """The preset named by --preset (or $ICIL_PRESET), with --seed and every --set applied;
-    every config checks its values as it is built (its `__post_init__`), so before any
-    work. (A command that runs the preset's task lists checks them: `config.check_tasks`.)"""
-    from icil_paper.config import active_preset_name, get_preset
-
-    if args.seed is not None and args.seed < 0:
-        raise ValueError(f"--seed must be a non-negative integer, got {args.seed}")
-    preset = get_preset(active_preset_name(args.preset), seed=args.seed)
-    return preset.with_overrides(args.overrides)
-
-
-def add_executor_arguments(parser: argparse.ArgumentParser) -> None:
-    """--executor, --workers, --ray-address and --gpus-per-cell, shared by every command that
-    runs table cells (`reproduce`, `compare`); `check_executor_arguments` checks them."""
-    parser.add_argument("--executor", choices=("local", "ray", "serial"), default="local",
-                        help="how the cells run: a local process pool (default), a Ray "
-                             "cluster, or one after the other in this process")
-    parser.add_argument("--workers", type=positive("--workers"), default=None,
-                        help="parallel cells (default: the preset's eval.workers)")
-    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT",
-                        help="with --executor ray: join this cluster (default: start one here)")
-    parser.add_argument("--gpus-per-cell", type=float, default=0.0, metavar="N",
-                        help="with --executor ray: GPUs each cell asks for (e.g. 1 on GPU "
-                             "nodes; its training and rollouts then run on that GPU)")
-
-
-def check_executor_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """Refuse, through `parser.error`, executor arguments that do not go together."""
-    if not 0 <= args.gpus_per_cell <= 64:
-        parser.error(f"--gpus-per-cell must be between 0 and 64, got {args.gpus_per_cell}")
-    if args.ray_address is not None:
-        if not args.ray_address.strip():
-            parser.error("--ray-address is empty: give the Ray head as HOST:PORT (e.g. "
-                         "--ray-address 127.0.0.1:6379) or `auto`, or leave it out to start a "
-                         "local Ray")
-        if args.executor != "ray":
-            parser.error(f"--ray-address {args.ray_address} is for --executor ray (this run's "
-                         f"executor is {args.executor}): add --executor ray to run the cells "
-                         "on that cluster, or leave --ray-address out")
-
-
-def positive(name: str):
-    """An argparse type: an integer >= 1, refused before any work with a message naming it."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer, got {text!r}") from None
-        if value < 1:
-            raise argparse.ArgumentTypeError(f"{name} must be at least 1, got {value}")
-        return value
-    return parse
+USER_ERRORS: tuple[type[BaseException], ...] = (*commands.USER_ERRORS, RayUnavailable)
+"""What a command reports in one line (exit 2) instead of a traceback: the commands' own
+(`commands.USER_ERRORS`) and RayUnavailable, which says why Ray could not be imported,
+started or reached."""
 
 # subcommand -> (module with main(argv), one-line help)
 SUBCOMMANDS = {
@@ -128,9 +64,6 @@ def _env(argv: list[str]) -> int:
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
     parser.add_argument("--no-sim", action="store_true", help="skip the simulator checks")
     args = parser.parse_args(argv)
-    from icil_paper.config import active_preset_name
-    from icil_paper.setup.envcheck import environment_report, format_report
-
     report = environment_report(active_preset_name(args.preset), simulators=not args.no_sim)
     print(json.dumps(report, indent=2) if args.json else format_report(report))
     return 0
@@ -208,24 +141,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"icil-paper {command}: interrupted; rerun the same command to resume",
               file=sys.stderr)
         return 130
-
-
-def run_module(prog: str, command: Any, argv: list[str] | None = None) -> int:
-    """`command(argv)` (a module's `main`, run as `python -m ...`) with the errors of the
-    command line: a user error is one line naming the problem and the fix and exit status
-    2 (`--debug` shows the traceback), as for `icil-paper` itself."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in argv
-    try:
-        return int(command([a for a in argv if a != "--debug"]) or 0)
-    except USER_ERRORS as exc:
-        if debug:
-            raise
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        print(f"{prog}: error: {message} (--debug shows the traceback)", file=sys.stderr)
-        return 2
-    except BrokenPipeError:
-        return 0
 
 
 if __name__ == "__main__":

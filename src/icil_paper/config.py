@@ -27,7 +27,14 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from icil_paper import paper_numbers
-from icil_paper.config_data import NOT_KEYED, check_fields, field_docs, to_dict, with_overrides
+from icil_paper.config_data import (
+    NOT_KEYED,
+    ConfigError,
+    check_fields,
+    field_docs,
+    to_dict,
+    with_overrides,
+)
 from icil_paper.policies.configs import POLICY_REGISTRY
 from icil_paper.registry import ComponentRegistry, check_name
 from icil_paper.tokenizers.configs import (
@@ -325,16 +332,12 @@ class TablesConfig(_Checked):
         self.seeds_by_row()
         stages = self.seed_stages
         if stages and (stages[0] < 2 or any(b <= a for a, b in zip(stages[:-1], stages[1:], strict=True))):
-            from icil_paper.config_data import ConfigError
-
             raise ConfigError(f"TablesConfig.seed_stages: {stages} should be increasing seed "
                               "counts, each at least 2, e.g. 5,10,15")
 
     def seeds_by_row(self) -> dict[str, int]:
         """`row_seeds` as {"TABLE:row": seeds} (ConfigError for an entry not "TABLE:row=N"
         with N >= 1)."""
-        from icil_paper.config_data import ConfigError
-
         out = {}
         for entry in self.row_seeds:
             name, sep, number = entry.rpartition("=")
@@ -669,18 +672,6 @@ def active_preset_name(name: str | None = None) -> str:
     """The preset name in force: `name` if given, else $ICIL_PRESET, else `small`."""
     name = name or os.environ.get(PRESET_ENV_VAR) or DEFAULT_PRESET
     return check_name("preset", name, PRESET_NAMES)
-
-
-def check_tasks(preset: Preset) -> None:
-    """Refuse, before any work, a preset whose task lists name a task that its suite does
-    not have (UnknownNameError with a "did you mean"). A suite that cannot load here is
-    not checked: its tasks are refused, with the reason, where they are used."""
-    from icil_paper import sim
-
-    for name, suite in (("kitchen_tasks", "kitchen"), ("maniskill_tasks", "maniskill")):
-        valid = sim.tasks_of(suite)
-        for task in getattr(preset.data, name) if valid else ():
-            check_name(f"data.{name} task", task, valid)
 
 
 def get_preset(name: str | None = None, seed: int | None = None) -> Preset:

@@ -37,6 +37,8 @@ import typing
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
+from icil_paper.registry import check_name
+
 NOT_KEYED = {"key": False}
 """Field metadata of a knob that cannot change a result (workers, logging, threads)."""
 
@@ -92,8 +94,6 @@ def _subclasses(base: type) -> Iterator[type]:
 
 def config_class(base: type, type_name: str) -> type:
     """The subclass of `base` (or `base` itself) whose class-level `type` is `type_name`."""
-    from icil_paper.registry import check_name
-
     candidates = {getattr(c, "type", None): c for c in (base, *_subclasses(base))
                   if dataclasses.is_dataclass(c) and getattr(c, "type", None)}
     return candidates[check_name(f"{base.__name__} type", type_name, candidates)]
@@ -268,8 +268,6 @@ def replace_path(obj: Any, path: str, value: Any, _done: str = "") -> Any:
     head, _, rest = path.partition(".")
     fields = {f.name: f for f in dataclasses.fields(obj)}
     if head not in fields:
-        from icil_paper.registry import check_name
-
         kind = f"field of {_done.rstrip('.')}" if _done else "section"
         try:
             check_name(kind, head, fields)
@@ -388,8 +386,6 @@ def check_fields(obj: Any) -> None:
     tuple) among the field's `field_choices` (UnknownNameError, with a "did you mean").
     None passes (where a field takes None, it means "not set"); nested configs check
     themselves when they are built."""
-    from icil_paper.registry import check_name
-
     cls = type(obj)
     hints = _hints(cls)
     choices = field_choices(cls)

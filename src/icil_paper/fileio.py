@@ -15,6 +15,8 @@ the file, what it should be and the fix, which the command line prints as one li
 
 from __future__ import annotations
 
+import fcntl
+import hashlib
 import json
 import os
 import pickle
@@ -30,13 +32,12 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from icil_paper.config_data import json_default
+from icil_paper.setup.provenance import REPO_ROOT
 
 
 def folder_from_env(var: str, default: str) -> Path:
     """The folder $`var` names, else (also when it is empty or blank) `default` under the
     repository root. NotADirectoryError, naming the variable, when it is a file."""
-    from icil_paper.setup.provenance import REPO_ROOT
-
     value = os.environ.get(var, "").strip()
     path = Path(value) if value else REPO_ROOT / default
     if path.exists() and not path.is_dir():
@@ -90,8 +91,6 @@ def atomic_write_json(path: Path, obj: Any) -> None:
 
 def file_sha256(path: str | Path) -> str:
     """The SHA-256 of a file's bytes, 64 hex digits (what records name their files by)."""
-    import hashlib
-
     h = hashlib.sha256()
     with open(path, "rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
@@ -346,8 +345,6 @@ def _holder(path: Path) -> str:
 
 
 def _acquire(path: Path, what: str, wait: bool) -> int:
-    import fcntl
-
     path.parent.mkdir(parents=True, exist_ok=True)
     told = False
     while True:

@@ -23,7 +23,12 @@ one line and exit 2 at the command line, before any work): a module or file that
 exist or fails to import, one that registers nothing, a name that a built-in (or another
 plugin) already holds, a config class with a field without a default or whose
 `__post_init__` does not check its values (it must call `super().__post_init__()`), and a
-tokenizer whose output on a probe batch of actions has the wrong shape.
+component that fails its kind's own probe (`ComponentRegistry.probe`: a tokenizer whose
+output on a probe batch of actions has the wrong shape, `tokenizers.base.probe`).
+
+This module sits with the foundations, below the component packages: it reaches their
+registries and probes by name, imported on use (as the registries import their models), so
+`tokenizers.portable` and the results store can name and load plugins.
 """
 
 from __future__ import annotations
@@ -48,9 +53,6 @@ REGISTRIES = {"tokenizer": ("icil_paper.tokenizers.configs", "TOKENIZER_REGISTRY
 VALIDATION_PROBE = {"tokenizer": "latent_dim", "policy": "n_layer"}
 """A field of each kind's base config that its checks refuse at -1: a config class whose
 `__post_init__` lets -1 through does not validate its values."""
-PROBE_BATCH = (2, 16)
-"""(B, T) of the random actions a plugin tokenizer is probed with."""
-PROBE_ACTION_DIM = 7
 
 
 class PluginError(ValueError):
@@ -303,8 +305,7 @@ def _check_names(where: str, names: Mapping[str, tuple[str, ...]],
         for name in new:
             cls = registry(kind)._configs[name]
             check_config_class(where, kind, name, cls)
-            if kind == "tokenizer":
-                probe_tokenizer(where, name, cls)
+            probe_component(where, kind, name, cls)
 
 
 def check_config_class(where: str, kind: str, name: str, cls: type) -> None:
@@ -336,45 +337,22 @@ def check_config_class(where: str, kind: str, name: str, cls: type) -> None:
                       "call super().__post_init__()")
 
 
-def probe_tokenizer(where: str, name: str, cls: type) -> None:
-    """Build the tokenizer from its default config, fit it where it needs fitting, and
-    check the shapes of its output on a random batch (B, T, A) = PROBE_BATCH + (7,)."""
-    (b, t), a = PROBE_BATCH, PROBE_ACTION_DIM
-    with warnings.catch_warnings():  # a broken encoder's broadcasting warnings say less
+def probe_component(where: str, kind: str, name: str, cls: type) -> None:
+    """Run its kind's own check (`ComponentRegistry.probe`: for a tokenizer,
+    `tokenizers.base.probe`, which builds it and runs it on a random batch of actions) on
+    the default config of a component a plugin registered; PluginError naming the problem."""
+    check = registry(kind).probe
+    if check is None:
+        return
+    module, _, function = check.partition(":")
+    with warnings.catch_warnings():  # a broken component's broadcasting warnings say less
         warnings.simplefilter("ignore")
         try:
-            problem = _probe_problem(cls(), (b, t, a))
+            problem = getattr(importlib.import_module(module), function)(cls())
         except Exception as exc:
             problem = f"raises {_line(exc)}"
     if problem:
-        raise PluginError(f"{where}: the tokenizer {name!r}, on a probe batch of actions "
-                          f"shaped {(b, t, a)}, {problem}; fix its encoder")
-
-
-def _probe_problem(config: Any, shape: tuple[int, int, int]) -> str | None:
-    import numpy as np
-    import torch
-
-    from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, make_tokenizer
-
-    b, t, a = shape
-    tok = make_tokenizer(config, a)
-    if not isinstance(tok, ActionTokenizer):
-        return f"builds a {type(tok).__name__}, not an ActionTokenizer"
-    rng = np.random.default_rng(0)
-    if not tok.fitted:
-        tok.fit(rng.uniform(-1, 1, size=(4, t, a)))
-    with torch.no_grad():
-        out = tok(torch.as_tensor(rng.uniform(-1, 1, size=shape), dtype=torch.float32))
-    if not isinstance(out, TokenizerOutput):
-        return f"returns a {type(out).__name__}, not a TokenizerOutput"
-    if tuple(out.embeddings.shape) != (b, t, config.latent_dim):
-        return (f"returns embeddings of shape {tuple(out.embeddings.shape)}, expected "
-                f"(B, T, latent_dim) = {(b, t, config.latent_dim)}")
-    if tuple(out.reconstruction.shape) != shape:
-        return (f"returns a reconstruction of shape {tuple(out.reconstruction.shape)}, "
-                f"expected (B, T, A) = {shape}")
-    return None
+        raise PluginError(f"{where}: the {kind} {name!r}, {problem}")
 
 
 def _describe(spec: str, source: str, module_name: str,

@@ -95,12 +95,17 @@ class ComponentRegistry(Registry):
     Plugins: on first use (`configs`, a name looked up, the names listed) the registry loads
     the entry points of its `group` (`icil_paper.tokenizers`, `icil_paper.policies`) that
     installed packages declare, through `icil_paper.plugins`, which checks each of them.
+    `probe`, a "module:function" imported on use, is the kind's own check of a component a
+    plugin registers: `function(config) -> str | None` builds the component from its
+    default config and says in words what is wrong with it (None: nothing).
     """
 
-    def __init__(self, kind: str, base: type, group: str | None = None):
+    def __init__(self, kind: str, base: type, group: str | None = None,
+                 probe: str | None = None):
         super().__init__(kind, {})
         self.base = base
         self.group = group
+        self.probe = probe
         self._configs: dict[str, type] = {}
         self._discovered = group is None
 

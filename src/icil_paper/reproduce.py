@@ -1,9 +1,10 @@
 """`icil-paper reproduce`: run every experiment of a preset, in order, into the results store.
 
-Each stage is a library function `stage(preset, store, force) -> None` that writes its
-records through `ResultsStore.run`, so a stage that already has its results is a cheap
-load, and a run killed half-way resumes where it stopped. The book's notebooks call the
-same functions, so after `reproduce` they only load. `make reproduce` then builds the book.
+Each stage (`icil_paper.stages.STAGES`, in order) is a library function `stage(preset,
+store, force) -> None` that writes its records through `ResultsStore.run`, so a stage that
+already has its results is a cheap load, and a run killed half-way resumes where it stopped.
+The book's notebooks call the same functions, so after `reproduce` they only load. `make
+reproduce` then builds the book.
 
 The table stages fan their cells (one trained policy each, with its evaluations) out over
 `--workers` processes (`--executor local`, the default) or a Ray cluster (`--executor ray`,
@@ -17,68 +18,32 @@ from __future__ import annotations
 import importlib
 import sys
 import time
-from dataclasses import dataclass
 
-from icil_paper.config import Preset
-from icil_paper.results import ResultsStore
-from icil_paper.seeding import seed_everything
+from tqdm.auto import tqdm
 
-
-@dataclass(frozen=True)
-class Stage:
-    """One step of the reproduction."""
-
-    name: str
-    """Short name, usable with --stages."""
-    description: str
-    """What it computes."""
-    target: str
-    """"module:function" called as function(preset, store, force)."""
-
-
-STAGES: tuple[Stage, ...] = (
-    Stage("environment", "record the packages, hardware and simulator checks",
-          "icil_paper.reproduce:record_environment"),
-    Stage("demos", "generate every data set of the preset: all tasks, both sources (chapter 04)",
-          "icil_paper.book.studies:demo_stage"),
-    Stage("experts", "measure every expert on data.expert_seeds random scenes (chapter 04)",
-          "icil_paper.book.studies:expert_study"),
-    Stage("showcase", "render and record one demonstration of every task (chapter 04)",
-          "icil_paper.book.studies:showcase_study"),
-    Stage("icrt", "train a small ICRT + LipVQ-VAE and roll it out from prompts (chapter 02)",
-          "icil_paper.book.studies:icrt_rollout_study"),
-    Stage("lipschitz", "Lipschitz bounds vs empirical constants of trained encoders (chapter 03)",
-          "icil_paper.book.studies:lipschitz_study"),
-    Stage("tokenizers", "train every action tokenizer alone and score it (chapter 05)",
-          "icil_paper.book.studies:tokenizer_study"),
-    *(Stage(f"table-{t}", f"{what} (chapter {chapter})", f"icil_paper.reproduce:table_{t}")
-      for t, what, chapter in (
-          ("I", "Table I: every policy on the kitchen suite", "06"),
-          ("IV", "Table IV: the Lipschitz ablation (shares Table I's cells)", "09"),
-          ("fig5", "Fig. 5: LipVQ-VAE's codebook size", "09"),
-          ("III", "Table III: smoothness of the trained policies' latent features", "08"),
-          ("V", "Table V: sim-to-real stand-in, Panda -> perturbed Kinova3", "10"),
-          ("VI", "Table VI: cross-dataset, prompted with human-like demonstrations", "10"),
-          ("prompt", "prompt ablation: right, wrong and truncated prompts", "10"),
-          ("VII", "Table VII: zero-shot on held-out kitchen tasks", "10"),
-          ("II", "Table II: ACT with each tokenizer on ManiSkill", "07"),
-          ("analysis", "is it smoothness? Lipschitz, scale and collapse variants", "11"),
-          ("beyond", "tokenizers since the paper: FSQ, residual VQ, B-splines, with and "
-                     "without Eq. 4", "12"),
-          ("official", "the paper against its official code: LipVQ-VAE, Bin and prompts "
-                       "as the code has them", "13"))),
-    Stage("own-tokenizer", "a tokenizer of one file, loaded as a plugin, against LipVQ-VAE "
-          "on Table I's protocol (chapter 14)",
-          "icil_paper.book.own_tokenizer:own_tokenizer_study"),
-    Stage("claims", "the claims ledger: every claim with its verdict (chapter 00)",
-          "icil_paper.reproduce:claims_stage"),
+from icil_paper.commands import (
+    Parser,
+    add_executor_arguments,
+    add_preset_arguments,
+    check_executor_arguments,
+    preset_from_args,
 )
+from icil_paper.config import Preset
+from icil_paper.data.generate import check_data_folder, check_tasks, demo_path
+from icil_paper.fileio import check_env_folder
+from icil_paper.paper import check_row_seeds, write_ledger
+from icil_paper.registry import check_name
+from icil_paper.results import RESULTS_ENV_VAR, ResultsStore
+from icil_paper.seeding import seed_everything
+from icil_paper.setup.envcheck import environment_report
+from icil_paper.stages import GRID, STAGES
+from icil_paper.tables.execute import run_tables
+from icil_paper.tables.grid import check_reachable
+from icil_paper.train.rundir import RUNS_ENV_VAR
 
 
 def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None:
     """Store the environment report of this machine (always refreshed)."""
-    from icil_paper.setup.envcheck import environment_report
-
     def compute():
         report = environment_report(preset.name)
         return {"checks": {c["name"]: c["ok"] for c in report["checks"]},
@@ -87,9 +52,6 @@ def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None
     store.run("environment", "machine", {"preset": preset.name}, compute, seed=preset.seed,
               force=True)
 
-
-GRID = {"executor": "local", "workers": None, "ray_address": None, "gpus_per_cell": 0.0}
-"""How the table stages run their cells (set from the command line)."""
 
 TOGETHER: list[str] = []
 """The tables of this invocation's table stages (set by `run_stages`). The first table stage
@@ -102,8 +64,6 @@ find their records done."""
 
 def _table_stage(table_id: str):
     def stage(preset: Preset, store: ResultsStore, force: bool) -> None:
-        from icil_paper.tables.execute import run_tables
-
         if force:
             raise ValueError("--force does not apply to the table stages: delete the records "
                              f"under {store.dir} to recompute them")
@@ -121,21 +81,15 @@ table_official = _table_stage("official")
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
     """Write results/<preset>/claims.json from the tables' records."""
-    from icil_paper.paper import write_ledger
-
     write_ledger(preset, store)
 
 
 def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = False) -> dict:
     """Run the named stages (default all) and return {stage: seconds}."""
-    from tqdm.auto import tqdm
-
     names = [s.name for s in STAGES]
     chosen = [s for s in STAGES if stages is None or s.name in stages]
     for name in stages or []:
         if name not in names:
-            from icil_paper.registry import check_name
-
             check_name("stage", name, names)
     store = ResultsStore(preset.name)
     TOGETHER[:] = [s.name.removeprefix("table-") for s in chosen if s.name.startswith("table-")]
@@ -154,11 +108,6 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
 def check_outputs(preset: Preset) -> None:
     """Refuse, before any stage, output folders this process cannot write to: the results
     store, the run folders and, when a data set of the preset is missing, the data folder."""
-    from icil_paper.data.generate import check_data_folder, demo_path
-    from icil_paper.fileio import check_env_folder
-    from icil_paper.results import RESULTS_ENV_VAR
-    from icil_paper.train.rundir import RUNS_ENV_VAR
-
     check_env_folder(RESULTS_ENV_VAR, "results")
     check_env_folder(RUNS_ENV_VAR, "runs")
     tasks = tuple(preset.data.kitchen_tasks) + tuple(preset.data.maniskill_tasks)
@@ -167,16 +116,6 @@ def check_outputs(preset: Preset) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.cli import (
-        Parser,
-        add_executor_arguments,
-        add_preset_arguments,
-        check_executor_arguments,
-        preset_from_args,
-    )
-    from icil_paper.config import check_tasks
-    from icil_paper.paper import check_row_seeds
-
     parser = Parser(prog="icil-paper reproduce", description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
     parser.add_argument("--stages", nargs="+", default=None,
@@ -189,14 +128,10 @@ def main(argv: list[str] | None = None) -> int:
     check_tasks(preset)
     check_row_seeds(preset)
     if args.stages:
-        from icil_paper.registry import check_name
-
         for name in args.stages:
             check_name("stage", name, [s.name for s in STAGES])
     check_outputs(preset)
     if args.executor == "ray" and args.ray_address:
-        from icil_paper.tables.grid import check_reachable
-
         check_reachable(args.ray_address)  # before any stage, not after the data sets
     GRID.update(executor=args.executor, workers=args.workers, ray_address=args.ray_address,
                 gpus_per_cell=args.gpus_per_cell)

@@ -24,6 +24,7 @@ from typing import Any
 
 from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig
 from icil_paper.config_data import ConfigError, check_fields, from_dict, spec_key, to_dict
+from icil_paper.policies import REGISTRY, resolve_tokenizer
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.seeding import data_set_seed
 from icil_paper.tokenizers.configs import TokenizerConfig
@@ -194,8 +195,6 @@ def feature_key(run: RunSpec, spec: FeatureSpec) -> str:
 def policy_obs(policy: PolicyConfig, obs: str) -> str:
     """The observations a policy learns from: `obs`, except that image-only policies (MCR)
     read `rgb` where `obs` is `state`."""
-    from icil_paper.policies import REGISTRY
-
     if obs == "state" and getattr(REGISTRY[policy.type], "needs_images", False):
         return "rgb"
     return obs
@@ -216,8 +215,6 @@ def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerCon
         on set k (its own expert seeds): seed k of two rows shares its data, two seeds of
         a row do not. A seed below the preset's trains on set 0.
     """
-    from icil_paper.policies import resolve_tokenizer
-
     policy_cfg = preset.policies.get(policy)
     if isinstance(tokenizer, str):
         tokenizer = preset.tokenizers.get(tokenizer)

@@ -55,6 +55,22 @@ import time
 from pathlib import Path
 from typing import Any
 
+import icil_paper.tables.execute as execute
+from icil_paper.bench import save_benchmark
+from icil_paper.config import get_preset
+from icil_paper.config_data import to_dict
+from icil_paper.eval.outcomes import episode_seed
+from icil_paper.fileio import atomic_write_json
+from icil_paper.paper import table_spec
+from icil_paper.records import eval_record
+from icil_paper.results import ResultsStore
+from icil_paper.seeding import cpu_threads
+from icil_paper.sim import make_env, make_expert
+from icil_paper.tables.execute import RunPlan, ensure_data, plan
+from icil_paper.timing import recording
+from icil_paper.train.loop import train_policy
+from icil_paper.train.stored import train_run
+
 KINDS = ("kitchen_icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
 """The kinds of cell measured, in the order they run (kinova_eval reuses the first's policy)."""
 
@@ -68,9 +84,6 @@ RAW_STEPS = 150
 # --------------------------------------------------------------------------- which cell
 def kind_cell(preset: Any, kind: str) -> tuple[Any, list[Any]]:
     """(run, evaluations) of one seed of `kind` at `preset`, from the tables' plan."""
-    from icil_paper.paper import table_spec
-    from icil_paper.tables.execute import plan
-
     table, policy, tokenizer = {"kitchen_icrt_lipvq": ("I", "icrt", "lipvq"),
                                 "bc_transformer": ("I", "bc_transformer", None),
                                 "act_maniskill": ("II", "act", None),
@@ -103,10 +116,6 @@ def raw_rates(evals: list[Any], obs: str, steps: int = RAW_STEPS) -> dict[str, f
     driven by the task's scripted expert from the evaluation's first episode seeds (so the
     arm moves and makes contact as a policy's does; zero actions step faster), counting
     `env.step` alone: not environment creation, resets or the expert's own computation."""
-    from icil_paper.eval.outcomes import episode_seed
-    from icil_paper.seeding import cpu_threads
-    from icil_paper.sim import make_env, make_expert
-
     rates = {}
     with cpu_threads(1):
         for ev in evals:
@@ -136,12 +145,6 @@ def _cell_cost(preset: Any, run: Any, evals: list[Any], rates: dict[str, float] 
     """Run one cell through `run_cell` and split its wall time (plus `before_s`, the
     process start charged to it) by phase; the floor uses `rates` (measured after the
     first cell: `raw_rates`)."""
-    import icil_paper.tables.execute as execute
-    from icil_paper.config_data import to_dict
-    from icil_paper.records import eval_record
-    from icil_paper.results import ResultsStore
-    from icil_paper.timing import recording
-
     wall0, cpu0 = time.perf_counter(), time.process_time()
     with recording() as phases:
         execute.run_cell(preset.name, run.to_dict(), [to_dict(e) for e in evals], [])
@@ -179,8 +182,6 @@ def measure(kind: str, preset_name: str, scale: float | None, started: float
     launched this process. The first seed pays the process start (interpreter, imports)
     and builds the environments; the second (`steady`) is what every later cell of a
     grid worker costs, and its `floor_ratio` is the kind's."""
-    from icil_paper.config import get_preset
-
     preset = get_preset(preset_name)
     run, evals = shortened(*kind_cell(preset, kind), scale)
     for module in ("icil_paper.eval", "icil_paper.train.stored", "icil_paper.policies",
@@ -200,9 +201,6 @@ def measure(kind: str, preset_name: str, scale: float | None, started: float
 
 def execute_training(preset: Any, run: Any) -> None:
     """Train `run` (untimed): the evaluation-only kind evaluates a trained policy."""
-    from icil_paper.results import ResultsStore
-    from icil_paper.train.stored import train_run
-
     train_run(run, preset.name, ResultsStore(preset.name), progress=False)
 
 
@@ -216,10 +214,6 @@ def compile_cost(kind: str, preset_name: str, steps: int) -> dict[str, Any]:
     `reference_saving_s`: what compiling would save on one reference cell (its steps times
     the difference, less one warm-up); negative: eager is cheaper."""
     import torch
-
-    from icil_paper.config import get_preset
-    from icil_paper.timing import recording
-    from icil_paper.train.loop import train_policy
 
     run, _ = kind_cell(get_preset(preset_name), kind)
     torch.set_num_threads(1)
@@ -271,9 +265,6 @@ def run_kinds(kinds: list[str], preset_name: str, scale: float | None,
 
 def ensure_kind_data(preset_name: str, kinds: list[str]) -> None:
     """Generate the data sets the cells read (not timed: a table run does it once)."""
-    from icil_paper.config import get_preset
-    from icil_paper.tables.execute import RunPlan, ensure_data
-
     preset = get_preset(preset_name)
     plans = []
     for kind in kinds:
@@ -300,11 +291,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     scale = None if args.full else args.scale
     if args.child:
-        from icil_paper.fileio import atomic_write_json
-
         atomic_write_json(Path(args.out), measure(args.child, args.preset, scale, args.started))
         return
-    from icil_paper.bench import save_benchmark
 
     kinds = list(args.kinds)
     if "kinova_eval" in kinds and "kitchen_icrt_lipvq" not in kinds:

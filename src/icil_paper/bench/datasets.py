@@ -20,6 +20,11 @@ import tempfile
 import time
 from typing import Any
 
+from icil_paper.bench import save_benchmark
+from icil_paper.config import get_preset
+from icil_paper.data import ensure_many
+from icil_paper.seeding import data_set_seed
+
 BENCH_SET = 49
 """The demonstration set measured (`seeding.DATA_SETS` - 1): no table's seed reaches it."""
 
@@ -27,10 +32,6 @@ BENCH_SET = 49
 def measure(suite: str, tasks: tuple[str, ...], demos: int) -> dict[str, Any]:
     """Generate one set of `demos` demonstrations per task of `tasks` in a temporary folder;
     its CPU and wall seconds, in all and per demonstration."""
-    from icil_paper.config import get_preset
-    from icil_paper.data import ensure_many
-    from icil_paper.seeding import data_set_seed
-
     folder = tempfile.mkdtemp(prefix=f"icil-bench-{suite}-")
     try:
         preset = get_preset("reference").replace(data={"root": folder})
@@ -46,9 +47,6 @@ def measure(suite: str, tasks: tuple[str, ...], demos: int) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from icil_paper.bench import save_benchmark
-    from icil_paper.config import get_preset
-
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--demos", type=int, default=None,
                         help="demonstrations per task (default: the reference preset's)")

@@ -42,6 +42,24 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.bench import save_benchmark
+from icil_paper.config import get_preset
+from icil_paper.eval import plan_episodes, prompt_pool
+from icil_paper.eval.rollouts import (
+    EnvSetup,
+    RolloutPool,
+    WorkerState,
+    default_batch_size,
+    group_jobs,
+    rollout_batch,
+    run_group,
+    worker_state,
+)
+from icil_paper.runspec import EvalSpec, run_spec
+from icil_paper.seeding import cpu_threads, seed_everything
+from icil_paper.sim import suite_unavailable, tasks_of
+from icil_paper.train import POLICY_FILE, load_policy, run_dir_for, train_policy
+
 KITCHEN_IMPORTS = ("torch", "icil_paper.sim.kitchen.env", "icil_paper.policies.icrt")
 """What a worker imports before anything is timed."""
 
@@ -68,8 +86,6 @@ def paired_group(job: Any, state: Any = None) -> dict[str, Any]:
     with `state`'s envs (default: this worker process's); returns the process id, the seconds
     (wall, CPU) of env construction, of the policy side and of the raw side, and the policy's
     per-episode results."""
-    from icil_paper.eval.rollouts import rollout_batch, run_group, worker_state
-
     state = state or worker_state()
     t0 = _clock()
     envs = state.envs_for(job.env, job.episodes)  # built where this worker lacks them
@@ -87,20 +103,10 @@ def paired_phase(policy: Any, episodes: list[Any], prompts: dict[int, Any],
                  workers: int) -> dict[str, Any]:
     """Every group of the engine's plan for `workers`, paired, on fresh warmed-up workers
     (or in this process for one); the per-side figures of the module docstring."""
-    from icil_paper.eval.rollouts import (
-        EnvSetup,
-        RolloutPool,
-        WorkerState,
-        default_batch_size,
-        group_jobs,
-    )
-
     batch = default_batch_size(episodes, workers)
     setup = EnvSetup("state")
     start = time.perf_counter()
     if workers == 1:
-        from icil_paper.seeding import cpu_threads
-
         state = WorkerState()  # no envs yet, as a new worker
         try:
             with cpu_threads(1):
@@ -143,9 +149,6 @@ def paired_phase(policy: Any, episodes: list[Any], prompts: dict[int, Any],
 
 def bench_run(tasks: list[str], demos: int, train_steps: int, seed: int):
     """The benchmark's RunSpec: ICRT + LipVQ-VAE, small preset, a short training."""
-    from icil_paper.config import get_preset
-    from icil_paper.runspec import run_spec
-
     preset = get_preset("small", seed=seed)
     spec = run_spec(preset, "icrt", "lipvq", tasks=tasks)
     return spec.replace(data=dataclasses.replace(spec.data, demos_per_task=demos),
@@ -156,8 +159,6 @@ def bench_run(tasks: list[str], demos: int, train_steps: int, seed: int):
 
 def trained_policy(run: Any, progress: bool) -> tuple[Any, dict[str, Any]]:
     """The run's policy file, trained first where missing; and how it was obtained."""
-    from icil_paper.train import POLICY_FILE, load_policy, run_dir_for, train_policy
-
     folder = run_dir_for(run, "small")
     start = time.perf_counter()
     trained = not (folder / POLICY_FILE).exists()
@@ -170,12 +171,6 @@ def trained_policy(run: Any, progress: bool) -> tuple[Any, dict[str, Any]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.bench import save_benchmark
-    from icil_paper.eval import plan_episodes, prompt_pool
-    from icil_paper.runspec import EvalSpec
-    from icil_paper.seeding import seed_everything
-    from icil_paper.sim import suite_unavailable, tasks_of
-
     parser = argparse.ArgumentParser(prog="python -m icil_paper.bench.eval",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--tasks", nargs="*", help="tasks (default: the kitchen suite's 11)")

@@ -30,6 +30,7 @@ import time
 import numpy as np
 
 from icil_paper.bench import save_benchmark
+from icil_paper.sim.kitchen import ALL_TASKS, make_kitchen_env, make_kitchen_expert
 
 QUICK_TASKS = ("kitchen/open_drawer", "kitchen/pick_place", "kitchen/twist_knob_on",
                "kinova/open_door")
@@ -70,8 +71,6 @@ def _raw(env, seed: int, actions: list[np.ndarray]) -> None:
 
 
 def bench_task(name: str, episodes: int, seed: int) -> dict:
-    from icil_paper.sim.kitchen import make_kitchen_env, make_kitchen_expert
-
     env = make_kitchen_env(name, obs="state", seed=seed)
     expert = make_kitchen_expert(name)
     _generate(env, expert, seed)                              # warm-up (JIT, caches)
@@ -100,8 +99,6 @@ def bench_task(name: str, episodes: int, seed: int) -> dict:
 
 
 def bench_rgb(name: str, seed: int, size: int = 84) -> dict:
-    from icil_paper.sim.kitchen import make_kitchen_env, make_kitchen_expert
-
     env = make_kitchen_env(name, obs="rgb", seed=seed, camera_size=size)
     expert = make_kitchen_expert(name)
     elapsed, (_, n, ok) = _timed_result(_generate, env, expert, seed)
@@ -150,8 +147,6 @@ def run(tasks: list[str], episodes: int, seed: int, rgb: bool, progress: bool = 
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.sim.kitchen import ALL_TASKS
-
     parser = argparse.ArgumentParser(prog="python -m icil_paper.bench.kitchen",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="four tasks, one episode each")

@@ -36,7 +36,11 @@ import torch
 
 from icil_paper.bench import save_benchmark
 from icil_paper.config import get_preset
+from icil_paper.policies import make_policy
+from icil_paper.policies.batching import batch_to
 from icil_paper.seeding import seed_everything
+from icil_paper.sim.synthetic import synthetic_demos
+from icil_paper.train.optim import make_optimizer
 
 PROMPT_TOKENS = (100, 400, 1600)
 SIZES = ("small", "full")
@@ -51,9 +55,6 @@ def _sync(device: torch.device) -> None:
 
 def build_icrt(size: str, device: torch.device, max_seq_len: int = 4096):
     """ICRT + LipVQ-VAE at the policy size of preset `size`, untrained, in eval mode."""
-    from icil_paper.policies import make_policy
-    from icil_paper.sim.synthetic import synthetic_demos
-
     preset = get_preset(size)
     config = dataclasses.replace(preset.policies.icrt, max_seq_len=max_seq_len, dropout=0.0)
     policy = make_policy(config, {"proprio": 9, "object": 6}, 7, preset.tokenizers.lipvq)
@@ -63,8 +64,6 @@ def build_icrt(size: str, device: torch.device, max_seq_len: int = 4096):
 
 def latency(size: str, prompt_tokens: int, device: torch.device, steps: int) -> dict[str, Any]:
     """Median ms per query step with and without the KV cache, and the prefill time."""
-    from icil_paper.sim.synthetic import synthetic_demos
-
     policy, _ = build_icrt(size, device)
     prompt = synthetic_demos(1, 1, steps=prompt_tokens // 2, seed=1)[0]
     query = synthetic_demos(1, 1, steps=steps + 1, seed=2)[0]
@@ -116,10 +115,6 @@ def latency(size: str, prompt_tokens: int, device: torch.device, steps: int) -> 
 
 def training_speed(size: str, device: torch.device, steps: int) -> dict[str, Any]:
     """Optimizer steps per second of ICRT + LipVQ-VAE at the size and batch of preset `size`."""
-    from icil_paper.policies.batching import batch_to
-    from icil_paper.sim.synthetic import synthetic_demos
-    from icil_paper.train.optim import make_optimizer
-
     policy, preset = build_icrt(size, device)
     demos = synthetic_demos(2, 4, steps=100, seed=3)
     data = policy.prepare(demos)

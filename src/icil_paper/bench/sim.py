@@ -30,6 +30,17 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.bench import save_benchmark
+from icil_paper.data.generate import _close_cache, _Job, generate_one, shard_path
+from icil_paper.data.hdf5 import load_demos
+from icil_paper.seeding import seed_everything
+from icil_paper.sim import make_env, suite_unavailable, tasks_of
+from icil_paper.sim.maniskill.env import (
+    MANISKILL_TASKS,
+    default_render_backend,
+    default_sim_backend,
+)
+
 
 def _raw_steps(env: Any, n: int, seed: int) -> tuple[float, float]:
     """(steps per second of `env.step` alone, mean seconds of one `env.reset`)."""
@@ -54,12 +65,6 @@ def _maniskill_gym_steps(task: str, n: int, seed: int) -> float:
     import gymnasium as gym
     import mani_skill.envs  # noqa: F401
 
-    from icil_paper.sim.maniskill.env import (
-        MANISKILL_TASKS,
-        default_render_backend,
-        default_sim_backend,
-    )
-
     env = gym.make(MANISKILL_TASKS[task].env_id, obs_mode="state",
                    control_mode="pd_ee_delta_pose", sim_backend=default_sim_backend(),
                    render_backend=default_render_backend())
@@ -76,10 +81,6 @@ def _maniskill_gym_steps(task: str, n: int, seed: int) -> float:
 
 def bench_task(task: str, demos: int, raw_steps: int, seed: int = 0) -> dict[str, Any]:
     """Raw stepping and demo generation figures of one task."""
-    from icil_paper.data.generate import _Job, generate_one, shard_path
-    from icil_paper.data.hdf5 import load_demos
-    from icil_paper.sim import make_env
-
     env = make_env(task, obs="state", seed=seed)
     _raw_steps(env, 20, seed)  # warm-up (first-step allocations)
     raw, reset_s = _raw_steps(env, raw_steps, seed)
@@ -98,7 +99,6 @@ def bench_task(task: str, demos: int, raw_steps: int, seed: int = 0) -> dict[str
         summaries = [generate_one(job) for job in jobs[1:]]
         seconds = time.perf_counter() - start
         steps = sum(len(load_demos(shard_path(path, i))[0]) for i in range(1, demos + 1))
-    from icil_paper.data.generate import _close_cache
 
     _close_cache()
     row.update(demos=demos, demo_steps=steps, demo_seconds=seconds,
@@ -109,8 +109,6 @@ def bench_task(task: str, demos: int, raw_steps: int, seed: int = 0) -> dict[str
 
 
 def default_tasks() -> list[str]:
-    from icil_paper.sim import tasks_of
-
     tasks = list(tasks_of("maniskill"))
     kitchen = tasks_of("kitchen")
     if kitchen:
@@ -119,10 +117,6 @@ def default_tasks() -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.bench import save_benchmark
-    from icil_paper.seeding import seed_everything
-    from icil_paper.sim import suite_unavailable
-
     parser = argparse.ArgumentParser(prog="python -m icil_paper.bench.sim",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--tasks", nargs="*", help="tasks (default: ManiSkill + one kitchen)")

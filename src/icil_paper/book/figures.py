@@ -13,13 +13,17 @@ cannot leave an old number in the README.
 
 from __future__ import annotations
 
+import argparse
 import json
 import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from icil_paper.config import get_preset
+from icil_paper.planning.design import plan_cost
 from icil_paper.stats import Verdict
+from icil_paper.tables.claims import summary
 
 ROOT = Path(__file__).resolve().parents[3]
 BENCH = ROOT / "results" / "bench"
@@ -82,8 +86,6 @@ def _claims(field: str, ledger: str = "claims.json") -> int:
     """A count of the reference ledger's `summary` (after Holm's correction): `claims`, a
     verdict (`holds`, `does not hold`, `not run`), `undecided` or `size_excluded`; `ledger`
     under `results/reference/` (`older-code/claims.json`: the older code's)."""
-    from icil_paper.tables.claims import summary
-
     s = summary(json.loads((REFERENCE / ledger).read_text())["claims"])
     return s["counts"][field] if field in s["counts"] else s[field]
 
@@ -91,9 +93,6 @@ def _claims(field: str, ledger: str = "claims.json") -> int:
 def _projected_hours() -> float:
     """The reference preset's projected hours at two cells at a time
     (`planning.design.plan_cost`, from `results/bench/cells.json` and `datasets.json`)."""
-    from icil_paper.config import get_preset
-    from icil_paper.planning.design import plan_cost
-
     return plan_cost(get_preset("reference"))["wall_h_at_2"]
 
 
@@ -219,8 +218,6 @@ def update_readme(path: Path = DOCUMENTS[0]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    import argparse
-
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--update-readme", action="store_true",
                         help="rewrite the figures of the README and CONTRIBUTING.md with their "

@@ -21,8 +21,8 @@ from typing import Any
 
 from icil_paper import plugins
 from icil_paper.config import Preset
-from icil_paper.reproduce import GRID
 from icil_paper.results import ResultsStore
+from icil_paper.stages import GRID
 from icil_paper.tables import compare
 
 EXAMPLE_NAME = "chunkbins"

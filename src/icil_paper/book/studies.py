@@ -8,17 +8,39 @@ Each study takes a preset and a results store, runs what is missing through
 from __future__ import annotations
 
 import dataclasses
+import json
+import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from icil_paper import sim
 from icil_paper.config import Preset, TokenizerStudyConfig
 from icil_paper.config_data import to_dict
-from icil_paper.results import ResultsStore, config_hash
-from icil_paper.runspec import SUITE_VERSION, DataSpec
+from icil_paper.data import SOURCES, ensure_many, load_demos, preset_tasks
+from icil_paper.data.experts import measure
+from icil_paper.data.showcase import showcase_task
+from icil_paper.data.trajectories import generate_trajectories
+from icil_paper.eval import evaluate_run
+from icil_paper.metrics import empirical_lipschitz
+from icil_paper.registry import check_name
+from icil_paper.results import ResultsStore, config_hash, results_root
+from icil_paper.runspec import SUITE_VERSION, DataSpec, eval_spec, run_spec
+from icil_paper.seeding import seed_everything
 from icil_paper.sim import ACTION_DIM
+from icil_paper.tokenizers import TOKENIZERS, lipschitz_bounds, lipschitz_loss, make_tokenizer
 from icil_paper.tokenizers.configs import TokenizerConfig, lipvq_official
-from icil_paper.viz.recording import principal_view
+from icil_paper.tokenizers.lipschitz_linear import weight_norm_bound
+from icil_paper.tokenizers.training import (
+    evaluate_tokenizer,
+    reconstruction_errors,
+    smoothness,
+    stand_alone,
+    train_tokenizer,
+)
+from icil_paper.train.stored import load_trained, train_run
+from icil_paper.viz.recording import principal_view, record_latent_trajectories
 
 VIEW_STEPS = 40
 """Steps of one held-out trajectory kept (in principal components) for latent plots."""
@@ -52,8 +74,6 @@ def tokenizer_runs(preset: Preset) -> list[tuple[str, TokenizerConfig]]:
     opt-in remedy for codebook collapse, not the paper's method), so that chapter 05 can
     tell smoothness that comes from the Lipschitz bound from smoothness that comes from a
     trajectory that stays on one code."""
-    from icil_paper.tokenizers import TOKENIZERS
-
     t = preset.tokenizers
     return [(name, t.get(name)) for name in TOKENIZERS] + [
         ("lipvq-official", lipvq_official(t.lipvq.latent_dim, t.lipvq.codebook_size)),
@@ -71,8 +91,6 @@ def study_data(preset: Preset) -> DataSpec:
 
 def study_spec(preset: Preset, config: TokenizerConfig, radii: tuple[float, ...] = ()
                ) -> TokenizerStudySpec:
-    from icil_paper.tokenizers.training import stand_alone
-
     return TokenizerStudySpec(tokenizer=stand_alone(config), study=preset.tokenizer_study,
                               data=study_data(preset), seed=preset.seed, radii=tuple(radii))
 
@@ -86,13 +104,9 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
     minimum-jerk trajectories from `icil_paper.data.trajectories`. The returned dict describes the
     choice and goes into every record's config.
     """
-    from icil_paper.registry import check_name
-
     cfg = preset.tokenizer_study
     kind = check_name("tokenizer trajectories", cfg.trajectories, ("demos", "synthetic"))
     if kind == "synthetic":
-        from icil_paper.data.trajectories import generate_trajectories
-
         train = generate_trajectories(cfg.n_trajectories, seed=preset.seed,
                                       noise=cfg.trajectory_noise)
         test = generate_trajectories(cfg.n_eval_trajectories, seed=preset.seed + 1,
@@ -100,7 +114,6 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
         return train, test, {"kind": kind, "generator": "icil_paper.data.trajectories",
                              "n": cfg.n_trajectories, "n_eval": cfg.n_eval_trajectories,
                              "noise": cfg.trajectory_noise}
-    from icil_paper.data import ensure_many, load_demos
 
     data = study_data(preset)
     tasks = list(data.tasks)
@@ -123,10 +136,6 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
 
 def _train_alone(preset: Preset, spec: TokenizerStudySpec):
     """Seed, load train/test trajectories, train one tokenizer alone; return it, log, test set."""
-    from icil_paper.seeding import seed_everything
-    from icil_paper.tokenizers import make_tokenizer
-    from icil_paper.tokenizers.training import train_tokenizer
-
     train, test, _ = tokenizer_trajectories(preset)
     seed_everything(spec.seed)
     tok = make_tokenizer(spec.tokenizer, ACTION_DIM)
@@ -136,8 +145,6 @@ def _train_alone(preset: Preset, spec: TokenizerStudySpec):
 
 def _train_and_measure_tokenizer(preset: Preset, spec: TokenizerStudySpec) -> dict:
     import torch
-
-    from icil_paper.tokenizers.training import evaluate_tokenizer
 
     tok, result, test = _train_alone(preset, spec)
     # throughput does not depend on the weights: timed for the first seed only
@@ -175,9 +182,6 @@ def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict
     Written to `results/<preset>/tokenizers/latent_trajectories.{rrd,png}` from the stored
     views and the trajectory's actions (no tokenizer is retrained); returns their paths.
     """
-    from icil_paper.results import results_root
-    from icil_paper.viz.recording import record_latent_trajectories
-
     _, test, _ = tokenizer_trajectories(preset)
     actions = test[0][:VIEW_STEPS]
     views = {label: np.asarray(m[0]["latent_view"])[:len(actions)]  # seed 0's tokenizers
@@ -203,14 +207,7 @@ LIPSCHITZ_RADII = (1e-3, 1e-2, 1e-1, 1.0)
 
 
 def _lipschitz_measurements(preset: Preset, spec: TokenizerStudySpec) -> dict:
-    import math
-
     import torch
-
-    from icil_paper.metrics import empirical_lipschitz
-    from icil_paper.tokenizers import lipschitz_bounds, lipschitz_loss
-    from icil_paper.tokenizers.lipschitz_linear import weight_norm_bound
-    from icil_paper.tokenizers.training import reconstruction_errors, smoothness
 
     tok, result, test = _train_alone(preset, spec)
     anchors = torch.from_numpy(np.concatenate(test))
@@ -259,8 +256,6 @@ ICRT_DEMO_TOKENIZER = "lipvq"
 
 def icrt_specs(preset: Preset):
     """Chapter 02's run and evaluation: ICRT + LipVQ-VAE on one task, rolled out from prompts."""
-    from icil_paper.runspec import eval_spec, run_spec
-
     run = run_spec(preset, "icrt", ICRT_DEMO_TOKENIZER, tasks=[ICRT_DEMO_TASK])
     return run, eval_spec(preset, ICRT_DEMO_TASK)
 
@@ -272,9 +267,6 @@ def icrt_rollout_study(preset: Preset, store: ResultsStore | None = None,
     Returns {"train": the train record's metrics (summary and loss curve), "eval": the eval
     record's metrics (success rate, Wilson interval, per-episode seeds and prompts)}.
     """
-    from icil_paper.eval import evaluate_run
-    from icil_paper.train.stored import load_trained, train_run
-
     store = store or ResultsStore(preset.name)
     run, ev = icrt_specs(preset)
     trained = train_run(run, preset.name, store, force=force, data_workers=preset.data.workers)
@@ -285,8 +277,6 @@ def icrt_rollout_study(preset: Preset, store: ResultsStore | None = None,
 
 def shown_tasks(preset: Preset) -> list[str]:
     """Chapter 04's tasks: every task, or one per suite under the smoke preset."""
-    from icil_paper import sim
-
     if preset.name == "smoke":
         return [t for t in ("kitchen/open_drawer", "kinova/open_drawer", "maniskill/pick_cube")
                 if t in sim.all_tasks()]
@@ -313,11 +303,6 @@ def showcase_study(preset: Preset, store: ResultsStore | None = None,
 
     A record whose image files have gone missing is recomputed.
     """
-    from pathlib import Path
-
-    from icil_paper.data.showcase import showcase_task
-    from icil_paper.results import results_root
-
     store = store or ResultsStore(preset.name)
     out_dir = results_root() / preset.name / "showcase"
     shown = {}
@@ -339,9 +324,6 @@ def expert_study(preset: Preset, store: ResultsStore | None = None,
 
     Nothing (an empty dict) when the preset sets `expert_seeds = 0`.
     """
-    from icil_paper import sim
-    from icil_paper.data.experts import measure
-
     store = store or ResultsStore(preset.name)
     n_seeds = preset.data.expert_seeds
     if n_seeds <= 0:
@@ -367,11 +349,6 @@ def expert_measurements(preset: Preset, store: ResultsStore | None = None) -> li
     to `results/experts/<suite>.json` (`from` names its commit). Rows: task, seeds, expert
     success (on the generated and on the human-like scenes), open-loop replay success, the
     human source's kept share and the mean length."""
-    import json
-
-    from icil_paper import sim
-    from icil_paper.results import results_root
-
     measured = {suite: {"tasks": record["tasks"], "commit": "this preset's store"}
                 for suite, record in expert_study(preset, store).items()}
     for suite in sim.SUITES:
@@ -394,8 +371,6 @@ def demo_stage(preset: Preset, store: ResultsStore | None = None, force: bool = 
     Generation is resumable and only adds what the files lack, so `force` does not apply:
     delete the files under `data/<preset>/` to regenerate them.
     """
-    from icil_paper.data import SOURCES, ensure_many, preset_tasks
-
     return ensure_many(preset, preset_tasks(preset, available=True), SOURCES)
 
 

@@ -21,6 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper import stats
+from icil_paper.tables.display import smoother_sentence
+
 
 class SeedRecords:
     """A study's records, {label: [metrics of each training seed]}, summarised over seeds."""
@@ -54,16 +57,12 @@ class SeedRecords:
 
     def with_interval(self, label: str, key: str, digits: int = 3) -> str:
         """The mean score with its 95% interval (`stats.score_mean`), as text."""
-        from icil_paper import stats
-
         est = stats.score_mean(self.scores(label, key))
         return f"{est.value:.{digits}g} [{est.low:.{digits}g}, {est.high:.{digits}g}]"
 
     def compare(self, a: str, b: str, key: str) -> str:
         """Is `a` smoother than `b` on `key`? The paired difference and its verdict in words
         (`tables.display.smoother_sentence`: lower is smoother)."""
-        from icil_paper.tables.display import smoother_sentence
-
         return smoother_sentence(a, b, self.scores(a, key), self.scores(b, key),
                                  key.replace("_", " "))
 

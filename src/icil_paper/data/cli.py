@@ -14,12 +14,17 @@ from __future__ import annotations
 import argparse
 import sys
 
+import numpy as np
+
+from icil_paper.commands import Parser, add_preset_arguments, preset_from_args
+from icil_paper.data.generate import check_data_folder, demo_path, ensure_many, preset_tasks
+from icil_paper.data.hdf5 import DatasetError, load_demos
 from icil_paper.data.sources import SOURCES
+from icil_paper.seeding import seed_everything
+from icil_paper.sim import all_tasks
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.cli import Parser, add_preset_arguments
-
     parser = Parser(
         prog="icil-paper demos",
         description="Generate demonstration data sets (robomimic HDF5), resuming interrupted "
@@ -43,10 +48,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check(path: str, action_dim: int | None) -> int:
-    import numpy as np
-
-    from icil_paper.data.hdf5 import DatasetError, load_demos
-
     try:
         demos = load_demos(path, action_dim=action_dim, images=False)
     except DatasetError as exc:
@@ -71,10 +72,6 @@ def _numbers_problem(args: argparse.Namespace) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.cli import preset_from_args
-    from icil_paper.data.generate import check_data_folder, demo_path, ensure_many, preset_tasks
-    from icil_paper.seeding import seed_everything
-
     args = build_parser().parse_args(argv)
     problem = _numbers_problem(args)
     if problem:
@@ -88,8 +85,6 @@ def main(argv: list[str] | None = None) -> int:
     sources = list(SOURCES) if "all" in sources else list(dict.fromkeys(sources))
     tasks = args.task or []
     if args.list:
-        from icil_paper.sim import all_tasks
-
         for task in all_tasks():
             paths = ", ".join(str(demo_path(preset, task, s, args.obs)) for s in SOURCES)
             print(f"{task:32s} {paths}")

@@ -26,11 +26,19 @@ generate the data sets (`data.sources`), over the suites of `icil_paper.sim` bel
 from __future__ import annotations
 
 import argparse
+import multiprocessing as mp
 import sys
 import time
 from typing import Any
 
 import numpy as np
+from tqdm.auto import tqdm
+
+from icil_paper.data.sources import ExpertSource, expert_rollout, make_source, source_env_options
+from icil_paper.fileio import atomic_write_json
+from icil_paper.results import results_root
+from icil_paper.setup.provenance import git_state, host_info, package_versions
+from icil_paper.sim import SUITES, make_env, make_expert, tasks_of
 
 REQUIRED_RATE = 0.9
 _CACHE: dict[str, Any] = {}
@@ -48,9 +56,6 @@ def _worker_init() -> None:
 def _get(task: str) -> tuple[Any, Any, Any, Any]:
     """(env, replay env, expert, env of the human source's scenes or None where they are the
     same as the generated source's)."""
-    from icil_paper.data.sources import source_env_options
-    from icil_paper.sim import make_env, make_expert
-
     if task not in _CACHE:
         options = source_env_options("human", task)
         _CACHE[task] = (make_env(task, obs="state", seed=0), make_env(task, obs="state", seed=0),
@@ -62,8 +67,6 @@ def _get(task: str) -> tuple[Any, Any, Any, Any]:
 def measure_one(job: tuple[str, int, bool]) -> dict[str, Any]:
     """Expert episode, open-loop replay and (optionally) a human-source episode for one seed;
     the expert on the human source's scenes where those differ."""
-    from icil_paper.data.sources import ExpertSource, expert_rollout, make_source
-
     task, seed, human = job
     env, replay_env, expert, human_env = _get(task)
     start = time.perf_counter()
@@ -135,12 +138,6 @@ def measure(suite: str, n_seeds: int = 50, seed: int = 0, workers: int = 2,
             human: bool = True, tasks: list[str] | None = None,
             progress: bool = True) -> dict[str, Any]:
     """Run the measurement and return the record (not written)."""
-    import multiprocessing as mp
-
-    from tqdm.auto import tqdm
-
-    from icil_paper.sim import tasks_of
-
     tasks = list(tasks or tasks_of(suite))
     if not tasks:
         raise RuntimeError(f"suite {suite!r} has no importable tasks")
@@ -167,11 +164,6 @@ def measure(suite: str, n_seeds: int = 50, seed: int = 0, workers: int = 2,
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.fileio import atomic_write_json
-    from icil_paper.results import results_root
-    from icil_paper.setup.provenance import git_state, host_info, package_versions
-    from icil_paper.sim import SUITES
-
     parser = argparse.ArgumentParser(prog="python -m icil_paper.data.experts",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--suites", "--suite", nargs="+", choices=SUITES, default=["maniskill"],

@@ -48,8 +48,10 @@ from __future__ import annotations
 
 import contextlib
 import json
+import multiprocessing as mp
 import os
 import shutil
+import sys
 import time
 import warnings
 from collections.abc import Sequence
@@ -57,18 +59,33 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from tqdm.auto import tqdm
+
+from icil_paper.config import DATA_ENV_VAR, Preset, get_preset
 from icil_paper.data.hdf5 import DatasetError, merge_demo_files, verify_file, write_demos
+from icil_paper.data.robomimic import robomimic_env_args
 from icil_paper.data.sources import (
     MAX_ATTEMPTS,
     SOURCES,
     demo_seed,
     expert_rollout,
+    make_source,
     source_env_options,
     style_dict,
 )
 from icil_paper.fileio import check_writable, exclusive_lock, set_aside
 from icil_paper.registry import check_name
 from icil_paper.seeding import data_set_index
+from icil_paper.setup.provenance import REPO_ROOT
+from icil_paper.sim import (
+    ACTION_DIM,
+    OBS_KINDS,
+    get_suite,
+    make_env,
+    suite_of,
+    suite_unavailable,
+    tasks_of,
+)
 
 GENERATOR = "icil_paper.data.generate/3"
 """Written into every data set; a change in how demos are made bumps it (and lists the old
@@ -90,14 +107,10 @@ class DemoGenerationError(RuntimeError):
 
 
 def _preset(preset: Any):
-    from icil_paper.config import Preset, get_preset
-
     return preset if isinstance(preset, Preset) else get_preset(preset)
 
 
 def _where(preset) -> str:
-    from icil_paper.config import DATA_ENV_VAR
-
     return (f"data.root={preset.data.root} (set by --set data.root or ${DATA_ENV_VAR})"
             if preset.data.root else "data/ (data.root is not set)")
 
@@ -106,8 +119,6 @@ def data_root(preset: Any = None) -> Path:
     """Root of the data sets of `preset` (a Preset or a preset name; None: the active one):
     its `data.root`, else `data/` in the repository. NotADirectoryError, naming the setting,
     when that is a file."""
-    from icil_paper.setup.provenance import REPO_ROOT
-
     preset = _preset(preset)
     path = Path(preset.data.root) if preset.data.root else REPO_ROOT / "data"
     if path.exists() and not path.is_dir():
@@ -131,8 +142,6 @@ def demo_path(preset_name: Any, task: str, source: str, obs: str | None = None,
     """Where the data set of (preset, task, source) lives (see the module docstring);
     `seed`, its base seed (default the preset's), names demonstration set k > 0
     (`seeding.data_set_seed`) as `<stem>.set<k>.hdf5`."""
-    from icil_paper.sim import OBS_KINDS
-
     preset = _preset(preset_name)
     check_name("demo source", source, SOURCES)
     obs = check_name("observation kind", obs or preset.data.obs, OBS_KINDS)
@@ -182,9 +191,6 @@ def _worker_init() -> None:
 
 
 def _env_and_source(task: str, source: str, obs: str, env_options: dict) -> tuple[Any, Any]:
-    from icil_paper.data.sources import make_source
-    from icil_paper.sim import make_env
-
     key = (task, source, obs, tuple(sorted(env_options.items())))
     if key not in _WORKER_CACHE:
         while len(_WORKER_CACHE) >= _CACHE_SIZE:  # close the oldest env (memory)
@@ -312,9 +318,6 @@ def _env_options(task: str, source: str, env_options: dict[str, Any]) -> dict[st
 
 def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
           env_options: dict[str, Any], full_check: bool = False) -> _Plan:
-    from icil_paper.data.robomimic import robomimic_env_args
-    from icil_paper.sim import ACTION_DIM, get_suite, suite_of
-
     check_name("demo source", source, SOURCES)
     path = demo_path(preset, task, source, obs, seed=base_seed)
     control_freq = int(get_suite(suite_of(task)).control_freq)
@@ -373,8 +376,6 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
     data sets through one pool is much faster than one `ensure_demos` call each. Returns
     {(task, source): path}.
     """
-    from icil_paper.sim import suite_of
-
     preset = _preset(preset)
     n = int(preset.data.demos_per_task if n is None else n)
     if n < 1:
@@ -452,10 +453,6 @@ def ensure_demos(preset: Any, task: str, source: str, n: int | None = None,
 
 
 def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None:
-    import multiprocessing as mp
-
-    from tqdm.auto import tqdm
-
     bar = tqdm(total=len(jobs), desc=desc, unit="demo", disable=not progress)
     try:
         if workers <= 1 or len(jobs) == 1:
@@ -478,16 +475,23 @@ def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None
         bar.close()
 
 
+def check_tasks(preset: Any) -> None:
+    """Refuse, before any work, a preset whose task lists name a task that its suite does
+    not have (UnknownNameError with a "did you mean"). A suite that cannot load here is
+    not checked: its tasks are refused, with the reason, where they are used."""
+    preset = _preset(preset)
+    for name, suite in (("kitchen_tasks", "kitchen"), ("maniskill_tasks", "maniskill")):
+        valid = tasks_of(suite)
+        for task in getattr(preset.data, name) if valid else ():
+            check_name(f"data.{name} task", task, valid)
+
+
 def preset_tasks(preset: Any, available: bool = False) -> tuple[str, ...]:
     """Every task of a preset: its kitchen and ManiSkill tasks, then the Kinova tasks.
 
     `available=True` leaves out the tasks of suites that cannot run here (a suite that does
     not load, a simulator that cannot start), saying why on stderr once per suite.
     """
-    import sys
-
-    from icil_paper.sim import suite_unavailable, tasks_of
-
     preset = _preset(preset)
     tasks = tuple(preset.data.kitchen_tasks) + tasks_of("kinova") + tuple(
         preset.data.maniskill_tasks)

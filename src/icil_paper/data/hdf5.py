@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from icil_paper.data.obs_keys import ObsKeyMap, camera_of, map_obs_keys
+from icil_paper.data.splits import train_valid_split
 
 FORMAT = "icil_paper/2"
 """Layout version written into `data.attrs["format"]` (version 1: stacked images, no next_obs)."""
@@ -189,8 +190,6 @@ def write_demos(path: str | Path, demos: Sequence[Demo], file_attrs: dict[str, A
     `names` default to demo_0, demo_1, ...; `file_attrs` go onto the `data` group (with
     `env_args` JSON-encoded). The train/valid masks come from `splits.train_valid_split`.
     """
-    from icil_paper.data.splits import train_valid_split
-
     path = Path(path)
     names = list(names) if names is not None else [f"demo_{i}" for i in range(len(demos))]
     if len(names) != len(demos):
@@ -260,8 +259,6 @@ def merge_demo_files(path: str | Path, parts: Sequence[tuple[str | Path, str, st
     current one. `path` itself may be one of the inputs.
     """
     import h5py
-
-    from icil_paper.data.splits import train_valid_split
 
     path = Path(path)
     with _atomic_h5(path) as out:

@@ -33,8 +33,17 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from icil_paper.data.hdf5 import DatasetError, Demo, file_info, load_demos
+from icil_paper.data.hdf5 import (
+    H5_ERRORS,
+    DatasetError,
+    Demo,
+    _available,
+    _damage,
+    file_info,
+    load_demos,
+)
 from icil_paper.data.obs_keys import ObsKeyMap, map_obs_keys
+from icil_paper.sim import gym_id
 
 ROBOMIMIC_GYM_TYPE = 2
 """robomimic's `EnvType.GYM_TYPE`: an env that `gym.make(env_name, **env_kwargs)` builds."""
@@ -46,8 +55,6 @@ ROBOMIMIC_NOTE = ("robomimic's env factory cannot build this env (its gym type i
 def robomimic_env_args(task: str, obs: str, env_options: Mapping[str, Any] | None = None,
                        control_freq: int | None = None) -> dict[str, Any]:
     """`data.attrs["env_args"]` of a data set of `task` (module docstring)."""
-    from icil_paper.sim import gym_id
-
     return {
         "env_name": gym_id(task),
         "type": ROBOMIMIC_GYM_TYPE,
@@ -67,8 +74,6 @@ def dataset_obs_keys(path: str | Path,
                      ) -> ObsKeyMap:
     """The key mapping `load_dataset_file(path, obs_keys)` uses (from the file's first demo)."""
     import h5py
-
-    from icil_paper.data.hdf5 import H5_ERRORS, _available, _damage
 
     path = Path(path)
     info = file_info(path)

@@ -15,11 +15,14 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.data.sources import demo_seed, expert_rollout, make_source
+from icil_paper.fileio import atomic_write_bytes
+from icil_paper.sim import make_env, object_position, suite_of
+from icil_paper.viz.recording import record_episode
+
 
 def _save_png(path: Path, image: np.ndarray) -> None:
     from matplotlib.image import imsave  # no pyplot: the caller's backend stays as it is
-
-    from icil_paper.fileio import atomic_write_bytes
 
     buf = io.BytesIO()
     imsave(buf, np.ascontiguousarray(image), format="png")
@@ -32,10 +35,6 @@ def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[st
     Files: `<out_dir>/<suite>__<task>.frame.png`, `.rrd` and `.png` (the recording and its
     static picture).
     """
-    from icil_paper.data.sources import demo_seed, expert_rollout, make_source
-    from icil_paper.sim import make_env, object_position, suite_of
-    from icil_paper.viz.recording import record_episode
-
     out_dir = Path(out_dir)
     stem = task.replace("/", "__")
     options = {"render_size": 256} if suite_of(task) == "maniskill" else {}

@@ -30,6 +30,7 @@ import numpy as np
 
 from icil_paper.data.hdf5 import Demo
 from icil_paper.registry import check_name
+from icil_paper.sim import make_expert, scene_distributions
 
 SOURCES = ("generated", "human")
 SOURCE_SEED_OFFSET = {"generated": 0, "human": 500_000}
@@ -52,7 +53,6 @@ def source_env_options(source: str, task: str) -> dict[str, Any]:
     the task's suite offers the source's scene distribution other than as its default, else
     none (so the `generated` source's envs, and every env of ManiSkill, are built as before)."""
     check_name("demo source", source, SOURCES)
-    from icil_paper.sim import scene_distributions
 
     offered = scene_distributions(task)
     scenes = SOURCE_SCENES[source]
@@ -191,8 +191,6 @@ def make_source(source: str, task: str, expert: Any = None,
     """The action source of a data set: `generated` or `human` around the task's expert."""
     check_name("demo source", source, SOURCES)
     if expert is None:
-        from icil_paper.sim import make_expert
-
         expert = make_expert(task)
     if source == "generated":
         return ExpertSource(expert)

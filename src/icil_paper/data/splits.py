@@ -13,6 +13,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from icil_paper.sim import get_suite, tasks_of
+
 
 def train_valid_split(names: Sequence[str], valid_fraction: float = 0.1,
                       seed: int = 0) -> dict[str, list[str]]:
@@ -50,8 +52,6 @@ def _normalize_split(split) -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 def zero_shot_split() -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(training tasks, held-out tasks) of the kitchen suite's zero-shot setting (Table VI)."""
-    from icil_paper.sim import get_suite
-
     split = get_suite("kitchen", "the kitchen zero-shot split").zero_shot_split
     if split is None:
         raise ValueError("the kitchen suite defines no zero-shot split")
@@ -64,8 +64,6 @@ def zero_shot_split() -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 def sim_to_real_pairs() -> dict[str, str]:
     """{kinova task: the kitchen (Panda) task of the same skill} for every Kinova task."""
-    from icil_paper.sim import tasks_of
-
     kitchen = set(tasks_of("kitchen"))
     pairs = {}
     for task in tasks_of("kinova"):

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from icil_paper.data.hdf5 import Demo
+from icil_paper.metrics import least_energy
 
 STILL_RELATIVE = 0.1
 """A step counts as standing still when the norm of its motion dims is below this fraction of
@@ -23,8 +24,6 @@ the demo's 90th-percentile motion norm (relative, because the suites' action uni
 
 def action_least_energy_per_step(actions: np.ndarray) -> float:
     """least_energy of the motion dims (T, 6) divided by its T - 2 second differences."""
-    from icil_paper.metrics import least_energy
-
     motion = np.asarray(actions, dtype=np.float64)[:, :6]
     if motion.shape[0] < 3:
         return 0.0

@@ -8,10 +8,21 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from icil_paper.commands import Parser, add_preset_arguments, positive, preset_from_args
+from icil_paper.data.generate import check_data_folder, demo_path
+from icil_paper.eval.outcomes import check_policy_fits
+from icil_paper.eval.rollouts import RolloutPool
+from icil_paper.eval.stored import evaluate_run
+from icil_paper.fileio import check_env_folder
+from icil_paper.registry import check_name
+from icil_paper.results import RESULTS_ENV_VAR, ResultsStore, results_root
+from icil_paper.runspec import eval_spec, run_spec
+from icil_paper.sim import all_tasks
+from icil_paper.train.rundir import CONFIG_FILE, load_policy, read_run_spec, run_dir_for
+from icil_paper.train.stored import trusted_policy
+
 
 def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.cli import Parser, add_preset_arguments, positive
-
     p = Parser(prog="icil-paper eval",
                                 description="Roll out a trained policy; store its success rate.")
     add_preset_arguments(p)
@@ -46,10 +57,6 @@ def _check_outputs(run: Any, policy: Any, tasks: Sequence[str], prompt_source: s
                    preset: Any) -> None:
     """Refuse, before any rollout, a results store (and, where a prompt data set must be
     generated, a data folder) that this process cannot write to."""
-    from icil_paper.data.generate import check_data_folder, demo_path
-    from icil_paper.fileio import check_env_folder
-    from icil_paper.results import RESULTS_ENV_VAR
-
     check_env_folder(RESULTS_ENV_VAR, "results")
     if policy.uses_prompt and not all(demo_path(preset, t, prompt_source, run.data.obs).exists()
                                       for t in tasks):
@@ -58,17 +65,6 @@ def _check_outputs(run: Any, policy: Any, tasks: Sequence[str], prompt_source: s
 
 def main(argv: list[str] | None = None) -> int:
     """`icil-paper eval`: evaluate a trained run on each task; one `eval` record per task."""
-    from icil_paper.cli import preset_from_args
-    from icil_paper.eval.outcomes import check_policy_fits
-    from icil_paper.eval.rollouts import RolloutPool
-    from icil_paper.eval.stored import evaluate_run
-    from icil_paper.registry import check_name
-    from icil_paper.results import ResultsStore, results_root
-    from icil_paper.runspec import eval_spec, run_spec
-    from icil_paper.sim import all_tasks
-    from icil_paper.train.rundir import CONFIG_FILE, load_policy, read_run_spec, run_dir_for
-    from icil_paper.train.stored import trusted_policy
-
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
     valid = all_tasks()

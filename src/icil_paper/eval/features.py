@@ -29,12 +29,21 @@ scheduler (`icil_paper.tables.execute.run_cell`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from icil_paper.data import ensure_demos, load_demos
+from icil_paper.metrics import (
+    codebook_usage,
+    empirical_lipschitz,
+    least_energy,
+    standardized_least_energies,
+)
 from icil_paper.runspec import FeatureSpec
+from icil_paper.tokenizers.lipschitz_linear import lipschitz_layers
 
 MIN_PIECE = 3
 """Fewest steps of a scored piece (a least energy needs three points)."""
@@ -56,8 +65,6 @@ def held_out_pieces(spec: FeatureSpec, preset: Any) -> list[HeldOutPiece]:
     """The held-out trajectory pieces `spec` scores, in task order (module docstring):
     demonstrations [start, start + demos_per_task) of each task's data set (generated where
     missing), cut per `spec.sampling`. Deterministic: the same spec gives the same pieces."""
-    from icil_paper.data import ensure_demos, load_demos
-
     d = spec.data
     n = spec.start + d.demos_per_task
     per_task = spec.sampling == "per_task"
@@ -108,8 +115,6 @@ def measure_features(policy: Any, spec: FeatureSpec, preset: Any) -> dict[str, A
     """
     import torch
 
-    from icil_paper.metrics import codebook_usage, least_energy, standardized_least_energies
-
     pieces = held_out_pieces(spec, preset)
     actions = [p.actions for p in pieces]
     tokenizer = policy.tokenizer
@@ -145,13 +150,8 @@ def lipschitz_diagnostics(tokenizer: Any, actions: np.ndarray) -> dict[str, Any]
     layer's bound softplus(c_l), their product (the network's bound, Eq. 3), and, for every
     tokenizer with an encoder, the largest ratio ||q(x) - q(x')||_inf / ||x - x'||_inf over
     random nearby pairs of held-out actions (`empirical_lipschitz`, a lower estimate)."""
-    import math
-
     import torch
     import torch.nn.functional as F
-
-    from icil_paper.metrics import empirical_lipschitz
-    from icil_paper.tokenizers.lipschitz_linear import lipschitz_layers
 
     out: dict[str, Any] = {"capped_fraction": None, "layer_bounds": None, "bound_product": None,
                            "empirical_lipschitz": None}

@@ -55,9 +55,13 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper import sim
+from icil_paper.data import ensure_demos, load_demos
+from icil_paper.data.sources import EVAL_SEED_BASE
 from icil_paper.eval.rollouts import Episode, RolloutPool, run_episodes
 from icil_paper.metrics import MOTION_MEASURES
 from icil_paper.runspec import SCENE_DISTRIBUTIONS, EvalSpec
+from icil_paper.sim import scene_distributions
 from icil_paper.stats import wilson_interval
 
 __all__ = ["EvalResult", "check_policy_fits", "episode_seed", "evaluate_many",
@@ -121,8 +125,6 @@ def episode_seed(seed: int, index: int) -> int:
     Evaluation seeds start at `icil_paper.data.EVAL_SEED_BASE`, above every seed that
     demonstration generation can use.
     """
-    from icil_paper.data.sources import EVAL_SEED_BASE
-
     return EVAL_SEED_BASE + 10_000 * int(seed) + int(index)
 
 
@@ -137,8 +139,6 @@ def obs_kind(policy: Any) -> str:
 def check_policy_fits(policy: Any, task: str) -> None:
     """Raise ValueError when a policy's action or low-dimensional observation width differs
     from the task's (both widths named), before any rollout."""
-    from icil_paper import sim
-
     suite = sim.suite_of(task)
     if policy.action_dim != sim.ACTION_DIM:
         raise ValueError(f"the policy acts in {policy.action_dim} dimensions but {task} takes "
@@ -154,8 +154,6 @@ def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
                 preset: Any = None, progress: bool = True) -> list[Any]:
     """The prompt demonstrations an EvalSpec draws from (see the module docstring), in the
     data folder of `preset` (a Preset, whose `data.root` says where, or a preset's name)."""
-    from icil_paper.data import ensure_demos, load_demos
-
     if preset is None:
         raise ValueError("prompt_pool needs the preset (preset=...): prompt data sets "
                          "live under data/<preset>/")
@@ -188,8 +186,6 @@ def scene_options(spec: EvalSpec) -> tuple[tuple[str, Any], ...]:
 
 def _check_scenes(spec: EvalSpec) -> None:
     """A scene distribution other than the default must be one the task's suite offers."""
-    from icil_paper.sim import scene_distributions
-
     if scene_options(spec) and spec.scenes not in scene_distributions(spec.task):
         offered = scene_distributions(spec.task)
         raise ValueError(f"{spec.task} has no {spec.scenes!r} scene distribution (its suite "

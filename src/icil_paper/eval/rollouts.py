@@ -47,23 +47,33 @@ engine.
 
 from __future__ import annotations
 
+import hashlib
+import importlib
 import io
 import json
 import math
+import multiprocessing as mp
 import os
 import tempfile
 import time
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
+from multiprocessing import util
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
+from icil_paper.metrics import action_second_difference, motion_smoothness
+from icil_paper.policies import REGISTRY
+from icil_paper.policies.base import build_policy
+from icil_paper.seeding import cpu_threads
+from icil_paper.sim import make_env, object_position
 from icil_paper.timing import phase
+from icil_paper.viz.recording import record_episode
 
 MAX_BATCH = 16
 """Largest default group: beyond this the per-step cost of stepping the envs in turn dwarfs
@@ -105,9 +115,7 @@ class EnvSetup:
     """A picklable callable; None: `icil_paper.sim.make_env`."""
 
     def make(self, task: str, seed: int, options: tuple[tuple[str, Any], ...] = ()) -> Any:
-        factory = self.factory
-        if factory is None:
-            from icil_paper.sim import make_env as factory
+        factory = self.factory or make_env
         return factory(task, obs=self.obs, seed=seed, **{**dict(self.options), **dict(options)})
 
 
@@ -202,8 +210,6 @@ def motion_record(out: Mapping[str, Any]) -> dict[str, float | None]:
     `ldlj`, `sparc` (of its end-effector path) and `action_jerk` (of its executed actions),
     `icil_paper.metrics.motion_smoothness` to 7 significant digits; None where a measure is
     undefined (too few steps, no motion, no path: NaN or inf, which a record cannot hold)."""
-    from icil_paper.metrics import action_second_difference, motion_smoothness
-
     if out.get("eef_path") is None:
         values = {"ldlj": math.nan, "sparc": math.nan,
                   "action_jerk": action_second_difference(out["actions"])}
@@ -227,7 +233,7 @@ def rollout_policy(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | Non
 
 
 def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping[str, Any],
-                   record_dir: str | Path) -> str | None:
+                   record_dir: str | Path) -> str:
     """Write one rollout as a rerun recording with its static picture.
 
     Args:
@@ -237,15 +243,8 @@ def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping
         trace: `rollout_policy(..., keep_trace=True)`'s output ("obs", "actions", "success").
         record_dir: the folder of `<task>__seed<seed>.rrd` and `.png`.
 
-    Returns the `.rrd` path, the `.png` path where rerun is unavailable, or None where
-    recording is unavailable altogether.
+    Returns the `.rrd` path, or the `.png` path where rerun is unavailable.
     """
-    try:
-        from icil_paper.viz.recording import record_episode
-    except ImportError:
-        warnings.warn("icil_paper.viz.recording is not available; rollouts are not recorded",
-                      stacklevel=2)
-        return None
     actions = np.asarray(trace["actions"], np.float32)
     latents = None
     tokenizer = getattr(policy, "tokenizer", None)
@@ -256,7 +255,6 @@ def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping
     path = Path(record_dir) / f"{task.replace('/', '-')}__seed{ep['seed']}.rrd"
     title = (f"{getattr(policy, 'name', 'policy')} on {task}, episode {ep['index']} "
              f"(env seed {ep['seed']}): {'success' if trace['success'] else 'failure'}")
-    from icil_paper.sim import object_position
 
     out = record_episode(path, trace["obs"], actions, latents=latents, title=title,
                          object_position=object_position(task))
@@ -375,8 +373,6 @@ class WorkerState:
         if not isinstance(ref, _PolicyFile):
             return ref
         if ref.key != self.policy_key:
-            from icil_paper.policies.base import build_policy
-
             state = torch.load(ref.path, map_location=ref.device, weights_only=True)
             policy = build_policy(json.loads(state["spec"]))
             policy.load_state_dict(state["state_dict"])
@@ -442,8 +438,6 @@ def _close_state() -> None:
 
 def _init_process() -> None:
     """Initializer of a worker process: one torch thread (the workers share the cores)."""
-    from multiprocessing import util
-
     torch.set_num_threads(1)
     util.Finalize(None, _close_state, exitpriority=10)  # close the envs when the worker exits
 
@@ -453,8 +447,6 @@ def _run_in_worker(job: GroupJob) -> list[dict[str, Any]]:
 
 
 def _hello(modules: Sequence[str], linger: float) -> int:
-    import importlib
-
     for name in modules:
         importlib.import_module(name)
     time.sleep(linger)
@@ -474,8 +466,6 @@ class RolloutPool:
     """
 
     def __init__(self, workers: int):
-        import multiprocessing as mp
-
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
         self.workers = int(workers)
@@ -503,8 +493,6 @@ class RolloutPool:
         """The policy as a file the workers load (written once per policy state): its spec
         and state dict, from which a worker rebuilds it (`build_policy`), so only registry
         policies can act in worker processes."""
-        from icil_paper.policies import REGISTRY
-
         config_type = getattr(getattr(policy, "config", None), "type", None)
         if config_type not in REGISTRY or type(policy) is not REGISTRY[config_type]:
             raise ValueError(f"a {type(policy).__name__} cannot act in worker processes: they "
@@ -537,8 +525,6 @@ class RolloutPool:
 
 def _policy_key(policy: Any) -> str:
     """A digest of the policy's spec and weights (a changed weight is another policy)."""
-    import hashlib
-
     h = hashlib.sha256(json.dumps(policy.spec, sort_keys=True).encode())
     for name, value in policy.state_dict().items():
         h.update(name.encode())
@@ -594,8 +580,6 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
         record_dir = str(record_dir)
     prompts = dict(prompts or {})
 
-    from tqdm.auto import tqdm
-
     bar = tqdm(total=len(episodes), desc=desc, unit="episode", disable=not progress,
                leave=False)
     by_episode: dict[tuple[int, int], dict[str, Any]] = {}
@@ -605,8 +589,6 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
         policy.eval()
     try:
         if pool is None and n_workers == 1:
-            from icil_paper.seeding import cpu_threads
-
             state = worker_state() if keep_envs else WorkerState()
             state.trim(setup, episodes, KEPT_ENVS)
             try:

@@ -18,9 +18,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from icil_paper.commands import Parser
 from icil_paper.fileio import check_writable
 from icil_paper.tokenizers.base import ActionTokenizer
 from icil_paper.tokenizers.portable import TokenizerFolderError, read_config, save_tokenizer
+from icil_paper.train.rundir import load_policy, policy_digest
 
 
 def export_tokenizer(run_dir: str | Path, folder: str | Path) -> Path:
@@ -30,8 +32,6 @@ def export_tokenizer(run_dir: str | Path, folder: str | Path) -> Path:
     when the policy has no action tokenizer (e.g. ACT's own CVAE); a `folder` this process
     cannot write to is refused first (FolderNotWritableError, a PermissionError).
     """
-    from icil_paper.train.rundir import load_policy, policy_digest
-
     check_writable(Path(folder), f"OUT {folder}", "pass a folder this user can write to")
 
     policy = load_policy(run_dir)
@@ -48,8 +48,6 @@ def export_tokenizer(run_dir: str | Path, folder: str | Path) -> Path:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.cli import Parser
-
     p = Parser(prog="icil-paper export-tokenizer",
                description="Write the action tokenizer of a trained policy as a portable folder "
                            "(config.json, weights.safetensors; no pickle) that "

@@ -25,14 +25,22 @@ that had the cores to themselves), set beside `TARGET_WALL_HOURS`.
 
 from __future__ import annotations
 
+import argparse
 from collections import defaultdict
 from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from icil_paper.book.studies import icrt_specs
+from icil_paper.commands import add_preset_arguments, preset_from_args, run_module
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json, read_json
+from icil_paper.paper import table_spec
+from icil_paper.planning.design import cell_kind, plan_cost, planned_seeds
+from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
+from icil_paper.stages import STAGES
+from icil_paper.tables.execute import plan
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
           "resumed_cells", "resumed_cpu_s", "without_cpu_time")
@@ -52,13 +60,6 @@ CELLS_AT_ONCE = 2
 def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]:
     """Record path -> (stage, kind of cell) for every record the table stages plan, and
     chapter 02's run (stage `icrt`)."""
-    from icil_paper.book.studies import icrt_specs
-    from icil_paper.paper import table_spec
-    from icil_paper.planning.design import cell_kind
-    from icil_paper.records import eval_record, features_record, train_record
-    from icil_paper.reproduce import STAGES
-    from icil_paper.tables.execute import plan
-
     out: dict[Path, tuple[str, str]] = {}
     for stage in STAGES:
         if not stage.name.startswith("table-"):
@@ -134,8 +135,6 @@ def _rounded(groups: dict[str, dict[str, float]]) -> dict[str, dict[str, Any]]:
 
 def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any]:
     """The cost of the preset's records (see the module docstring)."""
-    from icil_paper.planning.design import planned_seeds
-
     store = store or ResultsStore(preset.name)
     planned = _planned(preset, store)
     def new() -> dict[str, float]:
@@ -196,8 +195,6 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
                 by_group: dict[tuple[str, str], dict[str, float]],
                 cpu_so_far: float) -> dict[str, Any]:
     """The whole run's CPU time and idle-machine wall time (see the module docstring)."""
-    from icil_paper.planning.design import plan_cost
-
     cells: dict[tuple[str, str], int] = defaultdict(int)
     for path, group in planned.items():
         if path.parent.name == "train":
@@ -253,10 +250,6 @@ def write_cost(preset: Preset, store: ResultsStore | None = None) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import argparse
-
-    from icil_paper.cli import add_preset_arguments, preset_from_args
-
     parser = argparse.ArgumentParser(prog="python -m icil_paper.planning.cost",
                                      description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
@@ -267,6 +260,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    from icil_paper.cli import run_module
-
     raise SystemExit(run_module("python -m icil_paper.planning.cost", main))

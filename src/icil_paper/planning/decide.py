@@ -34,7 +34,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
+from icil_paper.commands import Parser, add_preset_arguments, positive, preset_from_args
 from icil_paper.config import Preset
 from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
 from icil_paper.paper import TABLES, table_spec

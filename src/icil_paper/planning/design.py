@@ -27,16 +27,23 @@ of its kind plus its episodes at the measured simulator rate (`results/bench/cel
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 from collections import Counter, defaultdict
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from icil_paper.bench import bench_path
+from icil_paper.commands import add_preset_arguments, preset_from_args, run_module
 from icil_paper.config import Preset
 from icil_paper.fileio import read_json
-from icil_paper.paper import TABLES, table_spec
-from icil_paper.tables.claims import as_entry, read_ledger, sizing_effect
+from icil_paper.paper import TABLES, claims, claims_ledger, table_spec
+from icil_paper.records import eval_record, features_record
+from icil_paper.results import ResultsStore, results_root
+from icil_paper.tables.claims import as_entry, read_ledger, sizing_effect, stage_design
+from icil_paper.tables.execute import data_needs, plan
 
 DECIDABLE_SEEDS = 10
 """Seeds of every row of a claim whose `seeds_needed` is at most this."""
@@ -60,9 +67,6 @@ def planned_seeds(preset: Preset) -> dict[tuple[str, str], int]:
 def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
     """(table, row) -> how many of the row's training seeds have every record its cells read
     (a row reads a claim's verdict only once all its planned seeds have)."""
-    from icil_paper.records import eval_record, features_record
-    from icil_paper.results import ResultsStore
-
     store = store or ResultsStore(preset.name)
     out = {}
     for table_id in TABLE_IDS:
@@ -80,8 +84,6 @@ def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
 
 def claim_rows(preset: Preset) -> dict[str, tuple[tuple[str, str], ...]]:
     """Claim id -> the (table, row) pairs it reads."""
-    from icil_paper.paper import claims
-
     return {c.id: tuple((c.compare.table, row) for row in c.compare.rows)
             for c in claims(preset)}
 
@@ -97,8 +99,6 @@ def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, d
     own committed ledger and the older code's (`older-code/claims.json`), the one whose
     variances rest on more training seeds (`n`, a run in progress has few), among those
     with a power analysis; else the not-run entry."""
-    from icil_paper.results import results_root
-
     folder = Path(root or results_root()) / preset.name
     ledgers = []
     for path, older in ((folder / "claims.json", False),
@@ -168,8 +168,6 @@ def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
     """Measured rates from `results/bench/cells.json` (the results folder's, else the one
     committed with the repository): seconds per optimizer step by policy, env steps per
     second and per episode by suite."""
-    from icil_paper.bench import bench_path
-
     record = read_json(Path(path or bench_path("cells")), "a cell benchmark (cells.json)",
                        "measure it again: make bench (or restore it from git)", keys=("cells",),
                        fields={"cells": list})
@@ -196,8 +194,6 @@ IMAGE_SLOWDOWN = 10.0
 def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, Any]:
     """The estimated cost of every trained run the preset's tables plan, by kind of cell:
     cells, optimizer steps, episodes and core-seconds (train and evaluation)."""
-    from icil_paper.tables.execute import plan
-
     rates = rates or cell_rates()
     plans = plan([table_spec(preset, t) for t in TABLE_IDS])
     kinds: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
@@ -228,9 +224,6 @@ def data_cost(plans, path: str | Path | None = None) -> dict[str, Any]:
     demonstrations, and core-seconds at the per-demonstration CPU time measured by
     `python -m icil_paper.bench.datasets` (`results/bench/datasets.json`; images
     `IMAGE_SLOWDOWN` times a state demonstration; 0 where nothing was measured)."""
-    from icil_paper.bench import bench_path
-    from icil_paper.tables.execute import data_needs
-
     source = Path(path or bench_path("datasets"))
     measured = (read_json(source, "the data-set generation benchmark (datasets.json)",
                           "regenerate it: python -m icil_paper.bench.datasets",
@@ -300,8 +293,6 @@ def design_frame(preset: Preset):
 def at_seeds(preset: Preset, seeds: int) -> Preset:
     """The preset with every row of every table at `seeds` training seeds (its first ones:
     the same runs, so the same records)."""
-    from dataclasses import replace
-
     tables = replace(preset.tables, icrt_seeds=seeds, baseline_seeds=seeds,
                      since_paper_seeds=seeds, official_seeds=seeds,
                      row_seeds=tuple(f"{t}:*={seeds}" for t in TABLE_IDS))
@@ -313,9 +304,6 @@ def interim_ledger(preset: Preset, seeds: int | None = None, store=None
     """The ledger computed from the first `seeds` seeds of every row (default: the most
     that every claim's rows have finished), or None below two seeds (no variance to read).
     Returns (seeds, ledger)."""
-    from icil_paper.paper import claims_ledger
-    from icil_paper.results import ResultsStore
-
     store = store or ResultsStore(preset.name)
     if seeds is None:
         finished = finished_seeds(preset, store)
@@ -383,8 +371,6 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
     """The method of seeds in stages in a few sentences, for chapter 0; with a ledger
     computed under the preset's stages, what it decided at each look and which claims go
     on. Empty for a preset without stages."""
-    from icil_paper.tables.claims import stage_design
-
     design = stage_design(preset)
     if design is None:
         return ""
@@ -415,10 +401,6 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
 
 
 def main(argv: list[str] | None = None) -> int:
-    import argparse
-
-    from icil_paper.cli import add_preset_arguments, preset_from_args
-
     parser = argparse.ArgumentParser(prog="python -m icil_paper.planning.design",
                                      description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
@@ -466,9 +448,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _print_stages(preset: Preset) -> int:
-    from icil_paper.paper import claims_ledger
-    from icil_paper.tables.claims import stage_design
-
     design = stage_design(preset)
     if design is None:
         print(f"preset {preset.name!r} has no seed stages: set them, e.g. "
@@ -489,6 +468,4 @@ def _print_stages(preset: Preset) -> int:
 
 
 if __name__ == "__main__":
-    from icil_paper.cli import run_module
-
     raise SystemExit(run_module("python -m icil_paper.planning.design", main))

@@ -23,8 +23,24 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import os
+import sys
+from pathlib import Path
 from typing import Any
+
+from icil_paper.bench import bench_path, save_benchmark
+from icil_paper.config import get_preset, matching_c_lr_scale
+from icil_paper.config_data import canonical_json, to_dict
+from icil_paper.paper import table_spec
+from icil_paper.paper.table_ii import maniskill_settings, maniskill_tokenizer
+from icil_paper.records import eval_record, features_record
+from icil_paper.registry import check_name
+from icil_paper.results import ResultsStore, results_root
+from icil_paper.runspec import eval_key, feature_key, run_spec
+from icil_paper.tables.definitions import FAMILY_COLUMNS, families, feature_spec, table_eval
+from icil_paper.tables.execute import RunPlan, cell_label, ensure_data, plan, plan_done
+from icil_paper.tables.grid import Cell, run_grid
 
 SETTINGS: dict[str, tuple[str, tuple[str, ...]]] = {
     "kitchen_10": ("I", ("data.demos_per_task=10",)),
@@ -47,9 +63,6 @@ PILOT_FOLDER = "pilot"
 
 def setting_preset(name: str) -> Any:
     """The reference preset with the setting's overrides."""
-    from icil_paper.config import get_preset
-    from icil_paper.registry import check_name
-
     _, overrides = SETTINGS[check_name("pilot setting", name, SETTINGS)]
     return get_preset("reference").with_overrides(list(overrides))
 
@@ -57,9 +70,6 @@ def setting_preset(name: str) -> Any:
 def setting_plans(name: str) -> list[Any]:
     """The tables' RunPlans of the setting's rows (the first training seed only), their
     evaluations without the features."""
-    from icil_paper.paper import table_spec
-    from icil_paper.tables.execute import RunPlan, plan
-
     preset = setting_preset(name)
     table, _ = SETTINGS[name]
     wanted = set(ROWS[table])
@@ -73,9 +83,6 @@ def setting_plans(name: str) -> list[Any]:
 
 def _summary(name: str, store: Any) -> list[dict[str, Any]]:
     """Each row's success per task and per family from the stored records (None: not run)."""
-    from icil_paper.records import eval_record
-    from icil_paper.tables.definitions import families
-
     rows = []
     for p in setting_plans(name):
         per_task = {}
@@ -109,11 +116,6 @@ def informative(summary: list[dict[str, Any]]) -> dict[str, bool]:
 
 def setting_cells(name: str, progress: bool = True) -> list[Any]:
     """The grid cells of the setting's plans not yet stored (their data generated first)."""
-    from icil_paper.config_data import to_dict
-    from icil_paper.results import ResultsStore
-    from icil_paper.tables.execute import cell_label, ensure_data, plan_done
-    from icil_paper.tables.grid import Cell
-
     preset = setting_preset(name)
     store = ResultsStore(preset.name)
     todo = [p for p in setting_plans(name) if not plan_done(store, p)]
@@ -127,21 +129,15 @@ def setting_cells(name: str, progress: bool = True) -> list[Any]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from pathlib import Path
-
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=SETTINGS)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
-    from icil_paper.bench import save_benchmark
-    from icil_paper.results import results_root
 
     root = results_root()
     os.environ["ICIL_RESULTS"] = str(root / PILOT_FOLDER)
     os.environ.setdefault("ICIL_RUNS", str(Path("runs") / PILOT_FOLDER))
-    from icil_paper.results import ResultsStore
-    from icil_paper.tables.grid import run_grid
 
     cells = {c.key: c for name in args.settings for c in setting_cells(name)}
     cells = sorted(cells.values(), key=lambda c: "icrt" not in c.label)  # longest first
@@ -179,8 +175,6 @@ def regime_preset(demos_per_task: int, steps: int, overrides: tuple[str, ...] = 
     """The reference preset at a pilot setting (demonstrations per task, training steps),
     its Lipschitz bounds' learning-rate multiple matched to those steps as the presets match
     theirs (`config.matching_c_lr_scale`)."""
-    from icil_paper.config import get_preset, matching_c_lr_scale
-
     preset = get_preset("reference").with_overrides(
         [f"data.demos_per_task={demos_per_task}", f"train.steps={steps}", *overrides])
     scale = round(matching_c_lr_scale(preset.train), 3)
@@ -198,11 +192,6 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
     `maniskill`, `REGIME_MANISKILL_ROWS` on each ManiSkill task) at seed indices REGIME_SEED
     .. REGIME_SEED + seeds - 1, each evaluated on every task on its own scene set, and the
     Lipschitz rows' tokenizer features (their capped share of rows)."""
-    from icil_paper.paper.table_ii import maniskill_settings, maniskill_tokenizer
-    from icil_paper.runspec import eval_key, feature_key, run_spec
-    from icil_paper.tables.definitions import feature_spec, table_eval
-    from icil_paper.tables.execute import RunPlan
-
     out = []
     for k in range(REGIME_SEED, REGIME_SEED + seeds):
         for policy, tokenizer in rows:
@@ -229,8 +218,6 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
 def _per_seed(store: Any, plans: list[Any]) -> dict[str, list[dict[str, Any]]]:
     """{row label: [per seed: {"tasks": {task: success}, "capped": share or None}]} from the
     stored records (None where a record is missing)."""
-    from icil_paper.records import eval_record, features_record
-
     rows: dict[str, list[dict[str, Any]]] = {}
     for p in plans:
         tasks = {}
@@ -252,9 +239,6 @@ def _per_seed(store: Any, plans: list[Any]) -> dict[str, list[dict[str, Any]]]:
 
 def _any_features(store: Any, run: Any, spec: Any) -> dict[str, Any] | None:
     """A features record of `run` whatever held-out trajectories it scored (None: none)."""
-    from icil_paper.config_data import canonical_json
-    from icil_paper.records import features_record
-
     kind, name, config = features_record(run, spec)
     wanted = canonical_json(config["run"])
     for record in store.records(kind):
@@ -274,8 +258,6 @@ def plateau(curve: dict[int, list[float]], episodes: int) -> int | None:
     budget gains nothing beyond noise: its mean gain is within two standard errors (from the
     per-seed spread with two seeds or more, else the episodes' binomial noise of `episodes`
     rollouts in all). None when every budget still gains."""
-    import math
-
     budgets = sorted(curve)
     for a, b in zip(budgets, budgets[1:], strict=False):
         x, y = curve[a], curve[b]
@@ -301,9 +283,6 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
     LipVQ-VAE (`plateau`), and at that budget (or the last one, when no plateau is reached)
     each row's success per family (ManiSkill: per task) and its capped share of encoder
     rows per seed. Difficulty is read from ICRT + LipVQ-VAE's level alone."""
-    from icil_paper.results import ResultsStore
-    from icil_paper.tables.definitions import families
-
     store = ResultsStore("reference")
     curve: dict[str, dict[int, list[float]]] = {}
     by_budget = {}
@@ -358,8 +337,6 @@ def regime_main(argv: list[str] | None = None) -> None:
     """`python -m icil_paper.planning.pilot regime`: train and evaluate the regime pilot's cells
     not yet stored (resumable: every finished record is kept under `results/pilot/`), then
     write `results/bench/regime.json`."""
-    from pathlib import Path
-
     parser = argparse.ArgumentParser(prog="pilot regime", description=regime_main.__doc__)
     parser.add_argument("--demos", type=int, default=10, help="demonstrations per task")
     parser.add_argument("--budgets", type=int, nargs="+", default=list(REGIME_BUDGETS))
@@ -375,11 +352,6 @@ def regime_main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if len(args.budgets) < 3 or min(args.budgets) < 1 or args.seeds < 1 or args.demos < 1:
         parser.error("give at least three positive budgets, and positive --seeds and --demos")
-    from icil_paper.bench import save_benchmark
-    from icil_paper.config_data import to_dict
-    from icil_paper.results import ResultsStore, results_root
-    from icil_paper.tables.execute import cell_label, ensure_data, plan_done
-    from icil_paper.tables.grid import Cell, run_grid
 
     root = results_root()
     os.environ["ICIL_RESULTS"] = str(root / PILOT_FOLDER)
@@ -412,8 +384,6 @@ def regime_main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    import sys
-
     if sys.argv[1:2] == ["regime"]:
         regime_main(sys.argv[2:])
     else:
@@ -427,9 +397,6 @@ def pilot_frame(path: str | None = None, table: str = "I"):
     separate (every row at 0, or every one at 1; `informative`).
     Returns (frame, {setting: [uninformative columns]})."""
     import pandas as pd
-
-    from icil_paper.bench import bench_path
-    from icil_paper.tables.definitions import FAMILY_COLUMNS
 
     record = json.loads(open(path or bench_path("pilot")).read())
     lines, flat = [], {}
@@ -481,9 +448,6 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     reached a plateau, which of its families lie outside `REGIME_RANGE` and the capped share
     of encoder rows per seed. (None, sentence) when there is no record."""
     import pandas as pd
-
-    from icil_paper.bench import bench_path
-    from icil_paper.tables.definitions import FAMILY_COLUMNS
 
     source = path or bench_path("regime")
     if not os.path.exists(source):

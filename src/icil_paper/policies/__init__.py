@@ -28,6 +28,7 @@ from icil_paper.policies.configs import (
     default_policy_config,
     register_policy,
 )
+from icil_paper.tokenizers.configs import default_config
 
 POLICIES = tuple(POLICY_CONFIGS)
 
@@ -40,8 +41,6 @@ def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None
     """The tokenizer config a policy gets: `tokenizer` (a config or a name), else the
     policy's default (None for a policy that works without one). Raises ValueError when the
     policy does not take that tokenizer, naming the ones it takes."""
-    from icil_paper.tokenizers.configs import default_config
-
     cls = REGISTRY[policy]
     if tokenizer is None:
         if cls.default_tokenizer is None:

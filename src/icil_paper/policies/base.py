@@ -32,9 +32,12 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
+from icil_paper.config_data import from_dict, to_dict
+from icil_paper.policies import make_policy
 from icil_paper.policies.backbones import ObservationEncoder
 from icil_paper.policies.batching import DemoSet, ObsSpec, as_demo_set, as_obs_spec, obs_batch
 from icil_paper.policies.configs import PolicyConfig
+from icil_paper.tokenizers import make_tokenizer
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 TOKENIZER_SEED_OFFSET = 0x5EED
@@ -91,7 +94,6 @@ class Policy(nn.Module):
         `weight_init="linear"`) start from the same tokenizer weights."""
         if self.tokenizer_config is None:
             return None
-        from icil_paper.tokenizers import make_tokenizer
 
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed((torch.initial_seed() + TOKENIZER_SEED_OFFSET) % 2**63)
@@ -250,17 +252,12 @@ class BatchedPolicy(Policy):
 def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spec: ObsSpec,
                 action_dim: int) -> dict[str, Any]:
     """What rebuilds a policy, as JSON-ready data: its config, its tokenizer's, the shapes."""
-    from icil_paper.config_data import to_dict
-
     return {"policy": to_dict(config), "tokenizer": to_dict(tokenizer) if tokenizer else None,
             "obs_spec": obs_spec.to_dict(), "action_dim": int(action_dim)}
 
 
 def build_policy(spec: Mapping[str, Any]) -> Policy:
     """Rebuild an (untrained) policy from `policy.spec`."""
-    from icil_paper.config_data import from_dict
-    from icil_paper.policies import make_policy
-
     tokenizer = spec.get("tokenizer")
     return make_policy(from_dict(PolicyConfig, spec["policy"]),
                        ObsSpec.from_dict(spec["obs_spec"]), int(spec["action_dim"]),

@@ -52,12 +52,10 @@ import numpy as np
 import torch
 from torch import Tensor
 
+from icil_paper.policies.configs import PROMPT_FROM
+
 IMAGE_KEYS = ("rgb", "depth")
 DEFAULT_LOWDIM_KEYS = ("proprio", "object")
-PROMPT_FROM = ("same_task", "minibatch")
-"""Where a training query's prompt comes from (`ICRTConfig.prompt_from`, whose choices
-these are): a demonstration of the same task (the paper) or the first half of the same
-random minibatch (the official code)."""
 
 
 # --------------------------------------------------------------------------- observation spec

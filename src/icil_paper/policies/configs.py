@@ -22,8 +22,12 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from icil_paper.config_data import ConfigError, check_fields
-from icil_paper.policies.batching import PROMPT_FROM
 from icil_paper.registry import ComponentRegistry, check_name
+
+PROMPT_FROM = ("same_task", "minibatch")
+"""Where a training query's prompt comes from (`ICRTConfig.prompt_from`, whose choices
+these are): a demonstration of the same task (the paper) or the first half of the same
+random minibatch (the official code; `batching.prompt_query_batch` builds either)."""
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
+from tqdm.auto import tqdm
 
 from icil_paper.layers import mlp
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
@@ -83,8 +84,6 @@ class MCR(BatchedPolicy):
 
     def pretrain(self, data: DemoSet, steps: int | None = None, progress: bool = False) -> list[float]:
         """Manipulation-centric pre-training of `visual`; returns the loss per step."""
-        from tqdm.auto import tqdm
-
         c = self.config
         steps = c.pretrain_steps if steps is None else steps
         B = c.pretrain_batch

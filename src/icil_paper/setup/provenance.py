@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import platform
 import socket
 import subprocess
@@ -48,8 +49,6 @@ def git_state() -> dict[str, str | bool | None]:
 
 def host_info() -> dict[str, str | int | None]:
     """Host name, platform, CPU count and the GPU torch sees (if any)."""
-    import os
-
     info: dict[str, str | int | None] = {
         "hostname": socket.gethostname(),
         "platform": platform.platform(),

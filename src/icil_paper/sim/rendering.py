@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import functools
 
+from icil_paper.setup.system_deps import MANUAL_FIX
+from icil_paper.setup.system_deps import vulkan_problem as probe
+
 LAVAPIPE_HOWTO = (
     "ManiSkill (SAPIEN 3) needs a Vulkan device, even for state observations. With an NVIDIA "
     "GPU install the driver's Vulkan ICD (libnvidia-gl). Without a GPU install Mesa's software "
@@ -34,9 +37,6 @@ def vulkan_problem() -> str | None:
     The probe runs in a subprocess (a crashing driver must not take the caller down) and is
     cached for the life of the process.
     """
-    from icil_paper.setup.system_deps import MANUAL_FIX
-    from icil_paper.setup.system_deps import vulkan_problem as probe
-
     problem = probe()
     if problem is None:
         return None

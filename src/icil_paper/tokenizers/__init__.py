@@ -32,8 +32,10 @@ and without Eq. 4 (`lip*`: the same class, every encoder layer a LipschitzLinear
 | `liprvq`  | rvq.py     | residual VQ + Eq. 4             | yes      | no         |
 | `bspline` | bspline.py | B-spline control points (BEAST) | yes      | ranges     |
 
-Tokenizer modules are imported on first use (a lazy registry), so importing this package
-does not import scipy or the `tokenizers` package.
+Tokenizer modules are imported on first use (a lazy registry), and so are the names of
+this package that live in torch modules (`TORCH_NAMES`: `make_tokenizer`, `ActionTokenizer`,
+`load_tokenizer`, ...): importing the package, or its torch-free `configs` (which the presets
+and the command line read), imports neither torch, nor scipy, nor the `tokenizers` package.
 
 A new tokenizer is one module: an `ActionTokenizer` subclass and its config, registered by
 one decorator (nothing else to edit; the presets give it their shared sizes, `latent_dim`
@@ -58,7 +60,9 @@ group `icil_paper.tokenizers` that the registry loads on first use (`icil_paper.
 
 from __future__ import annotations
 
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, make_tokenizer
+import importlib
+from typing import TYPE_CHECKING
+
 from icil_paper.tokenizers.configs import (
     TOKENIZER_CONFIGS,
     TOKENIZER_REGISTRY,
@@ -67,13 +71,21 @@ from icil_paper.tokenizers.configs import (
     lipvq_official,
     register_tokenizer,
 )
-from icil_paper.tokenizers.lipschitz_linear import (
-    LipschitzLinear,
-    lipschitz_bounds,
-    lipschitz_layers,
-    lipschitz_loss,
-)
-from icil_paper.tokenizers.portable import TokenizerFolderError, load_tokenizer, save_tokenizer
+
+if TYPE_CHECKING:
+    from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, make_tokenizer
+    from icil_paper.tokenizers.fast import FastDecodeError
+    from icil_paper.tokenizers.lipschitz_linear import (
+        LipschitzLinear,
+        lipschitz_bounds,
+        lipschitz_layers,
+        lipschitz_loss,
+    )
+    from icil_paper.tokenizers.portable import (
+        TokenizerFolderError,
+        load_tokenizer,
+        save_tokenizer,
+    )
 
 TOKENIZERS = tuple(TOKENIZER_CONFIGS)
 """The built-in tokenizers' names, the paper's in its order, then the later ones (a snapshot:
@@ -83,14 +95,23 @@ REGISTRY = TOKENIZER_REGISTRY
 """Name -> tokenizer class, imported on first use; filled by `register_tokenizer` on each
 config class (`configs.py`)."""
 
+TORCH_NAMES = {
+    "ActionTokenizer": "base", "TokenizerOutput": "base", "make_tokenizer": "base",
+    "LipschitzLinear": "lipschitz_linear", "lipschitz_loss": "lipschitz_linear",
+    "lipschitz_bounds": "lipschitz_linear", "lipschitz_layers": "lipschitz_linear",
+    "load_tokenizer": "portable", "save_tokenizer": "portable",
+    "TokenizerFolderError": "portable", "FastDecodeError": "fast",
+}
+"""Name -> the module of this package it lives in, imported on first use (PEP 562), as the
+registry imports the tokenizer classes: each of those modules imports torch."""
+
 
 def __getattr__(name: str):
-    # FastDecodeError lives in fast.py; importing it lazily keeps scipy/tokenizers unloaded.
-    if name == "FastDecodeError":
-        from icil_paper.tokenizers.fast import FastDecodeError
-
-        return FastDecodeError
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    if name not in TORCH_NAMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{TORCH_NAMES[name]}"), name)
+    globals()[name] = value
+    return value
 
 
 __all__ = [

@@ -32,6 +32,7 @@ from icil_paper.tokenizers.configs import (
     TokenizerConfig,
     default_config,
 )
+from icil_paper.tokenizers.lipschitz_linear import LipschitzLinear, lipschitz_loss
 
 
 @dataclass
@@ -82,8 +83,6 @@ def build_encoder(sizes: Sequence[int], norm: str = "none", activation: str = "r
     `spectral`, spectral normalisation (Miyato et al. 2018; chapter 03's comparison, which
     bounds the 2-norm Lipschitz constant of each layer by 1).
     """
-    from icil_paper.tokenizers.lipschitz_linear import LipschitzLinear
-
     if norm not in ENCODER_NORMS:
         raise ValueError(f"unknown encoder norm {norm!r}; valid: {', '.join(ENCODER_NORMS)}")
     if output_activation not in _OUTPUT_ACTIVATIONS:
@@ -121,8 +120,6 @@ def lipschitz_losses(encoder: nn.Module, config) -> dict[str, Tensor]:
     The one place every learned quantizer (vq, fsq, rvq and their `lip*` variants) takes
     the term from, so that Eq. 4 is the same option in each.
     """
-    from icil_paper.tokenizers.lipschitz_linear import lipschitz_loss
-
     weight = config.lipschitz.weight
     if config.norm not in LIPSCHITZ_NORMS or not weight:
         return {}
@@ -302,3 +299,44 @@ def make_tokenizer(config: TokenizerConfig | str, action_dim: int) -> ActionToke
         raise TypeError(f"make_tokenizer needs a tokenizer config (icil_paper.tokenizers.configs)"
                         f" or a name, got {type(config).__name__}")
     return TOKENIZER_REGISTRY[config.type](config, action_dim)
+
+
+PROBE_SHAPE = (2, 16, 7)
+"""(B, T, A) of the random actions a plugin's tokenizer is probed with (`probe`)."""
+
+
+def probe(config: TokenizerConfig) -> str | None:
+    """What is wrong with the tokenizer `config` builds, in words, or None: it is built,
+    fitted where it needs fitting and run on random actions (B, T, A) = PROBE_SHAPE, and must
+    give an ActionTokenizer whose TokenizerOutput has embeddings (B, T, latent_dim) and a
+    reconstruction (B, T, A). `icil_paper.plugins` runs it on every tokenizer a plugin
+    registers (`TOKENIZER_REGISTRY.probe`), before any work."""
+    try:
+        problem = _probe_problem(config, PROBE_SHAPE)
+    except Exception as exc:  # noqa: BLE001 - whatever a plugin's code raises is its problem
+        text = " ".join(str(exc).split())
+        problem = f"raises {type(exc).__name__}: {text}" if text else \
+            f"raises {type(exc).__name__}"
+    return (f"on a probe batch of actions shaped {PROBE_SHAPE}, {problem}; fix its encoder"
+            if problem else None)
+
+
+def _probe_problem(config: TokenizerConfig, shape: tuple[int, int, int]) -> str | None:
+    b, t, a = shape
+    tok = make_tokenizer(config, a)
+    if not isinstance(tok, ActionTokenizer):
+        return f"builds a {type(tok).__name__}, not an ActionTokenizer"
+    rng = np.random.default_rng(0)
+    if not tok.fitted:
+        tok.fit(rng.uniform(-1, 1, size=(4, t, a)))
+    with torch.no_grad():
+        out = tok(torch.as_tensor(rng.uniform(-1, 1, size=shape), dtype=torch.float32))
+    if not isinstance(out, TokenizerOutput):
+        return f"returns a {type(out).__name__}, not a TokenizerOutput"
+    if tuple(out.embeddings.shape) != (b, t, config.latent_dim):
+        return (f"returns embeddings of shape {tuple(out.embeddings.shape)}, expected "
+                f"(B, T, latent_dim) = {(b, t, config.latent_dim)}")
+    if tuple(out.reconstruction.shape) != shape:
+        return (f"returns a reconstruction of shape {tuple(out.reconstruction.shape)}, "
+                f"expected (B, T, A) = {shape}")
+    return None

@@ -71,10 +71,12 @@ class TokenizerConfig:
         return self.type
 
 
-TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig, "icil_paper.tokenizers")
+TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig, "icil_paper.tokenizers",
+                                       probe="icil_paper.tokenizers.base:probe")
 """Every action tokenizer by name: its config class (`configs`) and its model, imported on
 first use. A tokenizer is added by one decorator on its config class, `register_tokenizer`;
-the preset's `tokenizers` section and the CLI's choices are derived from it."""
+the preset's `tokenizers` section and the CLI's choices are derived from it. A plugin's
+tokenizer is run on a probe batch before use (`base.probe`)."""
 
 register_tokenizer = TOKENIZER_REGISTRY.register
 """`@register_tokenizer("name", "module:TokenizerClass")` above `@dataclass(frozen=True)` on

@@ -50,7 +50,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from icil_paper.layers import mlp
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, as_trajectory_list
 from icil_paper.tokenizers.configs import FASTConfig
 
 # Symbol of integer v is chr(v - min_token + _CHAR_OFFSET). 0 is kept free because NumPy's
@@ -305,8 +305,6 @@ class FASTTokenizer(ActionTokenizer):
 
         actions: (B, T, A) array/tensor or a list of (T_i, A) arrays (required).
         """
-        from icil_paper.tokenizers.base import as_trajectory_list
-
         if actions is None:
             raise ValueError("FAST's tokens per step depend on the data: pass actions")
         trajectories = as_trajectory_list(actions, self.action_dim)

@@ -43,9 +43,11 @@ from typing import Any
 import torch
 
 from icil_paper import plugins
+from icil_paper.config_data import from_dict, to_dict
 from icil_paper.fileio import atomic_write_bytes, atomic_write_json
+from icil_paper.setup.provenance import git_state, package_versions
 from icil_paper.tokenizers.base import ActionTokenizer, make_tokenizer
-from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY
+from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY, TokenizerConfig
 
 FORMAT = "icil_paper.tokenizer/1"
 CONFIG_FILE = "config.json"
@@ -98,9 +100,6 @@ def save_tokenizer(tokenizer: ActionTokenizer, folder: str | Path,
     last, so an interrupted export leaves a folder that `load_tokenizer` refuses.
     """
     from safetensors.torch import save as safetensors_bytes
-
-    from icil_paper.config_data import to_dict
-    from icil_paper.setup.provenance import git_state, package_versions
 
     if not tokenizer.fitted:
         raise ValueError(f"the {tokenizer.name} tokenizer is not fitted: call "
@@ -217,9 +216,6 @@ def load_tokenizer(folder: str | Path, map_location: Any = "cpu",
     """
     from safetensors import SafetensorError
     from safetensors.torch import load as safetensors_load
-
-    from icil_paper.config_data import from_dict
-    from icil_paper.tokenizers.configs import TokenizerConfig
 
     folder = Path(folder)
     config = read_config(folder)

@@ -19,6 +19,7 @@ Batches are random windows of `config.window` steps from random trajectories:
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 
@@ -26,7 +27,12 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from icil_paper.metrics import codebook_usage, smoothness_summary
+from icil_paper.metrics import (
+    codebook_usage,
+    least_energy,
+    smoothness_summary,
+    standardized_least_energies,
+)
 from icil_paper.seeding import cpu_threads
 from icil_paper.tokenizers.base import ActionTokenizer, as_trajectory_list
 from icil_paper.tokenizers.configs import TokenizerConfig, TokenizerStudyConfig
@@ -37,8 +43,6 @@ def stand_alone(config: TokenizerConfig) -> TokenizerConfig:
     """The config with `autoencode` on where it has that field (mlp, lip-mlp, bin, fast,
     bspline):
     trained alone, their embeddings must learn from reconstruction."""
-    import dataclasses
-
     if "autoencode" in {f.name for f in dataclasses.fields(config)}:
         return dataclasses.replace(config, autoencode=True)
     return config
@@ -159,8 +163,6 @@ def smoothness(tokenizer: ActionTokenizer, trajectories) -> dict:
     """Smoothness of the embedding sequences (T, D) of `trajectories`: the mean raw and
     standardized least energy, the latent scale sigma (`metrics.smoothness_summary`), and
     both scores per trajectory (`..._per_trajectory`, for intervals)."""
-    from icil_paper.metrics import least_energy, standardized_least_energies
-
     latents = [out.embeddings[0] for _, out in _each(tokenizer, trajectories)]
     standardized, _ = standardized_least_energies(latents)
     return {**smoothness_summary(latents),

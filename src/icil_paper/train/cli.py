@@ -6,12 +6,22 @@ import argparse
 import sys
 from pathlib import Path
 
-from icil_paper.cli import Parser, add_preset_arguments, positive, preset_from_args
+from icil_paper import sim
+from icil_paper.commands import Parser, add_preset_arguments, positive, preset_from_args
+from icil_paper.data import load_dataset_file
+from icil_paper.data.generate import check_data_folder, demo_path
+from icil_paper.fileio import check_env_folder, check_writable, file_sha256
+from icil_paper.policies import POLICIES
+from icil_paper.registry import check_name
+from icil_paper.results import RESULTS_ENV_VAR, ResultsStore
+from icil_paper.runspec import run_spec
+from icil_paper.sim import all_tasks
+from icil_paper.train.loop import training_demos
+from icil_paper.train.rundir import POLICY_FILE, RUNS_ENV_VAR, run_dir_for
+from icil_paper.train.stored import train_run
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.policies import POLICIES
-
     p = Parser(prog="icil-paper train",
                                 description="Train a policy (ICRT or a baseline) with an action "
                                             "tokenizer.")
@@ -46,18 +56,12 @@ def build_parser() -> argparse.ArgumentParser:
 def spec_from_args(args: argparse.Namespace, preset):
     """(RunSpec, preset, demos or None) the arguments describe; every name is checked
     before any work (demos are read here only for --dataset, to name its tasks)."""
-    from icil_paper.fileio import file_sha256
-    from icil_paper.registry import check_name
-    from icil_paper.runspec import run_spec
-    from icil_paper.sim import all_tasks
-
     if args.steps is not None:
         preset = preset.with_overrides([f"train.steps={args.steps}"])
     if args.dataset is not None:
         path = Path(args.dataset)
         if not path.is_file():
             raise FileNotFoundError(f"--dataset {path}: no such file")
-        from icil_paper.data import load_dataset_file
 
         demos = load_dataset_file(path, obs_keys=args.obs_keys)
         tasks = sorted({str(getattr(d, "task", "")) or path.stem for d in demos})
@@ -83,8 +87,6 @@ def check_dataset_widths(path: Path, demos) -> None:
     of the registered task its demos name (ValueError naming both): a policy trained on it
     could not act in that task. Demos of a task this library does not know (a file's own
     name, say) are not checked."""
-    from icil_paper import sim
-
     known = set(sim.all_tasks())
     for demo in demos:
         task = str(getattr(demo, "task", ""))
@@ -109,11 +111,6 @@ def check_dataset_widths(path: Path, demos) -> None:
 def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -> None:
     """Refuse, before any work, output folders this process cannot write to: the run
     folder, the results store and, when a data set must be generated, the data folder."""
-    from icil_paper.data.generate import check_data_folder, demo_path
-    from icil_paper.fileio import check_env_folder, check_writable
-    from icil_paper.results import RESULTS_ENV_VAR
-    from icil_paper.train.rundir import RUNS_ENV_VAR
-
     if explicit_run_dir:
         check_writable(run_dir, f"--run-dir {run_dir}", "pass another --run-dir")
     else:
@@ -128,11 +125,6 @@ def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -
 
 def main(argv: list[str] | None = None) -> int:
     """Train (or find trained), write the run folder and a `train` record; say where."""
-    from icil_paper.results import ResultsStore
-    from icil_paper.train.loop import training_demos
-    from icil_paper.train.rundir import POLICY_FILE, run_dir_for
-    from icil_paper.train.stored import train_run
-
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
     spec, preset, demos = spec_from_args(args, preset)

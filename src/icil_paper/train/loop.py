@@ -32,8 +32,12 @@ from typing import Any
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
-from icil_paper.seeding import cpu_threads
+from icil_paper.data import ensure_many, load_dataset_file, load_demos
+from icil_paper.policies import make_policy
+from icil_paper.policies.batching import batch_to, obs_spec_from_obs
+from icil_paper.seeding import cpu_threads, seed_everything
 from icil_paper.timing import phase
 from icil_paper.train import rundir
 from icil_paper.train.optim import EMA, cosine_schedule, make_optimizer
@@ -89,10 +93,7 @@ def training_demos(data: Any, preset: Any = None, workers: int = 1,
     set (generated where missing, under `<data.root>/<preset>/`), or the `dataset` file's.
     `preset` is the Preset (whose `data.root` locates the data sets) or a preset's name."""
     if data.dataset is not None:
-        from icil_paper.data import load_dataset_file
-
         return list(load_dataset_file(data.dataset, obs_keys=data.obs_keys))
-    from icil_paper.data import ensure_many, load_demos
 
     if preset is None:
         raise ValueError("training_demos needs the preset (preset=...): its data sets "
@@ -142,12 +143,6 @@ def train_policy(spec: Any, run_dir: str | Path | None = None, resume: bool = Tr
 
 def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
            data_workers) -> TrainResult:
-    from tqdm.auto import tqdm
-
-    from icil_paper.policies import make_policy
-    from icil_paper.policies.batching import batch_to, obs_spec_from_obs
-    from icil_paper.seeding import seed_everything
-
     tc = spec.train
     if run_dir is not None:  # before any work: a wrong folder fails fast
         rundir.prepare_run_dir(run_dir, spec, resume)

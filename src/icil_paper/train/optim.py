@@ -10,6 +10,8 @@ from typing import Any
 import torch
 from torch import nn
 
+from icil_paper.tokenizers.lipschitz_linear import bound_parameter_groups
+
 
 def cosine_schedule(warmup: int, total: int):
     """lr multiplier: linear warm-up over `warmup` steps, then half-cycle cosine to 0."""
@@ -30,8 +32,6 @@ def make_optimizer(model: nn.Module, lr: float, weight_decay: float,
     `c_lr_scale` and without decay (`bound_parameter_groups`); at the default scale 1
     their updates are those of the no-decay group.
     """
-    from icil_paper.tokenizers.lipschitz_linear import bound_parameter_groups
-
     bounds = bound_parameter_groups(model, lr)
     own_group = {id(p) for group in bounds for p in group["params"]}
     exempt = {id(p) for p in getattr(model, "no_weight_decay", list)()}

@@ -27,6 +27,8 @@ with an error that says so, as is one that is truncated or unreadable (`fileio.l
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import os
 import random
@@ -50,7 +52,9 @@ from icil_paper.fileio import (
     set_aside,
 )
 from icil_paper.plugins import needed_by, record_of
+from icil_paper.policies.base import build_policy
 from icil_paper.registry import UnknownNameError
+from icil_paper.runspec import RunSpec, tasks_tag
 
 RUNS_ENV_VAR = "ICIL_RUNS"
 CHECKPOINT = "checkpoint.pt"
@@ -82,8 +86,6 @@ def runs_root() -> Path:
 
 def run_dir_for(spec: Any, preset_name: str) -> Path:
     """`runs/<preset>/<label>__<tasks>__<source>__seed<k>__<key8>` for a RunSpec."""
-    from icil_paper.runspec import tasks_tag
-
     data = spec.data
     source = data.source if data.dataset is None else "file"
     return (runs_root() / preset_name
@@ -171,8 +173,6 @@ def read_run_spec(run_dir: Path) -> Any:
     """The RunSpec of a run folder's config.json (`read_config`); a spec this version
     cannot build (a field it lacks, a value it refuses) is an UnreadableFileError naming
     the file too."""
-    from icil_paper.runspec import RunSpec
-
     spec = read_config(run_dir)["spec"]
     try:
         return RunSpec.from_dict(spec)
@@ -213,8 +213,6 @@ def set_rng_state(rng: np.random.Generator, state: Mapping[str, Any]) -> None:
 # --------------------------------------------------------------------------- safe torch files
 def save_tensors(path: Path, obj: Mapping[str, Any]) -> None:
     """torch.save of tensors / numbers / strings through bytes and an atomic rename."""
-    import io
-
     buf = io.BytesIO()
     torch.save(dict(obj), buf)
     atomic_write_bytes(Path(path), buf.getvalue())
@@ -280,8 +278,6 @@ def load_policy(path: str | Path, map_location: Any = "cpu"):
 
     Raises FileNotFoundError (no policy there: train it first) or PolicyFileError.
     """
-    from icil_paper.policies.base import build_policy
-
     path = Path(path)
     if path.is_dir():
         path = path / POLICY_FILE
@@ -306,8 +302,6 @@ def load_policy(path: str | Path, map_location: Any = "cpu"):
 
 def policy_digest(policy: Any) -> str:
     """A short hash of a policy's weights (identifies a trained policy in result records)."""
-    import hashlib
-
     h = hashlib.sha256()
     for k, v in sorted(policy.state_dict().items()):
         h.update(k.encode())

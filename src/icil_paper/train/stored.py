@@ -33,6 +33,18 @@ from typing import Any
 from icil_paper.records import train_record
 from icil_paper.results import ResultsStore, files_problem
 from icil_paper.runspec import RunSpec
+from icil_paper.train.loop import finite, train_policy
+from icil_paper.train.rundir import (
+    METRICS_FILE,
+    POLICY_FILE,
+    PolicyFileError,
+    load_policy,
+    policy_digest,
+    read_metrics,
+    run_dir_for,
+    run_lock,
+    set_aside_damaged,
+)
 
 
 class StaleRecordWarning(UserWarning):
@@ -42,8 +54,6 @@ class StaleRecordWarning(UserWarning):
 def _policy_problem(record: dict[str, Any], folder: Path) -> str | None:
     """Why `record` does not stand for the policy file in `folder`, or None when it does
     (by its `files` digest, or for an older record without one, by loading the file)."""
-    from icil_paper.train.rundir import POLICY_FILE, load_policy, policy_digest
-
     path = folder / POLICY_FILE
     if not path.exists():
         return f"{POLICY_FILE} is missing"
@@ -74,17 +84,6 @@ def train_run(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Pat
     name. The run folder defaults to `run_dir_for(run, <its name>)`; training continues from
     its last checkpoint unless `resume=False` (start over).
     """
-    from icil_paper.train.loop import finite, train_policy
-    from icil_paper.train.rundir import (
-        METRICS_FILE,
-        POLICY_FILE,
-        policy_digest,
-        read_metrics,
-        run_dir_for,
-        run_lock,
-        set_aside_damaged,
-    )
-
     folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset_name(preset))
     record_id = train_record(run)
 
@@ -117,8 +116,6 @@ def policy_key_problem(path: Path, run: RunSpec) -> str | None:
     """Why the policy file at `path` is not `run`'s by its own record of the run it was
     trained for (the key in its meta), or None when it is. A damaged file raises
     PolicyFileError (one line naming it)."""
-    from icil_paper.train.rundir import load_policy
-
     key = getattr(load_policy(path), "meta", {}).get("key")
     if key != run.key():
         return (f"{path.name} was trained for the run of key {key}, not this run's "
@@ -137,14 +134,6 @@ def trusted_policy(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str 
     this process cannot write to, nothing can be set aside: such a file is a PolicyFileError
     naming it instead, as is a damaged file anywhere.
     """
-    from icil_paper.train.rundir import (
-        POLICY_FILE,
-        PolicyFileError,
-        load_policy,
-        run_lock,
-        set_aside_damaged,
-    )
-
     folder = Path(run_dir)
     if folder.is_dir() and not os.access(folder, os.W_OK):  # read-only: check, never write
         path = folder / POLICY_FILE
@@ -172,8 +161,6 @@ def load_trained(run: RunSpec, preset: Any, store: ResultsStore | None = None,
                  progress: bool = True, device: str | None = None, data_workers: int = 1):
     """The trained policy of `run`: its policy file, as its `train` record names it (trained,
     or trained again, and recorded where it is missing or stale: `train_run`)."""
-    from icil_paper.train.rundir import load_policy, run_dir_for, run_lock
-
     folder = run_dir_for(run, preset_name(preset))
     with run_lock(folder):  # the file checked is the file loaded
         train_run(run, preset, store or ResultsStore(preset_name(preset)), progress=progress,

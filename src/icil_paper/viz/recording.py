@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.fileio import atomic_write_bytes
+
 ACTION_NAMES = ("dx", "dy", "dz", "rx", "ry", "rz", "gripper")
 MAX_LATENT_SERIES = 8
 
@@ -113,8 +115,6 @@ def _write_rrd(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
 def _write_png(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
                latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
     from matplotlib.figure import Figure  # no pyplot: the caller's backend stays as it is
-
-    from icil_paper.fileio import atomic_write_bytes
 
     eef = obs.get("proprio")
     rows = 2 + (latents is not None) + (images is not None)
@@ -294,8 +294,6 @@ def _write_latent_rrd(path: Path, actions: np.ndarray, unit: Mapping[str, np.nda
 
 def _write_latent_png(path: Path, unit: Mapping[str, np.ndarray], title: str) -> None:
     from matplotlib.figure import Figure  # no pyplot: the caller's backend stays as it is
-
-    from icil_paper.fileio import atomic_write_bytes
 
     fig = Figure(figsize=(2.2 * len(unit), 2.6), constrained_layout=True)
     axes = fig.subplots(1, len(unit), squeeze=False)[0]

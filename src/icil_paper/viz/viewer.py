@@ -36,6 +36,7 @@ import os
 import shutil
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 RECORDINGS_STAGING = Path("book") / "_build" / "recordings"
@@ -120,8 +121,6 @@ def _stage(label: str, rrd: str | Path | None, png: str | Path | None,
 
 def _sdk_hint() -> str:
     """Which rerun to open the files with: the SDK version that wrote them."""
-    from importlib.metadata import PackageNotFoundError, version
-
     try:
         return f" (<code>pip install rerun-sdk=={version('rerun-sdk')}</code>)"
     except PackageNotFoundError:

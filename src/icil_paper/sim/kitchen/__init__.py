@@ -32,10 +32,11 @@ Importing this package does not import robosuite; building an env does.
 
 from __future__ import annotations
 
+import logging
 import os
 from typing import Any
 
-from icil_paper.registry import check_name
+from icil_paper.registry import Registry, check_name
 from icil_paper.sim.kitchen.tasks import (
     ALL_TASKS,
     CONTROL_FREQ,
@@ -60,6 +61,13 @@ follows the fixture's joint position (`icil_paper.sim.kitchen.scenes`)."""
 # that imports it is imported through here); headless image observations need EGL.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+SIMULATED = Registry("kitchen suite module", {
+    "env": "icil_paper.sim.kitchen.env:KitchenEnv",
+    "expert": "icil_paper.sim.kitchen.experts:make_kitchen_expert",
+})
+"""The env class (robosuite, mujoco) and the experts (scipy), imported when the first env or
+expert is built, so that listing the suite imports none of them."""
+
 __all__ = ["KITCHEN_TASKS", "KINOVA_TASKS", "ALL_TASKS", "TASK_FAMILIES", "FAMILIES",
            "KITCHEN_ZERO_SHOT_SPLIT", "KITCHEN_OBS_DIMS", "KITCHEN_PROPRIO_DIM",
            "KITCHEN_OBJECT_DIM", "KitchenTaskSpec", "make_kitchen_env", "make_kitchen_expert",
@@ -74,8 +82,6 @@ def _import_robosuite_quietly() -> None:
     file, robosuite_models, mink-based IK), once in every process, worker processes included.
     Only those import-time messages are hidden; later warnings are shown as usual.
     """
-    import logging
-
     logger = logging.getLogger("robosuite_logs")
     if logger.disabled:
         return
@@ -112,17 +118,13 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
     check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
                SCENE_DISTRIBUTIONS)
     _import_robosuite_quietly()
-    from icil_paper.sim.kitchen.env import KitchenEnv
-
-    return KitchenEnv(name, obs=obs, seed=seed, **options)
+    return SIMULATED["env"](name, obs=obs, seed=seed, **options)
 
 
 def make_kitchen_expert(name: str):
     """The scripted state-machine expert of a task: `expert.reset(env, obs)`, `expert.act(obs)`."""
     check_name("kitchen task", name, ALL_TASKS)
-    from icil_paper.sim.kitchen.experts import make_kitchen_expert as make
-
-    return make(name)
+    return SIMULATED["expert"](name)
 
 
 KITCHEN_SUITE = Suite(

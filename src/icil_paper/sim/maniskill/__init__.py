@@ -14,6 +14,9 @@ Listing the suite imports neither ManiSkill nor SAPIEN; building an env or an ex
 
 from __future__ import annotations
 
+import importlib.util
+
+from icil_paper.registry import Registry
 from icil_paper.sim.maniskill.env import (
     CONTROL_FREQ,
     MANISKILL_OBS_DIMS,
@@ -21,24 +24,24 @@ from icil_paper.sim.maniskill.env import (
     ManiSkillEnv,
     make_maniskill_env,
 )
+from icil_paper.sim.rendering import vulkan_problem
 from icil_paper.sim.suite import Suite
+
+EXPERTS = Registry("maniskill suite module",
+                   {"expert": "icil_paper.sim.maniskill.expert:make_maniskill_expert"})
+"""The motion-planning experts (`expert.py`: scipy, ManiSkill's planner), imported when the
+first expert is built."""
 
 
 def make_maniskill_expert(name: str):
     """The task's motion-planning expert (`expert.py`)."""
-    from icil_paper.sim.maniskill.expert import make_maniskill_expert as make
-
-    return make(name)
+    return EXPERTS["expert"](name)
 
 
 def maniskill_problem() -> str | None:
     """None when ManiSkill can start here, else why not (and how to fix it)."""
-    import importlib.util
-
     if importlib.util.find_spec("mani_skill") is None:
         return "mani_skill is not installed; install the pinned requirements with `make setup`"
-    from icil_paper.sim.rendering import vulkan_problem
-
     problem = vulkan_problem()
     return None if problem is None else f"ManiSkill cannot start: {problem}"
 

@@ -45,6 +45,7 @@ import numpy as np
 
 from icil_paper.sim import ACTION_DIM
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
+from icil_paper.sim.rendering import LAVAPIPE_HOWTO, RenderingUnavailable
 
 PROPRIO_DIM = 9
 MANISKILL_OBJECT_DIM = 21
@@ -202,8 +203,6 @@ class ManiSkillEnv(TaskEnv):
                  deterministic_reset: bool = True, render_mode: str | None = None):
         import gymnasium as gym
         import mani_skill.envs  # noqa: F401  (registers the environments)
-
-        from icil_paper.sim.rendering import LAVAPIPE_HOWTO, RenderingUnavailable
 
         self.task_spec = MANISKILL_TASKS[task]
         super().__init__(task, obs, seed, horizon=int(horizon or self.task_spec.horizon),
