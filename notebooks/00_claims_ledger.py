@@ -18,8 +18,7 @@ import pandas as pd
 from IPython.display import Markdown, display
 
 from icil_paper.book.ledger import chapter_ledgers, reference_ledger, show_stale_records
-from icil_paper.config import get_preset
-from icil_paper.tables.book import (
+from icil_paper.book.report import (
     REFERENCE,
     ledger_details,
     older_ledger,
@@ -28,6 +27,7 @@ from icil_paper.tables.book import (
     show_ledgers,
     stale_records,
 )
+from icil_paper.config import get_preset
 
 pd.set_option("display.max_colwidth", None)
 preset = get_preset()

@@ -71,12 +71,7 @@ from icil_paper.book.method import (
     success_line,
     training_figure,
 )
-from icil_paper.book.studies import (
-    ICRT_DEMO_TASK,
-    ICRT_DEMO_TOKENIZER,
-    icrt_rollout_study,
-    icrt_specs,
-)
+from icil_paper.book.studies import icrt_rollout_study
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
 from icil_paper.eval import record_rollout
@@ -85,6 +80,7 @@ from icil_paper.policies.batching import obs_spec_from_obs
 from icil_paper.policies.transformer import causal_mask
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import seed_everything
+from icil_paper.tables.definitions import ICRT_DEMO_TASK, ICRT_DEMO_TOKENIZER, icrt_specs
 from icil_paper.train import load_trained
 from icil_paper.viz.viewer import show_recording
 
@@ -220,8 +216,8 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # suite; their success, from the records:
 
 # %% tags=["remove-input"]
+from icil_paper.book.report import load_table
 from icil_paper.paper.analysis import training_window_sentence
-from icil_paper.tables.book import load_table
 
 show_sources(load_table(preset, "analysis", compute=False), training_window_sentence)
 

@@ -38,8 +38,8 @@
 from IPython.display import Markdown, display
 
 from icil_paper.book.experiments import design_paragraph, paper_lipvq_range
+from icil_paper.book.report import REFERENCE, claims_figure, design_sentence, load_table, verdicts
 from icil_paper.config import get_preset
-from icil_paper.tables.book import REFERENCE, claims_figure, design_sentence, load_table, verdicts
 from icil_paper.tables.display import show_comparison, show_motion, show_values, success_figure
 
 preset = get_preset()  # reads ICIL_PRESET

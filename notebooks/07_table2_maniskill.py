@@ -29,9 +29,9 @@
 from IPython.display import Markdown, display
 
 from icil_paper.book.experiments import maniskill_paragraph
+from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_ii import maniskill_settings
-from icil_paper.tables.book import claims_figure, load_table, verdicts
 from icil_paper.tables.display import show_comparison, show_motion, show_values, success_figure
 
 preset = get_preset()

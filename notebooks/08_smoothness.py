@@ -44,6 +44,7 @@ from icil_paper.book.experiments import (
     tsne_actions,
     tsne_figure,
 )
+from icil_paper.book.report import BUILD, claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_iii import (
     feature_sampling_sentence,
@@ -51,7 +52,6 @@ from icil_paper.paper.table_iii import (
     tsne_paths,
 )
 from icil_paper.results import results_root
-from icil_paper.tables.book import BUILD, claims_figure, load_table, verdicts
 from icil_paper.tables.display import show_comparison
 from icil_paper.viz.recording import record_latent_trajectories
 from icil_paper.viz.viewer import show_recording

@@ -28,9 +28,9 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
+from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_iv import codes_used_sentence
-from icil_paper.tables.book import claims_figure, load_table, verdicts
 from icil_paper.tables.display import show_codebook_use, show_comparison, success_figure
 
 preset = get_preset()

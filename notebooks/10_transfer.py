@@ -49,9 +49,9 @@
 from IPython.display import Markdown, display
 
 from icil_paper.book.experiments import prompt_differences
+from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_vi import show_shift
-from icil_paper.tables.book import claims_figure, load_table, verdicts
 from icil_paper.tables.display import show_comparison, show_motion, show_values, success_figure
 
 preset = get_preset()

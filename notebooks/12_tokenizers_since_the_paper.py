@@ -41,9 +41,9 @@
 from IPython.display import Markdown, display
 
 from icil_paper.book.experiments import eq4_differences
+from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.analysis import analysis_frame
-from icil_paper.tables.book import claims_figure, load_table, verdicts
 from icil_paper.tables.display import (
                        show_comparison,
                        show_motion,

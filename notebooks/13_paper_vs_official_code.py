@@ -51,6 +51,7 @@ from IPython.display import Markdown, display
 
 from icil_paper.book.display import show_sources
 from icil_paper.book.experiments import official_seeds_sentence
+from icil_paper.book.report import load_table
 from icil_paper.config import get_preset
 from icil_paper.paper.official import (
     codes_frame,
@@ -59,7 +60,6 @@ from icil_paper.paper.official import (
     official_seeds,
     summary,
 )
-from icil_paper.tables.book import load_table
 from icil_paper.tables.display import (
     REFERENCE,
     show_comparison,

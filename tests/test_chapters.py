@@ -200,8 +200,8 @@ def test_chapter_0_ledgers_write_this_builds_and_list_stale_records(shown, monke
         show_stale_records,
         stale_summary,
     )
+    from icil_paper.book.report import older_ledger
     from icil_paper.config import get_preset
-    from icil_paper.tables.book import older_ledger
 
     ledgers = chapter_ledgers(get_preset("smoke"))
     assert list(ledgers) == ["reference run", "this build"]

@@ -105,7 +105,7 @@ def test_expected_half_width_shrinks_with_seeds_and_matches_the_ledgers_own():
 
 
 def test_reference_progress_says_how_many_cells_are_done(tmp_path):
-    from icil_paper.tables.book import reference_progress
+    from icil_paper.book.report import reference_progress
 
     path = tmp_path / "cost.json"
     sittings = [{"elapsed_s": 3600.0}, {"elapsed_s": 1800.0}]

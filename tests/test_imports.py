@@ -138,10 +138,6 @@ use, is reached through a registry (`registry.Registry`: "module:attribute" entr
 on use), as the tokenizer classes, the simulators' env modules and the tokenizer package's
 torch-backed names are."""
 
-NOT_YET_CHECKED = ("icil_paper.tables", "icil_paper.paper")
-"""TEMPORARY: packages whose imports inside functions have not been moved to the top yet
-(they are being split apart elsewhere); remove each once its imports are at the top."""
-
 
 def nested_imports(source: str) -> list[tuple[int, str]]:
     """(line, statement) of every import in `source` that is not at the top of the file (in a
@@ -194,8 +190,7 @@ def test_nested_imports_are_found():
 
 def test_imports_inside_functions_are_heavy_dependencies_only():
     wrong = [f"{path.relative_to(SRC.parent)}:{line}: {statement}"
-             for name, path in modules().items()
-             if not any(name == p or name.startswith(p + ".") for p in NOT_YET_CHECKED)
+             for path in modules().values()
              for line, statement in nested_imports(path.read_text())]
     assert not wrong, ("imports inside functions that belong at the top of the file (only "
                        "the heavy packages of HEAVY may be imported on use): "

@@ -182,7 +182,8 @@ def test_tables_command_prints_tables_and_claims(capsys):
 
 @pytest.mark.sim
 def test_a_table_is_computed_end_to_end_and_reruns_compute_nothing():
-    from icil_paper.tables.execute import plan_done, run_tables
+    from icil_paper.paper import run_tables
+    from icil_paper.tables.execute import plan_done
 
     preset = get_preset("smoke").with_overrides(
         ["data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer"])
@@ -202,7 +203,7 @@ def test_committed_reference_records_are_current_or_labelled_as_older_code(monke
     of the tables' cells, or the book says that it was made by older code: the introduction's
     summary counts the stale records, chapter 0 lists them, and the older code's ledger is
     kept with the commit that computed it. Nothing is deleted."""
-    from icil_paper.tables.book import (
+    from icil_paper.book.report import (
         OLDER_RECORDS,
         older_ledger,
         reference_freshness,
@@ -246,8 +247,8 @@ def test_retiring_moves_only_stale_records_out_of_the_store_and_counts_them(tmp_
     """`retire_stale_records` moves each stale record whole to older-code/records/<kind>/,
     keeps the current ones in place, counts the moved ones by commit, and a second call
     moves nothing."""
+    from icil_paper.book import report as book
     from icil_paper.results import ResultsStore
-    from icil_paper.tables import book
 
     monkeypatch.setenv("ICIL_RESULTS", str(tmp_path))
     store = ResultsStore("reference")
@@ -319,7 +320,7 @@ def test_fig5_rows_stand_beside_the_paper_by_position(preset_name):
 def test_the_ledger_keeps_each_interval_on_one_line():
     """The book's ledger writes `ours [low, high]` with non-breaking spaces (a narrow column
     must not break an interval over lines)."""
-    from icil_paper.tables.book import ledger_frame
+    from icil_paper.book.report import ledger_frame
 
     entry = {"id": "x", "table": "I", "quantity": "a minus b", "paper": 0.05, "ours": 0.006,
              "ci": [-0.07, 0.058], "verdict": "inconclusive"}
@@ -398,8 +399,7 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
     matplotlib.use("Agg")
     from IPython.core.interactiveshell import InteractiveShell
 
-    from icil_paper.planning.design import design_frame
-    from icil_paper.tables.book import (
+    from icil_paper.book.report import (
         forest_plot,
         ledger_details,
         ledger_frame,
@@ -409,6 +409,7 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
         show_ledger,
         undecided_power,
     )
+    from icil_paper.planning.design import design_frame
     from icil_paper.tables.claims import summary_sentence
 
     monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
@@ -421,7 +422,7 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
     assert "reference run" in reference_progress()
     assert len(design_frame(get_preset("reference")))
     InteractiveShell.instance()  # display() outside a kernel prints; here it must not fail
-    from icil_paper.tables import book
+    from icil_paper.book import report as book
 
     # (the stale-record count is the other test's: it plans every table, a minute's work)
     monkeypatch.setattr(book, "reference_freshness",

@@ -225,7 +225,7 @@ def test_seeds_needed_reach_the_planned_power_in_simulation():
 
 
 def test_chapter_0_lists_each_undecided_claim_with_its_power():
-    from icil_paper.tables.book import undecided_power
+    from icil_paper.book.report import undecided_power
 
     held = {"id": "a", "adjusted_verdict": "holds", "ours": 0.1, "ci": [0.05, 0.15]}
     open_ = {"id": "b", "adjusted_verdict": "inconclusive", "ours": 0.01, "ci": [-0.04, 0.06],

@@ -111,11 +111,11 @@ def test_a_question_is_answered_by_the_verdicts_of_its_claims():
 def test_the_introduction_answers_the_three_questions_with_their_numbers():
     """Each answer quotes every claim that decides it: our number, interval, the paper's
     and the verdict after Holm, and its first word follows those verdicts."""
+    from icil_paper.book.questions import QUESTIONS, answers
+    from icil_paper.book.report import answering_ledger
     from icil_paper.config import get_preset
     from icil_paper.paper import CLAIM_LABELS, claims
-    from icil_paper.tables.book import answering_ledger
     from icil_paper.tables.claims import load_ledger
-    from icil_paper.tables.questions import QUESTIONS, answers
     from icil_paper.verdict_words import answer
 
     path = Path(__file__).resolve().parents[1] / "results" / "reference" / "claims.json"
@@ -139,8 +139,8 @@ def test_forest_plot_rows_say_what_each_claim_says_beside_its_id():
     import matplotlib
 
     matplotlib.use("Agg")
+    from icil_paper.book.report import forest_plot, row_label
     from icil_paper.paper import CLAIM_LABELS
-    from icil_paper.tables.book import forest_plot, row_label
     from icil_paper.tables.claims import load_ledger
 
     path = Path(__file__).resolve().parents[1] / "results" / "reference" / "claims.json"

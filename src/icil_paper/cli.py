@@ -19,22 +19,11 @@ import json
 import sys
 
 from icil_paper import commands
-from icil_paper.commands import (  # noqa: F401 (all but Parser: see below)
-    Parser,
-    add_executor_arguments,
-    add_preset_arguments,
-    check_executor_arguments,
-    positive,
-    preset_from_args,
-)
+from icil_paper.commands import Parser
 from icil_paper.config import PRESET_NAMES, active_preset_name
 from icil_paper.plugins import load_plugins
 from icil_paper.setup.envcheck import environment_report, format_report
 from icil_paper.tables.grid import RayUnavailable
-
-# TEMPORARY: every name imported from `commands` but Parser is here only because
-# tables/cli.py and tables/compare.py still import it from this module; once they import it
-# from icil_paper.commands (`make lint` reports those imports until then), it goes.
 
 USER_ERRORS: tuple[type[BaseException], ...] = (*commands.USER_ERRORS, RayUnavailable)
 """What a command reports in one line (exit 2) instead of a traceback: the commands' own
@@ -46,7 +35,7 @@ SUBCOMMANDS = {
     "demos": ("icil_paper.data.cli", "generate demonstration data sets (robomimic HDF5)"),
     "train": ("icil_paper.train.cli", "train a policy (ICRT or a baseline) with a tokenizer"),
     "eval": ("icil_paper.eval.cli", "roll out a trained policy and store its success rate"),
-    "tables": ("icil_paper.tables.cli", "print the paper's tables and claims from the results store"),
+    "tables": ("icil_paper.book.tables_cli", "print the paper's tables and claims from the results store"),
     "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
     "compare": ("icil_paper.tables.compare",
                 "a tokenizer against LipVQ-VAE on Table I's protocol: difference, verdict, power"),

@@ -31,13 +31,12 @@ from icil_paper.commands import (
 from icil_paper.config import Preset
 from icil_paper.data.generate import check_data_folder, check_tasks, demo_path
 from icil_paper.fileio import check_env_folder
-from icil_paper.paper import check_row_seeds, write_ledger
+from icil_paper.paper import check_row_seeds, run_tables, write_ledger
 from icil_paper.registry import check_name
 from icil_paper.results import RESULTS_ENV_VAR, ResultsStore
 from icil_paper.seeding import seed_everything
 from icil_paper.setup.envcheck import environment_report
 from icil_paper.stages import GRID, STAGES
-from icil_paper.tables.execute import run_tables
 from icil_paper.tables.grid import check_reachable
 from icil_paper.train.rundir import RUNS_ENV_VAR
 

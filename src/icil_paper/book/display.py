@@ -6,7 +6,7 @@ line that says why there is none.
     # **this build (small).** ...
     show_frame_or(frame, "*No smoothness records yet.*")
 
-`results` is what `tables.book.load_table` returns, {source: TableResult}; each part is a
+`results` is what `book.report.load_table` returns, {source: TableResult}; each part is a
 function of one source's TableResult that returns Markdown text.
 """
 
@@ -17,13 +17,13 @@ from typing import Any
 
 from IPython.display import Markdown, display
 
-from icil_paper.tables.book import source_label
+from icil_paper.book.report import source_label
 
 
 def source_paragraph(source: str, result: Any, *parts: Callable[[Any], str],
                      sep: str = " ") -> str:
     """"**<source>.** <part 1> <part 2> ...": one source's sentences after its name in bold
-    (`tables.book.source_label`: "this build (small)", "reference run"), each part separated
+    (`book.report.source_label`: "this build (small)", "reference run"), each part separated
     from the name and from the next by `sep` ("\n\n" puts a Markdown list under the name)."""
     return sep.join([f"**{source_label(source, result.preset)}.**",
                      *(part(result) for part in parts)])

@@ -8,7 +8,7 @@ results or the preset.
     comparison_list(findings(result))                            # chapter 11: a Markdown list
     display(Markdown(eq4_differences(results)))                  # chapter 12: Eq. 4 or not
 
-`results` is what `tables.book.load_table` returns, {source: TableResult}. Where a chapter
+`results` is what `book.report.load_table` returns, {source: TableResult}. Where a chapter
 reads a number from a function of `icil_paper.tables` (a design sentence, the settings of
 Table II, the seeds of a row), it calls that function and passes the result here.
 """
@@ -23,20 +23,20 @@ import numpy as np
 import pandas as pd
 
 from icil_paper import verdict_words
+from icil_paper.book.report import BUILD, source_label
 from icil_paper.config import Preset
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.tables.assemble import TableResult, format_cell
-from icil_paper.tables.book import BUILD, source_label
 from icil_paper.tables.display import difference_sentence
 
 Results = Mapping[str, TableResult]
-"""{source: TableResult}, as `tables.book.load_table` returns them."""
+"""{source: TableResult}, as `book.report.load_table` returns them."""
 
 
 # --------------------------------------------------------------------------- chapter 06
 def design_paragraph(preset_name: str, reference_design: str, build_design: str) -> str:
     """The reference run's seeds and episodes, then this build's (each in the words of
-    `tables.book.design_sentence`)."""
+    `book.report.design_sentence`)."""
     return (f"The reference run's design: {reference_design}. "
             f"This build's (`{preset_name}`): {build_design}.")
 
@@ -95,7 +95,7 @@ def standardized_frame(smooth: Results) -> pd.DataFrame | None:
 
 
 def tsne_figure(paths: Mapping[str, np.ndarray]):
-    """Fig. 4: each tokenizer's t-SNE path (`tables.book.tsne_paths`, {row: (steps, 2)}),
+    """Fig. 4: each tokenizer's t-SNE path (`book.report.tsne_paths`, {row: (steps, 2)}),
     points coloured by time."""
     fig, axes = plt.subplots(1, len(paths), figsize=(2.6 * len(paths), 2.8))
     for ax, (label, xy) in zip(np.atleast_1d(axes), paths.items(), strict=False):
@@ -156,7 +156,7 @@ EQ4_PAIRS = (("icrt+lipvq", "icrt+vq"), ("icrt+lipfsq", "icrt+fsq"),
 
 def eq4_differences(results: Results, pairs: Sequence[tuple[str, str]] = EQ4_PAIRS) -> str:
     """Each Eq. 4 variant minus its quantizer on the same episodes, with its paired interval
-    and verdict for every source (`tables.book.difference_sentence`), in Markdown."""
+    and verdict for every source (`book.report.difference_sentence`), in Markdown."""
     return "\n\n".join(f"**{a} against {b}**\n\n" + difference_sentence(results, a, b)
                        for a, b in pairs)
 

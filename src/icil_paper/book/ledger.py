@@ -16,16 +16,16 @@ from typing import Any
 
 from IPython.display import Markdown, display
 
-from icil_paper.config import Preset, get_preset
-from icil_paper.paper import claims_ledger, write_ledger
-from icil_paper.results import ResultsStore
-from icil_paper.tables.book import (
+from icil_paper.book.report import (
     BUILD,
     OLDER_RECORDS,
     REFERENCE,
     collapsed_markdown,
     ledger_frame,
 )
+from icil_paper.config import Preset, get_preset
+from icil_paper.paper import claims_ledger, write_ledger
+from icil_paper.results import ResultsStore
 from icil_paper.tables.claims import summary_sentence
 
 Ledgers = dict[str, tuple[Preset, list]]
@@ -58,7 +58,7 @@ NO_STALE = "None: every committed reference record is current."
 
 def stale_summary(stale: Sequence[str], freshness: Mapping[str, int]) -> tuple[str, str]:
     """(the line of the collapsed block, the Markdown list inside it) for the stale records
-    (`tables.book.stale_records`; `freshness` from `tables.book.reference_freshness`)."""
+    (`book.report.stale_records`; `freshness` from `book.report.reference_freshness`)."""
     line = (f"{freshness['stale']} of {freshness['records']} committed records are stale and "
             "not used. Open to see them.")
     return line, "\n".join(f"- `{name}`" for name in stale)
@@ -73,7 +73,7 @@ def older_ledger_heading(made_by: Mapping[str, Any], claims: Sequence[Any]) -> s
 
 def retired_sentence(retired: Mapping[str, int]) -> str:
     """What chapter 0 says of the records moved out of the reference store
-    (`tables.book.retired_records`, {commit: records}); empty when there are none."""
+    (`book.report.retired_records`, {commit: records}); empty when there are none."""
     if not retired:
         return ""
     commits = ", ".join(f"{n} by `{commit[:7]}`" for commit, n in retired.items())
@@ -86,8 +86,8 @@ def show_stale_records(stale: Sequence[str], freshness: Mapping[str, int],
                        older: tuple[Mapping[str, Any], list] | None,
                        retired: Mapping[str, int] | None = None) -> None:
     """Chapter 0's stale records, collapsed (or the line saying there are none), the records
-    moved out of the store (`retired`, `tables.book.retired_records`), then the ledger the
-    older code computed from them (`tables.book.older_ledger`) with its verdicts, where
+    moved out of the store (`retired`, `book.report.retired_records`), then the ledger the
+    older code computed from them (`book.report.older_ledger`) with its verdicts, where
     there are such records and that ledger is kept."""
     display(collapsed_markdown(*stale_summary(stale, freshness)) if stale
             else Markdown(NO_STALE))

@@ -26,9 +26,10 @@ from icil_paper.eval import evaluate_run
 from icil_paper.metrics import empirical_lipschitz
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, config_hash, results_root
-from icil_paper.runspec import SUITE_VERSION, DataSpec, eval_spec, run_spec
+from icil_paper.runspec import SUITE_VERSION, DataSpec
 from icil_paper.seeding import seed_everything
 from icil_paper.sim import ACTION_DIM
+from icil_paper.tables.definitions import icrt_specs
 from icil_paper.tokenizers import TOKENIZERS, lipschitz_bounds, lipschitz_loss, make_tokenizer
 from icil_paper.tokenizers.configs import TokenizerConfig, lipvq_official
 from icil_paper.tokenizers.lipschitz_linear import weight_norm_bound
@@ -246,18 +247,6 @@ def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
                 lambda spec=spec: _lipschitz_measurements(preset, spec),
                 seed=spec.seed, force=force)["metrics"])
     return records
-
-
-ICRT_DEMO_TASK = "kitchen/open_drawer"
-"""Chapter 02's task: one small ICRT trained and rolled out on it."""
-ICRT_DEMO_TOKENIZER = "lipvq"
-"""Chapter 02's action tokenizer (the paper's LipVQ-VAE)."""
-
-
-def icrt_specs(preset: Preset):
-    """Chapter 02's run and evaluation: ICRT + LipVQ-VAE on one task, rolled out from prompts."""
-    run = run_spec(preset, "icrt", ICRT_DEMO_TOKENIZER, tasks=[ICRT_DEMO_TASK])
-    return run, eval_spec(preset, ICRT_DEMO_TASK)
 
 
 def icrt_rollout_study(preset: Preset, store: ResultsStore | None = None,

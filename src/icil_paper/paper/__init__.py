@@ -1,9 +1,10 @@
 """The paper's results, one module each: its runs, its claims, the paper's numbers, its view.
 
-    from icil_paper.paper import TABLES, table_spec, claims, claims_ledger
+    from icil_paper.paper import TABLES, table_spec, claims, claims_ledger, run_tables
     spec = table_spec(preset, "V")                 # Table V's TableSpec (paper/table_v.py)
     claims(preset)                                 # every claim, in the ledger's order
     ledger = claims_ledger(preset, store)          # every claim with its verdict
+    run_tables(preset, ["I", "VI"], workers=2)     # computes what the store lacks
 
 A reader of the book finds the code of a result in the module named for it:
 
@@ -36,7 +37,8 @@ rows can be compared episode by episode.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json
@@ -57,6 +59,7 @@ from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import assemble
 from icil_paper.tables.claims import Claim, LedgerEntry, ledger_entries, ledger_file
+from icil_paper.tables.execute import run_specs
 from icil_paper.tables.spec import TableSpec
 
 TABLES: dict[str, Callable[[Preset], TableSpec]] = {
@@ -131,3 +134,15 @@ def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
     path = store.dir / "claims.json"
     atomic_write_json(path, ledger_file(preset, claims_ledger(preset, store)))
     return str(path)
+
+
+def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor: str = "local",
+               workers: int | None = None, ray_address: str | None = None,
+               gpus_per_cell: float = 0.0, progress: bool = True) -> dict[str, Any]:
+    """Compute every missing record of the chosen tables (default: all) as grid cells
+    (`tables.execute`: each policy trained once for every table that reads it). Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
+    Returns the grid's summaries by run key."""
+    ids = list(table_ids or TABLES)
+    return run_specs(preset, [table_spec(preset, t) for t in ids], executor=executor,
+                     workers=workers, ray_address=ray_address, gpus_per_cell=gpus_per_cell,
+                     progress=progress)

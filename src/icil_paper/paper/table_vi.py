@@ -193,7 +193,7 @@ def shift_sentence(before: TableResult, after: TableResult, column: str = "avg")
 def show_shift(before: dict[str, TableResult], after: dict[str, TableResult],
                column: str = "avg") -> None:
     """`shift_frame` per source (the reference run's, this build's collapsed beside it), for
-    `tables.book.load_table`'s results of Table I and Table VI; each with its `shift_sentence`."""
+    `book.report.load_table`'s results of Table I and Table VI; each with its `shift_sentence`."""
     by_preset = {r.preset: r for r in before.values()}
     shown = {k: r for k, r in after.items() if r.preset in by_preset}
     show_per_source(shown, lambda r: shift_frame(by_preset[r.preset], r, column),

@@ -31,7 +31,6 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from icil_paper.book.studies import icrt_specs
 from icil_paper.commands import add_preset_arguments, preset_from_args, run_module
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json, read_json
@@ -40,6 +39,7 @@ from icil_paper.planning.design import cell_kind, plan_cost, planned_seeds
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
 from icil_paper.stages import STAGES
+from icil_paper.tables.definitions import icrt_specs
 from icil_paper.tables.execute import plan
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",

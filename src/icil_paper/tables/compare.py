@@ -31,14 +31,28 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper import plugins, stats
+from icil_paper.commands import (
+    Parser,
+    add_executor_arguments,
+    add_preset_arguments,
+    check_executor_arguments,
+    positive,
+    preset_from_args,
+)
 from icil_paper.config import Preset
-from icil_paper.fileio import atomic_write_json
+from icil_paper.data.generate import check_tasks
+from icil_paper.fileio import atomic_write_json, check_env_folder, check_writable
+from icil_paper.policies import resolve_tokenizer
 from icil_paper.records import train_record
-from icil_paper.results import ResultsStore
+from icil_paper.registry import check_name
+from icil_paper.results import RESULTS_ENV_VAR, ResultsStore
 from icil_paper.tables import claims as claims_mod
 from icil_paper.tables.assemble import TableResult, assemble
 from icil_paper.tables.definitions import icrt_rows, label, table_i_seeds
 from icil_paper.tables.execute import run_specs
+from icil_paper.tables.grid import check_reachable
+from icil_paper.tokenizers import REGISTRY
+from icil_paper.train.rundir import RUNS_ENV_VAR
 
 DEFAULT_AGAINST = ("lipvq",)
 DEFAULT_EFFECT = 0.05
@@ -56,9 +70,6 @@ PLOT_FILE = "compare.png"
 
 def check_tokenizers(tokenizer: str, against: Sequence[str]) -> None:
     """Every name registered and taken by ICRT, and none compared with itself (ValueError)."""
-    from icil_paper.policies import resolve_tokenizer
-    from icil_paper.registry import check_name
-    from icil_paper.tokenizers import REGISTRY
 
     if not against:
         raise ValueError("--against needs at least one tokenizer (default: lipvq)")
@@ -283,18 +294,6 @@ def default_folder(preset: Preset, tokenizer: str) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.cli import (
-        Parser,
-        add_executor_arguments,
-        add_preset_arguments,
-        check_executor_arguments,
-        positive,
-        preset_from_args,
-    )
-    from icil_paper.config import check_tasks
-    from icil_paper.fileio import check_env_folder, check_writable
-    from icil_paper.results import RESULTS_ENV_VAR
-    from icil_paper.train.rundir import RUNS_ENV_VAR
 
     parser = Parser(prog="icil-paper compare", description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
@@ -330,7 +329,6 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out) if args.out else default_folder(preset, args.tokenizer)
     check_writable(out, f"the report folder {out}", "pass another --out")
     if args.executor == "ray" and args.ray_address:
-        from icil_paper.tables.grid import check_reachable
 
         check_reachable(args.ray_address)
     report = compare(preset, args.tokenizer, args.against, effect=args.effect,

@@ -34,6 +34,8 @@ from icil_paper.config import Preset
 from icil_paper.paper_numbers import FAMILIES
 from icil_paper.runspec import DataSpec, EvalSpec, RunSpec, eval_spec, run_spec
 from icil_paper.seeding import data_set_seed
+from icil_paper.sim.kitchen.tasks import FAMILIES as SUITE_FAMILIES
+from icil_paper.sim.kitchen.tasks import TASK_FAMILIES
 from icil_paper.tables.spec import Cell, FeatureSpec, Row, TableSpec, Unit
 
 FAMILY_COLUMNS = FAMILIES
@@ -57,10 +59,8 @@ def label(policy: str, tokenizer: str | None) -> str:
 
 def families(tasks: Sequence[str]) -> dict[str, list[str]]:
     """Paper column -> our kitchen tasks of that skill family (kept in `tasks`' order)."""
-    from icil_paper.sim.kitchen.tasks import FAMILIES, TASK_FAMILIES
-
     out = {}
-    for column, family in zip(FAMILY_COLUMNS, FAMILIES, strict=True):
+    for column, family in zip(FAMILY_COLUMNS, SUITE_FAMILIES, strict=True):
         out[column] = [t for t in tasks if t in TASK_FAMILIES[family]]
     return out
 
@@ -189,3 +189,16 @@ def icrt_rows(preset: Preset, seeds: dict[str, int]) -> TableSpec:
                      (*FAMILY_COLUMNS, "avg"), rows, note=(
                          "Table I's runs and evaluations for the chosen tokenizers; avg is "
                          "the mean over tasks."))
+
+
+# --------------------------------------------------------------------------- chapter 02
+ICRT_DEMO_TASK = "kitchen/open_drawer"
+"""Chapter 02's task: one small ICRT trained and rolled out on it."""
+ICRT_DEMO_TOKENIZER = "lipvq"
+"""Chapter 02's action tokenizer (the paper's LipVQ-VAE)."""
+
+
+def icrt_specs(preset: Preset):
+    """Chapter 02's run and evaluation: ICRT + LipVQ-VAE on one task, rolled out from prompts."""
+    run = run_spec(preset, "icrt", ICRT_DEMO_TOKENIZER, tasks=[ICRT_DEMO_TASK])
+    return run, eval_spec(preset, ICRT_DEMO_TASK)

@@ -1,6 +1,6 @@
 """What every result's chapter shows the same way: frames, figures and sentences per source.
 
-    results = load_table(preset, "I")     # tables.book: {"reference run": ..., "this build": ...}
+    results = load_table(preset, "I")     # book.report: {"reference run": ..., "this build": ...}
     compare_frame(results, "avg")         # rows x (paper, reference, this build)
     success_figure(results, "avg")        # bars with 95% intervals, the paper's marks
     show_motion(results, "avg")           # success beside LDLJ, SPARC, action jerk
@@ -11,12 +11,14 @@ with a reference run beside it, this build's numbers (which test the code, not t
 are in a collapsed block (`collapsed_frame`). What only one result shows (Table III's
 Figs. 1 and 4, Table VI's shift, the analysis table's findings, ...) lives in that result's
 module of `icil_paper.paper`; loading, the ledger's views and the reference run's
-bookkeeping in `icil_paper.tables.book`. Nothing here reads the list of results, so every
+bookkeeping in `icil_paper.book.report`. Nothing here reads the list of results, so every
 result's module can use it.
 """
 
 from __future__ import annotations
 
+import html
+import re
 from typing import Any
 
 import numpy as np
@@ -137,8 +139,6 @@ def collapsed_frame(summary: str, frame) -> Any:
 def _markdown_html(text: str) -> str:
     """The little Markdown the ledger's lists use (items, **bold**, *italic*, `code`) as
     HTML, for a collapsed block (HTML output is not read as Markdown)."""
-    import html
-    import re
 
     def inline(line: str) -> str:
         line = html.escape(line, quote=False)

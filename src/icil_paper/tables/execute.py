@@ -1,6 +1,7 @@
 """Computing tables: the units of any set of tables grouped by trained run, fanned out.
 
-    run_tables(preset, ["I", "VI"], executor="local", workers=2)
+    run_specs(preset, [table_spec(preset, "I")], executor="local", workers=2)
+    # the paper's tables by id: icil_paper.paper.run_tables(preset, ["I", "VI"])
 
 1. `plan` collects the units of the chosen tables and groups them by RunSpec key: one
    `RunPlan` per policy to train, with every evaluation and feature measurement any table
@@ -30,12 +31,17 @@ import numpy as np
 
 from icil_paper.config import DATA_ENV_VAR, Preset, get_preset
 from icil_paper.config_data import from_dict, to_dict
+from icil_paper.data import ensure_many
 from icil_paper.data.generate import data_root, demo_path
+from icil_paper.eval import evaluate_run_many, measure_features
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import RESULTS_ENV_VAR, ResultsStore, results_root
-from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec, eval_key, feature_key
+from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec, eval_key, feature_key, tasks_tag
+from icil_paper.seeding import seed_everything
+from icil_paper.tables.grid import Cell, run_grid
 from icil_paper.tables.spec import TableSpec
 from icil_paper.train.rundir import RUNS_ENV_VAR, run_dir_for, runs_root
+from icil_paper.train.stored import load_trained, train_run
 
 
 @dataclass
@@ -98,7 +104,6 @@ def data_needs(plans: Sequence[RunPlan]) -> dict[tuple, int]:
 
 def ensure_data(preset: Preset, plans: Sequence[RunPlan], progress: bool = True) -> None:
     """Generate every data set the plans read (one worker pool per observation kind)."""
-    from icil_paper.data import ensure_many
 
     groups: dict[tuple, dict[tuple[str, str], int]] = {}
     for (task, source, obs, seed), n in data_needs(plans).items():
@@ -121,9 +126,6 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
     generated wherever the driver's spec put them (`--set data.root`), not where the
     environment would. Returns a short summary.
     """
-    from icil_paper.eval import evaluate_run_many, measure_features
-    from icil_paper.seeding import seed_everything
-    from icil_paper.train.stored import load_trained, train_run
 
     store = ResultsStore(preset)
     preset = get_preset(preset)
@@ -156,25 +158,12 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
 
 
 # --------------------------------------------------------------------------- many tables
-def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor: str = "local",
-               workers: int | None = None, ray_address: str | None = None,
-               gpus_per_cell: float = 0.0, progress: bool = True) -> dict[str, Any]:
-    """Compute every missing record of the chosen tables (default: all); see the module
-    docstring. Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
-    Returns the grid's summaries by run key."""
-    from icil_paper.paper import TABLES, table_spec
-
-    ids = list(table_ids or TABLES)
-    return run_specs(preset, [table_spec(preset, t) for t in ids], executor=executor,
-                     workers=workers, ray_address=ray_address, gpus_per_cell=gpus_per_cell,
-                     progress=progress)
-
-
 def run_specs(preset: Preset, specs: Sequence[TableSpec], executor: str = "local",
               workers: int | None = None, ray_address: str | None = None,
               gpus_per_cell: float = 0.0, progress: bool = True) -> dict[str, Any]:
-    """Compute every missing record of `specs` as grid cells (`run_tables`' arguments)."""
-    from icil_paper.tables.grid import Cell, run_grid
+    """Compute every missing record of `specs` as grid cells: each cell asks for one CPU
+    and `gpus_per_cell` GPUs (Ray schedules by them). Returns the grid's summaries by run
+    key."""
 
     store = ResultsStore(preset.name)
     todo = [p for p in plan(specs) if not plan_done(store, p)]
@@ -227,6 +216,5 @@ def plan_inputs(preset: Preset, p: RunPlan, store: ResultsStore) -> dict[str, tu
 
 
 def cell_label(run: RunSpec) -> str:
-    from icil_paper.runspec import tasks_tag
 
     return f"{run.label} {tasks_tag(run.data.tasks)} seed{run.seed}"

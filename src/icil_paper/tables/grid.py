@@ -107,6 +107,8 @@ from multiprocessing.connection import wait
 from pathlib import Path, PurePosixPath
 from typing import Any
 
+from tqdm.auto import tqdm
+
 from icil_paper import plugins
 from icil_paper.fileio import atomic_write_bytes
 from icil_paper.results import RESULTS_ENV_VAR, canonical_json
@@ -234,7 +236,6 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
     if not todo:
         return {}
 
-    from tqdm.auto import tqdm
 
     job = _job(threads)
     bar = tqdm(total=len(todo), desc=f"grid ({executor})", unit="cell", disable=not progress)

@@ -28,9 +28,11 @@ from typing import Any
 import numpy as np
 
 from icil_paper import verdict_words
+from icil_paper.book.questions import answers_markdown
+from icil_paper.book.studies import study_keys
 from icil_paper.config import PRESET_NAMES, Preset, get_preset
 from icil_paper.fileio import atomic_write_json
-from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, table_spec
+from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, run_tables, table_spec
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key, feature_key
 from icil_paper.stats import Verdict
@@ -43,6 +45,7 @@ from icil_paper.tables.claims import (
     sizing_effect,
     summary_sentence,
 )
+from icil_paper.tables.definitions import icrt_specs
 from icil_paper.tables.display import (
     BUILD,
     REFERENCE,
@@ -50,14 +53,13 @@ from icil_paper.tables.display import (
     collapsed_markdown,
     source_label,
 )
-from icil_paper.tables.questions import answers_markdown
+from icil_paper.tables.execute import plan
 
 
 def load_table(preset: Preset, table_id: str, compute: bool = True,
                progress: bool = True) -> dict[str, TableResult]:
     """{"reference run": ..., "this build": ...} for one table (one entry when the build is
     the reference preset itself)."""
-    from icil_paper.tables.execute import run_tables
 
     if compute:
         run_tables(preset, [table_id], progress=progress)
@@ -104,8 +106,6 @@ RECORD_KINDS = ("train", "eval", "features", "tokenizer", "lipschitz", "showcase
 def current_keys(preset_name: str = REFERENCE) -> set[str]:
     """The keys of every record that a current cell of any table, chapter 02's run or one
     of the chapters' own studies (`book.studies.study_keys`) computes at the preset."""
-    from icil_paper.book.studies import icrt_specs, study_keys
-    from icil_paper.tables.execute import plan
 
     preset = get_preset(preset_name)
     keys = set()

@@ -16,11 +16,16 @@ import argparse
 import json
 import sys
 
-from icil_paper.cli import Parser, add_preset_arguments, preset_from_args
+from icil_paper.book.report import OLDER_RECORDS, retire_stale_records
+from icil_paper.commands import Parser, add_preset_arguments, preset_from_args
+from icil_paper.paper import TABLES, claims_ledger, table_spec
+from icil_paper.registry import check_name
+from icil_paper.results import ResultsStore
+from icil_paper.tables.assemble import assemble
+from icil_paper.tables.claims import sentence
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from icil_paper.paper import TABLES
 
     p = Parser(prog="icil-paper tables", description=__doc__.split("\n\n")[0])
     add_preset_arguments(p)
@@ -37,17 +42,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from icil_paper.paper import TABLES, claims_ledger, table_spec
-    from icil_paper.registry import check_name
-    from icil_paper.results import ResultsStore
-    from icil_paper.tables.assemble import assemble
-    from icil_paper.tables.claims import sentence
 
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
     store = ResultsStore(preset.name)
     if args.retire_stale:
-        from icil_paper.tables.book import OLDER_RECORDS, retire_stale_records
 
         moved = retire_stale_records(preset.name)
         print(f"moved {sum(moved.values())} records to {store.dir / OLDER_RECORDS}"
