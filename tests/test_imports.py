@@ -114,7 +114,7 @@ def test_the_graph_finds_a_loop_when_there_is_one():
     assert cycles({"a": {"b"}, "b": set()}) == []
     graph = import_graph()
     assert "icil_paper.config" in graph["icil_paper.runspec"]  # a top-level import
-    assert "icil_paper.tables.execute" in graph["icil_paper.reproduce"]
+    assert "icil_paper.paper" in graph["icil_paper.reproduce"]
 
 
 def test_no_import_loop_between_files():

@@ -76,11 +76,11 @@ def test_tokenizer_trajectories_come_from_held_out_demos():
 def test_table_cells_ask_for_the_gpus_given_on_the_command_line(monkeypatch):
     """`reproduce --gpus-per-cell 1` reaches every table cell (Ray schedules by it); a
     negative count is refused before anything runs."""
-    from icil_paper.tables import execute, grid
+    from icil_paper.tables import execute
 
     seen = []
     monkeypatch.setattr(execute, "ensure_data", lambda *a, **k: None)
-    monkeypatch.setattr(grid, "run_grid", lambda cells, **kw: seen.extend(cells) or {})
+    monkeypatch.setattr(execute, "run_grid", lambda cells, **kw: seen.extend(cells) or {})
     monkeypatch.setattr(reproduce, "GRID", dict(reproduce.GRID))
     assert reproduce.main(["--preset", "smoke", "--stages", "table-V",
                            "--gpus-per-cell", "1"]) == 0

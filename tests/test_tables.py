@@ -379,12 +379,13 @@ def test_row_seeds_give_single_rows_their_own_seeds_and_refuse_unknown_rows():
 
 
 def test_cells_run_seed_major_so_a_stopped_run_keeps_rows_balanced(monkeypatch):
-    from icil_paper.tables import execute, grid
+    from icil_paper.paper import run_tables
+    from icil_paper.tables import execute
 
     captured = []
     monkeypatch.setattr(execute, "ensure_data", lambda *a, **k: None)
-    monkeypatch.setattr(grid, "run_grid", lambda cells, **k: captured.extend(cells) or {})
-    execute.run_tables(small_preset("tables.icrt_seeds=3"), ["IV"], progress=False)
+    monkeypatch.setattr(execute, "run_grid", lambda cells, **k: captured.extend(cells) or {})
+    run_tables(small_preset("tables.icrt_seeds=3"), ["IV"], progress=False)
     seeds = [c.kwargs["run"]["seed"] for c in captured]
     assert len(captured) == 12 and seeds == sorted(seeds)
 
