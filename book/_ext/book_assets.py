@@ -141,24 +141,24 @@ def _computed(marker: str) -> str:
     """What a `<!-- computed: NAME -->` marker in a Markdown page stands for: sentences made
     from the committed reference run and the presets (a page is not executed, so it cannot
     compute them itself; nothing about results is typed into it)."""
+    from icil_paper.book.report import design_sentence, reference_summary
     from icil_paper.config import get_preset
-    from icil_paper.tables.book import design_sentence, reference_summary
     from icil_paper.tables.display import REFERENCE
 
     if marker == "reference-summary":
         return reference_summary()
     if marker == "reference-answers":
-        from icil_paper.tables.book import reference_answers
+        from icil_paper.book.report import reference_answers
 
         return reference_answers()
     if marker == "reference-bookkeeping":
-        from icil_paper.tables.book import reference_bookkeeping
+        from icil_paper.book.report import reference_bookkeeping
 
         return reference_bookkeeping()
     if marker == "reference-design":
         return design_sentence(get_preset(REFERENCE))
     if marker == "preset-table":
-        from icil_paper.tables.book import preset_table
+        from icil_paper.book.report import preset_table
 
         return preset_table()
     raise ExtensionError(f"unknown computed marker <!-- computed: {marker} --> (known: "
