@@ -55,7 +55,7 @@ from icil_paper.book.experiments import comparison_list
 from icil_paper.book.report import design_sentence, load_table
 from icil_paper.config import get_preset
 from icil_paper.paper.analysis import analysis_frame, binding_sentence, conclusion, travel_sentence
-from icil_paper.paper.official import findings
+from icil_paper.paper.analysis import findings
 from icil_paper.tables.display import show_per_source
 
 preset = get_preset()
