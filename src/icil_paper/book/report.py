@@ -60,7 +60,6 @@ def load_table(preset: Preset, table_id: str, compute: bool = True,
                progress: bool = True) -> dict[str, TableResult]:
     """{"reference run": ..., "this build": ...} for one table (one entry when the build is
     the reference preset itself)."""
-
     if compute:
         run_tables(preset, [table_id], progress=progress)
     results = {}
@@ -106,7 +105,6 @@ RECORD_KINDS = ("train", "eval", "features", "tokenizer", "lipschitz", "showcase
 def current_keys(preset_name: str = REFERENCE) -> set[str]:
     """The keys of every record that a current cell of any table, chapter 02's run or one
     of the chapters' own studies (`book.studies.study_keys`) computes at the preset."""
-
     preset = get_preset(preset_name)
     keys = set()
     for p in plan([table_spec(preset, t) for t in TABLES]):
@@ -120,13 +118,18 @@ def current_keys(preset_name: str = REFERENCE) -> set[str]:
     return keys
 
 
+def _stale(store: ResultsStore) -> list[dict[str, Any]]:
+    """The records of `store` (of `RECORD_KINDS`) whose key no current cell or study
+    computes (`current_keys`)."""
+    keys = current_keys(store.preset)
+    return [r for kind in RECORD_KINDS for r in store.records(kind)
+            if r["config_hash"] not in keys]
+
+
 def stale_records(preset_name: str = REFERENCE) -> list[str]:
     """Records in `results/<preset>/` (of `RECORD_KINDS`) whose key no current cell or
     study computes (`current_keys`): results of an older version of the code or presets."""
-    keys = current_keys(preset_name)
-    store = ResultsStore(preset_name)
-    return sorted(f"{r['kind']}/{r['name']}" for kind in RECORD_KINDS
-                  for r in store.records(kind) if r["config_hash"] not in keys)
+    return sorted(f"{r['kind']}/{r['name']}" for r in _stale(ResultsStore(preset_name)))
 
 
 OLDER_RECORDS = "older-code/records"
@@ -149,22 +152,18 @@ def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
     system) and keeps its provenance (`git_commit`); `older-code/records/made_by.json`
     counts them by the commit that made them. Returns {commit: records moved}."""
     store = ResultsStore(preset_name)
-    keys = current_keys(preset_name)
     older = store.dir / OLDER_RECORDS
     manifest_path = older / "made_by.json"
     counts: dict[str, int] = (json.loads(manifest_path.read_text())
                               if manifest_path.exists() else {})
     moved: dict[str, int] = {}
-    for kind in RECORD_KINDS:
-        for record in store.records(kind):
-            if record["config_hash"] in keys:
-                continue
-            source = store.path_for(kind, record["name"], record["config_hash"])
-            target = older / kind / source.name
-            target.parent.mkdir(parents=True, exist_ok=True)
-            os.replace(source, target)
-            commit = str(record.get("git_commit") or "unknown")
-            moved[commit] = moved.get(commit, 0) + 1
+    for record in _stale(store):
+        source = store.path_for(record["kind"], record["name"], record["config_hash"])
+        target = older / record["kind"] / source.name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(source, target)
+        commit = str(record.get("git_commit") or "unknown")
+        moved[commit] = moved.get(commit, 0) + 1
     for commit, n in moved.items():
         counts[commit] = counts.get(commit, 0) + n
     if moved:

@@ -96,6 +96,16 @@ def study_spec(preset: Preset, config: TokenizerConfig, radii: tuple[float, ...]
                               data=study_data(preset), seed=preset.seed, radii=tuple(radii))
 
 
+def seeded_study_specs(preset: Preset, runs: list[tuple[str, TokenizerConfig]],
+                       radii: tuple[float, ...] = ()):
+    """(label, spec) of every run of a stand-alone study at each of the preset's training
+    seeds (`tokenizer_study.seeds`), in the order the study computes them."""
+    for label, config in runs:
+        for s in range(preset.tokenizer_study.seeds):
+            yield label, dataclasses.replace(study_spec(preset, config, radii=radii),
+                                             seed=preset.seed + s)
+
+
 def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.ndarray], dict]:
     """The (train, test) action trajectories tokenizers are trained on alone, and what they are.
 
@@ -166,13 +176,11 @@ def tokenizer_study(preset: Preset, store: ResultsStore | None = None,
     per training seed; returns {label: [metrics of seed 0, seed 1, ...]}."""
     store = store or ResultsStore(preset.name)
     records: dict[str, list[dict]] = {}
-    for label, config in tokenizer_runs(preset):
-        for s in range(preset.tokenizer_study.seeds):
-            spec = dataclasses.replace(study_spec(preset, config), seed=preset.seed + s)
-            records.setdefault(label, []).append(store.run(
-                "tokenizer", f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
-                lambda spec=spec: _train_and_measure_tokenizer(preset, spec),
-                seed=spec.seed, force=force)["metrics"])
+    for label, spec in seeded_study_specs(preset, tokenizer_runs(preset)):
+        records.setdefault(label, []).append(store.run(
+            "tokenizer", f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
+            lambda spec=spec: _train_and_measure_tokenizer(preset, spec),
+            seed=spec.seed, force=force)["metrics"])
     return records
 
 
@@ -238,14 +246,11 @@ def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
     constants, once per training seed; returns {label: [metrics of seed 0, 1, ...]}."""
     store = store or ResultsStore(preset.name)
     records: dict[str, list[dict]] = {}
-    for label, config in lipschitz_models(preset):
-        for s in range(preset.tokenizer_study.seeds):
-            spec = dataclasses.replace(study_spec(preset, config, radii=LIPSCHITZ_RADII),
-                                       seed=preset.seed + s)
-            records.setdefault(label, []).append(store.run(
-                "lipschitz", f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
-                lambda spec=spec: _lipschitz_measurements(preset, spec),
-                seed=spec.seed, force=force)["metrics"])
+    for label, spec in seeded_study_specs(preset, lipschitz_models(preset), LIPSCHITZ_RADII):
+        records.setdefault(label, []).append(store.run(
+            "lipschitz", f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
+            lambda spec=spec: _lipschitz_measurements(preset, spec),
+            seed=spec.seed, force=force)["metrics"])
     return records
 
 
@@ -367,14 +372,11 @@ def study_keys(preset: Preset) -> dict[str, set[str]]:
     """{kind: keys} of the records the chapters' own studies compute at the preset: the
     tokenizers trained alone (`tokenizer`), the Lipschitz study (`lipschitz`) and the
     showcase (`showcase`), so that a record of an older version of them can be told apart."""
-    keys: dict[str, set[str]] = {"tokenizer": set(), "lipschitz": set(), "showcase": set()}
-    for kind, runs, radii in (("tokenizer", tokenizer_runs(preset), ()),
-                              ("lipschitz", lipschitz_models(preset), LIPSCHITZ_RADII)):
-        for _, config in runs:
-            for s in range(preset.tokenizer_study.seeds):
-                spec = dataclasses.replace(study_spec(preset, config, radii=radii),
-                                           seed=preset.seed + s)
-                keys[kind].add(config_hash(to_dict(spec, keyed_only=True)))
-    keys["showcase"] = {config_hash(to_dict(ShowcaseSpec(task=task, seed=preset.seed)))
-                        for task in shown_tasks(preset)}
-    return keys
+    def hashes(specs) -> set[str]:
+        return {config_hash(to_dict(spec, keyed_only=True)) for _, spec in specs}
+
+    return {"tokenizer": hashes(seeded_study_specs(preset, tokenizer_runs(preset))),
+            "lipschitz": hashes(seeded_study_specs(preset, lipschitz_models(preset),
+                                                   LIPSCHITZ_RADII)),
+            "showcase": {config_hash(to_dict(ShowcaseSpec(task=task, seed=preset.seed)))
+                         for task in shown_tasks(preset)}}

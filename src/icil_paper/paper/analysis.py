@@ -293,7 +293,6 @@ def bound_travel(result: TableResult) -> dict[str, float]:
     """{Lipschitz row: the most a bound c_l can move in its training}, from its RunSpec:
     Adam moves a parameter by at most about its learning rate per step, so the bound
     travels at most lr * c_lr_scale * sum_t schedule(t) (warm-up, then cosine)."""
-
     out = {}
     for row in result.spec.rows:
         if not _lipschitz_row(row):

@@ -70,7 +70,6 @@ PLOT_FILE = "compare.png"
 
 def check_tokenizers(tokenizer: str, against: Sequence[str]) -> None:
     """Every name registered and taken by ICRT, and none compared with itself (ValueError)."""
-
     if not against:
         raise ValueError("--against needs at least one tokenizer (default: lipvq)")
     for name in (tokenizer, *against):

@@ -139,7 +139,6 @@ def collapsed_frame(summary: str, frame) -> Any:
 def _markdown_html(text: str) -> str:
     """The little Markdown the ledger's lists use (items, **bold**, *italic*, `code`) as
     HTML, for a collapsed block (HTML output is not read as Markdown)."""
-
     def inline(line: str) -> str:
         line = html.escape(line, quote=False)
         line = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", line)

@@ -104,7 +104,6 @@ def data_needs(plans: Sequence[RunPlan]) -> dict[tuple, int]:
 
 def ensure_data(preset: Preset, plans: Sequence[RunPlan], progress: bool = True) -> None:
     """Generate every data set the plans read (one worker pool per observation kind)."""
-
     groups: dict[tuple, dict[tuple[str, str], int]] = {}
     for (task, source, obs, seed), n in data_needs(plans).items():
         groups.setdefault((obs, seed, n), {})[task, source] = n
@@ -126,7 +125,6 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
     generated wherever the driver's spec put them (`--set data.root`), not where the
     environment would. Returns a short summary.
     """
-
     store = ResultsStore(preset)
     preset = get_preset(preset)
     if data_root is not None:
@@ -164,7 +162,6 @@ def run_specs(preset: Preset, specs: Sequence[TableSpec], executor: str = "local
     """Compute every missing record of `specs` as grid cells: each cell asks for one CPU
     and `gpus_per_cell` GPUs (Ray schedules by them). Returns the grid's summaries by run
     key."""
-
     store = ResultsStore(preset.name)
     todo = [p for p in plan(specs) if not plan_done(store, p)]
     if not todo:
