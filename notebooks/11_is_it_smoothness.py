@@ -54,26 +54,25 @@ from icil_paper.book.display import show_sources
 from icil_paper.book.experiments import comparison_list
 from icil_paper.book.report import design_sentence, load_table
 from icil_paper.config import get_preset
-from icil_paper.paper.analysis import analysis_frame, binding_sentence, conclusion, travel_sentence
-from icil_paper.paper.analysis import findings
+from icil_paper.paper import analysis
 from icil_paper.tables.display import show_per_source
 
 preset = get_preset()
 results = load_table(preset, "analysis")
 
 # %% tags=["hide-input"]
-show_per_source(results, analysis_frame,
+show_per_source(results, analysis.analysis_frame,
                 describe=lambda result: design_sentence(get_preset(result.preset)))
 
 # %% [markdown]
 # ## Does Eq. 4 bind?
 #
 # The share of each Lipschitz row's encoder rows that the trained bounds cap, split at the
-# threshold of `icil_paper.tables.analysis.BINDS_AT`, and how far the bounds could move in
+# threshold of `icil_paper.paper.analysis.BINDS_AT`, and how far the bounds could move in
 # that row's training at all.
 
 # %% tags=["hide-input"]
-show_sources(results, binding_sentence, travel_sentence)
+show_sources(results, analysis.binding_sentence, analysis.travel_sentence)
 
 # %% [markdown]
 # ## The comparisons
@@ -85,10 +84,10 @@ show_sources(results, binding_sentence, travel_sentence)
 # (VQ-VAE for the VQ-VAE variants, the paper's LipVQ-VAE for the others) in both.
 
 # %% tags=["hide-input"]
-show_sources(results, lambda result: comparison_list(findings(result)), sep="\n\n")
+show_sources(results, lambda result: comparison_list(analysis.findings(result)), sep="\n\n")
 
 # %% [markdown]
 # ## Verdict
 
 # %% tags=["hide-input"]
-show_sources(results, conclusion)
+show_sources(results, analysis.conclusion)
