@@ -71,16 +71,21 @@ from icil_paper.book.method import (
     success_line,
     training_figure,
 )
-from icil_paper.book.studies import icrt_rollout_study
+from icil_paper.book.report import load_table
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_demos, load_demos
 from icil_paper.eval import record_rollout
+from icil_paper.paper.icrt_demo import (
+    ICRT_DEMO_TASK,
+    ICRT_DEMO_TOKENIZER,
+    icrt_records,
+    icrt_specs,
+)
 from icil_paper.policies import make_policy
 from icil_paper.policies.batching import obs_spec_from_obs
 from icil_paper.policies.transformer import causal_mask
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import seed_everything
-from icil_paper.tables.definitions import ICRT_DEMO_TASK, ICRT_DEMO_TOKENIZER, icrt_specs
 from icil_paper.train import load_trained
 from icil_paper.viz.viewer import show_recording
 
@@ -168,13 +173,14 @@ print(coverage_sentence(coverage))
 #
 # One run of the library's training loop (`train_policy`: AdamW, warm-up and cosine decay,
 # checkpoints in `runs/`), then `evaluate_policy`: rollouts from unseen initial scenes,
-# each with a prompt demonstration drawn from the generated data set. Both records are
-# stored in the results store under the run's key, so rebuilding the chapter only loads
-# them.
+# each with a prompt demonstration drawn from the generated data set. The run is a table of
+# one cell (`icil_paper.paper.icrt_demo`, the stage `table-icrt` of `icil-paper
+# reproduce`), computed as every table's cells are; its train and eval records are stored
+# in the results store under the run's key, so rebuilding the chapter only loads them.
 
 # %%
-study = icrt_rollout_study(preset, store)  # trains and evaluates, or loads the stored records
-m = study_metrics(study)  # the train and eval records merged
+load_table(preset, "icrt")  # trains and evaluates the one cell, or finds its records
+m = study_metrics(icrt_records(preset, store))  # the train and eval records merged
 display(training_figure(m, f"ICRT + {TOKENIZER} on {TASK}"))
 print(success_line(m))
 
@@ -216,7 +222,6 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # suite; their success, from the records:
 
 # %% tags=["remove-input"]
-from icil_paper.book.report import load_table
 from icil_paper.paper.analysis import training_window_sentence
 
 show_sources(load_table(preset, "analysis", compute=False), training_window_sentence)

@@ -84,6 +84,23 @@ def test_the_cost_sums_each_records_time_under_its_stage_and_kind(tmp_path):
     assert len(cost["sittings"]) == 1 and cost["sittings"][0]["records"] == 2
 
 
+def test_chapter_02s_run_counts_as_a_cell_of_its_table_stage(tmp_path):
+    """Chapter 02's run is the `icrt` table's one cell: planned and priced under the stage
+    `table-icrt` as an ICRT cell, one more planned cell than the paper's tables have."""
+    preset = smoke()
+    store = ResultsStore(preset.name, root=tmp_path)
+    [unit] = table_spec(preset, "icrt").units()
+    write_eval_record(store, unit, [{"success": True, "steps": 5}], 5.0)
+    store.write(*train_record(unit.run), {"steps": 5}, seed=0, wall_time_s=10.0, cpu_time_s=9.0)
+    cost = run_cost(preset, store)
+    assert cost["by_stage"]["table-icrt"]["records"] == 2 and "icrt" not in cost["by_stage"]
+    assert cost["by_kind"]["icrt kitchen state"]["cells"] == 1
+    group = cost["projection"]["groups"]["table-icrt / icrt kitchen state"]
+    assert group["planned_cells"] == group["finished_cells"] == 1
+    papers = {u.run.key() for t in TABLE_IDS if t != "icrt" for u in table_spec(preset, t).units()}
+    assert cost["planned_cells"] == len(papers) + 1 and cost["older_code"]["records"] == 0
+
+
 def test_expected_half_width_shrinks_with_seeds_and_matches_the_ledgers_own():
     from scipy.stats import t
 

@@ -99,3 +99,29 @@ def test_the_first_table_stage_computes_every_chosen_tables_cells(monkeypatch):
     assert calls == [["I", "V"], ["I", "V"]]  # the second finds every record done
     reproduce.run_stages(get_preset("smoke"), ["table-V"])
     assert calls[-1] == ["V"]
+
+
+def test_chapter_02s_run_is_a_table_stage_where_its_study_stood():
+    """`table-icrt` runs chapter 02's table through the grid, after the showcase and before
+    the chapters' own studies, as a block of its own: the paper's table stages after the
+    studies still compute their cells together."""
+    names = [s.name for s in reproduce.STAGES]
+    assert "icrt" not in names
+    at = names.index("table-icrt")
+    assert names[at - 1:at + 2] == ["showcase", "table-icrt", "lipschitz"]
+    assert reproduce.STAGES[at].target == "icil_paper.reproduce:table_icrt"
+    papers = [n.removeprefix("table-") for n in names[at + 1:] if n.startswith("table-")]
+    assert reproduce.table_blocks(names) == [["icrt"], papers]
+    assert reproduce.table_blocks(["table-icrt", "table-I", "claims", "table-V"]) == [
+        ["icrt", "I"], ["V"]]
+
+
+def test_a_table_stage_computes_the_tables_of_its_block_only(monkeypatch):
+    calls = []
+    monkeypatch.setattr(reproduce, "run_tables", lambda preset, ids, **kw: calls.append(list(ids)))
+    table = {s.name: s for s in reproduce.STAGES}
+    monkeypatch.setattr(reproduce, "STAGES", (
+        table["table-icrt"], Stage("probe", "a study between", f"{__name__}:_counting_stage"),
+        table["table-I"], table["table-V"]))
+    reproduce.run_stages(get_preset("smoke"))
+    assert calls == [["icrt"], ["I", "V"], ["I", "V"]]

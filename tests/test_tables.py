@@ -70,6 +70,31 @@ def test_tables_share_the_policies_the_paper_shares():
     assert len(plans) == len({p.run.key() for p in plans})  # one plan per trained policy
 
 
+@pytest.mark.parametrize("preset_name", ["smoke", "small", "reference"])
+def test_chapter_02s_run_is_the_icrt_table_with_the_keys_it_always_had(preset_name):
+    """`TABLES["icrt"]` is one cell of one unit: ICRT + LipVQ-VAE trained on the task alone
+    and evaluated there as the preset says, so its records keep the names and keys chapter
+    02's run had before it was a table; it shares no policy with another table."""
+    from icil_paper.paper.icrt_demo import ICRT_DEMO_TASK, icrt_records, icrt_specs
+    from icil_paper.records import eval_record, train_record
+    from icil_paper.runspec import eval_spec, run_spec
+
+    preset = get_preset(preset_name)
+    spec = TABLES["icrt"](preset)
+    [unit] = spec.units()
+    run = run_spec(preset, "icrt", "lipvq", tasks=[ICRT_DEMO_TASK])
+    ev = eval_spec(preset, ICRT_DEMO_TASK)
+    assert (unit.seed_index, unit.run.key(), eval_key(unit.run, unit.eval)) == (
+        0, run.key(), eval_key(run, ev))
+    assert train_record(unit.run) == train_record(run)
+    assert eval_record(unit.run, unit.eval) == eval_record(run, ev)
+    assert icrt_specs(preset) == (unit.run, unit.eval)
+    assert [r.label for r in spec.rows] == ["icrt+lipvq"] and len(spec.columns) == 1
+    others = {u.run.key() for t in TABLES if t != "icrt" for u in table_spec(preset, t).units()}
+    assert run.key() not in others
+    assert icrt_records(preset, ResultsStore(preset_name, root=ROOT / "no-such-folder")) is None
+
+
 def test_zero_shot_trains_on_training_tasks_and_evaluates_held_out_ones():
     from icil_paper.data.splits import zero_shot_split
 

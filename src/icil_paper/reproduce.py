@@ -8,9 +8,11 @@ reproduce` then builds the book.
 
 The table stages fan their cells (one trained policy each, with its evaluations) out over
 `--workers` processes (`--executor local`, the default) or a Ray cluster (`--executor ray`,
-`--ray-address HOST:PORT` to join one). The first table stage of an invocation computes the
-cells of every table stage chosen (`TOGETHER`): a policy shared by several tables is
-trained once and evaluated for all of them in one cell.
+`--ray-address HOST:PORT` to join one). The first of a block of table stages (chosen
+stages with no other stage between them) computes the cells of every table stage of its
+block (`TOGETHER`): a policy shared by several tables is trained once and evaluated for all
+of them in one cell. Chapter 02's run (`table-icrt`) comes before the chapters' own studies,
+so it is a block of its own, computed where the stage stands.
 """
 
 from __future__ import annotations
@@ -52,13 +54,30 @@ def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None
               force=True)
 
 
-TOGETHER: list[str] = []
-"""The tables of this invocation's table stages (set by `run_stages`). The first table stage
-computes the cells of all of them, so that each policy is trained once and evaluated for
-every table that reads it in the same cell: its checkpoint (under `runs/`, not committed)
-need not outlive the sitting, and a run resumed elsewhere from the committed records never
-trains a policy again only to evaluate it for another table. The later table stages then
-find their records done."""
+TOGETHER: list[list[str]] = []
+"""The tables of this invocation's table stages, by block: the chosen table stages that
+follow one another with no other stage between them (set by `run_stages`). The first table
+stage of a block computes the cells of all of its tables, so that each policy is trained
+once and evaluated for every table that reads it in the same cell: its checkpoint (under
+`runs/`, not committed) need not outlive the sitting, and a run resumed elsewhere from the
+committed records never trains a policy again only to evaluate it for another table. The
+later table stages of the block then find their records done."""
+
+
+def table_blocks(names: list[str]) -> list[list[str]]:
+    """The table ids of the stage names `names` (in order), in blocks of table stages that
+    follow one another: ["table-icrt", "lipschitz", "table-I", "table-V"] -> [["icrt"],
+    ["I", "V"]]."""
+    blocks: list[list[str]] = []
+    after_table = False
+    for name in names:
+        is_table = name.startswith("table-")
+        if is_table and not after_table:
+            blocks.append([])
+        if is_table:
+            blocks[-1].append(name.removeprefix("table-"))
+        after_table = is_table
+    return blocks
 
 
 def _table_stage(table_id: str):
@@ -66,11 +85,13 @@ def _table_stage(table_id: str):
         if force:
             raise ValueError("--force does not apply to the table stages: delete the records "
                              f"under {store.dir} to recompute them")
-        run_tables(preset, TOGETHER if table_id in TOGETHER else [table_id], **GRID)
+        block = next((b for b in TOGETHER if table_id in b), [table_id])
+        run_tables(preset, block, **GRID)
     stage.__doc__ = f"Compute every missing cell of table {table_id}."
     return stage
 
 
+table_icrt = _table_stage("icrt")
 table_I, table_II, table_III, table_IV, table_V, table_VI, table_VII = (
     _table_stage(t) for t in ("I", "II", "III", "IV", "V", "VI", "VII"))
 table_fig5, table_prompt, table_analysis, table_beyond = (
@@ -91,7 +112,7 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
         if name not in names:
             check_name("stage", name, names)
     store = ResultsStore(preset.name)
-    TOGETHER[:] = [s.name.removeprefix("table-") for s in chosen if s.name.startswith("table-")]
+    TOGETHER[:] = table_blocks([s.name for s in chosen])
     timings = {}
     for stage in tqdm(chosen, desc=f"reproduce [{preset.name}]", unit="stage"):
         tqdm.write(f"== {stage.name}: {stage.description}")

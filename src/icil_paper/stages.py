@@ -35,8 +35,8 @@ STAGES: tuple[Stage, ...] = (
           "icil_paper.book.studies:expert_study"),
     Stage("showcase", "render and record one demonstration of every task (chapter 04)",
           "icil_paper.book.studies:showcase_study"),
-    Stage("icrt", "train a small ICRT + LipVQ-VAE and roll it out from prompts (chapter 02)",
-          "icil_paper.book.studies:icrt_rollout_study"),
+    Stage("table-icrt", "train a small ICRT + LipVQ-VAE and roll it out from prompts "
+          "(chapter 02)", "icil_paper.reproduce:table_icrt"),
     Stage("lipschitz", "Lipschitz bounds vs empirical constants of trained encoders (chapter 03)",
           "icil_paper.book.studies:lipschitz_study"),
     Stage("tokenizers", "train every action tokenizer alone and score it (chapter 05)",

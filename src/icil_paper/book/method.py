@@ -97,8 +97,8 @@ def coverage_sentence(coverage: Mapping[str, int]) -> str:
 
 
 def study_metrics(study: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
-    """The ICRT study's train and eval records merged into one dict (the eval's keys win),
-    the train record kept whole under "train"."""
+    """Chapter 02's train and eval metrics (`paper.icrt_demo.icrt_records`) merged into one
+    dict (the eval's keys win), the train record's kept whole under "train"."""
     return {**study["train"], **study["eval"], "train": study["train"]}
 
 

@@ -45,7 +45,6 @@ from icil_paper.tables.claims import (
     sizing_effect,
     summary_sentence,
 )
-from icil_paper.tables.definitions import icrt_specs
 from icil_paper.tables.display import (
     BUILD,
     REFERENCE,
@@ -103,16 +102,15 @@ RECORD_KINDS = ("train", "eval", "features", "tokenizer", "lipschitz", "showcase
 
 
 def current_keys(preset_name: str = REFERENCE) -> set[str]:
-    """The keys of every record that a current cell of any table, chapter 02's run or one
-    of the chapters' own studies (`book.studies.study_keys`) computes at the preset."""
+    """The keys of every record that a current cell of any table (chapter 02's run among
+    them) or one of the chapters' own studies (`book.studies.study_keys`) computes at the
+    preset."""
     preset = get_preset(preset_name)
     keys = set()
     for p in plan([table_spec(preset, t) for t in TABLES]):
         keys.add(p.run.key())
         keys.update(eval_key(p.run, ev) for ev in p.evals.values())
         keys.update(feature_key(p.run, f) for f in p.features.values())
-    run, ev = icrt_specs(preset)
-    keys.update((run.key(), eval_key(run, ev)))
     for study in study_keys(preset).values():
         keys.update(study)
     return keys

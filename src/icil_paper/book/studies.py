@@ -22,14 +22,12 @@ from icil_paper.data import SOURCES, ensure_many, load_demos, preset_tasks
 from icil_paper.data.experts import measure
 from icil_paper.data.showcase import showcase_task
 from icil_paper.data.trajectories import generate_trajectories
-from icil_paper.eval import evaluate_run
 from icil_paper.metrics import empirical_lipschitz
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, config_hash, results_root
 from icil_paper.runspec import SUITE_VERSION, DataSpec
 from icil_paper.seeding import seed_everything
 from icil_paper.sim import ACTION_DIM
-from icil_paper.tables.definitions import icrt_specs
 from icil_paper.tokenizers import TOKENIZERS, lipschitz_bounds, lipschitz_loss, make_tokenizer
 from icil_paper.tokenizers.configs import TokenizerConfig, lipvq_official
 from icil_paper.tokenizers.lipschitz_linear import weight_norm_bound
@@ -40,7 +38,6 @@ from icil_paper.tokenizers.training import (
     stand_alone,
     train_tokenizer,
 )
-from icil_paper.train.stored import load_trained, train_run
 from icil_paper.viz.recording import principal_view, record_latent_trajectories
 
 VIEW_STEPS = 40
@@ -252,21 +249,6 @@ def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
             lambda spec=spec: _lipschitz_measurements(preset, spec),
             seed=spec.seed, force=force)["metrics"])
     return records
-
-
-def icrt_rollout_study(preset: Preset, store: ResultsStore | None = None,
-                       force: bool = False) -> dict:
-    """Chapter 02: train a small ICRT + LipVQ-VAE on one task, then evaluate it from prompts.
-
-    Returns {"train": the train record's metrics (summary and loss curve), "eval": the eval
-    record's metrics (success rate, Wilson interval, per-episode seeds and prompts)}.
-    """
-    store = store or ResultsStore(preset.name)
-    run, ev = icrt_specs(preset)
-    trained = train_run(run, preset.name, store, force=force, data_workers=preset.data.workers)
-    evaluated = evaluate_run(run, ev, lambda: load_trained(run, preset.name, store), store,
-                             preset.name, workers=preset.eval.workers, force=force)
-    return {"train": trained["metrics"], "eval": evaluated["metrics"]}
 
 
 def shown_tasks(preset: Preset) -> list[str]:

@@ -8,6 +8,7 @@
 
 A reader of the book finds the code of a result in the module named for it:
 
+- `icrt_demo.py`     a small ICRT + LipVQ-VAE on one task, one cell, no claims (chapter 02)
 - `table_i.py`       Table I, every policy on the kitchen suite (chapter 06)
 - `table_ii.py`      Table II, ACT with each tokenizer on ManiSkill (chapter 07)
 - `table_iii.py`     Table III, the latents' smoothness, with Figs. 1 and 4 (chapter 08)
@@ -20,7 +21,8 @@ A reader of the book finds the code of a result in the module named for it:
 - `since_paper.py`   the tokenizers since the paper, the `beyond` table (chapter 12)
 - `official.py`      the paper against its official code (chapter 13)
 
-Each declares `spec(preset) -> TableSpec` (Table IV also `fig5_spec`), where it has claims
+Each declares `spec(preset) -> TableSpec` (Table IV also `fig5_spec`; `icrt` is chapter
+02's run, not a table of the paper), where it has claims
 `claims(preset)` and `CLAIM_LABELS`, the paper's numbers of its table as printed
 (`TABLE_V_SIM_TO_REAL`, ...), and what its chapter shows of it alone (a figure, a frame, a
 sentence). They are built from `icil_paper.tables` (the building blocks of a spec, the
@@ -44,6 +46,7 @@ from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json
 from icil_paper.paper import (
     analysis,
+    icrt_demo,
     official,
     prompt_ablation,
     since_paper,
@@ -63,6 +66,7 @@ from icil_paper.tables.execute import run_specs
 from icil_paper.tables.spec import TableSpec
 
 TABLES: dict[str, Callable[[Preset], TableSpec]] = {
+    "icrt": icrt_demo.spec,
     "I": table_i.spec, "II": table_ii.spec, "III": table_iii.spec, "IV": table_iv.spec,
     "V": table_v.spec, "VI": table_vi.spec, "VII": table_vii.spec, "fig5": table_iv.fig5_spec,
     "prompt": prompt_ablation.spec, "analysis": analysis.spec, "beyond": since_paper.spec,

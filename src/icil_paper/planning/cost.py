@@ -6,9 +6,9 @@ Every record carries the wall time and CPU time of its computation (`ResultsStor
 a training run, one task's evaluation, one features measurement). A record belongs to the
 first stage of `icil-paper reproduce` whose tables plan it (Table IV's runs are Table I's,
 so they count under `table-I`) and to a kind of cell: policy, suite and observations
-("icrt kitchen state"); chapter 02's run counts as stage `icrt`, and records of the other
-stages (tokenizers, Lipschitz study, showcase) under their kind. Records the current plan does not name (made by older code) are
-counted apart and not summed in.
+("icrt kitchen state"), chapter 02's run too (stage `table-icrt`); records of the other
+stages (tokenizers, Lipschitz study, showcase) count under their kind. Records the current
+plan does not name (made by older code) are counted apart and not summed in.
 
 Sittings: records whose finish times lie less than `SITTING_GAP_S` apart belong to one
 sitting; a sitting's elapsed time runs from its first record's start (finish minus wall
@@ -39,7 +39,6 @@ from icil_paper.planning.design import cell_kind, plan_cost, planned_seeds
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
 from icil_paper.stages import STAGES
-from icil_paper.tables.definitions import icrt_specs
 from icil_paper.tables.execute import plan
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
@@ -58,8 +57,7 @@ CELLS_AT_ONCE = 2
 
 
 def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]:
-    """Record path -> (stage, kind of cell) for every record the table stages plan, and
-    chapter 02's run (stage `icrt`)."""
+    """Record path -> (stage, kind of cell) for every record the table stages plan."""
     out: dict[Path, tuple[str, str]] = {}
     for stage in STAGES:
         if not stage.name.startswith("table-"):
@@ -71,10 +69,6 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
             for record_id in ids:
                 path = store.record_path(*record_id)
                 out.setdefault(path, (stage.name, kind))
-    run, ev = icrt_specs(preset)
-    for record_id in (train_record(run), eval_record(run, ev)):
-        path = store.record_path(*record_id)
-        out.setdefault(path, ("icrt", "icrt study"))
     return out
 
 
@@ -208,9 +202,8 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
         measured = finished and not done["without_cpu_time"]
         if measured:
             per_cell = _cpu_per_cell(done)
-        else:  # chapter 02's "icrt study" is priced as an ICRT cell
-            per_cell = estimate.get(kind) or next(
-                (v for k, v in estimate.items() if k.split()[0] == kind.split()[0]), None)
+        else:  # the same plans, so every kind planned here has an estimate
+            per_cell = estimate.get(kind)
         if per_cell is None:
             raise KeyError(f"no cost estimate for cells of kind {kind!r}: run "
                            "`python -m icil_paper.bench.cells` to measure one")

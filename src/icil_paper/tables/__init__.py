@@ -25,7 +25,6 @@ the layers above (planning, the book, `reproduce`).
   ledger's entries and their sentences.
 - `display.py`: what every result's chapter shows the same way (frames, figures, sentences,
   the reference run beside this build).
-- `definitions.py` also holds chapter 02's run (`icrt_specs`).
 - `compare.py`: a tokenizer against LipVQ-VAE on Table I's protocol (`icil-paper compare`).
 
 What the book reads across results (`load_table`, the ledger's views, the reference run's

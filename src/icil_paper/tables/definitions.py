@@ -190,15 +190,3 @@ def icrt_rows(preset: Preset, seeds: dict[str, int]) -> TableSpec:
                          "Table I's runs and evaluations for the chosen tokenizers; avg is "
                          "the mean over tasks."))
 
-
-# --------------------------------------------------------------------------- chapter 02
-ICRT_DEMO_TASK = "kitchen/open_drawer"
-"""Chapter 02's task: one small ICRT trained and rolled out on it."""
-ICRT_DEMO_TOKENIZER = "lipvq"
-"""Chapter 02's action tokenizer (the paper's LipVQ-VAE)."""
-
-
-def icrt_specs(preset: Preset):
-    """Chapter 02's run and evaluation: ICRT + LipVQ-VAE on one task, rolled out from prompts."""
-    run = run_spec(preset, "icrt", ICRT_DEMO_TOKENIZER, tasks=[ICRT_DEMO_TASK])
-    return run, eval_spec(preset, ICRT_DEMO_TASK)

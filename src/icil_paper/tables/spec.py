@@ -74,7 +74,8 @@ class TableSpec:
     """One table or figure of the paper."""
 
     id: str
-    """`I` .. `VII`, `fig5`, `prompt`: the paper's numbering (from its source)."""
+    """`I` .. `VII`, `fig5`, `prompt`: the paper's numbering (from its source); our own
+    results by name (`analysis`, `beyond`, `official`, `icrt`: chapter 02's run)."""
     title: str
     """The caption, as the paper words it, with our stand-in named."""
     columns: tuple[str, ...]

@@ -1,0 +1,67 @@
+"""Chapter 02's run: a small ICRT + LipVQ-VAE trained on one kitchen task and rolled out
+from prompts, as a table of one cell.
+
+    spec(preset)                          # one row (icrt+lipvq), one column (the task)
+    run, evaluation = icrt_specs(preset)  # the cell's training run and its evaluation
+    records = icrt_records(preset, store) # {"train": ..., "eval": ...} metrics, or None
+
+One training seed (`tables.row_seeds` may give the row more, "icrt:icrt+lipvq=N"), trained
+on `ICRT_DEMO_TASK` alone and evaluated on it with the preset's episodes and prompts, as
+every table evaluates a row's seed 0 (`tables.definitions.tasks_cell`). It carries no
+paper's numbers and no claims: the chapter opens the model up and shows what one run
+learns. The stage `table-icrt` computes it, through the same grid as every table.
+
+Shown (chapter 02): the train record's loss curve and the eval record's success, with one
+of its episodes replayed (`book.method`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from icil_paper.config import Preset
+from icil_paper.records import eval_record, train_record
+from icil_paper.results import ResultsStore
+from icil_paper.runspec import EvalSpec, RunSpec
+from icil_paper.tables.definitions import label, row_seeds, seed_runs, tasks_cell
+from icil_paper.tables.spec import Row, TableSpec
+
+ICRT_DEMO_TASK = "kitchen/open_drawer"
+"""Chapter 02's task: one small ICRT trained and rolled out on it."""
+ICRT_DEMO_TOKENIZER = "lipvq"
+"""Chapter 02's action tokenizer (the paper's LipVQ-VAE)."""
+ICRT_DEMO_ROW = label("icrt", ICRT_DEMO_TOKENIZER)
+"""The table's one row."""
+ICRT_DEMO_COLUMN = ICRT_DEMO_TASK.split("/", 1)[1]
+"""The table's one column: success on the task."""
+
+
+def spec(preset: Preset) -> TableSpec:
+    """Chapter 02's run as a table: ICRT + LipVQ-VAE trained on `ICRT_DEMO_TASK`, its
+    success there from prompts, one cell."""
+    seeds = row_seeds(preset, "icrt", ICRT_DEMO_ROW, 1)
+    runs = seed_runs(preset, "icrt", ICRT_DEMO_TOKENIZER, [ICRT_DEMO_TASK], seeds)
+    row = Row(ICRT_DEMO_ROW, {ICRT_DEMO_COLUMN: tasks_cell(preset, runs, [ICRT_DEMO_TASK])})
+    return TableSpec("icrt", "A small ICRT + LipVQ-VAE, trained and rolled out on one task",
+                     (ICRT_DEMO_COLUMN,), (row,), note=(
+                         f"Trained on {ICRT_DEMO_TASK} alone and evaluated there from "
+                         "prompts (chapter 02); not a table of the paper."))
+
+
+def icrt_specs(preset: Preset) -> tuple[RunSpec, EvalSpec]:
+    """The run and evaluation of the table's seed 0: what chapter 02 shows and replays."""
+    unit = spec(preset).rows[0].cells[ICRT_DEMO_COLUMN].units[0]
+    return unit.run, unit.eval
+
+
+def icrt_records(preset: Preset, store: ResultsStore | None = None
+                 ) -> dict[str, dict[str, Any]] | None:
+    """{"train": the train record's metrics (summary and loss curve), "eval": the eval
+    record's metrics (success rate, Wilson interval, per-episode seeds and prompts)} of seed
+    0, as the stage `table-icrt` stored them; None while either is missing."""
+    store = store or ResultsStore(preset.name)
+    run, ev = icrt_specs(preset)
+    trained, evaluated = store.get(*train_record(run)), store.get(*eval_record(run, ev))
+    if trained is None or evaluated is None:
+        return None
+    return {"train": trained["metrics"], "eval": evaluated["metrics"]}
