@@ -144,8 +144,9 @@ def test_chapter_11_types_no_result():
     for typed in ("both make Eq. 4 bind", "make Eq. 4 bind)", "barely moves them",
                   "binds in", "is smoother than", "succeeds more than"):
         assert typed not in prose, typed
-    for call in ("show_sources(results, binding_sentence, travel_sentence)",
-                 "show_sources(results, conclusion)", "comparison_list(findings(result))"):
+    for call in ("show_sources(results, analysis.binding_sentence, analysis.travel_sentence)",
+                 "show_sources(results, analysis.conclusion)",
+                 "comparison_list(analysis.findings(result))"):
         assert call in source, call
 
 
