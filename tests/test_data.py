@@ -17,6 +17,7 @@ import pytest
 
 import fake_suite
 import icil_paper.sim as sim
+from icil_paper.config import get_preset
 from icil_paper.data import (
     EVAL_SEED_BASE,
     DatasetError,
@@ -27,6 +28,7 @@ from icil_paper.data import (
     ensure_demos,
     expert_rollout,
     file_info,
+    generate,
     load_demos,
     read_masks,
     train_valid_split,
@@ -36,6 +38,7 @@ from icil_paper.data import cli as data_cli
 from icil_paper.data.generate import _Job, generate_one, parts_dir, shard_path
 from icil_paper.data.sources import ATTEMPT_STRIDE, ExpertSource
 from icil_paper.data.stats import action_least_energy_per_step, data_set_stats, keep_rate
+from icil_paper.seeding import data_set_seed
 
 TASK = "kitchen/reach_a"
 
@@ -614,3 +617,16 @@ def test_recording_writes_rrd_and_picture(tmp_path):
     assert only_png["rrd"] is None and only_png["png"].exists()
     with pytest.raises(ValueError, match="steps"):
         record_episode(tmp_path / "c.rrd", demo.obs, demo.actions[:3])
+
+
+def test_a_demonstration_set_is_locked_under_its_own_name(fake_kitchen, monkeypatch):
+    """Generating set k locks set k's file, not the preset's base set: a process generating
+    the base set never waits on, or races with, a writer of another set."""
+    locked = []
+    real = generate.data_set_lock
+    monkeypatch.setattr(generate, "data_set_lock",
+                        lambda path: locked.append(path) or real(path))
+    seed = data_set_seed(get_preset("smoke").seed, 3)
+    path = ensure_demos("smoke", TASK, "generated", n=1, workers=1, progress=False, seed=seed)
+    assert locked == [path] == [demo_path("smoke", TASK, "generated", seed=seed)]
+    assert path.name == "generated.set3.hdf5"

@@ -389,7 +389,8 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
     with contextlib.ExitStack() as locks:
         # one writer per data set (as one per run folder): a second `demos` or `train` that
         # needs it waits here, then finds it whole; sorted, so two callers never deadlock
-        for path in sorted({demo_path(preset, task, source, obs) for task, source in pairs}):
+        for path in sorted({demo_path(preset, task, source, obs, base_seed)
+                              for task, source in pairs}):
             locks.enter_context(data_set_lock(path))
         plans = [_plan(preset, task, source, n, base_seed, obs, env_options, full_check)
                  for task, source in pairs]
