@@ -34,12 +34,15 @@ SCENE_DISTRIBUTIONS = ("generated", "human")
 named here so specs stay light); the first is every suite's default."""
 
 
-SUITE_VERSION = 2
-"""The version of the task suites' scenes and success checks (`icil_paper.sim`), in every
-`DataSpec`'s and `EvalSpec`'s key, so that no run or record made on an older suite is
-returned for the current one; raise it whenever a layout range, fixture or success check
-changes. 1: the first kitchen suite; 2: the kitchen families' layout ranges and the
-insertion hole set by the regime pilot (`icil_paper.sim.kitchen.scenes`)."""
+SUITE_VERSION = 3
+"""The version of the task suites' scenes, success checks and scripted experts
+(`icil_paper.sim`), in every `DataSpec`'s and `EvalSpec`'s key, so that no run or record made
+on an older suite is returned for the current one; raise it whenever a layout range,
+fixture, success check or expert changes. 1: the first kitchen suite; 2: the kitchen
+families' layout ranges and the insertion hole set by the regime pilot
+(`icil_paper.sim.kitchen.scenes`); 3: the pick-and-place expert lets the box go as it passes
+the bin's rim (`icil_paper.sim.kitchen.experts.PickPlaceExpert`), and the peg once it is 1 cm into
+the hole."""
 
 
 @dataclass(frozen=True)

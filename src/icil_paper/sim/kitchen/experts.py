@@ -478,7 +478,10 @@ class PickPlaceExpert(KitchenExpert):
                 self._set("release")
             bottom = (COUNTER_Z + 0.004) if self.insertion else (self.base_pos[2] + 0.015)
             z = bottom + self.half_h + self.grasp_dz
-            if self.eef[2] < z + 0.008:
+            # let go while the hand still moves down: the box as its bottom passes the bin's
+            # rim, the peg once its bottom is 1 cm into the hole; each drops the rest of the way
+            rim = self.target_top - (0.01 if self.insertion else 0.0)
+            if self.eef[2] < z + 0.008 or obj[2] - self.half_h < rim:
                 self._set("release")
             return self._servo(np.array([*target_xy, z]), self._yaw_lock, CLOSE, speed=0.4)
         if self.phase == "release":
