@@ -128,7 +128,8 @@ display(bound_history_figure(records["lipvq (paper)"],
 # iterations that is about 125 at $\eta = 5 \cdot 10^{-4}$: many times the bounds' initial
 # size (the largest row sums at the start: about 2, 5 and 6 for the three layers of the
 # presets' encoders, 5-14 at Liu et al.'s initialisation), so the cap can come to bind where the task loss
-# lets it. Over our 2000 steps it is 0.5, and the bounds cannot leave their start. The
+# lets it. Over the reference preset's training it is a few tenths (the table below), and
+# the bounds cannot leave their start. The
 # presets therefore give the bounds a learning rate `c_lr_scale` times the trainer's
 # (`config.matching_c_lr_scale`), so that they travel as far as in the paper's run, relative
 # to the same initial size; the analysis chapter keeps the paper's literal shared rate as

@@ -135,10 +135,11 @@ def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not(
     for ours, theirs in zip(mine, used, strict=True):
         assert ours and not ours & theirs
     # the bounds' rate follows the pilot's budget as the presets' follows theirs
-    assert regime_preset(10, 2000).tokenizers.lipvq.lipschitz.c_lr_scale == pytest.approx(
+    chosen = regime_preset(preset.data.demos_per_task, preset.train.steps)
+    assert chosen.tokenizers.lipvq.lipschitz.c_lr_scale == pytest.approx(
         preset.tokenizers.lipvq.lipschitz.c_lr_scale)
-    assert regime_preset(10, 500).tokenizers.lipvq.lipschitz.c_lr_scale > 3 * \
-        preset.tokenizers.lipvq.lipschitz.c_lr_scale
+    assert regime_preset(10, preset.train.steps // 4).tokenizers.lipvq.lipschitz.c_lr_scale \
+        > 3 * preset.tokenizers.lipvq.lipschitz.c_lr_scale
 
 
 def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise():
@@ -189,3 +190,30 @@ def test_seed_correlations_pair_rows_by_seed_index():
     assert not any(labels[3] in pair for pair in r)  # a constant row has no correlation
     assert "mean r = " in seed_correlation_sentence({"this build": TableResult(spec, cells,
                                                                               "smoke")})
+
+
+def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():
+    """`results/bench/regime.json`: the budget and demonstrations chosen, ICRT + LipVQ-VAE's
+    learning curve over at least three budgets, every family of the three rows, ACT +
+    LipVQ-VAE on every ManiSkill task, and a capped share for each pilot seed of both
+    Lipschitz rows; its seeds are not the reference run's."""
+    import json
+
+    from icil_paper.bench import bench_path
+    from icil_paper.planning.pilot import REGIME_SEED
+    from icil_paper.tables.definitions import FAMILY_COLUMNS
+
+    record = json.loads(open(bench_path("regime")).read())
+    assert record["train_steps"] in record["budgets"] and record["demos_per_task"] >= 1
+    curve = record["learning_curve"]["icrt+lipvq"]
+    assert sum(v is not None for v in curve.values()) >= 3
+    for row in ("icrt+lipvq", "icrt+lip-mlp", "bc_transformer"):
+        assert set(record["families"][row]) == set(FAMILY_COLUMNS), row
+        assert None not in record["families"][row].values(), row
+    reference = get_preset("reference")
+    tasks = {t.split("/", 1)[1] for t in reference.data.maniskill_tasks}
+    assert set(record["maniskill"]["act+lipvq"]) == tasks
+    for row in ("icrt+lipvq", "icrt+lip-mlp"):
+        shares = record["capped_share"][row]
+        assert len(shares) == record["seeds"] and None not in shares, row
+    assert min(record["seed_indices"]) >= REGIME_SEED

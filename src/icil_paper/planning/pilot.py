@@ -157,8 +157,8 @@ def main(argv: list[str] | None = None) -> None:
 
 # --------------------------------------------------------------------------- the regime
 REGIME_ROWS = (("icrt", "lipvq"), ("icrt", "lip-mlp"), ("bc_transformer", None))
-"""The kitchen rows the regime pilot trains; only ICRT + LipVQ-VAE's level sets the regime,
-the others are reported beside it."""
+"""The kitchen rows the regime pilot trains: the first at every budget (its learning curve
+and level alone set the regime), the others at the budget it chose, reported beside it."""
 REGIME_MANISKILL_ROWS = (("act", "lipvq"),)
 """The ManiSkill rows of the regime pilot (one policy per task, as Table II)."""
 REGIME_SEED = 20
@@ -333,18 +333,35 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
     return record
 
 
+def _train_regime_cells(preset: Any, plans: list[Any], workers: int, steps: int) -> None:
+    """Train and evaluate the plans' cells not yet stored (their data generated first)."""
+    store = ResultsStore("reference")
+    todo = [p for p in plans if not plan_done(store, p)]
+    if not todo:
+        return
+    ensure_data(preset, todo, progress=False)
+    cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
+                  kwargs={"preset": preset.name, "run": p.run.to_dict(),
+                          "evals": [to_dict(e) for e in p.evals.values()],
+                          "features": [to_dict(f) for f in p.features.values()]},
+                  label=f"regime {steps}: {cell_label(p.run)}") for p in todo]
+    cells.sort(key=lambda c: "icrt" not in c.label)  # the longest first
+    run_grid(cells, workers=workers)
+
+
 def regime_main(argv: list[str] | None = None) -> None:
-    """`python -m icil_paper.planning.pilot regime`: train and evaluate the regime pilot's cells
-    not yet stored (resumable: every finished record is kept under `results/pilot/`), then
-    write `results/bench/regime.json`."""
+    """`python -m icil_paper.planning.pilot regime`: train and evaluate ICRT + LipVQ-VAE at
+    every budget (its learning curve), then the rows reported beside it (ICRT + Lip-MLP,
+    BC-Transformer and, with `--maniskill`, ACT + LipVQ-VAE on each ManiSkill task) at the
+    budget the curve chose (`regime_record`), and write `results/bench/regime.json`.
+    Resumable: every finished record is kept under `results/pilot/`."""
     parser = argparse.ArgumentParser(prog="pilot regime", description=regime_main.__doc__)
     parser.add_argument("--demos", type=int, default=10, help="demonstrations per task")
     parser.add_argument("--budgets", type=int, nargs="+", default=list(REGIME_BUDGETS))
     parser.add_argument("--seeds", type=int, default=2)
     parser.add_argument("--maniskill", action="store_true")
-    parser.add_argument("--rows", nargs="+", default=None,
-                        help="train only these kitchen rows (labels such as icrt+lipvq); the "
-                             "record still reports every row that has records")
+    parser.add_argument("--no-beside", action="store_true",
+                        help="train ICRT + LipVQ-VAE's learning curve only")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--summary-only", action="store_true",
                         help="write regime.json from the stored records without training")
@@ -357,26 +374,17 @@ def regime_main(argv: list[str] | None = None) -> None:
     os.environ["ICIL_RESULTS"] = str(root / PILOT_FOLDER)
     os.environ.setdefault("ICIL_RUNS", str(Path("runs") / PILOT_FOLDER))
     budgets = tuple(sorted(set(args.budgets)))
-    labels = {(f"{p}+{t}" if t else p): (p, t) for p, t in REGIME_ROWS}
-    unknown = sorted(set(args.rows or ()) - set(labels))
-    if unknown:
-        parser.error(f"unknown rows {unknown}; the regime pilot's rows are {sorted(labels)}")
-    rows = tuple(labels[r] for r in args.rows) if args.rows else REGIME_ROWS
+    curve_row, beside = REGIME_ROWS[0], REGIME_ROWS[1:]
     if not args.summary_only:
-        store = ResultsStore("reference")
         for steps in budgets:  # the cheapest budget first: a stopped pilot has its start
             preset = regime_preset(args.demos, steps)
-            todo = [p for p in regime_plans(preset, args.seeds, args.maniskill, rows)
-                    if not plan_done(store, p)]
-            if not todo:
-                continue
-            ensure_data(preset, todo, progress=False)
-            cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
-                          kwargs={"preset": preset.name, "run": p.run.to_dict(),
-                                  "evals": [to_dict(e) for e in p.evals.values()],
-                                  "features": [to_dict(f) for f in p.features.values()]},
-                          label=f"regime {steps}: {cell_label(p.run)}") for p in todo]
-            run_grid(cells, workers=args.workers)
+            _train_regime_cells(preset, regime_plans(preset, args.seeds, rows=(curve_row,)),
+                                args.workers, steps)
+        chosen = regime_record(args.demos, budgets, args.seeds)["train_steps"]
+        if not args.no_beside and chosen is not None:
+            preset = regime_preset(args.demos, chosen)
+            _train_regime_cells(preset, regime_plans(preset, args.seeds, args.maniskill,
+                                                     rows=beside), args.workers, chosen)
     record = regime_record(args.demos, budgets, args.seeds, args.maniskill)
     print(json.dumps({k: record[k] for k in ("train_steps", "learning_curve", "families",
                                              "capped_share", "within_range")}), flush=True)
