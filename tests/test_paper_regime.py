@@ -217,3 +217,6 @@ def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():
         shares = record["capped_share"][row]
         assert len(shares) == record["seeds"] and None not in shares, row
     assert min(record["seed_indices"]) >= REGIME_SEED
+    # the reference preset trains at the pilot's choice
+    assert (reference.data.demos_per_task, reference.train.steps) == (
+        record["demos_per_task"], record["train_steps"])
