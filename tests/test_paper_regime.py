@@ -220,3 +220,23 @@ def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():
     # the reference preset trains at the pilot's choice
     assert (reference.data.demos_per_task, reference.train.steps) == (
         record["demos_per_task"], record["train_steps"])
+
+
+def test_the_regime_summary_names_the_families_and_maniskill_tasks_outside_the_range(tmp_path):
+    import json
+
+    from icil_paper.planning.pilot import regime_summary
+
+    record = {"families": {"icrt+lipvq": {"doors": 0.5, "knobs": 1.0}},
+              "learning_curve": {"icrt+lipvq": {"1000": 0.4, "2000": 0.5, "3000": 0.5}},
+              "within_range": {"doors": True, "knobs": False}, "train_steps": 2000,
+              "plateau_reached": True, "seeds": 2, "seed_indices": [20, 21],
+              "demos_per_task": 3, "budgets": [1000, 2000, 3000],
+              "capped_share": {"icrt+lipvq": [0.3, 0.4]},
+              "maniskill": {"act+lipvq": {"pick_cube": 0.5, "stack_cube": 0.0}}}
+    path = tmp_path / "regime.json"
+    path.write_text(json.dumps(record))
+    frame, text = regime_summary(str(path))
+    assert list(frame.index) == ["icrt+lipvq"]
+    assert "levels off at 2000 steps" in text and "[0.1, 0.9]: knobs." in text
+    assert "pick_cube 0.5, stack_cube 0.0 (outside [0.1, 0.9]: stack_cube)" in text

@@ -492,4 +492,10 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     if shares:
         text += " Capped share of encoder rows per seed: " + "; ".join(
             f"{row} {s}" for row, s in shares.items()) + "."
+    for row, tasks in record.get("maniskill", {}).items():
+        text += (f" ManiSkill, {row} on each task: "
+                 + ", ".join(f"{task} {value}" for task, value in tasks.items())
+                 + f" (outside [{low}, {high}]: "
+                 + (", ".join(t for t, v in tasks.items() if v is None or not low <= v <= high)
+                    or "none") + ").")
     return frame, text
