@@ -29,7 +29,9 @@ Phases (the current one is `expert.phase`):
   the button is fully in, `retreat`.
 - Pick-and-place experts (pick_place, insertion): `approach` above the object turned to its
   faces, `descend`, `grasp`, `lift`, `carry` above the target, `lower` (into the bin / the
-  hole, steering the object's observed position over the target), `release`, `retreat`.
+  hole, steering the object's observed position over the target), `release` while the hand
+  still moves down (the box as its bottom passes the bin's rim, the peg once it is 1 cm into
+  the hole: each drops the rest of the way), `retreat`.
 
 Closed loop: a phase that sees its precondition broken (the hand slipped off a handle, the
 object is no longer between the fingers, the knob does not follow the wrist) goes back to
