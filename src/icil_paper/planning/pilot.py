@@ -31,7 +31,7 @@ from typing import Any
 
 from icil_paper.bench import bench_path, save_benchmark
 from icil_paper.config import get_preset, matching_c_lr_scale
-from icil_paper.config_data import canonical_json, to_dict
+from icil_paper.config_data import canonical_json
 from icil_paper.paper import table_spec
 from icil_paper.paper.table_ii import maniskill_settings, maniskill_tokenizer
 from icil_paper.records import eval_record, features_record
@@ -39,8 +39,15 @@ from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.runspec import eval_key, feature_key, run_spec
 from icil_paper.tables.definitions import FAMILY_COLUMNS, families, feature_spec, table_eval
-from icil_paper.tables.execute import RunPlan, cell_label, ensure_data, plan, plan_done
-from icil_paper.tables.grid import Cell, run_grid
+from icil_paper.tables.execute import (
+    RunPlan,
+    cell_label,
+    ensure_data,
+    plan,
+    plan_cell,
+    plan_done,
+)
+from icil_paper.tables.grid import run_grid
 
 SETTINGS: dict[str, tuple[str, tuple[str, ...]]] = {
     "kitchen_10": ("I", ("data.demos_per_task=10",)),
@@ -121,11 +128,7 @@ def setting_cells(name: str, progress: bool = True) -> list[Any]:
     todo = [p for p in setting_plans(name) if not plan_done(store, p)]
     if todo:
         ensure_data(preset, todo, progress=progress)
-    return [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
-                 kwargs={"preset": preset.name, "run": p.run.to_dict(),
-                         "evals": [to_dict(e) for e in p.evals.values()], "features": []},
-                 label=f"{name}: {cell_label(p.run)}")
-            for p in todo]
+    return [plan_cell(preset, p, f"{name}: {cell_label(p.run)}") for p in todo]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -340,11 +343,7 @@ def _train_regime_cells(preset: Any, plans: list[Any], workers: int, steps: int)
     if not todo:
         return
     ensure_data(preset, todo, progress=False)
-    cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
-                  kwargs={"preset": preset.name, "run": p.run.to_dict(),
-                          "evals": [to_dict(e) for e in p.evals.values()],
-                          "features": [to_dict(f) for f in p.features.values()]},
-                  label=f"regime {steps}: {cell_label(p.run)}") for p in todo]
+    cells = [plan_cell(preset, p, f"regime {steps}: {cell_label(p.run)}") for p in todo]
     cells.sort(key=lambda c: "icrt" not in c.label)  # the longest first
     run_grid(cells, workers=workers)
 

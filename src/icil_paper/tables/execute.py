@@ -171,21 +171,28 @@ def run_specs(preset: Preset, specs: Sequence[TableSpec], executor: str = "local
     todo.sort(key=lambda p: p.run.seed)
     ensure_data(preset, todo, progress=progress)
     folders = cell_folders(preset)
-    cells = [Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
-                  # a Ray cell reads the copies in its node's private data folder
-                  # (cell_folders), not the driver's path
-                  kwargs={"preset": preset.name,
-                          "data_root": None if executor == "ray" else preset.data.root,
-                          "run": p.run.to_dict(),
-                          "evals": [to_dict(e) for e in p.evals.values()],
-                          "features": [to_dict(f) for f in p.features.values()]},
-                  gpus=gpus_per_cell, label=cell_label(p.run),
-                  inputs=plan_inputs(preset, p, store) if executor == "ray" else {})
+    # a Ray cell reads the copies in its node's private data folder (cell_folders), not the
+    # driver's path
+    ray = executor == "ray"
+    cells = [plan_cell(preset, p, cell_label(p.run), gpus=gpus_per_cell,
+                       data_root=None if ray else preset.data.root,
+                       inputs=plan_inputs(preset, p, store) if ray else None)
              for p in todo]
     by_key = {p.run.key(): p for p in todo}
     return run_grid(cells, executor=executor, workers=workers or preset.eval.workers,
                     ray_address=ray_address, progress=progress, folders=folders,
                     done=lambda c: plan_done(store, by_key[c.key]))
+
+
+def plan_cell(preset: Preset, p: RunPlan, label: str, data_root: str | None = None,
+              gpus: float = 0.0, inputs: dict[str, tuple[str, ...]] | None = None) -> Cell:
+    """The grid cell that computes plan `p`: `run_cell` on its run, evaluations and
+    features (`data_root`: the driver's data folder, None for the named preset's)."""
+    return Cell(key=p.run.key(), target="icil_paper.tables.execute:run_cell",
+                kwargs={"preset": preset.name, "data_root": data_root, "run": p.run.to_dict(),
+                        "evals": [to_dict(e) for e in p.evals.values()],
+                        "features": [to_dict(f) for f in p.features.values()]},
+                gpus=gpus, label=label, inputs=inputs or {})
 
 
 def cell_folders(preset: Preset) -> dict[str, str]:
