@@ -73,7 +73,7 @@ show_pilot(table="I")
 # run never uses, finds where its learning curve levels off (no gain beyond noise at the
 # next budget), and reads the difficulty from its level alone, never from a comparison
 # between rows. At that budget it trains ICRT + Lip-MLP and BC-Transformer beside it, and
-# ACT + LipVQ-VAE on each ManiSkill task; a budget a row was not trained at reads "not run".
+# ACT + LipVQ-VAE on each ManiSkill task; a budget a row was not trained at reads "not trained".
 
 # %% tags=["hide-input"]
 from icil_paper.planning.pilot import regime_summary
@@ -81,7 +81,7 @@ from icil_paper.planning.pilot import regime_summary
 display(Markdown(paper_lipvq_range()))
 regime, regime_text = regime_summary()
 if regime is not None:
-    display(regime.style.format(na_rep="not run", precision=3))
+    display(regime.style.format(na_rep="not trained", precision=3))
 display(Markdown(regime_text))
 
 # %% [markdown]
