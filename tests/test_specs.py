@@ -47,9 +47,9 @@ def _other_values(annotation, value, choices=None):
         value = value or 0.0
         yield from (value * 1.5 + 0.125, value / 2 + 0.0625)  # the second stays below 1
     elif annotation is str:
-        # (a name-shaped value for the fields that read "TABLE:row=N")
+        # (name-shaped values for the fields that read "TABLE:row=N" and "TASK:N")
         yield from ([c for c in choices if c != value] if choices
-                    else [(value or "") + "-changed", "I:*=2"])
+                    else [(value or "") + "-changed", "I:*=2", f"{TASKS[0]}:7"])
     elif origin is tuple and len(args) == 2 and args[1] is Ellipsis:
         value = tuple(value or ())
         for extra in _other_values(args[0], None, choices):
@@ -97,28 +97,28 @@ def leaf_paths(obj, prefix=""):
 STAGES = {
     # stage: (key of the stage under a preset, the preset fields it reads)
     "train icrt+lipvq": (lambda p: run_spec(p, "icrt", "lipvq", tasks=TASKS).key(),
-                         ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task",
+                         ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task", "data.task_demos",
                           "data.obs", "seed")),
     "train icrt (default mlp)": (lambda p: run_spec(p, "icrt", tasks=TASKS).key(),
                                  ("policies.icrt.", "tokenizers.mlp.", "train.",
-                                  "data.demos_per_task", "data.obs", "seed")),
+                                  "data.demos_per_task", "data.task_demos", "data.obs", "seed")),
     "train act+fast": (lambda p: run_spec(p, "act", "fast", tasks=TASKS).key(),
-                       ("policies.act.", "tokenizers.fast.", "train.", "data.demos_per_task",
+                       ("policies.act.", "tokenizers.fast.", "train.", "data.demos_per_task", "data.task_demos",
                         "data.obs", "seed")),
     "train bc_transformer on the preset's kitchen tasks": (
         lambda p: run_spec(p, "bc_transformer").key(),
-        ("policies.bc_transformer.", "train.", "data.demos_per_task", "data.obs",
+        ("policies.bc_transformer.", "train.", "data.demos_per_task", "data.task_demos", "data.obs",
          "data.kitchen_tasks", "seed")),
     "eval icrt+lipvq": (lambda p: eval_key(run_spec(p, "icrt", "lipvq", tasks=TASKS),
                                            eval_spec(p, TASKS[0])),
-                        ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task",
+                        ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task", "data.task_demos",
                          "data.obs", "seed", "eval.")),
     "table I (every unit)": (
         lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval), spec_key(u.features))
                                   for u in table_spec(p, "I").units())),
         ("policies.mcr.", "policies.act.", "policies.bc_transformer.", "policies.icrt.",
          *(f"tokenizers.{t}." for t in ("mlp", "bin", "fast", "vq", "lfq", "lipvq")),
-         "train.", "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
+         "train.", "data.demos_per_task", "data.task_demos", "data.obs", "data.kitchen_tasks", "seed",
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
          "tables.baseline_seeds", "tables.row_seeds", "tables.image_demos_per_task",
          "tables.image_episodes_per_task", "tables.image_max_steps",
@@ -140,7 +140,7 @@ STAGES = {
         ("policies.icrt.",
          *(f"tokenizers.{t}." for t in ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq",
                                         "bspline")),
-         "train.", "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
+         "train.", "data.demos_per_task", "data.task_demos", "data.obs", "data.kitchen_tasks", "seed",
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
          "tables.since_paper_seeds", "tables.row_seeds",  # Table I's seeds: "I:*=2"
          "tables.feature_demos_per_task", "tables.feature_steps")),

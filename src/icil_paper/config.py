@@ -28,6 +28,7 @@ from typing import Any, ClassVar
 
 from icil_paper import paper_numbers
 from icil_paper.config_data import (
+    KEYED_WHEN_SET,
     NOT_KEYED,
     ConfigError,
     check_fields,
@@ -61,6 +62,21 @@ class _Checked:
         check_fields(self)  # ranges, empty values, CHOICES (`config_data.check_fields`)
 
 
+def task_demo_counts(entries: Sequence[str]) -> dict[str, int]:
+    """{task: demonstrations} from `TASK:N` entries (`DataConfig.task_demos`); ConfigError
+    naming the entry where one is not of that form, N is below 1 or a task is repeated."""
+    counts: dict[str, int] = {}
+    for entry in entries:
+        task, sep, n = str(entry).rpartition(":")
+        if not sep or not task or not n.strip().isdigit() or int(n) < 1:
+            raise ConfigError(f"task_demos entry {entry!r} is not TASK:N with N >= 1 "
+                              "(e.g. kitchen/pick_place:10)")
+        if task in counts:
+            raise ConfigError(f"task_demos names {task} twice")
+        counts[task] = int(n)
+    return counts
+
+
 @dataclass(frozen=True)
 class DataConfig(_Checked):
     """Which demonstrations are generated and how."""
@@ -69,6 +85,10 @@ class DataConfig(_Checked):
 
     demos_per_task: int = 20
     """Successful demonstrations kept per task and source."""
+    task_demos: tuple[str, ...] = field(default=(), metadata=KEYED_WHEN_SET)
+    """Exceptions to `demos_per_task`, each `TASK:N` (`kitchen/pick_place:10`): N
+    demonstrations of that task (`task_demo_counts`). The reference preset gives the tasks
+    that carry a free object more (`REGIME_TASK_DEMOS`)."""
     sources: tuple[str, ...] = ("generated", "human")
     """Demonstration sources: `generated` (our MimicGen stand-in) and `human` (teleoperation-like)."""
     kitchen_tasks: tuple[str, ...] = (
@@ -102,6 +122,10 @@ class DataConfig(_Checked):
     """Random scenes per task on which the `experts` stage measures every expert (success,
     open-loop replay, human-source keep rate); 0 skips it, and chapter 04 then reports the
     experts' success over the scenes the data sets were generated on."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        task_demo_counts(self.task_demos)
 
 
 @dataclass(frozen=True)

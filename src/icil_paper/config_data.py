@@ -14,7 +14,9 @@ read back into the right class:
 A field that cannot change a result (how many worker processes, how often to log) is
 declared with `field(..., metadata=NOT_KEYED)` and left out of `spec_key`; every other field
 is in it, so a changed knob never returns a stale result. `tests/test_specs.py` walks every
-field of every config and checks this.
+field of every config and checks this. A field added after records were made may be
+declared with `metadata=KEYED_WHEN_SET`: it is in the key only where it differs from its
+default, so the records made before it existed keep their keys.
 
 Every config checks its own values when it is built (its `__post_init__` calls
 `check_fields`): numbers in range, no empty string or list where a value is needed, strings
@@ -41,6 +43,9 @@ from icil_paper.registry import check_name
 
 NOT_KEYED = {"key": False}
 """Field metadata of a knob that cannot change a result (workers, logging, threads)."""
+KEYED_WHEN_SET = {"key": "when_set"}
+"""Field metadata of a knob in the key only where it is not at its default (module
+docstring)."""
 
 
 class OverrideError(ValueError):
@@ -86,6 +91,11 @@ def _is_keyed(f: dataclasses.Field) -> bool:
     return f.metadata.get("key", True)
 
 
+def _unset(f: dataclasses.Field, value: Any) -> bool:
+    """A KEYED_WHEN_SET field at its default."""
+    return f.metadata.get("key") == "when_set" and value == f.default
+
+
 def _subclasses(base: type) -> Iterator[type]:
     for sub in base.__subclasses__():
         yield sub
@@ -108,9 +118,10 @@ def to_dict(obj: Any, keyed_only: bool = False) -> Any:
         if getattr(obj, "type", None):
             out["type"] = obj.type
         for f in dataclasses.fields(obj):
-            if keyed_only and not _is_keyed(f):
+            value = getattr(obj, f.name)
+            if keyed_only and (not _is_keyed(f) or _unset(f, value)):
                 continue
-            out[f.name] = to_dict(getattr(obj, f.name), keyed_only)
+            out[f.name] = to_dict(value, keyed_only)
         return out
     if isinstance(obj, Mapping):
         return {str(k): to_dict(v, keyed_only) for k, v in obj.items()}
@@ -365,7 +376,7 @@ def check_range(path: str, value: Any, annotation: Any = None,
 
 
 EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks", "row_seeds",
-                           "seed_stages"})
+                           "seed_stages", "task_demos"})
 """Tuple fields that may be empty (an MLP without hidden layers, a preset without ManiSkill
 tasks, no row with seeds of its own); every other tuple field, and every string field, needs a value."""
 

@@ -19,11 +19,18 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
-from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig
-from icil_paper.config_data import ConfigError, check_fields, from_dict, spec_key, to_dict
+from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig, task_demo_counts
+from icil_paper.config_data import (
+    KEYED_WHEN_SET,
+    ConfigError,
+    check_fields,
+    from_dict,
+    spec_key,
+    to_dict,
+)
 from icil_paper.policies import REGISTRY, resolve_tokenizer
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.seeding import data_set_seed
@@ -59,6 +66,9 @@ class DataSpec:
     """Observations learned from: `state`, `rgb` or `rgbd`."""
     demos_per_task: int = 10
     """Demonstrations per task (the first ones of each data set)."""
+    task_demos: tuple[str, ...] = field(default=(), metadata=KEYED_WHEN_SET)
+    """Exceptions to `demos_per_task` for some of `tasks`, each `TASK:N`
+    (`config.task_demo_counts`; `demos_for`)."""
     seed: int = 0
     """Base seed the demonstrations are generated from."""
     dataset: str | None = None
@@ -72,6 +82,17 @@ class DataSpec:
 
     def __post_init__(self) -> None:
         check_fields(self)  # a task list, a source, an observation kind: before any work
+        task_demo_counts(self.task_demos)
+
+    def demos_for(self, task: str) -> int:
+        """Demonstrations of `task` trained on: its `task_demos` entry, else
+        `demos_per_task`."""
+        return task_demo_counts(self.task_demos).get(task, self.demos_per_task)
+
+    @property
+    def most_demos(self) -> int:
+        """The most demonstrations trained on of any task (held-out ones start after them)."""
+        return max(self.demos_for(t) for t in self.tasks)
 
 
 @dataclass(frozen=True)
@@ -228,9 +249,12 @@ def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerCon
     seed = preset.seed if seed is None else int(seed)
     if data_set is None:
         data_set = max(0, seed - preset.seed)
-    data = DataSpec(tasks=tuple(tasks or preset.data.kitchen_tasks), source=source,
+    tasks = tuple(tasks or preset.data.kitchen_tasks)
+    exceptions = task_demo_counts(preset.data.task_demos)
+    data = DataSpec(tasks=tasks, source=source,
                     obs=policy_obs(policy_cfg, obs or preset.data.obs),
                     demos_per_task=preset.data.demos_per_task,
+                    task_demos=tuple(f"{t}:{exceptions[t]}" for t in tasks if t in exceptions),
                     seed=data_set_seed(preset.seed, data_set))
     return RunSpec(data=data, policy=policy_cfg, tokenizer=tokenizer, train=preset.train,
                    seed=seed)

@@ -30,7 +30,7 @@ import numpy as np
 from icil_paper import verdict_words
 from icil_paper.book.questions import answers_markdown
 from icil_paper.book.studies import study_keys
-from icil_paper.config import PRESET_NAMES, Preset, get_preset
+from icil_paper.config import PRESET_NAMES, Preset, get_preset, task_demo_counts
 from icil_paper.fileio import atomic_write_json
 from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, run_tables, table_spec
 from icil_paper.results import ResultsStore
@@ -556,7 +556,11 @@ def preset_table() -> str:
              "per task | training seeds (ICRT / other rows) |", "|---|---|---|---|---|---|"]
     for name in PRESET_NAMES:
         p = get_preset(name)
+        demos = str(p.data.demos_per_task)
+        if p.data.task_demos:  # the tasks with counts of their own
+            demos += " (" + ", ".join(f"{t.split('/', 1)[-1]}: {n}" for t, n in
+                                      task_demo_counts(p.data.task_demos).items()) + ")"
         lines.append(f"| `{name}` | {PRESET_ROLES.get(name, '')} | {p.train.steps} | "
-                     f"{p.data.demos_per_task} | {p.eval.episodes_per_task} | "
+                     f"{demos} | {p.eval.episodes_per_task} | "
                      f"{p.tables.icrt_seeds} / {p.tables.baseline_seeds} |")
     return "\n".join(lines)

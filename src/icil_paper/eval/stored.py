@@ -31,7 +31,8 @@ def _run_prompts(run: Any, ev: EvalSpec, policy: Any, preset: Any,
                  progress: bool) -> list[Any] | None:
     if not policy.uses_prompt:
         return None
-    return prompt_pool(ev, run.data.obs, run.data.demos_per_task, run.data.seed, preset, progress)
+    demos = run.data.demos_for(ev.prompt_task or ev.task)
+    return prompt_pool(ev, run.data.obs, demos, run.data.seed, preset, progress)
 
 
 def _trained(policy: Any | Callable[[], Any]) -> Any:

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper.bench import bench_path, save_benchmark
-from icil_paper.config import get_preset, matching_c_lr_scale
+from icil_paper.config import get_preset, matching_c_lr_scale, task_demo_counts
 from icil_paper.config_data import canonical_json
 from icil_paper.paper import table_spec
 from icil_paper.paper.table_ii import maniskill_settings, maniskill_tokenizer
@@ -174,12 +174,14 @@ REGIME_RANGE = (0.1, 0.9)
 """Every family of ICRT + LipVQ-VAE at its plateau should lie in this range."""
 
 
-def regime_preset(demos_per_task: int, steps: int, overrides: tuple[str, ...] = ()) -> Any:
-    """The reference preset at a pilot setting (demonstrations per task, training steps),
-    its Lipschitz bounds' learning-rate multiple matched to those steps as the presets match
-    theirs (`config.matching_c_lr_scale`)."""
+def regime_preset(demos_per_task: int, steps: int, overrides: tuple[str, ...] = (),
+                  task_demos: tuple[str, ...] = ()) -> Any:
+    """The reference preset at a pilot setting (demonstrations per task, the exceptions
+    `task_demos` as `TASK:N`, training steps), its Lipschitz bounds' learning-rate multiple
+    matched to those steps as the presets match theirs (`config.matching_c_lr_scale`)."""
     preset = get_preset("reference").with_overrides(
         [f"data.demos_per_task={demos_per_task}", f"train.steps={steps}", *overrides])
+    preset = preset.replace(data={"task_demos": tuple(task_demos)})
     scale = round(matching_c_lr_scale(preset.train), 3)
     changes = {}
     for field in ("lip_mlp", "lipvq", "lipfsq", "liprvq"):
@@ -280,7 +282,7 @@ def plateau(curve: dict[int, list[float]], episodes: int) -> int | None:
 
 
 def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
-                  maniskill: bool = False) -> dict[str, Any]:
+                  maniskill: bool = False, task_demos: tuple[str, ...] = ()) -> dict[str, Any]:
     """The regime pilot's record (`results/bench/regime.json`'s schema) from the stored
     records of every budget: the learning curve of every row, the plateau of ICRT +
     LipVQ-VAE (`plateau`), and at that budget (or the last one, when no plateau is reached)
@@ -290,7 +292,7 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
     curve: dict[str, dict[int, list[float]]] = {}
     by_budget = {}
     for steps in budgets:
-        preset = regime_preset(demos_per_task, steps)
+        preset = regime_preset(demos_per_task, steps, task_demos=task_demos)
         rows = _per_seed(store, regime_plans(preset, seeds, maniskill))
         by_budget[steps] = rows
         for label, per_seed in rows.items():
@@ -298,14 +300,15 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
                 averages = [_mean(list(s["tasks"].values())) for s in per_seed
                             if None not in s["tasks"].values()]
                 curve.setdefault(label.split(":", 1)[1], {})[steps] = averages
-    preset = regime_preset(demos_per_task, budgets[-1])
+    preset = regime_preset(demos_per_task, budgets[-1], task_demos=task_demos)
     kitchen_episodes = preset.eval.episodes_per_task * len(preset.data.kitchen_tasks)
     lip = curve.get("icrt+lipvq", {})
     chosen = plateau({b: v for b, v in lip.items() if v}, kitchen_episodes * seeds)
     at = chosen if chosen is not None else max((b for b, v in lip.items() if v), default=None)
     record: dict[str, Any] = {
         "train_steps": at, "plateau_reached": chosen is not None,
-        "demos_per_task": demos_per_task, "seeds": seeds,
+        "demos_per_task": demos_per_task, "task_demos": task_demo_counts(task_demos),
+        "seeds": seeds,
         "seed_indices": list(range(REGIME_SEED, REGIME_SEED + seeds)),
         "budgets": list(budgets), "budgets_done": sorted(b for b, v in lip.items() if v),
         "families": {}, "maniskill": {},
@@ -356,6 +359,9 @@ def regime_main(argv: list[str] | None = None) -> None:
     Resumable: every finished record is kept under `results/pilot/`."""
     parser = argparse.ArgumentParser(prog="pilot regime", description=regime_main.__doc__)
     parser.add_argument("--demos", type=int, default=10, help="demonstrations per task")
+    parser.add_argument("--task-demos", nargs="*", default=[], metavar="TASK:N",
+                        help="tasks trained on other numbers of demonstrations "
+                             "(kitchen/pick_place:10)")
     parser.add_argument("--budgets", type=int, nargs="+", default=list(REGIME_BUDGETS))
     parser.add_argument("--seeds", type=int, default=2)
     parser.add_argument("--maniskill", action="store_true")
@@ -368,6 +374,10 @@ def regime_main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if len(args.budgets) < 3 or min(args.budgets) < 1 or args.seeds < 1 or args.demos < 1:
         parser.error("give at least three positive budgets, and positive --seeds and --demos")
+    try:
+        task_demos = tuple(f"{t}:{n}" for t, n in task_demo_counts(args.task_demos).items())
+    except ValueError as exc:
+        parser.error(str(exc))
 
     root = results_root()
     os.environ["ICIL_RESULTS"] = str(root / PILOT_FOLDER)
@@ -376,15 +386,16 @@ def regime_main(argv: list[str] | None = None) -> None:
     curve_row, beside = REGIME_ROWS[0], REGIME_ROWS[1:]
     if not args.summary_only:
         for steps in budgets:  # the cheapest budget first: a stopped pilot has its start
-            preset = regime_preset(args.demos, steps)
+            preset = regime_preset(args.demos, steps, task_demos=task_demos)
             _train_regime_cells(preset, regime_plans(preset, args.seeds, rows=(curve_row,)),
                                 args.workers, steps)
-        chosen = regime_record(args.demos, budgets, args.seeds)["train_steps"]
+        chosen = regime_record(args.demos, budgets, args.seeds,
+                               task_demos=task_demos)["train_steps"]
         if not args.no_beside and chosen is not None:
-            preset = regime_preset(args.demos, chosen)
+            preset = regime_preset(args.demos, chosen, task_demos=task_demos)
             _train_regime_cells(preset, regime_plans(preset, args.seeds, args.maniskill,
                                                      rows=beside), args.workers, chosen)
-    record = regime_record(args.demos, budgets, args.seeds, args.maniskill)
+    record = regime_record(args.demos, budgets, args.seeds, args.maniskill, task_demos)
     print(json.dumps({k: record[k] for k in ("train_steps", "learning_curve", "families",
                                              "capped_share", "within_range")}), flush=True)
     save_benchmark("regime", record, args.out or root / "bench" / "regime.json")

@@ -155,7 +155,7 @@ def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
     data = DataSpec(tasks=run.data.tasks, source="generated", obs=run.data.obs,
                     demos_per_task=preset.tables.feature_demos_per_task,
                     seed=data_set_seed(preset.seed, 0))
-    return FeatureSpec(data=data, start=run.data.demos_per_task,
+    return FeatureSpec(data=data, start=run.data.most_demos,
                        steps=preset.tables.feature_steps, sampling="per_task")
 
 

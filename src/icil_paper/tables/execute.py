@@ -91,11 +91,11 @@ def data_needs(plans: Sequence[RunPlan]) -> dict[tuple, int]:
         d = p.run.data
         if d.dataset is None:
             for task in d.tasks:
-                want(task, d.source, d.obs, d.seed, d.demos_per_task)
+                want(task, d.source, d.obs, d.seed, d.demos_for(task))
         if p.run.policy.type == "icrt":  # prompt pools
             for ev in p.evals.values():
-                want(ev.prompt_task or ev.task, ev.prompt_source, d.obs, d.seed,
-                     d.demos_per_task)
+                task = ev.prompt_task or ev.task
+                want(task, ev.prompt_source, d.obs, d.seed, d.demos_for(task))
         for f in p.features.values():
             for task in f.data.tasks:
                 want(task, f.data.source, f.data.obs, f.data.seed, f.start + f.data.demos_per_task)

@@ -89,7 +89,7 @@ class TrainState:
 
 def training_demos(data: Any, preset: Any = None, workers: int = 1,
                    progress: bool = True) -> list[Any]:
-    """The demonstrations a DataSpec names: the first `demos_per_task` of each task's data
+    """The demonstrations a DataSpec names: the first `demos_for(task)` of each task's data
     set (generated where missing, under `<data.root>/<preset>/`), or the `dataset` file's.
     `preset` is the Preset (whose `data.root` locates the data sets) or a preset's name."""
     if data.dataset is not None:
@@ -98,11 +98,15 @@ def training_demos(data: Any, preset: Any = None, workers: int = 1,
     if preset is None:
         raise ValueError("training_demos needs the preset (preset=...): its data sets "
                          "live under data/<preset>/; or pass the demonstrations (demos=...)")
-    paths = ensure_many(preset, data.tasks, [data.source],
-                        n=data.demos_per_task, workers=workers, progress=progress,
-                        seed=data.seed, obs=data.obs)
+    by_count: dict[int, list[str]] = {}
+    for task in data.tasks:
+        by_count.setdefault(data.demos_for(task), []).append(task)
+    paths = {}
+    for n, tasks in by_count.items():
+        paths |= ensure_many(preset, tasks, [data.source], n=n, workers=workers,
+                             progress=progress, seed=data.seed, obs=data.obs)
     demos = [demo for task in data.tasks
-             for demo in load_demos(paths[task, data.source], limit=data.demos_per_task)]
+             for demo in load_demos(paths[task, data.source], limit=data.demos_for(task))]
     if not demos:
         raise ValueError(f"no demonstrations for tasks {list(data.tasks)} from source "
                          f"{data.source!r}")
