@@ -20,6 +20,7 @@ from IPython.display import Markdown, display
 from icil_paper.book.ledger import chapter_ledgers, reference_ledger, show_stale_records
 from icil_paper.book.report import (
     REFERENCE,
+    decision_rate_sentence,
     ledger_details,
     older_ledger,
     reference_freshness,
@@ -102,6 +103,7 @@ from icil_paper.planning.design import design_frame, stages_paragraph
 
 display(design_frame(get_preset(REFERENCE)))
 display(Markdown(stages_paragraph(get_preset(REFERENCE), reference_ledger(ledgers))))
+display(Markdown(decision_rate_sentence()))
 
 # %% [markdown]
 # ## What each claim compares

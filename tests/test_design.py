@@ -144,6 +144,25 @@ def test_reference_progress_says_how_many_cells_are_done(tmp_path):
     assert reference_progress(tmp_path / "none") == ""
 
 
+def test_decisions_per_cpu_hour_are_read_from_each_runs_ledger_and_cost(tmp_path, monkeypatch):
+    from icil_paper.book import report
+
+    monkeypatch.setenv("ICIL_RESULTS", str(tmp_path))
+    store = ResultsStore("reference").dir
+    (store / "older-code").mkdir(parents=True)
+    claim = {"id": "x", "verdict": "holds", "adjusted_verdict": "holds"}
+    undecided = {"id": "y", "verdict": "inconclusive", "adjusted_verdict": "inconclusive"}
+    for folder, claims, cpu_s in ((store / "older-code", [claim] * 6 + [undecided], 79200.0),
+                                  (store, [claim] * 3 + [undecided] * 4, 36000.0)):
+        (folder / "claims.json").write_text(json.dumps({"claims": claims}))
+        (folder / "cost.json").write_text(json.dumps({"total": {"cpu_s": cpu_s}}))
+    text = report.decision_rate_sentence()
+    assert "this run, so far: 3 claims decided for 10.0 CPU-hours (3.0 per 10" in text
+    assert "older protocol's run: 6 claims decided for 22.0 CPU-hours (2.7 per 10" in text
+    (store / "cost.json").unlink()
+    assert "has not recorded its cost yet" in report.decision_rate_sentence()
+
+
 def test_the_projection_prices_unfinished_cells_at_their_measured_rate(tmp_path):
     preset = smoke()
     store = ResultsStore(preset.name, root=tmp_path)

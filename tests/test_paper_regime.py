@@ -135,7 +135,9 @@ def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not(
     for ours, theirs in zip(mine, used, strict=True):
         assert ours and not ours & theirs
     # the bounds' rate follows the pilot's budget as the presets' follows theirs
-    chosen = regime_preset(preset.data.demos_per_task, preset.train.steps)
+    chosen = regime_preset(preset.data.demos_per_task, preset.train.steps,
+                           task_demos=preset.data.task_demos)
+    assert chosen.data == preset.data
     assert chosen.tokenizers.lipvq.lipschitz.c_lr_scale == pytest.approx(
         preset.tokenizers.lipvq.lipschitz.c_lr_scale)
     assert regime_preset(10, preset.train.steps // 4).tokenizers.lipvq.lipschitz.c_lr_scale \
@@ -218,8 +220,11 @@ def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():
         assert len(shares) == record["seeds"] and None not in shares, row
     assert min(record["seed_indices"]) >= REGIME_SEED
     # the reference preset trains at the pilot's choice
+    from icil_paper.config import task_demo_counts
+
     assert (reference.data.demos_per_task, reference.train.steps) == (
         record["demos_per_task"], record["train_steps"])
+    assert task_demo_counts(reference.data.task_demos) == record.get("task_demos", {})
 
 
 def test_the_regime_summary_names_the_families_and_maniskill_tasks_outside_the_range(tmp_path):
@@ -231,7 +236,8 @@ def test_the_regime_summary_names_the_families_and_maniskill_tasks_outside_the_r
               "learning_curve": {"icrt+lipvq": {"1000": 0.4, "2000": 0.5, "3000": 0.5}},
               "within_range": {"doors": True, "knobs": False}, "train_steps": 2000,
               "plateau_reached": True, "seeds": 2, "seed_indices": [20, 21],
-              "demos_per_task": 3, "budgets": [1000, 2000, 3000],
+              "demos_per_task": 3, "task_demos": {"kitchen/pick_place": 10},
+              "budgets": [1000, 2000, 3000],
               "capped_share": {"icrt+lipvq": [0.3, 0.4]},
               "maniskill": {"act+lipvq": {"pick_cube": 0.5, "stack_cube": 0.0}}}
     path = tmp_path / "regime.json"
@@ -239,4 +245,5 @@ def test_the_regime_summary_names_the_families_and_maniskill_tasks_outside_the_r
     frame, text = regime_summary(str(path))
     assert list(frame.index) == ["icrt+lipvq"]
     assert "levels off at 2000 steps" in text and "[0.1, 0.9]: knobs." in text
+    assert "3 demonstrations a task; pick_place 10;" in text
     assert "pick_cube 0.5, stack_cube 0.0 (outside [0.1, 0.9]: stack_cube)" in text

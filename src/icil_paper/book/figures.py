@@ -28,6 +28,9 @@ from icil_paper.tables.claims import summary
 ROOT = Path(__file__).resolve().parents[3]
 BENCH = ROOT / "results" / "bench"
 REFERENCE = ROOT / "results" / "reference"
+OLDER = REFERENCE / "older-code"
+"""The older protocol's reference records, ledger, cost and plan."""
+OLDER_COST = "results/reference/older-code/cost.json"
 DOCUMENTS = (ROOT / "README.md", ROOT / "CONTRIBUTING.md")
 """The files whose measured figures carry markers."""
 
@@ -57,15 +60,16 @@ def _compiled(kind: str, field: str) -> float:
 
 
 def _cost() -> dict[str, Any]:
-    """The reference run's `cost.json` (`python -m icil_paper.planning.cost`)."""
-    return json.loads((REFERENCE / "cost.json").read_text())
+    """The older protocol's reference run's `cost.json` (`python -m icil_paper.planning.cost`,
+    kept beside its records in `older-code/`)."""
+    return json.loads((OLDER / "cost.json").read_text())
 
 
 def _plan(field: str) -> float:
-    """The reference run's plan for its undecided claims (`icil-paper plan`, written to
-    `plan.json`): its total `cells`, `cpu_hours`, `wall_hours` at `cores`, or the number of
-    `undecided` claims it lists."""
-    plan = json.loads((REFERENCE / "plan.json").read_text())
+    """The older protocol's plan for its undecided claims (`icil-paper plan`, written to
+    `plan.json`, kept in `older-code/`): its total `cells`, `cpu_hours`, `wall_hours` at
+    `cores`, or the number of `undecided` claims it lists."""
+    plan = json.loads((OLDER / "plan.json").read_text())
     if field == "cores":
         return plan["cores"]
     if field == "undecided":
@@ -145,20 +149,20 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                          lambda kind=kind, field=field: _compiled(kind, field))
        for kind in ("kitchen_icrt_lipvq", "act_maniskill")
        for field in ("eager_step_ms", "compiled_step_ms", "warmup_s")},
-    "cost.cells": ("results/reference/cost.json", lambda: _cost()["finished_cells"]),
-    "cost.planned_cells": ("results/reference/cost.json", lambda: _cost()["planned_cells"]),
-    "cost.episodes": ("results/reference/cost.json", lambda: _cost()["total"]["episodes"]),
-    "cost.sittings": ("results/reference/cost.json", lambda: len(_cost()["sittings"])),
-    **{f"cost.{field}_hours": ("results/reference/cost.json",
+    "older_cost.cells": (OLDER_COST, lambda: _cost()["finished_cells"]),
+    "older_cost.planned_cells": (OLDER_COST, lambda: _cost()["planned_cells"]),
+    "older_cost.episodes": (OLDER_COST, lambda: _cost()["total"]["episodes"]),
+    "older_cost.sittings": (OLDER_COST, lambda: len(_cost()["sittings"])),
+    **{f"older_cost.{field}_hours": (OLDER_COST,
                                lambda field=field: _cost_hours(field))
        for field in ("elapsed", "wall", "cpu")},
-    **{f"cost.projected_{field}": ("results/reference/cost.json",
+    **{f"older_cost.projected_{field}": (OLDER_COST,
                                    lambda field=field: _cost()["projection"][field])
        for field in ("cpu_hours", "wall_hours_at_2", "target_wall_hours")},
-    **{f"plan.{field}": ("results/reference/plan.json",
+    **{f"older_plan.{field}": ("results/reference/older-code/plan.json",
                          lambda field=field: _plan(field))
        for field in ("cells", "cpu_hours", "wall_hours", "cores", "undecided")},
-    "cost.projected_from_records_pct": ("results/reference/cost.json",
+    "older_cost.projected_from_records_pct": (OLDER_COST,
                                         lambda: 100 * _cost()["projection"]["from_records"]),
     **{name: ("results/reference/claims.json", lambda field=field: _claims(field))
        for name, field in (("claims.total", "claims"), ("claims.holds", Verdict.HOLDS),
@@ -174,7 +178,7 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                            ("older_claims.undecided", "undecided"),
                            ("older_claims.size_excluded", "size_excluded"))},
     "design.projected_wall_hours_at_2": ("results/bench/cells.json", _projected_hours),
-    **{f"cost.{name}_cell_s": ("results/reference/cost.json",
+    **{f"older_cost.{name}_cell_s": (OLDER_COST,
                                lambda kind=kind: _cell_seconds(kind))
        for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),
                           ("act_maniskill", "act maniskill state"), ("mcr", "mcr kitchen rgb"))},

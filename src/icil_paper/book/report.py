@@ -43,6 +43,7 @@ from icil_paper.tables.claims import (
     load_ledger,
     sentence,
     sizing_effect,
+    summary,
     summary_sentence,
 )
 from icil_paper.tables.display import (
@@ -411,6 +412,8 @@ def design_sentence(preset: Preset) -> str:
 OLDER_LEDGER = "older-code/claims.json"
 """Under `results/reference/`: the reference ledger as an older version of the code computed
 it (its `made_by` names the commit), kept while the reference run is redone."""
+OLDER_COST = "older-code/cost.json"
+"""Under `results/<preset>/`: what the older protocol's run cost (its `cost.json`)."""
 
 
 def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
@@ -457,14 +460,47 @@ def reference_progress(path=None, older: bool = False) -> str:
                  f"two cells at a time{against}.")
     if done >= planned and older:
         return (f"The reference run of the older protocol finished all {planned} trained cells "
-                f"({sittings}; `results/reference/cost.json`).{whole} Under the current "
-                "protocol it is to be redone.")
+                f"({sittings}; `results/reference/{OLDER_COST}`).{whole} Under "
+                "the current protocol it is to be redone.")
     if done >= planned:
         return (f"The reference run is finished: all {planned} trained cells ({sittings}; "
                 f"`results/reference/cost.json`).{whole}")
     return (f"The reference run is in progress: {done} of its {planned} trained cells have "
             f"finished ({sittings} so far; `results/reference/cost.json`).{whole} A claim "
             "whose rows are not all trained yet shows as *not run*.")
+
+
+def decision_rate(folder: Path) -> tuple[int, float] | None:
+    """(claims decided after Holm's correction, CPU-hours) of the reference run whose ledger
+    and cost lie in `folder` (`claims.json`, `cost.json`); None when either is missing."""
+    claims, cost = folder / "claims.json", folder / "cost.json"
+    if not claims.exists() or not cost.exists():
+        return None
+    decided = summary(json.loads(claims.read_text())["claims"])["decided"]
+    return decided, json.loads(cost.read_text())["total"]["cpu_s"] / 3600
+
+
+def decision_rate_sentence(preset_name: str = REFERENCE) -> str:
+    """Claims decided per CPU-hour, of the reference run and of the older protocol's run
+    beside it (from their ledgers and costs); empty when neither is there."""
+    store = ResultsStore(preset_name).dir
+
+    def rate(decided: int, hours: float) -> str:
+        per = f"{10 * decided / hours:.1f}" if hours else "—"
+        return f"{decided} claims decided for {hours:.1f} CPU-hours ({per} per 10 CPU-hours)"
+
+    now, older = decision_rate(store), decision_rate(store / "older-code")
+    parts = []
+    if now is not None:
+        parts.append(f"this run, so far: {rate(*now)}")
+    if older is not None:
+        parts.append(f"the older protocol's run: {rate(*older)}")
+    if not parts:
+        return ""
+    text = "Decisions per CPU-hour: " + "; ".join(parts) + "."
+    if now is None:
+        text += " This run has not recorded its cost yet."
+    return text
 
 
 def reference_summary(path=None) -> str:
@@ -479,8 +515,10 @@ def reference_summary(path=None) -> str:
     text = f"{summary_sentence(ledger)} {decided_claims(ledger)}".strip()
     fresh = reference_freshness(REFERENCE)
     retired = sum(retired_records(REFERENCE).values())
-    progress = reference_progress(path.with_name("cost.json"),
-                                  older=fresh["stale"] == fresh["records"])
+    cost, older_run = path.with_name("cost.json"), fresh["stale"] == fresh["records"]
+    if not cost.exists():  # the rerun has not written its cost yet: the older run's
+        cost, older_run = path.parent / OLDER_COST, True
+    progress = reference_progress(cost, older=older_run)
     in_progress = any(e.verdict == Verdict.NOT_RUN for e in ledger)
     if not fresh["stale"] and not (retired and in_progress):
         return f"{progress} {text}".strip()
