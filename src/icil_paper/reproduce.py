@@ -13,6 +13,11 @@ stages with no other stage between them) computes the cells of every table stage
 block (`TOGETHER`): a policy shared by several tables is trained once and evaluated for all
 of them in one cell. Chapter 02's run (`table-icrt`) comes before the chapters' own studies,
 so it is a block of its own, computed where the stage stands.
+
+A preset with seeds in stages (`tables.seed_stages`, the reference preset) runs its table
+stages stage by stage (`icil_paper.planning.staged`): every row a claim reads at the first
+stage's seeds, then, after each look of the ledger, the rows the stage rule sends on at the
+next stage's, until no row goes on; the claims stage writes the ledger at the seeds reached.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ from icil_paper.config import Preset
 from icil_paper.data.generate import check_data_folder, check_tasks, demo_path
 from icil_paper.fileio import check_env_folder
 from icil_paper.paper import check_row_seeds, run_tables, write_ledger
+from icil_paper.planning.staged import staged_preset
 from icil_paper.registry import check_name
 from icil_paper.results import RESULTS_ENV_VAR, ResultsStore
 from icil_paper.seeding import seed_everything
@@ -86,7 +92,15 @@ def _table_stage(table_id: str):
             raise ValueError("--force does not apply to the table stages: delete the records "
                              f"under {store.dir} to recompute them")
         block = next((b for b in TOGETHER if table_id in b), [table_id])
-        run_tables(preset, block, **GRID)
+        current, _ = staged_preset(preset, store)
+        while True:  # one pass without stages; with them, until no row goes on
+            run_tables(current, block, **GRID)
+            after, looks = staged_preset(preset, store)
+            if after == current:
+                break
+            tqdm.write(f"   look at {looks[-1].seeds} seeds a row: "
+                       f"{len(looks[-1].going_on)} rows go on")
+            current = after
     stage.__doc__ = f"Compute every missing cell of table {table_id}."
     return stage
 
@@ -100,8 +114,9 @@ table_official = _table_stage("official")
 
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
-    """Write results/<preset>/claims.json from the tables' records."""
-    write_ledger(preset, store)
+    """Write results/<preset>/claims.json from the tables' records (at the seeds a staged
+    preset's rows have reached)."""
+    write_ledger(staged_preset(preset, store)[0], store)
 
 
 def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = False) -> dict:

@@ -25,6 +25,7 @@ from icil_paper.book.report import (
 )
 from icil_paper.config import Preset, get_preset
 from icil_paper.paper import claims_ledger, write_ledger
+from icil_paper.planning.staged import as_run
 from icil_paper.results import ResultsStore
 from icil_paper.tables.claims import summary_sentence
 
@@ -35,9 +36,9 @@ Ledgers = dict[str, tuple[Preset, list]]
 def chapter_ledgers(preset: Preset) -> Ledgers:
     """The ledgers chapter 0 shows: the reference run's (read from its committed records,
     when the build is another preset) and this build's (written to its store, then read)."""
-    sources = [(BUILD, preset)]
+    sources = [(BUILD, as_run(preset))]
     if preset.name != REFERENCE:
-        sources.insert(0, (f"{REFERENCE} run", get_preset(REFERENCE)))
+        sources.insert(0, (f"{REFERENCE} run", as_run(get_preset(REFERENCE))))
     ledgers = {}
     for source, p in sources:
         store = ResultsStore(p.name)

@@ -33,6 +33,7 @@ from icil_paper.book.studies import study_keys
 from icil_paper.config import PRESET_NAMES, Preset, get_preset, task_demo_counts
 from icil_paper.fileio import atomic_write_json
 from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, run_tables, table_spec
+from icil_paper.planning.staged import as_run
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key, feature_key
 from icil_paper.stats import Verdict
@@ -64,18 +65,18 @@ def load_table(preset: Preset, table_id: str, compute: bool = True,
         run_tables(preset, [table_id], progress=progress)
     results = {}
     if preset.name != REFERENCE:
-        ref = get_preset(REFERENCE)
+        ref = as_run(get_preset(REFERENCE))
         results[f"{REFERENCE} run"] = assemble(table_spec(ref, table_id), ResultsStore(REFERENCE))
-    results[BUILD] = assemble(table_spec(preset, table_id), ResultsStore(preset.name))
+    results[BUILD] = assemble(table_spec(as_run(preset), table_id), ResultsStore(preset.name))
     return results
 
 
 def verdicts(preset: Preset, table_id: str) -> str:
     """The claims ledger's sentences about one table, for the reference run and this build,
     as Markdown (generated from the numbers, never written by hand)."""
-    sources = [(BUILD, preset)]
+    sources = [(BUILD, as_run(preset))]
     if preset.name != REFERENCE:
-        sources.insert(0, (f"{REFERENCE} run", get_preset(REFERENCE)))
+        sources.insert(0, (f"{REFERENCE} run", as_run(get_preset(REFERENCE))))
     lines = []
     for source, p in sources:
         entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
@@ -90,7 +91,7 @@ def verdicts(preset: Preset, table_id: str) -> str:
 def claims_figure(preset: Preset, table_id: str):
     """The forest plot of one table's claims in the reference run's ledger (this build's
     when the book is built with the reference preset); None when the table has no claim."""
-    p = get_preset(REFERENCE)
+    p = as_run(get_preset(REFERENCE))
     entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
     if not entries:
         return None
@@ -106,7 +107,7 @@ def current_keys(preset_name: str = REFERENCE) -> set[str]:
     """The keys of every record that a current cell of any table (chapter 02's run among
     them) or one of the chapters' own studies (`book.studies.study_keys`) computes at the
     preset."""
-    preset = get_preset(preset_name)
+    preset = as_run(get_preset(preset_name))
     keys = set()
     for p in plan([table_spec(preset, t) for t in TABLES]):
         keys.add(p.run.key())
@@ -441,7 +442,11 @@ def reference_progress(path=None, older: bool = False) -> str:
     time against its target (`projection`); once every cell is done, what the whole run
     cost (`older`: every record is older code, so the run is the older protocol's). Empty
     when there is no cost.json."""
-    path = Path(path) if path else ResultsStore(REFERENCE).dir / "cost.json"
+    if path is None:  # the run's cost; before the rerun writes one, the older run's
+        store = ResultsStore(REFERENCE).dir
+        path, older = ((store / "cost.json", older) if (store / "cost.json").exists()
+                       else (store / OLDER_COST, True))
+    path = Path(path)
     if not path.exists():
         return ""
     cost = json.loads(path.read_text())
@@ -515,10 +520,9 @@ def reference_summary(path=None) -> str:
     text = f"{summary_sentence(ledger)} {decided_claims(ledger)}".strip()
     fresh = reference_freshness(REFERENCE)
     retired = sum(retired_records(REFERENCE).values())
-    cost, older_run = path.with_name("cost.json"), fresh["stale"] == fresh["records"]
-    if not cost.exists():  # the rerun has not written its cost yet: the older run's
-        cost, older_run = path.parent / OLDER_COST, True
-    progress = reference_progress(cost, older=older_run)
+    cost = path.with_name("cost.json")
+    progress = (reference_progress(cost, older=fresh["stale"] == fresh["records"])
+                if cost.exists() else reference_progress())  # before the rerun's: the older
     in_progress = any(e.verdict == Verdict.NOT_RUN for e in ledger)
     if not fresh["stale"] and not (retired and in_progress):
         return f"{progress} {text}".strip()

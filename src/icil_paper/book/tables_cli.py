@@ -19,6 +19,7 @@ import sys
 from icil_paper.book.report import OLDER_RECORDS, retire_stale_records
 from icil_paper.commands import Parser, add_preset_arguments, preset_from_args
 from icil_paper.paper import TABLES, claims_ledger, table_spec
+from icil_paper.planning.staged import as_run
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import assemble
@@ -46,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
     store = ResultsStore(preset.name)
+    preset = as_run(preset, store)  # seeds in stages: the seeds the run has reached
     if args.retire_stale:
 
         moved = retire_stale_records(preset.name)

@@ -36,6 +36,7 @@ from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json, read_json
 from icil_paper.paper import table_spec
 from icil_paper.planning.design import cell_kind, plan_cost, planned_seeds
+from icil_paper.planning.staged import as_run
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
 from icil_paper.stages import STAGES
@@ -235,10 +236,11 @@ def read_cost(path: str | Path) -> dict[str, Any]:
 
 
 def write_cost(preset: Preset, store: ResultsStore | None = None) -> Path:
-    """Write `results/<preset>/cost.json` atomically; returns its path."""
+    """Write `results/<preset>/cost.json` atomically; returns its path. A preset with seeds
+    in stages is priced at the stage its records have reached (`staged.as_run`)."""
     store = store or ResultsStore(preset.name)
     path = store.dir / "cost.json"
-    atomic_write_json(path, run_cost(preset, store))
+    atomic_write_json(path, run_cost(as_run(preset, store), store))
     return path
 
 

@@ -1,0 +1,90 @@
+"""Seeds in stages, run: the seeds of every row at the stage a preset's records have reached.
+
+A preset with `tables.seed_stages` (the reference preset: 5, 10, 15) is not run at the seeds
+its rows list. Every row a claim reads starts at the first stage's seeds; once every cell of
+a stage is stored, the ledger looks (`claims_ledger`, with the group-sequential boundaries of
+`stats.SequentialDesign`) and the stage rule (`design.stage_plan`) says which rows go on to
+the next stage: the rows of a claim still undecided that a later stage can decide at the
+paper's effect. The others stop where they are. Rows no claim reads (MCR; the analysis
+table's variants) keep the seeds the preset lists.
+
+    preset, looks = staged_preset(get_preset("reference"))   # this sitting's seeds per row
+    icil-paper reproduce --preset reference                   # runs the stages in turn
+
+The stages are a function of the stored records alone, so a run stopped in any stage and
+rerun recomputes the same looks and goes on where it stopped; and the book, the cost and
+the stale-record check read the same seeds per row as the run (`staged_preset`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+from icil_paper.config import Preset
+from icil_paper.paper import TABLES, claims_ledger, table_spec
+from icil_paper.planning.design import claim_rows, stage_plan
+from icil_paper.results import ResultsStore
+from icil_paper.tables.execute import plan, plan_done
+
+
+@dataclass(frozen=True)
+class Look:
+    """One look of a staged run: the seeds a row had, and what the stage rule made of it."""
+
+    seeds: int
+    """The stage's seeds a row (`tables.seed_stages[k]`)."""
+    going_on: tuple[str, ...]
+    """The rows ("TABLE:row") that go on to the next stage."""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"seeds": self.seeds, "going_on": list(self.going_on)}
+
+
+def with_row_seeds(preset: Preset, seeds: dict[tuple[str, str], int]) -> Preset:
+    """`preset` with the rows of `seeds` at those seeds (entries after the preset's own
+    `row_seeds`, so that they win)."""
+    entries = tuple(f"{t}:{row}={n}" for (t, row), n in sorted(seeds.items()))
+    tables = replace(preset.tables, row_seeds=preset.tables.row_seeds + entries)
+    return replace(preset, tables=tables)
+
+
+def stage_done(preset: Preset, store: ResultsStore) -> bool:
+    """True when every planned cell of `preset` has all its records in `store`."""
+    return all(plan_done(store, p) for p in plan([table_spec(preset, t) for t in TABLES]))
+
+
+def staged_preset(preset: Preset, store: ResultsStore | None = None
+                  ) -> tuple[Preset, list[Look]]:
+    """The preset at the stage its records have reached, and the looks taken so far.
+
+    Without `seed_stages`, `preset` itself and no look. Otherwise every row a claim reads
+    gets the first stage's seeds; while every cell of the current stage is stored, the
+    ledger looks and the rows that the stage rule sends on get the next stage's seeds (the
+    module docstring). The returned preset is the one whose missing cells the run computes
+    now; when its cells are all stored and no row goes on, the run is finished."""
+    stages = preset.tables.seed_stages
+    if not stages:
+        return preset, []
+    store = store or ResultsStore(preset.name)
+    seeds = {row: stages[0] for rows in claim_rows(preset).values() for row in rows}
+    current = with_row_seeds(preset, seeds)
+    looks: list[Look] = []
+    for stage in stages:
+        if not stage_done(current, store):
+            break
+        ledger = [e.to_dict() for e in claims_ledger(current, store)]
+        going = {row: nxt for row, (nxt, _) in stage_plan(current, ledger)["continue"].items()
+                 if nxt > seeds.get(row, 0)}
+        looks.append(Look(stage, tuple(f"{t}:{r}" for t, r in sorted(going))))
+        if not going:
+            break
+        seeds.update(going)
+        current = with_row_seeds(preset, seeds)
+    return current, looks
+
+
+def as_run(preset: Preset, store: ResultsStore | None = None) -> Preset:
+    """The preset at the seeds its run has reached (`staged_preset`; a preset without seed
+    stages is itself): what the book, the ledger and the cost read."""
+    return staged_preset(preset, store)[0]

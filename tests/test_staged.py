@@ -1,0 +1,66 @@
+"""Seeds in stages, run (`planning.staged`): every row a claim reads starts at the first
+stage's seeds, and after each look only the rows the stage rule sends on grow."""
+
+from types import SimpleNamespace
+
+from icil_paper.config import get_preset
+from icil_paper.paper import table_spec
+from icil_paper.planning import staged
+from icil_paper.planning.design import claim_rows
+
+STAGES = (2, 3, 4)
+
+
+def _preset():
+    return get_preset("smoke").with_overrides(
+        ["tables.icrt_seeds=2", "tables.baseline_seeds=2", "tables.seed_stages=2,3,4"])
+
+
+def _seeds(preset, table, row):
+    spec = table_spec(preset, table).row(row)
+    return len({u.seed_index for cell in spec.cells.values() for u in cell.units})
+
+
+def _records_through(monkeypatch, stage):
+    """Every cell of stages 1..`stage` stored; the ledger's first look sends on the rows of
+    I-tokenizer-gap only, its second look none."""
+    def stage_done(preset, store):
+        claimed = {f"{t}:{r}" for rows in claim_rows(preset).values() for t, r in rows}
+        seeds = preset.tables.seeds_by_row()
+        return stage and max(seeds[row] for row in claimed) <= STAGES[stage - 1]
+
+    def ledger(preset, store):
+        first = max(preset.tables.seeds_by_row().values()) == STAGES[0]
+        return [SimpleNamespace(to_dict=lambda c=c: {
+            "id": c, "sequential": {"next": 3 if first and c == "I-tokenizer-gap" else None}})
+            for c in claim_rows(preset)]
+
+    monkeypatch.setattr(staged, "stage_done", stage_done)
+    monkeypatch.setattr(staged, "claims_ledger", ledger)
+
+
+def test_a_preset_without_stages_is_run_as_it_is():
+    preset = get_preset("smoke")
+    assert staged.staged_preset(preset) == (preset, [])
+
+
+def test_every_claimed_row_starts_at_the_first_stage(monkeypatch):
+    _records_through(monkeypatch, 0)
+    preset = _preset().with_overrides(["tables.icrt_seeds=5"])
+    current, looks = staged.staged_preset(preset, store=object())
+    assert looks == []
+    assert _seeds(current, "I", "icrt+lipvq") == 2 == _seeds(current, "I", "bc_transformer")
+    assert _seeds(current, "I", "mcr") == _seeds(preset, "I", "mcr")  # no claim reads it
+
+
+def test_after_a_look_only_the_rows_sent_on_grow_and_the_last_look_stops(monkeypatch):
+    _records_through(monkeypatch, 1)
+    current, looks = staged.staged_preset(_preset(), store=object())
+    assert [look.seeds for look in looks] == [2]
+    assert set(looks[0].going_on) >= {"I:icrt+mlp", "I:icrt+lipvq", "IV:icrt+mlp"}
+    assert _seeds(current, "I", "icrt+lipvq") == 3 == _seeds(current, "IV", "icrt+mlp")
+    assert _seeds(current, "I", "bc_transformer") == 2
+    _records_through(monkeypatch, 2)
+    again, looks = staged.staged_preset(_preset(), store=object())
+    assert [look.seeds for look in looks] == [2, 3] and looks[-1].going_on == ()
+    assert again == current  # nothing goes on: the run is finished
