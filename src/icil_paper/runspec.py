@@ -41,7 +41,7 @@ SCENE_DISTRIBUTIONS = ("generated", "human")
 named here so specs stay light); the first is every suite's default."""
 
 
-SUITE_VERSION = 3
+SUITE_VERSION = 4
 """The version of the task suites' scenes, success checks and scripted experts
 (`icil_paper.sim`), in every `DataSpec`'s and `EvalSpec`'s key, so that no run or record made
 on an older suite is returned for the current one; raise it whenever a layout range,
@@ -49,7 +49,8 @@ fixture, success check or expert changes. 1: the first kitchen suite; 2: the kit
 families' layout ranges and the insertion hole set by the regime pilot
 (`icil_paper.sim.kitchen.scenes`); 3: the pick-and-place expert lets the box go as it passes
 the bin's rim (`icil_paper.sim.kitchen.experts.PickPlaceExpert`), and the peg once it is 1 cm into
-the hole."""
+the hole; 4: pick-and-place succeeds once the hand has also moved `PickPlaceScene.CLEAR` away
+from the box, so its demonstrations show the hand opening and leaving."""
 
 
 @dataclass(frozen=True)

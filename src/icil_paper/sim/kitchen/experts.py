@@ -422,6 +422,11 @@ class PickPlaceExpert(KitchenExpert):
         self.safe_z = self.carry_z + 0.05
         self._grip_hist: list[float] = []
         self.release_steps = 0
+        # where the box is let go: anywhere from its bottom at the bin's rim (0) to resting on
+        # the floor (1), drawn per scene from the box's start position (so the expert stays a
+        # function of the scene), so the demonstrations show a release over the bin's depth
+        start = np.asarray(obs["object"][1:3], np.float64)
+        self.release_depth = float((1e4 * start.sum()) % 1.0)
 
     def grasp_yaw(self) -> float:
         """Hand yaw matching the object's faces (modulo its symmetry), closest to the hand's."""
@@ -482,7 +487,9 @@ class PickPlaceExpert(KitchenExpert):
             z = bottom + self.half_h + self.grasp_dz
             # let go while the hand still moves down: the box as its bottom passes the bin's
             # rim, the peg once its bottom is 1 cm into the hole; each drops the rest of the way
-            rim = self.target_top - (0.01 if self.insertion else 0.0)
+            floor = self.base_pos[2] + 0.015
+            rim = (self.target_top - 0.01 if self.insertion
+                   else self.target_top - self.release_depth * (self.target_top - floor))
             if self.eef[2] < z + 0.008 or obj[2] - self.half_h < rim:
                 self._set("release")
             return self._servo(np.array([*target_xy, z]), self._yaw_lock, CLOSE, speed=0.4)

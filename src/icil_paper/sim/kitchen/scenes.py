@@ -318,8 +318,13 @@ class FreeObjectScene(Scene):
 
 
 class PickPlaceScene(FreeObjectScene):
-    """A small box on the counter and an open bin; success when the box rests inside the bin
-    and the gripper has let go of it."""
+    """A small box on the counter and an open bin; success when the box rests inside the bin,
+    the gripper has let go of it and the hand has moved `CLEAR` away from it (as RoboCasa's
+    pick-and-place tasks ask the gripper to be far from the object): a demonstration then
+    shows the hand opening and leaving, not only the last moment before it lets go."""
+
+    CLEAR = 0.06
+    """Distance (m) from the box's centre that the hand must reach after letting go."""
 
     object_layouts = {
         "generated": Box2(x=(-0.03, 0.01), y=(0.11, 0.15), yaw=(-0.2, 0.2)),
@@ -342,7 +347,8 @@ class PickPlaceScene(FreeObjectScene):
         local = self.object_in_target_frame(env.sim)
         inside = (np.all(np.abs(local[:2]) < self.geometry.inner_half - 0.01)
                   and local[2] < self.geometry.top)
-        return bool(inside and not env.is_grasping(self.obj))
+        away = np.linalg.norm(env.eef_pos() - env.sim.data.body_xpos[self.obj_body_id])
+        return bool(inside and not env.is_grasping(self.obj) and away > self.CLEAR)
 
 
 class InsertionScene(FreeObjectScene):
