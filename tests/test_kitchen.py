@@ -6,6 +6,8 @@ two seeds each, so the file runs in well under three minutes on two cores.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -184,6 +186,26 @@ def test_object_success_predicates(env_of, name):
         for _ in range(5):                             # let it settle, hand far away
             obs, _, _, _, info = env.step(np.r_[np.zeros(6), -1.0])
         assert info["success"] is expected, (name, dx)
+
+
+@needs_robosuite
+@pytest.mark.sim
+def test_pick_and_place_succeeds_only_once_the_hand_has_left_the_box(env_of):
+    env = env_of("kitchen/pick_place")
+    scene = env.scene
+    env.reset(seed=0)
+    target = env.sim.data.site_xpos[scene.target_site_id].copy()
+    pos = target + np.array([0.0, 0.0, scene.obj_half_height + 0.004])
+    env.sim.data.set_joint_qpos(scene.obj_joint, np.r_[pos, 1.0, 0.0, 0.0, 0.0])
+    env.sim.forward()
+    for _ in range(5):
+        env.step(np.r_[np.zeros(6), -1.0])
+    inner = env.robosuite_env
+    assert scene.success(inner)                        # in the bin, the hand far above
+    box = inner.sim.data.body_xpos[scene.obj_body_id].copy()
+    near = SimpleNamespace(sim=inner.sim, is_grasping=lambda obj: False,
+                           eef_pos=lambda: box + np.array([0.0, 0.0, scene.CLEAR - 0.01]))
+    assert not scene.success(near)                     # let go, the hand still at the box
 
 
 # experts ---------------------------------------------------------------------------------------
