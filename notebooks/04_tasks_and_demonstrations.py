@@ -81,6 +81,15 @@ print(setup_lines(preset.name, SHOWN_TASKS, DATA_TASKS, preset.data.demos_per_ta
 #
 # One name per task; `make_env(name)` and `make_expert(name)` are all a training or evaluation
 # loop needs. Observation widths are shared within a suite (object states zero-padded).
+#
+# A kitchen task succeeds as its scene says (`icil_paper.sim.kitchen.scenes`): a fixture's
+# joint past its goal for doors, drawers, levers, knobs and the button; the peg 2 cm deep in
+# the hole for insertion; for pick-and-place, the box inside the bin, let go, and the hand at
+# least 6 cm from it. RoboCasa's pick-and-place tasks likewise ask the gripper to be far
+# from the object; without that, a demonstration would end the moment the gripper opens, and
+# a policy would see almost no example of letting go. The expert lets the box go anywhere
+# between the bin's rim and its floor (drawn per scene), so the release is shown over the
+# bin's whole depth.
 
 # %%
 display(task_registry())
