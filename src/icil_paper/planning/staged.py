@@ -18,7 +18,9 @@ the stale-record check read the same seeds per row as the run (`staged_preset`).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 from icil_paper.config import Preset
@@ -86,5 +88,16 @@ def staged_preset(preset: Preset, store: ResultsStore | None = None
 
 def as_run(preset: Preset, store: ResultsStore | None = None) -> Preset:
     """The preset at the seeds its run has reached (`staged_preset`; a preset without seed
-    stages is itself): what the book, the ledger and the cost read."""
-    return staged_preset(preset, store)[0]
+    stages is itself): what the book, the ledger and the cost read. Remembered per preset
+    and results folder for the life of the process (a chapter asks several times; the
+    records it reads do not change while it runs); `reproduce`, whose records do change,
+    asks `staged_preset`."""
+    if not preset.tables.seed_stages:
+        return preset
+    store = store or ResultsStore(preset.name)
+    return _as_run(preset, str(store.root))
+
+
+@functools.lru_cache(maxsize=8)
+def _as_run(preset: Preset, root: str) -> Preset:
+    return staged_preset(preset, ResultsStore(preset.name, root=Path(root)))[0]
