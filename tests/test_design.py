@@ -133,9 +133,9 @@ def test_reference_progress_says_how_many_cells_are_done(tmp_path):
     assert "whole run" not in text  # no projection in this cost.json
     path.write_text(json.dumps({"finished_cells": 12, "planned_cells": 370,
                                 "sittings": sittings, "projection": {"wall_hours_at_2": 9.24,
-                                                                     "target_wall_hours": 10.0}}))
+                                                                     "target_wall_hours": 12.0}}))
     text = reference_progress(path)
-    assert "the whole run comes to 9.2 hours" in text and "the target is 10 hours" in text
+    assert "the whole run comes to 9.2 hours" in text and "the target is 12 hours" in text
     path.write_text(json.dumps({"finished_cells": 370, "planned_cells": 370,
                                 "sittings": sittings, "projection": {"wall_hours_at_2": 10.9}}))
     text = reference_progress(path)
@@ -161,6 +161,17 @@ def test_decisions_per_cpu_hour_are_read_from_each_runs_ledger_and_cost(tmp_path
     assert "older protocol's run: 6 claims decided for 22.0 CPU-hours (2.7 per 10" in text
     (store / "cost.json").unlink()
     assert "has not recorded its cost yet" in report.decision_rate_sentence()
+
+
+def test_a_staged_runs_cost_is_bounded_by_its_stages(tmp_path):
+    from icil_paper.planning.cost import stages_cost
+
+    preset = get_preset("small").with_overrides(
+        ["tables.icrt_seeds=3", "tables.baseline_seeds=3", "tables.seed_stages=2,4"])
+    cost = stages_cost(preset, ResultsStore(preset.name, root=tmp_path))
+    assert cost["stages"] == [2, 4] and cost["looks"] == []  # nothing stored: the first stage
+    assert (0 < cost["reached_wall_hours_at_2"] < cost["fixed_design_wall_hours_at_2"]
+            < cost["last_stage_wall_hours_at_2"])
 
 
 def test_the_projection_prices_unfinished_cells_at_their_measured_rate(tmp_path):

@@ -35,8 +35,8 @@ from icil_paper.commands import add_preset_arguments, preset_from_args, run_modu
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json, read_json
 from icil_paper.paper import table_spec
-from icil_paper.planning.design import cell_kind, plan_cost, planned_seeds
-from icil_paper.planning.staged import as_run
+from icil_paper.planning.design import cell_kind, claim_rows, plan_cost, planned_seeds
+from icil_paper.planning.staged import as_run, staged_preset, with_row_seeds
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
 from icil_paper.stages import STAGES
@@ -52,7 +52,7 @@ mid-training) has a train record that times only the steps after the checkpoint:
 SITTING_GAP_S = 1800.0
 """Records further apart than this (half an hour) start a new sitting."""
 
-TARGET_WALL_HOURS = 10.0
+TARGET_WALL_HOURS = 12.0
 """The reference run's budget: wall hours on the 2-core machine at two cells at a time."""
 CELLS_AT_ONCE = 2
 
@@ -225,6 +225,21 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
     }
 
 
+def stages_cost(preset: Preset, store: ResultsStore) -> dict[str, Any]:
+    """A staged run's looks so far and its cost bounds, projected from `cells.json`'s rates
+    (`design.plan_cost`, hours at two cells at a time): through the stage reached (what
+    `projection` prices from the records), with every row a claim reads taken to the last
+    stage (the most the stage rule can ask), and the fixed design's seeds."""
+    _, looks = staged_preset(preset, store)
+    claimed = {row for rows in claim_rows(preset).values() for row in rows}
+    every = with_row_seeds(preset, dict.fromkeys(claimed, preset.tables.seed_stages[-1]))
+    return {"stages": list(preset.tables.seed_stages),
+            "looks": [look.to_dict() for look in looks],
+            "reached_wall_hours_at_2": plan_cost(as_run(preset, store))["wall_h_at_2"],
+            "last_stage_wall_hours_at_2": plan_cost(every)["wall_h_at_2"],
+            "fixed_design_wall_hours_at_2": plan_cost(preset)["wall_h_at_2"]}
+
+
 COST_FIX = "regenerate it: python -m icil_paper.planning.cost --preset <preset>"
 
 
@@ -240,7 +255,10 @@ def write_cost(preset: Preset, store: ResultsStore | None = None) -> Path:
     in stages is priced at the stage its records have reached (`staged.as_run`)."""
     store = store or ResultsStore(preset.name)
     path = store.dir / "cost.json"
-    atomic_write_json(path, run_cost(as_run(preset, store), store))
+    cost = run_cost(as_run(preset, store), store)
+    if preset.tables.seed_stages:
+        cost["stages"] = stages_cost(preset, store)
+    atomic_write_json(path, cost)
     return path
 
 
