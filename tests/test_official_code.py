@@ -265,7 +265,7 @@ def test_the_official_table_key_reads_only_its_own_fields():
                                for u in table_spec(p, "official").units()))
 
     reads = ("policies.icrt.", "tokenizers.lipvq.", "tokenizers.bin.", "train.",
-             "data.demos_per_task", "data.obs", "data.kitchen_tasks", "seed",
+             "data.demos_per_task", "data.task_demos", "data.obs", "data.kitchen_tasks", "seed",
              "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
              "tables.official_seeds", "tables.row_seeds",  # the paper's rows: Table I's seeds
              "tables.feature_demos_per_task", "tables.feature_steps")
