@@ -22,6 +22,7 @@ from typing import Any
 
 from icil_paper.config import get_preset
 from icil_paper.planning.design import plan_cost
+from icil_paper.planning.staged import at_stage
 from icil_paper.stats import Verdict
 from icil_paper.tables.claims import summary
 
@@ -94,10 +95,13 @@ def _claims(field: str, ledger: str = "claims.json") -> int:
     return s["counts"][field] if field in s["counts"] else s[field]
 
 
-def _projected_hours() -> float:
+def _projected_hours(stage: int | None = None) -> float:
     """The reference preset's projected hours at two cells at a time
-    (`planning.design.plan_cost`, from `results/bench/cells.json` and `datasets.json`)."""
-    return plan_cost(get_preset("reference"))["wall_h_at_2"]
+    (`planning.design.plan_cost`, from `results/bench/cells.json` and `datasets.json`): at
+    its fixed design's seeds, or with every claimed row at seed stage `stage` (0: the
+    first, -1: the last; `planning.staged.at_stage`)."""
+    preset = get_preset("reference")
+    return plan_cost(preset if stage is None else at_stage(preset, stage))["wall_h_at_2"]
 
 
 def _cell_seconds(kind: str) -> float:
@@ -178,6 +182,10 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                            ("older_claims.undecided", "undecided"),
                            ("older_claims.size_excluded", "size_excluded"))},
     "design.projected_wall_hours_at_2": ("results/bench/cells.json", _projected_hours),
+    "design.first_stage_wall_hours_at_2": ("results/bench/cells.json",
+                                           lambda: _projected_hours(0)),
+    "design.last_stage_wall_hours_at_2": ("results/bench/cells.json",
+                                          lambda: _projected_hours(-1)),
     **{f"older_cost.{name}_cell_s": (OLDER_COST,
                                lambda kind=kind: _cell_seconds(kind))
        for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),

@@ -35,8 +35,8 @@ from icil_paper.commands import add_preset_arguments, preset_from_args, run_modu
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json, read_json
 from icil_paper.paper import table_spec
-from icil_paper.planning.design import cell_kind, claim_rows, plan_cost, planned_seeds
-from icil_paper.planning.staged import as_run, staged_preset, with_row_seeds
+from icil_paper.planning.design import cell_kind, plan_cost, planned_seeds
+from icil_paper.planning.staged import as_run, at_stage, staged_preset
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
 from icil_paper.stages import STAGES
@@ -231,12 +231,10 @@ def stages_cost(preset: Preset, store: ResultsStore) -> dict[str, Any]:
     `projection` prices from the records), with every row a claim reads taken to the last
     stage (the most the stage rule can ask), and the fixed design's seeds."""
     _, looks = staged_preset(preset, store)
-    claimed = {row for rows in claim_rows(preset).values() for row in rows}
-    every = with_row_seeds(preset, dict.fromkeys(claimed, preset.tables.seed_stages[-1]))
     return {"stages": list(preset.tables.seed_stages),
             "looks": [look.to_dict() for look in looks],
             "reached_wall_hours_at_2": plan_cost(as_run(preset, store))["wall_h_at_2"],
-            "last_stage_wall_hours_at_2": plan_cost(every)["wall_h_at_2"],
+            "last_stage_wall_hours_at_2": plan_cost(at_stage(preset, -1))["wall_h_at_2"],
             "fixed_design_wall_hours_at_2": plan_cost(preset)["wall_h_at_2"]}
 
 

@@ -51,6 +51,14 @@ def with_row_seeds(preset: Preset, seeds: dict[tuple[str, str], int]) -> Preset:
     return replace(preset, tables=tables)
 
 
+def at_stage(preset: Preset, k: int) -> Preset:
+    """`preset` with every row a claim reads at its `k`-th stage's seeds (0: the first,
+    -1: the last; the first is where a run starts, the last the most it can ask)."""
+    seeds = preset.tables.seed_stages[k]
+    return with_row_seeds(preset, {row: seeds for rows in claim_rows(preset).values()
+                                   for row in rows})
+
+
 def stage_done(preset: Preset, store: ResultsStore) -> bool:
     """True when every planned cell of `preset` has all its records in `store`."""
     return all(plan_done(store, p) for p in plan([table_spec(preset, t) for t in TABLES]))
@@ -70,7 +78,7 @@ def staged_preset(preset: Preset, store: ResultsStore | None = None
         return preset, []
     store = store or ResultsStore(preset.name)
     seeds = {row: stages[0] for rows in claim_rows(preset).values() for row in rows}
-    current = with_row_seeds(preset, seeds)
+    current = at_stage(preset, 0)
     looks: list[Look] = []
     for stage in stages:
         if not stage_done(current, store):
