@@ -559,7 +559,7 @@ look's level at 0.044 (against 0.05 for a single look), so a claim that runs to 
 loses little power for the early looks (`stats.SequentialDesign`)."""
 
 
-REGIME_DEMOS, REGIME_STEPS = 3, 1000
+REGIME_DEMOS, REGIME_STEPS = 3, 2000
 """The reference preset's demonstrations per task and training steps, as the regime pilot
 chose them (`icil_paper.planning.pilot`, `results/bench/regime.json`; `_reference`)."""
 REGIME_TASK_DEMOS = ("kitchen/pick_place:10", "kitchen/insertion:10",
@@ -632,7 +632,7 @@ def _reference() -> Preset:
     and the ICRT rows of seed k start from the same backbone and draw the same batches
     (common random numbers); the Lipschitz tokenizers start as their plain twins
     (`weight_init="linear"`, c at the initial largest row sum) and their bounds learn at
-    `matching_c_lr_scale` times the trainer's rate (about 500 at 1000 steps), so that they
+    `matching_c_lr_scale` times the trainer's rate (about 250 at 2000 steps), so that they
     can travel as far relative to their initial size as over the paper's 500K iterations
     (125) instead of 0.25 (Table II's ACT rows: matched to the paper's 30K ManiSkill
     iterations).
@@ -646,17 +646,18 @@ def _reference() -> Preset:
     doors, drawers, knobs and buttons at 2000 steps, with three it sits inside (0, 1) on
     the fixture families; the tasks that carry a free object (pick-and-place, insertion) get
     ten and the knobs five, where three left ICRT + LipVQ-VAE at 0 on every pilot seed. Its
-    learning curve gains nothing beyond its seed-to-seed noise after the budget the preset
-    trains (`pilot.plateau`). Pick-and-place stays at or near 0 at every setting tried (the
-    policy carries the box into the bin and does not let go): the kitchen suite does not yet
-    put every family inside the pilot's range.
+    learning curve still rises at the pilot's last budget, 2000 steps (`pilot.plateau`
+    finds no plateau before it), so the preset trains 2000 steps: the most the 12-hour
+    budget allows. Pick-and-place stays at or near 0 at every setting tried (the policy
+    carries the box into the bin and does not let go): the kitchen suite does not yet put
+    every family inside the pilot's range.
 
     Projected cost at these settings (`planning.design.plan_cost`, from the rates of
     `results/bench/cells.json` and of `results/bench/datasets.json` for the demonstration
     sets; the README's figures): the run's first stage (every claimed row at 5 seeds,
     `planning.staged.at_stage`) within the 12-hour target at two cells at a time; the fixed
-    design's seeds about a third more; every claimed row taken to 15 seeds, the most the
-    stage rule can ask, beyond it.
+    design's seeds, and every claimed row taken to 15 seeds (the most the stage rule can
+    ask), beyond it.
 
     The older protocol's run was projected, from the same rates, at 370 trained cells and
     about 24 core-hours; what a run really costs, and the whole run projected from the CPU
