@@ -245,5 +245,5 @@ def test_the_regime_summary_names_the_families_and_maniskill_tasks_outside_the_r
     frame, text = regime_summary(str(path))
     assert list(frame.index) == ["icrt+lipvq"]
     assert "levels off at 2000 steps" in text and "[0.1, 0.9]: knobs." in text
-    assert "3 demonstrations a task; pick_place 10;" in text
+    assert "3 demonstrations a task (pick_place 10);" in text
     assert "pick_cube 0.5, stack_cube 0.0 (outside [0.1, 0.9]: stack_cube)" in text

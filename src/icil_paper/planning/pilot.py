@@ -484,7 +484,7 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     outside = [f for f, ok in record.get("within_range", {}).items() if not ok]
     steps = record.get("train_steps")
     exceptions = record.get("task_demos") or {}
-    own = ("; " + ", ".join(f"{t.split('/', 1)[-1]} {n}" for t, n in exceptions.items())
+    own = (" (" + ", ".join(f"{t.split('/', 1)[-1]} {n}" for t, n in exceptions.items()) + ")"
            if exceptions else "")
     text = (f"{record['seeds']} pilot seed(s) (seed indices {record['seed_indices']}, which "
             f"the reference run does not use), {record['demos_per_task']} demonstrations a "
