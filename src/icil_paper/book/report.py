@@ -454,7 +454,8 @@ def reference_progress(path=None, older: bool = False) -> str:
     if not planned:
         return ""
     hours = sum(s["elapsed_s"] for s in cost["sittings"]) / 3600
-    sittings = f"{len(cost['sittings'])} sittings, {hours:.1f} hours of machine time"
+    n = len(cost["sittings"])
+    sittings = f"{n} sitting{'' if n == 1 else 's'}, {hours:.1f} hours of machine time"
     projection = cost.get("projection")
     whole = ""
     if projection:
@@ -470,8 +471,8 @@ def reference_progress(path=None, older: bool = False) -> str:
     if done >= planned:
         return (f"The reference run is finished: all {planned} trained cells ({sittings}; "
                 f"`results/reference/cost.json`).{whole}")
-    return (f"The reference run is in progress: {done} of its {planned} trained cells have "
-            f"finished ({sittings} so far; `results/reference/cost.json`).{whole} A claim "
+    return (f"The reference run is in progress: {done} of its {planned} trained cells "
+            f"{'has' if done == 1 else 'have'} finished ({sittings} so far; `results/reference/cost.json`).{whole} A claim "
             "whose rows are not all trained yet shows as *not run*.")
 
 
