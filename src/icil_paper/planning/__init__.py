@@ -3,6 +3,8 @@
 - `design.py`: the seed design of the reference preset, from the claims' power and the
   split of seed and episode variance, and its projected cost
   (`python -m icil_paper.planning.design`).
+- `staged.py`: seeds in stages as run: the seeds every row has reached, from the records
+  (what `reproduce`, the book and the cost read).
 - `cost.py`: what a preset's run cost, from its records (`results/<preset>/cost.json`).
 - `decide.py`: `icil-paper plan`, the seeds, cells and CPU-hours that would decide every
   undecided claim.
