@@ -472,7 +472,8 @@ def reference_progress(path=None, older: bool = False) -> str:
         return (f"The reference run is finished: all {planned} trained cells ({sittings}; "
                 f"`results/reference/cost.json`).{whole}")
     return (f"The reference run is in progress: {done} of its {planned} trained cells "
-            f"{'has' if done == 1 else 'have'} finished ({sittings} so far; `results/reference/cost.json`).{whole} A claim "
+            f"{'has' if done == 1 else 'have'} finished ({sittings} so far; "
+            f"`results/reference/cost.json`).{whole} A claim "
             "whose rows are not all trained yet shows as *not run*.")
 
 

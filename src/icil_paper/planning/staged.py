@@ -78,7 +78,7 @@ def staged_preset(preset: Preset, store: ResultsStore | None = None
         return preset, []
     store = store or ResultsStore(preset.name)
     seeds = {row: stages[0] for rows in claim_rows(preset).values() for row in rows}
-    current = at_stage(preset, 0)
+    current = with_row_seeds(preset, seeds)  # at_stage(preset, 0)
     looks: list[Look] = []
     for stage in stages:
         if not stage_done(current, store):
