@@ -53,10 +53,12 @@ def _paired(va: np.ndarray, vb: np.ndarray, n: int) -> tuple[np.ndarray, np.ndar
     return 2 * student.sf(np.abs(stat), n - 1), np.sign(d.mean(1))
 
 
-def _simulate(outcomes: np.ndarray, claims, effects, design: SequentialDesign = DESIGN):
+def _simulate(outcomes: np.ndarray, claims, effects, design: SequentialDesign = DESIGN,
+              budget: int | None = None):
     """The whole procedure on every trial. claims: (a, (others...)) row indices, claimed
     above 0 (one other: a difference; several: best of k). effects: each claim's planning
-    effect (the stage rule's "paper's effect"). Returns (sides (trials, claims): +1 holds,
+    effect (the stage rule's "paper's effect"). budget: at most this many claims go on at
+    a look, the first in claim order (the run's budget, `design.within_budget`). Returns (sides (trials, claims): +1 holds,
     -1 does not hold, 0 undecided; decided look (trials, claims), -1 undecided; the rows'
     final seeds (trials, rows); the running p-values (trials, claims, looks))."""
     v = outcomes.mean(axis=(3, 4))  # (trials, rows, seeds): per-seed values
@@ -91,6 +93,7 @@ def _simulate(outcomes: np.ndarray, claims, effects, design: SequentialDesign = 
         if k == K - 1:
             break
         grow = np.zeros((trials, rows), dtype=bool)
+        going = np.zeros(trials, dtype=int)
         for c, (a, others) in enumerate(claims):
             seen = row_seeds[:, [a, *others]].min(1) >= n
             tests = [_paired(v[:, a], v[:, o], n) for o in others]
@@ -100,6 +103,9 @@ def _simulate(outcomes: np.ndarray, claims, effects, design: SequentialDesign = 
                                                                          np.arange(trials)]
             needs = stage_seeds_needed(v[:, a, :n].var(1, ddof=1), vb, effects[c], design)
             go = seen & (look[:, c] < 0) & (needs <= design.stages[-1])
+            if budget is not None:
+                go &= going < budget
+                going += go
             grow[:, [a, *others]] |= go[:, None]
         row_seeds = np.where(grow & (row_seeds >= n), design.stages[k + 1], row_seeds)
     return side, look, row_seeds, p_by_look
@@ -223,6 +229,18 @@ def test_holm_over_a_ledger_keeps_the_familywise_level():
     assert np.mean((look[:, 0] >= 0) & (look[:, 0] <= 1)) > 0.9  # by 10 seeds a row
 
 
+def test_claims_the_budget_stops_keep_the_familywise_level():
+    """Table I's shape with no true difference anywhere, and a budget that lets at most two
+    undecided claims go on at each look: stopping claims can only lower the level."""
+    rng = np.random.default_rng(14)
+    x = _outcomes(rng, 1500, [0.0] * 6)
+    claims = [(0, (r,)) for r in range(1, 6)] + [(0, (1, 2, 3, 4, 5))]
+    side, _, seeds, _ = _simulate(x, claims, [1.0] * 6, budget=2)
+    wrong = (side != 0).any(1)
+    assert wrong.mean() <= 0.065, wrong.mean()
+    assert (seeds == 15).any() and (seeds[:, 1:] == 5).any()  # some went on, some stopped
+
+
 def test_a_true_ten_point_difference_holds_with_fewer_seeds_than_a_fixed_design():
     rng = np.random.default_rng(13)
     x = _outcomes(rng, 3000, [0.14, 0.0])
@@ -284,3 +302,13 @@ def test_the_ledger_records_the_look_of_each_decision(monkeypatch):
     assert c["sequential"]["next"] == 15 and c["adjusted_verdict"] == "inconclusive"
     assert d["look"] == "undecided at 10 seeds, needs 40" and d["sequential"]["next"] is None
     assert d["adjusted_verdict"] == "inconclusive"  # the fixed design's Holm decides nothing
+    # The same claim c, stopped by the run's budget: its rows stay, and the ledger says why.
+    for e in entries:
+        e.pop("sequential"), e.pop("look")
+        e["adjusted_verdict"] = "holds" if e["id"] == "d" else "inconclusive"
+    ledger_code._sequential(claims, entries, {}, DESIGN, stops=("c",))
+    c = entries[2]
+    assert c["look"] == ("undecided at 10 seeds (needs 15): stopped, 15 seeds a row are over "
+                         "the run's budget")
+    assert c["sequential"]["next"] is None and c["sequential"]["stopped_by"] == "budget"
+    assert entries[0]["look"] == a["look"]  # the others are read as before

@@ -6,7 +6,13 @@ from types import SimpleNamespace
 from icil_paper.config import get_preset
 from icil_paper.paper import table_spec
 from icil_paper.planning import staged
-from icil_paper.planning.design import claim_rows
+from icil_paper.planning.design import (
+    claim_rows,
+    plan_cost,
+    stage_plan,
+    with_row_seeds,
+    within_budget,
+)
 
 STAGES = (2, 3, 4)
 
@@ -64,3 +70,47 @@ def test_after_a_look_only_the_rows_sent_on_grow_and_the_last_look_stops(monkeyp
     again, looks = staged.staged_preset(_preset(), store=object())
     assert [look.seeds for look in looks] == [2, 3] and looks[-1].going_on == ()
     assert again == current  # nothing goes on: the run is finished
+
+
+def _hours(preset):
+    return plan_cost(preset)["core_s"] / 2 / 3600
+
+
+def test_the_budget_takes_the_cheapest_claims_that_fit_and_stops_the_others():
+    """`design.within_budget` against whole plans priced by `plan_cost`: what it takes fits
+    the budget, each claim it stops would not have fitted, and no budget takes them all."""
+    preset = staged.at_stage(_preset(), 0)
+    wanted = {c: 3 for c in claim_rows(preset)}
+    base = _hours(preset)
+    everything = stage_plan(preset, [{"id": c, "sequential": {"next": 3}} for c in wanted])
+    top = _hours(with_row_seeds(preset, {r: n for r, (n, _) in everything["continue"].items()}))
+    assert within_budget(preset, wanted, top + 1) == (wanted, {})
+    assert within_budget(preset, wanted, base) == ({}, wanted)  # every next stage costs
+
+    def grown(claims):
+        rows = stage_plan(preset, [{"id": c, "sequential": {"next": 3}} for c in claims])
+        return _hours(with_row_seeds(preset, {r: n for r, (n, _) in rows["continue"].items()}))
+
+    budget = (base + top) / 2
+    taken, over = within_budget(preset, wanted, budget)
+    assert taken and over and set(taken) | set(over) == set(wanted)
+    assert grown(taken) <= budget + 1e-9
+    for claim_id in over:
+        assert grown({**taken, claim_id: 3}) > budget, claim_id
+
+
+def test_the_budget_stops_a_claim_and_the_preset_carries_it(monkeypatch):
+    _records_through(monkeypatch, 1)
+    tight = _hours(staged.at_stage(_preset(), 0)) + 1e-6
+    preset = _preset().with_overrides([f"tables.stage_budget_hours={tight}"])
+    current, looks = staged.staged_preset(preset, store=object())
+    assert looks[0].going_on == () and looks[0].over_budget == ("I-tokenizer-gap",)
+    assert current.tables.stage_stops == ("I-tokenizer-gap",)
+    assert _seeds(current, "I", "icrt+lipvq") == 2  # nothing grew
+    assert staged.staged_preset(preset, store=object())[0] == current  # the same next time
+
+
+def test_the_reference_first_stage_fits_its_budget_and_the_last_does_not():
+    preset = get_preset("reference")
+    budget = preset.tables.stage_budget_hours
+    assert _hours(staged.at_stage(preset, 0)) <= budget < _hours(staged.at_stage(preset, -1))

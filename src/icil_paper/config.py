@@ -349,6 +349,16 @@ class TablesConfig(_Checked):
     rows of undecided claims that a later stage can decide at the paper's effect go on to
     the next stage, and the others stop (`python -m icil_paper.planning.design --stages`
     prints which). Empty: a fixed design, every claim read once at the seeds it has."""
+    stage_budget_hours: float | None = None
+    """The most a run in stages may cost, in hours at two cells at a time as
+    `planning.design.plan_cost` projects them from the committed benchmark rates: after a
+    look, the claims that may go on are taken in order of what their next stage adds, the
+    cheapest first, while the whole run stays within it; the others stop where they are
+    (`stage_stops`). None: no budget, every claim the stage rule sends on goes on."""
+    stage_stops: tuple[str, ...] = ()
+    """Claims that the budget stopped at a look although a later stage could decide them:
+    their rows stay at the seeds they have, and the ledger says so. Set by
+    `planning.staged.staged_preset` from the run's records, not by hand."""
 
 
     def __post_init__(self) -> None:
@@ -559,6 +569,12 @@ look's level at 0.044 (against 0.05 for a single look), so a claim that runs to 
 loses little power for the early looks (`stats.SequentialDesign`)."""
 
 
+REFERENCE_BUDGET_HOURS = 12.0
+"""The reference run's budget (`TablesConfig.stage_budget_hours`): twelve hours of the
+2-core machine at two cells at a time. The first stage takes most of it, so after the
+first look only the claims whose next stage is cheapest go on."""
+
+
 REGIME_DEMOS, REGIME_STEPS = 3, 2000
 """The reference preset's demonstrations per task and training steps, as the regime pilot
 chose them (`icil_paper.planning.pilot`, `results/bench/regime.json`; `_reference`)."""
@@ -680,7 +696,8 @@ def _reference() -> Preset:
                             maniskill_steps=5000, maniskill_episodes_per_task=10,
                             since_paper_seeds=5, official_seeds=5,
                             row_seeds=REFERENCE_ROW_SEEDS, scenes_per_seed=True,
-                            seed_stages=REFERENCE_SEED_STAGES),
+                            seed_stages=REFERENCE_SEED_STAGES,
+                            stage_budget_hours=REFERENCE_BUDGET_HOURS),
     )
 
 

@@ -348,7 +348,8 @@ ZERO_ALLOWED = frozenset({"seed", "expert_seeds", "dead_code_restart", "warmup_s
 """Integer fields for which 0 means something (no restarts, no warm-up, torch's thread
 count, whole-episode queries, ...); every other integer field counts things and must be at
 least 1."""
-MORE_THAN_ZERO = frozenset({"lr", "pretrain_lr", "scale", "c_init", "grad_clip"})
+MORE_THAN_ZERO = frozenset({"lr", "pretrain_lr", "scale", "c_init", "grad_clip",
+                            "stage_budget_hours"})
 """Float fields that must be above 0 (other floats, weights and rates, may be 0)."""
 BELOW_ONE = frozenset({"dropout", "eval_fraction", "ema_decay", "betas"})
 """Fractions: below 1 (and at least 0)."""
@@ -376,7 +377,7 @@ def check_range(path: str, value: Any, annotation: Any = None,
 
 
 EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks", "row_seeds",
-                           "seed_stages", "task_demos"})
+                           "seed_stages", "stage_stops", "task_demos"})
 """Tuple fields that may be empty (an MLP without hidden layers, a preset without ManiSkill
 tasks, no row with seeds of its own); every other tuple field, and every string field, needs a value."""
 

@@ -122,10 +122,13 @@ all decided stop; a row goes on to the next stage when a claim that reads it is 
 and `stage_seeds_needed` (the first stage whose boundary detects the paper's effect with
 80% power, at the measured per-seed variances) is within the schedule; the others stop,
 and the ledger records what they would need (`seeds_needed` at the last look's level).
-Stopping never adds a decision, so the rule keeps the level; its cost is the power of the
-rows it stops. `tests/test_sequential.py` simulates the whole procedure at the reference
+With a budget (`tables.stage_budget_hours`), only the claims whose next stage fits in it
+go on, the cheapest first (`planning.design.within_budget`). Stopping never adds a
+decision, so the rule keeps the level, budget included; its cost is the power of the rows
+it stops. `tests/test_sequential.py` simulates the whole procedure at the reference
 run's spreads: with no true difference 3-5% of claims are decided (about half each way),
-and a ledger of six claims with Holm keeps its familywise errors under 5%; a true +0.10
+and a ledger of six claims with Holm keeps its familywise errors under 5%, with or without
+a budget that lets only two claims go on at a look; a true +0.10
 holds in 95% of trials with 10.7 seeds a row on average, where a single look needs 12 for
 the same power.
 

@@ -186,6 +186,8 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                            lambda: _projected_hours(0)),
     "design.last_stage_wall_hours_at_2": ("results/bench/cells.json",
                                           lambda: _projected_hours(-1)),
+    "design.budget_hours": ("src/icil_paper/config.py",
+                            lambda: get_preset("reference").tables.stage_budget_hours),
     **{f"older_cost.{name}_cell_s": (OLDER_COST,
                                lambda kind=kind: _cell_seconds(kind))
        for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),

@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from icil_paper.commands import add_preset_arguments, preset_from_args, run_module
-from icil_paper.config import Preset
+from icil_paper.config import REFERENCE_BUDGET_HOURS, Preset
 from icil_paper.fileio import atomic_write_json, read_json
 from icil_paper.paper import table_spec
 from icil_paper.planning.design import cell_kind, plan_cost, planned_seeds
@@ -52,8 +52,9 @@ mid-training) has a train record that times only the steps after the checkpoint:
 SITTING_GAP_S = 1800.0
 """Records further apart than this (half an hour) start a new sitting."""
 
-TARGET_WALL_HOURS = 12.0
-"""The reference run's budget: wall hours on the 2-core machine at two cells at a time."""
+TARGET_WALL_HOURS = REFERENCE_BUDGET_HOURS
+"""The reference run's budget: wall hours on the 2-core machine at two cells at a time
+(`tables.stage_budget_hours`, which the stage rule keeps to)."""
 CELLS_AT_ONCE = 2
 
 
@@ -220,7 +221,7 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
         "remaining_cpu_hours": round(remaining / 3600, 2),
         "cpu_hours": round(cpu_total / 3600, 2),
         "wall_hours_at_2": round(cpu_total / CELLS_AT_ONCE / 3600, 2),
-        "target_wall_hours": TARGET_WALL_HOURS,
+        "target_wall_hours": preset.tables.stage_budget_hours or TARGET_WALL_HOURS,
         "from_records": round((cpu_so_far + from_records) / cpu_total, 3) if cpu_total else None,
     }
 
@@ -229,12 +230,15 @@ def stages_cost(preset: Preset, store: ResultsStore) -> dict[str, Any]:
     """A staged run's looks so far and its cost bounds, projected from `cells.json`'s rates
     (`design.plan_cost`, hours at two cells at a time): through the stage reached (what
     `projection` prices from the records), with every row a claim reads taken to the last
-    stage (the most the stage rule can ask), and the fixed design's seeds."""
+    stage (what the stage rule would ask without a budget), and the fixed design's seeds;
+    the budget (`tables.stage_budget_hours`) and the claims it has stopped so far."""
     _, looks = staged_preset(preset, store)
     return {"stages": list(preset.tables.seed_stages),
             "looks": [look.to_dict() for look in looks],
             "reached_wall_hours_at_2": plan_cost(as_run(preset, store))["wall_h_at_2"],
             "last_stage_wall_hours_at_2": plan_cost(at_stage(preset, -1))["wall_h_at_2"],
+            "budget_wall_hours": preset.tables.stage_budget_hours,
+            "stopped_by_budget": list(as_run(preset, store).tables.stage_stops),
             "fixed_design_wall_hours_at_2": plan_cost(preset)["wall_h_at_2"]}
 
 

@@ -194,8 +194,12 @@ IMAGE_SLOWDOWN = 10.0
 def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, Any]:
     """The estimated cost of every trained run the preset's tables plan, by kind of cell:
     cells, optimizer steps, episodes and core-seconds (train and evaluation)."""
+    return plans_cost(plan([table_spec(preset, t) for t in TABLE_IDS]), rates)
+
+
+def plans_cost(plans, rates: dict[str, Any] | None = None) -> dict[str, Any]:
+    """`plan_cost` of a list of run plans (`tables.execute.plan`), their data sets included."""
     rates = rates or cell_rates()
-    plans = plan([table_spec(preset, t) for t in TABLE_IDS])
     kinds: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for p in plans:
         k = kinds[cell_kind(p.run)]
@@ -290,6 +294,14 @@ def design_frame(preset: Preset):
     return pd.DataFrame(lines).set_index("claim").rename_axis(None)
 
 
+def with_row_seeds(preset: Preset, seeds: dict[tuple[str, str], int]) -> Preset:
+    """`preset` with the rows of `seeds` at those seeds (entries after the preset's own
+    `row_seeds`, so that they win)."""
+    entries = tuple(f"{t}:{row}={n}" for (t, row), n in sorted(seeds.items()))
+    tables = replace(preset.tables, row_seeds=preset.tables.row_seeds + entries)
+    return replace(preset, tables=tables)
+
+
 def at_seeds(preset: Preset, seeds: int) -> Preset:
     """The preset with every row of every table at `seeds` training seeds (its first ones:
     the same runs, so the same records)."""
@@ -326,38 +338,97 @@ def interim_check(preset: Preset, seeds: int | None = None, store=None
 
 
 # --------------------------------------------------------------------------- stages
-def stage_plan(preset: Preset, ledger: list[dict[str, Any]]) -> dict[str, Any]:
+def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
+               budget_hours: float | None = None) -> dict[str, Any]:
     """The stage rule applied to a ledger computed with the preset's `seed_stages`
     (`claims_ledger`): which rows go on to the next stage and which stop.
 
     A row goes on when a claim that reads it is undecided and a stage of the schedule can
     decide it at the paper's effect (its entry's `sequential["next"]`); every other row
     stops where it is (its claims all decided, or undecided with the seeds they would need
-    in the ledger's `look`). Returns {"continue": {(table, row): (next seeds, [claim ids])},
-    "stop": {(table, row): [claim ids]}}; rows no claim reads are in neither."""
+    in the ledger's `look`). With `budget_hours` (`tables.stage_budget_hours`) the claims
+    that may go on are taken in order of what their next stage adds to the projected cost,
+    the cheapest first, while the run's whole projection stays within the budget
+    (`within_budget`); the others stop too. Returns {"continue": {(table, row): (next
+    seeds, [claim ids])}, "stop": {(table, row): [claim ids]}, "over_budget": {claim id:
+    the seeds its next stage would have given}}; rows no claim reads are in neither."""
     by_id = {e.id: e for e in map(as_entry, ledger)}
-    go: dict[tuple[str, str], tuple[int, list[str]]] = {}
-    readers: dict[tuple[str, str], list[str]] = defaultdict(list)
-    for claim_id, rows in claim_rows(preset).items():
-        nxt = (getattr(by_id.get(claim_id), "sequential", None) or {}).get("next")
-        for row in rows:
-            readers[row].append(claim_id)
-            if nxt:
-                seeds, ids = go.get(row, (0, []))
-                go[row] = (max(seeds, nxt), [*ids, claim_id])
-    # A row that trains the same runs as a row that goes on (Table I's policies are
-    # evaluated again for Tables III-VI) goes on with it.
+    rows_of = claim_rows(preset)
+    wanted = {claim_id: nxt for claim_id in rows_of
+              if (nxt := (getattr(by_id.get(claim_id), "sequential", None) or {}).get("next"))}
+    over: dict[str, int] = {}
+    if budget_hours is not None and wanted:
+        wanted, over = within_budget(preset, wanted, budget_hours)
+    readers = {row for rows in rows_of.values() for row in rows}
     runs = {row: _first_runs(preset, *row) for row in readers}
+    go = _going_rows(runs, {c: (n, rows_of[c]) for c, n in wanted.items()})
+    return {"continue": go,
+            "stop": {row: [c for c, rows in rows_of.items() if row in rows]
+                     for row in sorted(readers) if row not in go},
+            "over_budget": over}
+
+
+def _going_rows(runs: dict[tuple[str, str], frozenset[str]],
+                claims_going: dict[str, tuple[int, tuple]]
+                ) -> dict[tuple[str, str], tuple[int, list[str]]]:
+    """{row: (next seeds, [the claim ids that send it on])} for the claims that go on
+    ({claim id: (next seeds, its rows)}), with every row a claim reads (`runs`: each one's
+    `_first_runs`) that trains the same runs as a row that goes on (Table I's policies are
+    evaluated again for Tables III-VI)."""
+    go: dict[tuple[str, str], tuple[int, list[str]]] = {}
+    for claim_id, (nxt, rows) in claims_going.items():
+        for row in rows:
+            seeds, ids = go.get(row, (0, []))
+            go[row] = (max(seeds, nxt), [*ids, claim_id])
     direct = dict(go)
-    for row in readers:
+    for row in sorted(runs):
         if row in go:
             continue
         shared = [(other, direct[other]) for other in direct if runs[row] & runs[other]]
         if shared:
             go[row] = (max(s for _, (s, _) in shared),
                        [f"runs of {t}:{r}" for (t, r), _ in shared])
-    return {"continue": go,
-            "stop": {row: ids for row, ids in readers.items() if row not in go}}
+    return go
+
+
+def within_budget(preset: Preset, wanted: dict[str, int], budget_hours: float,
+                  rates: dict[str, Any] | None = None) -> tuple[dict[str, int], dict[str, int]]:
+    """Split the claims that the stage rule would send on ({claim id: next seeds}) into
+    those that go on and those the budget stops: each claim's next stage is priced alone
+    (the cells and data sets its rows, and the rows that share their runs, add to the
+    preset's plan, at `plans_cost`'s rates), and the claims are taken cheapest first while
+    the plan with every claim taken so far stays within `budget_hours` (hours at two cells
+    at a time). The price is a projection from the committed benchmark rates, not from the
+    run's own CPU times, so that the same records give the same stages on any machine."""
+    rows_of = claim_rows(preset)
+    rates = rates or cell_rates()
+    runs = {row: _first_runs(preset, *row) for rows in rows_of.values() for row in rows}
+
+    def rows(claims: dict[str, int]) -> dict[tuple[str, str], tuple[int, list[str]]]:
+        return _going_rows(runs, {c: (n, rows_of[c]) for c, n in claims.items()})
+
+    # Every claim going on at once plans every run any subset of them can add.
+    upper = with_row_seeds(preset, {row: n for row, (n, _) in rows(wanted).items()})
+    specs = {t: table_spec(upper, t) for t in TABLE_IDS}
+    plans = {p.run.key(): p for p in plan(list(specs.values()))}
+    now = {p.run.key() for p in plan([table_spec(preset, t) for t in TABLE_IDS])}
+    units = {(t, r): [(u.seed_index, u.run.key()) for cell in specs[t].row(r).cells.values()
+                      for u in cell.units] for t, r in runs}
+
+    def hours(claims: dict[str, int]) -> float:
+        keys = set(now)
+        for row, (n, _) in rows(claims).items():
+            keys |= {key for seed, key in units[row] if seed < n}
+        return plans_cost([plans[k] for k in keys], rates)["core_s"] / 2 / 3600
+
+    base = hours({})
+    price = {c: hours({c: n}) - base for c, n in wanted.items()}
+    taken: dict[str, int] = {}
+    for claim_id in sorted(wanted, key=lambda c: (price[c], list(wanted).index(c))):
+        trial = {**taken, claim_id: wanted[claim_id]}
+        if hours(trial) <= budget_hours:
+            taken = trial
+    return taken, {c: n for c, n in wanted.items() if c not in taken}
 
 
 def _first_runs(preset: Preset, table: str, row: str) -> frozenset[str]:
@@ -384,6 +455,12 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
             "measured per-seed variances give a stage of the schedule 80% power at its "
             "boundary against the paper's effect; the others stop, and the ledger says how "
             "many seeds a row they would need.")
+    budget = preset.tables.stage_budget_hours
+    if budget is not None:
+        text += (f" The run has a budget of {budget:g} hours at two cells at a time, as the "
+                 "benchmark rates project them: after a look the claims that may go on are "
+                 "taken cheapest first while the whole run stays within it, and the others "
+                 "stop too. Stopping a claim can only lower its chance of a wrong decision.")
     if not ledger:
         return text
     seq = [(e.id, e.sequential) for e in map(as_entry, ledger)
@@ -392,11 +469,13 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
     going = [claim_id for claim_id, s in seq if s["next"]]
     looks = "; ".join(f"{decided[n]} at {n} seeds a row" for n in design.stages if decided[n])
     stopped = len(seq) - sum(decided.values()) - len(going)
+    by_budget = sum(1 for _, s in seq if s.get("stopped_by") == "budget")
     text += (f" In this ledger {sum(decided.values())} of {len(ledger)} claims are decided"
              + (f" ({looks})" if looks else "") + f"; {len(going)} undecided "
              f"{'claim goes' if len(going) == 1 else 'claims go'} on to the next stage"
              + (f" ({', '.join(going)})" if going else "")
-             + f", and {stopped} stop undecided.")
+             + f", and {stopped} stop undecided"
+             + (f", {by_budget} of them at the budget" if by_budget else "") + ".")
     return text
 
 
@@ -459,11 +538,14 @@ def _print_stages(preset: Preset) -> int:
         p = (getattr(e, "sequential", None) or {}).get("p_value")
         print(f"  {e.id:<38} {str(e.adjusted_verdict):<14} design p "
               f"{'-' if p is None else f'{p:.3g}':>9}  {getattr(e, 'look', '')}")
-    plan = stage_plan(preset, ledger)
+    plan = stage_plan(preset, ledger, preset.tables.stage_budget_hours)
     for (table, row), (seeds, ids) in sorted(plan["continue"].items()):
         print(f"continue  {table}:{row} to {seeds} seeds  ({', '.join(ids)})")
     for (table, row), ids in sorted(plan["stop"].items()):
         print(f"stop      {table}:{row}  ({', '.join(ids)})")
+    for claim_id, seeds in plan["over_budget"].items():
+        print(f"budget    {claim_id} stops: {seeds} seeds a row are over "
+              f"{preset.tables.stage_budget_hours:g} hours")
     return 0
 
 

@@ -5,7 +5,10 @@ its rows list. Every row a claim reads starts at the first stage's seeds; once e
 a stage is stored, the ledger looks (`claims_ledger`, with the group-sequential boundaries of
 `stats.SequentialDesign`) and the stage rule (`design.stage_plan`) says which rows go on to
 the next stage: the rows of a claim still undecided that a later stage can decide at the
-paper's effect. The others stop where they are. Rows no claim reads (MCR; the analysis
+paper's effect. The others stop where they are. With a budget (`tables.stage_budget_hours`,
+the reference preset's twelve hours) only the claims whose next stage fits in it go on,
+the cheapest first (`design.within_budget`); the claims it stops are the preset's
+`tables.stage_stops`, which the ledger reads. Rows no claim reads (MCR; the analysis
 table's variants) keep the seeds the preset lists.
 
     preset, looks = staged_preset(get_preset("reference"))   # this sitting's seeds per row
@@ -25,7 +28,7 @@ from typing import Any
 
 from icil_paper.config import Preset
 from icil_paper.paper import TABLES, claims_ledger, table_spec
-from icil_paper.planning.design import claim_rows, stage_plan
+from icil_paper.planning.design import claim_rows, stage_plan, with_row_seeds
 from icil_paper.results import ResultsStore
 from icil_paper.tables.execute import plan, plan_done
 
@@ -38,17 +41,13 @@ class Look:
     """The stage's seeds a row (`tables.seed_stages[k]`)."""
     going_on: tuple[str, ...]
     """The rows ("TABLE:row") that go on to the next stage."""
+    over_budget: tuple[str, ...] = ()
+    """The claims the stage rule would have sent on that the budget stopped
+    (`tables.stage_budget_hours`)."""
 
     def to_dict(self) -> dict[str, Any]:
-        return {"seeds": self.seeds, "going_on": list(self.going_on)}
-
-
-def with_row_seeds(preset: Preset, seeds: dict[tuple[str, str], int]) -> Preset:
-    """`preset` with the rows of `seeds` at those seeds (entries after the preset's own
-    `row_seeds`, so that they win)."""
-    entries = tuple(f"{t}:{row}={n}" for (t, row), n in sorted(seeds.items()))
-    tables = replace(preset.tables, row_seeds=preset.tables.row_seeds + entries)
-    return replace(preset, tables=tables)
+        return {"seeds": self.seeds, "going_on": list(self.going_on),
+                "over_budget": list(self.over_budget)}
 
 
 def at_stage(preset: Preset, k: int) -> Preset:
@@ -78,20 +77,30 @@ def staged_preset(preset: Preset, store: ResultsStore | None = None
         return preset, []
     store = store or ResultsStore(preset.name)
     seeds = {row: stages[0] for rows in claim_rows(preset).values() for row in rows}
-    current = with_row_seeds(preset, seeds)  # at_stage(preset, 0)
+    stops: tuple[str, ...] = ()
+    current = _at(preset, seeds, stops)
     looks: list[Look] = []
     for stage in stages:
         if not stage_done(current, store):
             break
         ledger = [e.to_dict() for e in claims_ledger(current, store)]
-        going = {row: nxt for row, (nxt, _) in stage_plan(current, ledger)["continue"].items()
+        rule = stage_plan(current, ledger, preset.tables.stage_budget_hours)
+        going = {row: nxt for row, (nxt, _) in rule["continue"].items()
                  if nxt > seeds.get(row, 0)}
-        looks.append(Look(stage, tuple(f"{t}:{r}" for t, r in sorted(going))))
+        stops += tuple(rule["over_budget"])
+        looks.append(Look(stage, tuple(f"{t}:{r}" for t, r in sorted(going)),
+                          tuple(rule["over_budget"])))
+        seeds.update(going)
+        current = _at(preset, seeds, stops)
         if not going:
             break
-        seeds.update(going)
-        current = with_row_seeds(preset, seeds)
     return current, looks
+
+
+def _at(preset: Preset, seeds: dict[tuple[str, str], int], stops: tuple[str, ...]) -> Preset:
+    """`preset` with the rows of `seeds` at those seeds and `stops` as its `stage_stops`."""
+    grown = with_row_seeds(preset, seeds)
+    return replace(grown, tables=replace(grown.tables, stage_stops=stops))
 
 
 def as_run(preset: Preset, store: ResultsStore | None = None) -> Preset:

@@ -494,7 +494,7 @@ def ledger_entries(preset: Preset, chosen: Sequence[Claim], tables: dict[str, Ta
     for entry, verdict in zip(entries, adjusted, strict=True):
         entry["adjusted_verdict"] = verdict
     if design is not None:
-        _sequential(list(chosen), list(entries), tables, design)
+        _sequential(list(chosen), list(entries), tables, design, preset.tables.stage_stops)
     return [LedgerEntry.from_dict(e) for e in entries]
 
 
@@ -526,10 +526,13 @@ def first_seeds(tables: dict[str, TableResult], seeds: int) -> dict[str, TableRe
 
 
 def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
-                tables: dict[str, TableResult], design: stats.SequentialDesign) -> None:
+                tables: dict[str, TableResult], design: stats.SequentialDesign,
+                stops: Sequence[str] = ()) -> None:
     """Add each entry's `sequential` record and `look`, and replace `adjusted_verdict` by
     the group-sequential Holm verdict (`stats.sequential_holm` on the repeated p-values
-    of every look the claim's rows have reached; module docstring of `icil_paper.stats`)."""
+    of every look the claim's rows have reached; module docstring of `icil_paper.stats`).
+    A claim of `stops` (`TablesConfig.stage_stops`) was stopped by the run's budget: it
+    does not go on, and its `look` says so."""
     at_look = {n: first_seeds(tables, n) for n in design.stages}
     runs: list[list] = []
     nominal: list[list] = []
@@ -574,11 +577,17 @@ def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
                                  f"({design.stages[0]} seeds a row)")
                 record["next"] = design.stages[0]
             elif k < last and needs is not None and needs <= design.stages[-1]:
-                record["next"] = design.stages[k + 1]
                 planned = (f"needs {needs}" if needs > design.stages[k] else
                            f"80% power at the paper's effect from {needs}")
-                entry["look"] = (f"undecided at {design.stages[k]} seeds ({planned}): "
-                                 f"continues to {design.stages[k + 1]}")
+                if entry["id"] in stops:
+                    record["stopped_by"] = "budget"
+                    entry["look"] = (f"undecided at {design.stages[k]} seeds ({planned}): "
+                                     f"stopped, {design.stages[k + 1]} seeds a row are "
+                                     "over the run's budget")
+                else:
+                    record["next"] = design.stages[k + 1]
+                    entry["look"] = (f"undecided at {design.stages[k]} seeds ({planned}): "
+                                     f"continues to {design.stages[k + 1]}")
             elif needs is not None:
                 entry["look"] = f"undecided at {design.stages[k]} seeds, needs {needs}"
             else:
