@@ -136,6 +136,13 @@ def test_reference_progress_says_how_many_cells_are_done(tmp_path):
                                                                      "target_wall_hours": 12.0}}))
     text = reference_progress(path)
     assert "the whole run comes to 9.2 hours" in text and "the target is 12 hours" in text
+    staged = {"stages": [5, 10, 15], "looks": [{"seeds": 5, "going_on": ["I:bin"]}]}
+    path.write_text(json.dumps({**json.loads(path.read_text()), "stages": staged}))
+    text = reference_progress(path)
+    assert "the stage reached comes to 9.2 hours" in text and "fits the budget" in text
+    staged["looks"][0]["going_on"] = []  # the look sent nothing on: the run is whole
+    path.write_text(json.dumps({**json.loads(path.read_text()), "stages": staged}))
+    assert "the whole run comes to 9.2" in reference_progress(path)
     path.write_text(json.dumps({"finished_cells": 370, "planned_cells": 370,
                                 "sittings": sittings, "projection": {"wall_hours_at_2": 10.9}}))
     text = reference_progress(path)

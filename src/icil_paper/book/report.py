@@ -464,6 +464,12 @@ def reference_progress(path=None, older: bool = False) -> str:
         whole = (f" At the CPU time its cells took, the whole run comes to "
                  f"{projection['wall_hours_at_2']:.1f} hours on an idle 2-core machine at "
                  f"two cells at a time{against}.")
+        stages = cost.get("stages") or {}
+        looks = stages.get("looks", [])
+        if (len(looks) < len(stages.get("stages", []))
+                and (not looks or looks[-1].get("going_on"))):  # more stages may follow
+            whole = whole.replace("the whole run comes", "the stage reached comes") + (
+                " Later stages take only the claims whose next stage fits the budget.")
     if done >= planned and older:
         return (f"The reference run of the older protocol finished all {planned} trained cells "
                 f"({sittings}; `results/reference/{OLDER_COST}`).{whole} Under "
