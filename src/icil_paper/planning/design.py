@@ -356,11 +356,11 @@ def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
     rows_of = claim_rows(preset)
     wanted = {claim_id: nxt for claim_id in rows_of
               if (nxt := (getattr(by_id.get(claim_id), "sequential", None) or {}).get("next"))}
-    over: dict[str, int] = {}
-    if budget_hours is not None and wanted:
-        wanted, over = within_budget(preset, wanted, budget_hours)
     readers = {row for rows in rows_of.values() for row in rows}
     runs = {row: _first_runs(preset, *row) for row in readers}
+    over: dict[str, int] = {}
+    if budget_hours is not None and wanted:
+        wanted, over = within_budget(preset, wanted, budget_hours, runs=runs)
     go = _going_rows(runs, {c: (n, rows_of[c]) for c, n in wanted.items()})
     return {"continue": go,
             "stop": {row: [c for c, rows in rows_of.items() if row in rows]
@@ -392,17 +392,21 @@ def _going_rows(runs: dict[tuple[str, str], frozenset[str]],
 
 
 def within_budget(preset: Preset, wanted: dict[str, int], budget_hours: float,
-                  rates: dict[str, Any] | None = None) -> tuple[dict[str, int], dict[str, int]]:
+                  rates: dict[str, Any] | None = None,
+                  runs: dict[tuple[str, str], frozenset[str]] | None = None,
+                  ) -> tuple[dict[str, int], dict[str, int]]:
     """Split the claims that the stage rule would send on ({claim id: next seeds}) into
     those that go on and those the budget stops: each claim's next stage is priced alone
     (the cells and data sets its rows, and the rows that share their runs, add to the
     preset's plan, at `plans_cost`'s rates), and the claims are taken cheapest first while
     the plan with every claim taken so far stays within `budget_hours` (hours at two cells
     at a time). The price is a projection from the committed benchmark rates, not from the
-    run's own CPU times, so that the same records give the same stages on any machine."""
+    run's own CPU times, so that the same records give the same stages on any machine.
+    `runs` ({row: its `_first_runs`}) saves recomputing them when the caller has them."""
     rows_of = claim_rows(preset)
     rates = rates or cell_rates()
-    runs = {row: _first_runs(preset, *row) for rows in rows_of.values() for row in rows}
+    if runs is None:
+        runs = {row: _first_runs(preset, *row) for rows in rows_of.values() for row in rows}
 
     def rows(claims: dict[str, int]) -> dict[tuple[str, str], tuple[int, list[str]]]:
         return _going_rows(runs, {c: (n, rows_of[c]) for c, n in claims.items()})
