@@ -13,33 +13,14 @@ import torch
 
 from icil_paper.config import get_preset
 from icil_paper.eval import EvalResult, episode_seed, evaluate_policy
-from icil_paper.policies.base import Policy, validate_prompt
 from icil_paper.policies.configs import ICRTConfig
 from icil_paper.runspec import EvalSpec, run_spec
-from icil_paper.sim.synthetic import (
-    STEP_SIZE,
-    expert_action,
-    make_synthetic_env,
-    synthetic_demos,
-)
+from icil_paper.sim.synthetic import make_synthetic_env, synthetic_demos
 from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.train import train_policy
+from oracle_policy import OraclePolicy
 
 torch.set_num_threads(1)
-
-
-class OraclePolicy(Policy):
-    """Reads the goal off its prompt (where the demonstration ended) and steers there."""
-
-    name = "oracle"
-    uses_prompt = True
-
-    def reset(self, prompt=None, instruction=None):
-        demo = validate_prompt(prompt, self.obs_spec, self.action_dim)[0]
-        self.goal = demo.obs["proprio"][-1, :3] + STEP_SIZE * demo.actions[-1, :3]
-
-    def select_action(self, obs):
-        return expert_action(obs["proprio"].astype(np.float64), self.goal, 7).astype(np.float32)
 
 
 @pytest.fixture(scope="module")

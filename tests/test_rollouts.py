@@ -26,13 +26,12 @@ from icil_paper.policies.configs import ICRTConfig
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 from icil_paper.runspec import EvalSpec
 from icil_paper.sim.synthetic import (
-    STEP_SIZE,
     SyntheticReachEnv,
-    expert_action,
     make_synthetic_env,
     synthetic_demos,
 )
 from icil_paper.tokenizers.configs import default_config
+from oracle_policy import OraclePolicy
 
 SPEC = {"proprio": 9, "object": 6}
 
@@ -155,19 +154,6 @@ def test_mcr_batched_acting_equals_one_episode_at_a_time():
     for a, b in zip(alone, together, strict=True):
         np.testing.assert_allclose(b, a, atol=1e-5, rtol=0)
 
-
-class OraclePolicy(Policy):
-    """No batched methods of its own: reads the goal off its prompt and steers there."""
-
-    name = "oracle"
-    uses_prompt = True
-
-    def reset(self, prompt=None, instruction=None):
-        demo = validate_prompt(prompt, self.obs_spec, self.action_dim)[0]
-        self.goal = demo.obs["proprio"][-1, :3] + STEP_SIZE * demo.actions[-1, :3]
-
-    def select_action(self, obs):
-        return expert_action(obs["proprio"].astype(np.float64), self.goal, 7).astype(np.float32)
 
 
 def oracle():
