@@ -29,6 +29,8 @@ from icil_paper.book.report import (
     stale_records,
 )
 from icil_paper.config import get_preset
+from icil_paper.planning.design import design_frame, stages_paragraph
+from icil_paper.planning.staged import as_run
 
 pd.set_option("display.max_colwidth", None)
 preset = get_preset()
@@ -86,22 +88,21 @@ show_ledgers(ledgers)
 # %% [markdown]
 # ## How the reference run was designed
 #
-# The reference run's seeds were planned from the ledger's own power analysis
-# (`icil_paper.planning.design`): a claim that 10 seeds a row or fewer could decide gets 10
-# seeds on every row it reads, every other row a claim reads gets 5. Below, per claim: the
-# seeds a row its power analysis asks for the paper's effect (*seeds needed*), the records
-# those variances came from (before this run finished, the older code's), the seeds the
-# rule requires, the fewest seeds the preset gives one of its rows (*planned*) and the
-# fewest of them one of its rows has finished (*finished*: the ledger reads the claim once
-# this reaches *planned*), and the 95% half-width of the difference expected at the planned
-# seeds. The episodes per task (5) follow from the
-# split between seed and episode variance (`stats.episodes_per_seed`); the `reference`
-# preset's docstring gives that arithmetic and the run's estimated cost.
+# The reference run allocates its seeds in stages (the paragraph under the table, from
+# `icil_paper.planning.design` and `icil_paper.planning.staged`): every row a claim reads
+# starts at 5 seeds, and after each look only the rows of claims still undecided, that a
+# later stage can decide at the paper's effect and whose next stage fits the run's budget,
+# go on. Below, per claim: the seeds a row its power analysis asks for the paper's effect
+# (*seeds needed*), the records those variances came from (while this run's own ledger
+# has none, the older code's), the fewest seeds one of its rows has at the stage the run has reached
+# (*stage*) and the fewest of them one of its rows has finished (*finished*: the ledger
+# reads the claim once this reaches *stage*), and the 95% half-width of the difference
+# expected at the stage's seeds. The episodes per task (5) follow from the split between
+# seed and episode variance (`stats.episodes_per_seed`); the `reference` preset's
+# docstring gives that arithmetic and the run's estimated cost.
 
 # %% tags=["remove-input"]
-from icil_paper.planning.design import design_frame, stages_paragraph
-
-display(design_frame(get_preset(REFERENCE)))
+display(design_frame(as_run(get_preset(REFERENCE))))
 display(Markdown(stages_paragraph(get_preset(REFERENCE), reference_ledger(ledgers))))
 display(Markdown(decision_rate_sentence()))
 

@@ -4,6 +4,7 @@ the ledger's `seeds_needed`, and what a run cost is summed from its records."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -21,6 +22,7 @@ from icil_paper.planning.design import (
     design_ledger,
     planned_seeds,
 )
+from icil_paper.planning.staged import as_run
 from icil_paper.records import train_record
 from icil_paper.results import ResultsStore
 from record_helpers import write_eval_record
@@ -59,9 +61,32 @@ def test_the_reference_preset_follows_the_rule_for_its_ledger():
     assert seeds["I", "icrt+lipvq"] >= DECIDABLE_SEEDS and seeds["I", "bc_transformer"] >= 10
     assert min(seeds[r] for rows in claim_rows(preset).values() for r in rows) >= OTHER_SEEDS
     assert preset.tables.scenes_per_seed  # seeds are evaluated on scene sets of their own
-    frame = design_frame(preset)  # chapter 00's table
+    fixed = design_frame(replace(preset, tables=replace(preset.tables, seed_stages=())))
+    assert list(fixed.index) == list(claim_rows(preset))
+    assert (fixed["planned"] >= fixed["required"]).all()
+
+
+def test_chapter_00s_design_table_shows_the_seeds_of_the_stage_the_run_reached(
+        tmp_path, monkeypatch):
+    # the committed ledgers (the power analysis) but no record: the run's first stage
+    for name in ("claims.json", "older-code/claims.json"):
+        (tmp_path / "reference" / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / "reference" / name).write_text(
+            (ROOT / "results" / "reference" / name).read_text())
+    monkeypatch.setenv("ICIL_RESULTS", str(tmp_path))
+    preset = get_preset("reference")
+    frame = design_frame(as_run(preset))
     assert list(frame.index) == list(claim_rows(preset))
-    assert (frame["planned"] >= frame["required"]).all()
+    assert "required" not in frame and "planned" not in frame
+    assert (frame["stage"] == preset.tables.seed_stages[0]).all()
+    assert (frame["finished"] == 0).all()
+    # the half-width is expected at the stage's 5 seeds: wider than at the fixed design's
+    # 10 for the rows that had 10, the same for those that had 5
+    fixed = design_frame(replace(preset, tables=replace(preset.tables, seed_stages=())))
+    both = frame["expected ±"].ne("") & fixed["expected ±"].ne("")
+    stage, planned = frame["expected ±"][both].astype(float), fixed["expected ±"][both].astype(float)
+    assert (stage >= planned).all()
+    assert (stage > planned).sum() == (fixed["planned"][both] > 5).sum() > 0
 
 
 def test_the_cost_sums_each_records_time_under_its_stage_and_kind(tmp_path):

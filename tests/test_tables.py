@@ -436,6 +436,7 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
         undecided_power,
     )
     from icil_paper.planning.design import design_frame
+    from icil_paper.planning.staged import as_run
     from icil_paper.tables.claims import summary_sentence
 
     monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
@@ -446,7 +447,7 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
     for kind in ("verdicts", "power"):
         assert len(ledger_frame(ledger, kind)) == len(ledger)
     assert "reference run" in reference_progress()
-    assert len(design_frame(get_preset("reference")))
+    assert len(design_frame(as_run(get_preset("reference"))))
     InteractiveShell.instance()  # display() outside a kernel prints; here it must not fail
     from icil_paper.book import report as book
 

@@ -248,6 +248,13 @@ def report(preset: Preset) -> dict[str, Any]:
     """Every claim's rows, planned and required seeds, `seeds_needed` and expected
     half-width, the rule's violations and the plan's cost."""
     ledger = design_ledger(preset)
+    return {"preset": preset.name, "claims": _claims_report(preset, ledger),
+            "violations": check_design(preset, ledger), "cost": plan_cost(preset)}
+
+
+def _claims_report(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """`report`'s claims: per claim its rows' seeds, `seeds_needed`, the seeds the rule
+    requires, the paper's effect and the half-widths now and expected at the planned seeds."""
     seeds = planned_seeds(preset)
     claims_out = []
     for claim_id, rows in claim_rows(preset).items():
@@ -261,8 +268,7 @@ def report(preset: Preset) -> dict[str, Any]:
                                round((entry["ci"][1] - entry["ci"][0]) / 2, 4)),
             "expected_half_width": (None if planned < 2 else
                                     _round(expected_half_width(entry, planned)))})
-    return {"preset": preset.name, "claims": claims_out,
-            "violations": check_design(preset, ledger), "cost": plan_cost(preset)}
+    return claims_out
 
 
 def _round(x: float | None) -> float | None:
@@ -270,24 +276,31 @@ def _round(x: float | None) -> float | None:
 
 
 def design_frame(preset: Preset):
-    """`report` as a table for the book: per claim, the seeds a row the power analysis asks
-    (`seeds_needed`) and where its variances came from, the seeds the rule requires, the
-    fewest seeds the preset gives one of its rows and the fewest one of them has finished
-    (`finished_seeds`), and the expected 95% half-width at the planned seeds."""
+    """`report`'s claims as a table for the book: per claim, the seeds a row the power
+    analysis asks (`seeds_needed`) and where its variances came from, the seeds the rule
+    requires, the fewest seeds the preset gives one of its rows and the fewest one of them
+    has finished (`finished_seeds`), and the expected 95% half-width at the planned seeds.
+
+    For a preset with seed stages, pass the run's preset (`staged.as_run`): its rows' seeds
+    are those of the stage the run has reached, and the fixed design's rule does not
+    allocate them, so the table has the stage's seeds (`stage`) where it would have
+    `required` and `planned`, and the half-width is expected at the stage's seeds."""
     import pandas as pd
 
     ledger = design_ledger(preset)
     finished = finished_seeds(preset)
     rows = claim_rows(preset)
+    staged = bool(preset.tables.seed_stages)
     lines = []
-    for c in report(preset)["claims"]:
+    for c in _claims_report(preset, ledger):
         entry = ledger[c["id"]]
         planned_from = entry.get("seeds_needed") is not None or entry.get("mde") is not None
         source = ("no power analysis" if not planned_from else
                   f"{entry['n']} seeds" + (" (older code)" if entry.get("older") else ""))
+        seeds = ({"stage": min(c["rows"].values())} if staged else
+                 {"required": c["required"], "planned": min(c["rows"].values())})
         lines.append({"claim": c["id"], "seeds needed": c["seeds_needed"] or "—",
-                      "from": source, "required": c["required"],
-                      "planned": min(c["rows"].values()),
+                      "from": source, **seeds,
                       "finished": min(finished[r] for r in rows[c["id"]]),
                       "expected ±": ("" if c["expected_half_width"] is None
                                      else f"{c['expected_half_width']:.3f}")})
