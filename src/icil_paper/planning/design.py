@@ -482,17 +482,23 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
         return text
     seq = [(e.id, e.sequential) for e in map(as_entry, ledger)
            if getattr(e, "sequential", None)]
+    unlooked = sum(1 for _, s in seq if not s["looks"])
+    if unlooked == len(ledger):
+        return text + (" No look has been taken yet: the first comes once every row a claim "
+                       f"reads has finished its first {design.stages[0]} seeds.")
     decided = Counter(s["decided_at"] for _, s in seq if s["decided_at"] is not None)
     going = [claim_id for claim_id, s in seq if s["next"]]
     looks = "; ".join(f"{decided[n]} at {n} seeds a row" for n in design.stages if decided[n])
-    stopped = len(seq) - sum(decided.values()) - len(going)
+    stopped = len(seq) - sum(decided.values()) - len(going) - unlooked
     by_budget = sum(1 for _, s in seq if s.get("stopped_by") == "budget")
     text += (f" In this ledger {sum(decided.values())} of {len(ledger)} claims are decided"
              + (f" ({looks})" if looks else "") + f"; {len(going)} undecided "
              f"{'claim goes' if len(going) == 1 else 'claims go'} on to the next stage"
              + (f" ({', '.join(going)})" if going else "")
-             + f", and {stopped} stop undecided"
-             + (f", {by_budget} of them at the budget" if by_budget else "") + ".")
+             + f", {stopped} stop undecided"
+             + (f" ({by_budget} of them at the budget)" if by_budget else "")
+             + f", and {unlooked} {'has' if unlooked == 1 else 'have'} had no look yet"
+             " (a row they read has not finished its stage).")
     return text
 
 
