@@ -470,3 +470,6 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
         "- **Q1", "- **Q2", "- **Q3"]
     if not any(as_entry(e).run for e in ledger):
         assert answers.startswith("No claim has run yet under the current protocol")
+        begun = (ROOT / "results" / "reference" / "cost.json").exists()
+        assert ("under it is in progress" in answers) == begun
+        assert ("is to be redone" in answers) != begun

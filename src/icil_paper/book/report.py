@@ -577,8 +577,10 @@ def reference_answers(path=None) -> str:
         return "The reference run's ledger is not there yet (claims.json is missing)."
     if made_by is None:
         return answers_markdown(ledger)
-    return (f"No claim has run yet under the current protocol (the reference run is to be "
-            f"redone). The older protocol's ledger (commit {made_by['commit'][:7]}: baselines "
+    folder = Path(path).parent if path else ResultsStore(REFERENCE).dir
+    under_way = (folder / "cost.json").exists()  # the current protocol's run has begun
+    return (f"No claim has run yet under the current protocol (the reference run "
+            f"{'under it is in progress' if under_way else 'is to be redone'}). The older protocol's ledger (commit {made_by['commit'][:7]}: baselines "
             f"without the task's instruction, one demonstration set for every seed) answered:"
             f"\n\n" + answers_markdown(ledger))
 
