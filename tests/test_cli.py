@@ -6,14 +6,18 @@ import pytest
 
 from cli_helpers import run_cli
 from icil_paper import cli
+from icil_paper.config import PRESET_NAMES
 from icil_paper.setup.system_deps import debian_backports_entry
 
 
 def test_help_lists_every_subcommand(capsys):
     assert cli.main(["--help"]) == 0
     out = capsys.readouterr().out
-    for command in ["env", "demos", "train", "eval", "tables", "reproduce", "export-tokenizer"]:
+    for command in ["env", "demos", "train", "eval", "tables", "reproduce", "compare", "plan",
+                    "export-tokenizer"]:
         assert command in out
+    for preset in PRESET_NAMES:
+        assert f" {preset} (" in out
 
 
 def test_unknown_command_is_an_error_listing_commands(capsys):

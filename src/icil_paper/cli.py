@@ -20,7 +20,7 @@ import sys
 
 from icil_paper import commands
 from icil_paper.commands import Parser
-from icil_paper.config import PRESET_NAMES, active_preset_name
+from icil_paper.config import PRESET_NAMES, REFERENCE_BUDGET_HOURS, active_preset_name
 from icil_paper.plugins import load_plugins
 from icil_paper.setup.envcheck import environment_report, format_report
 from icil_paper.tables.grid import RayUnavailable
@@ -82,7 +82,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog="icil-paper",
         description="Companion to 'Action Tokenizer Matters in In-Context Imitation Learning'. "
-                    "Presets: smoke (seconds), small (CI, 2 CPU cores), full (the paper's scale).",
+                    "Presets: smoke (seconds), small (CI, 2 CPU cores), reference (the "
+                    f"committed run, seeds in stages within {REFERENCE_BUDGET_HOURS:g} hours on "
+                    "2 cores), full (the "
+                    "paper's scale).",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.add_parser("env", help="report packages, hardware, simulators and the active preset",
