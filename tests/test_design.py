@@ -354,3 +354,7 @@ def test_the_stage_prose_counts_decided_going_stopped_and_unlooked_claims():
     assert (f"In this ledger 1 of {n} claims are decided (1 at 5 seeds a row); 1 undecided "
             f"claim goes on to the next stage ({stored[1]['id']}), 2 stop undecided (1 of "
             f"them at the budget), and {n - 4} have had no look yet") in text
+    all_looked = [*ledger[:4], *(entry(e, **looked) for e in stored[4:])]
+    assert stages_paragraph(preset, all_looked).endswith(
+        f"claim goes on to the next stage ({stored[1]['id']}), {n - 2} stop undecided (1 of "
+        "them at the budget).")

@@ -579,8 +579,9 @@ def reference_answers(path=None) -> str:
         return answers_markdown(ledger)
     folder = Path(path).parent if path else ResultsStore(REFERENCE).dir
     under_way = (folder / "cost.json").exists()  # the current protocol's run has begun
-    return (f"No claim has run yet under the current protocol (the reference run "
-            f"{'under it is in progress' if under_way else 'is to be redone'}). The older protocol's ledger (commit {made_by['commit'][:7]}: baselines "
+    status = "under it is in progress" if under_way else "is to be redone"
+    return (f"No claim has run yet under the current protocol (the reference run {status}). "
+            f"The older protocol's ledger (commit {made_by['commit'][:7]}: baselines "
             f"without the task's instruction, one demonstration set for every seed) answered:"
             f"\n\n" + answers_markdown(ledger))
 

@@ -497,8 +497,8 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
              + (f" ({', '.join(going)})" if going else "")
              + f", {stopped} stop undecided"
              + (f" ({by_budget} of them at the budget)" if by_budget else "")
-             + f", and {unlooked} {'has' if unlooked == 1 else 'have'} had no look yet"
-             " (a row they read has not finished its stage).")
+             + (f", and {unlooked} {'has' if unlooked == 1 else 'have'} had no look yet"
+                " (a row they read has not finished its stage)" if unlooked else "") + ".")
     return text
 
 
