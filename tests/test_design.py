@@ -356,5 +356,5 @@ def test_the_stage_prose_counts_decided_going_stopped_and_unlooked_claims():
             f"them at the budget), and {n - 4} have had no look yet") in text
     all_looked = [*ledger[:4], *(entry(e, **looked) for e in stored[4:])]
     assert stages_paragraph(preset, all_looked).endswith(
-        f"claim goes on to the next stage ({stored[1]['id']}), {n - 2} stop undecided (1 of "
+        f"claim goes on to the next stage ({stored[1]['id']}), and {n - 2} stop undecided (1 of "
         "them at the budget).")

@@ -495,7 +495,7 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
              + (f" ({looks})" if looks else "") + f"; {len(going)} undecided "
              f"{'claim goes' if len(going) == 1 else 'claims go'} on to the next stage"
              + (f" ({', '.join(going)})" if going else "")
-             + f", {stopped} stop undecided"
+             + f"{', and' if not unlooked else ','} {stopped} stop undecided"
              + (f" ({by_budget} of them at the budget)" if by_budget else "")
              + (f", and {unlooked} {'has' if unlooked == 1 else 'have'} had no look yet"
                 " (a row they read has not finished its stage)" if unlooked else "") + ".")
