@@ -62,6 +62,14 @@ def die_once(name: str, seed: int, calls_dir: str, how: str = "exit") -> dict:
     return {"metrics": record["metrics"], "pid": os.getpid()}
 
 
+def hold(name: str, calls_dir: str, gib: float) -> dict:
+    """Touch `gib` GiB (the process's peak resident memory rises by that much); store
+    nothing."""
+    _count_call(calls_dir, name)
+    block = b"\x01" * int(gib * 1024 ** 3)  # written, so resident
+    return {"bytes": len(block), "pid": os.getpid()}
+
+
 def always_dies(name: str, calls_dir: str) -> dict:
     _count_call(calls_dir, name)
     os._exit(3)

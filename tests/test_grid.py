@@ -101,6 +101,24 @@ def test_local_pool_retries_dead_workers_and_reports_failures(tmp_path, monkeypa
     assert set(_records()) == {"k", "e", "c0", "c1"}  # stored before the error was raised
 
 
+def test_a_worker_past_its_memory_limit_is_replaced_before_its_next_cell(tmp_path,
+                                                                          monkeypatch):
+    calls = _use_folder(tmp_path, monkeypatch, "local")
+    cells = [*_draws(calls, 2), grid_cells.cell("hold", "big", calls_dir=str(calls), gib=1.5),
+             *_draws(calls, 4)[2:]]
+    pids = [r["pid"] for r in run_grid(cells, workers=1, recycle_gb=1.0,
+                                       progress=False).values()]
+    # a light cell leaves the worker under the limit; the heavy one runs on the same worker,
+    # which is then replaced; the next worker keeps its light cells
+    assert pids[0] == pids[1] == pids[2] != pids[3] == pids[4]
+    calls = _use_folder(tmp_path, monkeypatch, "high")
+    pids = {r["pid"] for r in run_grid(cells, workers=1, recycle_gb=64.0,
+                                       progress=False).values()}
+    assert len(pids) == 1
+    with pytest.raises(ValueError, match="recycle_gb"):
+        run_grid(cells, workers=1, recycle_gb=0, progress=False)
+
+
 def test_serial_reports_a_raising_cell_and_finishes_the_others(tmp_path, monkeypatch):
     calls = _use_folder(tmp_path, monkeypatch, "serial")
     cells = [grid_cells.cell("raises", "bad", calls_dir=str(calls)), *_draws(calls, 2)]

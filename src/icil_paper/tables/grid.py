@@ -17,7 +17,10 @@ Executors
   are tested against).
 - `local` (the default): `workers` spawned processes, one cell at a time each. Cells are
   started in order while their `cpus` fit into `workers` CPUs; `gpus` is not budgeted (the
-  function picks its device).
+  function picks its device). A worker whose peak resident memory after a cell is above
+  `recycle_gb` is replaced by a fresh process before its next cell: a process keeps the
+  memory of its heaviest cell (the allocator does not give it back), so without this two
+  workers that each met a heavy cell hold two peaks for the rest of the run.
 - `ray`: one Ray task per cell with `num_cpus=cell.cpus`, `num_gpus=cell.gpus`. Without an
   address a private local Ray with `workers` CPUs is started and shut down at the end; with
   `ray_address` the driver joins that cluster (and only disconnects at the end). A Ray
@@ -93,6 +96,7 @@ import logging
 import multiprocessing as mp
 import os
 import re
+import resource
 import shutil
 import signal
 import socket
@@ -121,6 +125,7 @@ FORWARDED_ENV = ("ICIL_", "MUJOCO_GL")
 """Prefixes of the driver's environment variables that every cell runs with."""
 _RAY_AUTH_LOGGER = "ray._private.authentication.authentication_token_setup"
 _TARGET = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
+_GB = 1024 ** 3
 
 
 @dataclass(frozen=True)
@@ -194,7 +199,8 @@ class RayUnavailable(RuntimeError):
 def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
              ray_address: str | None = None, done: Callable[[Cell], bool] | None = None,
              retries: int = 2, progress: bool = True, threads: int | None = 1,
-             folders: Mapping[str, str | Path] | None = None) -> dict[str, Any]:
+             folders: Mapping[str, str | Path] | None = None,
+             recycle_gb: float | None = None) -> dict[str, Any]:
     """Run every cell that `done` does not call finished; return {key: what it returned}.
 
     Args:
@@ -209,6 +215,9 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
         folders: {environment variable: the driver's folder} of every folder cells read
             and write; with executor "ray", cells then share no files with the driver
             (module docstring). The local and serial executors run in these folders.
+        recycle_gb: local pool only: a worker whose peak resident memory after a cell is
+            above this many GiB is replaced by a fresh process (None: the machine's memory
+            shared by the workers and the driver, `default_recycle_gb`).
 
     Returns:
         The JSON results of the cells that ran, in the grid's order (skipped ones are absent).
@@ -224,6 +233,10 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
     if not isinstance(retries, int) or retries < 0:
         raise ValueError(f"retries must be a non-negative integer, got {retries!r}")
+    if recycle_gb is None:
+        recycle_gb = default_recycle_gb(workers)
+    if not recycle_gb > 0:
+        raise ValueError(f"recycle_gb must be a positive number of GiB, got {recycle_gb!r}")
     folders = {str(var): os.path.abspath(path) for var, path in (folders or {}).items()}
     seen: set[str] = set()
     for cell in cells:
@@ -244,7 +257,7 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
         if executor == "serial":
             _run_serial(todo, job, tracker)
         elif executor == "local":
-            _run_local(todo, job, workers, retries, tracker)
+            _run_local(todo, job, workers, retries, tracker, recycle_gb)
         else:
             _run_ray(todo, job, workers, ray_address, retries, tracker, folders, done)
     finally:
@@ -255,6 +268,20 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
         failures = sorted(tracker.failures, key=lambda f: order[f.key])
         raise GridError(failures, results, len(todo))
     return results
+
+
+def default_recycle_gb(workers: int) -> float:
+    """The peak resident memory (GiB) past which a local pool worker is replaced: the
+    machine's physical memory in `workers + 1` equal shares (the driver, the simulators'
+    own processes and the page cache take the last one). 24 GiB and 2 workers: 8 GiB."""
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / (workers + 1) / _GB
+
+
+def peak_rss_gb() -> float:
+    """This process's peak resident memory so far, in GiB (`ru_maxrss`: KiB on Linux,
+    bytes on macOS)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / (_GB if sys.platform == "darwin" else _GB / 1024)
 
 
 # --------------------------------------------------------------------------- one cell
@@ -495,7 +522,7 @@ def _worker_main(conn: Any, threads: int | None) -> None:
                 return
             target, kwargs, job = message
             try:
-                conn.send(("ok", _execute(target, kwargs, job)))
+                conn.send(("ok", _execute(target, kwargs, job), peak_rss_gb()))
             except Exception as exc:
                 conn.send(("error", _one_line(exc), traceback.format_exc()))
     except KeyboardInterrupt:  # Ctrl-C reaches the whole process group; the driver reports
@@ -567,7 +594,7 @@ class _Worker:
 
 
 def _run_local(todo: list[Cell], job: dict[str, Any], workers: int, retries: int,
-               tracker: _Tracker) -> None:
+               tracker: _Tracker, recycle_gb: float) -> None:
     ctx = mp.get_context("spawn")
     pending = deque(todo)
     attempts = dict.fromkeys((c.key for c in todo), 0)
@@ -617,6 +644,9 @@ def _run_local(todo: list[Cell], job: dict[str, Any], workers: int, retries: int
                                        "attempts)", why, n)
                 elif answer[0] == "ok":
                     tracker.ok(cell, answer[1])
+                    if answer[2] > recycle_gb:  # its next cell starts on a fresh process
+                        w.stop()
+                        slots[slots.index(w)] = None
                 else:
                     tracker.failed(cell, answer[1], answer[2], n)
     finally:
