@@ -14,7 +14,7 @@ from pathlib import Path
 
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
-from icil_paper.tables.grid import Cell
+from icil_paper.tables.grid import Cell, peak_rss_gb
 
 KIND = "grid"
 
@@ -47,7 +47,7 @@ def draw(name: str, seed: int, calls_dir: str) -> dict:
                 "torch_threads": torch.get_num_threads()}
 
     record = ResultsStore("smoke").run(KIND, name, _config(name, seed), compute, seed=seed)
-    return {"metrics": record["metrics"], "pid": os.getpid()}
+    return {"metrics": record["metrics"], "pid": os.getpid(), "peak_gb": peak_rss_gb()}
 
 
 def die_once(name: str, seed: int, calls_dir: str, how: str = "exit") -> dict:

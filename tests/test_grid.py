@@ -103,18 +103,20 @@ def test_local_pool_retries_dead_workers_and_reports_failures(tmp_path, monkeypa
 
 def test_a_worker_past_its_memory_limit_is_replaced_before_its_next_cell(tmp_path,
                                                                           monkeypatch):
-    calls = _use_folder(tmp_path, monkeypatch, "local")
-    cells = [*_draws(calls, 2), grid_cells.cell("hold", "big", calls_dir=str(calls), gib=1.5),
-             *_draws(calls, 4)[2:]]
-    pids = [r["pid"] for r in run_grid(cells, workers=1, recycle_gb=1.0,
-                                       progress=False).values()]
-    # a light cell leaves the worker under the limit; the heavy one runs on the same worker,
-    # which is then replaced; the next worker keeps its light cells
-    assert pids[0] == pids[1] == pids[2] != pids[3] == pids[4]
     calls = _use_folder(tmp_path, monkeypatch, "high")
-    pids = {r["pid"] for r in run_grid(cells, workers=1, recycle_gb=64.0,
-                                       progress=False).values()}
-    assert len(pids) == 1
+    cells = [*_draws(calls, 2), grid_cells.cell("hold", "big", calls_dir=str(calls), gib=2.0),
+             *_draws(calls, 4)[2:]]
+    results = list(run_grid(cells, workers=1, recycle_gb=64.0, progress=False).values())
+    assert len({r["pid"] for r in results}) == 1  # under the limit: one worker throughout
+    # a limit above what the light cells before the heavy one leave (a spawned worker's
+    # imports), below the heavy one's peak
+    limit = max(r["peak_gb"] for r in results[:2]) + 0.75
+    calls = _use_folder(tmp_path, monkeypatch, "limit")
+    pids = [r["pid"] for r in run_grid(cells, workers=1, recycle_gb=limit,
+                                       progress=False).values()]
+    # the heavy cell runs on the same worker as the light ones, which is then replaced; the
+    # next worker keeps its light cells
+    assert pids[0] == pids[1] == pids[2] != pids[3] == pids[4]
     with pytest.raises(ValueError, match="recycle_gb"):
         run_grid(cells, workers=1, recycle_gb=0, progress=False)
 
