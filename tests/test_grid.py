@@ -111,7 +111,7 @@ def test_a_worker_past_its_memory_limit_is_replaced_before_its_next_cell(tmp_pat
     # a limit above what the light cells before the heavy one leave (a spawned worker's
     # imports), below the heavy one's peak
     limit = max(r["peak_gb"] for r in results[:2]) + 0.75
-    calls = _use_folder(tmp_path, monkeypatch, "limit")
+    _use_folder(tmp_path, monkeypatch, "limit")  # a fresh store: every cell runs again
     pids = [r["pid"] for r in run_grid(cells, workers=1, recycle_gb=limit,
                                        progress=False).values()]
     # the heavy cell runs on the same worker as the light ones, which is then replaced; the
