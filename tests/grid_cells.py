@@ -14,7 +14,7 @@ from pathlib import Path
 
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
-from icil_paper.tables.grid import Cell, peak_rss_gb
+from icil_paper.tables.grid import Cell, resident_gb
 
 KIND = "grid"
 
@@ -47,7 +47,7 @@ def draw(name: str, seed: int, calls_dir: str) -> dict:
                 "torch_threads": torch.get_num_threads()}
 
     record = ResultsStore("smoke").run(KIND, name, _config(name, seed), compute, seed=seed)
-    return {"metrics": record["metrics"], "pid": os.getpid(), "peak_gb": peak_rss_gb()}
+    return {"metrics": record["metrics"], "pid": os.getpid(), "rss_gb": resident_gb()}
 
 
 def die_once(name: str, seed: int, calls_dir: str, how: str = "exit") -> dict:
@@ -62,12 +62,16 @@ def die_once(name: str, seed: int, calls_dir: str, how: str = "exit") -> dict:
     return {"metrics": record["metrics"], "pid": os.getpid()}
 
 
+_KEPT: list[bytes] = []  # what `hold` leaves behind in its process
+
+
 def hold(name: str, calls_dir: str, gib: float) -> dict:
-    """Touch `gib` GiB (the process's peak resident memory rises by that much); store
+    """Touch `gib` GiB and keep it after returning, as a cell whose allocator does not give
+    its memory back (the process's resident memory stays that much higher); store
     nothing."""
     _count_call(calls_dir, name)
-    block = b"\x01" * int(gib * 1024 ** 3)  # written, so resident
-    return {"bytes": len(block), "pid": os.getpid()}
+    _KEPT.append(b"\x01" * int(gib * 1024 ** 3))  # written, so resident
+    return {"bytes": len(_KEPT[-1]), "pid": os.getpid()}
 
 
 def always_dies(name: str, calls_dir: str) -> dict:

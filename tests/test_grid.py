@@ -108,9 +108,9 @@ def test_a_worker_past_its_memory_limit_is_replaced_before_its_next_cell(tmp_pat
              *_draws(calls, 4)[2:]]
     results = list(run_grid(cells, workers=1, recycle_gb=64.0, progress=False).values())
     assert len({r["pid"] for r in results}) == 1  # under the limit: one worker throughout
-    # a limit above what the light cells before the heavy one leave (a spawned worker's
-    # imports), below the heavy one's peak
-    limit = max(r["peak_gb"] for r in results[:2]) + 0.75
+    # a limit above what a worker holds after the light cells (its imports), below what it
+    # holds after the heavy one
+    limit = max(r["rss_gb"] for r in results[:2]) + 0.75
     _use_folder(tmp_path, monkeypatch, "limit")  # a fresh store: every cell runs again
     pids = [r["pid"] for r in run_grid(cells, workers=1, recycle_gb=limit,
                                        progress=False).values()]

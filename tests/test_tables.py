@@ -366,13 +366,17 @@ def test_scenes_per_seed_give_seed_k_its_own_scene_set():
 
 
 def test_committed_reference_ledger_is_what_the_current_code_computes():
-    """results/reference/claims.json is regenerated whenever the statistics or the claims
-    change (write_ledger); a stale one would put old verdicts into the introduction."""
+    """results/reference/claims.json is regenerated whenever the statistics, the claims or
+    the records change, as the run's claims stage writes it: at the seeds the staged run has
+    reached (`as_run`, which chapter 0 reads too). A stale one would put old verdicts into
+    the introduction."""
     from icil_paper.config import get_preset as preset_named
+    from icil_paper.planning.staged import staged_preset
 
     root = Path(__file__).resolve().parents[1] / "results"
     committed = json.loads((root / "reference" / "claims.json").read_text())["claims"]
-    current = claims_ledger(preset_named("reference"), ResultsStore("reference", root=root))
+    store = ResultsStore("reference", root=root)
+    current = claims_ledger(staged_preset(preset_named("reference"), store)[0], store)
     assert json.loads(json.dumps([e.to_dict() for e in current])) == committed
 
 

@@ -17,10 +17,13 @@ Executors
   are tested against).
 - `local` (the default): `workers` spawned processes, one cell at a time each. Cells are
   started in order while their `cpus` fit into `workers` CPUs; `gpus` is not budgeted (the
-  function picks its device). A worker whose peak resident memory after a cell is above
-  `recycle_gb` is replaced by a fresh process before its next cell: a process keeps the
-  memory of its heaviest cell (the allocator does not give it back), so without this two
-  workers that each met a heavy cell hold two peaks for the rest of the run.
+  function picks its device). A worker whose resident memory after a cell is above
+  `recycle_gb` is replaced by a fresh process before its next cell: a process can keep the
+  memory of its heaviest cell (the allocator does not give it all back), so without this two
+  workers that each met a heavy cell hold two peaks for the rest of the run. The memory
+  measured is what the process holds when the cell returns, not its peak: on Linux a spawned
+  process's `ru_maxrss` starts at its parent's resident memory (the peak survives `exec`), so
+  a large driver would otherwise have every worker replaced after every cell.
 - `ray`: one Ray task per cell with `num_cpus=cell.cpus`, `num_gpus=cell.gpus`. Without an
   address a private local Ray with `workers` CPUs is started and shut down at the end; with
   `ray_address` the driver joins that cluster (and only disconnects at the end). A Ray
@@ -215,7 +218,7 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
         folders: {environment variable: the driver's folder} of every folder cells read
             and write; with executor "ray", cells then share no files with the driver
             (module docstring). The local and serial executors run in these folders.
-        recycle_gb: local pool only: a worker whose peak resident memory after a cell is
+        recycle_gb: local pool only: a worker whose resident memory after a cell is
             above this many GiB is replaced by a fresh process (None: the machine's memory
             shared by the workers and the driver, `default_recycle_gb`).
 
@@ -271,17 +274,20 @@ def run_grid(cells: Iterable[Cell], executor: str = "local", workers: int = 2,
 
 
 def default_recycle_gb(workers: int) -> float:
-    """The peak resident memory (GiB) past which a local pool worker is replaced: the
+    """The resident memory (GiB) past which a local pool worker is replaced: the
     machine's physical memory in `workers + 1` equal shares (the driver, the simulators'
     own processes and the page cache take the last one). 24 GiB and 2 workers: 8 GiB."""
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / (workers + 1) / _GB
 
 
-def peak_rss_gb() -> float:
-    """This process's peak resident memory so far, in GiB (`ru_maxrss`: KiB on Linux,
-    bytes on macOS)."""
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return peak / (_GB if sys.platform == "darwin" else _GB / 1024)
+def resident_gb() -> float:
+    """This process's resident memory now, in GiB (`/proc/self/statm`); where there is no
+    `/proc` (macOS), its peak so far (`ru_maxrss`, in bytes there)."""
+    try:
+        pages = int(Path("/proc/self/statm").read_text().split()[1])
+    except OSError:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / _GB
+    return pages * os.sysconf("SC_PAGE_SIZE") / _GB
 
 
 # --------------------------------------------------------------------------- one cell
@@ -522,7 +528,7 @@ def _worker_main(conn: Any, threads: int | None) -> None:
                 return
             target, kwargs, job = message
             try:
-                conn.send(("ok", _execute(target, kwargs, job), peak_rss_gb()))
+                conn.send(("ok", _execute(target, kwargs, job), resident_gb()))
             except Exception as exc:
                 conn.send(("error", _one_line(exc), traceback.format_exc()))
     except KeyboardInterrupt:  # Ctrl-C reaches the whole process group; the driver reports
