@@ -191,6 +191,9 @@ def test_decisions_per_cpu_hour_are_read_from_each_runs_ledger_and_cost(tmp_path
     text = report.decision_rate_sentence()
     assert "this run, so far: 3 claims decided for 10.0 CPU-hours (3.0 per 10" in text
     assert "older protocol's run: 6 claims decided for 22.0 CPU-hours (2.7 per 10" in text
+    (store / "cost.json").write_text(json.dumps({"total": {"cpu_s": 36000.0},
+                                                 "finished_cells": 9, "planned_cells": 9}))
+    assert "this run: 3 claims decided" in report.decision_rate_sentence()  # finished
     (store / "cost.json").unlink()
     assert "has not recorded its cost yet" in report.decision_rate_sentence()
 

@@ -505,7 +505,10 @@ def decision_rate_sentence(preset_name: str = REFERENCE) -> str:
     now, older = decision_rate(store), decision_rate(store / "older-code")
     parts = []
     if now is not None:
-        parts.append(f"this run, so far: {rate(*now)}")
+        cost = json.loads((store / "cost.json").read_text())
+        planned = cost.get("planned_cells")
+        finished = planned is not None and cost.get("finished_cells") == planned
+        parts.append(f"this run{'' if finished else ', so far'}: {rate(*now)}")
     if older is not None:
         parts.append(f"the older protocol's run: {rate(*older)}")
     if not parts:
