@@ -32,6 +32,7 @@ REFERENCE = ROOT / "results" / "reference"
 OLDER = REFERENCE / "older-code"
 """The older protocol's reference records, ledger, cost and plan."""
 OLDER_COST = "results/reference/older-code/cost.json"
+COST = "results/reference/cost.json"
 DOCUMENTS = (ROOT / "README.md", ROOT / "CONTRIBUTING.md")
 """The files whose measured figures carry markers."""
 
@@ -60,10 +61,11 @@ def _compiled(kind: str, field: str) -> float:
     return next(c for c in _bench("cells")["compile"] if c["kind"] == kind)[field]
 
 
-def _cost() -> dict[str, Any]:
-    """The older protocol's reference run's `cost.json` (`python -m icil_paper.planning.cost`,
-    kept beside its records in `older-code/`)."""
-    return json.loads((OLDER / "cost.json").read_text())
+def _cost(folder: Path = OLDER) -> dict[str, Any]:
+    """A reference run's `cost.json` (`python -m icil_paper.planning.cost`): the older
+    protocol's, kept beside its records in `older-code/`, or the current run's
+    (`REFERENCE`)."""
+    return json.loads((folder / "cost.json").read_text())
 
 
 def _plan(field: str) -> float:
@@ -78,10 +80,11 @@ def _plan(field: str) -> float:
     return plan["total"][field]
 
 
-def _cost_hours(field: str) -> float:
-    """Hours of the reference run: `elapsed` (the sittings' elapsed times summed: the
-    machine's hours), `wall` (every record's wall time summed: cell-hours) or `cpu`."""
-    cost = _cost()
+def _cost_hours(field: str, folder: Path = OLDER) -> float:
+    """Hours of a reference run (`_cost`'s `folder`): `elapsed` (the sittings' elapsed times
+    summed: the machine's hours), `wall` (every record's wall time summed: cell-hours) or
+    `cpu`."""
+    cost = _cost(folder)
     if field == "elapsed":
         return sum(s["elapsed_s"] for s in cost["sittings"]) / 3600
     return cost["total"][f"{field}_s"] / 3600
@@ -168,8 +171,15 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
        for field in ("cells", "cpu_hours", "wall_hours", "cores", "undecided")},
     "older_cost.projected_from_records_pct": (OLDER_COST,
                                         lambda: 100 * _cost()["projection"]["from_records"]),
+    "cost.cells": (COST, lambda: _cost(REFERENCE)["finished_cells"]),
+    "cost.planned_cells": (COST, lambda: _cost(REFERENCE)["planned_cells"]),
+    **{f"cost.{field}_hours": (COST, lambda field=field: _cost_hours(field, REFERENCE))
+       for field in ("elapsed", "cpu")},
+    "cost.projected_wall_hours_at_2": (
+        COST, lambda: _cost(REFERENCE)["projection"]["wall_hours_at_2"]),
     **{name: ("results/reference/claims.json", lambda field=field: _claims(field))
        for name, field in (("claims.total", "claims"), ("claims.holds", Verdict.HOLDS),
+                           ("claims.decided", "decided"),
                            ("claims.do_not_hold", Verdict.DOES_NOT_HOLD),
                            ("claims.undecided", "undecided"),
                            ("claims.size_excluded", "size_excluded"),
@@ -177,6 +187,7 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
     **{name: ("results/reference/older-code/claims.json",
               lambda field=field: _claims(field, "older-code/claims.json"))
        for name, field in (("older_claims.total", "claims"),
+                           ("older_claims.decided", "decided"),
                            ("older_claims.holds", Verdict.HOLDS),
                            ("older_claims.do_not_hold", Verdict.DOES_NOT_HOLD),
                            ("older_claims.undecided", "undecided"),
