@@ -522,7 +522,7 @@ def decision_rate_sentence(preset_name: str = REFERENCE) -> str:
 def reference_summary(path=None) -> str:
     """The committed reference run's ledger in one sentence (`claims.summary_sentence`) and
     the claims it decided, or a sentence saying it is not there. Records made by older code
-    are counted; while the current ledger still has claims not run, the older code's ledger
+    are counted, in the store or moved beside it; while the current ledger still has claims not run, the older code's ledger
     is quoted too, labelled with its commit (once every claim is read, chapter 0 keeps it)."""
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     if not path.exists():
@@ -535,7 +535,7 @@ def reference_summary(path=None) -> str:
     progress = (reference_progress(cost, older=fresh["stale"] == fresh["records"])
                 if cost.exists() else reference_progress())  # before the rerun's: the older
     in_progress = any(e.verdict == Verdict.NOT_RUN for e in ledger)
-    if not fresh["stale"] and not (retired and in_progress):
+    if not fresh["stale"] and not retired:
         return f"{progress} {text}".strip()
     if fresh["stale"]:
         older_records = (f"{fresh['stale']} of its {fresh['records']} committed records were "
@@ -543,8 +543,8 @@ def reference_summary(path=None) -> str:
                          "lists them, with the ledger that code computed).")
     else:
         older_records = (f"The {retired} records an older version of the code made are kept "
-                         f"beside the store, in `results/reference/{OLDER_RECORDS}/`, with the "
-                         "ledger that code computed (chapter 0).")
+                         f"beside the store, in `results/reference/{OLDER_RECORDS}/`; chapter 0 "
+                         "lists them with the ledger that code computed.")
     text = (f"{progress or 'The reference run is being redone with the current code.'} "
             f"{older_records} With the current code: {text[0].lower()}{text[1:]}")
     older = older_ledger(REFERENCE) if in_progress else None
