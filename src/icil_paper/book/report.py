@@ -483,14 +483,18 @@ def reference_progress(path=None, older: bool = False) -> str:
             "whose rows are not all trained yet shows as *not run*.")
 
 
-def decision_rate(folder: Path) -> tuple[int, float] | None:
-    """(claims decided after Holm's correction, CPU-hours) of the reference run whose ledger
-    and cost lie in `folder` (`claims.json`, `cost.json`); None when either is missing."""
-    claims, cost = folder / "claims.json", folder / "cost.json"
-    if not claims.exists() or not cost.exists():
+def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
+    """(claims decided after Holm's correction, CPU-hours, whether every planned cell has
+    finished) of the reference run whose ledger and cost lie in `folder` (`claims.json`,
+    `cost.json`); None when either is missing."""
+    claims, cost_file = folder / "claims.json", folder / "cost.json"
+    if not claims.exists() or not cost_file.exists():
         return None
     decided = summary(json.loads(claims.read_text())["claims"])["decided"]
-    return decided, json.loads(cost.read_text())["total"]["cpu_s"] / 3600
+    cost = json.loads(cost_file.read_text())
+    planned = cost.get("planned_cells")
+    finished = planned is not None and cost.get("finished_cells") == planned
+    return decided, cost["total"]["cpu_s"] / 3600, finished
 
 
 def decision_rate_sentence(preset_name: str = REFERENCE) -> str:
@@ -505,12 +509,10 @@ def decision_rate_sentence(preset_name: str = REFERENCE) -> str:
     now, older = decision_rate(store), decision_rate(store / "older-code")
     parts = []
     if now is not None:
-        cost = json.loads((store / "cost.json").read_text())
-        planned = cost.get("planned_cells")
-        finished = planned is not None and cost.get("finished_cells") == planned
-        parts.append(f"this run{'' if finished else ', so far'}: {rate(*now)}")
+        decided, hours, finished = now
+        parts.append(f"this run{'' if finished else ', so far'}: {rate(decided, hours)}")
     if older is not None:
-        parts.append(f"the older protocol's run: {rate(*older)}")
+        parts.append(f"the older protocol's run: {rate(*older[:2])}")
     if not parts:
         return ""
     text = "Decisions per CPU-hour: " + "; ".join(parts) + "."
@@ -522,8 +524,9 @@ def decision_rate_sentence(preset_name: str = REFERENCE) -> str:
 def reference_summary(path=None) -> str:
     """The committed reference run's ledger in one sentence (`claims.summary_sentence`) and
     the claims it decided, or a sentence saying it is not there. Records made by older code
-    are counted, in the store or moved beside it; while the current ledger still has claims not run, the older code's ledger
-    is quoted too, labelled with its commit (once every claim is read, chapter 0 keeps it)."""
+    are counted, in the store or moved beside it; while the current ledger still has claims
+    not run, the older code's ledger is quoted too, labelled with its commit (once every
+    claim is read, chapter 0 keeps it)."""
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     if not path.exists():
         return f"The reference run's ledger is not there yet ({path.name} is missing)."
