@@ -11,11 +11,20 @@
 # # 1. Your environment
 #
 # Before anything is trained, this chapter checks the machine the book is built on: the
-# package versions that every result records, the hardware, whether the two simulators
-# (robosuite for our kitchen tasks, ManiSkill 3 for the paper's ManiSkill table) start and
-# step, whether offscreen rendering works for image observations, and which preset is
-# active. Every check below runs in a separate process, so a failing native library shows
-# up as a failed row with the fix to apply instead of stopping the book.
+# package versions that every result records, the hardware, whether the simulators start
+# and step (Meta-World for the paper's RoboCasa tables, robosuite for the Panda and Kinova3
+# tasks of the sim-to-real stand-in, ManiSkill 3 for the paper's ManiSkill table), whether
+# offscreen rendering works for image observations, and which preset is active. Every check
+# below runs in a separate process, so a failing native library shows up as a failed row
+# with the fix to apply instead of stopping the book.
+#
+# Meta-World and robosuite both run on MuJoCo, and they share one MuJoCo: the pinned
+# mujoco 3.3.7, the version robosuite 1.5.2 is measured to work with. Meta-World
+# (metaworld 3.1.1) declares mujoco 3.3.0 exactly, which nothing in its code needs, so
+# `make setup` installs it with `pip install --no-deps` beside the pinned version. The same
+# actions give different physics under the two MuJoCo versions, which is one reason every
+# record stores the package versions it was made with: demonstrations and rollouts are
+# comparable only under the same MuJoCo.
 
 # %% tags=["hide-input"]
 import pandas as pd

@@ -26,7 +26,8 @@
 #
 # This chapter opens the model up on real data: the token layout of a training batch, the
 # attention mask, what the loss reaches, and a small ICRT (with the paper's LipVQ-VAE
-# tokenizer) trained on one kitchen task and rolled out from a prompt demonstration.
+# tokenizer) trained on one Meta-World task, `metaworld/drawer-open`, and rolled out from a
+# prompt demonstration.
 #
 # Two choices of ours, both ICRT's own (its code, see `icil_paper.policies.icrt`): the query
 # carries its own past actions too ($o_{q,1}, a_{q,1}, o_{q,2}, \dots$; `ICRTConfig.
@@ -218,8 +219,8 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # of its own, which no training window showed it. Here ICRT trains on whole episodes from
 # step 0 by default (`ICRTConfig.query_len = 0`, `query_start = "episode_start"`), and the
 # window training is an option (`query_len=32`, `query_start="random"`). The analysis table
-# ({doc}`chapter 11 <11_is_it_smoothness>`) trains ICRT + LipVQ-VAE both ways on the kitchen
-# suite; their success, from the records:
+# ({doc}`chapter 11 <11_is_it_smoothness>`) trains ICRT + LipVQ-VAE both ways on Table I's
+# Meta-World tasks; their success, from the records:
 
 # %% tags=["remove-input"]
 from icil_paper.paper.analysis import training_window_sentence

@@ -56,8 +56,9 @@
 # empirically; how each $c_\ell$ moves during training; and how the row-wise
 # $\infty$-norm normalization compares with spectral normalization (Miyato et al. 2018),
 # which bounds each layer by 1 in the 2-norm instead. The action trajectories are the
-# preset's `generated` demonstrations of every kitchen and ManiSkill task ({doc}`chapter 4 <04_tasks_and_demonstrations>`), a
-# fifth of each task's demos held out (`icil_paper.book.studies.tokenizer_trajectories`; the
+# preset's `generated` demonstrations of Table I's Meta-World tasks and of every ManiSkill
+# task ({doc}`chapter 4 <04_tasks_and_demonstrations>`), a fifth of each task's demos held
+# out (`icil_paper.book.studies.tokenizer_trajectories`; the
 # preset option `tokenizer_study.trajectories = "synthetic"` switches to minimum-jerk motions
 # from `icil_paper.data.trajectories`, which need no simulator).
 #

@@ -18,24 +18,69 @@
 # Pick Cube, Push Cube and Stack Cube with demonstrations from ManiSkill's motion planners.
 #
 # **What we build instead.** None of RoboCasa's kitchens, assets or data sets, nor MimicGen's,
-# can be downloaded here, so the `kitchen/...` tasks rebuild the seven skill families on
-# robosuite with fixtures made in code, the `kinova/...` tasks put the door and drawer tasks
-# on robosuite's Kinova3 arm with perturbed dynamics and noisy observations (our sim-to-real
-# stand-in), and the `maniskill/...` tasks are ManiSkill 3's own. Every task has a scripted
-# expert; the data sets have two sources:
+# can be downloaded here. The paper's RoboCasa tables run on **Meta-World** (metaworld
+# 3.1.1), a public benchmark of 50 tabletop tasks for a Sawyer arm in MuJoCo, with a scripted
+# expert for every task. Thirteen of its tasks, `metaworld/<task>`, stand in for the seven
+# skill families:
 #
-# - `generated`: the expert on randomized scenes, our stand-in for MimicGen data;
+# | RoboCasa family | Meta-World tasks |
+# |---|---|
+# | Pick and Place | pick-place, pick-place-wall |
+# | Open/Close Doors | door-open, door-close |
+# | Open/Close Drawers | drawer-open, drawer-close |
+# | Turning Levers | faucet-open, faucet-close (RoboCasa's levers are sink faucets) |
+# | Twisting Knobs | dial-turn |
+# | Insertion | peg-insert-side, coffee-push (RoboCasa's insertion puts a mug under the coffee machine) |
+# | Pressing Buttons | button-press, coffee-button |
+#
+# - *Observations.* Meta-World's 39-number state, split as in every suite here: `proprio`
+#   (8) is the hand's position and the gripper's opening, now and one step before; `object`
+#   (31) is the poses of up to two objects, now and one step before (zeros for a missing
+#   second object), and the goal's position. The goal is always observed: many of
+#   Meta-World's scripted experts read their target from it.
+# - *Actions.* The project's 7-D action maps to Meta-World's [dx, dy, dz, gripper], 1 cm of
+#   hand motion per unit and step. Meta-World's gripper always points down, so the three
+#   rotation entries are ignored, and the demonstrations carry zeros there.
+# - *Layouts.* Each episode's seed draws its layout (object, goal and fixture positions)
+#   from the task's range, so a seed is a layout; training demonstrations, prompts and
+#   evaluation episodes use disjoint seeds, so a policy is always evaluated on layouts it has
+#   not seen.
+# - *Two scene distributions.* `generated` is Meta-World's own range. `human`, Table VI's
+#   shift, starts the hand up to 5 cm from its usual place on each axis and draws every
+#   object and goal coordinate from the outer 40% of its range (a fifth at each end).
+# - *Experts.* Meta-World's scripted policy of each task, its action clipped to [-1, 1]:
+#   the clipped action is what the env executes and what the data sets store.
+# - *Zero-shot.* Table VII uses Meta-World's own ML45 split: 45 training tasks (the 13 above
+#   among them) and five held out, bin-picking, box-close, hand-insert, door-lock and
+#   door-unlock.
+#
+# The robosuite kitchen suite (`kitchen/...`: 11 tasks on a Panda arm, with fixtures built as
+# MJCF in the library) stood in for RoboCasa in earlier versions of this book. It keeps one
+# role: Table V's policies train on its door and drawer tasks (`kitchen/open_door`,
+# `close_door`, `open_drawer`, `close_drawer`), and the `kinova/...` tasks are their twins
+# on robosuite's Kinova3 arm with perturbed fixture dynamics and noisy observations (our
+# sim-to-real stand-in). The `maniskill/...` tasks are ManiSkill 3's own. Every task has a
+# scripted expert, and the data sets have two sources:
+#
+# - `generated`: the expert on seeded layouts, our stand-in for MimicGen data;
 # - `human`: the same expert driven through a model of a teleoperating person (correlated
-#   hand noise, hesitations, drifting speed, overshoots that get corrected).
+#   hand noise, hesitations, changing speed, overshoots that get corrected), played on the
+#   suite's `human` scenes where it has them (Meta-World's and the kitchen suite's), our
+#   stand-in for RoboCasa's human data set.
+#
+# Every policy trains on plenty of demonstrations per task, as the paper's do on MimicGen
+# data: the count is the preset's `data.demos_per_task`, which the reference preset takes
+# from a data curve in the pilot of {doc}`chapter 6 <06_table1_kitchen>` (the count where
+# more demonstrations no longer raise BC-Transformer's success).
 #
 # All tasks share one 7-D action (end-effector position and axis-angle deltas, gripper) and,
-# within a suite, one observation layout. This chapter shows every task, the experts' success
-# rates, and how the two sources' demonstrations differ.
+# within a suite, one observation layout. This chapter shows every task a table evaluates on,
+# the experts' success rates, and how the two sources' demonstrations differ.
 
 # %% tags=["hide-input"]
 import os
 
-os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering on CPU (set before robosuite)
+os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering on CPU (set before MuJoCo loads)
 
 import pandas as pd
 from IPython.display import Markdown, display
@@ -72,34 +117,36 @@ from icil_paper.viz.viewer import show_recordings
 preset = get_preset()  # reads ICIL_PRESET
 seed_everything(preset.seed)
 store = ResultsStore(preset.name)
-SHOWN_TASKS = shown_tasks(preset)  # the smoke preset shows one task per suite, others all
-DATA_TASKS = data_tasks()  # the data sets examined in full: one kitchen, one ManiSkill task
+SHOWN_TASKS = shown_tasks(preset)  # smoke: one task per suite; others: every evaluated task
+DATA_TASKS = data_tasks()  # the data sets examined in full: one Meta-World, one ManiSkill task
 print(setup_lines(preset.name, SHOWN_TASKS, DATA_TASKS, preset.data.demos_per_task))
 
 # %% [markdown]
 # ## The task registry
 #
 # One name per task; `make_env(name)` and `make_expert(name)` are all a training or evaluation
-# loop needs. Observation widths are shared within a suite (object states zero-padded).
+# loop needs. Observation widths are shared within a suite (object states zero-padded). The
+# registry lists all 50 Meta-World tasks (Table VII trains on 45 of them), and the kitchen
+# suite's 11, of which Table V uses the four door and drawer tasks.
 #
-# A kitchen task succeeds as its scene says (`icil_paper.sim.kitchen.scenes`): a fixture's
-# joint past its goal for doors, drawers, levers, knobs and the button; the peg 2 cm deep in
-# the hole for insertion; for pick-and-place, the box inside the bin, let go, and the hand at
-# least 6 cm from it. RoboCasa's pick-and-place tasks likewise ask the gripper to be far
-# from the object; without that, a demonstration would end the moment the gripper opens, and
-# a policy would see almost no example of letting go. The expert lets the box go anywhere
-# between the bin's rim and its floor (drawn per scene), so the release is shown over the
-# bin's whole depth.
+# A Meta-World task succeeds as Meta-World says (`info["success"]`, the benchmark's own
+# test, e.g. drawer-open's handle within 3 cm of its open position, pick-place's puck within
+# 7 cm of its goal); an episode ends at its first successful step, or is cut at the task's
+# horizon (200 control steps at 80 Hz; Meta-World's own limit of 500 steps is not used).
+# A kitchen or Kinova door or drawer task succeeds when the fixture's joint is past its goal
+# (`icil_paper.sim.kitchen.scenes`); a ManiSkill task by ManiSkill's own test.
 
 # %%
 display(task_registry())
 
 # %% [markdown]
-# ## Run or load: a frame and a recorded demonstration of every task
+# ## Run or load: a frame and a recorded demonstration of every evaluated task
 #
-# For each task: build the env, render its first scene, run demo 0 of the `generated` source
-# and record it (rerun `.rrd` file plus a static picture). Results are cached in the results
-# store; a rebuild only reads them.
+# For each task a table evaluates on (the 13 Meta-World tasks of Table I, the five held out
+# by ML45, the Panda and Kinova door and drawer tasks, ManiSkill's three; not the 32 tasks
+# that only Table VII trains on): build the env, render its first scene, run demo 0 of the
+# `generated` source and record it (rerun `.rrd` file plus a static picture). Results are
+# cached in the results store; a rebuild only reads them.
 
 # %%
 showcase = showcase_study(preset, store)  # runs what is missing, else loads
@@ -118,13 +165,13 @@ display(first_frames_figure(showcase))
 #   expert's (or the human source's) success rate over the scenes it was generated on;
 # - **over `data.expert_seeds` fresh scenes** (the `experts` stage; 50 under the full preset):
 #   success, an open-loop replay of the stored actions, the human source's keep rate (on the
-#   scenes it is generated on), and, for the kitchen suite, the expert's success on the
-#   `human` scene distribution of Table VI.
+#   scenes it is generated on), and, where the suite has a `human` scene distribution
+#   (Meta-World's is Table VI's shift), the expert's success on those scenes too.
 #   Any preset can run it by hand: `python -m icil_paper.data.experts --suites <suite>
 #   --seeds 50` writes `results/experts/<suite>.json`, which this chapter also reads.
 
 # %%
-data_sets = demo_stage(preset, store)  # every task, both sources (cheap once they exist)
+data_sets = demo_stage(preset, store)  # both sources (Table VII's training tasks: generated); cheap once made
 kept = keep_rates(data_sets, preset.data.demos_per_task)
 display(kept)
 experts = pd.DataFrame(expert_measurements(preset, store))  # this preset's, else results/experts/
@@ -135,7 +182,8 @@ show_frame_or(experts, no_expert_measurement(preset.name))
 #
 # The data sets were made above by `demo_stage` (`ensure_many`: one pool of worker processes
 # for every data set, generating in parallel and resumably only what the files lack); training
-# uses the same files. Here, one kitchen and one ManiSkill task in detail.
+# uses the same files. Here, one Meta-World task (`metaworld/drawer-open`) and one ManiSkill
+# task (`maniskill/pick_cube`) in detail.
 
 # %%
 demos = load_data_sets(data_sets, DATA_TASKS, preset.data.demos_per_task)
@@ -160,9 +208,10 @@ display(show_recordings(showcase_recordings(showcase)))
 # %% [markdown]
 # ## Generalization settings
 #
-# The zero-shot setting trains on some kitchen tasks and evaluates on the held-out rest; the
-# sim-to-real stand-in trains on the Panda kitchen tasks and evaluates the same skills on the
-# perturbed Kinova arm.
+# The zero-shot setting (Table VII) trains on Meta-World's ML45 training tasks and evaluates
+# on its five held-out tasks; the sim-to-real stand-in (Table V) trains on the Panda
+# kitchen's door and drawer tasks and evaluates the same skills on the perturbed Kinova3
+# arm.
 
 # %%
 print(zero_shot_lines())

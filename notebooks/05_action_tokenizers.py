@@ -81,10 +81,10 @@
 #
 # Each tokenizer is trained with the preset's number of seeds; every number below is the
 # mean over seeds and held-out trajectories with a bootstrap 95% interval. The action
-# trajectories are the preset's `generated` demonstrations of every kitchen and ManiSkill
-# task ({doc}`chapter 4 <04_tasks_and_demonstrations>`: our scripted experts on randomized
-# scenes, the stand-in for MimicGen data), with a fifth of each task's demos held out for
-# the metrics (`icil_paper.book.studies.tokenizer_trajectories`).
+# trajectories are the preset's `generated` demonstrations of Table I's Meta-World tasks
+# and of every ManiSkill task ({doc}`chapter 4 <04_tasks_and_demonstrations>`: scripted
+# experts on seeded layouts, the stand-in for MimicGen data), with a fifth of each task's
+# demos held out for the metrics (`icil_paper.book.studies.tokenizer_trajectories`).
 
 # %%
 from IPython.display import Markdown, display

@@ -21,8 +21,8 @@
 # **How it is computed here.** The tokenizers are the ones trained jointly inside Table I's
 # ICRT policies ({doc}`chapter 6 <06_table1_kitchen>`), as the paper does; the trajectories are held-out `generated`
 # demonstrations (the ones after each data set's training demonstrations). The preset's
-# number of features (500 by default, the paper's) is shared equally among the kitchen
-# tasks: each task gives the first `feature_steps // tasks` steps of its held-out
+# number of features (500 by default, the paper's) is shared equally among Table I's 13
+# Meta-World tasks: each task gives the first `feature_steps // tasks` steps of its held-out
 # trajectories, so that every task is scored and none weighs more than another; the remainder of the division is not scored, and a task whose held-out
 # trajectories are shorter than its share gives what it has. Every training seed scores the
 # same steps. What each record scored is stated under the table. Each trajectory's least

@@ -22,28 +22,38 @@
 #   best tokenizer, all at low success.
 #
 # **How it is computed here, and what stands in for what.**
-# - *Table V* has no real robot: Table I's policies, trained on the Panda kitchen, are
-#   rolled out on robosuite's Kinova3 arm with perturbed fixture dynamics and noisy
-#   observations ({doc}`chapter 4 <04_tasks_and_demonstrations>`), prompted with Kinova demonstrations. The paper instead trains
-#   on Kinova data, simulated and real; our question is the same (does a policy transfer
-#   across a dynamics and embodiment gap), the gap is not.
-# - *Table VI*'s human data set is our `human` source on the kitchen suite's `human` scene
-#   distribution. The paper says its human data set "could feature sparser object
-#   arrangements" than MimicGen's; ours places every fixture elsewhere on the counter and
-#   turns it further, and sets free objects further from their targets, with the same
-#   experts driven with operator-like noise, pauses and corrections
-#   ({doc}`chapter 4 <04_tasks_and_demonstrations>` gives the experts' success on both scene
-#   distributions). Every row, BC-Transformer, ACT and MCR included, is Table I's policy
-#   evaluated on those scenes, on episodes with the same seeds as Table I's; ICRT rows are
-#   prompted with the human-like demonstrations. So the shift is in what every policy faces,
-#   not only in what ICRT reads, and each row's change from Table I is measured on the same
-#   policies (below the table).
-# - *Table VII* holds out one direction of each two-task family (close a door the policy
-#   has only opened, ...); the paper follows RoboCasa's own split. Families without a
-#   held-out task show n/a.
+# - *Table V* has no real robot, and stays on robosuite: Meta-World has one arm only. Its
+#   three rows (BC-Transformer, ICRT + Bin, ICRT + LipVQ-VAE) are trained (by default with
+#   as many seeds as their Table I rows) on the door and drawer tasks of the robosuite
+#   kitchen suite on a Panda arm (`kitchen/open_door`, `close_door`, `open_drawer`,
+#   `close_drawer`), then rolled out on their twins on robosuite's Kinova3 arm with perturbed fixture dynamics and
+#   noisy observations ({doc}`chapter 4 <04_tasks_and_demonstrations>`), prompted with
+#   Kinova demonstrations. The paper instead trains on Kinova data, simulated and real; our
+#   question is the same (does a policy transfer across a dynamics and embodiment gap), the
+#   gap is not.
+# - *Table VI*'s human data set is our `human` source on Meta-World's `human` scene
+#   distribution: the same scripted experts driven through a model of a teleoperating person
+#   (correlated hand noise, hesitations, speed changes, overshoots that get corrected), on
+#   layouts where the hand starts up to 5 cm from its usual place and object and goal
+#   positions are drawn from the outer 40% of each range. The paper says its human data set
+#   "could feature sparser object arrangements" than MimicGen's; the outer-range layouts
+#   stand in for that ({doc}`chapter 4 <04_tasks_and_demonstrations>` gives the experts'
+#   success on both scene distributions). Every row, BC-Transformer, ACT and MCR included,
+#   is Table I's policy evaluated on those scenes, on episodes with the same seeds as Table
+#   I's; ICRT rows are prompted with the human-like demonstrations. So the shift is in what
+#   every policy faces, not only in what ICRT reads, and each row's change from Table I is
+#   measured on the same policies (below the table).
+# - *Table VII* follows Meta-World's own zero-shot split, ML45, where the paper follows
+#   RoboCasa's (eight atomic tasks trained, the rest held out). Every row trains on ML45's
+#   45 training tasks and is evaluated on its five held-out tasks: bin-picking (pick and
+#   place), box-close (doors: closing a lid), hand-insert (insertion), door-lock and
+#   door-unlock (knobs: turning a lock). ICRT is prompted with a demonstration of the unseen
+#   task; the baselines read its instruction only. Families without a held-out task
+#   (drawers, levers, buttons) show n/a.
 # - *The prompt ablation* is ours: Table I's ICRT + LipVQ-VAE with its task's prompt, with
-#   another task's prompt (the same fixture's opposite goal), and with only the first steps
-#   of its prompt. If the prompt carries the task, the wrong prompt should hurt.
+#   another task's prompt (the next task of Table I's list, `other_task`; for an opening
+#   task, the same fixture's closing), and with only the first steps of its prompt. If the
+#   prompt carries the task, the wrong prompt should hurt.
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
@@ -108,7 +118,7 @@ show_shift(table1, table6, "avg")
 # %% tags=["hide-input"]
 table7 = load_table(preset, "VII")
 show_comparison(table7, "avg")
-display(success_figure(table7, "avg", title="Table VII: held-out kitchen tasks"))
+display(success_figure(table7, "avg", title="Table VII: held-out ML45 tasks"))
 show_values(table7)
 display(Markdown(verdicts(preset, "VII")))
 display(claims_figure(preset, "VII"))

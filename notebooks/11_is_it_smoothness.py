@@ -31,20 +31,20 @@
 # 3. *A collapsed codebook is trivially smooth.* A trajectory that stays on one code has
 #    zero least energy whatever the encoder does.
 #
-# **The cells.** ICRT on the kitchen suite (Table I's setting) with VQ-VAE and LipVQ-VAE as
-# Table I trains them (LipVQ-VAE starting as VQ-VAE's twin, nn.Linear's weights with
+# **The cells.** ICRT in Table I's setting (its 13 Meta-World tasks) with VQ-VAE and
+# LipVQ-VAE as Table I trains them (LipVQ-VAE starting as VQ-VAE's twin, nn.Linear's weights with
 # $c_\ell$ at the largest row sum, its bounds learning at the multiple of the trainer's rate
 # that lets them travel as far as over the paper's 500K iterations: chapter 3), and variants
 # of them: a Lipschitz loss weight $\gamma = 1$; initial bounds $c_\ell = 1$; the bounds at
-# the trainer's shared rate (the paper's literal setting, under which they stay within
-# about 0.5 of their start in our training); Liu et al.'s initialisation (the paper's,
+# the trainer's shared rate (the paper's literal setting; how far the bounds can travel
+# under it is computed below); Liu et al.'s initialisation (the paper's,
 # whose action tokens start several times larger than the plain MLP's); dead-code restarts (every 100
 # training steps unused codes jump to random encoder outputs: a standard remedy for
 # collapse); and ICRT trained on its own 32-step query windows that start anywhere in an
 # episode (Table I's rows train on whole episodes from step 0, the window ICRT acts with).
 # Every variant trains the preset's number of ICRT seeds (stated below for each source).
-# For each: success over the kitchen tasks, raw and standardized least energy of its own
-# tokenizer's latent features on held-out trajectories (as in Table III), $\sigma$, the
+# For each: success over Table I's Meta-World tasks, raw and standardized least energy of
+# its own tokenizer's latent features on held-out trajectories (as in Table III), $\sigma$, the
 # codes used, the share of encoder rows Eq. 4 caps, the product of the bounds and an
 # empirical Lipschitz constant (largest ratio of output to input change over nearby
 # held-out actions, infinity norm).

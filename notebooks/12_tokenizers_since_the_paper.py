@@ -20,8 +20,8 @@
 # the paper has no numbers for it beyond its Table I's VQ-VAE and LipVQ-VAE rows.
 #
 # **How it is computed here.** Table I's protocol ({doc}`chapter 6 <06_table1_kitchen>`):
-# one ICRT policy per row, trained on the generated demonstrations of every kitchen task
-# and evaluated per task on the same episodes as every other row, so rows are compared
+# one ICRT policy per row, trained on the generated demonstrations of Table I's 13
+# Meta-World tasks and evaluated per task on the same episodes as every other row, so rows are compared
 # episode by episode. The VQ-VAE and LipVQ-VAE rows are Table I's policies (the same run
 # specs, trained once); the reference run trains five seeds for every row, two more than
 # Table I's. `lipfsq` and `liprvq` are FSQ and residual VQ with every encoder layer a
@@ -56,12 +56,12 @@ preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "beyond")  # computes what this build's results store lacks
 
 # %% [markdown]
-# ## Average success over the kitchen tasks
+# ## Average success over the Meta-World tasks
 
 # %% tags=["hide-input"]
 show_comparison(results, "avg")
 display(success_figure(results, "avg",
-                       title="Tokenizers since the paper: average success over the kitchen tasks"))
+                       title="Tokenizers since the paper: average success over the Meta-World tasks"))
 
 # %% [markdown]
 # ## By skill family

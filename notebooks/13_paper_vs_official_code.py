@@ -26,8 +26,8 @@
 # here policies are trained with it.
 #
 # **How it is computed here.** Table I's protocol ({doc}`chapter 6 <06_table1_kitchen>`):
-# one ICRT policy per row, trained on the generated demonstrations of every kitchen task
-# and evaluated per task on the same episodes as every other row, so that each variant is
+# one ICRT policy per row, trained on the generated demonstrations of Table I's 13
+# Meta-World tasks and evaluated per task on the same episodes as every other row, so that each variant is
 # compared with the paper's row it departs from episode by episode. The paper's LipVQ-VAE
 # and Bin rows are Table I's policies (the same run specs, trained once); the reference run
 # trains more seeds for every row of this table than Table I has (stated below). The
@@ -83,7 +83,7 @@ display(Markdown(official_seeds_sentence(preset.name, official_seeds(get_preset(
 display(differences_frame(next(iter(results.values()))))
 
 # %% [markdown]
-# ## Average success over the kitchen tasks
+# ## Average success over the Meta-World tasks
 
 # %% tags=["hide-input"]
 show_comparison(results, "avg")

@@ -40,8 +40,8 @@
 # ```
 #
 # trains and evaluates the rows the comparison needs on Table I's protocol
-# ({doc}`chapter 6 <06_table1_kitchen>`: one ICRT policy per row and seed, trained on every
-# kitchen task, evaluated on the same episodes as every other row), reusing every stored
+# ({doc}`chapter 6 <06_table1_kitchen>`: one ICRT policy per row and seed, trained on Table
+# I's 13 Meta-World tasks, evaluated on the same episodes as every other row), reusing every stored
 # cell, and reads the difference of average success as the claims ledger reads a claim
 # ({doc}`chapter 0 <00_claims_ledger>`): an interval with the training seed as the unit,
 # the verdict, its size against the effect of interest and the power of the design. The

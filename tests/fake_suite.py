@@ -111,8 +111,7 @@ def make_expert(name):
 
 
 KITCHEN_SUITE = Suite(name="kitchen", tasks=KITCHEN, obs_dims=OBS_DIMS, control_freq=20,
-                      make_env=make_env, make_expert=make_expert, object_position=(0, 3),
-                      zero_shot_split={"train": KITCHEN[:2], "held_out": KITCHEN[2:]})
+                      make_env=make_env, make_expert=make_expert, object_position=(0, 3))
 KINOVA_SUITE = Suite(name="kinova", tasks=KINOVA, obs_dims=OBS_DIMS, control_freq=20,
                      make_env=make_env, make_expert=make_expert, object_position=(0, 3))
 

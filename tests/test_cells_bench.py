@@ -19,7 +19,7 @@ from icil_paper.results import ResultsStore
 from icil_paper.runspec import EvalSpec, run_spec
 from icil_paper.timing import phase, recording
 
-TASKS = ["kitchen/open_drawer", "kitchen/press_button"]
+TASKS = ["kitchen/open_drawer", "kitchen/close_drawer"]
 
 
 def test_phases_are_measured_only_while_recording():

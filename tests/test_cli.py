@@ -52,6 +52,7 @@ def test_env_checks_simulators():
     from icil_paper.setup.envcheck import check_simulators
 
     checks = {c.name: c for c in check_simulators()}
+    assert checks["metaworld"].ok, checks["metaworld"].detail
     assert checks["robosuite"].ok, checks["robosuite"].detail
     assert checks["offscreen rendering"].ok, checks["offscreen rendering"].detail
     from icil_paper.setup.system_deps import vulkan_problem

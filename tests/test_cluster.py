@@ -39,7 +39,7 @@ pytestmark = pytest.mark.slow
 
 SRC = str(Path(icil_paper.__file__).resolve().parents[1])
 RAY = Path(sys.executable).with_name("ray")
-SETTINGS = ("--preset", "smoke", "--set", "data.kitchen_tasks=kitchen/press_button",
+SETTINGS = ("--preset", "smoke", "--set", "data.robocasa_tasks=kitchen/open_drawer",
             "--set", "tables.codebook_sizes=16,32")
 GPU_STAGE, KILL_STAGE = "table-fig5", "table-IV"
 TIMING = re.compile(r"_s$")  # seconds: wall time, steps per second

@@ -36,7 +36,7 @@ def preset(monkeypatch):
     27 features (task order would take all 27 from the first task's held-out demos)."""
     fake_suite.use(monkeypatch)
     return get_preset("smoke").with_overrides(
-        [f"data.kitchen_tasks={','.join(fake_suite.KITCHEN)}", "data.demos_per_task=2",
+        [f"data.robocasa_tasks={','.join(fake_suite.KITCHEN)}", "data.demos_per_task=2",
          "tables.feature_demos_per_task=3", f"tables.feature_steps={3 * SHARE}",
          "tables.icrt_seeds=2"])
 

@@ -51,7 +51,7 @@ def test_the_plan_raises_the_rows_of_undecided_claims_and_prices_their_cells(tmp
 
     lfq = by_id["I-lipvq-vs-lfq"]  # alone: its 2 rows x 3 seeds, none stored yet
     assert lfq["seeds_now"] == 1 and lfq["cells"] == 6
-    evals = len(preset.data.kitchen_tasks)  # at least Table I's evaluations a cell
+    evals = len(preset.data.robocasa_tasks)  # at least Table I's evaluations a cell
     assert lfq["cpu_hours"] >= round(6 * (100 + 5 * evals) / 3600, 2)
     # the total is every cell the override's run computes (an empty store: all of them)
     assert result["total"]["cells"] == len(plan([table_spec(bigger, t) for t in TABLES]))

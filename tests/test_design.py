@@ -28,7 +28,7 @@ from icil_paper.results import ResultsStore
 from record_helpers import write_eval_record
 
 ROOT = Path(__file__).resolve().parents[1]
-TASKS = "data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door"
+TASKS = "data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door"
 
 
 def smoke(*overrides):

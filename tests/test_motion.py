@@ -261,7 +261,7 @@ def test_stored_evaluations_carry_motion_and_older_records_are_not_reused(tmp_pa
 # --------------------------------------------------------------------------- tables, claims
 def small_preset(*overrides):
     return get_preset("smoke").with_overrides(
-        ["data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door",
+        ["data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door",
          *overrides])
 
 

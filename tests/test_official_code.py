@@ -265,7 +265,7 @@ def test_the_official_table_key_reads_only_its_own_fields():
                                for u in table_spec(p, "official").units()))
 
     reads = ("policies.icrt.", "tokenizers.lipvq.", "tokenizers.bin.", "train.",
-             "data.demos_per_task", "data.task_demos", "data.obs", "data.kitchen_tasks", "seed",
+             "data.demos_per_task", "data.task_demos", "data.obs", "data.robocasa_tasks", "seed",
              "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
              "tables.official_seeds", "tables.row_seeds",  # the paper's rows: Table I's seeds
              "tables.feature_demos_per_task", "tables.feature_steps")
@@ -316,7 +316,7 @@ def test_findings_give_each_variant_against_its_base_with_a_verdict_and_the_code
         summary,
     )
 
-    kitchen = "data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door"
+    kitchen = "data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door"
     rates = {"icrt+lipvq (official code)": 0.1, "prompts from the minibatch": 0.95}
     codes = {"icrt+lipvq (official code)": 1, "detached latent": 1}
     for seeds, expect in ((1, "too few seeds"), (3, None)):

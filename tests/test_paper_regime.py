@@ -54,7 +54,7 @@ def test_the_instruction_changes_what_a_policy_predicts(name):
 def test_two_seeds_of_a_row_train_on_different_demonstration_files():
     preset = get_preset("reference")
     runs = {f"{p}+{t}": table_i_runs(preset, p, t) for p, t in TABLE_I_ROWS if p != "mcr"}
-    task = preset.data.kitchen_tasks[0]
+    task = preset.data.robocasa_tasks[0]
     for label, row in runs.items():
         files = [demo_path(preset, task, r.data.source, r.data.obs, seed=r.data.seed)
                  for r in row]
@@ -195,29 +195,36 @@ def test_seed_correlations_pair_rows_by_seed_index():
 
 
 def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():
-    """`results/bench/regime.json`: the budget and demonstrations chosen, ICRT + LipVQ-VAE's
-    learning curve over at least three budgets, every family of the three rows, ACT +
-    LipVQ-VAE on every ManiSkill task, and a capped share for each pilot seed of both
-    Lipschitz rows; its seeds are not the reference run's."""
+    """`results/bench/regime.json`: the Meta-World suite, the data curve over at least three
+    counts, the budget chosen from ICRT + LipVQ-VAE's learning curve over at least three
+    budgets, every family of the rows beside it with their per-episode outcomes for at
+    least three seeds; its seeds are not the
+    reference run's, and the reference preset trains at its choice."""
     import json
 
     from icil_paper.bench import bench_path
-    from icil_paper.planning.pilot import REGIME_SEED
+    from icil_paper.planning.pilot import REGIME_ROWS, REGIME_SEED
     from icil_paper.tables.definitions import FAMILY_COLUMNS
 
     record = json.loads(open(bench_path("regime")).read())
+    reference = get_preset("reference")
+    assert record["suite"] == "metaworld"
+    assert record["tasks"] == list(reference.data.robocasa_tasks)
+    data_curve = record["data_curve"]
+    assert len(data_curve["counts"]) >= 3
+    assert None not in data_curve["curve"].values()
     assert record["train_steps"] in record["budgets"] and record["demos_per_task"] >= 1
     curve = record["learning_curve"]["icrt+lipvq"]
     assert sum(v is not None for v in curve.values()) >= 3
-    for row in ("icrt+lipvq", "icrt+lip-mlp", "bc_transformer"):
+    for policy, tokenizer in REGIME_ROWS:
+        row = f"{policy}+{tokenizer}" if tokenizer else policy
         assert set(record["families"][row]) == set(FAMILY_COLUMNS), row
         assert None not in record["families"][row].values(), row
-    reference = get_preset("reference")
-    tasks = {t.split("/", 1)[1] for t in reference.data.maniskill_tasks}
-    assert set(record["maniskill"]["act+lipvq"]) == tasks
-    for row in ("icrt+lipvq", "icrt+lip-mlp"):
-        shares = record["capped_share"][row]
-        assert len(shares) == record["seeds"] and None not in shares, row
+        outcomes = record["outcomes"][row]
+        assert len(outcomes) >= 3 and None not in outcomes.values(), row
+        for per_task in outcomes.values():
+            assert set(per_task) == set(record["tasks"])
+            assert {len(v) for v in per_task.values()} == {record["episodes_per_task"]}
     assert min(record["seed_indices"]) >= REGIME_SEED
     # the reference preset trains at the pilot's choice
     from icil_paper.config import task_demo_counts
@@ -236,7 +243,7 @@ def test_the_regime_summary_names_the_families_and_maniskill_tasks_outside_the_r
               "learning_curve": {"icrt+lipvq": {"1000": 0.4, "2000": 0.5, "3000": 0.5}},
               "within_range": {"doors": True, "knobs": False}, "train_steps": 2000,
               "plateau_reached": True, "seeds": 2, "seed_indices": [20, 21],
-              "demos_per_task": 3, "task_demos": {"kitchen/pick_place": 10},
+              "demos_per_task": 3, "task_demos": {"metaworld/pick-place": 10},
               "budgets": [1000, 2000, 3000],
               "capped_share": {"icrt+lipvq": [0.3, 0.4]},
               "maniskill": {"act+lipvq": {"pick_cube": 0.5, "stack_cube": 0.0}}}
@@ -245,5 +252,5 @@ def test_the_regime_summary_names_the_families_and_maniskill_tasks_outside_the_r
     frame, text = regime_summary(str(path))
     assert list(frame.index) == ["icrt+lipvq"]
     assert "levels off at 2000 steps" in text and "[0.1, 0.9]: knobs." in text
-    assert "3 demonstrations a task (pick_place 10);" in text
+    assert "3 demonstrations a task (pick-place 10);" in text
     assert "pick_cube 0.5, stack_cube 0.0 (outside [0.1, 0.9]: stack_cube)" in text

@@ -24,15 +24,15 @@ def test_table_two_shows_one_line_per_setting_and_row_with_a_column_per_task(tmp
 
 
 def test_table_one_averages_over_tasks_and_flags_columns_no_row_separates(tmp_path):
-    tasks = {"kitchen/open_door": 1.0, "kitchen/insertion": 0.0}
-    rows = [_row("icrt+lipvq", tasks, {"doors": 1.0, "insertion": 0.0}),
-            _row("bc_transformer", {"kitchen/open_door": 0.5, "kitchen/insertion": 0.0},
-                 {"doors": 0.5, "insertion": 0.0})]
+    tasks = {"kitchen/open_door": 1.0, "kitchen/open_drawer": 0.0}
+    rows = [_row("icrt+lipvq", tasks, {"doors": 1.0, "drawers": 0.0}),
+            _row("bc_transformer", {"kitchen/open_door": 0.5, "kitchen/open_drawer": 0.0},
+                 {"doors": 0.5, "drawers": 0.0})]
     path = tmp_path / "pilot.json"
     path.write_text(json.dumps({"settings": {"k": {"table": "I", "rows": rows}}}))
     frame, flat = pilot_frame(str(path), table="I")
     assert frame.loc[("40 demos, 2000 steps, 10 episodes", "icrt+lipvq"), "avg"] == 0.5
-    assert flat["40 demos, 2000 steps, 10 episodes"] == ["insertion"]
+    assert flat["40 demos, 2000 steps, 10 episodes"] == ["drawers"]
 
 
 def test_the_chapters_list_each_settings_uninformative_columns():

@@ -200,7 +200,7 @@ def test_an_installed_entry_point_is_found_by_the_registry_and_trains(
         "entry point", "toks41", "0.3")
     # the chapter's comparison, through the installed package
     assert cli.main(["compare", "--preset", "smoke", "--tokenizer", "pcatok", "--seeds", "2",
-                     "--set", f"data.kitchen_tasks={TASK}", "--executor", "serial", "--quiet",
+                     "--set", f"data.robocasa_tasks={TASK}", "--executor", "serial", "--quiet",
                      "--out", str(tmp_path / "out")]) == 0, capsys.readouterr().err
     report = json.loads((tmp_path / "out" / "compare.json").read_text())
     assert report["comparisons"][0]["verdict"] in VERDICTS
@@ -222,7 +222,7 @@ def _compare(tmp_path, executor: str, *extra: str, source: str = GOOD) -> int:
     path = tmp_path / "chunk_bins.py"
     path.write_text(source)
     return cli.main(["compare", "--plugin", str(path), "--preset", "smoke", "--tokenizer",
-                     EXAMPLE_NAME, "--seeds", "2", "--set", f"data.kitchen_tasks={TASK}",
+                     EXAMPLE_NAME, "--seeds", "2", "--set", f"data.robocasa_tasks={TASK}",
                      "--executor", executor, "--workers", "2", "--quiet",
                      "--out", str(tmp_path / f"out-{executor}"), *extra])
 

@@ -58,7 +58,7 @@ def test_tokenizer_trajectories_come_from_held_out_demos():
     from icil_paper.book.studies import tokenizer_trajectories
 
     preset = get_preset("smoke").replace(
-        data={"kitchen_tasks": ("kitchen/open_drawer",), "maniskill_tasks": (),
+        data={"robocasa_tasks": ("kitchen/open_drawer",), "maniskill_tasks": (),
               "demos_per_task": 3})
     train, test, described = tokenizer_trajectories(preset)
     assert (len(train), len(test)) == (2, 1)  # a fifth of 3, at least one, held out

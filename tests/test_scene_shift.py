@@ -276,9 +276,9 @@ def test_the_expert_solves_a_human_scene():
     from icil_paper.data.sources import expert_rollout, make_source
     from icil_paper.sim.kitchen import make_kitchen_env
 
-    env = make_kitchen_env("kitchen/press_button", scenes="human")
+    env = make_kitchen_env("kitchen/close_drawer", scenes="human")
     try:
-        demo, ok = expert_rollout(env, make_source("human", "kitchen/press_button"), seed=11,
+        demo, ok = expert_rollout(env, make_source("human", "kitchen/close_drawer"), seed=11,
                                   source="human", record_states=False)
     finally:
         env.close()

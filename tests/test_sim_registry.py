@@ -118,8 +118,8 @@ def test_unfinished_kitchen_package_leaves_maniskill_working(broken_kitchen):
 
 
 def test_zero_shot_and_sim_to_real_splits(fake_kitchen):
-    train, held = splits.zero_shot_split()
-    assert train == fake_suite.KITCHEN[:2] and held == fake_suite.KITCHEN[2:]
+    with pytest.raises(ValueError, match="kitchen suite defines no zero-shot split"):
+        splits.zero_shot_split("kitchen")  # as the real one: Table VII's is Meta-World's
     assert splits.sim_to_real_pairs() == {"kinova/reach_a": "kitchen/reach_a"}
     assert splits._normalize_split((("a",), ("b",))) == (("a",), ("b",))
     with pytest.raises(ValueError, match="keys"):

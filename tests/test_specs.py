@@ -26,7 +26,7 @@ from icil_paper.runspec import eval_key, eval_spec, run_spec
 from icil_paper.tokenizers import TOKENIZERS
 from icil_paper.tokenizers.configs import TokenizerConfig
 
-TASKS = ("kitchen/open_drawer", "kitchen/close_door")
+TASKS = ("metaworld/drawer-open", "metaworld/door-close")
 
 
 def _other_values(annotation, value, choices=None):
@@ -105,10 +105,10 @@ STAGES = {
     "train act+fast": (lambda p: run_spec(p, "act", "fast", tasks=TASKS).key(),
                        ("policies.act.", "tokenizers.fast.", "train.", "data.demos_per_task", "data.task_demos",
                         "data.obs", "seed")),
-    "train bc_transformer on the preset's kitchen tasks": (
+    "train bc_transformer on the preset's RoboCasa-table tasks": (
         lambda p: run_spec(p, "bc_transformer").key(),
         ("policies.bc_transformer.", "train.", "data.demos_per_task", "data.task_demos", "data.obs",
-         "data.kitchen_tasks", "seed")),
+         "data.robocasa_tasks", "seed")),
     "eval icrt+lipvq": (lambda p: eval_key(run_spec(p, "icrt", "lipvq", tasks=TASKS),
                                            eval_spec(p, TASKS[0])),
                         ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task", "data.task_demos",
@@ -118,7 +118,7 @@ STAGES = {
                                   for u in table_spec(p, "I").units())),
         ("policies.mcr.", "policies.act.", "policies.bc_transformer.", "policies.icrt.",
          *(f"tokenizers.{t}." for t in ("mlp", "bin", "fast", "vq", "lfq", "lipvq")),
-         "train.", "data.demos_per_task", "data.task_demos", "data.obs", "data.kitchen_tasks", "seed",
+         "train.", "data.demos_per_task", "data.task_demos", "data.obs", "data.robocasa_tasks", "seed",
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
          "tables.baseline_seeds", "tables.row_seeds", "tables.image_demos_per_task",
          "tables.image_episodes_per_task", "tables.image_max_steps",
@@ -140,16 +140,16 @@ STAGES = {
         ("policies.icrt.",
          *(f"tokenizers.{t}." for t in ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq",
                                         "bspline")),
-         "train.", "data.demos_per_task", "data.task_demos", "data.obs", "data.kitchen_tasks", "seed",
+         "train.", "data.demos_per_task", "data.task_demos", "data.obs", "data.robocasa_tasks", "seed",
          "eval.episodes_per_task", "eval.max_steps", "tables.icrt_seeds",
          "tables.since_paper_seeds", "tables.row_seeds",  # Table I's seeds: "I:*=2"
          "tables.feature_demos_per_task", "tables.feature_steps")),
     "tokenizer study liprvq": (lambda p: spec_key(study_spec(p, p.tokenizers.liprvq)),
                                ("tokenizers.liprvq.", "tokenizer_study.", "data.demos_per_task",
-                                "data.kitchen_tasks", "data.maniskill_tasks", "seed")),
+                                "data.robocasa_tasks", "data.maniskill_tasks", "seed")),
     "tokenizer study vq": (lambda p: spec_key(study_spec(p, p.tokenizers.vq)),
                            ("tokenizers.vq.", "tokenizer_study.", "data.demos_per_task",
-                            "data.kitchen_tasks", "data.maniskill_tasks", "seed")),
+                            "data.robocasa_tasks", "data.maniskill_tasks", "seed")),
 }
 
 

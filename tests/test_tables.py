@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def small_preset(*overrides):
     return get_preset("smoke").with_overrides(
-        ["data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door",
+        ["data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door",
          *overrides])
 
 
@@ -95,16 +95,28 @@ def test_chapter_02s_run_is_the_icrt_table_with_the_keys_it_always_had(preset_na
     assert icrt_records(preset, ResultsStore(preset_name, root=ROOT / "no-such-folder")) is None
 
 
-def test_zero_shot_trains_on_training_tasks_and_evaluates_held_out_ones():
+def test_zero_shot_trains_on_ml45_and_no_held_out_task_reaches_training():
     from icil_paper.data.splits import zero_shot_split
 
     train, held = zero_shot_split()
+    assert len(train) == 45 and len(held) == 5
     spec = table_spec(get_preset("small"), "VII")
+    assert spec.units()
     for unit in spec.units():
         assert set(unit.run.data.tasks) == set(train)
+        assert not set(unit.run.data.tasks) & set(held)  # no held-out task's data in training
         assert unit.eval.task in held
-    assert spec.row("icrt+lipvq").cells.keys() >= {"doors", "drawers", "levers", "knobs", "avg"}
-    assert "pick_place" not in spec.row("icrt+lipvq").cells  # no held-out task: n/a
+        if unit.eval.prompt_task is not None:  # ICRT's prompt: a demonstration of the unseen task
+            assert unit.eval.prompt_task == unit.eval.task
+    cells = spec.row("icrt+lipvq").cells
+    assert cells.keys() >= {"pick_place", "doors", "knobs", "insertion", "avg"}
+    assert not cells.keys() & {"drawers", "levers", "buttons"}  # no held-out task: n/a
+
+
+def test_a_held_out_task_in_zero_shot_training_is_refused():
+    with pytest.raises(ValueError, match="metaworld/door-lock, held out for the zero-shot"):
+        get_preset("small").with_overrides(
+            ["data.zero_shot_tasks=metaworld/reach,metaworld/door-lock"])
 
 
 def test_prompt_ablation_uses_another_task_and_a_cut_prompt():
@@ -112,7 +124,9 @@ def test_prompt_ablation_uses_another_task_and_a_cut_prompt():
     wrong = spec.row("another task's prompt").cells["avg"].units
     assert all(u.eval.prompt_task and u.eval.prompt_task != u.eval.task for u in wrong)
     pairs = {u.eval.task: u.eval.prompt_task for u in wrong}
-    assert pairs["kitchen/open_drawer"] == "kitchen/close_drawer"
+    assert pairs["metaworld/drawer-open"] == "metaworld/drawer-close"
+    assert pairs["metaworld/faucet-close"] == "metaworld/faucet-open"
+    assert pairs["metaworld/dial-turn"] != "metaworld/dial-turn"  # no opposite: the next task
     cut = spec.rows[2].cells["avg"].units
     assert all(u.eval.prompt_steps == get_preset("small").tables.prompt_steps for u in cut)
 
@@ -211,7 +225,7 @@ def test_a_table_is_computed_end_to_end_and_reruns_compute_nothing():
     from icil_paper.tables.execute import plan_done
 
     preset = get_preset("smoke").with_overrides(
-        ["data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer"])
+        ["data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer"])
     run_tables(preset, ["IV", "III"], executor="serial", progress=False)
     store = ResultsStore(preset.name)
     assert all(plan_done(store, p) for p in plan([table_spec(preset, "IV")]))
@@ -315,7 +329,7 @@ def test_the_executors_give_the_same_records(tmp_path, monkeypatch):
         return out
 
     args = ["reproduce", "--preset", "smoke", "--stages", "table-IV",
-            "--set", "data.kitchen_tasks=kitchen/open_drawer,kitchen/close_drawer"]
+            "--set", "data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer"]
     results = {}
     for executor in ("serial", "local", "ray"):
         monkeypatch.setenv("ICIL_RESULTS", str(tmp_path / executor))

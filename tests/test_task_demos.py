@@ -10,25 +10,26 @@ from icil_paper.config_data import ConfigError, OverrideError
 from icil_paper.runspec import DataSpec, run_spec
 
 TASKS = ("synthetic/task0", "synthetic/task1")  # the simulator-free suite
+KITCHEN = ("kitchen/open_drawer", "kitchen/close_drawer", "kitchen/open_door")
 
 
 def test_entries_parse_and_bad_ones_name_the_form():
-    assert task_demo_counts(["kitchen/pick_place:10", "kitchen/insertion:4"]) == {
-        "kitchen/pick_place": 10, "kitchen/insertion": 4}
-    for bad in (["kitchen/pick_place"], ["kitchen/pick_place:0"], ["kitchen/pick_place:x"],
+    assert task_demo_counts(["kitchen/open_drawer:10", "kitchen/close_drawer:4"]) == {
+        "kitchen/open_drawer": 10, "kitchen/close_drawer": 4}
+    for bad in (["kitchen/open_drawer"], ["kitchen/open_drawer:0"], ["kitchen/open_drawer:x"],
                 ["a:2", "a:3"]):
         with pytest.raises(ConfigError, match="task_demos"):
             task_demo_counts(bad)
     with pytest.raises(OverrideError, match="TASK:N"):
-        get_preset("smoke").with_overrides(["data.task_demos=kitchen/pick_place"])
+        get_preset("smoke").with_overrides(["data.task_demos=kitchen/open_drawer"])
 
 
 def test_a_run_carries_the_exceptions_of_its_own_tasks_only():
     preset = get_preset("small").with_overrides(
-        ["data.task_demos=kitchen/pick_place:10,maniskill/stack_cube:7"])
-    run = run_spec(preset, "icrt", "lipvq")
-    assert run.data.task_demos == ("kitchen/pick_place:10",)
-    assert run.data.demos_for("kitchen/pick_place") == 10
+        ["data.task_demos=kitchen/open_drawer:10,maniskill/stack_cube:7"])
+    run = run_spec(preset, "icrt", "lipvq", tasks=KITCHEN)
+    assert run.data.task_demos == ("kitchen/open_drawer:10",)
+    assert run.data.demos_for("kitchen/open_drawer") == 10
     assert run.data.demos_for("kitchen/open_door") == preset.data.demos_per_task
     assert run.data.most_demos == 10
     one = run_spec(preset, "act", "lipvq", tasks=["maniskill/pick_cube"])
@@ -37,14 +38,14 @@ def test_a_run_carries_the_exceptions_of_its_own_tasks_only():
 
 def test_without_exceptions_a_run_keeps_the_key_it_had_before_the_option():
     preset = get_preset("small")
-    run = run_spec(preset, "icrt", "lipvq")
+    run = run_spec(preset, "icrt", "lipvq", tasks=KITCHEN)
     from icil_paper.config_data import content_hash, to_dict
 
     keyed = to_dict(run, keyed_only=True)
     assert "task_demos" not in keyed["data"]
     assert run.key() == content_hash(keyed)
-    more = run_spec(preset.with_overrides(["data.task_demos=kitchen/insertion:9"]), "icrt",
-                    "lipvq")
+    more = run_spec(preset.with_overrides(["data.task_demos=kitchen/close_drawer:9"]), "icrt",
+                    "lipvq", tasks=KITCHEN)
     assert more.key() != run.key()
 
 
@@ -65,8 +66,9 @@ def test_training_reads_and_the_plan_generates_each_tasks_own_count(monkeypatch,
 def test_held_out_trajectories_start_after_every_tasks_training_demonstrations():
     from icil_paper.tables.definitions import feature_spec
 
-    preset = get_preset("small").with_overrides(["data.task_demos=kitchen/insertion:9"])
-    run = run_spec(preset, "icrt", "lipvq")
-    assert feature_spec(preset, run).start == 9
+    more = get_preset("small").data.demos_per_task + 3
+    preset = get_preset("small").with_overrides([f"data.task_demos=kitchen/close_drawer:{more}"])
+    run = run_spec(preset, "icrt", "lipvq", tasks=KITCHEN)
+    assert feature_spec(preset, run).start == more
     plain = run_spec(get_preset("small"), "icrt", "lipvq")
     assert feature_spec(get_preset("small"), plain).start == plain.data.demos_per_task

@@ -38,6 +38,7 @@ from icil_paper.config_data import (
 )
 from icil_paper.policies.configs import POLICY_REGISTRY
 from icil_paper.registry import ComponentRegistry, check_name
+from icil_paper.sim.metaworld.tasks import ML45_HELD_OUT, ML45_TRAIN, ROBOCASA_TASKS
 from icil_paper.tokenizers.configs import (
     TOKENIZER_REGISTRY,
     LipschitzOptions,
@@ -70,7 +71,7 @@ def task_demo_counts(entries: Sequence[str]) -> dict[str, int]:
         task, sep, n = str(entry).rpartition(":")
         if not sep or not task or not n.strip().isdigit() or int(n) < 1:
             raise ConfigError(f"task_demos entry {entry!r} is not TASK:N with N >= 1 "
-                              "(e.g. kitchen/pick_place:10)")
+                              "(e.g. kitchen/open_drawer:10)")
         if task in counts:
             raise ConfigError(f"task_demos names {task} twice")
         counts[task] = int(n)
@@ -86,25 +87,20 @@ class DataConfig(_Checked):
     demos_per_task: int = 20
     """Successful demonstrations kept per task and source."""
     task_demos: tuple[str, ...] = field(default=(), metadata=KEYED_WHEN_SET)
-    """Exceptions to `demos_per_task`, each `TASK:N` (`kitchen/pick_place:10`): N
-    demonstrations of that task (`task_demo_counts`). The reference preset gives the tasks
-    that carry a free object more (`REGIME_TASK_DEMOS`)."""
+    """Exceptions to `demos_per_task`, each `TASK:N` (`kitchen/open_drawer:10`): N
+    demonstrations of that task (`task_demo_counts`; the reference preset's are
+    `REGIME_TASK_DEMOS`)."""
     sources: tuple[str, ...] = ("generated", "human")
     """Demonstration sources: `generated` (our MimicGen stand-in) and `human` (teleoperation-like)."""
-    kitchen_tasks: tuple[str, ...] = (
-        "kitchen/pick_place",
-        "kitchen/open_door",
-        "kitchen/close_door",
-        "kitchen/open_drawer",
-        "kitchen/close_drawer",
-        "kitchen/turn_lever_on",
-        "kitchen/turn_lever_off",
-        "kitchen/twist_knob_on",
-        "kitchen/twist_knob_off",
-        "kitchen/insertion",
-        "kitchen/press_button",
-    )
-    """Kitchen skill tasks (our robosuite stand-in for RoboCasa's seven skill families)."""
+    robocasa_tasks: tuple[str, ...] = ROBOCASA_TASKS
+    """Tasks of the paper's RoboCasa tables (I, III, IV, VI, Fig. 5 and the tables that reuse
+    Table I's policies): Meta-World tasks standing in for RoboCasa's seven skill families
+    (`icil_paper.sim.metaworld.tasks`: which task stands for which family, and why). Any one
+    suite's tasks work (every task of a policy's data must share its observation widths)."""
+    zero_shot_tasks: tuple[str, ...] = ML45_TRAIN
+    """Table VII's training tasks: Meta-World's ML45 training split (45 tasks)."""
+    zero_shot_held_out: tuple[str, ...] = ML45_HELD_OUT
+    """Table VII's evaluation tasks, never trained on: ML45's five held-out tasks."""
     maniskill_tasks: tuple[str, ...] = (
         "maniskill/pick_cube",
         "maniskill/push_cube",
@@ -126,6 +122,12 @@ class DataConfig(_Checked):
     def __post_init__(self) -> None:
         super().__post_init__()
         task_demo_counts(self.task_demos)
+        held_out = set(self.zero_shot_held_out) | set(ML45_HELD_OUT)
+        leaked = [t for t in self.zero_shot_tasks if t in held_out]
+        if leaked:
+            raise ConfigError(f"data.zero_shot_tasks names {', '.join(leaked)}, held out for "
+                              "the zero-shot table (Table VII evaluates on it): remove it from "
+                              "the training tasks")
 
 
 @dataclass(frozen=True)
@@ -305,8 +307,8 @@ class TablesConfig(_Checked):
     than its share of `feature_steps`."""
     feature_steps: int = 500
     """Table III: latent features scored (the paper: 500), an equal share
-    `feature_steps // len(data.kitchen_tasks)` from every task's held-out trajectories (45
-    each for the 11 kitchen tasks); the remainder of the division is not scored, nor is the
+    `feature_steps // len(data.robocasa_tasks)` from every task's held-out trajectories (38
+    each for the 13 Meta-World tasks); the remainder of the division is not scored, nor is the
     shortfall of a task whose held-out trajectories are shorter than its share
     (`icil_paper.eval.features`)."""
     prompt_steps: int = 10
@@ -495,7 +497,9 @@ def _smoke() -> Preset:
     train = TrainConfig(steps=5, batch_size=2, warmup_steps=1, ckpt_every=2, log_every=1)
     return Preset(
         name="smoke",
-        data=DataConfig(demos_per_task=2, workers=1, expert_seeds=0),
+        data=DataConfig(demos_per_task=2, workers=1, expert_seeds=0,
+                        zero_shot_tasks=("metaworld/reach", "metaworld/drawer-open"),
+                        zero_shot_held_out=("metaworld/door-lock",)),
         tokenizers=_tokenizers(latent_dim=16, codebook_size=64, fast={"vocab_size": 300},
                                fsq={"levels": (4, 4, 4)},
                                rvq={"num_quantizers": 2, "codebook_size": 8},
@@ -531,13 +535,13 @@ def _small() -> Preset:
     train = TrainConfig(steps=200, batch_size=8, warmup_steps=30, ckpt_every=100)
     return Preset(
         name="small",
-        data=DataConfig(demos_per_task=6, workers=2, expert_seeds=0),
+        data=DataConfig(demos_per_task=10, workers=2, expert_seeds=0),
         tokenizers=_small_tokenizers(train),
         policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
                            history=10, max_seq_len=1024, resnet_width=16, query_len=0,
                            pretrain_steps=100, language=True),
         train=train,
-        eval=EvalConfig(episodes_per_task=1, max_steps=100, workers=2),
+        eval=EvalConfig(episodes_per_task=1, max_steps=150, workers=2),
         tokenizer_study=TokenizerStudyConfig(steps=400, n_trajectories=64, n_eval_trajectories=16),
         tables=TablesConfig(icrt_seeds=1, codebook_sizes=(64, 128, 256, 512),
                             image_demos_per_task=2, image_episodes_per_task=1,
@@ -575,110 +579,36 @@ REFERENCE_BUDGET_HOURS = 12.0
 first look only the claims whose next stage is cheapest go on."""
 
 
-REGIME_DEMOS, REGIME_STEPS = 3, 2000
+REGIME_DEMOS, REGIME_STEPS = 50, 2000
 """The reference preset's demonstrations per task and training steps, as the regime pilot
-chose them (`icil_paper.planning.pilot`, `results/bench/regime.json`; `_reference`)."""
-REGIME_TASK_DEMOS = ("kitchen/pick_place:10", "kitchen/insertion:10",
-                     "kitchen/twist_knob_on:5", "kitchen/twist_knob_off:5")
-"""The reference preset's tasks with demonstration counts of their own (`data.task_demos`),
-as the regime pilot chose them: at `REGIME_DEMOS` the policy never lets go of the box or
-the peg and never turns a knob (ICRT + LipVQ-VAE at 0 on every pilot seed)."""
+chose them (`icil_paper.planning.pilot`, `results/bench/regime.json`, chapter 06)."""
+REGIME_TASK_DEMOS: tuple[str, ...] = ()
+"""The reference preset's tasks with demonstration counts of their own (`data.task_demos`)."""
 
 
 def _reference() -> Preset:
-    """The committed reference run: designed from power so that its claims can be decided,
-    at a cost meant to fit in twelve hours of a 2-core machine at two cells at a time.
+    """The committed reference run: the paper's RoboCasa tables on Meta-World, Table II on
+    ManiSkill and Table V on the Kinova stand-in, at a cost meant to fit in twelve hours of a
+    2-core machine at two cells at a time.
 
-    Seeds (`icil_paper.planning.design`, whose rule `tests/test_design.py` checks): a claim is
-    decidable when the ledger's power analysis (`seeds_needed`, from the records' own
-    per-seed variances; before this run, those of the older code's records,
-    `results/reference/older-code/claims.json`) says 10 seeds a row or fewer detect the
-    paper's effect: I-tokenizer-gap (6: LipVQ-VAE vs MLP), IV-vq (8: LipVQ-VAE vs VQ-VAE)
-    and II-lipvq-vs-act (5: ACT + LipVQ-VAE vs ACT). Their rows get 10 seeds; so does every
-    other Table I row but MCR (the baselines BC-Transformer and ACT included: the
-    comparisons with them were 6-17 seeds from deciding, and a Table I row is shared by
-    Tables III-VI), and every other row a claim reads gets 5. The older records measured a
-    per-seed standard deviation of about 0.05 in kitchen success (0.2 on the Kinova
-    stand-in), so a difference of two 10-seed rows has an expected 95% half-width of about
-    2.1 * 0.05 * sqrt(2/10) = 0.047 (0.066 at 5 seeds): enough for the paper's 8.8-point
-    tokenizer gap and 5.5-point Lipschitz gain, not for its 0.2-4-point differences, which
-    stay undecided unless their true size is larger (`python -m icil_paper.planning.design`
-    prints each claim's expected half-width). Table II's other ACT rows (Bin, FAST, VQ-VAE,
-    LFQ-VAE) get 10 as well: the interim check at the run's first two seeds
-    (`python -m icil_paper.planning.design --interim`) put II-lipvq-best and II-lipvq-vs-lfq
-    at 12 seeds needed, just above the rule's line, and an ACT cell on one ManiSkill task
-    costs about 57 CPU-seconds, so their 60 extra cells cost about one CPU-hour.
+    Demonstrations and training steps (`REGIME_DEMOS`, `REGIME_STEPS`) are the regime pilot's
+    choice (`python -m icil_paper.planning.pilot regime`, `results/bench/regime.json`, chapter
+    06), on pilot seeds the run does not use: the demonstration count where more no longer
+    raises BC-Transformer's success (the paper trains every policy on plenty of MimicGen
+    data), and the budget read from ICRT + LipVQ-VAE's learning curve alone. Every row reads
+    the task's instruction, ICRT its prompt besides; training seed k of every row trains on
+    demonstration set k and plays scene set k (`scenes_per_seed`), and the ICRT rows of seed
+    k share their backbone's initial weights and batch order (common random numbers). The
+    Lipschitz tokenizers start as their plain twins and their bounds learn at
+    `matching_c_lr_scale` times the trainer's rate, so that they can travel as far relative
+    to their initial size as over the paper's 500K iterations (Table II: its 30K).
 
-    Seeds in stages (`REFERENCE_SEED_STAGES`, `tables.seed_stages`): the seeds above are
-    what the fixed design planned; under the stage schedule the ledger looks at 5, 10 and
-    15 seeds a row with group-sequential boundaries, and
-    `python -m icil_paper.planning.design --preset reference --stages` says which rows go on
-    to the next stage (`row_seeds` entries of the next sitting).
-
-    Episodes: a seed's true success varies by about 0.0016 (variance, the older records)
-    against an episode variance of sum_t p_t (1 - p_t) / T^2 = 0.007 (ICRT + LipVQ-VAE) to
-    0.012 (BC-Transformer) for one episode per task at the pilot's 2000-step rates, and an
-    ICRT seed costs about 215 s of training against 11-23 s per episode on every task (Table
-    I's evaluation alone, or with Tables V and VI's), so `stats.episodes_per_seed` puts the
-    narrowest design for the compute at 6-9 episodes per task. Variance times cost is flat
-    there: 5 episodes is within 2-4% of the optimum for ICRT and cuts the evaluation by a
-    third, so 5, with each seed on its own scene set (`scenes_per_seed`), so that scene
-    luck averages out over seeds too.
-
-    Task scale, from the pilot (`python -m icil_paper.planning.pilot`, `results/bench/pilot.json`,
-    one seed of ICRT + LipVQ-VAE and BC-Transformer on 10 episodes a task, shown in chapter
-    06): at 3000 training steps ICRT + LipVQ-VAE sat at 0.9-1.0 on 9 of 11 kitchen tasks
-    (average 0.81), where tokenizers cannot differ; at 2000 steps it averages 0.55 with
-    doors, drawers and levers at 0.85-0.9 and buttons at 0.6 (BC-Transformer 0.35); at 1500
-    it falls to 0.43. Thirty demonstrations a task instead of ten did not lift ICRT +
-    LipVQ-VAE on any family (knobs fell from 1.0 to 0). Knobs, pick-and-place and
-    insertion stay at or near 0 for both rows at 1500-2000 steps, and ManiSkill's Stack
-    Cube at 0 at every setting: the chapters report such columns as uninformative rather
-    than averaging them in silently. ManiSkill's ACT with 40 demonstrations reaches 0.2
-    (Pick Cube) and 0.8 (Push Cube) at 5000 steps, 0.3 and 0.45 at 10000: 5000 costs half
-    as much.
-
-    MCR (images; no claim reads its rows) gets 5 seeds in Table I and 3 elsewhere, with 2
-    image episodes a task: an image cell costs about ten times a state cell on CPU.
-
-    The paper's regime (the protocol since the committed records were made, which are
-    therefore older code): every policy reads the task's language instruction (the
-    `HashedTextEmbedding` stand-in for CLIP), ICRT its prompt besides; training seed k of
-    every row trains on demonstration set k (`seeding.data_set_seed`), plays scene set k,
-    and the ICRT rows of seed k start from the same backbone and draw the same batches
-    (common random numbers); the Lipschitz tokenizers start as their plain twins
-    (`weight_init="linear"`, c at the initial largest row sum) and their bounds learn at
-    `matching_c_lr_scale` times the trainer's rate (about 250 at 2000 steps), so that they
-    can travel as far relative to their initial size as over the paper's 500K iterations
-    (125) instead of 0.25 (Table II's ACT rows: matched to the paper's 30K ManiSkill
-    iterations).
-
-    Demonstrations and steps (`REGIME_DEMOS`, `REGIME_TASK_DEMOS`, `REGIME_STEPS`), from
-    the regime pilot (`python -m icil_paper.planning.pilot regime --demos 3 --task-demos
-    kitchen/pick_place:10 kitchen/insertion:10 kitchen/twist_knob_on:5
-    kitchen/twist_knob_off:5 --budgets 500 1000 2000 --seeds 3 --maniskill`, on seed
-    indices 20-22 that this run does not use; `results/bench/regime.json`, chapter 06), read
-    from ICRT + LipVQ-VAE's level alone: with ten demonstrations a task it sat at 1.0 on
-    doors, drawers, knobs and buttons at 2000 steps, with three it sits inside (0, 1) on
-    the fixture families; the tasks that carry a free object (pick-and-place, insertion) get
-    ten and the knobs five, where three left ICRT + LipVQ-VAE at 0 on every pilot seed. Its
-    learning curve still rises at the pilot's last budget, 2000 steps (`pilot.plateau`
-    finds no plateau before it), so the preset trains 2000 steps: the most the 12-hour
-    budget allows. Pick-and-place stays at or near 0 at every setting tried (the policy
-    carries the box into the bin and does not let go): the kitchen suite does not yet put
-    every family inside the pilot's range.
-
-    Projected cost at these settings (`planning.design.plan_cost`, from the rates of
-    `results/bench/cells.json` and of `results/bench/datasets.json` for the demonstration
-    sets; the README's figures): the run's first stage (every claimed row at 5 seeds,
-    `planning.staged.at_stage`) within the 12-hour target at two cells at a time; the fixed
-    design's seeds, and every claimed row taken to 15 seeds (the most the stage rule can
-    ask), beyond it.
-
-    The older protocol's run was projected, from the same rates, at 370 trained cells and
-    about 24 core-hours; what a run really costs, and the whole run projected from the CPU
-    time its finished cells measured, is in `results/reference/cost.json`
-    (`python -m icil_paper.planning.cost`)."""
+    Seeds are given in stages (`REFERENCE_SEED_STAGES`, `tables.seed_stages`) within
+    `REFERENCE_BUDGET_HOURS`; `python -m icil_paper.planning.design --preset reference`
+    prints the projected cost and each claim's expected interval. Table II keeps the earlier
+    ManiSkill pilot's setting (40 demonstrations, 5000 steps, 10 episodes a task). MCR
+    (images; no claim reads its rows) gets fewer seeds and image episodes: an image cell
+    costs about ten times a state cell on CPU."""
     small = _small()
     train = TrainConfig(steps=REGIME_STEPS, batch_size=8, warmup_steps=100, ckpt_every=500)
     return dataclasses.replace(

@@ -36,7 +36,7 @@ from icil_paper.commands import (
     preset_from_args,
 )
 from icil_paper.config import Preset
-from icil_paper.data.generate import check_data_folder, check_tasks, demo_path
+from icil_paper.data.generate import check_data_folder, check_tasks, demo_path, preset_tasks
 from icil_paper.fileio import check_env_folder
 from icil_paper.paper import check_row_seeds, run_tables, write_ledger
 from icil_paper.planning.staged import staged_preset
@@ -145,7 +145,7 @@ def check_outputs(preset: Preset) -> None:
     store, the run folders and, when a data set of the preset is missing, the data folder."""
     check_env_folder(RESULTS_ENV_VAR, "results")
     check_env_folder(RUNS_ENV_VAR, "runs")
-    tasks = tuple(preset.data.kitchen_tasks) + tuple(preset.data.maniskill_tasks)
+    tasks = preset_tasks(preset)
     if not all(demo_path(preset, t, s).exists() for t in tasks for s in preset.data.sources):
         check_data_folder(preset)
 

@@ -45,12 +45,7 @@ SUITE_VERSION = 4
 """The version of the task suites' scenes, success checks and scripted experts
 (`icil_paper.sim`), in every `DataSpec`'s and `EvalSpec`'s key, so that no run or record made
 on an older suite is returned for the current one; raise it whenever a layout range,
-fixture, success check or expert changes. 1: the first kitchen suite; 2: the kitchen
-families' layout ranges and the insertion hole set by the regime pilot
-(`icil_paper.sim.kitchen.scenes`); 3: the pick-and-place expert lets the box go as it passes
-the bin's rim (`icil_paper.sim.kitchen.experts.PickPlaceExpert`), and the peg once it is 1 cm into
-the hole; 4: pick-and-place succeeds once the hand has also moved `PickPlaceScene.CLEAR` away
-from the box, so its demonstrations show the hand opening and leaving."""
+fixture, success check or expert changes (the history is in git)."""
 
 
 @dataclass(frozen=True)
@@ -250,7 +245,7 @@ def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerCon
     seed = preset.seed if seed is None else int(seed)
     if data_set is None:
         data_set = max(0, seed - preset.seed)
-    tasks = tuple(tasks or preset.data.kitchen_tasks)
+    tasks = tuple(tasks or preset.data.robocasa_tasks)
     exceptions = task_demo_counts(preset.data.task_demos)
     data = DataSpec(tasks=tasks, source=source,
                     obs=policy_obs(policy_cfg, obs or preset.data.obs),

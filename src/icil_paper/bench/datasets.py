@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.demos is not None and args.demos < 1:
         parser.error("--demos must be at least 1")
     preset = get_preset("reference")
-    suites = {"kitchen": (preset.data.kitchen_tasks, preset.data.demos_per_task),
+    suites = {"kitchen": (preset.data.robocasa_tasks, preset.data.demos_per_task),
               "maniskill": (preset.data.maniskill_tasks,
                             preset.tables.maniskill_demos_per_task or preset.data.demos_per_task)}
     record = {"suites": {}}

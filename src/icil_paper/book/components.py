@@ -31,8 +31,8 @@ from icil_paper.metrics import ascending, rank_correlation
 from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
 
 # --------------------------------------------------------------------------- chapter 04
-DATA_TASKS = ("kitchen/open_drawer", "maniskill/pick_cube")
-"""The tasks whose data sets chapter 04 examines in full, both sources: one kitchen task
+DATA_TASKS = ("metaworld/drawer-open", "maniskill/pick_cube")
+"""The tasks whose data sets chapter 04 examines in full, both sources: one Meta-World task
 and one ManiSkill task."""
 
 
@@ -180,12 +180,12 @@ def demos_figure(demos: Mapping[tuple[str, str], Sequence[Any]], stats_frame: pd
 
 
 def zero_shot_lines() -> str:
-    """The kitchen suite's zero-shot split (trained tasks, held-out tasks), or why it is not
+    """Meta-World's zero-shot split (ML45: trained tasks, held-out tasks), or why it is not
     available here."""
     try:
         train_tasks, held_out = zero_shot_split()
     except ImportError as exc:
-        return f"kitchen suite unavailable: {exc}"
+        return f"Meta-World suite unavailable: {exc}"
     return f"zero-shot: train on {list(train_tasks)}\n           hold out {list(held_out)}"
 
 

@@ -82,7 +82,7 @@ def tokenizer_runs(preset: Preset) -> list[tuple[str, TokenizerConfig]]:
 def study_data(preset: Preset) -> DataSpec:
     """The demonstrations tokenizers are trained on alone: the `generated` demos of the
     preset's kitchen and ManiSkill tasks, state observations."""
-    return DataSpec(tasks=tuple(preset.data.kitchen_tasks) + tuple(preset.data.maniskill_tasks),
+    return DataSpec(tasks=tuple(preset.data.robocasa_tasks) + tuple(preset.data.maniskill_tasks),
                     source="generated", obs="state", demos_per_task=preset.data.demos_per_task,
                     seed=preset.seed)
 
@@ -252,11 +252,13 @@ def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
 
 
 def shown_tasks(preset: Preset) -> list[str]:
-    """Chapter 04's tasks: every task, or one per suite under the smoke preset."""
+    """Chapter 04's tasks: every task the preset's tables evaluate on (not the zero-shot
+    table's 45 training tasks), or one per suite under the smoke preset."""
     if preset.name == "smoke":
-        return [t for t in ("kitchen/open_drawer", "kinova/open_drawer", "maniskill/pick_cube")
+        return [t for t in ("metaworld/drawer-open", "kinova/open_drawer", "maniskill/pick_cube")
                 if t in sim.all_tasks()]
-    return list(sim.all_tasks())
+    trained_only = set(preset.data.zero_shot_tasks) - set(preset.data.robocasa_tasks)
+    return [t for t in preset_tasks(preset, available=True) if t not in trained_only]
 
 
 @dataclass(frozen=True)
@@ -322,13 +324,16 @@ def expert_study(preset: Preset, store: ResultsStore | None = None,
 def expert_measurements(preset: Preset, store: ResultsStore | None = None) -> list[dict]:
     """One row per task of every expert measurement there is: this preset's (`expert_study`)
     and, for a suite it did not measure, the one `python -m icil_paper.data.experts` wrote
-    to `results/experts/<suite>.json` (`from` names its commit). Rows: task, seeds, expert
+    to `results/experts/<suite>.json`, else the committed `results/bench/experts-<suite>.json`
+    (`from` names its commit). Rows: task, seeds, expert
     success (on the generated and on the human-like scenes), open-loop replay success, the
     human source's kept share and the mean length."""
     measured = {suite: {"tasks": record["tasks"], "commit": "this preset's store"}
                 for suite, record in expert_study(preset, store).items()}
     for suite in sim.SUITES:
         path = results_root() / "experts" / f"{suite}.json"
+        if not path.exists():  # the measurement committed with the repository
+            path = results_root() / "bench" / f"experts-{suite}.json"
         if suite not in measured and path.exists():
             record = json.loads(path.read_text())
             measured[suite] = {"tasks": record["tasks"],
@@ -347,7 +352,14 @@ def demo_stage(preset: Preset, store: ResultsStore | None = None, force: bool = 
     Generation is resumable and only adds what the files lack, so `force` does not apply:
     delete the files under `data/<preset>/` to regenerate them.
     """
-    return ensure_many(preset, preset_tasks(preset, available=True), SOURCES)
+    tasks = preset_tasks(preset, available=True)
+    # the zero-shot table's training tasks need no human-like source (only Table VI reads it)
+    generated_only = set(preset.data.zero_shot_tasks) - set(preset.data.robocasa_tasks)
+    paths = ensure_many(preset, [t for t in tasks if t not in generated_only], SOURCES)
+    zero_shot = [t for t in tasks if t in generated_only]
+    if zero_shot:
+        paths.update(ensure_many(preset, zero_shot, ("generated",)))
+    return paths
 
 
 def study_keys(preset: Preset) -> dict[str, set[str]]:

@@ -77,9 +77,12 @@ from icil_paper.fileio import check_writable, exclusive_lock, set_aside
 from icil_paper.registry import check_name
 from icil_paper.seeding import data_set_index
 from icil_paper.setup.provenance import REPO_ROOT
+from icil_paper.data.splits import sim_to_real_pairs
 from icil_paper.sim import (
     ACTION_DIM,
+    ALL_SUITES,
     OBS_KINDS,
+    all_tasks,
     get_suite,
     make_env,
     suite_of,
@@ -480,26 +483,43 @@ def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None
         bar.close()
 
 
+class SuiteMissing(ValueError):
+    """A suite the preset's tables need cannot run here (its message names the fix)."""
+
+
 def check_tasks(preset: Any) -> None:
     """Refuse, before any work, a preset whose task lists name a task that its suite does
     not have (UnknownNameError with a "did you mean"). A suite that cannot load here is
     not checked: its tasks are refused, with the reason, where they are used."""
     preset = _preset(preset)
-    for name, suite in (("kitchen_tasks", "kitchen"), ("maniskill_tasks", "maniskill")):
-        valid = tasks_of(suite)
-        for task in getattr(preset.data, name) if valid else ():
-            check_name(f"data.{name} task", task, valid)
+    for name in ("robocasa_tasks", "zero_shot_tasks", "zero_shot_held_out", "maniskill_tasks"):
+        for task in getattr(preset.data, name):
+            suite = task.split("/", 1)[0]
+            valid = tasks_of(suite) if suite in ALL_SUITES else all_tasks()
+            if valid:
+                check_name(f"data.{name} task", task, valid)
+    # the RoboCasa tables cannot be skipped: their suite must run here (ManiSkill's and the
+    # Kinova tasks are left out with a note where they cannot)
+    for suite in dict.fromkeys(t.split("/", 1)[0] for t in (*preset.data.robocasa_tasks,
+                                                           *preset.data.zero_shot_tasks)):
+        problem = suite_unavailable(suite) if suite in ALL_SUITES else None
+        if problem:
+            raise SuiteMissing(f"the {suite} suite, which the paper's RoboCasa tables run on, "
+                               f"cannot run here: {problem}")
 
 
 def preset_tasks(preset: Any, available: bool = False) -> tuple[str, ...]:
-    """Every task of a preset: its kitchen and ManiSkill tasks, then the Kinova tasks.
+    """Every task of a preset: its RoboCasa-table tasks, the zero-shot table's, the Panda
+    twins and Kinova tasks of the sim-to-real table, then the ManiSkill tasks.
 
     `available=True` leaves out the tasks of suites that cannot run here (a suite that does
     not load, a simulator that cannot start), saying why on stderr once per suite.
     """
     preset = _preset(preset)
-    tasks = tuple(preset.data.kitchen_tasks) + tasks_of("kinova") + tuple(
-        preset.data.maniskill_tasks)
+    twins = sorted(set(sim_to_real_pairs().values()))
+    tasks = tuple(dict.fromkeys((*preset.data.robocasa_tasks, *preset.data.zero_shot_tasks,
+                                 *preset.data.zero_shot_held_out, *twins, *tasks_of("kinova"),
+                                 *preset.data.maniskill_tasks)))
     if not available:
         return tasks
     problems: dict[str, str | None] = {}

@@ -69,9 +69,11 @@ def demo_seed(base_seed: int, source: str, index: int, attempt: int = 0) -> int:
     return int(base_seed) + SOURCE_SEED_OFFSET[source] + int(index) + int(attempt) * ATTEMPT_STRIDE
 
 
-ACTION_SCALES = {"maniskill": (0.1, 0.1), "kitchen": (0.05, 0.5), "kinova": (0.05, 0.5)}
+ACTION_SCALES = {"maniskill": (0.1, 0.1), "kitchen": (0.05, 0.5), "kinova": (0.05, 0.5),
+                 "metaworld": (0.01, 0.5)}
 """(metres, radians) of end-effector motion per action unit in each suite (the suites'
-controller bounds: ManiSkill's pd_ee_delta_pose, robosuite's OSC_POSE)."""
+controller bounds: ManiSkill's pd_ee_delta_pose, robosuite's OSC_POSE, Meta-World's mocap
+step of 1 cm; Meta-World ignores rotation)."""
 
 
 @dataclass(frozen=True)

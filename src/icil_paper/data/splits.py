@@ -1,8 +1,8 @@
 """Splits: train/valid demos within a file, and the task splits of the generalization tables.
 
 - `train_valid_split`: robomimic's `mask/train` / `mask/valid` filter keys, a seeded shuffle.
-- `zero_shot_split`: the kitchen tasks trained on and the ones held out (Table VI's zero-shot
-  setting, `KITCHEN_ZERO_SHOT_SPLIT` of the kitchen suite).
+- `zero_shot_split`: a suite's tasks trained on and held out in the zero-shot setting (Table
+  VII's: Meta-World's ML45 split, `icil_paper.sim.metaworld.tasks`).
 - `sim_to_real_pairs`: each Kinova task (our sim-to-real stand-in) with the Panda kitchen task
   of the same skill, e.g. `kinova/open_drawer` <- `kitchen/open_drawer`.
 """
@@ -50,11 +50,12 @@ def _normalize_split(split) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return tuple(train), tuple(held)
 
 
-def zero_shot_split() -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(training tasks, held-out tasks) of the kitchen suite's zero-shot setting (Table VI)."""
-    split = get_suite("kitchen", "the kitchen zero-shot split").zero_shot_split
+def zero_shot_split(suite: str = "metaworld") -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(training tasks, held-out tasks) of a suite's zero-shot setting (Meta-World's ML45:
+    Table VII's)."""
+    split = get_suite(suite, f"the {suite} zero-shot split").zero_shot_split
     if split is None:
-        raise ValueError("the kitchen suite defines no zero-shot split")
+        raise ValueError(f"the {suite} suite defines no zero-shot split")
     train, held = _normalize_split(split)
     overlap = set(train) & set(held)
     if overlap:

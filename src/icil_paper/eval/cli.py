@@ -35,8 +35,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="tasks to evaluate on (default: the tasks the policy was trained on)")
     p.add_argument("--train-tasks", nargs="+", default=None,
                    help="the training run's tasks, to find its folder (default: see --suite)")
-    p.add_argument("--suite", choices=("kitchen", "maniskill"), default="kitchen",
-                   help="the training run's suite when --train-tasks is not given")
+    p.add_argument("--suite", choices=("robocasa", "maniskill"), default="robocasa",
+                   help="the training run's tasks when --train-tasks is not given: the preset's "
+                        "tasks of the paper's RoboCasa tables (Meta-World) or of Table II")
     p.add_argument("--source", default="generated", help="the training run's demonstration source")
     p.add_argument("--prompt-source", default="generated", help="where prompt demonstrations come from")
     p.add_argument("--eval-seed", type=int, default=None,

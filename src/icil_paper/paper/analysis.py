@@ -88,7 +88,7 @@ def spec(preset: Preset) -> TableSpec:
     gamma, small initial bounds, a larger learning rate of the bounds), that remedy codebook
     collapse, and that train on ICRT's own 32-step random windows instead of whole
     episodes; success and the trained encoders' smoothness and Lipschitz facts."""
-    tasks = preset.data.kitchen_tasks
+    tasks = preset.data.robocasa_tasks
     rows = []
     for name, tokenizer, changes in ANALYSIS_VARIANTS:
         policy, tok = _variant(preset, tokenizer, changes)

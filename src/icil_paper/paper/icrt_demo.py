@@ -26,7 +26,7 @@ from icil_paper.runspec import EvalSpec, RunSpec
 from icil_paper.tables.definitions import label, row_seeds, seed_runs, tasks_cell
 from icil_paper.tables.spec import Row, TableSpec
 
-ICRT_DEMO_TASK = "kitchen/open_drawer"
+ICRT_DEMO_TASK = "metaworld/drawer-open"
 """Chapter 02's task: one small ICRT trained and rolled out on it."""
 ICRT_DEMO_TOKENIZER = "lipvq"
 """Chapter 02's action tokenizer (the paper's LipVQ-VAE)."""

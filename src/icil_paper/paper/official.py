@@ -144,7 +144,7 @@ def spec(preset: Preset) -> TableSpec:
     prompts drawn from the training minibatch; Table I's protocol and episodes, success per
     family and on average, and each trained tokenizer's latent features (codes used: the
     official design is known to collapse its codebook)."""
-    tasks = preset.data.kitchen_tasks
+    tasks = preset.data.robocasa_tasks
     configs = official_configs(preset)
     paper_rows = {OFFICIAL_PAPER_LIPVQ: label("icrt", "lipvq"),
                   OFFICIAL_PAPER_BIN: label("icrt", "bin")}

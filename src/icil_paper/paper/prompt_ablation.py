@@ -25,11 +25,13 @@ from icil_paper.tables.spec import Cell, Row, TableSpec, Unit
 
 def other_task(task: str, tasks: Sequence[str]) -> str:
     """The task whose prompt stands in as the wrong one: the same fixture's opposite goal
-    (open/close, on/off) where there is one, else the next task of the list."""
+    (open/close, on/off: `metaworld/drawer-open` -> `metaworld/drawer-close`) where there is
+    one, else the next task of the list."""
     suite, name = task.split("/", 1)
     swaps = [f"{suite}/{b}{name[len(a):]}" for a, b in (("open_", "close_"), ("close_", "open_"))
              if name.startswith(a)]
-    swaps += [f"{suite}/{name[:-len(a)]}{b}" for a, b in (("_on", "_off"), ("_off", "_on"))
+    swaps += [f"{suite}/{name[:-len(a)]}{b}" for a, b in (("_on", "_off"), ("_off", "_on"),
+                                                          ("-open", "-close"), ("-close", "-open"))
               if name.endswith(a)]
     for candidate in swaps:
         if candidate in tasks:
@@ -40,7 +42,7 @@ def other_task(task: str, tasks: Sequence[str]) -> str:
 def spec(preset: Preset) -> TableSpec:
     """The prompt ablation: Table I's ICRT + LipVQ-VAE runs with the right prompt, another
     task's (`other_task`) and the first `tables.prompt_steps` steps of its own."""
-    tasks = list(preset.data.kitchen_tasks)
+    tasks = list(preset.data.robocasa_tasks)
     runs = table_i_runs(preset, "icrt", "lipvq")
     right = tasks_cell(preset, runs, tasks)
     wrong = Cell(tuple(Unit(s, run, evaluation(preset, run, task, s,

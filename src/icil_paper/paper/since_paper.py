@@ -49,7 +49,7 @@ def spec(preset: Preset) -> TableSpec:
     trained tokenizer's latent features (as in Table III and the analysis table). Its VQ-VAE
     and LipVQ-VAE rows are Table I's policies (the same RunSpecs, trained once), with more
     seeds where `since_paper_seeds` asks for them."""
-    tasks = preset.data.kitchen_tasks
+    tasks = preset.data.robocasa_tasks
     rows = []
     for tokenizer in SINCE_PAPER_TOKENIZERS:
         seeds = row_seeds(preset, "beyond", label("icrt", tokenizer), since_paper_seeds(preset))

@@ -53,7 +53,7 @@ TABLE_I_ROBOCASA = family_rows({
 def spec(preset: Preset) -> TableSpec:
     """Table I at the preset's sizes: every row's runs (`table_i_runs`), a cell per
     family and "avg", and the codebook rows' features beside."""
-    tasks = preset.data.kitchen_tasks
+    tasks = preset.data.robocasa_tasks
     rows = []
     for p, t in TABLE_I_ROWS:
         runs = table_i_runs(preset, p, t)

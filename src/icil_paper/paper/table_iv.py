@@ -52,7 +52,7 @@ FIG5_CODEBOOK_SIZE = {256: 0.475, 512: 0.509, 1024: 0.530, 2048: 0.511}
 def spec(preset: Preset) -> TableSpec:
     """Table IV: Table I's ICRT runs with MLP, Lip-MLP, VQ-VAE and LipVQ-VAE, average success
     over the kitchen tasks, the codebook rows' features beside."""
-    tasks = preset.data.kitchen_tasks
+    tasks = preset.data.robocasa_tasks
     rows = []
     for p, t in TABLE_IV_ROWS:
         runs = table_i_runs(preset, p, t)
@@ -68,7 +68,7 @@ def spec(preset: Preset) -> TableSpec:
 def fig5_spec(preset: Preset) -> TableSpec:
     """Fig. 5: ICRT + LipVQ-VAE at each of the preset's `tables.codebook_sizes`, its i-th size
     beside the paper's i-th; the size of Table I's cell reuses Table I's runs."""
-    tasks = preset.data.kitchen_tasks
+    tasks = preset.data.robocasa_tasks
     base = preset.tokenizers.lipvq
     rows = []
     # the sweep is scaled to the preset's model: its i-th size stands beside the paper's

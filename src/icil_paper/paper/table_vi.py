@@ -68,7 +68,7 @@ def spec(preset: Preset) -> TableSpec:
     every row alike; ICRT's prompts come from the human-like source (whose demonstrations
     are played on those scenes too). Episode i of a task has the same seed as in Table I, so
     each row's change from Table I is measured on paired episodes."""
-    tasks = preset.data.kitchen_tasks
+    tasks = preset.data.robocasa_tasks
     rows = tuple(Row(label(p, t), family_cells(preset, table_i_runs(preset, p, t), tasks,
                                                scenes="human", prompt_source="human"),
                      TABLE_VI_CROSS_DATASET[label(p, t)]) for p, t in TABLE_I_ROWS)

@@ -159,17 +159,27 @@ def main(argv: list[str] | None = None) -> None:
 
 
 # --------------------------------------------------------------------------- the regime
-REGIME_ROWS = (("icrt", "lipvq"), ("icrt", "lip-mlp"), ("bc_transformer", None))
-"""The kitchen rows the regime pilot trains: the first at every budget (its learning curve
-and level alone set the regime), the others at the budget it chose, reported beside it."""
+REGIME_ROWS = (("icrt", "lipvq"), ("icrt", "mlp"), ("icrt", "vq"), ("bc_transformer", None))
+"""The RoboCasa-table rows the regime pilot trains: the first at every budget (its learning
+curve and level alone set the regime), the others at the budget it chose, reported beside it;
+their per-episode outcomes are kept so that the reference run's seeds and episodes can be
+planned from paired variances."""
+DATA_CURVE_ROW = ("bc_transformer", None)
+"""The row of the data curve: the policy that is not in-context, which more demonstrations
+help most; the count is chosen where more no longer raises its success beyond noise."""
+DATA_COUNTS = (10, 25, 50)
+"""Demonstrations per task of the data curve (at least three)."""
 REGIME_MANISKILL_ROWS = (("act", "lipvq"),)
 """The ManiSkill rows of the regime pilot (one policy per task, as Table II)."""
 REGIME_SEED = 20
 """The regime pilot's first seed index: its training seeds, demonstration sets
 (`seeding.data_set_seed`) and scene sets are preset.seed + 20, 21, ...; the reference run
 uses 0-9, so choosing the regime cannot select for a result the reference run reports."""
-REGIME_BUDGETS = (500, 1000, 2000, 4000)
+REGIME_BUDGETS = (500, 1000, 2000)
 """Training steps of the regime pilot's learning curve (at least three)."""
+REGIME_EPISODES = 10
+"""Rollouts per task of every pilot evaluation (fixed here, so that the pilot's records do not
+depend on the reference preset's episodes, which are planned from them)."""
 REGIME_RANGE = (0.1, 0.9)
 """Every family of ICRT + LipVQ-VAE at its plateau should lie in this range."""
 
@@ -180,7 +190,8 @@ def regime_preset(demos_per_task: int, steps: int, overrides: tuple[str, ...] = 
     `task_demos` as `TASK:N`, training steps), its Lipschitz bounds' learning-rate multiple
     matched to those steps as the presets match theirs (`config.matching_c_lr_scale`)."""
     preset = get_preset("reference").with_overrides(
-        [f"data.demos_per_task={demos_per_task}", f"train.steps={steps}", *overrides])
+        [f"data.demos_per_task={demos_per_task}", f"train.steps={steps}",
+         f"eval.episodes_per_task={REGIME_EPISODES}", *overrides])
     preset = preset.replace(data={"task_demos": tuple(task_demos)})
     scale = round(matching_c_lr_scale(preset.train), 3)
     changes = {}
@@ -201,7 +212,7 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
     for k in range(REGIME_SEED, REGIME_SEED + seeds):
         for policy, tokenizer in rows:
             run = run_spec(preset, policy, tokenizer, seed=preset.seed + k)
-            evals = [table_eval(preset, run, task, k) for task in preset.data.kitchen_tasks]
+            evals = [table_eval(preset, run, task, k) for task in preset.data.robocasa_tasks]
             features = ([feature_spec(preset, run)] if tokenizer and "lip" in tokenizer else [])
             out.append(RunPlan(run, {eval_key(run, e): e for e in evals},
                                {feature_key(run, f): f for f in features}))
@@ -238,8 +249,20 @@ def _per_seed(store: Any, plans: list[Any]) -> dict[str, list[dict[str, Any]]]:
                 capped = record["metrics"].get("capped_fraction")
         suite = p.run.data.tasks[0].split("/", 1)[0]
         rows.setdefault(f"{suite}:{p.run.label}", []).append(
-            {"seed": p.run.seed, "tasks": tasks, "capped": capped})
+            {"seed": p.run.seed, "tasks": tasks, "capped": capped,
+             "episodes": _episodes(store, p)})
     return rows
+
+
+def _episodes(store: Any, plan: Any) -> dict[str, list[bool]] | None:
+    """{task: per-episode successes} of a plan's stored evaluations (None: one is missing)."""
+    out = {}
+    for ev in plan.evals.values():
+        record = store.get(*eval_record(plan.run, ev))
+        if record is None:
+            return None
+        out[ev.task] = [bool(e["success"]) for e in record["metrics"]["per_episode"]]
+    return out
 
 
 def _any_features(store: Any, run: Any, spec: Any) -> dict[str, Any] | None:
@@ -281,48 +304,86 @@ def plateau(curve: dict[int, list[float]], episodes: int) -> int | None:
     return None
 
 
-def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
-                  maniskill: bool = False, task_demos: tuple[str, ...] = ()) -> dict[str, Any]:
-    """The regime pilot's record (`results/bench/regime.json`'s schema) from the stored
-    records of every budget: the learning curve of every row, the plateau of ICRT +
-    LipVQ-VAE (`plateau`), and at that budget (or the last one, when no plateau is reached)
-    each row's success per family (ManiSkill: per task) and its capped share of encoder
-    rows per seed. Difficulty is read from ICRT + LipVQ-VAE's level alone."""
+def data_curve_record(counts: tuple[int, ...], steps: int, seeds: int) -> dict[str, Any]:
+    """The data curve: `DATA_CURVE_ROW`'s success (mean over tasks, per seed) at each count of
+    demonstrations per task, trained `steps` steps; `saturated` says whether the largest count
+    gains nothing beyond noise over the one before (`plateau` on the last two counts), so that
+    the regime trains every row where more demonstrations no longer help."""
     store = ResultsStore("reference")
+    policy, tokenizer = DATA_CURVE_ROW
+    curve: dict[int, list[float]] = {}
+    episodes = 0
+    for n in counts:
+        preset = regime_preset(n, steps)
+        episodes = preset.eval.episodes_per_task * len(preset.data.robocasa_tasks) * seeds
+        rows = _per_seed(store, regime_plans(preset, seeds, rows=(DATA_CURVE_ROW,)))
+        per_seed = next(iter(rows.values()), [])
+        curve[n] = [_mean(list(s["tasks"].values())) for s in per_seed
+                    if None not in s["tasks"].values()]
+    done = {n: v for n, v in curve.items() if len(v) == seeds}
+    last = sorted(done)[-2:]
+    saturated = (len(done) == len(counts) and len(last) == 2
+                 and plateau({n: done[n] for n in last}, episodes) == last[0])
+    return {"row": f"{policy}+{tokenizer}" if tokenizer else policy, "train_steps": steps,
+            "counts": list(counts), "seeds": seeds,
+            "curve": {str(n): _mean(v) for n, v in curve.items()},
+            "per_seed": {str(n): v for n, v in curve.items()},
+            "saturated": saturated,
+            "chosen": max(counts) if saturated else None}
+
+
+def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
+                  maniskill: bool = False, task_demos: tuple[str, ...] = (),
+                  data_counts: tuple[int, ...] = (), data_seeds: int = 0) -> dict[str, Any]:
+    """The regime pilot's record (`results/bench/regime.json`'s schema) from the stored
+    records: the data curve (`data_curve_record`, when `data_counts` are given), the learning
+    curve of every row, the plateau of ICRT + LipVQ-VAE (`plateau`), and at that budget (or
+    the last one, when no plateau is reached) each row's success per family (ManiSkill: per
+    task), its per-episode outcomes per seed and its capped share of encoder rows per seed.
+    Difficulty is read from ICRT + LipVQ-VAE's level alone."""
+    store = ResultsStore("reference")
+    preset = regime_preset(demos_per_task, budgets[-1], task_demos=task_demos)
+    suite = preset.data.robocasa_tasks[0].split("/", 1)[0]
     curve: dict[str, dict[int, list[float]]] = {}
     by_budget = {}
     for steps in budgets:
-        preset = regime_preset(demos_per_task, steps, task_demos=task_demos)
-        rows = _per_seed(store, regime_plans(preset, seeds, maniskill))
+        at_steps = regime_preset(demos_per_task, steps, task_demos=task_demos)
+        rows = _per_seed(store, regime_plans(at_steps, seeds, maniskill))
         by_budget[steps] = rows
         for label, per_seed in rows.items():
-            if label.startswith("kitchen:"):
+            if label.startswith(f"{suite}:"):
                 averages = [_mean(list(s["tasks"].values())) for s in per_seed
                             if None not in s["tasks"].values()]
                 curve.setdefault(label.split(":", 1)[1], {})[steps] = averages
-    preset = regime_preset(demos_per_task, budgets[-1], task_demos=task_demos)
-    kitchen_episodes = preset.eval.episodes_per_task * len(preset.data.kitchen_tasks)
+    episodes = preset.eval.episodes_per_task * len(preset.data.robocasa_tasks)
     lip = curve.get("icrt+lipvq", {})
-    chosen = plateau({b: v for b, v in lip.items() if v}, kitchen_episodes * seeds)
+    chosen = plateau({b: v for b, v in lip.items() if v}, episodes * seeds)
     at = chosen if chosen is not None else max((b for b, v in lip.items() if v), default=None)
     record: dict[str, Any] = {
+        "suite": suite, "tasks": list(preset.data.robocasa_tasks),
         "train_steps": at, "plateau_reached": chosen is not None,
         "demos_per_task": demos_per_task, "task_demos": task_demo_counts(task_demos),
         "seeds": seeds,
         "seed_indices": list(range(REGIME_SEED, REGIME_SEED + seeds)),
+        "episodes_per_task": preset.eval.episodes_per_task,
         "budgets": list(budgets), "budgets_done": sorted(b for b, v in lip.items() if v),
-        "families": {}, "maniskill": {},
+        "families": {}, "maniskill": {}, "outcomes": {},
         "learning_curve": {row: {str(b): _mean(v) for b, v in sorted(c.items())}
                            for row, c in curve.items()},
         "capped_share": {}}
+    if data_counts:
+        record["data_curve"] = data_curve_record(tuple(data_counts), budgets[-1],
+                                                 data_seeds or seeds)
     for label, per_seed in (by_budget.get(at, {}) if at is not None else {}).items():
-        suite, row = label.split(":", 1)
-        if suite == "kitchen":
+        row_suite, row = label.split(":", 1)
+        if row_suite == suite:
             fam = {}
-            for column, tasks in families(list(preset.data.kitchen_tasks)).items():
-                fam[column] = _mean([_mean([s["tasks"].get(t) for t in tasks])
-                                     for s in per_seed])
+            for column, tasks in families(list(preset.data.robocasa_tasks)).items():
+                if tasks:
+                    fam[column] = _mean([_mean([s["tasks"].get(t) for t in tasks])
+                                         for s in per_seed])
             record["families"][row] = fam
+            record["outcomes"][row] = {str(s["seed"]): s["episodes"] for s in per_seed}
             shares = [s["capped"] for s in per_seed]
             if any(v is not None for v in shares):
                 record["capped_share"][row] = shares
@@ -339,31 +400,39 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
     return record
 
 
-def _train_regime_cells(preset: Any, plans: list[Any], workers: int, steps: int) -> None:
-    """Train and evaluate the plans' cells not yet stored (their data generated first)."""
+def _regime_cells(preset: Any, plans: list[Any], label: str) -> list[Any]:
+    """The grid cells of the plans not yet stored (their data generated first)."""
     store = ResultsStore("reference")
     todo = [p for p in plans if not plan_done(store, p)]
-    if not todo:
-        return
-    ensure_data(preset, todo, progress=False)
-    cells = [plan_cell(preset, p, f"regime {steps}: {cell_label(p.run)}") for p in todo]
-    cells.sort(key=lambda c: "icrt" not in c.label)  # the longest first
-    run_grid(cells, workers=workers)
+    if todo:
+        ensure_data(preset, todo, progress=False)
+    return [plan_cell(preset, p, f"{label}: {cell_label(p.run)}") for p in todo]
+
+
+def _run_cells(cells: list[Any], workers: int) -> None:
+    """Train and evaluate the cells, each once (two settings can share one), longest first."""
+    unique = {c.key: c for c in cells}
+    if unique:
+        run_grid(sorted(unique.values(), key=lambda c: "icrt" not in c.label), workers=workers)
 
 
 def regime_main(argv: list[str] | None = None) -> None:
-    """`python -m icil_paper.planning.pilot regime`: train and evaluate ICRT + LipVQ-VAE at
-    every budget (its learning curve), then the rows reported beside it (ICRT + Lip-MLP,
-    BC-Transformer and, with `--maniskill`, ACT + LipVQ-VAE on each ManiSkill task) at the
-    budget the curve chose (`regime_record`), and write `results/bench/regime.json`.
+    """`python -m icil_paper.planning.pilot regime`: the data curve (`DATA_CURVE_ROW` at each
+    count of `--data-counts`, trained the largest budget) and ICRT + LipVQ-VAE's learning
+    curve at every budget (at `--demos`, default the largest count), then the rows reported
+    beside it (`REGIME_ROWS`, and with `--maniskill` ACT + LipVQ-VAE on each ManiSkill task)
+    at the budget the curve chose (`regime_record`); writes `results/bench/regime.json`.
     Resumable: every finished record is kept under `results/pilot/`."""
     parser = argparse.ArgumentParser(prog="pilot regime", description=regime_main.__doc__)
-    parser.add_argument("--demos", type=int, default=10, help="demonstrations per task")
+    parser.add_argument("--demos", type=int, default=None,
+                        help="demonstrations per task (default: the largest data count)")
     parser.add_argument("--task-demos", nargs="*", default=[], metavar="TASK:N",
                         help="tasks trained on other numbers of demonstrations "
-                             "(kitchen/pick_place:10)")
+                             "(metaworld/pick-place:50)")
+    parser.add_argument("--data-counts", type=int, nargs="*", default=list(DATA_COUNTS))
+    parser.add_argument("--data-seeds", type=int, default=2)
     parser.add_argument("--budgets", type=int, nargs="+", default=list(REGIME_BUDGETS))
-    parser.add_argument("--seeds", type=int, default=2)
+    parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--maniskill", action="store_true")
     parser.add_argument("--no-beside", action="store_true",
                         help="train ICRT + LipVQ-VAE's learning curve only")
@@ -372,8 +441,14 @@ def regime_main(argv: list[str] | None = None) -> None:
                         help="write regime.json from the stored records without training")
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
-    if len(args.budgets) < 3 or min(args.budgets) < 1 or args.seeds < 1 or args.demos < 1:
-        parser.error("give at least three positive budgets, and positive --seeds and --demos")
+    counts = tuple(sorted(set(args.data_counts)))
+    if counts and len(counts) < 3:
+        parser.error("give at least three --data-counts (or none)")
+    demos = args.demos or (max(counts) if counts else None)
+    if (len(args.budgets) < 3 or min(args.budgets) < 1 or args.seeds < 1 or not demos
+            or demos < 1 or args.data_seeds < 1):
+        parser.error("give at least three positive budgets, and positive --seeds, "
+                     "--data-seeds and --demos")
     try:
         task_demos = tuple(f"{t}:{n}" for t, n in task_demo_counts(args.task_demos).items())
     except ValueError as exc:
@@ -383,21 +458,30 @@ def regime_main(argv: list[str] | None = None) -> None:
     os.environ["ICIL_RESULTS"] = str(root / PILOT_FOLDER)
     os.environ.setdefault("ICIL_RUNS", str(Path("runs") / PILOT_FOLDER))
     budgets = tuple(sorted(set(args.budgets)))
-    curve_row, beside = REGIME_ROWS[0], REGIME_ROWS[1:]
+    curve_row = REGIME_ROWS[0]
+    beside = tuple(r for r in REGIME_ROWS[1:])
     if not args.summary_only:
-        for steps in budgets:  # the cheapest budget first: a stopped pilot has its start
-            preset = regime_preset(args.demos, steps, task_demos=task_demos)
-            _train_regime_cells(preset, regime_plans(preset, args.seeds, rows=(curve_row,)),
-                                args.workers, steps)
-        chosen = regime_record(args.demos, budgets, args.seeds,
+        cells = []
+        for n in counts:  # the data curve, at the largest budget
+            preset = regime_preset(n, budgets[-1])
+            cells += _regime_cells(preset, regime_plans(preset, args.data_seeds,
+                                                        rows=(DATA_CURVE_ROW,)), f"data {n}")
+        for steps in budgets:  # the learning curve
+            preset = regime_preset(demos, steps, task_demos=task_demos)
+            cells += _regime_cells(preset, regime_plans(preset, args.seeds, rows=(curve_row,)),
+                                   f"regime {steps}")
+        _run_cells(cells, args.workers)
+        chosen = regime_record(demos, budgets, args.seeds,
                                task_demos=task_demos)["train_steps"]
         if not args.no_beside and chosen is not None:
-            preset = regime_preset(args.demos, chosen, task_demos=task_demos)
-            _train_regime_cells(preset, regime_plans(preset, args.seeds, args.maniskill,
-                                                     rows=beside), args.workers, chosen)
-    record = regime_record(args.demos, budgets, args.seeds, args.maniskill, task_demos)
-    print(json.dumps({k: record[k] for k in ("train_steps", "learning_curve", "families",
-                                             "capped_share", "within_range")}), flush=True)
+            preset = regime_preset(demos, chosen, task_demos=task_demos)
+            _run_cells(_regime_cells(preset, regime_plans(preset, args.seeds, args.maniskill,
+                                                          rows=beside), f"regime {chosen}"),
+                       args.workers)
+    record = regime_record(demos, budgets, args.seeds, args.maniskill, task_demos,
+                           data_counts=counts, data_seeds=args.data_seeds)
+    print(json.dumps({k: record.get(k) for k in ("train_steps", "learning_curve", "families",
+                                                 "data_curve", "within_range")}), flush=True)
     save_benchmark("regime", record, args.out or root / "bench" / "regime.json")
 
 

@@ -45,6 +45,16 @@ for _ in range(20):
 print(f"mani_skill {mani_skill.__version__}: PickCube-v1 reset and 20 steps (physx_cpu)")
 """
 
+_METAWORLD = """
+import metaworld
+from metaworld.env_dict import ALL_V3_ENVIRONMENTS_GOAL_OBSERVABLE as envs
+env = envs["drawer-open-v3-goal-observable"](seed=0)
+env.reset()
+for _ in range(20):
+    env.step(env.action_space.sample())
+print("metaworld: drawer-open-v3 (goal observable) reset and 20 steps")
+"""
+
 _OFFSCREEN = """
 import os
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -63,6 +73,8 @@ print(f"MuJoCo offscreen rendering with MUJOCO_GL={os.environ['MUJOCO_GL']}: 64x
 
 _FIXES = {
     "robosuite": "run `make setup` (robosuite 1.5.2 needs mujoco 3.3.x, not 4.x)",
+    "metaworld": "run `make setup` (it installs metaworld==3.1.1 with --no-deps beside the "
+                 "pinned mujoco 3.3.7)",
     "maniskill": "ManiSkill needs a Vulkan device: `make setup` installs Mesa's lavapipe on "
                  "Debian 12 as root; see `python -m icil_paper.setup.system_deps`",
     "offscreen rendering": "install an EGL driver (Debian: libegl1 libegl-mesa0) or set "
@@ -86,8 +98,9 @@ def _run_check(name: str, code: str, timeout: float = 180) -> Check:
 
 
 def check_simulators() -> list[Check]:
-    """Run the robosuite, ManiSkill and offscreen-rendering checks."""
-    return [_run_check("robosuite", _ROBOSUITE), _run_check("maniskill", _MANISKILL),
+    """Run the Meta-World, robosuite, ManiSkill and offscreen-rendering checks."""
+    return [_run_check("metaworld", _METAWORLD), _run_check("robosuite", _ROBOSUITE),
+            _run_check("maniskill", _MANISKILL),
             _run_check("offscreen rendering", _OFFSCREEN)]
 
 

@@ -3,15 +3,17 @@
 Suites, named by the prefix of a task name, each one `Suite` record (`icil_paper.sim.suite`) in
 `SUITE_ENTRIES`:
 
-- `kitchen/...`   kitchen skill tasks on robosuite (our stand-in for RoboCasa's skill families;
-                  the `sim/kitchen/` package);
-- `kinova/...`    the door and drawer tasks on robosuite's Kinova3 arm with perturbed dynamics
-                  (our stand-in for the paper's sim-to-real transfer); same spaces as `kitchen`;
+- `metaworld/...` Meta-World's 50 tasks (`sim/metaworld/`): 13 stand in for RoboCasa's seven
+                  skill families, ML45 is the zero-shot split;
+- `kitchen/...`   door and drawer tasks on robosuite's Panda (`sim/kitchen/`), the simulated
+                  side of the sim-to-real table;
+- `kinova/...`    the same tasks on robosuite's Kinova3 arm with perturbed dynamics (our
+                  stand-in for the paper's real robot); same spaces as `kitchen`;
 - `maniskill/...` PickCube, PushCube and StackCube of ManiSkill 3 (Table II; `sim/maniskill/`);
 - `synthetic/...` a simulator-free reach task family (`icil_paper.sim.synthetic`) for tests and
                   sanity checks.
 
-`SUITES` are the three simulated suites of the paper's tables (what studies, notebooks and
+`SUITES` are the simulated suites of the paper's tables (what studies, notebooks and
 `TASKS` iterate over); `ALL_SUITES` adds `synthetic`, whose tasks every function here accepts
 but `TASKS` / `all_tasks()` leave out.
 
@@ -49,9 +51,10 @@ from icil_paper.registry import Registry, UnknownNameError, check_name
 ACTION_DIM = 7
 """Every task's action: [dx, dy, dz, drx, dry, drz, gripper], all in [-1, 1]."""
 OBS_KINDS = ("state", "rgb", "rgbd")
-SUITES = ("kitchen", "kinova", "maniskill")
+SUITES = ("metaworld", "kitchen", "kinova", "maniskill")
 """The simulated suites of the paper's tables, in display order."""
 SUITE_ENTRIES = {
+    "metaworld": "icil_paper.sim.metaworld:METAWORLD_SUITE",
     "kitchen": "icil_paper.sim.kitchen:KITCHEN_SUITE",
     "kinova": "icil_paper.sim.kitchen:KINOVA_SUITE",
     "maniskill": "icil_paper.sim.maniskill:MANISKILL_SUITE",
@@ -65,7 +68,7 @@ GYM_NAMESPACE = "icil_paper"
 __all__ = ["ACTION_DIM", "ALL_SUITES", "OBS_KINDS", "SUITES", "SUITE_ENTRIES", "TASKS",
            "SuiteUnavailable", "UnknownNameError", "all_tasks", "get_suite", "gym_id",
            "make_env", "make_expert", "object_position", "obs_dims", "register_gym_envs",
-           "scene_distributions", "suite_of", "suite_unavailable", "tasks_of"]
+           "scene_distributions", "suite_of", "suite_unavailable", "task_family", "tasks_of"]
 
 
 class SuiteUnavailable(ImportError):
@@ -121,6 +124,14 @@ def suite_of(name: str) -> str:
         check_name("task", name, all_tasks())  # raises, listing the valid names
     check_name("task", name, get_suite(prefix, f"task {name!r}").tasks)
     return prefix
+
+
+def task_family(task: str) -> str | None:
+    """The paper's skill family (`SKILL_FAMILIES`) that `task` stands in for, or None (a task
+    of a suite without families, or of none of them)."""
+    prefix = str(task).split("/", 1)[0]
+    record, _ = _load(prefix) if prefix in SUITE_ENTRIES else (None, None)
+    return None if record is None else record.family_of(task)
 
 
 def obs_dims(suite: str) -> tuple[int, int]:

@@ -21,6 +21,11 @@ from dataclasses import dataclass
 from typing import Any
 
 
+SKILL_FAMILIES = ("Pick and Place", "Open/Close Doors", "Open/Close Drawers", "Turning Levers",
+                  "Twisting Knobs", "Insertion", "Pressing Buttons")
+"""RoboCasa's seven skill families, in the column order of the paper's RoboCasa tables."""
+
+
 def always_available() -> str | None:
     """The availability check of a suite that needs nothing beyond the library itself."""
     return None
@@ -54,5 +59,13 @@ class Suite:
     scenes: tuple[str, ...] = ()
     """Named scene distributions that `make_env`'s `scenes` option selects, the default
     first; empty when the suite has one and takes no such option."""
+    families: Mapping[str, Sequence[str]] | None = None
+    """The paper's skill families (`SKILL_FAMILIES`) -> this suite's tasks of that family,
+    for suites that stand in for RoboCasa's tables."""
     description: str = ""
     """One line on what the suite is."""
+
+    def family_of(self, task: str) -> str | None:
+        """The skill family of one of the suite's tasks, or None."""
+        return next((family for family, tasks in (self.families or {}).items()
+                     if task in tasks), None)

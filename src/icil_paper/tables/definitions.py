@@ -1,7 +1,7 @@
 """What every result's table spec is built from: a row's runs, their evaluations, its cells.
 
-    runs = seed_runs(preset, "icrt", "lipvq", preset.data.kitchen_tasks, seeds=3)
-    cells = family_cells(preset, runs, preset.data.kitchen_tasks)   # a column per family + avg
+    runs = seed_runs(preset, "icrt", "lipvq", preset.data.robocasa_tasks, seeds=3)
+    cells = family_cells(preset, runs, preset.data.robocasa_tasks)   # a column per family + avg
     Row("icrt+lipvq", cells, paper_row)                             # one row of a TableSpec
 
 The results themselves (Tables I-VII, Fig. 5, the prompt ablation, the analysis table, the
@@ -14,7 +14,7 @@ tokenizers since the paper, the official code) are declared one module each in
 - `evaluation` (`table_eval` for the pilots): the evaluation of seed k on a task, on the
   preset's episodes and scene set k, so that every row is evaluated on the same episodes and
   two rows are compared episode by episode.
-- `tasks_cell`, `family_cells`: a cell over tasks, and the family columns of the kitchen
+- `tasks_cell`, `family_cells`: a cell over tasks, and the family columns of the RoboCasa
   tables with their average.
 - `table_i_runs`, `table_i_seeds`: Table I's policies, which Tables III, IV, V, VI, the
   prompt ablation, Fig. 5 (at the preset's codebook size), the analysis, `beyond` and
@@ -34,8 +34,8 @@ from icil_paper.config import Preset
 from icil_paper.paper_numbers import FAMILIES
 from icil_paper.runspec import DataSpec, EvalSpec, RunSpec, eval_spec, run_spec
 from icil_paper.seeding import data_set_seed
-from icil_paper.sim.kitchen.tasks import FAMILIES as SUITE_FAMILIES
-from icil_paper.sim.kitchen.tasks import TASK_FAMILIES
+from icil_paper.sim import task_family
+from icil_paper.sim.suite import SKILL_FAMILIES
 from icil_paper.tables.spec import Cell, FeatureSpec, Row, TableSpec, Unit
 
 FAMILY_COLUMNS = FAMILIES
@@ -58,11 +58,11 @@ def label(policy: str, tokenizer: str | None) -> str:
 
 
 def families(tasks: Sequence[str]) -> dict[str, list[str]]:
-    """Paper column -> our kitchen tasks of that skill family (kept in `tasks`' order)."""
-    out = {}
-    for column, family in zip(FAMILY_COLUMNS, SUITE_FAMILIES, strict=True):
-        out[column] = [t for t in tasks if t in TASK_FAMILIES[family]]
-    return out
+    """Paper column -> the tasks of that skill family (kept in `tasks`' order), as each task's
+    suite maps it (`icil_paper.sim.task_family`)."""
+    of = {t: task_family(t) for t in tasks}
+    return {column: [t for t in tasks if of[t] == family]
+            for column, family in zip(FAMILY_COLUMNS, SKILL_FAMILIES, strict=True)}
 
 
 def seed_runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str],
@@ -138,7 +138,7 @@ def table_i_seeds(preset: Preset, policy: str, tokenizer: str | None) -> int:
 
 def table_i_runs(preset: Preset, policy: str, tokenizer) -> list[RunSpec]:
     """The runs of one Table I row (shared by Tables III, IV, V, VI and the prompt ablation)."""
-    return seed_runs(preset, policy, tokenizer, preset.data.kitchen_tasks,
+    return seed_runs(preset, policy, tokenizer, preset.data.robocasa_tasks,
                      table_i_seeds(preset, policy, tokenizer))
 
 
@@ -181,7 +181,7 @@ def icrt_rows(preset: Preset, seeds: dict[str, int]) -> TableSpec:
     that tokenizer (its first seeds are the same records), so stored cells are reused, and a
     tokenizer Table I does not have (a plugin's) is trained and evaluated the same way. The
     rows carry no paper's numbers (Table I's are `icil_paper.paper.table_i`'s)."""
-    tasks = preset.data.kitchen_tasks
+    tasks = preset.data.robocasa_tasks
     rows = tuple(Row(label("icrt", tok),
                      family_cells(preset, seed_runs(preset, "icrt", tok, tasks, n), tasks))
                  for tok, n in seeds.items())

@@ -30,8 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tokenizer", default=None,
                    help="action tokenizer (icrt: default mlp; act: default none = CVAE)")
     p.add_argument("--tasks", nargs="+", default=None, help="task names (default: see --suite)")
-    p.add_argument("--suite", choices=("kitchen", "maniskill"), default="kitchen",
-                   help="train on every task of this suite when --tasks is not given")
+    p.add_argument("--suite", choices=("robocasa", "maniskill"), default="robocasa",
+                   help="train on the preset's tasks of the paper's RoboCasa tables (Meta-World) "
+                        "or of Table II (ManiSkill) when --tasks is not given")
     p.add_argument("--source", default="generated", help="demonstration source")
     p.add_argument("--obs", choices=("state", "rgb", "rgbd"), default=None,
                    help="observations to learn from (default: the preset's; mcr: rgb)")

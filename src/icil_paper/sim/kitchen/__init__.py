@@ -1,10 +1,10 @@
-"""The kitchen skill suite: robosuite tasks standing in for RoboCasa's seven skill families.
+"""The kitchen suite: door and drawer tasks on robosuite, Table V's sim-to-real stand-in.
 
-RoboCasa's kitchens, assets and data sets cannot be downloaded here, so the suite rebuilds its
-foundational skills on a robosuite counter with fixtures generated as MJCF in code
-(`fixtures.py`): a cabinet with a hinged door, a cabinet with a drawer, a faucet lever, a stove
-knob, a spring button, a bin and a block with a hole. The Panda arm runs robosuite's OSC pose
-controller with 7-D delta actions at 20 Hz.
+A Panda arm opens and closes a cabinet door and a drawer on a robosuite counter, with the
+fixtures generated as MJCF in code (`fixtures.py`); the Kinova tasks are the same four on a
+Kinova3 arm with perturbed dynamics (`kinova.py`). Table V trains on the Panda tasks and rolls
+out on their Kinova twins (`icil_paper.data.splits.sim_to_real_pairs`). Both arms run
+robosuite's OSC pose controller with 7-D delta actions at 20 Hz.
 
     from icil_paper.sim.kitchen import make_kitchen_env, make_kitchen_expert
     env = make_kitchen_env("kitchen/open_drawer", obs="state", seed=0)
@@ -12,22 +12,15 @@ controller with 7-D delta actions at 20 Hz.
     expert = make_kitchen_expert("kitchen/open_drawer"); expert.reset(env, obs)
     obs, reward, terminated, truncated, info = env.step(expert.act(obs))
 
-Public names:
-
-- `KITCHEN_TASKS`, `KINOVA_TASKS`: full task name -> `KitchenTaskSpec` (family, horizon,
-  instruction, ...); `TASK_FAMILIES`: the paper's seven columns -> kitchen task names;
-  `KITCHEN_ZERO_SHOT_SPLIT`: held-out tasks of the zero-shot table.
-- `SCENE_DISTRIBUTIONS = ("generated", "human")`: where the layouts of a scene are drawn from
-  (the env option `scenes`): our stand-ins for MimicGen's scenes and for those of RoboCasa's
-  human data set (Table VI's cross-dataset shift), described in `scenes.py`.
-- `KITCHEN_OBS_DIMS = (P, O) = (9, 18)`, the widths of `proprio` and `object` for every task
-  (Kinova tasks included).
-- `make_kitchen_env(name, obs="state", seed=0, **options)`, `make_kitchen_expert(name)`.
-- `KITCHEN_SUITE`, `KINOVA_SUITE`: the suites' records in `icil_paper.sim`'s registry.
+Public names: `KITCHEN_TASKS`, `KINOVA_TASKS` (task name -> `KitchenTaskSpec`);
+`TASK_FAMILIES` (doors and drawers -> kitchen task names); `SCENE_DISTRIBUTIONS =
+("generated", "human")`, the env option `scenes` (`scenes.py`); `KITCHEN_OBS_DIMS = (9, 18)`
+for every task; `make_kitchen_env(name, obs="state", seed=0, **options)`,
+`make_kitchen_expert(name)`; `KITCHEN_SUITE`, `KINOVA_SUITE`, the records in
+`icil_paper.sim`'s registry.
 
 The spaces are documented in `env.py`, the object-state layout in `scenes.py`, the experts'
-phases in `experts.py`, the Kinova (sim-to-real stand-in) perturbations in `kinova.py`.
-Importing this package does not import robosuite; building an env does.
+phases in `experts.py`. Importing this package does not import robosuite; building an env does.
 """
 
 from __future__ import annotations
@@ -40,12 +33,10 @@ from icil_paper.registry import Registry, check_name
 from icil_paper.sim.kitchen.tasks import (
     ALL_TASKS,
     CONTROL_FREQ,
-    FAMILIES,
     KINOVA_TASKS,
     KITCHEN_OBJECT_DIM,
     KITCHEN_PROPRIO_DIM,
     KITCHEN_TASKS,
-    KITCHEN_ZERO_SHOT_SPLIT,
     SCENE_DISTRIBUTIONS,
     TASK_FAMILIES,
     KitchenTaskSpec,
@@ -54,8 +45,8 @@ from icil_paper.sim.suite import Suite
 
 KITCHEN_OBS_DIMS = (KITCHEN_PROPRIO_DIM, KITCHEN_OBJECT_DIM)
 OBJECT_POSITION = (1, 4)
-"""The key point (handle, lever tip, knob fin, button, free object) in `obs["object"]`: it
-follows the fixture's joint position (`icil_paper.sim.kitchen.scenes`)."""
+"""The key point (the handle) in `obs["object"]`: it follows the fixture's joint position
+(`icil_paper.sim.kitchen.scenes`)."""
 
 # robosuite picks its OpenGL backend when it is first imported (every module of this package
 # that imports it is imported through here); headless image observations need EGL.
@@ -68,11 +59,10 @@ SIMULATED = Registry("kitchen suite module", {
 """The env class (robosuite, mujoco) and the experts (scipy), imported when the first env or
 expert is built, so that listing the suite imports none of them."""
 
-__all__ = ["KITCHEN_TASKS", "KINOVA_TASKS", "ALL_TASKS", "TASK_FAMILIES", "FAMILIES",
-           "KITCHEN_ZERO_SHOT_SPLIT", "KITCHEN_OBS_DIMS", "KITCHEN_PROPRIO_DIM",
-           "KITCHEN_OBJECT_DIM", "KitchenTaskSpec", "make_kitchen_env", "make_kitchen_expert",
-           "KITCHEN_SUITE", "KINOVA_SUITE", "CONTROL_FREQ", "SCENE_DISTRIBUTIONS",
-           "robosuite_problem"]
+__all__ = ["KITCHEN_TASKS", "KINOVA_TASKS", "ALL_TASKS", "TASK_FAMILIES", "KITCHEN_OBS_DIMS",
+           "KITCHEN_PROPRIO_DIM", "KITCHEN_OBJECT_DIM", "KitchenTaskSpec", "make_kitchen_env",
+           "make_kitchen_expert", "KITCHEN_SUITE", "KINOVA_SUITE", "CONTROL_FREQ",
+           "SCENE_DISTRIBUTIONS", "robosuite_problem"]
 
 
 def _import_robosuite_quietly() -> None:
@@ -109,7 +99,8 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
     `obs_noise_std` (override the Kinova tasks' observation noise; 0 turns it off),
     `initialization_noise` (robosuite's robot joint noise, "default" or None),
     `render_mode` ("rgb_array" or None, gymnasium's), `scenes` (the scene distribution of
-    `SCENE_DISTRIBUTIONS`, default "generated"; "human" is Table VI's, `scenes.py`).
+    `SCENE_DISTRIBUTIONS`, default "generated"; "human" is the `human` demo source's,
+    `scenes.py`).
     Raises `UnknownNameError` listing the valid names for an unknown task, obs kind or scene
     distribution.
     """
@@ -131,8 +122,8 @@ KITCHEN_SUITE = Suite(
     name="kitchen", tasks=tuple(KITCHEN_TASKS), obs_dims=KITCHEN_OBS_DIMS,
     control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,
     object_position=OBJECT_POSITION, unavailable=robosuite_problem,
-    zero_shot_split=KITCHEN_ZERO_SHOT_SPLIT, scenes=SCENE_DISTRIBUTIONS,
-    description="kitchen skill tasks on robosuite (Panda), RoboCasa's seven skill families")
+    scenes=SCENE_DISTRIBUTIONS, families=TASK_FAMILIES,
+    description="door and drawer tasks on robosuite (Panda), Table V's training tasks")
 KINOVA_SUITE = Suite(
     name="kinova", tasks=tuple(KINOVA_TASKS), obs_dims=KITCHEN_OBS_DIMS,
     control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,

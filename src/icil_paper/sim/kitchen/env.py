@@ -151,9 +151,6 @@ class KitchenSceneEnv(ManipulationEnv):
         self.success_flag = bool(self._check_success())
         return float(self.success_flag)
 
-    def is_grasping(self, obj) -> bool:
-        return bool(self._check_grasp(gripper=self.robots[0].gripper["right"], object_geoms=obj))
-
     # measurements --------------------------------------------------------------------------
     def eef_pos(self) -> np.ndarray:
         return np.array(self.sim.data.site_xpos[self.grip_site_id])

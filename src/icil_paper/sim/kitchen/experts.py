@@ -1,9 +1,9 @@
-"""Scripted experts of the kitchen suite: closed-loop state machines, one per scene.
+"""Scripted experts of the kitchen suite: closed-loop state machines for doors and drawers.
 
-Every expert reads only the observation at each step (end-effector pose and fingers from
-`proprio`; the fixture's joint position, key point and base pose from `object`) plus fixed
-geometry of the fixture (handle offsets in the fixture's own frame, read once at reset), and
-outputs the suite's 7-D action. Usage::
+The expert reads only the observation at each step (end-effector pose from `proprio`; the
+fixture's joint position, key point and base pose from `object`) plus fixed geometry of the
+fixture (handle offset in the fixture's own frame, read once at reset), and outputs the
+suite's 7-D action. Usage::
 
     expert = make_kitchen_expert("kitchen/open_drawer")
     obs, info = env.reset(seed=3)
@@ -13,29 +13,13 @@ outputs the suite's 7-D action. Usage::
         if terminated or truncated:
             break
 
-Phases (the current one is `expert.phase`):
+Phases (the current one is `expert.phase`): `approach` above the gap behind the handle bar with
+the gripper closed, `descend` into it, `drag` the handle along the joint's path (arc of the
+door, line of the drawer) a little ahead of the joint's current position, turning the hand
+with the door, until the joint is past the goal; then `lift` out of the gap and `retreat`.
 
-- Hook experts (doors, drawers): `approach` above the gap behind the handle bar with the
-  gripper closed, `descend` into it, `drag` the handle along the joint's path (arc of the
-  door, line of the drawer) a little ahead of the joint's current position, turning the hand
-  with the door, until the joint is past the goal; then `lift` out of the gap and `retreat`.
-- Push expert (lever): `approach` above a point beside the lever arm (on the side away from
-  the turning direction), `descend` to the arm's height, `push` along the arc ahead of the
-  arm, `lift`, `retreat`.
-- Twist expert (knob): `approach` above the knob with the hand turned across the fin, open,
-  `descend`, `grasp`, `twist` the wrist ahead of the knob until it reaches the goal angle,
-  `release`, `retreat`.
-- Press expert (button): `approach` above the cap with the gripper closed, `press` down until
-  the button is fully in, `retreat`.
-- Pick-and-place experts (pick_place, insertion): `approach` above the object turned to its
-  faces, `descend`, `grasp`, `lift`, `carry` above the target, `lower` (into the bin / the
-  hole, steering the object's observed position over the target), `release` while the hand
-  still moves down (the box as its bottom passes the bin's rim, the peg once it is 1 cm into
-  the hole: each drops the rest of the way), `retreat`.
-
-Closed loop: a phase that sees its precondition broken (the hand slipped off a handle, the
-object is no longer between the fingers, the knob does not follow the wrist) goes back to
-`approach`; every phase has a step budget after which it lifts and starts over.
+Closed loop: a phase that sees its precondition broken (the hand slipped off the handle) goes
+back to `approach`; every phase has a step budget after which it lifts and starts over.
 """
 
 from __future__ import annotations
@@ -88,7 +72,6 @@ class KitchenExpert:
     def reset(self, env, obs) -> None:
         self.env = env
         self.geometry = env.geometry
-        self.scene = env.scene
         self.phase, self.t, self.restarts = "approach", 0, 0
         self._prev_eef, self.vel = None, np.zeros(3)
         self._start(obs)
@@ -128,7 +111,6 @@ class KitchenExpert:
         self._prev_eef = self.eef.copy()
         self.eef_mat = Rotation.from_quat(p[3:7]).as_matrix()
         self.yaw = gripper_yaw(self.eef_mat)
-        self.fingers = p[7] - p[8]                   # opening between the finger pads (m)
         self.q = o[0]
         self.key_pos, self.key_quat = o[1:4], o[4:8]
         self.base_pos, self.base_quat = o[8:11], o[11:15]
@@ -180,17 +162,26 @@ class KitchenExpert:
     recover_grip = OPEN
 
 
-# ---------------------------------------------------------------------------------------------
-# Articulated fixtures
-# ---------------------------------------------------------------------------------------------
+class HookExpert(KitchenExpert):
+    """Doors and drawers: fingertips in the gap behind the handle bar drag the part along the
+    joint's path (`part_point`: where a point of the moving part is for a given joint value)."""
 
-class _JointPathExpert(KitchenExpert):
-    """Shared kinematics: where a point of the moving part is for a given joint value."""
+    phases = ("approach", "descend", "drag", "lift", "retreat", "recover")
+    budgets = {"approach": 60, "descend": 30, "drag": 120, "lift": 30}
+    recover_grip = CLOSE
 
-    goal_q: dict[str, float] = {}
-    """Joint value the expert drives towards, per task goal (past the success threshold)."""
-    done_q: dict[str, float] = {}
-    """Joint value at which the expert lets go, per goal."""
+    def __init__(self, name: str):
+        super().__init__(name)
+        # goal_q: the joint value driven towards, per goal (past the success threshold);
+        # done_q: the value at which the expert lets go; step_q: how far ahead it drags
+        if self.spec.scene == "door":
+            self.goal_q = {"open": 1.35, "close": -0.2}
+            self.done_q = {"open": 1.15, "close": 0.03}
+            self.step_q = 0.22
+        else:
+            self.goal_q = {"open": 0.2, "close": -0.05}
+            self.done_q = {"open": 0.15, "close": 0.004}
+            self.step_q = 0.05
 
     def _start(self, obs) -> None:
         g = self.geometry
@@ -219,25 +210,6 @@ class _JointPathExpert(KitchenExpert):
 
     def next_q(self, step: float) -> float:
         return self.q + float(np.clip(self.goal_q[self.goal] - self.q, -step, step))
-
-
-class HookExpert(_JointPathExpert):
-    """Doors and drawers: fingertips in the gap behind the handle bar drag the part."""
-
-    phases = ("approach", "descend", "drag", "lift", "retreat", "recover")
-    budgets = {"approach": 60, "descend": 30, "drag": 120, "lift": 30}
-    recover_grip = CLOSE
-
-    def __init__(self, name: str):
-        super().__init__(name)
-        if self.spec.scene == "door":
-            self.goal_q = {"open": 1.35, "close": -0.2}
-            self.done_q = {"open": 1.15, "close": 0.03}
-            self.step_q = 0.22
-        else:
-            self.goal_q = {"open": 0.2, "close": -0.05}
-            self.done_q = {"open": 0.15, "close": 0.004}
-            self.step_q = 0.05
 
     def _act(self) -> np.ndarray:
         hook = self.part_point(self.q, self.hook)
@@ -271,241 +243,7 @@ class HookExpert(_JointPathExpert):
         return self._servo(target, self.yaw, CLOSE, speed=0.5)
 
 
-class PushExpert(_JointPathExpert):
-    """Lever: closed fingertips push the arm sideways along its arc."""
-
-    phases = ("approach", "descend", "push", "lift", "retreat", "recover")
-    budgets = {"approach": 60, "descend": 30, "push": 80, "lift": 30}
-    recover_grip = CLOSE
-    goal_q = {"on": 1.15, "off": -0.2}
-    done_q = {"on": 0.95, "off": 0.06}
-    offset = 0.028
-    """Distance from the arm's centre line to the grip site while pushing (m)."""
-
-    def pusher(self, q: float) -> np.ndarray:
-        r = self.geometry.radius
-        direction = np.array([-np.cos(q), -np.sin(q), 0.0])          # pivot -> tip
-        tangent = np.array([np.sin(q), -np.cos(q), 0.0])              # d(tip)/dq
-        sign = 1.0 if self.goal_q[self.goal] > self.q else -1.0
-        local = r * direction - sign * self.offset * tangent
-        return self.base_pos + self.base_rot @ (self.pivot + local)
-
-    def _act(self) -> np.ndarray:
-        start = self.pusher(self.q)
-        yaw = self.base_yaw
-        if self.phase == "approach":
-            above = start + np.array([0, 0, 0.07])
-            if self._near(above, 0.008, 0.02):
-                self._set("descend")
-            return self._approach(above, yaw, CLOSE)
-        if self.phase == "descend":
-            if self._near(start, 0.012, 0.008):
-                self._set("push")
-            return self._descend(start, yaw, CLOSE)
-        if self.phase == "push":
-            if self.finished():
-                self._set("lift")
-            elif np.linalg.norm(start[:2] - self.eef[:2]) > 0.05:
-                self._set("recover")
-            return self._servo(self.pusher(self.next_q(0.25)), yaw, CLOSE)
-        if self.phase == "lift":
-            if self.eef[2] > start[2] + 0.05:
-                self._set("retreat")
-            return self._servo(np.array([self.eef[0], self.eef[1], self.safe_z]), yaw, CLOSE,
-                               speed=0.6)
-        target = np.array([self.eef[0] - 0.05, self.eef[1], self.safe_z])
-        return self._servo(target, yaw, CLOSE, speed=0.5)
-
-
-class TwistExpert(_JointPathExpert):
-    """Knob: grasp the fin across, then turn the wrist ahead of the knob."""
-
-    phases = ("approach", "descend", "grasp", "twist", "release", "retreat", "recover")
-    budgets = {"approach": 60, "descend": 30, "grasp": 15, "twist": 80, "release": 10}
-    goal_q = {"on": 1.35, "off": -0.15}
-    done_q = {"on": 1.2, "off": 0.08}
-
-    def _start(self, obs) -> None:
-        super()._start(obs)
-        self._grip_hist: list[float] = []
-
-    def grasp_yaw(self, q: float) -> float:
-        """Hand yaw across the fin (fin along the knob's x, fingers close along the hand's x)."""
-        return self.part_yaw(q)
-
-    def _act(self) -> np.ndarray:
-        fin = self.part_point(self.q, self.hook)
-        yaw = self.grasp_yaw(self.q)
-        if self.phase == "approach":
-            above = fin + np.array([0, 0, 0.07])
-            if self._near(above, 0.008, 0.02) and abs(_wrap(self.yaw - yaw)) < 0.08 \
-                    and self.fingers > 0.06:
-                self._set("descend")
-            return self._approach(above, yaw, OPEN)
-        if self.phase == "descend":
-            target = fin - np.array([0, 0, 0.006])
-            if self._near(target, 0.008, 0.006):
-                self._set("grasp")
-                self._grip_hist = []
-            return self._descend(target, yaw, OPEN, speed=0.5)
-        if self.phase == "grasp":
-            self._grip_hist.append(self.fingers)
-            h = self._grip_hist
-            settled = len(h) > 4 and abs(h[-1] - h[-3]) < 5e-4
-            if settled:
-                if self.fingers < 0.008:           # closed on nothing: missed the fin
-                    self._set("recover")
-                else:
-                    self._set("twist")
-            return self._servo(fin - np.array([0, 0, 0.006]), yaw, CLOSE)
-        if self.phase == "twist":
-            if self.finished():
-                self._set("release")
-            elif abs(_wrap(self.yaw - yaw)) > 0.5 or self.fingers < 0.008:
-                self._set("recover")               # the knob does not follow the hand
-            q_next = self.next_q(0.35)
-            return self._servo(fin - np.array([0, 0, 0.006]), self.grasp_yaw(q_next), CLOSE)
-        if self.phase == "release":
-            if self.fingers > 0.05 or self.t > 8:
-                self._set("retreat")
-            return self._servo(self.eef, self.yaw, OPEN)
-        return self._servo(np.array([self.eef[0], self.eef[1], self.safe_z]), self.yaw, OPEN,
-                           speed=0.6)
-
-
-class PressExpert(_JointPathExpert):
-    """Button: closed fingertips push the cap straight down."""
-
-    phases = ("approach", "press", "retreat", "recover")
-    budgets = {"approach": 60, "press": 40}
-    recover_grip = CLOSE
-    goal_q = {"press": -0.012}
-    done_q = {"press": -0.0105}
-
-    def _act(self) -> np.ndarray:
-        cap = self.key_pos
-        yaw = self.base_yaw
-        if self.phase == "approach":
-            above = cap + np.array([0, 0, 0.05])
-            if self._near(above, 0.006, 0.015):
-                self._set("press")
-            return self._approach(above, yaw, CLOSE)
-        if self.phase == "press":
-            if self.finished():
-                self._set("retreat")
-            target = self.part_point(0.0, self.hook) - np.array([0, 0, 0.03])
-            return self._servo(target, yaw, CLOSE, speed=0.5)
-        return self._servo(np.array([self.eef[0], self.eef[1], self.safe_z]), yaw, CLOSE,
-                           speed=0.6)
-
-
-# ---------------------------------------------------------------------------------------------
-# Free objects
-# ---------------------------------------------------------------------------------------------
-
-class PickPlaceExpert(KitchenExpert):
-    """Grasp the object from above, carry it over the target, lower it in and let go."""
-
-    phases = ("approach", "descend", "grasp", "lift", "carry", "lower", "release", "retreat",
-              "recover")
-    budgets = {"approach": 60, "descend": 30, "grasp": 15, "lift": 30, "carry": 60,
-               "lower": 40, "release": 12}
-
-    def _start(self, obs) -> None:
-        scene = self.scene
-        self.insertion = self.spec.scene == "insertion"
-        self.half_h = scene.obj_half_height
-        self.symmetry = 2 * np.pi if self.insertion else np.pi / 2   # round peg / square box
-        self.grasp_dz = self.half_h - 0.02 if self.insertion else 0.0
-        self.target_top = COUNTER_Z + scene.geometry.top
-        self.carry_z = self.target_top + 2 * self.half_h - self.grasp_dz + 0.05
-        self.safe_z = self.carry_z + 0.05
-        self._grip_hist: list[float] = []
-        self.release_steps = 0
-        # where the box is let go: anywhere from its bottom at the bin's rim (0) to resting on
-        # the floor (1), drawn per scene from the box's start position (so the expert stays a
-        # function of the scene), so the demonstrations show a release over the bin's depth
-        start = np.asarray(obs["object"][1:3], np.float64)
-        self.release_depth = float((1e4 * start.sum()) % 1.0)
-
-    def grasp_yaw(self) -> float:
-        """Hand yaw matching the object's faces (modulo its symmetry), closest to the hand's."""
-        if self.insertion:
-            return self.yaw if abs(self.yaw) < 0.3 else 0.0
-        obj_yaw = quat_xyzw_to_yaw(self.key_quat)
-        k = np.round((self.yaw - obj_yaw) / self.symmetry)
-        candidate = obj_yaw + k * self.symmetry
-        if abs(candidate) > 1.2:                 # stay well inside the wrist's range
-            candidate -= np.sign(candidate) * self.symmetry
-        return float(candidate)
-
-    def holding(self) -> bool:
-        d = self.key_pos - (self.eef - np.array([0, 0, self.grasp_dz]))
-        return bool(np.linalg.norm(d[:2]) < 0.03 and abs(d[2]) < 0.03 and self.fingers > 0.01)
-
-    def _act(self) -> np.ndarray:
-        obj = self.key_pos
-        grasp_point = obj + np.array([0, 0, self.grasp_dz])
-        if self.phase == "approach":
-            yaw = self.grasp_yaw()
-            above = grasp_point + np.array([0, 0, 0.08])
-            if self._near(above, 0.008, 0.02) and abs(_wrap(self.yaw - yaw)) < 0.08 \
-                    and self.fingers > 0.07:
-                self._set("descend")
-                self._yaw_lock = yaw
-            return self._approach(above, yaw, OPEN)
-        if self.phase == "descend":
-            if self._near(grasp_point, 0.008, 0.006):
-                self._set("grasp")
-                self._grip_hist = []
-            return self._descend(grasp_point, self._yaw_lock, OPEN, speed=0.5, tol_xy=0.008)
-        if self.phase == "grasp":
-            self._grip_hist.append(self.fingers)
-            h = self._grip_hist
-            if len(h) > 4 and abs(h[-1] - h[-3]) < 5e-4:
-                self._set("lift" if self.fingers > 0.01 else "recover")
-            return self._servo(grasp_point, self._yaw_lock, CLOSE)
-        target_xy = self.base_pos[:2] + (self.eef[:2] - obj[:2])    # put the object, not the hand
-        if self.phase == "lift":
-            if not self.holding():
-                self._set("recover")
-            if self.eef[2] > self.carry_z - 0.02:
-                self._set("carry")
-            return self._servo(np.array([self.eef[0], self.eef[1], self.carry_z + 0.02]),
-                               self._yaw_lock, CLOSE, speed=0.7)
-        if self.phase == "carry":
-            if not self.holding():
-                self._set("recover")
-            target = np.array([*target_xy, self.carry_z])
-            if self._near(target, 0.006, 0.02):
-                self._set("lower")
-            return self._servo(target, self._yaw_lock, CLOSE)
-        if self.phase == "lower":
-            if not self.holding():
-                self._set("release")
-            bottom = (COUNTER_Z + 0.004) if self.insertion else (self.base_pos[2] + 0.015)
-            z = bottom + self.half_h + self.grasp_dz
-            # let go while the hand still moves down: the box as its bottom passes the bin's
-            # rim, the peg once its bottom is 1 cm into the hole; each drops the rest of the way
-            floor = self.base_pos[2] + 0.015
-            rim = (self.target_top - 0.01 if self.insertion
-                   else self.target_top - self.release_depth * (self.target_top - floor))
-            if self.eef[2] < z + 0.008 or obj[2] - self.half_h < rim:
-                self._set("release")
-            return self._servo(np.array([*target_xy, z]), self._yaw_lock, CLOSE, speed=0.4)
-        if self.phase == "release":
-            if self.fingers > 0.06 or self.t > 10:
-                self._set("retreat")
-            return self._servo(self.eef, self._yaw_lock, OPEN)
-        return self._servo(np.array([self.eef[0], self.eef[1], self.safe_z]), self.yaw, OPEN,
-                           speed=0.6)
-
-
-EXPERTS = {"door": HookExpert, "drawer": HookExpert, "lever": PushExpert, "knob": TwistExpert,
-           "button": PressExpert, "pick_place": PickPlaceExpert, "insertion": PickPlaceExpert}
-
-
-def make_kitchen_expert(name: str) -> KitchenExpert:
+def make_kitchen_expert(name: str) -> HookExpert:
     """The scripted expert of a kitchen or Kinova task (call `reset(env, obs)`, then `act`)."""
     check_name("kitchen task", name, ALL_TASKS)
-    return EXPERTS[ALL_TASKS[name].scene](name)
+    return HookExpert(name)

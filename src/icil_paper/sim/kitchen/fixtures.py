@@ -1,5 +1,5 @@
-"""Kitchen fixtures built as MJCF in code: cabinets with a hinged door or a sliding drawer, a
-faucet-style lever, a stove knob, a spring button, a bin and a block with a hole.
+"""Kitchen fixtures built as MJCF in code: a cabinet with a hinged door and one with a sliding
+drawer.
 
 Every fixture is a `CodeFixture`, a robosuite `MujocoObject` whose body tree is generated here
 (no asset files), so the suite needs nothing beyond robosuite itself. Conventions, in each
@@ -7,14 +7,15 @@ fixture's own frame (the env places and turns it on the counter per seed):
 
 - the origin is the centre of the fixture's footprint, on the counter surface;
 - the front faces -x, towards the robot; z points up;
-- articulated parts hang off one joint named "joint"; a site named "handle" marks the point
-  the robot interacts with (handle bar, lever tip, knob fin, button cap);
-- geoms are visible (group 1) and collide with the robot and free objects but not with each
+- the moving part hangs off one joint named "joint"; a site named "handle" marks the point
+  the robot interacts with (behind the handle bar);
+- geoms are visible (group 1) and collide with the robot but not with each
   other (contype 2, conaffinity 1), so a drawer cannot jam in its carcass: the joint range is the
   only stop. Joint friction (`frictionloss`) holds a part where the robot leaves it.
 
-Sizes are in metres. `GEOMETRY` records the numbers the scripted experts need (handle offsets,
-radii), read by `icil_paper.sim.kitchen.scenes`.
+Sizes are in metres. Each builder returns the fixture and its `FixtureGeometry`, the numbers the
+scripted experts need (hinge point, handle offset, height), which `icil_paper.sim.kitchen.scenes`
+hands on as `scene.geometry`.
 """
 
 from __future__ import annotations
@@ -27,12 +28,7 @@ from robosuite.models.objects import MujocoObject
 
 WOOD = (0.62, 0.45, 0.30, 1.0)
 DARK_WOOD = (0.42, 0.28, 0.18, 1.0)
-WHITE = (0.92, 0.92, 0.90, 1.0)
 STEEL = (0.70, 0.72, 0.75, 1.0)
-BLACK = (0.12, 0.12, 0.12, 1.0)
-RED = (0.80, 0.15, 0.12, 1.0)
-BLUE = (0.15, 0.35, 0.75, 1.0)
-GREEN = (0.20, 0.60, 0.30, 1.0)
 
 
 def _fmt(values) -> str:
@@ -129,21 +125,17 @@ class FixtureGeometry:
     """Numbers of one fixture that a scripted expert or a success check needs (fixture frame)."""
 
     joint_range: tuple[float, float] = (0.0, 0.0)
-    """Limits of the fixture's joint (rad or m); (0, 0) when it has none."""
+    """Limits of the fixture's joint (rad or m)."""
     joint_kind: str = "none"
-    """"hinge", "slide" or "none"."""
+    """"hinge" (door) or "slide" (drawer)."""
     joint_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     """Joint axis in the fixture frame."""
     pivot: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    """Hinge axis point (door, lever, knob) or closed-handle point (drawer), fixture frame."""
+    """Hinge axis point (door) or the drawer's closed front (drawer), fixture frame."""
     hook: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """Where the closed fingertips sit to move the part, in the moving part's frame at joint 0."""
-    radius: float = 0.0
-    """Distance from the hinge axis to the hook point (door, lever)."""
     top: float = 0.0
     """Height of the highest point of the fixture above the counter."""
-    inner_half: float = 0.0
-    """Half width of the opening of a bin or a hole."""
 
 
 def cabinet_with_door(name: str = "door_cabinet") -> tuple[CodeFixture, FixtureGeometry]:
@@ -177,8 +169,7 @@ def cabinet_with_door(name: str = "door_cabinet") -> tuple[CodeFixture, FixtureG
     hook = (-(door_t / 2 + (abs(bar_x) - 0.007 - door_t / 2) / 2), bar_y, bar_z - 0.012)
     b.site(door, "handle", hook)
     geometry = FixtureGeometry(joint_range=(0.0, 1.75), joint_kind="hinge",
-                               joint_axis=(0, 0, -1), pivot=hinge, hook=hook,
-                               radius=float(np.hypot(hook[0], hook[1])), top=height)
+                               joint_axis=(0, 0, -1), pivot=hinge, hook=hook, top=height)
     return CodeFixture(name, root, (hx + 0.06, hy, height / 2)), geometry
 
 
@@ -218,110 +209,3 @@ def cabinet_with_drawer(name: str = "drawer_cabinet") -> tuple[CodeFixture, Fixt
     geometry = FixtureGeometry(joint_range=(0.0, 0.18), joint_kind="slide",
                                joint_axis=(-1, 0, 0), pivot=pivot, hook=hook, top=height)
     return CodeFixture(name, root, (hx + 0.06, hy, height / 2)), geometry
-
-
-def faucet_lever(name: str = "faucet") -> tuple[CodeFixture, FixtureGeometry]:
-    """A faucet-style lever: a horizontal arm that turns about a vertical post.
-
-    At joint 0 ("off") the arm points at the robot (-x); the angle grows as the arm turns
-    towards -y (axis +z). The fingertips push the arm sideways near its tip.
-    """
-    b = _Builder()
-    post_h, arm_len = 0.085, 0.13
-    root = ET.Element("body", attrib={"name": "main"})
-    b.geom(root, "cylinder", (0.045, 0.006), (0, 0, 0.006), STEEL)
-    b.geom(root, "cylinder", (0.018, post_h / 2), (0, 0, post_h / 2), STEEL)
-    b.geom(root, "cylinder", (0.012, 0.03), (0.045, 0, post_h + 0.03), STEEL)   # spout riser
-    b.geom(root, "capsule", (0.011, 0.035), (0.08, 0, post_h + 0.06), STEEL,
-           quat="0.7071 0 0.7071 0")                                               # spout
-    arm = b.body(root, "lever", (0, 0, post_h + 0.012))
-    b.inertial(arm, 0.12, (-arm_len / 2, 0, 0), (arm_len / 2, 0.01, 0.01))
-    b.joint(arm, "hinge", (0, 0, 1), (0.0, 1.3), damping=0.05, frictionloss=0.06)
-    b.geom(arm, "cylinder", (0.02, 0.012), (0, 0, 0), STEEL)
-    b.box(arm, (arm_len / 2, 0.009, 0.008), (-arm_len / 2, 0, 0), RED)
-    b.geom(arm, "sphere", (0.014,), (-arm_len, 0, 0), RED)
-    hook = (-(arm_len - 0.03), 0.0, 0.0)
-    b.site(arm, "handle", hook)
-    geometry = FixtureGeometry(joint_range=(0.0, 1.3), joint_kind="hinge",
-                               joint_axis=(0, 0, 1), pivot=(0, 0, post_h + 0.012), hook=hook,
-                               radius=arm_len - 0.03, top=post_h + 0.032)
-    return CodeFixture(name, root, (0.07, 0.05, 0.06)), geometry
-
-
-def stove_knob(name: str = "stove") -> tuple[CodeFixture, FixtureGeometry]:
-    """A stove top with one knob that twists about the vertical axis (angle grows anticlockwise
-    seen from above). The knob has a fin along its x axis that the gripper grasps across.
-    """
-    b = _Builder()
-    base_h = 0.05
-    root = ET.Element("body", attrib={"name": "main"})
-    b.box(root, (0.09, 0.09, base_h / 2), (0, 0, base_h / 2), BLACK)
-    b.geom(root, "cylinder", (0.05, 0.002), (0, 0, base_h + 0.001), STEEL)
-    knob = b.body(root, "knob", (0, 0, base_h))
-    b.inertial(knob, 0.08, (0, 0, 0.015), (0.025, 0.025, 0.015))
-    b.joint(knob, "hinge", (0, 0, 1), (0.0, 1.6), damping=0.05, frictionloss=0.05)
-    b.geom(knob, "cylinder", (0.03, 0.007), (0, 0, 0.007), STEEL)
-    b.box(knob, (0.028, 0.008, 0.016), (0, 0, 0.014 + 0.016), RED)
-    hook = (0.0, 0.0, 0.014 + 0.018)
-    b.site(knob, "handle", hook)
-    geometry = FixtureGeometry(joint_range=(0.0, 1.6), joint_kind="hinge",
-                               joint_axis=(0, 0, 1), pivot=(0, 0, base_h), hook=hook,
-                               top=base_h + 0.046)
-    return CodeFixture(name, root, (0.09, 0.09, 0.05)), geometry
-
-
-def button_box(name: str = "appliance") -> tuple[CodeFixture, FixtureGeometry]:
-    """A small appliance with a spring-loaded push button on top.
-
-    The joint is the button's travel along -z in metres (0 up, -0.012 fully pressed); a stiff
-    spring returns it, and gravity compensation keeps it from sagging.
-    """
-    b = _Builder()
-    base_h = 0.08
-    root = ET.Element("body", attrib={"name": "main"})
-    b.box(root, (0.07, 0.07, base_h / 2), (0, 0, base_h / 2), WHITE)
-    b.geom(root, "cylinder", (0.026, 0.002), (0, 0, base_h + 0.001), BLACK)
-    button = b.body(root, "button", (0, 0, base_h), gravcomp="1")
-    b.inertial(button, 0.02, (0, 0, 0.01), (0.019, 0.019, 0.008))
-    b.joint(button, "slide", (0, 0, 1), (-0.012, 0.0), damping=2.0, frictionloss=0.0,
-            stiffness="300", springref="0")
-    b.geom(button, "cylinder", (0.019, 0.008), (0, 0, 0.010), GREEN)
-    hook = (0.0, 0.0, 0.018)
-    b.site(button, "handle", hook)
-    geometry = FixtureGeometry(joint_range=(-0.012, 0.0), joint_kind="slide",
-                               joint_axis=(0, 0, 1), pivot=(0, 0, base_h), hook=hook,
-                               top=base_h + 0.018)
-    return CodeFixture(name, root, (0.07, 0.07, 0.05)), geometry
-
-
-def bin_container(name: str = "bin", inner_half: float = 0.07, wall_h: float = 0.045
-                  ) -> tuple[CodeFixture, FixtureGeometry]:
-    """An open bin (the pick-and-place target): a floor plate and four low walls."""
-    b = _Builder()
-    t = 0.006
-    root = ET.Element("body", attrib={"name": "main"})
-    outer = inner_half + t
-    b.box(root, (outer, outer, t / 2), (0, 0, t / 2), BLUE)
-    for s in (-1, 1):
-        b.box(root, (t / 2, outer, wall_h / 2), (s * (inner_half + t / 2), 0, wall_h / 2), BLUE)
-        b.box(root, (inner_half, t / 2, wall_h / 2), (0, s * (inner_half + t / 2), wall_h / 2),
-              BLUE)
-    b.site(root, "handle", (0, 0, t))
-    geometry = FixtureGeometry(top=wall_h, inner_half=inner_half, hook=(0, 0, t))
-    return CodeFixture(name, root, (outer, outer, wall_h / 2)), geometry
-
-
-def hole_block(name: str = "hole_block", hole_half: float = 0.030, height: float = 0.05
-               ) -> tuple[CodeFixture, FixtureGeometry]:
-    """A block with a square through-hole (the insertion target), built from four boxes."""
-    b = _Builder()
-    outer = 0.07
-    root = ET.Element("body", attrib={"name": "main"})
-    side = (outer - hole_half) / 2
-    for s in (-1, 1):
-        b.box(root, (side, outer, height / 2), (s * (hole_half + side), 0, height / 2), DARK_WOOD)
-        b.box(root, (hole_half, side, height / 2), (0, s * (hole_half + side), height / 2),
-              DARK_WOOD)
-    b.site(root, "handle", (0, 0, height))
-    geometry = FixtureGeometry(top=height, inner_half=hole_half, hook=(0, 0, height))
-    return CodeFixture(name, root, (outer, outer, height / 2)), geometry
