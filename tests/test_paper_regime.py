@@ -201,8 +201,8 @@ def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():
     Lipschitz rows; its seeds are not the reference run's."""
     import json
 
-    from icil_paper.bench import bench_path
     from icil_paper.planning.pilot import REGIME_SEED
+    from icil_paper.results import bench_path
     from icil_paper.tables.definitions import FAMILY_COLUMNS
 
     record = json.loads(open(bench_path("regime")).read())
