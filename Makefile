@@ -15,7 +15,7 @@ REQ_HASH := $(shell cat requirements.txt requirements-no-deps.txt pyproject.toml
 PY_STAMP := $(VENV)/.installed-$(REQ_HASH)
 # Keyed on the script that installs system packages (lavapipe, chromium), so that a new
 # requirement there runs again on a machine that was set up before it.
-SYS_STAMP := $(VENV)/.system-$(shell sha256sum src/icil_paper/setup/system_deps.py | cut -c1-12)
+SYS_STAMP := $(VENV)/.system-$(shell sha256sum tools/system_deps.py | cut -c1-12)
 # The book's browser assets (MathJax, the rerun web viewer), pinned in book/package.json.
 NODE_HASH := $(shell cat book/package.json book/package-lock.json | sha256sum | cut -c1-16)
 NODE_STAMP := book/node_modules/.installed-$(NODE_HASH)
@@ -60,7 +60,7 @@ $(PY_STAMP):
 	@rm -f $(VENV)/.installed-*; touch $@
 
 $(SYS_STAMP): $(PY_STAMP)
-	$(BIN)/python -m icil_paper.setup.system_deps --install
+	$(BIN)/python -m tools.system_deps --install
 	@rm -f $(VENV)/.system-*; touch $@
 
 # npm ci installs exactly the lock file's versions (no registry addresses are recorded in it).
@@ -98,14 +98,15 @@ book: setup
 # other request blocked; fails on JS errors, failed requests, raw TeX, broken links or
 # images, and recording viewers that did not start. Screenshots: $(BOOK_OUT)/screenshots.
 browser-check: setup
-	$(BIN)/python -m icil_paper.book.browser_check $(BOOK_OUT)/html --screenshots $(BOOK_OUT)/screenshots
+	$(BIN)/python -m tools.browser_check $(BOOK_OUT)/html --screenshots $(BOOK_OUT)/screenshots
 
-# The benchmarks CONTRIBUTING.md's "Benchmarks" section lists, one module of bench/ each
-# (tests/test_repository.py keeps the three equal).
+# The benchmarks CONTRIBUTING.md's "Benchmarks" section lists, one module of tools/bench/ each
+# (tests/test_repository.py keeps the three equal). The tools run from the repository root
+# (`python -m` puts it on the path), beside the installed library; nothing installs them.
 BENCHMARKS := eval tokenizers policies sim kitchen cells datasets
 bench: setup
 	@for m in $(BENCHMARKS); do \
-		echo "== bench $$m"; $(BIN)/python -m icil_paper.bench.$$m || exit 1; done
+		echo "== bench $$m"; $(BIN)/python -m tools.bench.$$m || exit 1; done
 
 # The pilot behind the reference preset's task scale (results/bench/pilot.json); with
 # PILOT_ARGS=regime, the regime pilot (results/bench/regime.json). Trains and evaluates cells
@@ -137,9 +138,9 @@ lerobot-export: lerobot-setup
 	PYTHONPATH=src $(LEROBOT_VENV)/bin/python -m icil_paper.interop.lerobot_export "$(FILE)" "$(OUT)"
 
 # ruff, then the import contracts of pyproject.toml ([tool.importlinter]: the layers, no
-# import loop between packages) on this checkout's src/.
+# import loop between packages, no import of tools/) on this checkout's src/.
 lint: setup
-	$(BIN)/ruff check src tests notebooks book/_ext
+	$(BIN)/ruff check src tests notebooks book/_ext tools
 	PYTHONPATH=src $(BIN)/lint-imports
 
 clean:

@@ -12,8 +12,8 @@ from urllib.parse import unquote, urlsplit
 
 import pytest
 
-from icil_paper.book import browser_check
-from icil_paper.setup.system_deps import find_chromium
+from tools import browser_check
+from tools.system_deps import find_chromium
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(browser_check.unavailable() is not None,

@@ -82,7 +82,7 @@ def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch)
 
     rollouts._close_state()
     monkeypatch.setattr(rollouts, "KEPT_ENVS", 2)
-    from icil_paper.bench.eval import ZeroActions
+    from tools.bench.eval import ZeroActions
 
     policy = ZeroActions()
 
@@ -107,8 +107,8 @@ def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch)
 @pytest.mark.parametrize("kind", ["kitchen_icrt_lipvq", "bc_transformer", "act_maniskill",
                                   "kinova_eval"])
 def test_the_benchmark_cells_are_the_reference_tables_cells(kind):
-    from icil_paper.bench.cells import kind_cell, shortened
     from icil_paper.paper import table_spec
+    from tools.bench.cells import kind_cell, shortened
 
     preset = get_preset("reference")
     run, evals = kind_cell(preset, kind)

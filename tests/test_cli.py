@@ -7,7 +7,7 @@ import pytest
 from cli_helpers import run_cli
 from icil_paper import cli
 from icil_paper.config import PRESET_NAMES
-from icil_paper.setup.system_deps import debian_backports_entry
+from tools.system_deps import debian_backports_entry
 
 
 def test_help_lists_every_subcommand(capsys):
@@ -55,7 +55,7 @@ def test_env_checks_simulators():
     assert checks["metaworld"].ok, checks["metaworld"].detail
     assert checks["robosuite"].ok, checks["robosuite"].detail
     assert checks["offscreen rendering"].ok, checks["offscreen rendering"].detail
-    from icil_paper.setup.system_deps import vulkan_problem
+    from icil_paper.setup.envcheck import vulkan_problem
 
     problem = vulkan_problem()
     if problem:
@@ -83,7 +83,7 @@ def test_backports_entry_from_one_line_sources_and_none_elsewhere(tmp_path):
 
 
 def test_apt_get_install_updates_first_and_names_the_command_that_failed(monkeypatch):
-    from icil_paper.setup import system_deps
+    from tools import system_deps
 
     ran = []
 

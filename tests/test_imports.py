@@ -3,9 +3,10 @@
 The layers of the package are stated once, as import-linter contracts in pyproject.toml
 (`[tool.importlinter]`), and checked by `make lint`. Here: the import graph of
 `src/icil_paper`, drawn from the code with `ast` (imports inside functions count), has no
-loop between files; an import inside a function (or any block) is for a heavy optional
-dependency only (`HEAVY`), so that the file graph shows the real layers; and the presets, the
-command line and the list of task suites load without torch or a simulator.
+loop between files and no import of the project's `tools/`; an import inside a function (or
+any block; in `tools/` too) is for a heavy optional dependency only (`HEAVY`), so that the
+file graph shows the real layers; and the presets, the command line and the list of task
+suites load without torch or a simulator.
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = SRC / "icil_paper"
+TOOLS = SRC.parent / "tools"
+"""The project's tools (benchmarks, checks, setup): held to the same import habits."""
 
 
 def module_name(path: Path) -> str:
@@ -123,6 +126,38 @@ def test_no_import_loop_between_files():
         "; ".join(" <-> ".join(c) for c in found)
 
 
+# --------------------------------------------------------------------------- no tools
+def tool_imports(source: str) -> list[tuple[int, str]]:
+    """(line, module) of every import of `tools` (the project's benchmarks, checks and setup,
+    in the repository's `tools/`) in `source`, at any depth."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0:
+            names = [node.module or ""]
+        else:
+            continue
+        found += [(node.lineno, n) for n in names if n.split(".")[0] == "tools"]
+    return found
+
+
+def test_tool_imports_are_found():
+    source = ("import tools.bench.cells\nfrom tools import browser_check\n"
+              "def f():\n    from tools.system_deps import find_chromium\n"
+              "import toolsmith\nfrom icil_paper import tools_of\n")
+    assert tool_imports(source) == [(1, "tools.bench.cells"), (2, "tools"),
+                                    (4, "tools.system_deps")]
+
+
+def test_the_library_imports_no_tool():
+    """The tools import the library, never the other way: what a user imports of
+    `icil_paper` must not need the repository's `tools/`."""
+    wrong = [f"{path.relative_to(SRC.parent)}:{line}: {name}"
+             for path in modules().values() for line, name in tool_imports(path.read_text())]
+    assert not wrong, "the library imports tools/: " + "; ".join(wrong)
+
+
 # --------------------------------------------------------------------------- imports at the top
 HEAVY = frozenset({
     "torch", "torchvision", "vector_quantize_pytorch", "safetensors",  # torch and its kin
@@ -190,7 +225,7 @@ def test_nested_imports_are_found():
 
 def test_imports_inside_functions_are_heavy_dependencies_only():
     wrong = [f"{path.relative_to(SRC.parent)}:{line}: {statement}"
-             for path in modules().values()
+             for path in [*modules().values(), *sorted(TOOLS.rglob("*.py"))]
              for line, statement in nested_imports(path.read_text())]
     assert not wrong, ("imports inside functions that belong at the top of the file (only "
                        "the heavy packages of HEAVY may be imported on use): "
@@ -272,7 +307,8 @@ def test_preset_reads_are_found():
 
 
 def test_only_the_cli_and_config_read_the_preset_from_the_environment():
-    wrong = {name: lines for name, path in modules().items() if name not in PRESET_READERS
-             and (lines := preset_reads(path.read_text()))}
+    tools = {str(p.relative_to(SRC.parent)): p for p in sorted(TOOLS.rglob("*.py"))}
+    wrong = {name: lines for name, path in {**modules(), **tools}.items()
+             if name not in PRESET_READERS and (lines := preset_reads(path.read_text()))}
     assert not wrong, f"the preset read from the environment outside the command line and " \
                       f"config.py (pass it as an argument): {wrong}"

@@ -198,12 +198,12 @@ def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():
     """`results/bench/regime.json`: the Meta-World suite, the data curve over at least three
     counts, the budget chosen from ICRT + LipVQ-VAE's learning curve over at least three
     budgets, every family of the rows beside it with their per-episode outcomes for at
-    least three seeds; its seeds are not the
-    reference run's, and the reference preset trains at its choice."""
+    least three seeds; its seeds are not the reference run's, and the reference preset
+    trains at its choice."""
     import json
 
-    from icil_paper.bench import bench_path
     from icil_paper.planning.pilot import REGIME_ROWS, REGIME_SEED
+    from icil_paper.results import bench_path
     from icil_paper.tables.definitions import FAMILY_COLUMNS
 
     record = json.loads(open(bench_path("regime")).read())

@@ -354,7 +354,7 @@ def test_nan_observations_are_refused_and_leave_no_trace(name, tokenizer, demos)
 def test_training_benchmark_times_a_preset_size():
     """The policies benchmark's training row: the preset's batch and model, a positive rate,
     fp32 and no peak memory on the CPU."""
-    from icil_paper.bench.policies import training_speed
+    from tools.bench.policies import training_speed
 
     row = training_speed("reference", torch.device("cpu"), steps=2)
     assert row["batch_size"] == 8 and row["d_model"] == 64 and row["steps"] == 2

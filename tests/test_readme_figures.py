@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from icil_paper.book.figures import DOCUMENTS, FIGURES, MARKED, figure, printed_at
+from tools.readme_figures import DOCUMENTS, FIGURES, MARKED, figure, printed_at
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -38,7 +38,7 @@ def test_the_readme_marks_its_measured_figures():
     names = [name for _, name in marked_figures()]
     assert len(names) >= 15
     unknown = sorted(set(names) - set(FIGURES))
-    assert not unknown, f"README figures with no computation in book/figures.py: {unknown}"
+    assert not unknown, f"README figures with no computation in tools/readme_figures.py: {unknown}"
     markers = [m for path in DOCUMENTS
                for m in re.findall(r"<!-- figure: ([\w.]+) -->", path.read_text())]
     assert len(markers) == len(names), "a marker that does not follow a number"

@@ -21,7 +21,7 @@ def _ignored(paths: list[str]) -> list[str]:
 @pytest.mark.skipif(shutil.which("git") is None or not (ROOT / ".git").exists(),
                     reason="not a git checkout")
 def test_no_source_file_is_ignored_by_git():
-    sources = [str(p.relative_to(ROOT)) for folder in ("src", "tests", "notebooks", "book")
+    sources = [str(p.relative_to(ROOT)) for folder in ("src", "tests", "notebooks", "book", "tools")
                for p in (ROOT / folder).rglob("*")
                if p.is_file() and p.suffix in (".py", ".md", ".yml")
                and not {"_build", "__pycache__", "node_modules"} & set(p.parts)]
@@ -35,8 +35,8 @@ def test_code_passes_ruff():
     ruff = Path(sys.executable).with_name("ruff")
     if not ruff.exists():
         pytest.skip("ruff is not installed beside this Python (make setup installs it)")
-    out = subprocess.run([str(ruff), "check", "src", "tests", "notebooks", "book/_ext"], cwd=ROOT,
-                         capture_output=True, text=True)
+    out = subprocess.run([str(ruff), "check", "src", "tests", "notebooks", "book/_ext", "tools"],
+                         cwd=ROOT, capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
 
 
@@ -75,6 +75,25 @@ def test_the_layout_section_is_true_to_the_tree():
     assert count == len(modules), f"the layout says {count} modules at the top, there are {len(modules)}"
 
 
+def test_the_layout_names_every_tool():
+    """The layout's tools/ entry names every module and folder of tools/, and no module that
+    is not there."""
+    import re
+
+    lines = _layout_block()
+    start = next(i for i, line in enumerate(lines) if line.startswith("tools/"))
+    end = next((i for i, line in enumerate(lines) if i > start and not line.startswith(" ")),
+               len(lines))
+    text = "\n".join(lines[start:end])
+    tools = ROOT / "tools"
+    modules = {p.name for p in tools.glob("*.py") if p.name != "__init__.py"}
+    folders = {p.name for p in tools.iterdir() if (p / "__init__.py").exists()}
+    named = set(re.findall(r"\b(\w+\.py)\b", text))
+    assert named == modules, f"tools/ holds {sorted(modules)}, the layout names {sorted(named)}"
+    missing = {f for f in folders if f"{f}/" not in text}
+    assert not missing, f"folders of tools/ the layout omits: {sorted(missing)}"
+
+
 def _documented_benchmarks() -> list[str]:
     """The benchmarks CONTRIBUTING.md's Benchmarks section says `make bench` runs: the
     backticked names of its first paragraph."""
@@ -95,15 +114,16 @@ def _make_benchmarks() -> list[str]:
 
 
 def test_make_bench_runs_exactly_the_documented_benchmarks():
-    """`make bench` runs the benchmarks CONTRIBUTING.md lists, each a module of bench/, and
-    bench/ holds nothing else (the pilots are planning/, the README's figures book/)."""
+    """`make bench` runs the benchmarks CONTRIBUTING.md lists, each a module of tools/bench/,
+    and tools/bench/ holds nothing else (the pilots are planning/, the README's figures
+    tools/readme_figures.py)."""
     documented, made = _documented_benchmarks(), _make_benchmarks()
     assert documented, "CONTRIBUTING.md's Benchmarks section lists no benchmark"
     assert sorted(made) == sorted(documented), \
         f"make bench runs {made}, CONTRIBUTING.md lists {documented}"
-    modules = sorted(p.stem for p in (ROOT / "src" / "icil_paper" / "bench").glob("*.py")
+    modules = sorted(p.stem for p in (ROOT / "tools" / "bench").glob("*.py")
                      if p.name != "__init__.py")
-    assert sorted(documented) == modules, f"bench/ holds {modules}, documented: {documented}"
+    assert sorted(documented) == modules, f"tools/bench/ holds {modules}, documented: {documented}"
     assert "\npilot: " in (ROOT / "Makefile").read_text()  # the pilot runs on its own
 
 

@@ -126,7 +126,7 @@ def test_results_root_follows_environment(tmp_path, monkeypatch):
 def test_benchmark_records_carry_provenance(tmp_path):
     import json
 
-    from icil_paper.bench import save_benchmark
+    from icil_paper.results import save_benchmark
 
     path = save_benchmark("probe", {"rate": 1.5}, tmp_path / "probe.json")
     record = json.loads(path.read_text())

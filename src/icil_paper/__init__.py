@@ -19,10 +19,12 @@ Submodules are imported lazily so that `import icil_paper` stays cheap:
   assembled with intervals, the claims engine, the views every chapter shares
 - `icil_paper.planning`   above the tables: the seed design, a run's cost, the plan for the
   undecided claims (`icil-paper plan`) and the pilots
-- `icil_paper.bench`      throughput benchmarks (`make bench`)
 - `icil_paper.viz`        rerun recordings of episodes and the viewer that embeds them in a page
-- `icil_paper.book`, `icil_paper.setup`, `icil_paper.interop`   the chapters' studies and the
-  book's tools; this machine's checks and provenance; exports for other code bases
+- `icil_paper.book`, `icil_paper.setup`, `icil_paper.interop`   what the chapters run and
+  show; this machine's checks and provenance; exports for other code bases
+
+The tools that run the project (benchmarks, the browser check of the built book, system
+setup, the README's figures) are not part of the library: they live in `tools/`.
 """
 
 __version__ = "0.1.0"

@@ -254,7 +254,7 @@ class TrainConfig(_Checked):
     compile: bool = False
     """Compile the training forward and backward passes with `torch.compile` (inductor).
     Losses match eager mode to float tolerance, not bit for bit, so it enters run keys.
-    Measured for the reference ICRT on one CPU thread (`bench.cells`): see the README."""
+    Measured for the reference ICRT on one CPU thread (`tools/bench/cells.py`): see the README."""
     ckpt_every: int = field(default=500, metadata=NOT_KEYED)
     """Steps between checkpoints (a killed run loses at most this many; resuming gives the
     same result as an uninterrupted run, so it does not enter run keys)."""

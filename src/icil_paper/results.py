@@ -73,6 +73,26 @@ def results_root() -> Path:
     return folder_from_env(RESULTS_ENV_VAR, "results")
 
 
+def bench_path(name: str) -> Path:
+    """`results/bench/<name>.json` of the results folder in use, else the one committed with
+    the repository (the measurements a reader's own results folder does not hold)."""
+    path = results_root() / "bench" / f"{name}.json"
+    committed = Path(__file__).resolve().parents[2] / "results" / "bench" / f"{name}.json"
+    return path if path.exists() else committed
+
+
+def save_benchmark(name: str, record: dict[str, Any], out: str | Path | None = None) -> Path:
+    """Add provenance (git commit, package versions, host, load average) to a measurement
+    `record` and write it atomically to `out` (default results/bench/<name>.json); returns
+    the path. The benchmarks of `tools/bench/` and the pilots write theirs with it."""
+    record = {"benchmark": name, **record, "load_average_1min": os.getloadavg()[0],
+              "git": git_state(), "packages": package_versions(), "host": host_info()}
+    path = Path(out) if out else results_root() / "bench" / f"{name}.json"
+    atomic_write_json(path, record)
+    print(f"wrote {path}")
+    return path
+
+
 def config_hash(config: Mapping[str, Any]) -> str:
     """A short stable hash of a JSON-ready config: `config_data.content_hash`, the one every key
     of the library is taken with (16 hex digits of SHA-256 over sorted, compact JSON)."""

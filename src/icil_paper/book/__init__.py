@@ -1,5 +1,5 @@
-"""The book's side of the library: what the chapters run and show, and how the book is
-checked. Chapters import from here and call; they define no experiments of their own.
+"""The book's side of the library: what the chapters run and show. Chapters import from
+here and call; they define no experiments of their own.
 
 - `studies.py`: the chapters' own experiments (tokenizers trained alone, the Lipschitz
   study, one ICRT run with its rollouts, the showcase and expert stages of `reproduce`).
@@ -13,11 +13,10 @@ checked. Chapters import from here and call; they define no experiments of their
   `experiments.py` (06-13, beside the tables of `icil_paper.tables`), `own_tokenizer.py`
   (14, the plugin example and its comparison); `display.py`: the display helpers they
   share.
-- `browser_check.py`: the built book in Chromium (`make browser-check`).
-- `figures.py`: the measured figures of the README and CONTRIBUTING.md, from their records
-  (`python -m icil_paper.book.figures --update-readme`).
 
-Recordings and the viewer that embeds them are `icil_paper.viz`.
+Recordings and the viewer that embeds them are `icil_paper.viz`. The checks of the built book
+and of the README's figures are the project's tools (`tools/browser_check.py`,
+`tools/readme_figures.py`).
 
 Nothing is imported here, so each module loads only what it needs.
 """

@@ -73,11 +73,11 @@ from icil_paper.data.sources import (
     source_env_options,
     style_dict,
 )
+from icil_paper.data.splits import sim_to_real_pairs
 from icil_paper.fileio import check_writable, exclusive_lock, set_aside
 from icil_paper.registry import check_name
 from icil_paper.seeding import data_set_index
 from icil_paper.setup.provenance import REPO_ROOT
-from icil_paper.data.splits import sim_to_real_pairs
 from icil_paper.sim import (
     ACTION_DIM,
     ALL_SUITES,

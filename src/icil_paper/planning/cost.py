@@ -208,7 +208,7 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
             per_cell = estimate.get(kind)
         if per_cell is None:
             raise KeyError(f"no cost estimate for cells of kind {kind!r}: run "
-                           "`python -m icil_paper.bench.cells` to measure one")
+                           "`python -m tools.bench.cells` to measure one")
         left = max(n - finished, 0) * per_cell
         remaining += left
         from_records += left if measured else 0.0

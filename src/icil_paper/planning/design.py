@@ -21,7 +21,7 @@ gives the E that is narrowest for its compute.
 
 **Cost.** Each trained run of the plan costs its optimizer steps at the measured step time
 of its kind plus its episodes at the measured simulator rate (`results/bench/cells.json`,
-`python -m icil_paper.bench.cells`); the run's records carry what it really cost
+`python -m tools.bench.cells`); the run's records carry what it really cost
 (`results/reference/cost.json`, `icil_paper.planning.cost`).
 """
 
@@ -35,13 +35,12 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from icil_paper.bench import bench_path
 from icil_paper.commands import add_preset_arguments, preset_from_args, run_module
 from icil_paper.config import Preset
 from icil_paper.fileio import read_json
 from icil_paper.paper import TABLES, claims, claims_ledger, table_spec
 from icil_paper.records import eval_record, features_record
-from icil_paper.results import ResultsStore, results_root
+from icil_paper.results import ResultsStore, bench_path, results_root
 from icil_paper.tables.claims import as_entry, read_ledger, sizing_effect, stage_design
 from icil_paper.tables.execute import data_needs, plan
 
@@ -226,11 +225,11 @@ def data_cost(plans, path: str | Path | None = None) -> dict[str, Any]:
     """What generating the plans' demonstration sets costs: the sets (one per task, source,
     observation kind and demonstration set: training seed k reads set k), their
     demonstrations, and core-seconds at the per-demonstration CPU time measured by
-    `python -m icil_paper.bench.datasets` (`results/bench/datasets.json`; images
+    `python -m tools.bench.datasets` (`results/bench/datasets.json`; images
     `IMAGE_SLOWDOWN` times a state demonstration; 0 where nothing was measured)."""
     source = Path(path or bench_path("datasets"))
     measured = (read_json(source, "the data-set generation benchmark (datasets.json)",
-                          "regenerate it: python -m icil_paper.bench.datasets",
+                          "regenerate it: python -m tools.bench.datasets",
                           keys=("suites",), fields={"suites": dict})
                 if source.exists() else {"suites": {}})
     rates = {suite: m["cpu_s_per_demo"] for suite, m in measured["suites"].items()}

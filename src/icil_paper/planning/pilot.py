@@ -29,14 +29,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from icil_paper.bench import bench_path, save_benchmark
 from icil_paper.config import get_preset, matching_c_lr_scale, task_demo_counts
 from icil_paper.config_data import canonical_json
 from icil_paper.paper import table_spec
 from icil_paper.paper.table_ii import maniskill_settings, maniskill_tokenizer
 from icil_paper.records import eval_record, features_record
 from icil_paper.registry import check_name
-from icil_paper.results import ResultsStore, results_root
+from icil_paper.results import ResultsStore, bench_path, results_root, save_benchmark
 from icil_paper.runspec import eval_key, feature_key, run_spec
 from icil_paper.tables.definitions import FAMILY_COLUMNS, families, feature_spec, table_eval
 from icil_paper.tables.execute import (

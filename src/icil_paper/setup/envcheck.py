@@ -2,10 +2,13 @@
 
 Each simulator check runs in a subprocess with a time limit, so that a crashing native
 library is reported as a failed check rather than taking the caller down with it.
+`vulkan_problem` is the probe behind `sim.rendering` (ManiSkill's Vulkan device) and
+`make setup`'s system check (`tools/system_deps.py`).
 """
 
 from __future__ import annotations
 
+import functools
 import os
 import subprocess
 import sys
@@ -13,6 +16,36 @@ import time
 from dataclasses import asdict, dataclass
 
 from icil_paper.setup.provenance import host_info, package_versions
+
+MANUAL_FIX = (
+    "ManiSkill needs a Vulkan device. On a machine without a GPU install Mesa's lavapipe "
+    ">= 24.3, e.g. on Debian 12 as root: add the 'bookworm-backports' suite of your Debian "
+    "mirror to apt, then `apt-get update && apt-get install -t bookworm-backports "
+    "mesa-vulkan-drivers`; on Ubuntu 24.10+ `apt-get install mesa-vulkan-drivers`. "
+    "With an NVIDIA GPU, install the driver's Vulkan ICD (libnvidia-gl)."
+)
+
+_VULKAN = """
+import sapien
+sapien.render.RenderSystem()
+print("vulkan-ok")
+"""
+
+
+@functools.lru_cache(maxsize=1)
+def vulkan_problem(python: str | None = None) -> str | None:
+    """None when a Vulkan device works for SAPIEN, else a sentence naming the problem and fix."""
+    try:
+        out = subprocess.run([python or sys.executable, "-c", _VULKAN], capture_output=True,
+                             text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"the Vulkan probe could not run ({exc}). {MANUAL_FIX}"
+    if "vulkan-ok" in out.stdout:
+        return None
+    if "No module named 'sapien'" in out.stderr:
+        return "SAPIEN is not installed (run `make setup`)."
+    last = (out.stderr.strip().splitlines() or ["no output"])[-1]
+    return f"no working Vulkan device ({last}). {MANUAL_FIX}"
 
 
 @dataclass
@@ -76,7 +109,7 @@ _FIXES = {
     "metaworld": "run `make setup` (it installs metaworld==3.1.1 with --no-deps beside the "
                  "pinned mujoco 3.3.7)",
     "maniskill": "ManiSkill needs a Vulkan device: `make setup` installs Mesa's lavapipe on "
-                 "Debian 12 as root; see `python -m icil_paper.setup.system_deps`",
+                 "Debian 12 as root; see `python -m tools.system_deps`",
     "offscreen rendering": "install an EGL driver (Debian: libegl1 libegl-mesa0) or set "
                            "MUJOCO_GL=osmesa with libosmesa6",
 }

@@ -2,7 +2,7 @@
 
 ManiSkill 3 with SAPIEN 3 needs a Vulkan device even for state observations. On a machine with
 no GPU, Mesa's software Vulkan driver (lavapipe) works from Mesa 24.3 on; `make setup` installs
-it where it can (`icil_paper.setup.system_deps`). The tests that need ManiSkill skip with
+it where it can (`tools/system_deps.py`). The tests that need ManiSkill skip with
 `vulkan_skip_reason()`, and `make_env("maniskill/...")` raises `RenderingUnavailable` with the
 same explanation instead of SAPIEN's bare "failed to find a rendering device".
 """
@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import functools
 
-from icil_paper.setup.system_deps import MANUAL_FIX
-from icil_paper.setup.system_deps import vulkan_problem as probe
+from icil_paper.setup.envcheck import MANUAL_FIX
+from icil_paper.setup.envcheck import vulkan_problem as probe
 
 LAVAPIPE_HOWTO = (
     "ManiSkill (SAPIEN 3) needs a Vulkan device, even for state observations. With an NVIDIA "
     "GPU install the driver's Vulkan ICD (libnvidia-gl). Without a GPU install Mesa's software "
     "driver lavapipe, version 24.3 or newer (SAPIEN needs VK_KHR_external_semaphore_fd): on "
-    "Debian 12 as root, `make setup` does it (python -m icil_paper.setup.system_deps --install), or by "
+    "Debian 12 as root, `make setup` does it (python -m tools.system_deps --install), or by "
     "hand: add the 'bookworm-backports' suite of your Debian mirror to apt, then `apt-get update "
     "&& apt-get install -t bookworm-backports mesa-vulkan-drivers`; on Ubuntu 24.10 or newer "
     "`apt-get install mesa-vulkan-drivers`. Check with `vulkaninfo --summary` (package "

@@ -20,7 +20,6 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-
 SKILL_FAMILIES = ("Pick and Place", "Open/Close Doors", "Open/Close Drawers", "Turning Levers",
                   "Twisting Knobs", "Insertion", "Pressing Buttons")
 """RoboCasa's seven skill families, in the column order of the paper's RoboCasa tables."""

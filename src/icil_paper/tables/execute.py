@@ -13,7 +13,7 @@
    (or finds it), evaluates it and measures its features, writing one record per result
    through the results store. A cell whose records all exist is skipped, so a killed run
    resumes where it stopped. A grid worker keeps its environments from cell to cell
-   (`keep_envs`), so it builds each task's env once (`python -m icil_paper.bench.cells`
+   (`keep_envs`), so it builds each task's env once (`python -m tools.bench.cells`
    measures what a cell costs, phase by phase).
 
 Records are named by `icil_paper.records` (`train_record`, `eval_record`,

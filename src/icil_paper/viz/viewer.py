@@ -22,7 +22,7 @@ address), and its output is an HTML block that the built page turns into:
 The book's Sphinx extension (`book/_ext/book_assets.py`) copies the staged files into the
 built book's `_static/recordings/`, so the book is self-contained. The viewer is rerun 0.24,
 which reads the recordings that rerun-sdk 0.23 writes (rerun keeps the previous minor
-version's files readable); `python -m icil_paper.book.browser_check` checks that every recording
+version's files readable); `python -m tools.browser_check` checks that every recording
 opens in it.
 """
 

@@ -1,25 +1,21 @@
 """Kitchen suite benchmark: expert demo generation speed against raw simulator stepping.
 
-    python -m icil_paper.bench.kitchen              # every kitchen and Kinova task, 3 episodes
-    python -m icil_paper.bench.kitchen --quick      # four tasks, 1 episode each
+    python -m tools.bench.kitchen              # every kitchen and Kinova task, 3 episodes
+    python -m tools.bench.kitchen --quick      # four tasks, 1 episode each
+    python -m tools.bench.kitchen --rgb        # also one episode with two-camera images
 
 For each task, in one process and interleaved so that both see the same machine load:
 
 - demo generation: `reset(seed)`, then expert `act` + env `step` until the episode ends,
   collecting every observation dict and action as a data set writer would (state
-  observations, no images); steps per second over whole episodes, resets included;
+  observations); steps per second over whole episodes, resets included;
 - raw stepping: the same actions replayed through the underlying robosuite env
-  (`KitchenSceneEnv.step`: controller + physics, no observation dict, no expert), from the
-  same seed; steps per second, resets included. Episodes alternate which of the two runs
-  first (an odd episode's actions come from an untimed expert run), so that a load change
-  on a shared machine does not always hit the same side.
+  (`KitchenSceneEnv.step`: controller and physics, no observation dict, no expert) from the
+  same seed. Episodes alternate which side runs first.
 
 The ratio generation / raw says how much of the simulator's speed the suite's wrapper and
-experts keep (1.0: none lost). Both are timed in wall-clock seconds and in CPU seconds of the
-process; on a shared machine the CPU-time figures are the steadier ones (time spent waiting
-for a core is not counted), so the headline ratio is `cpu_ratio`. Optionally (`--rgb`) one
-episode of one task is timed with two-camera image observations. Results go to
-results/bench/kitchen.json.
+experts keep (1.0: none lost), in wall-clock and in CPU seconds (`cpu_ratio`, the steadier
+on a shared machine). Writes results/bench/kitchen.json.
 """
 
 from __future__ import annotations
@@ -29,7 +25,7 @@ import time
 
 import numpy as np
 
-from icil_paper.bench import save_benchmark
+from icil_paper.results import save_benchmark
 from icil_paper.sim.kitchen import ALL_TASKS, make_kitchen_env, make_kitchen_expert
 
 QUICK_TASKS = ("kitchen/open_drawer", "kitchen/pick_place", "kitchen/twist_knob_on",
@@ -147,7 +143,7 @@ def run(tasks: list[str], episodes: int, seed: int, rgb: bool, progress: bool = 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.bench.kitchen",
+    parser = argparse.ArgumentParser(prog="python -m tools.bench.kitchen",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="four tasks, one episode each")
     parser.add_argument("--episodes", type=int, default=None, help="episodes per task")

@@ -1,26 +1,20 @@
 """Policy benchmark: ICRT's per-step inference latency with and without the KV cache, and
 training steps per second, at the small, reference and full presets' sizes.
 
-    python -m icil_paper.bench.policies            # CPU (and the GPU too, when one is present)
-    python -m icil_paper.bench.policies --quick    # fewer repetitions
+    python -m tools.bench.policies            # CPU (and the GPU too, when one is present)
+    python -m tools.bench.policies --quick    # fewer repetitions
 
-Latency. ICRT (with the LipVQ-VAE tokenizer) is given a prompt of 100, 400 or 1600 tokens
-(50, 200, 800 demonstration steps) and then acts for a few query steps. With the cache,
-one step is `select_action(obs)`: two new tokens (the previous action, the observation)
-attend to the cached keys and values. Without it, every step recomputes the whole sequence
-(prompt and query so far) with `predict`, which is what a policy without a cache must do.
-The prefill (`reset(prompt)`) is timed separately. Reported: median milliseconds per step.
+Latency: ICRT (LipVQ-VAE tokenizer) is given a prompt of 100, 400 or 1600 tokens and then
+acts for a few query steps. With the cache a step is `select_action(obs)` (two new tokens
+attend to the cached keys and values); without it every step recomputes the whole sequence
+with `predict`. The prefill (`reset(prompt)`) is timed apart; reported: median ms per step.
 
-Training. Steps per second of the one training loop's inner step (batch sampling, forward,
-backward, clipping, AdamW) at the `small`, `reference` and `full` presets' policy sizes and
-batch sizes (`reference` trains the small model for longer: its row repeats `small`'s and
-shows the noise), on prompts of 100-step synthetic demonstrations (`sim.synthetic`) with
-32-step queries. On a GPU the forward pass runs under bf16 autocast and the peak memory is
-reported.
-
-CPU figures use one torch thread by default (`--threads`), as CPU training does
-(`TrainConfig.cpu_threads`). Weights are untrained (timing does not depend on them). Results go to
-results/bench/policies.json (written atomically), with the host, thread count and load.
+Training: steps per second of the training loop's inner step (batch sampling, forward,
+backward, clipping, AdamW) at each preset's policy and batch size, on prompts of 100-step
+synthetic demonstrations (`sim.synthetic`) with 32-step queries; on a GPU under bf16
+autocast, with the peak memory. CPU figures use one torch thread (`--threads`), as CPU
+training does. Weights are untrained (timing does not depend on them). Writes
+results/bench/policies.json.
 """
 
 from __future__ import annotations
@@ -34,10 +28,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from icil_paper.bench import save_benchmark
 from icil_paper.config import get_preset
 from icil_paper.policies import make_policy
 from icil_paper.policies.batching import batch_to
+from icil_paper.results import save_benchmark
 from icil_paper.seeding import seed_everything
 from icil_paper.sim.synthetic import synthetic_demos
 from icil_paper.train.optim import make_optimizer
@@ -205,7 +199,7 @@ def format_table(result: dict[str, Any]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.bench.policies",
+    parser = argparse.ArgumentParser(prog="python -m tools.bench.policies",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repetitions")
     parser.add_argument("--seed", type=int, default=0)

@@ -1,14 +1,14 @@
 """The measured figures of the README and CONTRIBUTING.md, computed from the records they
 quote.
 
-    python -m icil_paper.book.figures                  # every figure with its value and source
-    python -m icil_paper.book.figures --update-readme  # rewrite both files' figures
+    python -m tools.readme_figures                  # every figure with its value and source
+    python -m tools.readme_figures --update-readme  # rewrite both files' figures
 
 A figure in either file (`DOCUMENTS`) is written as the number followed by a marker naming it,
 `15.6 steps/s <!-- figure: policies.train_small_steps_per_s -->`, and
-`tests/test_readme_figures.py` checks each printed number against `FIGURES` at the printed
-precision (its significant digits), so a benchmark or reference record that changes
-cannot leave an old number in the README.
+`tests/test_readme_figures.py` (part of `make test`) checks each printed number against
+`FIGURES` at the printed precision (its significant digits), so a benchmark or reference
+record that changes cannot leave an old number in the README.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from icil_paper.planning.staged import at_stage
 from icil_paper.stats import Verdict
 from icil_paper.tables.claims import summary
 
-ROOT = Path(__file__).resolve().parents[3]
+ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "results" / "bench"
 REFERENCE = ROOT / "results" / "reference"
 OLDER = REFERENCE / "older-code"
@@ -241,7 +241,8 @@ def update_readme(path: Path = DOCUMENTS[0]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.readme_figures",
+                                     description=__doc__.split("\n\n")[0])
     parser.add_argument("--update-readme", action="store_true",
                         help="rewrite the figures of the README and CONTRIBUTING.md with their "
                              "current values")

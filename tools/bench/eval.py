@@ -1,34 +1,23 @@
 """Evaluation throughput: the policy's rollouts against the simulator stepping alone, in one run.
 
-    python -m icil_paper.bench.eval                   # 11 kitchen tasks x 4 episodes, 2 workers
-    python -m icil_paper.bench.eval --max-steps 0     # whole episodes (the tasks' horizons)
+    python -m tools.bench.eval                   # 11 kitchen tasks x 4 episodes, 2 workers
+    python -m tools.bench.eval --max-steps 0     # whole episodes (the tasks' horizons)
 
-The policy is ICRT + LipVQ-VAE at the small preset's size, trained on every task's first
-`--demos` generated demonstrations for `--train-steps` steps (a short run: the benchmark is
-about speed, not success; it is stored in `runs/small/` under its spec's key and loaded on the
-next run). Its evaluation (`--episodes` per task, at most `--max-steps` steps each) is cut
-into the rollout engine's lockstep groups (`icil_paper.eval.rollouts`), and every group is run
-twice in a row on the same worker and the same envs:
+The policy is ICRT + LipVQ-VAE at the small preset's size after a short training
+(`--train-steps` on each task's first `--demos` demonstrations; stored in `runs/small/` and
+reused). Its evaluation is cut into the rollout engine's lockstep groups
+(`icil_paper.eval.rollouts`), and each group runs twice in a row on the same worker and envs,
+so that both sides see the same machine load:
 
-    policy:  `rollouts.run_group`: the envs reset from the episodes' seeds, one batched
-             ICRT forward pass per step, as `evaluate_many` runs it;
+    policy:  `rollouts.run_group`, one batched ICRT forward pass per step;
     raw:     the same envs reset from the same seeds and stepped with zero actions, each
              episode for exactly the steps the policy's episode took.
 
-Building a worker's envs (the first time it meets a task) is timed apart and counted in
-both. Running the two side by side, group after group, means both see the same machine load,
-which on a shared machine moves a lot within a minute. Each side's time is, per worker, env
-construction plus its groups' seconds, and the slowest worker's total is the side's wall
-time (as if it had run alone); steps per second follow, and
-`ratio = policy_steps_per_s / raw_steps_per_s` (1.0: the policy costs nothing; the target
-on 2 cores is >= 0.8). The same is done with one worker in this process, and
-`worker_scaling` = policy steps per second with `--workers` workers over one (the target
-for 2 is >= 1.7); `raw_worker_scaling` is the simulator's own. CPU seconds of each side are
-reported beside the wall-clock figures (`cpu_ratio`). The record goes to
-results/bench/eval.json with provenance (`save_benchmark`).
-
-With `--device cuda` the policy acts on the GPU (in every worker); ManiSkill's GPU-parallel
-simulation is not driven by this engine and not measured here.
+Env construction is timed apart and counted in both; a side's wall time is its slowest
+worker's. Reported: each side's steps per second, `ratio` = policy / raw (1.0: the policy
+costs nothing), `worker_scaling` (`--workers` workers over one; `raw_worker_scaling`, the
+simulator's own) and CPU seconds (`cpu_ratio`). `--device cuda` puts the policy on the GPU.
+Writes results/bench/eval.json.
 """
 
 from __future__ import annotations
@@ -42,7 +31,6 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper.bench import save_benchmark
 from icil_paper.config import get_preset
 from icil_paper.eval import plan_episodes, prompt_pool
 from icil_paper.eval.rollouts import (
@@ -55,6 +43,7 @@ from icil_paper.eval.rollouts import (
     run_group,
     worker_state,
 )
+from icil_paper.results import save_benchmark
 from icil_paper.runspec import EvalSpec, run_spec
 from icil_paper.seeding import cpu_threads, seed_everything
 from icil_paper.sim import suite_unavailable, tasks_of
@@ -171,7 +160,7 @@ def trained_policy(run: Any, progress: bool) -> tuple[Any, dict[str, Any]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.bench.eval",
+    parser = argparse.ArgumentParser(prog="python -m tools.bench.eval",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--tasks", nargs="*", help="tasks (default: the kitchen suite's 11)")
     parser.add_argument("--episodes", type=int, default=4, help="episodes per task")

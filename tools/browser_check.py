@@ -1,30 +1,24 @@
 """The built book checked in a real browser: every page loads cleanly, offline.
 
-    python -m icil_paper.book.browser_check [book/_build/html] [--screenshots DIR]
-    make browser-check
+    python -m tools.browser_check [book/_build/html] [--screenshots DIR]   # make browser-check
 
-Serves the built book on a loopback HTTP server and loads every page in headless Chromium
-(Debian's `chromium`, found by `setup.system_deps.find_chromium` and driven by Playwright's
-Python package; no browser is downloaded).
-Every request that leaves the loopback server is blocked, so the check passes only if the
-book needs no network (a CDN script, font or image is caught). A page fails on:
+Serves the built book on loopback and loads every page in headless Chromium (`find_chromium`
+of `tools/system_deps.py`, driven by Playwright; no browser is downloaded), with every request
+that leaves the loopback server blocked. A page fails on:
 
     javascript error     an uncaught exception or a console error
     failed request       a request that failed, was blocked (not loopback) or got HTTP >= 400
     untypeset math       `\\(`, `\\[` or `$$` left in the visible text (outside code)
-    broken link/image    a local link (or a redirect page's target) to a file that is not
-                         in the book, an image that is not or does not decode
-    overflow             a table, cell output or figure wider than the content column or
-                         than its own box (scrollWidth > clientWidth: clipped, or scrolled
-                         sideways), at the reader's window width (1400 px)
+    broken link/image    a local link (or a redirect's target) to a file not in the book, an
+                         image that is not there or does not decode
+    overflow             a table, cell output or figure wider than the content column or its
+                         own box, at the reader's window width (1400 px)
     recording viewer     a recording block (icil_paper.viz.viewer) whose viewer made no canvas,
-                         or did not report each of its recordings open (a block's menu is
-                         switched through them), or that scrolled the page to itself
+                         did not report each of its recordings open, or scrolled the page
 
-Prints one line per problem, `<page>: <problem>`, then the recordings that opened and a
-summary; exits 1 on any problem, 2 when the check cannot run (no Chromium or Playwright, no
-built book). A full-page screenshot of every page, and one of every recording block, go to
-`--screenshots` (default: `screenshots/` beside the HTML folder: `book/_build/screenshots/`).
+Prints one line per problem, `<page>: <problem>`, then a summary; exits 1 on any problem, 2
+when the check cannot run (no Chromium or Playwright, no built book). Screenshots of every
+page and recording block go to `--screenshots` (default `book/_build/screenshots/`).
 """
 
 from __future__ import annotations
@@ -42,7 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import unquote, urldefrag, urlsplit
 
-from icil_paper.setup.system_deps import find_chromium
+from tools.system_deps import find_chromium
 
 DEFAULT_HTML = Path("book/_build/html")
 # Chromium on a machine with no display and no network: no first-run, sync or component
@@ -379,7 +373,8 @@ def run_check(root: str | Path = DEFAULT_HTML, screenshots: str | Path | None = 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.browser_check",
+                                     description=__doc__.split("\n\n")[0])
     parser.add_argument("html", nargs="?", type=Path, default=DEFAULT_HTML,
                         help="the built book's HTML folder (default: %(default)s)")
     parser.add_argument("--screenshots", type=Path, default=None,

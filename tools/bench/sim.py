@@ -1,22 +1,20 @@
 """Simulator benchmark: demonstration generation throughput against raw stepping, in one run.
 
-    python -m icil_paper.bench.sim                 # ManiSkill suite + one kitchen task
-    python -m icil_paper.bench.sim --demos 3 --raw-steps 300 --tasks maniskill/pick_cube
+    python -m tools.bench.sim                 # ManiSkill suite + one kitchen task
+    python -m tools.bench.sim --demos 3 --raw-steps 300 --tasks maniskill/pick_cube
 
 For each task, in one process and one after the other:
 
 - raw stepping: `--raw-steps` random actions through the project's env (`make_env`, state
-  observations), timing `step` alone (resets at the horizon are timed apart, `reset_s`); for
+  observations), timing `step` alone (resets at the horizon timed apart, `reset_s`); for
   ManiSkill also ManiSkill's own gym env without the project's wrapper
   (`maniskill_gym_steps_per_s`);
 - demo generation: `--demos` demos of the `generated` source exactly as `ensure_demos` makes
-  them (expert planning, failed attempts, simulator-state recording, the HDF5 shard write),
-  counting the steps of the kept demos.
+  them (expert, failed attempts, simulator-state recording, the HDF5 shard write), counting
+  the steps of the kept demos.
 
-`ratio = demo_steps_per_s / raw_steps_per_s` is what resets, the expert (for ManiSkill: its
-motion planning in a second env) and the bookkeeping cost on top of stepping the simulator
-(1.0: free). Both figures are per process: `ensure_demos` runs
-`data.workers` processes. Results go atomically to results/bench/sim.json.
+`ratio = demo_steps_per_s / raw_steps_per_s` (1.0: resets, the expert and the bookkeeping
+cost nothing), per process. Writes results/bench/sim.json.
 """
 
 from __future__ import annotations
@@ -30,9 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper.bench import save_benchmark
 from icil_paper.data.generate import _close_cache, _Job, generate_one, shard_path
 from icil_paper.data.hdf5 import load_demos
+from icil_paper.results import save_benchmark
 from icil_paper.seeding import seed_everything
 from icil_paper.sim import make_env, suite_unavailable, tasks_of
 from icil_paper.sim.maniskill.env import (
@@ -117,7 +115,7 @@ def default_tasks() -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.bench.sim",
+    parser = argparse.ArgumentParser(prog="python -m tools.bench.sim",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--tasks", nargs="*", help="tasks (default: ManiSkill + one kitchen)")
     parser.add_argument("--demos", type=int, default=5, help="timed demos per task")

@@ -1,14 +1,13 @@
 """Tokenizer benchmark: encode + decode throughput on CPU, and FAST's BPE fitting time.
 
-    python -m icil_paper.bench.tokenizers            # paper sizes, BPE fitted on 1M actions
-    python -m icil_paper.bench.tokenizers --quick    # 100k actions, shorter timings
+    python -m tools.bench.tokenizers            # paper sizes, BPE fitted on 1M actions
+    python -m tools.bench.tokenizers --quick    # 100k actions, shorter timings
 
-Every tokenizer is built at the paper's sizes (the configs' defaults: D = 64, K = 1024,
-256 bins, FAST chunk 8 / scale 10 / vocabulary 1024) and timed on a batch of (B, T) action
-windows from generated trajectories (`icil_paper.data.trajectories`), with one torch thread
-(a per-core figure) and with all threads. Encode is a full `forward` (embeddings, codes,
-the tokenizer's own reconstruction and losses); decode is `decode(embeddings)`. Weights are
-untrained: throughput does not depend on them. Results go to results/bench/tokenizers.json.
+Every tokenizer is built at the paper's sizes (the configs' defaults) and timed on a batch
+of (B, T) action windows from generated trajectories (`icil_paper.data.trajectories`), with
+one torch thread and with all threads. Encode is a full `forward` (embeddings, codes,
+reconstruction and losses); decode is `decode(embeddings)`. Weights are untrained:
+throughput does not depend on them. Writes results/bench/tokenizers.json.
 """
 
 from __future__ import annotations
@@ -18,9 +17,9 @@ import time
 
 import torch
 
-from icil_paper.bench import save_benchmark
 from icil_paper.config_data import to_dict
 from icil_paper.data.trajectories import ACTION_DIM, generate_actions, generate_trajectories
+from icil_paper.results import save_benchmark
 from icil_paper.seeding import seed_everything
 from icil_paper.tokenizers import TOKENIZERS, make_tokenizer
 from icil_paper.tokenizers.configs import TokenizerStudyConfig, default_config, lipvq_official
@@ -96,7 +95,7 @@ def format_table(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icil_paper.bench.tokenizers",
+    parser = argparse.ArgumentParser(prog="python -m tools.bench.tokenizers",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
                         help="fit FAST on 100k actions and time for less long")

@@ -1,15 +1,13 @@
 """What a demonstration set costs to generate, per suite: `results/bench/datasets.json`.
 
-    python -m icil_paper.bench.datasets                  # one set of each suite, reference sizes
-    python -m icil_paper.bench.datasets --demos 3        # fewer demos per task (the rate is per demo)
+    python -m tools.bench.datasets                  # one set of each suite, reference sizes
+    python -m tools.bench.datasets --demos 3        # fewer demos per task (the rate is per demo)
 
-Training seed k of every table row trains on demonstration set k (`seeding.data_set_seed`),
-so a preset with S seeds a row generates S sets of each suite. This measures one set (the
-`generated` source, state observations) of the kitchen tasks and of the ManiSkill tasks in
-this process (one worker), on a set index that no table uses, in a folder of its own that is
-removed afterwards: CPU seconds (this process: generation runs in it with one worker) and
-wall seconds per demonstration. `planning.design.plan_cost` multiplies them by the
-demonstrations the preset's plan asks for.
+Generates one set (the `generated` source, state observations) of the kitchen tasks and of
+the ManiSkill tasks in this process (one worker), on a set index no table uses, in a folder
+of its own that is removed afterwards, and reports CPU and wall seconds per demonstration.
+`planning.design.plan_cost` multiplies them by the demonstrations a preset's plan asks for
+(training seed k of every row trains on set k: S seeds generate S sets of each suite).
 """
 
 from __future__ import annotations
@@ -20,9 +18,9 @@ import tempfile
 import time
 from typing import Any
 
-from icil_paper.bench import save_benchmark
 from icil_paper.config import get_preset
 from icil_paper.data import ensure_many
+from icil_paper.results import save_benchmark
 from icil_paper.seeding import data_set_seed
 
 BENCH_SET = 49
@@ -47,7 +45,8 @@ def measure(suite: str, tasks: tuple[str, ...], demos: int) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.bench.datasets",
+                                     description=__doc__.split("\n\n")[0])
     parser.add_argument("--demos", type=int, default=None,
                         help="demonstrations per task (default: the reference preset's)")
     parser.add_argument("--suites", nargs="+", default=["kitchen", "maniskill"],

@@ -1,45 +1,22 @@
 """What one seed of each kind of cell costs, phase by phase, against its compute floor.
 
-    python -m icil_paper.bench.cells                     # a tenth of each reference cell
-    python -m icil_paper.bench.cells --full              # the reference preset's own cells
-    python -m icil_paper.bench.cells --kinds act_maniskill --scale 0.05 --compile-steps 0
+    python -m tools.bench.cells                     # a tenth of each reference cell
+    python -m tools.bench.cells --full              # the reference preset's own cells
+    python -m tools.bench.cells --kinds act_maniskill --scale 0.05 --compile-steps 0
 
-A kind of cell is one seed of a reference-preset cell, taken from the tables' own plan
-(`tables.execute.plan`), and run the way the grid runs it (`tables.execute.run_cell`), in a
-fresh process of its own, against empty results and runs folders (a temporary folder;
-the data sets are the preset's, generated first and not timed):
-
-    kitchen_icrt_lipvq   Table I's ICRT + LipVQ-VAE: trained on the 11 kitchen tasks,
-                         evaluated on each
-    bc_transformer       Table I's BC-Transformer, the same tasks
-    act_maniskill        Table II's ACT on ManiSkill's first task (one policy per task)
-    kinova_eval          Table V: the ICRT + LipVQ-VAE policy above (already trained, so
-                         only loaded) evaluated on the Kinova tasks
-
-Each process runs two seeds of its kind one after the other, as a grid worker runs cell
-after cell: `first` pays the process start and builds the environments, `steady` (the
-next seed) is what each later cell costs, and its ratio is the kind's `floor_ratio`. Each
-cell's wall time is split into the phases the library marks (`icil_paper.timing`):
-
-    process_start      interpreter start and imports, up to the cell's first line
-    train.data         loading the demonstrations       train.prepare  normalisation,
-    train.step         the optimiser steps                             tokenizer fitting
-    train.checkpoint   checkpoints and the policy file  train.log      metric lines
-    eval.load_policy   loading the trained policy       eval.prompts   the prompt pools
-    eval.env_build     creating environments            eval.reset     resets
-    eval.sim           simulator steps                  eval.policy    policy forward passes
-    eval.motion        the end-effector path and its smoothness
-    eval.write         the evaluation records           other          everything unmarked
-
-and compared with its compute floor: the training steps times the measured time of one
-step (`train.step`'s seconds), plus the evaluation's environment steps divided by the raw
-simulator rate on the same tasks (`raw_rates`: the scripted expert's steps, `env.step`
-alone, measured in the same process after the first cell). `floor_ratio = wall / floor`
-(the target is <= 1.25). `--scale` shortens every cell (training steps, checkpoint interval
-and episodes per task alike), so every phase runs in proportion. `compile` compares eager
-training with `torch.compile` (`TrainConfig.compile`) on the kinds that train longest
-(`compile_cost`). The record goes to results/bench/cells.json with provenance
-(`save_benchmark`).
+A kind of cell (`KINDS`: Table I's ICRT + LipVQ-VAE and BC-Transformer on the kitchen tasks,
+Table II's ACT on ManiSkill's first task, Table V's Kinova evaluation of that ICRT) is one
+seed of a reference-preset cell from the tables' own plan (`tables.execute.plan`), run as the
+grid runs it (`tables.execute.run_cell`) in a fresh process, against empty results and runs
+folders (the data sets are generated first, untimed). Each process runs two seeds one after
+the other, as a grid worker does: `first` pays the process start and builds the
+environments, `steady` is what each later cell costs. A cell's wall time is split into the
+phases the library marks (`icil_paper.timing`) and compared with its compute floor, its
+training steps at the measured time of a step plus its environment steps at the raw
+simulator rate on the same tasks (`raw_rates`): `floor_ratio = wall / floor`. `--scale`
+shortens every cell (steps, checkpoint interval, episodes) in proportion. `compile_cost`
+compares eager training with `torch.compile` on the kinds that train longest. Writes
+results/bench/cells.json.
 """
 
 from __future__ import annotations
@@ -56,14 +33,13 @@ from pathlib import Path
 from typing import Any
 
 import icil_paper.tables.execute as execute
-from icil_paper.bench import save_benchmark
 from icil_paper.config import get_preset
 from icil_paper.config_data import to_dict
 from icil_paper.eval.outcomes import episode_seed
 from icil_paper.fileio import atomic_write_json
 from icil_paper.paper import table_spec
 from icil_paper.records import eval_record
-from icil_paper.results import ResultsStore
+from icil_paper.results import ResultsStore, save_benchmark
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env, make_expert
 from icil_paper.tables.execute import RunPlan, ensure_data, plan
@@ -249,7 +225,7 @@ def run_kinds(kinds: list[str], preset_name: str, scale: float | None,
     out = []
     for kind in kinds:
         result_file = folder / f"{kind}.json"
-        cmd = [sys.executable, "-m", "icil_paper.bench.cells", "--child", kind,
+        cmd = [sys.executable, "-m", "tools.bench.cells", "--child", kind,
                "--preset", preset_name, "--started", repr(time.time()), "--out", str(result_file)]
         cmd += ["--full"] if scale is None else ["--scale", str(scale)]
         print(f"== {kind}", flush=True)
@@ -276,7 +252,8 @@ def ensure_kind_data(preset_name: str, kinds: list[str]) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.bench.cells",
+                                     description=__doc__.split("\n\n")[0])
     parser.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     parser.add_argument("--preset", default="reference")
     parser.add_argument("--scale", type=float, default=0.1,

@@ -1,27 +1,22 @@
-"""System libraries the simulators need, checked and (where possible) installed.
+"""The system packages the simulators and the browser check need, checked and installed.
 
-ManiSkill 3 (SAPIEN 3) needs a Vulkan device even for state observations. On a Linux machine
-with no GPU, Mesa's software Vulkan driver (lavapipe) works from Mesa 24.3 on; Debian 12's own
-Mesa (22.3) does not, but its `bookworm-backports` suite has a new enough one. `make setup`
-runs `python -m icil_paper.setup.system_deps --install`, which:
+    python -m tools.system_deps             # report what works
+    python -m tools.system_deps --install   # install what is missing (make setup runs this)
 
-1. probes for a working Vulkan device (a SAPIEN render system in a subprocess);
-2. if there is none, on Debian 12 as root: adds `bookworm-backports` to apt, deriving the
-   mirror from the machine's existing Debian source (no host name is written into the repo),
-   and installs `mesa-vulkan-drivers` from it;
-3. anywhere else (not root, not Debian, no apt): prints what to install by hand and carries on.
-   Tests that need ManiSkill then skip with `vulkan_problem()`'s reason.
-
-The book's browser check (`icil_paper.book.browser_check`) needs Chromium, found by
-`find_chromium` ($ICIL_CHROMIUM, else the first candidate on PATH). Where none is found,
-`--install` installs Debian's `chromium` package with apt-get (root, Debian-like); elsewhere
-it prints what to install and carries on (the browser check and its tests then say so).
+ManiSkill 3 (SAPIEN 3) needs a Vulkan device even for state observations; without a GPU,
+Mesa's lavapipe >= 24.3 works. With `--install`, where the probe
+(`icil_paper.setup.envcheck.vulkan_problem`) finds no device, on Debian 12 as root it adds
+`bookworm-backports` to apt, deriving the mirror from the machine's own Debian source (no
+host name is written into the repository), and installs `mesa-vulkan-drivers` from it. The
+book's browser check (`tools/browser_check.py`) needs Chromium (`find_chromium`:
+$ICIL_CHROMIUM, else the first candidate on PATH); `--install` installs Debian's `chromium`.
+Anywhere else it prints what to install by hand and carries on: a missing system package
+never stops setup (the tests that need it skip with the reason).
 """
 
 from __future__ import annotations
 
 import argparse
-import functools
 import os
 import re
 import shutil
@@ -29,14 +24,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+from icil_paper.setup.envcheck import MANUAL_FIX, vulkan_problem
+
 BACKPORTS_SOURCE = Path("/etc/apt/sources.list.d/icil-paper-backports.sources")
-MANUAL_FIX = (
-    "ManiSkill needs a Vulkan device. On a machine without a GPU install Mesa's lavapipe "
-    ">= 24.3, e.g. on Debian 12 as root: add the 'bookworm-backports' suite of your Debian "
-    "mirror to apt, then `apt-get update && apt-get install -t bookworm-backports "
-    "mesa-vulkan-drivers`; on Ubuntu 24.10+ `apt-get install mesa-vulkan-drivers`. "
-    "With an NVIDIA GPU, install the driver's Vulkan ICD (libnvidia-gl)."
-)
 
 MANUAL_CHROMIUM = (
     "The book's browser check needs Chromium: on Debian as root `apt-get install chromium`, "
@@ -46,28 +36,6 @@ MANUAL_CHROMIUM = (
 
 CHROMIUM_CANDIDATES = ("chromium", "chromium-browser", "google-chrome")
 """Executables tried, in order, on PATH when $ICIL_CHROMIUM is not set."""
-
-_PROBE = """
-import sapien
-sapien.render.RenderSystem()
-print("vulkan-ok")
-"""
-
-
-@functools.lru_cache(maxsize=1)
-def vulkan_problem(python: str | None = None) -> str | None:
-    """None when a Vulkan device works for SAPIEN, else a sentence naming the problem and fix."""
-    try:
-        out = subprocess.run([python or sys.executable, "-c", _PROBE], capture_output=True,
-                             text=True, timeout=120)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        return f"the Vulkan probe could not run ({exc}). {MANUAL_FIX}"
-    if "vulkan-ok" in out.stdout:
-        return None
-    if "No module named 'sapien'" in out.stderr:
-        return "SAPIEN is not installed (run `make setup`)."
-    last = (out.stderr.strip().splitlines() or ["no output"])[-1]
-    return f"no working Vulkan device ({last}). {MANUAL_FIX}"
 
 
 def debian_backports_entry(sources_dir: Path = Path("/etc/apt")) -> str | None:
@@ -202,7 +170,8 @@ def ensure_chromium(install: bool) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.system_deps",
+                                     description=__doc__.split("\n\n")[0])
     parser.add_argument("--install", action="store_true",
                         help="install what is missing: lavapipe (root, Debian 12), chromium "
                              "(root, apt-get)")
