@@ -492,10 +492,12 @@ def check_tasks(preset: Any) -> None:
     not have (UnknownNameError with a "did you mean"). A suite that cannot load here is
     not checked: its tasks are refused, with the reason, where they are used."""
     preset = _preset(preset)
-    for name in ("robocasa_tasks", "zero_shot_tasks", "zero_shot_held_out", "maniskill_tasks"):
+    suites = {"robocasa_tasks": None, "zero_shot_tasks": "metaworld",
+              "zero_shot_held_out": "metaworld", "maniskill_tasks": "maniskill"}
+    for name, suite in suites.items():  # None: any suite's tasks
         for task in getattr(preset.data, name):
-            suite = task.split("/", 1)[0]
-            valid = tasks_of(suite) if suite in ALL_SUITES else all_tasks()
+            owner = suite or task.split("/", 1)[0]
+            valid = tasks_of(owner) if owner in ALL_SUITES else all_tasks()
             if valid:
                 check_name(f"data.{name} task", task, valid)
     # the RoboCasa tables cannot be skipped: their suite must run here (ManiSkill's and the

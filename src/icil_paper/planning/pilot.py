@@ -569,9 +569,18 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     exceptions = record.get("task_demos") or {}
     own = (" (" + ", ".join(f"{t.split('/', 1)[-1]} {n}" for t, n in exceptions.items()) + ")"
            if exceptions else "")
-    text = (f"{record['seeds']} pilot seed(s) (seed indices {record['seed_indices']}, which "
-            f"the reference run does not use), {record['demos_per_task']} demonstrations a "
-            f"task{own}; budgets {record['budgets']}. ")
+    suite = record.get("suite", "kitchen")
+    text = (f"On the {suite} tasks: {record['seeds']} pilot seed(s) (seed indices "
+            f"{record['seed_indices']}, which the reference run does not use), "
+            f"{record['demos_per_task']} demonstrations a task{own}; budgets "
+            f"{record['budgets']}. ")
+    data = record.get("data_curve")
+    if data:
+        curve = ", ".join(f"{n}: {v}" for n, v in data["curve"].items())
+        text += (f"Data curve of {data['row']} at {data['train_steps']} steps "
+                 f"({data['seeds']} seeds; demonstrations a task: success) {curve}; "
+                 + ("the largest count gains nothing beyond noise over the one before it. "
+                    if data["saturated"] else "it still rises at the largest count. "))
     done = record.get("budgets_done", record["budgets"])
     if steps is None:
         text += "No budget has all its records yet."
