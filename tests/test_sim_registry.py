@@ -34,7 +34,7 @@ def test_maniskill_tasks_are_registered_without_importing_the_simulator():
 def test_every_suite_record_is_complete_and_consistent():
     from icil_paper.sim.suite import Suite
 
-    assert sim.SUITES == ("kitchen", "kinova", "maniskill")  # what studies and notebooks show
+    assert sim.SUITES == ("metaworld", "kitchen", "kinova", "maniskill")  # studies, notebooks
     assert set(sim.ALL_SUITES) == set(sim.SUITES) | {"synthetic"}
     for name in sim.ALL_SUITES:
         record = sim.get_suite(name)
@@ -77,7 +77,7 @@ def test_unknown_names_list_the_valid_ones():
     assert "Did you mean 'maniskill/pick_cube'" in str(err.value)
     with pytest.raises(UnknownNameError, match="rgbd"):
         sim.make_env("maniskill/pick_cube", obs="depth")
-    with pytest.raises(UnknownNameError, match="kitchen, kinova, maniskill, synthetic"):
+    with pytest.raises(UnknownNameError, match="metaworld, kitchen, kinova, maniskill, synthetic"):
         sim.obs_dims("robocasa")
     with pytest.raises(UnknownNameError, match="synthetic/task0"):
         sim.make_env("synthetic/task99")
@@ -87,7 +87,9 @@ def test_unknown_names_list_the_valid_ones():
 
 def test_fake_kitchen_suite_is_dispatched(fake_kitchen):
     tasks = sim.TASKS
-    assert tasks[:4] == fake_suite.KITCHEN + fake_suite.KINOVA
+    meta = sim.tasks_of("metaworld")
+    assert tasks[:len(meta)] == meta and len(meta) == 50
+    assert tasks[len(meta):len(meta) + 4] == fake_suite.KITCHEN + fake_suite.KINOVA
     assert tasks[-3:] == MANISKILL
     assert sim.suite_of("kinova/reach_a") == "kinova"
     assert sim.obs_dims("kitchen") == sim.obs_dims("kinova") == fake_suite.OBS_DIMS
@@ -107,7 +109,7 @@ def test_fake_kitchen_suite_is_dispatched(fake_kitchen):
 
 
 def test_unfinished_kitchen_package_leaves_maniskill_working(broken_kitchen):
-    assert sim.TASKS == MANISKILL
+    assert sim.TASKS == sim.tasks_of("metaworld") + MANISKILL
     assert "has no attribute 'NO_SUCH_RECORD'" in sim.suite_unavailable("kitchen")
     assert sim.suite_unavailable("maniskill") is None
     assert sim.tasks_of("kinova") == () and sim.object_position("kitchen/open_drawer") is None

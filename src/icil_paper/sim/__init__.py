@@ -107,7 +107,7 @@ def tasks_of(suite: str) -> tuple[str, ...]:
 
 
 def all_tasks() -> tuple[str, ...]:
-    """Every task name of every loadable suite of `SUITES`: kitchen, kinova, then maniskill."""
+    """Every task name of every loadable suite of `SUITES`, in their order."""
     return tuple(task for suite in SUITES for task in tasks_of(suite))
 
 

@@ -1,0 +1,101 @@
+"""The Meta-World suite: Meta-World's 50 v3 tasks on its Sawyer arm (MuJoCo), 13 of them
+standing in for the paper's seven RoboCasa skill families, with ML45 as the zero-shot split.
+
+    from icil_paper.sim.metaworld import make_metaworld_env, make_metaworld_expert
+    env = make_metaworld_env("metaworld/drawer-open", obs="state", seed=0)
+    obs, info = env.reset(seed=3)          # {"proprio": (8,), "object": (31,)} float32
+    expert = make_metaworld_expert("metaworld/drawer-open"); expert.reset(env, obs)
+    obs, reward, terminated, truncated, info = env.step(expert.act(obs))
+
+- `tasks.py`: the task table (`METAWORLD_TASKS`, instructions, horizons), `TASK_FAMILIES`
+  and `ROBOCASA_TASKS` (the RoboCasa tables' 13), `ML45_TRAIN` / `ML45_HELD_OUT`, `family_of`.
+- `env.py`: `MetaWorldEnv`, its 7-D action, the observation split, seeded layouts and the
+  `generated` / `human` scene distributions.
+- `experts.py`: Meta-World's scripted policies as the suite's experts.
+
+Importing this package imports neither metaworld nor mujoco; building an env or expert does.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+from typing import Any
+
+from icil_paper.registry import Registry, check_name
+from icil_paper.sim import OBS_KINDS
+from icil_paper.sim.metaworld.tasks import (
+    ALL_TASK_FAMILIES,
+    CONTROL_FREQ,
+    FAMILIES,
+    METAWORLD_TASKS,
+    ML45_HELD_OUT,
+    ML45_TRAIN,
+    OBJECT_DIM,
+    PROPRIO_DIM,
+    ROBOCASA_TASKS,
+    SCENE_DISTRIBUTIONS,
+    TASK_FAMILIES,
+    TASKS,
+    ZERO_SHOT_SPLIT,
+    MetaWorldTaskSpec,
+    family_of,
+)
+from icil_paper.sim.suite import Suite
+
+METAWORLD_OBS_DIMS = (PROPRIO_DIM, OBJECT_DIM)
+OBJECT_POSITION = (0, 3)
+"""The first object's position in `obs["object"]`."""
+
+# Headless image observations need EGL; MuJoCo picks its OpenGL backend when first imported.
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+SIMULATED = Registry("metaworld suite module", {
+    "env": "icil_paper.sim.metaworld.env:MetaWorldEnv",
+    "expert": "icil_paper.sim.metaworld.experts:MetaWorldExpert",
+})
+"""The env class and the experts (metaworld, mujoco), imported when the first is built."""
+
+__all__ = ["METAWORLD_SUITE", "METAWORLD_TASKS", "METAWORLD_OBS_DIMS", "TASKS", "FAMILIES",
+           "TASK_FAMILIES", "ALL_TASK_FAMILIES", "ROBOCASA_TASKS", "ML45_TRAIN", "ML45_HELD_OUT", "ZERO_SHOT_SPLIT",
+           "SCENE_DISTRIBUTIONS", "CONTROL_FREQ", "MetaWorldTaskSpec", "family_of",
+           "make_metaworld_env", "make_metaworld_expert", "metaworld_problem"]
+
+
+def metaworld_problem() -> str | None:
+    """None when Meta-World can run here, else why not (and how to fix it)."""
+    for module in ("mujoco", "metaworld"):
+        if importlib.util.find_spec(module) is None:
+            return (f"{module} is not installed: run `make setup` (it installs "
+                    "metaworld==3.1.1 --no-deps)")
+    return None
+
+
+def make_metaworld_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
+    """Build a Meta-World task env (`icil_paper.sim.metaworld.env.MetaWorldEnv`).
+
+    Options: `camera_size` (default 84), `horizon` (override the task's 200), `scenes`
+    (`SCENE_DISTRIBUTIONS`, default "generated"), `render_mode` ("rgb_array" or None).
+    Raises `UnknownNameError` listing the valid names for an unknown task, obs kind or scene
+    distribution.
+    """
+    check_name("Meta-World task", name, TASKS)
+    check_name("observation kind", obs, OBS_KINDS)
+    check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
+               SCENE_DISTRIBUTIONS)
+    return SIMULATED["env"](name, obs=obs, seed=seed, **options)
+
+
+def make_metaworld_expert(name: str, noise_std: float = 0.0):
+    """The task's scripted Meta-World policy: `expert.reset(env, obs)`, `expert.act(obs)`."""
+    check_name("Meta-World task", name, TASKS)
+    return SIMULATED["expert"](name, noise_std=noise_std)
+
+
+METAWORLD_SUITE = Suite(
+    name="metaworld", tasks=TASKS, obs_dims=METAWORLD_OBS_DIMS, control_freq=CONTROL_FREQ,
+    make_env=make_metaworld_env, make_expert=make_metaworld_expert,
+    object_position=OBJECT_POSITION, unavailable=metaworld_problem,
+    zero_shot_split=ZERO_SHOT_SPLIT, scenes=SCENE_DISTRIBUTIONS,
+    families={family: tuple(t for t in TASKS if family_of(t) == family) for family in FAMILIES},
+    description="Meta-World (Sawyer) tasks: the paper's seven RoboCasa skill families and ML45")

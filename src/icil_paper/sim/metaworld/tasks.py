@@ -1,0 +1,191 @@
+"""The Meta-World suite's task table: names, instructions, horizons, skill families, ML45.
+
+This module imports nothing heavy (no metaworld, no mujoco), so `icil_paper.sim.metaworld`
+lists its tasks cheaply. Every one of Meta-World's 50 v3 tasks is a task `metaworld/<task>`
+(Meta-World's name without `-v3`). Thirteen of them stand in for the paper's seven RoboCasa
+skill families (`TASK_FAMILIES`), each for the motion of RoboCasa's atomic tasks::
+
+    Pick and Place      pick-place, pick-place-wall     grasp an object, carry it, release
+    Open/Close Doors    door-open, door-close           swing a hinged door
+    Open/Close Drawers  drawer-open, drawer-close       slide a drawer by its handle
+    Turning Levers      faucet-open, faucet-close       RoboCasa's levers are sink faucets
+    Twisting Knobs      dial-turn                       turn a knob about its axis
+    Insertion           peg-insert-side, coffee-push    RoboCasa's insertion puts a mug under
+                                                        the coffee machine
+    Pressing Buttons    button-press, coffee-button     RoboCasa presses appliance buttons
+
+The zero-shot split is Meta-World's ML45 (`ZERO_SHOT_SPLIT`): 45 training tasks and 5
+held-out ones, whose families (for the zero-shot table, `ALL_TASK_FAMILIES`) are bin-picking:
+Pick and Place, box-close: Open/Close Doors (closing a lid), hand-insert: Insertion, door-lock
+and door-unlock: Twisting Knobs (turning a lock).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from icil_paper.registry import check_name
+from icil_paper.sim.suite import SKILL_FAMILIES
+
+PREFIX = "metaworld"
+PROPRIO_DIM = 8
+"""Width of `proprio`: hand xyz and gripper opening, now and one step before (env.py)."""
+OBJECT_DIM = 31
+"""Width of `object`: both objects' poses now (14) and one step before (14), goal xyz (3)."""
+CONTROL_FREQ = 80
+"""Control rate, Hz: Meta-World's frame_skip 5 of a 2.5 ms timestep (env.py checks it)."""
+DEFAULT_HORIZON = 200
+"""Control steps of an episode for most tasks (Meta-World's own limit is 500; its experts
+finish most tasks in about 75 steps). A task's horizon is the smallest multiple of 100, from
+200 up to 500, that is at least 1.1 times the 99th percentile of its expert's successful
+episode lengths on 100 layouts of each scene distribution (`python -m tools.metaworld_experts
+--episodes 100 --first-seed 0 --horizon 500` prints it)."""
+
+HAND_SHIFT = 0.05
+"""Metres: the largest shift per axis of the hand's start in `human` scenes (most tasks)."""
+
+OUTER = 0.2
+"""Fraction of each layout coordinate's range, at either end, that `human` scenes draw from."""
+
+SCENE_DISTRIBUTIONS = ("generated", "human")
+"""Named distributions a layout is drawn from (the env option `scenes`, the first the default):
+`generated` is Meta-World's own random-reset box, `human` stands in for the different
+arrangements of RoboCasa's human data set (env.py says how it is drawn)."""
+
+FAMILIES = SKILL_FAMILIES
+"""The seven skill families, in the column order of the paper's RoboCasa tables."""
+
+
+@dataclass(frozen=True)
+class MetaWorldTaskSpec:
+    """One task of the Meta-World suite."""
+
+    name: str
+    """Registry name, `metaworld/<task>`, e.g. "metaworld/drawer-open"."""
+    env_name: str
+    """Meta-World's name of the task without the version, e.g. "drawer-open"."""
+    instruction: str
+    """Language instruction of the task."""
+    family: str | None = None
+    """Skill family of `FAMILIES` the task stands in for, or None."""
+    horizon: int = DEFAULT_HORIZON
+    """Maximum number of control steps of an episode (it is truncated there)."""
+    hand_shift: float = HAND_SHIFT
+    """Metres: the largest shift per axis of the hand's start in `human` scenes (env.py); 0
+    for the tasks whose experts miss from a shifted start."""
+    outer: float = OUTER
+    """Fraction of each layout coordinate's range, at either end, that `human` scenes draw
+    from (0.2: the outer 40%; 0.5 would be Meta-World's uniform draw)."""
+
+    @property
+    def metaworld_id(self) -> str:
+        """Meta-World's v3 name, e.g. "drawer-open-v3"."""
+        return f"{self.env_name}-v3"
+
+
+def _spec(env_name: str, instruction: str, family: str | None = None,
+          **fields) -> MetaWorldTaskSpec:
+    return MetaWorldTaskSpec(f"{PREFIX}/{env_name}", env_name, instruction, family, **fields)
+
+
+# The 13 tasks of the RoboCasa families first (in family order), then the rest in Meta-World's
+# order (`metaworld.env_dict.ALL_V3_ENVIRONMENTS`); the held-out ML45 tasks carry the family
+# of the zero-shot table.
+_TASKS = (
+    _spec("pick-place", "pick up the puck and place it at the goal", "Pick and Place"),
+    _spec("pick-place-wall", "pick up the puck and place it at the goal behind the wall",
+          "Pick and Place"),
+    _spec("door-open", "open the door", "Open/Close Doors", hand_shift=0.0, outer=0.35),
+    _spec("door-close", "close the door", "Open/Close Doors"),
+    _spec("drawer-open", "open the drawer", "Open/Close Drawers"),
+    _spec("drawer-close", "close the drawer", "Open/Close Drawers"),
+    _spec("faucet-open", "turn the faucet on", "Turning Levers"),
+    _spec("faucet-close", "turn the faucet off", "Turning Levers"),
+    _spec("dial-turn", "turn the dial", "Twisting Knobs"),
+    _spec("peg-insert-side", "insert the peg into the hole from the side", "Insertion",
+          horizon=300, hand_shift=0.0, outer=0.35),
+    _spec("coffee-push", "push the mug under the coffee machine", "Insertion"),
+    _spec("button-press", "press the button", "Pressing Buttons"),
+    _spec("coffee-button", "press the button on the coffee machine", "Pressing Buttons"),
+    _spec("assembly", "put the nut on the peg"),
+    _spec("basketball", "put the ball into the basket", horizon=300, hand_shift=0.0),
+    _spec("bin-picking", "move the puck from one bin to the other", "Pick and Place",
+          horizon=300),
+    _spec("box-close", "put the lid on the box", "Open/Close Doors", hand_shift=0.0),
+    _spec("button-press-topdown", "press the button from the top"),
+    _spec("button-press-topdown-wall", "press the button from the top behind the wall"),
+    _spec("button-press-wall", "press the button behind the wall"),
+    _spec("coffee-pull", "pull the mug away from the coffee machine"),
+    _spec("disassemble", "take the nut off the peg", horizon=300),
+    _spec("door-lock", "lock the door by turning the lock", "Twisting Knobs", horizon=400),
+    _spec("door-unlock", "unlock the door by turning the lock", "Twisting Knobs"),
+    _spec("hand-insert", "push the block into the hole", "Insertion"),
+    _spec("hammer", "hammer the nail into the wall"),
+    _spec("handle-press-side", "press the handle down from the side"),
+    _spec("handle-press", "press the handle down"),
+    _spec("handle-pull-side", "pull the handle up from the side"),
+    _spec("handle-pull", "pull the handle up"),
+    _spec("lever-pull", "pull the lever up", horizon=500),
+    _spec("pick-out-of-hole", "pick the peg out of the hole"),
+    _spec("plate-slide", "slide the plate into the cabinet"),
+    _spec("plate-slide-side", "slide the plate into the cabinet from the side"),
+    _spec("plate-slide-back", "slide the plate out of the cabinet"),
+    _spec("plate-slide-back-side", "slide the plate out of the cabinet to the side"),
+    _spec("peg-unplug-side", "unplug the peg to the side"),
+    _spec("soccer", "kick the ball into the goal"),
+    _spec("stick-push", "push the thermos with the stick"),
+    _spec("stick-pull", "pull the thermos with the stick", horizon=500),
+    _spec("push", "push the puck to the goal"),
+    _spec("push-wall", "push the puck around the wall to the goal"),
+    _spec("push-back", "pull the puck back to the goal", horizon=500),
+    _spec("reach", "reach the goal"),
+    _spec("reach-wall", "reach the goal behind the wall"),
+    _spec("shelf-place", "place the puck on the shelf", horizon=300),
+    _spec("sweep-into", "sweep the puck into the hole"),
+    _spec("sweep", "sweep the puck off the table"),
+    _spec("window-open", "slide the window open"),
+    _spec("window-close", "slide the window closed"),
+)
+
+METAWORLD_TASKS: dict[str, MetaWorldTaskSpec] = {t.name: t for t in _TASKS}
+"""Every Meta-World v3 task by full name: the 13 of the RoboCasa families first."""
+TASKS = tuple(METAWORLD_TASKS)
+
+ML45_HELD_OUT = tuple(f"{PREFIX}/{t}" for t in (
+    "bin-picking", "box-close", "hand-insert", "door-lock", "door-unlock"))
+"""ML45's five test tasks (`metaworld.env_dict.ML45_V3["test"]`, in its order)."""
+ML45_TRAIN = tuple(f"{PREFIX}/{t}" for t in (
+    "assembly", "basketball", "button-press-topdown", "button-press-topdown-wall",
+    "button-press", "button-press-wall", "coffee-button", "coffee-pull", "coffee-push",
+    "dial-turn", "disassemble", "door-close", "door-open", "drawer-close", "drawer-open",
+    "faucet-open", "faucet-close", "hammer", "handle-press-side", "handle-press",
+    "handle-pull-side", "handle-pull", "lever-pull", "pick-place-wall", "pick-out-of-hole",
+    "push-back", "pick-place", "plate-slide", "plate-slide-side", "plate-slide-back",
+    "plate-slide-back-side", "peg-insert-side", "peg-unplug-side", "soccer", "stick-push",
+    "stick-pull", "push-wall", "push", "reach-wall", "reach", "shelf-place", "sweep-into",
+    "sweep", "window-open", "window-close"))
+"""ML45's 45 training tasks (`metaworld.env_dict.ML45_V3["train"]`, in its order; both lists
+are written out here so that listing them imports no metaworld, and tests/test_metaworld.py
+compares them with Meta-World's)."""
+ZERO_SHOT_SPLIT = {"train": ML45_TRAIN, "held_out": ML45_HELD_OUT}
+"""The suite's zero-shot split (the Suite record's `zero_shot_split`): Meta-World's ML45."""
+
+TASK_FAMILIES: dict[str, tuple[str, ...]] = {
+    family: tuple(t.name for t in _TASKS if t.family == family and t.name in ML45_TRAIN)
+    for family in FAMILIES
+}
+"""Skill family (the paper's table column) -> the 13 Meta-World tasks of the RoboCasa tables
+standing in for it."""
+ROBOCASA_TASKS = tuple(task for tasks in TASK_FAMILIES.values() for task in tasks)
+"""The 13 tasks of `TASK_FAMILIES`, in family order."""
+ALL_TASK_FAMILIES: dict[str, tuple[str, ...]] = {
+    family: tuple(t.name for t in _TASKS if t.family == family) for family in FAMILIES
+}
+"""Skill family -> every task with that family: `TASK_FAMILIES`' and the held-out ML45 tasks'
+(the zero-shot table's columns); the suite record's `families`."""
+
+
+def family_of(task: str) -> str | None:
+    """The skill family a task stands in for (held-out ML45 tasks included), or None.
+    Raises `UnknownNameError` for a name that is no Meta-World task."""
+    return METAWORLD_TASKS[check_name("Meta-World task", task, TASKS)].family
