@@ -55,7 +55,7 @@ $(PY_STAMP):
 	$(BIN)/pip install --quiet --progress-bar off --no-deps -r requirements-no-deps.txt 2>&1 | { grep -v 'is ignored' || true; }
 	$(BIN)/pip install --quiet --no-deps -e . 2>&1 | { grep -v 'is ignored' || true; }
 	$(BIN)/python -c "import logging; logging.getLogger('robosuite_logs').disabled = True; \
-		import torch, robosuite, mani_skill, robomimic.scripts.train, safetensors, icil_paper" \
+		import torch, robosuite, mani_skill, metaworld, robomimic.scripts.train, safetensors, icil_paper" \
 		|| { echo "setup: the Python install is incomplete (see pip's messages above)"; exit 1; }
 	@rm -f $(VENV)/.installed-*; touch $@
 

@@ -153,6 +153,18 @@ def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise
     assert plateau({500: [0.3], 1000: [0.32], 2000: [0.6]}, 55) == 500  # binomial noise
 
 
+def test_the_budget_is_the_plateau_unless_its_families_sit_at_0_or_1():
+    from icil_paper.planning.pilot import REGIME_MIN_FAMILIES, choose_budget
+
+    ok, few = REGIME_MIN_FAMILIES, REGIME_MIN_FAMILIES - 1
+    assert choose_budget(1000, 2000, {500: ok, 1000: ok, 2000: few}) == (1000, "plateau")
+    assert choose_budget(1000, 2000, {500: ok, 1000: few, 2000: few}) == (
+        500, "in range below the plateau")
+    assert choose_budget(None, 2000, {500: few, 1000: few, 2000: few}) == (2000, "last budget")
+    assert choose_budget(None, 2000, {500: ok, 1000: ok, 2000: few}) == (
+        1000, "in range below the last budget")
+
+
 def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
     import json
 
@@ -162,6 +174,7 @@ def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
 
     rates = tmp_path / "datasets.json"
     rates.write_text(json.dumps({"suites": {"kitchen": {"cpu_s_per_demo": 1.0},
+                                            "metaworld": {"cpu_s_per_demo": 1.0},
                                             "maniskill": {"cpu_s_per_demo": 2.0}}}))
     for name, sets in (("small", 1), ("reference", 10)):
         preset = get_preset(name)

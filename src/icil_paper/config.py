@@ -579,7 +579,7 @@ REFERENCE_BUDGET_HOURS = 12.0
 first look only the claims whose next stage is cheapest go on."""
 
 
-REGIME_DEMOS, REGIME_STEPS = 50, 2000
+REGIME_DEMOS, REGIME_STEPS = 50, 500
 """The reference preset's demonstrations per task and training steps, as the regime pilot
 chose them (`icil_paper.planning.pilot`, `results/bench/regime.json`, chapter 06)."""
 REGIME_TASK_DEMOS: tuple[str, ...] = ()

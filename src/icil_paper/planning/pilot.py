@@ -180,7 +180,11 @@ REGIME_EPISODES = 10
 """Rollouts per task of every pilot evaluation (fixed here, so that the pilot's records do not
 depend on the reference preset's episodes, which are planned from them)."""
 REGIME_RANGE = (0.1, 0.9)
-"""Every family of ICRT + LipVQ-VAE at its plateau should lie in this range."""
+"""Every family of ICRT + LipVQ-VAE at the chosen budget should lie in this range."""
+REGIME_MIN_FAMILIES = 5
+"""The budget is the learning curve's plateau, unless fewer than this many of ICRT +
+LipVQ-VAE's families lie within `REGIME_RANGE` there (the others at 0 or 1 cannot tell rows
+apart): then the largest budget below it where at least this many do (`regime_record`)."""
 
 
 def regime_preset(demos_per_task: int, steps: int, overrides: tuple[str, ...] = (),
@@ -336,10 +340,12 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
                   data_counts: tuple[int, ...] = (), data_seeds: int = 0) -> dict[str, Any]:
     """The regime pilot's record (`results/bench/regime.json`'s schema) from the stored
     records: the data curve (`data_curve_record`, when `data_counts` are given), the learning
-    curve of every row, the plateau of ICRT + LipVQ-VAE (`plateau`), and at that budget (or
-    the last one, when no plateau is reached) each row's success per family (ManiSkill: per
-    task), its per-episode outcomes per seed and its capped share of encoder rows per seed.
-    Difficulty is read from ICRT + LipVQ-VAE's level alone."""
+    curve of every row, the plateau of ICRT + LipVQ-VAE (`plateau`), the budget chosen (the
+    plateau, or the last budget when none is reached, unless fewer than
+    `REGIME_MIN_FAMILIES` of its families lie within `REGIME_RANGE` there: then the largest
+    budget below that keeps them in range), and at that budget each row's success per
+    family (ManiSkill: per task), its per-episode outcomes per seed and its capped share of
+    encoder rows per seed. Difficulty is read from ICRT + LipVQ-VAE's level alone."""
     store = ResultsStore("reference")
     preset = regime_preset(demos_per_task, budgets[-1], task_demos=task_demos)
     suite = preset.data.robocasa_tasks[0].split("/", 1)[0]
@@ -357,10 +363,16 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
     episodes = preset.eval.episodes_per_task * len(preset.data.robocasa_tasks)
     lip = curve.get("icrt+lipvq", {})
     chosen = plateau({b: v for b, v in lip.items() if v}, episodes * seeds)
-    at = chosen if chosen is not None else max((b for b, v in lip.items() if v), default=None)
+    last = chosen if chosen is not None else max((b for b, v in lip.items() if v), default=None)
+    in_range = {b: _families_in_range(by_budget[b].get(f"{suite}:icrt+lipvq", []),
+                                      preset.data.robocasa_tasks)
+                for b in budgets if lip.get(b)}
+    at, because = choose_budget(chosen, last, in_range)
     record: dict[str, Any] = {
         "suite": suite, "tasks": list(preset.data.robocasa_tasks),
-        "train_steps": at, "plateau_reached": chosen is not None,
+        "train_steps": at, "chosen_because": because, "plateau_steps": chosen,
+        "families_in_range": {str(b): n for b, n in in_range.items()},
+        "plateau_reached": chosen is not None,
         "demos_per_task": demos_per_task, "task_demos": task_demo_counts(task_demos),
         "seeds": seeds,
         "seed_indices": list(range(REGIME_SEED, REGIME_SEED + seeds)),
@@ -397,6 +409,29 @@ def regime_record(demos_per_task: int, budgets: tuple[int, ...], seeds: int,
     fam = record["families"].get("icrt+lipvq", {})
     record["within_range"] = {f: (v is not None and low <= v <= high) for f, v in fam.items()}
     return record
+
+
+def choose_budget(plateau_steps: int | None, last: int | None,
+                  in_range: dict[int, int]) -> tuple[int | None, str]:
+    """(budget, why) from ICRT + LipVQ-VAE's learning curve: its plateau (else the last
+    budget run), unless fewer than `REGIME_MIN_FAMILIES` of its families lie within
+    `REGIME_RANGE` there ({budget: families in range}); then the largest budget below it
+    where at least that many do, if any."""
+    at = plateau_steps if plateau_steps is not None else last
+    because = "plateau" if plateau_steps is not None else "last budget"
+    if at is not None and in_range.get(at, 0) < REGIME_MIN_FAMILIES:
+        below = [b for b, n in in_range.items() if b <= at and n >= REGIME_MIN_FAMILIES]
+        if below:  # the plateau's families sit at 0 or 1: the most steps that keep them apart
+            return max(below), f"in range below the {because}"
+    return at, because
+
+
+def _families_in_range(per_seed: list[dict[str, Any]], tasks: tuple[str, ...]) -> int:
+    """How many families of one row's per-seed successes lie within `REGIME_RANGE`."""
+    low, high = REGIME_RANGE
+    values = [_mean([_mean([s["tasks"].get(t) for t in group]) for s in per_seed])
+              for group in families(list(tasks)).values() if group]
+    return sum(v is not None and low <= v <= high for v in values)
 
 
 def _regime_cells(preset: Any, plans: list[Any], label: str) -> list[Any]:
@@ -588,6 +623,15 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
         text += (f"The learning curve is incomplete: ICRT + LipVQ-VAE has every record at "
                  f"{done} steps only, so no plateau is chosen yet; the families below are "
                  f"at {steps} steps.")
+    elif str(record.get("chosen_because")).startswith("in range below"):
+        top = record["plateau_steps"] or max(record["budgets_done"])
+        how = "levels off" if record["plateau_steps"] else "still rises"
+        text += (f"ICRT + LipVQ-VAE's learning curve {how} at {top} steps, where only "
+                 f"{record['families_in_range'].get(str(top))} of its families lie inside "
+                 f"[{low}, {high}]; "
+                 f"the regime trains {steps} steps, the most at which at least "
+                 f"{REGIME_MIN_FAMILIES} do. There, its families outside the range: "
+                 f"{', '.join(outside) or 'none'}.")
     else:
         text += (f"ICRT + LipVQ-VAE's learning curve {'levels off' if record['plateau_reached'] else 'still rises'} "
                  f"at {steps} steps; there, its families outside [{low}, {high}]: "
