@@ -104,7 +104,7 @@ def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch)
     rollouts._close_state()
 
 
-@pytest.mark.parametrize("kind", ["kitchen_icrt_lipvq", "bc_transformer", "act_maniskill",
+@pytest.mark.parametrize("kind", ["icrt_lipvq", "bc_transformer", "act_maniskill",
                                   "kinova_eval"])
 def test_the_benchmark_cells_are_the_reference_tables_cells(kind):
     from icil_paper.paper import table_spec

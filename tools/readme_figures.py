@@ -150,11 +150,11 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
         lambda: _latency("full", 1600, "step_ms_recompute", "policies_cuda")),
     **{f"cells.{kind}.{field}": ("results/bench/cells.json",
                                  lambda kind=kind, field=field: _cell(kind, field))
-       for kind in ("kitchen_icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
+       for kind in ("icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
        for field in ("seed_cost_s", "floor_ratio", "first_floor_ratio")},
     **{f"cells.compile.{kind}.{field}": ("results/bench/cells.json",
                                          lambda kind=kind, field=field: _compiled(kind, field))
-       for kind in ("kitchen_icrt_lipvq", "act_maniskill")
+       for kind in ("icrt_lipvq", "act_maniskill")
        for field in ("eager_step_ms", "compiled_step_ms", "warmup_s")},
     "older_cost.cells": (OLDER_COST, lambda: _cost()["finished_cells"]),
     "older_cost.planned_cells": (OLDER_COST, lambda: _cost()["planned_cells"]),

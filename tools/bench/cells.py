@@ -4,8 +4,9 @@
     python -m tools.bench.cells --full              # the reference preset's own cells
     python -m tools.bench.cells --kinds act_maniskill --scale 0.05 --compile-steps 0
 
-A kind of cell (`KINDS`: Table I's ICRT + LipVQ-VAE and BC-Transformer on the kitchen tasks,
-Table II's ACT on ManiSkill's first task, Table V's Kinova evaluation of that ICRT) is one
+A kind of cell (`KINDS`: Table I's ICRT + LipVQ-VAE and BC-Transformer on the Meta-World
+tasks, Table II's ACT on ManiSkill's first task, Table V's ICRT + LipVQ-VAE trained on the
+Panda door and drawer tasks and evaluated on the Kinova ones) is one
 seed of a reference-preset cell from the tables' own plan (`tables.execute.plan`), run as the
 grid runs it (`tables.execute.run_cell`) in a fresh process, against empty results and runs
 folders (the data sets are generated first, untimed). Each process runs two seeds one after
@@ -45,10 +46,9 @@ from icil_paper.sim import make_env, make_expert
 from icil_paper.tables.execute import RunPlan, ensure_data, plan
 from icil_paper.timing import recording
 from icil_paper.train.loop import train_policy
-from icil_paper.train.stored import train_run
 
-KINDS = ("kitchen_icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
-"""The kinds of cell measured, in the order they run (kinova_eval reuses the first's policy)."""
+KINDS = ("icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
+"""The kinds of cell measured, in the order they run."""
 
 TARGET = 1.25
 """The floor ratio every kind of cell should stay within."""
@@ -60,7 +60,7 @@ RAW_STEPS = 150
 # --------------------------------------------------------------------------- which cell
 def kind_cell(preset: Any, kind: str) -> tuple[Any, list[Any]]:
     """(run, evaluations) of one seed of `kind` at `preset`, from the tables' plan."""
-    table, policy, tokenizer = {"kitchen_icrt_lipvq": ("I", "icrt", "lipvq"),
+    table, policy, tokenizer = {"icrt_lipvq": ("I", "icrt", "lipvq"),
                                 "bc_transformer": ("I", "bc_transformer", None),
                                 "act_maniskill": ("II", "act", None),
                                 "kinova_eval": ("V", "icrt", "lipvq")}[kind]
@@ -161,23 +161,17 @@ def measure(kind: str, preset_name: str, scale: float | None, started: float
     preset = get_preset(preset_name)
     run, evals = shortened(*kind_cell(preset, kind), scale)
     for module in ("icil_paper.eval", "icil_paper.train.stored", "icil_paper.policies",
-                   f"icil_paper.sim.{'maniskill' if kind == 'act_maniskill' else 'kitchen'}"):
+                   "icil_paper.sim." + {"act_maniskill": "maniskill",
+                                        "kinova_eval": "kitchen"}.get(kind, "metaworld")):
         __import__(module)
     process_start = time.time() - started
     first = _cell_cost(preset, run, evals, None, before_s=process_start)
     rates = first["raw_steps_per_s"]
     second = run.replace(seed=run.seed + 1)
-    if kind == "kinova_eval":  # it evaluates a trained policy: train the second one untimed
-        execute_training(preset, second)
     steady = _cell_cost(preset, second, evals, rates)
     return {"kind": kind, "run": run.label, "tasks": [ev.task for ev in evals],
             "first": first, "steady": steady, "floor_ratio": steady["floor_ratio"],
             "seed_cost_s": steady["wall_s"]}
-
-
-def execute_training(preset: Any, run: Any) -> None:
-    """Train `run` (untimed): the evaluation-only kind evaluates a trained policy."""
-    train_run(run, preset.name, ResultsStore(preset.name), progress=False)
 
 
 # --------------------------------------------------------------------------- compilation
@@ -272,13 +266,11 @@ def main(argv: list[str] | None = None) -> None:
         return
 
     kinds = list(args.kinds)
-    if "kinova_eval" in kinds and "kitchen_icrt_lipvq" not in kinds:
-        kinds.insert(kinds.index("kinova_eval"), "kitchen_icrt_lipvq")  # it trains the policy
     ensure_kind_data(args.preset, kinds)
     with tempfile.TemporaryDirectory(prefix="icil-cells-") as tmp:
         cells = run_kinds(kinds, args.preset, scale, Path(tmp))
     compiled = []
-    for kind in ("kitchen_icrt_lipvq", "act_maniskill") if args.compile_steps else ():
+    for kind in ("icrt_lipvq", "act_maniskill") if args.compile_steps else ():
         if kind in kinds:
             compiled.append(compile_cost(kind, args.preset, args.compile_steps))
             print(f"   compile {compiled[-1]}", flush=True)
