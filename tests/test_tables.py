@@ -153,7 +153,7 @@ def test_records_become_estimates_and_claims_get_their_verdicts():
     assert ledger["I-lipvq-vs-bc"].mde > 0 and ledger["I-lipvq-vs-bc"].seeds_needed >= 2
     assert ledger["I-lipvq-best"].verdict == "holds"
     assert ledger["I-mlp-below-bc"].verdict == "does not hold"  # BC 0.02 is below MLP 0.5
-    assert ledger["I-mlp-below-bc"].magnitude == "paper's size excluded"
+    assert ledger["I-mlp-below-bc"].size == "smaller than the paper's effect"
     assert ledger["II-lipvq-best"].verdict == "not run"
     assert ledger["I-lipvq-vs-bc"].paper == pytest.approx(0.530 - 0.477, abs=1e-4)
     lo, hi = ledger["I-lipvq-vs-bc"].ci

@@ -47,6 +47,7 @@ from icil_paper.tables.claims import (
     summary,
     summary_sentence,
 )
+from icil_paper.tables.design import ONE_FAMILY
 from icil_paper.tables.display import (
     BUILD,
     REFERENCE,
@@ -205,8 +206,10 @@ def show_ledgers(ledgers: dict[str, tuple[Any, list]]) -> None:
     opens on numbers."""
     for source, (preset, ledger) in ledgers.items():
         reference = preset.name == REFERENCE
-        show_ledger(ledger, source_label(source, preset.name),
-                    reference_bookkeeping() if reference else "")
+        heading = source_label(source, preset.name)
+        if any(as_entry(e).family == ONE_FAMILY for e in ledger):
+            heading += ", a record of the older design"
+        show_ledger(ledger, heading, reference_bookkeeping() if reference else "")
         older = (older_ledger(REFERENCE)
                  if reference and not any(as_entry(e).run for e in ledger) else None)
         if older is not None:
@@ -227,9 +230,10 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
 
 def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdicts"):
     """The claims ledger as a table, in two parts that each fit the book's column:
-    "verdicts" (the seeds a row, the paper, ours [95% interval], the verdict before and
-    after Holm's correction) and "power" (the size reading, mde, the power to detect the
-    paper's effect, seeds needed)."""
+    "verdicts" (the family, the seeds a row, the paper, ours [95% interval], the verdict of
+    the interval alone and the decision under the ledger's design) and "power" (the size
+    decision, or an older ledger's size reading, mde, the power to detect the paper's
+    effect, seeds needed)."""
     ledger = [as_entry(e) for e in ledger]
     import pandas as pd
 
@@ -243,12 +247,13 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
             paper_cell = (f"{e.paper:+.3f}" if e.paper is not None
                           else "—" if e.reference_effect is None
                           else f"({e.reference_effect:+.3f})")
-            rows.append({"claim": e.id, "seeds": unbroken(_seeds_cell(e.seeds)),
-                         "paper": paper_cell, "ours": ours, "verdict": e.verdict,
-                         "after Holm": (e.adjusted_verdict or "")})
+            rows.append({"claim": e.id, "family": e.family or "",
+                         "seeds": unbroken(_seeds_cell(e.seeds)), "paper": paper_cell,
+                         "ours": ours, "verdict": e.verdict,
+                         "decided": (e.adjusted_verdict or "")})
         else:
             needed = e.seeds_needed
-            rows.append({"claim": e.id, "size vs the paper": e.magnitude or "",
+            rows.append({"claim": e.id, "size": e.size or e.extra.get("magnitude") or "",
                          "mde": "" if e.mde is None else f"{e.mde:.3f}",
                          "power": "" if e.power is None else f"{e.power:.0%}",
                          "seeds needed": ("" if e.verdict == Verdict.NOT_RUN else

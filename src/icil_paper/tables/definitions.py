@@ -91,7 +91,7 @@ def evaluation(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
     distribution (every row's). Prompts only for in-context policies."""
     images = run.policy.type == "mcr"
     episodes = (preset.tables.image_episodes_per_task if images
-                else preset.eval.episodes_per_task)
+                else preset.tables.episodes_for(task, preset.eval.episodes_per_task))
     max_steps = preset.tables.image_max_steps if images else None
     if run.policy.type != "icrt":
         prompt = {}  # no prompt is read: the evaluation is the same as Table I's
