@@ -283,44 +283,49 @@ def test_library_variance_matches_the_stage_rule_reading():
 
 def test_the_ledger_records_the_look_of_each_decision(monkeypatch):
     """`claims._sequential`'s bookkeeping, on given running p-values: the look of each
-    decision (a claim whose rows stopped at 5 seeds can still be decided when Holm passes
-    it the alpha of a claim decided at 10), and for undecided claims whether their rows go
-    on or what they would need."""
+    decision (a claim whose rows stopped at 5 seeds can still be decided when the graph
+    passes it the level of a claim decided at 10), and for undecided claims whether their
+    rows go on (conditional power at least the design's 0.1), stop, or were stopped by the
+    budget."""
     from types import SimpleNamespace
 
     from icil_paper import stats
     from icil_paper.tables import claims as ledger_code
+    from icil_paper.tables.design import Design
 
     runs = {"a": [(0.3, "holds"), (1e-4, "holds")],            # decided at its second look
-            "b": [(0.015, "does not hold")],                    # rows stopped at 5 seeds
-            "c": [(0.5, "holds"), (0.4, "holds")],              # a stage can decide it
-            "d": [(0.5, "holds"), (0.4, "holds")]}              # beyond the schedule
-    monkeypatch.setattr(stats, "sequential_p_value",
-                        lambda looks, direction, design: runs[looks[0]][:len(looks)])
-    monkeypatch.setattr(stats, "decision_p_value", lambda e, d: (0.5, "holds"))
-    claims = [SimpleNamespace(direction=+1, compare=SimpleNamespace(estimate=lambda t, i=i: i))
-              for i in runs]
-    seeds = {"a": 10, "b": 5, "c": 10, "d": 10}
+            "b": [(0.012, "does not hold")],                    # rows stopped at 5 seeds
+            "c": [(0.5, "holds"), (0.4, "holds")],              # high conditional power
+            "d": [(0.5, "holds"), (0.4, "holds")],              # low conditional power
+            "e": [(0.5, "holds"), (0.4, "holds")]}              # stopped by the budget
+    nominal = {"a": 0.01, "b": 0.01, "c": 0.02, "d": 0.6, "e": 0.02}
+
+    class Looks(SequentialDesign):
+        def p_values(self, looks, direction):
+            return runs[looks[0]][:len(looks)]
+
+    monkeypatch.setattr(stats, "decision_p_value", lambda e, d: (nominal[e], "holds"))
+    design = Design(dict.fromkeys(runs, "secondary"), dict.fromkeys(runs, 0.2),
+                    Looks((5, 10, 15)), continuation_power=0.1)
+    claims = [SimpleNamespace(id=i, direction=+1,
+                              compare=SimpleNamespace(estimate=lambda t, i=i: i)) for i in runs]
+    seeds = {"a": 10, "b": 5, "c": 10, "d": 10, "e": 10}
     entries = [{"id": i, "seeds": {"x": seeds[i], "y": 12}, "verdict": "inconclusive",
-                "adjusted_verdict": "holds" if i == "d" else "inconclusive",
-                "stage_seeds_needed": 40 if i == "d" else 15} for i in runs]
-    ledger_code._sequential(claims, entries, {}, DESIGN)
-    a, b, c, d = entries
+                "paper": None} for i in runs]
+    ledger_code._sequential(claims, entries, {}, design, stops=("e",))
+    a, b, c, d, e = entries
     assert a["look"] == "decided at look 2 of 3 (10 seeds a row)"
     assert a["sequential"]["decided_at"] == 10 and a["adjusted_verdict"] == "holds"
-    assert b["look"].startswith("decided at look 1 of 3 (5 seeds a row), after Holm's")
+    assert b["look"].startswith("decided at look 1 of 3 (5 seeds a row), after the graph")
     assert b["adjusted_verdict"] == "does not hold" and b["sequential"]["decided_at"] == 5
-    assert c["look"] == "undecided at 10 seeds (needs 15): continues to 15"
-    assert c["sequential"]["next"] == 15 and c["adjusted_verdict"] == "inconclusive"
-    assert d["look"] == "undecided at 10 seeds, needs 40" and d["sequential"]["next"] is None
-    assert d["adjusted_verdict"] == "inconclusive"  # the fixed design's Holm decides nothing
-    # The same claim c, stopped by the run's budget: its rows stay, and the ledger says why.
-    for e in entries:
-        e.pop("sequential"), e.pop("look")
-        e["adjusted_verdict"] = "holds" if e["id"] == "d" else "inconclusive"
-    ledger_code._sequential(claims, entries, {}, DESIGN, stops=("c",))
-    c = entries[2]
-    assert c["look"] == ("undecided at 10 seeds (needs 15): stopped, 15 seeds a row are over "
-                         "the run's budget")
-    assert c["sequential"]["next"] is None and c["sequential"]["stopped_by"] == "budget"
-    assert entries[0]["look"] == a["look"]  # the others are read as before
+    power = c["sequential"]["looks"][-1]["conditional_power"]
+    assert power == pytest.approx(float(design.sequential.conditional_power(0.02, 1, 0.05 * 0.2 / 0.6)))
+    assert power >= 0.1 and c["sequential"]["next"] == 15
+    assert c["look"].startswith("undecided at 10 seeds (conditional power") and \
+        c["look"].endswith("continues to 15") and c["adjusted_verdict"] == "inconclusive"
+    assert d["sequential"]["next"] is None and "stops (conditional power" in d["look"]
+    assert e["sequential"]["next"] is None and e["sequential"]["stopped_by"] == "budget"
+    assert e["look"] == ("undecided at 10 seeds: stopped, 15 seeds a row are over the run's "
+                         "budget")
+    # the levels after the last look: a and b decided, their shares passed on
+    assert c["sequential"]["level"] == pytest.approx(0.05 * 0.2 / 0.6)

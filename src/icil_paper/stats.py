@@ -315,8 +315,8 @@ def size_decision(estimate: Estimate, direction: int, effect: float | None, alph
     """Our effect against the paper's `effect` by repeated intervals at `alpha` (a claim's
     Bonferroni share): larger when beyond it on the claimed side (best of k: every pairwise
     one), smaller when short of it (one at alpha / k), else undecided; None: unreadable."""
-    comps = estimate.components or (estimate,)
-    if effect is None or verdict(estimate, direction) == Verdict.TOO_FEW_SEEDS or any(
+    comps = () if effect is None else estimate.components or (estimate,)
+    if not comps or verdict(estimate, direction) == Verdict.TOO_FEW_SEEDS or any(
             c.se is None for c in comps):
         return None
     sides = [[_side(*repeated_interval(c.value, c.se, c.df, a, design, look), direction, effect)

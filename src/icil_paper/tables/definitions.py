@@ -85,7 +85,8 @@ def seed_runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str],
 def evaluation(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
                scenes: str = "generated", **prompt) -> EvalSpec:
     """The evaluation of `run` (training seed `seed_index` of its row) on `task`: the
-    preset's episodes (MCR's image episodes), the same scenes for every row; with
+    preset's episodes (its suite's `tables.episodes_per_task_by_suite`; MCR's image
+    episodes), the same scenes for every row; with
     `tables.scenes_per_seed`, seed k of every row plays scene set k (evaluation seed
     preset.seed + k), else every seed plays the same scenes. `scenes` is the scene
     distribution (every row's). Prompts only for in-context policies."""

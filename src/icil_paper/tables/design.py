@@ -22,7 +22,7 @@ them is that design's, labelled so, and the current design decides nothing on th
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +60,8 @@ class Design:
     """Claim id -> why it is descriptive."""
     older: bool = False
     """True: the records were gathered under an earlier design (`older_design`)."""
+    note: str = ""
+    """What the design's record says of it (an older design's: why it is kept)."""
 
     @property
     def sizes(self) -> bool:
@@ -86,7 +88,8 @@ class Design:
                 "stages": list(self.sequential.stages) if self.sequential else [],
                 "families": {f: ids for f, ids in families.items() if ids},
                 "weights": {c: round(w, 6) for c, w in self.weights.items() if w},
-                "continuation_power": self.continuation_power, "descriptive": self.why}
+                "continuation_power": self.continuation_power, "descriptive": self.why,
+                **({"note": self.note} if self.note else {})}
 
 
 def _descriptive(claim, weight: float, sequential) -> str | None:
@@ -110,7 +113,7 @@ def ledger_design(preset: Preset, claims: Sequence, record: dict[str, Any] | Non
     t = preset.tables
     sequential = stats.SequentialDesign(t.seed_stages) if t.seed_stages else None
     if record is not None and record.get("design") == "older":
-        return older_design(claims, sequential)
+        return replace(older_design(claims, sequential), note=record.get("why", ""))
     primary = set(t.primary_claims)
     family = {c.id: PRIMARY if c.id in primary else SECONDARY for c in claims}
     if not primary & set(family):  # no primary family: one family (Holm's procedure)
