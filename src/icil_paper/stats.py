@@ -34,8 +34,7 @@ from scipy.special import ndtr, ndtri
 
 from icil_paper.estimates import Estimate, Size, Verdict, as_outcomes, as_scores, check_level
 
-ALPHA = 0.05  # the tests' level: 95% intervals, a 5% familywise level
-POWER = 0.8  # the power that planning aims for
+ALPHA, POWER = 0.05, 0.8  # the tests' level (95% intervals, 5% familywise); planned power
 
 
 def wilson_interval(successes: int, n: int, level: float = 0.95) -> tuple[float, float]:
@@ -48,7 +47,7 @@ def wilson_interval(successes: int, n: int, level: float = 0.95) -> tuple[float,
 
 
 # ------------------------------------------------------------------------ per-seed variance
-_per_seed = lambda x: x.reshape(len(x), -1).mean(axis=1)  # noqa: E731 (seeds, ...) -> (seeds,)
+_per_seed = lambda x: x.reshape(len(x), -1).mean(axis=1)  # (seeds, ...) -> (seeds,)
 
 
 def _variance(xs: list[np.ndarray], kind: str) -> float:
@@ -370,8 +369,7 @@ def episodes_per_seed(seed_var: float, episode_var: float, train_cost: float,
 
 
 # ------------------------------------------------------------------------- seeds in stages
-_LEVELS = np.unique(np.r_[np.geomspace(1e-20, 0.5, 201), ALPHA])
-"""Levels at which a design tabulates its boundaries (log-linear interpolation between)."""
+_LEVELS = np.unique(np.r_[np.geomspace(1e-20, 0.5, 201), ALPHA])  # tabulated levels
 
 
 @dataclass(frozen=True)
