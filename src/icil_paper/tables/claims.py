@@ -3,7 +3,7 @@
     from icil_paper.paper import claims_ledger, write_ledger
     ledger = claims_ledger(preset, store)          # list of LedgerEntry, one per claim
     write_ledger(preset, store)                   # results/<preset>/claims.json
-    summary(ledger)                               # counts of the verdicts after Holm
+    summary(ledger)                               # counts of the decisions, by family
 
 Each result declares its claims in its own module of `icil_paper.paper` (Table V's in
 `paper/table_v.py`, with `diff`, `margin` and `paper_diff` from here), and
@@ -681,9 +681,13 @@ def summary_sentence(ledger: Sequence[LedgerEntry | dict[str, Any]]) -> str:
         parts.append(verdict_words.counted(Verdict.NOT_RUN, c[Verdict.NOT_RUN]))
     families = ", ".join(f"{n} {f}" for f, n in s["families"].items())
     design = f" ({families})" if families else ""
-    sized = (f"{s['size_excluded']} decided smaller than the paper's effect and "
-             f"{s['size_larger']} larger" if s["families"] else
-             f"{s['size_excluded']} exclude the paper's size of the effect")
+    if any(as_entry(e).size for e in ledger):
+        sized = (f"{s['size_excluded']} decided smaller than the paper's effect and "
+                 f"{s['size_larger']} larger")
+    elif families:
+        sized = "none decided under this design"
+    else:  # a ledger older than size decisions: its unadjusted reading
+        sized = f"{s['size_excluded']} exclude the paper's size of the effect"
     return (f"Of {s['claims']} claims{design}, as decided: " + ", ".join(parts) + ". "
             f"Sizes: {sized}; {s['decidable_with_10_seeds']} of the {s['undecided']} "
             "undecided would detect the paper's effect with 10 or fewer seeds a row.")
