@@ -125,8 +125,8 @@ def ledger_design(preset: Preset, claims: Sequence, record: dict[str, Any] | Non
         live = {f: s for f, s in shares.items() if members[f]}
         weights = {c: live[g] / sum(live.values()) / len(members[g]) if g in live else 0.0
                    for c, g in family.items()}
-        left = {c.id: w for c in claims if family[c.id] != DESCRIPTIVE
-                and (w := _descriptive(c, weights[c.id], sequential))}
+        left = {c.id: reason for c in claims if family[c.id] != DESCRIPTIVE
+                and (reason := _descriptive(c, weights[c.id], sequential))}
         if not left:
             return Design(family, weights, sequential, t.continuation_power, why)
         why.update(left)
