@@ -97,7 +97,7 @@ def claims_figure(preset: Preset, table_id: str):
     if not entries:
         return None
     return forest_plot(entries, title=f"Table {table_id}'s claims, reference run: 95% "
-                                      "intervals, the paper's values, the verdict after Holm")
+                                      "intervals, the paper's values, the decision")
 
 
 RECORD_KINDS = ("train", "eval", "features", "tokenizer", "lipschitz", "showcase")
@@ -184,14 +184,14 @@ def show_ledger(ledger: list[LedgerEntry | dict[str, Any]], heading: str,
     ledger = [as_entry(e) for e in ledger]
     display(Markdown(f"## {heading[0].upper()}{heading[1:]}"))
     display(forest_plot(ledger, title=f"{heading[0].upper()}{heading[1:]}: each claim's 95% "
-                                      "interval, the paper's value, the verdict after Holm"))
+                                      "interval, the paper's value, the decision"))
     display(Markdown(summary_sentence(ledger)))
     display(Markdown("**Verdicts** (the seeds of each row: the claim's row first)"))
     display(ledger_frame(ledger, "verdicts"))
     undecided = undecided_power(ledger)
     if undecided:
         n = len(undecided.splitlines())
-        display(collapsed_markdown(f"Undecided after Holm ({n} claims): what these seeds "
+        display(collapsed_markdown(f"Undecided ({n} claims): what these seeds "
                                    "could detect. Open to see them.", undecided))
     display(collapsed_frame("Size and power of every claim. Open to see them.",
                             ledger_frame(ledger, "power")))
@@ -262,7 +262,7 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
 
 
 def undecided_power(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
-    """A Markdown list of the claims left undecided after Holm's correction, each with what
+    """A Markdown list of the claims left undecided under the ledger's design, each with what
     its design could detect: the power to detect the paper's effect at its seeds, the mde
     and the seeds a row that would reach 80% power. Empty when none is undecided."""
     ledger = [as_entry(e) for e in ledger]
@@ -304,7 +304,7 @@ def ledger_details(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
 
 
 def decided_claims(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
-    """The claims decided after Holm's correction, by id: "Held: ... Did not hold: ...";
+    """The claims decided under the ledger's design, by id: "Held: ... Did not hold: ...";
     empty when none is decided."""
     ledger = [as_entry(e) for e in ledger]
     parts = []
@@ -326,7 +326,7 @@ def row_label(entry: LedgerEntry) -> str:
 
 def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", verdict_key: str = "adjusted_verdict"):
     """One row per claim, labelled by what it says (`row_label`): our estimate and 95%
-    interval (coloured by the verdict after Holm's correction), the paper's value as a black diamond and the zero line. Success
+    interval (coloured by the decision under the ledger's design), the paper's value as a black diamond and the zero line. Success
     differences share one panel; least-energy and correlation claims, on other scales, get
     their own. Rows a single-seed row reads are drawn dashed (their interval is the
     episodes' noise only)."""
@@ -489,7 +489,7 @@ def reference_progress(path=None, older: bool = False) -> str:
 
 
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
-    """(claims decided after Holm's correction, CPU-hours, whether every planned cell has
+    """(claims decided under the ledger's design, CPU-hours, whether every planned cell has
     finished) of the reference run whose ledger and cost lie in `folder` (`claims.json`,
     `cost.json`); None when either is missing."""
     claims, cost_file = folder / "claims.json", folder / "cost.json"

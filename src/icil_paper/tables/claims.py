@@ -720,7 +720,8 @@ def sentence(entry: LedgerEntry | dict[str, Any]) -> str:
     if e.family == DESCRIPTIVE:
         return out + "; descriptive: it decides nothing."
     if e.adjusted_verdict and e.adjusted_verdict != e.verdict:
-        where = f" ({e.family} family)" if e.family else ""
+        where = ("" if not e.family else f" ({e.family})" if e.family.endswith("family")
+                 else f" ({e.family} family)")
         out += f"; decided under the ledger's design{where} it is {e.adjusted_verdict}"
     if e.size:
         out += f"; size: {e.size}"
