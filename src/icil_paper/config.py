@@ -377,11 +377,12 @@ class TablesConfig(_Checked):
     seed_stages: tuple[int, ...] = ()
     """Seeds in stages: the seeds a row has at each look of the group-sequential design
     (`stats.SequentialDesign`, O'Brien-Fleming-type alpha spending), e.g. (5, 10, 15): the
-    ledger decides a claim only at a look's boundary, Holm's correction reads the design's
-    repeated p-values, and after each look the rows of claims that are all decided stop,
-    rows of undecided claims that a later stage can decide at the paper's effect go on to
-    the next stage, and the others stop (`python -m icil_paper.planning.design --stages`
-    prints which). Empty: a fixed design, every claim read once at the seeds it has."""
+    ledger decides a claim only at a look's boundary, the graph over the family
+    (`primary_claims`) reads the design's repeated p-values, and after each look the rows of
+    claims that are all decided stop, rows of undecided claims go on by the continuation
+    rule (`continuation_power`), and the others stop (`python -m icil_paper.planning.design
+    --stages` prints which). Empty: a fixed design, every claim read once at the seeds it
+    has."""
     stage_budget_hours: float | None = None
     """The most a run in stages may cost, in hours at two cells at a time as
     `planning.design.plan_cost` projects them from the committed benchmark rates: after a
@@ -646,12 +647,13 @@ REFERENCE_SEED_STAGES = (5, 10, 15)
 """The reference preset's looks (`TablesConfig.seed_stages`): 5 seeds a row, then up to 10,
 then up to 15. At the measured seed spread (a per-seed standard deviation of about 0.05 in
 kitchen success plus 0.04-0.05 of episode noise at 11 tasks x 5 episodes) a difference of
-two rows has a 95% half-width of about 0.12 at 5 seeds, 0.07 at 10 and 0.05 at 15: large
-effects (the +0.36 of ICRT + LipVQ-VAE over BC-Transformer) are decided at 5 or 10, the
-paper's 5-9-point gaps need the last stage, and its 0.2-4-point ones stop where they are
-with the seeds they would need in the ledger. O'Brien-Fleming-type spending keeps the last
-look's level at 0.044 (against 0.05 for a single look), so a claim that runs to 15 seeds
-loses little power for the early looks (`stats.SequentialDesign`)."""
+two rows has a 95% half-width of about 0.12 at 5 seeds, 0.07 at 10 and 0.05 at 15 (less
+for a paired difference, whose rows share their seed's scenes): large effects (the +0.36 of
+ICRT + LipVQ-VAE over BC-Transformer) are decided at 5 or 10, smaller ones go on while the
+effect observed so far gives them a chance at the last look (`continuation_power`).
+O'Brien-Fleming-type spending keeps the last look's level at 0.044 of 0.05 (for a single
+look), so a claim that runs to 15 seeds loses little power for the early looks
+(`stats.SequentialDesign`)."""
 
 
 REFERENCE_BUDGET_HOURS = 15.0
