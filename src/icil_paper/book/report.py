@@ -231,8 +231,8 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
 def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdicts"):
     """The claims ledger as a table, in two parts that each fit the book's column:
     "verdicts" (the family, the seeds a row, the paper, ours [95% interval], the verdict of
-    the interval alone and the decision under the ledger's design) and "power" (the size
-    decision, or an older ledger's size reading, mde, the power to detect the paper's
+    the interval alone, the decision under the ledger's design and the size decided beside
+    it) and "power" (an older ledger's size reading, mde, the power to detect the paper's
     effect, seeds needed)."""
     ledger = [as_entry(e) for e in ledger]
     import pandas as pd
@@ -250,10 +250,12 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
             rows.append({"claim": e.id, "family": e.family or "",
                          "seeds": unbroken(_seeds_cell(e.seeds)), "paper": paper_cell,
                          "ours": ours, "verdict": e.verdict,
-                         "decided": (e.adjusted_verdict or "")})
+                         "decided": (e.adjusted_verdict or ""),
+                         "size": verdict_words.SIZE_SHORT.get(e.size, "")})
         else:
             needed = e.seeds_needed
-            rows.append({"claim": e.id, "size": e.size or e.extra.get("magnitude") or "",
+            older = {"size vs the paper": e.extra["magnitude"]} if "magnitude" in e.extra else {}
+            rows.append({"claim": e.id, **older,
                          "mde": "" if e.mde is None else f"{e.mde:.3f}",
                          "power": "" if e.power is None else f"{e.power:.0%}",
                          "seeds needed": ("" if e.verdict == Verdict.NOT_RUN else
