@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -133,17 +134,20 @@ def test_expected_half_width_shrinks_with_seeds_and_matches_the_ledgers_own():
     from icil_paper.planning.design import expected_half_width
 
     var = 0.0025
-    mde = stats.minimum_detectable(var, var, 3, 3)
+    mde = stats.minimum_detectable(2 * var, 3, paired=False)  # an older ledger: Welch at 5%
     entry = {"mde": mde, "seeds": {"a": 3, "b": 3}}
     at_3 = expected_half_width(entry, 3)
     assert at_3 == pytest.approx(t.ppf(0.975, 4) * (2 * var / 3) ** 0.5, rel=1e-6)
     assert expected_half_width(entry, 10) < at_3
     # a one-seed row: read back from seeds_needed for the paper's effect
-    needed = stats.seeds_needed(var, var, 0.088)
+    needed = stats.seeds_needed(2 * var, 0.088, paired=False)
     from_needed = expected_half_width({"seeds_needed": needed, "paper": 0.088,
                                        "seeds": {"a": 3, "b": 1}}, 10)
     assert from_needed == pytest.approx(expected_half_width(entry, 10), rel=0.15)
     assert expected_half_width({"seeds": {"a": 1}}, 10) is None
+    # an entry that states its plan: the variance its (paired) test reads
+    planned = {"plan": {"variance": var, "paired": True, "level": 0.0067}, "mde": 1.0}
+    assert expected_half_width(planned, 5) == pytest.approx(t.ppf(0.975, 4) * (var / 5) ** 0.5)
 
 
 def test_reference_progress_says_how_many_cells_are_done(tmp_path):
@@ -362,3 +366,165 @@ def test_the_stage_prose_counts_decided_going_stopped_and_unlooked_claims():
     assert stages_paragraph(preset, all_looked).endswith(
         f"claim goes on to the next stage ({stored[1]['id']}), and {n - 2} stop undecided (1 of "
         "them at the budget).")
+
+
+# --------------------------------------------------------------------------- the ledger's design
+def test_the_claim_ids_of_the_config_are_the_ledgers():
+    from icil_paper.config import CLAIM_IDS
+    from icil_paper.paper import claims
+
+    for name in ("smoke", "small", "reference"):
+        assert tuple(c.id for c in claims(get_preset(name))) == CLAIM_IDS
+
+
+def test_the_small_and_reference_presets_carry_the_design():
+    from icil_paper.config import (
+        CONTINUATION_POWER,
+        FAMILY_WEIGHTS,
+        PRIMARY_CLAIMS,
+        REFERENCE_EPISODES,
+    )
+
+    for name in ("small", "reference"):
+        t = get_preset(name).tables
+        assert (t.primary_claims, t.family_weights, t.continuation_power) == (
+            PRIMARY_CLAIMS, FAMILY_WEIGHTS, CONTINUATION_POWER)
+    reference = get_preset("reference")
+    assert reference.tables.episodes_per_task_by_suite == REFERENCE_EPISODES
+    assert 1 <= len(PRIMARY_CLAIMS) <= 6 and sum(FAMILY_WEIGHTS) == 1
+    # the kitchen evaluations of the reference design play its suite's episodes
+    unit = table_spec(reference, "I").row("icrt+lipvq").cells["avg"].units[0]
+    assert unit.eval.episodes == reference.tables.episodes_by_suite()["kitchen"]
+
+
+@pytest.mark.parametrize("override,message", [
+    ("tables.primary_claims=I-lipvq-vs-bcx", "Did you mean 'I-lipvq-vs-bc'"),
+    ("tables.family_weights=0.9,0.2", "summing to 1"),
+    ("tables.episodes_per_task_by_suite=kitchen=0", "N >= 1 episodes"),
+    ("tables.continuation_power=1.5", "probability below 1"),
+])
+def test_a_bad_design_stops_with_one_line_before_any_work(override, message):
+    from cli_helpers import run_cli
+    from icil_paper.config_data import ConfigError
+
+    code, err = run_cli("tables", "--preset", "smoke", "--claims", "--set", override)
+    assert code == 2 and message in err and err.count("\n") == 1
+    field, value = override.removeprefix("tables.").split("=", 1)
+    tables = get_preset("smoke").tables
+    bad = tuple(value.split(",")) if field != "continuation_power" else float(value)
+    if field == "family_weights":
+        bad = tuple(float(x) for x in bad)
+    with pytest.raises((ConfigError, ValueError), match=message.split("'")[0]):
+        replace(tables, **{field: bad})
+
+
+def test_the_design_gives_the_families_their_shares_and_leaves_descriptive_claims_out():
+    from icil_paper.paper import claims
+    from icil_paper.tables.design import (
+        DESCRIPTIVE,
+        PRIMARY,
+        SECONDARY,
+        ledger_design,
+        older_design,
+    )
+
+    preset = get_preset("reference")
+    every = claims(preset)
+    design = ledger_design(preset, every)
+    primary = [c for c, f in design.family.items() if f == PRIMARY]
+    assert primary == [c for c in design.family if c in preset.tables.primary_claims]
+    assert {c for c, f in design.family.items() if f == DESCRIPTIVE} == {
+        "III-smoother-succeeds", "III-smoother-latents-smoother-motion"}
+    assert "rank correlation" in design.why["III-smoother-succeeds"]
+    assert sum(design.weights[c] for c in primary) == pytest.approx(0.8)
+    secondary = [c for c, f in design.family.items() if f == SECONDARY]
+    assert sum(design.weights[c] for c in secondary) == pytest.approx(0.2)
+    assert design.level("IV-vq") == pytest.approx(0.05 * 0.8 / 6)
+    # the level a claim is planned at: its share at the last look's boundary
+    assert design.planning_level("IV-vq") < design.level("IV-vq")
+    # a primary family that names a rank correlation: it is described, not tested
+    odd = preset.with_overrides(["tables.primary_claims=IV-vq,III-smoother-succeeds"])
+    assert ledger_design(odd, every).family["III-smoother-succeeds"] == DESCRIPTIVE
+    assert ledger_design(odd, every).weights["IV-vq"] == pytest.approx(0.8)
+    # no primary family: one family, Holm's equal shares
+    holm = ledger_design(preset.replace(tables={"primary_claims": ()}), every)
+    tested = [c for c, f in holm.family.items() if f != DESCRIPTIVE]
+    assert len(tested) == 22 and all(holm.weights[c] == pytest.approx(1 / 22) for c in tested)
+    older = older_design(every, None)
+    assert set(older.weights.values()) == {1 / 24} and older.older and not older.sizes
+
+
+def test_the_committed_reference_records_are_read_as_the_older_designs_record():
+    """results/reference/design.json says the committed records were gathered under the
+    older design: the preset is read at its recorded fields (five episodes a task, its
+    looks' seeds), and its ledger is that design's alone, labelled so in claims.json."""
+    from icil_paper.paper import ledger_design_of
+    from icil_paper.tables.claims import read_ledger
+    from icil_paper.tables.design import ONE_FAMILY, read_record
+
+    store = ResultsStore("reference", root=ROOT / "results")
+    record = read_record(store)
+    assert record["design"] == "older" and "older design" in record["why"]
+    reference = get_preset("reference")
+    run = as_run(reference, store)
+    assert run.tables.episodes_per_task_by_suite == ()
+    unit = table_spec(run, "I").row("icrt+lipvq").cells["avg"].units[0]
+    assert unit.eval.episodes == 5 and unit.eval.episodes < table_spec(
+        reference, "I").row("icrt+lipvq").cells["avg"].units[0].eval.episodes
+    rows = {f"{t}:{r}": n for t, r, n in ((*k, v) for k, v in planned_seeds(run).items())}
+    last = record["looks"][-1]
+    assert all(rows[r] == n for r, n in last["rows"].items())
+    assert ledger_design_of(run, store).older
+    ledger = read_ledger(ROOT / "results" / "reference" / "claims.json")
+    assert ledger["design"]["name"] == "older" and ledger["design"]["record"] == "design.json"
+    assert {e["family"] for e in ledger["claims"]} == {ONE_FAMILY}
+    assert all(e["size"] is None for e in ledger["claims"])  # no size decided on old data
+
+
+def test_a_staged_run_registers_its_design_and_writes_each_look(tmp_path, monkeypatch):
+    """`staged_preset(..., write=True)` registers the design before any record, then writes
+    each look with every claimed row's seeds; a record of another design is refused."""
+    from icil_paper.config_data import ConfigError
+    from icil_paper.planning import staged
+    from icil_paper.tables.design import read_record, write_record
+
+    preset = smoke("tables.icrt_seeds=2", "tables.baseline_seeds=2", "tables.seed_stages=2,3")
+    store = ResultsStore(preset.name, root=tmp_path)
+    monkeypatch.setattr(staged, "stage_done", lambda p, s: True)
+    monkeypatch.setattr(staged, "claims_ledger", lambda p, s: [
+        SimpleNamespace(to_dict=lambda c=c: {"id": c, "sequential": {
+            "next": 3 if c == "I-tokenizer-gap" else None}}) for c in claim_rows(p)])
+    current, looks = staged.staged_preset(preset, store, write=True)
+    record = read_record(store)
+    assert record["design"] == "current" and record["tables"]["seed_stages"] == [2, 3]
+    assert record["tables"]["primary_claims"] == list(preset.tables.primary_claims)
+    assert [look["seeds"] for look in record["looks"]] == [2, 3]
+    first = record["looks"][0]
+    assert first["going_on"] == {r: 3 for r in first["going_on"]} and "I:icrt+mlp" in first["going_on"]
+    assert set(first["rows"].values()) == {2}
+    # read back, the same seeds without a look recomputed
+    monkeypatch.setattr(staged, "claims_ledger", None)
+    assert staged.staged_preset(preset, store) == (current, looks)
+    other = preset.with_overrides(["tables.continuation_power=0.2"])
+    with pytest.raises(ConfigError, match="registers another design"):
+        staged.staged_preset(other, store)
+    write_record(store, {**record, "design": "older"})  # an older design's record is read
+    assert staged.staged_preset(other, store)[0].tables.continuation_power == 0.1
+
+
+def test_the_reference_episodes_are_the_cost_optimal_counts_of_its_records():
+    from icil_paper.planning.design import episode_design
+
+    store = ResultsStore("reference", root=ROOT / "results")
+    rows = episode_design(as_run(get_preset("reference"), store), store)
+    suites = {r["suite"]: r for r in rows if r["pairs"] == "all pairs"}
+    episodes = get_preset("reference").tables.episodes_by_suite()
+    assert set(suites) == set(episodes)
+    for suite, r in suites.items():
+        assert round(r["optimal_episodes"]) == episodes[suite], suite
+        assert 0 < r["episode_share"] < 1 and r["seed_by_row_part"] > 0
+    kitchen = {r["pairs"]: r for r in rows if r["suite"] == "kitchen"}
+    # tokenizer pairs are near-identical rows: more of their variance is the episodes'
+    assert kitchen["tokenizer pairs"]["episode_share"] > kitchen["policy pairs"]["episode_share"]
+    assert (kitchen["tokenizer pairs"]["optimal_episodes"]
+            > kitchen["policy pairs"]["optimal_episodes"])

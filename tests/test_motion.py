@@ -346,7 +346,7 @@ def test_the_motion_claims_get_verdicts():
     assert entry.verdict == "holds" and entry.ours == pytest.approx(6.0, abs=0.5)
     assert entry.paper is None and entry.reference_effect is None
     assert entry.seeds == {"icrt+lipvq": 3, "bc_transformer": 3, "icrt+bin": 3}
-    assert entry.mde > 0 and entry.seeds_needed is None and entry.magnitude is None
+    assert entry.mde > 0 and entry.seeds_needed is None and entry.size is None
     assert "intersection test" in entry.method
 
     reversed_ = small_preset("eval.episodes_per_task=20", "tables.icrt_seeds=3",

@@ -56,6 +56,7 @@ def _other_values(annotation, value, choices=None):
             yield value + (extra,)
         if len(value) > 1:
             yield value[:-1]
+            yield value[::-1]  # shares that must sum to 1 (tables.family_weights)
     elif origin is tuple:
         for i, (a, v) in enumerate(zip(args, value, strict=True)):
             for other in _other_values(a, v):

@@ -10,17 +10,18 @@ import numpy as np
 import pytest
 
 from icil_paper.stats import (
-    Z_95,
     Estimate,
-    mean_samples,
+    best_of,
     paired_difference,
-    rank_correlation_interval,
-    score_success_correlation,
+    paired_score_difference,
+    rank_correlation,
+    score_mean,
     success_rate,
-    success_rate_samples,
     verdict,
     wilson_interval,
 )
+
+Z_95 = 1.959963984540054
 
 
 def _simulate(rng, task_rates, seeds, episodes, seed_spread=0.0):
@@ -59,17 +60,16 @@ def test_one_seed_one_task_uses_wilson():
 
 @pytest.mark.parametrize("seeds,tasks,episodes,seed_spread", [
     (1, 1, 30, 0.0),     # Wilson
-    (1, 11, 10, 0.0),    # stratified bootstrap
-    (3, 11, 10, 0.1),    # hierarchical bootstrap, seeds that differ
+    (1, 11, 10, 0.0),    # one seed: the stratified episode noise
+    (3, 11, 10, 0.1),    # t on per-seed values, seeds that differ
 ])
 def test_intervals_cover_the_true_rate(seeds, tasks, episodes, seed_spread):
     rng = np.random.default_rng(123)
     task_rates = np.linspace(0.15, 0.85, tasks) if tasks > 1 else np.array([0.35])
     truth = float(task_rates.mean())  # seed shifts have mean zero and never clip here
     covered, widths = 0, []
-    for i in range(200):
-        est = success_rate(_simulate(rng, task_rates, seeds, episodes, seed_spread),
-                           n_boot=400, rng_seed=i)
+    for _ in range(200):
+        est = success_rate(_simulate(rng, task_rates, seeds, episodes, seed_spread))
         covered += est.low <= truth <= est.high
         widths.append(est.high - est.low)
     assert 0.88 <= covered / 200 <= 0.995, covered
@@ -93,26 +93,26 @@ def test_tasks_weigh_equally_and_seeds_average():
     assert success_rate(outcomes.astype(int)).value == success_rate(outcomes).value
 
 
-def test_bootstrap_is_deterministic_given_rng_seed():
-    outcomes = _simulate(np.random.default_rng(1), np.linspace(0.2, 0.8, 11), 3, 10, 0.1)
-    a = success_rate(outcomes[:1], rng_seed=7)  # one seed: a bootstrap over episodes
-    assert a == success_rate(outcomes[:1], rng_seed=7)
-    assert not np.array_equal(success_rate_samples(outcomes[:1], rng_seed=7),
-                              success_rate_samples(outcomes[:1], rng_seed=8))
-    assert success_rate(outcomes, rng_seed=7) == success_rate(outcomes, rng_seed=8)  # t: no draws
-    assert np.array_equal(success_rate_samples(outcomes, rng_seed=7),
-                          success_rate_samples(outcomes, rng_seed=7))
+def test_intervals_draw_nothing_and_the_bootstrap_follows_its_seed():
+    rng = np.random.default_rng(1)
+    outcomes = _simulate(rng, np.linspace(0.2, 0.8, 11), 3, 10, 0.1)
     b = _simulate(np.random.default_rng(2), np.linspace(0.2, 0.8, 11), 1, 10)
-    assert paired_difference(outcomes, b, rng_seed=3) == paired_difference(outcomes, b, rng_seed=3)
+    assert success_rate(outcomes[:1]) == success_rate(outcomes[:1])
+    assert paired_difference(outcomes, b) == paired_difference(outcomes, b)
+    rows = [_simulate(rng, [r] * 3, 3, 10) for r in (0.2, 0.4, 0.6, 0.8)]
+    scores = [rng.normal(size=(3, 20)) for _ in rows]
+    assert rank_correlation(scores, rows, rng_seed=7) == rank_correlation(scores, rows, rng_seed=7)
+    assert rank_correlation(scores, rows, rng_seed=7) != rank_correlation(scores, rows, rng_seed=8)
 
 
-def test_two_thousand_resamples_are_fast():
-    outcomes = _simulate(np.random.default_rng(0), np.linspace(0.1, 0.9, 11), 3, 10, 0.1)
-    success_rate(outcomes, n_boot=2000)  # warm-up (imports)
+def test_two_thousand_joint_resamples_are_fast():
+    rng = np.random.default_rng(0)
+    rows = [_simulate(rng, np.linspace(0.1, 0.9, 11), 5, 10, 0.1) for _ in range(6)]
+    scores = [rng.normal(size=(5, 45)) for _ in rows]
+    rank_correlation(scores, rows)  # warm-up (imports)
     start = time.perf_counter()
-    success_rate(outcomes, n_boot=2000)
-    paired_difference(outcomes, outcomes[:1], n_boot=2000)
-    assert time.perf_counter() - start < 0.5
+    rank_correlation(scores, rows, n_boot=2000)
+    assert time.perf_counter() - start < 1.0
 
 
 def test_estimate_round_trips_through_json():
@@ -139,10 +139,9 @@ def test_paired_difference_is_narrower_on_correlated_rows():
     b = (difficulty < 0.5)[None]
     paired = paired_difference(a, b)
     assert paired.value == pytest.approx(a.mean() - b.mean())
-    # Unpaired: each row resampled on its own episodes.
-    unpaired = (success_rate_samples(a, rng_seed=1) - success_rate_samples(b, rng_seed=2))
-    un_low, un_high = np.percentile(unpaired, [2.5, 97.5])
-    assert paired.high - paired.low < 0.6 * (un_high - un_low)
+    # Unpaired: each row's episode noise on its own, added.
+    halves = [(r.high - r.low) / 2 for r in (success_rate(a), success_rate(b))]
+    assert paired.high - paired.low < 0.6 * 2 * math.hypot(*halves)
     # a beats b on every scene where they differ, but one seed a row decides nothing.
     assert verdict(paired) == "too few seeds"
 
@@ -175,47 +174,38 @@ def test_rank_correlation_of_monotone_rows():
     energies = [5.0, 4.0, 3.0, 2.0, 1.0]  # smoother (lower energy) rows succeed more
     outcomes = [_simulate(rng, [r] * 3, 2, 40) for r in rates]
     scores = [e + 0.1 * rng.normal(size=(2, 50)) for e in energies]
-    est = score_success_correlation(scores, outcomes)
+    est = rank_correlation(scores, outcomes)
     assert est.value == pytest.approx(-1.0) and est.n == 5 and est.seeds == (2,) * 5
     assert verdict(est, direction=-1) == "holds" and est.p_value < 0.05
-    one_seed = score_success_correlation([s[0] for s in scores], outcomes)
+    one_seed = rank_correlation([s[0] for s in scores], outcomes)
     assert verdict(one_seed, direction=-1) == "too few seeds"
-    # Unpaired resampling gives the same point value.
-    assert score_success_correlation(scores, outcomes, paired=False).value == est.value
 
 
 def test_rank_correlation_of_unrelated_rows_is_inconclusive():
     rng = np.random.default_rng(1)
     outcomes = [_simulate(rng, [0.5] * 3, 3, 10) for _ in range(5)]
     scores = [rng.normal(size=(3, 30)) for _ in range(5)]
-    est = score_success_correlation(scores, outcomes)
+    est = rank_correlation(scores, outcomes)
     assert -1.0 <= est.low <= est.value <= est.high <= 1.0
     assert verdict(est, direction=-1) == "inconclusive"
 
 
-def test_rank_correlation_interval_from_samples():
+def test_rank_correlation_of_two_scores_and_its_bad_input():
+    """Smoothness of the latents against the motion of the same rows' episodes: two kinds of
+    scores, each row's seeds drawn once for both."""
     rng = np.random.default_rng(0)
-    x = np.stack([mean_samples(rng.normal(m, 1.0, size=(2, 30)), rng_seed=i)
-                  for i, m in enumerate([0, 1, 2, 3])])
-    y = np.stack([success_rate_samples(_simulate(rng, [r], 1, 30), rng_seed=i)
-                  for i, r in enumerate([0.1, 0.4, 0.6, 0.9])])
-    est = rank_correlation_interval(x, y)
-    assert est.value == pytest.approx(1.0) and est.low > 0
+    latents = [rng.normal(m, 0.3, size=(3, 30)) for m in range(4)]
+    motion = [rng.normal(-m, 0.3, size=(3, 20)) for m in range(4)]
+    est = rank_correlation(latents, motion, ("score", "score"))
+    assert est.value == pytest.approx(-1.0) and est.high < 0 and est.p_value == 1 / 2000
     with pytest.raises(ValueError, match="at least 3 rows"):
-        rank_correlation_interval(x[:2], y[:2])
-    with pytest.raises(ValueError, match=r"\(rows, n_boot\)"):
-        rank_correlation_interval(x, y[:, :10])
-
-
-def test_paired_correlation_needs_matching_rows():
-    rng = np.random.default_rng(0)
-    outcomes = [_simulate(rng, [0.5] * 3, 1, n) for n in (10, 10, 12)]
-    scores = [rng.normal(size=20) for _ in range(3)]
-    with pytest.raises(ValueError, match="paired=False"):
-        score_success_correlation(scores, outcomes)
-    assert math.isfinite(score_success_correlation(scores, outcomes, paired=False).value)
-    with pytest.raises(ValueError, match="one score array and one outcome array per row"):
-        score_success_correlation(scores[:2], outcomes)
+        rank_correlation(latents[:2], motion[:2], ("score", "score"))
+    with pytest.raises(ValueError, match="one x and one y per row"):
+        rank_correlation(latents, motion[:3], ("score", "score"))
+    with pytest.raises(ValueError, match="same tasks and episodes"):
+        rank_correlation(latents, [*motion[:3], motion[3][:, :5]], ("score", "score"))
+    with pytest.raises(ValueError, match="n_boot"):
+        rank_correlation(latents, motion, ("score", "score"), n_boot=5)
 
 
 # ---------------------------------------------------------------------------------- verdict
@@ -245,7 +235,7 @@ def test_verdict_rejects_a_bad_direction():
 
 @pytest.mark.parametrize("bad,message", [
     (np.zeros((11, 10), dtype=bool), r"\(seeds, tasks, episodes\).*outcomes\[None\]"),
-    (np.zeros(10, dtype=bool), r"shaped \(seeds, tasks, episodes\), got shape \(10,\)"),
+    (np.zeros(10, dtype=bool), r"shaped \(seeds, tasks, episodes\).*got shape \(10,\)"),
     (np.zeros((1, 0, 10), dtype=bool), "at least one seed, task and episode"),
     ([[[True, False], [True]]], "full"),
     (np.full((1, 2, 3), np.nan), "NaN"),
@@ -261,12 +251,10 @@ def test_bad_paired_shapes_and_arguments_raise():
     a = np.zeros((1, 11, 10), dtype=bool)
     with pytest.raises(ValueError, match=r"same \(tasks, episodes\).*\(11, 10\).*\(11, 8\)"):
         paired_difference(a, np.zeros((2, 11, 8), dtype=bool))
-    with pytest.raises(ValueError, match="n_boot"):
-        success_rate(np.zeros((2, 2, 2), dtype=bool), n_boot=5)
     with pytest.raises(ValueError, match="level"):
         success_rate(a, level=95)
     with pytest.raises(ValueError, match="NaN"):
-        mean_samples([1.0, np.nan])
+        score_mean([1.0, np.nan])
 
 
 def test_other_levels_change_the_width():
@@ -278,23 +266,24 @@ def test_other_levels_change_the_width():
 
 
 def test_margin_over_the_best_other_row():
-    from icil_paper.stats import paired_margin, paired_score_margin
-
     rng = np.random.default_rng(0)
     a = rng.random((1, 4, 50)) < 0.9
     b = rng.random((1, 4, 50)) < 0.5
     c = rng.random((1, 4, 50)) < 0.6
-    m = paired_margin(a, [b, c])
+    m = best_of(a, [b, c], paired_difference)
     assert m.value == pytest.approx(a.mean() - c.mean()) and m.low > 0
-    assert paired_margin(c, [a, b]).high < 0
-    one = paired_margin(a, [b], rng_seed=3)
-    assert one.value == pytest.approx(paired_difference(a, b, rng_seed=3).value)
+    assert len(m.components) == 2 and m.seeds == (1, 1, 1)
+    assert best_of(c, [a, b], paired_difference).high < 0
+    one = best_of(a, [b], paired_difference)
+    assert one.value == pytest.approx(paired_difference(a, b).value)
     scores = rng.random((3, 40))
-    low = scores * 0.2
-    s = paired_score_margin(low, [scores, scores + 1.0])
-    assert s.value < 0 and s.high < 0
+    low = scores * 0.2  # lower is smoother (least energy): the lowest other row is the best
+    s = best_of(low, [scores, scores + 1.0], paired_score_difference, sign=-1)
+    assert s.value == pytest.approx(low.mean() - scores.mean()) and s.high < 0
     with pytest.raises(ValueError, match="same trajectories"):
-        paired_score_margin(low[:, :10], [scores])
+        best_of(low[:, :10], [scores], paired_score_difference, sign=-1)
+    with pytest.raises(ValueError, match="at least one other row"):
+        best_of(low, [], paired_score_difference)
 
 
 @pytest.mark.parametrize("outcome", [0, 1])
@@ -360,9 +349,17 @@ def test_episodes_per_seed_is_the_cheapest_narrowest_design():
 def test_power_at_the_minimum_detectable_difference_is_the_planned_power():
     from icil_paper.stats import POWER, minimum_detectable, power_at
 
-    mde = minimum_detectable(0.0025, 0.004, 10, 6)
-    assert power_at(0.0025, 0.004, 10, 6, mde) == pytest.approx(POWER, abs=1e-6)
-    assert power_at(0.0025, 0.004, 10, 6, mde / 2) < POWER < power_at(0.0025, 0.004, 10, 6, 2 * mde)
-    assert power_at(0.0025, 0.004, 20, 20, mde) > POWER  # more seeds, more power
+    for paired, var in ((True, 0.001), (False, 0.0025 + 0.004)):
+        mde = minimum_detectable(var, 10, paired=paired)
+        assert power_at(var, 10, mde, paired=paired) == pytest.approx(POWER, abs=1e-6)
+        assert power_at(var, 10, mde / 2, paired=paired) < POWER < power_at(
+            var, 10, 2 * mde, paired=paired)
+        assert power_at(var, 20, mde, paired=paired) > POWER  # more seeds, more power
+        # a smaller level (a claim's share of alpha) needs a larger difference
+        assert minimum_detectable(var, 10, alpha=0.005, paired=paired) > mde
+    # the paired test has fewer degrees of freedom at the same variance
+    assert minimum_detectable(0.004, 5) > minimum_detectable(0.004, 5, paired=False)
+    assert np.allclose(minimum_detectable(0.004, np.array([5, 10])),
+                       [minimum_detectable(0.004, 5), minimum_detectable(0.004, 10)])
     with pytest.raises(ValueError, match="2 seeds"):
-        power_at(0.0025, 0.004, 1, 6, mde)
+        power_at(0.0025, 1, 0.1)

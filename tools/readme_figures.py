@@ -17,10 +17,12 @@ import argparse
 import json
 import re
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from icil_paper.config import get_preset
+from icil_paper.config import Preset, get_preset
+from icil_paper.fileio import read_json
 from icil_paper.planning.design import plan_cost
 from icil_paper.planning.staged import at_stage
 from icil_paper.stats import Verdict
@@ -98,12 +100,23 @@ def _claims(field: str, ledger: str = "claims.json") -> int:
     return s["counts"][field] if field in s["counts"] else s[field]
 
 
-def _projected_hours(stage: int | None = None) -> float:
+def _older_design() -> Preset:
+    """The reference preset at the design fields the committed records' design record
+    keeps (`results/reference/design.json`: the older design's stages, budget, episodes)."""
+    record = read_json(REFERENCE / "design.json", "the reference run's design record",
+                       "restore it from git", keys=("tables",))
+    fields = {k: tuple(v) if isinstance(v, list) else v for k, v in record["tables"].items()}
+    preset = get_preset("reference")
+    return replace(preset, tables=replace(preset.tables, **fields))
+
+
+def _projected_hours(stage: int | None = None, older: bool = False) -> float:
     """The reference preset's projected hours at two cells at a time
     (`planning.design.plan_cost`, from `results/bench/cells.json` and `datasets.json`): at
     its fixed design's seeds, or with every claimed row at seed stage `stage` (0: the
-    first, -1: the last; `planning.staged.at_stage`)."""
-    preset = get_preset("reference")
+    first, -1: the last; `planning.staged.at_stage`); `older`: under the older design that
+    the committed records were gathered under."""
+    preset = _older_design() if older else get_preset("reference")
     return plan_cost(preset if stage is None else at_stage(preset, stage))["wall_h_at_2"]
 
 
@@ -197,6 +210,11 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                           lambda: _projected_hours(-1)),
     "design.budget_hours": ("src/icil_paper/config.py",
                             lambda: get_preset("reference").tables.stage_budget_hours),
+    **{f"older_design.{name}_wall_hours_at_2": ("results/reference/design.json",
+                                                lambda stage=stage: _projected_hours(stage, True))
+       for name, stage in (("projected", None), ("first_stage", 0), ("last_stage", -1))},
+    "older_design.budget_hours": ("results/reference/design.json",
+                                  lambda: _older_design().tables.stage_budget_hours),
     **{f"older_cost.{name}_cell_s": (OLDER_COST,
                                lambda kind=kind: _cell_seconds(kind))
        for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),

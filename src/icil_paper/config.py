@@ -281,9 +281,42 @@ class EvalConfig(_Checked):
     """Write a rerun recording of every rollout."""
 
 
+CLAIM_IDS = (
+    "I-lipvq-best", "I-lipvq-vs-bc", "I-lipvq-vs-lfq", "I-tokenizer-gap", "I-mlp-below-bc",
+    "II-lipvq-best", "II-lipvq-vs-lfq", "II-lipvq-vs-act", "III-lipvq-smoothest",
+    "III-smoother-succeeds", "IV-mlp", "IV-vq", "IV-vq-over-mlp", "fig5-best",
+    "V-lipvq-vs-bc", "V-lipvq-vs-bin", "V-lipvq-smoother-motion", "VI-mlp-vs-bc",
+    "VI-lipvq-best", "VII-lipvq-vs-bc", "VII-lipvq-best", "beyond-eq4-fsq", "beyond-eq4-rvq",
+    "III-smoother-latents-smoother-motion")
+"""Every claim of the ledger by id, in its order (each is declared with its comparison in
+`icil_paper.paper`; `tests/test_design.py` checks that the two lists agree): what a design's
+`primary_claims` may name."""
+
+PRIMARY_CLAIMS = ("I-lipvq-vs-bc", "II-lipvq-vs-act", "III-lipvq-smoothest", "IV-vq",
+                  "V-lipvq-vs-bc", "V-lipvq-smoother-motion")
+"""The primary family, declared before the data it is tested on: the claims that carry the
+paper's three questions as its abstract and conclusion state them, read from the text alone.
+Q1: "improves performance by more than 5.3%" (I-lipvq-vs-bc) and "outperforms
+state-of-the-art baselines on RoboCasa and ManiSkill" (I-lipvq-vs-bc, II-lipvq-vs-act). Q2:
+"improves smoothness over other tokenizers" (III-lipvq-smoothest), "leading to improved
+robotic manipulation performance" through the Lipschitz condition (IV-vq, Eq. 4 on VQ-VAE).
+Q3: the real robot confirms "smoother, more reliable trajectories" (V-lipvq-smoother-motion,
+V-lipvq-vs-bc). Every other testable claim is secondary."""
+
+FAMILY_WEIGHTS = (0.8, 0.2)
+"""Shares of the familywise 5% given to the primary and the secondary family."""
+
+CONTINUATION_POWER = 0.1
+"""A claim's rows go on to the next stage while its conditional power is at least this."""
+
+
 @dataclass(frozen=True)
 class TablesConfig(_Checked):
-    """The paper's tables and figures (`icil_paper.paper`): seeds, sweeps and sizes."""
+    """The paper's tables and figures (`icil_paper.paper`): seeds, sweeps and sizes, and the
+    design the claims ledger is read under (`primary_claims` .. `episodes_per_task_by_suite`:
+    `icil_paper.tables.design`)."""
+
+    CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"primary_claims": CLAIM_IDS}
 
     icrt_seeds: int = 1
     """Training seeds of every ICRT row of Table I (and so of Tables III, IV, V and VI,
@@ -346,11 +379,12 @@ class TablesConfig(_Checked):
     seed_stages: tuple[int, ...] = ()
     """Seeds in stages: the seeds a row has at each look of the group-sequential design
     (`stats.SequentialDesign`, O'Brien-Fleming-type alpha spending), e.g. (5, 10, 15): the
-    ledger decides a claim only at a look's boundary, Holm's correction reads the design's
-    repeated p-values, and after each look the rows of claims that are all decided stop,
-    rows of undecided claims that a later stage can decide at the paper's effect go on to
-    the next stage, and the others stop (`python -m icil_paper.planning.design --stages`
-    prints which). Empty: a fixed design, every claim read once at the seeds it has."""
+    ledger decides a claim only at a look's boundary, the graph over the family
+    (`primary_claims`) reads the design's repeated p-values, and after each look the rows of
+    claims that are all decided stop, rows of undecided claims go on by the continuation
+    rule (`continuation_power`), and the others stop (`python -m icil_paper.planning.design
+    --stages` prints which). Empty: a fixed design, every claim read once at the seeds it
+    has."""
     stage_budget_hours: float | None = None
     """The most a run in stages may cost, in hours at two cells at a time as
     `planning.design.plan_cost` projects them from the committed benchmark rates: after a
@@ -361,15 +395,62 @@ class TablesConfig(_Checked):
     """Claims that the budget stopped at a look although a later stage could decide them:
     their rows stay at the seeds they have, and the ledger says so. Set by
     `planning.staged.staged_preset` from the run's records, not by hand."""
-
+    primary_claims: tuple[str, ...] = PRIMARY_CLAIMS
+    """The primary family of the claims ledger, by claim id (`PRIMARY_CLAIMS` says why
+    these): it shares `family_weights[0]` of the familywise 5% equally, every other testable
+    claim `family_weights[1]`, and a claim's share passes to the others when it is decided
+    (weighted Holm's graph, `stats.graph_test`). Descriptive claims (the rank correlations)
+    are in neither. Empty: one family, Holm's procedure over every testable claim."""
+    family_weights: tuple[float, ...] = FAMILY_WEIGHTS
+    """(primary, secondary): the shares of the familywise level, summing to 1."""
+    continuation_power: float = CONTINUATION_POWER
+    """Seeds in stages: after a look, the rows of a claim still undecided go on to the next
+    stage while its conditional power at the observed effect, to cross the last look's
+    boundary at the claim's current level, is at least this
+    (`stats.SequentialDesign.conditional_power`; non-binding, so the level holds whatever
+    stops), within `stage_budget_hours`. 0: every undecided claim's rows go on."""
+    episodes_per_task_by_suite: tuple[str, ...] = ()
+    """Rollouts per task of the state-based evaluations on a suite, as "SUITE=N"
+    ("kitchen=10"), where they differ from `eval.episodes_per_task` (and Table II's
+    `maniskill_episodes_per_task`): the cost-optimal count from the split of each claim's
+    paired variance into its seed and episode parts (`planning.design.episode_design`)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self.seeds_by_row()
+        self.episodes_by_suite()
         stages = self.seed_stages
         if stages and (stages[0] < 2 or any(b <= a for a, b in zip(stages[:-1], stages[1:], strict=True))):
             raise ConfigError(f"TablesConfig.seed_stages: {stages} should be increasing seed "
                               "counts, each at least 2, e.g. 5,10,15")
+        weights = self.family_weights
+        if len(weights) != 2 or abs(sum(weights) - 1) > 1e-9:
+            raise ConfigError(f"TablesConfig.family_weights: {weights} should be the primary "
+                              "and secondary families' shares of the level, summing to 1, "
+                              "e.g. 0.8,0.2")
+        if len(set(self.primary_claims)) != len(self.primary_claims):
+            raise ConfigError(f"TablesConfig.primary_claims: {self.primary_claims} names a "
+                              "claim twice")
+        if not 0 <= self.continuation_power < 1:
+            raise ConfigError(f"TablesConfig.continuation_power: {self.continuation_power} "
+                              "should be a probability below 1, e.g. 0.1")
+
+    def episodes_by_suite(self) -> dict[str, int]:
+        """`episodes_per_task_by_suite` as {suite: episodes} (ConfigError for an entry not
+        "SUITE=N" with N >= 1)."""
+        out = {}
+        for entry in self.episodes_per_task_by_suite:
+            suite, sep, number = entry.partition("=")
+            if not sep or not suite.strip() or not number.strip().isdigit() or int(number) < 1:
+                raise ConfigError(f"TablesConfig.episodes_per_task_by_suite: {entry!r} should "
+                                  "read SUITE=N with N >= 1 episodes, e.g. kitchen=10")
+            out[suite.strip()] = int(number)
+        return out
+
+    def episodes_for(self, task: str, default: int) -> int:
+        """Rollouts per task of a state-based evaluation on `task` ("kitchen/open_door"):
+        its suite's `episodes_per_task_by_suite`, else `default`."""
+        return self.episodes_by_suite().get(task.split("/", 1)[0], default)
 
     def seeds_by_row(self) -> dict[str, int]:
         """`row_seeds` as {"TABLE:row": seeds} (ConfigError for an entry not "TABLE:row=N"
@@ -543,9 +624,14 @@ def _small() -> Preset:
         train=train,
         eval=EvalConfig(episodes_per_task=1, max_steps=150, workers=2),
         tokenizer_study=TokenizerStudyConfig(steps=400, n_trajectories=64, n_eval_trajectories=16),
+        # the design's fields: the primary family and its share, the continuation rule;
+        # one episode a task (CI's minutes), not the reference's cost-optimal counts
         tables=TablesConfig(icrt_seeds=1, codebook_sizes=(64, 128, 256, 512),
                             image_demos_per_task=2, image_episodes_per_task=1,
-                            image_max_steps=40, feature_demos_per_task=1),
+                            image_max_steps=40, feature_demos_per_task=1,
+                            primary_claims=PRIMARY_CLAIMS, family_weights=FAMILY_WEIGHTS,
+                            continuation_power=CONTINUATION_POWER,
+                            episodes_per_task_by_suite=()),
     )
 
 
@@ -565,18 +651,36 @@ REFERENCE_SEED_STAGES = (5, 10, 15)
 """The reference preset's looks (`TablesConfig.seed_stages`): 5 seeds a row, then up to 10,
 then up to 15. At the measured seed spread (a per-seed standard deviation of about 0.05 in
 kitchen success plus 0.04-0.05 of episode noise at 11 tasks x 5 episodes) a difference of
-two rows has a 95% half-width of about 0.12 at 5 seeds, 0.07 at 10 and 0.05 at 15: large
-effects (the +0.36 of ICRT + LipVQ-VAE over BC-Transformer) are decided at 5 or 10, the
-paper's 5-9-point gaps need the last stage, and its 0.2-4-point ones stop where they are
-with the seeds they would need in the ledger. O'Brien-Fleming-type spending keeps the last
-look's level at 0.044 (against 0.05 for a single look), so a claim that runs to 15 seeds
-loses little power for the early looks (`stats.SequentialDesign`)."""
+two rows has a 95% half-width of about 0.12 at 5 seeds, 0.07 at 10 and 0.05 at 15 (less
+for a paired difference, whose rows share their seed's scenes): large effects (the +0.36 of
+ICRT + LipVQ-VAE over BC-Transformer) are decided at 5 or 10, smaller ones go on while the
+effect observed so far gives them a chance at the last look (`continuation_power`).
+O'Brien-Fleming-type spending keeps the last look's level at 0.044 of 0.05 (for a single
+look), so a claim that runs to 15 seeds loses little power for the early looks
+(`stats.SequentialDesign`)."""
 
 
-REFERENCE_BUDGET_HOURS = 12.0
-"""The reference run's budget (`TablesConfig.stage_budget_hours`): twelve hours of the
-2-core machine at two cells at a time. The first stage takes most of it, so after the
-first look only the claims whose next stage is cheapest go on."""
+REFERENCE_BUDGET_HOURS = 15.0
+"""The reference run's budget (`TablesConfig.stage_budget_hours`): fifteen hours of the
+2-core machine at two cells at a time, the first stage at the cost-optimal episodes
+(`REFERENCE_EPISODES`: 14.7 hours as the benchmark rates project it) and a little more,
+so after the first look only the claims whose next stage is cheapest go on. (The older
+design's run had twelve hours at five episodes a task: `results/reference/design.json`.)"""
+
+REFERENCE_EPISODES = ("kinova=7", "kitchen=12", "maniskill=56")
+"""The reference preset's rollouts per task by suite (`TablesConfig.episodes_per_task_by_suite`),
+at the cost-optimal counts from the committed reference records (`planning.design.
+episode_design`; `python -m icil_paper.planning.cost --preset reference --episodes`). The
+rows of a pair play the same scenes, so the variance of a paired per-seed difference splits
+into an episode part (the within-(seed, task) variance of the paired episode differences)
+and a seed-by-row part. At the records' episodes the episode part is 62% of it on the
+kitchen suite (5 a task; 37% for policy pairs, 71% for tokenizer pairs), 85% on ManiSkill
+(10 a task) and 34% on the Kinova stand-in (5 a task, two comparisons). At the CPU time a
+cell took (an ICRT kitchen cell: 272 s of training, 15 s for one more episode on every task
+it evaluates; an ACT ManiSkill cell: 73 s and 1.3 s), two-stage sampling
+(`stats.episodes_per_seed`) puts the narrowest difference for its compute at 12 episodes a
+task on the kitchen suite (7 for policy pairs, 15 for tokenizer pairs), 56 on ManiSkill and
+7 on the Kinova stand-in."""
 
 
 REGIME_DEMOS, REGIME_STEPS = 50, 500
@@ -608,7 +712,30 @@ def _reference() -> Preset:
     prints the projected cost and each claim's expected interval. Table II keeps the earlier
     ManiSkill pilot's setting (40 demonstrations, 5000 steps, 10 episodes a task). MCR
     (images; no claim reads its rows) gets fewer seeds and image episodes: an image cell
-    costs about ten times a state cell on CPU."""
+    costs about ten times a state cell on CPU.
+
+    The design (`tables.design`, stated in `claims.json` above the entries): looks at 5, 10
+    and 15 seeds a row (`REFERENCE_SEED_STAGES`) with O'Brien-Fleming-type boundaries; the
+    primary family (`PRIMARY_CLAIMS`: the claims that carry the paper's three questions as
+    its abstract and conclusion state them) shares 80% of the familywise 5%, every other
+    testable claim 20%, and a decided claim passes its share on (weighted Holm's graph);
+    the rank correlations are descriptive. After a look the rows of an undecided claim go on
+    while its conditional power at the observed effect, to cross the last boundary at its
+    current level, is at least 0.1 (`CONTINUATION_POWER`), the cheapest first within the
+    budget (`REFERENCE_BUDGET_HOURS`); sizes are decided against the paper's effects by
+    repeated confidence intervals at each claim's Bonferroni share. The seeds above are what
+    the fixed design planned; `python -m icil_paper.planning.design --preset reference
+    --stages` says which rows go on, and the run writes each look's seeds per row to
+    `results/reference/design.json`. The committed records were gathered under the older
+    design (Holm over every claim, continuation on the paper's effect, five episodes a
+    task): that file says so, and the ledger read from them is labelled as its record.
+
+    Episodes (`REFERENCE_EPISODES`): from the split of each class of claim's paired variance
+    into its episode and seed-by-row parts in the committed records, the cost-optimal counts
+    (`stats.episodes_per_seed`): 12 a task on the kitchen suite, 56 on ManiSkill (Table II's
+    `maniskill_episodes_per_task`, 10, stands for the older design), 7 on the Kinova stand-in;
+    each seed on its own scene set (`scenes_per_seed`), so that scene luck averages out over
+    seeds and the rows of a pair play the same scenes."""
     small = _small()
     train = TrainConfig(steps=REGIME_STEPS, batch_size=8, warmup_steps=100, ckpt_every=500)
     return dataclasses.replace(
@@ -627,7 +754,10 @@ def _reference() -> Preset:
                             since_paper_seeds=5, official_seeds=5,
                             row_seeds=REFERENCE_ROW_SEEDS, scenes_per_seed=True,
                             seed_stages=REFERENCE_SEED_STAGES,
-                            stage_budget_hours=REFERENCE_BUDGET_HOURS),
+                            stage_budget_hours=REFERENCE_BUDGET_HOURS,
+                            primary_claims=PRIMARY_CLAIMS, family_weights=FAMILY_WEIGHTS,
+                            continuation_power=CONTINUATION_POWER,
+                            episodes_per_task_by_suite=REFERENCE_EPISODES),
     )
 
 

@@ -377,7 +377,8 @@ def check_range(path: str, value: Any, annotation: Any = None,
 
 
 EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks", "row_seeds",
-                           "seed_stages", "stage_stops", "task_demos"})
+                           "seed_stages", "stage_stops", "task_demos", "primary_claims",
+                           "episodes_per_task_by_suite"})
 """Tuple fields that may be empty (an MLP without hidden layers, a preset without ManiSkill
 tasks, no row with seeds of its own); every other tuple field, and every string field, needs a value."""
 

@@ -14,10 +14,12 @@ block (`TOGETHER`): a policy shared by several tables is trained once and evalua
 of them in one cell. Chapter 02's run (`table-icrt`) comes before the chapters' own studies,
 so it is a block of its own, computed where the stage stands.
 
-A preset with seeds in stages (`tables.seed_stages`, the reference preset) runs its table
-stages stage by stage (`icil_paper.planning.staged`): every row a claim reads at the first
-stage's seeds, then, after each look of the ledger, the rows the stage rule sends on at the
-next stage's, until no row goes on; the claims stage writes the ledger at the seeds reached.
+A preset with seeds in stages (`tables.seed_stages`, the reference preset) registers its
+design in `results/<preset>/design.json` before its first cell and runs its table stages
+stage by stage (`icil_paper.planning.staged`): every row a claim reads at the first stage's
+seeds, then, after each look of the ledger (written to the record with every row's seeds),
+the rows the stage rule sends on at the next stage's, until no row goes on; the claims stage
+writes the ledger at the seeds reached.
 """
 
 from __future__ import annotations
@@ -92,10 +94,10 @@ def _table_stage(table_id: str):
             raise ValueError("--force does not apply to the table stages: delete the records "
                              f"under {store.dir} to recompute them")
         block = next((b for b in TOGETHER if table_id in b), [table_id])
-        current, _ = staged_preset(preset, store)
+        current, _ = staged_preset(preset, store, write=True)  # registers the design first
         while True:  # one pass without stages; with them, until no row goes on
             run_tables(current, block, **GRID)
-            after, looks = staged_preset(preset, store)
+            after, looks = staged_preset(preset, store, write=True)
             if after == current:
                 break
             tqdm.write(f"   look at {looks[-1].seeds} seeds a row: "

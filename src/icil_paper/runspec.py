@@ -260,9 +260,10 @@ def eval_spec(preset: Preset, task: str, episodes: int | None = None, seed: int 
               prompt_source: str = "generated", prompt_task: str | None = None,
               prompt_steps: int | None = None, max_steps: int | None = None,
               scenes: str = "generated") -> EvalSpec:
-    """The evaluation a preset describes on `task` (episodes and step limit from `preset.eval`)."""
-    return EvalSpec(task=task,
-                    episodes=preset.eval.episodes_per_task if episodes is None else int(episodes),
+    """The evaluation a preset describes on `task` (episodes from its suite's
+    `tables.episodes_per_task_by_suite`, else `preset.eval`; the step limit from `preset.eval`)."""
+    default = preset.tables.episodes_for(task, preset.eval.episodes_per_task)
+    return EvalSpec(task=task, episodes=default if episodes is None else int(episodes),
                     seed=preset.seed if seed is None else int(seed),
                     max_steps=preset.eval.max_steps if max_steps is None else max_steps,
                     prompt_source=prompt_source, prompt_task=prompt_task,

@@ -2,7 +2,7 @@
 `stats.Verdict`. No other module spells a verdict (`tests/test_vocabulary.py` scans the
 sources for one).
 
-    from icil_paper.stats import Verdict
+    from icil_paper.stats import Size, Verdict
     from icil_paper.verdict_words import SMOOTHER, claim_words
     SMOOTHER[Verdict.HOLDS]                    # "smoother"
     claim_words(Verdict.HOLDS, side="above")   # "holds: our interval lies above 0"
@@ -13,7 +13,7 @@ least-energy difference claimed lower, a success difference claimed higher, ...)
 
 from __future__ import annotations
 
-from icil_paper.stats import Verdict
+from icil_paper.stats import Size, Verdict
 
 HOLDS, DOES_NOT_HOLD, INCONCLUSIVE, TOO_FEW_SEEDS, NOT_RUN = Verdict
 DECIDED = (HOLDS, DOES_NOT_HOLD)
@@ -43,6 +43,9 @@ BEST_OF_K_INCONCLUSIVE = ("best of k: it holds only if every pairwise interval l
                           "claimed side, and does not hold only if one row beats it at the "
                           "Bonferroni level")
 """Why a best-of-k claim is inconclusive more often than a single difference."""
+
+SIZE_SHORT = {Size.SMALLER: "smaller", Size.LARGER: "larger", Size.UNDECIDED: "undecided"}
+"""A decided size (`stats.Size`, against the paper's effect) in a table's narrow column."""
 
 DECIDED_LABELS = {HOLDS: "Held", DOES_NOT_HOLD: "Did not hold"}
 """The headings of the lists of decided claims."""

@@ -47,6 +47,7 @@ from icil_paper.tables.claims import (
     summary,
     summary_sentence,
 )
+from icil_paper.tables.design import ONE_FAMILY
 from icil_paper.tables.display import (
     BUILD,
     REFERENCE,
@@ -96,7 +97,7 @@ def claims_figure(preset: Preset, table_id: str):
     if not entries:
         return None
     return forest_plot(entries, title=f"Table {table_id}'s claims, reference run: 95% "
-                                      "intervals, the paper's values, the verdict after Holm")
+                                      "intervals, the paper's values, the decision")
 
 
 RECORD_KINDS = ("train", "eval", "features", "tokenizer", "lipschitz", "showcase")
@@ -183,14 +184,14 @@ def show_ledger(ledger: list[LedgerEntry | dict[str, Any]], heading: str,
     ledger = [as_entry(e) for e in ledger]
     display(Markdown(f"## {heading[0].upper()}{heading[1:]}"))
     display(forest_plot(ledger, title=f"{heading[0].upper()}{heading[1:]}: each claim's 95% "
-                                      "interval, the paper's value, the verdict after Holm"))
+                                      "interval, the paper's value, the decision"))
     display(Markdown(summary_sentence(ledger)))
     display(Markdown("**Verdicts** (the seeds of each row: the claim's row first)"))
     display(ledger_frame(ledger, "verdicts"))
     undecided = undecided_power(ledger)
     if undecided:
         n = len(undecided.splitlines())
-        display(collapsed_markdown(f"Undecided after Holm ({n} claims): what these seeds "
+        display(collapsed_markdown(f"Undecided ({n} claims): what these seeds "
                                    "could detect. Open to see them.", undecided))
     display(collapsed_frame("Size and power of every claim. Open to see them.",
                             ledger_frame(ledger, "power")))
@@ -205,8 +206,10 @@ def show_ledgers(ledgers: dict[str, tuple[Any, list]]) -> None:
     opens on numbers."""
     for source, (preset, ledger) in ledgers.items():
         reference = preset.name == REFERENCE
-        show_ledger(ledger, source_label(source, preset.name),
-                    reference_bookkeeping() if reference else "")
+        heading = source_label(source, preset.name)
+        if any(as_entry(e).family == ONE_FAMILY for e in ledger):
+            heading += ", a record of the older design"
+        show_ledger(ledger, heading, reference_bookkeeping() if reference else "")
         older = (older_ledger(REFERENCE)
                  if reference and not any(as_entry(e).run for e in ledger) else None)
         if older is not None:
@@ -227,9 +230,10 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
 
 def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdicts"):
     """The claims ledger as a table, in two parts that each fit the book's column:
-    "verdicts" (the seeds a row, the paper, ours [95% interval], the verdict before and
-    after Holm's correction) and "power" (the size reading, mde, the power to detect the
-    paper's effect, seeds needed)."""
+    "verdicts" (the family, the seeds a row, the paper, ours [95% interval], the verdict of
+    the interval alone, the decision under the ledger's design and the size decided beside
+    it) and "power" (an older ledger's size reading, mde, the power to detect the paper's
+    effect, seeds needed)."""
     ledger = [as_entry(e) for e in ledger]
     import pandas as pd
 
@@ -243,12 +247,15 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
             paper_cell = (f"{e.paper:+.3f}" if e.paper is not None
                           else "—" if e.reference_effect is None
                           else f"({e.reference_effect:+.3f})")
-            rows.append({"claim": e.id, "seeds": unbroken(_seeds_cell(e.seeds)),
-                         "paper": paper_cell, "ours": ours, "verdict": e.verdict,
-                         "after Holm": (e.adjusted_verdict or "")})
+            rows.append({"claim": e.id, "family": e.family or "",
+                         "seeds": unbroken(_seeds_cell(e.seeds)), "paper": paper_cell,
+                         "ours": ours, "verdict": e.verdict,
+                         "decided": (e.adjusted_verdict or ""),
+                         "size": verdict_words.SIZE_SHORT.get(e.size, "")})
         else:
             needed = e.seeds_needed
-            rows.append({"claim": e.id, "size vs the paper": e.magnitude or "",
+            older = {"size vs the paper": e.extra["magnitude"]} if "magnitude" in e.extra else {}
+            rows.append({"claim": e.id, **older,
                          "mde": "" if e.mde is None else f"{e.mde:.3f}",
                          "power": "" if e.power is None else f"{e.power:.0%}",
                          "seeds needed": ("" if e.verdict == Verdict.NOT_RUN else
@@ -257,7 +264,7 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
 
 
 def undecided_power(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
-    """A Markdown list of the claims left undecided after Holm's correction, each with what
+    """A Markdown list of the claims left undecided under the ledger's design, each with what
     its design could detect: the power to detect the paper's effect at its seeds, the mde
     and the seeds a row that would reach 80% power. Empty when none is undecided."""
     ledger = [as_entry(e) for e in ledger]
@@ -299,7 +306,7 @@ def ledger_details(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
 
 
 def decided_claims(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
-    """The claims decided after Holm's correction, by id: "Held: ... Did not hold: ...";
+    """The claims decided under the ledger's design, by id: "Held: ... Did not hold: ...";
     empty when none is decided."""
     ledger = [as_entry(e) for e in ledger]
     parts = []
@@ -321,7 +328,7 @@ def row_label(entry: LedgerEntry) -> str:
 
 def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", verdict_key: str = "adjusted_verdict"):
     """One row per claim, labelled by what it says (`row_label`): our estimate and 95%
-    interval (coloured by the verdict after Holm's correction), the paper's value as a black diamond and the zero line. Success
+    interval (coloured by the decision under the ledger's design), the paper's value as a black diamond and the zero line. Success
     differences share one panel; least-energy and correlation claims, on other scales, get
     their own. Rows a single-seed row reads are drawn dashed (their interval is the
     episodes' noise only)."""
@@ -484,7 +491,7 @@ def reference_progress(path=None, older: bool = False) -> str:
 
 
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
-    """(claims decided after Holm's correction, CPU-hours, whether every planned cell has
+    """(claims decided under the ledger's design, CPU-hours, whether every planned cell has
     finished) of the reference run whose ledger and cost lie in `folder` (`claims.json`,
     `cost.json`); None when either is missing."""
     claims, cost_file = folder / "claims.json", folder / "cost.json"

@@ -2,7 +2,8 @@
 
     icil-paper tables --preset reference                  # every table, markdown
     icil-paper tables --table I IV --format csv
-    icil-paper tables --claims                            # the claims ledger
+    icil-paper tables --claims                            # the claims ledger: each claim's
+                                                          # family, decision, size and power
     icil-paper tables --format json > tables.json
     icil-paper tables --preset reference --retire-stale   # older code's records out of the store
 
@@ -24,6 +25,7 @@ from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import assemble
 from icil_paper.tables.claims import sentence
+from icil_paper.tables.design import ONE_FAMILY
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -59,9 +61,15 @@ def main(argv: list[str] | None = None) -> int:
         if args.format == "json":
             print(json.dumps([e.to_dict() for e in ledger], indent=2))
         else:
+            older = any(e.family == ONE_FAMILY for e in ledger)
+            if older:
+                print("A record of the older design (its records were gathered under it; "
+                      "the current design decides nothing on them):")
             for entry in ledger:
-                print(f"[{entry.adjusted_verdict}] {entry.id} (Table {entry.table}): "
-                      f"{sentence(entry)}")
+                size = f", {entry.size}" if entry.size else ""
+                power = "" if entry.power is None else f", power {entry.power:.0%}"
+                print(f"[{entry.adjusted_verdict}{size}] {entry.id} (Table {entry.table}, "
+                      f"{entry.family or 'no family'}{power}): {sentence(entry)}")
         return 0
     ids = [check_name("table", t, TABLES) for t in (args.table or TABLES)]
     results = [assemble(table_spec(preset, t), store) for t in ids]

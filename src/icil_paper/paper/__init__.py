@@ -62,6 +62,7 @@ from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import assemble
 from icil_paper.tables.claims import Claim, LedgerEntry, ledger_entries, ledger_file
+from icil_paper.tables.design import DESIGN_FILE, Design, ledger_design, read_record
 from icil_paper.tables.execute import run_specs
 from icil_paper.tables.spec import TableSpec
 
@@ -122,21 +123,31 @@ def claims(preset: Preset) -> list[Claim]:
     return paper + ours
 
 
+def ledger_design_of(preset: Preset, store: ResultsStore | None = None) -> Design:
+    """The design the records of `store` are read under (`tables.design.ledger_design`): the
+    preset's, or the older one where the store's design record says its records are."""
+    store = store or ResultsStore(preset.name)
+    return ledger_design(preset, claims(preset), read_record(store))
+
+
 def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[LedgerEntry]:
-    """Every claim evaluated on the records of `store` (default: the preset's), with the
-    verdicts after Holm's correction over the ledger (`tables.claims.ledger_entries`)."""
+    """Every claim evaluated on the records of `store` (default: the preset's), decided
+    under the design of those records (`ledger_design_of`; `tables.claims.ledger_entries`)."""
     store = store or ResultsStore(preset.name)
     every = claims(preset)
     needed = {c.table for c in every} | {"I"}
     tables = {t: assemble(table_spec(preset, t), store) for t in sorted(needed)}
-    return ledger_entries(preset, every, tables)
+    return ledger_entries(preset, every, tables, ledger_design_of(preset, store))
 
 
 def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
-    """Write `results/<preset>/claims.json` (atomically) and return its path."""
+    """Write `results/<preset>/claims.json` (atomically), its design stated above the
+    entries, and return its path."""
     store = store or ResultsStore(preset.name)
     path = store.dir / "claims.json"
-    atomic_write_json(path, ledger_file(preset, claims_ledger(preset, store)))
+    record = DESIGN_FILE if read_record(store) is not None else None
+    atomic_write_json(path, ledger_file(preset, claims_ledger(preset, store),
+                                        ledger_design_of(preset, store), record))
     return str(path)
 
 

@@ -336,7 +336,7 @@ def summary(result: TableResult) -> str:
                      f"{SHORT_WORDS[f['adjusted_verdict']]}")
     text = (f"On the same episodes, with {seeds_text} and Holm's correction over the "
             f"{len(found)} comparisons: " + "; ".join(parts) + ".")
-    if any(f["adjusted_verdict"] == stats.TOO_FEW_SEEDS for f in found):
+    if any(f["adjusted_verdict"] == stats.Verdict.TOO_FEW_SEEDS for f in found):
         text += (" With a single training seed a row the spread between seeds is unknown, "
                  "so no comparison that reads such a row is decided.")
     collapsed = collapsed_rows(result)

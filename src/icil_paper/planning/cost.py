@@ -35,7 +35,7 @@ from icil_paper.commands import add_preset_arguments, preset_from_args, run_modu
 from icil_paper.config import REFERENCE_BUDGET_HOURS, Preset
 from icil_paper.fileio import atomic_write_json, read_json
 from icil_paper.paper import table_spec
-from icil_paper.planning.design import cell_kind, plan_cost, planned_seeds
+from icil_paper.planning.design import cell_kind, episode_design, plan_cost, planned_seeds
 from icil_paper.planning.staged import as_run, at_stage, staged_preset
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
@@ -268,7 +268,21 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m icil_paper.planning.cost",
                                      description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
-    path = write_cost(preset_from_args(parser.parse_args(argv)))
+    parser.add_argument("--episodes", action="store_true",
+                        help="print, instead, the seed and episode parts of each class of "
+                             "claim's paired variance and the cost-optimal episodes per task "
+                             "(`design.episode_design`, from the records and cost.json)")
+    args = parser.parse_args(argv)
+    preset = preset_from_args(args)
+    if args.episodes:
+        for row in episode_design(as_run(preset)):
+            best = row["optimal_episodes"]
+            print(f"{row['suite']:<10} {row['pairs']:<16} {row['comparisons']:>3} comparisons  "
+                  f"episode part {row['episode_share']:.0%} of the variance at "
+                  f"{row['episodes_now']} episodes a task; cost-optimal: "
+                  f"{'-' if best is None else f'{best:.1f}'} episodes a task")
+        return 0
+    path = write_cost(preset)
     cost = read_cost(path)
     print(f"wrote {path}: {cost['total']}")
     return 0

@@ -3,9 +3,9 @@
     icil-paper plan --preset reference --cores 64
 
 For every claim of `results/<preset>/claims.json` that is neither *holds* nor *does not
-hold* (after Holm's adjustment), the ledger's power analysis says how many training seeds
-a row the claim needs to detect the paper's effect at 80% power (`seeds_needed`,
-`icil_paper.tables.claims`). The plan gives every row such a claim reads that many seeds
+hold* (as decided under the ledger's design), the ledger's power analysis says how many
+training seeds a row the claim needs to detect the paper's effect at 80% power at the level
+it must pass (`seeds_needed`, `icil_paper.tables.claims`). The plan gives every row such a claim reads that many seeds
 (never fewer than it has), as one `--set tables.row_seeds=...` override of the preset
 (rows that share Table I's runs are named as Table I's, Fig. 5's by codebook size), builds
 the tables under it and counts the cells (trained policies with their evaluations) whose

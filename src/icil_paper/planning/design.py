@@ -1,5 +1,6 @@
 """The reference run's design, computed: seeds per row from the claims' power, episodes
-from the split of seed and episode variance, and what the run costs.
+from the split of each claim's paired variance into its seed and episode parts, the stage
+rule, and what the run costs.
 
     python -m icil_paper.planning.design             # the arithmetic behind the reference preset
     check_design(preset, ledger)                     # rows with fewer seeds than the rule asks
@@ -15,9 +16,14 @@ training seeds, every other row a claim reads at least `OTHER_SEEDS`. The varian
 `seeds_needed` are the records' own: the reference ledger's where it has them, else those
 of the ledger the older code computed from its records (`older-code/claims.json`).
 
-**Episodes.** With S seeds of E episodes per task a row's mean has variance
-(seed_var + episode_var / E) / S and costs S (train + E episode): `stats.episodes_per_seed`
-gives the E that is narrowest for its compute.
+**Episodes** (`episode_design`). The rows of a pair play the same scenes, so the episode
+part of a paired difference's variance is the within-(seed, task) variance of the paired
+episode differences (`stats.paired_variance_parts`); the rest is the seed-by-row part. With
+S seeds of E episodes per task a difference has variance (seed_by_row + episode / E) / S and
+costs S (train + E episode): `stats.episodes_per_seed` gives the E that is narrowest for its
+compute, per suite and class of claim (tokenizer pairs: the same policy; policy pairs),
+from the stored records and the CPU time their cells took (`cost.json`;
+`python -m icil_paper.planning.cost --preset reference --episodes` prints them).
 
 **Cost.** Each trained run of the plan costs its optimizer steps at the measured step time
 of its kind plus its episodes at the measured simulator rate (`results/bench/cells.json`,
@@ -35,13 +41,16 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from icil_paper import stats
 from icil_paper.commands import add_preset_arguments, preset_from_args, run_module
 from icil_paper.config import Preset
 from icil_paper.fileio import read_json
 from icil_paper.paper import TABLES, claims, claims_ledger, table_spec
 from icil_paper.records import eval_record, features_record
 from icil_paper.results import ResultsStore, bench_path, results_root
-from icil_paper.tables.claims import as_entry, read_ledger, sizing_effect, stage_design
+from icil_paper.tables.assemble import assemble
+from icil_paper.tables.claims import Comparison, as_entry, read_ledger, sizing_effect
+from icil_paper.tables.design import ONE_FAMILY
 from icil_paper.tables.execute import data_needs, plan
 
 DECIDABLE_SEEDS = 10
@@ -132,28 +141,24 @@ def check_design(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[str]
 
 
 def expected_half_width(entry: dict[str, Any], seeds: int) -> float | None:
-    """The 95% half-width a claim's difference is expected to have at `seeds` seeds a row,
-    from its ledger entry (both rows' per-seed variances taken alike, v): the minimum
-    detectable difference at the seeds it was computed with, mde = (t_.975 + t_.8) se with
-    se^2 = v (1/S_a + 1/S_b); or, where a row had one seed (no mde), `seeds_needed` n for the
-    paper's effect d, d = (t_.975 + t_.8) sqrt(2 v / n). Then t_.975 sqrt(2 v / seeds)."""
-    from scipy.stats import t
-
-    def quantiles(df: float) -> float:
-        return t.ppf(0.975, df) + t.ppf(0.8, df)
-
-    mde, rows = entry.get("mde"), entry.get("seeds") or {}
+    """The 95% half-width a claim's difference is expected to have at `seeds` seeds a row:
+    the t interval on the per-seed variance of the difference its test reads (the entry's
+    `plan`). A ledger older than `plan` planned Welch's test at 5% with the two rows'
+    variances added, v: v is read back from its `mde` at the fewest seeds a row it had, or,
+    where a row had one seed (no mde), from `seeds_needed` n for the paper's effect d, both
+    `stats.minimum_detectable` at a variance of 1 scaled by sqrt(v)."""
+    plan, mde, rows = entry.get("plan"), entry.get("mde"), entry.get("seeds") or {}
     needed, effect = entry.get("seeds_needed"), sizing_effect(entry)
-    if mde is not None and rows:
-        old = sorted(rows.values())[:2]
-        se = mde / quantiles(max(sum(old) - 2, 1))
-        var = se**2 / sum(1 / s for s in old)
+    if plan:
+        var, paired = plan["variance"], plan["paired"]
+    elif mde is not None and min(rows.values(), default=0) >= 2:
+        var, paired = (mde / stats.minimum_detectable(1.0, min(rows.values()), paired=False)) ** 2, False
     elif needed and effect:
-        var = needed * (effect / quantiles(2 * needed - 2)) ** 2 / 2
+        var, paired = (effect / stats.minimum_detectable(1.0, needed, paired=False)) ** 2, False
     else:
         return None
-    new_se = math.sqrt(2 * var / seeds)
-    return float(t.ppf(0.975, 2 * seeds - 2) * new_se)
+    df = seeds - 1 if paired else 2 * seeds - 2
+    return float(stats.repeated_interval(0.0, math.sqrt(var / seeds), df, stats.ALPHA)[1])
 
 
 # --------------------------------------------------------------------------- cost
@@ -355,10 +360,11 @@ def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
     """The stage rule applied to a ledger computed with the preset's `seed_stages`
     (`claims_ledger`): which rows go on to the next stage and which stop.
 
-    A row goes on when a claim that reads it is undecided and a stage of the schedule can
-    decide it at the paper's effect (its entry's `sequential["next"]`); every other row
-    stops where it is (its claims all decided, or undecided with the seeds they would need
-    in the ledger's `look`). With `budget_hours` (`tables.stage_budget_hours`) the claims
+    A row goes on when a claim that reads it is undecided and its conditional power at the
+    observed effect, to cross the last boundary at its current level, is at least
+    `tables.continuation_power` (its entry's `sequential["next"]`, `tables.claims`); every
+    other row stops where it is (its claims all decided, or undecided with the reason in the
+    ledger's `look`). With `budget_hours` (`tables.stage_budget_hours`) the claims
     that may go on are taken in order of what their next stage adds to the projected cost,
     the cheapest first, while the run's whole projection stays within the budget
     (`within_budget`); the others stop too. Returns {"continue": {(table, row): (next
@@ -458,19 +464,28 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
     """The method of seeds in stages in a few sentences, for chapter 0; with a ledger
     computed under the preset's stages, what it decided at each look and which claims go
     on. Empty for a preset without stages."""
-    design = stage_design(preset)
-    if design is None:
+    if not preset.tables.seed_stages:
         return ""
-    text = (f"Seeds are allocated in stages: {design.describe()}. Each claim's p-value is "
+    t = preset.tables
+    older = any(getattr(e, "family", None) == ONE_FAMILY for e in map(as_entry, ledger or []))
+    text = (f"Seeds are allocated in stages: {design_words(preset)}. Each claim's p-value is "
             "the design's repeated p-value, the smallest level at whose boundary one of its "
-            "looks so far would have decided it (Jennison and Turnbull 2000, Sec. 9.1), and "
-            "Holm's correction over the ledger is applied to these at every look, so a "
-            "claim decided early stays decided and the 5% familywise level holds whichever "
-            "rows go on (Maurer and Bretz 2013). After a look, rows whose claims are all "
-            "decided stop; rows of an undecided claim go on to the next stage when the "
-            "measured per-seed variances give a stage of the schedule 80% power at its "
-            "boundary against the paper's effect; the others stop, and the ledger says how "
-            "many seeds a row they would need.")
+            "looks so far would have decided it (Jennison and Turnbull 2000, Sec. 9.1). The "
+            f"{len(t.primary_claims)} claims of the primary family share "
+            f"{t.family_weights[0]:.0%} of the familywise 5% and every other testable claim "
+            f"the remaining {t.family_weights[1]:.0%}; a decided claim passes its share on "
+            "to the others (weighted Holm's graph, Bretz et al. 2009), at every look, so a "
+            "claim decided early stays decided and the familywise level holds whichever "
+            "rows go on (Maurer and Bretz 2013). After a look, the rows of an undecided "
+            "claim go on to the next stage while its conditional power at the observed "
+            "effect, to cross the last boundary at its current level, is at least "
+            f"{t.continuation_power:g}: the rule is non-binding, so it costs no error.")
+    if older:
+        text += (" The reference records were gathered under the older design: Holm's "
+                 "correction over every claim alike, rows going on while a later stage "
+                 "could detect the paper's effect with 80% power, sizes read off unadjusted "
+                 "intervals. The ledger read from them is a record of that design, and the "
+                 "design above decides nothing on them.")
     budget = preset.tables.stage_budget_hours
     if budget is not None:
         text += (f" The run has a budget of {budget:g} hours at two cells at a time, as the "
@@ -484,10 +499,10 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
     unlooked = sum(1 for _, s in seq if not s["looks"])
     if unlooked == len(ledger):
         return text + (" No look has been taken yet: the first comes once every row a claim "
-                       f"reads has finished its first {design.stages[0]} seeds.")
+                       f"reads has finished its first {t.seed_stages[0]} seeds.")
     decided = Counter(s["decided_at"] for _, s in seq if s["decided_at"] is not None)
     going = [claim_id for claim_id, s in seq if s["next"]]
-    looks = "; ".join(f"{decided[n]} at {n} seeds a row" for n in design.stages if decided[n])
+    looks = "; ".join(f"{decided[n]} at {n} seeds a row" for n in t.seed_stages if decided[n])
     stopped = len(seq) - sum(decided.values()) - len(going) - unlooked
     by_budget = sum(1 for _, s in seq if s.get("stopped_by") == "budget")
     text += (f" In this ledger {sum(decided.values())} of {len(ledger)} claims are decided"
@@ -499,6 +514,69 @@ def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None)
              + (f", and {unlooked} {'has' if unlooked == 1 else 'have'} had no look yet"
                 " (a row they read has not finished its stage)" if unlooked else "") + ".")
     return text
+
+
+def design_words(preset: Preset) -> str:
+    """The preset's looks in words: the stages and each look's boundary at a 5% level."""
+    design = stats.SequentialDesign(preset.tables.seed_stages)
+    return (f"looks at {', '.join(map(str, design.stages))} seeds a row; O'Brien-Fleming-type "
+            "alpha spending (Lan and DeMets 1983): at a level of 5% a look decides when its "
+            "t-test p-value is at most " + ", ".join(f"{p:.3g}" for p in design.nominal_levels()))
+
+
+# --------------------------------------------------------------------------- episodes
+def episode_design(preset: Preset, store=None, cost: dict[str, Any] | None = None
+                   ) -> list[dict[str, Any]]:
+    """Per suite and class of claim (tokenizer pairs: both rows the same policy; policy
+    pairs; all pairs: the suite's count), the parts of the paired per-seed difference's variance from the stored records
+    (`stats.paired_variance_parts` over every success comparison of the ledger whose rows
+    are paired by scene set, their means) and the cost-optimal episodes per task
+    (`stats.episodes_per_seed`) at the CPU time a cell of the first row's kind took in the
+    run (`cost.json`: its training, and one more episode on every task it evaluates, its
+    evaluations' CPU time over the episodes per task it has now)."""
+    store = store or ResultsStore(preset.name)
+    cost = cost if cost is not None else read_json(
+        Path(store.dir) / "cost.json", "a run's cost (cost.json)",
+        "write it: python -m icil_paper.planning.cost", keys=("by_kind",))
+    tables: dict[str, Any] = {}
+    parts: dict[tuple[str, str], list] = defaultdict(list)
+    for claim in claims(preset):
+        compare = claim.compare
+        if not isinstance(compare, Comparison) or compare.kind != "success":
+            continue
+        if compare.table not in tables:
+            tables[compare.table] = assemble(table_spec(preset, compare.table), store)
+        result = tables[compare.table]
+        if compare.scenes(tables) != "per_seed" or compare.data(tables) is None:
+            continue
+        spec = result.spec.row(compare.a).cells[compare.column].units[0]
+        for other in compare.others:
+            a, b = result.outcomes(compare.a, compare.column), result.outcomes(other, compare.column)
+            if min(len(a), len(b)) < 2 or a.shape[2] < 2:
+                continue
+            pair = ("tokenizer pairs" if result.spec.row(other).cells[compare.column].units[0]
+                    .run.policy.type == spec.run.policy.type else "policy pairs")
+            suite = spec.eval.task.split("/", 1)[0] if spec.eval else "?"
+            parts[suite, pair].append((*stats.paired_variance_parts(a, b), a.shape[1],
+                                       a.shape[2], cell_kind(spec.run)))
+    rates = {kind: (g["train_cpu_s"] / g["cells"], (g["cpu_s"] - g["train_cpu_s"]) / g["cells"])
+             for kind, g in cost["by_kind"].items() if g.get("cells") and g.get("episodes")}
+    for (suite, _), values in list(parts.items()):
+        parts[suite, "all pairs"] += values  # the suite's count: every comparison alike
+    out = []
+    for (suite, pair), values in sorted(parts.items()):
+        episode, seed_by_row = (sum(v[i] for v in values) / len(values) for i in (0, 1))
+        episodes, kind = values[0][3], values[0][4]
+        train, evaluations = rates.get(kind, (None, None))
+        best = (None if not train or seed_by_row <= 0 else stats.episodes_per_seed(
+            seed_by_row, episode, train, evaluations / episodes))
+        out.append({"suite": suite, "pairs": pair, "comparisons": len(values),
+                    "episodes_now": episodes, "episode_part": episode,
+                    "seed_by_row_part": seed_by_row,
+                    "episode_share": episode / episodes / (episode / episodes + seed_by_row),
+                    "train_cpu_s": train, "episode_cpu_s": evaluations and evaluations / episodes,
+                    "optimal_episodes": best})
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -520,6 +598,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.stages:
         return _print_stages(preset)
+
     out = report(preset)
     for c in out["claims"]:
         print(f"{c['id']:<38} needed {str(c['seeds_needed']):>5}  required {c['required']:>2}  "
@@ -549,13 +628,12 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _print_stages(preset: Preset) -> int:
-    design = stage_design(preset)
-    if design is None:
+    if not preset.tables.seed_stages:
         print(f"preset {preset.name!r} has no seed stages: set them, e.g. "
               "--set tables.seed_stages=5,10,15", file=sys.stderr)
         return 2
     ledger = claims_ledger(preset)
-    print(design.describe())
+    print(design_words(preset))
     for e in map(as_entry, ledger):
         p = (getattr(e, "sequential", None) or {}).get("p_value")
         print(f"  {e.id:<38} {str(e.adjusted_verdict):<14} design p "

@@ -1,35 +1,41 @@
-"""Seeds in stages, run: the seeds of every row at the stage a preset's records have reached.
+"""Seeds in stages, run: the seeds of every row at the stage a preset's run has reached.
 
 A preset with `tables.seed_stages` (the reference preset: 5, 10, 15) is not run at the seeds
-its rows list. Every row a claim reads starts at the first stage's seeds; once every cell of
-a stage is stored, the ledger looks (`claims_ledger`, with the group-sequential boundaries of
-`stats.SequentialDesign`) and the stage rule (`design.stage_plan`) says which rows go on to
-the next stage: the rows of a claim still undecided that a later stage can decide at the
-paper's effect. The others stop where they are. With a budget (`tables.stage_budget_hours`,
-the reference preset's twelve hours) only the claims whose next stage fits in it go on,
-the cheapest first (`design.within_budget`); the claims it stops are the preset's
-`tables.stage_stops`, which the ledger reads. Rows no claim reads (MCR; the analysis
-table's variants) keep the seeds the preset lists.
+its rows list. Before its first cell the run registers its design in
+`results/<preset>/design.json` (`tables.design`: the stages, the families and their
+weights, the continuation rule, the episodes). Every row a claim reads starts at the first
+stage's seeds; once every cell of a stage is stored, the ledger looks (`claims_ledger`) and
+the stage rule (`design.stage_plan`) sends on the rows of the claims still undecided whose
+conditional power at the observed effect is high enough (`tables.continuation_power`),
+the cheapest first within the budget (`tables.stage_budget_hours`, `design.within_budget`;
+the claims it stops are the preset's `tables.stage_stops`). Each look is written to the
+record as it is taken, with the seeds every claimed row had, so that the seeds a row has are
+read from the record, not recomputed. Rows no claim reads (MCR; the analysis table's
+variants) keep the seeds the preset lists.
 
     preset, looks = staged_preset(get_preset("reference"))   # this sitting's seeds per row
     icil-paper reproduce --preset reference                   # runs the stages in turn
 
-The stages are a function of the stored records alone, so a run stopped in any stage and
-rerun recomputes the same looks and goes on where it stopped; and the book, the cost and
-the stale-record check read the same seeds per row as the run (`staged_preset`).
+A record labelled "older" belongs to records gathered under an earlier design: its looks
+are the run's, the preset is read at the design fields it records, and the run is over
+(the ledger from it is that design's, `tables.design.older_design`). The current design
+starts from a store without it. A record whose design differs from the preset's is refused:
+a design does not change in the middle of a run.
 """
 
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from icil_paper.config import Preset
+from icil_paper.config_data import ConfigError
 from icil_paper.paper import TABLES, claims_ledger, table_spec
 from icil_paper.planning.design import claim_rows, stage_plan, with_row_seeds
 from icil_paper.results import ResultsStore
+from icil_paper.tables.design import new_record, read_record, record_path, write_record
 from icil_paper.tables.execute import plan, plan_done
 
 
@@ -44,10 +50,21 @@ class Look:
     over_budget: tuple[str, ...] = ()
     """The claims the stage rule would have sent on that the budget stopped
     (`tables.stage_budget_hours`)."""
+    rows: dict[str, int] = field(default_factory=dict, compare=False)
+    """Every claimed row's seeds at the look ("TABLE:row" -> seeds)."""
+    next_seeds: int | None = None
+    """The seeds a row that goes on gets (the next stage)."""
 
     def to_dict(self) -> dict[str, Any]:
-        return {"seeds": self.seeds, "going_on": list(self.going_on),
+        return {"seeds": self.seeds, "rows": dict(sorted(self.rows.items())),
+                "going_on": dict.fromkeys(self.going_on, self.next_seeds),
                 "over_budget": list(self.over_budget)}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Look:
+        going = d.get("going_on") or {}
+        return cls(int(d["seeds"]), tuple(going), tuple(d.get("over_budget", ())),
+                   dict(d.get("rows", {})), next(iter(going.values()), None))
 
 
 def at_stage(preset: Preset, k: int) -> Preset:
@@ -63,43 +80,73 @@ def stage_done(preset: Preset, store: ResultsStore) -> bool:
     return all(plan_done(store, p) for p in plan([table_spec(preset, t) for t in TABLES]))
 
 
-def staged_preset(preset: Preset, store: ResultsStore | None = None
-                  ) -> tuple[Preset, list[Look]]:
-    """The preset at the stage its records have reached, and the looks taken so far.
+def _recorded(preset: Preset, store) -> tuple[dict[str, Any], Preset]:
+    """The store's design record (a new one where it has none) and the preset at the design
+    fields it records (those of an older design; the same as the preset's otherwise)."""
+    record = read_record(store) if hasattr(store, "dir") else None
+    fresh = new_record(preset)
+    if record is None:
+        return fresh, preset
+    if record["design"] != "older" and record["tables"] != fresh["tables"]:
+        raise ConfigError(f"{record_path(store)} registers another design ({record['tables']}) "
+                          f"than the preset's ({fresh['tables']}): a design does not change "
+                          "during a run; restore the preset's fields or start a new store")
+    fields = {k: tuple(v) if isinstance(v, list) else v for k, v in record["tables"].items()}
+    return record, replace(preset, tables=replace(preset.tables, **fields))
 
-    Without `seed_stages`, `preset` itself and no look. Otherwise every row a claim reads
-    gets the first stage's seeds; while every cell of the current stage is stored, the
-    ledger looks and the rows that the stage rule sends on get the next stage's seeds (the
-    module docstring). The returned preset is the one whose missing cells the run computes
-    now; when its cells are all stored and no row goes on, the run is finished."""
+
+def staged_preset(preset: Preset, store: ResultsStore | None = None, write: bool = False
+                  ) -> tuple[Preset, list[Look]]:
+    """The preset at the stage its run has reached, and the looks taken so far.
+
+    Without `seed_stages`, `preset` itself and no look. Otherwise the looks of the design
+    record, then, while every cell of the current stage is stored and no recorded look
+    covers it, a new look (the module docstring). With `write`, the record is registered
+    before the first cell and each new look is written to it (what `reproduce` does); the
+    book and the ledger read without writing. The returned preset is the one whose missing
+    cells the run computes now; when its cells are all stored and no row goes on, the run is
+    finished."""
     stages = preset.tables.seed_stages
     if not stages:
         return preset, []
     store = store or ResultsStore(preset.name)
-    seeds = {row: stages[0] for rows in claim_rows(preset).values() for row in rows}
+    record, base = _recorded(preset, store)
+    if write and not record_path(store).exists():
+        write_record(store, record)  # the design, registered before any new data
+    seeds = {f"{t}:{r}": stages[0] for rows in claim_rows(base).values() for t, r in rows}
+    looks = [Look.from_dict(d) for d in record["looks"]]
     stops: tuple[str, ...] = ()
-    current = _at(preset, seeds, stops)
-    looks: list[Look] = []
-    for stage in stages:
+    for look in looks:
+        seeds.update(dict.fromkeys(look.going_on, look.next_seeds))
+        stops += look.over_budget
+    current = _at(base, seeds, stops)
+    if record["design"] == "older" or (looks and not looks[-1].going_on):
+        return current, looks  # the run is over
+    for k in range(len(looks), len(stages)):
         if not stage_done(current, store):
             break
         ledger = [e.to_dict() for e in claims_ledger(current, store)]
-        rule = stage_plan(current, ledger, preset.tables.stage_budget_hours)
-        going = {row: nxt for row, (nxt, _) in rule["continue"].items()
-                 if nxt > seeds.get(row, 0)}
-        stops += tuple(rule["over_budget"])
-        looks.append(Look(stage, tuple(f"{t}:{r}" for t, r in sorted(going)),
-                          tuple(rule["over_budget"])))
+        rule = stage_plan(current, ledger, base.tables.stage_budget_hours)
+        going = {f"{t}:{r}": n for (t, r), (n, _) in rule["continue"].items()
+                 if n > seeds.get(f"{t}:{r}", 0)}
+        looks.append(Look(stages[k], tuple(sorted(going)), tuple(rule["over_budget"]),
+                          {r: n for r, n in seeds.items() if n >= stages[k]},
+                          stages[k + 1] if going else None))
+        record["looks"].append(looks[-1].to_dict())
+        if write:
+            write_record(store, record)
         seeds.update(going)
-        current = _at(preset, seeds, stops)
+        stops += tuple(rule["over_budget"])
+        current = _at(base, seeds, stops)
         if not going:
             break
     return current, looks
 
 
-def _at(preset: Preset, seeds: dict[tuple[str, str], int], stops: tuple[str, ...]) -> Preset:
-    """`preset` with the rows of `seeds` at those seeds and `stops` as its `stage_stops`."""
-    grown = with_row_seeds(preset, seeds)
+def _at(preset: Preset, seeds: dict[str, int], stops: tuple[str, ...]) -> Preset:
+    """`preset` with the rows of `seeds` ("TABLE:row" -> seeds) at those seeds and `stops`
+    as its `stage_stops`."""
+    grown = with_row_seeds(preset, {tuple(row.split(":", 1)): n for row, n in seeds.items()})
     return replace(grown, tables=replace(grown.tables, stage_stops=stops))
 
 

@@ -3,7 +3,7 @@
     from icil_paper.paper import claims_ledger, write_ledger
     ledger = claims_ledger(preset, store)          # list of LedgerEntry, one per claim
     write_ledger(preset, store)                   # results/<preset>/claims.json
-    summary(ledger)                               # counts of the verdicts after Holm
+    summary(ledger)                               # counts of the decisions, by family
 
 Each result declares its claims in its own module of `icil_paper.paper` (Table V's in
 `paper/table_v.py`, with `diff`, `margin` and `paper_diff` from here), and
@@ -15,30 +15,36 @@ Each claim is a quantity with a claimed direction: "LipVQ-VAE beats BC-Transform
 points on Table I" is the difference of the two rows' average success, claimed above 0.
 Its `paper` value is computed from the paper's own numbers (each beside its table in
 `icil_paper.paper`), `ours` from our records, `ci` is our 95% interval with the training
-seed as the unit (see `icil_paper.stats`), and each entry carries:
+seed as the unit (see `icil_paper.stats`). The ledger is read under a design fixed before
+the data (`icil_paper.tables.design`: the preset's looks, families and continuation rule),
+and each entry carries:
 
-- `verdict`: the rule of `icil_paper.stats` on the interval: `holds`, `does not hold`,
-  `inconclusive`, `too few seeds` (a row it reads has one training seed), or `not run` (a
-  record it needs is missing);
-- `adjusted_verdict`: the verdict after Holm's correction over every testable claim of the
-  ledger at a 5% familywise level (the one to quote: 20-odd claims at 95% each would
-  otherwise decide about one by chance);
-- `magnitude`: our interval against the paper's own size (`stats.magnitude`; success
-  differences also say when they lie within +-`EQUIVALENCE_MARGIN` of 0);
-- `mde`, `power` and `seeds_needed`: the smallest difference this design detects at 80%
-  power, the probability that this design detects the paper's effect, and the seeds per
-  row that detect it with 80% power, from the measured per-seed variances
-  (a one-seed row borrows the pooled variance of its table's multi-seed rows, else of the
-  ledger's; `variance_from` says which);
+- `family`: primary, secondary or descriptive (`tables.primary_claims`), and `weight`, its
+  share of the familywise 5% before any claim is decided;
+- `verdict`: the rule of `icil_paper.stats` on the 95% interval, alone: `holds`, `does not
+  hold`, `inconclusive`, `too few seeds` (a row it reads has one training seed), or `not
+  run` (a record it needs is missing);
+- `adjusted_verdict`: the decision, the one to quote: the claim's test passed its level in
+  the graph over the whole family (weighted Holm, `stats.graph_test`), at a look's boundary
+  where seeds come in stages; a descriptive claim decides nothing;
+- `size`: the decided reading of our effect against the paper's, "smaller than the
+  paper's effect", "larger than the paper's effect" or "size undecided", from repeated
+  confidence intervals at the claim's Bonferroni share (`stats.size_decision`);
+- `mde`, `power` and `seeds_needed`: the smallest difference the claim's test detects at
+  80% power at these seeds, the power to detect the paper's effect, and the seeds a row that
+  reach 80% power, all with the variance the test reads (the paired per-seed differences
+  for a paired claim) at the level the claim must pass (its share, at the last look's
+  boundary); `plan` says which (a one-seed row borrows the pooled variance of its table's
+  multi-seed rows, else of the ledger's; `variance_from` says which);
 - `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`;
-- with seeds in stages (a preset's `tables.seed_stages`, `stats.SequentialDesign`): `look`,
-  in words, the look at which the claim was decided ("decided at look 2 of 3 (10 seeds a
-  row)") or "undecided at N seeds, needs M" (and whether its rows go on); `sequential`,
-  each look's seeds, t-test p-value and the design's running repeated p-value, the
-  claim's p-value, `decided_at` (seeds a row), `next` (the stage its rows go on to, else
-  None) and `needs` (`stage_seeds_needed`, also the entry's `stage_seeds_needed`); and
-  `adjusted_verdict` is then Holm's correction at every look on the design's p-values
-  (`stats.sequential_holm`), the one to quote.
+- with seeds in stages (`tables.seed_stages`): `look`, in words, the look at which the
+  claim was decided, or why its rows go on or stop; `sequential`, each look's seeds,
+  t-test p-value, the design's repeated p-value and the conditional power at the observed
+  effect, the claim's p-value, `decided_at`, `level` (the claim's level after the graph)
+  and `next` (the stage its rows go on to: `planning.design.stage_plan` reads it).
+
+`claims.json` states the design above its entries (`design`); a ledger read from records
+of an earlier design says so there ("older") and decides under that design alone.
 
 Motion smoothness. The paper says in words that LipVQ-VAE gives smoother motion (the
 abstract; Sec. IV-B on the real robot) but reports no number for it. Its claims here read
@@ -57,20 +63,18 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
 
 from icil_paper import stats, verdict_words
 from icil_paper.config import Preset
+from icil_paper.estimates import Size, Verdict
 from icil_paper.fileio import UnreadableFileError, read_json
 from icil_paper.metrics import MOTION_MEASURES, SMOOTHER
-from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult
-
-EQUIVALENCE_MARGIN = 0.05
-"""A success difference whose whole interval lies within +-0.05 of 0 (5 points of success,
-the size of the gaps the paper reports) is reported as equivalent to 0 at that margin."""
+from icil_paper.tables.design import DESCRIPTIVE, Design, ledger_design, one_family
 
 MAX_SEEDS = 1000
 """`seeds_needed` searches up to this many seeds a row."""
@@ -92,6 +96,9 @@ class Comparison:
     def kind(self) -> str:
         return "score" if self.column == "least_energy" else "success"
 
+    smallest_p = 0.0
+    """The smallest p-value its test can reach (a t-test: any)."""
+
     @property
     def pool(self) -> str:
         """The quantity whose per-seed variances a one-seed row borrows (`_power`)."""
@@ -109,14 +116,19 @@ class Comparison:
         data = self.data(tables)
         if data is None:
             return None
-        if self.kind == "score":
-            if len(self.others) == 1:
-                return stats.paired_score_difference(*data)
-            return stats.paired_score_margin(data[0], data[1:])
-        scenes = tables[self.table].scenes(*self.rows, column=self.column)
+        if self.kind == "score":  # least energy: lower is smoother
+            difference, sign = stats.paired_score_difference, -1
+        else:
+            difference, sign = partial(stats.paired_difference, scenes=self.scenes(tables)), +1
         if len(self.others) == 1:
-            return stats.paired_difference(*data, scenes=scenes)
-        return stats.paired_margin(data[0], data[1:], scenes=scenes)
+            return difference(*data)
+        return stats.best_of(data[0], data[1:], difference, sign)
+
+    def scenes(self, tables: dict[str, TableResult]) -> str:
+        """"per_seed" where the rows' seeds are paired by scene set (a paired test)."""
+        if self.kind == "score":
+            return "shared"
+        return tables[self.table].scenes(*self.rows, column=self.column)
 
 
 @dataclass(frozen=True)
@@ -126,6 +138,11 @@ class Correlation:
     rows: tuple[str, ...]
     table: str = "III"
     kind: str = "correlation"
+    n_boot: int = 2000
+
+    @property
+    def smallest_p(self) -> float:
+        return 1 / self.n_boot
 
     def data(self, tables: dict[str, TableResult]):
         smooth = [tables["III"].outcomes(r, "least_energy") for r in self.rows]
@@ -134,7 +151,7 @@ class Correlation:
 
     def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
         data = self.data(tables)
-        return None if data is None else stats.score_success_correlation(*data)
+        return None if data is None else stats.rank_correlation(*data, n_boot=self.n_boot)
 
 
 @dataclass(frozen=True)
@@ -142,7 +159,7 @@ class MotionComparison:
     """Rows of one table compared on the motion smoothness of the same episodes
     (`metrics.MOTION_MEASURES`; per-episode values, the seed as the unit, as for success):
     `a` minus the one other row, or, with several `others`, `a` against each of them (best
-    of k: a's mean minus the smoothest other row's, `smoother_margin`)."""
+    of k: a's mean minus the smoothest other row's, `stats.best_of`)."""
 
     table: str
     a: str
@@ -150,6 +167,10 @@ class MotionComparison:
     measure: str = "ldlj"
     column: str = "avg"
     kind: str = "score"
+    smallest_p = 0.0
+
+    def scenes(self, tables: dict[str, TableResult]) -> str:
+        return "shared"  # Welch's t on per-seed means
 
     @property
     def pool(self) -> str:
@@ -170,29 +191,8 @@ class MotionComparison:
             return None
         if len(self.others) == 1:
             return stats.paired_score_difference(*data)
-        return smoother_margin(data[0], data[1:], SMOOTHER[self.measure])
-
-
-def smoother_margin(a: np.ndarray, others: Sequence[np.ndarray], smoother: int) -> stats.Estimate:
-    """Row `a`'s mean score minus that of the smoothest of `others` (`smoother` +1: the
-    highest, as for LDLJ and SPARC; -1: the lowest), all on the same episodes. Its
-    components are `stats.paired_score_difference(a, other)` for each other row, and
-    `stats.verdict` applies the intersection-union test to them, as for every best-of-k
-    claim (`stats.paired_score_margin` is this margin for -1)."""
-    if smoother == -1:
-        return stats.paired_score_margin(a, others)
-    pairwise = [stats.paired_score_difference(a, o, rng_seed=i) for i, o in enumerate(others)]
-    means = [float(np.mean(o)) for o in others]
-    best = int(np.argmax(means))
-    value = float(np.mean(a)) - means[best]
-    closest = pairwise[best]
-    seeds = (pairwise[0].seeds[0], *(c.seeds[1] for c in pairwise))
-    return stats.Estimate(
-        value, min(closest.low, value), max(closest.high, value), n=sum(seeds),
-        method=f"margin over the highest other row: intersection test over {len(pairwise)} "
-               f"rows ({closest.method} to the highest other row)",
-        seeds=seeds, episodes=int(np.size(a) + sum(np.size(o) for o in others)),
-        components=tuple(pairwise))
+        return stats.best_of(data[0], data[1:], stats.paired_score_difference,
+                             SMOOTHER[self.measure])
 
 
 @dataclass(frozen=True)
@@ -201,14 +201,18 @@ class MotionCorrelation:
     smoothness) and the motion smoothness of Table I's rollouts (`measure`, average over
     the kitchen tasks), with a joint bootstrap: each resample draws every row's training
     seeds with replacement (the same seeds for both of its quantities), then the held-out
-    trajectories and the evaluation episodes (the same indices for every row), and
-    `stats.rank_correlation_interval` takes the percentiles."""
+    trajectories and the evaluation episodes (the same indices for every row):
+    `stats.rank_correlation`."""
 
     rows: tuple[str, ...]
     measure: str = "ldlj"
     table: str = "III"
     kind: str = "correlation"
     n_boot: int = 2000
+
+    @property
+    def smallest_p(self) -> float:
+        return 1 / self.n_boot
 
     def data(self, tables: dict[str, TableResult]):
         smooth = [tables["III"].outcomes(r, "least_energy") for r in self.rows]
@@ -217,20 +221,8 @@ class MotionCorrelation:
 
     def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
         data = self.data(tables)
-        if data is None:
-            return None
-        smooth, motion = ([np.atleast_2d(np.asarray(x, np.float64)) for x in xs] for xs in data)
-        rng = np.random.default_rng(0)
-        traj_idx = rng.integers(0, smooth[0].shape[1], size=(self.n_boot, smooth[0].shape[1]))
-        ep_idx = rng.integers(0, motion[0].shape[1], size=(self.n_boot, motion[0].shape[1]))
-        x = [stats.mean_samples(e, n_boot=self.n_boot, rng_seed=i + 1, idx=traj_idx)
-             for i, e in enumerate(smooth)]
-        y = [stats.mean_samples(m, n_boot=self.n_boot, rng_seed=i + 1, idx=ep_idx)
-             for i, m in enumerate(motion)]
-        seeds = tuple(min(len(e), len(m)) for e, m in zip(smooth, motion, strict=True))
-        return stats.rank_correlation_interval(
-            np.stack(x), np.stack(y), x=np.array([e.mean() for e in smooth]),
-            y=np.array([m.mean() for m in motion]), seeds=seeds)
+        return None if data is None else stats.rank_correlation(
+            *data, ("score", "score"), n_boot=self.n_boot)
 
 
 @dataclass(frozen=True)
@@ -277,6 +269,11 @@ class LedgerEntry:
     """+1: claimed above 0; -1: claimed below 0."""
     source: str = "the paper"
     """"the paper" or "ours" (a claim of this companion)."""
+    family: str | None = None
+    """"primary", "secondary" or "descriptive" (`tables.design`; "one family" under the
+    older design; None in a ledger older than families)."""
+    weight: float | None = None
+    """The claim's share of the familywise level before any claim is decided."""
     paper: float | None = None
     """The same quantity from the paper's numbers (None for a claim of ours or in words)."""
     reference_effect: float | None = None
@@ -293,14 +290,18 @@ class LedgerEntry:
     method: str | None = None
     p_value: float | None = None
     verdict: Verdict | str = Verdict.NOT_RUN
-    magnitude: str | None = None
+    size: Size | str | None = None
+    """The decided size against the paper's effect (None: nothing to read it against)."""
     mde: float | None = None
     power: float | None = None
     seeds_needed: int | None = None
     variance_from: dict[str, str] | None = None
     power_note: str | None = None
+    plan: dict[str, Any] | None = None
+    """What the power fields are planned with: the per-seed `variance` of the difference,
+    whether the test is `paired`, and the nominal `level` it must pass."""
     adjusted_verdict: Verdict | str | None = None
-    """The verdict after Holm's correction over the ledger (the one to quote)."""
+    """The decision under the ledger's design (the one to quote)."""
     extra: dict[str, Any] = field(default_factory=dict)
     """Fields this class does not name, in stored order."""
     order: tuple[str, ...] = field(default=(), repr=False, compare=False)
@@ -323,6 +324,8 @@ class LedgerEntry:
         for key in ("verdict", "adjusted_verdict"):
             if known.get(key) in _VERDICT_VALUES:
                 known[key] = Verdict(known[key])
+        if known.get("size") in _SIZE_VALUES:
+            known["size"] = Size(known["size"])
         return cls(**known, extra={k: v for k, v in data.items() if k not in names},
                    order=tuple(data))
 
@@ -337,12 +340,14 @@ class LedgerEntry:
             if f.name in ("reference_effect", "reference") and not (
                     self.source == "ours" or self.paper is None):
                 continue
-            if f.name == "adjusted_verdict" and self.adjusted_verdict is None:
+            if f.name in ("adjusted_verdict", "family", "weight", "plan") and getattr(
+                    self, f.name) is None:
                 continue
             yield f.name
 
 
 _VERDICT_VALUES = {v.value for v in Verdict}
+_SIZE_VALUES = {v.value for v in Size}
 
 
 def as_entry(entry: LedgerEntry | dict[str, Any]) -> LedgerEntry:
@@ -396,51 +401,59 @@ def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], f
 
 
 def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult],
-           pooled: dict[tuple[str, str], float], paper_value: float | None,
-           design: stats.SequentialDesign | None = None) -> dict[str, Any]:
-    """mde, seeds_needed and where each row's seed variance came from (see the module
-    docstring). Best of k: planned against the closest other row (smallest pairwise margin
-    on the claimed side), the comparison that decides the intersection test."""
+           pooled: dict[tuple[str, str], float], effect: float | None,
+           design: Design) -> dict[str, Any]:
+    """mde, power and seeds_needed with the variance the claim's test reads (the paired
+    per-seed differences where its rows are paired by scene set, else the two rows'
+    variances added, a one-seed row's borrowed from the pooled ones) at the level it must
+    pass (`Design.planning_level`). Best of k: against the closest other row (the smallest
+    pairwise margin on the claimed side), the comparison that decides the intersection test."""
     out: dict[str, Any] = {"mde": None, "power": None, "seeds_needed": None,
-                           "variance_from": None, "power_note": None}
+                           "variance_from": None, "power_note": None, "plan": None}
     compare = claim.compare
+    if design.family[claim.id] == DESCRIPTIVE:
+        return {**out, "power_note": f"not planned: {design.why[claim.id]}"}
     if not isinstance(compare, (Comparison, MotionComparison)):
-        out["power_note"] = "not planned: a rank correlation across rows has no closed form"
-        return out
+        return {**out, "power_note": "not planned: a rank correlation across rows has no "
+                                     "closed form"}
     data = dict(zip(compare.rows, compare.data(tables), strict=True))
     other = compare.others[0]
     if estimate.components:
         j = int(np.argmin([claim.direction * c.value for c in estimate.components]))
         other = compare.others[j]
-    variances, source, seeds = [], {}, []
-    for label in (compare.a, other):
-        var = stats.seed_variance(data[label], compare.kind)
-        seeds.append(len(data[label]))
-        if var is not None:
-            source[label] = "own seeds"
-        elif (compare.table, compare.pool) in pooled:
-            var, source[label] = pooled[(compare.table, compare.pool)], \
-                f"pooled over Table {compare.table}'s multi-seed rows"
-        elif ("*", compare.pool) in pooled:
-            var, source[label] = pooled[("*", compare.pool)], "pooled over the ledger's rows"
-        else:
-            return {**out, "power_note": "no row with two seeds to measure a variance"}
-        variances.append(var)
-    out["variance_from"] = source
-    if min(seeds) >= 2:
-        out["mde"] = stats.minimum_detectable(*variances, *seeds)
-    if paper_value is None:
+    a, b = data[compare.a], data[other]
+    seeds = min(len(a), len(b))
+    paired = compare.scenes(tables) == "per_seed" and seeds >= 2
+    if paired:
+        var = stats.seed_variance(a, compare.kind, b)
+        source = dict.fromkeys((compare.a, other), "own seeds, paired")
+    else:
+        variances, source = [], {}
+        for label, x in ((compare.a, a), (other, b)):
+            v = stats.seed_variance(x, compare.kind)
+            where = ("own seeds" if v is not None else
+                     f"pooled over Table {compare.table}'s multi-seed rows"
+                     if (compare.table, compare.pool) in pooled else
+                     "pooled over the ledger's rows" if ("*", compare.pool) in pooled else None)
+            if where is None:
+                return {**out, "power_note": "no row with two seeds to measure a variance"}
+            variances.append(v if v is not None else pooled.get(
+                (compare.table, compare.pool), pooled.get(("*", compare.pool))))
+            source[label] = where
+        var = sum(variances)
+    level = design.planning_level(claim.id)
+    out.update(variance_from=source, plan={"variance": var, "paired": paired, "level": level})
+    if seeds >= 2:
+        out["mde"] = stats.minimum_detectable(var, seeds, alpha=level, paired=paired)
+    if effect is None:
         out["power_note"] = "no reference effect (no number to plan for): only the mde"
-    elif claim.direction * paper_value > 0:
-        if min(seeds) >= 2:
-            out["power"] = stats.power_at(*variances, *seeds, paper_value)
-        out["seeds_needed"] = stats.seeds_needed(*variances, paper_value, max_seeds=MAX_SEEDS)
-        if design is not None:
-            needed = stats.stage_seeds_needed(*variances, paper_value, design,
-                                              max_seeds=MAX_SEEDS)
-            out["stage_seeds_needed"] = None if np.isnan(needed) else int(needed)
+    elif claim.direction * effect > 0:
+        if seeds >= 2:
+            out["power"] = stats.power_at(var, seeds, effect, alpha=level, paired=paired)
+        out["seeds_needed"] = stats.seeds_needed(var, effect, alpha=level, paired=paired,
+                                                 max_seeds=MAX_SEEDS)
         if out["seeds_needed"] is None:
-            out["power_note"] = (f"the paper's effect ({paper_value:+.3g}) would need more than "
+            out["power_note"] = (f"the paper's effect ({effect:+.3g}) would need more than "
                                  f"{MAX_SEEDS} seeds a row")
     else:
         out["power_note"] = "the paper's own value is not on the claimed side: nothing to plan"
@@ -448,71 +461,90 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
 
 
 def _evaluate(claim: Claim, tables: dict[str, TableResult],
-              pooled: dict[tuple[str, str], float],
-              design: stats.SequentialDesign | None = None) -> tuple[dict[str, Any], Any]:
-    """One ledger entry (the claim, the paper's number, ours with its interval, the verdict,
-    the size reading and the power) and its estimate (None when not run), from which the
-    ledger adds the Holm-adjusted verdict."""
+              pooled: dict[tuple[str, str], float], design: Design
+              ) -> tuple[dict[str, Any], Any]:
+    """One ledger entry (the claim, its family, the paper's number, ours with its interval,
+    the verdict and the power) and its estimate (None when not run); the decision and the
+    size come from the whole ledger (`ledger_entries`)."""
     estimate = claim.compare.estimate(tables)
     paper_value = (None if claim.paper_value is None
                    else round(float(claim.paper_value()), 4))
     entry: dict[str, Any] = {"id": claim.id, "claim": claim.claim, "table": claim.table,
                              "quantity": claim.quantity, "direction": claim.direction,
                              "source": "ours" if claim.own else "the paper",
+                             "family": design.family[claim.id],
+                             "weight": round(design.weights[claim.id], 6),
                              "paper": None if claim.own else paper_value}
     if claim.own or paper_value is None:
         entry.update(reference_effect=paper_value, reference=claim.reference)
     if estimate is None:
         entry.update(ours=None, ci=None, n=None, episodes=None, seeds=None, method=None,
-                     p_value=None, verdict=Verdict.NOT_RUN, magnitude=None, mde=None, power=None,
-                     seeds_needed=None, variance_from=None, power_note=None)
+                     p_value=None, verdict=Verdict.NOT_RUN, size=None, mde=None, power=None,
+                     seeds_needed=None, variance_from=None, power_note=None, plan=None)
         return entry, None
     test = stats.decision_p_value(estimate, claim.direction)
-    margin_ = EQUIVALENCE_MARGIN if claim.compare.kind == "success" else None
     entry.update(ours=estimate.value, ci=[estimate.low, estimate.high], n=estimate.n,
                  episodes=estimate.episodes,
                  seeds=dict(zip(claim.compare.rows, estimate.seeds, strict=True)),
                  method=estimate.method, p_value=None if test is None else test[0],
-                 verdict=stats.verdict(estimate, direction=claim.direction),
-                 magnitude=(None if paper_value is None else
-                            stats.magnitude(estimate, claim.direction, paper_value, margin_)),
+                 verdict=stats.verdict(estimate, direction=claim.direction), size=None,
                  **_power(claim, estimate, tables, pooled, paper_value, design))
     return entry, estimate
 
 
-def ledger_entries(preset: Preset, chosen: Sequence[Claim], tables: dict[str, TableResult]
-                   ) -> list[LedgerEntry]:
+def ledger_entries(preset: Preset, chosen: Sequence[Claim], tables: dict[str, TableResult],
+                   design: Design | None = None) -> list[LedgerEntry]:
     """`chosen` claims evaluated on the assembled `tables` they read (every claim's table and
-    Table I, which the correlations read), with the verdicts after Holm's correction over
-    `chosen` (`adjusted_verdict`) and, with the preset's seed stages, the group-sequential
-    ones (`icil_paper.paper.claims_ledger` gives it every claim of the paper)."""
+    Table I, which the correlations read), decided under `design` (default: the preset's,
+    `tables.design.ledger_design`): the graph over the families at one look, or at every
+    look of its seed stages (`icil_paper.paper.claims_ledger` gives it every claim)."""
+    design = design or ledger_design(preset, chosen)
     pooled = _pooled_variances(tables)
-    design = stage_design(preset)
     entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in chosen),
                              strict=True)
-    adjusted = stats.adjusted_verdicts(estimates, [c.direction for c in chosen])
-    for entry, verdict in zip(entries, adjusted, strict=True):
-        entry["adjusted_verdict"] = verdict
-    if design is not None:
+    if design.sequential is None:
+        _fixed(list(chosen), list(entries), list(estimates), design)
+    else:
         _sequential(list(chosen), list(entries), tables, design, preset.tables.stage_stops)
     return [LedgerEntry.from_dict(e) for e in entries]
 
 
-def ledger_file(preset: Preset, entries: Sequence[LedgerEntry]) -> dict[str, Any]:
-    """What `claims.json` holds: the preset, the familywise level, the equivalence margin
-    and every entry in its stored form."""
-    return {"preset": preset.name, "familywise_level": stats.ALPHA,
-            "equivalence_margin": EQUIVALENCE_MARGIN, "claims": [e.to_dict() for e in entries]}
+def ledger_file(preset: Preset, entries: Sequence[LedgerEntry], design: Design | None = None,
+                record: str | None = None) -> dict[str, Any]:
+    """What `claims.json` holds: the preset, the familywise level, the design (with the file
+    of its looks' realised seeds, `record`, where the run has one) and every entry."""
+    design_dict = {} if design is None else {"design": {**design.to_dict(), "record": record}}
+    return {"preset": preset.name, "familywise_level": stats.ALPHA, **design_dict,
+            "claims": [e.to_dict() for e in entries]}
+
+
+def _undecided(entry: dict[str, Any]) -> Verdict:
+    """An entry's decision where its test does not pass: not run and too few seeds stay."""
+    v = entry["verdict"]
+    return v if v in (Verdict.NOT_RUN, Verdict.TOO_FEW_SEEDS) else Verdict.INCONCLUSIVE
+
+
+def _effect(entry: dict[str, Any]) -> float | None:
+    return entry["paper"] if entry["paper"] is not None else entry.get("reference_effect")
+
+
+def _fixed(chosen: list[Claim], entries: list[dict[str, Any]], estimates: list, design: Design
+           ) -> None:
+    """One look: the graph over the claims' p-values, and each size at its Bonferroni share."""
+    tests = [None if e is None or design.family[c.id] == DESCRIPTIVE
+             else stats.decision_p_value(e, c.direction)
+             for c, e in zip(chosen, estimates, strict=True)]
+    rejected, _ = stats.graph_test([t and t[0] for t in tests],
+                                   [design.weights[c.id] for c in chosen])
+    for claim, entry, est, test, r in zip(chosen, entries, estimates, tests, rejected,
+                                          strict=True):
+        entry["adjusted_verdict"] = test[1] if r else _undecided(entry)
+        if est is not None and design.sizes and design.family[claim.id] != DESCRIPTIVE:
+            entry["size"] = stats.size_decision(est, claim.direction, _effect(entry),
+                                                design.level(claim.id))
 
 
 # --------------------------------------------------------------------------- seeds in stages
-def stage_design(preset: Preset) -> stats.SequentialDesign | None:
-    """The preset's group-sequential design (`TablesConfig.seed_stages`), None for a fixed
-    design."""
-    stages = preset.tables.seed_stages
-    return stats.SequentialDesign(tuple(stages)) if stages else None
-
-
 def first_seeds(tables: dict[str, TableResult], seeds: int) -> dict[str, TableResult]:
     """The tables as they stood at a look: every cell's first `seeds` training seeds."""
     def cut(cell):
@@ -525,74 +557,82 @@ def first_seeds(tables: dict[str, TableResult], seeds: int) -> dict[str, TableRe
             for t, r in tables.items()}
 
 
-def _sequential(all_claims: list[Claim], entries: list[dict[str, Any]],
-                tables: dict[str, TableResult], design: stats.SequentialDesign,
-                stops: Sequence[str] = ()) -> None:
-    """Add each entry's `sequential` record and `look`, and replace `adjusted_verdict` by
-    the group-sequential Holm verdict (`stats.sequential_holm` on the repeated p-values
-    of every look the claim's rows have reached; module docstring of `icil_paper.stats`).
-    A claim of `stops` (`TablesConfig.stage_stops`) was stopped by the run's budget: it
-    does not go on, and its `look` says so."""
-    at_look = {n: first_seeds(tables, n) for n in design.stages}
-    runs: list[list] = []
-    nominal: list[list] = []
-    for claim, entry in zip(all_claims, entries, strict=True):
+def _sequential(chosen: list[Claim], entries: list[dict[str, Any]],
+                tables: dict[str, TableResult], design: Design, stops: Sequence[str] = ()
+                ) -> None:
+    """Each entry's `sequential` record, `look`, decision and size under seeds in stages:
+    the claims' repeated p-values at every look their rows have reached, the graph at every
+    look (`stats.sequential_graph`), sizes from repeated intervals at each claim's
+    Bonferroni share, and the continuation rule on the conditional power at the observed
+    effect at the claim's level after the last look. A claim of `stops`
+    (`TablesConfig.stage_stops`) was stopped by the run's budget."""
+    seq, at_look = design.sequential, {n: first_seeds(tables, n) for n in design.sequential.stages}
+    looks, runs, nominal = [], [], []
+    for claim, entry in zip(chosen, entries, strict=True):
         seeds = min((entry.get("seeds") or {}).values(), default=0)
-        looks = [] if entry["verdict"] == Verdict.NOT_RUN else [
-            claim.compare.estimate(at_look[n]) for n in design.stages if n <= seeds]
-        runs.append(stats.sequential_p_value(looks, claim.direction, design))
-        nominal.append([stats.decision_p_value(e, claim.direction) for e in looks])
-    decided = stats.sequential_holm([[None if t is None else t[0] for t in r] for r in runs])
-    last = len(design.stages) - 1
-    for entry, run, nom, k_dec in zip(entries, runs, nominal, decided, strict=True):
-        seeds = min((entry.get("seeds") or {}).values(), default=0)
-        k = len(run) - 1  # the last look reached (-1: none)
+        looks.append([] if entry["verdict"] == Verdict.NOT_RUN else [
+            claim.compare.estimate(at_look[n]) for n in seq.stages if n <= seeds])
+        runs.append(seq.p_values(looks[-1], claim.direction))
+        nominal.append([stats.decision_p_value(e, claim.direction) for e in looks[-1]])
+    decided, levels = stats.sequential_graph(
+        [[r and r[0] for r in run] if design.family[c.id] != DESCRIPTIVE else []
+         for c, run in zip(chosen, runs, strict=True)], [design.weights[c.id] for c in chosen])
+    last = len(seq.stages) - 1
+    for i, (claim, entry) in enumerate(zip(chosen, entries, strict=True)):
+        run, nom, k_dec = runs[i], nominal[i], decided[i]
+        seeds, k = min((entry.get("seeds") or {}).values(), default=0), len(run) - 1
+        level = float(levels[-1, i]) if len(levels) else design.level(claim.id)
+        power = [None if nom[j] is None or levels.size == 0 else
+                 float(seq.conditional_power(nom[j][0], j, levels[j, i])) for j in range(k + 1)]
         record: dict[str, Any] = {
-            "stages": list(design.stages), "seeds": seeds,
-            "looks": [{"seeds": design.stages[j],
-                       "p_value": None if nom[j] is None else nom[j][0],
-                       "design_p_value": None if run[j] is None else run[j][0]}
-                      for j in range(len(run))],
-            "p_value": run[-1][0] if run and run[-1] else None,
-            "decided_at": None, "next": None, "needs": entry.get("stage_seeds_needed")}
+            "stages": list(seq.stages), "seeds": seeds,
+            "looks": [{"seeds": seq.stages[j], "p_value": nom[j] and nom[j][0],
+                       "design_p_value": run[j] and run[j][0], "conditional_power": power[j]}
+                      for j in range(k + 1)],
+            "p_value": run[-1][0] if run and run[-1] else None, "level": level,
+            "decided_at": None, "next": None}
+        if design.sizes and design.family[claim.id] != DESCRIPTIVE and looks[i]:
+            sizes = [stats.size_decision(e, claim.direction, _effect(entry),
+                                         design.level(claim.id), seq, j)
+                     for j, e in enumerate(looks[i])]
+            entry["size"] = next((s for s in sizes if s in (Size.SMALLER, Size.LARGER)),
+                                 sizes[-1])
+        entry["adjusted_verdict"] = _undecided(entry)
+        n = seq.stages[k] if k >= 0 else seeds
         if k_dec is not None:
             # a claim whose rows stopped earlier is decided on its last look's data, at a
-            # later look of the ledger when Holm passed it the alpha of claims decided there
+            # later look of the ledger when the graph passed it the level of claims decided then
             own = min(k_dec, k)
-            record["decided_at"] = design.stages[own]
+            record["decided_at"] = seq.stages[own]
             entry["adjusted_verdict"] = run[own][1]
-            entry["look"] = (f"decided at look {own + 1} of {last + 1} "
-                             f"({design.stages[own]} seeds a row)")
+            entry["look"] = f"decided at look {own + 1} of {last + 1} ({seq.stages[own]} seeds a row)"
             if k_dec > own:
-                entry["look"] += (f", after Holm's correction at the ledger's look {k_dec + 1} "
-                                  f"({design.stages[k_dec]} seeds a row)")
+                entry["look"] += (f", after the graph at the ledger's look {k_dec + 1} "
+                                  f"({seq.stages[k_dec]} seeds a row)")
         elif entry["verdict"] == Verdict.NOT_RUN:
             entry["look"] = Verdict.NOT_RUN.value
+        elif design.family[claim.id] == DESCRIPTIVE:
+            entry["look"] = f"described at {n} seeds, not tested ({design.why[claim.id]})"
+        elif k < 0:
+            entry["look"] = (f"undecided at {seeds} seeds: before the first look "
+                             f"({seq.stages[0]} seeds a row)")
+            record["next"] = seq.stages[0]
+        elif k == last:
+            entry["look"] = f"undecided at {n} seeds, the last look"
+        elif claim.id in stops:
+            record["stopped_by"] = "budget"
+            entry["look"] = (f"undecided at {n} seeds: stopped, {seq.stages[k + 1]} seeds a "
+                             "row are over the run's budget")
+        elif design.older:
+            entry["look"] = f"undecided at {n} seeds, where the older design's run left it"
+        elif power[k] is not None and power[k] >= design.continuation_power:
+            record["next"] = seq.stages[k + 1]
+            entry["look"] = (f"undecided at {n} seeds (conditional power {power[k]:.2f} at "
+                             f"its level {level:.2g}): continues to {seq.stages[k + 1]}")
         else:
-            if entry["adjusted_verdict"] in (Verdict.HOLDS, Verdict.DOES_NOT_HOLD):
-                entry["adjusted_verdict"] = Verdict.INCONCLUSIVE  # not at a look's boundary
-            needs = record["needs"]
-            if k < 0:
-                entry["look"] = (f"undecided at {seeds} seeds: before the first look "
-                                 f"({design.stages[0]} seeds a row)")
-                record["next"] = design.stages[0]
-            elif k < last and needs is not None and needs <= design.stages[-1]:
-                planned = (f"needs {needs}" if needs > design.stages[k] else
-                           f"80% power at the paper's effect from {needs}")
-                if entry["id"] in stops:
-                    record["stopped_by"] = "budget"
-                    entry["look"] = (f"undecided at {design.stages[k]} seeds ({planned}): "
-                                     f"stopped, {design.stages[k + 1]} seeds a row are "
-                                     "over the run's budget")
-                else:
-                    record["next"] = design.stages[k + 1]
-                    entry["look"] = (f"undecided at {design.stages[k]} seeds ({planned}): "
-                                     f"continues to {design.stages[k + 1]}")
-            elif needs is not None:
-                entry["look"] = f"undecided at {design.stages[k]} seeds, needs {needs}"
-            else:
-                entry["look"] = (f"undecided at {design.stages[k]} seeds, "
-                                 f"{entry.get('power_note') or 'needs more than ' + str(MAX_SEEDS)}")
+            cp = "no test" if power[k] is None else f"conditional power {power[k]:.2f}"
+            entry["look"] = (f"undecided at {n} seeds: stops ({cp} at its level "
+                             f"{level:.2g}, below {design.continuation_power:g})")
         entry["sequential"] = record
 
 
@@ -605,20 +645,25 @@ def sizing_effect(entry: LedgerEntry | dict[str, Any]) -> float | None:
 
 def summary(ledger: Sequence[LedgerEntry | dict[str, Any]], adjusted: bool = True
             ) -> dict[str, Any]:
-    """What a reader asks first: how many claims hold, do not hold, exclude the paper's
-    size, or remain undecided (after Holm's correction by default), and which undecided
-    claims this design could decide with more seeds."""
+    """What a reader asks first: how many claims hold, do not hold or remain undecided (the
+    decisions under the ledger's design by default), how many are primary, secondary or
+    descriptive, how many sizes are decided against the paper's (a ledger older than size
+    decisions: how many intervals exclude the paper's size), and which undecided claims
+    this design could decide with 10 seeds a row or fewer."""
     entries = [as_entry(e) for e in ledger]
     verdict_of = ((lambda e: e.adjusted_verdict) if adjusted else (lambda e: e.verdict))
     counts = Counter(verdict_of(e) for e in entries)
     undecided = [e for e in entries if verdict_of(e) in verdict_words.UNDECIDED]
+    sizes = Counter(e.size for e in entries)
+    older = sum(1 for e in entries if e.size is None
+                and str(e.extra.get("magnitude") or "").startswith("paper's size excluded"))
     return {
         "claims": len(entries),
         "counts": {v: counts.get(v, 0) for v in VERDICTS},
         "decided": sum(counts.get(v, 0) for v in verdict_words.DECIDED),
-        "size_excluded": sum(1 for e in entries
-                             if (e.magnitude or "").startswith("paper's size excluded")),
-        "within_margin": sum(1 for e in entries if "within ±" in (e.magnitude or "")),
+        "families": dict(Counter(e.family for e in entries if e.family)),
+        "size_excluded": sizes.get(Size.SMALLER, 0) + older,
+        "size_larger": sizes.get(Size.LARGER, 0),
         "decidable_with_10_seeds": sum(1 for e in undecided
                                        if e.seeds_needed and e.seeds_needed <= 10),
         "undecided": len(undecided),
@@ -634,16 +679,18 @@ def summary_sentence(ledger: Sequence[LedgerEntry | dict[str, Any]]) -> str:
     parts = [verdict_words.counted(v, c[v]) for v in VERDICTS if v != Verdict.NOT_RUN]
     if c[Verdict.NOT_RUN]:
         parts.append(verdict_words.counted(Verdict.NOT_RUN, c[Verdict.NOT_RUN]))
-
-    def claims_(k: int, one: str, many: str) -> str:
-        return f"{k} {one if k == 1 else many}"
-
-    return (f"Of {s['claims']} claims, after Holm's correction: " + ", ".join(parts) + ". "
-            f"{claims_(s['size_excluded'], 'excludes', 'exclude')} the paper's size of the "
-            f"effect, {claims_(s['within_margin'], 'lies', 'lie')} within "
-            f"±{EQUIVALENCE_MARGIN:g} of 0, and {s['decidable_with_10_seeds']} of the "
-            f"{s['undecided']} undecided would detect the paper's effect with 10 or fewer "
-            "seeds a row.")
+    families = ", ".join(f"{n} {f}" for f, n in s["families"].items())
+    design = f" ({families})" if families else ""
+    if any(as_entry(e).size for e in ledger):
+        sized = (f"{s['size_excluded']} decided smaller than the paper's effect and "
+                 f"{s['size_larger']} larger")
+    elif families:
+        sized = "none decided under this design"
+    else:  # a ledger older than size decisions: its unadjusted reading
+        sized = f"{s['size_excluded']} exclude the paper's size of the effect"
+    return (f"Of {s['claims']} claims{design}, as decided: " + ", ".join(parts) + ". "
+            f"Sizes: {sized}; {s['decidable_with_10_seeds']} of the {s['undecided']} "
+            "undecided would detect the paper's effect with 10 or fewer seeds a row.")
 
 
 def paper_words(entry: LedgerEntry) -> str:
@@ -670,10 +717,16 @@ def sentence(entry: LedgerEntry | dict[str, Any]) -> str:
            f"(seeds: {seeds}); the claim {verdict_words.claim_words(e.verdict, side)}")
     if e.verdict == Verdict.INCONCLUSIVE and "intersection test" in (e.method or ""):
         out += f" ({verdict_words.BEST_OF_K_INCONCLUSIVE})"
+    if e.family == DESCRIPTIVE:
+        return out + "; descriptive: it decides nothing."
     if e.adjusted_verdict and e.adjusted_verdict != e.verdict:
-        out += f"; after Holm's correction over the ledger it is {e.adjusted_verdict}"
-    if e.magnitude and e.magnitude != Verdict.TOO_FEW_SEEDS:
-        out += f"; {e.magnitude}"
+        where = ("" if not e.family else f" ({e.family})" if e.family.endswith("family")
+                 else f" ({e.family} family)")
+        out += f"; decided under the ledger's design{where} it is {e.adjusted_verdict}"
+    if e.size:
+        out += f"; size: {e.size}"
+    if e.power is not None:
+        out += f"; power {e.power:.0%} to detect the paper's effect at these seeds"
     if e.seeds_needed:
         out += f"; about {e.seeds_needed} seeds a row would detect the paper's effect"
     return out + "."
@@ -701,11 +754,12 @@ def load_ledger(path) -> list[LedgerEntry]:
 def evaluate_claims(chosen: Sequence[Claim], tables: dict[str, TableResult]
                     ) -> list[dict[str, Any]]:
     """Ledger entries of `chosen` claims on assembled `tables` (as `ledger_entries` makes
-    them: the verdict, the size reading and the power, each row's variance pooled over
-    `tables` where it has one seed), Holm-adjusted over `chosen` (`icil-paper compare`)."""
+    them: the verdict, the power and each row's variance pooled over `tables` where it has
+    one seed), decided by Holm's procedure over `chosen` alone, each size at its Bonferroni
+    share (`tables.design.one_family`; `icil-paper compare`)."""
+    design = one_family(chosen)
     pooled = _pooled_variances(tables)
-    entries, estimates = zip(*(_evaluate(c, tables, pooled) for c in chosen), strict=True)
-    adjusted = stats.adjusted_verdicts(estimates, [c.direction for c in chosen])
-    for entry, verdict in zip(entries, adjusted, strict=True):
-        entry["adjusted_verdict"] = verdict
+    entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in chosen),
+                             strict=True)
+    _fixed(list(chosen), list(entries), list(estimates), design)
     return list(entries)

@@ -56,8 +56,7 @@ from icil_paper.train.rundir import RUNS_ENV_VAR
 
 DEFAULT_AGAINST = ("lipvq",)
 DEFAULT_EFFECT = 0.05
-"""A difference of 5 points of average success: the size of the gaps the paper reports
-(`claims.EQUIVALENCE_MARGIN`)."""
+"""A difference of 5 points of average success: the size of the gaps the paper reports."""
 PILOT_SEEDS = 2
 """Seeds a row gets before its variance is measured (2: the fewest that measure one)."""
 MAX_SEEDS = 10
@@ -115,17 +114,24 @@ def _claims(tokenizer: str, against: Sequence[str], effect: float) -> list[claim
 
 def plan_seeds(result: TableResult, tokenizer: str, against: Sequence[str], effect: float,
                max_seeds: int) -> dict[str, Any]:
-    """The seeds a row that detect `effect` against the least favourable other row, from
-    the measured per-seed variances (`stats.seeds_needed`), capped at `max_seeds`."""
+    """The seeds a row that detect `effect` against the least favourable other row, with
+    the variance the comparison's test reads (`stats.seed_variance`: of the paired per-seed
+    differences where seed k of both rows plays scene set k, else the rows' added) at the
+    level Holm's procedure gives each comparison first (`stats.seeds_needed`), capped at
+    `max_seeds`."""
     a = label("icrt", tokenizer)
-    var_a = stats.seed_variance(result.outcomes(a), "success")
     needed = []
     for other in against:
-        var_b = stats.seed_variance(result.outcomes(label("icrt", other)), "success")
-        if var_a is None or var_b is None:
+        rows = (result.outcomes(a), result.outcomes(label("icrt", other)))
+        paired = result.scenes(a, label("icrt", other)) == "per_seed"
+        var = (stats.seed_variance(rows[0], other=rows[1])
+               if paired else None if min(len(r) for r in rows) < 2
+               else stats.seed_variance(rows[0]) + stats.seed_variance(rows[1]))
+        if var is None:
             return {"needed": None, "planned": None,
                     "note": "a row has fewer than 2 seeds: no variance to plan from"}
-        needed.append(stats.seeds_needed(var_a, var_b, effect, max_seeds=claims_mod.MAX_SEEDS))
+        needed.append(stats.seeds_needed(var, effect, alpha=stats.ALPHA / len(against),
+                                         paired=paired, max_seeds=claims_mod.MAX_SEEDS))
     worst = None if any(n is None for n in needed) else max(needed)
     planned = max_seeds if worst is None else min(worst, max_seeds)
     if worst is None:

@@ -85,13 +85,14 @@ def seed_runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str],
 def evaluation(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
                scenes: str = "generated", **prompt) -> EvalSpec:
     """The evaluation of `run` (training seed `seed_index` of its row) on `task`: the
-    preset's episodes (MCR's image episodes), the same scenes for every row; with
+    preset's episodes (its suite's `tables.episodes_per_task_by_suite`; MCR's image
+    episodes), the same scenes for every row; with
     `tables.scenes_per_seed`, seed k of every row plays scene set k (evaluation seed
     preset.seed + k), else every seed plays the same scenes. `scenes` is the scene
     distribution (every row's). Prompts only for in-context policies."""
     images = run.policy.type == "mcr"
     episodes = (preset.tables.image_episodes_per_task if images
-                else preset.eval.episodes_per_task)
+                else preset.tables.episodes_for(task, preset.eval.episodes_per_task))
     max_steps = preset.tables.image_max_steps if images else None
     if run.policy.type != "icrt":
         prompt = {}  # no prompt is read: the evaluation is the same as Table I's

@@ -1,0 +1,180 @@
+"""The design a claims ledger is read under, and the record of it kept beside the results.
+
+    design = ledger_design(preset, claims(preset))      # the preset's tables.* design fields
+    design.family["IV-vq"], design.weights["IV-vq"]       # "primary", 0.8 / 6
+    record = read_record(store)                           # results/<preset>/design.json
+
+A design is fixed before the data it reads: the looks (`tables.seed_stages`), the families
+and their shares of the familywise 5% (`tables.primary_claims`, `tables.family_weights`:
+weighted Holm's graph over them, `stats.graph_test`), the continuation rule
+(`tables.continuation_power`) and the episodes (`tables.episodes_per_task_by_suite`). Claims
+that cannot be tested are *descriptive*: the rank correlations across rows, and any claim
+whose smallest attainable p-value cannot pass its first step; they are reported and
+decide nothing.
+
+`design.json` beside a staged run's records holds the design it was registered under and
+each look's realised seeds per row (`planning.staged` writes it). A record labelled
+"older" says that the records were gathered under an earlier design (one family, Holm's
+procedure over every claim, rows continued on the paper's effect): the ledger read from
+them is that design's, labelled so, and the current design decides nothing on them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from icil_paper import stats
+from icil_paper.config import Preset
+from icil_paper.fileio import atomic_write_json, read_json
+
+PRIMARY, SECONDARY, DESCRIPTIVE, ONE_FAMILY = "primary", "secondary", "descriptive", "one family"
+"""The families a claim can be in (`ONE_FAMILY`: the older design's, every claim alike)."""
+
+DESIGN_FILE = "design.json"
+"""Beside a staged run's records: its design and the realised seeds of each look."""
+
+DESIGN_FIELDS = ("seed_stages", "stage_budget_hours", "primary_claims", "family_weights",
+                 "continuation_power", "episodes_per_task_by_suite")
+"""The `TablesConfig` fields that make a design (the record keeps them)."""
+
+
+@dataclass(frozen=True)
+class Design:
+    """The design of one ledger: each claim's family and its initial share of the
+    familywise level, the looks, the continuation rule and whether sizes are decided."""
+
+    family: dict[str, str]
+    """Claim id -> `PRIMARY`, `SECONDARY`, `DESCRIPTIVE` or `ONE_FAMILY`."""
+    weights: dict[str, float]
+    """Claim id -> its share of the familywise level before any claim is decided (0 for a
+    descriptive claim); they sum to 1."""
+    sequential: stats.SequentialDesign | None = None
+    """The looks (None: one look at the seeds the rows have)."""
+    continuation_power: float | None = None
+    """The least conditional power at which a claim's rows go on (None: the older design,
+    whose looks are in its record)."""
+    why: dict[str, str] = field(default_factory=dict)
+    """Claim id -> why it is descriptive."""
+    older: bool = False
+    """True: the records were gathered under an earlier design (`older_design`)."""
+    note: str = ""
+    """What the design's record says of it (an older design's: why it is kept)."""
+
+    @property
+    def sizes(self) -> bool:
+        """Whether sizes are decided (the older design read them off unadjusted intervals)."""
+        return not self.older
+
+    def level(self, claim_id: str) -> float:
+        """The claim's Bonferroni share of the level: ALPHA times its weight."""
+        return stats.ALPHA * self.weights.get(claim_id, 0.0)
+
+    def planning_level(self, claim_id: str) -> float:
+        """The nominal level the claim's test must pass at the last look, at its share: what
+        its power, detectable difference and seeds needed are planned at."""
+        level = self.level(claim_id)
+        if self.sequential is None or level == 0:
+            return level
+        return float(self.sequential.nominal_level(level, len(self.sequential.stages) - 1))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The design as `claims.json` states it."""
+        families = {f: [c for c, g in self.family.items() if g == f]
+                    for f in (PRIMARY, SECONDARY, DESCRIPTIVE, ONE_FAMILY)}
+        return {"name": "older" if self.older else "current",
+                "stages": list(self.sequential.stages) if self.sequential else [],
+                "families": {f: ids for f, ids in families.items() if ids},
+                "weights": {c: round(w, 6) for c, w in self.weights.items() if w},
+                "continuation_power": self.continuation_power, "descriptive": self.why,
+                **({"note": self.note} if self.note else {})}
+
+
+def _descriptive(claim, weight: float, sequential) -> str | None:
+    """Why a claim decides nothing (None: it is tested)."""
+    if claim.compare.kind == "correlation":
+        return ("a rank correlation across rows, read from a joint bootstrap: described, "
+                "not tested")
+    floor, level = claim.compare.smallest_p, stats.ALPHA * weight
+    if sequential is not None and floor > 0:
+        floor = float(sequential.repeated_p_value(floor, len(sequential.stages) - 1))
+    if floor > level:
+        return (f"its smallest attainable p-value ({floor:.2g}) cannot pass its first step "
+                f"({level:.2g})")
+    return None
+
+
+def ledger_design(preset: Preset, claims: Sequence, record: dict[str, Any] | None = None
+                  ) -> Design:
+    """The design `claims` are read under: the preset's (`TablesConfig`'s design fields), or
+    with a `record` labelled "older", the older design (`older_design`)."""
+    t = preset.tables
+    sequential = stats.SequentialDesign(t.seed_stages) if t.seed_stages else None
+    if record is not None and record.get("design") == "older":
+        return replace(older_design(claims, sequential), note=record.get("why", ""))
+    primary = set(t.primary_claims)
+    family = {c.id: PRIMARY if c.id in primary else SECONDARY for c in claims}
+    if not primary & set(family):  # no primary family: one family (Holm's procedure)
+        family = dict.fromkeys(family, SECONDARY)
+    why: dict[str, str] = {}
+    while True:  # a claim that leaves raises the others' shares: look again
+        shares = dict(zip((PRIMARY, SECONDARY), t.family_weights, strict=True))
+        members = {f: [c for c, g in family.items() if g == f] for f in shares}
+        live = {f: s for f, s in shares.items() if members[f]}
+        weights = {c: live[g] / sum(live.values()) / len(members[g]) if g in live else 0.0
+                   for c, g in family.items()}
+        left = {c.id: reason for c in claims if family[c.id] != DESCRIPTIVE
+                and (reason := _descriptive(c, weights[c.id], sequential))}
+        if not left:
+            return Design(family, weights, sequential, t.continuation_power, why)
+        why.update(left)
+        family.update(dict.fromkeys(left, DESCRIPTIVE))
+
+
+def older_design(claims: Sequence, sequential: stats.SequentialDesign | None) -> Design:
+    """The design the committed reference records were gathered under: every claim in one
+    family with an equal share (Holm's procedure), its looks and stops in its record, and
+    sizes read, not decided."""
+    ids = [c.id for c in claims]
+    return Design(dict.fromkeys(ids, ONE_FAMILY), dict.fromkeys(ids, 1 / len(ids)),
+                  sequential, None, {}, older=True)
+
+
+def one_family(claims: Sequence) -> Design:
+    """A fixed design over `claims` alone, one family (Holm): `icil-paper compare`'s."""
+    ids = [c.id for c in claims]
+    return Design(dict.fromkeys(ids, SECONDARY), dict.fromkeys(ids, 1 / len(ids)))
+
+
+# --------------------------------------------------------------------------- the record
+def record_path(store) -> Path:
+    return Path(store.dir) / DESIGN_FILE
+
+
+def read_record(store) -> dict[str, Any] | None:
+    """The store's design record (`DESIGN_FILE`), None where it has none."""
+    path = record_path(store)
+    if not path.exists():
+        return None
+    return read_json(path, "a run's design record (design.json)",
+                     "restore it from git, or delete it to register the design anew",
+                     keys=("design", "tables", "looks"))
+
+
+def new_record(preset: Preset) -> dict[str, Any]:
+    """The record a staged run registers before its first cell: its design, no look yet."""
+    return {"design": "current", "preset": preset.name,
+            "tables": {f: _plain(getattr(preset.tables, f)) for f in DESIGN_FIELDS},
+            "looks": []}
+
+
+def write_record(store, record: dict[str, Any]) -> Path:
+    path = record_path(store)
+    atomic_write_json(path, record)
+    return path
+
+
+def _plain(value):
+    return list(value) if isinstance(value, tuple) else value
