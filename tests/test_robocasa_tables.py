@@ -4,8 +4,8 @@ and the one-line errors a user gets before any work."""
 from __future__ import annotations
 
 import pytest
-from cli_helpers import run_cli
 
+from cli_helpers import run_cli
 from icil_paper.config import get_preset
 from icil_paper.paper import table_spec
 from icil_paper.paper.table_v import sim_to_real_runs
@@ -76,3 +76,12 @@ def test_a_missing_meta_world_install_stops_before_any_work(tmp_path, monkeypatc
     assert code == 2
     assert "cannot run here: metaworld is not installed: run `make setup`" in err
     assert not (tmp_path / "data").exists()
+
+
+def test_the_task_names_the_presets_read_are_the_suites_own():
+    from icil_paper import benchmark_tasks as names
+    from icil_paper.sim.metaworld import tasks
+
+    assert tasks.TASK_FAMILIES == names.ROBOCASA_FAMILIES
+    assert tasks.ROBOCASA_TASKS == names.ROBOCASA_TASKS
+    assert set(names.ML45_TRAIN) | set(names.ML45_HELD_OUT) == set(tasks.TASKS)

@@ -59,9 +59,6 @@ def _cell(kind: str, field: str) -> float:
     return cell["first"]["floor_ratio"] if field == "first_floor_ratio" else cell[field]
 
 
-def _compiled(kind: str, field: str) -> float:
-    return next(c for c in _bench("cells")["compile"] if c["kind"] == kind)[field]
-
 
 def _cost(folder: Path = OLDER) -> dict[str, Any]:
     """A reference run's `cost.json` (`python -m icil_paper.planning.cost`): the older
@@ -165,10 +162,6 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                  lambda kind=kind, field=field: _cell(kind, field))
        for kind in ("icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
        for field in ("seed_cost_s", "floor_ratio", "first_floor_ratio")},
-    **{f"cells.compile.{kind}.{field}": ("results/bench/cells.json",
-                                         lambda kind=kind, field=field: _compiled(kind, field))
-       for kind in ("icrt_lipvq", "act_maniskill")
-       for field in ("eager_step_ms", "compiled_step_ms", "warmup_s")},
     "older_cost.cells": (OLDER_COST, lambda: _cost()["finished_cells"]),
     "older_cost.planned_cells": (OLDER_COST, lambda: _cost()["planned_cells"]),
     "older_cost.episodes": (OLDER_COST, lambda: _cost()["total"]["episodes"]),

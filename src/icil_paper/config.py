@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from icil_paper import paper_numbers
+from icil_paper.benchmark_tasks import ML45_HELD_OUT, ML45_TRAIN, ROBOCASA_TASKS
 from icil_paper.config_data import (
     KEYED_WHEN_SET,
     NOT_KEYED,
@@ -38,7 +39,6 @@ from icil_paper.config_data import (
 )
 from icil_paper.policies.configs import POLICY_REGISTRY
 from icil_paper.registry import ComponentRegistry, check_name
-from icil_paper.sim.metaworld.tasks import ML45_HELD_OUT, ML45_TRAIN, ROBOCASA_TASKS
 from icil_paper.tokenizers.configs import (
     TOKENIZER_REGISTRY,
     LipschitzOptions,
@@ -660,27 +660,21 @@ look), so a claim that runs to 15 seeds loses little power for the early looks
 (`stats.SequentialDesign`)."""
 
 
-REFERENCE_BUDGET_HOURS = 15.0
-"""The reference run's budget (`TablesConfig.stage_budget_hours`): fifteen hours of the
-2-core machine at two cells at a time, the first stage at the cost-optimal episodes
-(`REFERENCE_EPISODES`: 14.7 hours as the benchmark rates project it) and a little more,
-so after the first look only the claims whose next stage is cheapest go on. (The older
-design's run had twelve hours at five episodes a task: `results/reference/design.json`.)"""
+REFERENCE_BUDGET_HOURS = 12.0
+"""The reference run's budget (`TablesConfig.stage_budget_hours`): twelve hours of the 2-core
+machine at two cells at a time, as `planning.design.plan_cost` projects them from the
+committed benchmark rates; after the first look only the claims whose next stage is cheapest
+go on."""
 
-REFERENCE_EPISODES = ("kinova=7", "kitchen=12", "maniskill=56")
+REFERENCE_EPISODES = ("kinova=7", "maniskill=56", "metaworld=9")
 """The reference preset's rollouts per task by suite (`TablesConfig.episodes_per_task_by_suite`),
-at the cost-optimal counts from the committed reference records (`planning.design.
-episode_design`; `python -m icil_paper.planning.cost --preset reference --episodes`). The
-rows of a pair play the same scenes, so the variance of a paired per-seed difference splits
-into an episode part (the within-(seed, task) variance of the paired episode differences)
-and a seed-by-row part. At the records' episodes the episode part is 62% of it on the
-kitchen suite (5 a task; 37% for policy pairs, 71% for tokenizer pairs), 85% on ManiSkill
-(10 a task) and 34% on the Kinova stand-in (5 a task, two comparisons). At the CPU time a
-cell took (an ICRT kitchen cell: 272 s of training, 15 s for one more episode on every task
-it evaluates; an ACT ManiSkill cell: 73 s and 1.3 s), two-stage sampling
-(`stats.episodes_per_seed`) puts the narrowest difference for its compute at 12 episodes a
-task on the kitchen suite (7 for policy pairs, 15 for tokenizer pairs), 56 on ManiSkill and
-7 on the Kinova stand-in."""
+at cost-optimal counts. The rows of a pair play the same scenes, so the variance of a paired
+per-seed difference splits into an episode part and a seed-by-row part. Meta-World's count
+comes from the regime pilot's paired outcomes (`planning.pilot.regime_episodes`: three seeds
+cannot tell its seed-by-row part from 0, so the count is the one at which evaluating every
+task costs as much as training, 9); ManiSkill's (56) and the Kinova stand-in's (7) from the
+committed kitchen-run records (`planning.design.episode_design`; `python -m
+icil_paper.planning.cost --preset reference --episodes`), whose suites and cells those are."""
 
 
 REGIME_DEMOS, REGIME_STEPS = 50, 500

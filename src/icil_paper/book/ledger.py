@@ -27,7 +27,8 @@ from icil_paper.config import Preset, get_preset
 from icil_paper.paper import claims_ledger, write_ledger
 from icil_paper.planning.staged import as_run
 from icil_paper.results import ResultsStore
-from icil_paper.tables.claims import summary_sentence
+from icil_paper.tables.claims import as_entry, read_ledger, summary_sentence
+from icil_paper.tables.design import read_record
 
 Ledgers = dict[str, tuple[Preset, list]]
 """{source: (its preset, its ledger entries)}, the reference run first."""
@@ -44,6 +45,12 @@ def chapter_ledgers(preset: Preset) -> Ledgers:
         store = ResultsStore(p.name)
         if p.name == preset.name:
             write_ledger(p, store)
+        if (read_record(store) or {}).get("protocol") == "kitchen":
+            # the kitchen run's records: its tasks are retired, its ledger kept as computed
+            entries = read_ledger(store.dir / "claims.json")["claims"]
+            ledgers[f"{source} (kitchen suite, older protocol)"] = (
+                p, [as_entry(e) for e in entries])
+            continue
         ledgers[source] = (p, claims_ledger(p, store))
     return ledgers
 

@@ -29,6 +29,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from icil_paper import stats
 from icil_paper.config import get_preset, matching_c_lr_scale, task_demo_counts
 from icil_paper.config_data import canonical_json
 from icil_paper.paper import table_spec
@@ -648,3 +651,37 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
                  + (", ".join(t for t, v in tasks.items() if v is None or not low <= v <= high)
                     or "none") + ").")
     return frame, text
+
+
+def regime_episodes(path: str | None = None, cells: str | None = None) -> dict[str, Any]:
+    """Meta-World's cost-optimal episodes per task (`TablesConfig.episodes_per_task_by_suite`)
+    from the regime pilot's paired outcomes (`regime.json`: ICRT + LipVQ-VAE against each row
+    beside it, the rows of a seed on the same scenes) and the cost of Table I's ICRT cell
+    (`cells.json`, kind `icrt_lipvq`: its training at the chosen budget, one more episode on
+    every task). The paired variance splits into an episode part and a seed-by-row part
+    (`stats.paired_variance_parts`); where the pilot's seeds cannot tell the latter from 0,
+    the count is the one at which evaluation costs as much as training (the optimum if the
+    seed-by-row part were as large as the episode part there)."""
+    record = json.loads(open(path or bench_path("regime")).read())
+    tasks = record["tasks"]
+
+    def outcomes(row: str) -> np.ndarray:
+        per_seed = record["outcomes"][row]
+        return np.array([[per_seed[s][t] for t in tasks] for s in sorted(per_seed)], bool)
+
+    lipvq = outcomes("icrt+lipvq")
+    parts = [stats.paired_variance_parts(lipvq, outcomes(row))
+             for row in record["outcomes"] if row != "icrt+lipvq"]
+    episode, seed_by_row = (float(np.mean([p[i] for p in parts])) for i in (0, 1))
+    cell = next(c for c in json.loads(open(cells or bench_path("cells")).read())["cells"]
+                if c["kind"] == "icrt_lipvq")["steady"]
+    train_s = cell["step_ms"] / 1000 * record["train_steps"]
+    evaluation = sum(v for k, v in cell["phases_s"].items() if k.startswith("eval."))
+    episode_s = evaluation / (cell["episodes"] / len(tasks))
+    if seed_by_row > 0:
+        best = stats.episodes_per_seed(seed_by_row, episode, train_s, episode_s)
+    else:
+        best = train_s / episode_s
+    return {"episode_part": episode, "seed_by_row_part": seed_by_row, "pairs": len(parts),
+            "train_s": round(train_s, 2), "episode_s": round(episode_s, 3),
+            "episodes": max(1, round(best))}

@@ -24,8 +24,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from icil_paper.benchmark_tasks import ML45_HELD_OUT, ML45_TRAIN, SKILL_FAMILIES
 from icil_paper.registry import check_name
-from icil_paper.sim.suite import SKILL_FAMILIES
 
 PREFIX = "metaworld"
 PROPRIO_DIM = 8
@@ -151,22 +151,6 @@ METAWORLD_TASKS: dict[str, MetaWorldTaskSpec] = {t.name: t for t in _TASKS}
 """Every Meta-World v3 task by full name: the 13 of the RoboCasa families first."""
 TASKS = tuple(METAWORLD_TASKS)
 
-ML45_HELD_OUT = tuple(f"{PREFIX}/{t}" for t in (
-    "bin-picking", "box-close", "hand-insert", "door-lock", "door-unlock"))
-"""ML45's five test tasks (`metaworld.env_dict.ML45_V3["test"]`, in its order)."""
-ML45_TRAIN = tuple(f"{PREFIX}/{t}" for t in (
-    "assembly", "basketball", "button-press-topdown", "button-press-topdown-wall",
-    "button-press", "button-press-wall", "coffee-button", "coffee-pull", "coffee-push",
-    "dial-turn", "disassemble", "door-close", "door-open", "drawer-close", "drawer-open",
-    "faucet-open", "faucet-close", "hammer", "handle-press-side", "handle-press",
-    "handle-pull-side", "handle-pull", "lever-pull", "pick-place-wall", "pick-out-of-hole",
-    "push-back", "pick-place", "plate-slide", "plate-slide-side", "plate-slide-back",
-    "plate-slide-back-side", "peg-insert-side", "peg-unplug-side", "soccer", "stick-push",
-    "stick-pull", "push-wall", "push", "reach-wall", "reach", "shelf-place", "sweep-into",
-    "sweep", "window-open", "window-close"))
-"""ML45's 45 training tasks (`metaworld.env_dict.ML45_V3["train"]`, in its order; both lists
-are written out here so that listing them imports no metaworld, and tests/test_metaworld.py
-compares them with Meta-World's)."""
 ZERO_SHOT_SPLIT = {"train": ML45_TRAIN, "held_out": ML45_HELD_OUT}
 """The suite's zero-shot split (the Suite record's `zero_shot_split`): Meta-World's ML45."""
 
