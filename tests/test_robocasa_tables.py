@@ -85,3 +85,15 @@ def test_the_task_names_the_presets_read_are_the_suites_own():
     assert tasks.TASK_FAMILIES == names.ROBOCASA_FAMILIES
     assert tasks.ROBOCASA_TASKS == names.ROBOCASA_TASKS
     assert set(names.ML45_TRAIN) | set(names.ML45_HELD_OUT) == set(tasks.TASKS)
+
+
+@pytest.mark.parametrize("name", ["small", "reference"])
+def test_icrt_sequences_fit_every_meta_world_horizon(name):
+    """One prompt episode and one whole query episode, two tokens a step, at the longest
+    horizon of any task the preset trains ICRT on (ML45's reach 500 steps)."""
+    from icil_paper.sim.metaworld.tasks import METAWORLD_TASKS
+
+    preset = get_preset(name)
+    tasks = {*preset.data.robocasa_tasks, *preset.data.zero_shot_tasks}
+    longest = max(METAWORLD_TASKS[t].horizon for t in tasks)
+    assert preset.policies.icrt.max_seq_len >= 2 * 2 * longest

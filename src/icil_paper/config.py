@@ -619,7 +619,7 @@ def _small() -> Preset:
         data=DataConfig(demos_per_task=10, workers=2, expert_seeds=0),
         tokenizers=_small_tokenizers(train),
         policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
-                           history=10, max_seq_len=1024, resnet_width=16, query_len=0,
+                           history=10, max_seq_len=2048, resnet_width=16, query_len=0,
                            pretrain_steps=100, language=True),
         train=train,
         eval=EvalConfig(episodes_per_task=1, max_steps=150, workers=2),
