@@ -43,14 +43,14 @@ STAGES: tuple[Stage, ...] = (
           "icil_paper.book.studies:tokenizer_study"),
     *(Stage(f"table-{t}", f"{what} (chapter {chapter})", f"icil_paper.reproduce:table_{t}")
       for t, what, chapter in (
-          ("I", "Table I: every policy on the kitchen suite", "06"),
+          ("I", "Table I: every policy on the Meta-World tasks of RoboCasa's families", "06"),
           ("IV", "Table IV: the Lipschitz ablation (shares Table I's cells)", "09"),
           ("fig5", "Fig. 5: LipVQ-VAE's codebook size", "09"),
           ("III", "Table III: smoothness of the trained policies' latent features", "08"),
           ("V", "Table V: sim-to-real stand-in, Panda -> perturbed Kinova3", "10"),
           ("VI", "Table VI: cross-dataset, prompted with human-like demonstrations", "10"),
           ("prompt", "prompt ablation: right, wrong and truncated prompts", "10"),
-          ("VII", "Table VII: zero-shot on held-out kitchen tasks", "10"),
+          ("VII", "Table VII: zero-shot on ML45's held-out tasks", "10"),
           ("II", "Table II: ACT with each tokenizer on ManiSkill", "07"),
           ("analysis", "is it smoothness? Lipschitz, scale and collapse variants", "11"),
           ("beyond", "tokenizers since the paper: FSQ, residual VQ, B-splines, with and "

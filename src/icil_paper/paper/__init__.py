@@ -9,13 +9,13 @@
 A reader of the book finds the code of a result in the module named for it:
 
 - `icrt_demo.py`     a small ICRT + LipVQ-VAE on one task, one cell, no claims (chapter 02)
-- `table_i.py`       Table I, every policy on the kitchen suite (chapter 06)
+- `table_i.py`       Table I, every policy on the Meta-World tasks (chapter 06)
 - `table_ii.py`      Table II, ACT with each tokenizer on ManiSkill (chapter 07)
 - `table_iii.py`     Table III, the latents' smoothness, with Figs. 1 and 4 (chapter 08)
 - `table_iv.py`      Table IV, Eq. 4's ablation, with Fig. 5, the codebook size (chapter 09)
 - `table_v.py`       Table V, sim-to-real on our perturbed Kinova3 stand-in (chapter 10)
 - `table_vi.py`      Table VI, cross-dataset, and each row's shift from Table I (chapter 10)
-- `table_vii.py`     Table VII, zero-shot on held-out kitchen tasks (chapter 10)
+- `table_vii.py`     Table VII, zero-shot on ML45's held-out tasks (chapter 10)
 - `prompt_ablation.py`   does the prompt carry the task? (chapters 06 and 10)
 - `analysis.py`      is it smoothness? Eq. 4, latent scale and collapse (chapters 11 and 02)
 - `since_paper.py`   the tokenizers since the paper, the `beyond` table (chapter 12)
