@@ -126,6 +126,17 @@ class TaskEnv(gym.Env):
         self.steps = 0
         return self.seed
 
+    def _checked_action(self, action) -> np.ndarray:
+        """`action` as a (ACTION_DIM,) float64 array clipped to [-1, 1]; ValueError naming the
+        task for a wrong length or a non-finite entry."""
+        a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+        if a.shape != (ACTION_DIM,):
+            raise ValueError(f"{self.name}: action must have {ACTION_DIM} entries, got "
+                             f"{a.shape[0]}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{self.name}: action has non-finite entries: {a}")
+        return a
+
     def _step_outcome(self, success: bool) -> tuple[bool, bool]:
         """(terminated, truncated) after a step: success ends the episode, the horizon cuts it."""
         self.steps += 1

@@ -49,7 +49,6 @@ from robosuite.models.arenas import TableArena
 from robosuite.models.tasks import ManipulationTask
 
 from icil_paper.registry import check_name
-from icil_paper.sim import ACTION_DIM
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
 from icil_paper.sim.kitchen.kinova import DynamicsPerturbation, RealityGap
 from icil_paper.sim.kitchen.scenes import Scene, make_scene
@@ -249,12 +248,7 @@ class KitchenEnv(TaskEnv):
         return self._obs(), self._info(self._env.scene.success(self._env))
 
     def step(self, action):
-        action = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
-        if action.shape != (ACTION_DIM,):
-            raise ValueError(f"{self.name}: action must have {ACTION_DIM} entries, got "
-                             f"{action.shape[0]}")
-        if not np.all(np.isfinite(action)):
-            raise ValueError(f"{self.name}: action has non-finite entries: {action}")
+        action = self._checked_action(action)
         _, reward, _, _ = self._env.step(action)
         success = self._env.success_flag
         terminated, truncated = self._step_outcome(success)

@@ -53,7 +53,6 @@ import numpy as np
 from metaworld.env_dict import ALL_V3_ENVIRONMENTS
 
 from icil_paper.registry import check_name
-from icil_paper.sim import ACTION_DIM
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
 from icil_paper.sim.metaworld.tasks import (
     CONTROL_FREQ,
@@ -198,12 +197,7 @@ class MetaWorldEnv(TaskEnv):
         return self._obs(), {"success": False}
 
     def step(self, action):
-        a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
-        if a.shape != (ACTION_DIM,):
-            raise ValueError(f"{self.name}: action must have {ACTION_DIM} entries, got "
-                             f"{a.shape[0]}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"{self.name}: action has non-finite entries: {a}")
+        a = self._checked_action(action)
         raw, reward, _, _, mw_info = self._env.step(a[[0, 1, 2, 6]])
         self._raw = np.asarray(raw, np.float64)
         success = bool(mw_info["success"])
