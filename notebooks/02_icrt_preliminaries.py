@@ -84,6 +84,7 @@ from icil_paper.paper.icrt_demo import (
 )
 from icil_paper.policies import make_policy
 from icil_paper.policies.batching import obs_spec_from_obs
+from icil_paper.policies.inspection import token_loss_gradients, token_roles
 from icil_paper.policies.transformer import causal_mask
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.seeding import seed_everything
@@ -114,7 +115,7 @@ print(run_description(preset.name, run, demos, TASK))
 policy = make_policy(run.policy, obs_spec_from_obs(demos[0].obs), 7, run.tokenizer)
 data = policy.prepare(demos)
 batch = policy.sample_batch(data, 3, rng)
-roles = policy.token_roles(batch)
+roles = token_roles(policy, batch)
 
 # one colour per role: prompt obs, prompt action, query obs, query action, padding
 role = (2 * roles["segment"] + roles["kind"]).numpy()
@@ -164,7 +165,7 @@ print(mask_summary(mask, batch, b))
 # exactly zero on the prompt, on action tokens and on padding.
 
 # %%
-grads = policy.token_loss_gradients(batch)  # (B, L) |dL/dh| at each output position
+grads = token_loss_gradients(policy, batch)  # (B, L) |dL/dh| at each output position
 display(loss_gradient_figure(grads))
 coverage = loss_coverage(roles, grads)
 print(coverage_sentence(coverage))

@@ -14,6 +14,7 @@ from icil_paper.policies import POLICIES, make_policy
 from icil_paper.policies.backbones import HashedTextEmbedding, ResNet18
 from icil_paper.policies.base import TemporalEnsemble
 from icil_paper.policies.batching import DemoSet, as_obs_spec, prompt_query_batch
+from icil_paper.policies.inspection import token_loss_gradients, token_roles
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 from icil_paper.registry import UnknownNameError
 from icil_paper.sim.synthetic import synthetic_demos
@@ -183,8 +184,8 @@ def test_prompt_positions_get_no_loss(demos):
 def test_token_roles_mark_exactly_where_the_loss_reaches(demos):
     policy = build("icrt", "vq", demos)
     batch = prompt_query_batch(DemoSet(demos), 3, 6, policy.chunk_size, 1, np.random.default_rng(1))
-    roles = policy.token_roles(batch)
-    grad = policy.token_loss_gradients(batch)
+    roles = token_roles(policy, batch)
+    grad = token_loss_gradients(policy, batch)
     assert torch.equal(grad > 0, roles["supervised"])
     assert not (roles["supervised"] & (roles["segment"] == 0)).any()
     assert torch.equal(roles["valid"].sum(1), 2 * (batch["prompt_valid"].sum(1) + batch["query_valid"].sum(1)))
