@@ -1,87 +1,25 @@
-"""Smoothness scores of latent trajectories, codebook statistics and empirical Lipschitz constants.
+"""Smoothness scores of latent trajectories and of executed motion, codebook statistics and
+empirical Lipschitz constants.
 
-The paper scores a tokenizer by the "least energy" of the latent trajectory it produces for
-an action trajectory (Table III; Horn 1983), computed in its code as
+Latents (Table III): `least_energy(z)` is the paper's score, the energy of the discrete
+second difference of a latent trajectory z (T, D) (Horn 1983),
 
-    least_energy(z) = sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2          (z shaped (T, D))
+    least_energy(z) = sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2
 
-the energy of the discrete second difference (acceleration): 0 for a constant-velocity
-line, larger the more the curve bends or changes speed. It scales with the square of the
-latent scale: 10 z scores 100 times z. A Lipschitz bound shrinks the latent scale, so part
-of a low least energy can be scale rather than shape.
+It grows with the square of the latent scale, so a Lipschitz bound that shrinks the latents
+lowers it too. `standardized_least_energies(set)` divides by sigma^2, sigma the pooled
+standard deviation of every latent value of the set about its dimension's mean: a score
+unchanged by scaling or shifting the latents, comparable across tokenizers.
+`smoothness_summary` gives the raw score, the standardized one and sigma.
 
-`least_energy_standardized` removes the scale: it is the least energy of z / sigma, where
-sigma is the latent scale of the whole evaluation set, the pooled standard deviation of
-every latent value (all trajectories, steps and dimensions) about its dimension's mean:
+Motion (what a rollout does), `motion_smoothness(path, actions, dt)`:
+- `log_dimensionless_jerk` (LDLJ; Hogan and Sternad 2009) of the end-effector path;
+- `sparc` (spectral arc length; Balasubramanian et al. 2012, 2015) of its speed profile;
+- `action_second_difference`, the per-step least energy of the executed actions.
+Higher LDLJ and SPARC, lower action second difference: smoother.
 
-    sigma^2 = mean over trajectories, steps t and dimensions d of (z[t, d] - mean_d)^2
-    least_energy_standardized(z) = least_energy(z) / sigma^2
-
-Multiplying every latent by a constant leaves it unchanged, and so does shifting a
-dimension by a constant (second differences and deviations from the mean ignore both).
-Because sigma is one number for the set, not one per trajectory, a curve that jumps three
-times scores three times one that jumps once between the same values: it measures how much
-the curve accelerates relative to how far the latents spread, which is what a comparison
-across tokenizers needs. `standardized_least_energies` computes sigma over a set and every
-trajectory's score.
-
-Two earlier scale-free scores were retired because they fail as comparisons: the least
-energy divided by each trajectory's mean squared step is exactly 2 (T - 1) for any
-piecewise-constant latent with isolated jumps, whatever their number or size, so it cannot
-rank quantised tokenizers; and a turning-angle curvature energy is dominated by tiny
-jitter of continuous latents.
-
-Every per-trajectory function accepts a NumPy array or a torch tensor shaped (T, D), or
-(T,) for a single dimension.
-
-Motion smoothness: where the robot moves
-----------------------------------------
-Least energy scores the tokenizer's latents; what a rollout does is scored on the executed
-motion itself, with the two standard measures of movement smoothness and one of the
-commands:
-
-- `log_dimensionless_jerk(path, dt)` (LDLJ; Hogan and Sternad 2009, "Sensitivity of
-  smoothness measures to movement duration, amplitude, and arrests"; Balasubramanian et al.
-  2012, "A robust and sensitive metric for quantifying movement smoothness"). For an
-  end-effector path x(t) in R^3 over its duration t2 - t1,
-
-      LDLJ = -ln( (t2 - t1)^5 / A^2 * integral_{t1}^{t2} |d^3x/dt^3|^2 dt )
-
-  with A the path's amplitude, here its largest distance from its first point (for a
-  reach, the distance from start to goal). The ratio is dimensionless: it does not change
-  when the path is scaled or replayed faster. Higher (less negative) is smoother: a
-  minimum-jerk reach, x(t) = x1 + (x2 - x1)(10 s^3 - 15 s^4 + 6 s^5) with s = t / T, has
-  integral 720 A^2 / T^5 and so LDLJ = -ln 720 = -6.58; tremor or stop-and-go motion adds
-  jerk and lowers it. Discretised here with third differences of the sampled positions,
-      d^3x/dt^3 at step t  ~  (x[t+3] - 3 x[t+2] + 3 x[t+1] - x[t]) / dt^3,
-  the integral their sum of squares times dt, and t2 - t1 = (T - 1) dt for T positions, so
-  a sampled minimum-jerk reach approaches -ln 720 from below as dt shrinks (-6.33 for 41
-  positions over 2 s, -6.53 for 201). The duration enters to the fifth power: a path that
-  reaches and then rests scores lower than the reach alone (Hogan and Sternad's "arrests").
-- `sparc(speed, dt)` (spectral arc length, SPARC; Balasubramanian et al. 2012, and 2015,
-  "On the analysis of movement smoothness", whose reference implementation this follows):
-  the negative arc length of the speed profile's Fourier magnitude spectrum, normalised
-  to 1 at its peak, over frequencies scaled to [0, 1] up to an adaptive cut-off,
-
-      SPARC = -integral_0^{w_c} sqrt( (1 / w_c)^2 + (dV^(w) / dw)^2 ) dw,
-      V^(w) = |V(w)| / |V(0)|,  w_c = min(10 Hz, the highest frequency where V^ >= 0.05)
-
-  with the spectrum zero-padded to 2^(ceil(log2 N) + 4) points (the 2015 paper's "padlevel"
-  4). It does not depend on the movement's amplitude or duration, nor (unlike LDLJ) on
-  rests before or after it. Higher (less negative) is smoother: a minimum-jerk reach gives
-  about -1.40 (-1.41 in the 2015 paper), tremor and sub-movements add spectral content and
-  lower it (a 4 Hz tremor of 2% of a 2 s reach sampled at 20 Hz: about -2.9).
-- `action_second_difference(actions)`: the mean over steps of the squared norm of the
-  executed commands' second difference, mean_t ||a[t+2] - 2 a[t+1] + a[t]||^2 for actions
-  (T, A) (every dimension, the gripper's included), in squared action units per step^2.
-  0 for commands that change linearly in time; lower is smoother. It is the per-step
-  least energy of the action sequence, so it compares with Table III's latent score.
-
-Degenerate inputs never raise: each measure returns NaN where it is undefined (fewer than
-`MIN_MOTION_STEPS` positions, or 3 actions; a path that moves less than `MIN_AMPLITUDE`;
-a speed profile that is zero throughout; non-finite values), and LDLJ returns +inf for a
-path with no jerk at all (a line travelled at constant speed). `motion_smoothness` gives
-the three numbers of one rollout.
+Inputs are NumPy arrays or torch tensors, (T, D) or (T,). Degenerate inputs never raise:
+a measure returns NaN where it is undefined (too few steps, no motion, non-finite values).
 """
 
 from __future__ import annotations
@@ -312,10 +250,13 @@ def speed_profile(path, dt: float) -> np.ndarray:
 
 
 def log_dimensionless_jerk(path, dt: float) -> float:
-    """LDLJ of a path (T, 3) of positions sampled every `dt` seconds (module docstring).
+    """LDLJ of a path (T, 3) of positions sampled every `dt` seconds.
 
     -ln((t2 - t1)^5 / A^2 * integral |d3x/dt3|^2 dt), A the largest distance from the first
-    point; higher is smoother, a minimum-jerk reach -ln 720 = -6.58. NaN for fewer than
+    point, the jerk from third differences of the positions and t2 - t1 = (T - 1) dt. It is
+    dimensionless (unchanged when the path is scaled or replayed faster), but a path that
+    reaches and then rests scores lower than the reach alone (the duration enters to the
+    fifth power). Higher is smoother, a minimum-jerk reach -ln 720 = -6.58. NaN for fewer than
     `MIN_MOTION_STEPS` positions, a path that moves less than `MIN_AMPLITUDE` or non-finite
     positions; +inf where the jerk is zero throughout.
     """
@@ -336,9 +277,15 @@ def log_dimensionless_jerk(path, dt: float) -> float:
 
 def sparc(speed, dt: float, padlevel: int = SPARC_PADLEVEL, cutoff: float = SPARC_CUTOFF_HZ,
           threshold: float = SPARC_AMPLITUDE_THRESHOLD) -> float:
-    """Spectral arc length of a speed profile (T,) sampled every `dt` seconds (module
-    docstring; Balasubramanian et al. 2015). Higher is smoother, a minimum-jerk reach about
-    -1.40. NaN for fewer than `MIN_MOTION_STEPS - 1` samples, a profile that is zero
+    """Spectral arc length of a speed profile (T,) sampled every `dt` seconds, following
+    Balasubramanian et al. 2015's reference implementation:
+
+        SPARC = -integral_0^{w_c} sqrt((1 / w_c)^2 + (dV^(w) / dw)^2) dw,
+        V^(w) = |V(w)| / |V(0)|,  w_c = min(cutoff, the highest frequency where V^ >= threshold)
+
+    the spectrum zero-padded to 2^(ceil(log2 T) + padlevel) points. Independent of the
+    movement's amplitude and duration and of rests around it. Higher is smoother, a
+    minimum-jerk reach about -1.40. NaN for fewer than `MIN_MOTION_STEPS - 1` samples, a profile that is zero
     throughout or non-finite values.
     """
     dt = _check_dt(dt)
@@ -367,7 +314,7 @@ def sparc(speed, dt: float, padlevel: int = SPARC_PADLEVEL, cutoff: float = SPAR
 
 def action_second_difference(actions) -> float:
     """Mean squared second difference of executed actions (T, A):
-    mean_t ||a[t+2] - 2 a[t+1] + a[t]||^2 (module docstring). 0 for actions that change
+    mean_t ||a[t+2] - 2 a[t+1] + a[t]||^2 (every dimension, the gripper's included). 0 for actions that change
     linearly in time; NaN for fewer than 3 actions or non-finite values."""
     a = _as_signal(actions, None, "actions")
     if a is None or len(a) < 3:

@@ -1,47 +1,26 @@
 """Parallel, resumable demonstration generation: `ensure_demos` and `demo_path`.
 
-One HDF5 file per (preset, task, source, demonstration set) at
-`demo_path(preset, task, source, seed=...)`; training seed k of a table row trains on set k,
-whose base seed is `seeding.data_set_seed(preset.seed, k)`:
+    path = ensure_demos(preset, "kitchen/open_drawer", source="scripted", workers=2)
+
+One HDF5 file per (preset, task, source, demonstration set) under `preset.data.root`
+(`data/` unless $ICIL_DATA sets it); training seed k of a table row trains on set k, whose
+base seed is `seeding.data_set_seed(preset.seed, k)`:
 
     data/<preset>/<suite>/<task>/<source>.hdf5          (state observations)
     data/<preset>/<suite>/<task>/<source>_<obs>.hdf5    (rgb / rgbd observations)
     data/<preset>/<suite>/<task>/<source>.set<k>.hdf5   (demonstration set k > 0)
 
-under the preset's data folder, `preset.data.root`: `data/` in the repository unless it is set
-(`get_preset` sets it from $ICIL_DATA; an empty value counts as unset).
-
-How a run survives being killed: every finished demo is written at once by the process that
-made it to its own shard file, `<file>.parts/demo_NNNNNN.hdf5`, through a temporary file and an
-atomic rename, so a shard on disk is always complete. When every demo is done, the shards and
-the demos already in the data set file are merged into a new file that replaces the old one
-atomically, and the shards are removed. A killed run therefore loses only the demos being
-generated at that moment; a re-run finds the finished demos (file and shards), generates only
-the missing indices and merges. Because demo `i`'s scenes and operator noise depend only on
-`i` and the base seed (`sources.demo_seed`), the result equals that of an uninterrupted run, with
-any number of worker processes.
-
-One writer per data set: `ensure_many` holds each data set's lock (`.<file>.lock` beside
-it, `fileio.exclusive_lock`, as training holds its run folder's) from reading what is there
-to the merge, so a second `icil-paper demos` or `train` that needs the same data set waits
-(saying for whom on stderr) and then finds it whole; shards are merged by the holder only.
-A holder that is killed releases the lock with its process.
-
-A damaged data set file or shard (one that HDF5 cannot read, or whose checksums fail) does not
-block a re-run: it is set aside under a unique name beside the data set (`set_aside`, never
-deleted), named in a warning, and its demos are generated again. Every run reads back all of
-a file but its image arrays; `full_check=True` (`icil-paper demos`) reads those too.
-
-Every file records the `generator` that made it. A file (or shard) made by an older generator
-that made its source's demonstrations differently (`OLDER_GENERATORS`) is never reused: it is
-set aside in the same way (as `<name>.outdated-<time>`), with a warning naming both
-generators, and generated again. A
-file written for another task, source, observation kind, base seed or scene distribution is
-refused with an error instead (that is a wrong setting, not old data).
-
-Scenes: the envs of a data set are built with its source's options
-(`sources.source_env_options`): the `human` source's kitchen demos are played on the kitchen
-suite's `human` scene distribution. The file's `scenes` attribute and its `env_args` say so.
+Guarantees:
+- A killed run loses only the demos in progress: each finished demo is written atomically
+  to its own shard (`<file>.parts/demo_NNNNNN.hdf5`), and the shards are merged into the
+  file (atomically replaced) when all are done. Demo i depends only on i and the base seed
+  (`sources.demo_seed`), so a resumed run equals an uninterrupted one, with any workers.
+- One writer per data set: `ensure_many` holds the data set's lock from reading to merge.
+- A damaged file or shard, or one made by an older generator (`OLDER_GENERATORS`), is set
+  aside under a new name (never deleted) with a warning and generated again; a file made
+  for another task, source, observation kind, seed or scene distribution is an error.
+- Envs are built with the source's options (`sources.source_env_options`); the file's
+  `scenes` and `env_args` attributes record them.
 """
 
 from __future__ import annotations

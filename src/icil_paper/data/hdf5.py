@@ -1,36 +1,27 @@
 """Demonstrations in robomimic's HDF5 layout: writer, loader, validation and integrity checks.
 
-Layout written (robomimic's, the one robosuite, RoboCasa and MimicGen data sets use, so that
-robomimic's own `SequenceDataset` reads it with its default arguments)::
+    demos = load_demos(path)                  # [Demo], validated; DatasetError names problems
 
-    data                      attrs: total (steps), env_args (JSON, `robomimic.env_args`),
-    |                                task, source, obs_kind, base_seed, action_dim,
-    |                                control_freq (Hz), depth_units, format
-    +-- demo_0                attrs: num_samples, task, source, instruction, seed,
-    |   |                            ep_meta (JSON), cameras (JSON, image data sets)
+Layout written (robomimic's, also robosuite's, RoboCasa's and MimicGen's, so robomimic's
+`SequenceDataset` reads it with its default arguments)::
+
+    data                      attrs: total, env_args (JSON), task, source, obs_kind,
+    |                                base_seed, action_dim, control_freq, depth_units, format
+    +-- demo_0                attrs: num_samples, task, source, instruction, seed, ep_meta
     |   +-- actions           (T, 7) float32
     |   +-- obs/proprio       (T, P) float32
     |   +-- obs/object        (T, O) float32
-    |   +-- obs/<cam>_image   (T, H, W, 3) uint8         one per camera (image data sets)
-    |   +-- obs/<cam>_depth   (T, H, W, 1) float32 metres one per camera (rgbd data sets)
+    |   +-- obs/<cam>_image   (T, H, W, 3) uint8          one per camera (image data sets)
+    |   +-- obs/<cam>_depth   (T, H, W, 1) float32 metres  one per camera (rgbd data sets)
     |   +-- next_obs/...      the same keys: the observation after each action
-    |   +-- states            (T, S) float64  simulator state before each action (optional)
-    |   +-- rewards, dones    (T,) float32, int64
+    |   +-- states            (T, S) float64, optional; rewards, dones (T,)
     +-- demo_1 ...
-    mask/train, mask/valid    demo names (bytes), robomimic's filter keys
+    mask/train, mask/valid    demo names, robomimic's filter keys
 
-Every dataset carries a Fletcher-32 checksum that HDF5 verifies on read, so flipped bytes
-raise instead of loading. Depth is in metres (robomimic's default depth processing clips to
-[0, 1]; scale it for robomimic models). Files of version 1 of this layout (one stacked
-`obs/rgb` (T, n_cams, H, W, 3) and `obs/depth` (T, n_cams, H, W), no `next_obs`, float32
-`states`) still load, and are rewritten in the current layout when demos are added to them.
-
-In memory every loader returns `Demo`s with the project's observation entries: `proprio`,
-`object`, `rgb` (T, n_cams, H, W, 3) and `depth` (T, n_cams, H, W), whichever file keys they
-come from (`icil_paper.data.obs_keys` maps those of robosuite / robomimic files). A demo's
-task, instruction and seed come from its attrs, else from `env_args`, RoboCasa's
-`ep_meta["lang"]`, and -1 (unknown). `load_demos` validates every demo and raises
-`DatasetError` naming the file, the demo and the problem, damaged files included.
+Every dataset carries a Fletcher-32 checksum that HDF5 verifies on read. Files of the
+layout's version 1 (stacked `obs/rgb`, `obs/depth`) still load. Loaders return `Demo`s with
+the entries `proprio`, `object`, `rgb` (T, n_cams, H, W, 3) and `depth` (T, n_cams, H, W),
+whatever the file's keys (`icil_paper.data.obs_keys` maps those of other tools' files).
 """
 
 from __future__ import annotations

@@ -1,28 +1,22 @@
 """Which observation keys of an HDF5 file become the project's `proprio`, `object`, `rgb`, `depth`.
 
-The project's policies read four observation entries per step: `proprio` (P,), `object` (O,),
-and for image policies `rgb` (n_cams, H, W, 3) uint8 and `depth` (n_cams, H, W) metres. Files
-of this project store them directly (`obs/proprio`, `obs/object`, `obs/<camera>_image`,
-`obs/<camera>_depth`; version 1 files one stacked `obs/rgb` / `obs/depth`). Files written by
-robosuite / robomimic tools (RoboCasa, MimicGen, robomimic's own data sets) are mapped
-(`map_obs_keys`), by default:
+    keys = map_obs_keys(available)          # available: key -> (shape, dtype kind)
+    keys = map_obs_keys(available, ["robot0_eef_pos", "agentview_image"])   # chosen keys
 
-    proprio = obs/proprio, if the file has it; else robosuite's end-effector keys
-              robot0_eef_pos (3) | robot0_eef_quat (4, x y z w) | robot0_gripper_qpos (2)
-              (those present, in this order); else every low-dim robot key (name starting
-              with robot, eef, ee_, tcp, gripper, joint, qpos, qvel), sorted by name
-    object  = obs/object, if the file has it; else every other low-dim key, sorted by name
-              (zero columns when there is none)
-    rgb     = every `<camera>_image` (T, H, W, 3) key, cameras in sorted order
+Files of this project store the four entries directly. Files of robosuite / robomimic tools
+(RoboCasa, MimicGen, robomimic's data sets) are mapped by default as:
+
+    proprio = obs/proprio if present; else robot0_eef_pos | robot0_eef_quat |
+              robot0_gripper_qpos (those present); else every low-dim robot key (robot*,
+              eef*, ee_*, tcp*, gripper*, joint*, qpos*, qvel*), sorted by name
+    object  = obs/object if present; else every other low-dim key, sorted (may be empty)
+    rgb     = every `<camera>_image` (T, H, W, 3) key, cameras sorted
     depth   = every `<camera>_depth` (T, H, W[, 1]) key, same order
 
-Low-dim keys are (T,) or (T, d) numeric arrays; several keys are concatenated in the order
-listed. Keys that none of these take are dropped, and the loader names them in a warning.
-
-`obs_keys` chooses the keys instead: a list of key names (`--obs-keys` on the command line),
-each going to `rgb` (`*_image`), `depth` (`*_depth`), `proprio` (`proprio` and robot keys, as
-above) or `object` (any other low-dim key), in the order given; or a mapping
-{"proprio": [...], "object": [...], "rgb": [...], "depth": [...]} that says it outright.
+Several low-dim keys are concatenated in the order listed; keys none of these take are
+dropped and named in a warning. `obs_keys` (`--obs-keys` on the command line) chooses
+instead: a list of key names, each sent to `rgb`, `depth`, `proprio` or `object` by the
+rules above, or a mapping {"proprio": [...], "object": [...], "rgb": [...], ...}.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """robomimic interoperability: the `env_args` our data sets carry, and any robomimic file as data.
 
 Our data sets load in robomimic 0.3's own `SequenceDataset` with its default arguments
-(`next_obs`, one key per camera, float64 `states`; layout in `icil_paper.data.hdf5`)::
+(layout in `icil_paper.data.hdf5`)::
 
     import robomimic.utils.obs_utils as ObsUtils
     from robomimic.utils.dataset import SequenceDataset
@@ -10,18 +10,14 @@ Our data sets load in robomimic 0.3's own `SequenceDataset` with its default arg
     data = SequenceDataset(path, obs_keys=("proprio", "object", "agentview_image"),
                            dataset_keys=("actions", "rewards", "dones"))
 
-robomimic's env factory cannot build our environments: its `type` 2 (gym) imports the legacy
-`gym` package and calls `gym.make(env_name)`, and its other types are robosuite's and
-iGibson's. So train robomimic models with `experiment.rollout.enabled = False`, and roll them
-out through `icil_paper.sim`. `env_args` says so and says how to build the env::
+robomimic's env factory cannot build our environments (its gym type needs the legacy `gym`
+package), so train robomimic models with `experiment.rollout.enabled = False` and roll them
+out through `icil_paper.sim`. `env_args` says how to build the env::
 
     {"env_name": "icil_paper/kitchen-open_drawer-v0",   # the task's gymnasium id
      "type": 2,                                         # robomimic's EnvType.GYM_TYPE
      "env_kwargs": {"obs": "state", ...},               # options of icil_paper.sim.make_env
-     "icil_paper": {"task": "kitchen/open_drawer", "control_freq": 20,
-                    "make_env": "icil_paper.sim.make_env(task, **env_kwargs)",
-                    "gymnasium": "import icil_paper.sim; gymnasium.make(env_name, **env_kwargs)",
-                    "robomimic": "robomimic's env factory cannot build this env; ..."}}
+     "icil_paper": {"task": "kitchen/open_drawer", "control_freq": 20, ...}}
 
 The other way, `load_dataset_file` reads any robomimic-layout file (robosuite, RoboCasa,
 MimicGen, robomimic's data sets) into the project's `Demo`s for training.

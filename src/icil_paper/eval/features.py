@@ -6,25 +6,17 @@ trajectories (Table III, Fig. 4), its codebook use, and whether Eq. 4 binds in i
     metrics["least_energy_standardized"], metrics["capped_fraction"], metrics["perplexity"]
 
 Which steps are scored (`held_out_pieces`, `FeatureSpec.sampling`): with `per_task` (the
-tables' default) every task of `spec.data.tasks` gets the same share,
-`spec.steps // len(tasks)` steps (500 features over 11 kitchen tasks: 45 each), taken from
-its held-out trajectories in order, each cut to what is left of the task's share:
+default) every task gets `spec.steps // len(tasks)` steps, taken from its held-out
+trajectories in order, each cut to what is left of the task's share:
 
     task 1: |--- trajectory 1 ---|-- 2 --|        share steps
     task 2: |-------- trajectory 1 ------|        share steps
     task 3: |-- trajectory 1 --|                  all it has (shorter than its share)
 
-The remainder of the division (`steps % len(tasks)`, fewer steps than there are tasks) is
-not scored, and a task whose held-out trajectories hold fewer steps than its share gives all
-it has: its shortfall is not made up from other tasks, so that no task weighs more than
-another. A last piece shorter than 3 steps (a least energy needs 3) is dropped. The record
-says what was scored (`tasks_scored`, `steps_per_task`, `trajectories_per_task`,
-`n_features`, `n_trajectories`). Every training seed of a row is measured with the same
-FeatureSpec, so every seed scores the same steps. `task_order` (the first `steps` of the
-trajectories in task order) is the earlier rule, kept to compare with.
-
-Stored as a `features` record (`icil_paper.records.features_record`) by the table
-scheduler (`icil_paper.tables.execute.run_cell`).
+A task's shortfall is not made up from other tasks, so no task weighs more than another; a
+last piece shorter than 3 steps (a least energy needs 3) is dropped. `task_order` scores
+the first `steps` of the trajectories in task order instead. The record says what was
+scored (`tasks_scored`, `steps_per_task`, `n_features`, ...).
 """
 
 from __future__ import annotations

@@ -5,43 +5,22 @@
     result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
                              prompts=demos, workers=2)
     result.success_rate, result.ci_low, result.ci_high, result.per_episode
-
-    # a table's evaluation: one policy on every task, in one call (one pool of workers,
-    # the tasks' episodes stepped side by side with one batched policy step)
+    # one policy on every task of a table, in one call
     results = evaluate_many(policy, [eval_spec(preset, t) for t in tasks],
                             prompts={t: prompt_pool(...) for t in tasks}, workers=2)
 
-Each episode i (of `EvalSpec.episodes`) is fixed by the evaluation seed alone:
+Episode i of `EvalSpec.episodes` is fixed by the evaluation seed alone: its env seed is
+`EVAL_SEED_BASE + 10_000 * seed + i` (above every demonstration seed, so scenes are unseen),
+its prompt `ICRTConfig.prompt_demos` demonstrations drawn from the prompt pool with
+`np.random.default_rng([seed, i])`, its scenes from `EvalSpec.scenes`. It runs until
+success, the episode's end or `max_steps`; actions are clipped to [-1, 1]. The rollout
+engine (`icil_paper.eval.rollouts`) steps `batch_size` envs in lockstep with one batched
+policy step, on `workers` processes; outcomes do not depend on the number of workers.
 
-- its environment seed is `EVAL_SEED_BASE + 10_000 * seed + i` (`icil_paper.data`), above
-  every seed demonstrations are generated with, so rollouts start from unseen scenes;
-- for an in-context policy, its prompt is `ICRTConfig.prompt_demos` demonstrations drawn
-  from the prompt pool with `np.random.default_rng([seed, i])`; the pool is the first
-  demonstrations of the task's data set from `EvalSpec.prompt_source` (or of another task's,
-  `prompt_task`, for the prompt ablation), each cut to `prompt_steps` if that is set;
-- its env draws the scene's layout from `EvalSpec.scenes` (the `scenes` option of
-  `make_env`, passed where it is not the default `generated`; a suite without named scene
-  distributions refuses another one), so the same episode seed gives a differently
-  arranged scene on the `human` distribution;
-- it runs until the task reports success, the episode ends, or `max_steps` (default the
-  task's horizon). Actions are clipped to [-1, 1].
-
-The rollout engine (`icil_paper.eval.rollouts`) runs the episodes: in lockstep groups of
-`batch_size` envs with one batched policy forward pass per step, on `workers` processes
-that each keep one copy of the policy and their envs for the whole call (or, with a
-`rollouts.RolloutPool`, across calls). The same seed gives the same episodes however they
-are split: for a fixed batch size the outcomes are identical for any number of workers, and
-another batch size changes the policy's actions by float rounding only. The success rate
-comes with a Wilson 95% interval (`icil_paper.stats`). Every episode also scores how
-smoothly the robot moved (its end-effector path's log dimensionless jerk and spectral arc
-length, and its commands' second difference: `icil_paper.metrics`), and the result holds
-their means over the episodes.
-
-Before any rollout the policy's observation and action widths are checked against the
-task's (`check_policy_fits`), so a policy trained on another suite fails with both widths
-named. With a `record_dir` each rollout is written as a rerun recording (the scene state,
-camera frames for image observations, the executed actions and, when the policy has an
-action tokenizer, its latent tokens of those actions) with a static picture beside it.
+The result holds the success rate with a Wilson 95% interval (`icil_paper.stats`) and the
+episodes' mean motion smoothness (`icil_paper.metrics.motion_smoothness`).
+`check_policy_fits` refuses a policy whose observation or action widths differ from the
+task's; with a `record_dir` each rollout is also written as a rerun recording.
 """
 
 from __future__ import annotations

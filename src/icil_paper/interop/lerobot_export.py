@@ -1,32 +1,25 @@
 """Export a demonstration data set (robomimic HDF5, as `icil-paper demos` writes it, or any
 robomimic-layout file) to a LeRobotDataset (format v3.0), through LeRobot's own writer.
 
-LeRobot 0.6 needs Python >= 3.12 and numpy >= 2, which the main environment (robosuite,
-ManiSkill 3 and numpy 1.26) cannot have. This module therefore runs in a separate
-environment and imports nothing else of `icil_paper`:
+LeRobot 0.6 needs Python >= 3.12 and numpy >= 2, which the main environment cannot have, so
+this module runs in a separate environment and imports nothing else of `icil_paper`:
 
     make lerobot-setup       # .venv-lerobot: Python 3.12 with lerobot[dataset] and h5py
     make lerobot-export FILE=data/small/kitchen/open_drawer/generated.hdf5 OUT=lerobot/open_drawer
     # or: PYTHONPATH=src .venv-lerobot/bin/python -m icil_paper.interop.lerobot_export FILE OUT
 
-and the result loads with `LeRobotDataset(repo_id, root=OUT)`.
+The result loads with `LeRobotDataset(repo_id, root=OUT)`. Mapping, per frame:
 
-Mapping, robomimic -> LeRobot (per frame):
+- `actions` -> `action`; `rewards` -> `next.reward`, `dones` -> `next.done`;
+- `obs/proprio` -> `observation.state` (without it, every other low-dimensional key,
+  concatenated in name order; the feature's `names` say where each entry comes from);
+- `obs/object` -> `observation.environment_state`;
+- `obs/<camera>_image` -> `observation.images.<camera>` (`--videos`: encoded to MP4);
+- the task: the demo's `instruction`, else the file's `task`, else `--task`; fps: the file's
+  `control_freq` (else `--fps`).
 
-- `actions` -> `action` (float32);
-- `obs/proprio` -> `observation.state`; a file without it (robosuite's own keys) puts every
-  other low-dimensional key there, concatenated in name order; the feature's `names` say
-  which key each entry comes from;
-- `obs/object` -> `observation.environment_state` (LeRobot's name for object state);
-- `obs/<camera>_image` (T, H, W, 3) uint8 -> `observation.images.<camera>`, stored as images
-  (`--videos`: encoded to MP4 by LeRobot, which needs its video encoder);
-- `rewards` -> `next.reward`, `dones` -> `next.done`;
-- the task: the demo's `instruction` attribute, else the file's `task`, else `--task`;
-- fps: `data.attrs["control_freq"]` (`--fps` for a file that has none).
-
-Depth images and any other key are named in a warning and left out. The data set is built
-in `OUT.partial` and renamed to `OUT` at the end, so a failed export leaves no half-written
-data set and never touches an existing one.
+Other keys (depth included) are named in a warning and left out. The data set is built in
+`OUT.partial` and renamed to `OUT` at the end, so a failed export leaves nothing half-written.
 """
 
 from __future__ import annotations

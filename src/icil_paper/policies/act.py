@@ -7,29 +7,21 @@ Plain ACT (`tokenizer=None`): a conditional VAE over the action chunk.
                     K learned queries ─ DETR decoder (self-attn, cross-attn to memory) ─> â_t .. â_(t+K-1)
     loss = L1(â, a) + kl_weight * KL(N(mu, sigma) || N(0, I));   at inference z = 0
 
-At inference a chunk is predicted every step and overlapping chunks are averaged with ACT's
-temporal ensembling (weights exp(-m i), i = 0 the oldest; `ACTConfig.ensemble_m`).
-Sizes come from `ACTConfig` (the same d_model / n_layer / n_head as BC-Transformer, as
-the paper scaled ACT down); the blocks are this library's Llama-style blocks with learned
+At inference overlapping chunks are averaged with ACT's temporal ensembling
+(`ACTConfig.ensemble_m`). The blocks are this library's Llama-style blocks with learned
 position embeddings instead of DETR's sine embeddings.
 
-ACT + tokenizer (`tokenizer="lipvq"` etc., Table II's rows). The paper replaces "ACT's cVAE
-action encoder" with each tokenizer and gives no further detail. Our reading: the tokenizer
-becomes ACT's action representation. Its embeddings of the true chunk (B, K, D_tok) are the
-decoder's regression target, and actions are the tokenizer's decoding of the decoder's
-output, so the tokenizer's latent space is what the policy has to predict:
+ACT + tokenizer (`tokenizer="lipvq"` etc.). The paper replaces "ACT's cVAE action encoder"
+with each tokenizer and says no more; our reading: the tokenizer's latent is what the policy
+predicts, and actions are its decoding:
 
     memory = [state token, camera tokens...]      (no CVAE and no z)
     K queries ─ decoder ─ Linear ─> ẑ (B, K, D_tok) ─ tokenizer.decode ─> â (B, K, A)
     loss = L1(â, a) + MSE(ẑ, sg[tokenizer(a).embeddings]) + tokenizer losses
 
-`tokenizer.decode` is the tokenizer's decoder for mlp, vq, lipvq and lfq. For bin and FAST it
-is a learned MLP head on the pooled step embedding (bin centres and FAST's inverse DCT start
-from discrete codes, which a regressed latent does not give), so ACT + Bin and ACT + FAST
-act through an MLP on a predicted latent, not through bin centres or the inverse DCT; the
-chapters name them so. The L1 term reaches the decoder or the head and, through `decode`,
-the decoder transformer. The target is detached so the policy cannot move it, while the
-tokenizer itself still learns through its own losses (trained jointly).
+`tokenizer.decode` is the tokenizer's own decoder for mlp, vq, lipvq and lfq, and a learned
+MLP head for bin and FAST (whose inverses start from discrete codes, which a regressed
+latent does not give). The target is detached; the tokenizer learns through its own losses.
 """
 
 from __future__ import annotations

@@ -1,45 +1,27 @@
 """The task suites behind one registry: `TASKS`, `make_env`, `make_expert`, `obs_dims`, `suite_of`.
 
-Suites, named by the prefix of a task name, each one `Suite` record (`icil_paper.sim.suite`) in
-`SUITE_ENTRIES`:
-
-- `metaworld/...` Meta-World's 50 tasks (`sim/metaworld/`): 13 stand in for RoboCasa's seven
-                  skill families, ML45 is the zero-shot split;
-- `kitchen/...`   door and drawer tasks on robosuite's Panda (`sim/kitchen/`), the simulated
-                  side of the sim-to-real table;
-- `kinova/...`    the same tasks on robosuite's Kinova3 arm with perturbed dynamics (our
-                  stand-in for the paper's real robot); same spaces as `kitchen`;
-- `maniskill/...` PickCube, PushCube and StackCube of ManiSkill 3 (Table II; `sim/maniskill/`);
-- `synthetic/...` a simulator-free reach task family (`icil_paper.sim.synthetic`) for tests and
-                  sanity checks.
-
-`SUITES` are the simulated suites of the paper's tables (what studies, notebooks and
-`TASKS` iterate over); `ALL_SUITES` adds `synthetic`, whose tasks every function here accepts
-but `TASKS` / `all_tasks()` leave out.
-
-Every environment is a `gymnasium.Env` (`icil_paper.sim.base.TaskEnv`)::
-
-    env = make_env("maniskill/pick_cube", obs="state", seed=0)
+    env = make_env("maniskill/pick_cube", obs="state", seed=0)   # a gymnasium.Env (TaskEnv)
     obs, info = env.reset()              # obs: {"proprio": (P,), "object": (O,)} float32
     expert = make_expert("maniskill/pick_cube"); expert.reset(env, obs)
     obs, reward, terminated, truncated, info = env.step(expert.act(obs))
     info["success"]                      # the task's success predicate, a bool
 
-with `env.name`, `env.action_dim` (7: position delta, axis-angle rotation delta, gripper, all in
-[-1, 1]), `env.horizon`, `env.instruction`, `env.observation_space`, `env.action_space`,
-`env.close()`. Image observations (`obs="rgb"` or `"rgbd"`) add `"rgb"` (uint8, n_cams, H, W, 3)
-and `"depth"` (float32 metres, n_cams, H, W). Within a suite every task has the same
-`obs_dims(suite) = (P, O)`: object states are zero-padded to the suite's width, so one policy
-trains on all tasks of a suite.
+Suites, named by the prefix of a task name (`SUITE_ENTRIES`, one `Suite` record each):
+`metaworld/` (Meta-World's 50 tasks; 13 stand in for RoboCasa's skill families, ML45 is the
+zero-shot split), `kitchen/` (door and drawer tasks on robosuite's Panda), `kinova/` (the same
+on a Kinova3 with perturbed dynamics, the stand-in for the real robot), `maniskill/`
+(PickCube, PushCube, StackCube; Table II) and `synthetic/` (a simulator-free reach task for
+tests). `SUITES` are the suites of the paper's tables; `ALL_SUITES` adds `synthetic`.
 
-Importing this package registers one gymnasium id per task (`gym_id`)::
+Actions are 7-D in [-1, 1] (position delta, axis-angle rotation delta, gripper). Image
+observations (`obs="rgb"` or `"rgbd"`) add `rgb` (uint8, n_cams, H, W, 3) and `depth`
+(float32 metres). Within a suite every task has the same `obs_dims(suite) = (P, O)` (object
+states zero-padded), so one policy trains on all of a suite's tasks.
 
-    import gymnasium as gym, icil_paper.sim
-    env = gym.make("icil_paper/kitchen-open_drawer-v0", obs="state")   # make_env's options
-
-Suite modules are imported only when used (they import their simulator only when an env is
-built), so the ManiSkill suite works while robosuite is missing and the other way round; a
-suite that fails to load is named with the reason when one of its tasks is asked for.
+Importing this package registers a gymnasium id per task (`gym_id`), e.g.
+`gym.make("icil_paper/kitchen-open_drawer-v0", obs="state")`. Suite modules, and their
+simulators, are imported only when used, so one suite works while another's simulator is
+missing; a suite that fails to load is named with the reason when one of its tasks is asked for.
 """
 
 from __future__ import annotations

@@ -6,33 +6,22 @@ What every task env has, whatever the simulator::
     env.obs_kind                              "state", "rgb" or "rgbd"
     env.action_dim = 7                        [dx, dy, dz, rx, ry, rz, gripper] in [-1, 1]
     env.cameras                               camera names of obs["rgb"] (empty for "state")
-    env.seed                                  seed of the current episode
-    env.action_space                          Box(-1, 1, (7,), float32)
-    env.observation_space                     Dict(proprio=Box, object=Box[, rgb=Box, depth=Box])
-    env.metadata                              render_modes ["rgb_array"], render_fps = control rate
-    env.render_mode, env.np_random            as gymnasium defines them
-    env.control_dt                            seconds per step (1 / render_fps)
-    env.eef_position()                        (3,) float64 end-effector position, metres,
-                                              read from the simulator (no observation noise)
+    env.seed, env.control_dt                  seed of the current episode; seconds per step
+    env.action_space, env.observation_space   Box(-1, 1, (7,)); Dict(proprio, object[, rgb, depth])
+    env.eef_position()                        (3,) end-effector position in metres (no noise)
 
     obs, info = env.reset(seed=None)           info["success"]: the task's predicate, a bool
     obs, reward, terminated, truncated, info = env.step(action)
     frame = env.render()                       (H, W, 3) uint8
 
-Seeding: an episode is fully determined by its seed. `reset(seed=s)` runs the episode of seed s
-and seeds `np_random` with s (gymnasium's `super().reset(seed=s)`); `reset()` without a seed
-runs the constructor's seed first, then seeds drawn from a generator seeded by the last
-explicit seed (the constructor's until `reset(seed=...)` is called), so that, as gymnasium
-requires, `reset(seed=s)` followed by `reset()` repeats exactly.
+An episode is fully determined by its seed: `reset(seed=s)` runs the episode of seed s;
+`reset()` runs the constructor's seed first, then seeds drawn from a generator seeded by the
+last explicit seed, so `reset(seed=s)` then `reset()` repeats exactly, as gymnasium requires.
+`terminated` is True on the first step where the task succeeds, `truncated` after `horizon`
+steps without success.
 
-Episodes: `terminated` is True on the first step where the task succeeds; `truncated` is True
-when `horizon` steps have run without success. Wrappers such as `TimeLimit` and
-`RecordEpisodeStatistics` apply as to any gymnasium env.
-
-Observation bounds (`state_box`): quaternion entries lie in [-1, 1], flags in [0, 1], and every
-position, distance or joint value in [-METRIC_BOUND, METRIC_BOUND] (no scene of these suites
-reaches that far: the arms reach about a metre, fixture joints are limited); observation noise
-widens them by NOISE_MARGIN standard deviations.
+Observation bounds (`state_box`): quaternions in [-1, 1], flags in [0, 1], metric values in
+[-METRIC_BOUND, METRIC_BOUND], widened by NOISE_MARGIN standard deviations of noise.
 """
 
 from __future__ import annotations

@@ -4,25 +4,20 @@
     cells = family_cells(preset, runs, preset.data.robocasa_tasks)   # a column per family + avg
     Row("icrt+lipvq", cells, paper_row)                             # one row of a TableSpec
 
-The results themselves (Tables I-VII, Fig. 5, the prompt ablation, the analysis table, the
-tokenizers since the paper, the official code) are declared one module each in
-`icil_paper.paper`, from these blocks:
+The results themselves are declared one module each in `icil_paper.paper`, from these blocks:
 
 - `seed_runs`: one RunSpec per training seed of a row; seed k trains on demonstration set k
   and, for ICRT, starts from the same backbone and draws the same batches as seed k of every
   other row (common random numbers).
-- `evaluation` (`table_eval` for the pilots): the evaluation of seed k on a task, on the
-  preset's episodes and scene set k, so that every row is evaluated on the same episodes and
-  two rows are compared episode by episode.
-- `tasks_cell`, `family_cells`: a cell over tasks, and the family columns of the RoboCasa
-  tables with their average.
-- `table_i_runs`, `table_i_seeds`: Table I's policies, which Tables III, IV, V, VI, the
-  prompt ablation, Fig. 5 (at the preset's codebook size), the analysis, `beyond` and
-  `official` tables reuse (the same RunSpecs), so that each policy is trained once.
+- `evaluation` (`table_eval` for the pilots): seed k's evaluation on a task, on the preset's
+  episodes and scene set k, so rows are compared episode by episode.
+- `tasks_cell`, `family_cells`: a cell over tasks; the family columns with their average.
+- `table_i_runs`, `table_i_seeds`: Table I's policies, which the other tables reuse (the same
+  RunSpecs), so that each policy is trained once.
 - `feature_spec`, `features_cell`, `with_codebook`: Table III's measurement of a trained
   tokenizer on held-out trajectories, and the codebook use beside a table.
-- `row_seeds`: the training seeds of one row (`tables.row_seeds`).
-- `icrt_rows`: Table I's protocol for chosen ICRT tokenizers (`icil-paper compare`).
+- `row_seeds`: the training seeds of one row; `icrt_rows`: Table I's protocol for chosen
+  ICRT tokenizers (`icil-paper compare`).
 """
 
 from __future__ import annotations

@@ -1,44 +1,26 @@
-"""`bspline`: B-spline control points of action chunks, BEAST style (Zhou et al. 2025,
-"BEAST: Efficient Tokenization of B-Splines Encoded Action Sequences for Imitation
-Learning").
+"""`bspline`: B-spline control points of action chunks, BEAST style (Zhou et al. 2025).
 
-Per chunk of C steps (C, A), each action dimension is fitted by a clamped cubic B-spline
-with K control points over the chunk's time axis s in [0, 1]:
+Per chunk of C steps (C, A), each action dimension is fitted by a clamped cubic B-spline with
+K control points over the chunk's time s in [0, 1]:
 
-    knots    t = (0, 0, 0, 0, 1/(K-3), 2/(K-3), ..., 1, 1, 1, 1)      (K + 4 knots, uniform,
-             clamped: the curve starts at the first control point and ends at the last)
     basis    Phi (C, K), Phi[i, k] = B_k(s_i), s_i = i / (C - 1)   (`BSpline.design_matrix`)
-    fit      P = argmin_P ||Phi P - chunk||^2 = pinv(Phi) chunk          (K, A) least squares
-             (the same as `scipy.interpolate.make_lsq_spline` per dimension; the tests check)
-    quantize codes = round((P - low_a) / (high_a - low_a) * (n_bins - 1))   integers (K, A)
-             in [0, n_bins), low_a / high_a the range of dimension a's control points over
-             the training chunks (`fit`), values outside clipped to it
-    decode   chunk_hat = Phi dequantize(codes)                            (C, A)
+    fit      P = pinv(Phi) chunk                                   (K, A) least squares
+    quantize codes = round((P - low_a) / (high_a - low_a) * (n_bins - 1))   in [0, n_bins)
+    decode   chunk_hat = Phi dequantize(codes)                     (C, A)
 
-`Phi` and `pinv(Phi)` are precomputed (float64 buffers), so encoding is two small matrix
-products in torch. Because every B_k(s) >= 0 and sum_k B_k(s) = 1, a curve moves by at most
-the largest move of its control points: the quantization error of a decoded chunk is at most
-(high_a - low_a) / (2 (n_bins - 1)) per dimension, and a chunk that is itself a cubic
-polynomial in s (any K >= 4 spans the cubics) is fitted exactly, so its round trip is exact
-up to that bound. Smooth chunks that are not cubic are fitted better as K grows.
+low_a / high_a are the range of dimension a's control points over the training chunks
+(`fit`). Since B_k >= 0 and sum_k B_k = 1, the decoded error per dimension is at most
+(high_a - low_a) / (2 (n_bins - 1)), and a cubic chunk is fitted exactly.
 
-One embedding per step (what the policy consumes), as `fast` does it: step t is tokenized
-as the chunk of the C actions ending at t (the first steps left-padded with the first
-action), so a step's tokens never see later actions, which a causal policy requires. Its
-K * A tokens each have a learned embedding per (control point, dimension, bin), as `bin`
-has per (dimension, bin), and are averaged into one vector. `reconstruction` is the
-decoded spline at the chunk's last sample, i.e. step t itself (for a clamped spline, the
-last control point); `decode(embeddings)` is a learned MLP head, trained on detached
-embeddings unless `autoencode=True`. `tokens_per_step` counts K * A tokens per C steps
-(BEAST's compression, for non-overlapping chunks).
+One embedding per step, as `fast`: step t is the chunk of the C actions ending at t (left-
+padded with the first action), so no step sees later actions. Its K * A tokens each have a
+learned embedding per (control point, dimension, bin), averaged into one vector.
+`reconstruction` is the decoded spline at step t; `decode(embeddings)` is a learned MLP head
+(on detached embeddings unless `autoencode=True`).
 
-Deviations from BEAST: plain least squares instead of its ridge-regularised fit (C >= K
-samples at distinct times make the problem well posed); a fixed degree of 3 (BEAST's degree
-is a parameter; cubic is its released processor's default); chunks ending at every step
-instead of consecutive chunks, so BEAST's continuity constraint between chunks (each
-chunk's first control point tied to the previous chunk's last) does not apply; the ranges
-are per action dimension, fitted once on the training data (BEAST normalises its actions
-and can update its bounds while encoding).
+Deviations from BEAST: plain least squares instead of its ridge fit; degree fixed at 3 (its
+released default); chunks ending at every step instead of consecutive chunks, so its
+continuity constraint between chunks does not apply; ranges fitted once per dimension.
 """
 
 from __future__ import annotations

@@ -4,40 +4,24 @@ Per chunk of `chunk` steps (C, A):
 
     coefficients = scipy.fft.dct(chunk, axis=time, norm="ortho")      (C, A)
     integers     = round(scale * coefficients)                         (C, A)
-    symbols      = integers flattened frequency-major (all dimensions of the lowest
-                   frequency first), each shifted to a non-negative symbol
+    symbols      = integers flattened frequency-major, shifted to be non-negative
     tokens       = BPE(symbols), a vocabulary of `vocab_size` trained by `fit`
-                   with the `tokenizers` package (min frequency 2)
 
-Decoding inverts every step. Because the DCT is orthonormal, rounding changes each
-coefficient by at most 1 / (2 scale), so the round-trip error of a chunk is at most
-sqrt(C * A) / (2 scale) in the Euclidean norm (and usually far less). Each rounded integer is
-one symbol of the BPE's initial alphabet, a byte whenever the range of integers seen in `fit`
-spans at most 256 values (true at scale 10 for actions in [-1, 1] and chunks up to 16 steps);
-values outside the fitted range are clipped to it.
+Decoding inverts every step; since the DCT is orthonormal, a chunk's round-trip error is at
+most sqrt(C * A) / (2 scale) in the Euclidean norm. Values outside the range seen in `fit`
+are clipped to it. A malformed token sequence (not exactly C * A symbols, or unknown ids)
+raises `FastDecodeError` in `decode_tokens` (the reference implementation returns zero
+actions), or with `strict=False` gives NaN actions and a per-sequence `ok` flag.
 
-A token sequence that does not decode to exactly C * A symbols (or holds ids outside the
-vocabulary) is malformed. The reference implementation turns those into zero actions,
-which hides the failure; here `decode_tokens` raises `FastDecodeError`, or, with
-`strict=False`, returns NaN actions and a per-sequence `ok` flag.
+One embedding per step: a chunk's token embeddings plus learned position embeddings,
+mean-pooled. `mode="causal"` (default): step t is the chunk of the actions ending at t
+(left-padded with the first action), so a step never sees later actions; to embed one new
+step pass the last `context_steps` actions. `mode="blocked"`: FAST's own non-overlapping
+chunks, each step its chunk's embedding plus its place in it (it then encodes later
+actions, which ICRT refuses).
 
-One embedding per step (what the policy consumes): a chunk's token embeddings, each plus a
-learned embedding of its position in the sequence, are mean-pooled into one vector. Two
-ways to assign chunks to steps:
-
-- `mode="causal"` (default): step t is tokenized as the chunk of the `chunk` actions
-  ending at t (the first steps are left-padded by repeating the first action). A step's
-  embedding then depends on past and present actions only, which is what an
-  autoregressive policy that reads earlier action tokens requires. To embed one new step
-  (at inference), pass the last `context_steps` actions and keep the last embedding.
-- `mode="blocked"`: non-overlapping chunks (FAST's own setting); every step of a chunk
-  gets the chunk's pooled embedding plus a learned embedding of the step's place in it.
-  Note that the embedding of a step then encodes *later* actions of its chunk.
-
-`tokens_per_step` always counts tokens of non-overlapping chunks (FAST's compression rate).
-`reconstruction` inverts the rounded coefficients (identical to decoding the tokens, since
-BPE is lossless; the tests check this); `decode(embeddings)` is a learned MLP head, trained
-on detached embeddings unless `autoencode=True`.
+`tokens_per_step` counts tokens of non-overlapping chunks (FAST's compression rate);
+`decode(embeddings)` is a learned MLP head (on detached embeddings unless `autoencode=True`).
 """
 
 from __future__ import annotations

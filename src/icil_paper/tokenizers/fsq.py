@@ -1,5 +1,4 @@
-"""`fsq` and `lipfsq`: finite scalar quantization (Mentzer et al. 2023, "Finite Scalar
-Quantization: VQ-VAE Made Simple"), with and without Eq. 4.
+"""`fsq` and `lipfsq`: finite scalar quantization (Mentzer et al. 2023), with and without Eq. 4.
 
     actions (B, T, A) --encoder--> z_e (B, T, d), d = len(levels)
         --FSQ: bound each dimension i to (-1, 1) by tanh, round to one of L_i levels-->
@@ -7,28 +6,20 @@ Quantization: VQ-VAE Made Simple"), with and without Eq. 4.
         --straight-through (round's gradient is the identity)--> (project to D) -->
         embeddings (B, T, D) --decoder--> x_hat
 
-The quantizer is `vector_quantize_pytorch.FSQ` (pinned in requirements.txt), given the
-encoder's output directly (`dim=len(levels)`, so it adds no projection of its own). The
-grid of dimension i holds the L_i values (j - floor(L_i / 2)) / floor(L_i / 2),
-j = 0 .. L_i - 1 (FSQ's `_scale_and_shift_inverse`): for odd L_i symmetric in [-1, 1], for
-even L_i from -1 to 1 - 1 / floor(L_i / 2). There is no codebook to learn, so no codebook or
-commitment loss: the loss is the reconstruction alone (plus Eq. 5's Lipschitz term for
-`lipfsq`).
+The quantizer is `vector_quantize_pytorch.FSQ`, given the encoder's output directly
+(`dim=len(levels)`, no projection of its own). Dimension i's grid holds the L_i values
+(j - floor(L_i / 2)) / floor(L_i / 2), j = 0 .. L_i - 1. There is no codebook, so the loss is
+the reconstruction alone (plus Eq. 5's Lipschitz term for `lipfsq`). The grid point is
+mapped to the token width D by a learned linear projection (as `lfq` does); the projected
+point is both the policy's embedding and the decoder's input.
 
-Code width: the grid point has d = len(levels) coordinates, usually fewer than the token
-width D; it is then mapped to D by a learned linear projection (as `lfq` does), and the
-projected point is both the embedding the policy consumes and what the decoder reads.
-
-`lipfsq` is the same tokenizer with every encoder layer a `LipschitzLinear` (Eq. 4), built
-by the same `base.build_encoder` as LipVQ-VAE's, and the same gamma prod_l softplus(c_l)
-term (`base.lipschitz_losses`): the encoder up to the quantizer is then Lipschitz in the
-infinity norm with constant at most prod_l softplus(c_l), and FSQ's bound
-tanh(z) * (L - 1) / 2 / floor(L / 2) adds a factor of at most 1 + 1e-3 before rounding.
+`lipfsq` makes every encoder layer a `LipschitzLinear` (`base.build_encoder`, as
+LipVQ-VAE's); FSQ's bound adds a factor of at most 1 + 1e-3 to the encoder's constant.
 
 Deviations from the FSQ paper: one action per step is quantized (the paper quantizes image
-patches); the encoder is this project's MLP (the paper's is a CNN / MaskGIT's); levels
-below 3 are refused (vector-quantize-pytorch needs its `preserve_symmetry` option for 2,
-which the FSQ paper does not use).
+patches); the encoder is this project's MLP; levels below 3 are refused
+(vector-quantize-pytorch needs its `preserve_symmetry` option for 2, which the paper does
+not use).
 """
 
 from __future__ import annotations

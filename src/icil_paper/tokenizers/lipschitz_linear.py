@@ -1,35 +1,23 @@
 """Row-wise Lipschitz weight normalization (Eq. 4 of the paper; Liu et al. 2022).
 
-For a linear map y = W x + b and the infinity norm,
+    layer = LipschitzLinear(64, 64)     # y = W' x + b, with W' = Eq. 4 applied to W
+    loss = lipschitz_loss(encoder)      # prod_l softplus(c_l): the paper's L_Lipschitz
 
-    ||W x - W x'||_inf = max_i |sum_j W_ij (x_j - x'_j)| <= (max_i sum_j |W_ij|) ||x - x'||_inf,
-
-so the layer's Lipschitz constant is the largest absolute row sum of W. Eq. 4 rescales every
-row whose absolute row sum exceeds a trainable bound softplus(c) down to exactly that bound
-and leaves the other rows alone:
+For y = W x + b in the infinity norm the Lipschitz constant is the largest absolute row sum
+of W. Eq. 4 rescales every row whose absolute sum exceeds a trainable bound softplus(c) down
+to that bound and leaves the other rows alone:
 
     W_i  <-  W_i * min(1, softplus(c) / sum_j |W_ij|)
 
-A 1-Lipschitz activation (ReLU, GELU, ...) does not increase the constant, so a network of
-such layers is Lipschitz with constant at most prod_l softplus(c_l). That product is the
-paper's L_Lipschitz term (`lipschitz_loss`), weighted by 1e-6 in the training loss.
+With 1-Lipschitz activations between them, a chain of such layers is Lipschitz with
+constant at most prod_l softplus(c_l), the term `lipschitz_loss` returns (weighted by 1e-6
+in the training loss).
 
-Initialisation follows Liu et al. 2022: W ~ randn * sqrt(2 / in_features) and c set to the
-largest absolute row sum of the initial W, so that nothing is rescaled at the start
-(softplus(c) > c). The official LipVQ-VAE code instead keeps one bound per output row,
-initialised to ones, with randn weights; `per_row=True, c_init=1.0, weight_init="randn"`
-gives that variant.
-
-How fast the bounds move. Adam moves each parameter by about its learning rate per step,
-whatever the size of its gradient, so in a run a bound c can travel at most about
-lr * sum_t schedule(t) (0.75 for 3000 steps at 5e-4 with warm-up and cosine decay) while
-Liu et al.'s initial bounds are 5-14 for the encoders here. With nothing capped, the only
-gradient c gets is the Lipschitz term's, which pushes it down at that speed however small
-gamma is; once rows are capped, the task loss pushes back through them. The paper gives no
-learning rate for c (it trains every parameter with one optimiser, as Liu et al. do), so by
-default c shares the trainer's learning rate; `c_lr_scale` multiplies it for the bounds
-alone (`bound_parameter_groups`, which the policy's AdamW and the stand-alone tokenizer's
-Adam both use), so that they can travel their own size within a short budget.
+Initialisation follows Liu et al.: W ~ randn * sqrt(2 / in_features), c at the largest
+absolute row sum of W, so nothing is rescaled at the start. `per_row=True, c_init=1.0,
+weight_init="randn"` gives the official LipVQ-VAE code's variant (one bound per row).
+The bounds may train at their own learning rate (`c_lr_scale`, read by
+`bound_parameter_groups`).
 """
 
 from __future__ import annotations

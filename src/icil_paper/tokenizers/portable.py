@@ -5,30 +5,21 @@
     from icil_paper.tokenizers import load_tokenizer
     tokenizer = load_tokenizer("exported/lipvq")    # eval mode; actions (B, T, A) -> codes
 
-The folder (`save_tokenizer` writes it; `icil_paper.interop.tokenizer_export` from a run
-folder's `policy.pt`):
+The folder (`save_tokenizer` writes it):
 
     config.json           {"format": "icil_paper.tokenizer/1",
                            "tokenizer": {"type": "lipvq", "latent_dim": 64, ...},  # its config
-                           "action_dim": 7,
-                           "extra_state": {...},   # fitted state that is not a tensor
+                           "action_dim": 7, "extra_state": {...},   # fitted non-tensor state
                            "files": {"weights.safetensors": "<sha256>", ...},
                            "facts": {...}, "source": {...}, "provenance": {...},
                            "checksum": "<sha256 of everything above>"}
-    weights.safetensors   every tensor of the tokenizer's state_dict (parameters and fitted
-                          buffers: bin ranges, codebooks, Lipschitz bounds, `_fitted`)
-    bpe.json              FAST only: its fitted byte-pair encoding, in the `tokenizers`
-                          package's own JSON (`tokenizers.Tokenizer.from_file` reads it)
+    weights.safetensors   the tokenizer's state_dict (parameters and fitted buffers)
+    bpe.json              FAST only: its byte-pair encoding (`tokenizers.Tokenizer.from_file`)
 
-Fitted state travels with it: bin ranges and B-spline ranges are buffers (in the weights);
-FAST's BPE vocabulary and symbol range are its `get_extra_state` (in `extra_state`, the BPE
-in its own file). Loading builds the tokenizer from its config alone (`make_tokenizer`) and
-loads the weights with `strict=True`, so a key that is missing or left over is an error.
-
-Loading refuses, with a `TokenizerFolderError` (a ValueError: one line and exit 2 at the
-command line) naming the file and the fix: a folder of another format version, a config
-that is not JSON or does not match its checksum (edited by hand or damaged), a weights or
-BPE file whose sha256 differs from the config's (truncated, damaged, swapped), and weights
+Loading builds the tokenizer from its config alone (`make_tokenizer`) and loads the weights
+with `strict=True`. It refuses with a `TokenizerFolderError` (a ValueError: one line and
+exit 2 at the command line) naming the file and the fix: another format version, a config
+that does not match its checksum, a file whose sha256 differs from the config's, weights
 that do not fit the config.
 """
 

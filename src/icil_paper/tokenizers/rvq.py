@@ -1,6 +1,5 @@
 """`rvq` and `liprvq`: residual vector quantization, VQ-BeT's action tokenizer (Lee et al.
-2024, "Behavior Generation with Latent Actions"; the quantizer of Zeghidour et al. 2021,
-SoundStream), with and without Eq. 4.
+2024; the quantizer of SoundStream, Zeghidour et al. 2021), with and without Eq. 4.
 
     actions (B, T, A) --encoder--> z_e (B, T, D)
         level 1: k_1 = nearest code of codebook 1 to r_0 = z_e,        r_1 = r_0 - e_1[k_1]
@@ -8,29 +7,18 @@ SoundStream), with and without Eq. 4.
         ...      (Q levels, K codes each)
         z_q = e_1[k_1] + ... + e_Q[k_Q] --> embeddings (B, T, D) --decoder--> x_hat
 
-A step's code is (k_1, ..., k_Q), K^Q combinations from Q * K stored vectors; each level
-quantizes what the levels before it left, so the quantization error ||z_e - z_q|| falls
-level by level (`level_errors`; the tests check it).
+Each level quantizes what the levels before it left, so the error ||z_e - z_q|| falls level
+by level (`level_errors`); `codes_used_per_level` counts each level's distinct codes.
 
-The quantizer is `vector_quantize_pytorch.ResidualVQ` (pinned in requirements.txt) with its
-defaults: codebooks updated by exponential moving averages of the encoder outputs assigned
-to them (decay 0.8; no codebook loss), gradients passed to the encoder by the rotation
-trick (Fifty et al. 2024) instead of VQ-VAE's straight-through copy, and no dead-code
-replacement. Losses: L_rec + beta * sum over levels of ||r_(l-1) - sg[e_l[k_l]]||^2 (the
-library's per-level commitment loss, in training), plus Eq. 5's Lipschitz term for
-`liprvq`.
+The quantizer is `vector_quantize_pytorch.ResidualVQ` with its defaults: EMA codebooks
+(decay 0.8, no codebook loss), the rotation trick (Fifty et al. 2024) for the encoder's
+gradient, no dead-code replacement. Loss: L_rec + beta * the per-level commitment loss, plus
+Eq. 5's Lipschitz term for `liprvq`, whose encoder layers are all `LipschitzLinear`
+(`base.build_encoder`, as LipVQ-VAE's).
 
-`liprvq` is the same tokenizer with every encoder layer a `LipschitzLinear` (Eq. 4), built
-by the same `base.build_encoder` as LipVQ-VAE's, with the same gamma prod_l softplus(c_l)
-term (`base.lipschitz_losses`).
-
-Deviations from VQ-BeT: one action per step is quantized (VQ-BeT quantizes a chunk of
-actions with an MLP encoder and predicts the codes with a GPT; here the codes' vectors are
-the action tokens ICRT reads); the encoder is this project's MLP; VQ-BeT's offset head is
-not used (the decoder reconstructs from the quantized latent alone).
-
-`codes_used_per_level` (chapter 05) counts the distinct codes of each level separately:
-residual VQ can collapse level by level.
+Deviations from VQ-BeT: one action per step is quantized (VQ-BeT quantizes a chunk and
+predicts codes with a GPT; here the codes' vectors are the tokens ICRT reads); the encoder
+is this project's MLP; no offset head.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@
         --nearest codebook entry (L2), Eq. 2--> z_q = e_k, k = argmin_j ||z_e - e_j||^2
         --straight-through: z_e + sg[z_q - z_e]--> embeddings (B, T, D) --decoder--> x_hat
 
-Losses (Sec. III-B, Eq. 5, the total loss; squared errors are means over elements):
+Losses (Eq. 5; squared errors are means over elements), alpha = 1, beta = 0.25, gamma = 1e-6:
 
     L = L_rec + alpha L_codebook + beta L_commit + gamma L_Lipschitz
     L_rec      = ||x_hat - x||^2
@@ -12,24 +12,15 @@ Losses (Sec. III-B, Eq. 5, the total loss; squared errors are means over element
     L_commit   = ||z_e - sg[z_q]||^2        (keeps the encoder near its codes)
     L_Lipschitz = prod_l softplus(c_l)      (only with Lipschitz layers)
 
-with alpha = 1.0, beta = 0.25, gamma = 1e-6. The embeddings the policy consumes are the
-quantized codebook vectors with VQ-VAE's straight-through gradient: the forward value is
-z_q, the backward pass copies the gradient of z_q to z_e, so the reconstruction and policy
-losses train the encoder and the codebook learns from the codebook loss alone
-(`VQConfig.straight_through`: `vqvae`, the default). `codebook` is the form
-z_q + (z_e - sg[z_e]): the same value and the same encoder gradient, but the decoder's and
-the policy's gradients also reach the codebook vectors. `none` gives z_q itself (the
-official code: the encoder learns from the commitment loss only).
+`VQConfig.straight_through`: `vqvae` (default) as drawn; `codebook`, z_q + (z_e - sg[z_e]),
+also sends the decoder's and policy's gradients to the codes; `none` gives z_q itself (the
+official code). `VQConfig.norm`, the encoder's weight normalisation (`base.build_encoder`):
+`none`, `lipschitz` (every layer Eq. 4: LipVQ-VAE as the paper writes it), `lipschitz-last`
+(the official code) or `spectral`.
 
-`VQConfig.norm` picks the encoder's weight normalisation (`base.build_encoder`): `none`
-(VQ-VAE), `lipschitz` (every layer a LipschitzLinear, Eq. 4: LipVQ-VAE as the paper writes
-it), `lipschitz-last` (the official code) or `spectral` (chapter 03's comparison).
-
-Codebook collapse (most steps on a few codes) is common at small scale; three standard
-remedies are options, all off by default (the paper's plain method): `codebook_init="data"`
-(codes start at encoder outputs), `dead_code_restart=N` (every N training steps, codes
-unused since the last restart jump to random encoder outputs of the batch) and
-`codebook_weight_decay=False` (the optimiser does not pull unused codes to zero).
+Remedies for codebook collapse, all off by default (the paper's plain method):
+`codebook_init="data"`, `dead_code_restart=N` (unused codes jump to encoder outputs every N
+steps) and `codebook_weight_decay=False`.
 """
 
 from __future__ import annotations

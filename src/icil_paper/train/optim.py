@@ -29,8 +29,7 @@ def make_optimizer(model: nn.Module, lr: float, weight_decay: float,
     nanoGPT, and none on what the model's `no_weight_decay()` names (e.g. a codebook).
 
     The bounds c of Lipschitz layers (Eq. 4) get groups of their own, at `lr` times their
-    `c_lr_scale` and without decay (`bound_parameter_groups`); at the default scale 1
-    their updates are those of the no-decay group.
+    `c_lr_scale` and without decay (`bound_parameter_groups`).
     """
     bounds = bound_parameter_groups(model, lr)
     own_group = {id(p) for group in bounds for p in group["params"]}

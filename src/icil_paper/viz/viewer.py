@@ -5,25 +5,22 @@
     show_recordings({"open_drawer": ("a.rrd", "a.png"), ...})       # one viewer, a menu
 
 Executed by `make book`, the cell stages the `.rrd` file and its static picture in the book's
-build folder (`RECORDINGS_STAGING`, named by content hash, so a changed recording gets a new
-address), and its output is an HTML block that the built page turns into:
+build folder (`RECORDINGS_STAGING`, named by content hash), and outputs an HTML block that
+the built page shows as:
 
     +--------------------------------------------------+
-    | rerun web viewer (canvas), started by            |  _static/recording-viewer.js, with
-    | book/_static/recording-viewer.js                 |  npm @rerun-io/web-viewer in
-    +--------------------------------------------------+  _static/vendor/rerun-web-viewer/
-    | static picture: shown until the viewer starts,   |
-    | and for good where it cannot (JavaScript off,    |
-    | a page opened from file://, no WebGL)            |
+    | rerun web viewer (canvas), started by            |
+    | book/_static/recording-viewer.js                 |
+    +--------------------------------------------------+
+    | static picture: until the viewer starts, and     |
+    | where it cannot (no JavaScript, file://, no WebGL)|
     +--------------------------------------------------+
     | download link to the .rrd, `rerun <file>` hint   |
     +--------------------------------------------------+
 
-The book's Sphinx extension (`book/_ext/book_assets.py`) copies the staged files into the
-built book's `_static/recordings/`, so the book is self-contained. The viewer is rerun 0.24,
-which reads the recordings that rerun-sdk 0.23 writes (rerun keeps the previous minor
-version's files readable); `python -m tools.browser_check` checks that every recording
-opens in it.
+The book's Sphinx extension (`book/_ext/book_assets.py`) copies the staged files into
+`_static/recordings/`, so the book is self-contained. The viewer is rerun 0.24, which reads
+rerun-sdk 0.23's recordings; `python -m tools.browser_check` checks that each one opens.
 """
 
 from __future__ import annotations

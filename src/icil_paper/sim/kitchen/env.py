@@ -1,37 +1,27 @@
 """The kitchen suite's environments: a robosuite `ManipulationEnv` per scene and a
 `gymnasium.Env` around it with the project's observation dict (`icil_paper.sim.base.TaskEnv`).
 
-Action (7-D, every entry in [-1, 1]), robosuite's OSC_POSE controller with delta input at
-20 Hz (`load_composite_controller_config(controller="BASIC")`)::
+    env = make_env("kitchen/open_drawer", obs="state", seed=0)
+
+Action (7-D in [-1, 1]), robosuite's OSC_POSE controller with delta input at 20 Hz, in the
+robot base frame; the rotation an axis-angle vector applied on the left of the current
+end-effector orientation::
 
     a = [dx, dy, dz,  rx, ry, rz,  g]
-         position     rotation     gripper
          x 0.05 m     x 0.5 rad    +1 closes, -1 opens
 
-Position and rotation deltas are in the robot base frame (aligned with the world); the
-rotation is an axis-angle vector applied on the left of the current end-effector orientation.
+Observation (the same widths for every kitchen and Kinova task)::
 
-Observation (a dict of numpy arrays, the same widths for every kitchen and Kinova task)::
-
-    proprio (9,)  float32 = end-effector position (3) | quaternion x, y, z, w (4)
-                            | finger offsets (2)
-    object  (18,) float32 = see `icil_paper.sim.kitchen.scenes` (joint position, key point
-                            pose, target pose, key point - end effector)
+    proprio (9,)  float32 = grip-site position (3) | quaternion x, y, z, w (4) | finger offsets (2)
+    object  (18,) float32 = see `icil_paper.sim.kitchen.scenes`
     rgb     (2, H, W, 3) uint8     cameras agentview, robot0_eye_in_hand (obs="rgb"/"rgbd")
     depth   (2, H, W) float32      metres (obs="rgbd")
 
-The end effector is the gripper's grip site (between the fingertips). Its quaternion is made
-unique by taking the sign whose dot product with the downward-pointing, unturned gripper's
-quaternion (x, y, z, w) = (0.707, 0.707, 0, 0) is positive, so it does not flip while the
-gripper points down and turns by less than 180 degrees either way.
-The finger offsets are the distances of the left and right finger pads from the grip site
-along the closing axis, signed (+left, -right) like robosuite's Panda `robot0_gripper_qpos`
-(within 4 mm of it); being geometric, they mean the same for the Panda gripper and the
-Kinova's Robotiq 2F-85, so both arms share one proprio layout.
-
-Episodes: `terminated` is True on the first step where the task's success predicate holds
-(the episode is over, like ManiSkill's success termination); `truncated` is True when the
-horizon is reached without success. The reward is sparse: 1.0 on success steps, else 0.0.
+The quaternion's sign is chosen so that it does not flip while the gripper points down. The
+finger offsets are the finger pads' signed distances from the grip site (+left, -right, like
+robosuite's `robot0_gripper_qpos`); being geometric, they mean the same for the Panda's and
+the Kinova's grippers. `terminated` on the first success step, `truncated` at the horizon;
+the reward is 1.0 on success steps, else 0.0.
 """
 
 from __future__ import annotations

@@ -1,39 +1,27 @@
 """Scenes of the kitchen suite: which fixture stands on the counter, where (per seed), and what
 counts as success.
 
-A scene builds its MJCF fixture once (`build`), binds to the simulator's ids once (`bind`) and
-re-samples its layout on every reset (`reset`: fixture position and yaw on the counter, initial
-joint position) by writing `model.body_pos` / `model.body_quat` and `qpos`, so resets never
-rebuild the model. `make_scene(scene, goal, scenes)` builds the scene of a task.
+    scene = make_scene(scene, goal, scenes="generated")
 
-The object-state vector (`object_state`, KITCHEN_OBJECT_DIM = 18 entries, the same layout for
-every kitchen and Kinova task)::
+A scene builds its MJCF fixture once (`build`), binds to the simulator's ids once (`bind`) and
+re-samples its layout on every reset (`reset`: fixture position and yaw, initial joint
+position) by writing `model.body_pos`, `model.body_quat` and `qpos`, never rebuilding the model.
+
+The object-state vector (`object_state`, KITCHEN_OBJECT_DIM = 18, every kitchen and Kinova task)::
 
     [0]      joint position of the fixture's moving part (door: rad, drawer: m)
     [1:4]    key point position: the handle
-    [4:8]    moving part orientation, quaternion x, y, z, w
+    [4:8]    moving part orientation, quaternion x, y, z, w (sign: w >= 0)
     [8:11]   target position: the fixture's base
-    [11:15]  target orientation, quaternion x, y, z, w
+    [11:15]  target orientation, quaternion x, y, z, w (sign: w >= 0)
     [15:18]  key point minus end-effector position
 
-Quaternions are made unique by a sign convention (w >= 0) so that they do not flip between
-steps. Positions are world coordinates in metres; the counter top is at z = COUNTER_Z.
-
-Scene distributions. Every scene draws its layout from one of `SCENE_DISTRIBUTIONS` (the env
-option `scenes`), with the same random draws in the same order, so only the ranges differ:
-
-- `generated` (the default): our stand-in for MimicGen's scenes. The `generated` source's data
-  sets, the Kinova tasks' data sets of both sources (their suite offers no other) and every
-  evaluation are drawn from it.
-- `human`: our stand-in for the scenes of RoboCasa's human data set ("sparser object
-  arrangements"), on which the `human` source plays its demonstrations of the kitchen tasks
-  (`icil_paper.data.sources`). The cabinets stand further back and further out to their
-  side, turned over a wider range of yaw; the ranges overlap the generated ones only in part
-  (each scene's `layouts`). Every layout stays within the scripted experts' reach (their
-  success on both distributions: `python -m icil_paper.data.experts --suites kitchen`).
-
-Where x is measured from the counter's centre towards the far edge (the robot's base is at
-x = -0.56) and y to the robot's left; yaw turns a fixture anticlockwise seen from above.
+Positions are world coordinates in metres (counter top at z = COUNTER_Z; x from the counter's
+centre towards the far edge, y to the robot's left). Scene distributions (`SCENE_DISTRIBUTIONS`,
+the env option `scenes`) differ only in their ranges (each scene's `layouts`): `generated`
+(the default, the stand-in for MimicGen's scenes, used by every evaluation) and `human` (the
+stand-in for RoboCasa's human data set: cabinets further back and out, a wider yaw), on which
+the `human` source plays its demonstrations.
 """
 
 from __future__ import annotations

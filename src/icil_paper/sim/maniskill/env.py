@@ -1,38 +1,26 @@
 """The ManiSkill suite's env: PickCube-v1, PushCube-v1 and StackCube-v1 as the project's gymnasium
 envs (the suite itself, `MANISKILL_SUITE`, is `icil_paper.sim.maniskill`).
 
-ManiSkill 3 runs the Panda arm on SAPIEN; on a machine without a GPU it needs a Vulkan device
-(Mesa's lavapipe, see `icil_paper.sim.rendering`) even for state observations, and uses the
-CPU physics backend (`physx_cpu`); with a CUDA GPU it uses `physx_cuda`.
+ManiSkill 3 runs the Panda on SAPIEN: on the CPU physics backend (`physx_cpu`) with a Vulkan
+device (Mesa's lavapipe, `icil_paper.sim.rendering`) when there is no GPU, else `physx_cuda`.
 
-Action space (the same as the kitchen suite's, 7-D, every entry in [-1, 1])::
+Action (7-D in [-1, 1], as the kitchen suite's), ManiSkill's `pd_ee_delta_pose` controller::
 
     a = [dx, dy, dz,  rx, ry, rz,  g]
-         position     rotation     gripper
          x 0.1 m      x 0.1 rad    +1 closes, -1 opens (robosuite's sign)
 
-The arm runs ManiSkill's `pd_ee_delta_pose` controller: translation in the robot's root frame,
-rotation about root-aligned axes at the end effector. The rotation part is an axis-angle vector
-(clipped to norm 1, i.e. 0.1 rad, as ManiSkill clips its own); the wrapper converts it to the
-XYZ Euler angles and sign that ManiSkill's controller takes (its normalized rotation input is
-multiplied by `rot_lower = -0.1`), so a policy sees a plain axis-angle delta.
+The rotation is an axis-angle delta (clipped to norm 1), converted to ManiSkill's Euler input.
 
-Observations (a dict of numpy arrays, the same keys for every task of the suite)::
+Observations (the same keys for every task of the suite)::
 
     proprio (9,)  = tcp position (3) | tcp quaternion x, y, z, w (4) | finger offsets (2)
-    object  (21,) = object pose (7: position, quaternion xyzw) | tcp -> object (3)
-                    | object grasped (1) | target pose (7) | object -> target (3)
+    object  (21,) = object pose (7) | tcp -> object (3) | object grasped (1) | target pose (7)
+                    | object -> target (3)
     rgb     (1, H, W, 3) uint8   and depth (1, H, W) float32 metres, for obs="rgb"/"rgbd"
 
-`proprio` has the layout of robosuite's `robot0_eef_pos | robot0_eef_quat | robot0_gripper_qpos`
-(and of the kitchen suite), so data sets of either simulator (and robomimic files) map onto the
-same keys: positions in the world frame, the quaternion's sign chosen so that its x component
-(the axis of the downward-pointing, unturned gripper, quaternion (1, 0, 0, 0) in x, y, z, w) is
-not negative, so it does not flip while the gripper points down; the finger offsets are the two
-finger joints signed (+left, -right) like robosuite's Panda `robot0_gripper_qpos`. The "target" is
-where the object should end up: PickCube's goal point, PushCube's goal region, and for StackCube
-the spot one cube height above cube B (with cube B's orientation). Images come from ManiSkill's
-own `base_camera` (128 x 128 by default).
+`proprio` has the layout of robosuite's `robot0_eef_pos | robot0_eef_quat | robot0_gripper_qpos`,
+so data sets of either simulator map onto the same keys. The target is PickCube's goal point,
+PushCube's goal region, or the spot one cube height above StackCube's cube B.
 """
 
 from __future__ import annotations

@@ -1,47 +1,25 @@
 """The Meta-World suite's env: one goal-observable Meta-World v3 task as the project's
 gymnasium env (`icil_paper.sim.base.TaskEnv`).
 
-Meta-World moves a Sawyer's hand by a mocap body, 1 cm per action unit and step, at 80 Hz
-(frame_skip 5 of a 2.5 ms timestep). The project's 7-D action maps onto Meta-World's 4-D one::
+Actions: Meta-World moves a Sawyer's hand by a mocap body at 80 Hz; the 7-D action maps as
 
     a = [dx, dy, dz,  rx, ry, rz,  g]   ->   Meta-World [dx, dy, dz, g]
          x 0.01 m     ignored      +1 closes, -1 opens
 
-The rotation entries are ignored: Meta-World's gripper keeps pointing down.
-
-Observation: Meta-World's 39-D state (`raw_observation()`) split into the suite's keys::
-
-    raw = [hand xyz, grip | obj1 pos, quat | obj2 pos, quat]  now          (18)
-          [hand xyz, grip | obj1 pos, quat | obj2 pos, quat]  one step ago (18)
-          [goal xyz]                                                       (3)
+Observation: Meta-World's 39-D state (hand, gripper, two objects now and one step ago, and
+the goal, always observable: many experts read their target from it) split into keys:
 
     proprio (8,)  float32 = hand xyz, gripper opening (0..1) now | the same one step ago
     object  (31,) float32 = obj1 pos, quat | obj2 pos, quat now (14) | one step ago (14) | goal (3)
-    rgb     (2, H, W, 3) uint8   cameras corner, gripperPOV (obs="rgb"/"rgbd")
+    rgb     (2, H, W, 3) uint8   cameras corner (turned upright), gripperPOV
     depth   (2, H, W) float32    metres, clipped to the far plane (obs="rgbd")
 
-Meta-World pads a task's missing second object with zeros; the goal is always observable
-(the classes of `ALL_V3_ENVIRONMENTS_GOAL_OBSERVABLE`: ML benchmarks zero it, and many experts
-read their target from it). The `corner` camera's up axis points down in Meta-World's XML, so
-its images are turned by 180 degrees.
-
-Layouts (Meta-World's `_last_rand_vec`: object, goal and fixture positions) come from the
-episode's seed: `reset(seed=s)` draws them with `np.random.default_rng(s)` uniformly from the
-task's `_random_reset_space`, re-drawing when the task rejects a draw (objects too close to
-their goal), so a seed is a layout. Scene distributions (the option `scenes`):
-
-- `generated`: Meta-World's own random-reset box;
-- `human` (our stand-in for the arrangements of RoboCasa's human data set): the hand starts at
-  Meta-World's `hand_init_pos` shifted by up to the task's `hand_shift` per axis, and every
-  layout coordinate is drawn from the task's `outer` fraction of its range at either end:
-  5 cm and the outer 40% (20% at each end) for most tasks. Smaller where that breaks the
-  expert: no hand shift for box-close and basketball (their experts miss the lid or ball
-  from a shifted start); no hand shift and the outer 70% for door-open and peg-insert-side
-  (their experts fail from a shifted start and at an edge of the layout box: a door at its
-  low-x, low-y corner, a box at its far y edge).
-
-Episodes: `terminated` on the first step Meta-World counts as a success (`info["success"]`);
-`truncated` at `horizon` steps (default 200; Meta-World's own 500-step limit is lifted).
+Layouts (object, goal and fixture positions) come from the episode's seed, drawn with
+`np.random.default_rng(s)` from the task's random-reset box, so a seed is a layout. Scene
+distributions (`scenes`): `generated`, Meta-World's own box; `human` (the stand-in for
+RoboCasa's human data set), layouts from the outer part of each range and a shifted hand
+start, per task (`metaworld.tasks`). `terminated` on Meta-World's first success,
+`truncated` at `horizon` steps (default 200).
 """
 
 from __future__ import annotations
