@@ -285,8 +285,8 @@ def sparc(speed, dt: float, padlevel: int = SPARC_PADLEVEL, cutoff: float = SPAR
 
     the spectrum zero-padded to 2^(ceil(log2 T) + padlevel) points. Independent of the
     movement's amplitude and duration and of rests around it. Higher is smoother, a
-    minimum-jerk reach about -1.40. NaN for fewer than `MIN_MOTION_STEPS - 1` samples, a profile that is zero
-    throughout or non-finite values.
+    minimum-jerk reach about -1.40. NaN for fewer than `MIN_MOTION_STEPS - 1` samples, a
+    profile that is zero throughout or non-finite values.
     """
     dt = _check_dt(dt)
     v = np.asarray(speed.detach().cpu().numpy() if hasattr(speed, "detach") else speed,
@@ -314,8 +314,8 @@ def sparc(speed, dt: float, padlevel: int = SPARC_PADLEVEL, cutoff: float = SPAR
 
 def action_second_difference(actions) -> float:
     """Mean squared second difference of executed actions (T, A):
-    mean_t ||a[t+2] - 2 a[t+1] + a[t]||^2 (every dimension, the gripper's included). 0 for actions that change
-    linearly in time; NaN for fewer than 3 actions or non-finite values."""
+    mean_t ||a[t+2] - 2 a[t+1] + a[t]||^2 (every dimension, the gripper's included). 0 for
+    actions that change linearly in time; NaN for fewer than 3 actions or non-finite values."""
     a = _as_signal(actions, None, "actions")
     if a is None or len(a) < 3:
         return math.nan

@@ -1,45 +1,26 @@
 """From demonstrations to training batches: prompt/query sequences (ICRT) and windows (baselines).
 
-ICRT's token layout (Eq. 1 of the paper, with the query's own actions in context as in
-ICRT's code). A prompt is one or more full demonstrations of the task, concatenated; the
-query is a window of `query_len` steps of another demonstration of the same task:
+    data = DemoSet(demos)                                           # arrays, grouped by task
+    batch = prompt_query_batch(data, B, query_len, K, prompt_demos=1, rng=rng)   # ICRT
+    batch = window_batch(data, B, history, K, rng)                  # the baselines
 
-    prompt (M steps, no loss)                            query (N steps, loss)
-    ┌────────────────────────────────────────────┐  ┌──────────────────────────────────────┐
-     o_p1  a_p1  o_p2  a_p2   ...   o_pM  a_pM        o_q1  a_q1  o_q2  a_q2  ...  o_qN  a_qN
-      │     │                                          │           │                │
-      └─────┴── one token each; causal attention:      ▼           ▼                ▼
-                every token sees itself and all      head        head             head
-                tokens to its left                  â_q1..     â_q2..           â_qN..
-                                                   a_q(1+K-1)
+ICRT's token layout (Eq. 1, with the query's own actions in context as in ICRT's code). The
+prompt is one or more demonstrations of the task, the query a window of `query_len` steps of
+another demonstration of the same task (`prompt_from="minibatch"`, the official code's
+rule: prompts from the same random minibatch, whatever their task):
 
-    o_* : observation token (ObservationEncoder)   a_* : action token (tokenizer embeddings)
-    K   : chunk_size, the head predicts K future actions at each query observation token
+    prompt (M steps, no loss)                        query (N steps, loss)
+     o_p1  a_p1  o_p2  a_p2 ... o_pM  a_pM            o_q1  a_q1  o_q2  a_q2 ... o_qN  a_qN
+                                                       │           │              │
+           causal attention: each token sees          head        head           head
+           itself and every token to its left        â_q1..â_q(K) â_q2..         â_qN..
 
-With `prompt_from="minibatch"` (the official LipVQ-VAE code) the prompt is not chosen by
-task: a minibatch of (P + 1) B distinct demonstrations is drawn at random and its first P B
-prompt its last B, P each, in order (P = 1: the first half prompts the second half), so a
-prompt may show another task than its query. The query count per batch stays B, so only the
-prompt's source differs from the default.
+The head reads only the query's observation tokens, so o_qt never sees a_qt, the action it
+predicts. Batches are padded at the end of short prompts and queries; `prompt_valid` /
+`query_valid` mark real steps. A baseline's window is drawn in `window_batch`.
 
-The head reads only the query's observation tokens, so o_qt sees a_q1 .. a_q(t-1) but never
-a_qt, the action it must predict. Prompt positions carry no loss. The batch is padded: a
-prompt shorter than the longest in the batch is padded at its end, and so is a short query;
-`prompt_valid` / `query_valid` mark real steps and the model skips padding (it is never
-attended to and does not shift the positions of real tokens).
-
-Windows for the baselines (BC-Transformer, ACT, MCR), for a step t of one demonstration:
-
-    history (H steps, edge-padded at the start)      future actions (K steps)
-    o_(t-H+1) ... o_(t-1)  o_t                     a_t  a_(t+1) ... a_(t+K-1)
-    a_(t-H+1) ... a_(t-1)  a_t   (per-step targets)   (masked past the episode's end)
-
-`ObsSpec` (here, beside the batching that reads it, and below every policy) names the
-observation keys and shapes a policy reads; `as_obs_spec` builds one from a width, a
-mapping of keys to shapes, or an observation dict (`obs_spec_from_obs`).
-
-Every sampler draws from a NumPy Generator, so a batch sequence is reproducible from the
-generator's state (which the training loop checkpoints).
+`ObsSpec` names the observation keys and shapes a policy reads (`as_obs_spec` builds one).
+Every sampler draws from a NumPy Generator, so a batch sequence is reproducible.
 """
 
 from __future__ import annotations
@@ -322,6 +303,12 @@ def _minibatch_pairs(n_demos: int, batch_size: int, prompt_demos: int,
 def window_batch(data: DemoSet, batch_size: int, history: int, chunk_size: int,
                  rng: np.random.Generator) -> dict[str, Any]:
     """Sample B steps uniformly over all demonstration steps, with history and future actions.
+
+    The window of a step t of one demonstration (BC-Transformer, ACT, MCR)::
+
+        history (H steps, edge-padded at the start)      future actions (K steps)
+        o_(t-H+1) ... o_(t-1)  o_t                     a_t  a_(t+1) ... a_(t+K-1)
+        a_(t-H+1) ... a_(t-1)  a_t   (per-step targets)   (masked past the episode's end)
 
     Returns: obs {key: (B, H, ...)} (edge-padded at the episode start), obs_valid (B, H)
     (False for padded history steps), actions (B, H, A) the action taken at each history

@@ -1,42 +1,27 @@
 """ICRT: in-context imitation with a causal transformer over prompt and query (Sec. III-A).
 
-    prompt demo(s) ─┐                                   query (this episode)
-    o_p1 a_p1 ... o_pM a_pM                             o_q1 a_q1 o_q2 a_q2 ... o_qt
-      │    │                                              │    │                 │
-      │    └ tokenizer(actions).embeddings ─ MLP ─┐       │    └ (same)          │
-      └ ObservationEncoder ───────────────────────┤       └ ObservationEncoder   │
-                                                  ▼                              ▼
-                         causal transformer (RMSNorm, RoPE, SwiGLU; transformer.py)
-                                                                                 │
-                                          MLP head at query observation tokens ─ â_t .. â_(t+K-1)
+    policy = make_policy("icrt", obs_dim, action_dim, tokenizer="lipvq")
+    loss, info = policy(batch)                   # batch: policies.batching.prompt_query_batch
+    policy.reset_batch(prompts); actions = policy.select_actions(obs_list)   # acting, B at once
 
-The token layout is drawn in `icil_paper.policies.batching`. Choices, and why:
+    prompt o_p1 a_p1 ... o_pM a_pM, query o_q1 a_q1 ... o_qt   (layout: policies.batching)
+      o: ObservationEncoder, a: tokenizer(actions).embeddings ─ MLP
+      ─> causal transformer (transformer.py) ─> MLP head at query observation tokens ─> â_t..â_(t+K-1)
 
-- Query actions in context. The paper's Eq. 1 lists only query observations; ICRT's code
-  interleaves the query's own past actions as well (s1, a1, s2, a2, ...), and so do we by
-  default (`ICRTConfig.query_actions`): at step t the policy has seen what it did at steps
-  < t. The head reads the query's observation tokens only, so the observation token of step t
-  never sees a_t. With `query_actions=False` the query is observations only, as Eq. 1 reads.
-- Loss. L1 between the predicted chunk and the next K demonstrated actions, over query steps
-  only (prompt positions get no loss, and chunk entries past the episode's end are masked),
-  plus the tokenizer's own losses (reconstruction, codebook, commitment, Lipschitz), so the
-  tokenizer is trained jointly with the policy as the paper does.
-- Action tokens must not carry information about later actions (the observation tokens
-  after them must not see the future). Every tokenizer here embeds step t from actions up
-  to t: the per-step ones from a_t alone, FAST (in its default causal mode) from the chunk
-  of C actions ending at t. A query action token is computed from the same C actions at
-  training (the batch carries the C - 1 actions before the query window) and at inference
-  (the policy keeps the last C executed actions), so the two agree exactly. FAST's
-  "blocked" mode, whose step tokens encode later actions of their chunk, is refused. The
-  prompt's actions are embedded as whole trajectories.
-- Inference. `reset(prompt)` runs the prompt through the transformer once and keeps every
-  layer's keys and values (a KV cache); each `select_action(obs)` then appends the previous
-  action's token and the new observation's token and costs one step, independent of the
-  prompt's length. The first action of the predicted chunk is executed (clipped to the
-  action range, and embedded as such at the next step). `reset_batch(prompts)` and
-  `select_actions(obs_list)` do the same for B episodes at once with one batched cache
-  (prompts of different lengths padded, finished episodes dropped): one forward pass per
-  step for all of them.
+- Query actions in context, as ICRT's code (the paper's Eq. 1 lists only query observations;
+  `ICRTConfig.query_actions=False` gives that). The head reads the query's observation
+  tokens, so the token of step t never sees a_t.
+- Loss: L1 between the predicted chunk and the next K demonstrated actions on query steps,
+  plus the tokenizer's own losses (trained jointly with the policy, as in the paper).
+- Causality of action tokens: every tokenizer embeds step t from actions up to t (FAST's
+  causal mode from the chunk of C actions ending at t; its blocked mode is refused). The
+  batch carries the C - 1 actions before the query window, and at inference the policy
+  keeps the last C executed actions, so training and acting embed alike.
+- Inference: the prompt runs through the transformer once into a KV cache; each step then
+  appends the previous action's and the new observation's tokens. The first action of the
+  chunk is executed, clipped to [-1, 1]. `reset(prompt)` / `select_action(obs)` act for one
+  episode, `reset_batch` / `select_actions` for B in one forward pass per step (prompts
+  padded, finished episodes dropped).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Look inside a trained ICRT on one batch: what each token is, and where the loss reaches.
 
     from icil_paper.policies.inspection import token_roles, token_loss_gradients
-    roles = token_roles(policy, batch)           # {"segment", "kind", "step", "valid", "supervised"}
+    roles = token_roles(policy, batch)           # segment, kind, step, valid, supervised
     grads = token_loss_gradients(policy, batch)  # (B, L) |dL/dh| at each output position
 
 `batch` is a training batch of `prompt_query_batch`; positions follow the token layout drawn

@@ -9,20 +9,18 @@ Shapes: B batch, T tokens, D = d_model, H heads, hd = D / H head width.
     x (B, T, D) ─┬─ RMSNorm ─ Attention(RoPE, mask, KV cache) ─(+)─┬─ RMSNorm ─ SwiGLU ─(+)─> (B, T, D)
                  └──────────────────────────────────────────────┘  └──────────────────────┘
 
-Masks. A boolean `attn_mask` of shape (B, 1, T_query, T_key) says which key each query may
-attend to (True = attend). `causal_mask` builds it from a per-token validity mask, so padded
-batches work without moving tokens around: padding tokens are never attended to, and each
-token may always attend to itself (a padding row is then well defined and simply ignored).
+Masks: a boolean `attn_mask` (B, 1, T_query, T_key), True = attend, built by `causal_mask`
+from a per-token validity mask, so padded batches need no moving of tokens: padding is never
+attended to, and each token always attends to itself (a padding row is well defined).
 
-Positions. Rotary embeddings are computed on the fly from integer positions, so there is no
-table to outgrow; keys are rotated *before* they enter the cache, which makes dropping old
-cache entries (see `KVCache.evict`) safe: attention scores depend only on the positions
-that were used when each key was written.
+Positions: rotary embeddings from integer positions that count real tokens only. Keys are
+rotated before they enter the cache, so dropping old cache entries is safe: attention scores
+depend only on the positions used when each key was written.
 
-Batched decoding. One `KVCache` holds a batch of independent sequences (B episodes acting
-in lockstep): rows of different lengths are padded with invalid entries, each row keeps its
-own next position, and rows can leave the batch (`KVCache.select_rows`) or hide their oldest
-entries (`KVCache.invalidate`). Each row then equals a cache of its own up to float rounding.
+Batched decoding: one `KVCache` holds B independent sequences (episodes acting in lockstep),
+each with its own next position; rows can leave the batch (`KVCache.select_rows`) or hide
+their oldest entries (`KVCache.invalidate`), and each row equals a cache of its own up to
+float rounding.
 """
 
 from __future__ import annotations
@@ -121,15 +119,14 @@ def positions_from_valid(valid: Tensor, start: Tensor | int = 0) -> Tensor:
 class KVCache:
     """Keys and values of every layer for the tokens seen so far (inference only).
 
-    keys[l], values[l]: (B, H, P, hd); valid: (B, P) bool; next_position: (B,) the position
-    the next real token gets. Each layer's keys and values live in a buffer with room to
-    grow (doubled when full), so appending a step copies only the new columns, not the
-    whole cache.
+    valid: (B, P) bool, which cached columns are real tokens; next_position: (B,) the position
+    the next real token gets. Each layer's keys and values (B, H, P, hd) live in a buffer with
+    room to grow (doubled when full), so appending a step copies only the new columns.
 
-    Rows are independent sequences (a batch of episodes): rows of different lengths are
-    padded with invalid columns, which no query attends to. `select_rows` keeps some rows
-    (finished episodes drop out), `invalidate` hides columns of single rows (a row's oldest
-    query steps), and `drop_columns` removes columns from every row.
+    Rows are independent sequences (a batch of episodes), padded with invalid columns that no
+    query attends to. `select_rows` keeps some rows (finished episodes drop out) and
+    `invalidate` hides single rows' columns (a row's oldest query steps); both then remove the
+    columns that no row uses any more, so the cache stays as small as its longest row.
     """
 
     def __init__(self, n_layer: int):
@@ -141,20 +138,6 @@ class KVCache:
 
     def __len__(self) -> int:
         return 0 if self.valid is None else self.valid.shape[1]
-
-    @property
-    def batch_size(self) -> int:
-        return 0 if self.valid is None else self.valid.shape[0]
-
-    @property
-    def keys(self) -> list[Tensor | None]:
-        """Each layer's cached keys (B, H, P, hd) (views of the buffers)."""
-        return [None if k is None else k[:, :, :n] for k, n in zip(self._keys, self._used, strict=True)]
-
-    @property
-    def values(self) -> list[Tensor | None]:
-        """Each layer's cached values (B, H, P, hd) (views of the buffers)."""
-        return [None if v is None else v[:, :, :n] for v, n in zip(self._values, self._used, strict=True)]
 
     def append(self, layer: int, k: Tensor, v: Tensor) -> tuple[Tensor, Tensor]:
         """Add this step's keys/values (B, H, T, hd) of one layer; return all of them."""
@@ -173,48 +156,36 @@ class KVCache:
         self._used[layer] = n + T
         return self._keys[layer][:, :, :n + T], self._values[layer][:, :, :n + T]
 
-    def _rebuild(self, rows: Tensor | None = None, columns: Tensor | None = None) -> None:
-        """Keep only `rows` (index) and `columns` (bool over P) of every layer's buffers."""
+    def invalidate(self, hide: Tensor) -> None:
+        """Hide the cached tokens where `hide` (B, P) bool is True (no query attends to them
+        any more)."""
+        self.valid = self.valid & ~hide
+        self._compact()
+
+    def select_rows(self, rows: Tensor | list[int]) -> None:
+        """Keep only these rows (e.g. the episodes still running), in this order."""
+        rows = torch.as_tensor(rows, dtype=torch.long, device=self.valid.device)
+        self.valid, self.next_position = self.valid[rows], self.next_position[rows]
+        self._compact(rows)
+
+    def _compact(self, rows: Tensor | None = None) -> None:
+        """Keep `rows` of every layer's buffers (all: None) and drop the columns no row uses."""
+        keep = self.valid.any(dim=0)  # (P,)
+        drop = not bool(keep.all())
+        if rows is None and not drop:
+            return
         for i, n in enumerate(self._used):
             if self._keys[i] is None:
                 continue
             k, v = self._keys[i][:, :, :n], self._values[i][:, :, :n]
             if rows is not None:
                 k, v = k[rows], v[rows]
-            if columns is not None:
-                k, v = k[:, :, columns], v[:, :, columns]
+            if drop:
+                k, v = k[:, :, keep], v[:, :, keep]
             self._keys[i], self._values[i] = k.contiguous(), v.contiguous()
             self._used[i] = k.shape[2]
-
-    def evict(self, start: int, stop: int) -> None:
-        """Drop cached tokens [start, stop) of every layer (e.g. the oldest query steps)."""
-        keep = torch.ones(len(self), dtype=torch.bool, device=self.valid.device)
-        keep[start:stop] = False
-        self.drop_columns(~keep)
-
-    def drop_columns(self, drop: Tensor) -> None:
-        """Remove the columns where `drop` (P,) bool is True from every row and layer."""
-        keep = ~drop
-        self._rebuild(columns=keep)
-        self.valid = self.valid[:, keep]
-
-    def invalidate(self, hide: Tensor) -> None:
-        """Hide the cached tokens where `hide` (B, P) bool is True (no query attends to them
-        any more); then remove the columns hidden in every row."""
-        self.valid = self.valid & ~hide
-        empty = ~self.valid.any(dim=0)
-        if empty.any():
-            self.drop_columns(empty)
-
-    def select_rows(self, rows: Tensor | list[int]) -> None:
-        """Keep only these rows (e.g. the episodes still running), in this order; then remove
-        the columns that were padding in every kept row."""
-        rows = torch.as_tensor(rows, dtype=torch.long, device=self.valid.device)
-        self._rebuild(rows=rows)
-        self.valid, self.next_position = self.valid[rows], self.next_position[rows]
-        empty = ~self.valid.any(dim=0)
-        if empty.any():
-            self.drop_columns(empty)
+        if drop:
+            self.valid = self.valid[:, keep]
 
 
 class Attention(nn.Module):

@@ -13,7 +13,7 @@ the built page shows as:
     | book/_static/recording-viewer.js                 |
     +--------------------------------------------------+
     | static picture: until the viewer starts, and     |
-    | where it cannot (no JavaScript, file://, no WebGL)|
+    | where it cannot (no JavaScript, file://, WebGL)  |
     +--------------------------------------------------+
     | download link to the .rrd, `rerun <file>` hint   |
     +--------------------------------------------------+
