@@ -205,7 +205,7 @@ def regime_preset(demos_per_task: int, steps: int, overrides: tuple[str, ...] = 
         tok = getattr(preset.tokenizers, field)
         changes[field] = dataclasses.replace(tok, lipschitz=dataclasses.replace(
             tok.lipschitz, c_lr_scale=scale))
-    return preset.replace(tokenizers=dataclasses.replace(preset.tokenizers, **changes))
+    return preset.replace(tokenizers=preset.tokenizers.replace(**changes))
 
 
 def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
