@@ -26,7 +26,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from icil_paper import paper_numbers
+from icil_paper import paper_numbers, plugins
 from icil_paper.benchmark_tasks import ML45_HELD_OUT, ML45_TRAIN, ROBOCASA_TASKS
 from icil_paper.config_data import (
     KEYED_WHEN_SET,
@@ -156,7 +156,9 @@ class ComponentConfigs(Mapping[str, Any]):
 
     @classmethod
     def registered(cls) -> dict[str, type]:
-        """attribute name -> config class of every component registered now."""
+        """attribute name -> config class of every component registered now (entry-point
+        plugins included: `plugins.discover`)."""
+        plugins.discover()
         return {name.replace("-", "_"): config for name, config in cls.REGISTRY.configs.items()}
 
     @classmethod
