@@ -167,40 +167,53 @@ HEAVY = frozenset({
 })
 """The third-party packages that may be imported inside a function: heavy to import (torch
 alone takes a second), or optional (a simulator, Ray, rerun, LeRobot's own environment).
-Every other import, and every import of this package, sits at the top of its file. One
-exception: a package's `__init__` may import its own torch-backed modules inside its
-module-level `__getattr__` (PEP 562), so that `from icil_paper.tokenizers import
-make_tokenizer` works while importing the package (and its torch-free configs) loads no
-torch; the import graph still counts those edges."""
+Every other import, and every import of this package, sits at the top of its file, but for
+the explicit imports of `LAZY`."""
+
+LAZY = {
+    "__getattr__": "a package's `__init__` imports its own torch-backed modules on first use of "
+                   "their names (PEP 562): `from icil_paper.tokenizers import make_tokenizer` "
+                   "works while importing the package (and its torch-free configs) loads no torch",
+    "command_main": "the command line imports a subcommand's module when it runs "
+                    "(`icil_paper.cli`), so that `icil-paper --help` is fast",
+}
+"""Module-level functions whose imports of this package load heavy modules on use; the
+import graph still counts those edges."""
 
 
 def nested_imports(source: str, package: str | None = None) -> list[tuple[int, str]]:
     """(line, statement) of every import in `source` that is not at the top of the file (in a
     function, a class, or a block such as `if __name__ == "__main__":`) and imports something
     other than a `HEAVY` package. Imports under `if TYPE_CHECKING:` run only for type
-    checkers and count as the top of the file. `package`: `source` is that package's
-    `__init__`, whose module-level `__getattr__` may import the package's own modules."""
+    checkers and count as the top of the file. `package`: where `source` is a package's
+    `__init__`, its module-level `__getattr__` may import that package's modules; anywhere, a
+    module-level `command_main` may import this package's (`LAZY`)."""
     found: list[tuple[int, str]] = []
 
-    def own(node: ast.Import | ast.ImportFrom) -> bool:
-        return (package is not None and isinstance(node, ast.ImportFrom) and node.level == 0
-                and node.module == package)
+    def lazy_ok(node: ast.Import | ast.ImportFrom, function: str | None) -> bool:
+        if not isinstance(node, ast.ImportFrom) or node.level or not node.module:
+            return False
+        if function == "__getattr__":
+            return package is not None and node.module == package
+        return function == "command_main" and node.module.startswith("icil_paper.")
 
     def light(node: ast.Import | ast.ImportFrom) -> bool:
         if isinstance(node, ast.ImportFrom):
             return node.level > 0 or (node.module or "").split(".")[0] not in HEAVY
         return any(a.name.split(".")[0] not in HEAVY for a in node.names)
 
-    def visit(node: ast.AST, top: bool, lazy: bool = False) -> None:
+    def visit(node: ast.AST, top: bool, function: str | None = None) -> None:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
                 continue
             if isinstance(child, (ast.Import, ast.ImportFrom)):
-                if not top and light(child) and not (lazy and own(child)):
+                if not top and light(child) and not lazy_ok(child, function):
                     found.append((child.lineno, ast.unparse(child)))
                 continue
-            visit(child, top=False, lazy=lazy or (
-                top and isinstance(child, ast.FunctionDef) and child.name == "__getattr__"))
+            if top:  # a module-level function of LAZY, or none
+                function = child.name if isinstance(child, ast.FunctionDef) \
+                    and child.name in LAZY else None
+            visit(child, top=False, function=function)
 
     visit(ast.parse(source), top=True)
     return found
@@ -233,6 +246,9 @@ def test_nested_imports_are_found():
     assert nested_imports(lazy, "icil_paper.tokenizers") == [
         (3, "from icil_paper.sim import make_env"), (5, "from icil_paper.tokenizers import base")]
     assert len(nested_imports(lazy)) == 3  # only a package's own __init__ may
+    dispatch = ("def command_main(c):\n    if c == 'a':\n        from icil_paper.x import main\n"
+                "    return main\ndef other():\n    from icil_paper.y import main\n")
+    assert nested_imports(dispatch) == [(6, "from icil_paper.y import main")]
 
 
 def test_imports_inside_functions_are_heavy_dependencies_only():

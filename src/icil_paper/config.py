@@ -277,18 +277,16 @@ class TrainConfig(_Checked):
     """Decay of an exponential moving average of weights, or None for no EMA."""
     compile: bool = False
     """Compile the training forward and backward passes with `torch.compile` (inductor).
-    Losses match eager mode to float tolerance, not bit for bit, so it enters run keys.
-    Measured for the reference ICRT on one CPU thread (`tools/bench/cells.py`): see the README."""
+    Losses match eager mode to float tolerance, not bit for bit, so it enters run keys."""
     ckpt_every: int = field(default=500, metadata=NOT_KEYED)
     """Steps between checkpoints (a killed run loses at most this many; resuming gives the
     same result as an uninterrupted run, so it does not enter run keys)."""
     log_every: int = field(default=10, metadata=NOT_KEYED)
     """Steps between lines of the metrics JSONL file."""
     cpu_threads: int = field(default=1, metadata=NOT_KEYED)
-    """torch CPU threads while training on CPU; 0 keeps torch's default. One thread is the
-    default because the small models here gain little from more, and a CPU shared with other
-    processes (rollout workers, a second job) makes torch's spinning thread pool many times
-    slower (measured 0.23 vs 6.2 steps/s on a loaded 2-core machine)."""
+    """torch CPU threads while training on CPU; 0 keeps torch's default. One, because the
+    small models here gain little from more, and torch's spinning thread pool slows down
+    many times on a CPU shared with other processes."""
 
 
 @dataclass(frozen=True)
@@ -319,13 +317,9 @@ CLAIM_IDS = (
 PRIMARY_CLAIMS = ("I-lipvq-vs-bc", "II-lipvq-vs-act", "III-lipvq-smoothest", "IV-vq",
                   "V-lipvq-vs-bc", "V-lipvq-smoother-motion")
 """The primary family, declared before the data it is tested on: the claims that carry the
-paper's three questions as its abstract and conclusion state them, read from the text alone.
-Q1: "improves performance by more than 5.3%" (I-lipvq-vs-bc) and "outperforms
-state-of-the-art baselines on RoboCasa and ManiSkill" (I-lipvq-vs-bc, II-lipvq-vs-act). Q2:
-"improves smoothness over other tokenizers" (III-lipvq-smoothest), "leading to improved
-robotic manipulation performance" through the Lipschitz condition (IV-vq, Eq. 4 on VQ-VAE).
-Q3: the real robot confirms "smoother, more reliable trajectories" (V-lipvq-smoother-motion,
-V-lipvq-vs-bc). Every other testable claim is secondary."""
+paper's three questions as its abstract and conclusion state them (Q1: outperforms the
+baselines; Q2: smoother latents and Eq. 4 improve success; Q3: the real robot confirms it).
+Every other testable claim is secondary."""
 
 FAMILY_WEIGHTS = (0.8, 0.2)
 """Shares of the familywise 5% given to the primary and the secondary family."""
@@ -673,15 +667,7 @@ their runs (Tables III-VI, the paper's rows of `official` and `beyond`)."""
 
 REFERENCE_SEED_STAGES = (5, 10, 15)
 """The reference preset's looks (`TablesConfig.seed_stages`): 5 seeds a row, then up to 10,
-then up to 15. At the measured seed spread (a per-seed standard deviation of about 0.05 in
-kitchen success plus 0.04-0.05 of episode noise at 11 tasks x 5 episodes) a difference of
-two rows has a 95% half-width of about 0.12 at 5 seeds, 0.07 at 10 and 0.05 at 15 (less
-for a paired difference, whose rows share their seed's scenes): large effects (the +0.36 of
-ICRT + LipVQ-VAE over BC-Transformer) are decided at 5 or 10, smaller ones go on while the
-effect observed so far gives them a chance at the last look (`continuation_power`).
-O'Brien-Fleming-type spending keeps the last look's level at 0.044 of 0.05 (for a single
-look), so a claim that runs to 15 seeds loses little power for the early looks
-(`stats.SequentialDesign`)."""
+then up to 15, with O'Brien-Fleming-type spending (`stats.SequentialDesign`)."""
 
 
 REFERENCE_BUDGET_HOURS = 12.0
@@ -692,18 +678,14 @@ go on."""
 
 REFERENCE_EPISODES = ("kinova=7", "maniskill=56", "metaworld=9")
 """The reference preset's rollouts per task by suite (`TablesConfig.episodes_per_task_by_suite`),
-at cost-optimal counts. The rows of a pair play the same scenes, so the variance of a paired
-per-seed difference splits into an episode part and a seed-by-row part. Meta-World's count
-comes from the regime pilot's paired outcomes (`planning.pilot.regime_episodes`: three seeds
-cannot tell its seed-by-row part from 0, so the count is the one at which evaluating every
-task costs as much as training, 9); ManiSkill's (56) and the Kinova stand-in's (7) from the
-committed kitchen-run records (`planning.design.episode_design`; `python -m
-icil_paper.planning.cost --preset reference --episodes`), whose suites and cells those are."""
+at cost-optimal counts: Meta-World's from the regime pilot's paired outcomes
+(`planning.pilot.regime_episodes`), ManiSkill's and the Kinova stand-in's from the committed
+kitchen-run records (`planning.design.episode_design`)."""
 
 
 REGIME_DEMOS, REGIME_STEPS = 50, 500
 """The reference preset's demonstrations per task and training steps, as the regime pilot
-chose them (`icil_paper.planning.pilot`, `results/bench/regime.json`, chapter 06)."""
+chose them (`tools/pilot.py`, `results/bench/regime.json`, chapter 06)."""
 REGIME_TASK_DEMOS: tuple[str, ...] = ()
 """The reference preset's tasks with demonstration counts of their own (`data.task_demos`)."""
 
