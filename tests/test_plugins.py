@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
+import subprocess
 import sys
 import textwrap
 from pathlib import Path
@@ -163,6 +165,18 @@ def test_the_example_plugin_trains_exports_and_is_named_in_its_records(
     err = capsys.readouterr().err
     assert f"needs the plugin {path}" in err and f"--plugin {path}" in err
     assert load_tokenizer(out, plugins=[str(path)]).config.n_bins == 8
+
+
+def test_a_plugin_loaded_first_in_a_fresh_process_names_only_its_own_components(tmp_path):
+    """A grid worker loads the plugin before anything imports the tokenizer registry: the
+    built-ins its import brings in are not the plugin's."""
+    path = tmp_path / "chunk_bins.py"
+    path.write_text(GOOD)
+    code = ("import json; from icil_paper import plugins; "
+            f"p = plugins.load_plugin({str(path)!r}); print(json.dumps(p.record()['names']))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == {"tokenizer": [EXAMPLE_NAME]}
 
 
 def _install(site: Path, monkeypatch) -> None:

@@ -36,10 +36,10 @@ import math
 import textwrap
 import types
 import typing
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
-from icil_paper.registry import check_name
+from icil_paper.registry import REGISTRIES, check_name
 
 NOT_KEYED = {"key": False}
 """Field metadata of a knob that cannot change a result (workers, logging, threads)."""
@@ -116,16 +116,10 @@ def _unset(f: dataclasses.Field, value: Any) -> bool:
     return f.metadata.get("key") == "when_set" and value == f.default
 
 
-def _subclasses(base: type) -> Iterator[type]:
-    for sub in base.__subclasses__():
-        yield sub
-        yield from _subclasses(sub)
-
-
 def config_class(base: type, type_name: str) -> type:
-    """The subclass of `base` (or `base` itself) whose class-level `type` is `type_name`."""
-    candidates = {getattr(c, "type", None): c for c in (base, *_subclasses(base))
-                  if dataclasses.is_dataclass(c) and getattr(c, "type", None)}
+    """The registered config class of `base`'s kind (a subclass of `base`) named `type_name`."""
+    candidates = {name: c for r in REGISTRIES.values() for name, c in r.configs.items()
+                  if issubclass(c, base)}
     return candidates[check_name(f"{base.__name__} type", type_name, candidates)]
 
 
@@ -181,14 +175,13 @@ def _coerce(annotation: Any, value: Any, where: str) -> Any:
     if origin in (typing.Union, types.UnionType):
         if value is None and type(None) in args:
             return None
-        errors = []
         for arg in args:
             if arg is type(None):
                 continue
             try:
                 return _coerce(arg, value, where)
-            except OverrideError as exc:
-                errors.append(str(exc))
+            except OverrideError:
+                pass
         raise OverrideError(f"{where}: expected {_type_name(annotation)}, got {value!r}")
     if origin is tuple:
         if not isinstance(value, (list, tuple)):

@@ -239,7 +239,10 @@ def _registered() -> dict[str, dict[str, type]]:
 
 
 def _new_names(before: Mapping[str, Mapping[str, type]]) -> dict[str, tuple[str, ...]]:
-    return {kind: tuple(n for n in reg.configs if n not in before.get(kind, {}))
+    """What was registered since `before`, the package's own components left out (a plugin's
+    import may be what first imports a kind's registry and so its built-ins)."""
+    return {kind: tuple(n for n, cls in reg.configs.items() if n not in before.get(kind, {})
+                        and not cls.__module__.startswith("icil_paper."))
             for kind, reg in REGISTRIES.items()}
 
 

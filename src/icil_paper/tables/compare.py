@@ -51,7 +51,7 @@ from icil_paper.tables.assemble import TableResult, assemble
 from icil_paper.tables.definitions import icrt_rows, label, table_i_seeds
 from icil_paper.tables.execute import run_specs
 from icil_paper.tables.grid import check_reachable
-from icil_paper.tokenizers import REGISTRY
+from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY as REGISTRY
 from icil_paper.train.rundir import RUNS_ENV_VAR
 
 DEFAULT_AGAINST = ("lipvq",)
