@@ -123,7 +123,7 @@ def setting_cells(name: str, progress: bool = True) -> list[Any]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.pilot", description=__doc__.split("\n\n")[0])
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=SETTINGS)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=None)
@@ -443,7 +443,7 @@ def regime_main(argv: list[str] | None = None) -> None:
     beside it (`REGIME_ROWS`, and with `--maniskill` ACT + LipVQ-VAE on each ManiSkill task)
     at the budget the curve chose (`regime_record`); writes `results/bench/regime.json`.
     Resumable: every finished record is kept under `results/pilot/`."""
-    parser = argparse.ArgumentParser(prog="pilot regime", description=regime_main.__doc__)
+    parser = argparse.ArgumentParser(prog="python -m tools.pilot regime", description=regime_main.__doc__)
     parser.add_argument("--demos", type=int, default=None,
                         help="demonstrations per task (default: the largest data count)")
     parser.add_argument("--task-demos", nargs="*", default=[], metavar="TASK:N",

@@ -1,9 +1,8 @@
 """`icil-paper`: the command line of the companion.
 
 Each subcommand is a module-level `main(argv)` imported only when its command runs
-(`command_main`), so that `--help` is fast (0.4 s against about 6 s with every command's
-torch and simulator imports) and one broken part of the library does not take the others
-down. Every command that takes
+(`command_main`), so that `--help` loads neither torch nor a simulator and one broken part
+of the library does not take the others down. Every command that takes
 a preset also takes `--seed` and `--set SECTION.FIELD=VALUE` (repeatable), typed and
 checked against the config dataclasses (`icil_paper.commands`, which every command's
 module builds its parser from: this module sits on top and no other imports it).

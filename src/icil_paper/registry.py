@@ -76,12 +76,14 @@ class ComponentRegistry(Mapping[str, type]):
     mapping), filled by a decorator on each model class.
 
         TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig)
+        register_tokenizer = TOKENIZER_REGISTRY.register
+        register_tokenizer_model = TOKENIZER_REGISTRY.model
 
-        @TOKENIZER_REGISTRY.register("vq")       # configs.py (torch-free)
+        @register_tokenizer("vq")                # configs.py (torch-free)
         @dataclass(frozen=True)
         class VQConfig(TokenizerConfig): ...
 
-        @TOKENIZER_REGISTRY.model("vq")          # vq.py
+        @register_tokenizer_model("vq")          # vq.py
         class VQTokenizer(ActionTokenizer): ...
 
     The config is what presets, keys and the command line read, so config modules stay
