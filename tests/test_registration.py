@@ -135,3 +135,21 @@ def test_a_tokenizer_of_one_module_trains_end_to_end_from_the_command_line(
     assert cli.main(["train", "--preset", "smoke", "--tokenizer", "toy",
                      "--set", "tokenizers.toy.scale=-1"]) == 2  # checked like a built-in's
     assert "tokenizers.toy.scale must be a finite number >= 0" in capsys.readouterr().err
+
+
+def test_a_config_without_a_model_class_says_how_to_register_one():
+    from dataclasses import dataclass
+
+    from icil_paper.tokenizers import REGISTRY, TokenizerConfig, register_tokenizer
+
+    @register_tokenizer("modelless")
+    @dataclass(frozen=True)
+    class Modelless(TokenizerConfig):
+        pass
+
+    try:
+        with pytest.raises(LookupError, match=r"@register_tokenizer_model\('modelless'\)"):
+            REGISTRY["modelless"]
+    finally:
+        REGISTRY.forget(["modelless"])
+    assert "modelless" not in REGISTRY

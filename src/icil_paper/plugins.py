@@ -12,11 +12,11 @@ the library (`@register_tokenizer`, `@register_policy`) when it is imported. Thr
 
 Entry points of the groups `icil_paper.tokenizers` and `icil_paper.policies` are loaded
 once per process by `discover`, which building a preset's component sections,
-`make_tokenizer`, `make_policy` and the command line call. Plugins named with `--plugin` (or `load_plugins`) travel
-with each grid cell (`tables.grid`: the job's `plugins`) and are loaded in the worker before
-the cell's function is imported. Every record the results store writes names the plugins
-that registered a component its config uses (`record_of`): which module or file, at which
-package version or file SHA-256.
+`make_tokenizer`, `make_policy` and the command line call. Plugins named with `--plugin`
+(or `load_plugins`) travel with each grid cell (`tables.grid`: the job's `plugins`) and are
+loaded in the worker before the cell's function is imported. Every record the results
+store writes names the plugins that registered a component its config uses (`record_of`):
+which module or file, at which package version or file SHA-256.
 
 Each plugin is checked as it is loaded, and a bad one raises `PluginError` (a ValueError:
 one line and exit 2 at the command line, before any work): a module or file that does not
