@@ -342,3 +342,20 @@ def test_only_the_cli_and_config_read_the_preset_from_the_environment():
              if name not in PRESET_READERS and (lines := preset_reads(path.read_text()))}
     assert not wrong, f"the preset read from the environment outside the command line and " \
                       f"config.py (pass it as an argument): {wrong}"
+
+
+# --------------------------------------------------------------------------- no string imports
+IMPORTS_BY_NAME = {
+    "icil_paper/plugins.py",  # plugins: a module or file named by the user, entry points
+    "icil_paper/registry.py",  # `Registry`: the simulated suites' modules (icil_paper.sim)
+    "icil_paper/tables/grid.py", "icil_paper/reproduce.py", "icil_paper/eval/rollouts.py",
+}
+"""The files that still import a module named by a string; plugin loading is the one place
+meant to keep it (a debugger does not follow an import by name)."""
+
+
+def test_modules_are_imported_by_name_only_where_listed():
+    wrong = [str(path.relative_to(SRC)) for path in modules().values()
+             if "import_module(" in path.read_text()
+             and str(path.relative_to(SRC)) not in IMPORTS_BY_NAME]
+    assert not wrong, f"importlib.import_module by name outside plugin loading: {wrong}"
