@@ -110,10 +110,10 @@ bench: setup
 
 # The pilot behind the reference preset's task scale (results/bench/pilot.json); with
 # PILOT_ARGS=regime, the regime pilot (results/bench/regime.json). Trains and evaluates cells
-# at the reference scale; a rerun skips what is stored.
+# at the reference scale; a rerun skips what is stored. Like the benchmarks, a tool of tools/.
 PILOT_ARGS ?=
 pilot: setup
-	$(BIN)/python -m icil_paper.planning.pilot $(PILOT_ARGS)
+	$(BIN)/python -m tools.pilot $(PILOT_ARGS)
 
 # LeRobot 0.6 needs Python >= 3.12 and numpy >= 2, which robosuite and ManiSkill here cannot
 # share: it gets an environment of its own, used only by icil_paper.interop.lerobot_export.

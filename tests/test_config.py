@@ -75,14 +75,19 @@ def test_registry_imports_lazily_and_rejects_unknown_names():
         registry["broken"]
 
 
-@pytest.mark.parametrize("cls", [DataConfig, TokenizerConfigs.section_class(),
-                                 PolicyConfigs.section_class(), TrainConfig,
+@pytest.mark.parametrize("cls", [DataConfig, TrainConfig,
                                  EvalConfig, TokenizerStudyConfig, Preset, LipschitzOptions,
                                  *TOKENIZER_CONFIGS.values(), *POLICY_CONFIGS.values()])
 def test_every_config_field_has_a_docstring(cls):
     docs = field_docs(cls)
     missing = [f.name for f in dataclasses.fields(cls) if not docs.get(f.name)]
     assert not missing, f"{cls.__name__} fields without a docstring: {missing}"
+
+
+@pytest.mark.parametrize("section", [TokenizerConfigs, PolicyConfigs])
+def test_every_component_of_a_section_has_a_docstring(section):
+    docs = field_docs(section)
+    assert list(docs) == list(section.registered()) and all(docs.values())
 
 
 def test_preset_hash_is_stable_and_sensitive():

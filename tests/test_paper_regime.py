@@ -121,8 +121,8 @@ def test_every_icrt_row_starts_from_the_same_backbone():
 
 def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not():
     from icil_paper.paper import table_spec
-    from icil_paper.planning.pilot import REGIME_ROWS, regime_plans, regime_preset
     from icil_paper.tables.execute import plan
+    from tools.pilot import REGIME_ROWS, regime_plans, regime_preset
 
     preset = get_preset("reference")
     reference = plan([table_spec(preset, "I")])
@@ -145,7 +145,7 @@ def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not(
 
 
 def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise():
-    from icil_paper.planning.pilot import plateau
+    from tools.pilot import plateau
 
     rising = {500: [0.2, 0.25], 1000: [0.5, 0.55], 2000: [0.7, 0.72], 4000: [0.71, 0.73]}
     assert plateau(rising, episodes=55) == 2000
@@ -154,7 +154,7 @@ def test_the_plateau_is_the_first_budget_the_next_one_does_not_beat_beyond_noise
 
 
 def test_the_budget_is_the_plateau_unless_its_families_sit_at_0_or_1():
-    from icil_paper.planning.pilot import REGIME_MIN_FAMILIES, choose_budget
+    from tools.pilot import REGIME_MIN_FAMILIES, choose_budget
 
     ok, few = REGIME_MIN_FAMILIES, REGIME_MIN_FAMILIES - 1
     assert choose_budget(1000, 2000, {500: ok, 1000: ok, 2000: few}) == (1000, "plateau")
@@ -215,9 +215,9 @@ def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():
     trains at its choice."""
     import json
 
-    from icil_paper.planning.pilot import REGIME_ROWS, REGIME_SEED
     from icil_paper.results import bench_path
     from icil_paper.tables.definitions import FAMILY_COLUMNS
+    from tools.pilot import REGIME_ROWS, REGIME_SEED
 
     record = json.loads(open(bench_path("regime")).read())
     reference = get_preset("reference")

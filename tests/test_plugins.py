@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
+import subprocess
 import sys
 import textwrap
 from pathlib import Path
@@ -81,16 +83,16 @@ BAD = {
 def clean_plugins():
     """Leave the registries, the loaded plugins and the imported modules as they were."""
     regs = {kind: plugins.registry(kind) for kind in plugins.REGISTRIES}
-    saved = {kind: (dict(r._configs), dict(r._entries), dict(r._loaded), r._discovered)
-             for kind, r in regs.items()}
+    saved = {kind: (dict(r.configs), dict(r.models)) for kind, r in regs.items()}
+    discovered = set(plugins._DISCOVERED)
     loaded, modules = dict(plugins._LOADED), set(sys.modules)
     yield
     for kind, r in regs.items():
-        configs, entries, cached, discovered = saved[kind]
-        for mapping, old in ((r._configs, configs), (r._entries, entries), (r._loaded, cached)):
+        for mapping, old in zip((r.configs, r.models), saved[kind], strict=True):
             mapping.clear()
             mapping.update(old)
-        r._discovered = discovered
+    plugins._DISCOVERED.clear()
+    plugins._DISCOVERED.update(discovered)
     plugins._LOADED.clear()
     plugins._LOADED.update(loaded)
     for name in set(sys.modules) - modules:
@@ -102,10 +104,7 @@ def _forget_plugins() -> None:
     """This process as one that never loaded a plugin (`clean_plugins` restores it)."""
     for kind in plugins.REGISTRIES:
         reg = plugins.registry(kind)
-        for name in (n for n in list(reg._configs) if plugins.owner(kind, n)):
-            reg._configs.pop(name)
-            reg._entries.pop(name)
-            reg._loaded.pop(name, None)
+        reg.forget([n for n in list(reg.configs) if plugins.owner(kind, n)])
     plugins._LOADED.clear()
 
 
@@ -120,7 +119,7 @@ def test_a_bad_plugin_stops_every_command_with_one_line_before_writing(
     else:
         spec = str(tmp_path / "plugin.py")
         Path(spec).write_text(textwrap.dedent(source))
-    before = {kind: list(plugins.registry(kind)._configs) for kind in plugins.REGISTRIES}
+    before = {kind: list(plugins.registry(kind).configs) for kind in plugins.REGISTRIES}
     for command in (["train", "--preset", "smoke", "--tasks", TASK, "--set", "train.steps=1"],
                     ["compare", "--preset", "smoke", "--tokenizer", "vq"]):
         code = cli.main([command[0], "--plugin", spec, *command[1:]])
@@ -129,7 +128,7 @@ def test_a_bad_plugin_stops_every_command_with_one_line_before_writing(
         assert len(err.strip().splitlines()) == 1 and message in err, err
         assert "Traceback" not in err
     assert not any(p.exists() for p in folders.values())  # nothing written
-    after = {kind: list(plugins.registry(kind)._configs) for kind in plugins.REGISTRIES}
+    after = {kind: list(plugins.registry(kind).configs) for kind in plugins.REGISTRIES}
     assert after == before  # a refused plugin leaves nothing registered
 
 
@@ -168,6 +167,18 @@ def test_the_example_plugin_trains_exports_and_is_named_in_its_records(
     assert load_tokenizer(out, plugins=[str(path)]).config.n_bins == 8
 
 
+def test_a_plugin_loaded_first_in_a_fresh_process_names_only_its_own_components(tmp_path):
+    """A grid worker loads the plugin before anything imports the tokenizer registry: the
+    built-ins its import brings in are not the plugin's."""
+    path = tmp_path / "chunk_bins.py"
+    path.write_text(GOOD)
+    code = ("import json; from icil_paper import plugins; "
+            f"p = plugins.load_plugin({str(path)!r}); print(json.dumps(p.record()['names']))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == {"tokenizer": [EXAMPLE_NAME]}
+
+
 def _install(site: Path, monkeypatch) -> None:
     """A package `toks41` 0.3 with an entry point `pcatok` in `icil_paper.tokenizers`,
     installed as pip would lay it out (its .dist-info beside it) on sys.path."""
@@ -180,16 +191,17 @@ def _install(site: Path, monkeypatch) -> None:
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: toks41\nVersion: 0.3\n")
     (info / "entry_points.txt").write_text("[icil_paper.tokenizers]\npcatok = toks41.pca\n")
     monkeypatch.syspath_prepend(str(site))
-    for kind in plugins.REGISTRIES:  # as a fresh process: discovery on first use
-        plugins.registry(kind)._discovered = False
+    plugins._DISCOVERED.clear()  # as a fresh process: discovery on first use
 
 
 def test_an_installed_entry_point_is_found_by_the_registry_and_trains(
         tmp_path, folders, clean_plugins, monkeypatch, capsys):
-    from icil_paper.tokenizers import REGISTRY
+    from icil_paper.config import get_preset
+    from icil_paper.tokenizers import REGISTRY, make_tokenizer
 
     _install(tmp_path / "site", monkeypatch)
-    assert "pcatok" in list(REGISTRY)  # found on first use, no --plugin
+    assert make_tokenizer("pcatok", 7).name == "pcatok"  # found on first use, no --plugin
+    assert "pcatok" in list(REGISTRY) and "pcatok" in get_preset("smoke").tokenizers
     assert cli.main(["train", "--preset", "smoke", "--tokenizer", "pcatok", "--tasks", TASK,
                      "--set", "train.steps=1", "--run-dir", str(tmp_path / "run"),
                      "--quiet"]) == 0, capsys.readouterr().err
@@ -210,8 +222,7 @@ def test_an_installed_entry_point_is_found_by_the_registry_and_trains(
         "[icil_paper.tokenizers]\nvq = toks41.clash\n")
     (tmp_path / "site" / "toks41" / "clash.py").write_text(
         GOOD.replace('"chunkbins"', '"vq"'))
-    for kind in plugins.REGISTRIES:
-        plugins.registry(kind)._discovered = False
+    plugins._DISCOVERED.clear()
     plugins._LOADED.clear()
     assert cli.main(["train", "--preset", "smoke", "--tasks", TASK]) == 2
     err = capsys.readouterr().err

@@ -58,9 +58,7 @@ def toy_module(tmp_path, monkeypatch):
     module = importlib.import_module("toy_tokenizer_mod")
     yield module
     # leave the registry as the other tests expect it
-    TOKENIZER_REGISTRY.configs.pop("toy", None)
-    TOKENIZER_REGISTRY._entries.pop("toy", None)
-    TOKENIZER_REGISTRY._loaded.pop("toy", None)
+    TOKENIZER_REGISTRY.forget(["toy"])
     sys.modules.pop("toy_tokenizer_mod", None)
 
 
@@ -79,6 +77,7 @@ def test_builtin_registrations_are_the_registry_the_configs_and_the_sections():
         assert REGISTRY[name].__module__.startswith("icil_paper.tokenizers.")
     for name, config in POLICY_CONFIGS.items():
         assert config.type == name and type(preset.policies.get(name)) is config
+        assert POLICIES[name].__module__.startswith("icil_paper.policies.")
 
 
 def test_a_second_registration_of_a_name_is_refused():
@@ -87,12 +86,12 @@ def test_a_second_registration_of_a_name_is_refused():
     from icil_paper.tokenizers import TokenizerConfig, register_tokenizer
 
     with pytest.raises(ValueError, match="'vq' is registered twice"):
-        @register_tokenizer("vq", "nowhere:Nothing")
+        @register_tokenizer("vq", "Nothing")
         @dataclass(frozen=True)
         class OtherVQ(TokenizerConfig):
             pass
     with pytest.raises(TypeError, match="subclass of TokenizerConfig"):
-        register_tokenizer("plain", "nowhere:Nothing")(dict)
+        register_tokenizer("plain")(dict)
 
 
 def test_a_tokenizer_of_one_module_gets_a_section_a_set_path_and_the_shared_sizes(toy_module):
@@ -136,3 +135,21 @@ def test_a_tokenizer_of_one_module_trains_end_to_end_from_the_command_line(
     assert cli.main(["train", "--preset", "smoke", "--tokenizer", "toy",
                      "--set", "tokenizers.toy.scale=-1"]) == 2  # checked like a built-in's
     assert "tokenizers.toy.scale must be a finite number >= 0" in capsys.readouterr().err
+
+
+def test_a_config_without_a_model_class_says_how_to_register_one():
+    from dataclasses import dataclass
+
+    from icil_paper.tokenizers import REGISTRY, TokenizerConfig, register_tokenizer
+
+    @register_tokenizer("modelless")
+    @dataclass(frozen=True)
+    class Modelless(TokenizerConfig):
+        pass
+
+    try:
+        with pytest.raises(LookupError, match=r"@register_tokenizer_model\('modelless'\)"):
+            REGISTRY["modelless"]
+    finally:
+        REGISTRY.forget(["modelless"])
+    assert "modelless" not in REGISTRY

@@ -116,7 +116,7 @@ def _make_benchmarks() -> list[str]:
 
 def test_make_bench_runs_exactly_the_documented_benchmarks():
     """`make bench` runs the benchmarks CONTRIBUTING.md lists, each a module of tools/bench/,
-    and tools/bench/ holds nothing else (the pilots are planning/, the README's figures
+    and tools/bench/ holds nothing else (the pilots are tools/pilot.py, the README's figures
     tools/readme_figures.py)."""
     documented, made = _documented_benchmarks(), _make_benchmarks()
     assert documented, "CONTRIBUTING.md's Benchmarks section lists no benchmark"

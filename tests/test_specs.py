@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import types
 import typing
+from collections.abc import Mapping
 
 import pytest
 
@@ -86,12 +87,13 @@ def perturbed(obj, path):
 def leaf_paths(obj, prefix=""):
     """Every leaf field path of a config, keyed or not."""
     out = []
-    for f in dataclasses.fields(obj):
-        value = getattr(obj, f.name)
-        if dataclasses.is_dataclass(value):
-            out += leaf_paths(value, f"{prefix}{f.name}.")
+    items = obj.items() if isinstance(obj, Mapping) else (
+        (f.name, getattr(obj, f.name)) for f in dataclasses.fields(obj))
+    for name, value in items:
+        if dataclasses.is_dataclass(value) or isinstance(value, Mapping):
+            out += leaf_paths(value, f"{prefix}{name}.")
         else:
-            out.append(f"{prefix}{f.name}")
+            out.append(f"{prefix}{name}")
     return out
 
 
@@ -227,10 +229,14 @@ def test_every_preset_value_is_in_range():
     from icil_paper.config_data import check_range
 
     def walk(obj, prefix=""):
+        if isinstance(obj, Mapping):  # a component section: every component's config
+            for name, config in obj.items():
+                yield from walk(config, f"{prefix}{name}.")
+            return
         hints = typing.get_type_hints(type(obj))
         for f in dataclasses.fields(obj):
             value = getattr(obj, f.name)
-            if dataclasses.is_dataclass(value):
+            if dataclasses.is_dataclass(value) or isinstance(value, Mapping):
                 yield from walk(value, f"{prefix}{f.name}.")
             else:
                 yield f"{prefix}{f.name}", value, hints[f.name]

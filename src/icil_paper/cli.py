@@ -1,7 +1,8 @@
 """`icil-paper`: the command line of the companion.
 
-Each subcommand is a module-level `main(argv)` imported only when used, so `--help` is fast
-and one broken part of the library does not take the others down. Every command that takes
+Each subcommand is a module-level `main(argv)` imported only when its command runs
+(`command_main`), so that `--help` loads neither torch nor a simulator and one broken part
+of the library does not take the others down. Every command that takes
 a preset also takes `--seed` and `--set SECTION.FIELD=VALUE` (repeatable), typed and
 checked against the config dataclasses (`icil_paper.commands`, which every command's
 module builds its parser from: this module sits on top and no other imports it).
@@ -14,9 +15,9 @@ command line) shows the traceback instead. Other exceptions are bugs and show th
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import sys
+from collections.abc import Callable
 
 from icil_paper import commands
 from icil_paper.commands import Parser
@@ -30,20 +31,41 @@ USER_ERRORS: tuple[type[BaseException], ...] = (*commands.USER_ERRORS, RayUnavai
 (`commands.USER_ERRORS`) and RayUnavailable, which says why Ray could not be imported,
 started or reached."""
 
-# subcommand -> (module with main(argv), one-line help)
 SUBCOMMANDS = {
-    "demos": ("icil_paper.data.cli", "generate demonstration data sets (robomimic HDF5)"),
-    "train": ("icil_paper.train.cli", "train a policy (ICRT or a baseline) with a tokenizer"),
-    "eval": ("icil_paper.eval.cli", "roll out a trained policy and store its success rate"),
-    "tables": ("icil_paper.book.tables_cli", "print the paper's tables and claims from the results store"),
-    "reproduce": ("icil_paper.reproduce", "run every experiment of a preset (then `make book`)"),
-    "compare": ("icil_paper.tables.compare",
-                "a tokenizer against LipVQ-VAE on Table I's protocol: difference, verdict, power"),
-    "plan": ("icil_paper.planning.decide", "the seeds, cells and CPU-hours that would decide every "
-             "undecided claim, and the run that computes them"),
-    "export-tokenizer": ("icil_paper.interop.tokenizer_export",
-                         "write a trained policy's tokenizer as a portable folder (safetensors)"),
+    "demos": "generate demonstration data sets (robomimic HDF5)",
+    "train": "train a policy (ICRT or a baseline) with a tokenizer",
+    "eval": "roll out a trained policy and store its success rate",
+    "tables": "print the paper's tables and claims from the results store",
+    "reproduce": "run every experiment of a preset (then `make book`)",
+    "compare": "a tokenizer against LipVQ-VAE on Table I's protocol: difference, verdict, power",
+    "plan": "the seeds, cells and CPU-hours that would decide every undecided claim, and the "
+            "run that computes them",
+    "export-tokenizer": "write a trained policy's tokenizer as a portable folder (safetensors)",
 }
+"""subcommand -> its one-line help (`command_main` imports what runs it)."""
+
+
+def command_main(command: str) -> Callable[[list[str]], int | None]:
+    """The `main(argv)` of a subcommand, imported when the command runs."""
+    if command == "demos":
+        from icil_paper.data.cli import main
+    elif command == "train":
+        from icil_paper.train.cli import main
+    elif command == "eval":
+        from icil_paper.eval.cli import main
+    elif command == "tables":
+        from icil_paper.book.tables_cli import main
+    elif command == "reproduce":
+        from icil_paper.reproduce import main
+    elif command == "compare":
+        from icil_paper.tables.compare import main
+    elif command == "plan":
+        from icil_paper.planning.decide import main
+    elif command == "export-tokenizer":
+        from icil_paper.interop.tokenizer_export import main
+    else:
+        raise KeyError(command)
+    return main
 
 
 def _env(argv: list[str]) -> int:
@@ -95,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
                      "loads a module or .py file that registers tokenizers or policies "
                      "(icil_paper.plugins); installed packages' entry points of the groups "
                      "icil_paper.tokenizers and icil_paper.policies are loaded too.")
-    for name, (_, help_text) in SUBCOMMANDS.items():
+    for name, help_text in SUBCOMMANDS.items():
         sub.add_parser(name, help=help_text, add_help=False)
     return parser
 
@@ -118,8 +140,7 @@ def main(argv: list[str] | None = None) -> int:
         if command not in SUBCOMMANDS:
             parser.error(f"unknown command {command!r}; valid commands: env, "
                          + ", ".join(SUBCOMMANDS))
-        module = importlib.import_module(SUBCOMMANDS[command][0])
-        return int(module.main(rest) or 0)
+        return int(command_main(command)(rest) or 0)
     except USER_ERRORS as exc:
         if debug:
             raise

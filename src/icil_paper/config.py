@@ -22,18 +22,20 @@ from __future__ import annotations
 import dataclasses
 import os
 import types
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from icil_paper import paper_numbers
+from icil_paper import paper_numbers, plugins
 from icil_paper.benchmark_tasks import ML45_HELD_OUT, ML45_TRAIN, ROBOCASA_TASKS
 from icil_paper.config_data import (
     KEYED_WHEN_SET,
     NOT_KEYED,
     ConfigError,
+    OverrideError,
     check_fields,
     field_docs,
+    from_dict,
     to_dict,
     with_overrides,
 )
@@ -130,46 +132,38 @@ class DataConfig(_Checked):
                               "the training tasks")
 
 
-@dataclass(frozen=True)
-class ComponentConfigs:
-    """Base of the preset's component sections: one field per registered component, named
-    by its registry name (`lip-mlp` is `lip_mlp`), holding its config.
+class ComponentConfigs(Mapping[str, Any]):
+    """One config per registered component, by attribute name (`lip-mlp` is `lip_mlp`):
+    `preset.tokenizers.lipvq`, `preset.tokenizers.get("lip-mlp")`, `dict(preset.tokenizers)`.
 
-    The fields are derived from the component registry (`section_class`), never listed by
-    hand: a tokenizer or policy registered by its decorator has its field here, its
-    defaults, and `--set tokenizers.<name>.<field>=...`, with nothing else to edit.
-    `TokenizerConfigs(vq=VQConfig(...))` builds the section of the registry as it stands.
+    Immutable, as the dataclasses around it; `replace(vq=...)` gives a changed copy. The
+    names are the registry's (`REGISTRY`) when the section is built: a component registered
+    by its decorator has its entry here (its defaults, or the preset's shared sizes) and its
+    `--set tokenizers.<name>.<field>=...` paths, with nothing else to edit.
     """
 
     REGISTRY: ClassVar[ComponentRegistry]
 
-    def __new__(cls, *args: Any, **kwargs: Any):
-        if "REGISTRY" in vars(cls):  # the named section: build its current field list
-            cls = cls.section_class()
-        return object.__new__(cls)
+    def __init__(self, **configs: Any):
+        registered = self.registered()
+        unknown = sorted(set(configs) - set(registered))
+        if unknown:
+            raise TypeError(f"{type(self).__name__} has no {self.REGISTRY.kind}(s) {unknown}; "
+                            f"registered: {', '.join(registered)}")
+        object.__setattr__(self, "_configs", {
+            attr: configs[attr] if attr in configs else config()
+            for attr, config in registered.items()})
 
     @classmethod
-    def section_class(cls) -> type:
-        """The dataclass with one field per component registered now (cached per registry
-        state; a subclass of `cls`, so isinstance holds)."""
-        if "REGISTRY" not in vars(cls):
-            return cls
-        items = tuple(cls.REGISTRY.configs.items())
-        built = _SECTIONS.get((cls, items))
-        if built is None:
-            fields = [(_attr(name), config, field(default_factory=config))
-                      for name, config in items]
-            built = dataclasses.make_dataclass(cls.__name__, fields, bases=(cls,), frozen=True,
-                                               namespace={"__module__": cls.__module__})
-            built.__qualname__ = cls.__qualname__
-            built.__field_docs__ = {_attr(name): _first_line(config.__doc__)
-                                    for name, config in items}
-            _SECTIONS[(cls, items)] = built
-        return built
+    def registered(cls) -> dict[str, type]:
+        """attribute name -> config class of every component registered now (entry-point
+        plugins included: `plugins.discover`)."""
+        plugins.discover()
+        return {name.replace("-", "_"): config for name, config in cls.REGISTRY.configs.items()}
 
     @classmethod
-    def build(cls, shared: Mapping[str, Any], per_component: Mapping[str, Mapping[str, Any]]
-              = types.MappingProxyType({})):
+    def build(cls, shared: Mapping[str, Any],
+              per_component: Mapping[str, Mapping[str, Any]] = types.MappingProxyType({})):
         """The section with every registered component's config built from preset values:
         each value of `shared` goes to every config class that has a field of that name,
         then `per_component[name]` to the component `name` and to those whose config
@@ -185,37 +179,68 @@ class ComponentConfigs:
             for other, extra in per_component.items():
                 if issubclass(config, configs[other]):
                     kwargs.update(extra)
-            values[_attr(name)] = config(**kwargs)
+            values[name.replace("-", "_")] = config(**kwargs)
         return cls(**values)
 
-    def get(self, name: str):
-        """The config of component `name` (UnknownNameError listing the valid names)."""
-        names = {n: _attr(n) for n in self.REGISTRY.configs if hasattr(self, _attr(n))}
-        return getattr(self, names[check_name(self.REGISTRY.kind, name, names)])
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]):
+        """The section `to_dict` wrote (OverrideError for a name no component has)."""
+        registered = cls.registered()
+        unknown = sorted(set(data) - set(registered))
+        if unknown:
+            raise OverrideError(f"{cls.__name__} has no {cls.REGISTRY.kind}(s) {unknown}; "
+                                f"valid: {sorted(registered)}")
+        return cls(**{a: from_dict(registered[a], v) for a, v in data.items()})
 
-    def __reduce__(self):
-        # the built class is not importable by name: rebuild it from the registry
-        base = next(c for c in type(self).__mro__ if "REGISTRY" in vars(c))
-        return _rebuild_section, (base, {f.name: getattr(self, f.name)
-                                         for f in dataclasses.fields(self)})
+    @classmethod
+    def field_docs(cls) -> dict[str, str]:
+        """attribute name -> the first paragraph of its config class's docstring."""
+        return {attr: " ".join((config.__doc__ or "").strip().split("\n\n")[0].split())
+                for attr, config in cls.registered().items()}
+
+    def get(self, name: str):  # noqa: D102 (a registry name, not Mapping.get's default)
+        """The config of component `name` (`lip-mlp` or `lip_mlp`; UnknownNameError listing
+        the valid names)."""
+        names = {n: n.replace("-", "_") for n in self.REGISTRY.configs
+                 if n.replace("-", "_") in self._configs}
+        if name in self._configs:
+            return self._configs[name]
+        return self._configs[names[check_name(self.REGISTRY.kind, name, names)]]
+
+    def replace(self, **changes: Any):
+        """A copy with some components' configs replaced."""
+        return type(self)(**{**self._configs, **changes})
+
+    def __getitem__(self, attr: str):
+        return self._configs[attr]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._configs)
+
+    def __len__(self) -> int:
+        return len(self._configs)
+
+    def __getattr__(self, attr: str):
+        if attr.startswith("_"):  # pickle and copy probe for hooks before __init__ ran
+            raise AttributeError(attr)
+        try:
+            return self._configs[attr]
+        except KeyError:
+            raise AttributeError(f"{type(self).__name__} has no {self.REGISTRY.kind} "
+                                 f"{attr!r}") from None
+
+    def __setattr__(self, attr: str, value: Any) -> None:
+        raise dataclasses.FrozenInstanceError(f"cannot assign to {attr!r}: "
+                                              "use .replace(...)")
+
+    def __hash__(self) -> int:
+        return hash(tuple(self._configs.items()))
+
+    def __repr__(self) -> str:
+        inner = ", ".join(f"{a}={c!r}" for a, c in self._configs.items())
+        return f"{type(self).__name__}({inner})"
 
 
-_SECTIONS: dict[tuple[type, tuple], type] = {}
-
-
-def _attr(name: str) -> str:
-    return name.replace("-", "_")
-
-
-def _first_line(doc: str | None) -> str:
-    return " ".join((doc or "").strip().split("\n\n")[0].split())
-
-
-def _rebuild_section(base: type, values: dict[str, Any]):
-    return base(**values)
-
-
-@dataclass(frozen=True)
 class TokenizerConfigs(ComponentConfigs):
     """One config per registered action tokenizer (Sec. III-B and after), by registry name
     (`lip-mlp` is `lip_mlp`): `icil_paper.tokenizers.configs.TOKENIZER_REGISTRY`."""
@@ -223,7 +248,6 @@ class TokenizerConfigs(ComponentConfigs):
     REGISTRY = TOKENIZER_REGISTRY
 
 
-@dataclass(frozen=True)
 class PolicyConfigs(ComponentConfigs):
     """One config per registered policy, by registry name:
     `icil_paper.policies.configs.POLICY_REGISTRY`."""
@@ -253,18 +277,16 @@ class TrainConfig(_Checked):
     """Decay of an exponential moving average of weights, or None for no EMA."""
     compile: bool = False
     """Compile the training forward and backward passes with `torch.compile` (inductor).
-    Losses match eager mode to float tolerance, not bit for bit, so it enters run keys.
-    Measured for the reference ICRT on one CPU thread (`tools/bench/cells.py`): see the README."""
+    Losses match eager mode to float tolerance, not bit for bit, so it enters run keys."""
     ckpt_every: int = field(default=500, metadata=NOT_KEYED)
     """Steps between checkpoints (a killed run loses at most this many; resuming gives the
     same result as an uninterrupted run, so it does not enter run keys)."""
     log_every: int = field(default=10, metadata=NOT_KEYED)
     """Steps between lines of the metrics JSONL file."""
     cpu_threads: int = field(default=1, metadata=NOT_KEYED)
-    """torch CPU threads while training on CPU; 0 keeps torch's default. One thread is the
-    default because the small models here gain little from more, and a CPU shared with other
-    processes (rollout workers, a second job) makes torch's spinning thread pool many times
-    slower (measured 0.23 vs 6.2 steps/s on a loaded 2-core machine)."""
+    """torch CPU threads while training on CPU; 0 keeps torch's default. One, because the
+    small models here gain little from more, and torch's spinning thread pool slows down
+    many times on a CPU shared with other processes."""
 
 
 @dataclass(frozen=True)
@@ -295,13 +317,9 @@ CLAIM_IDS = (
 PRIMARY_CLAIMS = ("I-lipvq-vs-bc", "II-lipvq-vs-act", "III-lipvq-smoothest", "IV-vq",
                   "V-lipvq-vs-bc", "V-lipvq-smoother-motion")
 """The primary family, declared before the data it is tested on: the claims that carry the
-paper's three questions as its abstract and conclusion state them, read from the text alone.
-Q1: "improves performance by more than 5.3%" (I-lipvq-vs-bc) and "outperforms
-state-of-the-art baselines on RoboCasa and ManiSkill" (I-lipvq-vs-bc, II-lipvq-vs-act). Q2:
-"improves smoothness over other tokenizers" (III-lipvq-smoothest), "leading to improved
-robotic manipulation performance" through the Lipschitz condition (IV-vq, Eq. 4 on VQ-VAE).
-Q3: the real robot confirms "smoother, more reliable trajectories" (V-lipvq-smoother-motion,
-V-lipvq-vs-bc). Every other testable claim is secondary."""
+paper's three questions as its abstract and conclusion state them (Q1: outperforms the
+baselines; Q2: smoother latents and Eq. 4 improve success; Q3: the real robot confirms it).
+Every other testable claim is secondary."""
 
 FAMILY_WEIGHTS = (0.8, 0.2)
 """Shares of the familywise 5% given to the primary and the secondary family."""
@@ -649,15 +667,7 @@ their runs (Tables III-VI, the paper's rows of `official` and `beyond`)."""
 
 REFERENCE_SEED_STAGES = (5, 10, 15)
 """The reference preset's looks (`TablesConfig.seed_stages`): 5 seeds a row, then up to 10,
-then up to 15. At the measured seed spread (a per-seed standard deviation of about 0.05 in
-kitchen success plus 0.04-0.05 of episode noise at 11 tasks x 5 episodes) a difference of
-two rows has a 95% half-width of about 0.12 at 5 seeds, 0.07 at 10 and 0.05 at 15 (less
-for a paired difference, whose rows share their seed's scenes): large effects (the +0.36 of
-ICRT + LipVQ-VAE over BC-Transformer) are decided at 5 or 10, smaller ones go on while the
-effect observed so far gives them a chance at the last look (`continuation_power`).
-O'Brien-Fleming-type spending keeps the last look's level at 0.044 of 0.05 (for a single
-look), so a claim that runs to 15 seeds loses little power for the early looks
-(`stats.SequentialDesign`)."""
+then up to 15, with O'Brien-Fleming-type spending (`stats.SequentialDesign`)."""
 
 
 REFERENCE_BUDGET_HOURS = 12.0
@@ -668,68 +678,22 @@ go on."""
 
 REFERENCE_EPISODES = ("kinova=7", "maniskill=56", "metaworld=9")
 """The reference preset's rollouts per task by suite (`TablesConfig.episodes_per_task_by_suite`),
-at cost-optimal counts. The rows of a pair play the same scenes, so the variance of a paired
-per-seed difference splits into an episode part and a seed-by-row part. Meta-World's count
-comes from the regime pilot's paired outcomes (`planning.pilot.regime_episodes`: three seeds
-cannot tell its seed-by-row part from 0, so the count is the one at which evaluating every
-task costs as much as training, 9); ManiSkill's (56) and the Kinova stand-in's (7) from the
-committed kitchen-run records (`planning.design.episode_design`; `python -m
-icil_paper.planning.cost --preset reference --episodes`), whose suites and cells those are."""
+at cost-optimal counts: Meta-World's from the regime pilot's paired outcomes
+(`planning.pilot.regime_episodes`), ManiSkill's and the Kinova stand-in's from the committed
+kitchen-run records (`planning.design.episode_design`)."""
 
 
 REGIME_DEMOS, REGIME_STEPS = 50, 500
 """The reference preset's demonstrations per task and training steps, as the regime pilot
-chose them (`icil_paper.planning.pilot`, `results/bench/regime.json`, chapter 06)."""
+chose them (`tools/pilot.py`, `results/bench/regime.json`, chapter 06)."""
 REGIME_TASK_DEMOS: tuple[str, ...] = ()
 """The reference preset's tasks with demonstration counts of their own (`data.task_demos`)."""
 
 
 def _reference() -> Preset:
     """The committed reference run: the paper's RoboCasa tables on Meta-World, Table II on
-    ManiSkill and Table V on the Kinova stand-in, at a cost meant to fit in twelve hours of a
-    2-core machine at two cells at a time.
-
-    Demonstrations and training steps (`REGIME_DEMOS`, `REGIME_STEPS`) are the regime pilot's
-    choice (`python -m icil_paper.planning.pilot regime`, `results/bench/regime.json`, chapter
-    06), on pilot seeds the run does not use: the demonstration count where more no longer
-    raises BC-Transformer's success (the paper trains every policy on plenty of MimicGen
-    data), and the budget read from ICRT + LipVQ-VAE's learning curve alone. Every row reads
-    the task's instruction, ICRT its prompt besides; training seed k of every row trains on
-    demonstration set k and plays scene set k (`scenes_per_seed`), and the ICRT rows of seed
-    k share their backbone's initial weights and batch order (common random numbers). The
-    Lipschitz tokenizers start as their plain twins and their bounds learn at
-    `matching_c_lr_scale` times the trainer's rate, so that they can travel as far relative
-    to their initial size as over the paper's 500K iterations (Table II: its 30K).
-
-    Seeds are given in stages (`REFERENCE_SEED_STAGES`, `tables.seed_stages`) within
-    `REFERENCE_BUDGET_HOURS`; `python -m icil_paper.planning.design --preset reference`
-    prints the projected cost and each claim's expected interval. Table II keeps the earlier
-    ManiSkill pilot's setting (40 demonstrations, 5000 steps, 10 episodes a task). MCR
-    (images; no claim reads its rows) gets fewer seeds and image episodes: an image cell
-    costs about ten times a state cell on CPU.
-
-    The design (`tables.design`, stated in `claims.json` above the entries): looks at 5, 10
-    and 15 seeds a row (`REFERENCE_SEED_STAGES`) with O'Brien-Fleming-type boundaries; the
-    primary family (`PRIMARY_CLAIMS`: the claims that carry the paper's three questions as
-    its abstract and conclusion state them) shares 80% of the familywise 5%, every other
-    testable claim 20%, and a decided claim passes its share on (weighted Holm's graph);
-    the rank correlations are descriptive. After a look the rows of an undecided claim go on
-    while its conditional power at the observed effect, to cross the last boundary at its
-    current level, is at least 0.1 (`CONTINUATION_POWER`), the cheapest first within the
-    budget (`REFERENCE_BUDGET_HOURS`); sizes are decided against the paper's effects by
-    repeated confidence intervals at each claim's Bonferroni share. The seeds above are what
-    the fixed design planned; `python -m icil_paper.planning.design --preset reference
-    --stages` says which rows go on, and the run writes each look's seeds per row to
-    `results/reference/design.json`. The committed records were gathered under the older
-    design (Holm over every claim, continuation on the paper's effect, five episodes a
-    task): that file says so, and the ledger read from them is labelled as its record.
-
-    Episodes (`REFERENCE_EPISODES`): from the split of each class of claim's paired variance
-    into its episode and seed-by-row parts in the committed records, the cost-optimal counts
-    (`stats.episodes_per_seed`): 12 a task on the kitchen suite, 56 on ManiSkill (Table II's
-    `maniskill_episodes_per_task`, 10, stands for the older design), 7 on the Kinova stand-in;
-    each seed on its own scene set (`scenes_per_seed`), so that scene luck averages out over
-    seeds and the rows of a pair play the same scenes."""
+    ManiSkill and Table V on the Kinova stand-in. Its sizes are the regime pilot's choice
+    (`results/bench/regime.json`, `make pilot PILOT_ARGS=regime`; chapter 06 shows it)."""
     small = _small()
     train = TrainConfig(steps=REGIME_STEPS, batch_size=8, warmup_steps=100, ckpt_every=500)
     return dataclasses.replace(

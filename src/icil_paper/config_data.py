@@ -36,10 +36,10 @@ import math
 import textwrap
 import types
 import typing
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
-from icil_paper.registry import check_name
+from icil_paper.registry import REGISTRIES, check_name
 
 NOT_KEYED = {"key": False}
 """Field metadata of a knob that cannot change a result (workers, logging, threads)."""
@@ -58,15 +58,19 @@ class ConfigError(ValueError):
 
 
 # --------------------------------------------------------------------------- docs
-@functools.cache
 def field_docs(cls: type) -> dict[str, str]:
-    """Map each field of a config dataclass (and its bases) to the docstring under it."""
+    """Map each field of a config dataclass (and its bases) to the docstring under it; of a
+    preset's component section, each component to its config's docstring."""
+    if _is_section(cls):
+        return cls.field_docs()
+    return _source_docs(cls)
+
+
+@functools.cache
+def _source_docs(cls: type) -> dict[str, str]:
     docs: dict[str, str] = {}
     for klass in reversed(cls.__mro__):
         if not dataclasses.is_dataclass(klass) or klass is object:
-            continue
-        if "__field_docs__" in vars(klass):  # a class built from a registry has no source
-            docs.update(klass.__field_docs__)
             continue
         try:
             source = textwrap.dedent(inspect.getsource(klass))
@@ -82,6 +86,22 @@ def field_docs(cls: type) -> dict[str, str]:
 
 
 # --------------------------------------------------------------------------- types
+def _is_section(obj: Any) -> bool:
+    """A preset's component section (`config.ComponentConfigs`): a mapping of configs by
+    name that rebuilds itself from the registry (`from_dict`, `replace`)."""
+    cls = obj if isinstance(obj, type) else type(obj)
+    return issubclass(cls, Mapping) and hasattr(cls, "registered")
+
+
+def _names(obj: Any) -> list[str]:
+    """The field names of a config dataclass, or the component names of a section."""
+    return list(obj) if _is_section(obj) else [f.name for f in dataclasses.fields(obj)]
+
+
+def _replace(obj: Any, **changes: Any) -> Any:
+    return obj.replace(**changes) if _is_section(obj) else dataclasses.replace(obj, **changes)
+
+
 @functools.cache
 def _hints(cls: type) -> dict[str, Any]:
     return typing.get_type_hints(cls)
@@ -96,16 +116,10 @@ def _unset(f: dataclasses.Field, value: Any) -> bool:
     return f.metadata.get("key") == "when_set" and value == f.default
 
 
-def _subclasses(base: type) -> Iterator[type]:
-    for sub in base.__subclasses__():
-        yield sub
-        yield from _subclasses(sub)
-
-
 def config_class(base: type, type_name: str) -> type:
-    """The subclass of `base` (or `base` itself) whose class-level `type` is `type_name`."""
-    candidates = {getattr(c, "type", None): c for c in (base, *_subclasses(base))
-                  if dataclasses.is_dataclass(c) and getattr(c, "type", None)}
+    """The registered config class of `base`'s kind (a subclass of `base`) named `type_name`."""
+    candidates = {name: c for r in REGISTRIES.values() for name, c in r.configs.items()
+                  if issubclass(c, base)}
     return candidates[check_name(f"{base.__name__} type", type_name, candidates)]
 
 
@@ -138,10 +152,10 @@ def from_dict(cls: type, data: Mapping[str, Any]) -> Any:
     """
     if not isinstance(data, Mapping):
         raise OverrideError(f"{cls.__name__} must be read from a mapping, got {type(data).__name__}")
+    if _is_section(cls):
+        return cls.from_dict(data)
     if "type" in data:
         cls = config_class(cls, str(data["type"]))
-    if hasattr(cls, "section_class"):  # a preset section whose fields come from a registry
-        cls = cls.section_class()
     hints = _hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - set(fields) - {"type"})
@@ -161,14 +175,13 @@ def _coerce(annotation: Any, value: Any, where: str) -> Any:
     if origin in (typing.Union, types.UnionType):
         if value is None and type(None) in args:
             return None
-        errors = []
         for arg in args:
             if arg is type(None):
                 continue
             try:
                 return _coerce(arg, value, where)
-            except OverrideError as exc:
-                errors.append(str(exc))
+            except OverrideError:
+                pass
         raise OverrideError(f"{where}: expected {_type_name(annotation)}, got {value!r}")
     if origin is tuple:
         if not isinstance(value, (list, tuple)):
@@ -182,10 +195,10 @@ def _coerce(annotation: Any, value: Any, where: str) -> Any:
         if value not in args:
             raise OverrideError(f"{where}: expected one of {list(args)}, got {value!r}")
         return value
-    if dataclasses.is_dataclass(annotation):
-        if dataclasses.is_dataclass(value):
-            return value
-        return from_dict(annotation, value)
+    if dataclasses.is_dataclass(annotation) or _is_section(annotation):
+        if isinstance(value, Mapping) and not _is_section(value):
+            return from_dict(annotation, value)
+        return value
     if annotation is bool:
         if isinstance(value, bool):
             return value
@@ -254,12 +267,16 @@ def keyed_paths(cls_or_obj: Any, prefix: str = "") -> list[str]:
     """Dotted paths of every keyed leaf field of a config (nested configs expanded)."""
     obj = cls_or_obj
     paths = []
+    if _is_section(obj):
+        for name, value in obj.items():
+            paths += keyed_paths(value, f"{prefix}{name}.")
+        return paths
     for f in dataclasses.fields(obj):
         if not _is_keyed(f):
             continue
         value = getattr(obj, f.name) if not isinstance(obj, type) else None
         path = f"{prefix}{f.name}"
-        if dataclasses.is_dataclass(value):
+        if dataclasses.is_dataclass(value) or _is_section(value):
             paths += keyed_paths(value, path + ".")
         else:
             paths.append(path)
@@ -277,7 +294,7 @@ def get_path(obj: Any, path: str) -> Any:
 def replace_path(obj: Any, path: str, value: Any, _done: str = "") -> Any:
     """A copy of `obj` with the field at dotted `path` set to `value` (typed as declared)."""
     head, _, rest = path.partition(".")
-    fields = {f.name: f for f in dataclasses.fields(obj)}
+    fields = _names(obj)
     if head not in fields:
         kind = f"field of {_done.rstrip('.')}" if _done else "section"
         try:
@@ -286,13 +303,12 @@ def replace_path(obj: Any, path: str, value: Any, _done: str = "") -> Any:
             raise OverrideError(str(exc)) from None
     current = getattr(obj, head)
     if rest:
-        if not dataclasses.is_dataclass(current):
+        if not (dataclasses.is_dataclass(current) or _is_section(current)):
             raise OverrideError(f"{type(obj).__name__}.{head} is a value, not a section; "
                                 f"set it as `{head}=...`")
-        return dataclasses.replace(obj, **{head: replace_path(current, rest, value,
-                                                               f"{_done}{head}.")})
-    if dataclasses.is_dataclass(current):
-        valid = ", ".join(f.name for f in dataclasses.fields(current))
+        return _replace(obj, **{head: replace_path(current, rest, value, f"{_done}{head}.")})
+    if dataclasses.is_dataclass(current) or _is_section(current):
+        valid = ", ".join(_names(current))
         raise OverrideError(f"{head} is a section; set one of its fields: {head}.<field> with "
                             f"<field> one of {valid}")
     annotation = _hints(type(obj))[head]
@@ -433,7 +449,7 @@ def _integer_field(annotation: Any) -> bool:
 def _leaf_annotation(obj: Any, path: str) -> Any:
     parts = path.split(".")
     for part in parts[:-1]:
-        if not dataclasses.is_dataclass(obj) or not hasattr(obj, part):
+        if not (dataclasses.is_dataclass(obj) or _is_section(obj)) or part not in _names(obj):
             return None
         obj = getattr(obj, part)
     if not dataclasses.is_dataclass(obj):

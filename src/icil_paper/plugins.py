@@ -10,13 +10,13 @@ the library (`@register_tokenizer`, `@register_policy`) when it is imported. Thr
     #   pca = "my_tokenizers.pca"
     from icil_paper.plugins import load_plugins; load_plugins(["./pca.py"])   # from code
 
-Entry points of the groups `icil_paper.tokenizers` and `icil_paper.policies` are loaded by
-the registries themselves on first use (`registry.ComponentRegistry.discover`), in every
-process, grid workers included. Plugins named with `--plugin` (or `load_plugins`) travel
-with each grid cell (`tables.grid`: the job's `plugins`) and are loaded in the worker before
-the cell's function is imported. Every record the results store writes names the plugins
-that registered a component its config uses (`record_of`): which module or file, at which
-package version or file SHA-256.
+Entry points of the groups `icil_paper.tokenizers` and `icil_paper.policies` are loaded
+once per process by `discover`, which building a preset's component sections,
+`make_tokenizer`, `make_policy` and the command line call. Plugins named with `--plugin`
+(or `load_plugins`) travel with each grid cell (`tables.grid`: the job's `plugins`) and are
+loaded in the worker before the cell's function is imported. Every record the results
+store writes names the plugins that registered a component its config uses (`record_of`):
+which module or file, at which package version or file SHA-256.
 
 Each plugin is checked as it is loaded, and a bad one raises `PluginError` (a ValueError:
 one line and exit 2 at the command line, before any work): a module or file that does not
@@ -25,10 +25,6 @@ plugin) already holds, a config class with a field without a default or whose
 `__post_init__` does not check its values (it must call `super().__post_init__()`), and a
 component that fails its kind's own probe (`ComponentRegistry.probe`: a tokenizer whose
 output on a probe batch of actions has the wrong shape, `tokenizers.base.probe`).
-
-This module sits with the foundations, below the component packages: it reaches their
-registries and probes by name, imported on use (as the registries import their models), so
-`tokenizers.portable` and the results store can name and load plugins.
 """
 
 from __future__ import annotations
@@ -45,11 +41,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from icil_paper.registry import ComponentRegistry, NameClashError
+from icil_paper.registry import REGISTRIES, ComponentRegistry, NameClashError
 
-REGISTRIES = {"tokenizer": ("icil_paper.tokenizers.configs", "TOKENIZER_REGISTRY"),
-              "policy": ("icil_paper.policies.configs", "POLICY_REGISTRY")}
-"""kind -> (module, attribute) of the registry a plugin adds to (imported on use)."""
 VALIDATION_PROBE = {"tokenizer": "latent_dim", "policy": "n_layer"}
 """A field of each kind's base config that its checks refuse at -1: a config class whose
 `__post_init__` lets -1 through does not validate its values."""
@@ -94,11 +87,20 @@ class Plugin:
 
 _LOADED: dict[str, Plugin] = {}
 """Loaded plugins by their spec (a file by its resolved path)."""
+_DISCOVERED: set[str] = set()
+"""The kinds whose entry points this process has loaded."""
 
 
 def registry(kind: str) -> ComponentRegistry:
-    module, attribute = REGISTRIES[kind]
-    return getattr(importlib.import_module(module), attribute)
+    return REGISTRIES[kind]
+
+
+def discover() -> None:
+    """Load the entry points of every kind's group, once per process (`load_entry_points`)."""
+    for kind, reg in REGISTRIES.items():
+        if kind not in _DISCOVERED:
+            _DISCOVERED.add(kind)  # first: a plugin's own registrations come back here
+            load_entry_points(reg)
 
 
 def loaded() -> list[Plugin]:
@@ -142,8 +144,7 @@ def _types(value: Any) -> Iterable[str]:
 def load_plugins(specs: Sequence[str]) -> list[Plugin]:
     """Load the entry-point plugins, then each module or file of `specs`, checked (module
     docstring); return the plugins of `specs`. Loading one twice returns it again."""
-    for kind in REGISTRIES:
-        registry(kind).discover()
+    discover()
     return [load_plugin(spec) for spec in specs]
 
 
@@ -158,8 +159,7 @@ def load_plugin(spec: str) -> Plugin:
     key = str(Path(spec).resolve()) if _is_file(spec) else spec
     if key in _LOADED:
         return _LOADED[key]
-    for kind in REGISTRIES:
-        registry(kind).discover()
+    discover()
     if _is_file(spec):
         path = Path(spec).resolve()
         if not path.is_file():
@@ -184,7 +184,7 @@ def load_plugin(spec: str) -> Plugin:
 
 
 def load_entry_points(reg: ComponentRegistry) -> None:
-    """Load the entry points of `reg.group` (called by the registry on first use)."""
+    """Load and check the entry points of `reg.group` (`discover` calls it once)."""
     if not reg.group:
         return
     for ep in importlib.metadata.entry_points(group=reg.group):
@@ -211,7 +211,7 @@ def load_entry_points(reg: ComponentRegistry) -> None:
             raise PluginError(f"{where}: importing {ep.value!r} failed ({_line(exc)}); "
                               "fix the module or uninstall the package") from None
         names = _new_names(before)
-        if not names.get(reg.kind) and ep.name not in reg._configs:
+        if not names.get(reg.kind) and ep.name not in reg.configs:
             _forget(before)
             raise PluginError(f"{where}: {ep.value!r} registers no {reg.kind} (and none "
                               f"named {ep.name!r}); decorate its config class with "
@@ -235,22 +235,21 @@ def _line(exc: BaseException) -> str:
 
 
 def _registered() -> dict[str, dict[str, type]]:
-    return {kind: dict(registry(kind)._configs) for kind in REGISTRIES}
+    return {kind: dict(reg.configs) for kind, reg in REGISTRIES.items()}
 
 
 def _new_names(before: Mapping[str, Mapping[str, type]]) -> dict[str, tuple[str, ...]]:
-    return {kind: tuple(n for n in registry(kind)._configs if n not in before[kind])
-            for kind in REGISTRIES}
+    """What was registered since `before`, the package's own components left out (a plugin's
+    import may be what first imports a kind's registry and so its built-ins)."""
+    return {kind: tuple(n for n, cls in reg.configs.items() if n not in before.get(kind, {})
+                        and not cls.__module__.startswith("icil_paper."))
+            for kind, reg in REGISTRIES.items()}
 
 
 def _forget(before: Mapping[str, Mapping[str, type]]) -> None:
     """Unregister what a failed plugin registered, so the process stays as it was."""
     for kind, names in _new_names(before).items():
-        reg = registry(kind)
-        for name in names:
-            reg._configs.pop(name, None)
-            reg._entries.pop(name, None)
-            reg._loaded.pop(name, None)
+        REGISTRIES[kind].forget(names)
 
 
 def _clash(where: str, exc: NameClashError) -> PluginError:
@@ -303,7 +302,7 @@ def _check_names(where: str, names: Mapping[str, tuple[str, ...]],
                  before: Mapping[str, Mapping[str, type]]) -> None:
     for kind, new in names.items():
         for name in new:
-            cls = registry(kind)._configs[name]
+            cls = REGISTRIES[kind].configs[name]
             check_config_class(where, kind, name, cls)
             probe_component(where, kind, name, cls)
 
@@ -341,14 +340,13 @@ def probe_component(where: str, kind: str, name: str, cls: type) -> None:
     """Run its kind's own check (`ComponentRegistry.probe`: for a tokenizer,
     `tokenizers.base.probe`, which builds it and runs it on a random batch of actions) on
     the default config of a component a plugin registered; PluginError naming the problem."""
-    check = registry(kind).probe
+    check = REGISTRIES[kind].probe
     if check is None:
         return
-    module, _, function = check.partition(":")
     with warnings.catch_warnings():  # a broken component's broadcasting warnings say less
         warnings.simplefilter("ignore")
         try:
-            problem = getattr(importlib.import_module(module), function)(cls())
+            problem = check(cls())
         except Exception as exc:
             problem = f"raises {_line(exc)}"
     if problem:

@@ -1,4 +1,4 @@
-"""Registries by name, with lazy imports and errors that list the valid names.
+"""Registries by name, filled by decorators, with errors that list the valid names.
 
 Experiments are data (`{"policy": "icrt", "tokenizer": "lipvq"}`), so every name that a
 user can type goes through `check_name`, and a typo fails with the list of valid names.
@@ -8,12 +8,9 @@ from __future__ import annotations
 
 import difflib
 import importlib
-from collections.abc import Iterable, Iterator, Mapping
+import sys
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any
-
-ENTRY_POINT_LOADER = "icil_paper.plugins:load_entry_points"
-"""What loads and checks a registry's entry points, imported on first use (it imports this
-module)."""
 
 
 class UnknownNameError(ValueError):
@@ -42,11 +39,9 @@ def check_name(kind: str, name: str, valid: Iterable[str]) -> str:
 
 
 class Registry(Mapping[str, Any]):
-    """A name -> object mapping whose entries are "module:attribute" strings imported on use.
-
-    Lazy imports keep `icil-paper --help` fast and let a part of the library (say the
-    ManiSkill suite) fail to import without breaking the rest.
-    """
+    """A name -> object mapping whose entries are "module:attribute" strings imported on use:
+    the simulated suites' modules (`icil_paper.sim`), so that one suite (say ManiSkill)
+    can fail to import without breaking the rest."""
 
     def __init__(self, kind: str, entries: Mapping[str, str]):
         self.kind = kind
@@ -54,7 +49,6 @@ class Registry(Mapping[str, Any]):
         self._loaded: dict[str, Any] = {}
 
     def __getitem__(self, name: str) -> Any:
-        self.discover()
         check_name(self.kind, name, self._entries)
         if name not in self._loaded:
             module, _, attribute = self._entries[name].partition(":")
@@ -62,75 +56,67 @@ class Registry(Mapping[str, Any]):
         return self._loaded[name]
 
     def __iter__(self) -> Iterator[str]:
-        self.discover()
         return iter(self._entries)
 
     def __len__(self) -> int:
-        self.discover()
         return len(self._entries)
-
-    def discover(self) -> None:
-        """Load what else adds entries (plugins: `ComponentRegistry`); nothing here."""
 
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}, {list(self._entries)})"
 
 
-class ComponentRegistry(Registry):
-    """A registry whose entries are added by a decorator on each component's config class
-    (LeRobot's `register_subclass`): the one place a tokenizer or a policy is named.
+REGISTRIES: dict[str, ComponentRegistry] = {}
+"""kind -> its registry (`icil_paper.tokenizers.configs`, `icil_paper.policies.configs`),
+added as each is built: what `icil_paper.plugins` checks and adds to."""
 
-        TOKENIZERS = ComponentRegistry("tokenizer", TokenizerConfig)
 
-        @TOKENIZERS.register("vq", "icil_paper.tokenizers.vq:VQTokenizer")
+class ComponentRegistry(Mapping[str, type]):
+    """Components of one kind by name: `configs`, name -> config class, filled by a decorator
+    on each config class (LeRobot's `register_subclass`), and name -> model class (this
+    mapping), filled by a decorator on each model class.
+
+        TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig)
+        register_tokenizer = TOKENIZER_REGISTRY.register
+        register_tokenizer_model = TOKENIZER_REGISTRY.model
+
+        @register_tokenizer("vq")                # configs.py (torch-free)
         @dataclass(frozen=True)
         class VQConfig(TokenizerConfig): ...
 
-    `register(name, model)` sets the config class's `type` to `name` and records it
-    (`configs`, in registration order) with its model, a "module:attribute" string imported
-    on first use, or a bare attribute name of the config's own module (a component written
-    as one file). The registry's names, the presets' sections (`icil_paper.config`) and the
-    command line's choices are read from it.
+        @register_tokenizer_model("vq")          # vq.py
+        class VQTokenizer(ActionTokenizer): ...
 
-    Plugins: on first use (`configs`, a name looked up, the names listed) the registry loads
-    the entry points of its `group` (`icil_paper.tokenizers`, `icil_paper.policies`) that
-    installed packages declare, through `icil_paper.plugins`, which checks each of them.
-    `probe`, a "module:function" imported on use, is the kind's own check of a component a
-    plugin registers: `function(config) -> str | None` builds the component from its
-    default config and says in words what is wrong with it (None: nothing).
+    The config is what presets, keys and the command line read, so config modules stay
+    torch-free; the kind's `factory` module imports the package's model modules, whose
+    classes register as they import. A component written as one file (a plugin) may name its
+    model in the config's decorator instead: `register("toy", ToyTokenizer)`, or the class's
+    name in the same module, `register("toy", "ToyTokenizer")`, looked up there on first use.
+
+    `group` is the entry-point group of plugins (`icil_paper.plugins.discover` loads it);
+    `probe` the kind's own check of a plugin's component, `probe(config) -> str | None`,
+    set by the module that defines the component's base class.
     """
 
-    def __init__(self, kind: str, base: type, group: str | None = None,
-                 probe: str | None = None):
-        super().__init__(kind, {})
+    def __init__(self, kind: str, base: type, group: str | None = None):
+        self.kind = kind
         self.base = base
         self.group = group
-        self.probe = probe
-        self._configs: dict[str, type] = {}
-        self._discovered = group is None
-
-    @property
-    def configs(self) -> dict[str, type]:
+        self.configs: dict[str, type] = {}
         """name -> config class, in registration order (built-ins, then plugins)."""
-        self.discover()
-        return self._configs
+        self.models: dict[str, type | str] = {}
+        """name -> model class (or its name in the config's module)."""
+        self.probe: Callable[[Any], str | None] | None = None
+        REGISTRIES[kind] = self
 
-    def discover(self) -> None:
-        """Load this registry's entry-point plugins, once (`icil_paper.plugins`)."""
-        if self._discovered:
-            return
-        self._discovered = True  # set first: a plugin's own registrations come back here
-        module, _, function = ENTRY_POINT_LOADER.partition(":")
-        getattr(importlib.import_module(module), function)(self)
-
-    def register(self, name: str, model: str):
-        """A class decorator registering a config class of `self.base` under `name`."""
+    def register(self, name: str, model: type | str | None = None):
+        """A class decorator registering a config class of `self.base` under `name` (and
+        its model, for a component of one file)."""
 
         def decorate(cls: type) -> type:
             if not (isinstance(cls, type) and issubclass(cls, self.base)):
                 raise TypeError(f"register({name!r}) decorates a subclass of "
                                 f"{self.base.__name__}, got {cls!r}")
-            old = self._configs.get(name)
+            old = self.configs.get(name)
             if old is not None and (old.__module__, old.__qualname__) != (cls.__module__,
                                                                           cls.__qualname__):
                 raise NameClashError(self.kind, name,
@@ -138,9 +124,47 @@ class ComponentRegistry(Registry):
                                      f"{old.__module__}.{old.__qualname__} and "
                                      f"{cls.__module__}.{cls.__qualname__}; rename one")
             cls.type = name
-            self._configs[name] = cls
-            self._entries[name] = model if ":" in model else f"{cls.__module__}:{model}"
-            self._loaded.pop(name, None)
+            self.configs[name] = cls
+            if model is not None:
+                self.models[name] = model
             return cls
 
         return decorate
+
+    def model(self, name: str):
+        """A class decorator registering the model class built from config `name`."""
+
+        def decorate(cls: type) -> type:
+            self.models[name] = cls
+            return cls
+
+        return decorate
+
+    def forget(self, names: Iterable[str]) -> None:
+        """Unregister components (a plugin that failed its checks)."""
+        for name in names:
+            self.configs.pop(name, None)
+            self.models.pop(name, None)
+
+    def __getitem__(self, name: str) -> type:
+        check_name(self.kind, name, self.configs)
+        model = self.models.get(name)
+        if isinstance(model, str):  # a class of the config's own module, defined after it
+            model = getattr(sys.modules[self.configs[name].__module__], model, None)
+        if model is None:
+            raise LookupError(f"{self.kind} {name!r} has a config but no model class: "
+                              f"decorate it with @register_{self.kind}_model({name!r}) "
+                              f"or name it in @register_{self.kind}({name!r}, ModelClass)")
+        return model
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.configs)
+
+    def __len__(self) -> int:
+        return len(self.configs)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.configs
+
+    def __repr__(self) -> str:
+        return f"ComponentRegistry({self.kind!r}, {list(self.configs)})"

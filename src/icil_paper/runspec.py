@@ -31,8 +31,7 @@ from icil_paper.config_data import (
     spec_key,
     to_dict,
 )
-from icil_paper.policies import REGISTRY, resolve_tokenizer
-from icil_paper.policies.configs import PolicyConfig
+from icil_paper.policies.configs import PolicyConfig, resolve_tokenizer
 from icil_paper.seeding import data_set_seed
 from icil_paper.tokenizers.configs import TokenizerConfig
 
@@ -215,7 +214,7 @@ def feature_key(run: RunSpec, spec: FeatureSpec) -> str:
 def policy_obs(policy: PolicyConfig, obs: str) -> str:
     """The observations a policy learns from: `obs`, except that image-only policies (MCR)
     read `rgb` where `obs` is `state`."""
-    if obs == "state" and getattr(REGISTRY[policy.type], "needs_images", False):
+    if obs == "state" and policy.needs_images:
         return "rgb"
     return obs
 

@@ -69,7 +69,7 @@ from tqdm.auto import tqdm
 
 from icil_paper.metrics import action_second_difference, motion_smoothness
 from icil_paper.policies import REGISTRY
-from icil_paper.policies.base import build_policy
+from icil_paper.policies.factory import build_policy
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env, object_position
 from icil_paper.timing import phase

@@ -8,8 +8,9 @@
 - `cost.py`: what a preset's run cost, from its records (`results/<preset>/cost.json`).
 - `decide.py`: `icil-paper plan`, the seeds, cells and CPU-hours that would decide every
   undecided claim.
-- `pilot.py`: the pilots behind the reference preset's task scale and training regime
-  (`make pilot`, `python -m icil_paper.planning.pilot [regime]`).
+- `pilot.py`: the records of the pilots behind the reference preset's task scale and
+  training regime, as the chapters read them (the pilots run from `tools/pilot.py`,
+  `make pilot`).
 
 Planning sits above the paper's tables: it reads `icil_paper.tables` (specs, plans, the
 claims ledger), and nothing in `icil_paper.tables` imports it. Nothing is imported here, so

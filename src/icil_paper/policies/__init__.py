@@ -11,72 +11,37 @@
 | `act`            | act.py             | ACT (Table II); with a tokenizer: ACT+tok rows| none = CVAE, or any  |
 | `mcr`            | mcr.py             | MCR encoder + BC head (images only)           | none                 |
 
-Each policy is built from its config (`configs.py`) and its tokenizer's config alone;
-`obs_dim` is the width of proprio and object state concatenated, or a mapping of keys to
-shapes (`{"proprio": 9, "object": 10, "rgb": (2, 84, 84, 3)}`), or an `ObsSpec`. Policy
-modules are imported on first use (a lazy registry).
+Each policy is built from its config (`configs.py`) and its tokenizer's config alone
+(`factory.py`); `obs_dim` is the width of proprio and object state concatenated, or a
+mapping of keys to shapes (`{"proprio": 9, "object": 10, "rgb": (2, 84, 84, 3)}`), or an
+`ObsSpec`. Importing this package imports no torch: `make_policy`, `build_policy` and
+`REGISTRY` (name -> policy class) load the policy modules on first use.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 from icil_paper.policies.configs import (
     POLICY_CONFIGS,
-    POLICY_REGISTRY,
     PolicyConfig,
     default_policy_config,
+    policy_label,
     register_policy,
+    register_policy_model,
+    resolve_tokenizer,
 )
-from icil_paper.tokenizers.configs import default_config
 
 POLICIES = tuple(POLICY_CONFIGS)
 
-REGISTRY = POLICY_REGISTRY
-"""Name -> policy class, imported on first use; filled by `register_policy` on each config
-class (`configs.py`)."""
+
+def __getattr__(name: str):
+    # PEP 562: the torch-backed names import the policy modules on first use
+    if name in ("make_policy", "build_policy", "REGISTRY"):
+        from icil_paper.policies import factory
+
+        return getattr(factory, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None):
-    """The tokenizer config a policy gets: `tokenizer` (a config or a name), else the
-    policy's default (None for a policy that works without one). Raises ValueError when the
-    policy does not take that tokenizer, naming the ones it takes."""
-    cls = REGISTRY[policy]
-    if tokenizer is None:
-        if cls.default_tokenizer is None:
-            return None
-        fields = {"latent_dim": latent_dim} if latent_dim else {}
-        return default_config(cls.default_tokenizer, **fields)
-    if isinstance(tokenizer, str):
-        tokenizer = default_config(tokenizer)
-    if tokenizer.type not in cls.tokenizers:
-        takes = (f"it takes {', '.join(cls.tokenizers)}" if cls.tokenizers
-                 else "it takes none")
-        raise ValueError(f"the {policy} policy does not take the {tokenizer.type!r} action "
-                         f"tokenizer ({takes})")
-    return tokenizer
-
-
-def make_policy(config: PolicyConfig | str, obs_dim: Any, action_dim: int,
-                tokenizer: Any = None):
-    """Build the policy a config describes (a name gives its default config).
-
-    `tokenizer`: a tokenizer config (`icil_paper.tokenizers.configs`) or name, for the
-    policies that take one; None gives the policy's default (`mlp` for ICRT, the CVAE for
-    ACT). Unknown names raise UnknownNameError; a tokenizer the policy does not take raises
-    ValueError.
-    """
-    if isinstance(config, str):
-        config = default_policy_config(config)
-    tokenizer = resolve_tokenizer(config.type, tokenizer, latent_dim=config.d_model)
-    return REGISTRY[config.type](config, obs_dim, action_dim, tokenizer)
-
-
-def policy_label(policy: str, tokenizer: str | None) -> str:
-    """A run's display name: `icrt+lipvq`, `act`, `act+bin`, `bc_transformer`."""
-    default = REGISTRY[policy].default_tokenizer if policy in REGISTRY else None
-    tokenizer = tokenizer or default
-    return f"{policy}+{tokenizer}" if tokenizer else policy
-
-
-__all__ = ["POLICIES", "REGISTRY", "make_policy", "register_policy", "policy_label", "resolve_tokenizer"]
+__all__ = ["POLICIES", "REGISTRY", "PolicyConfig", "build_policy", "default_policy_config",
+           "make_policy", "policy_label", "register_policy", "register_policy_model",
+           "resolve_tokenizer"]

@@ -36,17 +36,16 @@ from torch import Tensor, nn
 from icil_paper.layers import mlp
 from icil_paper.policies.base import BatchedPolicy, TemporalEnsemble, batch_instructions, masked_l1
 from icil_paper.policies.batching import DemoSet, ObsSpec, window_batch
-from icil_paper.policies.configs import ACTConfig
+from icil_paper.policies.configs import ACTConfig, register_policy_model
 from icil_paper.policies.transformer import DecoderBlock, RMSNorm, Transformer, TransformerConfig
-from icil_paper.tokenizers import REGISTRY as TOKENIZER_REGISTRY
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 
+@register_policy_model("act")
 class ACT(BatchedPolicy):
     """Action chunking with transformers (ACTConfig); no tokenizer = the CVAE (plain ACT)."""
 
     name = "act"
-    tokenizers = TOKENIZER_REGISTRY  # every registered tokenizer, those added later too
 
     def __init__(self, config: ACTConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
                  action_dim: int, tokenizer: TokenizerConfig | None = None):

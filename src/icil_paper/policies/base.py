@@ -18,22 +18,21 @@ per episode and loops over `select_action`.
 A policy is built from its config alone (`policy.config`, a dataclass of
 `icil_paper.policies.configs`), its tokenizer's config (`policy.tokenizer_config`) and the
 data's shapes; `policy.spec` holds all of it as JSON-ready data, so that
-`build_policy(policy.spec)` rebuilds an empty copy (evaluation workers and saved policies
+`factory.build_policy(policy.spec)` rebuilds an empty copy (evaluation workers and saved policies
 use it with the state dict).
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Collection, Mapping, Sequence
-from typing import Any, ClassVar
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import torch
 from torch import Tensor, nn
 
-from icil_paper.config_data import from_dict, to_dict
-from icil_paper.policies import make_policy
+from icil_paper.config_data import to_dict
 from icil_paper.policies.backbones import ObservationEncoder
 from icil_paper.policies.batching import DemoSet, ObsSpec, as_demo_set, as_obs_spec, obs_batch
 from icil_paper.policies.configs import PolicyConfig
@@ -47,17 +46,13 @@ TOKENIZER_SEED_OFFSET = 0x5EED
 class Policy(nn.Module):
     """Base class of ICRT and the baselines.
 
-    Subclasses set `name`, the tokenizers they accept (`tokenizers`, registry names; empty
-    for a policy that takes none) and `default_tokenizer` (used when none is given; None:
-    the policy works without one), `uses_prompt` when `reset` takes prompt demonstrations,
-    and implement `sample_batch`, `forward`, `reset` and `select_action`.
+    Subclasses set `name` and `uses_prompt` (when `reset` takes prompt demonstrations), and
+    implement `sample_batch`, `forward`, `reset` and `select_action`; what a policy takes (a
+    tokenizer, images) is stated on its config class (`configs.PolicyConfig`).
     """
 
     name: str = "policy"
     uses_prompt: bool = False
-    needs_images: bool = False
-    tokenizers: ClassVar[Collection[str]] = ()
-    default_tokenizer: ClassVar[str | None] = None
 
     def __init__(self, config: PolicyConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
                  action_dim: int, tokenizer: TokenizerConfig | None = None):
@@ -65,7 +60,7 @@ class Policy(nn.Module):
         self.obs_spec = as_obs_spec(obs_dim)
         if action_dim < 1:
             raise ValueError(f"action_dim must be positive, got {action_dim}")
-        if self.needs_images and not self.obs_spec.has_images:
+        if config.needs_images and not self.obs_spec.has_images:
             raise ValueError(f"the {self.name} policy needs image observations (obs='rgb' or "
                              f"'rgbd'); got state observations {list(self.obs_spec.keys)}")
         self.action_dim = int(action_dim)
@@ -254,14 +249,6 @@ def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spe
     """What rebuilds a policy, as JSON-ready data: its config, its tokenizer's, the shapes."""
     return {"policy": to_dict(config), "tokenizer": to_dict(tokenizer) if tokenizer else None,
             "obs_spec": obs_spec.to_dict(), "action_dim": int(action_dim)}
-
-
-def build_policy(spec: Mapping[str, Any]) -> Policy:
-    """Rebuild an (untrained) policy from `policy.spec`."""
-    tokenizer = spec.get("tokenizer")
-    return make_policy(from_dict(PolicyConfig, spec["policy"]),
-                       ObsSpec.from_dict(spec["obs_spec"]), int(spec["action_dim"]),
-                       from_dict(TokenizerConfig, tokenizer) if tokenizer else None)
 
 
 def batch_instructions(prompts: Sequence[Any], instructions: Sequence[str | None] | None

@@ -30,10 +30,11 @@ from torch import Tensor, nn
 from icil_paper.layers import mlp
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
 from icil_paper.policies.batching import DemoSet, ObsSpec, window_batch
-from icil_paper.policies.configs import BCTransformerConfig
+from icil_paper.policies.configs import BCTransformerConfig, register_policy_model
 from icil_paper.policies.transformer import Transformer, TransformerConfig
 
 
+@register_policy_model("bc_transformer")
 class BCTransformer(BatchedPolicy):
     """Transformer over the last `history` observations; predicts one action per step."""
 

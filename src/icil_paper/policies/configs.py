@@ -2,10 +2,9 @@
 
 Torch-free, so that presets, the command line and result keys can hold policy configs
 without importing the models. Each config class is registered once, by
-`@register_policy(name, "module:Class")`, which sets its class-level `type` (the registry
-name) and names the model class built from it.
-Which action tokenizers a policy takes is a property of the policy class
-(`Policy.tokenizers`), not of its config.
+`@register_policy(name)`, which sets its class-level `type` (the registry name); the model
+class beside it registers with `@register_policy_model(name)`. What a policy takes (a
+tokenizer, images) is stated on its config class, so that run specs read it without torch.
 
     from icil_paper.policies import make_policy
     from icil_paper.policies.configs import ICRTConfig
@@ -19,10 +18,11 @@ policy the same transformer sizes.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 from icil_paper.config_data import ConfigError, check_fields
 from icil_paper.registry import ComponentRegistry, check_name
+from icil_paper.tokenizers.configs import default_config
 
 PROMPT_FROM = ("same_task", "minibatch")
 """Where a training query's prompt comes from (`ICRTConfig.prompt_from`, whose choices
@@ -36,6 +36,12 @@ class PolicyConfig:
 
     type: ClassVar[str] = ""
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"query_start": ("random", "episode_start")}
+    takes_tokenizer: ClassVar[bool] = False
+    """The policy embeds actions with any registered action tokenizer."""
+    default_tokenizer: ClassVar[str | None] = None
+    """The tokenizer it gets when none is given (None: it works without one)."""
+    needs_images: ClassVar[bool] = False
+    """It needs image observations (`data.obs` rgb or rgbd)."""
 
     d_model: int = 128
     """Token width."""
@@ -74,21 +80,26 @@ class PolicyConfig:
 
 
 POLICY_REGISTRY = ComponentRegistry("policy", PolicyConfig, "icil_paper.policies")
-"""Every policy by name: its config class (`configs`) and its model, imported on first use.
-A policy is added by one decorator on its config class, `register_policy`; the preset's
-`policies` section and the CLI's choices are derived from it."""
+"""Every policy by name: its config class (`configs`) and its model class (the mapping; the
+models register as `icil_paper.policies.factory` imports them). The preset's `policies`
+section and the CLI's choices are derived from it."""
 
 register_policy = POLICY_REGISTRY.register
-"""`@register_policy("name", "module:PolicyClass")` above `@dataclass(frozen=True)` on a
-`PolicyConfig` subclass: the one registration of a policy."""
+"""`@register_policy("name")` above `@dataclass(frozen=True)` on a `PolicyConfig` subclass:
+the one registration of a policy's config."""
+
+register_policy_model = POLICY_REGISTRY.model
+"""`@register_policy_model("name")` on the `Policy` built from config `name`."""
 
 
-@register_policy("icrt", "icil_paper.policies.icrt:ICRT")
+@register_policy("icrt")
 @dataclass(frozen=True)
 class ICRTConfig(PolicyConfig):
     """ICRT (Sec. III-A): a causal transformer over prompt demonstrations and the query."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"prompt_from": PROMPT_FROM}
+    takes_tokenizer: ClassVar[bool] = True
+    default_tokenizer: ClassVar[str | None] = "mlp"
 
     chunk_size: int = 4
     """Future actions predicted per query step (action chunking; the first is executed)."""
@@ -137,7 +148,7 @@ class ICRTConfig(PolicyConfig):
                 "(policies.icrt.query_len)")
 
 
-@register_policy("bc_transformer", "icil_paper.policies.bc_transformer:BCTransformer")
+@register_policy("bc_transformer")
 @dataclass(frozen=True)
 class BCTransformerConfig(PolicyConfig):
     """robomimic's BC-Transformer: a transformer over an observation history, no prompt."""
@@ -146,11 +157,13 @@ class BCTransformerConfig(PolicyConfig):
     """Observation steps in the context (robomimic's context length)."""
 
 
-@register_policy("act", "icil_paper.policies.act:ACT")
+@register_policy("act")
 @dataclass(frozen=True)
 class ACTConfig(PolicyConfig):
     """ACT (Zhao et al. 2023), scaled to BC-Transformer's size; with a tokenizer, Table II's
     ACT + tokenizer rows."""
+
+    takes_tokenizer: ClassVar[bool] = True
 
     chunk_size: int = 4
     """Actions predicted per chunk."""
@@ -162,10 +175,12 @@ class ACTConfig(PolicyConfig):
     """Temporal ensembling weights exp(-m i) over overlapping chunks."""
 
 
-@register_policy("mcr", "icil_paper.policies.mcr:MCR")
+@register_policy("mcr")
 @dataclass(frozen=True)
 class MCRConfig(PolicyConfig):
     """MCR (Jiang et al. 2025): a manipulation-centric visual encoder, frozen under a BC head."""
+
+    needs_images: ClassVar[bool] = True
 
     chunk_size: int = 4
     """Actions predicted per step by the BC head (the first is executed)."""
@@ -177,10 +192,35 @@ class MCRConfig(PolicyConfig):
     """Learning rate of the pre-training."""
 
 
-POLICY_CONFIGS: dict[str, type[PolicyConfig]] = POLICY_REGISTRY._configs
+POLICY_CONFIGS: dict[str, type[PolicyConfig]] = POLICY_REGISTRY.configs
 """Registry name -> config class, in registration order."""
 
 
 def default_policy_config(name: str, **fields) -> PolicyConfig:
     """The default config of policy `name`, with some fields changed."""
     return POLICY_CONFIGS[check_name("policy", name, POLICY_CONFIGS)](**fields)
+
+
+def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None):
+    """The tokenizer config a policy gets: `tokenizer` (a config or a name), else the
+    policy's default (None for a policy that works without one). Raises ValueError when the
+    policy does not take that tokenizer."""
+    cls = POLICY_CONFIGS[check_name("policy", policy, POLICY_CONFIGS)]
+    if tokenizer is None:
+        if cls.default_tokenizer is None:
+            return None
+        fields = {"latent_dim": latent_dim} if latent_dim else {}
+        return default_config(cls.default_tokenizer, **fields)
+    if isinstance(tokenizer, str):
+        tokenizer = default_config(tokenizer)
+    if not cls.takes_tokenizer:
+        raise ValueError(f"the {policy} policy does not take the {tokenizer.type!r} action "
+                         "tokenizer (it takes none)")
+    return tokenizer
+
+
+def policy_label(policy: str, tokenizer: str | None) -> str:
+    """A run's display name: `icrt+lipvq`, `act`, `act+bin`, `bc_transformer`."""
+    config = POLICY_CONFIGS.get(policy)
+    tokenizer = tokenizer or (config.default_tokenizer if config else None)
+    return f"{policy}+{tokenizer}" if tokenizer else policy

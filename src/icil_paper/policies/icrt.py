@@ -36,9 +36,8 @@ from torch import Tensor, nn
 from icil_paper.layers import mlp
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1, validate_prompt
 from icil_paper.policies.batching import DemoSet, ObsSpec, prompt_query_batch
-from icil_paper.policies.configs import ICRTConfig
+from icil_paper.policies.configs import ICRTConfig, register_policy_model
 from icil_paper.policies.transformer import Transformer, TransformerConfig
-from icil_paper.tokenizers import REGISTRY as TOKENIZER_REGISTRY
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 
@@ -53,14 +52,13 @@ def action_context_steps(tokenizer: nn.Module) -> int:
     return max(1, int(steps))
 
 
+@register_policy_model("icrt")
 class ICRT(BatchedPolicy):
     """In-context robot transformer (ICRTConfig) with any action tokenizer (default `mlp`,
     ICRT's own)."""
 
     name = "icrt"
     uses_prompt = True
-    tokenizers = TOKENIZER_REGISTRY  # every registered tokenizer, those added later too
-    default_tokenizer = "mlp"
 
     def __init__(self, config: ICRTConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
                  action_dim: int, tokenizer: TokenizerConfig):

@@ -31,7 +31,7 @@ from tqdm.auto import tqdm
 from icil_paper.layers import mlp
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
 from icil_paper.policies.batching import DemoSet, ObsSpec, _take, window_batch
-from icil_paper.policies.configs import MCRConfig
+from icil_paper.policies.configs import MCRConfig, register_policy_model
 
 
 def info_nce(a: Tensor, b: Tensor, temperature: float = 0.1) -> Tensor:
@@ -42,6 +42,7 @@ def info_nce(a: Tensor, b: Tensor, temperature: float = 0.1) -> Tensor:
     return 0.5 * (F.cross_entropy(logits, labels) + F.cross_entropy(logits.T, labels))
 
 
+@register_policy_model("mcr")
 class MCR(BatchedPolicy):
     """Frozen manipulation-centric visual encoder + behaviour-cloning MLP head.
 
@@ -50,7 +51,6 @@ class MCR(BatchedPolicy):
     """
 
     name = "mcr"
-    needs_images = True
 
     def __init__(self, config: MCRConfig, obs_dim: int | Mapping[str, Any] | ObsSpec,
                  action_dim: int, tokenizer: None = None):

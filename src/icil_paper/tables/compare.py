@@ -51,7 +51,7 @@ from icil_paper.tables.assemble import TableResult, assemble
 from icil_paper.tables.definitions import icrt_rows, label, table_i_seeds
 from icil_paper.tables.execute import run_specs
 from icil_paper.tables.grid import check_reachable
-from icil_paper.tokenizers import REGISTRY
+from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY as REGISTRY
 from icil_paper.train.rundir import RUNS_ENV_VAR
 
 DEFAULT_AGAINST = ("lipvq",)
@@ -84,9 +84,8 @@ def with_registered(preset: Preset) -> Preset:
     loaded afterwards), each given the values the preset gives all of its tokenizers alike
     (`latent_dim`, `codebook_size`), as `get_preset` does for one registered before."""
     section = preset.tokenizers
-    base = next(c for c in type(section).__mro__ if "REGISTRY" in vars(c))
-    current = {f.name: getattr(section, f.name) for f in dataclasses.fields(section)}
-    new = {name: cls for name, cls in base.REGISTRY.configs.items()
+    current = dict(section)
+    new = {name: cls for name, cls in section.REGISTRY.configs.items()
            if name.replace("-", "_") not in current}
     if not new:
         return preset
@@ -98,7 +97,7 @@ def with_registered(preset: Preset) -> Preset:
             if f.name in SHARED_SIZES and len(values) == 1:
                 shared[f.name] = next(iter(values.values()))
         current[name.replace("-", "_")] = cls(**shared)
-    return dataclasses.replace(preset, tokenizers=base(**current))
+    return dataclasses.replace(preset, tokenizers=type(section)(**current))
 
 
 def _claims(tokenizer: str, against: Sequence[str], effect: float) -> list[claims_mod.Claim]:

@@ -32,91 +32,74 @@ and without Eq. 4 (`lip*`: the same class, every encoder layer a LipschitzLinear
 | `liprvq`  | rvq.py     | residual VQ + Eq. 4             | yes      | no         |
 | `bspline` | bspline.py | B-spline control points (BEAST) | yes      | ranges     |
 
-Tokenizer modules are imported on first use (a lazy registry), and so are the names of
-this package that live in torch modules (`TORCH_NAMES`: `make_tokenizer`, `ActionTokenizer`,
-`load_tokenizer`, ...): importing the package, or its torch-free `configs` (which the presets
-and the command line read), imports neither torch, nor scipy, nor the `tokenizers` package.
+Importing the package, or its torch-free `configs` (which the presets and the command line
+read), imports no torch: the names that live in torch modules (`make_tokenizer`,
+`ActionTokenizer`, `load_tokenizer`, `REGISTRY`, ...) load on first use (`__getattr__`).
 
 A new tokenizer is one module: an `ActionTokenizer` subclass and its config, registered by
-one decorator (nothing else to edit; the presets give it their shared sizes, `latent_dim`
-and, where it has that field, `codebook_size`; `icil_paper.config` may add its own values):
+one decorator (the presets give it their shared sizes, `latent_dim` and, where it has that
+field, `codebook_size`; `icil_paper.config` may add its own values):
 
     from dataclasses import dataclass
     from icil_paper.tokenizers import ActionTokenizer, TokenizerConfig, register_tokenizer
 
-    @register_tokenizer("toy", "ToyTokenizer")      # the class below, imported on first use
+    @register_tokenizer("toy", "ToyTokenizer")      # the class below, looked up on first use
     @dataclass(frozen=True)
     class ToyConfig(TokenizerConfig):
         scale: float = 1.0   # (with its docstring under it, as every config field)
 
     class ToyTokenizer(ActionTokenizer): ...
 
+(The package's own tokenizers keep their configs in `configs.py` and register their classes
+with `@register_tokenizer_model(name)`, imported by `factory.py`.)
+
 `--set tokenizers.toy.scale=2 --tokenizer toy` then works on the command line once the
 module is imported (`tests/test_registration.py` runs one end to end). Outside the package
 the module is a plugin: `--plugin FILE_OR_MODULE` on any command, or an entry point of the
-group `icil_paper.tokenizers` that the registry loads on first use (`icil_paper.plugins`;
+group `icil_paper.tokenizers`, loaded when a preset or a tokenizer is first built
+(`icil_paper.plugins`;
 `icil-paper compare` reads it against LipVQ-VAE, chapter 14).
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING
-
 from icil_paper.tokenizers.configs import (
     TOKENIZER_CONFIGS,
-    TOKENIZER_REGISTRY,
     TokenizerConfig,
     default_config,
     lipvq_official,
     register_tokenizer,
+    register_tokenizer_model,
 )
-
-if TYPE_CHECKING:
-    from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, make_tokenizer
-    from icil_paper.tokenizers.fast import FastDecodeError
-    from icil_paper.tokenizers.lipschitz_linear import (
-        LipschitzLinear,
-        lipschitz_bounds,
-        lipschitz_layers,
-        lipschitz_loss,
-    )
-    from icil_paper.tokenizers.portable import (
-        TokenizerFolderError,
-        load_tokenizer,
-        save_tokenizer,
-    )
 
 TOKENIZERS = tuple(TOKENIZER_CONFIGS)
 """The built-in tokenizers' names, the paper's in its order, then the later ones (a snapshot:
 `REGISTRY` also holds those registered after this package was imported)."""
 
-REGISTRY = TOKENIZER_REGISTRY
-"""Name -> tokenizer class, imported on first use; filled by `register_tokenizer` on each
-config class (`configs.py`)."""
 
-TORCH_NAMES = {
-    "ActionTokenizer": "base", "TokenizerOutput": "base", "make_tokenizer": "base",
-    "LipschitzLinear": "lipschitz_linear", "lipschitz_loss": "lipschitz_linear",
-    "lipschitz_bounds": "lipschitz_linear", "lipschitz_layers": "lipschitz_linear",
-    "load_tokenizer": "portable", "save_tokenizer": "portable",
-    "TokenizerFolderError": "portable", "FastDecodeError": "fast",
-}
-"""Name -> the module of this package it lives in, imported on first use (PEP 562), as the
-registry imports the tokenizer classes: each of those modules imports torch."""
+TORCH_NAMES = frozenset({
+    "REGISTRY", "make_tokenizer", "ActionTokenizer", "TokenizerOutput", "LipschitzLinear",
+    "lipschitz_loss", "lipschitz_bounds", "lipschitz_layers", "load_tokenizer",
+    "save_tokenizer", "TokenizerFolderError", "FastDecodeError"})
+"""The names of this package that live in its torch modules (`__getattr__`)."""
 
 
 def __getattr__(name: str):
-    if name not in TORCH_NAMES:
+    # PEP 562: the names of torch modules, imported on first use
+    if name not in TORCH_NAMES:  # (the submodules themselves too, while they import)
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{TORCH_NAMES[name]}"), name)
-    globals()[name] = value
-    return value
+    from icil_paper.tokenizers import base, factory, fast, lipschitz_linear, portable
+
+    for module in (factory, base, lipschitz_linear, portable, fast):
+        if name in vars(module):
+            return vars(module)[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = [
     "TOKENIZERS", "REGISTRY", "make_tokenizer", "ActionTokenizer", "TokenizerOutput",
     "TokenizerConfig", "default_config", "lipvq_official", "register_tokenizer",
-    "LipschitzLinear", "lipschitz_loss", "lipschitz_bounds", "lipschitz_layers",
-    "FastDecodeError", "load_tokenizer", "save_tokenizer", "TokenizerFolderError",
+    "register_tokenizer_model", "LipschitzLinear", "lipschitz_loss", "lipschitz_bounds",
+    "lipschitz_layers", "FastDecodeError", "load_tokenizer", "save_tokenizer",
+    "TokenizerFolderError",
 ]

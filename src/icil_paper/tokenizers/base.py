@@ -30,7 +30,6 @@ from icil_paper.tokenizers.configs import (
     TOKENIZER_REGISTRY,
     LipschitzOptions,
     TokenizerConfig,
-    default_config,
 )
 from icil_paper.tokenizers.lipschitz_linear import LipschitzLinear, lipschitz_loss
 
@@ -288,19 +287,6 @@ class ActionTokenizer(nn.Module):
         return f"action_dim={self.action_dim}, latent_dim={self.latent_dim}"
 
 
-def make_tokenizer(config: TokenizerConfig | str, action_dim: int) -> ActionTokenizer:
-    """Build the tokenizer a config describes (a name gives that tokenizer's default config).
-
-    An unknown name raises UnknownNameError (a ValueError) that lists the valid names.
-    """
-    if isinstance(config, str):
-        config = default_config(config)
-    if not isinstance(config, TokenizerConfig) or not config.type:
-        raise TypeError(f"make_tokenizer needs a tokenizer config (icil_paper.tokenizers.configs)"
-                        f" or a name, got {type(config).__name__}")
-    return TOKENIZER_REGISTRY[config.type](config, action_dim)
-
-
 PROBE_SHAPE = (2, 16, 7)
 """(B, T, A) of the random actions a plugin's tokenizer is probed with (`probe`)."""
 
@@ -310,7 +296,7 @@ def probe(config: TokenizerConfig) -> str | None:
     fitted where it needs fitting and run on random actions (B, T, A) = PROBE_SHAPE, and must
     give an ActionTokenizer whose TokenizerOutput has embeddings (B, T, latent_dim) and a
     reconstruction (B, T, A). `icil_paper.plugins` runs it on every tokenizer a plugin
-    registers (`TOKENIZER_REGISTRY.probe`), before any work."""
+    registers (`TOKENIZER_REGISTRY.probe`, set below), before any work."""
     try:
         problem = _probe_problem(config, PROBE_SHAPE)
     except Exception as exc:  # noqa: BLE001 - whatever a plugin's code raises is its problem
@@ -323,7 +309,7 @@ def probe(config: TokenizerConfig) -> str | None:
 
 def _probe_problem(config: TokenizerConfig, shape: tuple[int, int, int]) -> str | None:
     b, t, a = shape
-    tok = make_tokenizer(config, a)
+    tok = TOKENIZER_REGISTRY[config.type](config, a)
     if not isinstance(tok, ActionTokenizer):
         return f"builds a {type(tok).__name__}, not an ActionTokenizer"
     rng = np.random.default_rng(0)
@@ -340,3 +326,6 @@ def _probe_problem(config: TokenizerConfig, shape: tuple[int, int, int]) -> str 
         return (f"returns a reconstruction of shape {tuple(out.reconstruction.shape)}, "
                 f"expected (B, T, A) = {shape}")
     return None
+
+
+TOKENIZER_REGISTRY.probe = probe

@@ -33,12 +33,13 @@ from torch import Tensor, nn
 from icil_paper.config_data import field_choices
 from icil_paper.layers import mlp
 from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
-from icil_paper.tokenizers.configs import BinConfig
+from icil_paper.tokenizers.configs import BinConfig, register_tokenizer_model
 
 RANGES = field_choices(BinConfig)["range"]
 """`fixed` (fitted before training) or `running` (widened by every training batch)."""
 
 
+@register_tokenizer_model("bin")
 class BinTokenizer(ActionTokenizer):
     """Uniform per-dimension bins over fitted (or running) ranges, an embedding per
     (dimension, bin)."""

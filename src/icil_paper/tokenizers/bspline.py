@@ -32,7 +32,7 @@ from torch import Tensor, nn
 
 from icil_paper.layers import mlp
 from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
-from icil_paper.tokenizers.configs import BSplineConfig
+from icil_paper.tokenizers.configs import BSplineConfig, register_tokenizer_model
 
 DEGREE = 3
 """Cubic B-splines (the issue's and BEAST's released processor's default)."""
@@ -52,6 +52,7 @@ def basis_matrix(samples: int, control_points: int, degree: int = DEGREE) -> np.
     return BSpline.design_matrix(s, clamped_knots(control_points, degree), degree).toarray()
 
 
+@register_tokenizer_model("bspline")
 class BSplineTokenizer(ActionTokenizer):
     """Clamped cubic B-spline control points of causal action chunks, quantized to bins
     (BSplineConfig; see the module docstring)."""

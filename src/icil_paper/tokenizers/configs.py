@@ -2,9 +2,10 @@
 
 Torch-free, so that presets, the command line and result keys can hold tokenizer configs
 without importing the models. Each config class is registered once, by
-`@register_tokenizer(name, "module:Class")`, which sets its class-level `type` (the
-registry name) and names the model class built from it; `TOKENIZER_CONFIGS`, the tokenizer
-registry and the presets' `tokenizers` section all read that one registration.
+`@register_tokenizer(name)`, which sets its class-level `type` (the registry name); the
+model class beside it registers with `@register_tokenizer_model(name)`.
+`TOKENIZER_CONFIGS`, the tokenizer registry and the presets' `tokenizers` section all read
+that one registration.
 
     from icil_paper.tokenizers import make_tokenizer
     from icil_paper.tokenizers.configs import LipVQConfig
@@ -71,17 +72,19 @@ class TokenizerConfig:
         return self.type
 
 
-TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig, "icil_paper.tokenizers",
-                                       probe="icil_paper.tokenizers.base:probe")
-"""Every action tokenizer by name: its config class (`configs`) and its model, imported on
-first use. A tokenizer is added by one decorator on its config class, `register_tokenizer`;
-the preset's `tokenizers` section and the CLI's choices are derived from it. A plugin's
-tokenizer is run on a probe batch before use (`base.probe`)."""
+TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig, "icil_paper.tokenizers")
+"""Every action tokenizer by name: its config class (`configs`) and its model class (the
+mapping; the models register as `icil_paper.tokenizers.factory` imports them). The preset's
+`tokenizers` section and the CLI's choices are derived from it; a plugin's tokenizer is run
+on a probe batch before use (`base.probe`)."""
 
 register_tokenizer = TOKENIZER_REGISTRY.register
-"""`@register_tokenizer("name", "module:TokenizerClass")` above `@dataclass(frozen=True)` on
-a `TokenizerConfig` subclass: the one registration of a tokenizer (the model may be a bare
-class name of the config's own module, for a tokenizer written as one file)."""
+"""`@register_tokenizer("name")` above `@dataclass(frozen=True)` on a `TokenizerConfig`
+subclass: the one registration of a tokenizer's config (a component of one file may name
+its model class too: `@register_tokenizer("name", "TokenizerClass")`)."""
+
+register_tokenizer_model = TOKENIZER_REGISTRY.model
+"""`@register_tokenizer_model("name")` on the `ActionTokenizer` built from config `name`."""
 
 
 @dataclass(frozen=True)
@@ -119,7 +122,7 @@ class LipschitzOptions:
         check_fields(self)
 
 
-@register_tokenizer("mlp", "icil_paper.tokenizers.mlp:MLPTokenizer")
+@register_tokenizer("mlp")
 @dataclass(frozen=True)
 class MLPConfig(TokenizerConfig):
     """`mlp`: ICRT's continuous action MLP."""
@@ -132,7 +135,7 @@ class MLPConfig(TokenizerConfig):
     """Weight of the reconstruction loss."""
 
 
-@register_tokenizer("lip-mlp", "icil_paper.tokenizers.mlp:LipMLPTokenizer")
+@register_tokenizer("lip-mlp")
 @dataclass(frozen=True)
 class LipMLPConfig(MLPConfig):
     """`lip-mlp`: the ICRT MLP with every linear layer Lipschitz-normalised (Table IV)."""
@@ -141,7 +144,7 @@ class LipMLPConfig(MLPConfig):
     """The Lipschitz layers' initialisation and loss weight."""
 
 
-@register_tokenizer("bin", "icil_paper.tokenizers.bin:BinTokenizer")
+@register_tokenizer("bin")
 @dataclass(frozen=True)
 class BinConfig(TokenizerConfig):
     """`bin`: RT-1 style uniform bins per action dimension."""
@@ -163,7 +166,7 @@ class BinConfig(TokenizerConfig):
     """Weight of the decode head's loss."""
 
 
-@register_tokenizer("fast", "icil_paper.tokenizers.fast:FASTTokenizer")
+@register_tokenizer("fast")
 @dataclass(frozen=True)
 class FASTConfig(TokenizerConfig):
     """`fast`: DCT of action chunks, rounded, then byte-pair encoded (Pertsch et al. 2025)."""
@@ -203,7 +206,7 @@ class NormedEncoderConfig(TokenizerConfig):
     """The Lipschitz layers' initialisation and loss weight (with a Lipschitz norm)."""
 
 
-@register_tokenizer("vq", "icil_paper.tokenizers.vq:VQTokenizer")
+@register_tokenizer("vq")
 @dataclass(frozen=True)
 class VQConfig(NormedEncoderConfig):
     """`vq`: VQ-VAE over single actions (van den Oord et al. 2017)."""
@@ -244,7 +247,7 @@ class VQConfig(NormedEncoderConfig):
     False exempts it (a remedy for collapse: decay pulls unused codes to 0)."""
 
 
-@register_tokenizer("lfq", "icil_paper.tokenizers.lfq:LFQTokenizer")
+@register_tokenizer("lfq")
 @dataclass(frozen=True)
 class LFQConfig(TokenizerConfig):
     """`lfq`: lookup-free quantization (MAGVIT-v2), the paper's LFQ-VAE."""
@@ -268,7 +271,7 @@ class LFQConfig(TokenizerConfig):
                               f"is log2(K) bits), got {k}")
 
 
-@register_tokenizer("lipvq", "icil_paper.tokenizers.lipvq:LipVQTokenizer")
+@register_tokenizer("lipvq")
 @dataclass(frozen=True)
 class LipVQConfig(VQConfig):
     """`lipvq`: LipVQ-VAE, a VQ-VAE with every encoder layer Lipschitz-normalised (the paper's)."""
@@ -333,7 +336,7 @@ def official_bin(latent_dim: int = 64) -> BinConfig:
 
 
 # ----------------------------------------------------------------- since the paper
-@register_tokenizer("fsq", "icil_paper.tokenizers.fsq:FSQTokenizer")
+@register_tokenizer("fsq")
 @dataclass(frozen=True)
 class FSQConfig(NormedEncoderConfig):
     """`fsq`: finite scalar quantization (Mentzer et al. 2023) of one action per step."""
@@ -348,7 +351,7 @@ class FSQConfig(NormedEncoderConfig):
     """Weight of the reconstruction loss."""
 
 
-@register_tokenizer("lipfsq", "icil_paper.tokenizers.fsq:LipFSQTokenizer")
+@register_tokenizer("lipfsq")
 @dataclass(frozen=True)
 class LipFSQConfig(FSQConfig):
     """`lipfsq`: FSQ with every encoder layer Lipschitz-normalised (Eq. 4), as in LipVQ-VAE."""
@@ -357,7 +360,7 @@ class LipFSQConfig(FSQConfig):
     """Encoder weight normalisation (`lipschitz`: Eq. 4 on every layer, as LipVQ-VAE)."""
 
 
-@register_tokenizer("rvq", "icil_paper.tokenizers.rvq:RVQTokenizer")
+@register_tokenizer("rvq")
 @dataclass(frozen=True)
 class RVQConfig(NormedEncoderConfig):
     """`rvq`: residual vector quantization (VQ-BeT's tokenizer; Lee et al. 2024)."""
@@ -376,7 +379,7 @@ class RVQConfig(NormedEncoderConfig):
     """Weight of the reconstruction loss."""
 
 
-@register_tokenizer("liprvq", "icil_paper.tokenizers.rvq:LipRVQTokenizer")
+@register_tokenizer("liprvq")
 @dataclass(frozen=True)
 class LipRVQConfig(RVQConfig):
     """`liprvq`: residual VQ with every encoder layer Lipschitz-normalised (Eq. 4)."""
@@ -385,7 +388,7 @@ class LipRVQConfig(RVQConfig):
     """Encoder weight normalisation (`lipschitz`: Eq. 4 on every layer, as LipVQ-VAE)."""
 
 
-@register_tokenizer("bspline", "icil_paper.tokenizers.bspline:BSplineTokenizer")
+@register_tokenizer("bspline")
 @dataclass(frozen=True)
 class BSplineConfig(TokenizerConfig):
     """`bspline`: BEAST (Zhou et al. 2025), clamped cubic B-spline control points of action
@@ -413,7 +416,7 @@ class BSplineConfig(TokenizerConfig):
                               "more control points than the chunk has steps")
 
 
-TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = TOKENIZER_REGISTRY._configs
+TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = TOKENIZER_REGISTRY.configs
 """Registry name -> config class, in registration order: the paper's, in the order of
 Table I (mlp first), then the tokenizers that came after it (`SINCE_PAPER`), then any
 registered later (a module of one's own that uses `register_tokenizer`)."""

@@ -35,7 +35,7 @@ from torch import Tensor, nn
 
 from icil_paper.layers import mlp
 from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, as_trajectory_list
-from icil_paper.tokenizers.configs import FASTConfig
+from icil_paper.tokenizers.configs import FASTConfig, register_tokenizer_model
 
 # Symbol of integer v is chr(v - min_token + _CHAR_OFFSET). 0 is kept free because NumPy's
 # fixed-width strings (used to build symbol strings fast) drop trailing NUL characters.
@@ -66,6 +66,7 @@ def _bpe_from_str(text: str):
     return Tokenizer.from_str(text)
 
 
+@register_tokenizer_model("fast")
 class FASTTokenizer(ActionTokenizer):
     """DCT + BPE action tokenizer with per-step pooled token embeddings (FASTConfig)."""
 

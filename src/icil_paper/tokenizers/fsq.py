@@ -37,9 +37,10 @@ from icil_paper.tokenizers.base import (
     build_encoder,
     lipschitz_losses,
 )
-from icil_paper.tokenizers.configs import FSQConfig
+from icil_paper.tokenizers.configs import FSQConfig, register_tokenizer_model
 
 
+@register_tokenizer_model("fsq")
 class FSQTokenizer(ActionTokenizer):
     """Finite scalar quantization of one action per step (FSQConfig; see the module
     docstring); `lipfsq` with a LipFSQConfig."""
@@ -102,6 +103,7 @@ class FSQTokenizer(ActionTokenizer):
                                latents=z_e)
 
 
+@register_tokenizer_model("lipfsq")
 class LipFSQTokenizer(FSQTokenizer):
     """`lipfsq`: FSQ whose encoder is Lipschitz-constrained by Eq. 4 (as LipVQ-VAE's)."""
 

@@ -30,9 +30,10 @@ from torch import Tensor, nn
 
 from icil_paper.layers import mlp
 from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
-from icil_paper.tokenizers.configs import LFQConfig
+from icil_paper.tokenizers.configs import LFQConfig, register_tokenizer_model
 
 
+@register_tokenizer_model("lfq")
 class LFQTokenizer(ActionTokenizer):
     """Lookup-free quantization of one action per step (LFQConfig)."""
 

@@ -26,9 +26,11 @@ The official code differs (`configs.lipvq_official()`, so that the difference ca
 
 from __future__ import annotations
 
+from icil_paper.tokenizers.configs import register_tokenizer_model
 from icil_paper.tokenizers.vq import VQTokenizer
 
 
+@register_tokenizer_model("lipvq")
 class LipVQTokenizer(VQTokenizer):
     """LipVQ-VAE: a VQ-VAE whose encoder is Lipschitz-constrained (see the module docstring)."""
 

@@ -20,10 +20,11 @@ from torch import Tensor
 
 from icil_paper.layers import mlp
 from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, build_encoder
-from icil_paper.tokenizers.configs import LipMLPConfig, MLPConfig
+from icil_paper.tokenizers.configs import LipMLPConfig, MLPConfig, register_tokenizer_model
 from icil_paper.tokenizers.lipschitz_linear import lipschitz_loss
 
 
+@register_tokenizer_model("mlp")
 class MLPTokenizer(ActionTokenizer):
     """Continuous action embedding by an MLP (ICRT); `lip-mlp` with a LipMLPConfig."""
 
@@ -53,6 +54,7 @@ class MLPTokenizer(ActionTokenizer):
                                latents=z)
 
 
+@register_tokenizer_model("lip-mlp")
 class LipMLPTokenizer(MLPTokenizer):
     """`lip-mlp`: the ICRT MLP with LipschitzLinear layers (Table IV's ablation)."""
 

@@ -37,8 +37,9 @@ from icil_paper import plugins
 from icil_paper.config_data import from_dict, to_dict
 from icil_paper.fileio import atomic_write_bytes, atomic_write_json
 from icil_paper.setup.provenance import git_state, package_versions
-from icil_paper.tokenizers.base import ActionTokenizer, make_tokenizer
+from icil_paper.tokenizers.base import ActionTokenizer
 from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY, TokenizerConfig
+from icil_paper.tokenizers.factory import make_tokenizer
 
 FORMAT = "icil_paper.tokenizer/1"
 CONFIG_FILE = "config.json"

@@ -34,9 +34,10 @@ from icil_paper.tokenizers.base import (
     build_encoder,
     lipschitz_losses,
 )
-from icil_paper.tokenizers.configs import RVQConfig
+from icil_paper.tokenizers.configs import RVQConfig, register_tokenizer_model
 
 
+@register_tokenizer_model("rvq")
 class RVQTokenizer(ActionTokenizer):
     """Residual VQ of one action per step (RVQConfig; see the module docstring); `liprvq`
     with a LipRVQConfig."""
@@ -109,6 +110,7 @@ class RVQTokenizer(ActionTokenizer):
         return [codes[..., level].flatten() for level in range(self.num_quantizers)]
 
 
+@register_tokenizer_model("liprvq")
 class LipRVQTokenizer(RVQTokenizer):
     """`liprvq`: residual VQ whose encoder is Lipschitz-constrained by Eq. 4 (as LipVQ-VAE's)."""
 

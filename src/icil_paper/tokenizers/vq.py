@@ -37,12 +37,13 @@ from icil_paper.tokenizers.base import (
     build_encoder,
     lipschitz_losses,
 )
-from icil_paper.tokenizers.configs import VQConfig
+from icil_paper.tokenizers.configs import VQConfig, register_tokenizer_model
 
 STRAIGHT_THROUGH = ("vqvae", "codebook", "none")
 CODEBOOK_INITS = ("uniform", "data")
 
 
+@register_tokenizer_model("vq")
 class VQTokenizer(ActionTokenizer):
     """VQ-VAE action tokenizer, one code per step (VQConfig; see the module docstring)."""
 

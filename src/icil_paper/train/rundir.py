@@ -52,7 +52,7 @@ from icil_paper.fileio import (
     set_aside,
 )
 from icil_paper.plugins import needed_by, record_of
-from icil_paper.policies.base import build_policy
+from icil_paper.policies.factory import build_policy
 from icil_paper.registry import UnknownNameError
 from icil_paper.runspec import RunSpec, tasks_tag
 

@@ -1,0 +1,44 @@
+"""Every tokenizer of the package by name, and `make_tokenizer`, which builds one from its config.
+
+    from icil_paper.tokenizers import make_tokenizer
+    tok = make_tokenizer(LipVQConfig(latent_dim=64), action_dim=7)
+    tok = make_tokenizer("vq", 7)                  # a name: its default config
+
+Importing this module imports the package's tokenizer modules (torch), whose classes
+register with `@register_tokenizer_model` as they import; a plugin's tokenizer comes with
+its plugin.
+"""
+
+from __future__ import annotations
+
+from icil_paper import plugins
+from icil_paper.tokenizers import (  # noqa: F401 (each registers its classes)
+    bin,
+    bspline,
+    fast,
+    fsq,
+    lfq,
+    lipvq,
+    mlp,
+    rvq,
+    vq,
+)
+from icil_paper.tokenizers.base import ActionTokenizer
+from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY, TokenizerConfig, default_config
+
+REGISTRY = TOKENIZER_REGISTRY
+"""Name -> tokenizer class (and `REGISTRY.configs`: name -> config class)."""
+
+
+def make_tokenizer(config: TokenizerConfig | str, action_dim: int) -> ActionTokenizer:
+    """Build the tokenizer a config describes (a name gives that tokenizer's default config).
+
+    An unknown name raises UnknownNameError (a ValueError) that lists the valid names.
+    """
+    plugins.discover()
+    if isinstance(config, str):
+        config = default_config(config)
+    if not isinstance(config, TokenizerConfig) or not config.type:
+        raise TypeError(f"make_tokenizer needs a tokenizer config (icil_paper.tokenizers.configs)"
+                        f" or a name, got {type(config).__name__}")
+    return REGISTRY[config.type](config, action_dim)
