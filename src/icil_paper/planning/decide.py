@@ -41,6 +41,7 @@ from icil_paper.paper import TABLES, table_spec
 from icil_paper.planning.design import cell_kind, claim_rows, planned_seeds
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
+from icil_paper.seeding import DATA_SETS
 from icil_paper.stats import Verdict
 from icil_paper.tables.execute import plan
 
@@ -130,6 +131,9 @@ def make_plan(preset: Preset, ledger: list[dict[str, Any]], cost: dict[str, Any]
         if needed is not None and max_seeds is not None and needed > max_seeds:
             line["why_not"] = (f"not planned: needs {needed} seeds a row, more than "
                                f"--max-seeds {max_seeds}")
+        elif needed is not None and needed > DATA_SETS:
+            line["why_not"] = (f"not planned: needs {needed} seeds a row, more than the "
+                               f"{DATA_SETS} demonstration sets a preset has (one per seed)")
         if line["why_not"] is None:
             line["planned"] = True
             for table, row in rows:
