@@ -7,8 +7,8 @@
 A kind of cell (`KINDS`: Table I's ICRT + LipVQ-VAE and BC-Transformer on the Meta-World
 tasks, Table II's ACT on ManiSkill's first task, Table V's ICRT + LipVQ-VAE trained on the
 Panda door and drawer tasks and evaluated on the Kinova ones) is one
-seed of a reference-preset cell from the tables' own plan (`tables.execute.plan`), run as the
-grid runs it (`tables.execute.run_cell`) in a fresh process, against empty results and runs
+seed of a reference-preset cell from the tables' own plan (`tables.cells.plan`), run as the
+grid runs it (`tables.cells.run_cell`) in a fresh process, against empty results and runs
 folders (the data sets are generated first, untimed). Each process runs two seeds one after
 the other, as a grid worker does: `first` pays the process start and builds the
 environments, `steady` is what each later cell costs. A cell's wall time is split into the
@@ -33,7 +33,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import icil_paper.tables.execute as execute
 from icil_paper.config import get_preset
 from icil_paper.config_data import to_dict
 from icil_paper.eval.outcomes import episode_seed
@@ -43,7 +42,7 @@ from icil_paper.records import eval_record
 from icil_paper.results import ResultsStore, save_benchmark
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env, make_expert
-from icil_paper.tables.execute import RunPlan, ensure_data, plan
+from icil_paper.tables.cells import RunPlan, ensure_data, plan, run_cell
 from icil_paper.timing import recording
 from icil_paper.train.loop import train_policy
 
@@ -123,7 +122,7 @@ def _cell_cost(preset: Any, run: Any, evals: list[Any], rates: dict[str, float] 
     first cell: `raw_rates`)."""
     wall0, cpu0 = time.perf_counter(), time.process_time()
     with recording() as phases:
-        execute.run_cell(preset.name, run.to_dict(), [to_dict(e) for e in evals], [])
+        run_cell(preset.name, run.to_dict(), [to_dict(e) for e in evals], [])
     wall = time.perf_counter() - wall0 + before_s
     cpu = time.process_time() - cpu0
     store = ResultsStore(preset.name)

@@ -24,7 +24,7 @@ FeatureSpec, so every seed scores the same steps. `task_order` (the first `steps
 trajectories in task order) is the earlier rule, kept to compare with.
 
 Stored as a `features` record (`icil_paper.records.features_record`) by the table
-scheduler (`icil_paper.tables.execute.run_cell`).
+scheduler (`icil_paper.tables.cells.run_cell`).
 """
 
 from __future__ import annotations

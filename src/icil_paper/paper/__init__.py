@@ -61,9 +61,9 @@ from icil_paper.paper import (
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import assemble
+from icil_paper.tables.cells import run_specs
 from icil_paper.tables.claims import Claim, LedgerEntry, ledger_entries, ledger_file
 from icil_paper.tables.design import DESIGN_FILE, Design, ledger_design, read_record
-from icil_paper.tables.execute import run_specs
 from icil_paper.tables.spec import TableSpec
 
 TABLES: dict[str, Callable[[Preset], TableSpec]] = {

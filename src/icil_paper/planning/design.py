@@ -49,9 +49,9 @@ from icil_paper.paper import TABLES, claims, claims_ledger, table_spec
 from icil_paper.records import eval_record, features_record
 from icil_paper.results import ResultsStore, bench_path, results_root
 from icil_paper.tables.assemble import assemble
+from icil_paper.tables.cells import data_needs, plan
 from icil_paper.tables.claims import Comparison, as_entry, read_ledger, sizing_effect
 from icil_paper.tables.design import ONE_FAMILY
-from icil_paper.tables.execute import data_needs, plan
 
 DECIDABLE_SEEDS = 10
 """Seeds of every row of a claim whose `seeds_needed` is at most this."""

@@ -17,9 +17,8 @@ the layers above (planning, the book, `reproduce`).
 - `spec.py`: TableSpec, Row, Cell, Unit (FeatureSpec, like EvalSpec, is `icil_paper.runspec`'s).
 - `definitions.py`: the building blocks of a table spec: a row's runs per training seed, their
   evaluations on shared episodes, the family cells, Table I's runs that other tables reuse.
-- `execute.py`: the cells of any set of tables grouped by trained run, fanned out with
-  `icil_paper.tables.grid`, each writing its records through the results store.
-- `grid.py`: cells of work on a local process pool or a Ray cluster, skipped when done.
+- `cells.py`: the cells of any set of tables (one trained policy each, with every
+  evaluation the tables ask of it), computed in this process, a process pool or on Ray.
 - `assemble.py`: records -> numbers with intervals (`icil_paper.stats`), as tables.
 - `claims.py`: the claims engine: a claim's comparison, its verdict, size and power, the
   ledger's entries and their sentences.
