@@ -1,6 +1,6 @@
 """`icil-paper reproduce`: run every experiment of a preset, in order, into the results store.
 
-Each stage (`icil_paper.stages.STAGES`, in order) is a library function `stage(preset,
+Each stage (`STAGES` below, in order) names a library function `run(preset,
 store, force) -> None` that writes its records through `ResultsStore.run`, so a stage that
 already has its results is a cheap load, and a run killed half-way resumes where it stopped.
 The book's notebooks call the same functions, so after `reproduce` they only load. `make

@@ -346,9 +346,10 @@ def _one_line(exc: BaseException) -> str:
 
 
 # --------------------------------------------------------------------------- local pool
-def _start_worker(names: list) -> None:
-    os.environ["OMP_NUM_THREADS"] = "1"  # before torch loads
-    plugins.load_plugins(names)  # the driver's --plugin modules and files
+def _load_plugins(names: list[str]) -> None:
+    """The driver's --plugin modules and files (entry points: the registries find them)."""
+    if names:
+        plugins.load_plugins(names)
 
 
 def _in_worker(fn: Callable[..., Any], kwargs: Mapping[str, Any]) -> tuple[Any, float]:
@@ -365,7 +366,7 @@ def _run_local(fn, todo, workers, retries, recycle_gb, finished, bar) -> None:
     """Each of `workers` slots is a one-process pool, so a dead process is its own job's."""
     def new_pool() -> cf.ProcessPoolExecutor:
         return cf.ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"),
-                                      initializer=_start_worker, initargs=(plugins.named(),))
+                                      initializer=_load_plugins, initargs=(plugins.named(),))
 
     pending = list(todo)
     attempts = dict.fromkeys((j.key for j in todo), 0)
@@ -486,7 +487,7 @@ def _on_node(fn: Callable[..., Any], kwargs: Mapping[str, Any], env: Mapping[str
     """A Ray task: `fn(**kwargs)` in private folders, one for each of `folders`, made of
     `inputs` ((variable, path, SHA-256, object reference)); returns what `fn` returned,
     every file it wrote or changed there, and the node it ran on."""
-    plugins.load_plugins(names)
+    _load_plugins(names)
     scratch = Path(tempfile.mkdtemp(prefix="icil-cell-"))
     try:
         roots = {var: scratch / f"folder{i}" for i, var in enumerate(folders)}
