@@ -369,6 +369,14 @@ def worker_state() -> WorkerState:
     return _STATE
 
 
+def _close_state() -> None:
+    """Close the envs this process keeps."""
+    global _STATE
+    if _STATE is not None:
+        _STATE.close()
+        _STATE = None
+
+
 # --------------------------------------------------------------------------- many episodes
 def run_episodes(policy: Any, episodes: Sequence[Episode],
                  prompts: Mapping[int, Sequence[Any]] | None = None, obs: str = "state",

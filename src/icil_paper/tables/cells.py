@@ -26,6 +26,7 @@ import concurrent.futures as cf
 import hashlib
 import json
 import logging
+import math
 import multiprocessing as mp
 import os
 import shutil
@@ -33,7 +34,8 @@ import socket
 import sys
 import tempfile
 import traceback
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
@@ -315,29 +317,38 @@ def run_jobs(fn: Callable[..., Any], jobs: Sequence[Job], executor: str = "local
     return results
 
 
-def _call(fn: Callable[..., Any], kwargs: Mapping[str, Any], env: Mapping[str, str] = {},
-          cwd: str | None = None) -> Any:
-    """fn(**kwargs) on one torch thread (and with `env`, in `cwd`); its result through JSON."""
-    torch = sys.modules.get("torch")
-    threads = torch.get_num_threads() if torch else None
+@contextmanager
+def _environ(env: Mapping[str, str]) -> Iterator[None]:
+    """`env` set in os.environ while the block runs."""
     before = {k: os.environ.get(k) for k in env}
-    where = os.getcwd()
     os.environ.update(env)
     try:
-        if cwd:
-            os.chdir(cwd)
-        if torch:
-            torch.set_num_threads(1)  # cells run side by side on the machine's cores
-        return json.loads(canonical_json(fn(**kwargs)))
+        yield
     finally:
-        os.chdir(where)
-        if torch:
-            torch.set_num_threads(threads)
         for k, v in before.items():
             if v is None:
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def _call(fn: Callable[..., Any], kwargs: Mapping[str, Any], env: Mapping[str, str] = {},
+          cwd: str | None = None) -> Any:
+    """fn(**kwargs) on one torch thread (and with `env`, in `cwd`); its result through JSON."""
+    torch = sys.modules.get("torch")
+    threads = torch.get_num_threads() if torch else None
+    where = os.getcwd()
+    try:
+        with _environ(env):
+            if cwd:
+                os.chdir(cwd)
+            if torch:
+                torch.set_num_threads(1)  # cells run side by side on the machine's cores
+            return json.loads(canonical_json(fn(**kwargs)))
+    finally:
+        os.chdir(where)
+        if torch:
+            torch.set_num_threads(threads)
 
 
 def _one_line(exc: BaseException) -> str:
@@ -368,44 +379,49 @@ def _run_local(fn, todo, workers, retries, recycle_gb, finished, bar) -> None:
         return cf.ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"),
                                       initializer=_load_plugins, initargs=(plugins.named(),))
 
-    pending = list(todo)
-    attempts = dict.fromkeys((j.key for j in todo), 0)
+    pending, attempts = list(todo), dict.fromkeys((j.key for j in todo), 0)
     pools = [new_pool() for _ in range(min(workers, len(todo)))]
     running: dict[cf.Future, tuple[Job, int]] = {}
-    try:
-        while pending or running:
-            busy = {slot for _, slot in running.values()}
-            for slot in range(len(pools)):
-                if slot not in busy and pending:
+
+    def collect(future: cf.Future) -> None:
+        job, slot = running.pop(future)
+        n = attempts[job.key]
+        try:
+            result, held_gb = future.result()
+        except cf.process.BrokenProcessPool:  # its process died: run again on a fresh one
+            held_gb = math.inf
+            if n <= retries:
+                bar.write(f"retrying {job.label} (attempt {n + 1}): its worker died")
+                pending.insert(0, job)
+            else:
+                finished(job, failure=Failure(
+                    job.label, f"the worker process died (in each of {n} attempts)", n))
+        except Exception as exc:  # the cell raised: not retried
+            finished(job, failure=Failure(job.label, _one_line(exc), n,
+                                          "".join(traceback.format_exception(exc))))
+            return
+        else:
+            finished(job, result)
+        if held_gb > recycle_gb:  # dead, or holding a heavy cell's memory: a fresh process
+            pools[slot].shutdown(wait=True)
+            pools[slot] = new_pool()
+
+    # the processes started meanwhile load torch and BLAS on one thread (cells run side by
+    # side); this process's own thread pools are loaded already
+    with _environ({"OMP_NUM_THREADS": "1"}):
+        try:
+            while pending or running:
+                busy = {slot for _, slot in running.values()}
+                for slot in [s for s in range(len(pools)) if s not in busy][:len(pending)]:
                     job = pending.pop(0)
                     attempts[job.key] += 1
                     running[pools[slot].submit(_in_worker, fn, job.kwargs)] = (job, slot)
-            ready, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
-            for future in ready:
-                job, slot = running.pop(future)
-                n = attempts[job.key]
-                try:
-                    result, held_gb = future.result()
-                except cf.process.BrokenProcessPool:  # the process died: a fresh one
-                    pools[slot].shutdown(wait=True)
-                    pools[slot] = new_pool()
-                    if n <= retries:
-                        bar.write(f"retrying {job.label} (attempt {n + 1}): its worker died")
-                        pending.insert(0, job)
-                    else:
-                        finished(job, failure=Failure(
-                            job.label, f"the worker process died (in each of {n} attempts)", n))
-                except Exception as exc:
-                    detail = "".join(traceback.format_exception(exc))
-                    finished(job, failure=Failure(job.label, _one_line(exc), n, detail))
-                else:
-                    finished(job, result)
-                    if held_gb > recycle_gb:  # the allocator keeps a heavy cell's memory
-                        pools[slot].shutdown(wait=True)
-                        pools[slot] = new_pool()
-    finally:
-        for pool in pools:
-            pool.shutdown(wait=False, cancel_futures=True)
+                ready, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+                for future in ready:
+                    collect(future)
+        finally:
+            for pool in pools:
+                pool.shutdown(wait=False, cancel_futures=True)
 
 
 # --------------------------------------------------------------------------- Ray
