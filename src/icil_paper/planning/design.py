@@ -202,7 +202,7 @@ def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, 
 
 
 def plans_cost(plans, rates: dict[str, Any] | None = None) -> dict[str, Any]:
-    """`plan_cost` of a list of run plans (`tables.execute.plan`), their data sets included."""
+    """`plan_cost` of a list of run plans (`tables.cells.plan`), their data sets included."""
     rates = rates or cell_rates()
     kinds: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for p in plans:
