@@ -1,7 +1,8 @@
 """Compute a set of tables: one cell per trained policy, in this process, a process pool or Ray.
 
     plans = plan([table_spec(preset, "I")])       # one RunPlan per policy the tables train
-    run_specs(preset, [table_spec(preset, "I")], executor="local", workers=2)
+    run_plans(preset, plans, executor="serial")    # or "local" (workers=2), "ray"
+    run_specs(preset, [table_spec(preset, "I")])   # the same, from the tables
 
 A cell is one `RunPlan`: `run_cell` trains its policy (resuming from its checkpoint),
 evaluates it on every `EvalSpec` and measures every `FeatureSpec` the tables ask of it,
