@@ -5,6 +5,8 @@ and Ray tasks share no files with the driver."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -128,6 +130,19 @@ def test_serial_reports_a_raising_job_and_finishes_the_others(tmp_path, monkeypa
         run_jobs(call, jobs, executor="serial", progress=False)
     assert set(err.value.results) == {"draw-c0", "draw-c1"}
     assert set(_records()) == {"c0", "c1"}
+
+
+def test_a_script_without_a_main_guard_gets_a_clear_error(tmp_path):
+    script = tmp_path / "unguarded.py"
+    script.write_text("import json\nfrom icil_paper.tables.cells import Job, run_jobs\n"
+                      "run_jobs(json.dumps, [Job('a', 'a', {'obj': 1})], retries=0, "
+                      "progress=False)\n")
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 1
+    assert "if __name__ == '__main__':" in out.stderr  # the standard library's advice
+    last = out.stderr.strip().splitlines()[-1]
+    assert last == "  a: the worker process died (in each of 1 attempts)"
 
 
 def test_done_skips_finished_jobs(tmp_path, monkeypatch):
