@@ -1,4 +1,4 @@
-"""Tiny grid cells for tests/test_grid.py, importable by spawned and Ray workers.
+"""Tiny jobs for tests/test_grid.py, importable by spawned and Ray workers.
 
 Each cell stores a `grid` record through `ResultsStore` (the folder `ICIL_RESULTS` names)
 and leaves one file per call in `calls_dir`, so a test can count how often, and in which
@@ -14,7 +14,7 @@ from pathlib import Path
 
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
-from icil_paper.tables.grid import Cell, resident_gb
+from icil_paper.tables.cells import Job
 
 KIND = "grid"
 
@@ -48,6 +48,11 @@ def draw(name: str, seed: int, calls_dir: str) -> dict:
 
     record = ResultsStore("smoke").run(KIND, name, _config(name, seed), compute, seed=seed)
     return {"metrics": record["metrics"], "pid": os.getpid(), "rss_gb": resident_gb()}
+
+
+def resident_gb() -> float:
+    """This process's resident memory now, in GiB."""
+    return int(Path("/proc/self/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**30
 
 
 def die_once(name: str, seed: int, calls_dir: str, how: str = "exit") -> dict:
@@ -84,13 +89,21 @@ def raises(name: str, calls_dir: str) -> dict:
     raise ValueError(f"bad input for {name}\nsecond line of the message")
 
 
-def cell(fn: str, name: str, **kwargs) -> Cell:
-    """A test cell that runs `grid_cells.<fn>(name=name, **kwargs)`."""
-    return Cell(key=f"{fn}-{name}", target=f"grid_cells:{fn}", kwargs={"name": name, **kwargs},
-                label=f"{fn} {name}")
+FUNCTIONS = {"draw": draw, "die_once": die_once, "hold": hold, "always_dies": always_dies,
+             "raises": raises}
 
 
-def stored(c: Cell) -> bool:
-    """The `done` predicate of these cells: the store holds the cell's record."""
-    config = _config(c.kwargs["name"], c.kwargs.get("seed", 0))
-    return ResultsStore("smoke").get(KIND, c.kwargs["name"], config) is not None
+def job(fn: str, name: str, **kwargs) -> Job:
+    """A test job named after `fn`; run it with `run_jobs(call, ...)`."""
+    return Job(key=f"{fn}-{name}", label=f"{fn} {name}", kwargs={"fn": fn, "name": name, **kwargs})
+
+
+def call(fn: str, **kwargs) -> dict:
+    """The function of every test job: `FUNCTIONS[fn](**kwargs)`."""
+    return FUNCTIONS[fn](**kwargs)
+
+
+def stored(j: Job) -> bool:
+    """The `done` predicate of these jobs: the store holds the job's record."""
+    config = _config(j.kwargs["name"], j.kwargs.get("seed", 0))
+    return ResultsStore("smoke").get(KIND, j.kwargs["name"], config) is not None

@@ -49,7 +49,7 @@ def _eval_rows(store: ResultsStore, run, evals) -> list[list[dict]]:
 
 
 def test_a_worker_that_keeps_its_envs_writes_the_same_records(tmp_path, monkeypatch):
-    from icil_paper.tables.execute import run_cell
+    from icil_paper.tables.cells import run_cell
 
     preset = get_preset("smoke")
     run = run_spec(preset, "icrt", "bin", tasks=TASKS)

@@ -221,7 +221,7 @@ def test_cells_on_nodes_without_the_drivers_files(tmp_path):
         before = {p: p.stat().st_mtime_ns for p in (driver / "results").rglob("*.json")}
         out = _reproduce(env, "--stages", GPU_STAGE, KILL_STAGE, "--executor", "ray",
                          "--ray-address", cluster.address)
-        assert "grid (ray)" not in out
+        assert "cells (ray)" not in out
         assert {p: p.stat().st_mtime_ns for p in (driver / "results").rglob("*.json")} == before
     finally:
         cluster.stop()

@@ -21,9 +21,9 @@ from icil_paper.records import features_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import feature_key
 from icil_paper.tables.assemble import assemble
+from icil_paper.tables.cells import plan
 from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
 from icil_paper.tables.display import codebook_frame, show_codebook_use
-from icil_paper.tables.execute import plan
 
 SHARE = 9
 """Steps each fake task contributes: its held-out demos (2, 3, 4) hold 6, 8 and 13 steps,

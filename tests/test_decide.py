@@ -12,7 +12,7 @@ from icil_paper.config import get_preset
 from icil_paper.paper import TABLES, table_spec
 from icil_paper.planning.decide import make_plan, seeds_entry_name
 from icil_paper.planning.design import planned_seeds
-from icil_paper.tables.execute import plan
+from icil_paper.tables.cells import plan
 
 LEDGER = [
     {"id": "I-lipvq-vs-bc", "table": "I", "verdict": "holds", "seeds_needed": 40},

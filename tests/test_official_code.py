@@ -232,7 +232,7 @@ def test_each_variant_differs_from_the_papers_row_in_exactly_the_fields_it_names
 
 
 def test_the_paper_rows_are_table_is_runs_and_the_reference_plans_five_seeds():
-    from icil_paper.tables.execute import plan
+    from icil_paper.tables.cells import plan
 
     preset = get_preset("reference")
     official, table1, beyond = (table_spec(preset, t) for t in ("official", "I", "beyond"))

@@ -121,7 +121,7 @@ def test_every_icrt_row_starts_from_the_same_backbone():
 
 def test_the_regime_pilot_uses_seeds_data_and_scenes_the_reference_run_does_not():
     from icil_paper.paper import table_spec
-    from icil_paper.tables.execute import plan
+    from icil_paper.tables.cells import plan
     from tools.pilot import REGIME_ROWS, regime_plans, regime_preset
 
     preset = get_preset("reference")
@@ -170,7 +170,7 @@ def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
 
     from icil_paper.paper import TABLES, table_spec
     from icil_paper.planning.design import data_cost
-    from icil_paper.tables.execute import plan
+    from icil_paper.tables.cells import plan
 
     rates = tmp_path / "datasets.json"
     rates.write_text(json.dumps({"suites": {"kitchen": {"cpu_s_per_demo": 1.0},

@@ -20,11 +20,15 @@ def _counting_stage(preset, store, force):
               seed=preset.seed, force=force)
 
 
+def _never_called(preset, store, force):
+    raise AssertionError("a stage that was not chosen ran")
+
+
 @pytest.fixture
 def probe_stages(monkeypatch):
     CALLS.clear()
-    stages = (Stage("probe", "a test stage", f"{__name__}:_counting_stage"),
-              Stage("other", "never chosen here", f"{__name__}:_missing_function"))
+    stages = (Stage("probe", "a test stage", _counting_stage),
+              Stage("other", "never chosen here", _never_called))
     monkeypatch.setattr(reproduce, "STAGES", stages)
 
 
@@ -45,12 +49,12 @@ def test_unknown_stage_is_an_error_listing_the_stages(probe_stages):
         reproduce.run_stages(get_preset("smoke"), ["probes"])
 
 
-def test_every_stage_target_exists():
-    import importlib
-
+def test_every_stage_names_a_function_and_each_table_stage_its_table():
     for stage in reproduce.STAGES:
-        module, _, function = stage.target.partition(":")
-        assert callable(getattr(importlib.import_module(module), function)), stage.name
+        assert callable(stage.run), stage.name
+    tables = [s for s in reproduce.STAGES if s.name.startswith("table-")]
+    assert [s.run.__doc__ for s in tables] == [
+        f"Compute every missing cell of table {s.name.removeprefix('table-')}." for s in tables]
 
 
 @pytest.mark.sim
@@ -76,15 +80,16 @@ def test_tokenizer_trajectories_come_from_held_out_demos():
 def test_table_cells_ask_for_the_gpus_given_on_the_command_line(monkeypatch):
     """`reproduce --gpus-per-cell 1` reaches every table cell (Ray schedules by it); a
     negative count is refused before anything runs."""
-    from icil_paper.tables import execute
+    from icil_paper.tables import cells
 
     seen = []
-    monkeypatch.setattr(execute, "ensure_data", lambda *a, **k: None)
-    monkeypatch.setattr(execute, "run_grid", lambda cells, **kw: seen.extend(cells) or {})
+    monkeypatch.setattr(cells, "ensure_data", lambda *a, **k: None)
+    monkeypatch.setattr(cells, "run_jobs",
+                        lambda fn, jobs, **kw: seen.extend((job, kw["gpus"]) for job in jobs) or {})
     monkeypatch.setattr(reproduce, "GRID", dict(reproduce.GRID))
     assert reproduce.main(["--preset", "smoke", "--stages", "table-V",
                            "--gpus-per-cell", "1"]) == 0
-    assert seen and {c.gpus for c in seen} == {1.0}
+    assert seen and {gpus for _, gpus in seen} == {1.0}
     with pytest.raises(SystemExit) as exc:
         reproduce.main(["--preset", "smoke", "--stages", "table-V", "--gpus-per-cell", "-1"])
     assert exc.value.code == 2
@@ -109,7 +114,7 @@ def test_chapter_02s_run_is_a_table_stage_where_its_study_stood():
     assert "icrt" not in names
     at = names.index("table-icrt")
     assert names[at - 1:at + 2] == ["showcase", "table-icrt", "lipschitz"]
-    assert reproduce.STAGES[at].target == "icil_paper.reproduce:table_icrt"
+    assert reproduce.STAGES[at].run.__doc__ == "Compute every missing cell of table icrt."
     papers = [n.removeprefix("table-") for n in names[at + 1:] if n.startswith("table-")]
     assert reproduce.table_blocks(names) == [["icrt"], papers]
     assert reproduce.table_blocks(["table-icrt", "table-I", "claims", "table-V"]) == [
@@ -121,7 +126,7 @@ def test_a_table_stage_computes_the_tables_of_its_block_only(monkeypatch):
     monkeypatch.setattr(reproduce, "run_tables", lambda preset, ids, **kw: calls.append(list(ids)))
     table = {s.name: s for s in reproduce.STAGES}
     monkeypatch.setattr(reproduce, "STAGES", (
-        table["table-icrt"], Stage("probe", "a study between", f"{__name__}:_counting_stage"),
+        table["table-icrt"], Stage("probe", "a study between", _counting_stage),
         table["table-I"], table["table-V"]))
     reproduce.run_stages(get_preset("smoke"))
     assert calls == [["icrt"], ["I", "V"], ["I", "V"]]

@@ -1,7 +1,6 @@
 """The rollout engine: a batched KV cache equals one cache per episode, every policy's batched
 acting equals acting one episode at a time, and per-episode outcomes do not depend on how
-episodes are batched or split over worker processes (synthetic suite; a kitchen task with
-the simulator)."""
+episodes are batched (synthetic suite; a kitchen task with the simulator)."""
 
 from __future__ import annotations
 
@@ -15,7 +14,6 @@ from icil_paper.config import get_preset
 from icil_paper.eval import evaluate_many, evaluate_policy
 from icil_paper.eval.rollouts import (
     Episode,
-    RolloutPool,
     default_batch_size,
     group_episodes,
     rollout_batch,
@@ -188,18 +186,16 @@ def episodes_of(specs, per_spec):
             for s in range(specs) for i in range(per_spec)]
 
 
-@pytest.mark.parametrize("specs,per_spec,workers", [(11, 4, 2), (11, 5, 2), (1, 5, 2),
-                                                     (3, 2, 1), (20, 3, 3)])
-def test_default_groups_cover_every_episode_once_and_balance_workers(specs, per_spec, workers):
+@pytest.mark.parametrize("specs,per_spec", [(11, 4), (11, 5), (1, 5), (3, 2), (20, 3)])
+def test_default_groups_cover_every_episode_once(specs, per_spec):
     episodes = episodes_of(specs, per_spec)
-    b = default_batch_size(episodes, workers)
+    b = default_batch_size(episodes)
     groups = group_episodes(episodes, b)
     flat = [e for g in groups for e in g]
     assert sorted(flat, key=lambda e: (e.spec, e.index)) == episodes
     assert all(1 <= len(g) <= b for g in groups)
     assert max(map(len, groups)) - min(map(len, groups)) <= 1  # nearly equal sizes
-    if b > 1:  # (one spec: one episode per group, however many workers)
-        assert len(groups) % workers == 0  # the same number of groups per worker
+    assert b == min(specs, 16) or specs > 16  # one episode per spec, as wide as allowed
     assert all(len({e.spec for e in g}) == len(g) for g in groups)  # one env per task
     assert group_episodes(list(reversed(episodes)), b) == groups  # the order given is moot
 
@@ -236,17 +232,11 @@ def without_times(results):
             for r in results]
 
 
-@pytest.fixture(scope="module")
-def pool():
-    with RolloutPool(2) as p:
-        yield p
-
-
 PROBE_SPECS = [EvalSpec(task=f"synthetic/task{k}", episodes=5, seed=k, max_steps=15)
                for k in range(3)]
 
 
-def test_outcomes_do_not_depend_on_batch_size_or_workers(demos, pool):
+def test_outcomes_do_not_depend_on_batch_size(demos):
     # without the instruction: this seed's untrained policy then acts varied enough for the
     # probe (some episodes succeed early, some run to the limit)
     policy = build("icrt", "lipvq", demos, language=False)
@@ -264,8 +254,7 @@ def test_outcomes_do_not_depend_on_batch_size_or_workers(demos, pool):
     returns = [[e["return"] for e in r.per_episode] for r in five]
     np.testing.assert_allclose(returns, [[e["return"] for e in r.per_episode]
                                          for r in one_by_one], atol=1e-4)
-    # two workers run the same groups elsewhere: identical, bit for bit
-    assert without_times(run(batch_size=5, pool=pool)) == without_times(five)
+    assert without_times(run(batch_size=5)) == without_times(five)  # bit for bit
     assert outcomes(run()) == outcomes(one_by_one)  # default: batches of 3, one per task
 
 
@@ -282,22 +271,6 @@ def test_evaluate_many_equals_evaluate_policy_per_spec(demos):
     assert [r.success_rate for r in many] == [1.0, 1.0]
     with pytest.raises(ValueError, match="one per spec"):
         evaluate_many(policy, specs, [pools[0]], env_factory=make_synthetic_env)
-
-
-def test_a_pool_keeps_its_workers_and_their_envs_across_calls(demos, pool):
-    first = pool.warm_up()
-    policy = build("icrt", "mlp", demos)
-    ev = EvalSpec(task="synthetic/task0", episodes=4, max_steps=15)
-    kw = dict(prompts=demos, env_factory=probe_env, progress=False)
-    a = evaluate_policy(policy, ev, pool=pool, **kw)
-    b = evaluate_policy(policy, ev, pool=pool, **kw)
-    assert pool.warm_up() == first  # the same processes
-    assert without_times([a]) == without_times([b])
-    with torch.no_grad():  # a changed policy is sent again, not the stale copy
-        policy.head[-1].bias.add_(0.3)
-    c = evaluate_policy(policy, ev, pool=pool, **kw)
-    assert without_times([c]) == without_times([evaluate_policy(policy, ev, **kw)])
-    assert outcomes([c]) != outcomes([a])
 
 
 def test_an_env_reset_does_not_depend_on_its_history():
@@ -339,7 +312,7 @@ class ReplayPolicy(Policy):
 
 
 @pytest.mark.sim
-def test_kitchen_outcomes_do_not_depend_on_batch_size_or_workers(tmp_path, monkeypatch):
+def test_kitchen_outcomes_do_not_depend_on_batch_size(tmp_path, monkeypatch):
     from icil_paper import sim
 
     reason = sim.suite_unavailable("kitchen")
@@ -353,11 +326,9 @@ def test_kitchen_outcomes_do_not_depend_on_batch_size_or_workers(tmp_path, monke
     icrt = build("icrt", "lipvq", prompts, spec={"proprio": 9, "object": 18})
     ev = EvalSpec(task=KITCHEN_TASK, episodes=3, max_steps=60)
     runs = {"replay": (replay, [{"batch_size": 3}]),
-            "icrt": (icrt, [{"batch_size": 3}, {"batch_size": 2, "workers": 2}])}
+            "icrt": (icrt, [{"batch_size": 3}, {"batch_size": 2}])}
     for policy, variants in runs.values():
         base = evaluate_policy(policy, ev, prompts, progress=False)
         for kw in variants:
             other = evaluate_policy(policy, ev, prompts, progress=False, **kw)
             assert outcomes([other]) == outcomes([base]), kw
-    with pytest.raises(ValueError, match="cannot act in worker processes"):
-        evaluate_policy(replay, ev, prompts, progress=False, workers=2)

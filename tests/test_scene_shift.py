@@ -155,7 +155,7 @@ def test_an_evaluation_on_the_human_scenes_builds_its_envs_on_them(shifted_kitch
         return _make_shifted(task, obs, seed, **options)
 
     specs = [EvalSpec(TASK, 1, max_steps=2, scenes="human"), EvalSpec(TASK, 1, max_steps=2)]
-    results = evaluate_many(_Recorder(), specs, workers=1, progress=False, env_factory=factory)
+    results = evaluate_many(_Recorder(), specs, progress=False, env_factory=factory)
     assert sorted(seen) == ["generated", "human"] and len(results) == 2
 
 

@@ -16,8 +16,8 @@ from icil_paper.paper import TABLES, claims, claims_ledger, table_spec, write_le
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key
 from icil_paper.tables.assemble import assemble
+from icil_paper.tables.cells import plan
 from icil_paper.tables.claims import as_entry
-from icil_paper.tables.execute import plan
 from record_helpers import write_eval_record
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -229,7 +229,7 @@ def test_tables_command_prints_tables_and_claims(capsys):
 @pytest.mark.sim
 def test_a_table_is_computed_end_to_end_and_reruns_compute_nothing():
     from icil_paper.paper import run_tables
-    from icil_paper.tables.execute import plan_done
+    from icil_paper.tables.cells import plan_done
 
     preset = get_preset("smoke").with_overrides(
         ["data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer"])
@@ -341,7 +341,7 @@ def test_the_executors_give_the_same_records(tmp_path, monkeypatch):
         return out
 
     args = ["reproduce", "--preset", "smoke", "--stages", "table-IV",
-            "--set", "data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer"]
+            "--set", "data.robocasa_tasks=kitchen/open_drawer"]
     results = {}
     for executor in ("serial", "local", "ray"):
         monkeypatch.setenv("ICIL_RESULTS", str(tmp_path / executor))
@@ -441,11 +441,11 @@ def test_row_seeds_give_single_rows_their_own_seeds_and_refuse_unknown_rows():
 
 def test_cells_run_seed_major_so_a_stopped_run_keeps_rows_balanced(monkeypatch):
     from icil_paper.paper import run_tables
-    from icil_paper.tables import execute
+    from icil_paper.tables import cells
 
     captured = []
-    monkeypatch.setattr(execute, "ensure_data", lambda *a, **k: None)
-    monkeypatch.setattr(execute, "run_grid", lambda cells, **k: captured.extend(cells) or {})
+    monkeypatch.setattr(cells, "ensure_data", lambda *a, **k: None)
+    monkeypatch.setattr(cells, "run_jobs", lambda fn, jobs, **k: captured.extend(jobs) or {})
     run_tables(small_preset("tables.icrt_seeds=3"), ["IV"], progress=False)
     seeds = [c.kwargs["run"]["seed"] for c in captured]
     assert len(captured) == 12 and seeds == sorted(seeds)

@@ -50,7 +50,7 @@ def test_without_exceptions_a_run_keeps_the_key_it_had_before_the_option():
 
 
 def test_training_reads_and_the_plan_generates_each_tasks_own_count(monkeypatch, tmp_path):
-    from icil_paper.tables.execute import RunPlan, data_needs
+    from icil_paper.tables.cells import RunPlan, data_needs
     from icil_paper.train.loop import training_demos
 
     monkeypatch.setenv("ICIL_DATA", str(tmp_path / "data"))

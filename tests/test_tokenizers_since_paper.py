@@ -263,7 +263,7 @@ def test_preset_configs_build_at_every_preset(name, trajectories):
 # ----------------------------------------------------------------------- the table
 def test_the_beyond_table_reuses_table_is_cells_and_plans_five_seeds_for_the_reference():
     from icil_paper.paper import table_spec
-    from icil_paper.tables.execute import plan
+    from icil_paper.tables.cells import plan
 
     preset = get_preset("reference")
     beyond, table1 = table_spec(preset, "beyond"), table_spec(preset, "I")

@@ -39,16 +39,17 @@ from icil_paper.records import eval_record, features_record
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, results_root, save_benchmark
 from icil_paper.runspec import eval_key, feature_key, run_spec
-from icil_paper.tables.definitions import families, feature_spec, table_eval
-from icil_paper.tables.execute import (
+from icil_paper.tables.cells import (
     RunPlan,
+    cell_job,
     cell_label,
     ensure_data,
     plan,
-    plan_cell,
     plan_done,
+    run_cell,
+    run_jobs,
 )
-from icil_paper.tables.grid import run_grid
+from icil_paper.tables.definitions import families, feature_spec, table_eval
 
 SETTINGS: dict[str, tuple[str, tuple[str, ...]]] = {
     "kitchen_10": ("I", ("data.demos_per_task=10",)),
@@ -119,7 +120,7 @@ def setting_cells(name: str, progress: bool = True) -> list[Any]:
     todo = [p for p in setting_plans(name) if not plan_done(store, p)]
     if todo:
         ensure_data(preset, todo, progress=progress)
-    return [plan_cell(preset, p, f"{name}: {cell_label(p.run)}") for p in todo]
+    return [cell_job(preset, p, store, f"{name}: {cell_label(p.run)}") for p in todo]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -135,7 +136,7 @@ def main(argv: list[str] | None = None) -> None:
 
     cells = {c.key: c for name in args.settings for c in setting_cells(name)}
     cells = sorted(cells.values(), key=lambda c: "icrt" not in c.label)  # longest first
-    run_grid(cells, workers=args.workers)
+    run_jobs(run_cell, cells, workers=args.workers)
     store = ResultsStore("reference")
     out = Path(args.out or root / "bench" / "pilot.json")
     # settings not rerun keep their stored summary (a pilot is run a setting at a time)
@@ -426,14 +427,15 @@ def _regime_cells(preset: Any, plans: list[Any], label: str) -> list[Any]:
     todo = [p for p in plans if not plan_done(store, p)]
     if todo:
         ensure_data(preset, todo, progress=False)
-    return [plan_cell(preset, p, f"{label}: {cell_label(p.run)}") for p in todo]
+    return [cell_job(preset, p, store, f"{label}: {cell_label(p.run)}") for p in todo]
 
 
 def _run_cells(cells: list[Any], workers: int) -> None:
     """Train and evaluate the cells, each once (two settings can share one), longest first."""
     unique = {c.key: c for c in cells}
     if unique:
-        run_grid(sorted(unique.values(), key=lambda c: "icrt" not in c.label), workers=workers)
+        run_jobs(run_cell, sorted(unique.values(), key=lambda c: "icrt" not in c.label),
+                 workers=workers)
 
 
 def regime_main(argv: list[str] | None = None) -> None:

@@ -20,11 +20,10 @@ import sys
 from collections.abc import Callable
 
 from icil_paper import commands
-from icil_paper.commands import Parser
+from icil_paper.commands import Parser, RayUnavailable
 from icil_paper.config import PRESET_NAMES, REFERENCE_BUDGET_HOURS, active_preset_name
 from icil_paper.plugins import load_plugins
 from icil_paper.setup.envcheck import environment_report, format_report
-from icil_paper.tables.grid import RayUnavailable
 
 USER_ERRORS: tuple[type[BaseException], ...] = (*commands.USER_ERRORS, RayUnavailable)
 """What a command reports in one line (exit 2) instead of a traceback: the commands' own

@@ -30,7 +30,11 @@ UnknownNameError, OverrideError, ConfigError, DatasetError, RunFolderError,
 UnreadableFileError (PolicyFileError among them), TokenizerFolderError, PluginError and
 json.JSONDecodeError, whose messages name the problem; PermissionError covers
 FolderNotWritableError (an output folder refused before any work). `icil_paper.cli` adds
-RayUnavailable (`tables.grid`), for the commands that run table cells."""
+RayUnavailable (below), for the commands that run table cells."""
+
+
+class RayUnavailable(RuntimeError):
+    """Ray is not installed, or could not be started or reached (`tables.cells`)."""
 
 
 class Parser(argparse.ArgumentParser):

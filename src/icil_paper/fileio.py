@@ -15,7 +15,6 @@ the file, what it should be and the fix, which the command line prints as one li
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import json
 import os
@@ -23,13 +22,14 @@ import pickle
 import socket
 import sys
 import tempfile
-import threading
 import zipfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
 from typing import Any, TypeVar
+
+from filelock import FileLock, Timeout
 
 from icil_paper.config_data import json_default
 from icil_paper.setup.provenance import REPO_ROOT
@@ -297,44 +297,40 @@ class LockedError(RuntimeError):
     """A lock that another process holds, asked for without waiting."""
 
 
-_HELD: dict[str, list[Any]] = {}
-"""Locks this process holds: path -> [thread lock, file descriptor, depth]."""
-_HELD_GUARD = threading.Lock()
+def _write_holder(fd: int) -> None:
+    """What a waiter names: this process's pid, host and command line."""
+    command = " ".join(Path(a).name if i == 0 else a for i, a in enumerate(sys.argv))[:200]
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()} ({command})\n".encode(), 0)
 
 
 @contextmanager
 def exclusive_lock(path: str | Path, what: str = "", wait: bool = True) -> Iterator[None]:
-    """Hold an exclusive lock on the file `path` while the block runs: one holder at a time
-    across processes (`fcntl.flock`) and threads; the holding thread may take it again.
-
-    The file is created for the lock and removed as it is released, so no lock file is
-    left behind; a waiter that finds its file removed or replaced tries again. It holds the
-    holder's pid, host and command line, which a waiter names on stderr once ("waiting for
-    pid 123 on host (icil-paper train ...), which holds <what>"). A holder that dies
-    releases the lock with its process, so a killed run never blocks the next one. With
-    `wait=False` a lock held elsewhere raises LockedError naming the holder.
-    """
-    key = os.path.abspath(path)
-    with _HELD_GUARD:
-        entry = _HELD.setdefault(key, [threading.RLock(), None, 0])
-    if not entry[0].acquire(blocking=wait):
-        raise LockedError(f"{what or key} is in use by another thread of this process")
+    """Hold an exclusive lock on the file `path` while the block runs (`filelock.FileLock`):
+    one holder at a time across processes and threads; the holding thread may take it again.
+    A holder that dies releases it with its process. The file names its holder, which a
+    waiter prints once ("waiting for pid 123 on host (icil-paper train ...), which holds
+    <what>"), and is removed as the lock is let go. With `wait=False` a lock held
+    elsewhere raises LockedError naming the holder."""
+    path = Path(os.path.abspath(path))
+    what = what or str(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock = FileLock(path, is_singleton=True, on_acquired=_write_holder)
     try:
-        if entry[2] == 0:
-            entry[1] = _acquire(Path(key), what or key, wait)
-        entry[2] += 1
-        try:
-            yield
-        finally:
-            entry[2] -= 1
-            if entry[2] == 0:
-                fd, entry[1] = entry[1], None
-                try:
-                    Path(key).unlink(missing_ok=True)  # before letting go: see above
-                finally:
-                    os.close(fd)
+        lock.acquire(blocking=False)
+    except Timeout:
+        holder = _holder(path)
+        if not wait:
+            raise LockedError(f"{what} is in use by {holder}; wait for it to finish, or stop "
+                              "it") from None
+        print(f"waiting for {holder}, which holds {what}", file=sys.stderr, flush=True)
+        lock.acquire()
+    try:
+        yield
     finally:
-        entry[0].release()
+        if lock.lock_counter == 1:  # removed before it is let go: a waiter that locks the
+            path.unlink(missing_ok=True)  # old file sees it unlinked and tries again
+        lock.release()
 
 
 def _holder(path: Path) -> str:
@@ -342,39 +338,3 @@ def _holder(path: Path) -> str:
         return path.read_text(errors="replace").strip() or "another process"
     except OSError:
         return "another process"
-
-
-def _acquire(path: Path, what: str, wait: bool) -> int:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    told = False
-    while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
-        try:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                holder = _holder(path)
-                if not wait:
-                    raise LockedError(f"{what} is in use by {holder}; wait for it to finish, "
-                                      "or stop it") from None
-                if not told:
-                    print(f"waiting for {holder}, which holds {what}", file=sys.stderr,
-                          flush=True)
-                    told = True
-                fcntl.flock(fd, fcntl.LOCK_EX)
-            try:
-                st = os.stat(path)
-                current = (st.st_dev, st.st_ino) == (os.fstat(fd).st_dev, os.fstat(fd).st_ino)
-            except FileNotFoundError:
-                current = False
-            if current:
-                command = " ".join(Path(a).name if i == 0 else a
-                                   for i, a in enumerate(sys.argv))[:200]
-                os.ftruncate(fd, 0)
-                os.write(fd, f"pid {os.getpid()} on {socket.gethostname()} ({command})\n"
-                         .encode())
-                return fd
-        except BaseException:
-            os.close(fd)
-            raise
-        os.close(fd)  # the previous holder removed the file as it let go: lock the new one

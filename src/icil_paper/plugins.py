@@ -13,7 +13,7 @@ the library (`@register_tokenizer`, `@register_policy`) when it is imported. Thr
 Entry points of the groups `icil_paper.tokenizers` and `icil_paper.policies` are loaded
 once per process by `discover`, which building a preset's component sections,
 `make_tokenizer`, `make_policy` and the command line call. Plugins named with `--plugin`
-(or `load_plugins`) travel with each grid cell (`tables.grid`: the job's `plugins`) and are
+(or `load_plugins`) travel with each cell (`tables.cells`: the job's `plugins`) and are
 loaded in the worker before the cell's function is imported. Every record the results
 store writes names the plugins that registered a component its config uses (`record_of`):
 which module or file, at which package version or file SHA-256.

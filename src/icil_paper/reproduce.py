@@ -1,6 +1,6 @@
 """`icil-paper reproduce`: run every experiment of a preset, in order, into the results store.
 
-Each stage (`icil_paper.stages.STAGES`, in order) is a library function `stage(preset,
+Each stage (`STAGES` below, in order) names a library function `run(preset,
 store, force) -> None` that writes its records through `ResultsStore.run`, so a stage that
 already has its results is a cheap load, and a run killed half-way resumes where it stopped.
 The book's notebooks call the same functions, so after `reproduce` they only load. `make
@@ -24,12 +24,19 @@ writes the ledger at the seeds reached.
 
 from __future__ import annotations
 
-import importlib
 import sys
 import time
 
 from tqdm.auto import tqdm
 
+from icil_paper.book.own_tokenizer import own_tokenizer_study
+from icil_paper.book.studies import (
+    demo_stage,
+    expert_study,
+    lipschitz_study,
+    showcase_study,
+    tokenizer_study,
+)
 from icil_paper.commands import (
     Parser,
     add_executor_arguments,
@@ -46,8 +53,8 @@ from icil_paper.registry import check_name
 from icil_paper.results import RESULTS_ENV_VAR, ResultsStore
 from icil_paper.seeding import seed_everything
 from icil_paper.setup.envcheck import environment_report
-from icil_paper.stages import GRID, STAGES
-from icil_paper.tables.grid import check_reachable
+from icil_paper.stages import GRID, TABLE_STAGES, Stage
+from icil_paper.tables.cells import check_reachable
 from icil_paper.train.rundir import RUNS_ENV_VAR
 
 
@@ -107,18 +114,36 @@ def _table_stage(table_id: str):
     return stage
 
 
-table_icrt = _table_stage("icrt")
-table_I, table_II, table_III, table_IV, table_V, table_VI, table_VII = (
-    _table_stage(t) for t in ("I", "II", "III", "IV", "V", "VI", "VII"))
-table_fig5, table_prompt, table_analysis, table_beyond = (
-    _table_stage(t) for t in ("fig5", "prompt", "analysis", "beyond"))
-table_official = _table_stage("official")
-
-
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
     """Write results/<preset>/claims.json from the tables' records (at the seeds a staged
     preset's rows have reached)."""
     write_ledger(staged_preset(preset, store)[0], store)
+
+
+def _table(table_id: str) -> Stage:
+    _, what, chapter = next(t for t in TABLE_STAGES if t[0] == table_id)
+    return Stage(f"table-{table_id}", f"{what} (chapter {chapter})", _table_stage(table_id))
+
+
+STAGES: tuple[Stage, ...] = (
+    Stage("environment", "record the packages, hardware and simulator checks",
+          record_environment),
+    Stage("demos", "generate every data set of the preset: all tasks, both sources (chapter 04)",
+          demo_stage),
+    Stage("experts", "measure every expert on data.expert_seeds random scenes (chapter 04)",
+          expert_study),
+    Stage("showcase", "render and record one demonstration of every task (chapter 04)",
+          showcase_study),
+    _table("icrt"),
+    Stage("lipschitz", "Lipschitz bounds vs empirical constants of trained encoders (chapter 03)",
+          lipschitz_study),
+    Stage("tokenizers", "train every action tokenizer alone and score it (chapter 05)",
+          tokenizer_study),
+    *(_table(t) for t, _, _ in TABLE_STAGES[1:]),
+    Stage("own-tokenizer", "a tokenizer of one file, loaded as a plugin, against LipVQ-VAE "
+          "on Table I's protocol (chapter 14)", own_tokenizer_study),
+    Stage("claims", "the claims ledger: every claim with its verdict (chapter 00)", claims_stage),
+)
 
 
 def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = False) -> dict:
@@ -133,10 +158,9 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
     timings = {}
     for stage in tqdm(chosen, desc=f"reproduce [{preset.name}]", unit="stage"):
         tqdm.write(f"== {stage.name}: {stage.description}")
-        module, _, function = stage.target.partition(":")
         start = time.perf_counter()
         seed_everything(preset.seed)
-        getattr(importlib.import_module(module), function)(preset, store, force)
+        stage.run(preset, store, force)
         timings[stage.name] = time.perf_counter() - start
         tqdm.write(f"   {stage.name} done in {timings[stage.name]:.1f} s")
     return timings

@@ -7,10 +7,10 @@
 A kind of cell (`KINDS`: Table I's ICRT + LipVQ-VAE and BC-Transformer on the Meta-World
 tasks, Table II's ACT on ManiSkill's first task, Table V's ICRT + LipVQ-VAE trained on the
 Panda door and drawer tasks and evaluated on the Kinova ones) is one
-seed of a reference-preset cell from the tables' own plan (`tables.execute.plan`), run as the
-grid runs it (`tables.execute.run_cell`) in a fresh process, against empty results and runs
+seed of a reference-preset cell from the tables' own plan (`tables.cells.plan`), run as the
+pool runs it (`tables.cells.run_cell`) in a fresh process, against empty results and runs
 folders (the data sets are generated first, untimed). Each process runs two seeds one after
-the other, as a grid worker does: `first` pays the process start and builds the
+the other, as a pool worker does: `first` pays the process start and builds the
 environments, `steady` is what each later cell costs. A cell's wall time is split into the
 phases the library marks (`icil_paper.timing`) and compared with its compute floor, its
 training steps at the measured time of a step plus its environment steps at the raw
@@ -33,7 +33,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import icil_paper.tables.execute as execute
 from icil_paper.config import get_preset
 from icil_paper.config_data import to_dict
 from icil_paper.eval.outcomes import episode_seed
@@ -43,7 +42,7 @@ from icil_paper.records import eval_record
 from icil_paper.results import ResultsStore, save_benchmark
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env, make_expert
-from icil_paper.tables.execute import RunPlan, ensure_data, plan
+from icil_paper.tables.cells import RunPlan, ensure_data, plan, run_cell
 from icil_paper.timing import recording
 from icil_paper.train.loop import train_policy
 
@@ -123,7 +122,7 @@ def _cell_cost(preset: Any, run: Any, evals: list[Any], rates: dict[str, float] 
     first cell: `raw_rates`)."""
     wall0, cpu0 = time.perf_counter(), time.process_time()
     with recording() as phases:
-        execute.run_cell(preset.name, run.to_dict(), [to_dict(e) for e in evals], [])
+        run_cell(preset.name, run.to_dict(), [to_dict(e) for e in evals], [])
     wall = time.perf_counter() - wall0 + before_s
     cpu = time.process_time() - cpu0
     store = ResultsStore(preset.name)
@@ -153,11 +152,11 @@ def _cell_cost(preset: Any, run: Any, evals: list[Any], rates: dict[str, float] 
 
 def measure(kind: str, preset_name: str, scale: float | None, started: float
             ) -> dict[str, Any]:
-    """Run two seeds of `kind` one after the other in this process, as a grid worker runs
+    """Run two seeds of `kind` one after the other in this process, as a pool worker runs
     cells (see the module docstring); `started` is the time.time() at which the parent
     launched this process. The first seed pays the process start (interpreter, imports)
     and builds the environments; the second (`steady`) is what every later cell of a
-    grid worker costs, and its `floor_ratio` is the kind's."""
+    pool worker costs, and its `floor_ratio` is the kind's."""
     preset = get_preset(preset_name)
     run, evals = shortened(*kind_cell(preset, kind), scale)
     for module in ("icil_paper.eval", "icil_paper.train.stored", "icil_paper.policies",

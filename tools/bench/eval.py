@@ -24,9 +24,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib
+import multiprocessing as mp
 import os
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -35,7 +38,6 @@ from icil_paper.config import get_preset
 from icil_paper.eval import plan_episodes, prompt_pool
 from icil_paper.eval.rollouts import (
     EnvSetup,
-    RolloutPool,
     WorkerState,
     default_batch_size,
     group_jobs,
@@ -88,11 +90,24 @@ def paired_group(job: Any, state: Any = None) -> dict[str, Any]:
             "raw": (t3 - t2).tolist(), "rows": rows}
 
 
+def _start_worker() -> None:
+    import torch
+
+    torch.set_num_threads(1)  # the workers share the cores
+
+
+def _warm(modules: tuple[str, ...]) -> int:
+    for name in modules:
+        importlib.import_module(name)
+    time.sleep(0.5)  # long enough that every worker takes one
+    return os.getpid()
+
+
 def paired_phase(policy: Any, episodes: list[Any], prompts: dict[int, Any],
                  workers: int) -> dict[str, Any]:
     """Every group of the engine's plan for `workers`, paired, on fresh warmed-up workers
     (or in this process for one); the per-side figures of the module docstring."""
-    batch = default_batch_size(episodes, workers)
+    batch = default_batch_size(episodes)
     setup = EnvSetup("state")
     start = time.perf_counter()
     if workers == 1:
@@ -104,12 +119,12 @@ def paired_phase(policy: Any, episodes: list[Any], prompts: dict[int, Any],
         finally:
             state.close()
     else:
-        with RolloutPool(workers) as pool:
-            pool.warm_up(KITCHEN_IMPORTS)
+        with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"),
+                                 initializer=_start_worker) as pool:
+            list(pool.map(_warm, [KITCHEN_IMPORTS] * workers))
             start = time.perf_counter()
-            ref = pool.policy_ref(policy, str(policy.device))
             futures = [pool.submit(paired_group, job)
-                       for job in group_jobs(episodes, prompts, ref, setup, batch)]
+                       for job in group_jobs(episodes, prompts, policy, setup, batch)]
             results = [f.result() for f in futures]
     end_to_end = time.perf_counter() - start
     per_worker: dict[int, dict[str, np.ndarray]] = {}

@@ -38,6 +38,7 @@ from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key, feature_key
 from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, assemble, unbroken
+from icil_paper.tables.cells import plan
 from icil_paper.tables.claims import (
     LedgerEntry,
     as_entry,
@@ -55,7 +56,6 @@ from icil_paper.tables.display import (
     collapsed_markdown,
     source_label,
 )
-from icil_paper.tables.execute import plan
 
 
 def load_table(preset: Preset, table_id: str, compute: bool = True,

@@ -4,11 +4,11 @@ feature measurement and `icil-paper eval`.
     from icil_paper.eval import evaluate_policy, evaluate_run
     from icil_paper.runspec import eval_spec
     result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
-                             prompts=demos, workers=2)
+                             prompts=demos)
     record = evaluate_run(run, ev, policy, store, preset.name)    # stored, computed once
 
-- `rollouts.py`: the rollout engine (lockstep groups of envs, worker processes,
-  `RolloutPool`, `rollout_policy` for one episode, rerun recordings).
+- `rollouts.py`: the rollout engine (lockstep groups of envs stepped with one batched
+  policy forward pass, `rollout_policy` for one episode, rerun recordings).
 - `outcomes.py`: episodes planned from an `EvalSpec`, success rates with intervals
   (`evaluate_policy`, `evaluate_many`, `EvalResult`, `prompt_pool`).
 - `stored.py`: `evaluate_run`, `evaluate_run_many`: `eval` records (named by
@@ -28,10 +28,10 @@ from icil_paper.eval.outcomes import (
     plan_episodes,
     prompt_pool,
 )
-from icil_paper.eval.rollouts import RolloutPool, record_rollout, rollout_policy, run_episodes
+from icil_paper.eval.rollouts import record_rollout, rollout_policy, run_episodes
 from icil_paper.eval.stored import evaluate_run, evaluate_run_many
 
-__all__ = ["EvalResult", "RolloutPool", "check_policy_fits", "episode_seed",
+__all__ = ["EvalResult", "check_policy_fits", "episode_seed",
            "evaluate_many", "evaluate_policy", "evaluate_run", "evaluate_run_many",
            "lipschitz_diagnostics", "measure_features", "obs_kind", "plan_episodes",
            "prompt_pool", "record_rollout", "rollout_policy", "run_episodes"]

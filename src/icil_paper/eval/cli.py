@@ -11,7 +11,6 @@ from typing import Any
 from icil_paper.commands import Parser, add_preset_arguments, positive, preset_from_args
 from icil_paper.data.generate import check_data_folder, demo_path
 from icil_paper.eval.outcomes import check_policy_fits
-from icil_paper.eval.rollouts import RolloutPool
 from icil_paper.eval.stored import evaluate_run
 from icil_paper.fileio import check_env_folder
 from icil_paper.registry import check_name
@@ -45,7 +44,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--episodes", type=positive("--episodes"), default=None,
                    help="rollouts per task (default: the preset's eval.episodes_per_task)")
     p.add_argument("--workers", type=positive("--workers"), default=None,
-                   help="parallel rollout processes (default: the preset's eval.workers)")
+                   help="no effect, kept for older scripts: the rollouts run batched in this "
+                   "process")
     p.add_argument("--max-steps", type=positive("--max-steps"), default=None,
                    help="step limit per rollout (default: the preset's, else the task's horizon)")
     p.add_argument("--record", action="store_true", help="write a rerun recording of each rollout")
@@ -91,23 +91,16 @@ def main(argv: list[str] | None = None) -> int:
     # and computed again): an evaluation is never stored under another run's key
     policy = trusted_policy(run, preset, store, run_dir, progress=not args.quiet,
                             data_workers=preset.data.workers)
-    workers = args.workers or preset.eval.workers
     record_dir = results_root() / preset.name / "recordings" if args.record else None
-    # one set of worker processes for every task: started, and each task's env built, once
-    pool = RolloutPool(workers) if workers > 1 else None
-    try:
-        for task in tasks:
-            ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
-                           prompt_source=args.prompt_source, max_steps=args.max_steps)
-            record = evaluate_run(run, ev, policy, store, preset, workers, record_dir,
-                                  force=args.force, progress=not args.quiet, pool=pool)
-            m = record["metrics"]
-            print(f"{run.label} on {task} (prompts: {args.prompt_source}): success "
-                  f"{m['success_rate']:.3f} [{m['ci_low']:.3f}, {m['ci_high']:.3f}] over "
-                  f"{m['episodes']} episodes")
-    finally:
-        if pool is not None:
-            pool.close()
+    for task in tasks:
+        ev = eval_spec(preset, task, episodes=args.episodes, seed=args.eval_seed,
+                       prompt_source=args.prompt_source, max_steps=args.max_steps)
+        record = evaluate_run(run, ev, policy, store, preset, record_dir,
+                              force=args.force, progress=not args.quiet)
+        m = record["metrics"]
+        print(f"{run.label} on {task} (prompts: {args.prompt_source}): success "
+              f"{m['success_rate']:.3f} [{m['ci_low']:.3f}, {m['ci_high']:.3f}] over "
+              f"{m['episodes']} episodes")
     return 0
 
 

@@ -3,11 +3,13 @@
     from icil_paper.eval import evaluate_many, evaluate_policy
     from icil_paper.runspec import eval_spec
     result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
-                             prompts=demos, workers=2)
+                             prompts=demos)
     result.success_rate, result.ci_low, result.ci_high, result.per_episode
-    # one policy on every task of a table, in one call
+
+    # a table's evaluation: one policy on every task, in one call (the tasks' episodes
+    # stepped side by side with one batched policy step)
     results = evaluate_many(policy, [eval_spec(preset, t) for t in tasks],
-                            prompts={t: prompt_pool(...) for t in tasks}, workers=2)
+                            prompts={t: prompt_pool(...) for t in tasks})
 
 Episode i of `EvalSpec.episodes` is fixed by the evaluation seed alone: its env seed is
 `EVAL_SEED_BASE + 10_000 * seed + i` (above every demonstration seed, so scenes are unseen),
@@ -37,7 +39,7 @@ import numpy as np
 from icil_paper import sim
 from icil_paper.data import ensure_demos, load_demos
 from icil_paper.data.sources import EVAL_SEED_BASE
-from icil_paper.eval.rollouts import Episode, RolloutPool, run_episodes
+from icil_paper.eval.rollouts import Episode, run_episodes
 from icil_paper.metrics import MOTION_MEASURES
 from icil_paper.runspec import SCENE_DISTRIBUTIONS, EvalSpec
 from icil_paper.sim import scene_distributions
@@ -214,10 +216,9 @@ def _pools(specs: Sequence[EvalSpec], prompts: Any) -> list[list[Any]]:
 
 def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
                   prompts: Mapping[str, Sequence[Any]] | Sequence[Sequence[Any] | None] | None = None,
-                  workers: int = 1, record_dir: str | Path | None = None, progress: bool = True,
+                  record_dir: str | Path | None = None, progress: bool = True,
                   env_options: Mapping[str, Any] | None = None,
                   env_factory: Callable[..., Any] | None = None, batch_size: int | None = None,
-                  pool: RolloutPool | None = None, device: str | None = None,
                   keep_envs: bool = False) -> list[EvalResult]:
     """Evaluate one policy on many specs (e.g. every task of a table) in one call; returns
     one EvalResult per spec, in order. Each result equals what `evaluate_policy` gives for
@@ -228,22 +229,17 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
         specs: the evaluations (`runspec.EvalSpec`), one per task or prompt variant.
         prompts: an in-context policy's prompt pools: {task: pool}, or a list with one pool
             per spec (`prompt_pool(spec, ...)` gives a spec's).
-        workers: processes that run rollouts (1: this process); ignored with `pool`.
         record_dir: write a rerun recording of each rollout there.
         env_options: extra keyword options for `make_env`.
-        env_factory: a picklable callable (task, obs=, seed=, **env_options) -> env used
-            instead of `icil_paper.sim.make_env` (e.g. a test suite's).
-        batch_size: episodes stepped in lockstep per worker (default
-            `rollouts.default_batch_size`: one episode per spec per group).
-        pool: a `RolloutPool` whose worker processes (and their envs) to use and keep.
-        device: where worker processes run the policy (default: the policy's device).
+        env_factory: a callable (task, obs=, seed=, **env_options) -> env used instead of
+            `icil_paper.sim.make_env` (e.g. a test suite's).
+        batch_size: episodes stepped in lockstep (default `rollouts.default_batch_size`:
+            one episode per spec per group).
         keep_envs: keep this process's envs for the next call (`rollouts.run_episodes`).
     """
     specs = list(specs)
     if not specs:
         raise ValueError("evaluate_many needs at least one EvalSpec")
-    if workers < 1:
-        raise ValueError(f"workers must be at least 1, got {workers}")
     if batch_size is not None and batch_size < 1:
         raise ValueError(f"batch_size must be at least 1, got {batch_size}")
     pools = _pools(specs, prompts)
@@ -261,9 +257,9 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
     desc = f"eval {specs[0].task}" if len(specs) == 1 else f"eval {len(specs)} tasks"
     start = time.perf_counter()
     rows = run_episodes(policy, episodes, prompts=dict(enumerate(pools)), obs=obs_kind(policy),
-                        workers=workers, batch_size=batch_size, env_factory=env_factory,
+                        batch_size=batch_size, env_factory=env_factory,
                         env_options=env_options, record_dir=record_dir, progress=progress,
-                        pool=pool, device=device, desc=desc, keep_envs=keep_envs)
+                        desc=desc, keep_envs=keep_envs)
     wall = round(time.perf_counter() - start, 3)
     results = []
     for i, spec in enumerate(specs):
@@ -290,29 +286,23 @@ def motion_means(per_episode: Sequence[Mapping[str, Any]]) -> dict[str, float | 
 
 
 def evaluate_policy(policy: Any, spec: EvalSpec, prompts: Sequence[Any] | None = None,
-                    workers: int = 1, record_dir: str | Path | None = None,
+                    record_dir: str | Path | None = None,
                     progress: bool = True, env_options: Mapping[str, Any] | None = None,
-                    env_factory: Callable[..., Any] | None = None, batch_size: int | None = None,
-                    pool: RolloutPool | None = None, device: str | None = None) -> EvalResult:
+                    env_factory: Callable[..., Any] | None = None,
+                    batch_size: int | None = None) -> EvalResult:
     """Success rate of `policy` over the rollouts `spec` describes (see the module docstring).
 
     Args:
         policy: a trained policy (`icil_paper.policies`).
         spec: the task, episodes, seed, step limit and prompt choice (`runspec.EvalSpec`).
         prompts: the prompt pool of an in-context policy (`prompt_pool` gives the spec's).
-        workers: processes that run rollouts (1: in this process); ignored with `pool`.
         record_dir: write a rerun recording of each rollout there.
         env_options: extra keyword options for `make_env`.
-        env_factory: a picklable callable (task, obs=, seed=, **env_options) -> env used
-            instead of `icil_paper.sim.make_env` (e.g. a test suite's).
-        batch_size: episodes stepped in lockstep per worker, each with its own env (default
-            1 for one spec: one env per worker).
-        pool: a `RolloutPool` whose worker processes (and their envs) to use and keep.
-        device: where worker processes run the policy (default: the policy's device).
+        env_factory: a callable (task, obs=, seed=, **env_options) -> env used instead of
+            `icil_paper.sim.make_env` (e.g. a test suite's).
+        batch_size: episodes stepped in lockstep, each with its own env (default 1 for one
+            spec: one env).
     """
-    if workers < 1:
-        raise ValueError(f"workers must be at least 1, got {workers}")
-    return evaluate_many(policy, [spec], [list(prompts or [])], workers=workers,
-                         record_dir=record_dir, progress=progress, env_options=env_options,
-                         env_factory=env_factory, batch_size=batch_size, pool=pool,
-                         device=device)[0]
+    return evaluate_many(policy, [spec], [list(prompts or [])], record_dir=record_dir,
+                         progress=progress, env_options=env_options, env_factory=env_factory,
+                         batch_size=batch_size)[0]

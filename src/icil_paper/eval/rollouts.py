@@ -1,65 +1,32 @@
-"""The rollout engine: many episodes of many tasks, N environments per worker stepped in
-lockstep with one batched policy forward pass per step, on worker processes kept for a whole
-evaluation (and, with a `RolloutPool`, for many).
+"""The rollout engine: many episodes of many tasks in this process, N environments stepped
+in lockstep with one batched policy forward pass per step.
 
     from icil_paper.eval.rollouts import Episode, run_episodes
     episodes = [Episode(spec=0, task="kitchen/open_drawer", index=i, seed=s, prompt=(2,))
                 for i, s in enumerate(seeds)]
-    results = run_episodes(policy, episodes, prompts={0: pool}, obs="state", workers=2)
+    results = run_episodes(policy, episodes, prompts={0: pool}, obs="state")
 
 `icil_paper.eval.outcomes` plans the episodes from `EvalSpec`s and turns these results into
-success rates; this module only runs them. How the work is cut::
+success rates; this module only runs them. Episodes are interleaved over evaluations
+(episode 0 of every spec, then episode 1, ...) and cut into lockstep groups of at most
+`batch_size` (`group_episodes`). In a group each env is reset from its episode's seed, the
+policy's batched state starts afresh, and every step is one `select_actions` over the
+running episodes; an episode ends on success, termination, truncation or its step limit.
+Its end-effector path becomes three numbers of motion smoothness (`motion_record`).
 
-    episodes, interleaved:   s0e0 s1e0 s2e0 ... s10e0 s0e1 s1e1 ...     (sK = spec K, eJ = episode J)
-    groups (<= batch_size):  [s0e0 ... s10e0] [s0e1 ... s10e1] ...     (nearly equal sizes)
-    worker processes:        each takes the next group when free; each keeps one copy of
-                             the policy and its envs ({task: [env, ...]}) for the whole call
-
-    one group, in one worker:
-        env b.reset(seed of episode b); policy.reset_batch(prompts of the group)
-        repeat: actions = policy.select_actions(obs of the running episodes, rows)
-                step each running env with its (clipped) action; an episode ends on
-                success, termination, truncation or its step limit, and leaves the batch
-        per episode: its end-effector path (one `eef_position()` read after reset and
-                after each step) and executed actions become three numbers of motion
-                smoothness (`motion_record`: LDLJ, SPARC, action jerk); only those leave
-                the worker, never the path
-
-Interleaving the specs (one per task in a table's evaluation) means a group needs one env
-per task, so a worker builds each task's env once, as one process stepping those tasks
-would. The default batch size (`default_batch_size`) keeps to that and gives every worker
-the same number of groups. A worker keeps the envs it has built until it exits (a kitchen env
-with state observations holds about 115 MB), so memory grows with the tasks it has met.
-
-Determinism. A group's outcomes depend on its episodes alone: each env is reset from its
-episode's seed (the suites' resets do not depend on an env's history, which the tests
-check), and the policy's batched state starts afresh with every group. So for a given batch
-size the results are the same, bit for bit, whatever the number of workers; another batch
-size changes the policy's numbers by float rounding only (a batched forward pass equals the
-unbatched one row by row up to rounding, `tests/test_rollouts.py`).
-
-Devices. The policy acts on its own device (in worker processes: the calling process's
-policy device unless `device` is given), so on a GPU machine every step is one batched
-forward pass on the GPU. The environments here are CPU simulators, one per episode;
-ManiSkill's GPU-parallel envs (`physx_cuda`, many scenes in one env) are not driven by this
-engine.
+A group's outcomes depend on its episodes alone, so for a given batch size the results are
+the same bit for bit; another batch size changes the policy's numbers by float rounding
+only (`tests/test_rollouts.py`). Parallelism is one level up: a table's cells run side by
+side (`icil_paper.tables.cells`), each rolling out its episodes here, keeping its envs
+from cell to cell (`keep_envs`).
 """
 
 from __future__ import annotations
 
-import hashlib
-import importlib
-import io
-import json
 import math
-import multiprocessing as mp
-import os
-import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
-from multiprocessing import util
 from pathlib import Path
 from typing import Any
 
@@ -68,8 +35,6 @@ import torch
 from tqdm.auto import tqdm
 
 from icil_paper.metrics import action_second_difference, motion_smoothness
-from icil_paper.policies import REGISTRY
-from icil_paper.policies.factory import build_policy
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env, object_position
 from icil_paper.timing import phase
@@ -77,7 +42,7 @@ from icil_paper.viz.recording import record_episode
 
 MAX_BATCH = 16
 """Largest default group: beyond this the per-step cost of stepping the envs in turn dwarfs
-the batched forward pass, and fewer, longer groups balance worse over workers."""
+the batched forward pass."""
 
 
 @dataclass(frozen=True)
@@ -262,28 +227,23 @@ def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping
 
 
 # --------------------------------------------------------------------------- groups
-def default_batch_size(episodes: Sequence[Episode], workers: int = 1,
-                       max_batch: int = MAX_BATCH) -> int:
-    """The batch size `run_episodes` uses when none is given.
-
-    At most one episode per evaluation in a group (so a worker builds each task's env once)
-    and at most `max_batch`; within that, as large as gives every worker the same number of
-    groups. One task's evaluation thus runs one episode at a time per worker, as a policy
-    with a single env would.
-    """
+def default_batch_size(episodes: Sequence[Episode], max_batch: int = MAX_BATCH) -> int:
+    """The batch size `run_episodes` uses when none is given: at most one episode per
+    evaluation in a group (so each task's env is built once) and at most `max_batch`, in
+    groups of nearly equal size. One task's evaluation thus runs one episode at a time, as
+    a policy with a single env would."""
     n = len(episodes)
     if n == 0:
         return 1
     widest = max(1, min(int(max_batch), len({e.spec for e in episodes})))
-    groups = workers * math.ceil(n / (workers * widest))
-    return max(1, math.ceil(n / groups))
+    return max(1, math.ceil(n / math.ceil(n / widest)))
 
 
 def group_episodes(episodes: Sequence[Episode], batch_size: int) -> list[list[Episode]]:
     """Cut episodes into lockstep groups of at most `batch_size`: episodes interleaved over
     evaluations (episode 0 of every spec, then episode 1, ...), split into
     ceil(n / batch_size) consecutive groups of nearly equal size. Depends on the episodes
-    and `batch_size` alone, never on the number of workers."""
+    and `batch_size` alone."""
     if batch_size < 1:
         raise ValueError(f"batch_size must be at least 1, got {batch_size}")
     order = sorted(episodes, key=lambda e: (e.index, e.spec))
@@ -293,18 +253,17 @@ def group_episodes(episodes: Sequence[Episode], batch_size: int) -> list[list[Ep
     return [order[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
-# --------------------------------------------------------------------------- one worker
+# --------------------------------------------------------------------------- one group
 @dataclass
 class GroupJob:
-    """One lockstep group for a worker (`run_group`): what to run and with what."""
+    """One lockstep group (`run_group`): what to run and with what."""
 
     episodes: list[Episode]
     """The group's episodes."""
     prompts: dict[int, dict[int, Any]]
     """The prompt demonstrations they use: {spec: {pool index: demonstration}}."""
     policy: Any
-    """The policy itself (in this process, or a picklable non-torch policy) or the file a
-    worker process loads it from (`RolloutPool.policy_ref`)."""
+    """The policy that acts."""
     env: EnvSetup
     """How the envs are built."""
     record_dir: str | None = None
@@ -325,21 +284,12 @@ def group_jobs(episodes: Sequence[Episode], prompts: Mapping[int, Sequence[Any]]
     return jobs
 
 
-@dataclass(frozen=True)
-class _PolicyFile:
-    path: str
-    key: str
-    device: str = "cpu"
-
-
 @dataclass
 class WorkerState:
-    """What a worker keeps between groups: its environments, by setup and task (a group
-    with k episodes of one task uses the first k), and the policy it last loaded."""
+    """What a process keeps between groups: its environments, by setup and task (a group
+    with k episodes of one task uses the first k)."""
 
     envs: dict[tuple[Any, ...], list[Any]] = field(default_factory=dict)
-    policy: Any = None
-    policy_key: str | None = None
 
     def envs_for(self, setup: EnvSetup, episodes: Sequence[Episode]) -> list[Any]:
         """One env per episode, built where this worker has too few for a task (and the
@@ -369,16 +319,6 @@ class WorkerState:
             for env in self.envs.pop(key):
                 env.close()
 
-    def policy_for(self, ref: Any) -> Any:
-        if not isinstance(ref, _PolicyFile):
-            return ref
-        if ref.key != self.policy_key:
-            state = torch.load(ref.path, map_location=ref.device, weights_only=True)
-            policy = build_policy(json.loads(state["spec"]))
-            policy.load_state_dict(state["state_dict"])
-            self.policy, self.policy_key = policy.to(ref.device).eval(), ref.key
-        return self.policy
-
     def close(self) -> None:
         for pool in self.envs.values():
             for env in pool:
@@ -388,7 +328,7 @@ class WorkerState:
 
 def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
     """Roll out one group in this process; one result dict per episode, in group order."""
-    policy = state.policy_for(job.policy)
+    policy = job.policy
     if isinstance(policy, torch.nn.Module):
         policy.eval()
     envs = state.envs_for(job.env, job.episodes)
@@ -412,7 +352,7 @@ def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
     return results
 
 
-_STATE: WorkerState | None = None  # a worker process's state, kept between groups
+_STATE: WorkerState | None = None  # the envs this process keeps between calls
 
 KEPT_ENVS = 26
 """Most environments a process keeps between `run_episodes(..., keep_envs=True)` calls:
@@ -422,7 +362,7 @@ use are closed (oldest first), before the call and after it."""
 
 
 def worker_state() -> WorkerState:
-    """This process's WorkerState (a worker process keeps it between groups)."""
+    """This process's WorkerState (kept between `keep_envs` calls)."""
     global _STATE
     if _STATE is None:
         _STATE = WorkerState()
@@ -430,156 +370,46 @@ def worker_state() -> WorkerState:
 
 
 def _close_state() -> None:
+    """Close the envs this process keeps."""
     global _STATE
     if _STATE is not None:
         _STATE.close()
         _STATE = None
 
 
-def _init_process() -> None:
-    """Initializer of a worker process: one torch thread (the workers share the cores)."""
-    torch.set_num_threads(1)
-    util.Finalize(None, _close_state, exitpriority=10)  # close the envs when the worker exits
-
-
-def _run_in_worker(job: GroupJob) -> list[dict[str, Any]]:
-    return run_group(worker_state(), job)
-
-
-def _hello(modules: Sequence[str], linger: float) -> int:
-    for name in modules:
-        importlib.import_module(name)
-    time.sleep(linger)
-    return os.getpid()
-
-
-class RolloutPool:
-    """Worker processes that outlive one call, so that many evaluations (one per task, or
-    one per trained policy) pay for process start, imports and env construction once::
-
-        with RolloutPool(2) as pool:
-            for task in tasks:
-                evaluate_policy(policy, eval_spec(preset, task), prompts, pool=pool)
-
-    Each worker keeps its envs (per task) and the policy it last loaded (reloaded only when
-    another policy comes). Workers are spawned, not forked, and use one torch thread each.
-    """
-
-    def __init__(self, workers: int):
-        if workers < 1:
-            raise ValueError(f"workers must be at least 1, got {workers}")
-        self.workers = int(workers)
-        self._executor = ProcessPoolExecutor(self.workers, mp_context=mp.get_context("spawn"),
-                                             initializer=_init_process)
-        self._policy_dir = tempfile.TemporaryDirectory(prefix="icil-rollouts-")
-        self._policy_files: dict[int, tuple[Any, _PolicyFile]] = {}
-
-    def submit(self, fn: Callable[..., Any], *args: Any):
-        """Run fn(*args) in a worker; returns a Future."""
-        return self._executor.submit(fn, *args)
-
-    def warm_up(self, modules: Sequence[str] = (), timeout: float = 300.0) -> list[int]:
-        """Start every worker and import `modules` in each; returns the workers' process ids."""
-        seen: set[int] = set()
-        deadline = time.monotonic() + timeout
-        while len(seen) < self.workers:
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"only {len(seen)} of {self.workers} rollout workers started")
-            futures = [self.submit(_hello, tuple(modules), 0.05) for _ in range(self.workers)]
-            seen.update(f.result() for f in futures)
-        return sorted(seen)
-
-    def policy_ref(self, policy: Any, device: str | None = None) -> _PolicyFile:
-        """The policy as a file the workers load (written once per policy state): its spec
-        and state dict, from which a worker rebuilds it (`build_policy`), so only registry
-        policies can act in worker processes."""
-        config_type = getattr(getattr(policy, "config", None), "type", None)
-        if config_type not in REGISTRY or type(policy) is not REGISTRY[config_type]:
-            raise ValueError(f"a {type(policy).__name__} cannot act in worker processes: they "
-                             "rebuild the policy from its spec, which gives the registry's "
-                             f"{config_type!r} policy; run it with workers=1")
-        key = _policy_key(policy)
-        cached = self._policy_files.get(id(policy))
-        if cached is not None and cached[0] == key and cached[1].device == (device or "cpu"):
-            return cached[1]
-        path = Path(self._policy_dir.name) / f"policy-{key}.pt"
-        buf = io.BytesIO()
-        torch.save({"spec": json.dumps(policy.spec),
-                    "state_dict": {k: v.detach().cpu() for k, v in policy.state_dict().items()}},
-                   buf)
-        path.write_bytes(buf.getvalue())
-        ref = _PolicyFile(str(path), key, device or "cpu")
-        self._policy_files[id(policy)] = (key, ref)
-        return ref
-
-    def close(self) -> None:
-        self._executor.shutdown(wait=True, cancel_futures=True)
-        self._policy_dir.cleanup()
-
-    def __enter__(self) -> RolloutPool:
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
-
-
-def _policy_key(policy: Any) -> str:
-    """A digest of the policy's spec and weights (a changed weight is another policy)."""
-    h = hashlib.sha256(json.dumps(policy.spec, sort_keys=True).encode())
-    for name, value in policy.state_dict().items():
-        h.update(name.encode())
-        h.update(value.detach().cpu().contiguous().numpy().tobytes())
-    return h.hexdigest()[:16]
-
-
 # --------------------------------------------------------------------------- many episodes
 def run_episodes(policy: Any, episodes: Sequence[Episode],
                  prompts: Mapping[int, Sequence[Any]] | None = None, obs: str = "state",
-                 workers: int = 1, batch_size: int | None = None,
-                 env_factory: Callable[..., Any] | None = None,
+                 batch_size: int | None = None, env_factory: Callable[..., Any] | None = None,
                  env_options: Mapping[str, Any] | None = None, record_dir: str | Path | None = None,
-                 progress: bool = True, pool: RolloutPool | None = None,
-                 device: str | None = None, desc: str = "rollouts",
+                 progress: bool = True, desc: str = "rollouts",
                  keep_envs: bool = False) -> list[dict[str, Any]]:
-    """Run every episode (see the module docstring); returns one result dict per episode, in
-    the order of `episodes`: episode, seed, success, steps, return, prompt, wall_time_s
-    (seconds from its group's start until it ended), the motion's smoothness `ldlj`,
-    `sparc` and `action_jerk` (`motion_record`; None where undefined) and, with
+    """Run every episode in this process (see the module docstring); returns one result dict
+    per episode, in the order of `episodes`: episode, seed, success, steps, return, prompt,
+    wall_time_s (seconds from its group's start until it ended), the motion's smoothness
+    `ldlj`, `sparc` and `action_jerk` (`motion_record`; None where undefined) and, with
     `record_dir`, recording.
 
     Args:
         policy: acts through `reset_batch` / `select_actions` (`icil_paper.policies.base`).
-            A torch module goes to worker processes as its spec and weights (a registry
-            policy); anything else (a scripted or zero-action policy) is pickled as it is.
         episodes: the rollouts.
         prompts: {spec: prompt pool}; episode e's prompt is [prompts[e.spec][j] for j in e.prompt].
         obs: the observation kind the envs give.
-        workers: processes (1: this process). Ignored when `pool` is given.
         batch_size: episodes per lockstep group (default: `default_batch_size`).
         env_factory, env_options: how envs are built (`EnvSetup`).
         record_dir: write a rerun recording of each rollout there.
-        pool: worker processes to use (and keep) instead of starting new ones.
-        device: where worker processes run the policy (default: the policy's device).
-        keep_envs: in this process (one worker, no pool), keep the envs for the next call
-            (`worker_state()`, at most `KEPT_ENVS`), as a pool's workers do: a grid worker
-            that evaluates cell after cell builds each task's env once. Results do not
-            change: every episode resets its env from its own seed.
+        keep_envs: keep the envs for the next call (`worker_state()`, at most `KEPT_ENVS`):
+            a process that evaluates cell after cell builds each task's env once. Results
+            do not change: every episode resets its env from its own seed.
     """
     if not episodes:
         return []
-    if workers < 1:
-        raise ValueError(f"workers must be at least 1, got {workers}")
-    n_workers = pool.workers if pool is not None else int(workers)
-    batch = int(batch_size) if batch_size is not None else default_batch_size(episodes, n_workers)
-    n_groups = math.ceil(len(episodes) / batch)
-    if pool is None:  # no more processes than groups (one group: this process)
-        n_workers = min(n_workers, n_groups)
+    batch = int(batch_size) if batch_size is not None else default_batch_size(episodes)
     setup = EnvSetup(obs, tuple(sorted(dict(env_options or {}).items())), env_factory)
     if record_dir is not None:
         Path(record_dir).mkdir(parents=True, exist_ok=True)
         record_dir = str(record_dir)
     prompts = dict(prompts or {})
-
     bar = tqdm(total=len(episodes), desc=desc, unit="episode", disable=not progress,
                leave=False)
     by_episode: dict[tuple[int, int], dict[str, Any]] = {}
@@ -587,46 +417,19 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
     was_training = is_module and policy.training
     if is_module:
         policy.eval()
+    state = worker_state() if keep_envs else WorkerState()
+    state.trim(setup, episodes, KEPT_ENVS)
     try:
-        if pool is None and n_workers == 1:
-            state = worker_state() if keep_envs else WorkerState()
-            state.trim(setup, episodes, KEPT_ENVS)
-            try:
-                with cpu_threads(1):  # small batched steps gain nothing from a thread pool
-                    for job in group_jobs(episodes, prompts, policy, setup, batch, record_dir):
-                        for ep, row in zip(job.episodes, run_group(state, job), strict=True):
-                            by_episode[ep.spec, ep.index] = row
-                        bar.update(len(job.episodes))
-            finally:
-                if keep_envs:  # keep what this call used, the likeliest next
-                    state.trim(setup, episodes, KEPT_ENVS)
-                else:
-                    state.close()
-        else:
-            own = pool is None
-            pool = pool or RolloutPool(n_workers)
-            futures: dict[Any, list[Episode]] = {}
-            try:
-                ref = (pool.policy_ref(policy, device or str(policy.device)) if is_module
-                       else policy)
-                futures = {pool.submit(_run_in_worker, job): job.episodes
-                           for job in group_jobs(episodes, prompts, ref, setup, batch, record_dir)}
-                pending = set(futures)
-                while pending:
-                    done, pending = wait(pending, return_when=FIRST_EXCEPTION)
-                    for f in done:
-                        group = futures[f]
-                        for ep, row in zip(group, f.result(), strict=True):
-                            by_episode[ep.spec, ep.index] = row
-                        bar.update(len(group))
-            except BaseException:
-                for f in futures:
-                    f.cancel()
-                raise
-            finally:
-                if own:
-                    pool.close()
+        with cpu_threads(1):  # small batched steps gain nothing from a thread pool
+            for job in group_jobs(episodes, prompts, policy, setup, batch, record_dir):
+                for ep, row in zip(job.episodes, run_group(state, job), strict=True):
+                    by_episode[ep.spec, ep.index] = row
+                bar.update(len(job.episodes))
     finally:
+        if keep_envs:  # keep what this call used, the likeliest next
+            state.trim(setup, episodes, KEPT_ENVS)
+        else:
+            state.close()
         bar.close()
         if is_module:
             policy.train(was_training)

@@ -20,7 +20,6 @@ from typing import Any
 import torch
 
 from icil_paper.eval.outcomes import evaluate_many, evaluate_policy, prompt_pool
-from icil_paper.eval.rollouts import RolloutPool
 from icil_paper.records import eval_record
 from icil_paper.results import cpu_seconds
 from icil_paper.runspec import EvalSpec
@@ -40,32 +39,31 @@ def _trained(policy: Any | Callable[[], Any]) -> Any:
 
 
 def evaluate_run(run: Any, ev: EvalSpec, policy: Any | Callable[[], Any], store: Any,
-                 preset: Any = None, workers: int = 1, record_dir: str | Path | None = None,
-                 force: bool = False, progress: bool = True, pool: RolloutPool | None = None,
+                 preset: Any = None, record_dir: str | Path | None = None,
+                 force: bool = False, progress: bool = True,
                  batch_size: int | None = None) -> dict[str, Any]:
     """The stored evaluation of `run`'s trained policy as `ev` describes, computed if missing.
 
     `policy` is the trained policy or a function that loads it (called only when the
     record must be computed). The record's config is the keyed content of both specs, so
     its key is `runspec.eval_key(run, ev)`. `preset` (a Preset, or a preset's name) locates
-    the prompt data sets (`outcomes.prompt_pool`). Returns the record. `pool` and `batch_size`
-    go to `evaluate_policy`.
+    the prompt data sets (`outcomes.prompt_pool`). Returns the record. `batch_size` goes to
+    `evaluate_policy`.
     """
     def compute() -> dict[str, Any]:
         trained = _trained(policy)
         result = evaluate_policy(trained, ev, prompts=_run_prompts(run, ev, trained, preset, progress),
-                                 workers=workers, record_dir=record_dir, progress=progress,
-                                 pool=pool, batch_size=batch_size)
+                                 record_dir=record_dir, progress=progress,
+                                 batch_size=batch_size)
         return result.to_dict()
 
     return store.run(*eval_record(run, ev), compute, seed=ev.seed, force=force)
 
 
 def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[[], Any],
-                      store: Any, preset: Any = None, workers: int = 1,
+                      store: Any, preset: Any = None,
                       record_dir: str | Path | None = None, force: bool = False,
-                      progress: bool = True, pool: RolloutPool | None = None,
-                      batch_size: int | None = None,
+                      progress: bool = True, batch_size: int | None = None,
                       keep_envs: bool = False) -> list[dict[str, Any]]:
     """`evaluate_run` for many evaluations of one run (a table's tasks): the records that
     are missing (or all, with `force`) are computed together in one `evaluate_many` call,
@@ -84,8 +82,8 @@ def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[
             prompts = [_run_prompts(run, evs[i], trained, preset, progress) for i in missing]
         results = evaluate_many(
             trained, [evs[i] for i in missing], prompts,
-            workers=workers, record_dir=record_dir, progress=progress, pool=pool,
-            batch_size=batch_size, keep_envs=keep_envs)
+            record_dir=record_dir, progress=progress, batch_size=batch_size,
+            keep_envs=keep_envs)
         wall, cpu = time.perf_counter() - start, cpu_seconds() - cpu
         for i, result in zip(missing, results, strict=True):
             with phase("eval.write"):

@@ -61,9 +61,9 @@ from icil_paper.paper import (
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore
 from icil_paper.tables.assemble import assemble
+from icil_paper.tables.cells import run_specs
 from icil_paper.tables.claims import Claim, LedgerEntry, ledger_entries, ledger_file
 from icil_paper.tables.design import DESIGN_FILE, Design, ledger_design, read_record
-from icil_paper.tables.execute import run_specs
 from icil_paper.tables.spec import TableSpec
 
 TABLES: dict[str, Callable[[Preset], TableSpec]] = {
@@ -155,7 +155,7 @@ def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor:
                workers: int | None = None, ray_address: str | None = None,
                gpus_per_cell: float = 0.0, progress: bool = True) -> dict[str, Any]:
     """Compute every missing record of the chosen tables (default: all) as grid cells
-    (`tables.execute`: each policy trained once for every table that reads it). Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
+    (`tables.cells`: each policy trained once for every table that reads it). Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
     Returns the grid's summaries by run key."""
     ids = list(table_ids or TABLES)
     return run_specs(preset, [table_spec(preset, t) for t in ids], executor=executor,

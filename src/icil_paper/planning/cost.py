@@ -39,8 +39,8 @@ from icil_paper.planning.design import cell_kind, episode_design, plan_cost, pla
 from icil_paper.planning.staged import as_run, at_stage, staged_preset
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
-from icil_paper.stages import STAGES
-from icil_paper.tables.execute import plan
+from icil_paper.stages import TABLE_STAGES
+from icil_paper.tables.cells import plan
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
           "resumed_cells", "resumed_cpu_s", "without_cpu_time")
@@ -61,16 +61,14 @@ CELLS_AT_ONCE = 2
 def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]:
     """Record path -> (stage, kind of cell) for every record the table stages plan."""
     out: dict[Path, tuple[str, str]] = {}
-    for stage in STAGES:
-        if not stage.name.startswith("table-"):
-            continue
-        for p in plan([table_spec(preset, stage.name.removeprefix("table-"))]):
+    for table_id, _, _ in TABLE_STAGES:
+        for p in plan([table_spec(preset, table_id)]):
             kind = cell_kind(p.run)
             ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
                    *(features_record(p.run, f) for f in p.features.values())]
             for record_id in ids:
                 path = store.record_path(*record_id)
-                out.setdefault(path, (stage.name, kind))
+                out.setdefault(path, (f"table-{table_id}", kind))
     return out
 
 

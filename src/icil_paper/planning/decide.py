@@ -43,7 +43,7 @@ from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import DATA_SETS
 from icil_paper.stats import Verdict
-from icil_paper.tables.execute import plan
+from icil_paper.tables.cells import plan
 
 DECIDED = (Verdict.HOLDS, Verdict.DOES_NOT_HOLD)
 """Verdicts that settle a claim; every other one is planned."""

@@ -49,9 +49,9 @@ from icil_paper.paper import TABLES, claims, claims_ledger, table_spec
 from icil_paper.records import eval_record, features_record
 from icil_paper.results import ResultsStore, bench_path, results_root
 from icil_paper.tables.assemble import assemble
+from icil_paper.tables.cells import data_needs, plan
 from icil_paper.tables.claims import Comparison, as_entry, read_ledger, sizing_effect
 from icil_paper.tables.design import ONE_FAMILY
-from icil_paper.tables.execute import data_needs, plan
 
 DECIDABLE_SEEDS = 10
 """Seeds of every row of a claim whose `seeds_needed` is at most this."""
@@ -202,7 +202,7 @@ def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, 
 
 
 def plans_cost(plans, rates: dict[str, Any] | None = None) -> dict[str, Any]:
-    """`plan_cost` of a list of run plans (`tables.execute.plan`), their data sets included."""
+    """`plan_cost` of a list of run plans (`tables.cells.plan`), their data sets included."""
     rates = rates or cell_rates()
     kinds: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for p in plans:

@@ -35,8 +35,8 @@ from icil_paper.config_data import ConfigError
 from icil_paper.paper import TABLES, claims_ledger, table_spec
 from icil_paper.planning.design import claim_rows, stage_plan, with_row_seeds
 from icil_paper.results import ResultsStore
+from icil_paper.tables.cells import plan, plan_done
 from icil_paper.tables.design import new_record, read_record, record_path, write_record
-from icil_paper.tables.execute import plan, plan_done
 
 
 @dataclass(frozen=True)

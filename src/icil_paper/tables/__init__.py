@@ -11,9 +11,11 @@ Each result of the paper is one module of `icil_paper.paper` (its table spec, cl
 paper's numbers and display). This package is what they are built from and run on, and
 imports none of them:
 
-- `spec.py`, `definitions.py`: a table spec and its building blocks (rows, runs, cells).
-- `execute.py`, `grid.py`: run the cells (a local process pool or a Ray cluster), skipping
-  what the results store holds.
+- `spec.py`: TableSpec, Row, Cell, Unit (FeatureSpec, like EvalSpec, is `icil_paper.runspec`'s).
+- `definitions.py`: the building blocks of a table spec: a row's runs per training seed, their
+  evaluations on shared episodes, the family cells, Table I's runs that other tables reuse.
+- `cells.py`: the cells of any set of tables (one trained policy each, with every
+  evaluation the tables ask of it), computed in this process, a process pool or on Ray.
 - `assemble.py`: records -> numbers with intervals (`icil_paper.stats`), as tables.
 - `claims.py`: a claim's comparison, verdict, size and power.
 - `display.py`: what every result's chapter shows the same way.

@@ -48,9 +48,8 @@ from icil_paper.registry import check_name
 from icil_paper.results import RESULTS_ENV_VAR, ResultsStore
 from icil_paper.tables import claims as claims_mod
 from icil_paper.tables.assemble import TableResult, assemble
+from icil_paper.tables.cells import check_reachable, run_specs
 from icil_paper.tables.definitions import icrt_rows, label, table_i_seeds
-from icil_paper.tables.execute import run_specs
-from icil_paper.tables.grid import check_reachable
 from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY as REGISTRY
 from icil_paper.train.rundir import RUNS_ENV_VAR
 

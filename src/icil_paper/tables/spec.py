@@ -10,7 +10,7 @@ A unit names one trained policy (its RunSpec) and what is measured on it: one ev
 features of held-out trajectories (a FeatureSpec). A cell's number aggregates its units:
 success rates over (seeds, tasks, episodes), smoothness over trajectories. Units are keyed
 by content, so the same trained policy serves every table that names its RunSpec and is
-trained once (`execute.plan` groups the units of all tables by run).
+trained once (`cells.plan` groups the units of all tables by run).
 """
 
 from __future__ import annotations
