@@ -6,8 +6,7 @@
                              prompts=demos)
     result.success_rate, result.ci_low, result.ci_high, result.per_episode
 
-    # a table's evaluation: one policy on every task, in one call (the tasks' episodes
-    # stepped side by side with one batched policy step)
+    # one policy on every task of a table, in one call
     results = evaluate_many(policy, [eval_spec(preset, t) for t in tasks],
                             prompts={t: prompt_pool(...) for t in tasks})
 
@@ -17,7 +16,7 @@ its prompt `ICRTConfig.prompt_demos` demonstrations drawn from the prompt pool w
 `np.random.default_rng([seed, i])`, its scenes from `EvalSpec.scenes`. It runs until
 success, the episode's end or `max_steps`; actions are clipped to [-1, 1]. The rollout
 engine (`icil_paper.eval.rollouts`) steps `batch_size` envs in lockstep with one batched
-policy step, on `workers` processes; outcomes do not depend on the number of workers.
+policy step, in this process; outcomes do not depend on the batch size.
 
 The result holds the success rate with a Wilson 95% interval (`icil_paper.stats`) and the
 episodes' mean motion smoothness (`icil_paper.metrics.motion_smoothness`).
