@@ -108,6 +108,16 @@ print(run_description(preset.name, run, demos, TASK))
 # full demonstration of the same task. Prompts differ in length, so the
 # batch is padded; padding is never attended to and does not shift the positions of real
 # tokens (rotary positions count real tokens only).
+#
+# The policy assembles Eq. 1's sequence in `ICRT.sequence`: each prompt step's observation
+# token and action token side by side, then the query's, in one tensor:
+#
+# ```{literalinclude} /src/icil_paper/policies/icrt.py
+# :pyobject: ICRT.sequence
+# :caption: src/icil_paper/policies/icrt.py (Eq. 1's token layout)
+# ```
+#
+# Below it runs on a batch of three sequences; the picture colours each token by its role.
 
 # %%
 # teaches: Eq. 1's token layout, read from a real batch
@@ -146,9 +156,18 @@ print(f"  prompt: {M} steps = {2 * M} tokens; query: {Q} steps; padded length {r
 #
 # Each token attends to itself and every real token to its left (white = may attend). The
 # query's observation token of step $t$ sees the whole prompt and the query's past, but not
-# the action $a_{q,t}$ it must predict, which comes right after it.
+# the action $a_{q,t}$ it must predict, which comes right after it. The transformer builds
+# the mask from the batch's padding alone:
+#
+# ```{literalinclude} /src/icil_paper/policies/transformer.py
+# :pyobject: causal_mask
+# :caption: src/icil_paper/policies/transformer.py (the causal mask)
+# ```
 
 # %%
+tokens, valid, query_obs_index, _ = policy.sequence(batch)
+print(f"tokens {tuple(tokens.shape)} (batch, positions, width)")
+print(f"the query's observation tokens at positions {query_obs_index[:3].tolist()} ...")
 b = int(batch["prompt_valid"].sum(1).argmin())  # the shortest prompt shows its padding
 mask = causal_mask(roles["valid"][b:b + 1])[0, 0].numpy()
 display(attention_mask_figure(mask, batch, b))

@@ -63,6 +63,75 @@
 #   the control points are quantized to 256 integer bins; decoding evaluates the spline.
 #   Nothing is learned but the token embeddings, as for Bin and FAST.
 #
+# ## Encode and decode, in the library
+#
+# Every tokenizer is an `nn.Module` whose forward pass takes actions $(B, T, 7)$ and returns
+# one embedding per step (the action token), the discrete codes where there are any, its
+# reconstruction of the actions and its losses. Each tokenizer's forward pass, from its
+# module (click to open):
+#
+# :::{dropdown} MLP: encode with an MLP, decode with its mirror
+# ```{literalinclude} /src/icil_paper/tokenizers/mlp.py
+# :pyobject: MLPTokenizer._forward
+# :caption: src/icil_paper/tokenizers/mlp.py
+# ```
+# :::
+# :::{dropdown} Bin: a bin per dimension, embeddings averaged; decode to bin centres
+# ```{literalinclude} /src/icil_paper/tokenizers/bin.py
+# :pyobject: BinTokenizer._forward
+# :caption: src/icil_paper/tokenizers/bin.py
+# ```
+# :::
+# :::{dropdown} FAST: DCT, rounding and byte-pair encoding of the chunk ending at each step
+# ```{literalinclude} /src/icil_paper/tokenizers/fast.py
+# :pyobject: FASTTokenizer._forward
+# :caption: src/icil_paper/tokenizers/fast.py
+# ```
+# :::
+# :::{dropdown} VQ-VAE: the nearest code (Eq. 2)
+# ```{literalinclude} /src/icil_paper/tokenizers/vq.py
+# :pyobject: VQTokenizer.quantize
+# :caption: src/icil_paper/tokenizers/vq.py
+# ```
+# :::
+# :::{dropdown} VQ-VAE and LipVQ-VAE: encode, quantize, straight-through, decode
+# ```{literalinclude} /src/icil_paper/tokenizers/vq.py
+# :pyobject: VQTokenizer._forward
+# :caption: src/icil_paper/tokenizers/vq.py
+# ```
+# :::
+# :::{dropdown} LFQ-VAE: lookup-free quantization
+# ```{literalinclude} /src/icil_paper/tokenizers/lfq.py
+# :pyobject: LFQTokenizer._forward
+# :caption: src/icil_paper/tokenizers/lfq.py
+# ```
+# :::
+#
+# LipVQ-VAE is `VQTokenizer` with `LipschitzLinear` encoder layers
+# ({doc}`chapter 3 <03_lipschitz_normalization>` shows the layer). Each runs below on the
+# first 20 steps of one minimum-jerk trajectory: the codes of its first steps, its
+# embedding's shape and how well it reconstructs the actions, untrained (Bin and FAST are
+# fitted to 8 trajectories first; nothing else is learned yet).
+
+# %%
+# teaches: each tokenizer's encode and decode, run
+import torch
+
+from icil_paper.data.trajectories import generate_trajectories
+from icil_paper.tokenizers import make_tokenizer
+
+torch.manual_seed(0)
+trajectories = generate_trajectories(8, seed=0)  # 8 minimum-jerk (T, 7) action trajectories
+actions = torch.as_tensor(trajectories[0][None, :20], dtype=torch.float32)  # (1, 20, 7)
+for name in ("mlp", "bin", "fast", "vq", "lfq", "lipvq"):
+    tokenizer = make_tokenizer(name, action_dim=7).fit(trajectories).eval()
+    with torch.no_grad():
+        out = tokenizer(actions)
+    codes = "no codes" if out.codes is None else f"codes of step 1: {out.codes[0, 0].tolist()}"
+    error = float(((out.reconstruction - actions) ** 2).mean())
+    print(f"{name:6s} tokens {tuple(out.embeddings.shape)}  reconstruction MSE {error:.2g}  {codes}")
+
+# %% [markdown]
 # ## What this chapter measures
 #
 # In the paper every tokenizer is trained jointly with the policy (that is Table III, in

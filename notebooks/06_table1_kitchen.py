@@ -31,29 +31,84 @@
 # low-dimensional state. Sizes, steps and episodes are the preset's
 # ({doc}`chapter 1 <01_environment>` lists them).
 #
-# The table shows three sources: **the paper**, **the reference run** (`reference` preset,
-# whose design is stated below; its records are committed under `results/reference/`; those
-# committed so far were made on the robosuite kitchen suite that stood in for RoboCasa
-# before Meta-World, and are shown labelled as that older protocol's until the reference run
-# is repeated on Meta-World) and **this build** (the preset the book was built with; on CI
-# the `small` preset, whose short training makes its numbers a test of the code, not
-# evidence). Every number comes with its
-# 95% interval (`icil_paper.stats`): a t interval on the per-seed values where a row has
-# several training seeds; for a single seed, the episodes' noise only (and no comparison
-# with it is decided).
+# The table shows three sources: **the paper**; **our run** ({glue:md}`ch06_seeds` seeds a
+# row, results committed under `results/reference/`), whose committed records were made on
+# the {glue:md}`ch06_protocol`; and **the quick run** (CI's small preset: it tests the code,
+# not the paper). Every number comes with its 95% interval (`icil_paper.stats`): a t
+# interval on the per-seed values where a row has several training seeds; for a single
+# seed, the episodes' noise only (and no comparison with it is decided).
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
+from myst_nb import glue
 
-from icil_paper.book.experiments import design_paragraph, paper_lipvq_range
-from icil_paper.book.report import REFERENCE, claims_figure, design_sentence, load_table, verdicts
+from icil_paper.book.experiments import paper_lipvq_range
+from icil_paper.book.ledger import committed_design
+from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.tables.display import show_comparison, show_motion, show_values, success_figure
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "I")  # computes what this build's results store lacks
-display(Markdown(design_paragraph(preset.name, design_sentence(get_preset(REFERENCE)),
-                                  design_sentence(preset))))
+design = committed_design("I")  # the seeds our run reached, read from results/reference/
+low, high = min(design["seeds"].values()), max(design["seeds"].values())
+glue("ch06_seeds", Markdown(f"{low}" if low == high else f"{low} to {high}"), display=False)
+glue("ch06_protocol", Markdown("robosuite kitchen suite that stood in for RoboCasa before "
+                               "Meta-World (an older protocol: these are its numbers, not "
+                               "Meta-World's)" if design["protocol"] == "kitchen"
+                               else "Meta-World tasks above"), display=False)
+
+# %% [markdown]
+# ## How one cell is made
+#
+# A cell of the table is a row trained on the 13 tasks and rolled out on each. Training is
+# `train_policy` (`src/icil_paper/train/loop.py`): it builds the policy, fits its tokenizer
+# where it needs fitting, and repeats one optimiser step until the preset's step count:
+#
+# ```{literalinclude} /src/icil_paper/train/loop.py
+# :pyobject: _step
+# :caption: src/icil_paper/train/loop.py (one training step)
+# ```
+#
+# The policy's `forward` is the loss of chapter 2: the chunk of actions predicted at every
+# query observation token against the demonstration's, plus the tokenizer's own losses.
+# Evaluation is `rollout_batch` (`src/icil_paper/eval/rollouts.py`): every episode of a task
+# resets its environment from an evaluation seed, the policy reads the prompt, then acts one
+# step at a time until the task reports success or the horizon ends.
+#
+# :::{dropdown} `rollout_batch`: episodes in lockstep (click to open)
+# ```{literalinclude} /src/icil_paper/eval/rollouts.py
+# :pyobject: rollout_batch
+# :caption: src/icil_paper/eval/rollouts.py (the rollout loop)
+# ```
+# :::
+#
+# Both run below at toy scale: ICRT + LipVQ-VAE trained for 20 steps on four demonstrations
+# of drawer-open, then two episodes of 40 steps, prompted with a demonstration each. Twenty
+# steps teach nothing; the table's rows train for the preset's thousands.
+
+# %%
+# teaches: one training step and the rollout loop, at toy scale
+import dataclasses
+
+from icil_paper.data import ensure_demos, load_demos
+from icil_paper.eval.rollouts import rollout_batch
+from icil_paper.paper.icrt_demo import ICRT_DEMO_TASK, icrt_specs
+from icil_paper.sim import make_env
+from icil_paper.train import train_policy
+
+run, _ = icrt_specs(preset)  # chapter 2's cell: ICRT + LipVQ-VAE on drawer-open
+demos = load_demos(ensure_demos(preset, ICRT_DEMO_TASK, "generated",
+                                n=run.data.demos_per_task), limit=4)
+toy = dataclasses.replace(run, train=dataclasses.replace(run.train, steps=20, log_every=5))
+trained = train_policy(toy, run_dir=None, demos=demos, progress=False)  # nothing is stored
+print("loss by step:", ", ".join(f"{h['step']}: {h['loss']:.3f}" for h in trained.history))
+envs = [make_env(ICRT_DEMO_TASK, obs="state", seed=s) for s in (1000, 1001)]
+episodes = rollout_batch(trained.policy, envs, seeds=[1000, 1001],
+                         prompts=[demos[:1], demos[1:2]], max_steps=40)
+for env in envs:
+    env.close()
+print("episodes:", [(e["success"], e["steps"]) for e in episodes], "(success, steps)")
 
 # %% [markdown]
 # ## The task scale: the earlier kitchen run's pilot

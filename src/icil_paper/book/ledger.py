@@ -4,6 +4,7 @@
     reference_ledger(ledgers)                # the reference run's entries
     show_stale_records(stale_records(REFERENCE), reference_freshness(REFERENCE),
                        older_ledger(REFERENCE))
+    committed_design("I")                    # {"protocol": "kitchen", "seeds": {row: n}}
 
 This build's ledger is written (`results/<preset>/claims.json`) before it is read; the
 reference run's is read from its committed records and never written here.
@@ -53,6 +54,21 @@ def chapter_ledgers(preset: Preset) -> Ledgers:
             continue
         ledgers[source] = (p, claims_ledger(p, store))
     return ledgers
+
+
+def committed_design(table: str, preset_name: str = REFERENCE) -> dict[str, Any]:
+    """The design the committed run of `preset_name` actually used for `table`, read from its
+    design record (`results/<preset>/design.json`), never from the preset: {"protocol": the
+    suite its records were made on ("kitchen" for the older protocol, else "metaworld"),
+    "seeds": {row: the training seeds it reached at its last look}} ({} without looks)."""
+    record = read_record(ResultsStore(preset_name)) or {}
+    seeds: dict[str, int] = {}
+    for look in record.get("looks", []):
+        for name, n in look.get("rows", {}).items():
+            t, row = name.split(":", 1)
+            if t == table:
+                seeds[row] = max(seeds.get(row, 0), int(n))
+    return {"protocol": record.get("protocol", "metaworld"), "seeds": seeds}
 
 
 def reference_ledger(ledgers: Ledgers) -> list:

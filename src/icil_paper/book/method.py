@@ -1,12 +1,11 @@
 """The chapters on the paper's method (Sec. III): what chapter 02 draws of ICRT (the
 attention mask, what the loss reaches, training, a replayed rollout) and its findings;
-what chapter 03 shows of Eq. 4 (the bound check, the bounds in training) and its findings.
+what chapter 03 shows of Eq. 4 (the bound check, the bounds in training).
 
     display(attention_mask_figure(mask, batch, b))        # chapter 02
     coverage = loss_coverage(roles, grads)                 # tokens the loss reaches, by kind
     display(Markdown(icrt_findings(metrics, coverage, task, preset.name)))
     display(lipschitz_frame(records, radii))               # chapter 03: bounds and constants
-    display(Markdown(lipschitz_findings(by_seed, radii, lr)))
 
 Figures are closed before they are returned, so each shows once, where the chapter
 displays it. The token layout of Eq. 1 stays in chapter 02 itself: its code is the lesson.
@@ -21,7 +20,6 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from icil_paper.book.summaries import SeedRecords
 from icil_paper.eval import rollout_policy
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.seeding import cpu_threads
@@ -280,46 +278,3 @@ def bound_holds(metrics: Sequence[Mapping[str, Any]], radii: Sequence[float],
     """Whether every seed's empirical inf-norm Lipschitz constant (the largest over `radii`)
     stays within its bound prod ||W_l||_inf (Eq. 4's guarantee), up to `rtol`."""
     return all(empirical_constant(m, radii) <= m["bound_inf"] * (1 + rtol) for m in metrics)
-
-
-def lipschitz_findings(by_seed: Mapping[str, Sequence[Mapping[str, Any]]],
-                       radii: Sequence[float], lr: float) -> str:
-    """Chapter 03's "What we found", from the Lipschitz study's records (`by_seed`, label ->
-    metrics per training seed; `lr` the study's learning rate): the bound check of every
-    encoder, how LipVQ-VAE's per-layer bounds moved in training and why, spectral
-    normalization's bounds against LipVQ-VAE's, and each encoder's reconstruction error."""
-    seeds = SeedRecords(by_seed)
-    records = seeds.seed_means()
-    holds = {label: bound_holds(ms, radii) for label, ms in by_seed.items()}
-    paper = records["lipvq (paper)"]
-    c_hist = np.array(paper["c_history"])  # (logged steps, layers)
-    start, end = c_hist[0], c_hist[-1]
-    steps = paper["history_step"][-1]
-    drift = float(np.mean(end - start)) / steps
-    change = ", ".join(f"layer {i + 1}: {a:.3g} -> {b:.3g} ({(b - a) / a:+.1%})"
-                       for i, (a, b) in enumerate(zip(start, end, strict=True)))
-    lip, spec, plain = (records["lipvq (paper)"], records["vq + spectral norm"],
-                        records["vq (no normalization)"])
-    emp = {label: empirical_constant(m, radii) for label, m in records.items()}
-    lines = [
-        f"Bound check (inf-norm, every model and each of its {seeds.n_seeds} seed(s)): "
-        + "; ".join(f"{k}: {'held' if v else 'VIOLATED'}" for k, v in holds.items()) + ".",
-        f"LipVQ-VAE's per-layer bounds softplus(c_l) over {steps} steps: {change}. "
-        f"Their product ends at {paper['bound_softplus_product']:.4g}; the empirical constant "
-        f"is {emp['lipvq (paper)']:.4g}, "
-        f"{emp['lipvq (paper)'] / paper['bound_softplus_product']:.2%} of it.",
-        "With Liu et al.'s initialisation (c_l = the largest initial row sum) nothing is "
-        "rescaled at the start. The 1e-6 weight does not make the bounds' steps small: Adam "
-        "scales every parameter's step to about the learning rate, so softplus(c_l) drifts "
-        f"{'down' if drift < 0 else 'up'} by {abs(drift):.2g} per step on average (learning "
-        f"rate {lr:g}), {np.max(np.abs(end - start) / start):.2%} of its value at most in "
-        "this run. The constraint bites only once a row's sum reaches its shrinking bound.",
-        f"Spectral normalization gives a 2-norm bound of {spec['bound_2']:.3g} (about 1 per "
-        f"layer) and an inf-norm bound of {spec['bound_inf']:.3g}; its empirical inf-norm "
-        f"constant is {emp['vq + spectral norm']:.3g} against {emp['lipvq (paper)']:.3g} for "
-        f"LipVQ-VAE and {emp['vq (no normalization)']:.3g} without normalization.",
-        f"Reconstruction MSE: LipVQ-VAE {lip['reconstruction_mse']:.4g}, spectral "
-        f"{spec['reconstruction_mse']:.4g}, unnormalized {plain['reconstruction_mse']:.4g}, "
-        f"official-code variant {records['lipvq (official code)']['reconstruction_mse']:.4g}.",
-    ]
-    return "\n\n".join(lines)
