@@ -39,6 +39,32 @@ ledgers = chapter_ledgers(preset)  # writes this build's ledger, reads the refer
 # %% tags=["remove-input"]
 show_ledgers(ledgers)
 
+# %% tags=["remove-cell"]
+from myst_nb import glue
+
+from icil_paper import verdict_words as words
+from icil_paper.book.ledger import committed_design
+from icil_paper.book.questions import QUESTIONS
+from icil_paper.stats import Size
+
+# What the introduction pastes: for each of Sec. IV's questions, the claim that carries it
+# in our run (the committed reference records), its number, the paper's and the outcome.
+by_id = {e.id: e for e in reference_ledger(ledgers)}
+for q in QUESTIONS:
+    e = by_id[q.decides[0]]
+    scale = 100 if e.table != "III" else 1  # success in points; least energy as it is
+    glue(f"{q.key}_ours", round(e.ours * scale, 1) if e.ours is not None else "n/a")
+    glue(f"{q.key}_paper", round(e.paper * scale, 1))
+    outcome = (words.SMALLER_THAN_PAPER if e.size == Size.SMALLER
+               else words.DESIGN_OUTCOME[words.Verdict(e.adjusted_verdict)])
+    why = words.ALONE_BUT_NOT_TOGETHER.get(e.verdict) if outcome == "undecided" else None
+    needs = e.seeds_needed if e.adjusted_verdict in words.UNDECIDED else None
+    parts = [outcome, why, words.SEEDS_TO_DECIDE.format(n=needs) if needs else None]
+    glue(f"{q.key}_outcome", "; ".join(p for p in parts if p))
+seeds = [n for t in ("I", "II", "III", "V") for n in committed_design(t)["seeds"].values()]
+glue("run_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}")
+glue("run_protocol", committed_design("I")["protocol"])
+
 # %% [markdown]
 # ## How to read the ledger
 #
