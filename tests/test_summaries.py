@@ -128,19 +128,3 @@ def test_chapter_4_reads_expert_measurements_written_by_hand_and_states_the_requ
     assert "every task meets 0.9 there." in text
     assert "ranges from 0.86 to 0.86; below 0.9: ['kinova/open_drawer']." in text
     assert "human demos are 1.50x as long" in text and "(less smooth, as" in text
-
-
-def test_chapter_2_findings_place_the_papers_number_against_our_interval():
-    from icil_paper.book.method import icrt_findings
-    from icil_paper.paper.table_i import TABLE_I_ROBOCASA
-
-    paper = TABLE_I_ROBOCASA["icrt+lipvq"]["drawers"]
-    m = {"loss": [4.0, 1.0], "train": {"steps": 200}, "successes": 1, "episodes": 4,
-         "success_rate": 0.25, "ci_low": 0.0, "ci_high": paper - 0.01}
-    coverage = {"query_reached": 12, "query": 12, "prompt_reached": 0, "prompt": 20,
-                "unsupervised_reached": 0}
-    text = icrt_findings(m, coverage, task="kitchen/open_drawer", preset_name="smoke")
-    assert "the loss reached 12 supervised query tokens and 0 prompt tokens" in text
-    assert "lowered the total loss 4.0-fold" in text and "lies outside our interval" in text
-    m["ci_high"] = paper + 0.01
-    assert "lies within our interval of 4 episode(s)" in icrt_findings(m, coverage, "t", "smoke")

@@ -25,7 +25,6 @@ import pandas as pd
 from icil_paper import verdict_words
 from icil_paper.book.report import BUILD, source_label
 from icil_paper.config import Preset
-from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.tables.assemble import TableResult, format_cell
 from icil_paper.tables.display import difference_sentence
 
@@ -34,20 +33,6 @@ Results = Mapping[str, TableResult]
 
 
 # --------------------------------------------------------------------------- chapter 06
-def design_paragraph(preset_name: str, reference_design: str, build_design: str) -> str:
-    """The reference run's seeds and episodes, then this build's (each in the words of
-    `book.report.design_sentence`)."""
-    return (f"The reference run's design: {reference_design}. "
-            f"This build's (`{preset_name}`): {build_design}.")
-
-
-def paper_lipvq_range() -> str:
-    """The range of the paper's ICRT + LipVQ-VAE over its seven skill families (Table I)."""
-    families = [v for k, v in TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
-    return (f"The paper's ICRT + LipVQ-VAE over its seven families: {min(families):.2f} to "
-            f"{max(families):.2f}.")
-
-
 # --------------------------------------------------------------------------- chapter 07
 def maniskill_paragraph(preset: Preset, settings: tuple[int, int, int]) -> str:
     """Table II's training and evaluation under this build's preset: the demonstrations,

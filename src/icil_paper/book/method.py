@@ -1,10 +1,9 @@
 """The chapters on the paper's method (Sec. III): what chapter 02 draws of ICRT (the
-attention mask, what the loss reaches, training, a replayed rollout) and its findings;
+attention mask, what the loss reaches, training, a replayed rollout);
 what chapter 03 shows of Eq. 4 (the bound check, the bounds in training).
 
     display(attention_mask_figure(mask, batch, b))        # chapter 02
     coverage = loss_coverage(roles, grads)                 # tokens the loss reaches, by kind
-    display(Markdown(icrt_findings(metrics, coverage, task, preset.name)))
     display(lipschitz_frame(records, radii))               # chapter 03: bounds and constants
 
 Figures are closed before they are returned, so each shows once, where the chapter
@@ -21,21 +20,11 @@ import numpy as np
 import pandas as pd
 
 from icil_paper.eval import rollout_policy
-from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env
 
 
 # --------------------------------------------------------------------------- chapter 02
-def run_description(preset_name: str, run: Any, demos: Sequence[Any], task: str) -> str:
-    """One line on chapter 02's run: the demonstrations of `task` it trains on (how many,
-    their lengths), the policy's size, the training steps and the run's key."""
-    lengths = [len(d.actions) for d in demos]
-    return (f"preset {preset_name}: {len(demos)} demonstrations of {task}, "
-            f"{min(lengths)}-{max(lengths)} steps; policy d_model={run.policy.d_model}, "
-            f"{run.policy.n_layer} layers, {run.train.steps} training steps; run key {run.key()}")
-
-
 def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
     """Sequence `b`'s causal mask (L, L), white where a query position may attend to a key,
     with a line between the (padded) prompt and the query."""
@@ -49,14 +38,6 @@ def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
     ax.set_title(f"sequence {b}: causal mask with prompt padding\n(orange line: prompt | query)")
     plt.close(fig)
     return fig
-
-
-def mask_summary(mask: np.ndarray, batch: Mapping[str, Any], b: int) -> str:
-    """How many (query, key) pairs sequence `b`'s mask lets attend, and how many of its
-    prompt steps are padding."""
-    padded = batch["prompt_valid"].shape[1] - int(batch["prompt_valid"][b].sum())
-    return (f"keys attended to: {int(mask.sum())} of {mask.size}; padded prompt steps in this "
-            f"sequence: {padded}")
 
 
 def loss_gradient_figure(grads: Any):
@@ -86,14 +67,6 @@ def loss_coverage(roles: Mapping[str, Any], grads: Any) -> dict[str, int]:
             "unsupervised_reached": int((reached & ~supervised).sum())}
 
 
-def coverage_sentence(coverage: Mapping[str, int]) -> str:
-    """`loss_coverage` in one line."""
-    c = coverage
-    return (f"loss reaches {c['query_reached']} of {c['query']} supervised query observation "
-            f"tokens, {c['prompt_reached']} of {c['prompt']} prompt tokens, and "
-            f"{c['unsupervised_reached']} tokens that are not supervised")
-
-
 def study_metrics(study: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     """Chapter 02's train and eval metrics (`paper.icrt_demo.icrt_records`) merged into one
     dict (the eval's keys win), the train record's kept whole under "train"."""
@@ -112,14 +85,6 @@ def training_figure(metrics: Mapping[str, Any], title: str):
     ax.set_title(title)
     plt.close(fig)
     return fig
-
-
-def success_line(metrics: Mapping[str, Any]) -> str:
-    """The rollouts' success with its Wilson interval and their mean length."""
-    m = metrics
-    return (f"success {m['successes']}/{m['episodes']} = {m['success_rate']:.2f} "
-            f"(Wilson 95% CI {m['ci_low']:.2f}-{m['ci_high']:.2f}), mean episode length "
-            f"{m['mean_steps']:.0f} steps")
 
 
 def shown_episode(per_episode: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
@@ -169,42 +134,6 @@ def rollout_figure(trace: Mapping[str, Any], demo: Any):
     fig.tight_layout()
     plt.close(fig)
     return fig
-
-
-def replay_sentence(episode: Mapping[str, Any], trace: Mapping[str, Any]) -> str:
-    """The replay's outcome beside the stored evaluation's, for the same episode."""
-    def outcome(success: bool) -> str:
-        return "success" if success else "no success"
-
-    return (f"episode {episode['episode']} (env seed {episode['seed']}): "
-            f"{outcome(trace['success'])} after {trace['steps']} steps (the stored evaluation: "
-            f"{outcome(episode['success'])} after {episode['steps']} steps)")
-
-
-def icrt_findings(metrics: Mapping[str, Any], coverage: Mapping[str, int], task: str,
-                  preset_name: str) -> str:
-    """Chapter 02's "What we found", as a Markdown list: the tokens the loss reached on a
-    real batch (`coverage`, from `loss_coverage`: supervised query tokens, and prompt
-    tokens: 0 as Sec. III-A says), how far training lowered the loss, and the rollouts'
-    success on `task` with its interval beside the paper's drawer family (Table I), from the
-    ICRT study's `metrics` (`study_metrics`: its train and eval records merged)."""
-    m = metrics
-    paper = TABLE_I_ROBOCASA["icrt+lipvq"]["drawers"]
-    loss_drop = m["loss"][0] / max(m["loss"][-1], 1e-12)
-    held = "within" if m["ci_low"] <= paper <= m["ci_high"] else "outside"
-    return (
-        f"- The token layout, mask and loss coverage above are computed from a real batch: the "
-        f"loss reached {coverage['query_reached']} supervised query tokens and "
-        f"{coverage['prompt_reached']} prompt tokens, as Sec. III-A describes (no loss on the "
-        f"prompt).\n"
-        f"- Training ({m['train']['steps']} steps, preset '{preset_name}') lowered the total "
-        f"loss {loss_drop:.1f}-fold.\n"
-        f"- On {task}, ICRT + LipVQ-VAE succeeded in {m['successes']} of {m['episodes']} "
-        f"rollouts ({m['success_rate']:.2f}, 95% CI {m['ci_low']:.2f}-{m['ci_high']:.2f}). The "
-        f"paper reports {paper:.2f} on RoboCasa's drawer family after 500K iterations on "
-        f"MimicGen data; its number lies {held} our interval of {m['episodes']} episode(s). "
-        "Our task, data and training budget are stand-ins at a much smaller scale, so this "
-        "chapter checks the mechanics, not the paper's number.")
 
 
 # --------------------------------------------------------------------------- chapter 03
