@@ -192,16 +192,19 @@ def test_method_chapters_include_the_library_source_of_their_step(name):
         assert not missing, f"{name}: {file} defines no {missing}"
 
 
-GLUE_ROLE = re.compile(r"\{glue(?::\w+)?\}`([^`:]+)")
+GLUE_ROLE = re.compile(r"\{glue(?::\w+)?\}(?:`([^`:]+)|\s+([\w-]+))")
 
 
 @pytest.mark.parametrize("path", CHAPTERS, ids=lambda p: p.stem)
 def test_every_pasted_number_is_glued_by_its_chapter(path):
     """Each `{glue:...}` role of a chapter's prose names a key its own cells glue."""
     text = path.read_text()
-    glued = set(re.findall(r"""glue\(\s*["']([^"']+)["']""", text))
-    pasted = {k for k in GLUE_ROLE.findall(text) if "::" not in k}
-    assert pasted <= glued, f"pasted but never glued: {sorted(pasted - glued)}"
+    glued = [re.compile(re.sub(r"\\\{[^}]*\\\}", ".+", re.escape(k)) + "$")
+             for k in re.findall(r"""glue\(\s*f?["']([^"']+)["']""", text)]
+    pasted = {k.strip() for pair in GLUE_ROLE.findall(text) for k in pair
+              if k.strip() and "::" not in k}
+    missing = sorted(k for k in pasted if not any(g.match(k) for g in glued))
+    assert not missing, f"pasted but never glued: {missing}"
 
 
 # --------------------------------------------------------------------------- what the cells call
@@ -598,3 +601,17 @@ def test_chapter_14_reads_the_comparisons_report():
     report["seed_plan"] = {}
     text = own_tokenizer_findings(report)
     assert "80% power" not in text and "Seeds: fixed." in text
+
+
+def test_the_introduction_pastes_only_what_chapter_0_glues():
+    """The introduction's answers to Q1-Q3 are pasted from chapter 0 (`doc::key`), and each
+    key it names is glued there; its first screen names no claim id."""
+    intro = (ROOT / "book" / "intro.md").read_text()
+    chapter = (ROOT / "notebooks" / "00_claims_ledger.py").read_text()
+    keys = re.findall(r"00_claims_ledger\.py::([\w]+)", intro)
+    assert {"Q1_ours", "Q2_ours", "Q3_ours", "Q1_outcome", "run_seeds"} <= set(keys)
+    glued = [re.compile(re.sub(r"\\\{[^}]*\\\}", ".+", re.escape(k)) + "$")
+             for k in re.findall(r"""glue\(\s*f?["']([^"']+)["']""", chapter)]
+    assert all(any(g.match(k) for g in glued) for k in keys), keys
+    first_screen = intro[:intro.index("## What the paper claims")]
+    assert not re.search(r"\b(?:I|II|III|IV|V|VI|VII)-[a-z]", first_screen)

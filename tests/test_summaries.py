@@ -66,32 +66,6 @@ def test_chapter_3_bound_check_flags_a_violated_bound():
     assert not bound_holds([_lipschitz_seed(1.0), _lipschitz_seed(2.1)], radii)
 
 
-def test_chapter_5_findings_rank_compare_and_flag_collapse():
-    from icil_paper.book.components import tokenizer_findings
-
-    names = ["mlp", "bin", "vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq", "fast", "bspline",
-             "lipvq-data-init", "vq-data-init", "lipvq-official"]
-    smooth_rank = {name: i for i, name in enumerate(names)}  # mlp smoothest ... official last
-
-    def seed(name, s):
-        energy = (1.0 + smooth_rank[name] + 0.01 * s + 0.001 * np.arange(20)).tolist()
-        return {"least_energy_per_trajectory": energy,
-                "least_energy_standardized_per_trajectory": energy,
-                "latent_scale": 1.0, "usage": 0.05 if name == "lipvq-official" else 0.5,
-                "codes_used": 1 if name == "lipvq-official" else 8, "codebook_size": 16,
-                "reconstruction_mse": 0.01, "encode_decode_actions_per_s": 1000.0 * (1 + smooth_rank[name]),
-                "tokens_per_step": 1.0, "codes_used_per_level": [8, 7]}
-
-    seeds = SeedRecords({name: [seed(name, s) for s in range(3)] for name in names})
-    paper = {"mlp": 1.0, "bin": 2.0, "vq": 3.0, "lipvq": 0.5}
-    text = tokenizer_findings(seeds, paper, ["mlp", "bin", "vq", "lipvq", "fsq"])
-    assert "Paper's smoothness ranking (smoothest first): lipvq, mlp, bin, vq." in text
-    assert "Our least energy ranking: mlp, bin, vq, lipvq; rank correlation with the paper's -0.20" in text
-    assert "lipvq minus vq on least energy:" in text and ": lipvq is less smooth" in text
-    assert "Codebook collapse (under 10% of codes used" in text and "lipvq-official (1 of 16)" in text
-    assert "Residual VQ uses 8 / 7 codes per level (of 8 each)" in text
-
-
 def test_chapter_4_reads_expert_measurements_written_by_hand_and_states_the_requirement(
         tmp_path):
     import json

@@ -27,7 +27,6 @@ from icil_paper import sim, stats
 from icil_paper.book.summaries import SeedRecords
 from icil_paper.data import SOURCES, load_demos, zero_shot_split
 from icil_paper.data.stats import data_set_stats, keep_rate
-from icil_paper.metrics import ascending, rank_correlation
 from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
 
 # --------------------------------------------------------------------------- chapter 04
@@ -312,61 +311,3 @@ def smoothness_figure(seeds: SeedRecords, paper_smoothness: Mapping[str, float],
     fig.tight_layout()
     plt.close(fig)
     return fig
-
-
-def tokenizer_findings(seeds: SeedRecords, paper_smoothness: Mapping[str, float],
-                       tokenizers: Sequence[str], keys: Sequence[str] = TOKENIZER_SCORES) -> str:
-    """Chapter 05's "What we found", from the tokenizer study's records (`seeds`): our
-    smoothness rankings against the paper's (`paper_smoothness`, tokenizer -> its Table III
-    least energy; `tokenizers` the registry's names, in order), the paired smoothness
-    comparisons of each Lipschitz variant with its base, the latent scale, codebook
-    collapse, the official code's variant, throughput and codes used per level."""
-    records = seeds.records
-    paper_names = [k for k in tokenizers if k in paper_smoothness]
-    lines = [f"Paper's smoothness ranking (smoothest first): "
-             f"{', '.join(ascending(paper_smoothness))}."]
-    for key in keys:
-        ours = {k: float(seeds.scores(k, key).mean()) for k in paper_names}
-        lines.append(f"Our {key.replace('_', ' ')} ranking: {', '.join(ascending(ours))}; rank "
-                     f"correlation with the paper's "
-                     f"{rank_correlation(ours, paper_smoothness):+.2f}.")
-    for key in keys:
-        lines.append("LipVQ-VAE against VQ-VAE (the Lipschitz constraint alone): "
-                     + seeds.compare("lipvq", "vq", key) + ".")
-        lines.append("With codebooks initialised from encoder outputs: "
-                     + seeds.compare("lipvq-data-init", "vq-data-init", key) + ".")
-        lines.append("Eq. 4 on FSQ's encoder: " + seeds.compare("lipfsq", "fsq", key) + ".")
-        lines.append("Eq. 4 on residual VQ's encoder: " + seeds.compare("liprvq", "rvq", key)
-                     + ".")
-    lines.append(f"Latent scale σ: LipVQ-VAE {seeds.mean('lipvq', 'latent_scale'):.3g}, VQ-VAE "
-                 f"{seeds.mean('vq', 'latent_scale'):.3g}; the raw least energy scales with σ².")
-    low_usage = [k for k in records
-                 if seeds.mean(k, "usage") is not None and seeds.mean(k, "usage") < LOW_USAGE]
-    if low_usage:
-        lines.append(f"Codebook collapse (under {LOW_USAGE:.0%} of codes used on held-out data, "
-                     "mean over seeds): "
-                     + ", ".join(f"{k} ({seeds.mean(k, 'codes_used'):.0f} of "
-                                 f"{seeds.mean(k, 'codebook_size'):.0f})" for k in low_usage)
-                     + ".")
-    lines.append(
-        f"The official code's LipVQ variant (sigmoid output, no straight-through) uses "
-        f"{seeds.mean('lipvq-official', 'codes_used'):.0f} code(s) and reconstructs with MSE "
-        f"{seeds.mean('lipvq-official', 'reconstruction_mse'):.4g}, against "
-        f"{seeds.mean('lipvq', 'codes_used'):.0f} codes and "
-        f"{seeds.mean('lipvq', 'reconstruction_mse'):.4g} for the paper's.")
-    rates = {k: seeds.mean(k, "encode_decode_actions_per_s") for k in records}
-    fastest, slowest = max(rates, key=rates.get), min(rates, key=rates.get)
-    lines.append(
-        f"Throughput (encode + decode, one core): from {rates[slowest]:,.0f} actions/s "
-        f"({slowest}) to {rates[fastest]:,.0f} ({fastest}). FAST emits "
-        f"{seeds.mean('fast', 'tokens_per_step'):.2f} tokens per step, bin "
-        f"{seeds.mean('bin', 'tokens_per_step'):.0f}, B-spline "
-        f"{seeds.mean('bspline', 'tokens_per_step'):.2f}, the others one embedding per step.")
-    levels = len(records["rvq"][0]["codes_used_per_level"])
-    lines.append(
-        f"Residual VQ uses {seeds.per_level('rvq')} codes per level (of "
-        f"{seeds.mean('rvq', 'codebook_size') / levels:.0f} each), "
-        f"{seeds.per_level('liprvq')} with Eq. 4; FSQ {seeds.mean('fsq', 'codes_used'):.0f} of "
-        f"its {seeds.mean('fsq', 'codebook_size'):.0f} grid points, "
-        f"{seeds.mean('lipfsq', 'codes_used'):.0f} with Eq. 4.")
-    return "\n\n".join(lines)
