@@ -68,6 +68,7 @@ glue("run_protocol", committed_design("I")["protocol"])
 # %% [markdown]
 # ## How to read the ledger
 #
+# :::{dropdown} The unit, the rule, which verdict to quote, the two runs, what stands in for what (click to open)
 # Every claim the paper makes in its experiments (Sec. IV), checked against our numbers.
 # Each claim is written as a quantity with a direction: "LipVQ-VAE beats BC-Transformer by
 # 5.3 points" is the difference of the two rows' average success, claimed above 0. The
@@ -104,14 +105,14 @@ glue("run_protocol", committed_design("I")["protocol"])
 # CPU-hours each undecided claim would cost, and the command that computes exactly those
 # cells on a Ray cluster (the README's "On a cluster").
 #
-# Two sources: the **reference run** (records committed under `results/reference/`, the
-# numbers worth reading once it has run on the current protocol) and **this build** (the
-# preset this book was built with; on CI the `small` preset, trained for a few hundred
-# steps: it checks the code, not the paper). The ledger of each is written to
-# `results/<preset>/claims.json`. The committed reference records were made on the robosuite
-# kitchen suite that stood in for RoboCasa before Meta-World: until the reference run is
-# repeated on Meta-World, they are records of that older protocol, shown labelled as such
-# (the last section of this chapter), and a claim without a current record reads *not run*.
+# Two sources: **our run** (the `reference` preset, {glue:text}`run_seeds` seeds a row,
+# results committed under `results/reference/`; tables name it "reference
+# run") and **the quick run** (CI's small preset: it tests the code, not the paper; tables
+# name it "this build"). The ledger of each is written to `results/<preset>/claims.json`.
+# The committed records of our run were made on the robosuite kitchen suite that stood in
+# for RoboCasa before Meta-World: until the run is repeated on Meta-World, they are records
+# of that older protocol, shown labelled as such (the last section of this chapter), and a
+# claim without a current record reads *not run*.
 #
 # **What stands in for what.** The paper's RoboCasa tables (I, III, IV, VI, VII, Fig. 5)
 # run on Meta-World: a public benchmark, so anyone can set our numbers beside published
@@ -129,10 +130,12 @@ glue("run_protocol", committed_design("I")["protocol"])
 # perturbed dynamics and noisy observations, running policies trained on a simulated Panda;
 # Table II runs on ManiSkill 3, as in the paper. The introduction says why each was chosen
 # and what it changes. A claim that holds here holds for the stand-in, not for RoboCasa.
+# :::
 
 # %% [markdown]
 # ## The primary family, declared before the data
 #
+# :::{dropdown} Which claims carry Q1-Q3, and how the 5% is shared (click to open)
 # Which claims carry the paper's three questions was decided from the paper's text alone,
 # before any new record (`icil_paper.config.PRIMARY_CLAIMS`): the abstract's "improves
 # performance by more than 5.3%" and the conclusion's "outperforms state-of-the-art
@@ -146,10 +149,12 @@ glue("run_protocol", committed_design("I")["protocol"])
 # nothing. A reference ledger read from records gathered under the older design (one family,
 # Holm over every claim) is labelled as that design's record, and the design above decides
 # nothing on it.
+# :::
 
 # %% [markdown]
 # ## How the reference run was designed
 #
+# :::{dropdown} How the seeds were allocated in stages (click to open)
 # The reference run allocates its seeds in stages (the paragraph under the table, from
 # `icil_paper.planning.design` and `icil_paper.planning.staged`): every row a claim reads
 # starts at 5 seeds, and after each look only the rows of claims still undecided whose
@@ -165,8 +170,9 @@ glue("run_protocol", committed_design("I")["protocol"])
 # of each class of claim's paired variance into its seed and episode parts
 # (`planning.design.episode_design`, `stats.episodes_per_seed`); the `reference` preset's
 # docstring gives that arithmetic and the run's estimated cost.
+# :::
 
-# %% tags=["remove-input"]
+# %% tags=["remove-input", "hide-output"]
 display(design_frame(as_run(get_preset(REFERENCE))))
 display(Markdown(stages_paragraph(get_preset(REFERENCE), reference_ledger(ledgers))))
 display(Markdown(decision_rate_sentence()))
@@ -174,12 +180,13 @@ display(Markdown(decision_rate_sentence()))
 # %% [markdown]
 # ## What each claim compares
 
-# %% tags=["remove-input"]
+# %% tags=["remove-input", "hide-output"]
 display(Markdown(ledger_details(reference_ledger(ledgers))))
 
 # %% [markdown]
 # ## Reference records made by older code
 #
+# :::{dropdown} Why these records are listed apart (click to open)
 # A committed reference record whose key the current code no longer computes (a config or
 # a definition changed since it was run; for the records made on the kitchen suite, the
 # suite itself) is not used above; it is listed here until
@@ -188,8 +195,9 @@ display(Markdown(ledger_details(reference_ledger(ledgers))))
 # those records follows,
 # labelled with that code's commit: read it as a record of the older protocol, not as a
 # result of the current one.
+# :::
 
-# %% tags=["remove-input"]
+# %% tags=["remove-input", "hide-output"]
 stale = stale_records(REFERENCE)
 show_stale_records(stale, reference_freshness(REFERENCE), older_ledger(REFERENCE),
                    retired_records(REFERENCE))

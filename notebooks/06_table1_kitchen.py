@@ -126,7 +126,7 @@ print("episodes:", [(e["success"], e["steps"]) for e in episodes], "(success, st
 # and training budget the regime pilot of the next section sets. One seed: these numbers
 # place a family between 0 and 1, they do not rank the rows.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-input", "hide-output"]
 from icil_paper.planning.pilot import show_pilot
 
 show_pilot(table="I")
@@ -158,7 +158,7 @@ show_pilot(table="I")
 # LipVQ-VAE on each ManiSkill task; a budget a row was not trained at reads "not trained".
 # The numbers below are read from the pilot's stored record (`results/bench/regime.json`).
 
-# %% tags=["hide-input"]
+# %% tags=["hide-input", "hide-output"]
 from icil_paper.planning.pilot import regime_summary
 
 regime, regime_text = regime_summary()
@@ -180,7 +180,7 @@ display(success_figure(results, "avg", title="Table I: average success over the 
 # rows of seed k start from the same backbone and draw the same batches (common random
 # numbers).
 
-# %% tags=["hide-input"]
+# %% tags=["hide-input", "hide-output"]
 display(Markdown(seed_correlation_sentence(results)))
 
 # %% [markdown]
@@ -188,7 +188,7 @@ display(Markdown(seed_correlation_sentence(results)))
 # tokenizer gives the held-out trajectories of Table III (chapter 8), of its K, and the
 # perplexity of their distribution (how many equally used codes would give it).
 
-# %% tags=["hide-input"]
+# %% tags=["hide-input", "hide-output"]
 from icil_paper.tables.display import show_codebook_use
 
 show_codebook_use(results)
@@ -219,7 +219,7 @@ display(prompt_beside_baselines(results, load_table(preset, "prompt")))
 # number is the mean over the row's seeds of each seed's mean over its episodes, with the
 # seed as the unit as for success.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-input", "hide-output"]
 show_motion(results, "avg")
 
 # %% [markdown]
