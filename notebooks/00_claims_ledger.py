@@ -17,11 +17,12 @@
 import pandas as pd
 from IPython.display import Markdown, display
 
-from icil_paper.book.ledger import chapter_ledgers, reference_ledger, show_stale_records
+from icil_paper.book.ledger import chapter_ledgers, reference_ledger
 from icil_paper.book.report import (
     REFERENCE,
     decision_rate_sentence,
     ledger_details,
+    ledger_frame,
     older_ledger,
     reference_freshness,
     retired_records,
@@ -197,7 +198,24 @@ display(Markdown(ledger_details(reference_ledger(ledgers))))
 # result of the current one.
 # :::
 
-# %% tags=["remove-input", "hide-output"]
+# %% tags=["remove-cell"]
 stale = stale_records(REFERENCE)
-show_stale_records(stale, reference_freshness(REFERENCE), older_ledger(REFERENCE),
-                   retired_records(REFERENCE))
+freshness = reference_freshness(REFERENCE)
+retired = retired_records(REFERENCE)
+older = older_ledger(REFERENCE)
+glue("stale_n", freshness["stale"])
+glue("records_n", freshness["records"])
+glue("retired_n", sum(retired.values()))
+glue("older_commit", older[0]["commit"][:7] if older else "none")
+
+# %% [markdown]
+# Of the {glue:text}`records_n` committed reference records, {glue:text}`stale_n` are stale
+# and not used above; {glue:text}`retired_n` more, made by older versions of the code, were
+# moved out of the store to `results/reference/older-code/`, each with its provenance. The
+# ledger that the older code (commit {glue:text}`older_commit`) computed from them follows,
+# collapsed: read it as a record of the older protocol, not as a result of the current one.
+
+# %% tags=["remove-input", "hide-output"]
+print("stale records:", ", ".join(stale) or "none")
+if older is not None:
+    display(ledger_frame(older[1], "verdicts"))

@@ -211,10 +211,10 @@ def test_every_pasted_number_is_glued_by_its_chapter(path):
 @pytest.fixture()
 def shown(monkeypatch):
     """What the book's display helpers display, in order (instead of a notebook's output)."""
-    from icil_paper.book import components, display, ledger
+    from icil_paper.book import components, display
 
     out = []
-    for module in (display, ledger, components):
+    for module in (display, components):
         monkeypatch.setattr(module, "display", out.append)
     return out
 
@@ -277,19 +277,11 @@ def test_display_helpers_name_each_source_and_say_when_there_is_nothing(shown):
     assert shown[2] is frame and [m.data for m in shown[3:]] == ["*none*", "*empty*"]
 
 
-def test_chapter_0_ledgers_write_this_builds_and_list_stale_records(shown, monkeypatch):
+def test_chapter_0_ledgers_write_this_builds_and_read_the_committed_design(shown):
     import os
     from pathlib import Path
 
-    from icil_paper.book.ledger import (
-        NO_STALE,
-        chapter_ledgers,
-        older_ledger_heading,
-        reference_ledger,
-        show_stale_records,
-        stale_summary,
-    )
-    from icil_paper.book.report import older_ledger
+    from icil_paper.book.ledger import chapter_ledgers, committed_design, reference_ledger
     from icil_paper.config import get_preset
 
     ledgers = chapter_ledgers(get_preset("smoke"))
@@ -297,19 +289,24 @@ def test_chapter_0_ledgers_write_this_builds_and_list_stale_records(shown, monke
     assert (Path(os.environ["ICIL_RESULTS"]) / "smoke" / "claims.json").is_file()
     assert not (Path(os.environ["ICIL_RESULTS"]) / "reference" / "claims.json").exists()
     assert reference_ledger(ledgers) is ledgers["reference run"][1]
-    line, listing = stale_summary(["train/a.json", "eval/b.json"], {"stale": 2, "records": 9})
-    assert line.startswith("2 of 9 committed records are stale")
-    assert listing == "- `train/a.json`\n- `eval/b.json`"
+    assert committed_design("I") == {"protocol": "metaworld", "seeds": {}}  # no record here
 
-    monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))  # the committed older ledger
-    made_by, claims = older_ledger("reference")
-    heading = older_ledger_heading(made_by, claims)
-    assert f"commit `{made_by['commit'][:7]}`" in heading and made_by["why_kept"] in heading
-    show_stale_records([], {}, (made_by, claims))
-    assert [m.data for m in shown] == [NO_STALE]  # no stale record: no older ledger either
-    show_stale_records(["train/a.json"], {"stale": 1, "records": 3}, (made_by, claims))
-    assert "train/a.json" in shown[1].data and shown[2].data == heading
-    assert len(shown[3]) == len(claims)  # the older ledger's verdicts, one row a claim
+
+def test_the_committed_design_is_read_from_design_json(monkeypatch):
+    import json
+
+    from icil_paper.book.ledger import committed_design
+
+    monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
+    design = committed_design("I")
+    record = json.loads((ROOT / "results" / "reference" / "design.json").read_text())
+    assert design["protocol"] == record.get("protocol", "metaworld")
+    reached = {}
+    for look in record["looks"]:
+        for name, n in look["rows"].items():
+            if name.startswith("I:"):
+                reached[name[2:]] = max(reached.get(name[2:], 0), n)
+    assert design["seeds"] == reached and reached
 
 
 def test_chapter_1_lists_every_preset_field_with_its_docstring_and_what_works():
