@@ -56,7 +56,6 @@ import matplotlib.pyplot as plt
 from IPython.display import display
 from matplotlib.colors import ListedColormap
 
-from icil_paper.book.display import show_sources
 from icil_paper.book.method import (
     attention_mask_figure,
     loss_coverage,
@@ -240,9 +239,20 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # Meta-World tasks; their success, from the records:
 
 # %% tags=["remove-input"]
-from icil_paper.paper.analysis import training_window_sentence
+import pandas as pd
 
-show_sources(load_table(preset, "analysis", compute=False), training_window_sentence)
+from icil_paper.paper.analysis import training_windows
+from icil_paper.verdict_words import MISSING, TRAINING_WINDOW
+
+rows = {}
+for source, result in load_table(preset, "analysis", compute=False).items():
+    w = training_windows(result)
+    rows[source] = {"seeds a row": w["seeds"] if w else None,
+                    "whole episodes": f"{w['whole'].value:.2f}" if w else MISSING,
+                    "32-step windows": f"{w['windows'].value:.2f}" if w else MISSING,
+                    "whole minus windows [95% CI]": f"{w['difference'].value:+.2f} [{w['difference'].low:+.2f}, {w['difference'].high:+.2f}]" if w else MISSING,
+                    "that whole episodes help": TRAINING_WINDOW[w["verdict"]] if w else MISSING}
+display(pd.DataFrame(rows).T)
 
 # %% [markdown]
 # ## What we found

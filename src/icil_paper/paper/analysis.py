@@ -457,25 +457,15 @@ RANDOM_WINDOWS = "lipvq, 32-step random windows"
 (the default: the window the policy acts with) and ICRT's random 32-step query windows."""
 
 
-def training_window_sentence(result: TableResult) -> str:
+def training_windows(result: TableResult) -> dict[str, Any] | None:
     """Chapter 02's comparison of the two training windows, from the analysis table: each
-    row's success and the difference (whole episodes minus windows) with its 95% interval
-    and verdict (`icil_paper.stats`), or a sentence saying the cells are not run yet."""
+    row's success estimate ("whole", "windows"), the difference whole episodes minus windows
+    ("difference", paired on the same scenes) and its verdict (`icil_paper.stats`, claimed
+    higher), and the training seeds a row; None while either row has not run."""
     a, b = result.outcomes(WHOLE_EPISODES), result.outcomes(RANDOM_WINDOWS)
     if a is None or b is None:
-        return ("The analysis table's two training windows have not run yet in this source "
-                "(chapter 11 computes them).")
-    ea, eb = result.estimate(WHOLE_EPISODES), result.estimate(RANDOM_WINDOWS)
+        return None
     diff = stats.paired_difference(a, b, scenes=result.scenes(WHOLE_EPISODES, RANDOM_WINDOWS))
-    verdict = stats.verdict(diff, direction=+1)
-    return (f"Trained on whole episodes from step 0, ICRT + LipVQ-VAE succeeds "
-            f"{ea.value:.2f} [{ea.low:.2f}, {ea.high:.2f}]; trained on random 32-step "
-            f"windows, {eb.value:.2f} [{eb.low:.2f}, {eb.high:.2f}]. Whole episodes minus "
-            f"windows: {diff.value:+.2f} [{diff.low:+.2f}, {diff.high:+.2f}] "
-            f"({_seeds_words(result, WHOLE_EPISODES)}); that whole episodes help "
-            f"{verdict_words.TRAINING_WINDOW[verdict]}.")
-
-
-def _seeds_words(result: TableResult, row: str) -> str:
-    cell = result.spec.row(row).cells["avg"]
-    return f"{cell.seeds} training seed{'s' if cell.seeds != 1 else ''} a row"
+    return {"whole": result.estimate(WHOLE_EPISODES), "windows": result.estimate(RANDOM_WINDOWS),
+            "difference": diff, "verdict": stats.verdict(diff, direction=+1),
+            "seeds": result.spec.row(WHOLE_EPISODES).cells["avg"].seeds}
