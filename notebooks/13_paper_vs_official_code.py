@@ -41,10 +41,11 @@
 # trajectories, as in Table III ({doc}`chapter 8 <08_smoothness>`): the official design is
 # known to collapse its codebook, so the codes used are shown for every row.
 #
-# The tables show **the paper** (Table I's two rows), **the reference run** (`reference`
-# preset, committed under `results/reference/`; a row whose records are not there yet
-# shows as "not run") and **this build** (on CI the `small` preset, whose numbers test the
-# code, not the question).
+# The tables show **the paper** (Table I's two rows), **our run** (the `reference` preset,
+# results committed under `results/reference/`, made on the kitchen protocol before
+# Meta-World; a row whose records are not there yet shows as "not run"; tables label it
+# "reference run") and **the quick run** (CI's small preset: it tests the code, not the
+# paper; tables label it "this build").
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
