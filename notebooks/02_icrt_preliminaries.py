@@ -109,6 +109,7 @@ print(f"d_model {run.policy.d_model}, {run.policy.n_layer} layers, {run.train.st
 #
 # ```{literalinclude} /src/icil_paper/policies/icrt.py
 # :pyobject: ICRT.sequence
+# :dedent: 4
 # :caption: src/icil_paper/policies/icrt.py (Eq. 1's token layout)
 # ```
 #
@@ -198,7 +199,8 @@ print(coverage)  # tokens of each kind, and how many the loss reaches
 load_table(preset, "icrt")  # trains and evaluates the one cell, or finds its records
 m = study_metrics(icrt_records(preset, store))  # the train and eval records merged
 display(training_figure(m, f"ICRT + {TOKENIZER} on {TASK}"))
-print(f"success {m['successes']}/{m['episodes']} (Wilson 95% CI {m['ci_low']:.2f}-{m['ci_high']:.2f})")
+print(f"success {m['successes']}/{m['episodes']}")
+print(f"Wilson 95% interval {m['ci_low']:.2f}-{m['ci_high']:.2f}")
 
 # %% [markdown]
 # One rollout, step by step: the trained policy, prompted with a demonstration it was

@@ -76,11 +76,13 @@
 #
 # ```{literalinclude} /src/icil_paper/tokenizers/lipschitz_linear.py
 # :pyobject: LipschitzLinear.normalized_weight
+# :dedent: 4
 # :caption: src/icil_paper/tokenizers/lipschitz_linear.py (Eq. 4)
 # ```
 #
 # ```{literalinclude} /src/icil_paper/tokenizers/lipschitz_linear.py
 # :pyobject: LipschitzLinear.forward
+# :dedent: 4
 # ```
 #
 # The product of the layers' bounds, the $\mathcal{L}_\text{Lipschitz}$ of Eq. 5 and the
@@ -113,14 +115,17 @@ capped = layer.normalized_weight().abs().sum(dim=1)
 print(f"row sums before Eq. 4: {row_sums.min():.3f} to {row_sums.max():.3f}")
 print(f"after: at most {capped.max():.3f} = softplus(c) = {F.softplus(layer.c):.3f}")
 
-encoder = nn.Sequential(LipschitzLinear(7, 64), nn.ReLU(), LipschitzLinear(64, 64), nn.ReLU(),
+encoder = nn.Sequential(LipschitzLinear(7, 64), nn.ReLU(),
+                        LipschitzLinear(64, 64), nn.ReLU(),
                         LipschitzLinear(64, 16))
 bound = lipschitz_loss(encoder).item()  # prod_l softplus(c_l)
 x0 = torch.rand(20_000, 7) * 2 - 1
 x1 = x0 + 0.01 * torch.randn_like(x0)
 with torch.no_grad():
-    ratios = (encoder(x0) - encoder(x1)).abs().amax(dim=1) / (x0 - x1).abs().amax(dim=1)
-print(f"prod softplus(c_l) = {bound:.1f}; largest ratio over 20,000 pairs: {ratios.max():.2f}")
+    moved = (encoder(x0) - encoder(x1)).abs().amax(dim=1)  # ||q(x0) - q(x1)||_inf
+ratios = moved / (x0 - x1).abs().amax(dim=1)
+print(f"prod softplus(c_l) = {bound:.1f}")
+print(f"largest ratio over 20,000 pairs: {ratios.max():.2f}")
 assert ratios.max().item() <= bound
 
 # %% tags=["hide-input"]

@@ -73,36 +73,42 @@
 # :::{dropdown} MLP: encode with an MLP, decode with its mirror
 # ```{literalinclude} /src/icil_paper/tokenizers/mlp.py
 # :pyobject: MLPTokenizer._forward
+# :dedent: 4
 # :caption: src/icil_paper/tokenizers/mlp.py
 # ```
 # :::
 # :::{dropdown} Bin: a bin per dimension, embeddings averaged; decode to bin centres
 # ```{literalinclude} /src/icil_paper/tokenizers/bin.py
 # :pyobject: BinTokenizer._forward
+# :dedent: 4
 # :caption: src/icil_paper/tokenizers/bin.py
 # ```
 # :::
 # :::{dropdown} FAST: DCT, rounding and byte-pair encoding of the chunk ending at each step
 # ```{literalinclude} /src/icil_paper/tokenizers/fast.py
 # :pyobject: FASTTokenizer._forward
+# :dedent: 4
 # :caption: src/icil_paper/tokenizers/fast.py
 # ```
 # :::
 # :::{dropdown} VQ-VAE: the nearest code (Eq. 2)
 # ```{literalinclude} /src/icil_paper/tokenizers/vq.py
 # :pyobject: VQTokenizer.quantize
+# :dedent: 4
 # :caption: src/icil_paper/tokenizers/vq.py
 # ```
 # :::
 # :::{dropdown} VQ-VAE and LipVQ-VAE: encode, quantize, straight-through, decode
 # ```{literalinclude} /src/icil_paper/tokenizers/vq.py
 # :pyobject: VQTokenizer._forward
+# :dedent: 4
 # :caption: src/icil_paper/tokenizers/vq.py
 # ```
 # :::
 # :::{dropdown} LFQ-VAE: lookup-free quantization
 # ```{literalinclude} /src/icil_paper/tokenizers/lfq.py
 # :pyobject: LFQTokenizer._forward
+# :dedent: 4
 # :caption: src/icil_paper/tokenizers/lfq.py
 # ```
 # :::
@@ -127,9 +133,10 @@ for name in ("mlp", "bin", "fast", "vq", "lfq", "lipvq"):
     tokenizer = make_tokenizer(name, action_dim=7).fit(trajectories).eval()
     with torch.no_grad():
         out = tokenizer(actions)
-    codes = "no codes" if out.codes is None else f"codes of step 1: {out.codes[0, 0].tolist()}"
+    codes = None if out.codes is None else out.codes[0, 0].tolist()
     error = float(((out.reconstruction - actions) ** 2).mean())
-    print(f"{name:6s} tokens {tuple(out.embeddings.shape)}  reconstruction MSE {error:.2g}  {codes}")
+    print(f"{name:5s} tokens {tuple(out.embeddings.shape)}, reconstruction MSE {error:.2g}")
+    print(f"      codes of step 1: {codes}")
 
 # %% [markdown]
 # ## What this chapter measures

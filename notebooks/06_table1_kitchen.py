@@ -103,9 +103,10 @@ from icil_paper.train import train_policy
 run, _ = icrt_specs(preset)  # chapter 2's cell: ICRT + LipVQ-VAE on drawer-open
 demos = load_demos(ensure_demos(preset, ICRT_DEMO_TASK, "generated",
                                 n=run.data.demos_per_task), limit=4)
-toy = dataclasses.replace(run, train=dataclasses.replace(run.train, steps=20, log_every=5))
-trained = train_policy(toy, run_dir=None, demos=demos, progress=False)  # nothing is stored
-print("loss by step:", ", ".join(f"{h['step']}: {h['loss']:.3f}" for h in trained.history))
+short = dataclasses.replace(run.train, steps=20, log_every=5)
+toy = dataclasses.replace(run, train=short)
+trained = train_policy(toy, run_dir=None, demos=demos, progress=False)  # stores nothing
+print("loss by step:", [(h["step"], round(h["loss"], 3)) for h in trained.history])
 envs = [make_env(ICRT_DEMO_TASK, obs="state", seed=s) for s in (1000, 1001)]
 episodes = rollout_batch(trained.policy, envs, seeds=[1000, 1001],
                          prompts=[demos[:1], demos[1:2]], max_steps=40)
