@@ -49,7 +49,7 @@
 #                            MLP head at the query's observation tokens: a_t .. a_(t+K-1)
 # ```
 
-# %%
+# %% tags=["hide-input"]
 import logging
 
 import matplotlib.pyplot as plt
@@ -115,7 +115,7 @@ print(f"d_model {run.policy.d_model}, {run.policy.n_layer} layers, {run.train.st
 #
 # Below it runs on a batch of three sequences; the picture colours each token by its role.
 
-# %%
+# %% tags=["hide-input"]
 # teaches: Eq. 1's token layout, read from a real batch
 policy = make_policy(run.policy, obs_spec_from_obs(demos[0].obs), 7, run.tokenizer)
 data = policy.prepare(demos)
@@ -179,7 +179,7 @@ print(f"keys attended to: {int(mask.sum())} of {mask.size}; padded prompt steps:
 # Below: the size of the loss gradient at each position of the transformer's output. It is
 # exactly zero on the prompt, on action tokens and on padding.
 
-# %%
+# %% tags=["hide-output"]
 grads = policy.token_loss_gradients(batch)  # (B, L) |dL/dh| at each output position
 display(loss_gradient_figure(grads))
 coverage = loss_coverage(roles, grads)
@@ -195,7 +195,7 @@ print(coverage)  # tokens of each kind, and how many the loss reaches
 # reproduce`), computed as every table's cells are; its train and eval records are stored
 # in the results store under the run's key, so rebuilding the chapter only loads them.
 
-# %%
+# %% tags=["hide-output"]
 load_table(preset, "icrt")  # trains and evaluates the one cell, or finds its records
 m = study_metrics(icrt_records(preset, store))  # the train and eval records merged
 display(training_figure(m, f"ICRT + {TOKENIZER} on {TASK}"))
@@ -208,7 +208,7 @@ print(f"Wilson 95% interval {m['ci_low']:.2f}-{m['ci_high']:.2f}")
 # demonstrations' seeds). The policy is loaded from the run folder (retrained, identically,
 # if the folder is missing).
 
-# %%
+# %% tags=["hide-output"]
 trained_policy = load_trained(run, preset.name, store)
 # a successful evaluation episode when there is one, replayed: same seed, same prompt
 episode, prompt, trace = replay_episode(trained_policy, demos, m["per_episode"], TASK,

@@ -168,7 +168,7 @@ display(bound_figure(records, RADII))
 # %% [markdown]
 # ## How each $c_\ell$ moves in training
 
-# %%
+# %% tags=["hide-output"]
 display(bound_history_figure(records["lipvq (paper)"],
                              "LipVQ-VAE (paper): per-layer Lipschitz bounds during training"))
 
@@ -192,7 +192,7 @@ display(bound_history_figure(records["lipvq (paper)"],
 # to the same initial size; the analysis chapter keeps the paper's literal shared rate as
 # a row (`c_l at the shared rate`).
 
-# %% tags=["hide-input"]
+# %% tags=["hide-input", "hide-output"]
 from icil_paper.paper.analysis import bound_travel_frame
 
 display(bound_travel_frame().style.format(precision=3))

@@ -136,7 +136,7 @@ print(setup_lines(preset.name, SHOWN_TASKS, DATA_TASKS, preset.data.demos_per_ta
 # A kitchen or Kinova door or drawer task succeeds when the fixture's joint is past its goal
 # (`icil_paper.sim.kitchen.scenes`); a ManiSkill task by ManiSkill's own test.
 
-# %%
+# %% tags=["hide-output"]
 display(task_registry())
 
 # %% [markdown]
@@ -170,7 +170,7 @@ display(first_frames_figure(showcase))
 #   Any preset can run it by hand: `python -m icil_paper.data.experts --suites <suite>
 #   --seeds 50` writes `results/experts/<suite>.json`, which this chapter also reads.
 
-# %%
+# %% tags=["hide-output"]
 data_sets = demo_stage(preset, store)  # both sources (Table VII's training tasks: generated); cheap once made
 kept = keep_rates(data_sets, preset.data.demos_per_task)
 display(kept)
@@ -185,13 +185,13 @@ show_frame_or(experts, no_expert_measurement(preset.name))
 # uses the same files. Here, one Meta-World task (`metaworld/drawer-open`) and one ManiSkill
 # task (`maniskill/pick_cube`) in detail.
 
-# %%
+# %% tags=["hide-output"]
 demos = load_data_sets(data_sets, DATA_TASKS, preset.data.demos_per_task)
 stats = demo_stats(demos)  # one row per demonstration
 summary = demo_summary(demos, stats)  # by task and source
 show_demo_summary(summary)
 
-# %%
+# %% tags=["hide-output"]
 display(demos_figure(demos, stats, DATA_TASKS))
 
 # %% [markdown]
@@ -213,7 +213,7 @@ display(show_recordings(showcase_recordings(showcase)))
 # kitchen's door and drawer tasks and evaluates the same skills on the perturbed Kinova3
 # arm.
 
-# %%
+# %% tags=["hide-output"]
 print(zero_shot_lines())
 
 # %% [markdown]

@@ -162,7 +162,7 @@ for name in ("mlp", "bin", "fast", "vq", "lfq", "lipvq"):
 # experts on seeded layouts, the stand-in for MimicGen data), with a fifth of each task's
 # demos held out for the metrics (`icil_paper.book.studies.tokenizer_trajectories`).
 
-# %%
+# %% tags=["hide-input"]
 from IPython.display import display
 
 from icil_paper.book.components import (
@@ -203,12 +203,12 @@ print(f"{len(records)} tokenizers, {seeds.n_seeds} training seed(s) each")
 # on one code has zero least energy whatever its encoder does, so these two rows tell
 # whether a low score comes from the Lipschitz bound or from codebook collapse.
 
-# %%
+# %% tags=["hide-output"]
 properties, smoothness = tokenizer_frames(seeds, SMOOTHNESS)
 display(properties)
 display(smoothness)
 
-# %%
+# %% tags=["hide-output"]
 display(smoothness_figure(seeds, SMOOTHNESS))
 
 # %% [markdown]

@@ -203,7 +203,7 @@ show_codebook_use(results)
 # own; beside it, the baselines that read the instruction and no prompt. A prompt that
 # carries the task lifts ICRT above them; a wrong one shows what is left of it.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-input", "hide-output"]
 from icil_paper.paper.prompt_ablation import prompt_beside_baselines
 
 display(prompt_beside_baselines(results, load_table(preset, "prompt")))
@@ -229,7 +229,7 @@ show_motion(results, "avg")
 # Point values per family (the intervals of single families are wide at these episode
 # counts); the paper's row first.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-input", "hide-output"]
 show_values(results)
 
 # %% [markdown]

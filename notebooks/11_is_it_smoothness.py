@@ -52,7 +52,7 @@
 # %% tags=["hide-input"]
 from icil_paper.book.display import show_sources
 from icil_paper.book.experiments import comparison_list
-from icil_paper.book.report import design_sentence, load_table
+from icil_paper.book.report import load_table
 from icil_paper.config import get_preset
 from icil_paper.paper import analysis
 from icil_paper.tables.display import show_per_source
@@ -61,8 +61,7 @@ preset = get_preset()
 results = load_table(preset, "analysis")
 
 # %% tags=["hide-input"]
-show_per_source(results, analysis.analysis_frame,
-                describe=lambda result: design_sentence(get_preset(result.preset)))
+show_per_source(results, analysis.analysis_frame)
 
 # %% [markdown]
 # ## Does Eq. 4 bind?

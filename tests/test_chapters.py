@@ -519,13 +519,6 @@ def test_chapters_6_to_8_sentences_and_table_iii_beside_its_standardized_score()
     from matplotlib.figure import Figure
 
     from icil_paper.book import experiments as ex
-    from icil_paper.config import get_preset
-
-    preset = get_preset("smoke")
-    text = ex.maniskill_paragraph(preset, (4, 30, 1))
-    assert "learns one task from 4 demonstrations in 30 steps" in text
-    assert "in 1 episode per task" in text and "episodes per task" not in text
-
     smooth = _table("III", {("icrt+vq", "least_energy"): _smoothness(1.0),
                             ("icrt+lipvq", "least_energy"): _smoothness(0.5, codes=None)})
     assert ex.standardized_frame({"this build": _table("III", {})}) is None
@@ -567,8 +560,6 @@ def test_chapters_10_to_13_sentences_from_made_up_tables():
     assert ex.comparison_list(found) == (
         "- q1: not run (expected below 0): not run\n"
         "- q2: +0.200 [+0.100, +0.300] (expected above 0): holds")
-    assert ex.official_seeds_sentence("small", 5, 2) == (
-        "Training seeds a row: 5 in the reference run, 2 in this build (`small`).")
 
 
 def test_chapter_14_caps_its_seeds_by_preset():

@@ -2,15 +2,13 @@
 frames they show beside the tables of `icil_paper.tables`, each computed from the tables'
 results or the preset.
 
-    display(Markdown(maniskill_paragraph(preset, maniskill_settings(preset))))   # chapter 07
     show_frame_or(standardized_frame(smooth), NO_SMOOTHNESS)     # chapter 08: Table III
     display(Markdown(prompt_differences(prompt)))                # chapter 10: the prompts
     comparison_list(findings(result))                            # chapter 11: a Markdown list
     display(Markdown(eq4_differences(results)))                  # chapter 12: Eq. 4 or not
 
-`results` is what `book.report.load_table` returns, {source: TableResult}. Where a chapter
-reads a number from a function of `icil_paper.tables` (a design sentence, the settings of
-Table II, the seeds of a row), it calls that function and passes the result here.
+`results` is what `book.report.load_table` returns, {source: TableResult}. Numbers a chapter
+writes into its own prose it glues there (MyST-NB's `glue`).
 """
 
 from __future__ import annotations
@@ -24,7 +22,6 @@ import pandas as pd
 
 from icil_paper import verdict_words
 from icil_paper.book.report import BUILD, source_label
-from icil_paper.config import Preset
 from icil_paper.tables.assemble import TableResult, format_cell
 from icil_paper.tables.display import difference_sentence
 
@@ -34,19 +31,6 @@ Results = Mapping[str, TableResult]
 
 # --------------------------------------------------------------------------- chapter 06
 # --------------------------------------------------------------------------- chapter 07
-def maniskill_paragraph(preset: Preset, settings: tuple[int, int, int]) -> str:
-    """Table II's training and evaluation under this build's preset: the demonstrations,
-    steps and episodes of the state policies (`settings`, from
-    `tables.definitions.maniskill_settings`) and MCR's image demonstrations."""
-    demos, steps, episodes = settings
-    return (f"Each state policy of this build's preset (`{preset.name}`) learns one task from "
-            f"{demos} demonstrations in {steps} steps and is rolled out in {episodes} "
-            f"episode{'s' if episodes != 1 else ''} per task; MCR learns from "
-            f"{preset.tables.image_demos_per_task} image demonstrations per task. The "
-            "reference preset gives these single-task runs more data and steps than Table I's "
-            "multi-task ones (`tables.maniskill_*` in `src/icil_paper/config.py`).")
-
-
 # --------------------------------------------------------------------------- chapter 08
 NO_SMOOTHNESS = "*No smoothness records yet.*"
 """What chapter 08 shows where no tokenizer's features were scored yet."""
@@ -147,8 +131,3 @@ def eq4_differences(results: Results, pairs: Sequence[tuple[str, str]] = EQ4_PAI
 
 
 # --------------------------------------------------------------------------- chapter 13
-def official_seeds_sentence(preset_name: str, reference_seeds: int, build_seeds: int) -> str:
-    """The training seeds of every row of the official-code table, in the reference run and
-    in this build (each from `tables.definitions.official_seeds`)."""
-    return (f"Training seeds a row: {reference_seeds} in the reference run, {build_seeds} in "
-            f"this build (`{preset_name}`).")
