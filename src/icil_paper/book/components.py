@@ -40,18 +40,6 @@ def data_tasks() -> list[str]:
     return [t for t in DATA_TASKS if t in sim.all_tasks()]
 
 
-def setup_lines(preset_name: str, shown: Sequence[str], tasks: Sequence[str],
-                demos_per_task: int) -> str:
-    """What chapter 04 shows under this preset (how many tasks, the data sets examined in
-    full, their demonstrations per source) and the suites that cannot run here, with why."""
-    lines = [f"preset {preset_name}: {len(shown)} tasks shown, data sets of {list(tasks)} with "
-             f"{demos_per_task} demos per source"]
-    unavailable = {s: sim.suite_unavailable(s) for s in sim.SUITES if sim.suite_unavailable(s)}
-    if unavailable:
-        lines.append(f"suites that cannot run here: {unavailable}")
-    return "\n".join(lines)
-
-
 def task_registry() -> pd.DataFrame:
     """Every registered task: its suite and the (proprio, object) widths of its observations."""
     return pd.DataFrame([{"task": t, "suite": sim.suite_of(t),
@@ -113,12 +101,6 @@ def keep_rates(data_sets: Mapping[tuple[str, str], str | Path], limit: int) -> p
     kept = pd.DataFrame(rows).pivot(index="task", columns="source", values="keep rate")
     kept.columns = [KEPT_COLUMN.format(source=c) for c in kept.columns]
     return kept
-
-
-def no_expert_measurement(preset_name: str) -> str:
-    """What chapter 04 says when no expert was measured over fresh scenes."""
-    return (f"No fresh-scene measurement under the {preset_name} preset (`data.expert_seeds` "
-            "= 0); see the command above.")
 
 
 def demo_stats(demos: Mapping[tuple[str, str], Sequence[Any]]) -> pd.DataFrame:
@@ -190,49 +172,6 @@ def zero_shot_lines() -> str:
 
 EXPERT_REQUIREMENT = 0.9
 """The success an expert must reach over random scenes (the paper's data need it)."""
-
-
-def demonstration_findings(showcase: Mapping[str, Mapping[str, Any]], kept, experts, summary,
-                           tasks: Sequence[str], preset_name: str) -> str:
-    """Chapter 04's "What we found": whether each shown task's demo 0 succeeded
-    (`showcase`), the experts' success over the scenes the data sets were generated on
-    (`kept`, a frame with a "generated: success over data-set scenes" column) and over fresh
-    scenes with replay (`experts`, `studies.expert_measurements` as a frame), and, for each of
-    `tasks`, how the human source's demos differ from the generated ones (`summary`, by
-    (task, source): mean length, still fraction, least energy per step)."""
-    lines = []
-    failed_shown = [t for t, e in showcase.items() if not e["success"]]
-    lines.append(f"Demo 0 of the generated source succeeded on "
-                 f"{len(showcase) - len(failed_shown)} of {len(showcase)} shown tasks"
-                 + (f" (failed: {failed_shown})." if failed_shown else "."))
-    generated_rate = kept[KEPT_COLUMN.format(source="generated")]
-    low_kept = generated_rate[generated_rate < EXPERT_REQUIREMENT]
-    lines.append(f"Over the scenes the {preset_name} data sets were generated on, the experts "
-                 f"succeeded in {generated_rate.min():.0%}-{generated_rate.max():.0%} of "
-                 "attempts per task; " + ("every task meets 0.9 there." if low_kept.empty else
-                                          f"below 0.9: {list(low_kept.index)}."))
-    if len(experts):
-        low = experts[experts.expert < EXPERT_REQUIREMENT]
-        lines.append(f"Over {int(experts.seeds.min())}+ random scenes per task, the expert "
-                     f"success rate ranges from {experts.expert.min():.2f} to "
-                     f"{experts.expert.max():.2f}; "
-                     + ("every measured expert meets the 0.9 requirement."
-                        if low.empty else f"below 0.9: {list(low.task)}."))
-        if experts.replay.notna().all():
-            lines.append(f"Replaying the stored actions of successful episodes open loop "
-                         f"succeeds again in {experts.replay.min():.0%}-"
-                         f"{experts.replay.max():.0%} of them.")
-    for task in tasks:
-        g, h = summary.loc[(task, "generated")], summary.loc[(task, "human")]
-        energy = h.least_energy_per_step / max(g.least_energy_per_step, 1e-12)
-        lines.append(
-            f"{task}: human demos are {h.mean_length / g.mean_length:.2f}x as long as generated "
-            f"ones ({h.mean_length:.0f} vs {g.mean_length:.0f} steps), stand still in "
-            f"{h.still_fraction:.0%} vs {g.still_fraction:.0%} of steps, and their least energy "
-            f"per step is {energy:.3g}x the generated demos' "
-            + ("(less smooth, as the human source is meant to be)." if energy > 1 else
-               "(NOT less smooth: the human source does not differ as intended here)."))
-    return "\n\n".join(lines)
 
 
 # --------------------------------------------------------------------------- chapter 05
