@@ -160,7 +160,7 @@ print(f"  prompt: {M} steps = {2 * M} tokens; query: {Q} steps; padded length {r
 # :caption: src/icil_paper/policies/transformer.py (the causal mask)
 # ```
 
-# %%
+# %% tags=["hide-output"]
 tokens, valid, query_obs_index, _ = policy.sequence(batch)
 print(f"tokens {tuple(tokens.shape)} (batch, positions, width)")
 print(f"the query's observation tokens at positions {query_obs_index[:3].tolist()} ...")
@@ -223,7 +223,7 @@ print(f"stored evaluation: success {episode['success']} after {episode['steps']}
 # on one step timeline (the file is linked for download; the static picture shows where
 # the viewer cannot start).
 
-# %%
+# %% tags=["hide-input"]
 recording = record_rollout(trained_policy, TASK, {"index": episode["episode"],
                                                   "seed": episode["seed"]},
                            trace, results_root() / preset.name / "icrt")
@@ -232,6 +232,7 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # %% [markdown]
 # ## Training as it acts: whole episodes or windows
 #
+# :::{dropdown} Why ICRT trains on whole episodes here, and what windows do (click to open)
 # ICRT's code trains on 32-step query windows that start anywhere in an episode, while the
 # policy acts from step 0 and for a whole episode: at step 100 it attends to 100 query steps
 # of its own, which no training window showed it. Here ICRT trains on whole episodes from
@@ -239,8 +240,9 @@ display(show_recording(recording, label=f"{TASK}, episode {episode['episode']}")
 # window training is an option (`query_len=32`, `query_start="random"`). The analysis table
 # ({doc}`chapter 11 <11_is_it_smoothness>`) trains ICRT + LipVQ-VAE both ways on Table I's
 # Meta-World tasks; their success, from the records:
+# :::
 
-# %% tags=["remove-input"]
+# %% tags=["remove-input", "hide-output"]
 import pandas as pd
 
 from icil_paper.paper.analysis import training_windows

@@ -281,8 +281,10 @@ glue("ch05_rvq_levels", seeds.per_level("rvq"))
 glue("ch05_liprvq_levels", seeds.per_level("liprvq"))
 
 # %% [markdown]
+# :::{dropdown} Each Lipschitz variant against its base: difference [95% interval]: verdict
 # ```{glue:} ch05_comparisons
 # ```
+# :::
 #
 # **Rankings.** The paper ranks the tokenizers, smoothest first: {glue:text}`ch05_paper_rank`.
 # By the paper's least energy ours are {glue:text}`ch05_rank_least_energy` (rank correlation

@@ -117,6 +117,7 @@ print("episodes:", [(e["success"], e["steps"]) for e in episodes], "(success, st
 # %% [markdown]
 # ## The task scale: the earlier kitchen run's pilot
 #
+# :::{dropdown} What the kitchen run's pilot was (click to open)
 # A family where every row succeeds always, or never, cannot tell the rows apart, and
 # averaging it in shrinks every difference. Before the earlier reference run on the kitchen
 # suite, a one-seed pilot (`python -m icil_paper.planning.pilot`) trained the rows that bound
@@ -126,6 +127,7 @@ print("episodes:", [(e["success"], e["steps"]) for e in episodes], "(success, st
 # `kitchen_...`): a record of the older protocol, not of the Meta-World tasks, whose data
 # and training budget the regime pilot of the next section sets. One seed: these numbers
 # place a family between 0 and 1, they do not rank the rows.
+# :::
 
 # %% tags=["hide-input", "hide-output"]
 from icil_paper.planning.pilot import show_pilot
@@ -135,6 +137,7 @@ show_pilot(table="I")
 # %% [markdown]
 # ## The paper's regime: a pilot on seeds the reference run does not use
 #
+# :::{dropdown} How the pilot chose the data and the training budget (click to open)
 # In the paper, after 500K iterations on MimicGen's many demonstrations, ICRT + LipVQ-VAE
 # lies well inside (0, 1) on every RoboCasa family: trained to its plateau, on
 # plenty of data, and neither at the floor nor at the ceiling: from
@@ -158,6 +161,7 @@ show_pilot(table="I")
 # reported beside ICRT + LipVQ-VAE (ICRT + MLP, ICRT + VQ-VAE and BC-Transformer) and ACT +
 # LipVQ-VAE on each ManiSkill task; a budget a row was not trained at reads "not trained".
 # The numbers below are read from the pilot's stored record (`results/bench/regime.json`).
+# :::
 
 # %% tags=["hide-input", "hide-output"]
 from icil_paper.planning.pilot import regime_summary
@@ -240,4 +244,6 @@ show_values(results)
 
 # %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "I")))
+
+# %% tags=["hide-input", "hide-output"]
 display(claims_figure(preset, "I"))

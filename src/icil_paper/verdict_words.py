@@ -85,6 +85,12 @@ ANALYSIS_SUCCESS = {HOLDS: "more successful", DOES_NOT_HOLD: "less successful",
                     NOT_RUN: "not yet measured in success"}
 """The analysis table's success finding (claimed: the variant succeeds more)."""
 
+EXPLANATION = {HOLDS: "survives", DOES_NOT_HOLD: "does not survive",
+               INCONCLUSIVE: "cannot be decided at this number of seeds and episodes",
+               TOO_FEW_SEEDS: "cannot be decided (a row has one seed)", NOT_RUN: "has not run yet"}
+"""The smoothness explanation's verdict (chapter 11: LipVQ-VAE smoother on the standardized
+score and more successful than VQ-VAE)."""
+
 OUTCOME = {HOLDS: "higher", DOES_NOT_HOLD: "lower",
            INCONCLUSIVE: "no difference detected (the interval contains 0)",
            TOO_FEW_SEEDS: "not decided (a row has a single training seed)",
