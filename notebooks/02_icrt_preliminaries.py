@@ -195,7 +195,7 @@ print(coverage)  # tokens of each kind, and how many the loss reaches
 # reproduce`), computed as every table's cells are; its train and eval records are stored
 # in the results store under the run's key, so rebuilding the chapter only loads them.
 
-# %% tags=["hide-output"]
+# %% tags=["hide-cell"]
 load_table(preset, "icrt")  # trains and evaluates the one cell, or finds its records
 m = study_metrics(icrt_records(preset, store))  # the train and eval records merged
 display(training_figure(m, f"ICRT + {TOKENIZER} on {TASK}"))
@@ -208,7 +208,7 @@ print(f"Wilson 95% interval {m['ci_low']:.2f}-{m['ci_high']:.2f}")
 # demonstrations' seeds). The policy is loaded from the run folder (retrained, identically,
 # if the folder is missing).
 
-# %% tags=["hide-output"]
+# %% tags=["hide-cell"]
 trained_policy = load_trained(run, preset.name, store)
 # a successful evaluation episode when there is one, replayed: same seed, same prompt
 episode, prompt, trace = replay_episode(trained_policy, demos, m["per_episode"], TASK,

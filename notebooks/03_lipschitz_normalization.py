@@ -192,7 +192,7 @@ display(bound_history_figure(records["lipvq (paper)"],
 # to the same initial size; the analysis chapter keeps the paper's literal shared rate as
 # a row (`c_l at the shared rate`).
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 from icil_paper.paper.analysis import bound_travel_frame
 
 display(bound_travel_frame().style.format(precision=3))

@@ -147,11 +147,11 @@ display(task_registry())
 # `generated` source and record it (rerun `.rrd` file plus a static picture). Results are
 # cached in the results store; a rebuild only reads them.
 
-# %% tags=["hide-output"]
+# %% tags=["hide-cell"]
 showcase = showcase_study(preset, store)  # runs what is missing, else loads
 display(showcase_frame(showcase))
 
-# %% tags=["hide-output"]
+# %% tags=["hide-cell"]
 display(first_frames_figure(showcase))
 
 # %% [markdown]

@@ -203,12 +203,12 @@ print(f"{len(records)} tokenizers, {seeds.n_seeds} training seed(s) each")
 # on one code has zero least energy whatever its encoder does, so these two rows tell
 # whether a low score comes from the Lipschitz bound or from codebook collapse.
 
-# %% tags=["hide-output"]
+# %% tags=["hide-cell"]
 properties, smoothness = tokenizer_frames(seeds, SMOOTHNESS)
 display(properties)
 display(smoothness)
 
-# %% tags=["hide-output"]
+# %% tags=["hide-cell"]
 display(smoothness_figure(seeds, SMOOTHNESS))
 
 # %% [markdown]

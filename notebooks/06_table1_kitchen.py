@@ -129,7 +129,7 @@ print("episodes:", [(e["success"], e["steps"]) for e in episodes], "(success, st
 # place a family between 0 and 1, they do not rank the rows.
 # :::
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 from icil_paper.planning.pilot import show_pilot
 
 show_pilot(table="I")
@@ -163,7 +163,7 @@ show_pilot(table="I")
 # The numbers below are read from the pilot's stored record (`results/bench/regime.json`).
 # :::
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 from icil_paper.planning.pilot import regime_summary
 
 regime, regime_text = regime_summary()
@@ -185,7 +185,7 @@ display(success_figure(results, "avg", title="Table I: average success over the 
 # rows of seed k start from the same backbone and draw the same batches (common random
 # numbers).
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 display(Markdown(seed_correlation_sentence(results)))
 
 # %% [markdown]
@@ -193,7 +193,7 @@ display(Markdown(seed_correlation_sentence(results)))
 # tokenizer gives the held-out trajectories of Table III (chapter 8), of its K, and the
 # perplexity of their distribution (how many equally used codes would give it).
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 from icil_paper.tables.display import show_codebook_use
 
 show_codebook_use(results)
@@ -207,7 +207,7 @@ show_codebook_use(results)
 # own; beside it, the baselines that read the instruction and no prompt. A prompt that
 # carries the task lifts ICRT above them; a wrong one shows what is left of it.
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 from icil_paper.paper.prompt_ablation import prompt_beside_baselines
 
 display(prompt_beside_baselines(results, load_table(preset, "prompt")))
@@ -224,7 +224,7 @@ display(prompt_beside_baselines(results, load_table(preset, "prompt")))
 # number is the mean over the row's seeds of each seed's mean over its episodes, with the
 # seed as the unit as for success.
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 show_motion(results, "avg")
 
 # %% [markdown]
@@ -233,7 +233,7 @@ show_motion(results, "avg")
 # Point values per family (the intervals of single families are wide at these episode
 # counts); the paper's row first.
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 show_values(results)
 
 # %% [markdown]
@@ -245,5 +245,5 @@ show_values(results)
 # %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "I")))
 
-# %% tags=["hide-input", "hide-output"]
+# %% tags=["hide-cell"]
 display(claims_figure(preset, "I"))
