@@ -45,6 +45,7 @@
 #   draws it). The official code's variant (`lipvq-official` below) normalizes only the last
 #   layer, with a sigmoid output and no straight-through estimator.
 #
+# :::{dropdown} The tokenizers that came after the paper: FSQ, residual VQ, B-spline (click to open)
 # And the tokenizers that came after the paper (compared inside ICRT in
 # {doc}`chapter 12 <12_tokenizers_since_the_paper>`), each learned one also with Eq. 4 on
 # every encoder layer (`lipfsq`, `liprvq`: the same layers and the same loss term as
@@ -62,6 +63,7 @@
 #   by a clamped cubic B-spline with $K$ control points per dimension (least squares), and
 #   the control points are quantized to 256 integer bins; decoding evaluates the spline.
 #   Nothing is learned but the token embeddings, as for Bin and FAST.
+# :::
 #
 # ## Encode and decode, in the library
 #

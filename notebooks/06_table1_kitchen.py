@@ -34,7 +34,9 @@
 # The table shows three sources: **the paper**; **our run** ({glue:md}`ch06_seeds` seeds a
 # row, results committed under `results/reference/`), whose committed records were made on
 # the {glue:md}`ch06_protocol`; and **the quick run** (CI's small preset: it tests the code,
-# not the paper). Every number comes with its 95% interval (`icil_paper.stats`): a t
+# not the paper). Until our run is repeated on Meta-World, its column (labelled "reference
+# run") reads "not run": the current code computes none of the kitchen records' cells, and
+# {doc}`chapter 0 <00_claims_ledger>` shows the kitchen run's ledger as it was computed. Every number comes with its 95% interval (`icil_paper.stats`): a t
 # interval on the per-seed values where a row has several training seeds; for a single
 # seed, the episodes' noise only (and no comparison with it is decided).
 
@@ -215,6 +217,7 @@ display(prompt_beside_baselines(results, load_table(preset, "prompt")))
 # %% [markdown]
 # ## How smoothly the robot moves
 #
+# :::{dropdown} What LDLJ, SPARC and action jerk measure (click to open)
 # The paper measures smoothness in the tokenizer's latent space (Table III); the rollouts
 # also say how smoothly the arm itself moved. Every episode's end-effector path is scored
 # by its log dimensionless jerk (LDLJ) and the spectral arc length of its speed profile
@@ -223,6 +226,7 @@ display(prompt_beside_baselines(results, load_table(preset, "prompt")))
 # for smoother commands); `icil_paper.metrics` gives the formulas and their sources. Each
 # number is the mean over the row's seeds of each seed's mean over its episodes, with the
 # seed as the unit as for success.
+# :::
 
 # %% tags=["hide-cell"]
 show_motion(results, "avg")
