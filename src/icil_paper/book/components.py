@@ -1,12 +1,10 @@
 """The chapters on what the experiments are made of: the tasks and their demonstrations
 (chapter 04) and the action tokenizers trained alone (chapter 05). Frames, figures and
-findings, each computed from the stages' records.
+each computed from the stages' records; the chapters write the findings.
 
     display(task_registry())                               # chapter 04
     summary = demo_summary(demos, demo_stats(demos))       # both sources, per task
-    display(Markdown(demonstration_findings(...)))
     properties, smoothness = tokenizer_frames(seeds, paper_tokenizer_smoothness())  # 05
-    display(Markdown(tokenizer_findings(seeds, paper, list(TOKENIZERS))))
 
 Figures are closed before they are returned, so each shows once, where the chapter
 displays it.

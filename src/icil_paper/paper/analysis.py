@@ -2,8 +2,10 @@
 
     spec(preset)                 # ICRT with VQ-VAE, LipVQ-VAE and their variants x avg, features
     analysis_frame(result)       # success, least energy (raw, standardized), scale, Eq. 4's facts
-    conclusion(result)           # the chapter's closing paragraph, from the numbers
-    training_window_sentence(result)   # chapter 02: whole episodes against 32-step windows
+    binding_frame(result)        # does Eq. 4 bind, and how far the bounds could move
+    effects_frame(result)        # each variant against its base, in the vocabulary's words
+    explanation_verdict(result)  # the smoothness explanation's verdict
+    training_windows(result)     # chapter 02: whole episodes against 32-step windows
 
 The paper explains LipVQ-VAE's success by smoothness: Eq. 4 bounds the encoder's Lipschitz
 constant, so neighbouring actions get neighbouring latents, so latent trajectories are
@@ -12,22 +14,22 @@ Each link can be checked on the table's cells (`ANALYSIS_VARIANTS`; its VQ-VAE a
 LipVQ-VAE rows are Table I's policies):
 
 1. Does Eq. 4 bind? The share of rows whose absolute sum the trained bound caps (a row
-   "binds" at `BINDS_AT` or more: `binding_sentence`), the product of the layer bounds,
+   "binds" at `BINDS_AT` or more: `binding_frame`), the product of the layer bounds,
    the encoder's empirical Lipschitz constant, and how far training could move the bounds
-   at all (`travel_sentence`).
+   at all (`bound_travel`).
 2. Is LipVQ-VAE smoother than VQ-VAE once the latent scale is removed? The raw least energy
    grows with the square of the latent scale; the standardized one does not.
 3. Does LipVQ-VAE succeed more than VQ-VAE, and does each variant (a large gamma, initial
    bounds of 1, a larger learning rate of the bounds, dead-code restarts, ICRT's 32-step
    training windows) move smoothness and success together, as the explanation predicts
-   (`variant_effects`, `effect_sentence`, `explanation_check`)? Every variant is compared
+   (`variant_effects`, `effects_frame`)? Every variant is compared
    with its base in both. The window variant too: its tokenizer is trained jointly with
    the policy on other windows, so its encoder can differ, and its features are measured
    on the same held-out trajectories as every row's.
 
 `findings` turns each comparison into an estimate with its interval and a verdict
-(`icil_paper.stats`); `conclusion` combines them into the chapter's closing paragraph. No
-sentence about results is written by hand.
+(`icil_paper.stats`); `explanation_verdict` reads the explanation's verdict from them, and
+the chapter writes its prose around that verdict (MyST-NB's `glue`).
 """
 
 from __future__ import annotations
