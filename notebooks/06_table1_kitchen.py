@@ -22,10 +22,9 @@
 # paper's regime asks (the pilot below chooses the count). A family's success is the mean
 # over its tasks. Each row is one multi-task policy trained on all 13 tasks, as in the
 # paper, and rolled out per task on layouts it has not seen (training, prompt and evaluation
-# layouts come from disjoint seeds); training seed k of every row plays the same episodes
-# (in the reference run each seed k has a scene set of its own, so scene luck averages out
-# over seeds; in the small build every seed plays one set), so rows are compared seed by
-# seed on the same scenes. ICRT's prompt is one demonstration of the task from the
+# layouts come from disjoint seeds); training seed k of every row trains on demonstration
+# set k, plays scene set k and, for the ICRT rows, starts from the same backbone and draws
+# the same batches, so rows are compared seed by seed (common random numbers). ICRT's prompt is one demonstration of the task from the
 # generated data set. MCR learns from camera images (fewer demonstrations and episodes,
 # since rendering costs much more than a state step on CPU); every other row learns from
 # low-dimensional state. Sizes, steps and episodes are the preset's
@@ -181,11 +180,6 @@ from icil_paper.tables.display import seed_correlation_sentence
 
 show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table I: average success over the Meta-World tasks"))
-
-# %% [markdown]
-# Seed k of every row trains on demonstration set k and plays scene set k, and the ICRT
-# rows of seed k start from the same backbone and draw the same batches (common random
-# numbers).
 
 # %% tags=["hide-cell"]
 display(Markdown(seed_correlation_sentence(results)))
