@@ -58,7 +58,7 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
-from icil_paper.book.experiments import prompt_differences
+from icil_paper.book.experiments import prompt_frame
 from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_vi import show_shift
@@ -132,4 +132,4 @@ show_comparison(prompt, "avg")
 display(success_figure(prompt, "avg", title="ICRT + LipVQ-VAE with right, wrong and truncated prompts"))
 
 # %% tags=["hide-output"]
-display(Markdown(prompt_differences(prompt)))
+display(prompt_frame(prompt))

@@ -152,7 +152,7 @@ def test_forest_plot_rows_say_what_each_claim_says_beside_its_id():
 
 
 # --------------------------------------------------------------------------- the library writes no prose
-ENGLISH_CEILING = 40
+ENGLISH_CEILING = 38
 """The most functions in `src/icil_paper` whose job is English (`english_functions`): 69 before
 issue 56, which aims at 10 (the vocabulary module counting as one place, 11 in all). Lower it as functions go; a new
 one fails the test: write the sentence in the chapter and glue its numbers."""

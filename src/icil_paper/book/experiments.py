@@ -3,7 +3,7 @@ frames they show beside the tables of `icil_paper.tables`, each computed from th
 results or the preset.
 
     show_frame_or(standardized_frame(smooth), NO_SMOOTHNESS)     # chapter 08: Table III
-    display(Markdown(prompt_differences(prompt)))                # chapter 10: the prompts
+    display(prompt_frame(prompt))                                # chapter 10: the prompts
     comparison_list(findings(result))                            # chapter 11: a Markdown list
     display(Markdown(eq4_differences(results)))                  # chapter 12: Eq. 4 or not
 
@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from icil_paper import verdict_words
+from icil_paper import stats, verdict_words
 from icil_paper.book.report import BUILD, source_label
 from icil_paper.tables.assemble import TableResult, format_cell
 from icil_paper.tables.display import difference_sentence
@@ -90,12 +90,23 @@ def tsne_actions(smooth: TableResult) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- chapter 10
-def prompt_differences(prompt: Results) -> str:
+def prompt_frame(prompt: Results) -> pd.DataFrame:
     """The prompt ablation's right prompt against the wrong one and the truncated one (its
-    first row against its second and third), paired over the same episodes, in Markdown."""
+    first row against its second and third), paired over the same episodes: one row per
+    (source, other prompt), the difference with its 95% interval and the verdict on "the
+    right prompt succeeds more" (`verdict_words.MISSING` where a row has not run)."""
     labels = [r.label for r in prompt[BUILD].spec.rows]
-    return ("The right prompt against the other two (paired over the same episodes):\n\n"
-            + "\n".join(difference_sentence(prompt, labels[0], other) for other in labels[1:3]))
+    rows = {}
+    for source, result in prompt.items():
+        for other in labels[1:3]:
+            xa, xb = result.outcomes(labels[0]), result.outcomes(other)
+            est = None if xa is None or xb is None else stats.paired_difference(xa, xb)
+            rows[source_label(source, result.preset), other] = {
+                f"'{labels[0]}' minus it": verdict_words.MISSING if est is None
+                else f"{est.value:+.3f} [{est.low:+.3f}, {est.high:+.3f}]",
+                "the right prompt is higher": verdict_words.MISSING if est is None
+                else stats.verdict(est, +1).value}
+    return pd.DataFrame(rows).T
 
 
 # --------------------------------------------------------------------------- chapter 11
