@@ -82,7 +82,7 @@ show_per_source(results, analysis.binding_frame)
 # for a success difference (expected above 0). Each variant is compared with its base
 # (VQ-VAE for the VQ-VAE variants, the paper's LipVQ-VAE for the others) in both.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 show_sources(results, lambda result: comparison_list(analysis.findings(result)), sep="\n\n")
 
 # %% [markdown]

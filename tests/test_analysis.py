@@ -84,8 +84,8 @@ def test_the_binding_frame_marks_exactly_the_rows_over_the_threshold():
     assert analysis.binding_rows(result) == binds
     frame = analysis.binding_frame(result)
     column = f"binds (>= {analysis.BINDS_AT:.0%})"
-    assert sorted(frame.index[frame[column] == True]) == sorted(binds)  # noqa: E712
-    assert sorted(frame.index[frame[column] == False]) == sorted(  # noqa: E712
+    assert sorted(frame.index[frame[column] == "yes"]) == sorted(binds)
+    assert sorted(frame.index[frame[column] == "no"]) == sorted(
         [analysis.PAPER, _label("gamma"), _label("restart lipvq"), _label("windows"),
          _label("liu")])
     assert frame.loc[_label("c_init"), "rows capped"] == "96%"

@@ -315,7 +315,8 @@ def binding_frame(result: TableResult, threshold: float = BINDS_AT):
                    if bounds and all(b is not None for b in bounds) else verdict_words.MISSING)
         product = _binding_facts(result, row)["bound_product"]
         rows[row] = {"rows capped": verdict_words.MISSING if share is None else f"{share:.0%}",
-                     f"binds (>= {threshold:.0%})": None if share is None else share >= threshold,
+                     f"binds (>= {threshold:.0%})": _yes_no(None if share is None
+                                                            else share >= threshold),
                      "product of bounds": verdict_words.MISSING if product is None
                      else _short(product),
                      "most c_l can move": _short(travel[row]) if row in travel
@@ -345,6 +346,12 @@ def variant_effects(result: TableResult) -> list[dict[str, Any]]:
                     "success": mine["success"],
                     "binds": None if share is None else share >= BINDS_AT})
     return out
+
+
+def _yes_no(value: bool | None) -> str:
+    """A table cell for a yes/no fact: "yes", "no", or `verdict_words.MISSING` (not run or
+    not applicable)."""
+    return verdict_words.MISSING if value is None else ("yes" if value else "no")
 
 
 def explanation_verdict(result: TableResult) -> Verdict:
@@ -378,7 +385,7 @@ def effects_frame(result: TableResult):
             "smoothness": verdict_words.ANALYSIS_SMOOTH[Verdict(smooth["verdict"])],
             "success": _interval(success["estimate"], 2),
             "success, in words": verdict_words.ANALYSIS_SUCCESS[Verdict(success["verdict"])],
-            "Eq. 4 binds": e["binds"]}
+            "Eq. 4 binds": _yes_no(e["binds"])}
     return pd.DataFrame(rows).T
 
 
