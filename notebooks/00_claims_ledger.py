@@ -17,11 +17,12 @@
 import pandas as pd
 from IPython.display import Markdown, display
 
-from icil_paper.book.ledger import chapter_ledgers, reference_ledger, show_stale_records
+from icil_paper.book.ledger import chapter_ledgers, reference_ledger
 from icil_paper.book.report import (
     REFERENCE,
     decision_rate_sentence,
     ledger_details,
+    ledger_frame,
     older_ledger,
     reference_freshness,
     retired_records,
@@ -37,11 +38,45 @@ preset = get_preset()
 ledgers = chapter_ledgers(preset)  # writes this build's ledger, reads the reference run's
 
 # %% tags=["remove-input"]
-show_ledgers(ledgers)
+ours, *quick = ledgers  # our run's ledger first, then the quick run's
+show_ledgers({ours: ledgers[ours]})
+
+# %% [markdown]
+# The quick run's ledger (CI's small preset: it tests the code, not the paper):
+
+# %% tags=["remove-input", "hide-output"]
+show_ledgers({k: ledgers[k] for k in quick})
+
+# %% tags=["remove-cell"]
+from myst_nb import glue
+
+from icil_paper import verdict_words as words
+from icil_paper.book.ledger import committed_design
+from icil_paper.book.questions import QUESTIONS
+from icil_paper.stats import Size
+
+# What the introduction pastes: for each of Sec. IV's questions, the claim that carries it
+# in our run (the committed reference records), its number, the paper's and the outcome.
+by_id = {e.id: e for e in reference_ledger(ledgers)}
+for q in QUESTIONS:
+    e = by_id[q.decides[0]]
+    scale = 100 if e.table != "III" else 1  # success in points; least energy as it is
+    glue(f"{q.key}_ours", round(e.ours * scale, 1) if e.ours is not None else "n/a")
+    glue(f"{q.key}_paper", round(e.paper * scale, 1))
+    outcome = (words.SMALLER_THAN_PAPER if e.size == Size.SMALLER
+               else words.DESIGN_OUTCOME[words.Verdict(e.adjusted_verdict)])
+    why = words.ALONE_BUT_NOT_TOGETHER.get(e.verdict) if outcome == "undecided" else None
+    needs = e.seeds_needed if e.adjusted_verdict in words.UNDECIDED else None
+    parts = [outcome, why, words.SEEDS_TO_DECIDE.format(n=needs) if needs else None]
+    glue(f"{q.key}_outcome", "; ".join(p for p in parts if p))
+seeds = [n for t in ("I", "II", "III", "V") for n in committed_design(t)["seeds"].values()]
+glue("run_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}")
+glue("run_protocol", committed_design("I")["protocol"])
 
 # %% [markdown]
 # ## How to read the ledger
 #
+# :::{dropdown} The unit, the rule, which verdict to quote, the two runs, what stands in for what (click to open)
 # Every claim the paper makes in its experiments (Sec. IV), checked against our numbers.
 # Each claim is written as a quantity with a direction: "LipVQ-VAE beats BC-Transformer by
 # 5.3 points" is the difference of the two rows' average success, claimed above 0. The
@@ -78,14 +113,14 @@ show_ledgers(ledgers)
 # CPU-hours each undecided claim would cost, and the command that computes exactly those
 # cells on a Ray cluster (the README's "On a cluster").
 #
-# Two sources: the **reference run** (records committed under `results/reference/`, the
-# numbers worth reading once it has run on the current protocol) and **this build** (the
-# preset this book was built with; on CI the `small` preset, trained for a few hundred
-# steps: it checks the code, not the paper). The ledger of each is written to
-# `results/<preset>/claims.json`. The committed reference records were made on the robosuite
-# kitchen suite that stood in for RoboCasa before Meta-World: until the reference run is
-# repeated on Meta-World, they are records of that older protocol, shown labelled as such
-# (the last section of this chapter), and a claim without a current record reads *not run*.
+# Two sources: **our run** (the `reference` preset, {glue:text}`run_seeds` seeds a row,
+# results committed under `results/reference/`; tables name it "reference
+# run") and **the quick run** (CI's small preset: it tests the code, not the paper; tables
+# name it "this build"). The ledger of each is written to `results/<preset>/claims.json`.
+# The committed records of our run were made on the robosuite kitchen suite that stood in
+# for RoboCasa before Meta-World: until the run is repeated on Meta-World, they are records
+# of that older protocol, shown labelled as such (the last section of this chapter), and a
+# claim without a current record reads *not run*.
 #
 # **What stands in for what.** The paper's RoboCasa tables (I, III, IV, VI, VII, Fig. 5)
 # run on Meta-World: a public benchmark, so anyone can set our numbers beside published
@@ -103,10 +138,12 @@ show_ledgers(ledgers)
 # perturbed dynamics and noisy observations, running policies trained on a simulated Panda;
 # Table II runs on ManiSkill 3, as in the paper. The introduction says why each was chosen
 # and what it changes. A claim that holds here holds for the stand-in, not for RoboCasa.
+# :::
 
 # %% [markdown]
 # ## The primary family, declared before the data
 #
+# :::{dropdown} Which claims carry Q1-Q3, and how the 5% is shared (click to open)
 # Which claims carry the paper's three questions was decided from the paper's text alone,
 # before any new record (`icil_paper.config.PRIMARY_CLAIMS`): the abstract's "improves
 # performance by more than 5.3%" and the conclusion's "outperforms state-of-the-art
@@ -120,10 +157,12 @@ show_ledgers(ledgers)
 # nothing. A reference ledger read from records gathered under the older design (one family,
 # Holm over every claim) is labelled as that design's record, and the design above decides
 # nothing on it.
+# :::
 
 # %% [markdown]
 # ## How the reference run was designed
 #
+# :::{dropdown} How the seeds were allocated in stages (click to open)
 # The reference run allocates its seeds in stages (the paragraph under the table, from
 # `icil_paper.planning.design` and `icil_paper.planning.staged`): every row a claim reads
 # starts at 5 seeds, and after each look only the rows of claims still undecided whose
@@ -139,8 +178,9 @@ show_ledgers(ledgers)
 # of each class of claim's paired variance into its seed and episode parts
 # (`planning.design.episode_design`, `stats.episodes_per_seed`); the `reference` preset's
 # docstring gives that arithmetic and the run's estimated cost.
+# :::
 
-# %% tags=["remove-input"]
+# %% tags=["remove-input", "hide-output"]
 display(design_frame(as_run(get_preset(REFERENCE))))
 display(Markdown(stages_paragraph(get_preset(REFERENCE), reference_ledger(ledgers))))
 display(Markdown(decision_rate_sentence()))
@@ -148,12 +188,13 @@ display(Markdown(decision_rate_sentence()))
 # %% [markdown]
 # ## What each claim compares
 
-# %% tags=["remove-input"]
+# %% tags=["remove-input", "hide-output"]
 display(Markdown(ledger_details(reference_ledger(ledgers))))
 
 # %% [markdown]
 # ## Reference records made by older code
 #
+# :::{dropdown} Why these records are listed apart (click to open)
 # A committed reference record whose key the current code no longer computes (a config or
 # a definition changed since it was run; for the records made on the kitchen suite, the
 # suite itself) is not used above; it is listed here until
@@ -162,8 +203,26 @@ display(Markdown(ledger_details(reference_ledger(ledgers))))
 # those records follows,
 # labelled with that code's commit: read it as a record of the older protocol, not as a
 # result of the current one.
+# :::
 
-# %% tags=["remove-input"]
+# %% tags=["remove-cell"]
 stale = stale_records(REFERENCE)
-show_stale_records(stale, reference_freshness(REFERENCE), older_ledger(REFERENCE),
-                   retired_records(REFERENCE))
+freshness = reference_freshness(REFERENCE)
+retired = retired_records(REFERENCE)
+older = older_ledger(REFERENCE)
+glue("stale_n", freshness["stale"])
+glue("records_n", freshness["records"])
+glue("retired_n", sum(retired.values()))
+glue("older_commit", older[0]["commit"][:7] if older else "none")
+
+# %% [markdown]
+# Of the {glue:text}`records_n` committed reference records, {glue:text}`stale_n` are stale
+# and not used above; {glue:text}`retired_n` more, made by older versions of the code, were
+# moved out of the store to `results/reference/older-code/`, each with its provenance. The
+# ledger that the older code (commit {glue:text}`older_commit`) computed from them follows,
+# collapsed: read it as a record of the older protocol, not as a result of the current one.
+
+# %% tags=["remove-input", "hide-output"]
+print("stale records:", ", ".join(stale) or "none")
+if older is not None:
+    display(ledger_frame(older[1], "verdicts"))

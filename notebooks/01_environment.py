@@ -29,7 +29,7 @@
 # %% tags=["hide-input"]
 import pandas as pd
 
-from icil_paper.book.environment import capabilities, preset_fields
+from icil_paper.book.environment import preset_fields
 from icil_paper.config import get_preset
 from icil_paper.setup.envcheck import environment_report, format_report
 
@@ -54,6 +54,10 @@ preset_fields(preset)
 
 # %% [markdown]
 # ## What works here
+#
+# Each check of the environment report above, one row each. A chapter whose experiment needs
+# a capability that failed here skips that experiment and says so.
 
 # %%
-print(capabilities(report, preset))
+print(f"preset {preset.name}, seed {preset.seed}")
+pd.DataFrame(report["checks"]).set_index("name")[["ok", "detail"]]

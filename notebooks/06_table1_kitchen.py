@@ -22,42 +22,103 @@
 # paper's regime asks (the pilot below chooses the count). A family's success is the mean
 # over its tasks. Each row is one multi-task policy trained on all 13 tasks, as in the
 # paper, and rolled out per task on layouts it has not seen (training, prompt and evaluation
-# layouts come from disjoint seeds); training seed k of every row plays the same episodes
-# (in the reference run each seed k has a scene set of its own, so scene luck averages out
-# over seeds; in the small build every seed plays one set), so rows are compared seed by
-# seed on the same scenes. ICRT's prompt is one demonstration of the task from the
+# layouts come from disjoint seeds); training seed k of every row trains on demonstration
+# set k, plays scene set k and, for the ICRT rows, starts from the same backbone and draws
+# the same batches, so rows are compared seed by seed (common random numbers). ICRT's prompt is one demonstration of the task from the
 # generated data set. MCR learns from camera images (fewer demonstrations and episodes,
 # since rendering costs much more than a state step on CPU); every other row learns from
 # low-dimensional state. Sizes, steps and episodes are the preset's
 # ({doc}`chapter 1 <01_environment>` lists them).
 #
-# The table shows three sources: **the paper**, **the reference run** (`reference` preset,
-# whose design is stated below; its records are committed under `results/reference/`; those
-# committed so far were made on the robosuite kitchen suite that stood in for RoboCasa
-# before Meta-World, and are shown labelled as that older protocol's until the reference run
-# is repeated on Meta-World) and **this build** (the preset the book was built with; on CI
-# the `small` preset, whose short training makes its numbers a test of the code, not
-# evidence). Every number comes with its
-# 95% interval (`icil_paper.stats`): a t interval on the per-seed values where a row has
-# several training seeds; for a single seed, the episodes' noise only (and no comparison
-# with it is decided).
+# The table shows three sources: **the paper**; **our run** ({glue:md}`ch06_seeds` seeds a
+# row, results committed under `results/reference/`), whose committed records were made on
+# the {glue:md}`ch06_protocol`; and **the quick run** (CI's small preset: it tests the code,
+# not the paper). Until our run is repeated on Meta-World, its column (labelled "reference
+# run") reads "not run": the current code computes none of the kitchen records' cells, and
+# {doc}`chapter 0 <00_claims_ledger>` shows the kitchen run's ledger as it was computed. Every number comes with its 95% interval (`icil_paper.stats`): a t
+# interval on the per-seed values where a row has several training seeds; for a single
+# seed, the episodes' noise only (and no comparison with it is decided).
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
+from myst_nb import glue
 
-from icil_paper.book.experiments import design_paragraph, paper_lipvq_range
-from icil_paper.book.report import REFERENCE, claims_figure, design_sentence, load_table, verdicts
+from icil_paper.book.ledger import committed_design
+from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.tables.display import show_comparison, show_motion, show_values, success_figure
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "I")  # computes what this build's results store lacks
-display(Markdown(design_paragraph(preset.name, design_sentence(get_preset(REFERENCE)),
-                                  design_sentence(preset))))
+design = committed_design("I")  # the seeds our run reached, read from results/reference/
+low, high = min(design["seeds"].values()), max(design["seeds"].values())
+glue("ch06_seeds", Markdown(f"{low}" if low == high else f"{low} to {high}"), display=False)
+families = [v for k, v in TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
+glue("ch06_paper_low", min(families), display=False)
+glue("ch06_paper_high", max(families), display=False)
+glue("ch06_protocol", Markdown("robosuite kitchen suite that stood in for RoboCasa before "
+                               "Meta-World (an older protocol: these are its numbers, not "
+                               "Meta-World's)" if design["protocol"] == "kitchen"
+                               else "Meta-World tasks above"), display=False)
+
+# %% [markdown]
+# ## How one cell is made
+#
+# A cell of the table is a row trained on the 13 tasks and rolled out on each. Training is
+# `train_policy` (`src/icil_paper/train/loop.py`): it builds the policy, fits its tokenizer
+# where it needs fitting, and repeats one optimiser step until the preset's step count:
+#
+# ```{literalinclude} /src/icil_paper/train/loop.py
+# :pyobject: _step
+# :caption: src/icil_paper/train/loop.py (one training step)
+# ```
+#
+# The policy's `forward` is the loss of chapter 2: the chunk of actions predicted at every
+# query observation token against the demonstration's, plus the tokenizer's own losses.
+# Evaluation is `rollout_batch` (`src/icil_paper/eval/rollouts.py`): every episode of a task
+# resets its environment from an evaluation seed, the policy reads the prompt, then acts one
+# step at a time until the task reports success or the horizon ends.
+#
+# :::{dropdown} `rollout_batch`: episodes in lockstep (click to open)
+# ```{literalinclude} /src/icil_paper/eval/rollouts.py
+# :pyobject: rollout_batch
+# :caption: src/icil_paper/eval/rollouts.py (the rollout loop)
+# ```
+# :::
+#
+# Both run below at toy scale: ICRT + LipVQ-VAE trained for 20 steps on four demonstrations
+# of drawer-open, then two episodes of 40 steps, prompted with a demonstration each. Twenty
+# steps teach nothing; the table's rows train for the preset's thousands.
+
+# %%
+# teaches: one training step and the rollout loop, at toy scale
+import dataclasses
+
+from icil_paper.data import ensure_demos, load_demos
+from icil_paper.eval.rollouts import rollout_batch
+from icil_paper.paper.icrt_demo import ICRT_DEMO_TASK, icrt_specs
+from icil_paper.sim import make_env
+from icil_paper.train import train_policy
+
+run, _ = icrt_specs(preset)  # chapter 2's cell: ICRT + LipVQ-VAE on drawer-open
+demos = load_demos(ensure_demos(preset, ICRT_DEMO_TASK, "generated",
+                                n=run.data.demos_per_task), limit=4)
+short = dataclasses.replace(run.train, steps=20, log_every=5)
+toy = dataclasses.replace(run, train=short)
+trained = train_policy(toy, run_dir=None, demos=demos, progress=False)  # stores nothing
+print("loss by step:", [(h["step"], round(h["loss"], 3)) for h in trained.history])
+envs = [make_env(ICRT_DEMO_TASK, obs="state", seed=s) for s in (1000, 1001)]
+episodes = rollout_batch(trained.policy, envs, seeds=[1000, 1001],
+                         prompts=[demos[:1], demos[1:2]], max_steps=40)
+for env in envs:
+    env.close()
+print("episodes:", [(e["success"], e["steps"]) for e in episodes], "(success, steps)")
 
 # %% [markdown]
 # ## The task scale: the earlier kitchen run's pilot
 #
+# :::{dropdown} What the kitchen run's pilot was (click to open)
 # A family where every row succeeds always, or never, cannot tell the rows apart, and
 # averaging it in shrinks every difference. Before the earlier reference run on the kitchen
 # suite, a one-seed pilot (`python -m icil_paper.planning.pilot`) trained the rows that bound
@@ -67,8 +128,9 @@ display(Markdown(design_paragraph(preset.name, design_sentence(get_preset(REFERE
 # `kitchen_...`): a record of the older protocol, not of the Meta-World tasks, whose data
 # and training budget the regime pilot of the next section sets. One seed: these numbers
 # place a family between 0 and 1, they do not rank the rows.
+# :::
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 from icil_paper.planning.pilot import show_pilot
 
 show_pilot(table="I")
@@ -76,9 +138,11 @@ show_pilot(table="I")
 # %% [markdown]
 # ## The paper's regime: a pilot on seeds the reference run does not use
 #
+# :::{dropdown} How the pilot chose the data and the training budget (click to open)
 # In the paper, after 500K iterations on MimicGen's many demonstrations, ICRT + LipVQ-VAE
-# lies well inside (0, 1) on every RoboCasa family (below): trained to its plateau, on
-# plenty of data, and neither at the floor nor at the ceiling. The regime pilot
+# lies well inside (0, 1) on every RoboCasa family: trained to its plateau, on
+# plenty of data, and neither at the floor nor at the ceiling: from
+# {glue:text}`ch06_paper_low:.2f` to {glue:text}`ch06_paper_high:.2f` over its seven families. The regime pilot
 # (`python -m icil_paper.planning.pilot regime`) sets the reference preset's data and
 # training budget from two curves, on training seeds, demonstration sets and scene sets that
 # the reference run never uses:
@@ -98,11 +162,11 @@ show_pilot(table="I")
 # reported beside ICRT + LipVQ-VAE (ICRT + MLP, ICRT + VQ-VAE and BC-Transformer) and ACT +
 # LipVQ-VAE on each ManiSkill task; a budget a row was not trained at reads "not trained".
 # The numbers below are read from the pilot's stored record (`results/bench/regime.json`).
+# :::
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 from icil_paper.planning.pilot import regime_summary
 
-display(Markdown(paper_lipvq_range()))
 regime, regime_text = regime_summary()
 if regime is not None:
     display(regime.style.format(na_rep="not trained", precision=3))
@@ -117,12 +181,7 @@ from icil_paper.tables.display import seed_correlation_sentence
 show_comparison(results, "avg")
 display(success_figure(results, "avg", title="Table I: average success over the Meta-World tasks"))
 
-# %% [markdown]
-# Seed k of every row trains on demonstration set k and plays scene set k, and the ICRT
-# rows of seed k start from the same backbone and draw the same batches (common random
-# numbers).
-
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 display(Markdown(seed_correlation_sentence(results)))
 
 # %% [markdown]
@@ -130,7 +189,7 @@ display(Markdown(seed_correlation_sentence(results)))
 # tokenizer gives the held-out trajectories of Table III (chapter 8), of its K, and the
 # perplexity of their distribution (how many equally used codes would give it).
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 from icil_paper.tables.display import show_codebook_use
 
 show_codebook_use(results)
@@ -144,7 +203,7 @@ show_codebook_use(results)
 # own; beside it, the baselines that read the instruction and no prompt. A prompt that
 # carries the task lifts ICRT above them; a wrong one shows what is left of it.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 from icil_paper.paper.prompt_ablation import prompt_beside_baselines
 
 display(prompt_beside_baselines(results, load_table(preset, "prompt")))
@@ -152,6 +211,7 @@ display(prompt_beside_baselines(results, load_table(preset, "prompt")))
 # %% [markdown]
 # ## How smoothly the robot moves
 #
+# :::{dropdown} What LDLJ, SPARC and action jerk measure (click to open)
 # The paper measures smoothness in the tokenizer's latent space (Table III); the rollouts
 # also say how smoothly the arm itself moved. Every episode's end-effector path is scored
 # by its log dimensionless jerk (LDLJ) and the spectral arc length of its speed profile
@@ -160,8 +220,9 @@ display(prompt_beside_baselines(results, load_table(preset, "prompt")))
 # for smoother commands); `icil_paper.metrics` gives the formulas and their sources. Each
 # number is the mean over the row's seeds of each seed's mean over its episodes, with the
 # seed as the unit as for success.
+# :::
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 show_motion(results, "avg")
 
 # %% [markdown]
@@ -170,7 +231,7 @@ show_motion(results, "avg")
 # Point values per family (the intervals of single families are wide at these episode
 # counts); the paper's row first.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 show_values(results)
 
 # %% [markdown]
@@ -181,4 +242,6 @@ show_values(results)
 
 # %% tags=["hide-input"]
 display(Markdown(verdicts(preset, "I")))
+
+# %% tags=["hide-cell"]
 display(claims_figure(preset, "I"))

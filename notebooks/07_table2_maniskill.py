@@ -28,7 +28,6 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
-from icil_paper.book.experiments import maniskill_paragraph
 from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_ii import maniskill_settings
@@ -36,7 +35,9 @@ from icil_paper.tables.display import show_comparison, show_motion, show_values,
 
 preset = get_preset()
 results = load_table(preset, "II")
-display(Markdown(maniskill_paragraph(preset, maniskill_settings(preset))))
+demos, steps, episodes = maniskill_settings(preset)  # this preset's single-task runs
+print(f"each state policy: {demos} demos a task, {steps} steps, {episodes} episode(s) a task")
+print(f"MCR: {preset.tables.image_demos_per_task} image demonstrations a task")
 
 # %% tags=["hide-input"]
 show_comparison(results, "avg")

@@ -58,7 +58,7 @@
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
-from icil_paper.book.experiments import prompt_differences
+from icil_paper.book.experiments import prompt_frame
 from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_vi import show_shift
@@ -83,7 +83,7 @@ display(success_figure(table5, "avg", title="Table V: Panda-trained policies on 
 # noise (higher: smoother), and the action jerk of the commands (lower: smoother), as in
 # {doc}`chapter 6 <06_table1_kitchen>`.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 show_motion(table5, "avg")
 display(Markdown(verdicts(preset, "V")))
 display(claims_figure(preset, "V"))
@@ -91,7 +91,7 @@ display(claims_figure(preset, "V"))
 # %% [markdown]
 # ## Table VI: cross-dataset (human-like scenes and prompts)
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 table6 = load_table(preset, "VI")
 show_comparison(table6, "avg")
 display(success_figure(table6, "avg",
@@ -108,14 +108,14 @@ display(claims_figure(preset, "VI"))
 # training seed (the same trained policy on both sides), and the verdict on "the shift lowers
 # this row's success"; the paper's own change from its Table I to its Table VI beside it.
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 table1 = load_table(preset, "I")
 show_shift(table1, table6, "avg")
 
 # %% [markdown]
 # ## Table VII: zero-shot
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 table7 = load_table(preset, "VII")
 show_comparison(table7, "avg")
 display(success_figure(table7, "avg", title="Table VII: held-out ML45 tasks"))
@@ -126,10 +126,10 @@ display(claims_figure(preset, "VII"))
 # %% [markdown]
 # ## Does the prompt carry the task?
 
-# %% tags=["hide-input"]
+# %% tags=["hide-cell"]
 prompt = load_table(preset, "prompt")
 show_comparison(prompt, "avg")
 display(success_figure(prompt, "avg", title="ICRT + LipVQ-VAE with right, wrong and truncated prompts"))
 
-# %%
-display(Markdown(prompt_differences(prompt)))
+# %% tags=["hide-output"]
+display(prompt_frame(prompt))

@@ -32,10 +32,11 @@
 # ({doc}`chapter 8 <08_smoothness>`) and the analysis table
 # ({doc}`chapter 11 <11_is_it_smoothness>`).
 #
-# The tables show **the paper** (Table I's two rows), **the reference run** (`reference`
-# preset, committed under `results/reference/`; a row whose records are not there yet
-# shows as "not run") and **this build** (on CI the `small` preset, whose numbers test the
-# code, not the question).
+# The tables show **the paper** (Table I's two rows), **our run** (the `reference` preset,
+# results committed under `results/reference/`, made on the kitchen protocol before
+# Meta-World; a row whose records are not there yet shows as "not run"; tables label it
+# "reference run") and **the quick run** (CI's small preset: it tests the code, not the
+# paper; tables label it "this build").
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display

@@ -41,16 +41,16 @@
 # trajectories, as in Table III ({doc}`chapter 8 <08_smoothness>`): the official design is
 # known to collapse its codebook, so the codes used are shown for every row.
 #
-# The tables show **the paper** (Table I's two rows), **the reference run** (`reference`
-# preset, committed under `results/reference/`; a row whose records are not there yet
-# shows as "not run") and **this build** (on CI the `small` preset, whose numbers test the
-# code, not the question).
+# The tables show **the paper** (Table I's two rows), **our run** (the `reference` preset,
+# results committed under `results/reference/`, made on the kitchen protocol before
+# Meta-World; a row whose records are not there yet shows as "not run"; tables label it
+# "reference run") and **the quick run** (CI's small preset: it tests the code, not the
+# paper; tables label it "this build").
 
 # %% tags=["hide-input"]
-from IPython.display import Markdown, display
+from IPython.display import display
 
 from icil_paper.book.display import show_sources
-from icil_paper.book.experiments import official_seeds_sentence
 from icil_paper.book.report import load_table
 from icil_paper.config import get_preset
 from icil_paper.paper.official import (
@@ -70,8 +70,8 @@ from icil_paper.tables.display import (
 
 preset = get_preset()  # reads ICIL_PRESET
 results = load_table(preset, "official")  # computes what this build's results store lacks
-display(Markdown(official_seeds_sentence(preset.name, official_seeds(get_preset(REFERENCE)),
-                                         official_seeds(preset))))
+print(f"training seeds a row in our run: {official_seeds(get_preset(REFERENCE))}")
+print(f"training seeds a row in the quick run ({preset.name}): {official_seeds(preset)}")
 
 # %% [markdown]
 # ## What is compared

@@ -3,7 +3,6 @@ success against its base, the closing paragraph, and the bounds' own learning ra
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +14,7 @@ from icil_paper.config import get_preset
 from icil_paper.paper import analysis, table_spec
 from icil_paper.paper.analysis import ANALYSIS_VARIANTS
 from icil_paper.tables.assemble import CellResult, TableResult
+from icil_paper.verdict_words import MISSING
 
 SEEDS, TASKS, EPISODES, TRAJECTORIES = 3, 2, 20, 8
 NOTEBOOK = Path(__file__).resolve().parents[1] / "notebooks" / "11_is_it_smoothness.py"
@@ -78,25 +78,23 @@ def _result(drop: tuple[str, ...] = ()) -> TableResult:
     return TableResult(spec, cells, "smoke")
 
 
-def test_the_binding_sentence_names_exactly_the_rows_over_the_threshold():
+def test_the_binding_frame_marks_exactly_the_rows_over_the_threshold():
     result = _result()
     binds = [_label("c_init"), _label("c_lr")]
     assert analysis.binding_rows(result) == binds
-    text = analysis.binding_sentence(result)
-    yes, no = text.split("It does not bind in", 1)
-    assert sorted(re.findall(r"'([^']+)' \(", yes)) == sorted(binds)
-    assert sorted(re.findall(r"'([^']+)' \(", no)) == sorted(
+    frame = analysis.binding_frame(result)
+    column = f"binds (>= {analysis.BINDS_AT:.0%})"
+    assert sorted(frame.index[frame[column] == "yes"]) == sorted(binds)
+    assert sorted(frame.index[frame[column] == "no"]) == sorted(
         [analysis.PAPER, _label("gamma"), _label("restart lipvq"), _label("windows"),
          _label("liu")])
-    assert "96% of rows capped" in yes and f"at least {100 * analysis.BINDS_AT:.0f}%" in yes
-    named = set(re.findall(r"'([^']+)' \(", text))
-    assert not named & {analysis.VQ, _label("restart vq")}  # no Lipschitz layers
-    # another threshold moves the split; a row not run is named as such
+    assert frame.loc[_label("c_init"), "rows capped"] == "96%"
+    assert not set(frame.index) & {analysis.VQ, _label("restart vq")}  # no Lipschitz layers
+    # another threshold moves the split; a row not run is marked as such
     assert _label("gamma") in analysis.binding_rows(result, threshold=0.04)
     assert analysis.binding_rows(result, threshold=0.5) == [_label("c_init")]
-    waiting = analysis.binding_sentence(_result(drop=(_label("c_lr"),)))
-    assert f"Not run yet: '{_label('c_lr')}'" in waiting
-    assert _label("c_lr") not in waiting.split("Not run yet")[0]
+    waiting = analysis.binding_frame(_result(drop=(_label("c_lr"),)))
+    assert waiting.loc[_label("c_lr"), "rows capped"] == MISSING
 
 
 def test_each_variant_is_compared_in_smoothness_and_success():
@@ -116,24 +114,19 @@ def test_each_variant_is_compared_in_smoothness_and_success():
     assert effects[_label("restart vq")]["binds"] is None  # no Lipschitz layers
 
 
-def test_the_conclusion_reports_the_restart_and_c_l_1_comparisons_with_their_verdicts():
-    text = analysis.conclusion(_result())
+def test_the_verdict_and_the_effects_frame_use_the_vocabulary():
+    from icil_paper.stats import Verdict
+    from icil_paper.verdict_words import ANALYSIS_SMOOTH, ANALYSIS_SUCCESS
+
+    assert analysis.explanation_verdict(_result()) in set(Verdict)
+    frame = analysis.effects_frame(_result())
     for row in (_label("restart vq"), _label("restart lipvq")):
-        base = analysis.VQ if row.startswith("vq") else analysis.PAPER
-        assert re.search(rf"'{re.escape(row)}' against '{re.escape(base)}': smoother "
-                         r"\(standardized least energy -200 \[[^]]+\]\) yet less successful "
-                         r"\(success -0\.30 \[", text), row
-    assert re.search(rf"'{re.escape(_label('c_init'))}' against '{re.escape(analysis.PAPER)}'"
-                     r": smoother \(standardized least energy -200 \[[^]]+\]\) and not "
-                     r"measurably different in success \(success \+0\.00 \[", text)
-    check = text.split("Across the variants,", 1)[1]
-    against, rest = check.split("success moved against smoothness in", 1)[1].split(";", 1)
-    assert {_label("restart vq"), _label("restart lipvq")} == set(re.findall(r"'([^']+)'",
-                                                                            against))
-    assert f"smoothness moved but success did not measurably in '{_label('c_init')}'" in rest
-    assert (f"success moved with no measurable change of smoothness in "
-            f"'{_label('windows')}'") in rest
-    assert "binds in '" in text and "cannot decide" in text
+        assert frame.loc[row, "smoothness"] == ANALYSIS_SMOOTH[Verdict.HOLDS]
+        assert frame.loc[row, "success, in words"] == ANALYSIS_SUCCESS[Verdict.DOES_NOT_HOLD]
+        assert frame.loc[row, "standardized least energy"].startswith("-200 [")
+    assert frame.loc[_label("c_init"), "success, in words"] == ANALYSIS_SUCCESS[
+        Verdict.INCONCLUSIVE]
+    assert frame.loc[_label("restart vq"), "base"] == analysis.VQ
 
 
 def test_chapter_11_types_no_result():
@@ -144,8 +137,8 @@ def test_chapter_11_types_no_result():
     for typed in ("both make Eq. 4 bind", "make Eq. 4 bind)", "barely moves them",
                   "binds in", "is smoother than", "succeeds more than"):
         assert typed not in prose, typed
-    for call in ("show_sources(results, analysis.binding_sentence, analysis.travel_sentence)",
-                 "show_sources(results, analysis.conclusion)",
+    for call in ("show_per_source(results, analysis.binding_frame)",
+                 "show_per_source(results, analysis.effects_frame)",
                  "comparison_list(analysis.findings(result))"):
         assert call in source, call
 

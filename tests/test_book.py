@@ -233,3 +233,25 @@ def test_plumbing_cells_hide_their_input():
             if imports_only and not tags & {"hide-input", "remove-input", "remove-cell"}:
                 untagged.append(f"{path.name}: {code[0]}")
     assert not untagged, f"import-only cells without hide-input: {untagged}"
+
+
+BUILT = ROOT / "book" / "_build" / "html" / "notebooks"
+
+
+@pytest.mark.skipif(not BUILT.is_dir(), reason="the book is not built here (make book)")
+def test_the_built_method_chapters_show_the_library_source_of_their_step():
+    """In the built book, chapters 02, 03, 05 and 06 hold the source of each object they
+    include (`test_chapters.SOURCE_SHOWN`), as highlighted code: the library's own text."""
+    from test_chapters import SOURCE_SHOWN
+
+    for chapter, files in SOURCE_SHOWN.items():
+        page = BUILT / chapter.replace(".py", ".html")
+        text = html_lib.unescape(re.sub(r"<[^>]+>", "", page.read_text()))
+        for file, objects in files.items():
+            source = (ROOT / file).read_text()
+            for name in objects:
+                last = name.split(".")[-1]
+                assert f"def {last}(" in text, (chapter, name)
+                # the first line of its body as the module has it, not a copy that drifted
+                body = source.split(f"def {last}(", 1)[1].splitlines()[1].strip()
+                assert body in text, (chapter, name, body)

@@ -55,6 +55,8 @@ BROKEN = {
                                    'column</h2><table style="width: 1500px"><tr><td>x</td>'
                                    '</tr></table></article></main>',
                                    ["overflow", "Past the column"]),
+    "too_tall.html": ('<div style="height: 7000px">a long chapter</div>',
+                      ["too tall", "at most 6000"]),
     "dead_viewer.html": ('<figure class="icil-recording" data-recordings=\'[{"label": "x", '
                          '"rrd": "recordings/x.rrd", "png": null}]\'>'
                          '<div class="icil-recording-viewer"></div></figure>',
@@ -79,6 +81,8 @@ def test_clean_site_passes_and_every_page_gets_a_screenshot(tmp_path):
     report = browser_check.run_check(site, tmp_path / "shots", viewer_timeout=10)
     assert report.problems == []
     assert sorted(report.pages) == sorted(CLEAN)
+    assert set(report.heights) == set(CLEAN)
+    assert all(0 < h <= browser_check.MAX_HEIGHT for h in report.heights.values())
     assert sorted(p.name for p in report.screenshots) == ["index.png", "sub__other.png"]
     for shot in report.screenshots:
         assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -62,3 +62,14 @@ def test_rounding_rules():
 def test_update_readme_prints_each_figure_as_it_was_printed():
     assert printed_at(6.2349, "6.2") == "6.2" and printed_at(241.6, "241") == "242"
     assert printed_at(0.0741, "0.074") == "0.074" and printed_at(12.0, "6.50") == "12.00"
+
+
+def test_the_readmes_first_screen_says_what_the_book_concludes_from_the_ledger():
+    """Before the two commands: what the book concludes about the paper, its numbers
+    computed from the committed ledger (`claims.*` figures), in at most two sentences."""
+    first = README.read_text().split("## Two commands")[0]
+    conclusion = first[first.index("**What the book concludes.**"):]
+    names = [name for _, _, name in MARKED.findall(conclusion)]
+    assert {"claims.total", "claims.holds", "claims.undecided"} <= set(names)
+    prose = re.sub(r"<!--.*?-->", "", conclusion).replace("Sec. IV", "Sec IV")
+    assert prose.count(". ") + prose.rstrip().endswith(".") <= 3  # heading + two sentences

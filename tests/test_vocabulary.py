@@ -149,3 +149,81 @@ def test_forest_plot_rows_say_what_each_claim_says_beside_its_id():
     shown = [t.get_text() for ax in fig.axes for t in ax.get_yticklabels()]
     assert sorted(shown) == sorted(row_label(e) for e in ledger)
     assert row_label(ledger[0]) == f"{CLAIM_LABELS[ledger[0].id]}  [{ledger[0].id}]"
+
+
+# --------------------------------------------------------------------------- the library writes no prose
+ENGLISH_CEILING = 38
+"""The most functions in `src/icil_paper` whose job is English (`english_functions`): 69 before
+issue 56, which aims at 10 (the vocabulary module counting as one place, 11 in all). Lower it as functions go; a new
+one fails the test: write the sentence in the chapter and glue its numbers."""
+
+_SENTENCE = __import__("re").compile(r"[A-Za-z]{2,}(?:[ ,;:()]+[A-Za-z'-]+){4,}")
+"""Five or more words in a row: a phrase of a sentence, not a label or a key."""
+_TEXT_RETURN = __import__("re").compile(
+    r"^(str|str \| None|None \| str|list\[str\]|tuple\[str, str\]|.*Markdown.*)$")
+_NOT_PROSE = {"warn", "warning", "error", "info", "debug", "exit", "ExtensionError"}
+
+
+def _phrases(node):
+    """The string literals and f-strings of a function's body that the function returns or
+    shows: outside its docstring, nested definitions, `raise` and log or warning calls."""
+    import ast
+
+    if isinstance(node, ast.Raise):
+        return
+    if isinstance(node, ast.Call) and ast.unparse(node.func).split(".")[-1] in _NOT_PROSE:
+        return
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        yield node.value
+        return
+    if isinstance(node, ast.JoinedStr):
+        yield "".join(v.value if isinstance(v, ast.Constant) else " x " for v in node.values)
+        return
+    for child in ast.iter_child_nodes(node):
+        if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            continue
+        if isinstance(child, ast.Expr) and isinstance(child.value, ast.Constant):
+            continue  # a docstring
+        yield from _phrases(child)
+
+
+def english_functions(root: Path) -> list[str]:
+    """"file:line:name" of each function under `root` whose job is English: it returns text
+    (`-> str`, a list of them, Markdown) or shows Markdown, and holds a literal phrase of five
+    or more words. A message naming a problem (`*_problem`, a `raise`) is not counted, nor
+    is `verdict_words`, the one vocabulary (it counts as one place)."""
+    import ast
+
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        if path.name == "verdict_words.py":
+            continue
+        for fn in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            returns = ast.unparse(fn.returns) if fn.returns is not None else ""
+            shows = any(isinstance(n, ast.Call) and ast.unparse(n.func) in
+                        {"Markdown", "collapsed_markdown"} for n in ast.walk(fn))
+            if fn.name.endswith("problem") or not (_TEXT_RETURN.match(returns) or shows):
+                continue
+            if any(_SENTENCE.search(t) for t in _phrases(fn)):
+                found.append(f"{path.relative_to(root)}:{fn.lineno}:{fn.name}")
+    return found
+
+
+def test_the_count_of_english_functions_finds_prose_and_skips_messages(tmp_path):
+    (tmp_path / "a.py").write_text(
+        'def finding(x) -> str:\n    """Docstrings are not counted at all here."""\n'
+        '    return f"the bound held for {x} of the encoders we trained"\n\n'
+        'def label(x) -> str:\n    return f"{x} seeds"\n\n'
+        'def check(x) -> str:\n    raise ValueError("this is an error and not a finding")\n\n'
+        'def path_problem(p) -> str | None:\n    return "the folder is missing: create it first"\n')
+    assert english_functions(tmp_path) == ["a.py:1:finding"]
+
+
+def test_the_library_keeps_few_functions_that_write_english():
+    root = Path(__file__).resolve().parents[1] / "src" / "icil_paper"
+    found = english_functions(root)
+    assert len(found) <= ENGLISH_CEILING, (
+        f"{len(found)} functions write English (at most {ENGLISH_CEILING}):\n"
+        + "\n".join(found))

@@ -15,6 +15,8 @@ that leaves the loopback server blocked. A page fails on:
                          own box, at the reader's window width (1400 px)
     recording viewer     a recording block (icil_paper.viz.viewer) whose viewer made no canvas,
                          did not report each of its recordings open, or scrolled the page
+    too tall             a page taller than MAX_HEIGHT px at 1400 px wide (collapse tables of
+                         seeds and power, or split the chapter)
 
 Prints one line per problem, `<page>: <problem>`, then a summary; exits 1 on any problem, 2
 when the check cannot run (no Chromium or Playwright, no built book). Screenshots of every
@@ -68,6 +70,8 @@ _VISIBLE_TEXT_JS = """
 """
 
 VIEWPORT = {"width": 1400, "height": 900}
+MAX_HEIGHT = 6000
+"""The tallest a page may be at VIEWPORT's width, in CSS px (`Report.heights` has each)."""
 """The reader's window: the width at which nothing may be clipped."""
 
 # Tables, cell outputs and figures that stick out of the content column, or whose content
@@ -155,6 +159,8 @@ class Report:
     problems: list[Problem] = field(default_factory=list)
     recordings_open: list[str] = field(default_factory=list)
     screenshots: list[Path] = field(default_factory=list)
+    heights: dict[str, int] = field(default_factory=dict)
+    """Each page's height in px at VIEWPORT's width, its dropdowns closed as a reader finds them."""
 
     @property
     def ok(self) -> bool:
@@ -308,6 +314,11 @@ def _check_page(browser, root: Path, base: str, page: str, report: Report,
             if at >= 0:
                 snippet = " ".join(text[max(0, at - 30):at + 40].split())
                 problems.append(f"untypeset math: {marker} in the text (…{snippet}…)")
+        height = int(pg.evaluate("() => document.documentElement.scrollHeight"))
+        report.heights[page] = height
+        if height > MAX_HEIGHT:
+            problems.append(f"too tall: {height} px at {VIEWPORT['width']} px wide (at most "
+                            f"{MAX_HEIGHT}; collapse tables of seeds and power into dropdowns)")
         for o in pg.evaluate(_OVERFLOW_JS):
             problems.append(f"overflow: a {o['what']} under '{o['heading']}' is {o['content']} px "
                             f"wide in {o['box']} px (split, shorten or transpose it)")
@@ -397,6 +408,8 @@ def main(argv: list[str] | None = None) -> int:
         print(problem)
     for line in report.recordings_open:
         print(f"recording open: {line}")
+    for page, height in report.heights.items():
+        print(f"height: {page} {height} px")
     print(f"browser check: {len(report.pages)} pages, {len(report.recordings_open)} recordings "
           f"open in the viewer, {len(report.problems)} problems, {time.time() - start:.0f} s; "
           f"screenshots in {screenshots}")

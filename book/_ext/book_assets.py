@@ -10,9 +10,8 @@ into the book's `_static/`:
                                 `icil_paper.viz.viewer.show_recording`
 
 and it adds `book/_static/` (recording-viewer.js, recordings.css, tables.css) to every page. In a
-Markdown page, `<!-- computed: reference-summary -->` becomes the reference run's claims
-summary, `<!-- computed: reference-design -->` its seeds and episodes and
-`<!-- computed: preset-table -->` every preset's scale (`_computed`).
+Markdown page, `<!-- computed: preset-table -->` becomes every preset's scale (`_computed`);
+numbers of results are pasted from the chapters that compute them (MyST-NB's `glue`).
 The npm
 packages are pinned in `book/package.json` / `package-lock.json` and installed into
 `book/node_modules` by `make setup`; a build without them fails and says so.
@@ -138,32 +137,15 @@ def _copy_assets(app: Sphinx, exception: Exception | None) -> None:
 
 
 def _computed(marker: str) -> str:
-    """What a `<!-- computed: NAME -->` marker in a Markdown page stands for: sentences made
-    from the committed reference run and the presets (a page is not executed, so it cannot
-    compute them itself; nothing about results is typed into it)."""
-    from icil_paper.book.report import design_sentence, reference_summary
-    from icil_paper.config import get_preset
-    from icil_paper.tables.display import REFERENCE
-
-    if marker == "reference-summary":
-        return reference_summary()
-    if marker == "reference-answers":
-        from icil_paper.book.report import reference_answers
-
-        return reference_answers()
-    if marker == "reference-bookkeeping":
-        from icil_paper.book.report import reference_bookkeeping
-
-        return reference_bookkeeping()
-    if marker == "reference-design":
-        return design_sentence(get_preset(REFERENCE))
+    """What a `<!-- computed: NAME -->` marker in a Markdown page stands for (a page is not
+    executed, so it cannot compute it itself): `preset-table`, every preset's scale. Numbers
+    of results are pasted from the chapters that compute them (MyST-NB's `glue`)."""
     if marker == "preset-table":
         from icil_paper.book.report import preset_table
 
         return preset_table()
     raise ExtensionError(f"unknown computed marker <!-- computed: {marker} --> (known: "
-                         "reference-summary, reference-answers, reference-bookkeeping, "
-                         "reference-design, preset-table)")
+                         "preset-table)")
 
 
 def _substitute_computed(app: Sphinx, docname: str, source: list[str]) -> None:

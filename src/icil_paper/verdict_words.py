@@ -85,6 +85,12 @@ ANALYSIS_SUCCESS = {HOLDS: "more successful", DOES_NOT_HOLD: "less successful",
                     NOT_RUN: "not yet measured in success"}
 """The analysis table's success finding (claimed: the variant succeeds more)."""
 
+EXPLANATION = {HOLDS: "survives", DOES_NOT_HOLD: "does not survive",
+               INCONCLUSIVE: "cannot be decided at this number of seeds and episodes",
+               TOO_FEW_SEEDS: "cannot be decided (a row has one seed)", NOT_RUN: "has not run yet"}
+"""The smoothness explanation's verdict (chapter 11: LipVQ-VAE smoother on the standardized
+score and more successful than VQ-VAE)."""
+
 OUTCOME = {HOLDS: "higher", DOES_NOT_HOLD: "lower",
            INCONCLUSIVE: "no difference detected (the interval contains 0)",
            TOO_FEW_SEEDS: "not decided (a row has a single training seed)",
@@ -103,6 +109,24 @@ TRAINING_WINDOW = {HOLDS: "holds", DOES_NOT_HOLD: "does not hold (windows do bet
                                   "from the method (too few seeds)"}
 """Chapter 02's "that whole episodes help <words>" (whole episodes minus random windows,
 claimed higher)."""
+
+DESIGN_OUTCOME = {HOLDS: "decided: it holds", DOES_NOT_HOLD: "decided: it does not hold",
+                  INCONCLUSIVE: "undecided", TOO_FEW_SEEDS: "undecided (a row has one seed)",
+                  NOT_RUN: "not run yet"}
+"""The design's outcome for a claim (its verdict after Holm), as the introduction quotes it
+beside the number that carries a question."""
+
+SMALLER_THAN_PAPER = "decided: smaller than the paper's effect"
+"""The outcome of a claim whose size was decided below the paper's effect (`Size.SMALLER`)."""
+
+SEEDS_TO_DECIDE = "about {n} seeds a row would decide it"
+ALONE_BUT_NOT_TOGETHER = {
+    HOLDS: "its 95% interval alone lies on the claimed side of 0, but not at the stricter "
+           "level that testing every claim at once requires",
+    DOES_NOT_HOLD: "its 95% interval alone lies on the other side of 0, but not at the "
+                   "stricter level that testing every claim at once requires"}
+"""Why a claim whose interval excludes 0 is still undecided (keyed by its unadjusted verdict)."""
+"""What an undecided claim would take: the seeds a row its power analysis asks for."""
 
 CLAIMED = {+1: "higher", -1: "lower"}
 """The claimed side of a difference in words."""

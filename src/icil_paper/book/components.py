@@ -1,12 +1,10 @@
 """The chapters on what the experiments are made of: the tasks and their demonstrations
 (chapter 04) and the action tokenizers trained alone (chapter 05). Frames, figures and
-findings, each computed from the stages' records.
+each computed from the stages' records; the chapters write the findings.
 
     display(task_registry())                               # chapter 04
     summary = demo_summary(demos, demo_stats(demos))       # both sources, per task
-    display(Markdown(demonstration_findings(...)))
     properties, smoothness = tokenizer_frames(seeds, paper_tokenizer_smoothness())  # 05
-    display(Markdown(tokenizer_findings(seeds, paper, list(TOKENIZERS))))
 
 Figures are closed before they are returned, so each shows once, where the chapter
 displays it.
@@ -27,7 +25,6 @@ from icil_paper import sim, stats
 from icil_paper.book.summaries import SeedRecords
 from icil_paper.data import SOURCES, load_demos, zero_shot_split
 from icil_paper.data.stats import data_set_stats, keep_rate
-from icil_paper.metrics import ascending, rank_correlation
 from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
 
 # --------------------------------------------------------------------------- chapter 04
@@ -39,18 +36,6 @@ and one ManiSkill task."""
 def data_tasks() -> list[str]:
     """`DATA_TASKS` that are registered here."""
     return [t for t in DATA_TASKS if t in sim.all_tasks()]
-
-
-def setup_lines(preset_name: str, shown: Sequence[str], tasks: Sequence[str],
-                demos_per_task: int) -> str:
-    """What chapter 04 shows under this preset (how many tasks, the data sets examined in
-    full, their demonstrations per source) and the suites that cannot run here, with why."""
-    lines = [f"preset {preset_name}: {len(shown)} tasks shown, data sets of {list(tasks)} with "
-             f"{demos_per_task} demos per source"]
-    unavailable = {s: sim.suite_unavailable(s) for s in sim.SUITES if sim.suite_unavailable(s)}
-    if unavailable:
-        lines.append(f"suites that cannot run here: {unavailable}")
-    return "\n".join(lines)
 
 
 def task_registry() -> pd.DataFrame:
@@ -114,12 +99,6 @@ def keep_rates(data_sets: Mapping[tuple[str, str], str | Path], limit: int) -> p
     kept = pd.DataFrame(rows).pivot(index="task", columns="source", values="keep rate")
     kept.columns = [KEPT_COLUMN.format(source=c) for c in kept.columns]
     return kept
-
-
-def no_expert_measurement(preset_name: str) -> str:
-    """What chapter 04 says when no expert was measured over fresh scenes."""
-    return (f"No fresh-scene measurement under the {preset_name} preset (`data.expert_seeds` "
-            "= 0); see the command above.")
 
 
 def demo_stats(demos: Mapping[tuple[str, str], Sequence[Any]]) -> pd.DataFrame:
@@ -191,49 +170,6 @@ def zero_shot_lines() -> str:
 
 EXPERT_REQUIREMENT = 0.9
 """The success an expert must reach over random scenes (the paper's data need it)."""
-
-
-def demonstration_findings(showcase: Mapping[str, Mapping[str, Any]], kept, experts, summary,
-                           tasks: Sequence[str], preset_name: str) -> str:
-    """Chapter 04's "What we found": whether each shown task's demo 0 succeeded
-    (`showcase`), the experts' success over the scenes the data sets were generated on
-    (`kept`, a frame with a "generated: success over data-set scenes" column) and over fresh
-    scenes with replay (`experts`, `studies.expert_measurements` as a frame), and, for each of
-    `tasks`, how the human source's demos differ from the generated ones (`summary`, by
-    (task, source): mean length, still fraction, least energy per step)."""
-    lines = []
-    failed_shown = [t for t, e in showcase.items() if not e["success"]]
-    lines.append(f"Demo 0 of the generated source succeeded on "
-                 f"{len(showcase) - len(failed_shown)} of {len(showcase)} shown tasks"
-                 + (f" (failed: {failed_shown})." if failed_shown else "."))
-    generated_rate = kept[KEPT_COLUMN.format(source="generated")]
-    low_kept = generated_rate[generated_rate < EXPERT_REQUIREMENT]
-    lines.append(f"Over the scenes the {preset_name} data sets were generated on, the experts "
-                 f"succeeded in {generated_rate.min():.0%}-{generated_rate.max():.0%} of "
-                 "attempts per task; " + ("every task meets 0.9 there." if low_kept.empty else
-                                          f"below 0.9: {list(low_kept.index)}."))
-    if len(experts):
-        low = experts[experts.expert < EXPERT_REQUIREMENT]
-        lines.append(f"Over {int(experts.seeds.min())}+ random scenes per task, the expert "
-                     f"success rate ranges from {experts.expert.min():.2f} to "
-                     f"{experts.expert.max():.2f}; "
-                     + ("every measured expert meets the 0.9 requirement."
-                        if low.empty else f"below 0.9: {list(low.task)}."))
-        if experts.replay.notna().all():
-            lines.append(f"Replaying the stored actions of successful episodes open loop "
-                         f"succeeds again in {experts.replay.min():.0%}-"
-                         f"{experts.replay.max():.0%} of them.")
-    for task in tasks:
-        g, h = summary.loc[(task, "generated")], summary.loc[(task, "human")]
-        energy = h.least_energy_per_step / max(g.least_energy_per_step, 1e-12)
-        lines.append(
-            f"{task}: human demos are {h.mean_length / g.mean_length:.2f}x as long as generated "
-            f"ones ({h.mean_length:.0f} vs {g.mean_length:.0f} steps), stand still in "
-            f"{h.still_fraction:.0%} vs {g.still_fraction:.0%} of steps, and their least energy "
-            f"per step is {energy:.3g}x the generated demos' "
-            + ("(less smooth, as the human source is meant to be)." if energy > 1 else
-               "(NOT less smooth: the human source does not differ as intended here)."))
-    return "\n\n".join(lines)
 
 
 # --------------------------------------------------------------------------- chapter 05
@@ -312,61 +248,3 @@ def smoothness_figure(seeds: SeedRecords, paper_smoothness: Mapping[str, float],
     fig.tight_layout()
     plt.close(fig)
     return fig
-
-
-def tokenizer_findings(seeds: SeedRecords, paper_smoothness: Mapping[str, float],
-                       tokenizers: Sequence[str], keys: Sequence[str] = TOKENIZER_SCORES) -> str:
-    """Chapter 05's "What we found", from the tokenizer study's records (`seeds`): our
-    smoothness rankings against the paper's (`paper_smoothness`, tokenizer -> its Table III
-    least energy; `tokenizers` the registry's names, in order), the paired smoothness
-    comparisons of each Lipschitz variant with its base, the latent scale, codebook
-    collapse, the official code's variant, throughput and codes used per level."""
-    records = seeds.records
-    paper_names = [k for k in tokenizers if k in paper_smoothness]
-    lines = [f"Paper's smoothness ranking (smoothest first): "
-             f"{', '.join(ascending(paper_smoothness))}."]
-    for key in keys:
-        ours = {k: float(seeds.scores(k, key).mean()) for k in paper_names}
-        lines.append(f"Our {key.replace('_', ' ')} ranking: {', '.join(ascending(ours))}; rank "
-                     f"correlation with the paper's "
-                     f"{rank_correlation(ours, paper_smoothness):+.2f}.")
-    for key in keys:
-        lines.append("LipVQ-VAE against VQ-VAE (the Lipschitz constraint alone): "
-                     + seeds.compare("lipvq", "vq", key) + ".")
-        lines.append("With codebooks initialised from encoder outputs: "
-                     + seeds.compare("lipvq-data-init", "vq-data-init", key) + ".")
-        lines.append("Eq. 4 on FSQ's encoder: " + seeds.compare("lipfsq", "fsq", key) + ".")
-        lines.append("Eq. 4 on residual VQ's encoder: " + seeds.compare("liprvq", "rvq", key)
-                     + ".")
-    lines.append(f"Latent scale σ: LipVQ-VAE {seeds.mean('lipvq', 'latent_scale'):.3g}, VQ-VAE "
-                 f"{seeds.mean('vq', 'latent_scale'):.3g}; the raw least energy scales with σ².")
-    low_usage = [k for k in records
-                 if seeds.mean(k, "usage") is not None and seeds.mean(k, "usage") < LOW_USAGE]
-    if low_usage:
-        lines.append(f"Codebook collapse (under {LOW_USAGE:.0%} of codes used on held-out data, "
-                     "mean over seeds): "
-                     + ", ".join(f"{k} ({seeds.mean(k, 'codes_used'):.0f} of "
-                                 f"{seeds.mean(k, 'codebook_size'):.0f})" for k in low_usage)
-                     + ".")
-    lines.append(
-        f"The official code's LipVQ variant (sigmoid output, no straight-through) uses "
-        f"{seeds.mean('lipvq-official', 'codes_used'):.0f} code(s) and reconstructs with MSE "
-        f"{seeds.mean('lipvq-official', 'reconstruction_mse'):.4g}, against "
-        f"{seeds.mean('lipvq', 'codes_used'):.0f} codes and "
-        f"{seeds.mean('lipvq', 'reconstruction_mse'):.4g} for the paper's.")
-    rates = {k: seeds.mean(k, "encode_decode_actions_per_s") for k in records}
-    fastest, slowest = max(rates, key=rates.get), min(rates, key=rates.get)
-    lines.append(
-        f"Throughput (encode + decode, one core): from {rates[slowest]:,.0f} actions/s "
-        f"({slowest}) to {rates[fastest]:,.0f} ({fastest}). FAST emits "
-        f"{seeds.mean('fast', 'tokens_per_step'):.2f} tokens per step, bin "
-        f"{seeds.mean('bin', 'tokens_per_step'):.0f}, B-spline "
-        f"{seeds.mean('bspline', 'tokens_per_step'):.2f}, the others one embedding per step.")
-    levels = len(records["rvq"][0]["codes_used_per_level"])
-    lines.append(
-        f"Residual VQ uses {seeds.per_level('rvq')} codes per level (of "
-        f"{seeds.mean('rvq', 'codebook_size') / levels:.0f} each), "
-        f"{seeds.per_level('liprvq')} with Eq. 4; FSQ {seeds.mean('fsq', 'codes_used'):.0f} of "
-        f"its {seeds.mean('fsq', 'codebook_size'):.0f} grid points, "
-        f"{seeds.mean('lipfsq', 'codes_used'):.0f} with Eq. 4.")
-    return "\n\n".join(lines)

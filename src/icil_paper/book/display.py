@@ -1,8 +1,8 @@
 """Display helpers the chapters share: a paragraph per source of a table, and a frame or the
 line that says why there is none.
 
-    show_sources(results, binding_sentence, travel_sentence)
-    # **reference run.** <binding sentence> <travel sentence>
+    show_sources(results, comparison_markdown)
+    # **reference run.** <its Markdown>
     # **this build (small).** ...
     show_frame_or(frame, "*No smoothness records yet.*")
 

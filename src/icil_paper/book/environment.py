@@ -1,8 +1,6 @@
-"""Chapter 01's views of the machine and the preset: every field of the active preset with
-its docstring, and what works here in one line per check.
+"""Chapter 01's view of the preset: every field of the active preset with its docstring.
 
     preset_fields(preset)                     # frame: field -> value, meaning
-    print(capabilities(environment_report(preset.name), preset))
 """
 
 from __future__ import annotations
@@ -44,15 +42,3 @@ def preset_fields(preset: Preset, sections: Sequence[str] = PRESET_SECTIONS) -> 
         rows += [{"field": name, "value": str(value), "meaning": doc}
                  for name, value, doc in config_fields(config, section)]
     return pd.DataFrame(rows).set_index("field")
-
-
-def capabilities(report: dict, preset: Preset) -> str:
-    """What works here, from `setup.envcheck.environment_report`: the preset, its seed and
-    the training device, then one line per check ("works:" or "FAILED:", with its detail)."""
-    device = (report.get("torch") or {}).get("device", "cpu")
-    lines = [f"Preset {preset.name!r}, seed {preset.seed}, training on {device}."]
-    lines += [("works:  " if c["ok"] else "FAILED: ") + f"{c['name']} ({c['detail']})"
-              for c in report["checks"]]
-    if any(not c["ok"] for c in report["checks"]):
-        lines.append("\nChapters that need a failed capability skip those experiments and say so.")
-    return "\n".join(lines)

@@ -2,15 +2,13 @@
 frames they show beside the tables of `icil_paper.tables`, each computed from the tables'
 results or the preset.
 
-    display(Markdown(maniskill_paragraph(preset, maniskill_settings(preset))))   # chapter 07
     show_frame_or(standardized_frame(smooth), NO_SMOOTHNESS)     # chapter 08: Table III
-    display(Markdown(prompt_differences(prompt)))                # chapter 10: the prompts
+    display(prompt_frame(prompt))                                # chapter 10: the prompts
     comparison_list(findings(result))                            # chapter 11: a Markdown list
     display(Markdown(eq4_differences(results)))                  # chapter 12: Eq. 4 or not
 
-`results` is what `book.report.load_table` returns, {source: TableResult}. Where a chapter
-reads a number from a function of `icil_paper.tables` (a design sentence, the settings of
-Table II, the seeds of a row), it calls that function and passes the result here.
+`results` is what `book.report.load_table` returns, {source: TableResult}. Numbers a chapter
+writes into its own prose it glues there (MyST-NB's `glue`).
 """
 
 from __future__ import annotations
@@ -22,10 +20,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from icil_paper import verdict_words
+from icil_paper import stats, verdict_words
 from icil_paper.book.report import BUILD, source_label
-from icil_paper.config import Preset
-from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.tables.assemble import TableResult, format_cell
 from icil_paper.tables.display import difference_sentence
 
@@ -34,34 +30,7 @@ Results = Mapping[str, TableResult]
 
 
 # --------------------------------------------------------------------------- chapter 06
-def design_paragraph(preset_name: str, reference_design: str, build_design: str) -> str:
-    """The reference run's seeds and episodes, then this build's (each in the words of
-    `book.report.design_sentence`)."""
-    return (f"The reference run's design: {reference_design}. "
-            f"This build's (`{preset_name}`): {build_design}.")
-
-
-def paper_lipvq_range() -> str:
-    """The range of the paper's ICRT + LipVQ-VAE over its seven skill families (Table I)."""
-    families = [v for k, v in TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
-    return (f"The paper's ICRT + LipVQ-VAE over its seven families: {min(families):.2f} to "
-            f"{max(families):.2f}.")
-
-
 # --------------------------------------------------------------------------- chapter 07
-def maniskill_paragraph(preset: Preset, settings: tuple[int, int, int]) -> str:
-    """Table II's training and evaluation under this build's preset: the demonstrations,
-    steps and episodes of the state policies (`settings`, from
-    `tables.definitions.maniskill_settings`) and MCR's image demonstrations."""
-    demos, steps, episodes = settings
-    return (f"Each state policy of this build's preset (`{preset.name}`) learns one task from "
-            f"{demos} demonstrations in {steps} steps and is rolled out in {episodes} "
-            f"episode{'s' if episodes != 1 else ''} per task; MCR learns from "
-            f"{preset.tables.image_demos_per_task} image demonstrations per task. The "
-            "reference preset gives these single-task runs more data and steps than Table I's "
-            "multi-task ones (`tables.maniskill_*` in `src/icil_paper/config.py`).")
-
-
 # --------------------------------------------------------------------------- chapter 08
 NO_SMOOTHNESS = "*No smoothness records yet.*"
 """What chapter 08 shows where no tokenizer's features were scored yet."""
@@ -121,12 +90,23 @@ def tsne_actions(smooth: TableResult) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- chapter 10
-def prompt_differences(prompt: Results) -> str:
+def prompt_frame(prompt: Results) -> pd.DataFrame:
     """The prompt ablation's right prompt against the wrong one and the truncated one (its
-    first row against its second and third), paired over the same episodes, in Markdown."""
+    first row against its second and third), paired over the same episodes: one row per
+    (source, other prompt), the difference with its 95% interval and the verdict on "the
+    right prompt succeeds more" (`verdict_words.MISSING` where a row has not run)."""
     labels = [r.label for r in prompt[BUILD].spec.rows]
-    return ("The right prompt against the other two (paired over the same episodes):\n\n"
-            + "\n".join(difference_sentence(prompt, labels[0], other) for other in labels[1:3]))
+    rows = {}
+    for source, result in prompt.items():
+        for other in labels[1:3]:
+            xa, xb = result.outcomes(labels[0]), result.outcomes(other)
+            est = None if xa is None or xb is None else stats.paired_difference(xa, xb)
+            rows[source_label(source, result.preset), other] = {
+                f"'{labels[0]}' minus it": verdict_words.MISSING if est is None
+                else f"{est.value:+.3f} [{est.low:+.3f}, {est.high:+.3f}]",
+                "the right prompt is higher": verdict_words.MISSING if est is None
+                else stats.verdict(est, +1).value}
+    return pd.DataFrame(rows).T
 
 
 # --------------------------------------------------------------------------- chapter 11
@@ -162,8 +142,3 @@ def eq4_differences(results: Results, pairs: Sequence[tuple[str, str]] = EQ4_PAI
 
 
 # --------------------------------------------------------------------------- chapter 13
-def official_seeds_sentence(preset_name: str, reference_seeds: int, build_seeds: int) -> str:
-    """The training seeds of every row of the official-code table, in the reference run and
-    in this build (each from `tables.definitions.official_seeds`)."""
-    return (f"Training seeds a row: {reference_seeds} in the reference run, {build_seeds} in "
-            f"this build (`{preset_name}`).")

@@ -1,12 +1,10 @@
 """The chapters on the paper's method (Sec. III): what chapter 02 draws of ICRT (the
-attention mask, what the loss reaches, training, a replayed rollout) and its findings;
-what chapter 03 shows of Eq. 4 (the bound check, the bounds in training) and its findings.
+attention mask, what the loss reaches, training, a replayed rollout);
+what chapter 03 shows of Eq. 4 (the bound check, the bounds in training).
 
     display(attention_mask_figure(mask, batch, b))        # chapter 02
     coverage = loss_coverage(roles, grads)                 # tokens the loss reaches, by kind
-    display(Markdown(icrt_findings(metrics, coverage, task, preset.name)))
     display(lipschitz_frame(records, radii))               # chapter 03: bounds and constants
-    display(Markdown(lipschitz_findings(by_seed, radii, lr)))
 
 Figures are closed before they are returned, so each shows once, where the chapter
 displays it. The token layout of Eq. 1 stays in chapter 02 itself: its code is the lesson.
@@ -21,23 +19,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from icil_paper.book.summaries import SeedRecords
 from icil_paper.eval import rollout_policy
-from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env
 
 
 # --------------------------------------------------------------------------- chapter 02
-def run_description(preset_name: str, run: Any, demos: Sequence[Any], task: str) -> str:
-    """One line on chapter 02's run: the demonstrations of `task` it trains on (how many,
-    their lengths), the policy's size, the training steps and the run's key."""
-    lengths = [len(d.actions) for d in demos]
-    return (f"preset {preset_name}: {len(demos)} demonstrations of {task}, "
-            f"{min(lengths)}-{max(lengths)} steps; policy d_model={run.policy.d_model}, "
-            f"{run.policy.n_layer} layers, {run.train.steps} training steps; run key {run.key()}")
-
-
 def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
     """Sequence `b`'s causal mask (L, L), white where a query position may attend to a key,
     with a line between the (padded) prompt and the query."""
@@ -53,17 +40,9 @@ def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
     return fig
 
 
-def mask_summary(mask: np.ndarray, batch: Mapping[str, Any], b: int) -> str:
-    """How many (query, key) pairs sequence `b`'s mask lets attend, and how many of its
-    prompt steps are padding."""
-    padded = batch["prompt_valid"].shape[1] - int(batch["prompt_valid"][b].sum())
-    return (f"keys attended to: {int(mask.sum())} of {mask.size}; padded prompt steps in this "
-            f"sequence: {padded}")
-
-
 def loss_gradient_figure(grads: Any):
     """|dL/dh| at each position of the transformer's output, one line per sequence
-    (`grads` (B, L), from `policy.token_loss_gradients`)."""
+    (`grads` (B, L), from `policies.inspection.token_loss_gradients`)."""
     fig, ax = plt.subplots(figsize=(12, 2.2))
     for b in range(grads.shape[0]):
         ax.plot(np.asarray(grads[b]), lw=1, label=f"sequence {b}")
@@ -77,7 +56,7 @@ def loss_gradient_figure(grads: Any):
 
 def loss_coverage(roles: Mapping[str, Any], grads: Any) -> dict[str, int]:
     """The tokens the loss reaches (a nonzero gradient in `grads` (B, L)), by kind, from the
-    batch's `roles` (`policy.token_roles`: boolean `supervised` and `valid`, `segment` 0 for
+    batch's `roles` (`policies.inspection.token_roles`: boolean `supervised` and `valid`, `segment` 0 for
     the prompt): supervised query tokens reached of all of them, prompt tokens reached of
     all real ones, and tokens reached that are not supervised (0 when the loss is right)."""
     supervised, valid = roles["supervised"], roles["valid"]
@@ -86,14 +65,6 @@ def loss_coverage(roles: Mapping[str, Any], grads: Any) -> dict[str, int]:
     return {"query_reached": int((reached & supervised).sum()), "query": int(supervised.sum()),
             "prompt_reached": int((reached & prompt).sum()), "prompt": int(prompt.sum()),
             "unsupervised_reached": int((reached & ~supervised).sum())}
-
-
-def coverage_sentence(coverage: Mapping[str, int]) -> str:
-    """`loss_coverage` in one line."""
-    c = coverage
-    return (f"loss reaches {c['query_reached']} of {c['query']} supervised query observation "
-            f"tokens, {c['prompt_reached']} of {c['prompt']} prompt tokens, and "
-            f"{c['unsupervised_reached']} tokens that are not supervised")
 
 
 def study_metrics(study: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
@@ -114,14 +85,6 @@ def training_figure(metrics: Mapping[str, Any], title: str):
     ax.set_title(title)
     plt.close(fig)
     return fig
-
-
-def success_line(metrics: Mapping[str, Any]) -> str:
-    """The rollouts' success with its Wilson interval and their mean length."""
-    m = metrics
-    return (f"success {m['successes']}/{m['episodes']} = {m['success_rate']:.2f} "
-            f"(Wilson 95% CI {m['ci_low']:.2f}-{m['ci_high']:.2f}), mean episode length "
-            f"{m['mean_steps']:.0f} steps")
 
 
 def shown_episode(per_episode: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
@@ -171,42 +134,6 @@ def rollout_figure(trace: Mapping[str, Any], demo: Any):
     fig.tight_layout()
     plt.close(fig)
     return fig
-
-
-def replay_sentence(episode: Mapping[str, Any], trace: Mapping[str, Any]) -> str:
-    """The replay's outcome beside the stored evaluation's, for the same episode."""
-    def outcome(success: bool) -> str:
-        return "success" if success else "no success"
-
-    return (f"episode {episode['episode']} (env seed {episode['seed']}): "
-            f"{outcome(trace['success'])} after {trace['steps']} steps (the stored evaluation: "
-            f"{outcome(episode['success'])} after {episode['steps']} steps)")
-
-
-def icrt_findings(metrics: Mapping[str, Any], coverage: Mapping[str, int], task: str,
-                  preset_name: str) -> str:
-    """Chapter 02's "What we found", as a Markdown list: the tokens the loss reached on a
-    real batch (`coverage`, from `loss_coverage`: supervised query tokens, and prompt
-    tokens: 0 as Sec. III-A says), how far training lowered the loss, and the rollouts'
-    success on `task` with its interval beside the paper's drawer family (Table I), from the
-    ICRT study's `metrics` (`study_metrics`: its train and eval records merged)."""
-    m = metrics
-    paper = TABLE_I_ROBOCASA["icrt+lipvq"]["drawers"]
-    loss_drop = m["loss"][0] / max(m["loss"][-1], 1e-12)
-    held = "within" if m["ci_low"] <= paper <= m["ci_high"] else "outside"
-    return (
-        f"- The token layout, mask and loss coverage above are computed from a real batch: the "
-        f"loss reached {coverage['query_reached']} supervised query tokens and "
-        f"{coverage['prompt_reached']} prompt tokens, as Sec. III-A describes (no loss on the "
-        f"prompt).\n"
-        f"- Training ({m['train']['steps']} steps, preset '{preset_name}') lowered the total "
-        f"loss {loss_drop:.1f}-fold.\n"
-        f"- On {task}, ICRT + LipVQ-VAE succeeded in {m['successes']} of {m['episodes']} "
-        f"rollouts ({m['success_rate']:.2f}, 95% CI {m['ci_low']:.2f}-{m['ci_high']:.2f}). The "
-        f"paper reports {paper:.2f} on RoboCasa's drawer family after 500K iterations on "
-        f"MimicGen data; its number lies {held} our interval of {m['episodes']} episode(s). "
-        "Our task, data and training budget are stand-ins at a much smaller scale, so this "
-        "chapter checks the mechanics, not the paper's number.")
 
 
 # --------------------------------------------------------------------------- chapter 03
@@ -280,46 +207,3 @@ def bound_holds(metrics: Sequence[Mapping[str, Any]], radii: Sequence[float],
     """Whether every seed's empirical inf-norm Lipschitz constant (the largest over `radii`)
     stays within its bound prod ||W_l||_inf (Eq. 4's guarantee), up to `rtol`."""
     return all(empirical_constant(m, radii) <= m["bound_inf"] * (1 + rtol) for m in metrics)
-
-
-def lipschitz_findings(by_seed: Mapping[str, Sequence[Mapping[str, Any]]],
-                       radii: Sequence[float], lr: float) -> str:
-    """Chapter 03's "What we found", from the Lipschitz study's records (`by_seed`, label ->
-    metrics per training seed; `lr` the study's learning rate): the bound check of every
-    encoder, how LipVQ-VAE's per-layer bounds moved in training and why, spectral
-    normalization's bounds against LipVQ-VAE's, and each encoder's reconstruction error."""
-    seeds = SeedRecords(by_seed)
-    records = seeds.seed_means()
-    holds = {label: bound_holds(ms, radii) for label, ms in by_seed.items()}
-    paper = records["lipvq (paper)"]
-    c_hist = np.array(paper["c_history"])  # (logged steps, layers)
-    start, end = c_hist[0], c_hist[-1]
-    steps = paper["history_step"][-1]
-    drift = float(np.mean(end - start)) / steps
-    change = ", ".join(f"layer {i + 1}: {a:.3g} -> {b:.3g} ({(b - a) / a:+.1%})"
-                       for i, (a, b) in enumerate(zip(start, end, strict=True)))
-    lip, spec, plain = (records["lipvq (paper)"], records["vq + spectral norm"],
-                        records["vq (no normalization)"])
-    emp = {label: empirical_constant(m, radii) for label, m in records.items()}
-    lines = [
-        f"Bound check (inf-norm, every model and each of its {seeds.n_seeds} seed(s)): "
-        + "; ".join(f"{k}: {'held' if v else 'VIOLATED'}" for k, v in holds.items()) + ".",
-        f"LipVQ-VAE's per-layer bounds softplus(c_l) over {steps} steps: {change}. "
-        f"Their product ends at {paper['bound_softplus_product']:.4g}; the empirical constant "
-        f"is {emp['lipvq (paper)']:.4g}, "
-        f"{emp['lipvq (paper)'] / paper['bound_softplus_product']:.2%} of it.",
-        "With Liu et al.'s initialisation (c_l = the largest initial row sum) nothing is "
-        "rescaled at the start. The 1e-6 weight does not make the bounds' steps small: Adam "
-        "scales every parameter's step to about the learning rate, so softplus(c_l) drifts "
-        f"{'down' if drift < 0 else 'up'} by {abs(drift):.2g} per step on average (learning "
-        f"rate {lr:g}), {np.max(np.abs(end - start) / start):.2%} of its value at most in "
-        "this run. The constraint bites only once a row's sum reaches its shrinking bound.",
-        f"Spectral normalization gives a 2-norm bound of {spec['bound_2']:.3g} (about 1 per "
-        f"layer) and an inf-norm bound of {spec['bound_inf']:.3g}; its empirical inf-norm "
-        f"constant is {emp['vq + spectral norm']:.3g} against {emp['lipvq (paper)']:.3g} for "
-        f"LipVQ-VAE and {emp['vq (no normalization)']:.3g} without normalization.",
-        f"Reconstruction MSE: LipVQ-VAE {lip['reconstruction_mse']:.4g}, spectral "
-        f"{spec['reconstruction_mse']:.4g}, unnormalized {plain['reconstruction_mse']:.4g}, "
-        f"official-code variant {records['lipvq (official code)']['reconstruction_mse']:.4g}.",
-    ]
-    return "\n\n".join(lines)

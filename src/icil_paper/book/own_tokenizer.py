@@ -4,7 +4,6 @@ LipVQ-VAE on Table I's protocol (`icil-paper compare`), and the `own-tokenizer` 
 
     path = write_example("my_plugins/")          # chunk_bins.py, the tokenizer `chunkbins`
     report = own_tokenizer_study(preset)         # loads it, runs (or loads) the comparison
-    own_tokenizer_findings(report)               # the chapter's "What we found"
 
 The example is the one a reader would write: uniform bins over chunks of actions (each
 step's embedding sums learned embeddings of the bins of its last `chunk` actions, every
@@ -112,25 +111,3 @@ def own_tokenizer_study(preset: Preset, store: ResultsStore | None = None,
                              gpus_per_cell=GRID["gpus_per_cell"], progress=False)
     compare.write(report, folder)
     return report
-
-
-def seed_cap_line(preset: Preset) -> str:
-    """The most seeds a row the chapter's comparison may plan under this preset."""
-    return (f"seeds a row at most in this build ({preset.name}): "
-            f"{CHAPTER_MAX_SEEDS.get(preset.name, compare.MAX_SEEDS)}")
-
-
-def own_tokenizer_findings(report: dict[str, Any]) -> str:
-    """Chapter 14's "What we found", from the comparison's report (`own_tokenizer_study`):
-    the difference with its interval and verdict (`compare.sentence`), the smallest
-    difference the design detects and its power at the effect of interest (where the report
-    has them), how the seeds were chosen, and what the preset's numbers can tell."""
-    entry, seeds = report["comparisons"][0], report["seed_plan"]
-    power = (f"The design detects a difference of {entry['mde']:.3f} with 80% power; the effect "
-             f"of interest, {report['effect']:g}, it detects with probability "
-             f"{entry['power']:.2f}. " if entry.get("power") is not None else "")
-    return (f"In this build ({report['preset']} preset) `{EXAMPLE_NAME}` against LipVQ-VAE: "
-            f"{compare.sentence(entry)} {power}Seeds: {seeds.get('note') or 'fixed'}. "
-            "At the small preset these numbers test the code, not the question (200 training "
-            "steps, one episode per task); at the reference preset the same command reuses "
-            "LipVQ-VAE's reference cells and plans the new row's seeds from their variance.")

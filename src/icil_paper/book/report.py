@@ -388,35 +388,6 @@ def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", ver
 
 
 # --------------------------------------------------------------------------- the reference run
-def design_sentence(preset: Preset) -> str:
-    """The preset's seeds and episodes in words (never typed into a chapter): "3 training
-    seeds for the ICRT rows and 1 for the other rows, 10 episodes per task and seed"."""
-    t = preset.tables
-    seeds = (f"{t.icrt_seeds} training seed{'s' if t.icrt_seeds != 1 else ''} for every row"
-             if t.icrt_seeds == t.baseline_seeds else
-             f"{t.icrt_seeds} training seed{'s' if t.icrt_seeds != 1 else ''} for the ICRT rows "
-             f"and {t.baseline_seeds} for the other rows")
-    scenes = ("seed k of every row on its own scene set k" if t.scenes_per_seed
-              else "every seed on the same scenes")
-    episodes = preset.eval.episodes_per_task
-    tables: dict[str, list[str]] = {}  # table -> "5 a row" and "act 10" phrases
-    for name, n in t.seeds_by_row().items():
-        table, row = name.split(":", 1)
-        phrase = f"{n} a row" if row == "*" else f"{row} {n}"
-        tables.setdefault(table, []).insert(0 if row == "*" else len(tables.get(table, [])),
-                                            phrase)
-    for table, n in (("beyond", t.since_paper_seeds), ("official", t.official_seeds)):
-        if n and n != t.icrt_seeds:
-            tables.setdefault(table, []).insert(0, f"{n} a row")
-    if tables:
-        seeds += (" (Table I's rows, shared by Tables III-VI), except "
-                  + "; ".join(f"table {table}: {', '.join(parts)}"
-                              for table, parts in tables.items())
-                  + " (a row that is one of Table I's keeps its seeds)")
-    return (f"{seeds}, {episodes} episode{'s' if episodes != 1 else ''} per task and seed, "
-            f"{scenes}")
-
-
 OLDER_LEDGER = "older-code/claims.json"
 """Under `results/reference/`: the reference ledger as an older version of the code computed
 it (its `made_by` names the commit), kept while the reference run is redone."""

@@ -1,17 +1,15 @@
-"""What the chapters show of a study's records: seed averages, intervals and verdicts in words.
+"""What the chapters show of a study's records: seed averages and intervals.
 
     from icil_paper.book.studies import tokenizer_study
     from icil_paper.book.summaries import SeedRecords
     seeds = SeedRecords(tokenizer_study(preset, store))    # {label: [metrics per seed]}
     seeds.mean("lipvq", "usage")                            # mean over training seeds
     seeds.with_interval("lipvq", "least_energy")            # "0.012 [0.01, 0.014]"
-    seeds.compare("lipvq", "vq", "least_energy")            # "lipvq minus vq on ...: ... smoother"
     seeds.seed_means()                                      # one row of means per label
 
 The records are the stand-alone studies' (`studies.tokenizer_study`, `studies.lipschitz_study`):
 each label holds one metrics dict per training seed, in seed order. Chapters call these and
-show the result; they define no statistics of their own. The chapters' findings built on
-them are in `method.py` (chapters 02 and 03) and `components.py` (chapters 04 and 05).
+show the result, or glue the numbers into their prose; they define no statistics of their own.
 """
 
 from __future__ import annotations
@@ -22,7 +20,6 @@ from typing import Any
 import numpy as np
 
 from icil_paper import stats
-from icil_paper.tables.display import smoother_sentence
 
 
 class SeedRecords:
@@ -59,12 +56,6 @@ class SeedRecords:
         """The mean score with its 95% interval (`stats.score_mean`), as text."""
         est = stats.score_mean(self.scores(label, key))
         return f"{est.value:.{digits}g} [{est.low:.{digits}g}, {est.high:.{digits}g}]"
-
-    def compare(self, a: str, b: str, key: str) -> str:
-        """Is `a` smoother than `b` on `key`? The paired difference and its verdict in words
-        (`tables.display.smoother_sentence`: lower is smoother)."""
-        return smoother_sentence(a, b, self.scores(a, key), self.scores(b, key),
-                                 key.replace("_", " "))
 
     def seed_means(self) -> dict[str, dict[str, Any]]:
         """One row per label: the mean over seeds of every number, seed 0's value of

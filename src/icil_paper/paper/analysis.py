@@ -2,8 +2,10 @@
 
     spec(preset)                 # ICRT with VQ-VAE, LipVQ-VAE and their variants x avg, features
     analysis_frame(result)       # success, least energy (raw, standardized), scale, Eq. 4's facts
-    conclusion(result)           # the chapter's closing paragraph, from the numbers
-    training_window_sentence(result)   # chapter 02: whole episodes against 32-step windows
+    binding_frame(result)        # does Eq. 4 bind, and how far the bounds could move
+    effects_frame(result)        # each variant against its base, in the vocabulary's words
+    explanation_verdict(result)  # the smoothness explanation's verdict
+    training_windows(result)     # chapter 02: whole episodes against 32-step windows
 
 The paper explains LipVQ-VAE's success by smoothness: Eq. 4 bounds the encoder's Lipschitz
 constant, so neighbouring actions get neighbouring latents, so latent trajectories are
@@ -12,22 +14,22 @@ Each link can be checked on the table's cells (`ANALYSIS_VARIANTS`; its VQ-VAE a
 LipVQ-VAE rows are Table I's policies):
 
 1. Does Eq. 4 bind? The share of rows whose absolute sum the trained bound caps (a row
-   "binds" at `BINDS_AT` or more: `binding_sentence`), the product of the layer bounds,
+   "binds" at `BINDS_AT` or more: `binding_frame`), the product of the layer bounds,
    the encoder's empirical Lipschitz constant, and how far training could move the bounds
-   at all (`travel_sentence`).
+   at all (`bound_travel`).
 2. Is LipVQ-VAE smoother than VQ-VAE once the latent scale is removed? The raw least energy
    grows with the square of the latent scale; the standardized one does not.
 3. Does LipVQ-VAE succeed more than VQ-VAE, and does each variant (a large gamma, initial
    bounds of 1, a larger learning rate of the bounds, dead-code restarts, ICRT's 32-step
    training windows) move smoothness and success together, as the explanation predicts
-   (`variant_effects`, `effect_sentence`, `explanation_check`)? Every variant is compared
+   (`variant_effects`, `effects_frame`)? Every variant is compared
    with its base in both. The window variant too: its tokenizer is trained jointly with
    the policy on other windows, so its encoder can differ, and its features are measured
    on the same held-out trajectories as every row's.
 
 `findings` turns each comparison into an estimate with its interval and a verdict
-(`icil_paper.stats`); `conclusion` combines them into the chapter's closing paragraph. No
-sentence about results is written by hand.
+(`icil_paper.stats`); `explanation_verdict` reads the explanation's verdict from them, and
+the chapter writes its prose around that verdict (MyST-NB's `glue`).
 """
 
 from __future__ import annotations
@@ -259,36 +261,6 @@ def binding_rows(result: TableResult, threshold: float = BINDS_AT) -> list[str]:
             if share is not None and share >= threshold]
 
 
-def binding_sentence(result: TableResult, threshold: float = BINDS_AT) -> str:
-    """Which rows Eq. 4 binds in, from the records: each Lipschitz row with its capped share
-    and product of bounds, split at `threshold` (the rule of `BINDS_AT`)."""
-    shares = capped_shares(result)
-    measured = {row: share for row, share in shares.items() if share is not None}
-    if not measured:
-        return "Whether Eq. 4 binds is not measured yet (no Lipschitz row has run)."
-
-    def listed(rows):
-        parts = []
-        for row in rows:
-            product = _binding_facts(result, row)["bound_product"]
-            parts.append(f"'{row}' ({100 * measured[row]:.0f}% of rows capped, product of "
-                         f"bounds {_short(product)})")
-        return "; ".join(parts)
-
-    binds = [row for row in measured if measured[row] >= threshold]
-    loose = [row for row in measured if measured[row] < threshold]
-    rule = (f"Eq. 4 binds where at least {100 * threshold:.0f}% of the encoder's rows are "
-            "capped after training (mean over seeds)")
-    sentences = [f"{rule}: it binds in {listed(binds)}." if binds
-                 else f"{rule}: it binds in none of the rows."]
-    if loose:
-        sentences.append(f"It does not bind in {listed(loose)}.")
-    waiting = [row for row, share in shares.items() if share is None]
-    if waiting:
-        sentences.append(f"Not run yet: {', '.join(repr(r) for r in waiting)}.")
-    return " ".join(sentences)
-
-
 def bound_travel(result: TableResult) -> dict[str, float]:
     """{Lipschitz row: the most a bound c_l can move in its training}, from its RunSpec:
     Adam moves a parameter by at most about its learning rate per step, so the bound
@@ -326,30 +298,31 @@ def bound_travel_frame():
     return pd.DataFrame(out).set_index("")
 
 
-def travel_sentence(result: TableResult) -> str:
-    """How far the bounds can move in training against how large they are: the largest
-    possible travel of c_l (`bound_travel`, rows of equal travel together) and each
-    Lipschitz row's trained bounds, layer by layer (means over seeds)."""
+def binding_frame(result: TableResult, threshold: float = BINDS_AT):
+    """Does Eq. 4 bind? One row per Lipschitz row of the table: the share of its encoder's
+    rows the trained bounds cap (mean over seeds), whether that reaches `threshold`
+    (`BINDS_AT`), the product of the bounds, the most a bound c_l can move in its training
+    (`bound_travel`) and the trained bounds softplus(c_l), layer by layer (mean over seeds);
+    `verdict_words.MISSING` where a row has not run."""
+    import pandas as pd
+
     travel = bound_travel(result)
-    if not travel:
-        return ""
-    by_travel: dict[str, list[str]] = {}
-    for row, value in travel.items():
-        by_travel.setdefault(_short(value), []).append(f"'{row}'")
-    moves = "; ".join(f"{value} in {', '.join(rows)}" for value, rows in by_travel.items())
-    trained = []
-    for row in travel:
+    rows = {}
+    for row, share in capped_shares(result).items():
         feat = _features(result, row)
         bounds = [] if feat is None else [m.get("layer_bounds") for m in feat.extra["metrics"]]
-        if bounds and all(b is not None for b in bounds):
-            mean = np.mean(np.array(bounds, dtype=np.float64), axis=0)
-            trained.append(f"'{row}' {', '.join(_short(b) for b in mean)}")
-    text = ("The most a bound c_l can move in training (its learning rate times the sum of "
-            f"the schedule's factors): {moves}.")
-    if trained:
-        text += (" The trained bounds softplus(c_l), layer by layer (mean over seeds): "
-                 f"{'; '.join(trained)}.")
-    return text
+        trained = (", ".join(_short(b) for b in np.mean(np.array(bounds, float), axis=0))
+                   if bounds and all(b is not None for b in bounds) else verdict_words.MISSING)
+        product = _binding_facts(result, row)["bound_product"]
+        rows[row] = {"rows capped": verdict_words.MISSING if share is None else f"{share:.0%}",
+                     f"binds (>= {threshold:.0%})": _yes_no(None if share is None
+                                                            else share >= threshold),
+                     "product of bounds": verdict_words.MISSING if product is None
+                     else _short(product),
+                     "most c_l can move": _short(travel[row]) if row in travel
+                     else verdict_words.MISSING,
+                     "trained softplus(c_l)": trained}
+    return pd.DataFrame(rows).T
 
 
 def _interval(est, digits: int) -> str:
@@ -375,79 +348,45 @@ def variant_effects(result: TableResult) -> list[dict[str, Any]]:
     return out
 
 
-def effect_sentence(effect: dict[str, Any]) -> str:
-    """One variant against its base, e.g. "'c_l init 1' against 'icrt+lipvq (paper)':
-    smoother (standardized least energy -159 [-288, -3]) and not measurably different in
-    success (success -0.02 [-0.10, +0.07])"; "yet" joins the two where they move in
-    opposite directions (smoother yet less successful), against the explanation."""
-    smooth, success = effect["smoothness"], effect["success"]
-    s_word = verdict_words.ANALYSIS_SMOOTH[smooth["verdict"]]
-    x_word = verdict_words.ANALYSIS_SUCCESS[success["verdict"]]
-    # "yet" where the two move against the explanation's prediction
-    against = {smooth["verdict"], success["verdict"]} == set(verdict_words.DECIDED)
-    return (f"'{effect['variant']}' against '{effect['base']}': {s_word} (standardized least "
-            f"energy {_interval(smooth['estimate'], 0)}) {'yet' if against else 'and'} "
-            f"{x_word} (success {_interval(success['estimate'], 2)})")
+def _yes_no(value: bool | None) -> str:
+    """A table cell for a yes/no fact: "yes", "no", or `verdict_words.MISSING` (not run or
+    not applicable)."""
+    return verdict_words.MISSING if value is None else ("yes" if value else "no")
 
 
-def explanation_check(effects: list[dict[str, Any]]) -> str:
-    """What the variants say about the explanation's prediction that a smoother encoder
-    succeeds more: the variants measured smoother or less smooth than their base, split by
-    whether success moved with smoothness, against it or not measurably; and the variants
-    whose success moved with no measurable change of smoothness ('' when none is decided)."""
-    decided = verdict_words.DECIDED
-    groups: dict[str, list[str]] = {"with": [], "against": [], "unmoved": [], "alone": []}
-    for e in effects:
-        smooth, success = e["smoothness"]["verdict"], e["success"]["verdict"]
-        name = f"'{e['variant']}'"
-        if smooth in decided:
-            if success in decided:
-                groups["with" if smooth == success else "against"].append(name)
-            elif success == Verdict.INCONCLUSIVE:
-                groups["unmoved"].append(name)
-        elif smooth == Verdict.INCONCLUSIVE and success in decided:
-            groups["alone"].append(name)
-    words = {"with": "success moved with smoothness (the explanation's prediction) in",
-             "against": "success moved against smoothness in",
-             "unmoved": "smoothness moved but success did not measurably in",
-             "alone": "success moved with no measurable change of smoothness in"}
-    parts = [f"{words[k]} {', '.join(v)}" for k, v in groups.items() if v]
-    if not parts:
-        return ""
-    text = "; ".join(parts)
-    return f"Across the variants, {text}."
-
-
-def conclusion(result: TableResult) -> str:
-    """The closing paragraph, from the numbers: which rows Eq. 4 binds in; the verdict on
-    the explanation (it survives when LipVQ-VAE is both smoother on the standardized score
-    and more successful than VQ-VAE, fails when either is measured the other way, else the
-    data cannot tell); each variant's smoothness and success against its base, with
-    intervals; and whether success moved with smoothness across the variants."""
+def explanation_verdict(result: TableResult) -> Verdict:
+    """The verdict on the smoothness explanation: HOLDS when LipVQ-VAE is both smoother than
+    VQ-VAE on the standardized score and more successful, DOES_NOT_HOLD when either is
+    measured the other way, NOT_RUN while either has not run, else INCONCLUSIVE."""
     found = {f["quantity"]: f for f in findings(result)}
-    smoother = found["LipVQ-VAE's standardized least energy minus VQ-VAE's"]["verdict"]
-    better = found["LipVQ-VAE's success minus VQ-VAE's"]["verdict"]
+    smoother = Verdict(found["LipVQ-VAE's standardized least energy minus VQ-VAE's"]["verdict"])
+    better = Verdict(found["LipVQ-VAE's success minus VQ-VAE's"]["verdict"])
     if Verdict.NOT_RUN in (smoother, better):
-        return "The analysis cells have not run yet."
+        return Verdict.NOT_RUN
     if smoother == better == Verdict.HOLDS:
-        verdict = ("the smoothness explanation survives: once the latent scale is removed "
-                   "LipVQ-VAE is smoother than VQ-VAE, and it succeeds more")
-    elif Verdict.DOES_NOT_HOLD in (smoother, better):
-        what = [name for name, v in (("smoother (standardized)", smoother),
-                                     ("more successful", better)) if v == Verdict.DOES_NOT_HOLD]
-        verdict = ("the smoothness explanation does not survive: LipVQ-VAE was measured "
-                   f"not {' and not '.join(what)} than VQ-VAE")
-    else:
-        verdict = ("the data cannot decide the smoothness explanation: LipVQ-VAE's standardized "
-                   f"smoothness is {smoother} and its success advantage {better} against "
-                   "VQ-VAE at this number of seeds and episodes")
-    effects = variant_effects(result)
-    parts = [binding_sentence(result), f"In this run, {verdict}."]
-    if effects:
-        parts.append("Each variant against its base (95% intervals): "
-                     + "; ".join(effect_sentence(e) for e in effects) + ".")
-        parts.append(explanation_check(effects))
-    return " ".join(p for p in parts if p)
+        return Verdict.HOLDS
+    if Verdict.DOES_NOT_HOLD in (smoother, better):
+        return Verdict.DOES_NOT_HOLD
+    return Verdict.INCONCLUSIVE
+
+
+def effects_frame(result: TableResult):
+    """Each variant against its base (`variant_effects`): its standardized least energy and
+    success differences with their 95% intervals, each in the vocabulary's words, and
+    whether Eq. 4 binds in it; one row per variant."""
+    import pandas as pd
+
+    rows = {}
+    for e in variant_effects(result):
+        smooth, success = e["smoothness"], e["success"]
+        rows[e["variant"]] = {
+            "base": e["base"],
+            "standardized least energy": _interval(smooth["estimate"], 0),
+            "smoothness": verdict_words.ANALYSIS_SMOOTH[Verdict(smooth["verdict"])],
+            "success": _interval(success["estimate"], 2),
+            "success, in words": verdict_words.ANALYSIS_SUCCESS[Verdict(success["verdict"])],
+            "Eq. 4 binds": _yes_no(e["binds"])}
+    return pd.DataFrame(rows).T
 
 
 # --------------------------------------------------------------------------- chapter 02's windows
@@ -457,25 +396,15 @@ RANDOM_WINDOWS = "lipvq, 32-step random windows"
 (the default: the window the policy acts with) and ICRT's random 32-step query windows."""
 
 
-def training_window_sentence(result: TableResult) -> str:
+def training_windows(result: TableResult) -> dict[str, Any] | None:
     """Chapter 02's comparison of the two training windows, from the analysis table: each
-    row's success and the difference (whole episodes minus windows) with its 95% interval
-    and verdict (`icil_paper.stats`), or a sentence saying the cells are not run yet."""
+    row's success estimate ("whole", "windows"), the difference whole episodes minus windows
+    ("difference", paired on the same scenes) and its verdict (`icil_paper.stats`, claimed
+    higher), and the training seeds a row; None while either row has not run."""
     a, b = result.outcomes(WHOLE_EPISODES), result.outcomes(RANDOM_WINDOWS)
     if a is None or b is None:
-        return ("The analysis table's two training windows have not run yet in this source "
-                "(chapter 11 computes them).")
-    ea, eb = result.estimate(WHOLE_EPISODES), result.estimate(RANDOM_WINDOWS)
+        return None
     diff = stats.paired_difference(a, b, scenes=result.scenes(WHOLE_EPISODES, RANDOM_WINDOWS))
-    verdict = stats.verdict(diff, direction=+1)
-    return (f"Trained on whole episodes from step 0, ICRT + LipVQ-VAE succeeds "
-            f"{ea.value:.2f} [{ea.low:.2f}, {ea.high:.2f}]; trained on random 32-step "
-            f"windows, {eb.value:.2f} [{eb.low:.2f}, {eb.high:.2f}]. Whole episodes minus "
-            f"windows: {diff.value:+.2f} [{diff.low:+.2f}, {diff.high:+.2f}] "
-            f"({_seeds_words(result, WHOLE_EPISODES)}); that whole episodes help "
-            f"{verdict_words.TRAINING_WINDOW[verdict]}.")
-
-
-def _seeds_words(result: TableResult, row: str) -> str:
-    cell = result.spec.row(row).cells["avg"]
-    return f"{cell.seeds} training seed{'s' if cell.seeds != 1 else ''} a row"
+    return {"whole": result.estimate(WHOLE_EPISODES), "windows": result.estimate(RANDOM_WINDOWS),
+            "difference": diff, "verdict": stats.verdict(diff, direction=+1),
+            "seeds": result.spec.row(WHOLE_EPISODES).cells["avg"].seeds}

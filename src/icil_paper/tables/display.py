@@ -330,16 +330,6 @@ def difference_sentence(results: dict[str, TableResult], a: str, b: str,
     return "\n".join(lines)
 
 
-def smoother_sentence(a: str, b: str, a_scores, b_scores, quantity: str) -> str:
-    """"a minus b on <quantity>: +0.1 [-0.2, +0.4]: a is smoother" from per-trajectory
-    scores (seeds, trajectories) of two tokenizers on the same trajectories (lower is
-    smoother; `stats.paired_score_difference` and its verdict)."""
-    est = stats.paired_score_difference(a_scores, b_scores)
-    words = verdict_words.SMOOTHER[stats.verdict(est, direction=-1)]
-    return (f"{a} minus {b} on {quantity}: {est.value:+.4g} [{est.low:+.4g}, {est.high:+.4g}]"
-            f": {a} is {words}")
-
-
 def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[str, str], float]:
     """{(row a, row b): Pearson r of their per-seed success at the same seed index}, over
     the seed indices both rows have (at least 3, and neither row constant over them).
