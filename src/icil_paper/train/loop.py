@@ -166,8 +166,6 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
         model = make_policy(spec.policy, obs_spec, action_dim, spec.tokenizer)
         data = model.prepare(demos, pretrain=ckpt is None, progress=progress)
         model.to(device)
-    if tc.compile:  # in place: the state dict keeps its names; compiled on the first step
-        model.compile(dynamic=True)
     optimizer = make_optimizer(model, tc.lr, tc.weight_decay, tc.betas)
     scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer,
                                                   cosine_schedule(tc.warmup_steps, tc.steps))

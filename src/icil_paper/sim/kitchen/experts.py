@@ -5,7 +5,7 @@ fixture's joint position, key point and base pose from `object`) plus fixed geom
 fixture (handle offset in the fixture's own frame, read once at reset), and outputs the
 suite's 7-D action. Usage::
 
-    expert = make_kitchen_expert("kitchen/open_drawer")
+    expert = HookExpert("kitchen/open_drawer")   # or icil_paper.sim.make_expert(name)
     obs, info = env.reset(seed=3)
     expert.reset(env, obs)
     while True:
@@ -27,7 +27,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from icil_paper.registry import check_name
 from icil_paper.sim.kitchen.scenes import COUNTER_Z, quat_xyzw_to_yaw, rot_z
 from icil_paper.sim.kitchen.tasks import ALL_TASKS
 
@@ -241,9 +240,3 @@ class HookExpert(KitchenExpert):
         # retreat: back towards the robot and up, away from the fixture
         target = np.array([self.eef[0] - 0.05, self.eef[1], self.safe_z])
         return self._servo(target, self.yaw, CLOSE, speed=0.5)
-
-
-def make_kitchen_expert(name: str) -> HookExpert:
-    """The scripted expert of a kitchen or Kinova task (call `reset(env, obs)`, then `act`)."""
-    check_name("kitchen task", name, ALL_TASKS)
-    return HookExpert(name)
