@@ -294,24 +294,8 @@ def evaluate_policy(policy: Any, spec: EvalSpec, prompts: Sequence[Any] | None =
                     progress: bool = True, env_options: Mapping[str, Any] | None = None,
                     env_factory: Callable[..., Any] | None = None, batch_size: int | None = None,
                     pool: RolloutPool | None = None, device: str | None = None) -> EvalResult:
-    """Success rate of `policy` over the rollouts `spec` describes (see the module docstring).
-
-    Args:
-        policy: a trained policy (`icil_paper.policies`).
-        spec: the task, episodes, seed, step limit and prompt choice (`runspec.EvalSpec`).
-        prompts: the prompt pool of an in-context policy (`prompt_pool` gives the spec's).
-        workers: processes that run rollouts (1: in this process); ignored with `pool`.
-        record_dir: write a rerun recording of each rollout there.
-        env_options: extra keyword options for `make_env`.
-        env_factory: a picklable callable (task, obs=, seed=, **env_options) -> env used
-            instead of `icil_paper.sim.make_env` (e.g. a test suite's).
-        batch_size: episodes stepped in lockstep per worker, each with its own env (default
-            1 for one spec: one env per worker).
-        pool: a `RolloutPool` whose worker processes (and their envs) to use and keep.
-        device: where worker processes run the policy (default: the policy's device).
-    """
-    if workers < 1:
-        raise ValueError(f"workers must be at least 1, got {workers}")
+    """Success rate of `policy` over the rollouts `spec` describes (see the module docstring):
+    `evaluate_many` for one spec, `prompts` its prompt pool (`prompt_pool` gives it)."""
     return evaluate_many(policy, [spec], [list(prompts or [])], workers=workers,
                          record_dir=record_dir, progress=progress, env_options=env_options,
                          env_factory=env_factory, batch_size=batch_size, pool=pool,

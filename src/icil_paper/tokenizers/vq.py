@@ -147,8 +147,3 @@ class VQTokenizer(ActionTokenizer):
         noise = 1e-3 * flat.std() * torch.randn_like(self.codebook.weight)
         self.codebook.weight.copy_(flat[idx] + noise)
         self._codebook_from_data.fill_(True)
-
-    @torch.no_grad()
-    def encode_codes(self, actions: Tensor) -> Tensor:
-        """Codes (B, T) of actions (B, T, A)."""
-        return self.quantize(self.encoder(self.check_actions(actions)))[1]
