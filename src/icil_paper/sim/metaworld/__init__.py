@@ -101,5 +101,5 @@ METAWORLD_SUITE = Suite(
     make_env=make_metaworld_env, make_expert=make_metaworld_expert,
     object_position=OBJECT_POSITION, unavailable=metaworld_problem,
     zero_shot_split=ZERO_SHOT_SPLIT, scenes=SCENE_DISTRIBUTIONS,
-    families={family: tuple(t for t in TASKS if family_of(t) == family) for family in FAMILIES},
+    families=ALL_TASK_FAMILIES,
     description="Meta-World (Sawyer) tasks: the paper's seven RoboCasa skill families and ML45")
