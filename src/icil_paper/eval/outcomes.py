@@ -140,9 +140,7 @@ def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
     path = ensure_demos(preset, task, ev.prompt_source, n=demos_per_task,
                         seed=data_seed, obs=obs, progress=progress)
     demos = load_demos(path, limit=demos_per_task)
-    if ev.prompt_steps is not None:
-        if ev.prompt_steps < 1:
-            raise ValueError(f"prompt_steps must be at least 1, got {ev.prompt_steps}")
+    if ev.prompt_steps is not None:  # at least 1 (EvalSpec checks its fields when built)
         demos = [_first_steps(d, ev.prompt_steps) for d in demos]
     return demos
 
@@ -189,13 +187,6 @@ def plan_episodes(spec: EvalSpec, pool_size: int = 0, prompt_demos: int = 1,
                             seed=episode_seed(spec.seed, i), prompt=chosen,
                             max_steps=spec.max_steps, env_options=options))
     return plan
-
-
-def _check_spec(spec: EvalSpec) -> None:
-    if spec.episodes < 1:
-        raise ValueError(f"episodes must be at least 1, got {spec.episodes}")
-    if spec.max_steps is not None and spec.max_steps < 1:
-        raise ValueError(f"max_steps must be at least 1 (or None), got {spec.max_steps}")
 
 
 def _pools(specs: Sequence[EvalSpec], prompts: Any) -> list[list[Any]]:
@@ -250,7 +241,6 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
     k = getattr(policy.config, "prompt_demos", 1)
     episodes: list[Episode] = []
     for i, (spec, pool_i) in enumerate(zip(specs, pools, strict=True)):
-        _check_spec(spec)
         if env_factory is None:
             check_policy_fits(policy, spec.task)
             _check_scenes(spec)
