@@ -136,8 +136,6 @@ def train_policy(spec: Any, run_dir: str | Path | None = None, resume: bool = Tr
     """
     device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
     threads = spec.train.cpu_threads if device.type == "cpu" else 0
-    if spec.train.steps < 1:
-        raise ValueError(f"train.steps must be at least 1, got {spec.train.steps}")
     run_dir = Path(run_dir) if run_dir is not None else None
     with cpu_threads(threads), (rundir.run_lock(run_dir) if run_dir is not None
                                 else contextlib.nullcontext()):
