@@ -90,7 +90,6 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
 
     Options: `camera_size` (default 84, square images), `horizon` (override the task's),
     `obs_noise_std` (override the Kinova tasks' observation noise; 0 turns it off),
-    `initialization_noise` (robosuite's robot joint noise, "default" or None),
     `render_mode` ("rgb_array" or None, gymnasium's), `scenes` (the scene distribution of
     `SCENE_DISTRIBUTIONS`, default "generated"; "human" is the `human` demo source's,
     `scenes.py`).
