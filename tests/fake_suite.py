@@ -12,11 +12,11 @@ records below (`BROKEN` at a record that does not exist).
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
 
-from icil_paper.registry import Registry
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
 from icil_paper.sim.suite import Suite
 
@@ -116,14 +116,14 @@ KINOVA_SUITE = Suite(name="kinova", tasks=KINOVA, obs_dims=OBS_DIMS, control_fre
                      make_env=make_env, make_expert=make_expert, object_position=(0, 3))
 
 
-def registry(broken: bool = False) -> Registry:
+def registry(broken: bool = False) -> dict:
     """The suite registry with the kitchen and Kinova entries pointing here."""
     import icil_paper.sim as sim
 
-    target = "fake_suite:NO_SUCH_RECORD" if broken else "fake_suite:{}_SUITE"
-    return Registry("suite", {**sim.SUITE_ENTRIES,
-                              "kitchen": target.format("KITCHEN"),
-                              "kinova": target.format("KINOVA")})
+    def load(record: str):  # as importing a module that lacks the record, when broken
+        return lambda: getattr(sys.modules[__name__], "NO_SUCH_RECORD" if broken else record)
+
+    return {**sim.SUITE_REGISTRY, "kitchen": load("KITCHEN_SUITE"), "kinova": load("KINOVA_SUITE")}
 
 
 def use(monkeypatch, broken: bool = False) -> None:

@@ -16,7 +16,7 @@ from icil_paper.config import (
     get_preset,
 )
 from icil_paper.policies.configs import POLICY_CONFIGS
-from icil_paper.registry import Registry, UnknownNameError, check_name
+from icil_paper.registry import UnknownNameError, check_name
 from icil_paper.results import config_hash
 from icil_paper.seeding import seed_everything
 from icil_paper.tokenizers.configs import TOKENIZER_CONFIGS, LipschitzOptions
@@ -61,18 +61,6 @@ def test_check_name_suggests_a_close_match():
     with pytest.raises(UnknownNameError, match="Did you mean 'lipvq'"):
         check_name("tokenizer", "lipvqq", ["mlp", "vq", "lipvq"])
     assert check_name("tokenizer", "vq", ["mlp", "vq"]) == "vq"
-
-
-def test_registry_imports_lazily_and_rejects_unknown_names():
-    registry = Registry("thing", {"dumps": "json:dumps", "broken": "no_such_module_x:f"})
-    import json
-
-    assert registry["dumps"] is json.dumps
-    assert list(registry) == ["dumps", "broken"]
-    with pytest.raises(UnknownNameError, match="Valid thing names: dumps, broken"):
-        registry["loads"]
-    with pytest.raises(ModuleNotFoundError):
-        registry["broken"]
 
 
 @pytest.mark.parametrize("cls", [DataConfig, TrainConfig,

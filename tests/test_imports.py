@@ -347,7 +347,6 @@ def test_only_the_cli_and_config_read_the_preset_from_the_environment():
 # --------------------------------------------------------------------------- no string imports
 IMPORTS_BY_NAME = {
     "icil_paper/plugins.py",  # plugins: a module or file named by the user, entry points
-    "icil_paper/registry.py",  # `Registry`: the simulated suites' modules (icil_paper.sim)
     "icil_paper/tables/grid.py", "icil_paper/reproduce.py", "icil_paper/eval/rollouts.py",
 }
 """The files that still import a module named by a string; plugin loading is the one place

@@ -149,12 +149,9 @@ LONG_DOCSTRING_ALLOWED = {
     "src/icil_paper/paper/analysis.py",
     "src/icil_paper/paper/official.py",
     "src/icil_paper/paper/table_vi.py",
-    "src/icil_paper/planning/decide.py",
-    "src/icil_paper/planning/design.py",
     "src/icil_paper/plugins.py",
     "src/icil_paper/tables/claims.py",
     "src/icil_paper/tables/grid.py",
-    "src/icil_paper/tokenizers/__init__.py",
     "src/icil_paper/train/rundir.py",
 }
 

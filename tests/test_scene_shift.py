@@ -25,7 +25,7 @@ from icil_paper.eval.rollouts import EnvSetup, Episode, WorkerState
 from icil_paper.paper import table_spec
 from icil_paper.paper.table_i import TABLE_I_ROWS
 from icil_paper.paper.table_vi import shift_frame, shift_rows, shift_sentence
-from icil_paper.registry import Registry, UnknownNameError
+from icil_paper.registry import UnknownNameError
 from icil_paper.runspec import SCENE_DISTRIBUTIONS, EvalSpec, eval_key
 from icil_paper.stats import Estimate
 from icil_paper.tables.assemble import CellResult, TableResult
@@ -73,9 +73,8 @@ SHIFTED_KITCHEN = dataclasses.replace(fake_suite.KITCHEN_SUITE, make_env=_make_s
 
 @pytest.fixture
 def shifted_kitchen(monkeypatch, tmp_path):
-    registry = Registry("suite", {**fake_suite.registry()._entries,
-                                  "kitchen": f"{__name__}:SHIFTED_KITCHEN"})
-    monkeypatch.setattr(sim, "SUITE_REGISTRY", registry)
+    monkeypatch.setattr(sim, "SUITE_REGISTRY", {**fake_suite.registry(),
+                                                "kitchen": lambda: SHIFTED_KITCHEN})
     monkeypatch.setenv("ICIL_DATA", str(tmp_path / "data"))
     return tmp_path / "data"
 

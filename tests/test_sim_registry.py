@@ -55,16 +55,12 @@ def test_every_suite_record_is_complete_and_consistent():
 
 def test_a_suite_is_one_registry_line(monkeypatch):
     """A new suite needs only its record and one registry entry; every function then knows it."""
-    from icil_paper.registry import Registry
     from icil_paper.sim.suite import Suite
 
+    extra = Suite(name="extra", tasks=("extra/reach",), obs_dims=(9, 6), control_freq=10,
+                  make_env=fake_suite.make_env, make_expert=fake_suite.make_expert)
     monkeypatch.setattr(sim, "ALL_SUITES", (*sim.ALL_SUITES, "extra"))
-    monkeypatch.setattr(sim, "SUITE_ENTRIES", {**sim.SUITE_ENTRIES,
-                                               "extra": "fake_suite:EXTRA_SUITE"})
-    monkeypatch.setattr(fake_suite, "EXTRA_SUITE", Suite(
-        name="extra", tasks=("extra/reach",), obs_dims=(9, 6), control_freq=10,
-        make_env=fake_suite.make_env, make_expert=fake_suite.make_expert), raising=False)
-    monkeypatch.setattr(sim, "SUITE_REGISTRY", Registry("suite", sim.SUITE_ENTRIES))
+    monkeypatch.setattr(sim, "SUITE_REGISTRY", {**sim.SUITE_REGISTRY, "extra": lambda: extra})
     assert sim.suite_of("extra/reach") == "extra" and sim.tasks_of("extra") == ("extra/reach",)
     env = sim.make_env("extra/reach", seed=2)
     assert env.reset()[0]["proprio"].shape == (9,) and env.seed == 2

@@ -275,9 +275,6 @@ class TrainConfig(_Checked):
     """Gradient norm clip."""
     ema_decay: float | None = None
     """Decay of an exponential moving average of weights, or None for no EMA."""
-    compile: bool = False
-    """Compile the training forward and backward passes with `torch.compile` (inductor).
-    Losses match eager mode to float tolerance, not bit for bit, so it enters run keys."""
     ckpt_every: int = field(default=500, metadata=NOT_KEYED)
     """Steps between checkpoints (a killed run loses at most this many; resuming gives the
     same result as an uninterrupted run, so it does not enter run keys)."""

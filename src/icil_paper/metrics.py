@@ -202,8 +202,6 @@ MOTION_MEASURES = ("ldlj", "sparc", "action_jerk")
 """The motion smoothness of a rollout, as every evaluation record holds it per episode."""
 SMOOTHER = {"ldlj": +1, "sparc": +1, "action_jerk": -1}
 """Which way each motion measure is smoother: +1 higher, -1 lower."""
-MOTION_NAMES = {"ldlj": "LDLJ", "sparc": "SPARC", "action_jerk": "action jerk"}
-"""How each motion measure is named in tables and sentences."""
 MIN_MOTION_STEPS = 4
 """Positions a path needs for LDLJ and SPARC (one third difference; three speeds)."""
 MIN_AMPLITUDE = 1e-6

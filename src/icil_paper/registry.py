@@ -7,7 +7,6 @@ user can type goes through `check_name`, and a typo fails with the list of valid
 from __future__ import annotations
 
 import difflib
-import importlib
 import sys
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any
@@ -36,33 +35,6 @@ def check_name(kind: str, name: str, valid: Iterable[str]) -> str:
     raise UnknownNameError(
         f"unknown {kind} {name!r}.{did_you_mean} Valid {kind} names: {', '.join(valid)}"
     )
-
-
-class Registry(Mapping[str, Any]):
-    """A name -> object mapping whose entries are "module:attribute" strings imported on use:
-    the simulated suites' modules (`icil_paper.sim`), so that one suite (say ManiSkill)
-    can fail to import without breaking the rest."""
-
-    def __init__(self, kind: str, entries: Mapping[str, str]):
-        self.kind = kind
-        self._entries = dict(entries)
-        self._loaded: dict[str, Any] = {}
-
-    def __getitem__(self, name: str) -> Any:
-        check_name(self.kind, name, self._entries)
-        if name not in self._loaded:
-            module, _, attribute = self._entries[name].partition(":")
-            self._loaded[name] = getattr(importlib.import_module(module), attribute)
-        return self._loaded[name]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._entries)
-
-    def __len__(self) -> int:
-        return len(self._entries)
-
-    def __repr__(self) -> str:
-        return f"Registry({self.kind!r}, {list(self._entries)})"
 
 
 REGISTRIES: dict[str, ComponentRegistry] = {}

@@ -2,7 +2,7 @@
 
     python -m tools.bench.cells                     # a tenth of each reference cell
     python -m tools.bench.cells --full              # the reference preset's own cells
-    python -m tools.bench.cells --kinds act_maniskill --scale 0.05 --compile-steps 0
+    python -m tools.bench.cells --kinds act_maniskill --scale 0.05
 
 A kind of cell (`KINDS`: Table I's ICRT + LipVQ-VAE and BC-Transformer on the Meta-World
 tasks, Table II's ACT on ManiSkill's first task, Table V's ICRT + LipVQ-VAE trained on the
@@ -15,8 +15,7 @@ environments, `steady` is what each later cell costs. A cell's wall time is spli
 phases the library marks (`icil_paper.timing`) and compared with its compute floor, its
 training steps at the measured time of a step plus its environment steps at the raw
 simulator rate on the same tasks (`raw_rates`): `floor_ratio = wall / floor`. `--scale`
-shortens every cell (steps, checkpoint interval, episodes) in proportion. `compile_cost`
-compares eager training with `torch.compile` on the kinds that train longest. Writes
+shortens every cell (steps, checkpoint interval, episodes) in proportion. Writes
 results/bench/cells.json.
 """
 
@@ -44,7 +43,6 @@ from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env, make_expert
 from icil_paper.tables.cells import RunPlan, ensure_data, plan, run_cell
 from icil_paper.timing import recording
-from icil_paper.train.loop import train_policy
 
 KINDS = ("icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
 """The kinds of cell measured, in the order they run."""
@@ -173,42 +171,6 @@ def measure(kind: str, preset_name: str, scale: float | None, started: float
             "seed_cost_s": steady["wall_s"]}
 
 
-# --------------------------------------------------------------------------- compilation
-def compile_cost(kind: str, preset_name: str, steps: int) -> dict[str, Any]:
-    """Training of `kind` eager against `torch.compile` (`TrainConfig.compile`), one thread,
-    in this process: `steps` eager steps, then two compiled runs of `steps` steps. The
-    first compiled run pays the compilation (`warmup_s`: its excess over the second; a
-    process that compiled before, or inductor's cache on disk, makes it smaller); the
-    second gives the compiled step (`compiled_step_ms`: every shape it meets compiled).
-    `reference_saving_s`: what compiling would save on one reference cell (its steps times
-    the difference, less one warm-up); negative: eager is cheaper."""
-    import torch
-
-    run, _ = kind_cell(get_preset(preset_name), kind)
-    torch.set_num_threads(1)
-
-    def train(compiled: bool) -> tuple[float, float]:
-        spec = run.replace(train=dataclasses.replace(
-            run.train, steps=steps, compile=compiled,
-            warmup_steps=min(run.train.warmup_steps, steps)))
-        with recording() as phases:
-            result = train_policy(spec, run_dir=None, preset=preset_name, progress=False)
-        return phases.wall["train.step"], float(result.metrics["final_loss"])
-
-    eager, eager_loss = train(False)
-    first, _ = train(True)
-    warm, compiled_loss = train(True)
-    eager_ms, compiled_ms = 1000 * eager / steps, 1000 * warm / steps
-    warmup = first - warm
-    full = run.train.steps
-    return {"kind": kind, "steps": steps, "eager_step_ms": round(eager_ms, 3),
-            "compiled_step_ms": round(compiled_ms, 3),
-            "speedup": round(eager_ms / compiled_ms, 3), "warmup_s": round(warmup, 2),
-            "final_loss": {"eager": eager_loss, "compiled": compiled_loss},
-            "reference_steps": full,
-            "reference_saving_s": round(full * (eager_ms - compiled_ms) / 1000 - warmup, 1)}
-
-
 # --------------------------------------------------------------------------- the parent
 def run_kinds(kinds: list[str], preset_name: str, scale: float | None,
               folder: Path) -> list[dict[str, Any]]:
@@ -253,8 +215,6 @@ def main(argv: list[str] | None = None) -> None:
                         help="training steps and episodes per task as a fraction of the "
                              "preset's (default 0.1)")
     parser.add_argument("--full", action="store_true", help="the preset's cells unshortened")
-    parser.add_argument("--compile-steps", type=int, default=300,
-                        help="steps of the eager / compiled comparison (0: skip it)")
     parser.add_argument("--out", default=None)
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
     parser.add_argument("--started", type=float, default=None, help=argparse.SUPPRESS)
@@ -268,13 +228,8 @@ def main(argv: list[str] | None = None) -> None:
     ensure_kind_data(args.preset, kinds)
     with tempfile.TemporaryDirectory(prefix="icil-cells-") as tmp:
         cells = run_kinds(kinds, args.preset, scale, Path(tmp))
-    compiled = []
-    for kind in ("icrt_lipvq", "act_maniskill") if args.compile_steps else ():
-        if kind in kinds:
-            compiled.append(compile_cost(kind, args.preset, args.compile_steps))
-            print(f"   compile {compiled[-1]}", flush=True)
     record = {"preset": args.preset, "scale": scale, "target_floor_ratio": TARGET,
-              "cells": cells, "compile": compiled,
+              "cells": cells,
               "floor_ratio": {c["kind"]: c["floor_ratio"] for c in cells},
               "seed_cost_s": {c["kind"]: c["seed_cost_s"] for c in cells}}
     save_benchmark("cells", record, args.out)

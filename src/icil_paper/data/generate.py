@@ -1,6 +1,6 @@
 """Parallel, resumable demonstration generation: `ensure_demos` and `demo_path`.
 
-    path = ensure_demos(preset, "kitchen/open_drawer", source="scripted", workers=2)
+    path = ensure_demos(preset, "kitchen/open_drawer", source="generated", workers=2)
 
 One HDF5 file per (preset, task, source, demonstration set) under `preset.data.root`
 (`data/` unless $ICIL_DATA sets it); training seed k of a table row trains on set k, whose
@@ -80,10 +80,7 @@ OLDER_GENERATORS: dict[str, tuple[str, ...]] = {
 }
 """Earlier values of `GENERATOR`, each with the sources whose data sets it made exactly as
 this one does; its files of any other source are outdated and made again (module
-docstring). 1 -> 2: the `human` source's kitchen demos moved to the `human` scenes; 2 -> 3:
-the kitchen suite's second version (`runspec.SUITE_VERSION`), whose layouts differ; 3 -> 4:
-its third, whose pick-and-place expert lets go earlier; 4 -> 5: its fourth, whose
-pick-and-place demonstrations go on until the hand has left the box."""
+docstring; what changed at each step is in git's history of this constant)."""
 DEFAULT_SCENES = "generated"
 """The `scenes` attribute a file without one was made on (files before generator 2)."""
 

@@ -26,12 +26,13 @@ whatever the file's keys (`icil_paper.data.obs_keys` maps those of other tools' 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
 import tempfile
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -189,12 +190,12 @@ def write_demos(path: str | Path, demos: Sequence[Demo], file_attrs: dict[str, A
         data = f.create_group("data")
         for name, demo in zip(names, demos, strict=True):
             _write_demo(data.create_group(name), demo)
-        _finish_file(f, file_attrs or {}, valid_fraction, split_seed, train_valid_split)
+        _finish_file(f, file_attrs or {}, valid_fraction, split_seed)
     return path
 
 
-def _finish_file(f: Any, file_attrs: dict[str, Any], valid_fraction: float, split_seed: int,
-                 train_valid_split: Any) -> None:
+def _finish_file(f: Any, file_attrs: dict[str, Any], valid_fraction: float,
+                 split_seed: int) -> None:
     data = f["data"]
     names = sorted_demo_names(data.keys())
     data.attrs["total"] = int(sum(int(data[n]["actions"].shape[0]) for n in names))
@@ -208,36 +209,26 @@ def _finish_file(f: Any, file_attrs: dict[str, Any], valid_fraction: float, spli
         group.create_dataset(key, data=np.array(members, dtype="S"))
 
 
-class _atomic_h5:
-    """Context manager: an h5py File on a temporary path, renamed onto `path` on success."""
+@contextlib.contextmanager
+def _atomic_h5(path: Path) -> Iterator[Any]:
+    """An h5py File on a temporary path beside `path`, renamed onto `path` on success."""
+    import h5py
 
-    def __init__(self, path: Path):
-        self.path = Path(path)
-
-    def __enter__(self):
-        import h5py
-
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, self.tmp = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.name}.",
-                                        suffix=".tmp")
-        os.close(fd)
-        self.file = h5py.File(self.tmp, "w")
-        return self.file
-
-    def __exit__(self, exc_type, exc, tb):
-        try:
-            self.file.close()
-            if exc_type is None:
-                with open(self.tmp, "rb+") as fh:
-                    os.fsync(fh.fileno())
-                umask = os.umask(0)
-                os.umask(umask)
-                os.chmod(self.tmp, 0o666 & ~umask)  # mkstemp's 0600 -> the usual permissions
-                os.replace(self.tmp, self.path)
-        finally:
-            if os.path.exists(self.tmp):
-                os.unlink(self.tmp)
-        return False
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        with h5py.File(tmp, "w") as f:
+            yield f
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 -> the usual permissions
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
 
 
 def merge_demo_files(path: str | Path, parts: Sequence[tuple[str | Path, str, str]],
@@ -264,12 +255,13 @@ def merge_demo_files(path: str | Path, parts: Sequence[tuple[str | Path, str, st
                 if "next_obs" in group:
                     opened[key].copy(group, data, name=dst_name)
                 else:
-                    demo = _read_demo(Path(key), src_name, group, _own_key_map(group))
+                    demo = _read_demo(Path(key), src_name, group,
+                                      _key_map(Path(key), src_name, group, None, own=True))
                     _write_demo(data.create_group(dst_name), demo)
         finally:
             for f in opened.values():
                 f.close()
-        _finish_file(out, file_attrs, valid_fraction, split_seed, train_valid_split)
+        _finish_file(out, file_attrs, valid_fraction, split_seed)
     return path
 
 
@@ -387,12 +379,6 @@ def _available(group: Any) -> dict[str, tuple[tuple[int, ...], str]]:
     return {k: (tuple(v.shape), v.dtype.kind) for k, v in group.items() if hasattr(v, "shape")}
 
 
-def _own_key_map(group: Any) -> ObsKeyMap:
-    cameras = _json_attr(group.attrs, "cameras")
-    return map_obs_keys(_available(group["obs"]), own=True,
-                        camera_order=cameras if isinstance(cameras, list) else None)
-
-
 def _gather(path: Path, name: str, raw: Any, keys: ObsKeyMap, rows: slice,
             T: int) -> dict[str, np.ndarray]:
     """The project's observation entries of one demo from the file keys `keys` (rows `rows`)."""
@@ -409,27 +395,22 @@ def _gather(path: Path, name: str, raw: Any, keys: ObsKeyMap, rows: slice,
         n = len(range(T)[rows])
         obs[entry] = (np.concatenate([p.reshape(n, -1).astype(np.float32) for p in parts],
                                      axis=1) if parts else np.zeros((n, 0), np.float32))
-    if keys.rgb:
+    for entry, file_keys in (("rgb", keys.rgb), ("depth", keys.depth)):
         arrays = []
-        for k in keys.rgb:
+        for k in file_keys:
             a = _read(path, name, raw, k, rows)
-            if k != "rgb":  # one camera
-                if a.ndim != 4 or a.shape[-1] != 3:
-                    raise _err(path, name, f"{prefix}/{k} must be (T, H, W, 3), got {a.shape}")
-                a = a[:, None]
-            arrays.append(a)
-        obs["rgb"] = _stack_cameras(path, name, prefix, keys.rgb, arrays)
-    if keys.depth:
-        arrays = []
-        for k in keys.depth:
-            a = _read(path, name, raw, k, rows)
-            if k != "depth":  # one camera: (T, H, W) or (T, H, W, 1)
+            if k == entry:  # stacked cameras (the layout's version 1)
+                arrays.append(a)
+                continue
+            if entry == "rgb" and (a.ndim != 4 or a.shape[-1] != 3):
+                raise _err(path, name, f"{prefix}/{k} must be (T, H, W, 3), got {a.shape}")
+            if entry == "depth":  # (T, H, W) or (T, H, W, 1)
                 a = a[..., 0] if a.ndim == 4 and a.shape[-1] == 1 else a
                 if a.ndim != 3:
                     raise _err(path, name, f"{prefix}/{k} must be (T, H, W) or (T, H, W, 1)")
-                a = a[:, None]
-            arrays.append(a)
-        obs["depth"] = _stack_cameras(path, name, prefix, keys.depth, arrays)
+            arrays.append(a[:, None])  # one camera
+        if arrays:
+            obs[entry] = _stack_cameras(path, name, prefix, file_keys, arrays)
     return obs
 
 

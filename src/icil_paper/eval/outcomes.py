@@ -141,9 +141,7 @@ def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
     path = ensure_demos(preset, task, ev.prompt_source, n=demos_per_task,
                         seed=data_seed, obs=obs, progress=progress)
     demos = load_demos(path, limit=demos_per_task)
-    if ev.prompt_steps is not None:
-        if ev.prompt_steps < 1:
-            raise ValueError(f"prompt_steps must be at least 1, got {ev.prompt_steps}")
+    if ev.prompt_steps is not None:  # at least 1 (EvalSpec checks its fields when built)
         demos = [_first_steps(d, ev.prompt_steps) for d in demos]
     return demos
 
@@ -192,13 +190,6 @@ def plan_episodes(spec: EvalSpec, pool_size: int = 0, prompt_demos: int = 1,
     return plan
 
 
-def _check_spec(spec: EvalSpec) -> None:
-    if spec.episodes < 1:
-        raise ValueError(f"episodes must be at least 1, got {spec.episodes}")
-    if spec.max_steps is not None and spec.max_steps < 1:
-        raise ValueError(f"max_steps must be at least 1 (or None), got {spec.max_steps}")
-
-
 def _pools(specs: Sequence[EvalSpec], prompts: Any) -> list[list[Any]]:
     """One prompt pool per spec from `evaluate_many`'s `prompts` argument."""
     if prompts is None:
@@ -245,7 +236,6 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
     k = getattr(policy.config, "prompt_demos", 1)
     episodes: list[Episode] = []
     for i, (spec, pool_i) in enumerate(zip(specs, pools, strict=True)):
-        _check_spec(spec)
         if env_factory is None:
             check_policy_fits(policy, spec.task)
             _check_scenes(spec)
@@ -289,19 +279,8 @@ def evaluate_policy(policy: Any, spec: EvalSpec, prompts: Sequence[Any] | None =
                     progress: bool = True, env_options: Mapping[str, Any] | None = None,
                     env_factory: Callable[..., Any] | None = None,
                     batch_size: int | None = None) -> EvalResult:
-    """Success rate of `policy` over the rollouts `spec` describes (see the module docstring).
-
-    Args:
-        policy: a trained policy (`icil_paper.policies`).
-        spec: the task, episodes, seed, step limit and prompt choice (`runspec.EvalSpec`).
-        prompts: the prompt pool of an in-context policy (`prompt_pool` gives the spec's).
-        record_dir: write a rerun recording of each rollout there.
-        env_options: extra keyword options for `make_env`.
-        env_factory: a callable (task, obs=, seed=, **env_options) -> env used instead of
-            `icil_paper.sim.make_env` (e.g. a test suite's).
-        batch_size: episodes stepped in lockstep, each with its own env (default 1 for one
-            spec: one env).
-    """
+    """Success rate of `policy` over the rollouts `spec` describes (see the module docstring):
+    `evaluate_many` for one spec, `prompts` its prompt pool (`prompt_pool` gives it)."""
     return evaluate_many(policy, [spec], [list(prompts or [])], record_dir=record_dir,
                          progress=progress, env_options=env_options, env_factory=env_factory,
                          batch_size=batch_size)[0]

@@ -3,27 +3,22 @@
     icil-paper plan --preset reference --cores 64
 
 For every claim of `results/<preset>/claims.json` that is neither *holds* nor *does not
-hold* (as decided under the ledger's design), the ledger's power analysis says how many
-training seeds a row the claim needs to detect the paper's effect at 80% power at the level
-it must pass (`seeds_needed`, `icil_paper.tables.claims`). The plan gives every row such a claim reads that many seeds
-(never fewer than it has), as one `--set tables.row_seeds=...` override of the preset
-(rows that share Table I's runs are named as Table I's, Fig. 5's by codebook size), builds
-the tables under it and counts the cells (trained policies with their evaluations) whose
+hold*, the ledger's power analysis (`seeds_needed`, `icil_paper.tables.claims`) says how many
+training seeds a row it needs to detect the paper's effect at 80% power at its level. The
+plan gives every row such a claim reads that many seeds (never fewer than it has) as one
+`--set tables.row_seeds=...` override, builds the tables under it and counts the cells whose
 records the store does not hold yet: exactly those a run with that override computes. Each
 cell is priced at the CPU time its kind of cell took in the preset's own run
-(`results/<preset>/cost.json`, `icil_paper.planning.cost`): its training, plus its records'
-evaluations at the kind's CPU time per evaluation record. Wall time at N cores is the CPU
-time over N (one cell per core), never less than the costliest cell.
+(`results/<preset>/cost.json`, `icil_paper.planning.cost`); wall time at N cores is the CPU
+time over N, never less than the costliest cell.
 
 It prints one line per undecided claim (seeds a row now and needed, cells, CPU-hours, wall
-hours at `--cores`; a claim the power analysis cannot plan says why), the total (each cell
-counted once: claims share rows), and the command that runs exactly the missing cells:
+hours at `--cores`, or why the power analysis cannot plan it), the total (claims share rows)
+and the command that runs exactly the missing cells:
 
     icil-paper reproduce --preset reference --set tables.row_seeds=... --executor ray --ray-address HEAD:6379
 
-whose last stage writes the ledger at the new seeds (keep the same `--set` on later runs:
-without it the preset's own seeds apply). The plan is written to
-`results/<preset>/plan.json`.
+(keep the same `--set` on later runs). The plan is written to `results/<preset>/plan.json`.
 """
 
 from __future__ import annotations

@@ -5,28 +5,21 @@ rule, and what the run costs.
     python -m icil_paper.planning.design             # the arithmetic behind the reference preset
     check_design(preset, ledger)                     # rows with fewer seeds than the rule asks
     python -m icil_paper.planning.design --interim   # the rule against the seeds finished so far
-    python -m icil_paper.planning.design --stages    # seeds in stages: each claim's look and
-                                                     # the rows that go on to the next stage
+    python -m icil_paper.planning.design --stages    # each claim's look, the rows that go on
 
-**The rule.** A claim is *decidable* when the ledger's power analysis (`seeds_needed`,
-`icil_paper.tables.claims`) says `DECIDABLE_SEEDS` seeds a row or fewer detect the paper's
-effect at 80% power; the same arithmetic, read the other way, excludes the paper's effect
-when the truth is 0. Every row a decidable claim reads gets at least `DECIDABLE_SEEDS`
-training seeds, every other row a claim reads at least `OTHER_SEEDS`. The variances behind
-`seeds_needed` are the records' own: the reference ledger's where it has them, else those
-of the ledger the older code computed from its records (`older-code/claims.json`).
+**The rule.** A claim is *decidable* when the ledger's power analysis (`seeds_needed`) says
+`DECIDABLE_SEEDS` seeds a row or fewer detect the paper's effect at 80% power; every row a
+decidable claim reads gets at least `DECIDABLE_SEEDS` training seeds, every other row a
+claim reads at least `OTHER_SEEDS`. The variances are the records' own: the reference
+ledger's where it has them, else the older code's (`older-code/claims.json`).
 
-**Episodes** (`episode_design`). The rows of a pair play the same scenes, so the episode
-part of a paired difference's variance is the within-(seed, task) variance of the paired
-episode differences (`stats.paired_variance_parts`); the rest is the seed-by-row part. With
-S seeds of E episodes per task a difference has variance (seed_by_row + episode / E) / S and
-costs S (train + E episode): `stats.episodes_per_seed` gives the E that is narrowest for its
-compute, per suite and class of claim (tokenizer pairs: the same policy; policy pairs),
-from the stored records and the CPU time their cells took (`cost.json`;
-`python -m icil_paper.planning.cost --preset reference --episodes` prints them).
+**Episodes** (`episode_design`). With S seeds of E episodes per task a paired difference has
+variance (seed_by_row + episode / E) / S (`stats.paired_variance_parts`) and costs
+S (train + E episode); `stats.episodes_per_seed` gives the E narrowest for its compute, per
+suite and class of claim, at the CPU time the cells took (`cost.json`).
 
-**Cost.** Each trained run of the plan costs its optimizer steps at the measured step time
-of its kind plus its episodes at the measured simulator rate (`results/bench/cells.json`,
+**Cost.** A trained run costs its optimizer steps at the measured step time of its kind plus
+its episodes at the measured simulator rate (`results/bench/cells.json`,
 `python -m tools.bench.cells`); the run's records carry what it really cost
 (`results/reference/cost.json`, `icil_paper.planning.cost`).
 """
@@ -191,8 +184,8 @@ def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
 
 
 IMAGE_SLOWDOWN = 10.0
-"""Image rollouts and image training cost about ten times their state counterparts on CPU
-(NOTES: 107 vs 9.8-11.1 steps/s with two cameras); MCR's cells are not in cells.json."""
+"""Image rollouts and training cost about ten times their state counterparts on CPU (MCR's
+cells are not in cells.json)."""
 
 
 def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, Any]:

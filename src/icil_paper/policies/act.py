@@ -135,11 +135,6 @@ class ACT(BatchedPolicy):
 
     # ------------------------------------------------------------------ acting
     @torch.no_grad()
-    def predict_chunk(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
-        """The chunk (K, A) predicted for one env observation (z = 0 for plain ACT)."""
-        return self.predict_chunks(self.obs_tensors(obs), [self.instruction])[0]
-
-    @torch.no_grad()
     def predict_chunks(self, obs: Mapping[str, Tensor], instructions: Sequence[str]) -> np.ndarray:
         """Chunks (B, K, A) for observations {key: (B, 1, ...)} (z = 0 for plain ACT)."""
         B = len(instructions)

@@ -141,10 +141,6 @@ class Policy(nn.Module):
     def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
         raise NotImplementedError
 
-    def obs_tensors(self, obs: Mapping[str, np.ndarray]) -> dict[str, Tensor]:
-        """One env observation -> {key: (1, 1, ...)} on the policy's device."""
-        return {k: v.to(self.device) for k, v in obs_batch(obs, self.obs_spec).items()}
-
     def obs_tensors_batch(self, obs: Sequence[Mapping[str, np.ndarray]]) -> dict[str, Tensor]:
         """B env observations -> {key: (B, 1, ...)} on the policy's device."""
         each = [obs_batch(o, self.obs_spec) for o in obs]  # B x {key: (1, 1, ...)}

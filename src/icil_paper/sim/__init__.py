@@ -6,7 +6,7 @@
     obs, reward, terminated, truncated, info = env.step(expert.act(obs))
     info["success"]                      # the task's success predicate, a bool
 
-Suites, named by the prefix of a task name (`SUITE_ENTRIES`, one `Suite` record each):
+Suites, named by the prefix of a task name (`SUITE_REGISTRY`, one `Suite` record each):
 `metaworld/` (Meta-World's 50 tasks; 13 stand in for RoboCasa's skill families, ML45 is the
 zero-shot split), `kitchen/` (door and drawer tasks on robosuite's Panda), `kinova/` (the same
 on a Kinova3 with perturbed dynamics, the stand-in for the real robot), `maniskill/`
@@ -26,28 +26,17 @@ missing; a suite that fails to load is named with the reason when one of its tas
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
-from icil_paper.registry import Registry, UnknownNameError, check_name
+from icil_paper.registry import UnknownNameError, check_name
+from icil_paper.sim.suite import ACTION_DIM, OBS_KINDS
 
-ACTION_DIM = 7
-"""Every task's action: [dx, dy, dz, drx, dry, drz, gripper], all in [-1, 1]."""
-OBS_KINDS = ("state", "rgb", "rgbd")
 SUITES = ("metaworld", "kitchen", "kinova", "maniskill")
 """The simulated suites of the paper's tables, in display order."""
-SUITE_ENTRIES = {
-    "metaworld": "icil_paper.sim.metaworld:METAWORLD_SUITE",
-    "kitchen": "icil_paper.sim.kitchen:KITCHEN_SUITE",
-    "kinova": "icil_paper.sim.kitchen:KINOVA_SUITE",
-    "maniskill": "icil_paper.sim.maniskill:MANISKILL_SUITE",
-    "synthetic": "icil_paper.sim.synthetic:SYNTHETIC_SUITE",
-}
-"""Suite name -> "module:attribute" of its `Suite` record (one line per suite)."""
-ALL_SUITES = tuple(SUITE_ENTRIES)
-SUITE_REGISTRY = Registry("suite", SUITE_ENTRIES)
 GYM_NAMESPACE = "icil_paper"
 
-__all__ = ["ACTION_DIM", "ALL_SUITES", "OBS_KINDS", "SUITES", "SUITE_ENTRIES", "TASKS",
+__all__ = ["ACTION_DIM", "ALL_SUITES", "OBS_KINDS", "SUITES", "SUITE_REGISTRY", "TASKS",
            "SuiteUnavailable", "UnknownNameError", "all_tasks", "get_suite", "gym_id",
            "make_env", "make_expert", "object_position", "obs_dims", "register_gym_envs",
            "scene_distributions", "suite_of", "suite_unavailable", "task_family", "tasks_of"]
@@ -59,9 +48,9 @@ class SuiteUnavailable(ImportError):
 
 def _load(suite: str) -> tuple[Any, str | None]:
     """The suite's record, or None and why it failed to load."""
-    check_name("suite", suite, ALL_SUITES)
+    check_name("suite", suite, SUITE_REGISTRY)
     try:
-        return SUITE_REGISTRY[suite], None
+        return SUITE_REGISTRY[suite](), None
     except Exception as exc:  # noqa: BLE001 - any failure makes the suite unavailable
         return None, f"{type(exc).__name__}: {exc}"
 
@@ -71,8 +60,7 @@ def get_suite(suite: str, context: str | None = None):
     record, problem = _load(suite)
     if record is None:
         where = f"{context}: " if context else ""
-        raise SuiteUnavailable(f"{where}the {suite} suite could not be loaded from "
-                               f"{SUITE_ENTRIES[suite]} ({problem})")
+        raise SuiteUnavailable(f"{where}the {suite} suite could not be loaded ({problem})")
     return record
 
 
@@ -93,16 +81,34 @@ def all_tasks() -> tuple[str, ...]:
     return tuple(task for suite in SUITES for task in tasks_of(suite))
 
 
-def __getattr__(attr: str) -> Any:  # PEP 562: `TASKS` is computed on first use
+def __getattr__(attr: str) -> Any:  # PEP 562: `TASKS` and each suite's record on first use
     if attr == "TASKS":
         return all_tasks()
+    if attr == "METAWORLD_SUITE":
+        from icil_paper.sim import metaworld
+        return metaworld.METAWORLD_SUITE
+    if attr in ("KITCHEN_SUITE", "KINOVA_SUITE"):
+        from icil_paper.sim import kitchen
+        return getattr(kitchen, attr)
+    if attr == "MANISKILL_SUITE":
+        from icil_paper.sim import maniskill
+        return maniskill.MANISKILL_SUITE
+    if attr == "SYNTHETIC_SUITE":
+        from icil_paper.sim import synthetic
+        return synthetic.SYNTHETIC_SUITE
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
+
+
+SUITE_REGISTRY = {suite: functools.partial(__getattr__, f"{suite.upper()}_SUITE")
+                  for suite in ("metaworld", "kitchen", "kinova", "maniskill", "synthetic")}
+"""Suite name -> a function returning its `Suite` record (its module imported on first use)."""
+ALL_SUITES = tuple(SUITE_REGISTRY)
 
 
 def suite_of(name: str) -> str:
     """The suite a task belongs to (`kitchen`, `kinova`, `maniskill` or `synthetic`)."""
     prefix = str(name).split("/", 1)[0]
-    if prefix not in SUITE_ENTRIES:
+    if prefix not in SUITE_REGISTRY:
         check_name("task", name, all_tasks())  # raises, listing the valid names
     check_name("task", name, get_suite(prefix, f"task {name!r}").tasks)
     return prefix
@@ -112,7 +118,7 @@ def task_family(task: str) -> str | None:
     """The paper's skill family (`SKILL_FAMILIES`) that `task` stands in for, or None (a task
     of a suite without families, or of none of them)."""
     prefix = str(task).split("/", 1)[0]
-    record, _ = _load(prefix) if prefix in SUITE_ENTRIES else (None, None)
+    record, _ = _load(prefix) if prefix in SUITE_REGISTRY else (None, None)
     return None if record is None else record.family_of(task)
 
 
@@ -125,7 +131,7 @@ def object_position(task: str) -> tuple[int, int] | None:
     """The slice (start, stop) of `obs["object"]` holding an object's position in `task`'s
     suite (drawn by recordings), or None when the suite has none or is unknown."""
     prefix = str(task).split("/", 1)[0]
-    if prefix not in SUITE_ENTRIES:
+    if prefix not in SUITE_REGISTRY:
         return None
     record, _ = _load(prefix)
     return None if record is None else record.object_position

@@ -34,7 +34,7 @@ import numpy as np
 from gymnasium import spaces
 
 from icil_paper.registry import check_name
-from icil_paper.sim import ACTION_DIM, OBS_KINDS
+from icil_paper.sim.suite import ACTION_DIM, OBS_KINDS
 
 METRIC_BOUND = 10.0
 """Bound (m or rad) of every position, distance and joint entry of the state observations."""

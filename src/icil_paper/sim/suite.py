@@ -23,6 +23,10 @@ from typing import Any
 
 from icil_paper.benchmark_tasks import SKILL_FAMILIES  # noqa: F401 - the suites read it here
 
+ACTION_DIM = 7
+"""Every task's action: [dx, dy, dz, drx, dry, drz, gripper], all in [-1, 1]."""
+OBS_KINDS = ("state", "rgb", "rgbd")
+
 
 def always_available() -> str | None:
     """The availability check of a suite that needs nothing beyond the library itself."""

@@ -8,57 +8,20 @@
     out = tok(actions)                                              # actions (B, T, 7)
     tok = load_tokenizer("exported/lipvq")       # a trained one, exported (`portable.py`)
 
-Each tokenizer is built from its config alone (`configs.py`, one dataclass per tokenizer,
-torch-free); `TOKENIZERS` lists the names, the paper's in its order, then the later ones.
-
-| name      | file       | paper                          | discrete | fit needed |
-|-----------|------------|--------------------------------|----------|------------|
-| `mlp`     | mlp.py     | ICRT's action MLP              | no       | no         |
-| `lip-mlp` | mlp.py     | MLP + Eq. 4 (Table IV)         | no       | no         |
-| `bin`     | bin.py     | RT-1 uniform bins              | yes      | ranges     |
-| `fast`    | fast.py    | FAST: DCT + BPE                | yes      | BPE vocab  |
-| `vq`      | vq.py      | VQ-VAE                         | yes      | no         |
-| `lfq`     | lfq.py     | LFQ-VAE (MAGVIT-v2)            | yes      | no         |
-| `lipvq`   | lipvq.py   | LipVQ-VAE (Sec. III-B)         | yes      | no         |
-
-And the tokenizers that came after the paper (`configs.SINCE_PAPER`), each learned one with
-and without Eq. 4 (`lip*`: the same class, every encoder layer a LipschitzLinear):
-
-| name      | file       | source                          | discrete | fit needed |
-|-----------|------------|---------------------------------|----------|------------|
-| `fsq`     | fsq.py     | FSQ (Mentzer et al. 2023)       | yes      | no         |
-| `lipfsq`  | fsq.py     | FSQ + Eq. 4                     | yes      | no         |
-| `rvq`     | rvq.py     | residual VQ (VQ-BeT, 2024)      | yes      | no         |
-| `liprvq`  | rvq.py     | residual VQ + Eq. 4             | yes      | no         |
-| `bspline` | bspline.py | B-spline control points (BEAST) | yes      | ranges     |
-
-Importing the package, or its torch-free `configs` (which the presets and the command line
-read), imports no torch: the names that live in torch modules (`make_tokenizer`,
-`ActionTokenizer`, `load_tokenizer`, `REGISTRY`, ...) load on first use (`__getattr__`).
+Each tokenizer is built from its config alone (`configs.py`, one torch-free dataclass per
+tokenizer); `TOKENIZERS` lists the names: the paper's in its order (`mlp`, `lip-mlp`, `bin`,
+`fast`, `vq`, `lfq`, `lipvq`), then those that came after it (`configs.SINCE_PAPER`: `fsq`,
+`rvq`, `bspline`, and `lipfsq`, `liprvq` with every encoder layer a LipschitzLinear, Eq. 4).
+Importing the package or `configs` imports no torch: the names that live in torch modules
+(`make_tokenizer`, `ActionTokenizer`, `load_tokenizer`, `REGISTRY`, ...) load on first use.
 
 A new tokenizer is one module: an `ActionTokenizer` subclass and its config, registered by
-one decorator (the presets give it their shared sizes, `latent_dim` and, where it has that
-field, `codebook_size`; `icil_paper.config` may add its own values):
-
-    from dataclasses import dataclass
-    from icil_paper.tokenizers import ActionTokenizer, TokenizerConfig, register_tokenizer
-
-    @register_tokenizer("toy", "ToyTokenizer")      # the class below, looked up on first use
-    @dataclass(frozen=True)
-    class ToyConfig(TokenizerConfig):
-        scale: float = 1.0   # (with its docstring under it, as every config field)
-
-    class ToyTokenizer(ActionTokenizer): ...
-
-(The package's own tokenizers keep their configs in `configs.py` and register their classes
-with `@register_tokenizer_model(name)`, imported by `factory.py`.)
-
-`--set tokenizers.toy.scale=2 --tokenizer toy` then works on the command line once the
-module is imported (`tests/test_registration.py` runs one end to end). Outside the package
-the module is a plugin: `--plugin FILE_OR_MODULE` on any command, or an entry point of the
-group `icil_paper.tokenizers`, loaded when a preset or a tokenizer is first built
-(`icil_paper.plugins`;
-`icil-paper compare` reads it against LipVQ-VAE, chapter 14).
+`@register_tokenizer("toy", "ToyTokenizer")` above `@dataclass(frozen=True)` on a
+`TokenizerConfig` subclass (the presets give it their shared `latent_dim` and
+`codebook_size`). Once imported, `--tokenizer toy --set tokenizers.toy.scale=2` works on the
+command line (`tests/test_registration.py`); outside the package it is a plugin
+(`--plugin FILE_OR_MODULE`, or an entry point of the group `icil_paper.tokenizers`; see
+`icil_paper.plugins`), and `icil-paper compare` reads it against LipVQ-VAE (chapter 14).
 """
 
 from __future__ import annotations

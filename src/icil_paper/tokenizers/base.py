@@ -176,11 +176,8 @@ class ActionTokenizer(nn.Module):
 
     def __init__(self, config: TokenizerConfig, action_dim: int):
         super().__init__()
-        if action_dim < 1 or config.latent_dim < 1:
-            raise ValueError(f"action_dim and latent_dim must be positive, got "
-                             f"{action_dim} and {config.latent_dim}")
-        if any(h < 1 for h in config.hidden):
-            raise ValueError(f"hidden widths must be positive, got {config.hidden}")
+        if action_dim < 1:  # the config checks its own fields when it is built
+            raise ValueError(f"action_dim must be positive, got {action_dim}")
         self.config = config
         self.action_dim = int(action_dim)
         self.latent_dim = int(config.latent_dim)

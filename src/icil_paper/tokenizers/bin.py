@@ -51,13 +51,9 @@ class BinTokenizer(ActionTokenizer):
     def __init__(self, config: BinConfig, action_dim: int):
         super().__init__(config, action_dim)
         n_bins, latent_dim = config.n_bins, config.latent_dim
-        if n_bins < 2:
-            raise ValueError(f"n_bins must be at least 2, got {n_bins}")
         self.n_bins = int(n_bins)
         self.autoencode = config.autoencode
         self.decode_weight = config.decode_weight
-        if config.range not in RANGES:
-            raise ValueError(f"unknown bin range {config.range!r}; valid: {', '.join(RANGES)}")
         self.range = config.range
         self.register_buffer("low", torch.full((action_dim,), -1.0))
         self.register_buffer("high", torch.full((action_dim,), 1.0))

@@ -64,11 +64,6 @@ class BSplineTokenizer(ActionTokenizer):
     def __init__(self, config: BSplineConfig, action_dim: int):
         super().__init__(config, action_dim)
         chunk, k, n_bins = config.chunk, config.control_points, config.n_bins
-        if not DEGREE + 1 <= k <= chunk:
-            raise ValueError(f"a cubic B-spline needs 4 <= control_points <= chunk, got "
-                             f"control_points={k} and chunk={chunk}")
-        if n_bins < 2:
-            raise ValueError(f"n_bins must be at least 2, got {n_bins}")
         self.chunk, self.control_points, self.n_bins = int(chunk), int(k), int(n_bins)
         self.autoencode = config.autoencode
         self.decode_weight = config.decode_weight

@@ -105,16 +105,10 @@ class LipschitzOptions:
     seed, `mlp` for `lip-mlp`, `vq` for `lipvq`, so that the two differ only by Eq. 4; the
     presets' choice)."""
     c_lr_scale: float = 1.0
-    """Learning rate of every bound c_l as a multiple of the trainer's (the policy's AdamW,
-    or the stand-alone tokenizer's Adam; the warm-up and cosine schedule scale it alike),
-    without weight decay; 0 keeps the bounds at their initial values. The paper gives no
-    learning rate for c: it trains every parameter with one optimiser, as Liu et al. do,
-    and the default 1 is that. Adam moves c by about its learning rate per step whatever
-    gamma is, so at 1 a bound stays within about 0.75 of where it starts (5-14 at Liu et
-    al.'s initialisation) in 3000 steps at 5e-4. A larger multiple lets the bounds travel
-    their own size in such a run: the presets set the multiple at which they can travel as
-    far as at the shared rate over the paper's 500K iterations (`config.matching_c_lr_scale`),
-    and the analysis table's `c_l at the shared rate` row keeps the default 1."""
+    """Learning rate of every bound c_l as a multiple of the trainer's (same schedule, no
+    weight decay); 0 keeps the bounds at their initial values. 1, the default, is the
+    paper's single optimiser; the presets set `config.matching_c_lr_scale`, at which a bound
+    travels as far in a short run as at the shared rate over the paper's 500K iterations."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"weight_init": ("liu", "randn", "linear")}
 

@@ -76,14 +76,6 @@ class FASTTokenizer(ActionTokenizer):
 
     def __init__(self, config: FASTConfig, action_dim: int):
         super().__init__(config, action_dim)
-        if config.mode not in _MODES:
-            raise ValueError(f"unknown FAST mode {config.mode!r}; valid: {', '.join(_MODES)}")
-        if config.chunk < 1 or config.scale <= 0:
-            raise ValueError(f"chunk must be >= 1 and scale > 0, got {config.chunk} and "
-                             f"{config.scale}")
-        if config.vocab_size < 2 or config.min_frequency < 1:
-            raise ValueError(f"vocab_size must be >= 2 and min_frequency >= 1, got "
-                             f"{config.vocab_size} and {config.min_frequency}")
         latent_dim = config.latent_dim
         self.chunk = int(config.chunk)
         self.scale = float(config.scale)

@@ -51,9 +51,6 @@ class FSQTokenizer(ActionTokenizer):
     def __init__(self, config: FSQConfig, action_dim: int):
         super().__init__(config, action_dim)
         levels = tuple(int(level) for level in config.levels)
-        if not levels or min(levels) < 3:
-            raise ValueError(f"FSQ levels must be at least 3 each (one or more dimensions), got "
-                             f"{config.levels}")
         from vector_quantize_pytorch import FSQ
 
         self.levels = levels

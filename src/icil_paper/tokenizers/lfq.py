@@ -43,10 +43,7 @@ class LFQTokenizer(ActionTokenizer):
     def __init__(self, config: LFQConfig, action_dim: int):
         super().__init__(config, action_dim)
         codebook_size, latent_dim, hidden = config.codebook_size, config.latent_dim, config.hidden
-        bits = int(round(math.log2(codebook_size))) if codebook_size >= 2 else 0
-        if codebook_size < 2 or 2**bits != codebook_size:
-            raise ValueError(f"LFQ's codebook_size must be a power of two >= 2, got "
-                             f"{codebook_size}")
+        bits = int(round(math.log2(codebook_size)))  # a power of two (LFQConfig checks)
         entropy_weight, diversity_gamma = config.entropy_weight, config.diversity_gamma
         commitment_weight, recon_weight = config.commitment_weight, config.recon_weight
         from vector_quantize_pytorch import LFQ

@@ -47,9 +47,6 @@ class RVQTokenizer(ActionTokenizer):
 
     def __init__(self, config: RVQConfig, action_dim: int):
         super().__init__(config, action_dim)
-        if config.num_quantizers < 1 or config.codebook_size < 2:
-            raise ValueError(f"residual VQ needs num_quantizers >= 1 and codebook_size >= 2, "
-                             f"got {config.num_quantizers} and {config.codebook_size}")
         from vector_quantize_pytorch import ResidualVQ
 
         self.num_quantizers = int(config.num_quantizers)

@@ -52,16 +52,6 @@ class VQTokenizer(ActionTokenizer):
 
     def __init__(self, config: VQConfig, action_dim: int):
         super().__init__(config, action_dim)
-        if config.codebook_init not in CODEBOOK_INITS:
-            raise ValueError(f"unknown codebook_init {config.codebook_init!r}; valid: "
-                             f"{', '.join(CODEBOOK_INITS)}")
-        if config.straight_through not in STRAIGHT_THROUGH:
-            raise ValueError(f"unknown straight_through {config.straight_through!r}; valid: "
-                             f"{', '.join(STRAIGHT_THROUGH)}")
-        if config.codebook_size < 2:
-            raise ValueError(f"codebook_size must be at least 2, got {config.codebook_size}")
-        if config.dead_code_restart < 0:
-            raise ValueError(f"dead_code_restart must be >= 0, got {config.dead_code_restart}")
         latent_dim, K = config.latent_dim, config.codebook_size
         self.norm = config.norm
         self.lipschitz_weight = config.lipschitz.weight
@@ -147,8 +137,3 @@ class VQTokenizer(ActionTokenizer):
         noise = 1e-3 * flat.std() * torch.randn_like(self.codebook.weight)
         self.codebook.weight.copy_(flat[idx] + noise)
         self._codebook_from_data.fill_(True)
-
-    @torch.no_grad()
-    def encode_codes(self, actions: Tensor) -> Tensor:
-        """Codes (B, T) of actions (B, T, A)."""
-        return self.quantize(self.encoder(self.check_actions(actions)))[1]

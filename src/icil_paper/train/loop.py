@@ -136,8 +136,6 @@ def train_policy(spec: Any, run_dir: str | Path | None = None, resume: bool = Tr
     """
     device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
     threads = spec.train.cpu_threads if device.type == "cpu" else 0
-    if spec.train.steps < 1:
-        raise ValueError(f"train.steps must be at least 1, got {spec.train.steps}")
     run_dir = Path(run_dir) if run_dir is not None else None
     with cpu_threads(threads), (rundir.run_lock(run_dir) if run_dir is not None
                                 else contextlib.nullcontext()):
@@ -166,8 +164,6 @@ def _train(spec, run_dir, resume, demos, device, progress, stop_after, preset,
         model = make_policy(spec.policy, obs_spec, action_dim, spec.tokenizer)
         data = model.prepare(demos, pretrain=ckpt is None, progress=progress)
         model.to(device)
-    if tc.compile:  # in place: the state dict keeps its names; compiled on the first step
-        model.compile(dynamic=True)
     optimizer = make_optimizer(model, tc.lr, tc.weight_decay, tc.betas)
     scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer,
                                                   cosine_schedule(tc.warmup_steps, tc.steps))

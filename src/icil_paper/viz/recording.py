@@ -84,6 +84,23 @@ def _rrd_stream(path: Path):
             tmp.unlink()
 
 
+def _try_rrd(path: Path, write: Any) -> bool:
+    """Run `write` (a rerun recording to `path`); False, with a warning, where it fails."""
+    try:
+        write()
+        return True
+    except Exception as exc:  # noqa: BLE001 - the picture is the fallback
+        warnings.warn(f"rerun recording {path} failed ({type(exc).__name__}: {exc}); "
+                      "writing the static picture only", stacklevel=3)
+        return False
+
+
+def _save_png(fig: Any, path: Path) -> None:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90)
+    atomic_write_bytes(path, buf.getvalue())
+
+
 def _write_rrd(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
                latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
     import rerun as rr
@@ -155,9 +172,7 @@ def _write_png(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
         strip.imshow(np.concatenate(frames, axis=1))
         strip.set(title=f"camera frames at steps {picks.tolist()}")
         strip.axis("off")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
-    atomic_write_bytes(path, buf.getvalue())
+    _save_png(fig, path)
 
 
 def record_episode(path: str | Path, obs_seq: Mapping[str, Any] | Sequence[Mapping[str, Any]],
@@ -195,16 +210,9 @@ def record_episode(path: str | Path, obs_seq: Mapping[str, Any] | Sequence[Mappi
         if value is not None and value.shape[0] != actions.shape[0]:
             raise ValueError(f"{key} has {value.shape[0]} steps but actions have "
                              f"{actions.shape[0]}")
-    out: dict[str, Path | None] = {"rrd": None, "png": path.with_suffix(".png")}
-    if rrd:
-        try:
-            _write_rrd(path, obs, actions, lat, imgs, title)
-            out["rrd"] = path
-        except Exception as exc:  # noqa: BLE001 - the picture is the fallback
-            warnings.warn(f"rerun recording {path} failed ({type(exc).__name__}: {exc}); "
-                          "writing the static picture only", stacklevel=2)
-    _write_png(out["png"], obs, actions, lat, imgs, title)
-    return out
+    written = rrd and _try_rrd(path, lambda: _write_rrd(path, obs, actions, lat, imgs, title))
+    _write_png(path.with_suffix(".png"), obs, actions, lat, imgs, title)
+    return {"rrd": path if written else None, "png": path.with_suffix(".png")}
 
 
 def principal_view(z: Any, dims: int = 3) -> np.ndarray:
@@ -259,16 +267,9 @@ def record_latent_trajectories(path: str | Path, actions: Any, views: Mapping[st
             raise ValueError(f"view {label!r} must be (T={actions.shape[0]}, 2 or 3), "
                              f"got shape {view.shape}")
         unit[label] = _unit_extent(np.pad(view, ((0, 0), (0, 3 - view.shape[1]))))
-    out: dict[str, Path | None] = {"rrd": None, "png": path.with_suffix(".png")}
-    if rrd:
-        try:
-            _write_latent_rrd(path, actions, unit, title)
-            out["rrd"] = path
-        except Exception as exc:  # noqa: BLE001 - the picture is the fallback
-            warnings.warn(f"rerun recording {path} failed ({type(exc).__name__}: {exc}); "
-                          "writing the static picture only", stacklevel=2)
-    _write_latent_png(out["png"], unit, title)
-    return out
+    written = rrd and _try_rrd(path, lambda: _write_latent_rrd(path, actions, unit, title))
+    _write_latent_png(path.with_suffix(".png"), unit, title)
+    return {"rrd": path if written else None, "png": path.with_suffix(".png")}
 
 
 def _write_latent_rrd(path: Path, actions: np.ndarray, unit: Mapping[str, np.ndarray],
@@ -305,6 +306,4 @@ def _write_latent_png(path: Path, unit: Mapping[str, np.ndarray], title: str) ->
         ax.set_yticks([])
     if title:
         fig.suptitle(title, fontsize=10)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
-    atomic_write_bytes(path, buf.getvalue())
+    _save_png(fig, path)

@@ -29,7 +29,7 @@ import logging
 import os
 from typing import Any
 
-from icil_paper.registry import Registry, check_name
+from icil_paper.registry import check_name
 from icil_paper.sim.kitchen.tasks import (
     ALL_TASKS,
     CONTROL_FREQ,
@@ -51,13 +51,6 @@ OBJECT_POSITION = (1, 4)
 # robosuite picks its OpenGL backend when it is first imported (every module of this package
 # that imports it is imported through here); headless image observations need EGL.
 os.environ.setdefault("MUJOCO_GL", "egl")
-
-SIMULATED = Registry("kitchen suite module", {
-    "env": "icil_paper.sim.kitchen.env:KitchenEnv",
-    "expert": "icil_paper.sim.kitchen.experts:make_kitchen_expert",
-})
-"""The env class (robosuite, mujoco) and the experts (scipy), imported when the first env or
-expert is built, so that listing the suite imports none of them."""
 
 __all__ = ["KITCHEN_TASKS", "KINOVA_TASKS", "ALL_TASKS", "TASK_FAMILIES", "KITCHEN_OBS_DIMS",
            "KITCHEN_PROPRIO_DIM", "KITCHEN_OBJECT_DIM", "KitchenTaskSpec", "make_kitchen_env",
@@ -97,7 +90,6 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
 
     Options: `camera_size` (default 84, square images), `horizon` (override the task's),
     `obs_noise_std` (override the Kinova tasks' observation noise; 0 turns it off),
-    `initialization_noise` (robosuite's robot joint noise, "default" or None),
     `render_mode` ("rgb_array" or None, gymnasium's), `scenes` (the scene distribution of
     `SCENE_DISTRIBUTIONS`, default "generated"; "human" is the `human` demo source's,
     `scenes.py`).
@@ -109,13 +101,25 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
     check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
                SCENE_DISTRIBUTIONS)
     _import_robosuite_quietly()
-    return SIMULATED["env"](name, obs=obs, seed=seed, **options)
+    return __getattr__("KitchenEnv")(name, obs=obs, seed=seed, **options)
 
 
 def make_kitchen_expert(name: str):
     """The scripted state-machine expert of a task: `expert.reset(env, obs)`, `expert.act(obs)`."""
     check_name("kitchen task", name, ALL_TASKS)
-    return SIMULATED["expert"](name)
+    return __getattr__("HookExpert")(name)
+
+
+def __getattr__(attr: str) -> Any:
+    # PEP 562: the env class (robosuite, mujoco) and the experts (scipy), imported when the
+    # first env or expert is built, so that listing the suite imports none of them
+    if attr == "KitchenEnv":
+        from icil_paper.sim.kitchen import env
+        return env.KitchenEnv
+    if attr == "HookExpert":
+        from icil_paper.sim.kitchen import experts
+        return experts.HookExpert
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
 KITCHEN_SUITE = Suite(

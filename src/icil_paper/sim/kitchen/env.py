@@ -70,7 +70,7 @@ class KitchenSceneEnv(ManipulationEnv):
 
     def __init__(self, scene: Scene, robot: str = "Panda", horizon: int = 200,
                  offscreen: bool = False, perturbation: DynamicsPerturbation | None = None,
-                 initialization_noise="default", seed: int | None = None):
+                 seed: int | None = None):
         self.scene = scene
         self.perturbation = perturbation
         self.success_flag = False
@@ -80,7 +80,7 @@ class KitchenSceneEnv(ManipulationEnv):
             robots=robot,
             controller_configs=load_composite_controller_config(controller="BASIC", robot=robot),
             gripper_types="default",
-            initialization_noise=initialization_noise,
+            initialization_noise="default",
             use_camera_obs=False,
             has_renderer=False,
             has_offscreen_renderer=offscreen,
@@ -192,8 +192,7 @@ class KitchenEnv(TaskEnv):
 
     def __init__(self, name: str, obs: str = "state", seed: int = 0, camera_size: int = 84,
                  horizon: int | None = None, obs_noise_std: float | None = None,
-                 initialization_noise="default", render_mode: str | None = None,
-                 scenes: str = SCENE_DISTRIBUTIONS[0]):
+                 render_mode: str | None = None, scenes: str = SCENE_DISTRIBUTIONS[0]):
         check_name("kitchen task", name, ALL_TASKS)
         self.task_spec: KitchenTaskSpec = ALL_TASKS[name]
         super().__init__(name, obs, seed, horizon=int(horizon or self.task_spec.horizon),
@@ -209,7 +208,7 @@ class KitchenEnv(TaskEnv):
             self._env = KitchenSceneEnv(self.scene, robot=self.task_spec.robot,
                                         horizon=self.horizon, offscreen=obs != "state",
                                         perturbation=DynamicsPerturbation(gap) if gap else None,
-                                        initialization_noise=initialization_noise, seed=seed)
+                                        seed=seed)
         self.sim = self._env.sim
         self._noise_rng = np.random.default_rng(0)
         extent = self.sim.model.stat.extent

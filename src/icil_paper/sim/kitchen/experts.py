@@ -5,7 +5,7 @@ fixture's joint position, key point and base pose from `object`) plus fixed geom
 fixture (handle offset in the fixture's own frame, read once at reset), and outputs the
 suite's 7-D action. Usage::
 
-    expert = make_kitchen_expert("kitchen/open_drawer")
+    expert = HookExpert("kitchen/open_drawer")   # or icil_paper.sim.make_expert(name)
     obs, info = env.reset(seed=3)
     expert.reset(env, obs)
     while True:
@@ -27,7 +27,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from icil_paper.registry import check_name
 from icil_paper.sim.kitchen.scenes import COUNTER_Z, quat_xyzw_to_yaw, rot_z
 from icil_paper.sim.kitchen.tasks import ALL_TASKS
 
@@ -37,7 +36,8 @@ ROT_SCALE = 0.5
 """Radians of end-effector goal rotation per unit of rotation action (robosuite OSC_POSE)."""
 LEAD = 2.0
 """Velocity lead of the pose servo, in control steps."""
-OPEN, CLOSE = -1.0, 1.0
+CLOSE = 1.0
+"""The gripper action that closes the hand (-1 opens it); the expert keeps it closed."""
 _DOWN = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 """Grip-site orientation pointing down, unturned (its x axis, the closing axis, along world y)."""
 
@@ -51,12 +51,15 @@ def gripper_yaw(mat: np.ndarray) -> float:
     return float(np.arctan2(-mat[0, 0], mat[1, 0]))
 
 
-class KitchenExpert:
-    """Base class: observation parsing, pose servoing and phase bookkeeping."""
+class HookExpert:
+    """Doors and drawers: fingertips in the gap behind the handle bar drag the part along the
+    joint's path (`part_point`: where a point of the moving part is for a given joint value).
+    Observation parsing, pose servoing and phase bookkeeping, then the phases themselves."""
 
-    phases: tuple[str, ...] = ()
-    budgets: dict[str, int] = {}
+    phases = ("approach", "descend", "drag", "lift", "retreat", "recover")
+    budgets = {"approach": 60, "descend": 30, "drag": 120, "lift": 30}
     """Step budget per phase; running out restarts from `approach` (after lifting)."""
+    safe_z = COUNTER_Z + 0.30
 
     def __init__(self, name: str):
         self.name = name
@@ -64,9 +67,19 @@ class KitchenExpert:
         # the Kinova arm under robosuite's OSC settles about twice as slowly as the Panda
         self.budget_scale = 2.0 if self.spec.robot == "Kinova3" else 1.0
         self._prev_eef, self.vel = None, np.zeros(3)
-        self.phase = self.phases[0] if self.phases else ""
+        self.phase = self.phases[0]
         self.t = 0
         self.restarts = 0
+        # goal_q: the joint value driven towards, per goal (past the success threshold);
+        # done_q: the value at which the expert lets go; step_q: how far ahead it drags
+        if self.spec.scene == "door":
+            self.goal_q = {"open": 1.35, "close": -0.2}
+            self.done_q = {"open": 1.15, "close": 0.03}
+            self.step_q = 0.22
+        else:
+            self.goal_q = {"open": 0.2, "close": -0.05}
+            self.done_q = {"open": 0.15, "close": 0.004}
+            self.step_q = 0.05
 
     # interface -----------------------------------------------------------------------------
     def reset(self, env, obs) -> None:
@@ -88,13 +101,6 @@ class KitchenExpert:
         else:
             action = self._act()
         return np.clip(action, -1.0, 1.0).astype(np.float32)
-
-    # to implement ----------------------------------------------------------------------------
-    def _start(self, obs) -> None:
-        pass
-
-    def _act(self) -> np.ndarray:
-        raise NotImplementedError
 
     # helpers ---------------------------------------------------------------------------------
     def _set(self, phase: str) -> None:
@@ -151,37 +157,12 @@ class KitchenExpert:
         return bool(np.linalg.norm(d[:2]) < tol_xy and abs(d[2]) < tol_z)
 
     def _recover(self) -> np.ndarray:
-        """Lift straight up (gripper as the subclass wants), then start over."""
+        """Lift straight up (gripper closed), then start over."""
         target = self.eef.copy()
         target[2] = max(self.eef[2], self.safe_z)
         if self.eef[2] > self.safe_z - 0.015 or self.t > 25:
             self._set("approach")
-        return self._servo(target + np.array([0, 0, 0.03]), self.yaw, self.recover_grip)
-
-    safe_z = COUNTER_Z + 0.30
-    recover_grip = OPEN
-
-
-class HookExpert(KitchenExpert):
-    """Doors and drawers: fingertips in the gap behind the handle bar drag the part along the
-    joint's path (`part_point`: where a point of the moving part is for a given joint value)."""
-
-    phases = ("approach", "descend", "drag", "lift", "retreat", "recover")
-    budgets = {"approach": 60, "descend": 30, "drag": 120, "lift": 30}
-    recover_grip = CLOSE
-
-    def __init__(self, name: str):
-        super().__init__(name)
-        # goal_q: the joint value driven towards, per goal (past the success threshold);
-        # done_q: the value at which the expert lets go; step_q: how far ahead it drags
-        if self.spec.scene == "door":
-            self.goal_q = {"open": 1.35, "close": -0.2}
-            self.done_q = {"open": 1.15, "close": 0.03}
-            self.step_q = 0.22
-        else:
-            self.goal_q = {"open": 0.2, "close": -0.05}
-            self.done_q = {"open": 0.15, "close": 0.004}
-            self.step_q = 0.05
+        return self._servo(target + np.array([0, 0, 0.03]), self.yaw, CLOSE)
 
     def _start(self, obs) -> None:
         g = self.geometry
@@ -241,9 +222,3 @@ class HookExpert(KitchenExpert):
         # retreat: back towards the robot and up, away from the fixture
         target = np.array([self.eef[0] - 0.05, self.eef[1], self.safe_z])
         return self._servo(target, self.yaw, CLOSE, speed=0.5)
-
-
-def make_kitchen_expert(name: str) -> HookExpert:
-    """The scripted expert of a kitchen or Kinova task (call `reset(env, obs)`, then `act`)."""
-    check_name("kitchen task", name, ALL_TASKS)
-    return HookExpert(name)

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import importlib.util
 
-from icil_paper.registry import Registry
 from icil_paper.sim.maniskill.env import (
     CONTROL_FREQ,
     MANISKILL_OBS_DIMS,
@@ -27,15 +26,19 @@ from icil_paper.sim.maniskill.env import (
 from icil_paper.sim.rendering import vulkan_problem
 from icil_paper.sim.suite import Suite
 
-EXPERTS = Registry("maniskill suite module",
-                   {"expert": "icil_paper.sim.maniskill.expert:make_maniskill_expert"})
-"""The motion-planning experts (`expert.py`: scipy, ManiSkill's planner), imported when the
-first expert is built."""
-
 
 def make_maniskill_expert(name: str):
     """The task's motion-planning expert (`expert.py`)."""
-    return EXPERTS["expert"](name)
+    return __getattr__("MotionPlanningExpert")(name)
+
+
+def __getattr__(attr: str):
+    # PEP 562: the motion-planning experts (scipy, ManiSkill's planner), imported when the
+    # first expert is built
+    if attr == "MotionPlanningExpert":
+        from icil_paper.sim.maniskill import expert
+        return expert.MotionPlanningExpert
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
 def maniskill_problem() -> str | None:

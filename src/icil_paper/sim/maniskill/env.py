@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper.sim import ACTION_DIM
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
 from icil_paper.sim.rendering import LAVAPIPE_HOWTO, RenderingUnavailable
+from icil_paper.sim.suite import ACTION_DIM
 
 PROPRIO_DIM = 9
 MANISKILL_OBJECT_DIM = 21

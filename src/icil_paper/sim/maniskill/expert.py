@@ -161,8 +161,3 @@ class MotionPlanningExpert:
         if self._shadow is not None:
             self._shadow.close()
             self._shadow = None
-
-
-def make_maniskill_expert(name: str) -> MotionPlanningExpert:
-    """The expert of a ManiSkill task (see the module docstring)."""
-    return MotionPlanningExpert(name)

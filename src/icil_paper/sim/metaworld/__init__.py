@@ -22,8 +22,7 @@ import importlib.util
 import os
 from typing import Any
 
-from icil_paper.registry import Registry, check_name
-from icil_paper.sim import OBS_KINDS
+from icil_paper.registry import check_name
 from icil_paper.sim.metaworld.tasks import (
     ALL_TASK_FAMILIES,
     CONTROL_FREQ,
@@ -41,7 +40,7 @@ from icil_paper.sim.metaworld.tasks import (
     MetaWorldTaskSpec,
     family_of,
 )
-from icil_paper.sim.suite import Suite
+from icil_paper.sim.suite import OBS_KINDS, Suite
 
 METAWORLD_OBS_DIMS = (PROPRIO_DIM, OBJECT_DIM)
 OBJECT_POSITION = (0, 3)
@@ -49,12 +48,6 @@ OBJECT_POSITION = (0, 3)
 
 # Headless image observations need EGL; MuJoCo picks its OpenGL backend when first imported.
 os.environ.setdefault("MUJOCO_GL", "egl")
-
-SIMULATED = Registry("metaworld suite module", {
-    "env": "icil_paper.sim.metaworld.env:MetaWorldEnv",
-    "expert": "icil_paper.sim.metaworld.experts:MetaWorldExpert",
-})
-"""The env class and the experts (metaworld, mujoco), imported when the first is built."""
 
 __all__ = ["METAWORLD_SUITE", "METAWORLD_TASKS", "METAWORLD_OBS_DIMS", "TASKS", "FAMILIES",
            "TASK_FAMILIES", "ALL_TASK_FAMILIES", "ROBOCASA_TASKS", "ML45_TRAIN", "ML45_HELD_OUT", "ZERO_SHOT_SPLIT",
@@ -83,13 +76,24 @@ def make_metaworld_env(name: str, obs: str = "state", seed: int = 0, **options: 
     check_name("observation kind", obs, OBS_KINDS)
     check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
                SCENE_DISTRIBUTIONS)
-    return SIMULATED["env"](name, obs=obs, seed=seed, **options)
+    return __getattr__("MetaWorldEnv")(name, obs=obs, seed=seed, **options)
 
 
 def make_metaworld_expert(name: str, noise_std: float = 0.0):
     """The task's scripted Meta-World policy: `expert.reset(env, obs)`, `expert.act(obs)`."""
     check_name("Meta-World task", name, TASKS)
-    return SIMULATED["expert"](name, noise_std=noise_std)
+    return __getattr__("MetaWorldExpert")(name, noise_std=noise_std)
+
+
+def __getattr__(attr: str) -> Any:
+    # PEP 562: the env class and the experts (metaworld, mujoco), imported when the first is built
+    if attr == "MetaWorldEnv":
+        from icil_paper.sim.metaworld import env
+        return env.MetaWorldEnv
+    if attr == "MetaWorldExpert":
+        from icil_paper.sim.metaworld import experts
+        return experts.MetaWorldExpert
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
 METAWORLD_SUITE = Suite(
@@ -97,5 +101,5 @@ METAWORLD_SUITE = Suite(
     make_env=make_metaworld_env, make_expert=make_metaworld_expert,
     object_position=OBJECT_POSITION, unavailable=metaworld_problem,
     zero_shot_split=ZERO_SHOT_SPLIT, scenes=SCENE_DISTRIBUTIONS,
-    families={family: tuple(t for t in TASKS if family_of(t) == family) for family in FAMILIES},
+    families=ALL_TASK_FAMILIES,
     description="Meta-World (Sawyer) tasks: the paper's seven RoboCasa skill families and ML45")

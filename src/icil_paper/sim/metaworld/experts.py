@@ -19,8 +19,8 @@ import numpy as np
 from metaworld.policies import ENV_POLICY_MAP
 
 from icil_paper.registry import check_name
-from icil_paper.sim import ACTION_DIM
 from icil_paper.sim.metaworld.tasks import METAWORLD_TASKS
+from icil_paper.sim.suite import ACTION_DIM
 
 POLICY_CLASSES: dict[str, type] = {
     task: ENV_POLICY_MAP[spec.metaworld_id] for task, spec in METAWORLD_TASKS.items()}
@@ -61,8 +61,3 @@ class MetaWorldExpert:
         action = np.zeros(ACTION_DIM, np.float32)
         action[[0, 1, 2, 6]] = np.clip(move, -1.0, 1.0)
         return action
-
-
-def make_metaworld_expert(name: str, noise_std: float = 0.0) -> MetaWorldExpert:
-    """The scripted expert of a Meta-World task."""
-    return MetaWorldExpert(name, noise_std=noise_std)
