@@ -3,6 +3,7 @@
     python -m tools.pilot                      # every setting, 2 cells at a time (`make pilot`)
     python -m tools.pilot --settings kitchen_30
     python -m tools.pilot regime [--maniskill] # the regime pilot (`make pilot PILOT_ARGS=regime`)
+    python -m tools.pilot episodes             # episodes per task from the committed records
 
 A row whose success is 0 or 1 on a family for every row of a table cannot tell the rows
 apart there: averaging it in only dilutes the differences. The reference preset's task
@@ -34,7 +35,9 @@ from icil_paper.config import get_preset, matching_c_lr_scale, task_demo_counts
 from icil_paper.config_data import canonical_json
 from icil_paper.paper import table_spec
 from icil_paper.paper.table_ii import maniskill_settings, maniskill_tokenizer
+from icil_paper.planning.design import episode_design
 from icil_paper.planning.pilot import REGIME_MIN_FAMILIES, REGIME_RANGE, informative
+from icil_paper.planning.staged import as_run
 from icil_paper.records import eval_record, features_record
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, results_root, save_benchmark
@@ -507,8 +510,29 @@ def regime_main(argv: list[str] | None = None) -> None:
     save_benchmark("regime", record, args.out or root / "bench" / "regime.json")
 
 
+def episodes_main(argv: list[str] | None = None) -> None:
+    """`python -m tools.pilot episodes`: the cost-optimal episodes per task of every suite
+    whose rows the committed reference records hold (`planning.design.episode_design`:
+    each suite's paired variance split into its episode and seed-by-row parts), written to
+    `results/bench/episodes.json`, which the reference preset's episode counts are read
+    from (`planning.pilot.recorded_episodes`). The records are found by the keys of the
+    code that made them: run it at the commit its record names."""
+    parser = argparse.ArgumentParser(prog="python -m tools.pilot episodes",
+                                     description=episodes_main.__doc__)
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args(argv)
+    store = ResultsStore("reference")
+    rows = episode_design(as_run(get_preset("reference"), store), store)
+    if not rows:
+        sys.exit("tools.pilot episodes: no suite's rows are in results/reference under the "
+                 "current keys; run it at the commit that made the records")
+    save_benchmark("episodes", {"rows": rows}, args.out)
+
+
 if __name__ == "__main__":
     if sys.argv[1:2] == ["regime"]:
         regime_main(sys.argv[2:])
+    elif sys.argv[1:2] == ["episodes"]:
+        episodes_main(sys.argv[2:])
     else:
         main()

@@ -676,8 +676,8 @@ go on."""
 REFERENCE_EPISODES = ("kinova=7", "maniskill=56", "metaworld=9")
 """The reference preset's rollouts per task by suite (`TablesConfig.episodes_per_task_by_suite`),
 at cost-optimal counts: Meta-World's from the regime pilot's paired outcomes
-(`planning.pilot.regime_episodes`), ManiSkill's and the Kinova stand-in's from the committed
-kitchen-run records (`planning.design.episode_design`)."""
+(`planning.pilot.regime_episodes`), ManiSkill's from the committed records of the earlier
+run (`planning.pilot.recorded_episodes`), the Kinova stand-in's from that run's kitchen rows."""
 
 
 REGIME_DEMOS, REGIME_STEPS = 50, 500

@@ -165,6 +165,14 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
     return frame, text
 
 
+def recorded_episodes(path: str | None = None) -> dict[str, int]:
+    """{suite: episodes per task} at the cost-optimal counts `python -m tools.pilot episodes`
+    computed from the committed reference records (`results/bench/episodes.json`; every
+    pair of rows, rounded)."""
+    rows = json.loads(open(path or bench_path("episodes")).read())["rows"]
+    return {r["suite"]: round(r["optimal_episodes"]) for r in rows if r["pairs"] == "all pairs"}
+
+
 def regime_episodes(path: str | None = None, cells: str | None = None) -> dict[str, Any]:
     """Meta-World's cost-optimal episodes per task (`TablesConfig.episodes_per_task_by_suite`)
     from the regime pilot's paired outcomes (`regime.json`: ICRT + LipVQ-VAE against each row
