@@ -141,21 +141,6 @@ MODULE_DOCSTRING_LINES = 25
 """A module docstring says what the module is and how to use it; history and findings live
 in git, the book and CONTRIBUTING.md."""
 
-# Temporary: modules being rewritten on other branches, whose docstrings shrink with them.
-# Empty this list once those branches have landed.
-LONG_DOCSTRING_ALLOWED = {
-    "src/icil_paper/eval/rollouts.py",
-    "src/icil_paper/paper/__init__.py",
-    "src/icil_paper/paper/analysis.py",
-    "src/icil_paper/paper/official.py",
-    "src/icil_paper/paper/table_vi.py",
-    "src/icil_paper/plugins.py",
-    "src/icil_paper/tables/claims.py",
-    "src/icil_paper/tables/grid.py",
-    "src/icil_paper/train/rundir.py",
-}
-
-
 def _module_docstring_lines(path: Path) -> int:
     """Lines the module docstring spans in the file, quotes included (0 without one)."""
     body = ast.parse(path.read_text(encoding="utf-8")).body
@@ -170,7 +155,7 @@ def test_module_docstrings_are_short():
     for path in sorted((ROOT / "src" / "icil_paper").rglob("*.py")):
         name = path.relative_to(ROOT).as_posix()
         lines = _module_docstring_lines(path)
-        if lines > MODULE_DOCSTRING_LINES and name not in LONG_DOCSTRING_ALLOWED:
+        if lines > MODULE_DOCSTRING_LINES:
             too_long[name] = lines
     assert not too_long, (f"module docstrings over {MODULE_DOCSTRING_LINES} lines (say what the "
                           f"module is and how to use it; history goes to git): {too_long}")

@@ -18,13 +18,10 @@ loaded in the worker before the cell's function is imported. Every record the re
 store writes names the plugins that registered a component its config uses (`record_of`):
 which module or file, at which package version or file SHA-256.
 
-Each plugin is checked as it is loaded, and a bad one raises `PluginError` (a ValueError:
-one line and exit 2 at the command line, before any work): a module or file that does not
-exist or fails to import, one that registers nothing, a name that a built-in (or another
-plugin) already holds, a config class with a field without a default or whose
-`__post_init__` does not check its values (it must call `super().__post_init__()`), and a
-component that fails its kind's own probe (`ComponentRegistry.probe`: a tokenizer whose
-output on a probe batch of actions has the wrong shape, `tokenizers.base.probe`).
+Each plugin is checked as it is loaded; a bad one raises `PluginError` (one line and exit 2
+at the command line, before any work): a module that does not import or registers nothing,
+a name already held, a config field without a default or a config that does not check its
+values, a component that fails its kind's probe (`tokenizers.base.probe`).
 """
 
 from __future__ import annotations

@@ -21,20 +21,10 @@ A reader of the book finds the code of a result in the module named for it:
 - `since_paper.py`   the tokenizers since the paper, the `beyond` table (chapter 12)
 - `official.py`      the paper against its official code (chapter 13)
 
-Each declares `spec(preset) -> TableSpec` (Table IV also `fig5_spec`; `icrt` is chapter
-02's run, not a table of the paper), where it has claims
-`claims(preset)` and `CLAIM_LABELS`, the paper's numbers of its table as printed
-(`TABLE_V_SIM_TO_REAL`, ...), and what its chapter shows of it alone (a figure, a frame, a
-sentence). They are built from `icil_paper.tables` (the building blocks of a spec, the
-claims engine, the views every result shares) and never the other way: `tables` reads the
-list of results only here (`TABLES`, `claims`, `CLAIM_LABELS`).
-
-Shared cells: Tables III, IV, V, VI and the prompt ablation reuse Table I's trained
-policies (the same RunSpecs; Table VI evaluates them on the `human` scene distribution),
-Fig. 5 reuses Table I's LipVQ-VAE run at the preset's codebook size, and the `beyond`,
-`analysis` and `official` tables Table I's runs of their paper rows, so each policy is
-trained once. Every row is evaluated on the same episodes (the same evaluation seed), so two
-rows can be compared episode by episode.
+Each declares `spec(preset) -> TableSpec`, its `claims(preset)` and `CLAIM_LABELS`, the
+paper's numbers as printed, and what its chapter shows of it alone; `tables` reads the list
+of results only here. Tables III, IV, V, VI, Fig. 5 and the later tables reuse Table I's
+trained policies (the same RunSpecs), so each policy is trained once.
 """
 
 from __future__ import annotations

@@ -8,28 +8,12 @@
     training_windows(result)     # chapter 02: whole episodes against 32-step windows
 
 The paper explains LipVQ-VAE's success by smoothness: Eq. 4 bounds the encoder's Lipschitz
-constant, so neighbouring actions get neighbouring latents, so latent trajectories are
-smoother (a lower least energy), and smoother tokens make in-context imitation succeed more.
-Each link can be checked on the table's cells (`ANALYSIS_VARIANTS`; its VQ-VAE and
-LipVQ-VAE rows are Table I's policies):
-
-1. Does Eq. 4 bind? The share of rows whose absolute sum the trained bound caps (a row
-   "binds" at `BINDS_AT` or more: `binding_frame`), the product of the layer bounds,
-   the encoder's empirical Lipschitz constant, and how far training could move the bounds
-   at all (`bound_travel`).
-2. Is LipVQ-VAE smoother than VQ-VAE once the latent scale is removed? The raw least energy
-   grows with the square of the latent scale; the standardized one does not.
-3. Does LipVQ-VAE succeed more than VQ-VAE, and does each variant (a large gamma, initial
-   bounds of 1, a larger learning rate of the bounds, dead-code restarts, ICRT's 32-step
-   training windows) move smoothness and success together, as the explanation predicts
-   (`variant_effects`, `effects_frame`)? Every variant is compared
-   with its base in both. The window variant too: its tokenizer is trained jointly with
-   the policy on other windows, so its encoder can differ, and its features are measured
-   on the same held-out trajectories as every row's.
-
-`findings` turns each comparison into an estimate with its interval and a verdict
-(`icil_paper.stats`); `explanation_verdict` reads the explanation's verdict from them, and
-the chapter writes its prose around that verdict (MyST-NB's `glue`).
+constant, so latent trajectories are smoother, so in-context imitation succeeds more. Each
+link is checked on the table's cells (`ANALYSIS_VARIANTS`; its VQ-VAE and LipVQ-VAE rows
+are Table I's policies): does Eq. 4 bind (`binding_frame`); is LipVQ-VAE smoother once the
+latent scale is removed (standardized least energy); and does each variant move smoothness
+and success together (`variant_effects`, `effects_frame`). `findings` turns each comparison
+into an estimate with its interval and a verdict (`icil_paper.stats`).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@
     summary(result)              # the chapter's closing sentences, from the numbers
 
 The official code (`andvg3/LipVQ-VAE`) differs from the paper in ways that could each
-explain a result. The `official` table (`spec`) trains ICRT on the kitchen suite with the
+explain a result. The `official` table (`spec`) trains ICRT on Table I's tasks with the
 paper's LipVQ-VAE and Bin (Table I's policies, the paper's numbers Table I's) and with the
 code's versions: its LipVQ-VAE with every difference at once, three of its differences
 alone, its Bin and its prompts. Every variant row is compared with the paper's row it
@@ -20,13 +20,10 @@ departs from, on the same episodes:
     icrt+bin (official code)       icrt+bin (paper)      20 bins over the running min and max
     prompts from the minibatch     icrt+lipvq (paper)    training prompts of any task
 
-`findings` gives each comparison as (variant, base, success difference with its paired 95%
-interval, verdict, verdict after Holm's correction over the table's comparisons, codes
-used); `summary` the chapter's closing sentences; `differences_frame` what each row changes,
-read from the run specs themselves; `codes_frame` each row's codes used (the official design
-is known to collapse its codebook, so its policy may receive a constant action token). The
-question is two-sided (does the departure change success?): the verdict "holds" reads
-"higher", "does not hold" "lower". No sentence about results is written by hand.
+`findings` gives each comparison (paired 95% interval, verdict, Holm over the table, codes
+used); `differences_frame` what each row changes, read from the run specs; `codes_frame`
+each row's codes used. The question is two-sided: "holds" reads higher, "does not hold"
+lower.
 """
 
 from __future__ import annotations

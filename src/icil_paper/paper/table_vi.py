@@ -7,24 +7,13 @@ shift of each Table I row to its Table VI self.
     shift_sentence(table_i, table_vi)     # the same, counted in one sentence
     TABLE_VI_CROSS_DATASET                # the paper's numbers, as printed
 
-Table VI evaluates Table I's trained policies (the same runs, the same training seeds) on
-the kitchen suite's `human` scene distribution, ICRT rows with the human-like source's
-prompts, on episodes with the same seeds as Table I's. So each row's change is paired by
-training seed: for seed k, d_k = (seed k's success on the human scenes) - (seed k's success
-on the generated scenes), the same policy in both terms, and the interval is the paired t
-interval on the d_k (`stats.paired_difference(vi, i, scenes="per_seed")`, df = S - 1, with
-the rule's floor where every d_k agrees). The training seed's own luck cancels from d_k;
-what is left is how differently the seeds react to the shift, plus episode noise. A row with
-one training seed gets the episodes-only interval and "too few seeds", as everywhere in the
-book (`icil_paper.stats`).
-
-The verdict reads the claim "the shift lowers this row's success" (direction -1 on
-VI - I): "holds" when the whole interval lies below 0. The paper's own change (its Table VI
-minus its Table I, `TABLE_VI_CROSS_DATASET` minus `table_i.TABLE_I_ROBOCASA`) is shown
-beside ours.
-
-Shown (chapter 10) with the views every result shares (`tables.display`), then the shift
-(`show_shift`).
+Table VI evaluates Table I's trained policies on the suite's `human` scene distribution,
+ICRT rows with the human-like source's prompts, on episodes with Table I's seeds. Each row's
+change is paired by training seed: d_k = (seed k on human scenes) - (seed k on generated
+scenes), with the paired t interval on the d_k (`stats.paired_difference`, df = S - 1); a
+one-seed row reads "too few seeds". The verdict reads "the shift lowers this row's success"
+(direction -1 on VI - I). The paper's own change (its Table VI minus its Table I) is shown
+beside ours (chapter 10, `show_shift`).
 """
 
 from __future__ import annotations

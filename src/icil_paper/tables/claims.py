@@ -5,57 +5,22 @@
     write_ledger(preset, store)                   # results/<preset>/claims.json
     summary(ledger)                               # counts of the decisions, by family
 
-Each result declares its claims in its own module of `icil_paper.paper` (Table V's in
-`paper/table_v.py`, with `diff`, `margin` and `paper_diff` from here), and
-`icil_paper.paper.claims` collects them in the ledger's order; this module evaluates them
-(`ledger_entries`, `evaluate_claims`) and says them in words (`sentence`,
-`summary_sentence`).
+Each result declares its claims in its own module of `icil_paper.paper`; this module
+evaluates them (`ledger_entries`, `evaluate_claims`). A claim is a quantity with a claimed
+direction ("LipVQ-VAE beats BC-Transformer on Table I": the difference of two rows' average
+success, claimed above 0); `paper` is computed from the paper's numbers, `ours` and `ci`
+(95%, the training seed as the unit, `icil_paper.stats`) from our records. The ledger is
+read under the design fixed before the data (`icil_paper.tables.design`). Each entry holds
+`family` and `weight`; `verdict` (the interval alone: holds, does not hold, inconclusive,
+too few seeds, not run); `adjusted_verdict`, the decision to quote (weighted Holm over the
+family, at a look's boundary when seeds come in stages); `size` against the paper's effect;
+`mde`, `power` and `seeds_needed` at 80% power; `seeds`, `n`, `episodes`, `p_value`; and
+with stages, `look` and `sequential` (each look's seeds and p-values, `next`).
 
-Each claim is a quantity with a claimed direction: "LipVQ-VAE beats BC-Transformer by 5.3
-points on Table I" is the difference of the two rows' average success, claimed above 0.
-Its `paper` value is computed from the paper's own numbers (each beside its table in
-`icil_paper.paper`), `ours` from our records, `ci` is our 95% interval with the training
-seed as the unit (see `icil_paper.stats`). The ledger is read under a design fixed before
-the data (`icil_paper.tables.design`: the preset's looks, families and continuation rule),
-and each entry carries:
-
-- `family`: primary, secondary or descriptive (`tables.primary_claims`), and `weight`, its
-  share of the familywise 5% before any claim is decided;
-- `verdict`: the rule of `icil_paper.stats` on the 95% interval, alone: `holds`, `does not
-  hold`, `inconclusive`, `too few seeds` (a row it reads has one training seed), or `not
-  run` (a record it needs is missing);
-- `adjusted_verdict`: the decision, the one to quote: the claim's test passed its level in
-  the graph over the whole family (weighted Holm, `stats.graph_test`), at a look's boundary
-  where seeds come in stages; a descriptive claim decides nothing;
-- `size`: the decided reading of our effect against the paper's, "smaller than the
-  paper's effect", "larger than the paper's effect" or "size undecided", from repeated
-  confidence intervals at the claim's Bonferroni share (`stats.size_decision`);
-- `mde`, `power` and `seeds_needed`: the smallest difference the claim's test detects at
-  80% power at these seeds, the power to detect the paper's effect, and the seeds a row that
-  reach 80% power, all with the variance the test reads (the paired per-seed differences
-  for a paired claim) at the level the claim must pass (its share, at the last look's
-  boundary); `plan` says which (a one-seed row borrows the pooled variance of its table's
-  multi-seed rows, else of the ledger's; `variance_from` says which);
-- `seeds` (row -> training seeds), `n` (all seeds), `episodes`, `method` and `p_value`;
-- with seeds in stages (`tables.seed_stages`): `look`, in words, the look at which the
-  claim was decided, or why its rows go on or stop; `sequential`, each look's seeds,
-  t-test p-value, the design's repeated p-value and the conditional power at the observed
-  effect, the claim's p-value, `decided_at`, `level` (the claim's level after the graph)
-  and `next` (the stage its rows go on to: `planning.design.stage_plan` reads it).
-
-`claims.json` states the design above its entries (`design`); a ledger read from records
-of an earlier design says so there ("older") and decides under that design alone.
-
-Motion smoothness. The paper says in words that LipVQ-VAE gives smoother motion (the
-abstract; Sec. IV-B on the real robot) but reports no number for it. Its claims here read
-the end-effector paths of the same evaluation episodes (`MotionComparison`: per-episode
-LDLJ, the primary quantity, higher is smoother; `icil_paper.metrics`), with the seed as the
-unit as for success (`stats.paired_score_difference`, best of k by `smoother_margin`), and
-`MotionCorrelation` relates Table III's least energy to Table I's LDLJ across the ICRT
-tokenizers. A claim without a number has `paper` and `reference_effect` None: it is
-decided like every other claim, but neither sized nor planned (only its `mde`).
-
-The chapters' verdict sentences are generated from these entries (`sentence`).
+Motion smoothness, which the paper states in words only, is read from the same evaluation
+episodes' end-effector paths (`MotionComparison`, LDLJ per episode, `icil_paper.metrics`);
+`MotionCorrelation` relates Table III's least energy to Table I's LDLJ. A claim without a
+paper number is decided like the others, but neither sized nor planned.
 """
 
 from __future__ import annotations

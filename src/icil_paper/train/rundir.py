@@ -18,11 +18,8 @@ whole files only. A damaged file is named in a warning, set aside under a unique
 (`<file>.corrupt-<time>-<pid>-<random>`, never deleted) and the run goes on from what is
 left: the previous checkpoint, the metric lines before a torn one.
 
-Policies and checkpoints hold tensors, numbers and strings only, and are read with
-`torch.load(..., weights_only=True)`: opening a policy file from someone else cannot run
-code hidden in a pickle. The policy's spec (its config, its tokenizer's config and shapes)
-is stored as a JSON string beside the weights. A file that is not in this format is refused
-with an error that says so, as is one that is truncated or unreadable (`fileio.load_file`).
+Policies and checkpoints hold tensors, numbers and strings only, read with
+`torch.load(..., weights_only=True)`; the policy's spec is a JSON string beside the weights.
 """
 
 from __future__ import annotations
