@@ -6,8 +6,6 @@
     ledger = claims_ledger(preset, store)          # every claim with its verdict
     run_tables(preset, ["I", "VI"], workers=2)     # computes what the store lacks
 
-A reader of the book finds the code of a result in the module named for it:
-
 - `icrt_demo.py`     a small ICRT + LipVQ-VAE on one task, one cell, no claims (chapter 02)
 - `table_i.py`       Table I, every policy on the Meta-World tasks (chapter 06)
 - `table_ii.py`      Table II, ACT with each tokenizer on ManiSkill (chapter 07)
@@ -21,10 +19,8 @@ A reader of the book finds the code of a result in the module named for it:
 - `since_paper.py`   the tokenizers since the paper, the `beyond` table (chapter 12)
 - `official.py`      the paper against its official code (chapter 13)
 
-Each declares `spec(preset) -> TableSpec`, its `claims(preset)` and `CLAIM_LABELS`, the
-paper's numbers as printed, and what its chapter shows of it alone; `tables` reads the list
-of results only here. Tables III, IV, V, VI, Fig. 5 and the later tables reuse Table I's
-trained policies (the same RunSpecs), so each policy is trained once.
+Each declares `spec(preset) -> TableSpec`, its `claims(preset)`, the paper's numbers as
+printed and what its chapter shows; the later tables reuse Table I's trained policies.
 """
 
 from __future__ import annotations

@@ -2,14 +2,11 @@
 
     spec(preset)                 # the paper's LipVQ-VAE and Bin, the official code's, x families
     findings_frame(result)       # each variant against its base: difference, verdict, codes
-    summary(result)              # the chapter's closing sentences, from the numbers
 
 The official code (`andvg3/LipVQ-VAE`) differs from the paper in ways that could each
 explain a result. The `official` table (`spec`) trains ICRT on Table I's tasks with the
 paper's LipVQ-VAE and Bin (Table I's policies, the paper's numbers Table I's) and with the
-code's versions: its LipVQ-VAE with every difference at once, three of its differences
-alone, its Bin and its prompts. Every variant row is compared with the paper's row it
-departs from, on the same episodes:
+code's versions; every variant row is compared with the paper's row it departs from:
 
     variant                        base                  what differs
     icrt+lipvq (official code)     icrt+lipvq (paper)    every difference of `lipvq_official()`
