@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import fcntl
+import gc
 import os
 
 import pytest
@@ -59,3 +60,15 @@ def _one_torch_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(before)
+
+
+@pytest.fixture(autouse=True)
+def _collector_skips_what_the_test_starts_with():
+    """The simulators run a full `gc.collect()` on their own: ManiSkill at every scene rebuild
+    (each seeded reset), robosuite when it frees a sim. A full collection walks every object of
+    the process, about 0.5 s with torch and SAPIEN loaded. Frozen for the test's duration
+    (`gc.freeze`, constant time), the objects alive when the test starts (imports, module
+    fixtures) are left out of those walks; unfrozen at its end, they are collected as before."""
+    gc.freeze()
+    yield
+    gc.unfreeze()
