@@ -72,7 +72,7 @@ $(NODE_STAMP): book/package.json book/package-lock.json
 		"everything but the book works without it"; fi
 
 test: setup
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=15
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder --durations=15
 
 reproduce: setup
 	$(BIN)/icil-paper reproduce --preset $(PRESET)

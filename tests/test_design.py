@@ -205,8 +205,8 @@ def test_decisions_per_cpu_hour_are_read_from_each_runs_ledger_and_cost(tmp_path
 def test_a_staged_runs_cost_is_bounded_by_its_stages(tmp_path):
     from icil_paper.planning.cost import stages_cost
 
-    preset = get_preset("small").with_overrides(
-        ["tables.icrt_seeds=6", "tables.baseline_seeds=6", "tables.seed_stages=2,8"])
+    preset = get_preset("small").with_overrides(  # on this file's tasks: smaller plans
+        [TASKS, "tables.icrt_seeds=6", "tables.baseline_seeds=6", "tables.seed_stages=2,8"])
     cost = stages_cost(preset, ResultsStore(preset.name, root=tmp_path))
     assert cost["stages"] == [2, 8] and cost["looks"] == []  # nothing stored: the first stage
     assert (0 < cost["reached_wall_hours_at_2"] < cost["fixed_design_wall_hours_at_2"]

@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from icil_paper.config import get_preset
-from icil_paper.config_data import field_choices, spec_key, to_dict
+from icil_paper.config_data import field_choices, to_dict
 from icil_paper.paper import table_spec
 from icil_paper.paper.official import OFFICIAL_ROWS, config_differences
 from icil_paper.policies.batching import PROMPT_FROM, DemoSet, prompt_query_batch
@@ -258,11 +258,10 @@ def test_the_paper_rows_are_table_is_runs_and_the_reference_plans_five_seeds():
 
 def test_the_official_table_key_reads_only_its_own_fields():
     from icil_paper.config_data import keyed_paths
-    from test_specs import leaf_paths, perturbed
+    from test_specs import leaf_paths, perturbed, units_key
 
     def key_of(p):
-        return spec_key(sorted((u.run.key(), spec_key(u.eval), spec_key(u.features))
-                               for u in table_spec(p, "official").units()))
+        return units_key(table_spec(p, "official").units())
 
     reads = ("policies.icrt.", "tokenizers.lipvq.", "tokenizers.bin.", "train.",
              "data.demos_per_task", "data.task_demos", "data.obs", "data.robocasa_tasks", "seed",

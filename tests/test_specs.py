@@ -97,6 +97,24 @@ def leaf_paths(obj, prefix=""):
     return out
 
 
+def units_key(units, features=True):
+    """One key over a table's units: the sorted (run key, eval key[, features key]) of each. A
+    table shares one run object among the units of a cell (9 runs for Table I's 237 units), so
+    each object's key is computed once; equal to keying every unit."""
+    units = list(units)  # alive through the call, so that no id is reused
+    known = {}
+
+    def key(obj, of):
+        if id(obj) not in known:
+            known[id(obj)] = of(obj)
+        return known[id(obj)]
+
+    return spec_key(sorted(
+        (key(u.run, lambda r: r.key()), spec_key(u.eval),
+         *((key(u.features, spec_key),) if features else ()))
+        for u in units))
+
+
 STAGES = {
     # stage: (key of the stage under a preset, the preset fields it reads)
     "train icrt+lipvq": (lambda p: run_spec(p, "icrt", "lipvq", tasks=TASKS).key(),
@@ -117,8 +135,7 @@ STAGES = {
                         ("policies.icrt.", "tokenizers.lipvq.", "train.", "data.demos_per_task", "data.task_demos",
                          "data.obs", "seed", "eval.")),
     "table I (every unit)": (
-        lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval), spec_key(u.features))
-                                  for u in table_spec(p, "I").units())),
+        lambda p: units_key(table_spec(p, "I").units()),
         ("policies.mcr.", "policies.act.", "policies.bc_transformer.", "policies.icrt.",
          *(f"tokenizers.{t}." for t in ("mlp", "bin", "fast", "vq", "lfq", "lipvq")),
          "train.", "data.demos_per_task", "data.task_demos", "data.obs", "data.robocasa_tasks", "seed",
@@ -127,8 +144,7 @@ STAGES = {
          "tables.image_episodes_per_task", "tables.image_max_steps",
          "tables.feature_demos_per_task", "tables.feature_steps")),  # its codebook rows
     "table II (every unit)": (
-        lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval))
-                                  for u in table_spec(p, "II").units())),
+        lambda p: units_key(table_spec(p, "II").units(), features=False),
         ("policies.mcr.", "policies.act.", "policies.bc_transformer.",
          *(f"tokenizers.{t}." for t in ("bin", "fast", "vq", "lfq", "lipvq")),
          # its columns are the paper's three tasks: an added ManiSkill task is not read
@@ -138,8 +154,7 @@ STAGES = {
          "tables.maniskill_demos_per_task", "tables.maniskill_steps",
          "tables.maniskill_episodes_per_task")),
     "table beyond (every unit)": (
-        lambda p: spec_key(sorted((u.run.key(), spec_key(u.eval), spec_key(u.features))
-                                  for u in table_spec(p, "beyond").units())),
+        lambda p: units_key(table_spec(p, "beyond").units()),
         ("policies.icrt.",
          *(f"tokenizers.{t}." for t in ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq",
                                         "bspline")),
