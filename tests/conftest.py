@@ -14,10 +14,10 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 # files to its two workers in collection order (`--dist loadfile --no-loadscope-reorder`; by
 # default pytest-xdist would order them by their number of tests, which sent the few-test,
 # minute-long files last, to run alone at the end while the other worker idled). Ray's files
-# (marked `ray`, tests/test_grid.py and tests/test_tables.py) are apart, so that the workers
-# rarely wait on each other's Ray. Every other file follows, alphabetically.
-SLOWEST_FILES = ("test_cluster.py", "test_tables.py", "test_plugins.py", "test_browser_check.py",
-                 "test_rollouts.py", "test_grid.py", "test_maniskill.py", "test_motion.py",
+# (marked `ray`: test_cluster, test_tables, test_plugins, test_grid) alternate with others, so
+# that the workers rarely wait on each other's Ray. Every other file follows, alphabetically.
+SLOWEST_FILES = ("test_cluster.py", "test_browser_check.py", "test_rollouts.py", "test_tables.py",
+                 "test_maniskill.py", "test_plugins.py", "test_motion.py", "test_grid.py",
                  "test_reliability.py", "test_one_writer.py", "test_evaluate.py",
                  "test_official_code.py", "test_staged.py", "test_scene_shift.py")
 

@@ -35,7 +35,7 @@ import pytest
 
 import icil_paper
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.ray]  # its cluster is a Ray too
 
 SRC = str(Path(icil_paper.__file__).resolve().parents[1])
 RAY = Path(sys.executable).with_name("ray")

@@ -255,6 +255,7 @@ def _plugin_records(results: Path, n_bins: int) -> list[dict]:
     return [r for r in records if r["config"]["run"]["tokenizer"]["n_bins"] == n_bins]
 
 
+@pytest.mark.ray
 @pytest.mark.slow
 def test_compare_runs_a_plugin_file_on_the_local_pool_and_on_ray(
         tmp_path, folders, clean_plugins, capsys):
