@@ -229,6 +229,33 @@ def test_flipped_bytes_and_damaged_files_raise_dataset_error(tmp_path):
         load_demos(tmp_path)
 
 
+def test_a_file_is_read_once_until_it_changes(tmp_path, monkeypatch):
+    from icil_paper.data import memo, verify_file
+
+    path = write_demos(tmp_path / "d.hdf5", [_demo(seed=i) for i in range(3)])
+    assert load_demos(path) and memo.signature(path) is None  # just written: read afresh
+    monkeypatch.setattr(memo, "SETTLE_S", 0.0)
+    monkeypatch.setattr(memo, "_KEPT", type(memo._KEPT)())
+    first = load_demos(path)
+    assert verify_file(path)["demos"] == ["demo_0", "demo_1", "demo_2"]
+    first[0].actions[:] = 9.0  # a caller's changes stay its own
+    first[1].obs["proprio"] += 1.0
+    again = load_demos(path)
+    assert len(memo._KEPT) == 2
+    for a, b in zip([_demo(seed=i) for i in range(3)], again, strict=True):
+        assert np.array_equal(a.actions, b.actions) and np.array_equal(a.obs["proprio"],
+                                                                       b.obs["proprio"])
+    assert load_demos(path, limit=1)[0].name == "demo_0" and len(memo._KEPT) == 3
+    write_demos(path, [_demo(seed=7)])  # replaced: read afresh, damage found again
+    assert np.array_equal(load_demos(path)[0].actions, _demo(seed=7).actions)
+    _flip_byte(path, "data/demo_0/actions")
+    os.utime(path, ns=(0, 0))  # even under its old modification time (its change time moves)
+    with pytest.raises(DatasetError, match="damaged"):
+        load_demos(path)
+    with pytest.raises(DatasetError, match="damaged"):
+        verify_file(path)
+
+
 def test_train_valid_split_is_seeded_and_disjoint():
     names = [f"demo_{i}" for i in range(20)]
     a, b = train_valid_split(names, 0.2, seed=1), train_valid_split(names, 0.2, seed=1)

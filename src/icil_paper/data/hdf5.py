@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.data import memo
 from icil_paper.data.obs_keys import ObsKeyMap, camera_of, map_obs_keys
 from icil_paper.data.splits import train_valid_split
 
@@ -334,6 +335,10 @@ def verify_file(path: str | Path, images: bool = True) -> dict[str, Any]:
     import h5py
 
     path = Path(path)
+    sig = memo.signature(path)  # unchanged bytes verified once per process (`memo`)
+    info = memo.recall(sig, ("verified", True)) or memo.recall(sig, ("verified", images))
+    if info is not None:
+        return info
     info = file_info(path)
     where = ["the file"]
 
@@ -348,6 +353,7 @@ def verify_file(path: str | Path, images: bool = True) -> dict[str, Any]:
     except H5_ERRORS as exc:
         raise _err(path, None, f"{where[0]} cannot be read: the file is damaged "
                                f"({_damage(exc)})") from None
+    memo.keep(path, sig, ("verified", images), info)
     return info
 
 
@@ -533,6 +539,9 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
 
     path = Path(path)
     limit = _check_limit(limit)
+    sig = memo.signature(path) if obs_keys is None else None  # read once per process (`memo`)
+    if (kept := memo.recall(sig, ("demos", action_dim, limit, images))) is not None:
+        return kept
     info = file_info(path)
     names = info["demos"]
     if not names:
@@ -585,6 +594,8 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
                 demos.append(demo)
     except H5_ERRORS as exc:
         raise _err(path, None, f"the file is damaged ({_damage(exc)})") from None
+    if not warned:
+        memo.keep(path, sig, ("demos", action_dim, limit, images), demos)
     return demos
 
 

@@ -20,7 +20,13 @@ REPO_ROOT = Path(__file__).resolve().parents[3]
 
 
 def package_versions(names: tuple[str, ...] = KEY_PACKAGES) -> dict[str, str | None]:
-    """Installed version of each package, or None where it is not installed."""
+    """Installed version of each package, or None where it is not installed (looked up once
+    per process: every record carries them, and a lookup parses the package's metadata)."""
+    return dict(_package_versions(tuple(names)))
+
+
+@functools.lru_cache(maxsize=8)
+def _package_versions(names: tuple[str, ...]) -> dict[str, str | None]:
     versions = {}
     for name in names:
         try:
