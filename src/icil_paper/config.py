@@ -673,7 +673,7 @@ machine at two cells at a time, as `planning.design.plan_cost` projects them fro
 committed benchmark rates; after the first look only the claims whose next stage is cheapest
 go on."""
 
-REFERENCE_EPISODES = ("kinova=7", "maniskill=56", "metaworld=9")
+REFERENCE_EPISODES = ("kinova=7", "maniskill=56", "metaworld=20")
 """The reference preset's rollouts per task by suite (`TablesConfig.episodes_per_task_by_suite`),
 at cost-optimal counts: Meta-World's from the regime pilot's paired outcomes
 (`planning.pilot.regime_episodes`), ManiSkill's from the committed records of the earlier
