@@ -168,8 +168,9 @@ REGIME_MANISKILL_ROWS = (("act", "lipvq"),)
 """The ManiSkill rows of the regime pilot (one policy per task, as Table II)."""
 REGIME_SEED = 20
 """The regime pilot's first seed index: its training seeds, demonstration sets
-(`seeding.data_set_seed`) and scene sets are preset.seed + 20, 21, ...; the reference run
-uses 0-9, so choosing the regime cannot select for a result the reference run reports."""
+(`seeding.data_set_seed`) and scene sets are preset.seed + 20, 21, ...; the reference run's
+are preset.seed + 0 .. 14, and the committed pilot ran at base 0, not the reference run's
+`config.REFERENCE_SEED`, so choosing the regime cannot select for a result the run reports."""
 REGIME_BUDGETS = (500, 1000, 2000)
 """Training steps of the regime pilot's learning curve (at least three)."""
 REGIME_EPISODES = 10
