@@ -135,8 +135,8 @@ shift = shift_counts(table1[source], table6[source], "avg")
 glue("ch10_measured", shift["measured"])
 glue("ch10_rows", shift["rows"])
 glue("ch10_mean", "n/a" if shift["mean"] is None else f"{shift['mean']:+.3f}")
-verdicts = {"held": Verdict.HOLDS, "not": Verdict.DOES_NOT_HOLD, "open": Verdict.INCONCLUSIVE, "single": Verdict.TOO_FEW_SEEDS}
-for key, verdict in verdicts.items():
+outcomes = {"held": Verdict.HOLDS, "not": Verdict.DOES_NOT_HOLD, "open": Verdict.INCONCLUSIVE, "single": Verdict.TOO_FEW_SEEDS}
+for key, verdict in outcomes.items():
     glue(f"ch10_{key}", shift[verdict.value])
 glue("ch10_paper_mean", "n/a" if shift["paper_mean"] is None else f"{shift['paper_mean']:+.3f}")
 

@@ -119,8 +119,8 @@ ours = next(iter(results.values()))  # our run's
 found = [f for f in findings(ours) if f["estimate"] is not None]
 glue("ch13_measured", len(found))
 glue("ch13_comparisons", len(findings(ours)))
-verdicts = {"held": Verdict.HOLDS, "not": Verdict.DOES_NOT_HOLD, "open": Verdict.INCONCLUSIVE, "single": Verdict.TOO_FEW_SEEDS}
-for key, verdict in verdicts.items():
+outcomes = {"held": Verdict.HOLDS, "not": Verdict.DOES_NOT_HOLD, "open": Verdict.INCONCLUSIVE, "single": Verdict.TOO_FEW_SEEDS}
+for key, verdict in outcomes.items():
     glue(f"ch13_{key}", sum(f["adjusted_verdict"] == verdict for f in found))
 glue("ch13_collapsed", ", ".join(f"'{r}'" for r in collapsed_rows(ours)) or "no row")
 
