@@ -67,10 +67,10 @@ glue("ch00_decidable", counts["decidable_with_10_seeds"])
 glue("ch00_older", f"the older protocol's (commit {older[0]['commit'][:7]})" if older else "our run's")
 
 # %% [markdown]
-# The ledger shown is {glue:text}`ch00_older`. Of its {glue:text}`ch00_claims` claims,
-# {glue:text}`ch00_decided` are decided under the ledger's design; {glue:text}`ch00_smaller`
-# are decided smaller than the paper's effect and {glue:text}`ch00_larger` larger. Of the
-# {glue:text}`ch00_undecided` undecided, {glue:text}`ch00_decidable` would detect the paper's
+# The ledger shown is {glue:text}`ch00_older`. Claims: {glue:text}`ch00_claims`; decided
+# under the ledger's design: {glue:text}`ch00_decided`; decided smaller than the paper's
+# effect: {glue:text}`ch00_smaller`, larger: {glue:text}`ch00_larger`. Undecided:
+# {glue:text}`ch00_undecided`, of which {glue:text}`ch00_decidable` would detect the paper's
 # effect with 10 or fewer seeds a row. Each row of the verdicts gives the seeds of each row
 # it reads, the claim's row first. (While no claim has a record under the current protocol,
 # the ledger shown is the older protocol's: its baselines did not read the task's
@@ -279,18 +279,17 @@ glue("ch00_cost_file", progress["file"])
 # intervals) where the ledger's family says "one family": that ledger is a record of that
 # design, and the design above decides nothing on it.
 #
-# In the committed ledger {glue:text}`ch00_look_decided` of {glue:text}`ch00_look_claims`
-# claims are decided at a look; {glue:text}`ch00_look_going` undecided claims go on to the
-# next stage ({glue:text}`ch00_look_going_ids`), {glue:text}`ch00_look_stopped` stop
-# undecided ({glue:text}`ch00_look_budget` of them at the budget) and
-# {glue:text}`ch00_look_unlooked` have had no look yet (a row they read has not finished its
-# stage).
+# The committed ledger's looks, of its {glue:text}`ch00_look_claims` claims: decided at a
+# look, {glue:text}`ch00_look_decided`; undecided and going on to the next stage,
+# {glue:text}`ch00_look_going` ({glue:text}`ch00_look_going_ids`); stopped undecided,
+# {glue:text}`ch00_look_stopped` ({glue:text}`ch00_look_budget` of them at the budget); no
+# look yet (a row they read has not finished its stage), {glue:text}`ch00_look_unlooked`.
 #
 # What the run cost, from `results/reference/`{glue:text}`ch00_cost_file`:
 # {glue:text}`ch00_cells_done` of {glue:text}`ch00_cells_planned` trained cells finished,
-# {glue:text}`ch00_machine_hours` hours of machine time. Decisions per CPU-hour: this run,
-# {glue:text}`ch00_rate_now_decided` claims decided for {glue:text}`ch00_rate_now_hours`
-# CPU-hours ({glue:text}`ch00_rate_now_per10` per 10 CPU-hours); the older protocol's run,
+# {glue:text}`ch00_machine_hours` hours of machine time. Claims decided per CPU-hour: this
+# run, {glue:text}`ch00_rate_now_decided` for {glue:text}`ch00_rate_now_hours` CPU-hours
+# ({glue:text}`ch00_rate_now_per10` per 10 CPU-hours); the older protocol's run,
 # {glue:text}`ch00_rate_older_decided` for {glue:text}`ch00_rate_older_hours` CPU-hours
 # ({glue:text}`ch00_rate_older_per10` per 10).
 
