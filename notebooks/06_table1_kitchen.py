@@ -192,12 +192,14 @@ glue("ch06_r_icrt_pairs", len(icrt))
 glue("ch06_r_icrt", f"{np.mean(icrt):.2f}" if icrt else "n/a")
 
 # %% [markdown]
+# :::{dropdown} How much pairing by seed index gains (click to open)
 # Seed k of every row shares its demonstration set, its evaluation scenes and, for the ICRT
 # rows, its backbone's first weights: the larger the correlation of two rows' per-seed
 # success at the same seed index, the more a paired comparison gains. In our run the mean
 # correlation is {glue:text}`ch06_r_mean` over {glue:text}`ch06_r_pairs` pairs of rows, and
 # {glue:text}`ch06_r_icrt` over the {glue:text}`ch06_r_icrt_pairs` pairs of ICRT rows ("n/a":
 # no two rows have results at 3 seed indices or more).
+# :::
 
 # %% [markdown]
 # **Codebook use of the VQ-family rows**, per training seed: the distinct codes each trained
