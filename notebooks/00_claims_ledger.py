@@ -15,23 +15,27 @@
 
 # %% tags=["hide-input"]
 import pandas as pd
-from IPython.display import Markdown, display
+from IPython.display import display
 
 from icil_paper.book.ledger import chapter_ledgers, reference_ledger
 from icil_paper.book.report import (
     REFERENCE,
-    decision_rate_sentence,
-    ledger_details,
+    decision_rate,
+    details_frame,
     ledger_frame,
+    ledger_views,
     older_ledger,
     reference_freshness,
     retired_records,
-    show_ledgers,
+    run_progress,
     stale_records,
 )
 from icil_paper.config import get_preset
-from icil_paper.planning.design import design_frame, stages_paragraph
+from icil_paper.planning.design import design_frame, stage_counts
 from icil_paper.planning.staged import as_run
+from icil_paper.results import ResultsStore
+from icil_paper.tables.claims import as_entry
+from icil_paper.tables.display import collapsed_frame
 
 pd.set_option("display.max_colwidth", None)
 preset = get_preset()
@@ -39,17 +43,49 @@ ledgers = chapter_ledgers(preset)  # writes this build's ledger, reads the refer
 
 # %% tags=["remove-input"]
 ours, *quick = ledgers  # our run's ledger first, then the quick run's
-show_ledgers({ours: ledgers[ours]})
-
-# %% [markdown]
-# The quick run's ledger (CI's small preset: it tests the code, not the paper):
-
-# %% tags=["remove-input", "hide-output"]
-show_ledgers({k: ledgers[k] for k in quick})
+ledger = ledgers[ours][1]
+older = None if any(as_entry(e).run for e in ledger) else older_ledger(REFERENCE)
+if older is not None:  # no claim has run under the current protocol: the older one's
+    ledger = older[1]
+views = ledger_views(ledger, "Our run: each claim's 95% interval, the paper's value, the decision")
+display(views["forest"])
+display(views["verdicts"])
+undecided = views["undecided"]
+display(collapsed_frame(f"Undecided ({len(undecided)} claims): what these seeds could detect. Open to see them.", undecided))
+display(collapsed_frame("Size and power of every claim. Open to see them.", views["power"]))
 
 # %% tags=["remove-cell"]
 from myst_nb import glue
 
+counts = views["counts"]
+glue("ch00_claims", counts["claims"])
+glue("ch00_decided", counts["decided"])
+glue("ch00_smaller", counts["size_excluded"])
+glue("ch00_larger", counts["size_larger"])
+glue("ch00_undecided", counts["undecided"])
+glue("ch00_decidable", counts["decidable_with_10_seeds"])
+glue("ch00_older", f"the older protocol's (commit {older[0]['commit'][:7]})" if older else "our run's")
+
+# %% [markdown]
+# The ledger shown is {glue:text}`ch00_older`. Claims: {glue:text}`ch00_claims`; decided
+# under the ledger's design: {glue:text}`ch00_decided`; decided smaller than the paper's
+# effect: {glue:text}`ch00_smaller`, larger: {glue:text}`ch00_larger`. Undecided:
+# {glue:text}`ch00_undecided`, of which {glue:text}`ch00_decidable` would detect the paper's
+# effect with 10 or fewer seeds a row. Each row of the verdicts gives the seeds of each row
+# it reads, the claim's row first. (While no claim has a record under the current protocol,
+# the ledger shown is the older protocol's: its baselines did not read the task's
+# instruction and its training seeds shared one demonstration set, so read it as a record
+# of that protocol, not of the paper's regime.)
+#
+# The quick run's ledger (CI's small preset: it tests the code, not the paper):
+
+# %% tags=["remove-input", "hide-output"]
+for source in quick:
+    views = ledger_views(ledgers[source][1], "The quick run: 95% intervals, the paper's values, the decision")
+    display(views["forest"])
+    display(views["verdicts"])
+
+# %% tags=["remove-cell"]
 from icil_paper import verdict_words as words
 from icil_paper.book.ledger import committed_design
 from icil_paper.book.questions import QUESTIONS
@@ -160,7 +196,7 @@ glue("run_protocol", committed_design("I")["protocol"])
 # :::
 
 # %% [markdown]
-# ## How the reference run was designed
+# ## How our run was designed
 #
 # :::{dropdown} How the seeds were allocated in stages (click to open)
 # The reference run allocates its seeds in stages (the paragraph under the table, from
@@ -182,14 +218,86 @@ glue("run_protocol", committed_design("I")["protocol"])
 
 # %% tags=["remove-input", "hide-output"]
 display(design_frame(as_run(get_preset(REFERENCE))))
-display(Markdown(stages_paragraph(get_preset(REFERENCE), reference_ledger(ledgers))))
-display(Markdown(decision_rate_sentence()))
+
+# %% tags=["remove-cell"]
+from icil_paper import stats
+
+tables = get_preset(REFERENCE).tables
+design = stats.SequentialDesign(tables.seed_stages)
+glue("ch00_stages", ", ".join(map(str, design.stages)))
+glue("ch00_levels", ", ".join(f"{p:.3g}" for p in design.nominal_levels()))
+glue("ch00_primary_n", len(tables.primary_claims))
+glue("ch00_primary_share", f"{tables.family_weights[0]:.0%}")
+glue("ch00_other_share", f"{tables.family_weights[1]:.0%}")
+glue("ch00_continuation", f"{tables.continuation_power:g}")
+glue("ch00_budget", f"{tables.stage_budget_hours:g}" if tables.stage_budget_hours else "no")
+
+# %% tags=["remove-cell"]
+looks = stage_counts(reference_ledger(ledgers))
+glue("ch00_look_decided", looks["decided"])
+glue("ch00_look_claims", looks["claims"])
+glue("ch00_look_going", len(looks["going"]))
+glue("ch00_look_going_ids", ", ".join(looks["going"]) or "none")
+glue("ch00_look_stopped", looks["stopped"])
+glue("ch00_look_budget", looks["by_budget"])
+glue("ch00_look_unlooked", looks["unlooked"])
+
+# %% tags=["remove-cell"]
+store = ResultsStore(REFERENCE).dir
+rates = {"now": decision_rate(store), "older": decision_rate(store / "older-code")}
+for name, rate in rates.items():
+    decided, hours = rate[:2] if rate else (0, 0.0)
+    glue(f"ch00_rate_{name}_decided", decided)
+    glue(f"ch00_rate_{name}_hours", f"{hours:.1f}")
+    glue(f"ch00_rate_{name}_per10", f"{10 * decided / hours:.1f}" if hours else "—")
+progress = run_progress() or {"finished": 0, "planned": 0, "hours": 0.0, "file": "cost.json"}
+glue("ch00_cells_done", progress["finished"])
+glue("ch00_cells_planned", progress["planned"])
+glue("ch00_machine_hours", f"{progress['hours']:.1f}")
+glue("ch00_cost_file", progress["file"])
+
+# %% [markdown]
+# Seeds are allocated in stages: looks at {glue:text}`ch00_stages` seeds a row, with
+# O'Brien-Fleming-type alpha spending (Lan and DeMets 1983): at a level of 5% a look decides
+# when its t-test p-value is at most {glue:text}`ch00_levels`. Each claim's p-value is the
+# design's repeated p-value, the smallest level at whose boundary one of its looks so far
+# would have decided it (Jennison and Turnbull 2000, Sec. 9.1). The
+# {glue:text}`ch00_primary_n` claims of the primary family share
+# {glue:text}`ch00_primary_share` of the familywise 5% and every other testable claim the
+# remaining {glue:text}`ch00_other_share`; a decided claim passes its share on to the others
+# (weighted Holm's graph, Bretz et al. 2009), at every look, so a claim decided early stays
+# decided and the familywise level holds whichever rows go on (Maurer and Bretz 2013).
+# After a look, the rows of an undecided claim go on to the next stage while its
+# conditional power at the observed effect, to cross the last boundary at its current
+# level, is at least {glue:text}`ch00_continuation`: the rule is non-binding, so it costs
+# no error. The run has a budget of {glue:text}`ch00_budget` hours at two cells at a time,
+# as the benchmark rates project them: after a look the claims that may go on are taken
+# cheapest first while the whole run stays within it, and the others stop too. Stopping a
+# claim can only lower its chance of a wrong decision. The committed records were gathered
+# under the older design (Holm's correction over every claim alike, rows going on while a
+# later stage could detect the paper's effect with 80% power, sizes read off unadjusted
+# intervals) where the ledger's family says "one family": that ledger is a record of that
+# design, and the design above decides nothing on it.
+#
+# The committed ledger's looks, of its {glue:text}`ch00_look_claims` claims: decided at a
+# look, {glue:text}`ch00_look_decided`; undecided and going on to the next stage,
+# {glue:text}`ch00_look_going` ({glue:text}`ch00_look_going_ids`); stopped undecided,
+# {glue:text}`ch00_look_stopped` ({glue:text}`ch00_look_budget` of them at the budget); no
+# look yet (a row they read has not finished its stage), {glue:text}`ch00_look_unlooked`.
+#
+# What the run cost, from `results/reference/`{glue:text}`ch00_cost_file`:
+# {glue:text}`ch00_cells_done` of {glue:text}`ch00_cells_planned` trained cells finished,
+# {glue:text}`ch00_machine_hours` hours of machine time. Claims decided per CPU-hour: this
+# run, {glue:text}`ch00_rate_now_decided` for {glue:text}`ch00_rate_now_hours` CPU-hours
+# ({glue:text}`ch00_rate_now_per10` per 10 CPU-hours); the older protocol's run,
+# {glue:text}`ch00_rate_older_decided` for {glue:text}`ch00_rate_older_hours` CPU-hours
+# ({glue:text}`ch00_rate_older_per10` per 10).
 
 # %% [markdown]
 # ## What each claim compares
 
 # %% tags=["remove-input", "hide-output"]
-display(Markdown(ledger_details(reference_ledger(ledgers))))
+display(details_frame(reference_ledger(ledgers)))
 
 # %% [markdown]
 # ## Reference records made by older code

@@ -32,6 +32,20 @@
 # their overall standard deviation $\sigma$ over the held-out set, and $\sigma$ itself:
 # a low raw score can be a small latent rather than a smooth one ({doc}`chapter 11 <11_is_it_smoothness>` asks which).
 # {doc}`Chapter 5 <05_action_tokenizers>` measures the same tokenizers trained alone, as a supplement.
+#
+# The tables and figures show **the paper**, **our run** ({glue:text}`ch08_seeds` seeds a row,
+# results committed under `results/reference/`; tables label it "reference run", and a row
+# whose records are not there yet reads "not run") and **the quick run** (CI's small
+# preset: it tests the code, not the paper; tables label it "this build", in a collapsed
+# block).
+
+# %% tags=["remove-cell"]
+from myst_nb import glue
+
+from icil_paper.book.ledger import committed_design
+
+seeds = committed_design("III")["seeds"].values() or [0]
+glue("ch08_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}")
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
@@ -47,12 +61,12 @@ from icil_paper.book.experiments import (
 from icil_paper.book.report import BUILD, claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_iii import (
-    feature_sampling_sentence,
+    feature_sampling_frame,
     smoothness_success_figure,
     tsne_paths,
 )
 from icil_paper.results import results_root
-from icil_paper.tables.display import show_comparison
+from icil_paper.tables.display import collapsed_frame, show_comparison
 from icil_paper.viz.recording import record_latent_trajectories
 from icil_paper.viz.viewer import show_recording
 
@@ -66,8 +80,7 @@ success = load_table(preset, "I")
 # %%
 show_comparison(smooth, "least_energy")
 show_frame_or(standardized_frame(smooth), NO_SMOOTHNESS)
-display(Markdown("**What was scored** (from the features records):\n\n"
-                 + feature_sampling_sentence(smooth)))
+display(collapsed_frame("What was scored, per row and seed (from the features records). Open to see it.", feature_sampling_frame(smooth)))
 
 # %% [markdown]
 # ## Fig. 1: smoothness against success

@@ -24,13 +24,27 @@
 # stands its codebook use: the distinct codes its trained tokenizer gives the held-out
 # trajectories of Table III ({doc}`chapter 8 <08_smoothness>`), of its K, and the
 # perplexity of their distribution (how many equally used codes would give it), per seed.
+#
+# The tables show **the paper**, **our run** ({glue:text}`ch09_seeds` seeds a row,
+# results committed under `results/reference/`; tables label it "reference run", and a row
+# whose records are not there yet reads "not run") and **the quick run** (CI's small
+# preset: it tests the code, not the paper; tables label it "this build", in a collapsed
+# block).
+
+# %% tags=["remove-cell"]
+from myst_nb import glue
+
+from icil_paper.book.ledger import committed_design
+
+seeds = committed_design("IV")["seeds"].values() or [0]
+glue("ch09_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}")
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
 from icil_paper.book.report import claims_figure, load_table, verdicts
 from icil_paper.config import get_preset
-from icil_paper.paper.table_iv import codes_used_sentence
+from icil_paper.paper.table_iv import codes_used_frame
 from icil_paper.tables.display import show_codebook_use, show_comparison, success_figure
 
 preset = get_preset()
@@ -66,11 +80,12 @@ show_comparison(fig5, "avg")
 display(success_figure(fig5, "avg", title="Fig. 5: LipVQ-VAE's codebook size"))
 
 # %% [markdown]
-# How many of its codes each codebook size used on the held-out trajectories (computed from
-# the features records), then each size's codebook use per seed.
+# How many of its codes each codebook size used on the held-out trajectories, its share of
+# K and the perplexity of their distribution (means over the seeds measured, from the
+# features records), then each size's codebook use per seed.
 
 # %% tags=["hide-input"]
-display(Markdown(codes_used_sentence(fig5)))
+display(codes_used_frame(fig5))
 show_codebook_use(fig5)
 
 # %% tags=["hide-input"]

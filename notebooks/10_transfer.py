@@ -54,6 +54,20 @@
 #   another task's prompt (the next task of Table I's list, `other_task`; for an opening
 #   task, the same fixture's closing), and with only the first steps of its prompt. If the
 #   prompt carries the task, the wrong prompt should hurt.
+#
+# The tables (Table V's seeds here; Tables VI and VII read the same rows) show **the paper**, **our run** ({glue:text}`ch10_seeds` seeds a row,
+# results committed under `results/reference/`; tables label it "reference run", and a row
+# whose records are not there yet reads "not run") and **the quick run** (CI's small
+# preset: it tests the code, not the paper; tables label it "this build", in a collapsed
+# block).
+
+# %% tags=["remove-cell"]
+from myst_nb import glue
+
+from icil_paper.book.ledger import committed_design
+
+seeds = committed_design("V")["seeds"].values() or [0]
+glue("ch10_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}")
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
@@ -111,6 +125,29 @@ display(claims_figure(preset, "VI"))
 # %% tags=["hide-cell"]
 table1 = load_table(preset, "I")
 show_shift(table1, table6, "avg")
+
+# %% tags=["remove-cell"]
+from icil_paper.paper.table_vi import shift_counts
+from icil_paper.stats import Verdict
+
+source = next(iter(table6))  # our run's
+shift = shift_counts(table1[source], table6[source], "avg")
+glue("ch10_measured", shift["measured"])
+glue("ch10_rows", shift["rows"])
+glue("ch10_mean", "n/a" if shift["mean"] is None else f"{shift['mean']:+.3f}")
+outcomes = {"held": Verdict.HOLDS, "not": Verdict.DOES_NOT_HOLD, "open": Verdict.INCONCLUSIVE, "single": Verdict.TOO_FEW_SEEDS}
+for key, verdict in outcomes.items():
+    glue(f"ch10_{key}", shift[verdict.value])
+glue("ch10_paper_mean", "n/a" if shift["paper_mean"] is None else f"{shift['paper_mean']:+.3f}")
+
+# %% [markdown]
+# In our run, {glue:text}`ch10_measured` of {glue:text}`ch10_rows` rows have both records:
+# the mean change in average success is {glue:text}`ch10_mean`; the shift lowers success
+# (the interval below 0) for {glue:text}`ch10_held` rows, raises it for
+# {glue:text}`ch10_not`, leaves {glue:text}`ch10_open` inconclusive, and
+# {glue:text}`ch10_single` have a single training seed (too few seeds to decide). The
+# paper's rows change by {glue:text}`ch10_paper_mean` on average from its Table I to its
+# Table VI.
 
 # %% [markdown]
 # ## Table VII: zero-shot

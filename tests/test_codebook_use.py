@@ -15,8 +15,8 @@ from icil_paper.config import get_preset
 from icil_paper.config_data import ConfigError
 from icil_paper.eval.features import held_out_pieces, measure_features
 from icil_paper.paper import table_spec
-from icil_paper.paper.table_iii import feature_sampling_sentence
-from icil_paper.paper.table_iv import codes_used_sentence
+from icil_paper.paper.table_iii import feature_sampling_frame
+from icil_paper.paper.table_iv import codes_used_frame
 from icil_paper.records import features_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import feature_key
@@ -110,9 +110,10 @@ def test_features_records_say_what_they_scored_and_the_chapter_shows_it(preset):
         assert m["sampling"] == "per_task"
         assert 1 <= m["perplexity"] <= m["codes_used"] <= m["codebook_size"]
     assert "perplexity" not in result.cell("icrt+mlp", "least_energy").extra["metrics"][0]
-    text = feature_sampling_sentence({"this build": result})
-    assert f"every row, each seed: 3 of its 3 tasks ({SHARE} steps each), 6 held-out " \
-           f"trajectories, {3 * SHARE} features" in text
+    frame = feature_sampling_frame({"this build": result})
+    assert len(frame) and set(frame["tasks scored"]) == {3} == set(frame["tasks"])
+    assert set(frame["steps a task"]) == {str(SHARE)} and set(frame["trajectories"]) == {6}
+    assert set(frame["features"]) == {3 * SHARE}
 
 
 # --------------------------------------------------------------------------- codebook use
@@ -158,26 +159,24 @@ def test_the_codebook_frame_has_a_line_per_codebook_row_and_seed(preset, table_i
         assert sorted(set(frame["K"])) == sorted(preset.tables.codebook_sizes)
 
 
-def test_fig5_sentence_names_each_sizes_codes_used(preset, monkeypatch):
+def test_fig5_counts_each_sizes_codes_used(preset, monkeypatch):
     shown = []
     monkeypatch.setattr("IPython.display.display", lambda *objects: shown.extend(objects))
     spec = table_spec(preset, "fig5")
     empty = {"this build": assemble(spec, ResultsStore(preset.name))}
-    assert "not run yet" in codes_used_sentence(empty)
+    assert codes_used_frame(empty)["codes used"].isna().all()
     show_codebook_use(empty)
-    assert [getattr(o, "data", None) for o in shown] == [
-        "**this build (smoke)**: codebook use not run yet."]
+    assert [getattr(o, "data", None) for o in shown] == ["**this build (smoke)**: not run"]
     result = assemble(spec, measure(preset, ["fig5"]))
-    text = codes_used_sentence({"this build": result})
+    used_frame = codes_used_frame({"this build": result})
     frame = codebook_frame(result)
     for row, lines in frame.groupby(level=0, sort=False):  # means over a row's seeds
         metrics = result.cell(row, "features").extra["metrics"]
         perplexity = np.mean([m["perplexity"] for m in metrics])
         used = lines["codes used"].mean()
-        count = f"{used:.0f}" if len(lines) == 1 else f"{used:.1f}"
-        assert f"{row} used {count} of its {lines['K'].iloc[0]} codes" in text
-        assert f"perplexity {perplexity:.1f}" in text
-    assert text.startswith("- this build (smoke): ")
+        line = used_frame.loc[("this build (smoke)", row)]
+        assert line["codes used"] == pytest.approx(used) and line["K"] == lines["K"].iloc[0]
+        assert line["perplexity"] == pytest.approx(round(perplexity, 1))
     shown.clear()
     show_codebook_use({"this build": result})
     assert shown[1].equals(frame)  # the title, then the frame

@@ -17,10 +17,10 @@ from icil_paper.planning.design import (
     DECIDABLE_SEEDS,
     OTHER_SEEDS,
     TABLE_IDS,
-    check_design,
     claim_rows,
     design_frame,
     design_ledger,
+    design_problems,
     planned_seeds,
 )
 from icil_paper.planning.staged import as_run
@@ -41,23 +41,23 @@ def test_a_decidable_claim_asks_ten_seeds_of_every_row_it_reads():
     rows = claim_rows(preset)["I-tokenizer-gap"]
     assert rows == (("I", "icrt+lipvq"), ("I", "icrt+mlp"))
     ledger = {"I-tokenizer-gap": {"seeds_needed": 6}}
-    problems = [p for p in check_design(preset, ledger) if p.startswith("I-tokenizer-gap")]
+    problems = [p for p in design_problems(preset, ledger) if p.startswith("I-tokenizer-gap")]
     assert len(problems) == 2 and f"asks {DECIDABLE_SEEDS}" in problems[0]
     more = smoke("tables.icrt_seeds=5", "tables.baseline_seeds=5",
                  "tables.row_seeds=I:icrt+lipvq=10,I:icrt+mlp=10")
-    assert not [p for p in check_design(more, ledger) if p.startswith("I-tokenizer-gap")]
+    assert not [p for p in design_problems(more, ledger) if p.startswith("I-tokenizer-gap")]
     # an undecidable claim asks only OTHER_SEEDS
-    assert not [p for p in check_design(preset, {"I-tokenizer-gap": {"seeds_needed": 40}})
+    assert not [p for p in design_problems(preset, {"I-tokenizer-gap": {"seeds_needed": 40}})
                 if p.startswith("I-tokenizer-gap")]
     few = smoke("tables.icrt_seeds=2")
-    assert any(f"asks {OTHER_SEEDS}" in p for p in check_design(few, {}))
+    assert any(f"asks {OTHER_SEEDS}" in p for p in design_problems(few, {}))
 
 
 def test_the_reference_preset_follows_the_rule_for_its_ledger():
     preset = get_preset("reference")
     ledger = design_ledger(preset, root=ROOT / "results")  # the committed ledgers
     assert ledger["I-tokenizer-gap"]["seeds_needed"] is not None
-    assert check_design(preset, ledger) == []
+    assert design_problems(preset, ledger) == []
     seeds = planned_seeds(preset)
     assert seeds["I", "icrt+lipvq"] >= DECIDABLE_SEEDS and seeds["I", "bc_transformer"] >= 10
     assert min(seeds[r] for rows in claim_rows(preset).values() for r in rows) >= OTHER_SEEDS
@@ -150,34 +150,28 @@ def test_expected_half_width_shrinks_with_seeds_and_matches_the_ledgers_own():
     assert expected_half_width(planned, 5) == pytest.approx(t.ppf(0.975, 4) * (var / 5) ** 0.5)
 
 
-def test_reference_progress_says_how_many_cells_are_done(tmp_path):
-    from icil_paper.book.report import reference_progress
+def test_run_progress_counts_the_cells_done_and_the_projection(tmp_path):
+    from icil_paper.book.report import run_progress
 
     path = tmp_path / "cost.json"
     sittings = [{"elapsed_s": 3600.0}, {"elapsed_s": 1800.0}]
     path.write_text(json.dumps({"finished_cells": 12, "planned_cells": 370,
                                 "sittings": sittings}))
-    text = reference_progress(path)
-    assert "12 of its 370 trained cells" in text and "2 sittings, 1.5 hours" in text
-    assert "whole run" not in text  # no projection in this cost.json
+    p = run_progress(path)
+    assert (p["finished"], p["planned"], p["sittings"]) == (12, 370, 2)
+    assert p["hours"] == pytest.approx(1.5) and p["wall_hours"] is None  # no projection
     path.write_text(json.dumps({"finished_cells": 12, "planned_cells": 370,
                                 "sittings": sittings, "projection": {"wall_hours_at_2": 9.24,
                                                                      "target_wall_hours": 12.0}}))
-    text = reference_progress(path)
-    assert "the whole run comes to 9.2 hours" in text and "the target is 12 hours" in text
+    p = run_progress(path)
+    assert (p["wall_hours"], p["target_hours"], p["more_stages"]) == (9.24, 12.0, False)
     staged = {"stages": [5, 10, 15], "looks": [{"seeds": 5, "going_on": ["I:bin"]}]}
     path.write_text(json.dumps({**json.loads(path.read_text()), "stages": staged}))
-    text = reference_progress(path)
-    assert "the stage reached comes to 9.2 hours" in text and "fits the budget" in text
+    assert run_progress(path)["more_stages"]
     staged["looks"][0]["going_on"] = []  # the look sent nothing on: the run is whole
     path.write_text(json.dumps({**json.loads(path.read_text()), "stages": staged}))
-    assert "the whole run comes to 9.2" in reference_progress(path)
-    path.write_text(json.dumps({"finished_cells": 370, "planned_cells": 370,
-                                "sittings": sittings, "projection": {"wall_hours_at_2": 10.9}}))
-    text = reference_progress(path)
-    assert "finished: all 370 trained cells" in text and "10.9 hours" in text
-    assert "not run" not in text
-    assert reference_progress(tmp_path / "none") == ""
+    assert not run_progress(path)["more_stages"]
+    assert run_progress(tmp_path / "none") is None
 
 
 def test_decisions_per_cpu_hour_are_read_from_each_runs_ledger_and_cost(tmp_path, monkeypatch):
@@ -192,14 +186,13 @@ def test_decisions_per_cpu_hour_are_read_from_each_runs_ledger_and_cost(tmp_path
                                   (store, [claim] * 3 + [undecided] * 4, 36000.0)):
         (folder / "claims.json").write_text(json.dumps({"claims": claims}))
         (folder / "cost.json").write_text(json.dumps({"total": {"cpu_s": cpu_s}}))
-    text = report.decision_rate_sentence()
-    assert "this run, so far: 3 claims decided for 10.0 CPU-hours (3.0 per 10" in text
-    assert "older protocol's run: 6 claims decided for 22.0 CPU-hours (2.7 per 10" in text
+    assert report.decision_rate(store) == (3, pytest.approx(10.0), False)
+    assert report.decision_rate(store / "older-code") == (6, pytest.approx(22.0), False)
     (store / "cost.json").write_text(json.dumps({"total": {"cpu_s": 36000.0},
                                                  "finished_cells": 9, "planned_cells": 9}))
-    assert "this run: 3 claims decided" in report.decision_rate_sentence()  # finished
+    assert report.decision_rate(store)[2]  # finished
     (store / "cost.json").unlink()
-    assert "has not recorded its cost yet" in report.decision_rate_sentence()
+    assert report.decision_rate(store) is None
 
 
 def test_a_staged_runs_cost_is_bounded_by_its_stages(tmp_path):
@@ -274,7 +267,7 @@ def test_the_interim_check_reads_every_row_at_the_seeds_finished_so_far(tmp_path
     store = ResultsStore(preset.name, root=tmp_path)
     assert interim_check(preset, store=store) == (0, None)  # nothing finished: no variance
     seeds, problems = interim_check(preset, seeds=2, store=store)
-    assert seeds == 2 and problems == check_design(preset, {})  # no records: no power either
+    assert seeds == 2 and problems == design_problems(preset, {})  # no records: no power either
 
 
 def test_the_stage_rule_sends_on_only_rows_of_undecided_claims_a_stage_can_decide():
@@ -299,7 +292,7 @@ def test_the_stage_rule_sends_on_only_rows_of_undecided_claims_a_stage_can_decid
 
 
 def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys):
-    from icil_paper.planning.design import main, stages_paragraph
+    from icil_paper.planning.design import main
 
     preset = get_preset("reference")
     assert preset.tables.seed_stages == (5, 10, 15)
@@ -312,9 +305,6 @@ def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys
             assert seq["p_value"] <= 0.05 and seq["decided_at"] in seq["stages"]
         elif e["verdict"] != "not run":
             assert look.startswith(f"undecided at {seq['seeds'] if seq['seeds'] < 15 else 15}")
-    assert "O'Brien-Fleming" in stages_paragraph(preset)
-    assert "repeated p-value" in stages_paragraph(preset)
-    assert stages_paragraph(get_preset("smoke")) == ""
     assert main(["--preset", "smoke", "--stages"]) == 2
     assert "seed_stages" in capsys.readouterr().err
     assert main(["--preset", "smoke", "--set", "tables.seed_stages=10,5", "--stages"]) == 2
@@ -324,22 +314,19 @@ def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys
 def test_the_stage_prose_and_plan_read_typed_ledger_entries():
     # chapter 0 and `design --stages` pass the ledger as `claims_ledger`/`load_ledger` give
     # it (typed entries), not as the stored dicts
-    from icil_paper.planning.design import stage_plan, stages_paragraph
+    from icil_paper.planning.design import stage_counts, stage_plan
     from icil_paper.tables.claims import load_ledger
 
     preset = get_preset("reference")
     ledger = load_ledger(ROOT / "results" / "reference" / "claims.json")
-    text = stages_paragraph(preset, ledger)
-    assert text.startswith("Seeds are allocated in stages")
-    assert stages_paragraph(preset, [e.to_dict() for e in ledger]) == text
+    assert stage_counts([e.to_dict() for e in ledger]) == stage_counts(ledger)
     plan = stage_plan(preset, ledger)
     assert plan == stage_plan(preset, [e.to_dict() for e in ledger])
 
 
-def test_the_stage_prose_counts_decided_going_stopped_and_unlooked_claims():
-    from icil_paper.planning.design import stages_paragraph
+def test_the_stage_counts_count_decided_going_stopped_and_unlooked_claims():
+    from icil_paper.planning.design import stage_counts
 
-    preset = get_preset("reference")
     stored = json.loads((ROOT / "results" / "reference" / "claims.json").read_text())["claims"]
 
     def entry(e, **sequential):
@@ -348,24 +335,20 @@ def test_the_stage_prose_counts_decided_going_stopped_and_unlooked_claims():
         return {**e, "sequential": {**e["sequential"], **base, **sequential}}
 
     unlooked = [entry(e) for e in stored]
-    assert stages_paragraph(preset, unlooked).endswith(
-        "No look has been taken yet: the first comes once every row a claim reads has "
-        "finished its first 5 seeds.")
+    n = len(stored)
+    assert stage_counts(unlooked)["unlooked"] == n
     looked = {"looks": [{"seeds": 5}], "seeds": 5}
     ledger = [entry(stored[0], decided_at=5, **looked),
               entry(stored[1], next=10, **looked),
               entry(stored[2], stopped_by="budget", **looked),
               entry(stored[3], **looked),
               *unlooked[4:]]
-    text = stages_paragraph(preset, ledger)
-    n = len(stored)
-    assert (f"In this ledger 1 of {n} claims are decided (1 at 5 seeds a row); 1 undecided "
-            f"claim goes on to the next stage ({stored[1]['id']}), 2 stop undecided (1 of "
-            f"them at the budget), and {n - 4} have had no look yet") in text
+    assert stage_counts(ledger) == {"claims": n, "decided": 1, "decided_at": {5: 1},
+                                    "going": [stored[1]["id"]], "stopped": 2, "by_budget": 1,
+                                    "unlooked": n - 4}
     all_looked = [*ledger[:4], *(entry(e, **looked) for e in stored[4:])]
-    assert stages_paragraph(preset, all_looked).endswith(
-        f"claim goes on to the next stage ({stored[1]['id']}), and {n - 2} stop undecided (1 of "
-        "them at the budget).")
+    counts = stage_counts(all_looked)
+    assert (counts["stopped"], counts["unlooked"]) == (n - 2, 0)
 
 
 # --------------------------------------------------------------------------- the ledger's design

@@ -312,7 +312,6 @@ def test_findings_give_each_variant_against_its_base_with_a_verdict_and_the_code
         differences_frame,
         findings,
         findings_frame,
-        summary,
     )
 
     kitchen = "data.robocasa_tasks=kitchen/open_drawer,kitchen/close_drawer,kitchen/open_door"
@@ -324,7 +323,6 @@ def test_findings_give_each_variant_against_its_base_with_a_verdict_and_the_code
         store = ResultsStore(preset.name)
         result = assemble(table_spec(preset, "official"), store)
         assert {f["verdict"] for f in findings(result)} == {"not run"}
-        assert summary(result) == "The official-code cells have not run yet."
         _fake_records(preset, store, lambda r: rates.get(r, 0.5), lambda r: codes.get(r, 20))
         result = assemble(table_spec(preset, "official"), store)
         found = {f["variant"]: f for f in findings(result)}
@@ -336,16 +334,11 @@ def test_findings_give_each_variant_against_its_base_with_a_verdict_and_the_code
         assert off["variant_codes"] == [1] * seeds and off["base_codes"] == [20] * seeds
         if expect:
             assert {f["verdict"] for f in found.values()} == {expect}
-            assert "not decided" in summary(result) and "no comparison" in summary(result)
+            assert {f["adjusted_verdict"] for f in found.values()} == {expect}
         else:
             assert off["verdict"] == off["adjusted_verdict"] == "does not hold"
             assert found["prompts from the minibatch"]["adjusted_verdict"] == "holds"
-            text = summary(result)
-            assert "'icrt+lipvq (official code)' minus 'icrt+lipvq (paper)' is -" in text
-            assert "lower" in text and "higher" in text
         assert collapsed_rows(result) == ["icrt+lipvq (official code)", "detached latent"]
-        assert ("'icrt+lipvq (official code)', 'detached latent': those policies receive one "
-                "constant action token") in summary(result)
         frame = findings_frame(result)
         assert list(frame.index) == VARIANTS and frame.loc["detached latent", "codes used"] == "1"
         assert codes_frame(result).loc[PAPER_BIN, "codebook"] == "64"

@@ -187,7 +187,7 @@ def test_seed_correlations_pair_rows_by_seed_index():
     from icil_paper import stats
     from icil_paper.paper import table_spec
     from icil_paper.tables.assemble import CellResult, TableResult
-    from icil_paper.tables.display import seed_correlation_sentence, seed_correlations
+    from icil_paper.tables.display import seed_correlations
 
     spec = table_spec(get_preset("smoke"), "IV")
     labels = [row.label for row in spec.rows]
@@ -203,8 +203,6 @@ def test_seed_correlations_pair_rows_by_seed_index():
     assert r[labels[0], labels[1]] == pytest.approx(1.0)
     assert r[labels[0], labels[2]] == pytest.approx(-1.0)
     assert not any(labels[3] in pair for pair in r)  # a constant row has no correlation
-    assert "mean r = " in seed_correlation_sentence({"this build": TableResult(spec, cells,
-                                                                              "smoke")})
 
 
 def test_the_committed_regime_pilot_has_every_part_the_regime_is_chosen_from():

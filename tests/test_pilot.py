@@ -33,10 +33,3 @@ def test_table_one_averages_over_tasks_and_flags_columns_no_row_separates(tmp_pa
     frame, flat = pilot_frame(str(path), table="I")
     assert frame.loc[("40 demos, 2000 steps, 10 episodes", "icrt+lipvq"), "avg"] == 0.5
     assert flat["40 demos, 2000 steps, 10 episodes"] == ["drawers"]
-
-
-def test_the_chapters_list_each_settings_uninformative_columns():
-    from icil_paper.planning.pilot import uninformative_markdown
-
-    text = uninformative_markdown({"a": ["insertion", "knobs"], "b": []})
-    assert text.endswith("\n\n- a: insertion, knobs\n- b: none")

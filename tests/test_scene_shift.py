@@ -24,7 +24,7 @@ from icil_paper.eval import evaluate_many, plan_episodes
 from icil_paper.eval.rollouts import EnvSetup, Episode, WorkerState
 from icil_paper.paper import table_spec
 from icil_paper.paper.table_i import TABLE_I_ROWS
-from icil_paper.paper.table_vi import shift_frame, shift_rows, shift_sentence
+from icil_paper.paper.table_vi import shift_counts, shift_frame, shift_rows
 from icil_paper.registry import UnknownNameError
 from icil_paper.runspec import SCENE_DISTRIBUTIONS, EvalSpec, eval_key
 from icil_paper.stats import Estimate
@@ -316,8 +316,8 @@ def test_the_shift_is_paired_by_training_seed():
     assert list(frame.index) == ["bc_transformer", "icrt+lipvq", "act"]
     assert frame.loc["bc_transformer", "lower on the human scenes?"] == "holds"
     assert frame.loc["bc_transformer", "paper Table VI - Table I"].startswith("-")
-    sentence = shift_sentence(i, vi)
-    assert "lower (the interval below 0) for 1" in sentence and "3 of 3 rows" in sentence
+    counts = shift_counts(i, vi)
+    assert counts["holds"] == 1 and (counts["measured"], counts["rows"]) == (3, 3)
     missing = _result("VI", {"bc_transformer": after})
     missing.cells[("bc_transformer", "avg")] = CellResult(None, None, 3)
     assert shift_rows(i, missing)[0]["verdict"] == "not run"

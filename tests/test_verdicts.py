@@ -321,7 +321,7 @@ def test_variance_parts_recover_the_simulated_seed_and_episode_noise():
 
 
 def test_chapter_0_lists_each_undecided_claim_with_its_power():
-    from icil_paper.book.report import undecided_power
+    from icil_paper.book.report import undecided_frame
 
     held = {"id": "a", "adjusted_verdict": "holds", "ours": 0.1, "ci": [0.05, 0.15]}
     open_ = {"id": "b", "adjusted_verdict": "inconclusive", "ours": 0.01, "ci": [-0.04, 0.06],
@@ -332,12 +332,14 @@ def test_chapter_0_lists_each_undecided_claim_with_its_power():
     beyond = {"id": "d", "adjusted_verdict": "inconclusive", "ours": 0.02, "ci": [-0.03, 0.07],
               "paper": None, "reference_effect": 0.055, "power": 0.31, "mde": 0.098,
               "seeds_needed": 14}
-    text = undecided_power([held, open_, unplanned, beyond])
-    assert "**a**" not in text
-    assert ("**d**: inconclusive, ours +0.020 [-0.030, +0.070]; power 31% to detect the "
-            "reference +0.055 at these seeds; detects 0.098 with 80% power; 14 seeds a row "
-            "would detect the reference effect") in text
-    assert ("**b**: inconclusive, ours +0.010 [-0.040, +0.060]; power 23% to detect the "
-            "paper's +0.041 at these seeds; detects 0.071 with 80% power; 26 seeds a row") in text
-    assert "**c**: too few seeds" in text and "no reference effect" in text
-    assert undecided_power([held]) == ""
+    frame = undecided_frame([held, open_, unplanned, beyond])
+    assert list(frame.index) == ["b", "c", "d"]
+    assert frame.loc["d"].to_dict() == {
+        "decided": "inconclusive", "ours": frame.loc["d", "ours"], "sized against": "+0.055",
+        "power": "31%", "mde": "0.098", "seeds needed": 14, "note": ""}
+    assert frame.loc["d", "ours"].replace("\u00a0", " ") == "+0.020 [-0.030, +0.070]"
+    assert (frame.loc["b", "sized against"], frame.loc["b", "power"],
+            frame.loc["b", "seeds needed"]) == ("+0.041", "23%", 26)
+    assert frame.loc["c", "decided"] == "too few seeds"
+    assert frame.loc["c", "note"] == "no reference effect" and frame.loc["c", "power"] == ""
+    assert undecided_frame([held]).empty

@@ -109,9 +109,10 @@ def test_a_question_is_answered_by_the_verdicts_of_its_claims():
 
 
 def test_the_introduction_answers_the_three_questions_with_their_numbers():
-    """Each answer quotes every claim that decides it: our number, interval, the paper's
-    and the verdict after Holm, and its first word follows those verdicts."""
-    from icil_paper.book.questions import QUESTIONS, answers
+    """Every claim that decides or stands beside a question is in the committed ledger with
+    its number (what chapter 0 glues into the introduction), and the answer word follows
+    the verdicts after Holm."""
+    from icil_paper.book.questions import QUESTIONS
     from icil_paper.book.report import answering_ledger
     from icil_paper.config import get_preset
     from icil_paper.paper import CLAIM_LABELS, claims
@@ -122,16 +123,11 @@ def test_the_introduction_answers_the_three_questions_with_their_numbers():
     assert {e.id for e in load_ledger(path)} == set(CLAIM_LABELS)
     ledger = {e.id: e for e in answering_ledger(path)[0]}  # the older code's while none ran
     assert {c.id for c in claims(get_preset("reference"))} == set(CLAIM_LABELS)
-    for question, text in answers(list(ledger.values())):
-        assert text.startswith(answer([ledger[c].adjusted_verdict for c in question.decides]))
+    for question in QUESTIONS:
+        assert answer([ledger[c].adjusted_verdict for c in question.decides])
         for claim_id in (*question.decides, *question.beside):
             e = ledger[claim_id]
-            if not e.run or e.ours is None:
-                assert f"{CLAIM_LABELS[claim_id]}: not run yet" in text
-                continue
-            paper = "" if e.paper is None else f" against the paper's {e.paper:+.3f}"
-            assert (f"{CLAIM_LABELS[claim_id]}: {e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"
-                    f"{paper}, {e.adjusted_verdict}") in text
+            assert not e.run or (e.ours is not None and len(e.ci) == 2)
     assert [q.key for q in QUESTIONS] == ["Q1", "Q2", "Q3"]
 
 
@@ -152,10 +148,11 @@ def test_forest_plot_rows_say_what_each_claim_says_beside_its_id():
 
 
 # --------------------------------------------------------------------------- the library writes no prose
-ENGLISH_CEILING = 38
+ENGLISH_CEILING = 10
 """The most functions in `src/icil_paper` whose job is English (`english_functions`): 69 before
-issue 56, which aims at 10 (the vocabulary module counting as one place, 11 in all). Lower it as functions go; a new
-one fails the test: write the sentence in the chapter and glue its numbers."""
+issue 56, 10 since (the vocabulary module counting as one place, 11 in all): command-line
+reports and messages of the loaders. A new one fails the test: write the sentence in the
+chapter and glue its numbers."""
 
 _SENTENCE = __import__("re").compile(r"[A-Za-z]{2,}(?:[ ,;:()]+[A-Za-z'-]+){4,}")
 """Five or more words in a row: a phrase of a sentence, not a label or a key."""
@@ -190,7 +187,7 @@ def _phrases(node):
 def english_functions(root: Path) -> list[str]:
     """"file:line:name" of each function under `root` whose job is English: it returns text
     (`-> str`, a list of them, Markdown) or shows Markdown, and holds a literal phrase of five
-    or more words. A message naming a problem (`*_problem`, a `raise`) is not counted, nor
+    or more words. A message naming a problem (`*_problem`, `*_problems`, a `raise`) is not counted, nor
     is `verdict_words`, the one vocabulary (it counts as one place)."""
     import ast
 
@@ -204,7 +201,7 @@ def english_functions(root: Path) -> list[str]:
             returns = ast.unparse(fn.returns) if fn.returns is not None else ""
             shows = any(isinstance(n, ast.Call) and ast.unparse(n.func) in
                         {"Markdown", "collapsed_markdown"} for n in ast.walk(fn))
-            if fn.name.endswith("problem") or not (_TEXT_RETURN.match(returns) or shows):
+            if fn.name.endswith(("problem", "problems")) or not (_TEXT_RETURN.match(returns) or shows):
                 continue
             if any(_SENTENCE.search(t) for t in _phrases(fn)):
                 found.append(f"{path.relative_to(root)}:{fn.lineno}:{fn.name}")

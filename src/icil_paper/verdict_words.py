@@ -152,3 +152,13 @@ def answer(verdicts) -> str:
         return "In part (" + ", ".join(counted(v, verdicts.count(v)) for v in LEDGER_ORDER
                                        if v in verdicts) + ")"
     return "Not decided at this scale"
+
+QUICK_RUN_OPEN = "The quick run ({preset} preset: it tests the code, not the paper). Open to see it."
+"""The label of a collapsed block holding the quick run's numbers beside our run's."""
+
+DESCRIPTIVE_WHY = {
+    "correlation": "a rank correlation across rows, read from a joint bootstrap: described, "
+                   "not tested",
+    "floor": "its smallest attainable p-value ({floor:.2g}) cannot pass its first step "
+             "({level:.2g})"}
+"""Why a claim of the ledger decides nothing (`tables.design.ledger_design` stores it)."""

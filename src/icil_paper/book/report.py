@@ -4,8 +4,9 @@ ledger's views and the reference run's bookkeeping.
     results = load_table(preset, "I")               # {"reference run": ..., "this build": ...}
     verdicts(preset, "I")                           # the ledger's sentences, in Markdown
     claims_figure(preset, "I")                      # the forest plot of one table's claims
-    show_ledgers(ledgers)                           # chapter 0: every claim, its verdict, power
-    reference_summary()                             # the introduction: the reference run
+    ledger_frame(ledger)                            # chapter 0: every claim, its verdict
+    undecided_frame(ledger)                         # what the undecided claims could detect
+    run_progress()                                  # the reference run's cells, hours, projection
 
 `load_table` computes what this build's results store lacks (through the same function
 `icil-paper reproduce` calls, so after `make reproduce` it only loads) and reads the
@@ -28,7 +29,6 @@ from typing import Any
 import numpy as np
 
 from icil_paper import verdict_words
-from icil_paper.book.questions import answers_markdown
 from icil_paper.book.studies import study_keys
 from icil_paper.config import PRESET_NAMES, Preset, get_preset, task_demo_counts
 from icil_paper.fileio import atomic_write_json
@@ -46,14 +46,10 @@ from icil_paper.tables.claims import (
     sentence,
     sizing_effect,
     summary,
-    summary_sentence,
 )
-from icil_paper.tables.design import ONE_FAMILY
 from icil_paper.tables.display import (
     BUILD,
     REFERENCE,
-    collapsed_frame,
-    collapsed_markdown,
     source_label,
 )
 
@@ -173,53 +169,6 @@ def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
 
 
 # --------------------------------------------------------------------------- the claims ledger
-def show_ledger(ledger: list[LedgerEntry | dict[str, Any]], heading: str,
-                progress: str = "") -> None:
-    """Chapter 0's view of one ledger: the forest plot first (each row labelled by what its
-    claim says), the counts in one sentence and the verdicts; then, collapsed, the power of
-    each undecided claim and the size-and-power table; the run's bookkeeping (`progress`)
-    last."""
-    from IPython.display import Markdown, display
-
-    ledger = [as_entry(e) for e in ledger]
-    display(Markdown(f"## {heading[0].upper()}{heading[1:]}"))
-    display(forest_plot(ledger, title=f"{heading[0].upper()}{heading[1:]}: each claim's 95% "
-                                      "interval, the paper's value, the decision"))
-    display(Markdown(summary_sentence(ledger)))
-    display(Markdown("**Verdicts** (the seeds of each row: the claim's row first)"))
-    display(ledger_frame(ledger, "verdicts"))
-    undecided = undecided_power(ledger)
-    if undecided:
-        n = len(undecided.splitlines())
-        display(collapsed_markdown(f"Undecided ({n} claims): what these seeds "
-                                   "could detect. Open to see them.", undecided))
-    display(collapsed_frame("Size and power of every claim. Open to see them.",
-                            ledger_frame(ledger, "power")))
-    if progress:
-        display(Markdown(progress))
-
-
-def show_ledgers(ledgers: dict[str, tuple[Any, list]]) -> None:
-    """Chapter 0's opening: `show_ledger` for each source ({source: (preset, ledger)}); while
-    no claim of the reference ledger has run under the current protocol, the older
-    protocol's ledger (`older_ledger`) follows it, headed with its commit, so the chapter
-    opens on numbers."""
-    for source, (preset, ledger) in ledgers.items():
-        reference = preset.name == REFERENCE
-        heading = source_label(source, preset.name)
-        if any(as_entry(e).family == ONE_FAMILY for e in ledger):
-            heading += ", a record of the older design"
-        show_ledger(ledger, heading, reference_bookkeeping() if reference else "")
-        older = (older_ledger(REFERENCE)
-                 if reference and not any(as_entry(e).run for e in ledger) else None)
-        if older is not None:
-            made_by, claims = older
-            show_ledger(claims, f"older protocol (commit {made_by['commit'][:7]})",
-                        "The older protocol's baselines did not read the task's instruction "
-                        "and its training seeds shared one demonstration set: read this "
-                        "ledger as a record of that protocol, not of the paper's regime.")
-
-
 def _seeds_cell(seeds: dict[str, int] | None) -> str:
     """"3 v 1" for a difference, "3 v 3 3 3" for a best of k (the claim's row first)."""
     if not seeds:
@@ -263,46 +212,48 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
     return pd.DataFrame(rows).set_index("claim").rename_axis(None)
 
 
-def undecided_power(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
-    """A Markdown list of the claims left undecided under the ledger's design, each with what
-    its design could detect: the power to detect the paper's effect at its seeds, the mde
-    and the seeds a row that would reach 80% power. Empty when none is undecided."""
+def ledger_views(ledger: list[LedgerEntry | dict[str, Any]], title: str = "") -> dict[str, Any]:
+    """Chapter 0's views of one ledger: "forest" (`forest_plot`), "verdicts" and "power"
+    (`ledger_frame`'s two parts), "undecided" (`undecided_frame`) and "counts" (`summary`)."""
     ledger = [as_entry(e) for e in ledger]
-    lines = []
-    for e in ledger:
+    return {"forest": forest_plot(ledger, title=title), "counts": summary(ledger),
+            "verdicts": ledger_frame(ledger, "verdicts"), "undecided": undecided_frame(ledger),
+            "power": ledger_frame(ledger, "power")}
+
+
+def undecided_frame(ledger: list[LedgerEntry | dict[str, Any]]):
+    """The claims left undecided under the ledger's design, one line each, with what its
+    design could detect: our estimate and interval, the effect it is sized against (the
+    paper's, or for a claim of ours its reference effect), the power to detect that effect
+    at its seeds, the mde at 80% power and the seeds a row that would reach it."""
+    import pandas as pd
+
+    rows = []
+    for e in map(as_entry, ledger):
         if e.adjusted_verdict not in verdict_words.UNDECIDED:
             continue
-        # A claim the paper does not make (a row added since) is sized by its reference
-        # effect, e.g. the paper's Eq. 4 gain for VQ-VAE; the sentence says which it is.
         effect = sizing_effect(e)
-        whose = "the paper's" if e.paper is not None else "the reference"
-        parts = [f"{e.adjusted_verdict}, ours {e.ours:+.3f} "
-                 f"[{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"]
-        if e.power is not None and effect is not None:
-            parts.append(f"power {e.power:.0%} to detect {whose} {effect:+.3f} at "
-                         f"these seeds")
-        if e.mde is not None:
-            parts.append(f"detects {e.mde:.3f} with 80% power")
-        if e.seeds_needed and effect is not None:
-            parts.append(f"{e.seeds_needed} seeds a row would detect {whose} effect")
-        elif e.power_note:
-            parts.append(e.power_note)
-        lines.append(f"- **{e.id}**: " + "; ".join(parts) + ".")
-    return "\n".join(lines)
+        rows.append({"claim": e.id, "decided": e.adjusted_verdict,
+                     "ours": unbroken(f"{e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"),
+                     "sized against": "" if effect is None else f"{effect:+.3f}",
+                     "power": "" if e.power is None or effect is None else f"{e.power:.0%}",
+                     "mde": "" if e.mde is None else f"{e.mde:.3f}",
+                     "seeds needed": e.seeds_needed if effect is not None else None,
+                     "note": e.power_note or ""})
+    columns = ["claim", "decided", "ours", "sized against", "power", "mde", "seeds needed",
+               "note"]
+    return pd.DataFrame(rows, columns=columns).set_index("claim").rename_axis(None)
 
 
-def ledger_details(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
-    """Each claim's quantity, the paper's sentence and the power note, as a Markdown list."""
-    ledger = [as_entry(e) for e in ledger]
-    lines = []
-    for e in ledger:
-        note = f" {e.power_note[0].upper()}{e.power_note[1:]}." if e.power_note else ""
-        if e.paper is None and e.reference_effect is None:
-            note += f" It has no reference size ({e.reference})."
-        elif e.paper is None:
-            note += f" Its reference size in parentheses is {e.reference}."
-        lines.append(f"- **{e.id}** ({e.quantity}): *{e.claim}*{note}")
-    return "\n".join(lines)
+def details_frame(ledger: list[LedgerEntry | dict[str, Any]]):
+    """Each claim's quantity, the paper's sentence, the reference a claim of ours is read
+    against and its power note, one line a claim."""
+    import pandas as pd
+
+    rows = [{"claim": e.id, "quantity": e.quantity, "the paper says": e.claim,
+             "read against": "" if e.paper is not None else e.reference,
+             "power note": e.power_note or ""} for e in map(as_entry, ledger)]
+    return pd.DataFrame(rows).set_index("claim").rename_axis(None)
 
 
 def decided_claims(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
@@ -414,51 +365,35 @@ def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dic
     return data["made_by"], data["claims"]
 
 
-def reference_progress(path=None, older: bool = False) -> str:
-    """Where the committed reference run stands, from its `cost.json`: the table cells
-    finished of those planned, the machine time so far and the whole run's projected wall
-    time against its target (`projection`); once every cell is done, what the whole run
-    cost (`older`: every record is older code, so the run is the older protocol's). Empty
-    when there is no cost.json."""
-    if path is None:  # the run's cost; before the rerun writes one, the older run's
+def run_progress(path=None) -> dict[str, Any] | None:
+    """Where the committed reference run stands, from its `cost.json` (before the rerun
+    writes one, the older protocol's, with `older` True): the table cells finished of those
+    planned, its sittings and machine hours so far, the whole run's projected wall hours on
+    an idle 2-core machine and its target (None without a projection), and whether more
+    stages may follow. None when there is no cost record."""
+    older = False
+    if path is None:
         store = ResultsStore(REFERENCE).dir
-        path, older = ((store / "cost.json", older) if (store / "cost.json").exists()
+        path, older = ((store / "cost.json", False) if (store / "cost.json").exists()
                        else (store / OLDER_COST, True))
     path = Path(path)
     if not path.exists():
-        return ""
+        return None
     cost = json.loads(path.read_text())
-    done, planned = cost.get("finished_cells", 0), cost.get("planned_cells", 0)
+    planned = cost.get("planned_cells", 0)
     if not planned:
-        return ""
-    hours = sum(s["elapsed_s"] for s in cost["sittings"]) / 3600
-    n = len(cost["sittings"])
-    sittings = f"{n} sitting{'' if n == 1 else 's'}, {hours:.1f} hours of machine time"
-    projection = cost.get("projection")
-    whole = ""
-    if projection:
-        target = projection.get("target_wall_hours")
-        against = f" (the target is {target:g} hours)" if target else ""
-        whole = (f" At the CPU time its cells took, the whole run comes to "
-                 f"{projection['wall_hours_at_2']:.1f} hours on an idle 2-core machine at "
-                 f"two cells at a time{against}.")
-        stages = cost.get("stages") or {}
-        looks = stages.get("looks", [])
-        if (len(looks) < len(stages.get("stages", []))
-                and (not looks or looks[-1].get("going_on"))):  # more stages may follow
-            whole = whole.replace("the whole run comes", "the stage reached comes") + (
-                " Later stages take only the claims whose next stage fits the budget.")
-    if done >= planned and older:
-        return (f"The reference run of the older protocol finished all {planned} trained cells "
-                f"({sittings}; `results/reference/{OLDER_COST}`).{whole} Under "
-                "the current protocol it is to be redone.")
-    if done >= planned:
-        return (f"The reference run is finished: all {planned} trained cells ({sittings}; "
-                f"`results/reference/cost.json`).{whole}")
-    return (f"The reference run is in progress: {done} of its {planned} trained cells "
-            f"{'has' if done == 1 else 'have'} finished ({sittings} so far; "
-            f"`results/reference/cost.json`).{whole} A claim "
-            "whose rows are not all trained yet shows as *not run*.")
+        return None
+    projection = cost.get("projection") or {}
+    stages = cost.get("stages") or {}
+    looks = stages.get("looks", [])
+    return {"finished": cost.get("finished_cells", 0), "planned": planned,
+            "sittings": len(cost["sittings"]),
+            "hours": sum(s["elapsed_s"] for s in cost["sittings"]) / 3600,
+            "wall_hours": projection.get("wall_hours_at_2"),
+            "target_hours": projection.get("target_wall_hours"),
+            "more_stages": (len(looks) < len(stages.get("stages", []))
+                            and (not looks or bool(looks[-1].get("going_on")))),
+            "older": older, "file": path.name}
 
 
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
@@ -475,67 +410,6 @@ def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
     return decided, cost["total"]["cpu_s"] / 3600, finished
 
 
-def decision_rate_sentence(preset_name: str = REFERENCE) -> str:
-    """Claims decided per CPU-hour, of the reference run and of the older protocol's run
-    beside it (from their ledgers and costs); empty when neither is there."""
-    store = ResultsStore(preset_name).dir
-
-    def rate(decided: int, hours: float) -> str:
-        per = f"{10 * decided / hours:.1f}" if hours else "—"
-        return f"{decided} claims decided for {hours:.1f} CPU-hours ({per} per 10 CPU-hours)"
-
-    now, older = decision_rate(store), decision_rate(store / "older-code")
-    parts = []
-    if now is not None:
-        decided, hours, finished = now
-        parts.append(f"this run{'' if finished else ', so far'}: {rate(decided, hours)}")
-    if older is not None:
-        parts.append(f"the older protocol's run: {rate(*older[:2])}")
-    if not parts:
-        return ""
-    text = "Decisions per CPU-hour: " + "; ".join(parts) + "."
-    if now is None:
-        text += " This run has not recorded its cost yet."
-    return text
-
-
-def reference_summary(path=None) -> str:
-    """The committed reference run's ledger in one sentence (`claims.summary_sentence`) and
-    the claims it decided, or a sentence saying it is not there. Records made by older code
-    are counted, in the store or moved beside it; while the current ledger still has claims
-    not run, the older code's ledger is quoted too, labelled with its commit (once every
-    claim is read, chapter 0 keeps it)."""
-    path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
-    if not path.exists():
-        return f"The reference run's ledger is not there yet ({path.name} is missing)."
-    ledger = load_ledger(path)
-    text = f"{summary_sentence(ledger)} {decided_claims(ledger)}".strip()
-    fresh = reference_freshness(REFERENCE)
-    retired = sum(retired_records(REFERENCE).values())
-    cost = path.with_name("cost.json")
-    progress = (reference_progress(cost, older=fresh["stale"] == fresh["records"])
-                if cost.exists() else reference_progress())  # before the rerun's: the older
-    in_progress = any(e.verdict == Verdict.NOT_RUN for e in ledger)
-    if not fresh["stale"] and not retired:
-        return f"{progress} {text}".strip()
-    if fresh["stale"]:
-        older_records = (f"{fresh['stale']} of its {fresh['records']} committed records were "
-                         "made by an older version of the code and are not used (chapter 0 "
-                         "lists them, with the ledger that code computed).")
-    else:
-        older_records = (f"The {retired} records an older version of the code made are kept "
-                         f"beside the store, in `results/reference/{OLDER_RECORDS}/`; chapter 0 "
-                         "lists them with the ledger that code computed.")
-    text = (f"{progress or 'The reference run is being redone with the current code.'} "
-            f"{older_records} With the current code: {text[0].lower()}{text[1:]}")
-    older = older_ledger(REFERENCE) if in_progress else None
-    if older is not None:
-        made_by, older_claims = older
-        text += (f" With the older code (commit {made_by['commit'][:7]}), from those records: "
-                 + summary_sentence(older_claims))
-    return text
-
-
 def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
     """(ledger, made_by) that answers the paper's questions on the first page: the committed
     reference ledger, or, while none of its claims has run under the current protocol, the
@@ -550,35 +424,6 @@ def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
         return ledger, None
     made_by, claims = older
     return [as_entry(e) for e in claims], made_by
-
-
-def reference_answers(path=None) -> str:
-    """Sec. IV's three questions answered from the reference ledger (`answering_ledger`;
-    `questions.answers_markdown`: one sentence each, with the numbers that carry it), saying
-    so when the answers come from the older protocol's ledger."""
-    ledger, made_by = answering_ledger(path)
-    if not ledger:
-        return "The reference run's ledger is not there yet (claims.json is missing)."
-    if made_by is None:
-        return answers_markdown(ledger)
-    folder = Path(path).parent if path else ResultsStore(REFERENCE).dir
-    under_way = (folder / "cost.json").exists()  # the current protocol's run has begun
-    status = "under it is in progress" if under_way else "is to be redone"
-    return (f"No claim has run yet under the current protocol (the reference run {status}). "
-            f"The older protocol's ledger (commit {made_by['commit'][:7]}: baselines "
-            f"without the task's instruction, one demonstration set for every seed) answered:"
-            f"\n\n" + answers_markdown(ledger))
-
-
-def reference_bookkeeping(preset_name: str = REFERENCE) -> str:
-    """Where the committed reference run stands (`reference_progress`) and how many of its
-    records an older version of the code made (chapter 0 lists them)."""
-    fresh = reference_freshness(preset_name)
-    text = reference_progress(older=fresh["stale"] == fresh["records"])
-    if fresh["stale"]:
-        text += (f" {fresh['stale']} of its {fresh['records']} committed records were made by "
-                 "an older version of the code and are not used (chapter 0 lists them).")
-    return text.strip()
 
 
 PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)",

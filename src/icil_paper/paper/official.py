@@ -175,9 +175,6 @@ means it succeeds less."""
 OUTCOME_WORDS = verdict_words.OUTCOME
 """A verdict on "the variant succeeds more" in words of the two-sided question."""
 
-SHORT_WORDS = verdict_words.OUTCOME_SHORT
-"""The same, shorter, for the summary sentence (which explains "not decided" once)."""
-
 
 def comparisons() -> list[tuple[str, str]]:
     """(variant, base) of every comparison, in the table's row order."""
@@ -309,35 +306,3 @@ def collapsed_rows(result: TableResult) -> list[str]:
     seed: their policy received (nearly) one constant action token."""
     return [row.label for row in result.spec.rows
             if (codes := codes_used(result, row.label)) is not None and max(codes) <= 1]
-
-
-def summary(result: TableResult) -> str:
-    """The chapter's closing sentences, from the numbers: every comparison's difference and
-    its verdict after Holm's correction, then the rows whose codebook collapsed to one code."""
-    found = findings(result)
-    if all(f["estimate"] is None for f in found):
-        return "The official-code cells have not run yet."
-    seeds = sorted({n for f in found if f["seeds"] for n in f["seeds"].values()})
-    seeds_text = (f"{seeds[0]} training seed{'s' if seeds[0] != 1 else ''} a row" if len(seeds) == 1
-                  else f"{seeds[0]}-{seeds[-1]} training seeds a row")
-    parts = []
-    for f in found:
-        est = f["estimate"]
-        if est is None:
-            parts.append(f"'{f['variant']}' has not run yet")
-            continue
-        parts.append(f"'{f['variant']}' minus '{f['base']}' is {_interval(est, 2)}: "
-                     f"{SHORT_WORDS[f['adjusted_verdict']]}")
-    text = (f"On the same episodes, with {seeds_text} and Holm's correction over the "
-            f"{len(found)} comparisons: " + "; ".join(parts) + ".")
-    if any(f["adjusted_verdict"] == stats.Verdict.TOO_FEW_SEEDS for f in found):
-        text += (" With a single training seed a row the spread between seeds is unknown, "
-                 "so no comparison that reads such a row is decided.")
-    collapsed = collapsed_rows(result)
-    if collapsed:
-        names = ", ".join(f"'{r}'" for r in collapsed)
-        whose = ("that policy receives" if len(collapsed) == 1
-                 else "those policies receive")
-        text += (f" A single code is used on the held-out trajectories at every seed by "
-                 f"{names}: {whose} one constant action token.")
-    return text

@@ -12,7 +12,7 @@ prompt ablation, Fig. 5, the analysis, `beyond` and `official` tables reuse
 features, for their codebook use (`display.show_codebook_use`).
 
 Shown (chapter 06) with the views every result shares (`tables.display`: `show_comparison`,
-`success_figure`, `seed_correlation_sentence`, `show_codebook_use`, `show_motion`,
+`success_figure`, `seed_correlations`, `show_codebook_use`, `show_motion`,
 `show_values`), beside the prompt ablation (`prompt_ablation.prompt_beside_baselines`).
 """
 

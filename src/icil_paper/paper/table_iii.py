@@ -165,40 +165,28 @@ def feature_coverage(metrics: dict[str, Any]) -> dict[str, Any]:
             "steps_per_task": dict(steps) if steps else None}
 
 
-def _coverage_words(c: dict[str, Any]) -> str:
-    if c["tasks"] is None:
-        return (f"{c['trajectories']} trajectories, {c['features']} features (an older record: "
-                "the first features in task order, its tasks not recorded)")
-    steps = c["steps_per_task"]
-    common = max(set(steps.values()), key=list(steps.values()).count)
-    others = [f"{t.split('/', 1)[-1]} {n}" for t, n in steps.items() if n != common]
-    per_task = f"{common} steps each" + (f"; {', '.join(others)}" if others else "")
-    return (f"{c['tasks_scored']} of its {c['tasks']} tasks ({per_task}), "
-            f"{c['trajectories']} held-out trajectories, {c['features']} features")
+def feature_sampling_frame(results: dict[str, TableResult], column: str = "least_energy"):
+    """For each source, what Table III's features records scored, one line per row and
+    seed: tasks scored of the tasks asked for (None in an older record that scored the
+    first features in task order), the fewest and most steps per task, held-out
+    trajectories and features (`feature_coverage`)."""
+    import pandas as pd
 
-
-def feature_sampling_sentence(results: dict[str, TableResult], column: str = "least_energy"
-                              ) -> str:
-    """For each source, what Table III's features records scored, per row and seed: tasks
-    scored of the tasks asked for, steps per task, trajectories and features (Markdown,
-    generated from the records; rows that scored the same are named together)."""
     lines = []
     for source, result in results.items():
-        groups: dict[str, list[str]] = {}
         for row in result.spec.rows:
             cell = result.cell(row.label, column)
             if cell is None or cell.estimate is None:
                 continue
-            for m in cell.extra["metrics"]:
-                words = _coverage_words(feature_coverage(m))
-                if row.label not in groups.setdefault(words, []):
-                    groups[words].append(row.label)
-        name = source_label(source, result.preset)
-        if not groups:
-            lines.append(f"- {name}: not run yet.")
-        elif len(groups) == 1:
-            lines.append(f"- {name}: every row, each seed: {next(iter(groups))}.")
-        else:
-            lines.append(f"- {name}: " + "; ".join(f"{', '.join(rows)}, each seed: {words}"
-                                                  for words, rows in groups.items()) + ".")
-    return "\n".join(lines)
+            for seed, m in enumerate(cell.extra["metrics"]):
+                c = feature_coverage(m)
+                steps = list((c["steps_per_task"] or {}).values())
+                lines.append({"source": source_label(source, result.preset), "row": row.label,
+                              "seed": seed, "tasks scored": c["tasks_scored"],
+                              "tasks": c["tasks"], "steps a task": (
+                                  "" if not steps else f"{min(steps)}" if min(steps) == max(steps)
+                                  else f"{min(steps)}-{max(steps)}"),
+                              "trajectories": c["trajectories"], "features": c["features"]})
+    columns = ["source", "row", "seed", "tasks scored", "tasks", "steps a task",
+               "trajectories", "features"]
+    return pd.DataFrame(lines, columns=columns).set_index(["source", "row", "seed"])

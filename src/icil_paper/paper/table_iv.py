@@ -4,7 +4,7 @@ chapter 09.
     spec(preset)                 # MLP, Lip-MLP, VQ-VAE, LipVQ-VAE x avg (+ features beside)
     fig5_spec(preset)            # LipVQ-VAE at the preset's codebook sizes x avg
     claims(preset)               # IV-mlp, IV-vq, IV-vq-over-mlp, fig5-best
-    codes_used_sentence(fig5)    # Fig. 5's sentence: codes used of each size's K
+    codes_used_frame(fig5)       # Fig. 5's numbers: codes used of each size's K
     TABLE_IV_LIPSCHITZ, FIG5_CODEBOOK_SIZE   # the paper's numbers, as printed
 
 Table IV's MLP and VQ-VAE rows, and Fig. 5's size at the preset's codebook size, are Table
@@ -141,33 +141,24 @@ CLAIM_LABELS = {
 """What each claim says, in a few words (the forest plot's rows, the introduction)."""
 
 
-def codes_used_sentence(results: dict[str, TableResult], column: str = "features") -> str:
+def codes_used_frame(results: dict[str, TableResult], column: str = "features"):
     """For each source, how many codes each codebook row used of its K on the held-out
-    trajectories, and their perplexity (means over seeds), as a Markdown list: Fig. 5's
-    sentence on its codebook sizes, generated from the features records."""
+    trajectories and their perplexity, means over the seeds measured: Fig. 5's numbers on
+    its codebook sizes, from the features records (a row not measured yet has None)."""
+    import pandas as pd
+
     lines = []
     for source, result in results.items():
-        parts, missing = [], []
         for row, cell_spec in codebook_rows(result, column):
             measured = [m for _, m in per_seed_metrics(result, row, cell_spec, column)
                         if m and m.get("codes_used") is not None]
-            if not measured:
-                missing.append(row)
-                continue
-            used = float(np.mean([m["codes_used"] for m in measured]))
-            size = measured[0]["codebook_size"]
+            used = float(np.mean([m["codes_used"] for m in measured])) if measured else None
+            size = measured[0]["codebook_size"] if measured else None
             perplexities = [m["perplexity"] for m in measured if m.get("perplexity") is not None]
-            seeds = "" if len(measured) == 1 else f", mean of {len(measured)} seeds"
-            perplexity = (f", perplexity {np.mean(perplexities):.1f}" if perplexities else "")
-            count = f"{used:.0f}" if len(measured) == 1 else f"{used:.1f}"
-            parts.append(f"{row} used {count} of its {size} codes "
-                         f"({used / size:.0%}{perplexity}{seeds})")
-        name = source_label(source, result.preset)
-        if not parts:
-            lines.append(f"- {name}: not run yet.")
-            continue
-        text = "; ".join(parts)
-        if missing:
-            text += f"; {', '.join(missing)} not run yet"
-        lines.append(f"- {name}: {text}.")
-    return "\n".join(lines)
+            lines.append({"source": source_label(source, result.preset), "row": row,
+                          "seeds": len(measured), "codes used": used, "K": size,
+                          "share": None if used is None else round(used / size, 3),
+                          "perplexity": (round(float(np.mean(perplexities)), 1)
+                                         if perplexities else None)})
+    columns = ["source", "row", "seeds", "codes used", "K", "share", "perplexity"]
+    return pd.DataFrame(lines, columns=columns).set_index(["source", "row"])

@@ -4,7 +4,7 @@ shift of each Table I row to its Table VI self.
     spec(preset)                          # Table I's rows x seven skill families + avg
     claims(preset)                        # VI-mlp-vs-bc, VI-lipvq-best
     shift_frame(table_i, table_vi)        # TableResults -> one line per row: VI - I
-    shift_sentence(table_i, table_vi)     # the same, counted in one sentence
+    shift_counts(table_i, table_vi)       # the same, counted per verdict
     TABLE_VI_CROSS_DATASET                # the paper's numbers, as printed
 
 Table VI evaluates Table I's trained policies on the suite's `human` scene distribution,
@@ -158,32 +158,25 @@ def shift_frame(before: TableResult, after: TableResult, column: str = "avg",
     return pd.DataFrame(lines).set_index("")
 
 
-def shift_sentence(before: TableResult, after: TableResult, column: str = "avg") -> str:
-    """How many rows the shift lowers, raises or leaves undecided, and the mean change over
-    the rows measured, in one sentence (generated from the records)."""
+def shift_counts(before: TableResult, after: TableResult, column: str = "avg"
+                 ) -> dict[str, Any]:
+    """How many rows the shift lowers, raises or leaves undecided: {"rows", "measured",
+    "mean" (the mean change over the rows measured, None before any), "paper_mean" (the
+    paper's, None when it has none), and one count per verdict value}."""
     rows = shift_rows(before, after, column)
     measured = [r for r in rows if r["estimate"] is not None]
-    if not measured:
-        return f"No row has both its Table {before.spec.id} and Table {after.spec.id} records yet."
-    counts = {v: sum(r["verdict"] == v for r in measured) for v in Verdict}
-    mean = sum(r["estimate"].value for r in measured) / len(measured)
     paper_changes = [r["paper"] for r in rows if r["paper"] is not None]
-    text = (f"On the human-like scenes, {len(measured)} of {len(rows)} rows measured: mean "
-            f"change {mean:+.3f} in {column} success; lower (the interval below 0) for "
-            f"{counts[Verdict.HOLDS]}, higher for {counts[Verdict.DOES_NOT_HOLD]}, inconclusive for "
-            f"{counts[Verdict.INCONCLUSIVE]}, and {counts[Verdict.TOO_FEW_SEEDS]} with a single "
-            "training seed (too few seeds to decide)")
-    if paper_changes:
-        text += (f"; the paper's rows change by {sum(paper_changes) / len(paper_changes):+.3f} "
-                 "on average from its Table I to its Table VI")
-    return text + "."
+    return {"rows": len(rows), "measured": len(measured),
+            "mean": (sum(r["estimate"].value for r in measured) / len(measured)
+                     if measured else None),
+            "paper_mean": sum(paper_changes) / len(paper_changes) if paper_changes else None,
+            **{v.value: sum(r["verdict"] == v for r in measured) for v in Verdict}}
 
 
 def show_shift(before: dict[str, TableResult], after: dict[str, TableResult],
                column: str = "avg") -> None:
     """`shift_frame` per source (the reference run's, this build's collapsed beside it), for
-    `book.report.load_table`'s results of Table I and Table VI; each with its `shift_sentence`."""
+    `book.report.load_table`'s results of Table I and Table VI (`shift_counts` counts them)."""
     by_preset = {r.preset: r for r in before.values()}
     shown = {k: r for k, r in after.items() if r.preset in by_preset}
-    show_per_source(shown, lambda r: shift_frame(by_preset[r.preset], r, column),
-                    describe=lambda r: shift_sentence(by_preset[r.preset], r, column))
+    show_per_source(shown, lambda r: shift_frame(by_preset[r.preset], r, column))

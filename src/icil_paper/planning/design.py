@@ -3,7 +3,7 @@ from the split of each claim's paired variance into its seed and episode parts, 
 rule, and what the run costs.
 
     python -m icil_paper.planning.design             # the arithmetic behind the reference preset
-    check_design(preset, ledger)                     # rows with fewer seeds than the rule asks
+    design_problems(preset, ledger)                  # rows with fewer seeds than the rule asks
     python -m icil_paper.planning.design --interim   # the rule against the seeds finished so far
     python -m icil_paper.planning.design --stages    # each claim's look, the rows that go on
 
@@ -44,7 +44,6 @@ from icil_paper.results import ResultsStore, bench_path, results_root
 from icil_paper.tables.assemble import assemble
 from icil_paper.tables.cells import data_needs, plan
 from icil_paper.tables.claims import Comparison, as_entry, read_ledger, sizing_effect
-from icil_paper.tables.design import ONE_FAMILY
 
 DECIDABLE_SEEDS = 10
 """Seeds of every row of a claim whose `seeds_needed` is at most this."""
@@ -117,7 +116,7 @@ def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, d
     return out
 
 
-def check_design(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[str]:
+def design_problems(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[str]:
     """Rows with fewer seeds than the rule asks, one line each (empty: the preset follows
     the rule for `ledger`, claim id -> entry)."""
     seeds = planned_seeds(preset)
@@ -246,7 +245,7 @@ def report(preset: Preset) -> dict[str, Any]:
     half-width, the rule's violations and the plan's cost."""
     ledger = design_ledger(preset)
     return {"preset": preset.name, "claims": _claims_report(preset, ledger),
-            "violations": check_design(preset, ledger), "cost": plan_cost(preset)}
+            "violations": design_problems(preset, ledger), "cost": plan_cost(preset)}
 
 
 def _claims_report(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
@@ -344,7 +343,7 @@ def interim_check(preset: Preset, seeds: int | None = None, store=None
     seeds, ledger = interim_ledger(preset, seeds, store)
     if ledger is None:
         return seeds, None
-    return seeds, check_design(preset, {e.id: e.to_dict() for e in ledger})
+    return seeds, design_problems(preset, {e.id: e.to_dict() for e in ledger})
 
 
 # --------------------------------------------------------------------------- stages
@@ -453,68 +452,22 @@ def _first_runs(preset: Preset, table: str, row: str) -> frozenset[str]:
                      if u.seed_index == 0)
 
 
-def stages_paragraph(preset: Preset, ledger: list[dict[str, Any]] | None = None) -> str:
-    """The method of seeds in stages in a few sentences, for chapter 0; with a ledger
-    computed under the preset's stages, what it decided at each look and which claims go
-    on. Empty for a preset without stages."""
-    if not preset.tables.seed_stages:
-        return ""
-    t = preset.tables
-    older = any(getattr(e, "family", None) == ONE_FAMILY for e in map(as_entry, ledger or []))
-    text = (f"Seeds are allocated in stages: {design_words(preset)}. Each claim's p-value is "
-            "the design's repeated p-value, the smallest level at whose boundary one of its "
-            "looks so far would have decided it (Jennison and Turnbull 2000, Sec. 9.1). The "
-            f"{len(t.primary_claims)} claims of the primary family share "
-            f"{t.family_weights[0]:.0%} of the familywise 5% and every other testable claim "
-            f"the remaining {t.family_weights[1]:.0%}; a decided claim passes its share on "
-            "to the others (weighted Holm's graph, Bretz et al. 2009), at every look, so a "
-            "claim decided early stays decided and the familywise level holds whichever "
-            "rows go on (Maurer and Bretz 2013). After a look, the rows of an undecided "
-            "claim go on to the next stage while its conditional power at the observed "
-            "effect, to cross the last boundary at its current level, is at least "
-            f"{t.continuation_power:g}: the rule is non-binding, so it costs no error.")
-    if older:
-        text += (" The reference records were gathered under the older design: Holm's "
-                 "correction over every claim alike, rows going on while a later stage "
-                 "could detect the paper's effect with 80% power, sizes read off unadjusted "
-                 "intervals. The ledger read from them is a record of that design, and the "
-                 "design above decides nothing on them.")
-    budget = preset.tables.stage_budget_hours
-    if budget is not None:
-        text += (f" The run has a budget of {budget:g} hours at two cells at a time, as the "
-                 "benchmark rates project them: after a look the claims that may go on are "
-                 "taken cheapest first while the whole run stays within it, and the others "
-                 "stop too. Stopping a claim can only lower its chance of a wrong decision.")
-    if not ledger:
-        return text
+def stage_counts(ledger: list[dict[str, Any]]) -> dict[str, Any]:
+    """What a ledger computed under the preset's stages decided at each look, counted:
+    {"claims", "decided" (in all), "decided_at" ({seeds a row: claims decided at that look}),
+    "going" (the ids of the undecided claims that go on to the next stage), "stopped"
+    (undecided claims that stop), "by_budget" (of them, those stopped at the budget),
+    "unlooked" (claims no look has read yet)}. Chapter 0 glues them into its prose."""
     seq = [(e.id, e.sequential) for e in map(as_entry, ledger)
            if getattr(e, "sequential", None)]
     unlooked = sum(1 for _, s in seq if not s["looks"])
-    if unlooked == len(ledger):
-        return text + (" No look has been taken yet: the first comes once every row a claim "
-                       f"reads has finished its first {t.seed_stages[0]} seeds.")
     decided = Counter(s["decided_at"] for _, s in seq if s["decided_at"] is not None)
     going = [claim_id for claim_id, s in seq if s["next"]]
-    looks = "; ".join(f"{decided[n]} at {n} seeds a row" for n in t.seed_stages if decided[n])
-    stopped = len(seq) - sum(decided.values()) - len(going) - unlooked
-    by_budget = sum(1 for _, s in seq if s.get("stopped_by") == "budget")
-    text += (f" In this ledger {sum(decided.values())} of {len(ledger)} claims are decided"
-             + (f" ({looks})" if looks else "") + f"; {len(going)} undecided "
-             f"{'claim goes' if len(going) == 1 else 'claims go'} on to the next stage"
-             + (f" ({', '.join(going)})" if going else "")
-             + f"{', and' if not unlooked else ','} {stopped} stop undecided"
-             + (f" ({by_budget} of them at the budget)" if by_budget else "")
-             + (f", and {unlooked} {'has' if unlooked == 1 else 'have'} had no look yet"
-                " (a row they read has not finished its stage)" if unlooked else "") + ".")
-    return text
-
-
-def design_words(preset: Preset) -> str:
-    """The preset's looks in words: the stages and each look's boundary at a 5% level."""
-    design = stats.SequentialDesign(preset.tables.seed_stages)
-    return (f"looks at {', '.join(map(str, design.stages))} seeds a row; O'Brien-Fleming-type "
-            "alpha spending (Lan and DeMets 1983): at a level of 5% a look decides when its "
-            "t-test p-value is at most " + ", ".join(f"{p:.3g}" for p in design.nominal_levels()))
+    return {"claims": len(ledger), "decided": sum(decided.values()),
+            "decided_at": dict(sorted(decided.items())), "going": going,
+            "stopped": len(seq) - sum(decided.values()) - len(going) - unlooked,
+            "by_budget": sum(1 for _, s in seq if s.get("stopped_by") == "budget"),
+            "unlooked": unlooked}
 
 
 # --------------------------------------------------------------------------- episodes
@@ -609,7 +562,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"interim: the claims' rows have {seeds} finished seeds in common; a "
                   "variance needs 2")
         else:
-            problems = check_design(preset, {e.id: e.to_dict() for e in ledger})
+            problems = design_problems(preset, {e.id: e.to_dict() for e in ledger})
             print(f"interim, at the {seeds} seeds every claim's rows have finished: "
                   f"{len(problems)} rows below the rule")
             for e in ledger:
@@ -626,7 +579,10 @@ def _print_stages(preset: Preset) -> int:
               "--set tables.seed_stages=5,10,15", file=sys.stderr)
         return 2
     ledger = claims_ledger(preset)
-    print(design_words(preset))
+    design = stats.SequentialDesign(preset.tables.seed_stages)
+    print(f"looks at {', '.join(map(str, design.stages))} seeds a row; O'Brien-Fleming-type "
+          "alpha spending (Lan and DeMets 1983): at a level of 5% a look decides when its "
+          "t-test p-value is at most " + ", ".join(f"{p:.3g}" for p in design.nominal_levels()))
     for e in map(as_entry, ledger):
         p = (getattr(e, "sequential", None) or {}).get("p_value")
         print(f"  {e.id:<38} {str(e.adjusted_verdict):<14} design p "

@@ -75,21 +75,16 @@ def pilot_frame(path: str | None = None, table: str = "I"):
     return frame.sort_index(), flat
 
 
-def uninformative_markdown(flat: dict[str, list[str]]) -> str:
-    """`pilot_frame`'s uninformative columns per setting as a Markdown list."""
-    return ("Columns that no row of a setting separates (every row at 0, or every one at 1):"
-            "\n\n" + "\n".join(f"- {setting}: {', '.join(cols) or 'none'}"
-                                for setting, cols in flat.items()))
-
-
 def show_pilot(table: str = "I", path: str | None = None) -> None:
     """Chapters 06 and 07's view of the pilot: `pilot_frame` for `table`, then the columns
-    each setting cannot separate."""
-    from IPython.display import Markdown, display
+    each setting cannot separate (every row at 0, or every one at 1)."""
+    import pandas as pd
+    from IPython.display import display
 
     frame, flat = pilot_frame(path, table=table)
     display(frame)
-    display(Markdown(uninformative_markdown(flat)))
+    display(pd.DataFrame({"uninformative columns": {k: ", ".join(v) or "none"
+                                                    for k, v in flat.items()}}))
 
 
 def regime_summary(path: str | None = None) -> tuple[Any, str]:

@@ -635,44 +635,16 @@ def summary(ledger: Sequence[LedgerEntry | dict[str, Any]], adjusted: bool = Tru
     }
 
 
-def summary_sentence(ledger: Sequence[LedgerEntry | dict[str, Any]]) -> str:
-    """`summary` in one sentence, for the introduction and chapter 0."""
-    s = summary(ledger)
-    c = s["counts"]
-    if c[Verdict.NOT_RUN] == s["claims"]:
-        return f"None of the {s['claims']} claims has its records yet: every one is not run."
-    parts = [verdict_words.counted(v, c[v]) for v in VERDICTS if v != Verdict.NOT_RUN]
-    if c[Verdict.NOT_RUN]:
-        parts.append(verdict_words.counted(Verdict.NOT_RUN, c[Verdict.NOT_RUN]))
-    families = ", ".join(f"{n} {f}" for f, n in s["families"].items())
-    design = f" ({families})" if families else ""
-    if any(as_entry(e).size for e in ledger):
-        sized = (f"{s['size_excluded']} decided smaller than the paper's effect and "
-                 f"{s['size_larger']} larger")
-    elif families:
-        sized = "none decided under this design"
-    else:  # a ledger older than size decisions: its unadjusted reading
-        sized = f"{s['size_excluded']} exclude the paper's size of the effect"
-    return (f"Of {s['claims']} claims{design}, as decided: " + ", ".join(parts) + ". "
-            f"Sizes: {sized}; {s['decidable_with_10_seeds']} of the {s['undecided']} "
-            "undecided would detect the paper's effect with 10 or fewer seeds a row.")
-
-
-def paper_words(entry: LedgerEntry) -> str:
-    """What a ledger entry is read against, in words: "the paper +0.053", "a claim of ours,
-    read against <reference> (+0.055)", or "... with no number to read it against"."""
-    if entry.paper is not None:
-        return f"the paper {entry.paper:+.3f}"
-    if entry.reference_effect is None:
-        return (("a claim of ours" if entry.source == "ours" else "the paper")
-                + " with no number to read it against")
-    return f"a claim of ours, read against {entry.reference} ({entry.reference_effect:+.3f})"
-
-
 def sentence(entry: LedgerEntry | dict[str, Any]) -> str:
     """The verdict of one ledger entry in words, for the chapters."""
     e = as_entry(entry)
-    against = paper_words(e)
+    if e.paper is not None:
+        against = f"the paper {e.paper:+.3f}"
+    elif e.reference_effect is None:
+        against = (("a claim of ours" if e.source == "ours" else "the paper")
+                   + " with no number to read it against")
+    else:
+        against = f"a claim of ours, read against {e.reference} ({e.reference_effect:+.3f})"
     if not e.run:
         return f"{e.quantity}: not run yet ({against})."
     low, high = e.ci

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from icil_paper import stats
+from icil_paper import stats, verdict_words
 from icil_paper.config import Preset
 from icil_paper.fileio import atomic_write_json, read_json
 
@@ -95,14 +95,12 @@ class Design:
 def _descriptive(claim, weight: float, sequential) -> str | None:
     """Why a claim decides nothing (None: it is tested)."""
     if claim.compare.kind == "correlation":
-        return ("a rank correlation across rows, read from a joint bootstrap: described, "
-                "not tested")
+        return verdict_words.DESCRIPTIVE_WHY["correlation"]
     floor, level = claim.compare.smallest_p, stats.ALPHA * weight
     if sequential is not None and floor > 0:
         floor = float(sequential.repeated_p_value(floor, len(sequential.stages) - 1))
     if floor > level:
-        return (f"its smallest attainable p-value ({floor:.2g}) cannot pass its first step "
-                f"({level:.2g})")
+        return verdict_words.DESCRIPTIVE_WHY["floor"].format(floor=floor, level=level)
     return None
 
 

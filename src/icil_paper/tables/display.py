@@ -1,4 +1,4 @@
-"""What every result's chapter shows the same way: frames, figures and sentences per source.
+"""What every result's chapter shows the same way: frames and figures per source.
 
     results = load_table(preset, "I")     # book.report: {"reference run": ..., "this build": ...}
     compare_frame(results, "avg")         # rows x (paper, reference, this build)
@@ -109,8 +109,7 @@ def show_comparison(results: dict[str, TableResult], column: str = "avg",
 
 
 def _build_summary(result: TableResult) -> str:
-    return (f"This build's numbers ({result.preset} preset): they test the code, not the "
-            "paper. Open to see them.")
+    return verdict_words.QUICK_RUN_OPEN.format(preset=result.preset)
 
 
 def show_per_source(results: dict[str, TableResult], make_frame, describe=None) -> None:
@@ -194,9 +193,10 @@ def motion_frame(result: TableResult, column: str = "avg", digits: int = 3):
     return pd.DataFrame(out).set_index("")
 
 
-def motion_note(result: TableResult, column: str = "avg") -> str:
-    """How many of the column's episodes have each measure defined (an episode of a few
-    steps, or one where the arm did not move, has none), as a clause; empty when all do."""
+def motion_coverage(result: TableResult, column: str = "avg") -> dict[str, tuple[int, int]]:
+    """{measure: (episodes with it defined, episodes)} of the column's episodes, for the
+    measures some episode lacks (an episode of a few steps, or one where the arm did not
+    move, has none); empty when every episode has every measure."""
     counts = {}
     for row in result.spec.rows:
         cell = result.cell(row.label, column)
@@ -205,20 +205,22 @@ def motion_note(result: TableResult, column: str = "avg") -> str:
                 values = cell.motion[measure]
                 done, total = counts.get(measure, (0, 0))
                 counts[measure] = (done + int(np.isfinite(values).sum()), total + values.size)
-    gaps = [f"{MOTION_COLUMNS[m].split(' (')[0]} {d} of {t}" for m, (d, t) in counts.items()
-            if d < t]
-    return "" if not gaps else "episodes with the measure defined: " + ", ".join(gaps)
+    return {MOTION_COLUMNS[m].split(" (")[0]: (d, t) for m, (d, t) in counts.items() if d < t}
 
 
 def show_motion(results: dict[str, TableResult], column: str = "avg", digits: int = 3) -> None:
     """Success beside the smoothness of the motion that earned it (`motion_frame`), for the
-    reference run, then this build in a collapsed block (`show_per_source`)."""
-    def describe(result: TableResult) -> str:
-        note = motion_note(result, column)
-        return (f"{column}, each episode's value averaged per seed, 95% intervals with the "
-                "seed as the unit" + (f"; {note}" if note else ""))
+    reference run, then this build in a collapsed block (`show_per_source`); the measures
+    some episodes lack follow, counted (`motion_coverage`)."""
+    from IPython.display import display
 
-    show_per_source(results, lambda r: motion_frame(r, column, digits), describe)
+    show_per_source(results, lambda r: motion_frame(r, column, digits))
+    gaps = {(source, m): {"defined": d, "episodes": t} for source, r in results.items()
+            for m, (d, t) in motion_coverage(r, column).items()}
+    if gaps:
+        import pandas as pd
+
+        display(pd.DataFrame(gaps).T.rename_axis(["source", "measure"]))
 
 
 def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
@@ -262,9 +264,10 @@ def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
             continue
         display(Markdown(title))
         display(values_frame(result, digits))
-    note = uninformative_note(results)
-    if note:
-        display(Markdown(note))
+    flat = uninformative_frame(results)
+    if not flat.empty:
+        display(Markdown("**Uninformative columns**"))
+        display(flat.set_index(["source", "column"]))
 
 
 def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, float]:
@@ -285,31 +288,29 @@ def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, fl
     return out
 
 
-def uninformative_note(results: dict[str, TableResult]) -> str:
-    """A sentence per source naming its columns where every row is at 0 or at 1, and the
-    share of the average they make (they add the same to every row, so differences in the
-    average are diluted by that share). Empty when there are none."""
+def uninformative_frame(results: dict[str, TableResult]):
+    """Per source, its columns where every row is at 0 or at 1 ("rows": "all"), or every
+    ICRT row ("ICRT"), the value they share and the share of the average's tasks the column
+    holds (every difference in the average is diluted to 1 minus that share). Empty when
+    there are none."""
+    import pandas as pd
+
     lines = []
     for source, result in results.items():
-        flat = uninformative_columns(result)
-        if not flat and not uninformative_columns(result, "icrt+"):
-            continue
         spec_row = result.spec.rows[0]
         tasks = {c: len({u.eval.task for u in cell.units if u.eval is not None})
                  for c, cell in spec_row.cells.items() if c not in ("avg", "features")}
         total = sum(tasks.values())
-        share = sum(tasks.get(c, 0) for c in flat) / total if total else 0.0
-        named = ", ".join(f"{c} (every row {v:.0f})" for c, v in flat.items())
-        lines.append(f"- {source_label(source, result.preset)}: {named} cannot separate the "
-                     f"rows; they hold {share:.0%} of the tasks in the average, so every "
-                     f"difference in the average is diluted to {1 - share:.0%} of its size "
-                     "on the tasks that can separate them.")
+        flat = uninformative_columns(result)
         icrt = {c: v for c, v in uninformative_columns(result, "icrt+").items() if c not in flat}
-        if icrt:
-            named = ", ".join(f"{c} (every ICRT row {v:.0f})" for c, v in icrt.items())
-            lines.append(f"- {source_label(source, result.preset)}: {named} cannot separate "
-                         "the ICRT tokenizers from one another.")
-    return "" if not lines else ("**Uninformative columns** (computed):\n\n" + "\n".join(lines))
+        for rows, found in (("all", flat), ("ICRT", icrt)):
+            for c, v in found.items():
+                lines.append({"source": source_label(source, result.preset), "column": c,
+                              "rows": rows, "every row at": v,
+                              "share of the average": round(tasks.get(c, 0) / total, 3)
+                              if total else 0.0})
+    return pd.DataFrame(lines, columns=["source", "column", "rows", "every row at",
+                                        "share of the average"])
 
 
 def difference_sentence(results: dict[str, TableResult], a: str, b: str,
@@ -352,26 +353,6 @@ def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[st
             if n >= 3 and x.std() > 0 and y.std() > 0:
                 out[a, b] = float(np.corrcoef(x, y)[0, 1])
     return out
-
-
-def seed_correlation_sentence(results: dict[str, TableResult], column: str = "avg") -> str:
-    """The mean cross-row correlation of per-seed success in each source (`seed_correlations`),
-    over every pair of rows and over the pairs of ICRT rows."""
-    parts = []
-    for source, result in results.items():
-        r = seed_correlations(result, column)
-        if not r:
-            parts.append(f"{source_label(source, result.preset)}: no two rows have results "
-                         "at 3 seed indices or more (nothing to correlate)")
-            continue
-        icrt = [v for (a, b), v in r.items() if a.startswith("icrt") and b.startswith("icrt")]
-        text = (f"{source_label(source, result.preset)}: mean r = {np.mean(list(r.values())):.2f} "
-                f"over {len(r)} pairs of rows")
-        if icrt:
-            text += f", {np.mean(icrt):.2f} over the {len(icrt)} pairs of ICRT rows"
-        parts.append(text)
-    return ("Correlation of per-seed success between two rows at the same seed index: "
-            + "; ".join(parts) + ".")
 
 
 # --------------------------------------------------------------------------- features and codebooks
@@ -428,7 +409,7 @@ def show_codebook_use(results: dict[str, TableResult], column: str = "features")
         frame = codebook_frame(result, column)
         title = f"**{source_label(source, result.preset)}**"
         if frame.empty or (frame["status"] == verdict_words.MISSING).all():
-            display(Markdown(f"{title}: codebook use not run yet."))
+            display(Markdown(f"{title}: {verdict_words.MISSING}"))
         elif source == BUILD and len(results) > 1:
             display(collapsed_frame(_build_summary(result), frame))
         else:
