@@ -33,8 +33,8 @@
 # The table shows three sources: **the paper**; **our run** ({glue:md}`ch06_seeds` seeds a
 # row, results committed under `results/reference/`), whose committed records were made on
 # the {glue:md}`ch06_protocol`; and **the quick run** (CI's small preset: it tests the code,
-# not the paper). Until our run is repeated on Meta-World, its column (labelled "reference
-# run") reads "not run": the current code computes none of the kitchen records' cells, and
+# not the paper). Until our run is repeated on Meta-World, its column reads
+# "not run": the current code computes none of the kitchen records' cells, and
 # {doc}`chapter 0 <00_claims_ledger>` shows the kitchen run's ledger as it was computed. Every number comes with its 95% interval (`icil_paper.stats`): a t
 # interval on the per-seed values where a row has several training seeds; for a single
 # seed, the episodes' noise only (and no comparison with it is decided).

@@ -34,9 +34,9 @@
 # {doc}`Chapter 5 <05_action_tokenizers>` measures the same tokenizers trained alone, as a supplement.
 #
 # The tables and figures show **the paper**, **our run** ({glue:text}`ch08_seeds` seeds a row,
-# results committed under `results/reference/`; tables label it "reference run", and a row
-# whose records are not there yet reads "not run") and **the quick run** (CI's small
-# preset: it tests the code, not the paper; tables label it "this build", in a collapsed
+# results committed under `results/reference/`; a row whose records
+# are not there yet reads "not run") and **the quick run** (CI's small
+# preset: it tests the code, not the paper; in a collapsed
 # block).
 
 # %% tags=["remove-cell"]

@@ -26,9 +26,9 @@
 # perplexity of their distribution (how many equally used codes would give it), per seed.
 #
 # The tables show **the paper**, **our run** ({glue:text}`ch09_seeds` seeds a row,
-# results committed under `results/reference/`; tables label it "reference run", and a row
-# whose records are not there yet reads "not run") and **the quick run** (CI's small
-# preset: it tests the code, not the paper; tables label it "this build", in a collapsed
+# results committed under `results/reference/`; a row whose records
+# are not there yet reads "not run") and **the quick run** (CI's small
+# preset: it tests the code, not the paper; in a collapsed
 # block).
 
 # %% tags=["remove-cell"]

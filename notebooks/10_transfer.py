@@ -56,9 +56,9 @@
 #   prompt carries the task, the wrong prompt should hurt.
 #
 # The tables (Table V's seeds here; Tables VI and VII read the same rows) show **the paper**, **our run** ({glue:text}`ch10_seeds` seeds a row,
-# results committed under `results/reference/`; tables label it "reference run", and a row
-# whose records are not there yet reads "not run") and **the quick run** (CI's small
-# preset: it tests the code, not the paper; tables label it "this build", in a collapsed
+# results committed under `results/reference/`; a row whose records
+# are not there yet reads "not run") and **the quick run** (CI's small
+# preset: it tests the code, not the paper; in a collapsed
 # block).
 
 # %% tags=["remove-cell"]

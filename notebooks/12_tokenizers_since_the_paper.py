@@ -34,9 +34,9 @@
 #
 # The tables show **the paper** (Table I's two rows), **our run** (the `reference` preset,
 # results committed under `results/reference/`, made on the kitchen protocol before
-# Meta-World; a row whose records are not there yet shows as "not run"; tables label it
-# "reference run") and **the quick run** (CI's small preset: it tests the code, not the
-# paper; tables label it "this build").
+# Meta-World; a row whose records are not there yet shows as "not run")
+# and **the quick run** (CI's small preset: it tests the code, not the
+# paper).
 
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display

@@ -264,12 +264,12 @@ def test_display_helpers_name_each_source_and_say_when_there_is_nothing(shown):
 
     result = _table("prompt", {})
     assert source_paragraph("this build", result, lambda r: "a.", lambda r: "b.") == (
-        "**this build (smoke).** a. b.")
+        "**the quick run (smoke).** a. b.")
     assert source_paragraph("smoke run", result, lambda r: "- x", sep="\n\n") == (
         "**smoke run.**\n\n- x")
     show_sources({"reference run": result, "this build": result}, lambda r: r.preset)
-    assert [m.data for m in shown] == ["**reference run (smoke).** smoke",
-                                       "**this build (smoke).** smoke"]
+    assert [m.data for m in shown] == ["**our run (smoke).** smoke",
+                                       "**the quick run (smoke).** smoke"]
     frame = pd.DataFrame({"a": [1]})
     show_frame_or(frame, "none")
     show_frame_or(None, "*none*")
@@ -510,12 +510,12 @@ def test_chapters_6_to_8_sentences_and_table_iii_beside_its_standardized_score()
                             ("icrt+lipvq", "least_energy"): _smoothness(0.5, codes=None)})
     assert ex.standardized_frame({"this build": _table("III", {})}) is None
     frame = ex.standardized_frame({"this build": smooth})
-    assert list(frame.index) == [("this build (smoke)", "icrt+vq"),
-                                 ("this build (smoke)", "icrt+lipvq")]
-    row = frame.loc[("this build (smoke)", "icrt+vq")]
+    assert list(frame.index) == [("the quick run (smoke)", "icrt+vq"),
+                                 ("the quick run (smoke)", "icrt+lipvq")]
+    row = frame.loc[("the quick run (smoke)", "icrt+vq")]
     assert row["latent scale σ"] == 0.7 and row["codes used"] == 4 and row["features"] == 40
     assert row["raw"] == "1.700 [" + row["raw"].split("[")[1]  # mean of 1.0 + 0.0 ... 1.4
-    assert np.isnan(frame.loc[("this build (smoke)", "icrt+lipvq"), "codes used"])  # no codes
+    assert np.isnan(frame.loc[("the quick run (smoke)", "icrt+lipvq"), "codes used"])  # no codes
     paths = {"icrt+vq": [[0.0, 0.0], [1.0, 1.0]], "icrt+lipvq": [[0.0, 1.0], [1.0, 0.0]]}
     fig = ex.tsne_figure({k: np.array(v) for k, v in paths.items()})
     assert isinstance(fig, Figure) and [a.get_title() for a in fig.axes] == ["vq", "lipvq"]

@@ -166,7 +166,7 @@ def test_fig5_counts_each_sizes_codes_used(preset, monkeypatch):
     empty = {"this build": assemble(spec, ResultsStore(preset.name))}
     assert codes_used_frame(empty)["codes used"].isna().all()
     show_codebook_use(empty)
-    assert [getattr(o, "data", None) for o in shown] == ["**this build (smoke)**: not run"]
+    assert [getattr(o, "data", None) for o in shown] == ["**the quick run (smoke)**: not run"]
     result = assemble(spec, measure(preset, ["fig5"]))
     used_frame = codes_used_frame({"this build": result})
     frame = codebook_frame(result)
@@ -174,7 +174,7 @@ def test_fig5_counts_each_sizes_codes_used(preset, monkeypatch):
         metrics = result.cell(row, "features").extra["metrics"]
         perplexity = np.mean([m["perplexity"] for m in metrics])
         used = lines["codes used"].mean()
-        line = used_frame.loc[("this build (smoke)", row)]
+        line = used_frame.loc[("the quick run (smoke)", row)]
         assert line["codes used"] == pytest.approx(used) and line["K"] == lines["K"].iloc[0]
         assert line["perplexity"] == pytest.approx(round(perplexity, 1))
     shown.clear()

@@ -33,9 +33,15 @@ BUILD = "this build"
 """The source name of this build's results (its preset is the one the book is built with)."""
 
 
+SOURCE_WORDS = {f"{REFERENCE} run": "our run", BUILD: "the quick run"}
+"""What a table's column or a paragraph calls each source: our run (the committed records)
+and the quick run (the preset the book is built with)."""
+
+
 def source_label(source: str, preset_name: str) -> str:
-    """"this build (small)"; "reference run" (its preset is in its name already)."""
-    return source if preset_name in source else f"{source} ({preset_name})"
+    """"the quick run (small)"; "our run" (its preset is in its source's name already)."""
+    words = SOURCE_WORDS.get(source, source)
+    return words if preset_name in source else f"{words} ({preset_name})"
 
 
 def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: int = 3):
