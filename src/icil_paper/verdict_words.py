@@ -47,9 +47,6 @@ BEST_OF_K_INCONCLUSIVE = ("best of k: it holds only if every pairwise interval l
 SIZE_SHORT = {Size.SMALLER: "smaller", Size.LARGER: "larger", Size.UNDECIDED: "undecided"}
 """A decided size (`stats.Size`, against the paper's effect) in a table's narrow column."""
 
-DECIDED_LABELS = {HOLDS: "Held", DOES_NOT_HOLD: "Did not hold"}
-"""The headings of the lists of decided claims."""
-
 COLOURS = {HOLDS: "#1a7f37", DOES_NOT_HOLD: "#cf222e", INCONCLUSIVE: "#9a6700",
            TOO_FEW_SEEDS: "#8c959f", NOT_RUN: "#d0d7de"}
 """The verdicts' colours in the forest plot (green, red, amber, grey, light grey)."""

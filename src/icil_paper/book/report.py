@@ -256,18 +256,6 @@ def details_frame(ledger: list[LedgerEntry | dict[str, Any]]):
     return pd.DataFrame(rows).set_index("claim").rename_axis(None)
 
 
-def decided_claims(ledger: list[LedgerEntry | dict[str, Any]]) -> str:
-    """The claims decided under the ledger's design, by id: "Held: ... Did not hold: ...";
-    empty when none is decided."""
-    ledger = [as_entry(e) for e in ledger]
-    parts = []
-    for verdict, label in verdict_words.DECIDED_LABELS.items():
-        ids = [e.id for e in ledger if e.adjusted_verdict == verdict]
-        if ids:
-            parts.append(f"{label}: {', '.join(ids)}.")
-    return " ".join(parts)
-
-
 VERDICT_COLOURS = verdict_words.COLOURS
 
 
