@@ -121,7 +121,7 @@ print("episodes:", [(e["success"], e["steps"]) for e in episodes], "(success, st
 # :::{dropdown} What the kitchen run's pilot was (click to open)
 # A family where every row succeeds always, or never, cannot tell the rows apart, and
 # averaging it in shrinks every difference. Before the earlier reference run on the kitchen
-# suite, a one-seed pilot (`python -m icil_paper.planning.pilot`) trained the rows that bound
+# suite, a one-seed pilot (`make pilot`) trained the rows that bound
 # this table's range at several settings of the reference preset and evaluated them as the
 # table does, and that run took the setting that kept the best row away from 0 and 1 on the
 # most families. Its stored record, below, is that kitchen run's (its settings are named
@@ -143,7 +143,7 @@ show_pilot(table="I")
 # lies well inside (0, 1) on every RoboCasa family: trained to its plateau, on
 # plenty of data, and neither at the floor nor at the ceiling: from
 # {glue:text}`ch06_paper_low:.2f` to {glue:text}`ch06_paper_high:.2f` over its seven families. The regime pilot
-# (`python -m icil_paper.planning.pilot regime`) sets the reference preset's data and
+# (`make pilot PILOT_ARGS=regime`) sets the reference preset's data and
 # training budget from two curves, on training seeds, demonstration sets and scene sets that
 # the reference run never uses:
 #

@@ -62,7 +62,7 @@ display(success_figure(results, "avg", title="Table II: average success over the
 #
 # A task where every row succeeds always, or never, cannot tell the rows apart, and
 # averaging it in shrinks every difference. Before our run, a one-seed pilot
-# (`python -m icil_paper.planning.pilot`) trained ACT, the row every other row of this table
+# (`make pilot`) trained ACT, the row every other row of this table
 # builds on, at several settings of the reference preset and evaluated it as the table
 # does; the
 # reference preset takes the setting that keeps the best row away from 0 and 1 on the most
