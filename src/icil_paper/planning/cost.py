@@ -2,25 +2,17 @@
 
     python -m icil_paper.planning.cost --preset reference    # writes results/reference/cost.json
 
-Every record carries the wall time and CPU time of its computation (`ResultsStore.write`:
-a training run, one task's evaluation, one features measurement). A record belongs to the
-first stage of `icil-paper reproduce` whose tables plan it (Table IV's runs are Table I's,
-so they count under `table-I`) and to a kind of cell: policy, suite and observations
-("icrt kitchen state"), chapter 02's run too (stage `table-icrt`); records of the other
-stages (tokenizers, Lipschitz study, showcase) count under their kind. Records the current
-plan does not name (made by older code) are counted apart and not summed in.
+Every record carries the wall and CPU time of its computation. A record counts under the
+first stage of `icil-paper reproduce` whose tables plan it and under its kind of cell
+(policy, suite and observations: "icrt kitchen state"); records the current plan does not
+name (older code) are counted apart.
 
-Sittings: records whose finish times lie less than `SITTING_GAP_S` apart belong to one
-sitting; a sitting's elapsed time runs from its first record's start (finish minus wall
-time) to its last finish. Summed record wall time over elapsed time is how many cells ran
-at once; CPU time over wall time below 1 says the cells waited for the cores (other work
-on the machine, or more processes than cores).
+Sittings: records whose finish times lie less than `SITTING_GAP_S` apart. Summed wall time
+over a sitting's elapsed time is how many cells ran at once.
 
-Projection: the CPU time still to come is each unfinished cell at the CPU time per cell
-its stage and kind have measured so far (`cells.json`'s estimate, `design.plan_cost`, for a
-stage and kind with no finished cell yet); the run's wall time on an idle machine at two
-cells at a time is the whole CPU time over two (CPU time per wall second was 0.99 for cells
-that had the cores to themselves), set beside `TARGET_WALL_HOURS`.
+Projection: each unfinished cell at the CPU time per cell its stage and kind measured so
+far (else `cells.json`'s estimate); wall time at two cells at a time is the CPU time over
+two, set beside `TARGET_WALL_HOURS`.
 """
 
 from __future__ import annotations
@@ -44,17 +36,15 @@ from icil_paper.tables.cells import plan
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
           "resumed_cells", "resumed_cpu_s", "without_cpu_time")
-"""What is summed over records, for every group (stage, kind of cell, the total). A cell
-whose training resumed from a checkpoint (`resumed_from_step` above 0: its sitting ended
-mid-training) has a train record that times only the steps after the checkpoint:
-`resumed_cells` counts such cells and `resumed_cpu_s` their training's recorded CPU time."""
+"""What is summed over records, for every group. `resumed_cells` counts cells whose training
+resumed from a checkpoint (their train record times only the steps after it), `resumed_cpu_s`
+that training's CPU time."""
 
 SITTING_GAP_S = 1800.0
 """Records further apart than this (half an hour) start a new sitting."""
 
 TARGET_WALL_HOURS = REFERENCE_BUDGET_HOURS
-"""The reference run's budget: wall hours on the 2-core machine at two cells at a time
-(`tables.stage_budget_hours`, which the stage rule keeps to)."""
+"""The reference run's budget: wall hours on the 2-core machine at two cells at a time."""
 CELLS_AT_ONCE = 2
 
 
@@ -175,9 +165,7 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
 
 
 def _cpu_per_cell(group: dict[str, float]) -> float:
-    """A finished cell's CPU time: its evaluations' and features' on average over every
-    cell, plus its training's on average over the cells trained in one go (a resumed
-    cell's train record times only its last part)."""
+    """A finished cell's mean CPU time (training averaged over the cells trained in one go)."""
     evaluation = (group["cpu_s"] - group["train_cpu_s"]) / group["cells"]
     whole = group["cells"] - group["resumed_cells"]
     if not whole:
@@ -225,11 +213,8 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
 
 
 def stages_cost(preset: Preset, store: ResultsStore) -> dict[str, Any]:
-    """A staged run's looks so far and its cost bounds, projected from `cells.json`'s rates
-    (`design.plan_cost`, hours at two cells at a time): through the stage reached (what
-    `projection` prices from the records), with every row a claim reads taken to the last
-    stage (what the stage rule would ask without a budget), and the fixed design's seeds;
-    the budget (`tables.stage_budget_hours`) and the claims it has stopped so far."""
+    """A staged run's looks so far and its projected wall hours (`design.plan_cost`) at the
+    stage reached, at the last stage and at the fixed design's seeds, beside its budget."""
     _, looks = staged_preset(preset, store)
     return {"stages": list(preset.tables.seed_stages),
             "looks": [look.to_dict() for look in looks],
@@ -244,15 +229,13 @@ COST_FIX = "regenerate it: python -m icil_paper.planning.cost --preset <preset>"
 
 
 def read_cost(path: str | Path) -> dict[str, Any]:
-    """A run's `cost.json` (`write_cost`), through `fileio.read_json`: a damaged one, or one
-    whose sections have the wrong types, is one line naming it and the fix."""
+    """A run's `cost.json` (`write_cost`); a damaged one raises one line naming the fix."""
     return read_json(path, "a run's cost (cost.json)", COST_FIX, keys=("preset", "total"),
                      fields={"preset": str, "total": dict, "by_stage": dict, "by_kind": dict})
 
 
 def write_cost(preset: Preset, store: ResultsStore | None = None) -> Path:
-    """Write `results/<preset>/cost.json` atomically; returns its path. A preset with seeds
-    in stages is priced at the stage its records have reached (`staged.as_run`)."""
+    """Write `results/<preset>/cost.json` (at the stage the run has reached); returns its path."""
     store = store or ResultsStore(preset.name)
     path = store.dir / "cost.json"
     cost = run_cost(as_run(preset, store), store)

@@ -2,23 +2,12 @@
 
     icil-paper plan --preset reference --cores 64
 
-For every claim of `results/<preset>/claims.json` that is neither *holds* nor *does not
-hold*, the ledger's power analysis (`seeds_needed`, `icil_paper.tables.claims`) says how many
-training seeds a row it needs to detect the paper's effect at 80% power at its level. The
-plan gives every row such a claim reads that many seeds (never fewer than it has) as one
-`--set tables.row_seeds=...` override, builds the tables under it and counts the cells whose
-records the store does not hold yet: exactly those a run with that override computes. Each
-cell is priced at the CPU time its kind of cell took in the preset's own run
-(`results/<preset>/cost.json`, `icil_paper.planning.cost`); wall time at N cores is the CPU
-time over N, never less than the costliest cell.
-
-It prints one line per undecided claim (seeds a row now and needed, cells, CPU-hours, wall
-hours at `--cores`, or why the power analysis cannot plan it), the total (claims share rows)
-and the command that runs exactly the missing cells:
-
-    icil-paper reproduce --preset reference --set tables.row_seeds=... --executor ray --ray-address HEAD:6379
-
-(keep the same `--set` on later runs). The plan is written to `results/<preset>/plan.json`.
+Every row an undecided claim of `results/<preset>/claims.json` reads gets the claim's
+`seeds_needed` as one `--set tables.row_seeds=...` override; the cells the store lacks under
+it are priced at the CPU time their kind took in the run (`cost.json`). Wall time at N cores
+is the CPU time over N, never less than the costliest cell. It prints one line per claim,
+the total and the command that runs exactly the missing cells, and writes
+`results/<preset>/plan.json`.
 """
 
 from __future__ import annotations
@@ -54,8 +43,7 @@ def verdict(entry: dict[str, Any]) -> str:
 
 
 def seeds_entry_name(table: str, row: str) -> str:
-    """The `tables.row_seeds` name of a table's row: Table I's for the rows that share its
-    runs, Fig. 5's by codebook size ("2^9 (the paper's 2^11)" -> "fig5:512")."""
+    """The `tables.row_seeds` name of a table's row ("2^9 (the paper's 2^11)" -> "fig5:512")."""
     if table in SHARES_TABLE_I:
         return f"I:{row}"
     if table == "fig5":
@@ -67,12 +55,9 @@ def seeds_entry_name(table: str, row: str) -> str:
 
 
 def row_seeds_setting(preset: Preset, wanted: dict[str, int]) -> str:
-    """The `--set` value of `tables.row_seeds`: the preset's entries, each `wanted` one
-    raised to its seeds (or added)."""
-    entries = {}
-    for entry in preset.tables.row_seeds:
-        name, _, n = entry.rpartition("=")
-        entries[name] = int(n)
+    """The `--set` value of `tables.row_seeds`: the preset's entries raised to `wanted`."""
+    entries = {name: int(n) for name, _, n in
+               (entry.rpartition("=") for entry in preset.tables.row_seeds)}
     for name, n in wanted.items():
         entries[name] = max(n, entries.get(name, 0))
     return "tables.row_seeds=" + ",".join(f"{name}={n}" for name, n in entries.items())
