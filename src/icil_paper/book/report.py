@@ -129,9 +129,7 @@ def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
     counted by commit in `made_by.json`. Returns {commit: records moved}."""
     store = ResultsStore(preset_name)
     older = store.dir / OLDER_RECORDS
-    manifest_path = older / "made_by.json"
-    counts: dict[str, int] = (json.loads(manifest_path.read_text())
-                              if manifest_path.exists() else {})
+    counts = retired_records(preset_name)
     moved: dict[str, int] = {}
     for record in _stale(store):
         source = store.path_for(record["kind"], record["name"], record["config_hash"])
@@ -143,7 +141,7 @@ def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
     for commit, n in moved.items():
         counts[commit] = counts.get(commit, 0) + n
     if moved:
-        atomic_write_json(manifest_path, dict(sorted(counts.items())))
+        atomic_write_json(older / "made_by.json", dict(sorted(counts.items())))
     return moved
 
 

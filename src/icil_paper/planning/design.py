@@ -50,12 +50,9 @@ TABLE_IDS = tuple(TABLES)
 
 def planned_seeds(preset: Preset) -> dict[tuple[str, str], int]:
     """(table, row) -> the training seeds the preset gives that row."""
-    out = {}
-    for table_id in TABLE_IDS:
-        for row in table_spec(preset, table_id).rows:
-            indices = {u.seed_index for cell in row.cells.values() for u in cell.units}
-            out[table_id, row.label] = len(indices)
-    return out
+    return {(table_id, row.label): len({u.seed_index for cell in row.cells.values()
+                                        for u in cell.units})
+            for table_id in TABLE_IDS for row in table_spec(preset, table_id).rows}
 
 
 def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
