@@ -29,10 +29,9 @@ from icil_paper.fileio import atomic_write_json, read_json
 from icil_paper.paper import table_spec
 from icil_paper.planning.design import cell_kind, episode_design, plan_cost, planned_seeds
 from icil_paper.planning.staged import as_run, at_stage, staged_preset
-from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
 from icil_paper.stages import TABLE_STAGES
-from icil_paper.tables.cells import plan
+from icil_paper.tables.cells import plan, plan_records
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
           "resumed_cells", "resumed_cpu_s", "without_cpu_time")
@@ -53,12 +52,9 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
     out: dict[Path, tuple[str, str]] = {}
     for table_id, _, _ in TABLE_STAGES:
         for p in plan([table_spec(preset, table_id)]):
-            kind = cell_kind(p.run)
-            ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
-                   *(features_record(p.run, f) for f in p.features.values())]
-            for record_id in ids:
-                path = store.record_path(*record_id)
-                out.setdefault(path, (f"table-{table_id}", kind))
+            group = (f"table-{table_id}", cell_kind(p.run))
+            for record_id in plan_records(p):
+                out.setdefault(store.record_path(*record_id), group)
     return out
 
 

@@ -23,11 +23,10 @@ from icil_paper.config import Preset
 from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
 from icil_paper.paper import TABLES, table_spec
 from icil_paper.planning.design import cell_kind, claim_rows, planned_seeds
-from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import DATA_SETS
 from icil_paper.stats import Verdict
-from icil_paper.tables.cells import plan
+from icil_paper.tables.cells import plan, plan_records
 
 DECIDED = (Verdict.HOLDS, Verdict.DOES_NOT_HOLD)
 """Verdicts that settle a claim; every other one is planned."""
@@ -128,9 +127,7 @@ def make_plan(preset: Preset, ledger: list[dict[str, Any]], cost: dict[str, Any]
     rates = _rates(cost)
     missing: dict[str, float] = {}
     for p in plan(list(specs.values())):
-        ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
-               *(features_record(p.run, f) for f in p.features.values())]
-        absent = [i for i in ids if not store.record_path(*i).exists()]
+        absent = [i for i in plan_records(p) if not store.record_path(*i).exists()]
         if absent:
             missing[p.run.key()] = _cell_cpu_s(cell_kind(p.run), len(absent) - 1, rates)
     runs_of_row: dict[tuple[str, str], dict[str, int]] = defaultdict(dict)

@@ -62,8 +62,9 @@ def _action_names(n: int) -> list[str]:
 
 
 @contextmanager
-def _rrd_stream(path: Path):
-    """A rerun recording stream saving to a temporary file that becomes `path` on success."""
+def _rrd_stream(path: Path, title: str = ""):
+    """A rerun recording stream (with `title` as its text) saving to a temporary file that
+    becomes `path` on success."""
     import rerun as rr
 
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
@@ -71,6 +72,8 @@ def _rrd_stream(path: Path):
     rec.save(str(tmp))
     finished = False
     try:
+        if title:
+            rec.log("episode", rr.TextDocument(title), static=True)
         yield rec
         rec.flush()
         finished = True
@@ -103,9 +106,7 @@ def _write_rrd(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
                latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
     import rerun as rr
 
-    with _rrd_stream(path) as rec:
-        if title:
-            rec.log("episode", rr.TextDocument(title), static=True)
+    with _rrd_stream(path, title) as rec:
         eef = obs.get("proprio")
         if eef is not None and eef.shape[-1] >= 3:
             rec.log("world/eef_path", rr.LineStrips3D([eef[:, :3]]), static=True)
@@ -254,9 +255,7 @@ def _write_latent_rrd(path: Path, actions: np.ndarray, unit: Mapping[str, np.nda
     import rerun as rr
 
     offsets = {label: np.array([1.5 * i, 0.0, 0.0], np.float32) for i, label in enumerate(unit)}
-    with _rrd_stream(path) as rec:
-        if title:
-            rec.log("episode", rr.TextDocument(title), static=True)
+    with _rrd_stream(path, title) as rec:
         for label, view in unit.items():
             rec.log(f"latents/{label}/path", rr.LineStrips3D([view + offsets[label]],
                                                              labels=[label]), static=True)

@@ -68,14 +68,6 @@ class StagedRecording:
     """Size of the `.rrd` file, for the download link."""
 
 
-def _digest(*paths: Path | None) -> str:
-    h = hashlib.sha256()
-    for path in paths:
-        if path is not None:
-            h.update(path.read_bytes())
-    return h.hexdigest()[:12]
-
-
 def _stage(label: str, rrd: str | Path | None, png: str | Path | None,
            staging: Path) -> StagedRecording:
     """Copy one recording (and its picture) into `staging` under content-hashed names."""
@@ -91,20 +83,17 @@ def _stage(label: str, rrd: str | Path | None, png: str | Path | None,
     if rrd is None and png is None:
         raise ValueError(f"recording {label!r}: neither an .rrd file nor a picture given")
     stem = (rrd or png).stem
-    digest = _digest(rrd, png)
+    content = b"".join(path.read_bytes() for path in (rrd, png) if path is not None)
+    digest = hashlib.sha256(content).hexdigest()[:12]
     staging.mkdir(parents=True, exist_ok=True)
-    names = {}
+    names: dict[str, str | None] = {"rrd": None, "png": None}
     for key, path in (("rrd", rrd), ("png", png)):
-        if path is None:
-            names[key] = None
-            continue
-        name = f"{stem}-{digest}{path.suffix.lower()}"
-        target = staging / name
-        if not target.exists():  # content-addressed: an existing file is the same bytes
-            tmp = staging / f".{name}.tmp"
-            shutil.copyfile(path, tmp)
-            os.replace(tmp, target)
-        names[key] = name
+        if path is not None:
+            names[key] = f"{stem}-{digest}{path.suffix.lower()}"
+            target, tmp = staging / names[key], staging / f".{names[key]}.tmp"
+            if not target.exists():  # content-addressed: an existing file is the same bytes
+                shutil.copyfile(path, tmp)
+                os.replace(tmp, target)
     return StagedRecording(label, names["rrd"], names["png"],
                            rrd.stat().st_size if rrd is not None else 0)
 
