@@ -188,8 +188,7 @@ def _styled(rows: list[dict[str, Any]]):
 
 
 def tokenizer_frames(seeds: SeedRecords, paper_smoothness: Mapping[str, float]):
-    """Chapter 05's two styled tables, one row per tokenizer, means over training seeds:
-    its properties, then its smoothness beside the paper's least energy."""
+    """Chapter 05's two styled tables (properties, smoothness), means over training seeds."""
     properties, smoothness = [], []
     for label in seeds.records:
         properties.append({

@@ -19,8 +19,7 @@ PRESET_SECTIONS = ("data", "train", "eval", "tables", "tokenizer_study", "polici
 
 
 def config_fields(config: Any, path: str) -> Iterator[tuple[str, Any, str]]:
-    """(dotted path, value, docstring) of every leaf field of a config dataclass, nested
-    dataclasses expanded."""
+    """(dotted path, value, docstring) of every leaf field of a config dataclass."""
     docs = field_docs(type(config))
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
@@ -31,8 +30,7 @@ def config_fields(config: Any, path: str) -> Iterator[tuple[str, Any, str]]:
 
 
 def preset_fields(preset: Preset, sections: Sequence[str] = PRESET_SECTIONS) -> pd.DataFrame:
-    """One row per leaf field of the preset's `sections`: value and docstring, indexed by
-    the dotted path `--set` takes."""
+    """One row per leaf field of `sections`: value and docstring, indexed by its `--set` path."""
     rows = []
     for section in sections:
         config = preset

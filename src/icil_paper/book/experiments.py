@@ -34,8 +34,7 @@ def _interval(est: Any, digits: int = 3) -> str:
 
 
 def standardized_frame(smooth: Results) -> pd.DataFrame | None:
-    """Table III beside its standardized score, one row per (source, tokenizer) with
-    features records; None when no row has records."""
+    """Table III beside its standardized score by (source, tokenizer); None without records."""
     rows = []
     for source, result in smooth.items():
         for row in result.spec.rows:
@@ -55,8 +54,7 @@ def standardized_frame(smooth: Results) -> pd.DataFrame | None:
 
 
 def tsne_figure(paths: Mapping[str, np.ndarray]):
-    """Fig. 4: each tokenizer's t-SNE path (`book.report.tsne_paths`, {row: (steps, 2)}),
-    points coloured by time."""
+    """Fig. 4: each tokenizer's t-SNE path ({row: (steps, 2)}), points coloured by time."""
     fig, axes = plt.subplots(1, len(paths), figsize=(2.6 * len(paths), 2.8))
     for ax, (label, xy) in zip(np.atleast_1d(axes), paths.items(), strict=False):
         ax.plot(xy[:, 0], xy[:, 1], color="0.7", zorder=1)
@@ -74,8 +72,7 @@ FIG4_TITLE = ("Fig. 4: the first steps of one held-out trajectory in each tokeni
 
 
 def tsne_actions(smooth: TableResult) -> np.ndarray:
-    """(steps, A) the actions of the held-out trajectory Fig. 4 follows (seed 0's features
-    record of the table's first row)."""
+    """(steps, A) the actions of the held-out trajectory Fig. 4 follows."""
     first = smooth.cell(smooth.spec.rows[0].label, "least_energy").extra["metrics"][0]
     return np.asarray(first["view_actions"])
 

@@ -24,8 +24,7 @@ Ledgers = dict[str, tuple[Preset, list]]
 
 
 def chapter_ledgers(preset: Preset) -> Ledgers:
-    """The ledgers chapter 0 shows: the reference run's (read from its committed records)
-    and this build's (written to its store, then read)."""
+    """The ledgers chapter 0 shows, by source (this build's written to its store first)."""
     ledgers = {}
     for source, p in run_sources(preset):
         store = ResultsStore(p.name)

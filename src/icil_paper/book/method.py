@@ -23,8 +23,7 @@ from icil_paper.sim import make_env
 
 # --------------------------------------------------------------------------- chapter 02
 def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
-    """Sequence `b`'s causal mask (L, L), white where a query position may attend to a key,
-    with a line between the (padded) prompt and the query."""
+    """Sequence `b`'s causal mask (L, L), with a line between the padded prompt and the query."""
     prompt_tokens = 2 * batch["prompt_valid"].shape[1]  # padded prompt steps, 2 tokens each
     fig, ax = plt.subplots(figsize=(5.5, 5.5))
     ax.imshow(mask, cmap="gray", interpolation="nearest")
@@ -38,8 +37,7 @@ def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
 
 
 def loss_gradient_figure(grads: Any):
-    """|dL/dh| at each position of the transformer's output, one line per sequence
-    (`grads` (B, L), from `policies.inspection.token_loss_gradients`)."""
+    """|dL/dh| at each position of the transformer's output, one line per sequence of (B, L)."""
     fig, ax = plt.subplots(figsize=(12, 2.2))
     for b in range(grads.shape[0]):
         ax.plot(np.asarray(grads[b]), lw=1, label=f"sequence {b}")
@@ -103,8 +101,7 @@ def replay_episode(policy: Any, demos: Sequence[Any], per_episode: Sequence[Mapp
 
 
 def rollout_figure(trace: Mapping[str, Any], demo: Any):
-    """A rollout beside its prompt demonstration `demo`: the end effector seen from above,
-    the position deltas commanded and the gripper command (dashed: the demonstration)."""
+    """A rollout beside its prompt demonstration `demo` (dashed): end effector and actions."""
     eef = np.stack([o["proprio"][:3] for o in trace["obs"]])
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.2))
     axes[0].plot(demo.obs["proprio"][:, 0], demo.obs["proprio"][:, 1], "--", label="prompt demo")
@@ -152,8 +149,7 @@ def lipschitz_frame(records: Mapping[str, Mapping[str, Any]],
 
 
 def bound_figure(records: Mapping[str, Mapping[str, Any]], radii: Sequence[float]):
-    """Each encoder's empirical inf-norm constants (one point per radius) below its bound
-    prod ||W_l||_inf (log scale)."""
+    """Each encoder's empirical inf-norm constants (one per radius) below its bound (log)."""
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for k, m in enumerate(records.values()):
         ax.plot([k] * len(radii), [m[f"empirical_inf_r{r:g}"] for r in radii], "o", color="C0",
@@ -171,8 +167,7 @@ def bound_figure(records: Mapping[str, Mapping[str, Any]], radii: Sequence[float
 
 
 def bound_history_figure(metrics: Mapping[str, Any], title: str):
-    """Each layer's bound softplus(c_l) over training, from an encoder's `c_history`
-    (logged steps, layers) and `history_step`."""
+    """Each layer's bound softplus(c_l) over training, from an encoder's `c_history`."""
     c_hist = np.array(metrics["c_history"])  # (logged steps, layers)
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for layer in range(c_hist.shape[1]):

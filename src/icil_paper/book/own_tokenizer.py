@@ -93,8 +93,7 @@ def write_example(folder: str | Path) -> Path:
 
 def own_tokenizer_study(preset: Preset, store: ResultsStore | None = None,
                         force: bool = False) -> dict[str, Any]:
-    """Write the example plugin, load it, compare it with LipVQ-VAE (reusing every stored
-    cell) and write `compare.json` and `compare.png` beside it; return the report."""
+    """Write and load the example plugin, compare it with LipVQ-VAE; return the report."""
     folder = example_folder(preset)
     plugins.load_plugins([str(write_example(folder))])
     report = compare.compare(preset, EXAMPLE_NAME, ("lipvq",), effect=compare.DEFAULT_EFFECT,

@@ -46,8 +46,7 @@ from icil_paper.tables.display import BUILD, REFERENCE, source_label
 
 def load_table(preset: Preset, table_id: str, compute: bool = True,
                progress: bool = True) -> dict[str, TableResult]:
-    """{"reference run": ..., "this build": ...} for one table (one entry when the build is
-    the reference preset itself)."""
+    """{source: TableResult} of one table, the reference run's first (`run_sources`)."""
     if compute:
         run_tables(preset, [table_id], progress=progress)
     return {source: assemble(table_spec(p, table_id), ResultsStore(p.name))
@@ -55,8 +54,7 @@ def load_table(preset: Preset, table_id: str, compute: bool = True,
 
 
 def run_sources(preset: Preset) -> list[tuple[str, Preset]]:
-    """[(source, its run's preset)]: the reference run's (when the build is another preset),
-    then this build's."""
+    """[(source, its run's preset)]: the reference run's (if another preset), this build's."""
     sources = [(BUILD, as_run(preset))]
     if preset.name != REFERENCE:
         sources.insert(0, (f"{REFERENCE} run", as_run(get_preset(REFERENCE))))
@@ -196,8 +194,7 @@ def ledger_views(ledger: list[LedgerEntry | dict[str, Any]], title: str = "") ->
 
 
 def undecided_frame(ledger: list[LedgerEntry | dict[str, Any]]):
-    """The undecided claims, one line each, with what their design could detect: the effect
-    sized against, its power, the mde and the seeds needed."""
+    """The undecided claims with what their design could detect, one line each."""
     import pandas as pd
 
     rows = []

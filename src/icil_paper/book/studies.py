@@ -156,8 +156,7 @@ def _train_and_measure_tokenizer(preset: Preset, spec: TokenizerStudySpec) -> di
 
 def tokenizer_study(preset: Preset, store: ResultsStore | None = None,
                     force: bool = False) -> dict[str, list[dict]]:
-    """Chapter 05: train every tokenizer alone on action trajectories and measure it, once
-    per training seed; returns {label: [metrics of seed 0, seed 1, ...]}."""
+    """Chapter 05: every tokenizer trained alone and measured, {label: [metrics per seed]}."""
     return _seeded_study(preset, store, "tokenizer", seeded_study_specs(
         preset, tokenizer_runs(preset)), _train_and_measure_tokenizer, force)
 
@@ -174,8 +173,7 @@ def _seeded_study(preset: Preset, store: ResultsStore | None, kind: str, specs, 
 
 
 def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict:
-    """Chapter 05: the stored `latent_view` of every tokenizer as one recording and picture
-    (`results/<preset>/tokenizers/latent_trajectories.{rrd,png}`); returns their paths."""
+    """Chapter 05: every tokenizer's stored `latent_view` as one recording; returns its paths."""
     _, test, _ = tokenizer_trajectories(preset)
     actions = test[0][:VIEW_STEPS]
     views = {label: np.asarray(m[0]["latent_view"])[:len(actions)]  # seed 0's tokenizers
@@ -227,8 +225,7 @@ def _lipschitz_measurements(preset: Preset, spec: TokenizerStudySpec) -> dict:
 
 def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
                     force: bool = False) -> dict[str, dict]:
-    """Chapter 03: train encoders with and without normalization; bounds vs empirical
-    constants, once per training seed; returns {label: [metrics of seed 0, 1, ...]}."""
+    """Chapter 03: encoders' bounds vs empirical constants, {label: [metrics per seed]}."""
     return _seeded_study(preset, store, "lipschitz", seeded_study_specs(
         preset, lipschitz_models(preset), LIPSCHITZ_RADII), _lipschitz_measurements, force)
 
@@ -259,8 +256,7 @@ class ShowcaseSpec:
 
 def showcase_study(preset: Preset, store: ResultsStore | None = None,
                    force: bool = False) -> dict[str, dict]:
-    """Chapter 04: a rendered frame and a recorded demo 0 of every shown task, by task
-    (recomputed where its image files have gone missing)."""
+    """Chapter 04: a rendered frame and a recorded demo 0 of every shown task, by task."""
     store = store or ResultsStore(preset.name)
     out_dir = results_root() / preset.name / "showcase"
     shown = {}
@@ -320,8 +316,7 @@ def expert_measurements(preset: Preset, store: ResultsStore | None = None) -> li
 
 
 def demo_stage(preset: Preset, store: ResultsStore | None = None, force: bool = False) -> dict:
-    """Make every data set of the preset; return their paths (`force` does not apply:
-    generation only adds what the files lack)."""
+    """Make every data set of the preset; return their paths (generation is resumable)."""
     tasks = preset_tasks(preset, available=True)
     # the zero-shot table's training tasks need no human-like source (only Table VI reads it)
     generated_only = set(preset.data.zero_shot_tasks) - set(preset.data.robocasa_tasks)

@@ -145,8 +145,7 @@ def cell_kind(run) -> str:
 
 
 def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
-    """Measured rates from `results/bench/cells.json`: seconds per optimizer step by policy,
-    env steps per second and per episode by suite."""
+    """Measured rates from `results/bench/cells.json` (step seconds, env step rates)."""
     record = read_json(Path(path or bench_path("cells")), "a cell benchmark (cells.json)",
                        "measure it again: make bench (or restore it from git)", keys=("cells",),
                        fields={"cells": list})
@@ -200,8 +199,7 @@ def plans_cost(plans, rates: dict[str, Any] | None = None) -> dict[str, Any]:
 
 
 def data_cost(plans, path: str | Path | None = None) -> dict[str, Any]:
-    """What generating the plans' demonstration sets costs, at the CPU time per demonstration
-    of `results/bench/datasets.json` (0 where nothing was measured)."""
+    """What generating the plans' demonstration sets costs (`results/bench/datasets.json`)."""
     source = Path(path or bench_path("datasets"))
     measured = (read_json(source, "the data-set generation benchmark (datasets.json)",
                           "regenerate it: python -m tools.bench.datasets",
@@ -338,8 +336,7 @@ def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
 def _going_rows(runs: dict[tuple[str, str], frozenset[str]],
                 claims_going: dict[str, tuple[int, tuple]]
                 ) -> dict[tuple[str, str], tuple[int, list[str]]]:
-    """{row: (next seeds, [claim ids])} for the claims that go on, plus every row of `runs`
-    that trains the same runs as a row that goes on."""
+    """{row: (next seeds, [claim ids])} of the claims going on and the rows sharing runs."""
     go: dict[tuple[str, str], tuple[int, list[str]]] = {}
     for claim_id, (nxt, rows) in claims_going.items():
         for row in rows:

@@ -132,8 +132,7 @@ def _at(preset: Preset, seeds: dict[str, int], stops: tuple[str, ...]) -> Preset
 
 
 def as_run(preset: Preset, store: ResultsStore | None = None) -> Preset:
-    """The preset at the seeds its run has reached (`staged_preset`), cached per preset and
-    results folder for the process: what the book, the ledger and the cost read."""
+    """The preset at the seeds its run has reached (`staged_preset`), cached per results folder."""
     if not preset.tables.seed_stages:
         return preset
     store = store or ResultsStore(preset.name)

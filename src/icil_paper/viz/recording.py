@@ -63,8 +63,7 @@ def _action_names(n: int) -> list[str]:
 
 @contextmanager
 def _rrd_stream(path: Path, title: str = ""):
-    """A rerun recording stream (with `title` as its text) saving to a temporary file that
-    becomes `path` on success."""
+    """A rerun stream, titled, saving to a temporary file that becomes `path` on success."""
     import rerun as rr
 
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
@@ -208,8 +207,7 @@ def record_episode(path: str | Path, obs_seq: Mapping[str, Any] | Sequence[Mappi
 
 
 def principal_view(z: Any, dims: int = 3) -> np.ndarray:
-    """The first `dims` principal components of a latent trajectory z (T, D): (T, dims),
-    zero-padded where D < dims."""
+    """The first `dims` principal components of z (T, D): (T, dims), zero-padded."""
     z = np.asarray(z, dtype=np.float64)
     if z.ndim != 2 or len(z) < 2:
         raise ValueError(f"z must be (T, D) with T >= 2, got shape {z.shape}")

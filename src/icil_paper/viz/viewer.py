@@ -44,8 +44,7 @@ DEFAULT_HEIGHT = "520px"
 
 
 def book_root(start: str | Path | None = None) -> Path:
-    """The nearest folder at or above `start` (default: the working directory) that holds
-    `_toc.yml` and `_config.yml`; FileNotFoundError when there is none."""
+    """The nearest folder at or above `start` (default: cwd) with `_toc.yml` and `_config.yml`."""
     here = Path(start or Path.cwd()).resolve()
     for folder in (here, *here.parents):
         if (folder / "_toc.yml").is_file() and (folder / "_config.yml").is_file():
