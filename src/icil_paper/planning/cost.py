@@ -12,7 +12,7 @@ over a sitting's elapsed time is how many cells ran at once.
 
 Projection: each unfinished cell at the CPU time per cell its stage and kind measured so
 far (else `cells.json`'s estimate); wall time at two cells at a time is the CPU time over
-two, set beside `TARGET_WALL_HOURS`.
+two, set beside the budget (`config.REFERENCE_BUDGET_HOURS` by default).
 """
 
 from __future__ import annotations
@@ -42,8 +42,6 @@ that training's CPU time."""
 SITTING_GAP_S = 1800.0
 """Records further apart than this (half an hour) start a new sitting."""
 
-TARGET_WALL_HOURS = REFERENCE_BUDGET_HOURS
-"""The reference run's budget: wall hours on the 2-core machine at two cells at a time."""
 CELLS_AT_ONCE = 2
 
 
@@ -203,7 +201,7 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
         "remaining_cpu_hours": round(remaining / 3600, 2),
         "cpu_hours": round(cpu_total / 3600, 2),
         "wall_hours_at_2": round(cpu_total / CELLS_AT_ONCE / 3600, 2),
-        "target_wall_hours": preset.tables.stage_budget_hours or TARGET_WALL_HOURS,
+        "target_wall_hours": preset.tables.stage_budget_hours or REFERENCE_BUDGET_HOURS,
         "from_records": round((cpu_so_far + from_records) / cpu_total, 3) if cpu_total else None,
     }
 

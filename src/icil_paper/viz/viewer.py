@@ -105,15 +105,14 @@ def _sdk_hint() -> str:
         return ""
 
 
+@dataclass
 class RecordingBlock:
     """A notebook output: the HTML block for one or more recordings (see the module doc)."""
 
-    def __init__(self, recordings: Sequence[StagedRecording], staging: Path, page_prefix: str,
-                 height: str):
-        self.recordings = list(recordings)
-        self.staging = staging  # where the staged files are
-        self.page_prefix = page_prefix  # from the page to the book's root, e.g. "../"
-        self.height = height
+    recordings: list[StagedRecording]
+    staging: Path  # where the staged files are
+    page_prefix: str  # from the page to the book's root, e.g. "../"
+    height: str
 
     def _url(self, name: str) -> str:
         return f"{self.page_prefix}_static/{RECORDINGS_URL_DIR}/{name}"
