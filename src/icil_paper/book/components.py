@@ -1,13 +1,10 @@
-"""The chapters on what the experiments are made of: the tasks and their demonstrations
-(chapter 04) and the action tokenizers trained alone (chapter 05). Frames, figures and
-each computed from the stages' records; the chapters write the findings.
+"""The tasks and their demonstrations (chapter 04) and the tokenizers trained alone (05).
 
     display(task_registry())                               # chapter 04
     summary = demo_summary(demos, demo_stats(demos))       # both sources, per task
     properties, smoothness = tokenizer_frames(seeds, paper_tokenizer_smoothness())  # 05
 
-Figures are closed before they are returned, so each shows once, where the chapter
-displays it.
+Figures are closed before they are returned, so each shows once, where displayed.
 """
 
 from __future__ import annotations
@@ -29,8 +26,7 @@ from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
 
 # --------------------------------------------------------------------------- chapter 04
 DATA_TASKS = ("metaworld/drawer-open", "maniskill/pick_cube")
-"""The tasks whose data sets chapter 04 examines in full, both sources: one Meta-World task
-and one ManiSkill task."""
+"""The tasks whose data sets chapter 04 examines in full, both sources."""
 
 
 def data_tasks() -> list[str]:
@@ -50,8 +46,7 @@ SHOWCASE_COLUMNS = ["task", "instruction", "success", "length", "horizon", "seco
 
 
 def showcase_frame(showcase: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
-    """One row per shown task (`studies.showcase_study`): its instruction, whether demo 0
-    succeeded, its length against the horizon and the seconds it took."""
+    """One row per shown task (`studies.showcase_study`): `SHOWCASE_COLUMNS`."""
     return pd.DataFrame(showcase.values())[SHOWCASE_COLUMNS]
 
 
@@ -77,21 +72,19 @@ def showcase_recordings(showcase: Mapping[str, Mapping[str, Any]]) -> dict[str, 
 
 def load_data_sets(data_sets: Mapping[tuple[str, str], str | Path], tasks: Sequence[str],
                    limit: int) -> dict[tuple[str, str], list]:
-    """{(task, source): the first `limit` demonstrations} of `tasks` in every source, read
-    from `data_sets` ({(task, source): file}, `studies.demo_stage`), without images."""
+    """{(task, source): the first `limit` demonstrations} of `tasks`, without images, read
+    from `data_sets` ({(task, source): file}, `studies.demo_stage`)."""
     return {(task, source): load_demos(data_sets[task, source], action_dim=sim.ACTION_DIM,
                                        limit=limit, images=False)
             for task in tasks for source in SOURCES}
 
 
 KEPT_COLUMN = "{source}: success over data-set scenes"
-"""The header of a source's keep rate in `keep_rates` (the success over the scenes its data
-set was generated on)."""
+"""The header of a source's keep rate in `keep_rates`."""
 
 
 def keep_rates(data_sets: Mapping[tuple[str, str], str | Path], limit: int) -> pd.DataFrame:
-    """Task x source: the share of attempts that succeeded and were kept as demonstrations
-    (`data.stats.keep_rate`), for every data set of `studies.demo_stage`."""
+    """Task x source: the share of attempts kept as demonstrations (`data.stats.keep_rate`)."""
     rows = []
     for (task, source), path in data_sets.items():
         demos = load_demos(path, action_dim=sim.ACTION_DIM, limit=limit, images=False)
@@ -102,15 +95,13 @@ def keep_rates(data_sets: Mapping[tuple[str, str], str | Path], limit: int) -> p
 
 
 def demo_stats(demos: Mapping[tuple[str, str], Sequence[Any]]) -> pd.DataFrame:
-    """One row per demonstration of `load_data_sets`' data sets (`data.stats.data_set_stats`:
-    task, source, length, least energy per step, still fraction, gripper switches)."""
+    """One row per demonstration of `load_data_sets`' data sets (`data.stats.data_set_stats`)."""
     return pd.DataFrame([row for ds in demos.values() for row in data_set_stats(ds)])
 
 
 def demo_summary(demos: Mapping[tuple[str, str], Sequence[Any]],
                  stats_frame: pd.DataFrame) -> pd.DataFrame:
-    """By (task, source): the demonstrations, their mean and spread of length, least energy
-    per step, still fraction and gripper switches (means), and the keep rate."""
+    """By (task, source): demonstrations, length, smoothness and gripper means, keep rate."""
     summary = stats_frame.groupby(["task", "source"]).agg(
         demos=("length", "size"), mean_length=("length", "mean"), std_length=("length", "std"),
         least_energy_per_step=("least_energy_per_step", "mean"),
@@ -134,8 +125,7 @@ def show_demo_summary(summary: pd.DataFrame) -> None:
 
 def demos_figure(demos: Mapping[tuple[str, str], Sequence[Any]], stats_frame: pd.DataFrame,
                  tasks: Sequence[str]):
-    """The lengths of both sources' demonstrations (histogram), then for each of `tasks` the
-    x and z deltas of demo 0 of each source."""
+    """Both sources' demonstration lengths, then demo 0's x and z deltas for each of `tasks`."""
     colors = dict(zip(SOURCES, ("tab:blue", "tab:orange"), strict=True))
     fig, axes = plt.subplots(1, 1 + len(tasks), figsize=(5 * (1 + len(tasks)), 3.4))
     axes = np.atleast_1d(axes)
@@ -159,8 +149,7 @@ def demos_figure(demos: Mapping[tuple[str, str], Sequence[Any]], stats_frame: pd
 
 
 def zero_shot_lines() -> str:
-    """Meta-World's zero-shot split (ML45: trained tasks, held-out tasks), or why it is not
-    available here."""
+    """Meta-World's zero-shot split (ML45), or why it is not available here."""
     try:
         train_tasks, held_out = zero_shot_split()
     except ImportError as exc:
@@ -199,10 +188,7 @@ def _styled(rows: list[dict[str, Any]]):
 
 
 def tokenizer_frames(seeds: SeedRecords, paper_smoothness: Mapping[str, float]):
-    """Chapter 05's two tables (styled), one row per tokenizer, means over training seeds:
-    what it is (reconstruction and decode error, codebook, usage, perplexity, tokens per
-    step, codes per level, throughput), then its smoothness (raw and standardized least
-    energy with their 95% intervals, the latent scale, the paper's least energy)."""
+    """Chapter 05's two styled tables (properties, smoothness), means over training seeds."""
     properties, smoothness = [], []
     for label in seeds.records:
         properties.append({
@@ -228,8 +214,7 @@ def tokenizer_frames(seeds: SeedRecords, paper_smoothness: Mapping[str, float]):
 
 def smoothness_figure(seeds: SeedRecords, paper_smoothness: Mapping[str, float],
                       keys: Sequence[str] = TOKENIZER_SCORES):
-    """Each tokenizer's mean score of each of `keys` with its 95% interval (LipVQ-VAE in
-    red, log scale), then the paper's least energy of the tokenizers it has."""
+    """Each tokenizer's mean of each of `keys` with its 95% interval, then the paper's."""
     labels = list(seeds.records)
     fig, axes = plt.subplots(1, len(keys) + 1, figsize=(14, 3.6))
     for ax, key in zip(axes[:-1], keys, strict=True):

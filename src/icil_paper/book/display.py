@@ -1,13 +1,12 @@
-"""Display helpers the chapters share: a paragraph per source of a table, and a frame or the
-line that says why there is none.
+"""Display helpers the chapters share.
 
     show_sources(results, comparison_markdown)
     # **reference run.** <its Markdown>
     # **this build (small).** ...
     show_frame_or(frame, "*No smoothness records yet.*")
 
-`results` is what `book.report.load_table` returns, {source: TableResult}; each part is a
-function of one source's TableResult that returns Markdown text.
+Each part is a function of one source's TableResult (`book.report.load_table`) that
+returns Markdown.
 """
 
 from __future__ import annotations
@@ -22,9 +21,7 @@ from icil_paper.book.report import source_label
 
 def source_paragraph(source: str, result: Any, *parts: Callable[[Any], str],
                      sep: str = " ") -> str:
-    """"**<source>.** <part 1> <part 2> ...": one source's sentences after its name in bold
-    (`book.report.source_label`: "this build (small)", "reference run"), each part separated
-    from the name and from the next by `sep` ("\n\n" puts a Markdown list under the name)."""
+    """"**<source>.** <part 1> <part 2> ...", joined by `sep` ("\n\n": a list under the name)."""
     return sep.join([f"**{source_label(source, result.preset)}.**",
                      *(part(result) for part in parts)])
 

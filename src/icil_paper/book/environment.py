@@ -15,13 +15,11 @@ from icil_paper.config import Preset, field_docs
 
 PRESET_SECTIONS = ("data", "train", "eval", "tables", "tokenizer_study", "policies.icrt",
                    "tokenizers.lipvq")
-"""The parts of a preset chapter 01 lists: the shared sections, then the configs of the
-paper's policy and tokenizer (every other component's config reads the same way)."""
+"""The parts of a preset chapter 01 lists."""
 
 
 def config_fields(config: Any, path: str) -> Iterator[tuple[str, Any, str]]:
-    """(dotted path, value, docstring) of every leaf field of a config dataclass, nested
-    dataclasses expanded."""
+    """(dotted path, value, docstring) of every leaf field of a config dataclass."""
     docs = field_docs(type(config))
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
@@ -32,8 +30,7 @@ def config_fields(config: Any, path: str) -> Iterator[tuple[str, Any, str]]:
 
 
 def preset_fields(preset: Preset, sections: Sequence[str] = PRESET_SECTIONS) -> pd.DataFrame:
-    """One row per leaf field of the preset's `sections` (dotted: "policies.icrt"): its value
-    and its docstring, indexed by the dotted path `--set` takes."""
+    """One row per leaf field of `sections`: value and docstring, indexed by its `--set` path."""
     rows = []
     for section in sections:
         config = preset

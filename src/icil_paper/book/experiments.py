@@ -1,14 +1,9 @@
-"""The chapters on the experiments (the paper's Sec. IV, chapters 06-13): the sentences and
-frames they show beside the tables of `icil_paper.tables`, each computed from the tables'
-results or the preset.
+"""The chapters on the experiments (Sec. IV, chapters 06-13): what they show beside the tables.
 
     show_frame_or(standardized_frame(smooth), NO_SMOOTHNESS)     # chapter 08: Table III
     display(prompt_frame(prompt))                                # chapter 10: the prompts
     comparison_list(findings(result))                            # chapter 11: a Markdown list
     display(Markdown(eq4_differences(results)))                  # chapter 12: Eq. 4 or not
-
-`results` is what `book.report.load_table` returns, {source: TableResult}. Numbers a chapter
-writes into its own prose it glues there (MyST-NB's `glue`).
 """
 
 from __future__ import annotations
@@ -29,8 +24,6 @@ Results = Mapping[str, TableResult]
 """{source: TableResult}, as `book.report.load_table` returns them."""
 
 
-# --------------------------------------------------------------------------- chapter 06
-# --------------------------------------------------------------------------- chapter 07
 # --------------------------------------------------------------------------- chapter 08
 NO_SMOOTHNESS = "*No smoothness records yet.*"
 """What chapter 08 shows where no tokenizer's features were scored yet."""
@@ -41,10 +34,7 @@ def _interval(est: Any, digits: int = 3) -> str:
 
 
 def standardized_frame(smooth: Results) -> pd.DataFrame | None:
-    """Table III beside its standardized score, one row per (source, tokenizer) that has
-    features records: the raw least energy and the standardized one with their 95%
-    intervals, the latent scale σ, the codes used (means over seeds) and the features
-    scored. None when no row has records."""
+    """Table III beside its standardized score by (source, tokenizer); None without records."""
     rows = []
     for source, result in smooth.items():
         for row in result.spec.rows:
@@ -64,8 +54,7 @@ def standardized_frame(smooth: Results) -> pd.DataFrame | None:
 
 
 def tsne_figure(paths: Mapping[str, np.ndarray]):
-    """Fig. 4: each tokenizer's t-SNE path (`book.report.tsne_paths`, {row: (steps, 2)}),
-    points coloured by time."""
+    """Fig. 4: each tokenizer's t-SNE path ({row: (steps, 2)}), points coloured by time."""
     fig, axes = plt.subplots(1, len(paths), figsize=(2.6 * len(paths), 2.8))
     for ax, (label, xy) in zip(np.atleast_1d(axes), paths.items(), strict=False):
         ax.plot(xy[:, 0], xy[:, 1], color="0.7", zorder=1)
@@ -83,18 +72,15 @@ FIG4_TITLE = ("Fig. 4: the first steps of one held-out trajectory in each tokeni
 
 
 def tsne_actions(smooth: TableResult) -> np.ndarray:
-    """(steps, A) the actions of the held-out trajectory Fig. 4 follows (seed 0's features
-    record of the table's first row)."""
+    """(steps, A) the actions of the held-out trajectory Fig. 4 follows."""
     first = smooth.cell(smooth.spec.rows[0].label, "least_energy").extra["metrics"][0]
     return np.asarray(first["view_actions"])
 
 
 # --------------------------------------------------------------------------- chapter 10
 def prompt_frame(prompt: Results) -> pd.DataFrame:
-    """The prompt ablation's right prompt against the wrong one and the truncated one (its
-    first row against its second and third), paired over the same episodes: one row per
-    (source, other prompt), the difference with its 95% interval and the verdict on "the
-    right prompt succeeds more" (`verdict_words.MISSING` where a row has not run)."""
+    """The prompt ablation's first row against its second and third, paired over the same
+    episodes: one row per (source, other prompt), the difference and its verdict."""
     labels = [r.label for r in prompt[BUILD].spec.rows]
     rows = {}
     for source, result in prompt.items():
@@ -115,9 +101,7 @@ EXPECTED = {-1: "below 0", +1: "above 0"}
 
 
 def comparison_list(found: Sequence[Mapping[str, Any]]) -> str:
-    """The analysis table's comparisons (`tables.analysis.findings`) as a Markdown list: each
-    quantity, its estimate with its 95% interval (or that it has not run), where it is
-    expected and the verdict."""
+    """The analysis table's comparisons (`tables.analysis.findings`) as a Markdown list."""
     lines = []
     for f in found:
         est = f["estimate"]
@@ -135,10 +119,6 @@ EQ4_PAIRS = (("icrt+lipvq", "icrt+vq"), ("icrt+lipfsq", "icrt+fsq"),
 
 
 def eq4_differences(results: Results, pairs: Sequence[tuple[str, str]] = EQ4_PAIRS) -> str:
-    """Each Eq. 4 variant minus its quantizer on the same episodes, with its paired interval
-    and verdict for every source (`book.report.difference_sentence`), in Markdown."""
+    """Each Eq. 4 variant minus its quantizer, paired, for every source, in Markdown."""
     return "\n\n".join(f"**{a} against {b}**\n\n" + difference_sentence(results, a, b)
                        for a, b in pairs)
-
-
-# --------------------------------------------------------------------------- chapter 13

@@ -1,4 +1,4 @@
-"""Chapter 00's sources and its list of stale records.
+"""Chapter 00's sources.
 
     ledgers = chapter_ledgers(preset)        # {"reference run": (preset, ledger), "this build": ...}
     reference_ledger(ledgers)                # the reference run's entries
@@ -12,13 +12,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from icil_paper.book.report import (
-    BUILD,
-    REFERENCE,
-)
-from icil_paper.config import Preset, get_preset
+from icil_paper.book.report import REFERENCE, run_sources
+from icil_paper.config import Preset
 from icil_paper.paper import claims_ledger, write_ledger
-from icil_paper.planning.staged import as_run
 from icil_paper.results import ResultsStore
 from icil_paper.tables.claims import as_entry, read_ledger
 from icil_paper.tables.design import read_record
@@ -28,13 +24,9 @@ Ledgers = dict[str, tuple[Preset, list]]
 
 
 def chapter_ledgers(preset: Preset) -> Ledgers:
-    """The ledgers chapter 0 shows: the reference run's (read from its committed records,
-    when the build is another preset) and this build's (written to its store, then read)."""
-    sources = [(BUILD, as_run(preset))]
-    if preset.name != REFERENCE:
-        sources.insert(0, (f"{REFERENCE} run", as_run(get_preset(REFERENCE))))
+    """The ledgers chapter 0 shows, by source (this build's written to its store first)."""
     ledgers = {}
-    for source, p in sources:
+    for source, p in run_sources(preset):
         store = ResultsStore(p.name)
         if p.name == preset.name:
             write_ledger(p, store)
@@ -49,10 +41,8 @@ def chapter_ledgers(preset: Preset) -> Ledgers:
 
 
 def committed_design(table: str, preset_name: str = REFERENCE) -> dict[str, Any]:
-    """The design the committed run of `preset_name` actually used for `table`, read from its
-    design record (`results/<preset>/design.json`), never from the preset: {"protocol": the
-    suite its records were made on ("kitchen" for the older protocol, else "metaworld"),
-    "seeds": {row: the training seeds it reached at its last look}} ({} without looks)."""
+    """The design the committed run of `preset_name` used for `table`, from its design
+    record: {"protocol": "kitchen" or "metaworld", "seeds": {row: seeds at its last look}}."""
     record = read_record(ResultsStore(preset_name)) or {}
     seeds: dict[str, int] = {}
     for look in record.get("looks", []):

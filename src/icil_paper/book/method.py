@@ -1,13 +1,10 @@
-"""The chapters on the paper's method (Sec. III): what chapter 02 draws of ICRT (the
-attention mask, what the loss reaches, training, a replayed rollout);
-what chapter 03 shows of Eq. 4 (the bound check, the bounds in training).
+"""The chapters on the paper's method (Sec. III): ICRT (chapter 02) and Eq. 4 (chapter 03).
 
     display(attention_mask_figure(mask, batch, b))        # chapter 02
     coverage = loss_coverage(roles, grads)                 # tokens the loss reaches, by kind
     display(lipschitz_frame(records, radii))               # chapter 03: bounds and constants
 
-Figures are closed before they are returned, so each shows once, where the chapter
-displays it. The token layout of Eq. 1 stays in chapter 02 itself: its code is the lesson.
+Figures are closed before they are returned, so each shows once, where displayed.
 """
 
 from __future__ import annotations
@@ -26,8 +23,7 @@ from icil_paper.sim import make_env
 
 # --------------------------------------------------------------------------- chapter 02
 def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
-    """Sequence `b`'s causal mask (L, L), white where a query position may attend to a key,
-    with a line between the (padded) prompt and the query."""
+    """Sequence `b`'s causal mask (L, L), with a line between the padded prompt and the query."""
     prompt_tokens = 2 * batch["prompt_valid"].shape[1]  # padded prompt steps, 2 tokens each
     fig, ax = plt.subplots(figsize=(5.5, 5.5))
     ax.imshow(mask, cmap="gray", interpolation="nearest")
@@ -41,8 +37,7 @@ def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
 
 
 def loss_gradient_figure(grads: Any):
-    """|dL/dh| at each position of the transformer's output, one line per sequence
-    (`grads` (B, L), from `policies.inspection.token_loss_gradients`)."""
+    """|dL/dh| at each position of the transformer's output, one line per sequence of (B, L)."""
     fig, ax = plt.subplots(figsize=(12, 2.2))
     for b in range(grads.shape[0]):
         ax.plot(np.asarray(grads[b]), lw=1, label=f"sequence {b}")
@@ -55,10 +50,8 @@ def loss_gradient_figure(grads: Any):
 
 
 def loss_coverage(roles: Mapping[str, Any], grads: Any) -> dict[str, int]:
-    """The tokens the loss reaches (a nonzero gradient in `grads` (B, L)), by kind, from the
-    batch's `roles` (`policies.inspection.token_roles`: boolean `supervised` and `valid`, `segment` 0 for
-    the prompt): supervised query tokens reached of all of them, prompt tokens reached of
-    all real ones, and tokens reached that are not supervised (0 when the loss is right)."""
+    """The tokens the loss reaches (nonzero in `grads` (B, L)) by kind, from the batch's
+    `roles` (`policies.inspection.token_roles`); "unsupervised_reached" is 0 when right."""
     supervised, valid = roles["supervised"], roles["valid"]
     prompt = (roles["segment"] == 0) & valid
     reached = grads > 0
@@ -68,8 +61,7 @@ def loss_coverage(roles: Mapping[str, Any], grads: Any) -> dict[str, int]:
 
 
 def study_metrics(study: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
-    """Chapter 02's train and eval metrics (`paper.icrt_demo.icrt_records`) merged into one
-    dict (the eval's keys win), the train record's kept whole under "train"."""
+    """Chapter 02's train and eval metrics merged (eval wins), the train's also under "train"."""
     return {**study["train"], **study["eval"], "train": study["train"]}
 
 
@@ -94,10 +86,8 @@ def shown_episode(per_episode: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]
 
 def replay_episode(policy: Any, demos: Sequence[Any], per_episode: Sequence[Mapping[str, Any]],
                    task: str, max_steps: int) -> tuple[Mapping[str, Any], list, dict]:
-    """Replay `shown_episode` of the stored evaluation with the trained `policy`: the same
-    scene seed and the same prompt (indices into `demos`), on one torch thread as in the
-    evaluation workers, so that the replay matches the stored episode. Returns (the stored
-    episode, its prompt demonstrations, the trace of `eval.rollout_policy`)."""
+    """Replay `shown_episode` with `policy` on the same scene and prompt, on one torch thread
+    as in evaluation. Returns (the stored episode, its prompt demos, the rollout's trace)."""
     episode = shown_episode(per_episode)
     prompt = [demos[i] for i in episode["prompt"]]
     env = make_env(task, obs="state", seed=episode["seed"])
@@ -111,8 +101,7 @@ def replay_episode(policy: Any, demos: Sequence[Any], per_episode: Sequence[Mapp
 
 
 def rollout_figure(trace: Mapping[str, Any], demo: Any):
-    """A rollout beside its prompt demonstration `demo`: the end effector seen from above,
-    the position deltas commanded and the gripper command (dashed: the demonstration)."""
+    """A rollout beside its prompt demonstration `demo` (dashed): end effector and actions."""
     eef = np.stack([o["proprio"][:3] for o in trace["obs"]])
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.2))
     axes[0].plot(demo.obs["proprio"][:, 0], demo.obs["proprio"][:, 1], "--", label="prompt demo")
@@ -139,17 +128,14 @@ def rollout_figure(trace: Mapping[str, Any], demo: Any):
 # --------------------------------------------------------------------------- chapter 03
 def empirical_constant(metrics: Mapping[str, Any], radii: Sequence[float],
                        norm: str = "inf") -> float:
-    """An encoder's empirical Lipschitz constant in `norm` ("inf" or "2"): the largest of its
-    estimates over the perturbation `radii` (each can only under-estimate the true one)."""
+    """An encoder's empirical Lipschitz constant in `norm` ("inf" or "2"), the largest over `radii`."""
     return max(metrics[f"empirical_{norm}_r{r:g}"] for r in radii)
 
 
 def lipschitz_frame(records: Mapping[str, Mapping[str, Any]],
                     radii: Sequence[float]) -> pd.DataFrame:
-    """Chapter 03's table, one row per encoder (`records`: label -> its means over seeds,
-    `SeedRecords.seed_means`): the product of the bounds, each norm's bound beside the
-    empirical constant, the reconstruction error, the raw and standardized least energy
-    and the latent scale."""
+    """Chapter 03's table, one row per encoder (`records`: label -> `SeedRecords.seed_means`):
+    bounds beside empirical constants, reconstruction error and smoothness."""
     rows = [{"encoder": label,
              "prod softplus(c_l)": m["bound_softplus_product"],
              "bound (inf)": m["bound_inf"], "empirical (inf)": empirical_constant(m, radii),
@@ -163,8 +149,7 @@ def lipschitz_frame(records: Mapping[str, Mapping[str, Any]],
 
 
 def bound_figure(records: Mapping[str, Mapping[str, Any]], radii: Sequence[float]):
-    """Each encoder's empirical inf-norm constants (one point per radius) below its bound
-    prod ||W_l||_inf (log scale)."""
+    """Each encoder's empirical inf-norm constants (one per radius) below its bound (log)."""
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for k, m in enumerate(records.values()):
         ax.plot([k] * len(radii), [m[f"empirical_inf_r{r:g}"] for r in radii], "o", color="C0",
@@ -182,8 +167,7 @@ def bound_figure(records: Mapping[str, Mapping[str, Any]], radii: Sequence[float
 
 
 def bound_history_figure(metrics: Mapping[str, Any], title: str):
-    """Each layer's bound softplus(c_l) over training, from an encoder's `c_history`
-    (logged steps, layers) and `history_step`."""
+    """Each layer's bound softplus(c_l) over training, from an encoder's `c_history`."""
     c_hist = np.array(metrics["c_history"])  # (logged steps, layers)
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for layer in range(c_hist.shape[1]):
@@ -198,12 +182,10 @@ def bound_history_figure(metrics: Mapping[str, Any], title: str):
 
 
 BOUND_RTOL = 1e-5
-"""The relative slack of chapter 03's bound check: an empirical constant may exceed the
-product of the layers' norms by float32 rounding, no more."""
+"""The relative slack of chapter 03's bound check (float32 rounding)."""
 
 
 def bound_holds(metrics: Sequence[Mapping[str, Any]], radii: Sequence[float],
                 rtol: float = BOUND_RTOL) -> bool:
-    """Whether every seed's empirical inf-norm Lipschitz constant (the largest over `radii`)
-    stays within its bound prod ||W_l||_inf (Eq. 4's guarantee), up to `rtol`."""
+    """Whether every seed's empirical inf-norm constant stays within prod ||W_l||_inf (Eq. 4)."""
     return all(empirical_constant(m, radii) <= m["bound_inf"] * (1 + rtol) for m in metrics)

@@ -1,16 +1,10 @@
-"""Chapter 14's worked example: a tokenizer of one file, loaded as a plugin, compared with
-LipVQ-VAE on Table I's protocol (`icil-paper compare`), and the `own-tokenizer` stage of
-`icil-paper reproduce` that computes it.
+"""Chapter 14's worked example: a tokenizer of one file, loaded as a plugin and compared with
+LipVQ-VAE on Table I's protocol (`icil-paper compare`): the `own-tokenizer` stage.
 
     path = write_example("my_plugins/")          # chunk_bins.py, the tokenizer `chunkbins`
     report = own_tokenizer_study(preset)         # loads it, runs (or loads) the comparison
 
-The example is the one a reader would write: uniform bins over chunks of actions (each
-step's embedding sums learned embeddings of the bins of its last `chunk` actions, every
-dimension in [-1, 1]), with a linear decoder; about 40 lines, the library's interface only.
-At the small preset the stage trains two seeds of it and one more of LipVQ-VAE (Table I
-stores one): the seeds are capped there (`CHAPTER_MAX_SEEDS`), and the report gives the
-power that design has, with the seeds a row that would detect the effect.
+The example: uniform bins over chunks of actions, summed learned embeddings, a linear decoder.
 """
 
 from __future__ import annotations
@@ -80,8 +74,7 @@ class ChunkBinsTokenizer(ActionTokenizer):
 """The example plugin's source: what chapter 14 shows and writes to a file."""
 
 CHAPTER_MAX_SEEDS = {"smoke": 2, "small": 2}
-"""Seeds a row the chapter's comparison may plan up to, by preset (others:
-`compare.MAX_SEEDS`): the small preset keeps CI's `make reproduce` within its minutes."""
+"""Seeds a row the chapter's comparison may plan up to, by preset (others: `compare.MAX_SEEDS`)."""
 
 
 def example_folder(preset: Preset) -> Path:
@@ -100,8 +93,7 @@ def write_example(folder: str | Path) -> Path:
 
 def own_tokenizer_study(preset: Preset, store: ResultsStore | None = None,
                         force: bool = False) -> dict[str, Any]:
-    """Write the example plugin, load it, compare it with LipVQ-VAE (reusing every stored
-    cell) and write `compare.json` and `compare.png` beside it; return the report."""
+    """Write and load the example plugin, compare it with LipVQ-VAE; return the report."""
     folder = example_folder(preset)
     plugins.load_plugins([str(write_example(folder))])
     report = compare.compare(preset, EXAMPLE_NAME, ("lipvq",), effect=compare.DEFAULT_EFFECT,

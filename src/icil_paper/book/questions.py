@@ -1,13 +1,6 @@
-"""The paper's three questions (Sec. IV: Q1-Q3) and the claims of the ledger that answer
-each; chapter 0 glues the number and the outcome of each into the introduction's sentence.
+"""The paper's three questions (Sec. IV: Q1-Q3) and the claims of the ledger that answer each.
 
     for q in QUESTIONS: q.decides, q.beside        # claim ids
-
-Q1 asks whether the action tokenizer matters and LipVQ-VAE is the best one (Tables I and
-II), Q2 whether smoothness explains it (Tables III and IV), Q3 whether the method transfers
-(Tables V-VII). Each question is decided by the verdicts after Holm's correction of the
-claims that answer it (`Question.decides`); the claims beside them (`Question.beside`) are
-quoted with their numbers but do not change the answer.
 """
 
 from __future__ import annotations

@@ -8,15 +8,9 @@ ledger's views and the reference run's bookkeeping.
     undecided_frame(ledger)                         # what the undecided claims could detect
     run_progress()                                  # the reference run's cells, hours, projection
 
-`load_table` computes what this build's results store lacks (through the same function
-`icil-paper reproduce` calls, so after `make reproduce` it only loads) and reads the
-reference run's committed records (`results/reference/`) without computing anything: a
-reference cell that is not there yet shows as "not run", and a committed record whose key
-the current code no longer computes is listed as stale (`stale_records`).
-
-This module reads every result (`icil_paper.paper`: the table specs, the claims and their
-labels); how one result is shown lives in its module there, and the views every result
-shares (`compare_frame`, `success_figure`, `show_motion`, ...) in `tables.display`.
+`load_table` computes what this build's store lacks (as `icil-paper reproduce` does) and
+reads the reference run's committed records without computing anything; a committed record
+whose key the current code no longer computes is stale (`stale_records`).
 """
 
 from __future__ import annotations
@@ -47,35 +41,30 @@ from icil_paper.tables.claims import (
     sizing_effect,
     summary,
 )
-from icil_paper.tables.display import (
-    BUILD,
-    REFERENCE,
-    source_label,
-)
+from icil_paper.tables.display import BUILD, REFERENCE, source_label
 
 
 def load_table(preset: Preset, table_id: str, compute: bool = True,
                progress: bool = True) -> dict[str, TableResult]:
-    """{"reference run": ..., "this build": ...} for one table (one entry when the build is
-    the reference preset itself)."""
+    """{source: TableResult} of one table, the reference run's first (`run_sources`)."""
     if compute:
         run_tables(preset, [table_id], progress=progress)
-    results = {}
-    if preset.name != REFERENCE:
-        ref = as_run(get_preset(REFERENCE))
-        results[f"{REFERENCE} run"] = assemble(table_spec(ref, table_id), ResultsStore(REFERENCE))
-    results[BUILD] = assemble(table_spec(as_run(preset), table_id), ResultsStore(preset.name))
-    return results
+    return {source: assemble(table_spec(p, table_id), ResultsStore(p.name))
+            for source, p in run_sources(preset)}
 
 
-def verdicts(preset: Preset, table_id: str) -> str:
-    """The claims ledger's sentences about one table, for the reference run and this build,
-    as Markdown (generated from the numbers, never written by hand)."""
+def run_sources(preset: Preset) -> list[tuple[str, Preset]]:
+    """[(source, its run's preset)]: the reference run's (if another preset), this build's."""
     sources = [(BUILD, as_run(preset))]
     if preset.name != REFERENCE:
         sources.insert(0, (f"{REFERENCE} run", as_run(get_preset(REFERENCE))))
+    return sources
+
+
+def verdicts(preset: Preset, table_id: str) -> str:
+    """The claims ledger's sentences about one table, for each source, as Markdown."""
     lines = []
-    for source, p in sources:
+    for source, p in run_sources(preset):
         entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
         if not entries:
             continue
@@ -86,8 +75,7 @@ def verdicts(preset: Preset, table_id: str) -> str:
 
 
 def claims_figure(preset: Preset, table_id: str):
-    """The forest plot of one table's claims in the reference run's ledger (this build's
-    when the book is built with the reference preset); None when the table has no claim."""
+    """The forest plot of one table's claims in the reference run's ledger (None: no claim)."""
     p = as_run(get_preset(REFERENCE))
     entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
     if not entries:
@@ -101,9 +89,7 @@ RECORD_KINDS = ("train", "eval", "features", "tokenizer", "lipschitz", "showcase
 
 
 def current_keys(preset_name: str = REFERENCE) -> set[str]:
-    """The keys of every record that a current cell of any table (chapter 02's run among
-    them) or one of the chapters' own studies (`book.studies.study_keys`) computes at the
-    preset."""
+    """The keys of every record a current table cell or chapter study computes at the preset."""
     preset = as_run(get_preset(preset_name))
     keys = set()
     for p in plan([table_spec(preset, t) for t in TABLES]):
@@ -116,43 +102,32 @@ def current_keys(preset_name: str = REFERENCE) -> set[str]:
 
 
 def _stale(store: ResultsStore) -> list[dict[str, Any]]:
-    """The records of `store` (of `RECORD_KINDS`) whose key no current cell or study
-    computes (`current_keys`)."""
     keys = current_keys(store.preset)
     return [r for kind in RECORD_KINDS for r in store.records(kind)
             if r["config_hash"] not in keys]
 
 
 def stale_records(preset_name: str = REFERENCE) -> list[str]:
-    """Records in `results/<preset>/` (of `RECORD_KINDS`) whose key no current cell or
-    study computes (`current_keys`): results of an older version of the code or presets."""
+    """"kind/name" of the records in `results/<preset>/` whose key `current_keys` lacks."""
     return sorted(f"{r['kind']}/{r['name']}" for r in _stale(ResultsStore(preset_name)))
 
 
 OLDER_RECORDS = "older-code/records"
-"""Under `results/<preset>/`: the records an older version of the code made, moved out of
-the store by `retire_stale_records`, beside the older ledger (`OLDER_LEDGER`)."""
+"""Under `results/<preset>/`: where `retire_stale_records` moves stale records."""
 
 
 def retired_records(preset_name: str = REFERENCE) -> dict[str, int]:
-    """{commit: records} that `retire_stale_records` moved out of `results/<preset>/`
-    ({} when none were)."""
+    """{commit: records} that `retire_stale_records` moved out of `results/<preset>/`."""
     path = ResultsStore(preset_name).dir / OLDER_RECORDS / "made_by.json"
     return json.loads(path.read_text()) if path.exists() else {}
 
 
 def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
-    """Move every stale record (`stale_records`: no current cell computes its key) of
-    `results/<preset>/` out of the store, to
-    `older-code/records/<kind>/` beside the older ledger, so that every record left in the
-    store is one the current code computes. Each file moves whole (a rename on one file
-    system) and keeps its provenance (`git_commit`); `older-code/records/made_by.json`
-    counts them by the commit that made them. Returns {commit: records moved}."""
+    """Move every stale record of `results/<preset>/` to `older-code/records/<kind>/`,
+    counted by commit in `made_by.json`. Returns {commit: records moved}."""
     store = ResultsStore(preset_name)
     older = store.dir / OLDER_RECORDS
-    manifest_path = older / "made_by.json"
-    counts: dict[str, int] = (json.loads(manifest_path.read_text())
-                              if manifest_path.exists() else {})
+    counts = retired_records(preset_name)
     moved: dict[str, int] = {}
     for record in _stale(store):
         source = store.path_for(record["kind"], record["name"], record["config_hash"])
@@ -164,7 +139,7 @@ def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
     for commit, n in moved.items():
         counts[commit] = counts.get(commit, 0) + n
     if moved:
-        atomic_write_json(manifest_path, dict(sorted(counts.items())))
+        atomic_write_json(older / "made_by.json", dict(sorted(counts.items())))
     return moved
 
 
@@ -179,10 +154,8 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
 
 def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdicts"):
     """The claims ledger as a table, in two parts that each fit the book's column:
-    "verdicts" (the family, the seeds a row, the paper, ours [95% interval], the verdict of
-    the interval alone, the decision under the ledger's design and the size decided beside
-    it) and "power" (an older ledger's size reading, mde, the power to detect the paper's
-    effect, seeds needed)."""
+    "verdicts" (seeds, the paper, ours [95% interval], verdict, decision, size) and "power"
+    (mde, power, seeds needed)."""
     ledger = [as_entry(e) for e in ledger]
     import pandas as pd
 
@@ -213,8 +186,7 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
 
 
 def ledger_views(ledger: list[LedgerEntry | dict[str, Any]], title: str = "") -> dict[str, Any]:
-    """Chapter 0's views of one ledger: "forest" (`forest_plot`), "verdicts" and "power"
-    (`ledger_frame`'s two parts), "undecided" (`undecided_frame`) and "counts" (`summary`)."""
+    """Chapter 0's views of one ledger: "forest", "verdicts", "power", "undecided", "counts"."""
     ledger = [as_entry(e) for e in ledger]
     return {"forest": forest_plot(ledger, title=title), "counts": summary(ledger),
             "verdicts": ledger_frame(ledger, "verdicts"), "undecided": undecided_frame(ledger),
@@ -222,10 +194,7 @@ def ledger_views(ledger: list[LedgerEntry | dict[str, Any]], title: str = "") ->
 
 
 def undecided_frame(ledger: list[LedgerEntry | dict[str, Any]]):
-    """The claims left undecided under the ledger's design, one line each, with what its
-    design could detect: our estimate and interval, the effect it is sized against (the
-    paper's, or for a claim of ours its reference effect), the power to detect that effect
-    at its seeds, the mde at 80% power and the seeds a row that would reach it."""
+    """The undecided claims with what their design could detect, one line each."""
     import pandas as pd
 
     rows = []
@@ -246,17 +215,13 @@ def undecided_frame(ledger: list[LedgerEntry | dict[str, Any]]):
 
 
 def details_frame(ledger: list[LedgerEntry | dict[str, Any]]):
-    """Each claim's quantity, the paper's sentence, the reference a claim of ours is read
-    against and its power note, one line a claim."""
+    """Each claim's quantity, the paper's sentence, its reference and power note."""
     import pandas as pd
 
     rows = [{"claim": e.id, "quantity": e.quantity, "the paper says": e.claim,
              "read against": "" if e.paper is not None else e.reference,
              "power note": e.power_note or ""} for e in map(as_entry, ledger)]
     return pd.DataFrame(rows).set_index("claim").rename_axis(None)
-
-
-VERDICT_COLOURS = verdict_words.COLOURS
 
 
 def row_label(entry: LedgerEntry) -> str:
@@ -266,11 +231,9 @@ def row_label(entry: LedgerEntry) -> str:
 
 
 def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", verdict_key: str = "adjusted_verdict"):
-    """One row per claim, labelled by what it says (`row_label`): our estimate and 95%
-    interval (coloured by the decision under the ledger's design), the paper's value as a black diamond and the zero line. Success
-    differences share one panel; least-energy and correlation claims, on other scales, get
-    their own. Rows a single-seed row reads are drawn dashed (their interval is the
-    episodes' noise only)."""
+    """One row per claim: our estimate and 95% interval coloured by the decision, the
+    paper's value as a black diamond; one panel per scale of quantity. Claims with too few
+    seeds are drawn dashed."""
     ledger = [as_entry(e) for e in ledger]
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
@@ -294,7 +257,7 @@ def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", ver
         y = np.arange(len(entries))[::-1]
         for yi, e in zip(y, entries, strict=True):
             verdict = getattr(e, verdict_key) or e.verdict
-            colour = VERDICT_COLOURS.get(verdict, "black")
+            colour = verdict_words.COLOURS.get(verdict, "black")
             if e.ours is not None:
                 style = "--" if verdict == Verdict.TOO_FEW_SEEDS else "-"
                 ax.plot(e.ci, [yi, yi], style, color=colour, lw=2.2)
@@ -313,7 +276,7 @@ def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", ver
         ax.tick_params(axis="x", labelsize=8)
         ax.grid(axis="x", color="#eaeef2", lw=0.6)
     handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == Verdict.TOO_FEW_SEEDS else "-",
-                      label=str(v)) for v, c in VERDICT_COLOURS.items() if v != Verdict.NOT_RUN]
+                      label=str(v)) for v, c in verdict_words.COLOURS.items() if v != Verdict.NOT_RUN]
     handles.append(Line2D([], [], color="black", marker="D", ls="", ms=4, label="the paper"))
     if any(e.paper is None and e.reference_effect is not None for e in ledger):
         handles.append(Line2D([], [], mfc="white", mec="black", marker="D", ls="", ms=4,
@@ -328,15 +291,13 @@ def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", ver
 
 # --------------------------------------------------------------------------- the reference run
 OLDER_LEDGER = "older-code/claims.json"
-"""Under `results/reference/`: the reference ledger as an older version of the code computed
-it (its `made_by` names the commit), kept while the reference run is redone."""
+"""Under `results/reference/`: the reference ledger an older version of the code computed."""
 OLDER_COST = "older-code/cost.json"
 """Under `results/<preset>/`: what the older protocol's run cost (its `cost.json`)."""
 
 
 def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
-    """How many committed records of `preset_name` the current code still computes
-    ("current") and how many an older version made ("stale", `stale_records`)."""
+    """{"records", "current", "stale"}: committed records of `preset_name` by freshness."""
     stale = len(stale_records(preset_name))
     store = ResultsStore(preset_name)
     total = sum(1 for kind in RECORD_KINDS for _ in store.records(kind))
@@ -344,8 +305,7 @@ def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
 
 
 def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dict]] | None:
-    """(made_by, ledger) of the reference ledger an older version of the code computed, or
-    None when there is none."""
+    """(made_by, ledger) of `OLDER_LEDGER`, or None when there is none."""
     path = ResultsStore(preset_name).dir / OLDER_LEDGER
     if not path.exists():
         return None
@@ -354,11 +314,9 @@ def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dic
 
 
 def run_progress(path=None) -> dict[str, Any] | None:
-    """Where the committed reference run stands, from its `cost.json` (before the rerun
-    writes one, the older protocol's, with `older` True): the table cells finished of those
-    planned, its sittings and machine hours so far, the whole run's projected wall hours on
-    an idle 2-core machine and its target (None without a projection), and whether more
-    stages may follow. None when there is no cost record."""
+    """Where the committed reference run stands, from its `cost.json` (else the older
+    protocol's, `older` True): cells finished and planned, sittings, hours, projected and
+    target wall hours, whether more stages may follow. None without a cost record."""
     older = False
     if path is None:
         store = ResultsStore(REFERENCE).dir
@@ -385,9 +343,8 @@ def run_progress(path=None) -> dict[str, Any] | None:
 
 
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
-    """(claims decided under the ledger's design, CPU-hours, whether every planned cell has
-    finished) of the reference run whose ledger and cost lie in `folder` (`claims.json`,
-    `cost.json`); None when either is missing."""
+    """(claims decided, CPU-hours, every planned cell finished) of the run whose
+    `claims.json` and `cost.json` lie in `folder`; None when either is missing."""
     claims, cost_file = folder / "claims.json", folder / "cost.json"
     if not claims.exists() or not cost_file.exists():
         return None
@@ -399,10 +356,8 @@ def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
 
 
 def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
-    """(ledger, made_by) that answers the paper's questions on the first page: the committed
-    reference ledger, or, while none of its claims has run under the current protocol, the
-    ledger the older code computed (`older_ledger`) with its `made_by`; ([], None) when
-    neither is there."""
+    """(ledger, made_by) that answers the paper's questions: the committed reference
+    ledger, or while none of its claims has run, `older_ledger`'s with its `made_by`."""
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     ledger = load_ledger(path) if path.exists() else []
     if any(e.run for e in ledger):

@@ -1,8 +1,5 @@
-"""Experiments that a chapter and `icil-paper reproduce` share.
-
-Each study takes a preset and a results store, runs what is missing through
-`ResultsStore.run` (so a second call only loads) and returns the metrics by run label.
-`reproduce` calls them to fill the store; the notebooks call them again to draw.
+"""Experiments that a chapter and `icil-paper reproduce` share: each runs what the store
+lacks (`ResultsStore.run`, so a second call only loads) and returns the metrics by label.
 """
 
 from __future__ import annotations
@@ -68,10 +65,7 @@ class TokenizerStudySpec:
 
 def tokenizer_runs(preset: Preset) -> list[tuple[str, TokenizerConfig]]:
     """(label, config): every tokenizer of the preset, the official code's LipVQ, and VQ-VAE
-    and LipVQ-VAE with codes initialised from encoder outputs (`codebook_init="data"`, an
-    opt-in remedy for codebook collapse, not the paper's method), so that chapter 05 can
-    tell smoothness that comes from the Lipschitz bound from smoothness that comes from a
-    trajectory that stays on one code."""
+    and LipVQ-VAE with codes initialised from encoder outputs (`codebook_init="data"`)."""
     t = preset.tokenizers
     return [(name, t.get(name)) for name in TOKENIZERS] + [
         ("lipvq-official", lipvq_official(t.lipvq.latent_dim, t.lipvq.codebook_size)),
@@ -80,8 +74,7 @@ def tokenizer_runs(preset: Preset) -> list[tuple[str, TokenizerConfig]]:
 
 
 def study_data(preset: Preset) -> DataSpec:
-    """The demonstrations tokenizers are trained on alone: the `generated` demos of the
-    preset's kitchen and ManiSkill tasks, state observations."""
+    """The demonstrations tokenizers are trained on alone (generated, state)."""
     return DataSpec(tasks=tuple(preset.data.robocasa_tasks) + tuple(preset.data.maniskill_tasks),
                     source="generated", obs="state", demos_per_task=preset.data.demos_per_task,
                     seed=preset.seed)
@@ -95,8 +88,7 @@ def study_spec(preset: Preset, config: TokenizerConfig, radii: tuple[float, ...]
 
 def seeded_study_specs(preset: Preset, runs: list[tuple[str, TokenizerConfig]],
                        radii: tuple[float, ...] = ()):
-    """(label, spec) of every run of a stand-alone study at each of the preset's training
-    seeds (`tokenizer_study.seeds`), in the order the study computes them."""
+    """(label, spec) of every run of a stand-alone study at each training seed, in order."""
     for label, config in runs:
         for s in range(preset.tokenizer_study.seeds):
             yield label, dataclasses.replace(study_spec(preset, config, radii=radii),
@@ -104,14 +96,9 @@ def seeded_study_specs(preset: Preset, runs: list[tuple[str, TokenizerConfig]],
 
 
 def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.ndarray], dict]:
-    """The (train, test) action trajectories tokenizers are trained on alone, and what they are.
-
-    With `preset.tokenizer_study.trajectories == "demos"`: the actions of the preset's `generated`
-    demonstrations of its kitchen and ManiSkill tasks (made if missing), the last
-    `eval_fraction` of each task's demos (at least one) held out. With `"synthetic"`:
-    minimum-jerk trajectories from `icil_paper.data.trajectories`. The returned dict describes the
-    choice and goes into every record's config.
-    """
+    """(train, test, description): the action trajectories tokenizers are trained on alone:
+    the actions of `study_data`'s demos, the last `eval_fraction` of each task's held out
+    ("demos"), or minimum-jerk trajectories ("synthetic")."""
     cfg = preset.tokenizer_study
     kind = check_name("tokenizer trajectories", cfg.trajectories, ("demos", "synthetic"))
     if kind == "synthetic":
@@ -143,7 +130,7 @@ def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.nd
 
 
 def _train_alone(preset: Preset, spec: TokenizerStudySpec):
-    """Seed, load train/test trajectories, train one tokenizer alone; return it, log, test set."""
+    """Train one tokenizer alone; return it, its training log and the test trajectories."""
     train, test, _ = tokenizer_trajectories(preset)
     seed_everything(spec.seed)
     tok = make_tokenizer(spec.tokenizer, ACTION_DIM)
@@ -169,25 +156,24 @@ def _train_and_measure_tokenizer(preset: Preset, spec: TokenizerStudySpec) -> di
 
 def tokenizer_study(preset: Preset, store: ResultsStore | None = None,
                     force: bool = False) -> dict[str, list[dict]]:
-    """Chapter 05: train every tokenizer alone on action trajectories and measure it, once
-    per training seed; returns {label: [metrics of seed 0, seed 1, ...]}."""
+    """Chapter 05: every tokenizer trained alone and measured, {label: [metrics per seed]}."""
+    return _seeded_study(preset, store, "tokenizer", seeded_study_specs(
+        preset, tokenizer_runs(preset)), _train_and_measure_tokenizer, force)
+
+
+def _seeded_study(preset: Preset, store: ResultsStore | None, kind: str, specs, measure,
+                  force: bool) -> dict[str, list[dict]]:
     store = store or ResultsStore(preset.name)
     records: dict[str, list[dict]] = {}
-    for label, spec in seeded_study_specs(preset, tokenizer_runs(preset)):
+    for label, spec in specs:
         records.setdefault(label, []).append(store.run(
-            "tokenizer", f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
-            lambda spec=spec: _train_and_measure_tokenizer(preset, spec),
-            seed=spec.seed, force=force)["metrics"])
+            kind, f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
+            lambda spec=spec: measure(preset, spec), seed=spec.seed, force=force)["metrics"])
     return records
 
 
 def tokenizer_latent_recording(preset: Preset, records: dict[str, dict]) -> dict:
-    """Chapter 05: the held-out trajectory of `records["..."]["latent_view"]` through every
-    tokenizer's latent space, as a rerun recording and its static picture.
-
-    Written to `results/<preset>/tokenizers/latent_trajectories.{rrd,png}` from the stored
-    views and the trajectory's actions (no tokenizer is retrained); returns their paths.
-    """
+    """Chapter 05: every tokenizer's stored `latent_view` as one recording; returns its paths."""
     _, test, _ = tokenizer_trajectories(preset)
     actions = test[0][:VIEW_STEPS]
     views = {label: np.asarray(m[0]["latent_view"])[:len(actions)]  # seed 0's tokenizers
@@ -239,16 +225,9 @@ def _lipschitz_measurements(preset: Preset, spec: TokenizerStudySpec) -> dict:
 
 def lipschitz_study(preset: Preset, store: ResultsStore | None = None,
                     force: bool = False) -> dict[str, dict]:
-    """Chapter 03: train encoders with and without normalization; bounds vs empirical
-    constants, once per training seed; returns {label: [metrics of seed 0, 1, ...]}."""
-    store = store or ResultsStore(preset.name)
-    records: dict[str, list[dict]] = {}
-    for label, spec in seeded_study_specs(preset, lipschitz_models(preset), LIPSCHITZ_RADII):
-        records.setdefault(label, []).append(store.run(
-            "lipschitz", f"{label}__seed{spec.seed}", to_dict(spec, keyed_only=True),
-            lambda spec=spec: _lipschitz_measurements(preset, spec),
-            seed=spec.seed, force=force)["metrics"])
-    return records
+    """Chapter 03: encoders' bounds vs empirical constants, {label: [metrics per seed]}."""
+    return _seeded_study(preset, store, "lipschitz", seeded_study_specs(
+        preset, lipschitz_models(preset), LIPSCHITZ_RADII), _lipschitz_measurements, force)
 
 
 def shown_tasks(preset: Preset) -> list[str]:
@@ -277,10 +256,7 @@ class ShowcaseSpec:
 
 def showcase_study(preset: Preset, store: ResultsStore | None = None,
                    force: bool = False) -> dict[str, dict]:
-    """Chapter 04: a rendered frame and a recorded demo 0 of every shown task, by task.
-
-    A record whose image files have gone missing is recomputed.
-    """
+    """Chapter 04: a rendered frame and a recorded demo 0 of every shown task, by task."""
     store = store or ResultsStore(preset.name)
     out_dir = results_root() / preset.name / "showcase"
     shown = {}
@@ -298,10 +274,7 @@ def showcase_study(preset: Preset, store: ResultsStore | None = None,
 
 def expert_study(preset: Preset, store: ResultsStore | None = None,
                  force: bool = False) -> dict[str, dict]:
-    """Every expert's success over `preset.data.expert_seeds` random scenes, by suite.
-
-    Nothing (an empty dict) when the preset sets `expert_seeds = 0`.
-    """
+    """Every expert's success over `preset.data.expert_seeds` random scenes, by suite."""
     store = store or ResultsStore(preset.name)
     n_seeds = preset.data.expert_seeds
     if n_seeds <= 0:
@@ -322,12 +295,8 @@ def expert_study(preset: Preset, store: ResultsStore | None = None,
 
 
 def expert_measurements(preset: Preset, store: ResultsStore | None = None) -> list[dict]:
-    """One row per task of every expert measurement there is: this preset's (`expert_study`)
-    and, for a suite it did not measure, the one `python -m icil_paper.data.experts` wrote
-    to `results/experts/<suite>.json`, else the committed `results/bench/experts-<suite>.json`
-    (`from` names its commit). Rows: task, seeds, expert
-    success (on the generated and on the human-like scenes), open-loop replay success, the
-    human source's kept share and the mean length."""
+    """One row per task of every expert measurement: this preset's, else
+    `results/experts/<suite>.json`, else the committed `results/bench/experts-<suite>.json`."""
     measured = {suite: {"tasks": record["tasks"], "commit": "this preset's store"}
                 for suite, record in expert_study(preset, store).items()}
     for suite in sim.SUITES:
@@ -347,11 +316,7 @@ def expert_measurements(preset: Preset, store: ResultsStore | None = None) -> li
 
 
 def demo_stage(preset: Preset, store: ResultsStore | None = None, force: bool = False) -> dict:
-    """Make every data set of the preset (all its tasks, both sources); return their paths.
-
-    Generation is resumable and only adds what the files lack, so `force` does not apply:
-    delete the files under `data/<preset>/` to regenerate them.
-    """
+    """Make every data set of the preset; return their paths (generation is resumable)."""
     tasks = preset_tasks(preset, available=True)
     # the zero-shot table's training tasks need no human-like source (only Table VI reads it)
     generated_only = set(preset.data.zero_shot_tasks) - set(preset.data.robocasa_tasks)
@@ -363,9 +328,7 @@ def demo_stage(preset: Preset, store: ResultsStore | None = None, force: bool = 
 
 
 def study_keys(preset: Preset) -> dict[str, set[str]]:
-    """{kind: keys} of the records the chapters' own studies compute at the preset: the
-    tokenizers trained alone (`tokenizer`), the Lipschitz study (`lipschitz`) and the
-    showcase (`showcase`), so that a record of an older version of them can be told apart."""
+    """{kind: keys} of the records the chapters' own studies compute at the preset."""
     def hashes(specs) -> set[str]:
         return {config_hash(to_dict(spec, keyed_only=True)) for _, spec in specs}
 

@@ -6,10 +6,6 @@
     seeds.mean("lipvq", "usage")                            # mean over training seeds
     seeds.with_interval("lipvq", "least_energy")            # "0.012 [0.01, 0.014]"
     seeds.seed_means()                                      # one row of means per label
-
-The records are the stand-alone studies' (`studies.tokenizer_study`, `studies.lipschitz_study`):
-each label holds one metrics dict per training seed, in seed order. Chapters call these and
-show the result, or glue the numbers into their prose; they define no statistics of their own.
 """
 
 from __future__ import annotations
@@ -42,8 +38,7 @@ class SeedRecords:
         return float(np.mean(values)) if values else None
 
     def per_level(self, label: str) -> str | None:
-        """Residual VQ: the codes each level uses, mean over seeds ("8 / 7"); None for a
-        tokenizer with one codebook."""
+        """Residual VQ: the codes each level uses, mean over seeds ("8 / 7"); None otherwise."""
         levels = [m["codes_used_per_level"] for m in self.records[label]
                   if m.get("codes_used_per_level")]
         return " / ".join(f"{v:.0f}" for v in np.mean(levels, axis=0)) if levels else None
@@ -58,8 +53,7 @@ class SeedRecords:
         return f"{est.value:.{digits}g} [{est.low:.{digits}g}, {est.high:.{digits}g}]"
 
     def seed_means(self) -> dict[str, dict[str, Any]]:
-        """One row per label: the mean over seeds of every number, seed 0's value of
-        everything else (curves, lists, names)."""
+        """One row per label: the mean over seeds of every number, seed 0's value otherwise."""
         rows = {}
         for label, ms in self.records.items():
             first = ms[0]

@@ -29,7 +29,6 @@ from icil_paper.tables.design import ONE_FAMILY
 
 
 def build_parser() -> argparse.ArgumentParser:
-
     p = Parser(prog="icil-paper tables", description=__doc__.split("\n\n")[0])
     add_preset_arguments(p)
     p.add_argument("--table", nargs="+", default=None, metavar="ID",
@@ -45,13 +44,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-
     args = build_parser().parse_args(argv)
     preset = preset_from_args(args)
     store = ResultsStore(preset.name)
     preset = as_run(preset, store)  # seeds in stages: the seeds the run has reached
     if args.retire_stale:
-
         moved = retire_stale_records(preset.name)
         print(f"moved {sum(moved.values())} records to {store.dir / OLDER_RECORDS}"
               + "".join(f"\n  {n} made by {commit}" for commit, n in moved.items()))
@@ -61,8 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.format == "json":
             print(json.dumps([e.to_dict() for e in ledger], indent=2))
         else:
-            older = any(e.family == ONE_FAMILY for e in ledger)
-            if older:
+            if any(e.family == ONE_FAMILY for e in ledger):
                 print("A record of the older design (its records were gathered under it; "
                       "the current design decides nothing on them):")
             for entry in ledger:

@@ -8,18 +8,11 @@ this module runs in a separate environment and imports nothing else of `icil_pap
     make lerobot-export FILE=data/small/kitchen/open_drawer/generated.hdf5 OUT=lerobot/open_drawer
     # or: PYTHONPATH=src .venv-lerobot/bin/python -m icil_paper.interop.lerobot_export FILE OUT
 
-The result loads with `LeRobotDataset(repo_id, root=OUT)`. Mapping, per frame:
-
-- `actions` -> `action`; `rewards` -> `next.reward`, `dones` -> `next.done`;
-- `obs/proprio` -> `observation.state` (without it, every other low-dimensional key,
-  concatenated in name order; the feature's `names` say where each entry comes from);
-- `obs/object` -> `observation.environment_state`;
-- `obs/<camera>_image` -> `observation.images.<camera>` (`--videos`: encoded to MP4);
-- the task: the demo's `instruction`, else the file's `task`, else `--task`; fps: the file's
-  `control_freq` (else `--fps`).
-
-Other keys (depth included) are named in a warning and left out. The data set is built in
-`OUT.partial` and renamed to `OUT` at the end, so a failed export leaves nothing half-written.
+The result loads with `LeRobotDataset(repo_id, root=OUT)`. Per frame: `actions` -> `action`,
+`rewards`/`dones` -> `next.reward`/`next.done`, `obs/proprio` (else every other low-dimensional
+key) -> `observation.state`, `obs/object` -> `observation.environment_state`,
+`obs/<camera>_image` -> `observation.images.<camera>`; other keys are left out with a warning.
+The data set is built in `OUT.partial` and renamed at the end.
 """
 
 from __future__ import annotations

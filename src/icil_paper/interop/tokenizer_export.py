@@ -7,9 +7,6 @@
     export_tokenizer("runs/small/icrt+lipvq__...", "exported/lipvq")
     from icil_paper.tokenizers import load_tokenizer
     tokenizer = load_tokenizer("exported/lipvq")
-
-The folder's format, and what loading it checks, are `icil_paper.tokenizers.portable`'s;
-this module reads the run folder (`train.rundir.load_policy`) and writes that folder.
 """
 
 from __future__ import annotations
@@ -28,9 +25,8 @@ from icil_paper.train.rundir import load_policy, policy_digest
 def export_tokenizer(run_dir: str | Path, folder: str | Path) -> Path:
     """Export the tokenizer of the trained policy in `run_dir` (or a `policy.pt`) to `folder`.
 
-    Raises FileNotFoundError (no policy there), PolicyFileError, or TokenizerFolderError
-    when the policy has no action tokenizer (e.g. ACT's own CVAE); a `folder` this process
-    cannot write to is refused first (FolderNotWritableError, a PermissionError).
+    Raises TokenizerFolderError when the policy has no action tokenizer, and
+    FolderNotWritableError for a `folder` this process cannot write to.
     """
     check_writable(Path(folder), f"OUT {folder}", "pass a folder this user can write to")
 

@@ -2,25 +2,17 @@
 
     python -m icil_paper.planning.cost --preset reference    # writes results/reference/cost.json
 
-Every record carries the wall time and CPU time of its computation (`ResultsStore.write`:
-a training run, one task's evaluation, one features measurement). A record belongs to the
-first stage of `icil-paper reproduce` whose tables plan it (Table IV's runs are Table I's,
-so they count under `table-I`) and to a kind of cell: policy, suite and observations
-("icrt kitchen state"), chapter 02's run too (stage `table-icrt`); records of the other
-stages (tokenizers, Lipschitz study, showcase) count under their kind. Records the current
-plan does not name (made by older code) are counted apart and not summed in.
+Every record carries the wall and CPU time of its computation. A record counts under the
+first stage of `icil-paper reproduce` whose tables plan it and under its kind of cell
+(policy, suite and observations: "icrt kitchen state"); records the current plan does not
+name (older code) are counted apart.
 
-Sittings: records whose finish times lie less than `SITTING_GAP_S` apart belong to one
-sitting; a sitting's elapsed time runs from its first record's start (finish minus wall
-time) to its last finish. Summed record wall time over elapsed time is how many cells ran
-at once; CPU time over wall time below 1 says the cells waited for the cores (other work
-on the machine, or more processes than cores).
+Sittings: records whose finish times lie less than `SITTING_GAP_S` apart. Summed wall time
+over a sitting's elapsed time is how many cells ran at once.
 
-Projection: the CPU time still to come is each unfinished cell at the CPU time per cell
-its stage and kind have measured so far (`cells.json`'s estimate, `design.plan_cost`, for a
-stage and kind with no finished cell yet); the run's wall time on an idle machine at two
-cells at a time is the whole CPU time over two (CPU time per wall second was 0.99 for cells
-that had the cores to themselves), set beside `TARGET_WALL_HOURS`.
+Projection: each unfinished cell at the CPU time per cell its stage and kind measured so
+far (else `cells.json`'s estimate); wall time at two cells at a time is the CPU time over
+two, set beside the budget (`config.REFERENCE_BUDGET_HOURS` by default).
 """
 
 from __future__ import annotations
@@ -37,24 +29,19 @@ from icil_paper.fileio import atomic_write_json, read_json
 from icil_paper.paper import table_spec
 from icil_paper.planning.design import cell_kind, episode_design, plan_cost, planned_seeds
 from icil_paper.planning.staged import as_run, at_stage, staged_preset
-from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore, read_record_file
 from icil_paper.stages import TABLE_STAGES
-from icil_paper.tables.cells import plan
+from icil_paper.tables.cells import plan, plan_records
 
 FIELDS = ("records", "cells", "train_steps", "episodes", "wall_s", "cpu_s", "train_cpu_s",
           "resumed_cells", "resumed_cpu_s", "without_cpu_time")
-"""What is summed over records, for every group (stage, kind of cell, the total). A cell
-whose training resumed from a checkpoint (`resumed_from_step` above 0: its sitting ended
-mid-training) has a train record that times only the steps after the checkpoint:
-`resumed_cells` counts such cells and `resumed_cpu_s` their training's recorded CPU time."""
+"""What is summed over records, for every group. `resumed_cells` counts cells whose training
+resumed from a checkpoint (their train record times only the steps after it), `resumed_cpu_s`
+that training's CPU time."""
 
 SITTING_GAP_S = 1800.0
 """Records further apart than this (half an hour) start a new sitting."""
 
-TARGET_WALL_HOURS = REFERENCE_BUDGET_HOURS
-"""The reference run's budget: wall hours on the 2-core machine at two cells at a time
-(`tables.stage_budget_hours`, which the stage rule keeps to)."""
 CELLS_AT_ONCE = 2
 
 
@@ -63,12 +50,9 @@ def _planned(preset: Preset, store: ResultsStore) -> dict[Path, tuple[str, str]]
     out: dict[Path, tuple[str, str]] = {}
     for table_id, _, _ in TABLE_STAGES:
         for p in plan([table_spec(preset, table_id)]):
-            kind = cell_kind(p.run)
-            ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
-                   *(features_record(p.run, f) for f in p.features.values())]
-            for record_id in ids:
-                path = store.record_path(*record_id)
-                out.setdefault(path, (f"table-{table_id}", kind))
+            group = (f"table-{table_id}", cell_kind(p.run))
+            for record_id in plan_records(p):
+                out.setdefault(store.record_path(*record_id), group)
     return out
 
 
@@ -175,9 +159,7 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
 
 
 def _cpu_per_cell(group: dict[str, float]) -> float:
-    """A finished cell's CPU time: its evaluations' and features' on average over every
-    cell, plus its training's on average over the cells trained in one go (a resumed
-    cell's train record times only its last part)."""
+    """A finished cell's mean CPU time (training averaged over the cells trained in one go)."""
     evaluation = (group["cpu_s"] - group["train_cpu_s"]) / group["cells"]
     whole = group["cells"] - group["resumed_cells"]
     if not whole:
@@ -219,17 +201,14 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
         "remaining_cpu_hours": round(remaining / 3600, 2),
         "cpu_hours": round(cpu_total / 3600, 2),
         "wall_hours_at_2": round(cpu_total / CELLS_AT_ONCE / 3600, 2),
-        "target_wall_hours": preset.tables.stage_budget_hours or TARGET_WALL_HOURS,
+        "target_wall_hours": preset.tables.stage_budget_hours or REFERENCE_BUDGET_HOURS,
         "from_records": round((cpu_so_far + from_records) / cpu_total, 3) if cpu_total else None,
     }
 
 
 def stages_cost(preset: Preset, store: ResultsStore) -> dict[str, Any]:
-    """A staged run's looks so far and its cost bounds, projected from `cells.json`'s rates
-    (`design.plan_cost`, hours at two cells at a time): through the stage reached (what
-    `projection` prices from the records), with every row a claim reads taken to the last
-    stage (what the stage rule would ask without a budget), and the fixed design's seeds;
-    the budget (`tables.stage_budget_hours`) and the claims it has stopped so far."""
+    """A staged run's looks so far and its projected wall hours (`design.plan_cost`) at the
+    stage reached, at the last stage and at the fixed design's seeds, beside its budget."""
     _, looks = staged_preset(preset, store)
     return {"stages": list(preset.tables.seed_stages),
             "looks": [look.to_dict() for look in looks],
@@ -244,15 +223,13 @@ COST_FIX = "regenerate it: python -m icil_paper.planning.cost --preset <preset>"
 
 
 def read_cost(path: str | Path) -> dict[str, Any]:
-    """A run's `cost.json` (`write_cost`), through `fileio.read_json`: a damaged one, or one
-    whose sections have the wrong types, is one line naming it and the fix."""
+    """A run's `cost.json` (`write_cost`); a damaged one raises one line naming the fix."""
     return read_json(path, "a run's cost (cost.json)", COST_FIX, keys=("preset", "total"),
                      fields={"preset": str, "total": dict, "by_stage": dict, "by_kind": dict})
 
 
 def write_cost(preset: Preset, store: ResultsStore | None = None) -> Path:
-    """Write `results/<preset>/cost.json` atomically; returns its path. A preset with seeds
-    in stages is priced at the stage its records have reached (`staged.as_run`)."""
+    """Write `results/<preset>/cost.json` (at the stage the run has reached); returns its path."""
     store = store or ResultsStore(preset.name)
     path = store.dir / "cost.json"
     cost = run_cost(as_run(preset, store), store)

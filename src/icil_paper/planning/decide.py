@@ -2,23 +2,12 @@
 
     icil-paper plan --preset reference --cores 64
 
-For every claim of `results/<preset>/claims.json` that is neither *holds* nor *does not
-hold*, the ledger's power analysis (`seeds_needed`, `icil_paper.tables.claims`) says how many
-training seeds a row it needs to detect the paper's effect at 80% power at its level. The
-plan gives every row such a claim reads that many seeds (never fewer than it has) as one
-`--set tables.row_seeds=...` override, builds the tables under it and counts the cells whose
-records the store does not hold yet: exactly those a run with that override computes. Each
-cell is priced at the CPU time its kind of cell took in the preset's own run
-(`results/<preset>/cost.json`, `icil_paper.planning.cost`); wall time at N cores is the CPU
-time over N, never less than the costliest cell.
-
-It prints one line per undecided claim (seeds a row now and needed, cells, CPU-hours, wall
-hours at `--cores`, or why the power analysis cannot plan it), the total (claims share rows)
-and the command that runs exactly the missing cells:
-
-    icil-paper reproduce --preset reference --set tables.row_seeds=... --executor ray --ray-address HEAD:6379
-
-(keep the same `--set` on later runs). The plan is written to `results/<preset>/plan.json`.
+Every row an undecided claim of `results/<preset>/claims.json` reads gets the claim's
+`seeds_needed` as one `--set tables.row_seeds=...` override; the cells the store lacks under
+it are priced at the CPU time their kind took in the run (`cost.json`). Wall time at N cores
+is the CPU time over N, never less than the costliest cell. It prints one line per claim,
+the total and the command that runs exactly the missing cells, and writes
+`results/<preset>/plan.json`.
 """
 
 from __future__ import annotations
@@ -34,11 +23,10 @@ from icil_paper.config import Preset
 from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
 from icil_paper.paper import TABLES, table_spec
 from icil_paper.planning.design import cell_kind, claim_rows, planned_seeds
-from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import DATA_SETS
 from icil_paper.stats import Verdict
-from icil_paper.tables.cells import plan
+from icil_paper.tables.cells import plan, plan_records
 
 DECIDED = (Verdict.HOLDS, Verdict.DOES_NOT_HOLD)
 """Verdicts that settle a claim; every other one is planned."""
@@ -54,8 +42,7 @@ def verdict(entry: dict[str, Any]) -> str:
 
 
 def seeds_entry_name(table: str, row: str) -> str:
-    """The `tables.row_seeds` name of a table's row: Table I's for the rows that share its
-    runs, Fig. 5's by codebook size ("2^9 (the paper's 2^11)" -> "fig5:512")."""
+    """The `tables.row_seeds` name of a table's row ("2^9 (the paper's 2^11)" -> "fig5:512")."""
     if table in SHARES_TABLE_I:
         return f"I:{row}"
     if table == "fig5":
@@ -67,12 +54,9 @@ def seeds_entry_name(table: str, row: str) -> str:
 
 
 def row_seeds_setting(preset: Preset, wanted: dict[str, int]) -> str:
-    """The `--set` value of `tables.row_seeds`: the preset's entries, each `wanted` one
-    raised to its seeds (or added)."""
-    entries = {}
-    for entry in preset.tables.row_seeds:
-        name, _, n = entry.rpartition("=")
-        entries[name] = int(n)
+    """The `--set` value of `tables.row_seeds`: the preset's entries raised to `wanted`."""
+    entries = {name: int(n) for name, _, n in
+               (entry.rpartition("=") for entry in preset.tables.row_seeds)}
     for name, n in wanted.items():
         entries[name] = max(n, entries.get(name, 0))
     return "tables.row_seeds=" + ",".join(f"{name}={n}" for name, n in entries.items())
@@ -143,9 +127,7 @@ def make_plan(preset: Preset, ledger: list[dict[str, Any]], cost: dict[str, Any]
     rates = _rates(cost)
     missing: dict[str, float] = {}
     for p in plan(list(specs.values())):
-        ids = [train_record(p.run), *(eval_record(p.run, ev) for ev in p.evals.values()),
-               *(features_record(p.run, f) for f in p.features.values())]
-        absent = [i for i in ids if not store.record_path(*i).exists()]
+        absent = [i for i in plan_records(p) if not store.record_path(*i).exists()]
         if absent:
             missing[p.run.key()] = _cell_cpu_s(cell_kind(p.run), len(absent) - 1, rates)
     runs_of_row: dict[tuple[str, str], dict[str, int]] = defaultdict(dict)

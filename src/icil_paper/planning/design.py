@@ -1,27 +1,21 @@
-"""The reference run's design, computed: seeds per row from the claims' power, episodes
-from the split of each claim's paired variance into its seed and episode parts, the stage
-rule, and what the run costs.
+"""The reference run's design: seeds per row from the claims' power, episodes per task, the
+stage rule, and what the run costs.
 
     python -m icil_paper.planning.design             # the arithmetic behind the reference preset
     design_problems(preset, ledger)                  # rows with fewer seeds than the rule asks
     python -m icil_paper.planning.design --interim   # the rule against the seeds finished so far
     python -m icil_paper.planning.design --stages    # each claim's look, the rows that go on
 
-**The rule.** A claim is *decidable* when the ledger's power analysis (`seeds_needed`) says
-`DECIDABLE_SEEDS` seeds a row or fewer detect the paper's effect at 80% power; every row a
-decidable claim reads gets at least `DECIDABLE_SEEDS` training seeds, every other row a
-claim reads at least `OTHER_SEEDS`. The variances are the records' own: the reference
-ledger's where it has them, else the older code's (`older-code/claims.json`).
+**The rule.** A claim is *decidable* when its `seeds_needed` is at most `DECIDABLE_SEEDS`;
+every row a decidable claim reads gets at least `DECIDABLE_SEEDS` training seeds, every
+other row a claim reads at least `OTHER_SEEDS`.
 
 **Episodes** (`episode_design`). With S seeds of E episodes per task a paired difference has
-variance (seed_by_row + episode / E) / S (`stats.paired_variance_parts`) and costs
-S (train + E episode); `stats.episodes_per_seed` gives the E narrowest for its compute, per
-suite and class of claim, at the CPU time the cells took (`cost.json`).
+variance (seed_by_row + episode / E) / S and costs S (train + E episode);
+`stats.episodes_per_seed` gives the E narrowest for its compute.
 
-**Cost.** A trained run costs its optimizer steps at the measured step time of its kind plus
-its episodes at the measured simulator rate (`results/bench/cells.json`,
-`python -m tools.bench.cells`); the run's records carry what it really cost
-(`results/reference/cost.json`, `icil_paper.planning.cost`).
+**Cost.** Optimizer steps at the measured step time plus episodes at the measured simulator
+rate (`results/bench/cells.json`).
 """
 
 from __future__ import annotations
@@ -51,22 +45,18 @@ OTHER_SEEDS = 5
 """Seeds of every other row a claim reads."""
 
 TABLE_IDS = tuple(TABLES)
-"""Every table the reference run computes (`TABLES` holds the official-code table too)."""
+"""Every table the reference run computes."""
 
 
 def planned_seeds(preset: Preset) -> dict[tuple[str, str], int]:
     """(table, row) -> the training seeds the preset gives that row."""
-    out = {}
-    for table_id in TABLE_IDS:
-        for row in table_spec(preset, table_id).rows:
-            indices = {u.seed_index for cell in row.cells.values() for u in cell.units}
-            out[table_id, row.label] = len(indices)
-    return out
+    return {(table_id, row.label): len({u.seed_index for cell in row.cells.values()
+                                        for u in cell.units})
+            for table_id in TABLE_IDS for row in table_spec(preset, table_id).rows}
 
 
 def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
-    """(table, row) -> how many of the row's training seeds have every record its cells read
-    (a row reads a claim's verdict only once all its planned seeds have)."""
+    """(table, row) -> how many of the row's training seeds have every record its cells read."""
     store = store or ResultsStore(preset.name)
     out = {}
     for table_id in TABLE_IDS:
@@ -95,10 +85,8 @@ def required_seeds(entry: dict[str, Any]) -> int:
 
 
 def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, dict[str, Any]]:
-    """Claim id -> the ledger entry whose power analysis the design reads: of the preset's
-    own committed ledger and the older code's (`older-code/claims.json`), the one whose
-    variances rest on more training seeds (`n`, a run in progress has few), among those
-    with a power analysis; else the not-run entry."""
+    """Claim id -> the ledger entry the design reads: of the preset's ledger and the older
+    code's (`older-code/claims.json`), the one with a power analysis on the most seeds (`n`)."""
     folder = Path(root or results_root()) / preset.name
     ledgers = []
     for path, older in ((folder / "claims.json", False),
@@ -117,8 +105,7 @@ def design_ledger(preset: Preset, root: str | Path | None = None) -> dict[str, d
 
 
 def design_problems(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[str]:
-    """Rows with fewer seeds than the rule asks, one line each (empty: the preset follows
-    the rule for `ledger`, claim id -> entry)."""
+    """Rows with fewer seeds than the rule asks for `ledger` (claim id -> entry), one line each."""
     seeds = planned_seeds(preset)
     out = []
     for claim_id, rows in claim_rows(preset).items():
@@ -133,12 +120,9 @@ def design_problems(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[s
 
 
 def expected_half_width(entry: dict[str, Any], seeds: int) -> float | None:
-    """The 95% half-width a claim's difference is expected to have at `seeds` seeds a row:
-    the t interval on the per-seed variance of the difference its test reads (the entry's
-    `plan`). A ledger older than `plan` planned Welch's test at 5% with the two rows'
-    variances added, v: v is read back from its `mde` at the fewest seeds a row it had, or,
-    where a row had one seed (no mde), from `seeds_needed` n for the paper's effect d, both
-    `stats.minimum_detectable` at a variance of 1 scaled by sqrt(v)."""
+    """The 95% half-width a claim's difference is expected to have at `seeds` seeds a row,
+    from the entry's `plan` variance, else (an older ledger, Welch's test) the variance read
+    back from its `mde` or its `seeds_needed`."""
     plan, mde, rows = entry.get("plan"), entry.get("mde"), entry.get("seeds") or {}
     needed, effect = entry.get("seeds_needed"), sizing_effect(entry)
     if plan:
@@ -161,9 +145,7 @@ def cell_kind(run) -> str:
 
 
 def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
-    """Measured rates from `results/bench/cells.json` (the results folder's, else the one
-    committed with the repository): seconds per optimizer step by policy, env steps per
-    second and per episode by suite."""
+    """Measured rates from `results/bench/cells.json` (step seconds, env step rates)."""
     record = read_json(Path(path or bench_path("cells")), "a cell benchmark (cells.json)",
                        "measure it again: make bench (or restore it from git)", keys=("cells",),
                        fields={"cells": list})
@@ -183,13 +165,11 @@ def cell_rates(path: str | Path | None = None) -> dict[str, Any]:
 
 
 IMAGE_SLOWDOWN = 10.0
-"""Image rollouts and training cost about ten times their state counterparts on CPU (MCR's
-cells are not in cells.json)."""
+"""Image rollouts and training cost about ten times their state counterparts on CPU."""
 
 
 def plan_cost(preset: Preset, rates: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The estimated cost of every trained run the preset's tables plan, by kind of cell:
-    cells, optimizer steps, episodes and core-seconds (train and evaluation)."""
+    """The estimated cost of every run the preset's tables plan, by kind of cell."""
     return plans_cost(plan([table_spec(preset, t) for t in TABLE_IDS]), rates)
 
 
@@ -219,11 +199,7 @@ def plans_cost(plans, rates: dict[str, Any] | None = None) -> dict[str, Any]:
 
 
 def data_cost(plans, path: str | Path | None = None) -> dict[str, Any]:
-    """What generating the plans' demonstration sets costs: the sets (one per task, source,
-    observation kind and demonstration set: training seed k reads set k), their
-    demonstrations, and core-seconds at the per-demonstration CPU time measured by
-    `python -m tools.bench.datasets` (`results/bench/datasets.json`; images
-    `IMAGE_SLOWDOWN` times a state demonstration; 0 where nothing was measured)."""
+    """What generating the plans' demonstration sets costs (`results/bench/datasets.json`)."""
     source = Path(path or bench_path("datasets"))
     measured = (read_json(source, "the data-set generation benchmark (datasets.json)",
                           "regenerate it: python -m tools.bench.datasets",
@@ -241,16 +217,13 @@ def data_cost(plans, path: str | Path | None = None) -> dict[str, Any]:
 
 
 def report(preset: Preset) -> dict[str, Any]:
-    """Every claim's rows, planned and required seeds, `seeds_needed` and expected
-    half-width, the rule's violations and the plan's cost."""
+    """Every claim's seeds and expected half-width, the rule's violations and the plan's cost."""
     ledger = design_ledger(preset)
     return {"preset": preset.name, "claims": _claims_report(preset, ledger),
             "violations": design_problems(preset, ledger), "cost": plan_cost(preset)}
 
 
 def _claims_report(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
-    """`report`'s claims: per claim its rows' seeds, `seeds_needed`, the seeds the rule
-    requires, the paper's effect and the half-widths now and expected at the planned seeds."""
     seeds = planned_seeds(preset)
     claims_out = []
     for claim_id, rows in claim_rows(preset).items():
@@ -262,25 +235,19 @@ def _claims_report(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[di
             "paper": sizing_effect(entry),
             "half_width_now": (None if not entry.get("ci") else
                                round((entry["ci"][1] - entry["ci"][0]) / 2, 4)),
-            "expected_half_width": (None if planned < 2 else
-                                    _round(expected_half_width(entry, planned)))})
+            "expected_half_width": _expected(entry, planned)})
     return claims_out
 
 
-def _round(x: float | None) -> float | None:
-    return None if x is None else round(x, 4)
+def _expected(entry: dict[str, Any], planned: int) -> float | None:
+    hw = None if planned < 2 else expected_half_width(entry, planned)
+    return None if hw is None else round(hw, 4)
 
 
 def design_frame(preset: Preset):
-    """`report`'s claims as a table for the book: per claim, the seeds a row the power
-    analysis asks (`seeds_needed`) and where its variances came from, the seeds the rule
-    requires, the fewest seeds the preset gives one of its rows and the fewest one of them
-    has finished (`finished_seeds`), and the expected 95% half-width at the planned seeds.
-
-    For a preset with seed stages, pass the run's preset (`staged.as_run`): its rows' seeds
-    are those of the stage the run has reached, and the fixed design's rule does not
-    allocate them, so the table has the stage's seeds (`stage`) where it would have
-    `required` and `planned`, and the half-width is expected at the stage's seeds."""
+    """`report`'s claims as a table for the book: seeds needed and where the variances came
+    from, required, planned and finished seeds, the expected 95% half-width. A staged preset
+    (pass `staged.as_run`'s) shows its stage's seeds instead of required and planned."""
     import pandas as pd
 
     ledger = design_ledger(preset)
@@ -304,16 +271,14 @@ def design_frame(preset: Preset):
 
 
 def with_row_seeds(preset: Preset, seeds: dict[tuple[str, str], int]) -> Preset:
-    """`preset` with the rows of `seeds` at those seeds (entries after the preset's own
-    `row_seeds`, so that they win)."""
+    """`preset` with the rows of `seeds` at those seeds (appended to `row_seeds`, so they win)."""
     entries = tuple(f"{t}:{row}={n}" for (t, row), n in sorted(seeds.items()))
     tables = replace(preset.tables, row_seeds=preset.tables.row_seeds + entries)
     return replace(preset, tables=tables)
 
 
 def at_seeds(preset: Preset, seeds: int) -> Preset:
-    """The preset with every row of every table at `seeds` training seeds (its first ones:
-    the same runs, so the same records)."""
+    """The preset with every row of every table at its first `seeds` training seeds."""
     tables = replace(preset.tables, icrt_seeds=seeds, baseline_seeds=seeds,
                      since_paper_seeds=seeds, official_seeds=seeds,
                      row_seeds=tuple(f"{t}:*={seeds}" for t in TABLE_IDS))
@@ -322,9 +287,8 @@ def at_seeds(preset: Preset, seeds: int) -> Preset:
 
 def interim_ledger(preset: Preset, seeds: int | None = None, store=None
                    ) -> tuple[int, list[dict[str, Any]] | None]:
-    """The ledger computed from the first `seeds` seeds of every row (default: the most
-    that every claim's rows have finished), or None below two seeds (no variance to read).
-    Returns (seeds, ledger)."""
+    """(seeds, the ledger of every row's first `seeds` seeds), default the most every
+    claim's rows have finished; the ledger is None below two seeds."""
     store = store or ResultsStore(preset.name)
     if seeds is None:
         finished = finished_seeds(preset, store)
@@ -336,10 +300,8 @@ def interim_ledger(preset: Preset, seeds: int | None = None, store=None
 
 def interim_check(preset: Preset, seeds: int | None = None, store=None
                   ) -> tuple[int, list[str] | None]:
-    """The rule checked against `interim_ledger`: a preview, while the run is under way,
-    of rows whose claim the new records make decidable with `DECIDABLE_SEEDS` seeds or
-    fewer, so that they can be topped up before the run ends. Returns (seeds, the rows
-    below the rule), or (seeds, None) below two seeds."""
+    """(seeds, the rows below the rule for `interim_ledger`), or (seeds, None) below two
+    seeds: which rows to top up while the run is under way."""
     seeds, ledger = interim_ledger(preset, seeds, store)
     if ledger is None:
         return seeds, None
@@ -349,19 +311,12 @@ def interim_check(preset: Preset, seeds: int | None = None, store=None
 # --------------------------------------------------------------------------- stages
 def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
                budget_hours: float | None = None) -> dict[str, Any]:
-    """The stage rule applied to a ledger computed with the preset's `seed_stages`
-    (`claims_ledger`): which rows go on to the next stage and which stop.
+    """The stage rule on a ledger computed with the preset's `seed_stages`: a row goes on
+    when a claim that reads it has a `sequential["next"]` (undecided, with enough
+    conditional power) and, with `budget_hours`, fits the budget (`within_budget`).
 
-    A row goes on when a claim that reads it is undecided and its conditional power at the
-    observed effect, to cross the last boundary at its current level, is at least
-    `tables.continuation_power` (its entry's `sequential["next"]`, `tables.claims`); every
-    other row stops where it is (its claims all decided, or undecided with the reason in the
-    ledger's `look`). With `budget_hours` (`tables.stage_budget_hours`) the claims
-    that may go on are taken in order of what their next stage adds to the projected cost,
-    the cheapest first, while the run's whole projection stays within the budget
-    (`within_budget`); the others stop too. Returns {"continue": {(table, row): (next
-    seeds, [claim ids])}, "stop": {(table, row): [claim ids]}, "over_budget": {claim id:
-    the seeds its next stage would have given}}; rows no claim reads are in neither."""
+    Returns {"continue": {(table, row): (next seeds, [claim ids])}, "stop": {(table, row):
+    [claim ids]}, "over_budget": {claim id: next seeds}}."""
     by_id = {e.id: e for e in map(as_entry, ledger)}
     rows_of = claim_rows(preset)
     wanted = {claim_id: nxt for claim_id in rows_of
@@ -381,10 +336,7 @@ def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
 def _going_rows(runs: dict[tuple[str, str], frozenset[str]],
                 claims_going: dict[str, tuple[int, tuple]]
                 ) -> dict[tuple[str, str], tuple[int, list[str]]]:
-    """{row: (next seeds, [the claim ids that send it on])} for the claims that go on
-    ({claim id: (next seeds, its rows)}), with every row a claim reads (`runs`: each one's
-    `_first_runs`) that trains the same runs as a row that goes on (Table I's policies are
-    evaluated again for Tables III-VI)."""
+    """{row: (next seeds, [claim ids])} of the claims going on and the rows sharing runs."""
     go: dict[tuple[str, str], tuple[int, list[str]]] = {}
     for claim_id, (nxt, rows) in claims_going.items():
         for row in rows:
@@ -405,14 +357,10 @@ def within_budget(preset: Preset, wanted: dict[str, int], budget_hours: float,
                   rates: dict[str, Any] | None = None,
                   runs: dict[tuple[str, str], frozenset[str]] | None = None,
                   ) -> tuple[dict[str, int], dict[str, int]]:
-    """Split the claims that the stage rule would send on ({claim id: next seeds}) into
-    those that go on and those the budget stops: each claim's next stage is priced alone
-    (the cells and data sets its rows, and the rows that share their runs, add to the
-    preset's plan, at `plans_cost`'s rates), and the claims are taken cheapest first while
-    the plan with every claim taken so far stays within `budget_hours` (hours at two cells
-    at a time). The price is a projection from the committed benchmark rates, not from the
-    run's own CPU times, so that the same records give the same stages on any machine.
-    `runs` ({row: its `_first_runs`}) saves recomputing them when the caller has them."""
+    """Split `wanted` ({claim id: next seeds}) into (going on, stopped by the budget): claims
+    are taken cheapest next stage first while the plan stays within `budget_hours` (at two
+    cells at a time). Prices come from the committed benchmark rates, so the same records
+    give the same stages on any machine."""
     rows_of = claim_rows(preset)
     rates = rates or cell_rates()
     if runs is None:
@@ -453,11 +401,8 @@ def _first_runs(preset: Preset, table: str, row: str) -> frozenset[str]:
 
 
 def stage_counts(ledger: list[dict[str, Any]]) -> dict[str, Any]:
-    """What a ledger computed under the preset's stages decided at each look, counted:
-    {"claims", "decided" (in all), "decided_at" ({seeds a row: claims decided at that look}),
-    "going" (the ids of the undecided claims that go on to the next stage), "stopped"
-    (undecided claims that stop), "by_budget" (of them, those stopped at the budget),
-    "unlooked" (claims no look has read yet)}. Chapter 0 glues them into its prose."""
+    """What a staged ledger decided at each look: {"claims", "decided", "decided_at" ({seeds:
+    claims}), "going" (ids), "stopped", "by_budget", "unlooked"}."""
     seq = [(e.id, e.sequential) for e in map(as_entry, ledger)
            if getattr(e, "sequential", None)]
     unlooked = sum(1 for _, s in seq if not s["looks"])
@@ -473,13 +418,9 @@ def stage_counts(ledger: list[dict[str, Any]]) -> dict[str, Any]:
 # --------------------------------------------------------------------------- episodes
 def episode_design(preset: Preset, store=None, cost: dict[str, Any] | None = None
                    ) -> list[dict[str, Any]]:
-    """Per suite and class of claim (tokenizer pairs: both rows the same policy; policy
-    pairs; all pairs: the suite's count), the parts of the paired per-seed difference's variance from the stored records
-    (`stats.paired_variance_parts` over every success comparison of the ledger whose rows
-    are paired by scene set, their means) and the cost-optimal episodes per task
-    (`stats.episodes_per_seed`) at the CPU time a cell of the first row's kind took in the
-    run (`cost.json`: its training, and one more episode on every task it evaluates, its
-    evaluations' CPU time over the episodes per task it has now)."""
+    """Per suite and class of claim (tokenizer pairs, policy pairs, all pairs): the episode
+    and seed-by-row parts of the paired variance (`stats.paired_variance_parts`) and the
+    cost-optimal episodes per task at the run's CPU times (`cost.json`)."""
     store = store or ResultsStore(preset.name)
     cost = cost if cost is not None else read_json(
         Path(store.dir) / "cost.json", "a run's cost (cost.json)",

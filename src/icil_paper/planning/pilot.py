@@ -1,8 +1,6 @@
 """The pilots behind the reference preset, as the chapters read them: the task-scale pilot
-(`results/bench/pilot.json`: is each family and task informative?) and the regime pilot
-(`results/bench/regime.json`: demonstrations, training steps, episodes). The pilots
-themselves run from the repository's `tools/pilot.py` (`make pilot`, `make pilot
-PILOT_ARGS=regime`).
+(`results/bench/pilot.json`) and the regime pilot (`results/bench/regime.json`); they run
+from `tools/pilot.py` (`make pilot`).
 
     show_pilot("I")                       # chapters 06 and 07: one line per setting and row
     frame, sentence = regime_summary()    # chapter 06: the regime the pilot chose, and why
@@ -24,15 +22,12 @@ from icil_paper.tables.definitions import FAMILY_COLUMNS
 REGIME_RANGE = (0.1, 0.9)
 """Every family of ICRT + LipVQ-VAE at the chosen budget should lie in this range."""
 REGIME_MIN_FAMILIES = 5
-"""The budget is the learning curve's plateau, unless fewer than this many of ICRT +
-LipVQ-VAE's families lie within `REGIME_RANGE` there (the others at 0 or 1 cannot tell rows
-apart): then the largest budget below it where at least this many do (`regime_record`)."""
+"""The budget is the learning curve's plateau, unless fewer than this many families lie
+within `REGIME_RANGE` there: then the largest budget below it where this many do."""
 
 
 def informative(summary: list[dict[str, Any]]) -> dict[str, bool]:
-    """Column (family, or task where rows have no families) -> whether the setting's rows
-    can be told apart there: False where every row is at 0, or every row at 1 (the rule of
-    `icil_paper.tables.display.uninformative_columns`)."""
+    """Column (family, else task) -> False where every row is at 0, or every row at 1."""
     values: dict[str, list[float | None]] = {}
     for row in summary:
         for column, value in (row["families"] or row["tasks"]).items():
@@ -42,11 +37,8 @@ def informative(summary: list[dict[str, Any]]) -> dict[str, bool]:
 
 
 def pilot_frame(path: str | None = None, table: str = "I"):
-    """The stored pilot (`results/bench/pilot.json`) as a table: one line per setting and
-    row (its demonstrations per task and training steps), its success per family (Table
-    II: per task) and on average; and, per setting, the columns that its rows cannot
-    separate (every row at 0, or every one at 1; `informative`).
-    Returns (frame, {setting: [uninformative columns]})."""
+    """The stored pilot as (frame: success per family or task and on average, one line per
+    setting and row; {setting: [uninformative columns]})."""
     import pandas as pd
 
     record = json.loads(open(path or bench_path("pilot")).read())
@@ -76,8 +68,7 @@ def pilot_frame(path: str | None = None, table: str = "I"):
 
 
 def show_pilot(table: str = "I", path: str | None = None) -> None:
-    """Chapters 06 and 07's view of the pilot: `pilot_frame` for `table`, then the columns
-    each setting cannot separate (every row at 0, or every one at 1)."""
+    """Display `pilot_frame` for `table`, then each setting's uninformative columns."""
     import pandas as pd
     from IPython.display import display
 
@@ -88,11 +79,8 @@ def show_pilot(table: str = "I", path: str | None = None) -> None:
 
 
 def regime_summary(path: str | None = None) -> tuple[Any, str]:
-    """The stored regime pilot (`results/bench/regime.json`) as (frame, sentence): one line
-    per row, its success per family at the chosen budget, and its learning curve; the
-    sentence says which budget was chosen, whether the learning curve of ICRT + LipVQ-VAE
-    reached a plateau, which of its families lie outside `REGIME_RANGE` and the capped share
-    of encoder rows per seed. (None, sentence) when there is no record."""
+    """The stored regime pilot as (frame: success per family and learning curve by row,
+    sentence: the budget chosen and why); (None, sentence) when there is no record."""
     import pandas as pd
 
     source = path or bench_path("regime")
@@ -161,22 +149,15 @@ def regime_summary(path: str | None = None) -> tuple[Any, str]:
 
 
 def recorded_episodes(path: str | None = None) -> dict[str, int]:
-    """{suite: episodes per task} at the cost-optimal counts `python -m tools.pilot episodes`
-    computed from the committed reference records (`results/bench/episodes.json`; every
-    pair of rows, rounded)."""
+    """{suite: cost-optimal episodes per task} of `results/bench/episodes.json`."""
     rows = json.loads(open(path or bench_path("episodes")).read())["rows"]
     return {r["suite"]: round(r["optimal_episodes"]) for r in rows if r["pairs"] == "all pairs"}
 
 
 def regime_episodes(path: str | None = None, cells: str | None = None) -> dict[str, Any]:
-    """Meta-World's cost-optimal episodes per task (`TablesConfig.episodes_per_task_by_suite`)
-    from the regime pilot's paired outcomes (`regime.json`: ICRT + LipVQ-VAE against each row
-    beside it, the rows of a seed on the same scenes) and the cost of Table I's ICRT cell
-    (`cells.json`, kind `icrt_lipvq`: its training at the chosen budget, one more episode on
-    every task). The paired variance splits into an episode part and a seed-by-row part
-    (`stats.paired_variance_parts`); where the pilot's seeds cannot tell the latter from 0,
-    the count is the one at which evaluation costs as much as training (the optimum if the
-    seed-by-row part were as large as the episode part there)."""
+    """Meta-World's cost-optimal episodes per task from the regime pilot's paired outcomes
+    (ICRT + LipVQ-VAE against each other row) and the cost of its cell (`cells.json`); where
+    the seed-by-row part is 0, the count at which evaluation costs as much as training."""
     record = json.loads(open(path or bench_path("regime")).read())
     tasks = record["tasks"]
 

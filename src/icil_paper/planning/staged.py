@@ -1,26 +1,17 @@
 """Seeds in stages, run: the seeds of every row at the stage a preset's run has reached.
 
-A preset with `tables.seed_stages` (the reference preset: 5, 10, 15) is not run at the seeds
-its rows list. Before its first cell the run registers its design in
-`results/<preset>/design.json` (`tables.design`: the stages, the families and their
-weights, the continuation rule, the episodes). Every row a claim reads starts at the first
-stage's seeds; once every cell of a stage is stored, the ledger looks (`claims_ledger`) and
-the stage rule (`design.stage_plan`) sends on the rows of the claims still undecided whose
-conditional power at the observed effect is high enough (`tables.continuation_power`),
-the cheapest first within the budget (`tables.stage_budget_hours`, `design.within_budget`;
-the claims it stops are the preset's `tables.stage_stops`). Each look is written to the
-record as it is taken, with the seeds every claimed row had, so that the seeds a row has are
-read from the record, not recomputed. Rows no claim reads (MCR; the analysis table's
-variants) keep the seeds the preset lists.
+A preset with `tables.seed_stages` (the reference preset: 5, 10, 15) registers its design in
+`results/<preset>/design.json` before its first cell. Every row a claim reads starts at the
+first stage's seeds; once every cell of a stage is stored, the ledger looks and the stage
+rule (`design.stage_plan`) sends rows on. Each look is written to the record as it is
+taken, so the seeds a row has are read from the record, not recomputed. Rows no claim reads
+keep the seeds the preset lists.
 
     preset, looks = staged_preset(get_preset("reference"))   # this sitting's seeds per row
     icil-paper reproduce --preset reference                   # runs the stages in turn
 
-A record labelled "older" belongs to records gathered under an earlier design: its looks
-are the run's, the preset is read at the design fields it records, and the run is over
-(the ledger from it is that design's, `tables.design.older_design`). The current design
-starts from a store without it. A record whose design differs from the preset's is refused:
-a design does not change in the middle of a run.
+A record labelled "older" holds an earlier design's looks: the preset is read at its
+fields and the run is over. A record whose design differs from the preset's is refused.
 """
 
 from __future__ import annotations
@@ -48,8 +39,7 @@ class Look:
     going_on: tuple[str, ...]
     """The rows ("TABLE:row") that go on to the next stage."""
     over_budget: tuple[str, ...] = ()
-    """The claims the stage rule would have sent on that the budget stopped
-    (`tables.stage_budget_hours`)."""
+    """The claims the stage rule would have sent on that the budget stopped."""
     rows: dict[str, int] = field(default_factory=dict, compare=False)
     """Every claimed row's seeds at the look ("TABLE:row" -> seeds)."""
     next_seeds: int | None = None
@@ -68,8 +58,7 @@ class Look:
 
 
 def at_stage(preset: Preset, k: int) -> Preset:
-    """`preset` with every row a claim reads at its `k`-th stage's seeds (0: the first,
-    -1: the last; the first is where a run starts, the last the most it can ask)."""
+    """`preset` with every row a claim reads at its `k`-th stage's seeds (-1: the last)."""
     seeds = preset.tables.seed_stages[k]
     return with_row_seeds(preset, {row: seeds for rows in claim_rows(preset).values()
                                    for row in rows})
@@ -81,8 +70,7 @@ def stage_done(preset: Preset, store: ResultsStore) -> bool:
 
 
 def _recorded(preset: Preset, store) -> tuple[dict[str, Any], Preset]:
-    """The store's design record (a new one where it has none) and the preset at the design
-    fields it records (those of an older design; the same as the preset's otherwise)."""
+    """The store's design record (a new one where it has none) and the preset at its fields."""
     record = read_record(store) if hasattr(store, "dir") else None
     fresh = new_record(preset)
     if record is None:
@@ -97,15 +85,9 @@ def _recorded(preset: Preset, store) -> tuple[dict[str, Any], Preset]:
 
 def staged_preset(preset: Preset, store: ResultsStore | None = None, write: bool = False
                   ) -> tuple[Preset, list[Look]]:
-    """The preset at the stage its run has reached, and the looks taken so far.
-
-    Without `seed_stages`, `preset` itself and no look. Otherwise the looks of the design
-    record, then, while every cell of the current stage is stored and no recorded look
-    covers it, a new look (the module docstring). With `write`, the record is registered
-    before the first cell and each new look is written to it (what `reproduce` does); the
-    book and the ledger read without writing. The returned preset is the one whose missing
-    cells the run computes now; when its cells are all stored and no row goes on, the run is
-    finished."""
+    """(the preset at the stage its run has reached, the looks so far): the recorded looks,
+    then a new look for each stage whose cells are all stored. With `write` (`reproduce`),
+    the record and each new look are written; the book reads without writing."""
     stages = preset.tables.seed_stages
     if not stages:
         return preset, []
@@ -144,18 +126,13 @@ def staged_preset(preset: Preset, store: ResultsStore | None = None, write: bool
 
 
 def _at(preset: Preset, seeds: dict[str, int], stops: tuple[str, ...]) -> Preset:
-    """`preset` with the rows of `seeds` ("TABLE:row" -> seeds) at those seeds and `stops`
-    as its `stage_stops`."""
+    """`preset` with the rows of `seeds` ("TABLE:row" -> seeds) and `stops` as `stage_stops`."""
     grown = with_row_seeds(preset, {tuple(row.split(":", 1)): n for row, n in seeds.items()})
     return replace(grown, tables=replace(grown.tables, stage_stops=stops))
 
 
 def as_run(preset: Preset, store: ResultsStore | None = None) -> Preset:
-    """The preset at the seeds its run has reached (`staged_preset`; a preset without seed
-    stages is itself): what the book, the ledger and the cost read. Remembered per preset
-    and results folder for the life of the process (a chapter asks several times; the
-    records it reads do not change while it runs); `reproduce`, whose records do change,
-    asks `staged_preset`."""
+    """The preset at the seeds its run has reached (`staged_preset`), cached per results folder."""
     if not preset.tables.seed_stages:
         return preset
     store = store or ResultsStore(preset.name)

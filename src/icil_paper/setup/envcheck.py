@@ -1,9 +1,7 @@
 """The reader's environment check: what `icil-paper env` and chapter 01 report.
 
 Each simulator check runs in a subprocess with a time limit, so that a crashing native
-library is reported as a failed check rather than taking the caller down with it.
-`vulkan_problem` is the probe behind `sim.rendering` (ManiSkill's Vulkan device) and
-`make setup`'s system check (`tools/system_deps.py`).
+library is a failed check rather than a crash of the caller.
 """
 
 from __future__ import annotations
@@ -138,8 +136,7 @@ def check_simulators() -> list[Check]:
 
 
 def environment_report(preset: str, simulators: bool = True) -> dict:
-    """Everything `icil-paper env` prints, as a dict; `preset` is the name of the preset in
-    force (the command line resolves it from --preset or $ICIL_PRESET)."""
+    """Everything `icil-paper env` prints, as a dict, for the preset named `preset`."""
     report = {
         "preset": preset,
         "host": host_info(),

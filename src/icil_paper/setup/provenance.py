@@ -20,8 +20,7 @@ REPO_ROOT = Path(__file__).resolve().parents[3]
 
 
 def package_versions(names: tuple[str, ...] = KEY_PACKAGES) -> dict[str, str | None]:
-    """Installed version of each package, or None where it is not installed (looked up once
-    per process: every record carries them, and a lookup parses the package's metadata)."""
+    """Installed version of each package, or None (looked up once per process)."""
     return dict(_package_versions(tuple(names)))
 
 
@@ -38,8 +37,7 @@ def _package_versions(names: tuple[str, ...]) -> dict[str, str | None]:
 
 @functools.lru_cache(maxsize=1)
 def git_state() -> dict[str, str | bool | None]:
-    """The commit of the checkout the library runs from, and whether it had local changes
-    to tracked files outside `results/` (records a run writes do not make its code dirty)."""
+    """The checkout's commit, and whether tracked files outside `results/` have changes."""
     def git(*args: str) -> str | None:
         try:
             out = subprocess.run(["git", "-C", str(REPO_ROOT), *args], capture_output=True,

@@ -12,9 +12,7 @@ The `.rrd` file is written offline (no viewer is spawned), on a `step` timeline:
     latents/<i>          the first `MAX_LATENT_SERIES` dims of a tokenizer's latents, if given
     camera/<i>           camera images, if given (or found as obs["rgb"])
 
-The static picture (matplotlib PNG) shows the same: action curves, the end-effector path from
-above and from the side, the latents, and a strip of camera frames. It is what a reader without
-the rerun viewer (or a book built offline) sees.
+The static picture (matplotlib PNG) shows the same, for a reader without the rerun viewer.
 """
 
 from __future__ import annotations
@@ -64,8 +62,8 @@ def _action_names(n: int) -> list[str]:
 
 
 @contextmanager
-def _rrd_stream(path: Path):
-    """A rerun recording stream saving to a temporary file that becomes `path` on success."""
+def _rrd_stream(path: Path, title: str = ""):
+    """A rerun stream, titled, saving to a temporary file that becomes `path` on success."""
     import rerun as rr
 
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
@@ -73,6 +71,8 @@ def _rrd_stream(path: Path):
     rec.save(str(tmp))
     finished = False
     try:
+        if title:
+            rec.log("episode", rr.TextDocument(title), static=True)
         yield rec
         rec.flush()
         finished = True
@@ -105,9 +105,7 @@ def _write_rrd(path: Path, obs: dict[str, np.ndarray], actions: np.ndarray,
                latents: np.ndarray | None, images: np.ndarray | None, title: str) -> None:
     import rerun as rr
 
-    with _rrd_stream(path) as rec:
-        if title:
-            rec.log("episode", rr.TextDocument(title), static=True)
+    with _rrd_stream(path, title) as rec:
         eef = obs.get("proprio")
         if eef is not None and eef.shape[-1] >= 3:
             rec.log("world/eef_path", rr.LineStrips3D([eef[:, :3]]), static=True)
@@ -181,18 +179,11 @@ def record_episode(path: str | Path, obs_seq: Mapping[str, Any] | Sequence[Mappi
                    ) -> dict[str, Path | None]:
     """Write a rerun recording of an episode to `path` (.rrd) and a PNG beside it.
 
-    Args:
-        path: the `.rrd` file; the picture goes to the same path with suffix `.png`.
-        obs_seq: observations, a dict of (T, ...) arrays or a list of T observation dicts.
-        actions: (T, A) actions.
-        latents: optional (T, D) latents (e.g. a tokenizer's embeddings of the actions).
-        images: optional (T, H, W, 3) or (T, n_cams, H, W, 3) uint8 frames (default: obs["rgb"]).
-        title: text shown with the recording.
-        rrd: False writes only the picture.
-        object_position: (start, stop) of an object position (3 entries) inside obs["object"],
-            e.g. (0, 3) for ManiSkill and (1, 4) for the kitchen suite; None draws no object.
-
-    Returns {"rrd": path or None (rerun unavailable or failed, with a warning), "png": path}.
+    `obs_seq`: a dict of (T, ...) arrays or a list of T observation dicts; `actions` (T, A);
+    `latents` (T, D); `images` (T, H, W, 3) or (T, n_cams, H, W, 3) uint8 (default
+    obs["rgb"]); `object_position`: (start, stop) of the object's position in obs["object"];
+    `rrd=False` writes only the picture. Returns {"rrd": path or None (failed, with a
+    warning), "png": path}.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -216,11 +207,7 @@ def record_episode(path: str | Path, obs_seq: Mapping[str, Any] | Sequence[Mappi
 
 
 def principal_view(z: Any, dims: int = 3) -> np.ndarray:
-    """The first `dims` principal components of a latent trajectory z (T, D): (T, dims).
-
-    Centred, projected on the right singular vectors, and zero-padded where D < dims, so
-    that trajectories of any latent width can be drawn in the same 2-D or 3-D view.
-    """
+    """The first `dims` principal components of z (T, D): (T, dims), zero-padded."""
     z = np.asarray(z, dtype=np.float64)
     if z.ndim != 2 or len(z) < 2:
         raise ValueError(f"z must be (T, D) with T >= 2, got shape {z.shape}")
@@ -238,20 +225,9 @@ def _unit_extent(view: np.ndarray) -> np.ndarray:
 
 def record_latent_trajectories(path: str | Path, actions: Any, views: Mapping[str, Any],
                                title: str = "", rrd: bool = True) -> dict[str, Path | None]:
-    """Write one action trajectory's path through several latent spaces: `.rrd` and `.png`.
-
-    Args:
-        path: the `.rrd` file; the picture goes to the same path with suffix `.png`.
-        actions: (T, A) the action trajectory the latents encode.
-        views: {label: (T, k)} each latent trajectory, e.g. `principal_view(z)` of a
-            tokenizer's embeddings (k = 2 or 3; 2 is drawn at height 0).
-        title: text shown with the recording.
-        rrd: False writes only the picture.
-
-    In the recording every label is a 3-D path (`latents/<label>/path`, static), rescaled to
-    unit extent and placed side by side along x, with a point that moves along it on the
-    `step` timeline, beside the action curves (`actions/<dim>`). The picture shows the same
-    paths in 2-D, coloured by time. Returns {"rrd": path or None, "png": path}.
+    """Write one action trajectory (T, A) through several latent spaces (`views`: {label:
+    (T, 2 or 3)}, e.g. `principal_view(z)`) as `.rrd` and `.png`: each path scaled to unit
+    extent, side by side, with a point moving along it. Returns {"rrd": path or None, "png"}.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -277,9 +253,7 @@ def _write_latent_rrd(path: Path, actions: np.ndarray, unit: Mapping[str, np.nda
     import rerun as rr
 
     offsets = {label: np.array([1.5 * i, 0.0, 0.0], np.float32) for i, label in enumerate(unit)}
-    with _rrd_stream(path) as rec:
-        if title:
-            rec.log("episode", rr.TextDocument(title), static=True)
+    with _rrd_stream(path, title) as rec:
         for label, view in unit.items():
             rec.log(f"latents/{label}/path", rr.LineStrips3D([view + offsets[label]],
                                                              labels=[label]), static=True)

@@ -4,9 +4,8 @@
     show_recording("results/small/chapter01/rollout.rrd")           # a notebook cell's last line
     show_recordings({"open_drawer": ("a.rrd", "a.png"), ...})       # one viewer, a menu
 
-Executed by `make book`, the cell stages the `.rrd` file and its static picture in the book's
-build folder (`RECORDINGS_STAGING`, named by content hash), and outputs an HTML block that
-the built page shows as:
+The cell stages the `.rrd` file and its picture in `RECORDINGS_STAGING` (named by content
+hash) and outputs an HTML block that the built page shows as:
 
     +--------------------------------------------------+
     | rerun web viewer (canvas), started by            |
@@ -18,9 +17,8 @@ the built page shows as:
     | download link to the .rrd, `rerun <file>` hint   |
     +--------------------------------------------------+
 
-The book's Sphinx extension (`book/_ext/book_assets.py`) copies the staged files into
-`_static/recordings/`, so the book is self-contained. The viewer is rerun 0.24, which reads
-rerun-sdk 0.23's recordings; `python -m tools.browser_check` checks that each one opens.
+The book's extension (`book/_ext/book_assets.py`) copies the staged files into
+`_static/recordings/`, so the book is self-contained.
 """
 
 from __future__ import annotations
@@ -37,8 +35,7 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 RECORDINGS_STAGING = Path("book") / "_build" / "recordings"
-"""Where executed chapters stage recordings, relative to the book's root (the folder of
-`_toc.yml`); the book's extension copies them to `_static/RECORDINGS_URL_DIR/`."""
+"""Where executed chapters stage recordings, relative to the book's root."""
 
 RECORDINGS_URL_DIR = "recordings"
 """The recordings' folder inside the built book's `_static/`."""
@@ -47,9 +44,7 @@ DEFAULT_HEIGHT = "520px"
 
 
 def book_root(start: str | Path | None = None) -> Path:
-    """The book's root: the nearest folder at or above `start` (default: the working
-    directory, which is the chapter's own folder while the book executes it) that holds
-    `_toc.yml` and `_config.yml`. Raises FileNotFoundError when there is none."""
+    """The nearest folder at or above `start` (default: cwd) with `_toc.yml` and `_config.yml`."""
     here = Path(start or Path.cwd()).resolve()
     for folder in (here, *here.parents):
         if (folder / "_toc.yml").is_file() and (folder / "_config.yml").is_file():
@@ -60,27 +55,16 @@ def book_root(start: str | Path | None = None) -> Path:
 
 @dataclass(frozen=True)
 class StagedRecording:
-    """One recording as the built book serves it.
-
-    Attributes:
-        label: what the reader sees it called.
-        rrd: file name of the staged `.rrd` under `_static/recordings/`, or None (picture only).
-        png: file name of the staged picture, or None.
-        rrd_bytes: size of the `.rrd` file, for the download link.
-    """
+    """One recording as the built book serves it."""
 
     label: str
+    """What the reader sees it called."""
     rrd: str | None
+    """File name of the staged `.rrd` under `_static/recordings/`, or None (picture only)."""
     png: str | None
+    """File name of the staged picture, or None."""
     rrd_bytes: int = 0
-
-
-def _digest(*paths: Path | None) -> str:
-    h = hashlib.sha256()
-    for path in paths:
-        if path is not None:
-            h.update(path.read_bytes())
-    return h.hexdigest()[:12]
+    """Size of the `.rrd` file, for the download link."""
 
 
 def _stage(label: str, rrd: str | Path | None, png: str | Path | None,
@@ -98,20 +82,17 @@ def _stage(label: str, rrd: str | Path | None, png: str | Path | None,
     if rrd is None and png is None:
         raise ValueError(f"recording {label!r}: neither an .rrd file nor a picture given")
     stem = (rrd or png).stem
-    digest = _digest(rrd, png)
+    content = b"".join(path.read_bytes() for path in (rrd, png) if path is not None)
+    digest = hashlib.sha256(content).hexdigest()[:12]
     staging.mkdir(parents=True, exist_ok=True)
-    names = {}
+    names: dict[str, str | None] = {"rrd": None, "png": None}
     for key, path in (("rrd", rrd), ("png", png)):
-        if path is None:
-            names[key] = None
-            continue
-        name = f"{stem}-{digest}{path.suffix.lower()}"
-        target = staging / name
-        if not target.exists():  # content-addressed: an existing file is the same bytes
-            tmp = staging / f".{name}.tmp"
-            shutil.copyfile(path, tmp)
-            os.replace(tmp, target)
-        names[key] = name
+        if path is not None:
+            names[key] = f"{stem}-{digest}{path.suffix.lower()}"
+            target, tmp = staging / names[key], staging / f".{names[key]}.tmp"
+            if not target.exists():  # content-addressed: an existing file is the same bytes
+                shutil.copyfile(path, tmp)
+                os.replace(tmp, target)
     return StagedRecording(label, names["rrd"], names["png"],
                            rrd.stat().st_size if rrd is not None else 0)
 
@@ -124,18 +105,14 @@ def _sdk_hint() -> str:
         return ""
 
 
+@dataclass
 class RecordingBlock:
-    """A notebook output: the HTML block for one or more recordings (see the module doc).
+    """A notebook output: the HTML block for one or more recordings (see the module doc)."""
 
-    `_repr_html_` is what the book renders; the plain repr names the files.
-    """
-
-    def __init__(self, recordings: Sequence[StagedRecording], staging: Path, page_prefix: str,
-                 height: str):
-        self.recordings = list(recordings)
-        self.staging = staging  # where the staged files are
-        self.page_prefix = page_prefix  # from the page to the book's root, e.g. "../"
-        self.height = height
+    recordings: list[StagedRecording]
+    staging: Path  # where the staged files are
+    page_prefix: str  # from the page to the book's root, e.g. "../"
+    height: str
 
     def _url(self, name: str) -> str:
         return f"{self.page_prefix}_static/{RECORDINGS_URL_DIR}/{name}"
@@ -195,16 +172,9 @@ def show_recordings(recordings: Mapping[str, str | Path | tuple] | Sequence[str 
                     ) -> RecordingBlock:
     """One embedded viewer for several recordings, with a menu to pick one.
 
-    Args:
-        recordings: {label: rrd path} or {label: (rrd path, png path)}, or a list of rrd
-            paths (labelled by file name). An rrd path may be None or a `.png` file (a
-            recording written without rerun): it is then shown as its picture only. The
-            picture defaults to the `.png` beside the `.rrd`.
-        height: CSS height of the viewer.
-        root: the book's root (default: found above the working directory).
-
-    Returns the block to display (a cell's last expression, or `display(...)`). Raises
-    FileNotFoundError for a missing file.
+    `recordings`: {label: rrd} or {label: (rrd, png)}, or a list of rrd paths; an rrd that
+    is None or a `.png` shows as its picture only, and the picture defaults to the `.png`
+    beside the `.rrd`. Returns the block to display; FileNotFoundError for a missing file.
     """
     if not isinstance(recordings, Mapping):
         recordings = {Path(p).stem: p for p in recordings}
@@ -222,16 +192,8 @@ def show_recordings(recordings: Mapping[str, str | Path | tuple] | Sequence[str 
 def show_recording(rrd: str | Path | None, png: str | Path | None = None,
                    label: str | None = None, height: str = DEFAULT_HEIGHT,
                    root: str | Path | None = None) -> RecordingBlock:
-    """One recording in an embedded rerun viewer, with its picture and a download link.
-
-    Args:
-        rrd: the `.rrd` file (as `record_episode` wrote it); None or a `.png` path shows
-            the picture only.
-        png: its static picture (default: the `.png` beside the `.rrd`).
-        label: the name shown with it (default: the file's stem).
-        height: CSS height of the viewer.
-        root: the book's root (default: found above the working directory).
-    """
+    """One recording in an embedded rerun viewer, with its picture (default: the `.png`
+    beside `rrd`) and a download link; `label` defaults to the file's stem."""
     path = rrd if rrd is not None else png
     if path is None:
         raise ValueError("show_recording needs an .rrd file or a picture")
