@@ -74,20 +74,17 @@ def _env(argv: list[str]) -> int:
 def split_plugins(argv: list[str]) -> tuple[list[str], list[str]]:
     """(argv without them, the values of every `--plugin X` / `--plugin=X`)."""
     rest, specs = [], []
-    i = 0
-    while i < len(argv):
-        arg = argv[i]
+    args = iter(argv)
+    for arg in args:
         if arg == "--plugin":
-            if i + 1 >= len(argv) or argv[i + 1].startswith("--"):
+            value = next(args, None)
+            if value is None or value.startswith("--"):
                 raise ValueError("--plugin needs a module name or a .py file path")
-            specs.append(argv[i + 1])
-            i += 2
-            continue
-        if arg.startswith("--plugin="):
+            specs.append(value)
+        elif arg.startswith("--plugin="):
             specs.append(arg.split("=", 1)[1])
         else:
             rest.append(arg)
-        i += 1
     return rest, specs
 
 

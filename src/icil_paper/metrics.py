@@ -27,18 +27,25 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 
+def _as_signal(x, width: int | None, name: str) -> np.ndarray | None:
+    """(T, width) (or (T, D) from (T,)) float64 array, or None where it holds non-finite values."""
+    if hasattr(x, "detach"):
+        x = x.detach().cpu().numpy()
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 1 and width is None:
+        x = x[:, None]
+    if x.ndim != 2 or (width is not None and x.shape[1] != width):
+        shape = f"(T, {width})" if width is not None else "(T, D) or (T,)"
+        raise ValueError(f"{name} must be shaped {shape}, got {x.shape}")
+    return x if np.isfinite(x).all() else None
+
+
 def _as_curve(z) -> np.ndarray:
-    """(T, D) or (T,) array/tensor -> float64 array (T, D); ValueError for other shapes/NaN."""
-    if hasattr(z, "detach"):
-        z = z.detach().cpu().numpy()
-    z = np.asarray(z, dtype=np.float64)
-    if z.ndim == 1:
-        z = z[:, None]
-    if z.ndim != 2:
-        raise ValueError(f"a latent trajectory must be shaped (T, D) or (T,), got {z.shape}")
-    if not np.isfinite(z).all():
+    """A latent trajectory (T, D) or (T,) -> float64 (T, D); ValueError for NaN or inf."""
+    curve = _as_signal(z, None, "a latent trajectory")
+    if curve is None:
         raise ValueError("the latent trajectory contains NaN or inf values")
-    return z
+    return curve
 
 
 def least_energy(z) -> float:
@@ -183,19 +190,6 @@ SPARC_CUTOFF_HZ = 10.0
 """SPARC's largest cut-off frequency (Hz)."""
 SPARC_AMPLITUDE_THRESHOLD = 0.05
 """SPARC's adaptive cut-off: the highest frequency whose normalised magnitude reaches this."""
-
-
-def _as_signal(x, width: int | None, name: str) -> np.ndarray | None:
-    """(T, width) float64 array, or None where it holds non-finite values."""
-    if hasattr(x, "detach"):
-        x = x.detach().cpu().numpy()
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim == 1 and width is None:
-        x = x[:, None]
-    if x.ndim != 2 or (width is not None and x.shape[1] != width):
-        shape = f"(T, {width})" if width is not None else "(T, A) or (T,)"
-        raise ValueError(f"{name} must be shaped {shape}, got {x.shape}")
-    return x if np.isfinite(x).all() else None
 
 
 def _check_dt(dt: float) -> float:

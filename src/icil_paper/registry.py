@@ -42,9 +42,8 @@ REGISTRIES: dict[str, ComponentRegistry] = {}
 
 
 class ComponentRegistry(Mapping[str, type]):
-    """Components of one kind by name: `configs`, name -> config class, filled by a decorator
-    on each config class (LeRobot's `register_subclass`), and name -> model class (this
-    mapping), filled by a decorator on each model class.
+    """Components of one kind by name: `configs` (name -> config class) and this mapping (name
+    -> model class), each filled by a decorator.
 
         TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig)
         register_tokenizer = TOKENIZER_REGISTRY.register
