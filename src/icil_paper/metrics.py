@@ -1,13 +1,9 @@
 """Smoothness scores of latent trajectories and of executed motion, codebook statistics and
 empirical Lipschitz constants.
 
-Latents (Table III): `least_energy(z)` is the paper's score, the energy of the discrete
-second difference of a latent trajectory z (T, D) (Horn 1983),
-
-    least_energy(z) = sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2
-
-It grows with the square of the latent scale; `standardized_least_energies(set)` divides by
-sigma^2, the set's pooled latent variance, a score comparable across tokenizers.
+Latents (Table III): `least_energy(z) = sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2`, the paper's
+score for a latent trajectory z (T, D) (Horn 1983); `standardized_least_energies(set)` divides
+it by the set's pooled latent variance, a score comparable across tokenizers.
 
 Motion (what a rollout does), `motion_smoothness(path, actions, dt)`:
 - `log_dimensionless_jerk` (LDLJ; Hogan and Sternad 2009) of the end-effector path;

@@ -64,10 +64,7 @@ class Plugin:
 
     def record(self) -> dict[str, Any]:
         """The plugin as a stored record names it (JSON)."""
-        return {"spec": self.spec, "source": self.source, "module": self.module,
-                "names": {k: list(v) for k, v in self.names.items()}, "path": self.path,
-                "sha256": self.sha256, "distribution": self.distribution,
-                "version": self.version}
+        return dataclasses.asdict(self) | {"names": {k: list(v) for k, v in self.names.items()}}
 
 
 _LOADED: dict[str, Plugin] = {}

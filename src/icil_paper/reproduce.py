@@ -63,9 +63,8 @@ TOGETHER: list[list[str]] = []
 
 
 def table_blocks(names: list[str]) -> list[list[str]]:
-    """The table ids of the stage names `names` (in order), in blocks of table stages that
-    follow one another: ["table-icrt", "lipschitz", "table-I", "table-V"] -> [["icrt"],
-    ["I", "V"]]."""
+    """The table ids of `names` in blocks of consecutive table stages:
+    ["table-icrt", "lipschitz", "table-I", "table-V"] -> [["icrt"], ["I", "V"]]."""
     blocks: list[list[str]] = []
     after_table = False
     for name in names:
@@ -78,7 +77,7 @@ def table_blocks(names: list[str]) -> list[list[str]]:
     return blocks
 
 
-def _table_stage(table_id: str):
+def _table(table_id: str) -> Stage:
     def stage(preset: Preset, store: ResultsStore, force: bool) -> None:
         if force:
             raise ValueError("--force does not apply to the table stages: delete the records "
@@ -94,18 +93,14 @@ def _table_stage(table_id: str):
                        f"{len(looks[-1].going_on)} rows go on")
             current = after
     stage.__doc__ = f"Compute every missing cell of table {table_id}."
-    return stage
+    _, what, chapter = next(t for t in TABLE_STAGES if t[0] == table_id)
+    return Stage(f"table-{table_id}", f"{what} (chapter {chapter})", stage)
 
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
     """Write results/<preset>/claims.json from the tables' records (at the seeds a staged
     preset's rows have reached)."""
     write_ledger(staged_preset(preset, store)[0], store)
-
-
-def _table(table_id: str) -> Stage:
-    _, what, chapter = next(t for t in TABLE_STAGES if t[0] == table_id)
-    return Stage(f"table-{table_id}", f"{what} (chapter {chapter})", _table_stage(table_id))
 
 
 STAGES: tuple[Stage, ...] = (
