@@ -61,8 +61,7 @@ class _Checked:
 
 
 def task_demo_counts(entries: Sequence[str]) -> dict[str, int]:
-    """{task: demonstrations} from `TASK:N` entries (`DataConfig.task_demos`); ConfigError
-    for a malformed entry or a repeated task."""
+    """{task: demonstrations} from `TASK:N` entries; ConfigError for a bad or repeated one."""
     counts: dict[str, int] = {}
     for entry in entries:
         task, sep, n = str(entry).rpartition(":")
@@ -88,8 +87,7 @@ class DataConfig(_Checked):
     sources: tuple[str, ...] = ("generated", "human")
     """Demonstration sources: `generated` (our MimicGen stand-in) and `human` (teleoperation-like)."""
     robocasa_tasks: tuple[str, ...] = ROBOCASA_TASKS
-    """Tasks of the paper's RoboCasa tables (I, III, IV, VI, Fig. 5): Meta-World stand-ins
-    (`icil_paper.sim.metaworld.tasks`); all from one suite."""
+    """Tasks of the paper's RoboCasa tables (I, III, IV, VI, Fig. 5): Meta-World stand-ins."""
     zero_shot_tasks: tuple[str, ...] = ML45_TRAIN
     """Table VII's training tasks: Meta-World's ML45 training split (45 tasks)."""
     zero_shot_held_out: tuple[str, ...] = ML45_HELD_OUT
@@ -334,8 +332,7 @@ class TablesConfig(_Checked):
     scenes_per_seed: bool = False
     """True: training seed k of every row is evaluated on its own scene set k; False: one set."""
     seed_stages: tuple[int, ...] = ()
-    """Seeds a row has at each look of the group-sequential design (`stats.SequentialDesign`),
-    e.g. (5, 10, 15); empty: a fixed design."""
+    """Seeds a row has at each look of the sequential design, e.g. (5, 10, 15); empty: fixed."""
     stage_budget_hours: float | None = None
     """The most a run in stages may cost, in hours (`planning.design.plan_cost`); None: no budget."""
     stage_stops: tuple[str, ...] = ()
@@ -482,8 +479,7 @@ def _policies(**sizes: Any) -> PolicyConfigs:
 
 def _tokenizers(latent_dim: int, codebook_size: int, **per_tokenizer: dict[str, Any]
                 ) -> TokenizerConfigs:
-    """Every tokenizer at the same embedding width and codebook size; `per_tokenizer` adds
-    a tokenizer's own values by registry name."""
+    """Every tokenizer at one width and codebook size, plus each one's own values by name."""
     return TokenizerConfigs.build(dict(latent_dim=latent_dim, codebook_size=codebook_size),
                                   per_tokenizer)
 

@@ -101,12 +101,6 @@ def standardized_least_energies(trajectories) -> tuple[np.ndarray, float]:
     return np.array([least_energy(c) / sigma**2 for c in curves]), sigma
 
 
-SMOOTHNESS_SCORES: dict[str, Callable] = {
-    "least_energy": least_energy,
-}
-"""Smoothness scores defined on one trajectory alone."""
-
-
 def smoothness_summary(trajectories) -> dict[str, float]:
     """Mean `least_energy` and `least_energy_standardized` of a set of latent trajectories,
     and its `latent_scale` (sigma)."""

@@ -119,8 +119,7 @@ def _types(value: Any) -> Iterable[str]:
 
 # --------------------------------------------------------------------------- loading
 def load_plugins(specs: Sequence[str]) -> list[Plugin]:
-    """Load the entry-point plugins, then each module or file of `specs`, checked; return
-    the plugins of `specs`."""
+    """Load the entry-point plugins, then each module or file of `specs`; return the latter."""
     discover()
     return [load_plugin(spec) for spec in specs]
 

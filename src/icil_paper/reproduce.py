@@ -98,8 +98,7 @@ def _table(table_id: str) -> Stage:
 
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
-    """Write results/<preset>/claims.json from the tables' records (at the seeds a staged
-    preset's rows have reached)."""
+    """Write results/<preset>/claims.json from the tables' records."""
     write_ledger(staged_preset(preset, store)[0], store)
 
 

@@ -260,8 +260,7 @@ RECORD_FIX = ("move it out of the results folder (the command that needs it comp
 
 
 def read_record_file(path: str | Path) -> dict[str, Any]:
-    """The JSON object of a record file (UnreadableFileError for a damaged one), for commands
-    that report on records without setting them aside."""
+    """The JSON object of a record file (UnreadableFileError for a damaged one)."""
     return read_json(path, "a result record (a JSON object)", RECORD_FIX, fields=FIELD_TYPES)
 
 
@@ -301,8 +300,7 @@ def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,
 
 
 def _non_finite(value: Any, where: str = "") -> tuple[str, float] | None:
-    """(location like `per_task[3]['success']`, value) of the first NaN or infinite number
-    in nested dicts/lists, or None."""
+    """(location like `per_task[3]['success']`, value) of the first NaN or inf, or None."""
     if hasattr(value, "tolist") and not isinstance(value, numbers.Number):
         value = value.tolist()  # numpy arrays, torch tensors
     if isinstance(value, Mapping):
