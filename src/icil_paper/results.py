@@ -114,17 +114,7 @@ class ResultsStore:
     def get(self, kind: str, name: str, config: Mapping[str, Any]) -> dict[str, Any] | None:
         """The valid record of this run, or None (a corrupt one is reported and set aside)."""
         chash = config_hash(config)
-        path = self.path_for(kind, name, chash)
-        try:
-            record, problem, identity = _read_record(path)
-        except FileNotFoundError:  # never written, or set aside by another process meanwhile
-            return None
-        if problem is None and record["config_hash"] != chash:
-            problem = f"config hash {record['config_hash']} does not match {chash}"
-        if problem is not None:
-            self._set_aside(path, problem, identity)
-            return None
-        return record
+        return self._read(self.path_for(kind, name, chash), chash)
 
     def write(self, kind: str, name: str, config: Mapping[str, Any], metrics: Mapping[str, Any],
               seed: int, wall_time_s: float, extra: Mapping[str, Any] | None = None,
@@ -191,17 +181,8 @@ class ResultsStore:
     def records(self, kind: str | None = None) -> list[dict[str, Any]]:
         """Every valid record (of one kind, if given); corrupt ones are reported and skipped."""
         pattern = f"{_slug(kind)}/*.json" if kind else "*/*.json"
-        records = []
-        for path in sorted(self.dir.glob(pattern)):
-            try:
-                record, problem, identity = _read_record(path)
-            except FileNotFoundError:  # set aside by another process since the listing
-                continue
-            if problem is not None:
-                self._set_aside(path, problem, identity)
-                continue
-            records.append(record)
-        return records
+        records = (self._read(path) for path in sorted(self.dir.glob(pattern)))
+        return [record for record in records if record is not None]
 
     def table(self, kind: str | None = None):
         """The records as a pandas DataFrame: one row per run, metrics as columns."""
@@ -215,6 +196,20 @@ class ResultsStore:
             row.update({k: v for k, v in r["metrics"].items() if not isinstance(v, (dict, list))})
             rows.append(row)
         return pd.DataFrame(rows)
+
+    def _read(self, path: Path, chash: str | None = None) -> dict[str, Any] | None:
+        """The valid record in `path` (of config hash `chash`), or None: missing (never
+        written, or set aside by another process meanwhile), or corrupt and set aside."""
+        try:
+            record, problem, identity = _read_record(path)
+        except FileNotFoundError:
+            return None
+        if problem is None and chash is not None and record["config_hash"] != chash:
+            problem = f"config hash {record['config_hash']} does not match {chash}"
+        if problem is not None:
+            self._set_aside(path, problem, identity)
+            return None
+        return record
 
     def _set_aside(self, path: Path, problem: str, identity: tuple[int, int] | None) -> None:
         """Move the corrupt file read as `identity` (device, inode) aside, unless another
@@ -230,12 +225,12 @@ class ResultsStore:
         except OSError as exc:  # a read-only store (`icil-paper tables` on a mount)
             warnings.warn(f"corrupt result {path}: {problem}; it is skipped (it could not be "
                           f"moved aside: {exc.strerror or exc})", CorruptRecordWarning,
-                          stacklevel=3)
+                          stacklevel=4)
             return
         if aside is None:  # lost the race to another process
             return
         warnings.warn(f"corrupt result {path}: {problem}; moved to {aside.name} and it will "
-                      "be recomputed", CorruptRecordWarning, stacklevel=3)
+                      "be recomputed", CorruptRecordWarning, stacklevel=4)
 
 
 def files_problem(record: Mapping[str, Any], folder: str | Path) -> str | None:
