@@ -176,7 +176,7 @@ class UnreadableFileError(ValueError):
 READ_ERRORS: tuple[type[BaseException], ...] = (
     OSError, EOFError, ValueError, RuntimeError, KeyError, IndexError, TypeError,
     AttributeError, pickle.UnpicklingError, zipfile.BadZipFile)
-"""What parsers raise on a bad file (a truncated torch file alone raises any of the first three)."""
+"""What parsers raise on a bad file (a truncated torch file: RuntimeError, EOFError, OSError)."""
 
 
 def _detail(exc: BaseException) -> str:
