@@ -20,8 +20,7 @@ from icil_paper.config import PRESET_NAMES, active_preset_name, get_preset
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
-"""What a command reports in one line (exit 2) instead of a traceback (ValueError covers the
-library's own errors, whose messages name the problem)."""
+"""What a command reports in one line (exit 2) instead of a traceback."""
 
 
 class RayUnavailable(RuntimeError):

@@ -102,8 +102,7 @@ def standardized_least_energies(trajectories) -> tuple[np.ndarray, float]:
 
 
 def smoothness_summary(trajectories) -> dict[str, float]:
-    """Mean `least_energy` and `least_energy_standardized` of a set of latent trajectories,
-    and its `latent_scale` (sigma)."""
+    """Mean `least_energy`, `least_energy_standardized` and the `latent_scale` of a set."""
     curves = _curve_set(trajectories)
     scores, sigma = standardized_least_energies(curves)
     raw = [least_energy(z) for z in curves]
@@ -258,8 +257,7 @@ def action_second_difference(actions) -> float:
 
 
 def motion_smoothness(path, actions, dt: float) -> dict[str, float]:  # keys: MOTION_MEASURES
-    """One rollout's `ldlj` and `sparc` of its end-effector path (T + 1, 3) and `action_jerk`
-    of its executed actions (T, A)."""
+    """One rollout's `ldlj`, `sparc` (of its path (T + 1, 3)) and `action_jerk` (actions (T, A))."""
     return {"ldlj": log_dimensionless_jerk(path, dt),
             "sparc": sparc(speed_profile(path, dt), dt),
             "action_jerk": action_second_difference(actions)}
