@@ -9,7 +9,6 @@ import pytest
 import torch
 
 from icil_paper.metrics import (
-    SMOOTHNESS_SCORES,
     codebook_usage,
     empirical_lipschitz,
     least_energy,
@@ -116,7 +115,6 @@ def test_smoothness_summary_reports_raw_standardized_and_scale():
                        "least_energy_standardized": pytest.approx(scores.mean()),
                        "latent_scale": pytest.approx(sigma)}
     assert smoothness_summary(iter(walks)) == summary  # a one-pass iterable is enough
-    assert set(SMOOTHNESS_SCORES) == {"least_energy"}  # per-trajectory scores only
 
 
 def test_smoothness_scores_bad_input():

@@ -82,7 +82,7 @@ BAD = {
 @pytest.fixture
 def clean_plugins():
     """Leave the registries, the loaded plugins and the imported modules as they were."""
-    regs = {kind: plugins.registry(kind) for kind in plugins.REGISTRIES}
+    regs = {kind: plugins.REGISTRIES[kind] for kind in plugins.REGISTRIES}
     saved = {kind: (dict(r.configs), dict(r.models)) for kind, r in regs.items()}
     discovered = set(plugins._DISCOVERED)
     loaded, modules = dict(plugins._LOADED), set(sys.modules)
@@ -103,7 +103,7 @@ def clean_plugins():
 def _forget_plugins() -> None:
     """This process as one that never loaded a plugin (`clean_plugins` restores it)."""
     for kind in plugins.REGISTRIES:
-        reg = plugins.registry(kind)
+        reg = plugins.REGISTRIES[kind]
         reg.forget([n for n in list(reg.configs) if plugins.owner(kind, n)])
     plugins._LOADED.clear()
 
@@ -119,7 +119,7 @@ def test_a_bad_plugin_stops_every_command_with_one_line_before_writing(
     else:
         spec = str(tmp_path / "plugin.py")
         Path(spec).write_text(textwrap.dedent(source))
-    before = {kind: list(plugins.registry(kind).configs) for kind in plugins.REGISTRIES}
+    before = {kind: list(plugins.REGISTRIES[kind].configs) for kind in plugins.REGISTRIES}
     for command in (["train", "--preset", "smoke", "--tasks", TASK, "--set", "train.steps=1"],
                     ["compare", "--preset", "smoke", "--tokenizer", "vq"]):
         code = cli.main([command[0], "--plugin", spec, *command[1:]])
@@ -128,7 +128,7 @@ def test_a_bad_plugin_stops_every_command_with_one_line_before_writing(
         assert len(err.strip().splitlines()) == 1 and message in err, err
         assert "Traceback" not in err
     assert not any(p.exists() for p in folders.values())  # nothing written
-    after = {kind: list(plugins.registry(kind).configs) for kind in plugins.REGISTRIES}
+    after = {kind: list(plugins.REGISTRIES[kind].configs) for kind in plugins.REGISTRIES}
     assert after == before  # a refused plugin leaves nothing registered
 
 

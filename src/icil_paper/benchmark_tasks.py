@@ -1,11 +1,5 @@
 """The task lists the paper's tables run on, as names only (no simulator is imported), so that
-the presets (`icil_paper.config`) can name them without loading a suite.
-
-- `SKILL_FAMILIES`: RoboCasa's seven skill families, in the column order of its tables.
-- `ROBOCASA_FAMILIES`: family -> the Meta-World tasks standing in for it (why each: the
-  docstring of `icil_paper.sim.metaworld.tasks`, whose task table tests check against this).
-- `ROBOCASA_TASKS`: those 13 tasks in family order (`DataConfig.robocasa_tasks`).
-- `ML45_TRAIN`, `ML45_HELD_OUT`: Meta-World's ML45 split, the zero-shot table's.
+the presets can name them without loading a suite.
 """
 
 from __future__ import annotations

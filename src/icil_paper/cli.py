@@ -1,15 +1,8 @@
 """`icil-paper`: the command line of the companion.
 
 Each subcommand is a module-level `main(argv)` imported only when its command runs
-(`command_main`), so that `--help` loads neither torch nor a simulator and one broken part
-of the library does not take the others down. Every command that takes
-a preset also takes `--seed` and `--set SECTION.FIELD=VALUE` (repeatable), typed and
-checked against the config dataclasses (`icil_paper.commands`, which every command's
-module builds its parser from: this module sits on top and no other imports it).
-
-A user error (an unknown name, a bad value, a missing or damaged file) ends the command
-with one line naming the problem and the fix, and exit status 2; `--debug` (anywhere on the
-command line) shows the traceback instead. Other exceptions are bugs and show theirs.
+(`command_main`), so that `--help` loads neither torch nor a simulator. A user error ends the
+command with one line and exit status 2 (`commands.run_module`); `--debug` shows the traceback.
 """
 
 from __future__ import annotations
@@ -18,17 +11,16 @@ import argparse
 import json
 import sys
 from collections.abc import Callable
+from functools import partial
 
 from icil_paper import commands
-from icil_paper.commands import Parser, RayUnavailable
+from icil_paper.commands import Parser, RayUnavailable, run_module
 from icil_paper.config import PRESET_NAMES, REFERENCE_BUDGET_HOURS, active_preset_name
 from icil_paper.plugins import load_plugins
 from icil_paper.setup.envcheck import environment_report, format_report
 
 USER_ERRORS: tuple[type[BaseException], ...] = (*commands.USER_ERRORS, RayUnavailable)
-"""What a command reports in one line (exit 2) instead of a traceback: the commands' own
-(`commands.USER_ERRORS`) and RayUnavailable, which says why Ray could not be imported,
-started or reached."""
+"""What a command reports in one line (exit 2) instead of a traceback."""
 
 SUBCOMMANDS = {
     "demos": "generate demonstration data sets (robomimic HDF5)",
@@ -69,7 +61,7 @@ def command_main(command: str) -> Callable[[list[str]], int | None]:
 
 def _env(argv: list[str]) -> int:
     parser = Parser(prog="icil-paper env",
-                                     description="Report packages, hardware, simulators and the preset.")
+                    description="Report packages, hardware, simulators and the preset.")
     parser.add_argument("--preset", choices=PRESET_NAMES, help="preset to report as active")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
     parser.add_argument("--no-sim", action="store_true", help="skip the simulator checks")
@@ -82,20 +74,17 @@ def _env(argv: list[str]) -> int:
 def split_plugins(argv: list[str]) -> tuple[list[str], list[str]]:
     """(argv without them, the values of every `--plugin X` / `--plugin=X`)."""
     rest, specs = [], []
-    i = 0
-    while i < len(argv):
-        arg = argv[i]
+    args = iter(argv)
+    for arg in args:
         if arg == "--plugin":
-            if i + 1 >= len(argv) or argv[i + 1].startswith("--"):
+            value = next(args, None)
+            if value is None or value.startswith("--"):
                 raise ValueError("--plugin needs a module name or a .py file path")
-            specs.append(argv[i + 1])
-            i += 2
-            continue
-        if arg.startswith("--plugin="):
+            specs.append(value)
+        elif arg.startswith("--plugin="):
             specs.append(arg.split("=", 1)[1])
         else:
             rest.append(arg)
-        i += 1
     return rest, specs
 
 
@@ -105,8 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Companion to 'Action Tokenizer Matters in In-Context Imitation Learning'. "
                     "Presets: smoke (seconds), small (CI, 2 CPU cores), reference (the "
                     f"committed run, seeds in stages within {REFERENCE_BUDGET_HOURS:g} hours on "
-                    "2 cores), full (the "
-                    "paper's scale).",
+                    "2 cores), full (the paper's scale).",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.add_parser("env", help="report packages, hardware, simulators and the active preset",
@@ -121,34 +109,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _dispatch(command: str, argv: list[str]) -> int | None:
+    argv, plugin_specs = split_plugins(argv)
+    if plugin_specs or command in SUBCOMMANDS:
+        load_plugins(plugin_specs)  # entry points too: a bad plugin stops here, before work
+    if command == "env":
+        return _env(argv)
+    if command not in SUBCOMMANDS:
+        build_parser().error(f"unknown command {command!r}; valid commands: env, "
+                             + ", ".join(SUBCOMMANDS))
+    return command_main(command)(argv)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in argv
-    argv = [a for a in argv if a != "--debug"]
-    parser = build_parser()
-    if not argv or argv[0] in ("-h", "--help"):
-        parser.print_help()
+    args = [a for a in argv if a != "--debug"]
+    if not args or args[0] in ("-h", "--help"):
+        build_parser().print_help()
         return 0
-    command, rest = argv[0], argv[1:]
+    command, rest = args[0], args[1:]
+    if "--debug" in argv:
+        rest.append("--debug")  # run_module reads it
     try:
-        rest, plugin_specs = split_plugins(rest)
-        if plugin_specs or command in SUBCOMMANDS:
-            load_plugins(plugin_specs)  # entry points too: a bad plugin stops here, before work
-        if command == "env":
-            return _env(rest)
-        if command not in SUBCOMMANDS:
-            parser.error(f"unknown command {command!r}; valid commands: env, "
-                         + ", ".join(SUBCOMMANDS))
-        return int(command_main(command)(rest) or 0)
-    except USER_ERRORS as exc:
-        if debug:
-            raise
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        print(f"icil-paper {command}: error: {message} (--debug shows the traceback)",
-              file=sys.stderr)
-        return 2
-    except BrokenPipeError:  # output piped into `head` and the like
-        return 0
+        return run_module(f"icil-paper {command}", partial(_dispatch, command), rest,
+                          USER_ERRORS)
     except KeyboardInterrupt:
         print(f"icil-paper {command}: interrupted; rerun the same command to resume",
               file=sys.stderr)

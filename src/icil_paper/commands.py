@@ -5,14 +5,9 @@
     add_preset_arguments(parser)                 # --preset, --seed, --set SECTION.FIELD=VALUE
     preset = preset_from_args(parser.parse_args(argv))
 
-Each command is a module with a `main(argv)` (`train/cli.py`, `eval/cli.py`, `reproduce.py`,
-...) that builds its parser from these; `icil_paper.cli` (the `icil-paper` entry point, on
-top of everything) dispatches to them by name, and `run_module` gives a module run as
-`python -m ...` the same one-line errors.
-
-A user error (an unknown name, a bad value, a missing or damaged file) ends the command
-with one line naming the problem and the fix, and exit status 2; `--debug` (anywhere on the
-command line) shows the traceback instead. Other exceptions are bugs and show theirs.
+Each command is a module with a `main(argv)` that builds its parser from these; `run_module`
+runs one with the command line's errors: a user error is one line naming the problem and the
+fix, exit status 2 (`--debug` shows the traceback); other exceptions are bugs and show theirs.
 """
 
 from __future__ import annotations
@@ -25,12 +20,7 @@ from icil_paper.config import PRESET_NAMES, active_preset_name, get_preset
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
-"""What a command reports in one line (exit 2) instead of a traceback. ValueError covers
-UnknownNameError, OverrideError, ConfigError, DatasetError, RunFolderError,
-UnreadableFileError (PolicyFileError among them), TokenizerFolderError, PluginError and
-json.JSONDecodeError, whose messages name the problem; PermissionError covers
-FolderNotWritableError (an output folder refused before any work). `icil_paper.cli` adds
-RayUnavailable (below), for the commands that run table cells."""
+"""What a command reports in one line (exit 2) instead of a traceback."""
 
 
 class RayUnavailable(RuntimeError):
@@ -56,10 +46,7 @@ def add_preset_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def preset_from_args(args: argparse.Namespace) -> Any:
-    """The preset named by --preset (or $ICIL_PRESET), with --seed and every --set applied;
-    every config checks its values as it is built (its `__post_init__`), so before any
-    work. (A command that runs the preset's task lists checks them:
-    `data.generate.check_tasks`.)"""
+    """The preset named by --preset (or $ICIL_PRESET), with --seed and every --set applied."""
     if args.seed is not None and args.seed < 0:
         raise ValueError(f"--seed must be a non-negative integer, got {args.seed}")
     preset = get_preset(active_preset_name(args.preset), seed=args.seed)
@@ -67,8 +54,7 @@ def preset_from_args(args: argparse.Namespace) -> Any:
 
 
 def add_executor_arguments(parser: argparse.ArgumentParser) -> None:
-    """--executor, --workers, --ray-address and --gpus-per-cell, shared by every command that
-    runs table cells (`reproduce`, `compare`); `check_executor_arguments` checks them."""
+    """--executor, --workers, --ray-address and --gpus-per-cell, for commands that run cells."""
     parser.add_argument("--executor", choices=("local", "ray", "serial"), default="local",
                         help="how the cells run: a local process pool (default), a Ray "
                              "cluster, or one after the other in this process")
@@ -111,9 +97,8 @@ def positive(name: str):
 
 def run_module(prog: str, command: Any, argv: list[str] | None = None,
                user_errors: tuple[type[BaseException], ...] = USER_ERRORS) -> int:
-    """`command(argv)` (a module's `main`, run as `python -m ...`) with the errors of the
-    command line: a user error (one of `user_errors`) is one line naming the problem and
-    the fix and exit status 2 (`--debug` shows the traceback), as for `icil-paper` itself."""
+    """`command(argv)` with the command line's errors: one of `user_errors` is one line and
+    exit status 2 (`--debug` in argv shows the traceback)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     try:
@@ -124,5 +109,5 @@ def run_module(prog: str, command: Any, argv: list[str] | None = None,
         message = " ".join(str(exc).split()) or type(exc).__name__
         print(f"{prog}: error: {message} (--debug shows the traceback)", file=sys.stderr)
         return 2
-    except BrokenPipeError:
+    except BrokenPipeError:  # output piped into `head` and the like
         return 0

@@ -1,20 +1,15 @@
 """Experiment configuration: dataclasses with a docstring under every field, and the presets.
 
-A preset is one frozen object holding every knob: the data, one config per tokenizer
-(`icil_paper.tokenizers.configs`), one per policy (`icil_paper.policies.configs`), the
-training loop, evaluation, the stand-alone tokenizer studies and the tables. The tokenizer
-and policy sections have one field per registered component (`ComponentConfigs`), filled
-from the preset's shared sizes (`_tokenizers`, `_policies`).
+A preset is one frozen object holding every knob: data, one config per registered tokenizer
+and policy (`ComponentConfigs`), training, evaluation, tokenizer studies and tables.
 
 - `smoke`: seconds; what the test suite runs.
-- `small`: what CI's `make reproduce` runs on 2 CPU cores (at most 30 minutes in all).
-- `reference`: numbers worth reading, within 5 hours on 2 CPU cores.
+- `small`: what CI's `make reproduce` runs on 2 CPU cores.
+- `reference`: numbers worth reading, on 2 CPU cores.
 - `full`:  the paper's scale (500K / 30K iterations, 50 rollouts per task), for GPUs.
 
-The preset is chosen by `--preset` on the CLI or the `ICIL_PRESET` environment variable
-(default `small`). `get_preset("nope")` raises an UnknownNameError listing the valid names.
-Any field can be changed with `preset.with_overrides(["train.steps=3"])` (the CLI's
-`--set train.steps=3`), typed and checked against these dataclasses.
+Choose one with `get_preset(name)` (or `--preset`, `$ICIL_PRESET`; default `small`) and change
+any field with `preset.with_overrides(["train.steps=3"])` (the CLI's `--set`).
 """
 
 from __future__ import annotations
@@ -66,8 +61,7 @@ class _Checked:
 
 
 def task_demo_counts(entries: Sequence[str]) -> dict[str, int]:
-    """{task: demonstrations} from `TASK:N` entries (`DataConfig.task_demos`); ConfigError
-    naming the entry where one is not of that form, N is below 1 or a task is repeated."""
+    """{task: demonstrations} from `TASK:N` entries; ConfigError for a bad or repeated one."""
     counts: dict[str, int] = {}
     for entry in entries:
         task, sep, n = str(entry).rpartition(":")
@@ -89,16 +83,11 @@ class DataConfig(_Checked):
     demos_per_task: int = 20
     """Successful demonstrations kept per task and source."""
     task_demos: tuple[str, ...] = field(default=(), metadata=KEYED_WHEN_SET)
-    """Exceptions to `demos_per_task`, each `TASK:N` (`kitchen/open_drawer:10`): N
-    demonstrations of that task (`task_demo_counts`; the reference preset's are
-    `REGIME_TASK_DEMOS`)."""
+    """Exceptions to `demos_per_task`, each `TASK:N` (`kitchen/open_drawer:10`)."""
     sources: tuple[str, ...] = ("generated", "human")
     """Demonstration sources: `generated` (our MimicGen stand-in) and `human` (teleoperation-like)."""
     robocasa_tasks: tuple[str, ...] = ROBOCASA_TASKS
-    """Tasks of the paper's RoboCasa tables (I, III, IV, VI, Fig. 5 and the tables that reuse
-    Table I's policies): Meta-World tasks standing in for RoboCasa's seven skill families
-    (`icil_paper.sim.metaworld.tasks`: which task stands for which family, and why). Any one
-    suite's tasks work (every task of a policy's data must share its observation widths)."""
+    """Tasks of the paper's RoboCasa tables (I, III, IV, VI, Fig. 5): Meta-World stand-ins."""
     zero_shot_tasks: tuple[str, ...] = ML45_TRAIN
     """Table VII's training tasks: Meta-World's ML45 training split (45 tasks)."""
     zero_shot_held_out: tuple[str, ...] = ML45_HELD_OUT
@@ -114,12 +103,9 @@ class DataConfig(_Checked):
     workers: int = field(default=2, metadata=NOT_KEYED)
     """Processes that generate demonstrations in parallel (the demos do not depend on it)."""
     root: str | None = field(default=None, metadata=NOT_KEYED)
-    """Folder of the data sets (None: `data/` in the repository). `get_preset` fills it from
-    $ICIL_DATA when that is set; a library user passes it here (or `--set data.root=...`)."""
+    """Folder of the data sets (None: `data/` in the repository; `get_preset` reads $ICIL_DATA)."""
     expert_seeds: int = 50
-    """Random scenes per task on which the `experts` stage measures every expert (success,
-    open-loop replay, human-source keep rate); 0 skips it, and chapter 04 then reports the
-    experts' success over the scenes the data sets were generated on."""
+    """Random scenes per task on which the `experts` stage measures every expert; 0 skips it."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -135,12 +121,7 @@ class DataConfig(_Checked):
 class ComponentConfigs(Mapping[str, Any]):
     """One config per registered component, by attribute name (`lip-mlp` is `lip_mlp`):
     `preset.tokenizers.lipvq`, `preset.tokenizers.get("lip-mlp")`, `dict(preset.tokenizers)`.
-
-    Immutable, as the dataclasses around it; `replace(vq=...)` gives a changed copy. The
-    names are the registry's (`REGISTRY`) when the section is built: a component registered
-    by its decorator has its entry here (its defaults, or the preset's shared sizes) and its
-    `--set tokenizers.<name>.<field>=...` paths, with nothing else to edit.
-    """
+    Immutable; `replace(vq=...)` gives a changed copy."""
 
     REGISTRY: ClassVar[ComponentRegistry]
 
@@ -156,18 +137,15 @@ class ComponentConfigs(Mapping[str, Any]):
 
     @classmethod
     def registered(cls) -> dict[str, type]:
-        """attribute name -> config class of every component registered now (entry-point
-        plugins included: `plugins.discover`)."""
+        """attribute name -> config class of every component registered now (plugins included)."""
         plugins.discover()
         return {name.replace("-", "_"): config for name, config in cls.REGISTRY.configs.items()}
 
     @classmethod
     def build(cls, shared: Mapping[str, Any],
               per_component: Mapping[str, Mapping[str, Any]] = types.MappingProxyType({})):
-        """The section with every registered component's config built from preset values:
-        each value of `shared` goes to every config class that has a field of that name,
-        then `per_component[name]` to the component `name` and to those whose config
-        class derives from its (`fsq`'s values reach `lipfsq`)."""
+        """The section built from preset values: `shared` goes to every config with a field
+        of that name, `per_component[name]` to `name` and its subclasses (`fsq` -> `lipfsq`)."""
         configs = cls.REGISTRY.configs
         unknown = sorted(set(per_component) - set(configs))
         if unknown:
@@ -199,8 +177,7 @@ class ComponentConfigs(Mapping[str, Any]):
                 for attr, config in cls.registered().items()}
 
     def get(self, name: str):  # noqa: D102 (a registry name, not Mapping.get's default)
-        """The config of component `name` (`lip-mlp` or `lip_mlp`; UnknownNameError listing
-        the valid names)."""
+        """The config of component `name` (`lip-mlp` or `lip_mlp`)."""
         names = {n: n.replace("-", "_") for n in self.REGISTRY.configs
                  if n.replace("-", "_") in self._configs}
         if name in self._configs:
@@ -242,15 +219,13 @@ class ComponentConfigs(Mapping[str, Any]):
 
 
 class TokenizerConfigs(ComponentConfigs):
-    """One config per registered action tokenizer (Sec. III-B and after), by registry name
-    (`lip-mlp` is `lip_mlp`): `icil_paper.tokenizers.configs.TOKENIZER_REGISTRY`."""
+    """One config per registered action tokenizer (Sec. III-B), by registry name."""
 
     REGISTRY = TOKENIZER_REGISTRY
 
 
 class PolicyConfigs(ComponentConfigs):
-    """One config per registered policy, by registry name:
-    `icil_paper.policies.configs.POLICY_REGISTRY`."""
+    """One config per registered policy, by registry name."""
 
     REGISTRY = POLICY_REGISTRY
 
@@ -276,14 +251,11 @@ class TrainConfig(_Checked):
     ema_decay: float | None = None
     """Decay of an exponential moving average of weights, or None for no EMA."""
     ckpt_every: int = field(default=500, metadata=NOT_KEYED)
-    """Steps between checkpoints (a killed run loses at most this many; resuming gives the
-    same result as an uninterrupted run, so it does not enter run keys)."""
+    """Steps between checkpoints (a killed run loses at most this many)."""
     log_every: int = field(default=10, metadata=NOT_KEYED)
     """Steps between lines of the metrics JSONL file."""
     cpu_threads: int = field(default=1, metadata=NOT_KEYED)
-    """torch CPU threads while training on CPU; 0 keeps torch's default. One, because the
-    small models here gain little from more, and torch's spinning thread pool slows down
-    many times on a CPU shared with other processes."""
+    """torch CPU threads while training on CPU; 0 keeps torch's default."""
 
 
 @dataclass(frozen=True)
@@ -307,16 +279,11 @@ CLAIM_IDS = (
     "V-lipvq-vs-bc", "V-lipvq-vs-bin", "V-lipvq-smoother-motion", "VI-mlp-vs-bc",
     "VI-lipvq-best", "VII-lipvq-vs-bc", "VII-lipvq-best", "beyond-eq4-fsq", "beyond-eq4-rvq",
     "III-smoother-latents-smoother-motion")
-"""Every claim of the ledger by id, in its order (each is declared with its comparison in
-`icil_paper.paper`; `tests/test_design.py` checks that the two lists agree): what a design's
-`primary_claims` may name."""
+"""Every claim of the ledger by id, in its order (declared in `icil_paper.paper`)."""
 
 PRIMARY_CLAIMS = ("I-lipvq-vs-bc", "II-lipvq-vs-act", "III-lipvq-smoothest", "IV-vq",
                   "V-lipvq-vs-bc", "V-lipvq-smoother-motion")
-"""The primary family, declared before the data it is tested on: the claims that carry the
-paper's three questions as its abstract and conclusion state them (Q1: outperforms the
-baselines; Q2: smoother latents and Eq. 4 improve success; Q3: the real robot confirms it).
-Every other testable claim is secondary."""
+"""The primary family: the claims that carry the paper's three questions; the rest are secondary."""
 
 FAMILY_WEIGHTS = (0.8, 0.2)
 """Shares of the familywise 5% given to the primary and the secondary family."""
@@ -327,108 +294,57 @@ CONTINUATION_POWER = 0.1
 
 @dataclass(frozen=True)
 class TablesConfig(_Checked):
-    """The paper's tables and figures (`icil_paper.paper`): seeds, sweeps and sizes, and the
-    design the claims ledger is read under (`primary_claims` .. `episodes_per_task_by_suite`:
-    `icil_paper.tables.design`)."""
+    """The paper's tables and figures: seeds, sweeps, sizes and the claims ledger's design."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"primary_claims": CLAIM_IDS}
 
     icrt_seeds: int = 1
-    """Training seeds of every ICRT row of Table I (and so of Tables III, IV, V and VI,
-    which share its cells)."""
+    """Training seeds of every ICRT row of Table I (and of Tables III-VI, which share them)."""
     baseline_seeds: int = 1
-    """Training seeds of Table I's other rows (MCR, ACT, BC-Transformer; shared with Tables
-    V and VI). A comparison that reads a one-seed row is never decided (`icil_paper.stats`)."""
+    """Training seeds of Table I's other rows (MCR, ACT, BC-Transformer)."""
     codebook_sizes: tuple[int, ...] = (256, 512, 1024, 2048)
     """Fig. 5: the LipVQ-VAE codebook sizes swept (the paper: 2^8 .. 2^11)."""
     image_demos_per_task: int = 10
-    """Demonstrations per task of MCR's image data sets (rendering costs about ten times a
-    state step on CPU)."""
+    """Demonstrations per task of MCR's image data sets."""
     image_episodes_per_task: int = 10
     """Rollouts per task of MCR's image evaluations."""
     image_max_steps: int | None = None
     """Step limit of MCR's image rollouts; None: the evaluation's (`eval.max_steps`)."""
     feature_demos_per_task: int = 2
-    """Table III (and the codebook use beside Tables I, IV and Fig. 5): held-out generated
-    demonstrations per task (after the training ones) whose actions the trained policies'
-    tokenizers embed; a task's later ones are read only where its first ones are shorter
-    than its share of `feature_steps`."""
+    """Table III: held-out generated demonstrations per task whose actions the tokenizers embed."""
     feature_steps: int = 500
-    """Table III: latent features scored (the paper: 500), an equal share
-    `feature_steps // len(data.robocasa_tasks)` from every task's held-out trajectories (38
-    each for the 13 Meta-World tasks); the remainder of the division is not scored, nor is the
-    shortfall of a task whose held-out trajectories are shorter than its share
-    (`icil_paper.eval.features`)."""
+    """Table III: latent features scored (the paper: 500), an equal share from every task."""
     prompt_steps: int = 10
     """Prompt ablation: steps kept of the truncated prompt."""
     maniskill_demos_per_task: int | None = None
-    """Table II: demonstrations per ManiSkill task of its state-based rows (one policy per
-    task, as ManiSkill's baselines); None: `data.demos_per_task`."""
+    """Table II: demonstrations per ManiSkill task; None: `data.demos_per_task`."""
     maniskill_steps: int | None = None
     """Table II: optimizer steps of its state-based rows; None: `train.steps`."""
     maniskill_episodes_per_task: int | None = None
     """Table II: rollouts per task of its state-based rows; None: `eval.episodes_per_task`."""
     since_paper_seeds: int | None = None
-    """Training seeds of every row of the `beyond` table (tokenizers since the paper); its
-    VQ-VAE and LipVQ-VAE rows share their first `icrt_seeds` policies with Table I's.
-    None: `icrt_seeds`."""
+    """Training seeds of every row of the `beyond` table; None: `icrt_seeds`."""
     official_seeds: int | None = None
-    """Training seeds of every row of the `official` table (the paper against its official
-    code); its paper rows share their first `icrt_seeds` policies with Table I's.
-    None: `icrt_seeds`."""
+    """Training seeds of every row of the `official` table; None: `icrt_seeds`."""
     row_seeds: tuple[str, ...] = ()
     """Training seeds of single rows, as "TABLE:row=N" ("I:icrt+lipvq=10"; "TABLE:*=N" for
-    every row of a table that no entry names). A row not named keeps its table's default:
-    `icrt_seeds` or `baseline_seeds` (Table I, and so the tables that share its runs: III,
-    IV, V, VI and the prompt ablation), `since_paper_seeds` (`beyond`), `official_seeds`
-    (`official`), `icrt_seeds` (`analysis`), one seed (Tables II and VII, Fig. 5, whose rows
-    are named by codebook size: "fig5:256=5"). A row that shares Table I's runs (the VQ-VAE
-    and LipVQ-VAE rows of `beyond` and `analysis`, the paper's rows of `official`) has at
-    least Table I's seeds. `icil_paper.paper.check_row_seeds` refuses a name
-    that no table has."""
+    every row no entry names); other rows keep their table's default."""
     scenes_per_seed: bool = False
-    """Evaluation design: True gives training seed k of every row its own scene set k
-    (evaluation seed `seed` + k), so that scene luck averages out over seeds and two rows
-    are paired by seed index; False evaluates every seed on the same scenes
-    (`icil_paper.stats` explains both)."""
+    """True: training seed k of every row is evaluated on its own scene set k; False: one set."""
     seed_stages: tuple[int, ...] = ()
-    """Seeds in stages: the seeds a row has at each look of the group-sequential design
-    (`stats.SequentialDesign`, O'Brien-Fleming-type alpha spending), e.g. (5, 10, 15): the
-    ledger decides a claim only at a look's boundary, the graph over the family
-    (`primary_claims`) reads the design's repeated p-values, and after each look the rows of
-    claims that are all decided stop, rows of undecided claims go on by the continuation
-    rule (`continuation_power`), and the others stop (`python -m icil_paper.planning.design
-    --stages` prints which). Empty: a fixed design, every claim read once at the seeds it
-    has."""
+    """Seeds a row has at each look of the sequential design, e.g. (5, 10, 15); empty: fixed."""
     stage_budget_hours: float | None = None
-    """The most a run in stages may cost, in hours at two cells at a time as
-    `planning.design.plan_cost` projects them from the committed benchmark rates: after a
-    look, the claims that may go on are taken in order of what their next stage adds, the
-    cheapest first, while the whole run stays within it; the others stop where they are
-    (`stage_stops`). None: no budget, every claim the stage rule sends on goes on."""
+    """The most a run in stages may cost, in hours (`planning.design.plan_cost`); None: no budget."""
     stage_stops: tuple[str, ...] = ()
-    """Claims that the budget stopped at a look although a later stage could decide them:
-    their rows stay at the seeds they have, and the ledger says so. Set by
-    `planning.staged.staged_preset` from the run's records, not by hand."""
+    """Claims the budget stopped at a look (set by `planning.staged.staged_preset`)."""
     primary_claims: tuple[str, ...] = PRIMARY_CLAIMS
-    """The primary family of the claims ledger, by claim id (`PRIMARY_CLAIMS` says why
-    these): it shares `family_weights[0]` of the familywise 5% equally, every other testable
-    claim `family_weights[1]`, and a claim's share passes to the others when it is decided
-    (weighted Holm's graph, `stats.graph_test`). Descriptive claims (the rank correlations)
-    are in neither. Empty: one family, Holm's procedure over every testable claim."""
+    """The primary family of the claims ledger, by claim id; empty: one family (Holm)."""
     family_weights: tuple[float, ...] = FAMILY_WEIGHTS
     """(primary, secondary): the shares of the familywise level, summing to 1."""
     continuation_power: float = CONTINUATION_POWER
-    """Seeds in stages: after a look, the rows of a claim still undecided go on to the next
-    stage while its conditional power at the observed effect, to cross the last look's
-    boundary at the claim's current level, is at least this
-    (`stats.SequentialDesign.conditional_power`; non-binding, so the level holds whatever
-    stops), within `stage_budget_hours`. 0: every undecided claim's rows go on."""
+    """An undecided claim's rows go on while its conditional power is at least this."""
     episodes_per_task_by_suite: tuple[str, ...] = ()
-    """Rollouts per task of the state-based evaluations on a suite, as "SUITE=N"
-    ("kitchen=10"), where they differ from `eval.episodes_per_task` (and Table II's
-    `maniskill_episodes_per_task`): the cost-optimal count from the split of each claim's
-    paired variance into its seed and episode parts (`planning.design.episode_design`)."""
+    """Rollouts per task of state-based evaluations by suite, as "SUITE=N" ("kitchen=10")."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -451,8 +367,7 @@ class TablesConfig(_Checked):
                               "should be a probability below 1, e.g. 0.1")
 
     def episodes_by_suite(self) -> dict[str, int]:
-        """`episodes_per_task_by_suite` as {suite: episodes} (ConfigError for an entry not
-        "SUITE=N" with N >= 1)."""
+        """`episodes_per_task_by_suite` as {suite: episodes}."""
         out = {}
         for entry in self.episodes_per_task_by_suite:
             suite, sep, number = entry.partition("=")
@@ -463,13 +378,11 @@ class TablesConfig(_Checked):
         return out
 
     def episodes_for(self, task: str, default: int) -> int:
-        """Rollouts per task of a state-based evaluation on `task` ("kitchen/open_door"):
-        its suite's `episodes_per_task_by_suite`, else `default`."""
+        """Rollouts per task of a state-based evaluation on `task`, else `default`."""
         return self.episodes_by_suite().get(task.split("/", 1)[0], default)
 
     def seeds_by_row(self) -> dict[str, int]:
-        """`row_seeds` as {"TABLE:row": seeds} (ConfigError for an entry not "TABLE:row=N"
-        with N >= 1)."""
+        """`row_seeds` as {"TABLE:row": seeds}."""
         out = {}
         for entry in self.row_seeds:
             name, sep, number = entry.rpartition("=")
@@ -487,8 +400,7 @@ class Preset(_Checked):
     name: str = DEFAULT_PRESET
     """Preset name: smoke, small, reference or full."""
     seed: int = 0
-    """Seed of the data (demonstrations are generated from it) and default training and
-    evaluation seed; `seed_everything` is called with it by every entry point."""
+    """Seed of the data and default training and evaluation seed."""
     data: DataConfig = field(default_factory=DataConfig)
     """Demonstration data."""
     tokenizers: TokenizerConfigs = field(default_factory=TokenizerConfigs)
@@ -524,11 +436,8 @@ class Preset(_Checked):
 
 
 def schedule_sum(warmup: int, steps: int) -> float:
-    """sum_t schedule(t) over `steps` steps of the trainer's learning-rate schedule (linear
-    warm-up over `warmup` steps, then a half-cycle cosine to 0: `train.optim.
-    cosine_schedule`), in closed form: the warm-up's factors (t + 1) / w sum to (w + 1) / 2,
-    and the n = steps - w cosine factors 0.5 (1 + cos(pi j / n)) to (n + 1) / 2, since
-    sum_{j<n} cos(pi j / n) = 1."""
+    """sum_t schedule(t) over `steps` steps of the trainer's schedule (linear warm-up, then a
+    half-cycle cosine: `train.optim.cosine_schedule`), in closed form."""
     if steps <= 0:
         return 0.0
     if warmup >= steps:
@@ -537,54 +446,40 @@ def schedule_sum(warmup: int, steps: int) -> float:
 
 
 def bound_travel(train: TrainConfig, c_lr_scale: float = 1.0) -> float:
-    """The farthest a Lipschitz bound c_l can move in a training run: Adam moves a parameter
-    by about its learning rate per step whatever its gradient, so lr * c_lr_scale times the
-    schedule's sum (`schedule_sum`). Chapter 03 derives it."""
+    """The farthest Adam can move a Lipschitz bound c_l in a run: lr * c_lr_scale *
+    `schedule_sum` (chapter 03)."""
     return train.lr * c_lr_scale * schedule_sum(train.warmup_steps, train.steps)
 
 
 PAPER_TRAIN = TrainConfig(steps=paper_numbers.ITERATIONS["kitchen"], warmup_steps=2000)
-"""The paper's RoboCasa training as the `full` preset runs it: 500K iterations
-(`paper_numbers.ITERATIONS`) at the trainer's learning rate, 2000 warm-up steps."""
+"""The paper's RoboCasa training: 500K iterations, 2000 warm-up steps."""
 PAPER_MANISKILL_TRAIN = TrainConfig(steps=paper_numbers.ITERATIONS["maniskill"], warmup_steps=2000)
-"""The paper's ManiSkill training: 30K iterations (`paper_numbers.ITERATIONS`)."""
+"""The paper's ManiSkill training: 30K iterations."""
 
 
 def matching_c_lr_scale(train: TrainConfig, paper: TrainConfig = PAPER_TRAIN) -> float:
-    """The learning-rate multiple of the bounds (`LipschitzOptions.c_lr_scale`) at which
-    they can travel in `train` as far as the trainer's shared rate lets them in the paper's
-    `paper` run: bound_travel(paper) / bound_travel(train). The bounds start at the same
-    size in every preset (the initial largest row sum of encoders of the same hidden
-    widths), so the same travel is the same travel relative to their initial size."""
+    """The `LipschitzOptions.c_lr_scale` at which the bounds travel as far in `train` as in
+    the paper's run: bound_travel(paper) / bound_travel(train)."""
     return bound_travel(paper) / bound_travel(train)
 
 
 def _lipschitz_twins(train: TrainConfig, c_lr_scale: float | None = None
                      ) -> dict[str, dict[str, Any]]:
-    """The Lipschitz tokenizers' options in the presets: nn.Linear's initialisation with c at
-    the initial largest row sum, so that each starts as exactly its plain twin (`mlp`, `vq`,
-    `fsq`, `rvq`) built from the same seed and differs from it only by Eq. 4 (Liu et al.'s
-    initialisation is an analysis row); and bounds that can travel as far as in the paper's
-    500K iterations (`matching_c_lr_scale`, unless `c_lr_scale` is given)."""
+    """The Lipschitz tokenizers' options: nn.Linear's initialisation, so each starts as its
+    plain twin, and bounds that travel as far as in the paper (`matching_c_lr_scale`)."""
     scale = matching_c_lr_scale(train) if c_lr_scale is None else c_lr_scale
     options = LipschitzOptions(weight_init="linear", c_lr_scale=round(scale, 3))
     return {name: {"lipschitz": options} for name in ("lip-mlp", "lipvq", "lipfsq", "liprvq")}
 
 
 def _policies(**sizes: Any) -> PolicyConfigs:
-    """Every policy at the same transformer size (the paper scales ACT to BC-Transformer):
-    each size goes to every policy config with a field of that name (`chunk_size` to ICRT,
-    ACT and MCR, `history` to BC-Transformer, `pretrain_steps` to MCR)."""
+    """Every policy at the same transformer size (each size to the configs that have it)."""
     return PolicyConfigs.build(sizes)
 
 
 def _tokenizers(latent_dim: int, codebook_size: int, **per_tokenizer: dict[str, Any]
                 ) -> TokenizerConfigs:
-    """Every tokenizer at the same embedding width and, where it has one, the same codebook
-    size; `per_tokenizer` adds a tokenizer's own values by registry name (they reach its
-    subclasses: `fsq`'s reach `lipfsq`). FSQ's levels multiply to about `codebook_size`
-    (FSQ's recommended levels); residual VQ's Q levels of K codes have K^Q = `codebook_size`
-    combinations."""
+    """Every tokenizer at one width and codebook size, plus each one's own values by name."""
     return TokenizerConfigs.build(dict(latent_dim=latent_dim, codebook_size=codebook_size),
                                   per_tokenizer)
 
@@ -624,10 +519,7 @@ def _small_tokenizers(train: TrainConfig) -> TokenizerConfigs:
 
 
 def _small() -> Preset:
-    # CI computes every table within minutes: short training, one episode per task
-    # (the numbers exercise the code; the reference preset's are worth reading). ICRT
-    # trains on whole episodes (about 1.4x the cost of a step on 32-step windows), so
-    # the steps are fewer than the 300 of the window training.
+    # CI computes every table within minutes: short training, one episode per task.
     train = TrainConfig(steps=200, batch_size=8, warmup_steps=30, ckpt_every=100)
     return Preset(
         name="small",
@@ -639,8 +531,6 @@ def _small() -> Preset:
         train=train,
         eval=EvalConfig(episodes_per_task=1, max_steps=150, workers=2),
         tokenizer_study=TokenizerStudyConfig(steps=400, n_trajectories=64, n_eval_trajectories=16),
-        # the design's fields: the primary family and its share, the continuation rule;
-        # one episode a task (CI's minutes), not the reference's cost-optimal counts
         tables=TablesConfig(icrt_seeds=1, codebook_sizes=(64, 128, 256, 512),
                             image_demos_per_task=2, image_episodes_per_task=1,
                             image_max_steps=40, feature_demos_per_task=1,
@@ -657,46 +547,31 @@ REFERENCE_ROW_SEEDS = (
     "fig5:*=5",
     "analysis:*=3",  # no claim reads them; chapter 11's own comparisons
 )
-"""The reference preset's seeds of single rows (`TablesConfig.row_seeds`); every Table I row
-but MCR has the preset's 10 (`icrt_seeds`, `baseline_seeds`), as have the rows that share
-their runs (Tables III-VI, the paper's rows of `official` and `beyond`)."""
+"""The reference preset's seeds of single rows (`TablesConfig.row_seeds`)."""
 
 
 REFERENCE_SEED_STAGES = (5, 10, 15)
-"""The reference preset's looks (`TablesConfig.seed_stages`): 5 seeds a row, then up to 10,
-then up to 15, with O'Brien-Fleming-type spending (`stats.SequentialDesign`)."""
+"""The reference preset's looks (`TablesConfig.seed_stages`)."""
 
 
 REFERENCE_BUDGET_HOURS = 12.0
-"""The reference run's budget (`TablesConfig.stage_budget_hours`): twelve hours of the 2-core
-machine at two cells at a time, as `planning.design.plan_cost` projects them from the
-committed benchmark rates; after the first look only the claims whose next stage is cheapest
-go on."""
+"""The reference run's budget in hours (`TablesConfig.stage_budget_hours`)."""
 
 REFERENCE_SEED = 5000
-"""The reference run's base seed: its training seeds, demonstration sets and scene sets are
-those of REFERENCE_SEED + k (`seeding.data_set_seed`), none of which the earlier runs (base 0,
-seed indices 0-14) or the pilots (base 0, indices 20-22) drew, so nothing seen so far selects
-the outcome."""
+"""The reference run's base seed, disjoint from the seeds earlier runs and pilots drew."""
 
 REFERENCE_EPISODES = ("kinova=7", "maniskill=56", "metaworld=20")
-"""The reference preset's rollouts per task by suite (`TablesConfig.episodes_per_task_by_suite`),
-at cost-optimal counts: Meta-World's from the regime pilot's paired outcomes
-(`planning.pilot.regime_episodes`), ManiSkill's from the committed records of the earlier
-run (`planning.pilot.recorded_episodes`), the Kinova stand-in's from that run's kitchen rows."""
+"""The reference preset's cost-optimal rollouts per task by suite."""
 
 
 REGIME_DEMOS, REGIME_STEPS = 50, 500
-"""The reference preset's demonstrations per task and training steps, as the regime pilot
-chose them (`tools/pilot.py`, `results/bench/regime.json`, chapter 06)."""
+"""The reference preset's demonstrations per task and training steps (the regime pilot's)."""
 REGIME_TASK_DEMOS: tuple[str, ...] = ()
 """The reference preset's tasks with demonstration counts of their own (`data.task_demos`)."""
 
 
 def _reference() -> Preset:
-    """The committed reference run: the paper's RoboCasa tables on Meta-World, Table II on
-    ManiSkill and Table V on the Kinova stand-in. Its sizes are the regime pilot's choice
-    (`results/bench/regime.json`, `make pilot PILOT_ARGS=regime`; chapter 06 shows it)."""
+    """The committed reference run (sizes from the regime pilot)."""
     small = _small()
     train = TrainConfig(steps=REGIME_STEPS, batch_size=8, warmup_steps=100, ckpt_every=500)
     return dataclasses.replace(
@@ -738,8 +613,7 @@ def _full() -> Preset:
         eval=EvalConfig(episodes_per_task=50, workers=16),
         tokenizer_study=TokenizerStudyConfig(steps=20000, n_trajectories=2000,
                                              n_eval_trajectories=200),
-        # The paper's protocol: 50 rollouts per task for every row, images for every policy
-        # (data.obs), codebooks 2^8 .. 2^11; three seeds for the ICRT rows.
+        # The paper's protocol: 50 rollouts per task, images, codebooks 2^8 .. 2^11.
         tables=TablesConfig(icrt_seeds=3, codebook_sizes=(256, 512, 1024, 2048),
                             image_demos_per_task=200, image_episodes_per_task=50,
                             feature_demos_per_task=2, since_paper_seeds=5, official_seeds=5),

@@ -11,17 +11,10 @@ read back into the right class:
     spec_key(run_spec)                   # 16 hex digits over every field that shapes a result
     with_overrides(preset, ["train.steps=3", "tokenizers.lipvq.codebook_size=512"])
 
-A field that cannot change a result (how many worker processes, how often to log) is
-declared with `field(..., metadata=NOT_KEYED)` and left out of `spec_key`; every other field
-is in it, so a changed knob never returns a stale result. `tests/test_specs.py` walks every
-field of every config and checks this. A field added after records were made may be
-declared with `metadata=KEYED_WHEN_SET`: it is in the key only where it differs from its
-default, so the records made before it existed keep their keys.
-
-Every config checks its own values when it is built (its `__post_init__` calls
-`check_fields`): numbers in range, no empty string or list where a value is needed, strings
-among the field's `CHOICES`. So a bad value, from `--set` or from code, fails before any
-work, and the checks change no key (they read the fields, never set them).
+A field that cannot change a result (workers, logging) is declared with
+`metadata=NOT_KEYED` and left out of `spec_key`; one added after records were made, with
+`metadata=KEYED_WHEN_SET`, enters the key only where it differs from its default. Every
+config checks its own values when built (`check_fields`): ranges, no empty values, `CHOICES`.
 """
 
 from __future__ import annotations
@@ -44,8 +37,7 @@ from icil_paper.registry import REGISTRIES, check_name
 NOT_KEYED = {"key": False}
 """Field metadata of a knob that cannot change a result (workers, logging, threads)."""
 KEYED_WHEN_SET = {"key": "when_set"}
-"""Field metadata of a knob in the key only where it is not at its default (module
-docstring)."""
+"""Field metadata of a knob in the key only where it is not at its default."""
 
 
 class OverrideError(ValueError):
@@ -53,14 +45,13 @@ class OverrideError(ValueError):
 
 
 class ConfigError(ValueError):
-    """A config value that no component can use (out of range, empty, or two fields that
-    do not fit together), refused when the config is built; the message names the field."""
+    """A config value that no component can use, refused when the config is built."""
 
 
 # --------------------------------------------------------------------------- docs
 def field_docs(cls: type) -> dict[str, str]:
-    """Map each field of a config dataclass (and its bases) to the docstring under it; of a
-    preset's component section, each component to its config's docstring."""
+    """{field: the docstring under it} of a config dataclass and its bases (of a component
+    section: {component: its config's docstring})."""
     if _is_section(cls):
         return cls.field_docs()
     return _source_docs(cls)
@@ -87,8 +78,7 @@ def _source_docs(cls: type) -> dict[str, str]:
 
 # --------------------------------------------------------------------------- types
 def _is_section(obj: Any) -> bool:
-    """A preset's component section (`config.ComponentConfigs`): a mapping of configs by
-    name that rebuilds itself from the registry (`from_dict`, `replace`)."""
+    """A preset's component section (`config.ComponentConfigs`)."""
     cls = obj if isinstance(obj, type) else type(obj)
     return issubclass(cls, Mapping) and hasattr(cls, "registered")
 
@@ -145,11 +135,8 @@ def to_dict(obj: Any, keyed_only: bool = False) -> Any:
 
 
 def from_dict(cls: type, data: Mapping[str, Any]) -> Any:
-    """Rebuild a config of class `cls` (or of the subclass its "type" names) from `to_dict`.
-
-    Unknown keys raise OverrideError (a config file from another version fails loudly
-    rather than silently dropping a knob); missing keys take the class's defaults.
-    """
+    """Rebuild a config of class `cls` (or of the subclass its "type" names) from `to_dict`;
+    unknown keys raise OverrideError, missing keys take the defaults."""
     if not isinstance(data, Mapping):
         raise OverrideError(f"{cls.__name__} must be read from a mapping, got {type(data).__name__}")
     if _is_section(cls):
@@ -316,9 +303,8 @@ def replace_path(obj: Any, path: str, value: Any, _done: str = "") -> Any:
 
 
 def parse_override(text: str) -> tuple[str, Any]:
-    """`"train.steps=3"` -> ("train.steps", 3). Values are read as JSON where they parse
-    (numbers, true/false, null, [lists]) and as plain strings otherwise; a comma-separated
-    value becomes a list (for tuple fields)."""
+    """`"train.steps=3"` -> ("train.steps", 3): JSON where it parses, else a string; a
+    comma-separated value becomes a list."""
     path, sep, raw = text.partition("=")
     path = path.strip()
     if not sep or not path:
@@ -361,9 +347,7 @@ def with_overrides(obj: Any, overrides: Sequence[str]) -> Any:
 
 ZERO_ALLOWED = frozenset({"seed", "expert_seeds", "dead_code_restart", "warmup_steps",
                           "cpu_threads", "pretrain_steps", "query_len"})
-"""Integer fields for which 0 means something (no restarts, no warm-up, torch's thread
-count, whole-episode queries, ...); every other integer field counts things and must be at
-least 1."""
+"""Integer fields for which 0 means something; every other integer field is at least 1."""
 MORE_THAN_ZERO = frozenset({"lr", "pretrain_lr", "scale", "c_init", "grad_clip",
                             "stage_budget_hours"})
 """Float fields that must be above 0 (other floats, weights and rates, may be 0)."""
@@ -373,10 +357,8 @@ BELOW_ONE = frozenset({"dropout", "eval_fraction", "ema_decay", "betas"})
 
 def check_range(path: str, value: Any, annotation: Any = None,
                 error: type[ValueError] = OverrideError) -> None:
-    """Refuse a number no config field can take (`error` naming the range): every
-    number is finite and not negative; an integer field (by `annotation`) counts something
-    and is at least 1, except those of `ZERO_ALLOWED`; the fields of `MORE_THAN_ZERO` are
-    above 0 and those of `BELOW_ONE` below 1."""
+    """Refuse (`error`) a number no config field can take: negative or not finite, an integer
+    field below 1 (but `ZERO_ALLOWED`), `MORE_THAN_ZERO` at 0, `BELOW_ONE` at 1."""
     name = path.rsplit(".", 1)[-1]
     counts = _integer_field(annotation) and name not in ZERO_ALLOWED
     for v in value if isinstance(value, (list, tuple)) else [value]:
@@ -395,13 +377,11 @@ def check_range(path: str, value: Any, annotation: Any = None,
 EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks", "row_seeds",
                            "seed_stages", "stage_stops", "task_demos", "primary_claims",
                            "episodes_per_task_by_suite"})
-"""Tuple fields that may be empty (an MLP without hidden layers, a preset without ManiSkill
-tasks, no row with seeds of its own); every other tuple field, and every string field, needs a value."""
+"""Tuple fields that may be empty; every other tuple or string field needs a value."""
 
 
 def field_choices(cls: type) -> dict[str, tuple[str, ...]]:
-    """{field name: its valid strings} of a config class: the `CHOICES` class attribute of
-    the class and of its bases (a subclass that redeclares a field keeps its choices)."""
+    """{field name: its valid strings} from the `CHOICES` of a config class and its bases."""
     out: dict[str, tuple[str, ...]] = {}
     for klass in reversed(cls.__mro__):
         out.update(vars(klass).get("CHOICES", {}))
@@ -409,12 +389,8 @@ def field_choices(cls: type) -> dict[str, tuple[str, ...]]:
 
 
 def check_fields(obj: Any) -> None:
-    """The checks every config's `__post_init__` makes of its own fields, naming
-    `Class.field`: numbers by `check_range`'s rules (ConfigError); no empty string, and no
-    empty tuple but those of `EMPTY_ALLOWED` (ConfigError); a string (or each string of a
-    tuple) among the field's `field_choices` (UnknownNameError, with a "did you mean").
-    None passes (where a field takes None, it means "not set"); nested configs check
-    themselves when they are built."""
+    """The checks every config's `__post_init__` makes of its own fields: `check_range`, no
+    empty value (but `EMPTY_ALLOWED`), strings among `field_choices`; None passes."""
     cls = type(obj)
     hints = _hints(cls)
     choices = field_choices(cls)

@@ -89,8 +89,7 @@ class Estimate:
 
 def as_outcomes(outcomes, name: str = "outcomes") -> np.ndarray:
     """Bools or 0/1 shaped (seeds, tasks, episodes) -> float64, or a ValueError naming the
-    problem. One episode on several tasks is returned as (seeds, 1, tasks): the tasks'
-    episodes then form one stratum, whose spread is the episodes' noise."""
+    problem; one episode on several tasks becomes (seeds, 1, tasks), one stratum."""
     try:
         x = np.asarray(outcomes)
     except ValueError as exc:  # ragged nested lists

@@ -7,10 +7,8 @@
         ...
     check_env_folder("ICIL_RESULTS", "results")   # writable? before any work, not after
 
-Used by the results store, run folders and data sets alike. Every file a command reads is
-opened through `load_file` (or `read_json`, built on it): whatever a truncated, damaged,
-foreign or unreadable file raises becomes one `UnreadableFileError` (a ValueError) naming
-the file, what it should be and the fix, which the command line prints as one line.
+Every file a command reads goes through `load_file` (or `read_json`): whatever a bad file
+raises becomes one `UnreadableFileError` naming the file, what it should be and the fix.
 """
 
 from __future__ import annotations
@@ -36,8 +34,7 @@ from icil_paper.setup.provenance import REPO_ROOT
 
 
 def folder_from_env(var: str, default: str) -> Path:
-    """The folder $`var` names, else (also when it is empty or blank) `default` under the
-    repository root. NotADirectoryError, naming the variable, when it is a file."""
+    """The folder $`var` names, else (also when blank) `default` under the repository root."""
     value = os.environ.get(var, "").strip()
     path = Path(value) if value else REPO_ROOT / default
     if path.exists() and not path.is_dir():
@@ -62,12 +59,7 @@ def _umask() -> int:
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write `data` to `path` through a temporary file in the same folder and a rename.
-
-    The file gets the mode an ordinary `open(path, "w")` would give it (0o666 minus the
-    umask), not the 0o600 of the temporary file; it is set before the rename, so the file
-    appears complete and with its final mode at once.
-    """
+    """Write `data` to `path` atomically (temporary file, rename) with `open`'s usual mode."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -98,42 +90,31 @@ def file_sha256(path: str | Path) -> str:
     return h.hexdigest()
 
 
-def reserve_aside_name(path: Path, is_dir: bool = False, why: str = "corrupt") -> Path:
-    """Create, exclusively, an empty `<name>.<why>-<time>[-k]` beside `path` (`why`:
-    "corrupt" for a damaged file, "outdated" for one an older code version made).
-
-    The time has microseconds, and a name already taken gets the next free suffix; the
-    exclusive create makes the name this caller's alone, so a set-aside file is never
-    overwritten, not even by another process in the same microsecond. (An empty folder is
-    reserved for a folder, since only that can be replaced by one.)
-    """
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
-    for k in range(1, 10_000):
-        aside = path.with_name(f"{path.name}.{why}-{stamp}" + (f"-{k}" if k > 1 else ""))
-        try:
-            if is_dir:
-                os.mkdir(aside)
-            else:
-                with open(aside, "x"):
-                    pass
-            return aside
-        except FileExistsError:
-            continue
-    raise RuntimeError(f"no free name to set {path} aside under")  # pragma: no cover
-
-
 def set_aside(path: Path, folder: Path | None = None, why: str = "corrupt") -> Path | None:
-    """Move a damaged file (or folder) to a unique `<name>.corrupt-<time>[-k]` name, in
-    `folder` (default: beside it); nothing is deleted. Returns the new path, or None when
-    the file is gone (another process set it aside first). `why="outdated"` names a file
-    that is whole but was made by an older code version `<name>.outdated-<time>[-k]`."""
+    """Move a damaged file (or folder) to a unique `<name>.<why>-<time>[-k]` name, in `folder`
+    (default: beside it); nothing is deleted. Returns the new path, or None when the file is
+    gone (another process set it aside first). `why="outdated"`: made by older code."""
     path = Path(path)
     try:
         is_dir = path.is_dir()
     except OSError:
         is_dir = False
     target = Path(folder) / path.name if folder is not None else path
-    aside = reserve_aside_name(target, is_dir, why)
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
+    for k in range(1, 10_000):
+        # created exclusively (an empty folder for a folder), so no two callers share a name
+        aside = target.with_name(f"{target.name}.{why}-{stamp}" + (f"-{k}" if k > 1 else ""))
+        try:
+            if is_dir:
+                os.mkdir(aside)
+            else:
+                with open(aside, "x"):
+                    pass
+            break
+        except FileExistsError:
+            continue
+    else:
+        raise RuntimeError(f"no free name to set {path} aside under")  # pragma: no cover
     try:
         os.replace(path, aside)
     except BaseException as exc:
@@ -150,15 +131,8 @@ class FolderNotWritableError(PermissionError):
 
 
 def check_writable(path: Path, where: str | None = None, fix: str = "") -> None:
-    """Refuse, before any work, an output folder that this process cannot write to.
-
-    The folder need not exist yet: the nearest existing folder above it must take a new
-    entry. That is tried with a temporary file, removed at once, so nothing is created
-    (a mode check would miss read-only mounts, ACLs and root's exemptions). `where` names
-    the folder in the message (default: its path), e.g. `$ICIL_RESULTS=/mnt/results`.
-    Raises FolderNotWritableError (a PermissionError), or NotADirectoryError when a file
-    stands where a folder should.
-    """
+    """Raise FolderNotWritableError (or NotADirectoryError) unless the nearest existing folder
+    at or above `path` takes a new file (tried with a temporary one); `where` names it."""
     path = Path(os.path.abspath(path))
     where = where or str(path)
     probe = path
@@ -181,8 +155,7 @@ def check_writable(path: Path, where: str | None = None, fix: str = "") -> None:
 
 
 def check_env_folder(var: str, default: str) -> Path:
-    """`folder_from_env(var, default)`, refused by `check_writable` (naming $`var` and how
-    to change it) when this process cannot write there."""
+    """`folder_from_env(var, default)`, checked by `check_writable`."""
     path = folder_from_env(var, default)
     value = os.environ.get(var, "").strip()
     where = f"${var}={value}" if value else f"{path} (${var} is not set)"
@@ -197,17 +170,13 @@ T = TypeVar("T")
 
 
 class UnreadableFileError(ValueError):
-    """A file that cannot be read as what it should be (truncated, damaged, of another
-    format, or not readable by this user); the message names the file, what it should be
-    and the fix."""
+    """A file that cannot be read as what it should be; the message names it and the fix."""
 
 
 READ_ERRORS: tuple[type[BaseException], ...] = (
     OSError, EOFError, ValueError, RuntimeError, KeyError, IndexError, TypeError,
     AttributeError, pickle.UnpicklingError, zipfile.BadZipFile)
-"""What parsers raise on a bad file. A truncated torch file alone can raise RuntimeError
-(no zip directory), EOFError (empty) or OSError (EINVAL: a seek before its start); torn
-JSON raises ValueError, a refused pickle UnpicklingError."""
+"""What parsers raise on a bad file (a truncated torch file: RuntimeError, EOFError, OSError)."""
 
 
 def _detail(exc: BaseException) -> str:
@@ -217,14 +186,8 @@ def _detail(exc: BaseException) -> str:
 
 def load_file(path: str | Path, parse: Callable[[Path], T], what: str, fix: str,
               error: type[UnreadableFileError] = UnreadableFileError) -> T:
-    """`parse(path)`, with what a bad file makes it raise turned into one error.
-
-    what: what the file should be ("a run config"), fix: what to do ("train it again").
-    A missing file raises FileNotFoundError; a folder, an unreadable, truncated, damaged
-    or foreign file raises `error` (an UnreadableFileError), each naming the file, the
-    problem and the fix in one line. An UnreadableFileError that `parse` raises itself
-    (a format check) passes through as it is.
-    """
+    """`parse(path)`; a bad file raises one `error` naming the file, `what` it should be ("a
+    run config") and the `fix` ("train it again"); a missing one FileNotFoundError."""
     path = Path(path)
     try:
         return parse(path)
@@ -248,8 +211,7 @@ JSON_TYPES = {dict: "an object", list: "a list", str: "a string", int: "an integ
 
 def json_type_problem(obj: Any, fields: Mapping[str, type | tuple[type, ...]]) -> str | None:
     """Why the JSON object `obj` does not hold fields of the `fields` types ({name: type or
-    types}; a field that is absent is not checked here), or None. An int counts as a
-    float, a bool as neither."""
+    types}; absent ones pass), or None. An int counts as a float, a bool as neither."""
     for name, types in fields.items():
         if name not in obj:
             continue
@@ -268,14 +230,8 @@ def json_type_problem(obj: Any, fields: Mapping[str, type | tuple[type, ...]]) -
 def read_json(path: str | Path, what: str, fix: str, keys: Sequence[str] = (),
               error: type[UnreadableFileError] = UnreadableFileError,
               fields: Mapping[str, type | tuple[type, ...]] | None = None) -> Any:
-    """The JSON in `path`, read through `load_file`; with `keys`, it must be an object
-    holding each of them; with `fields` ({name: type or types}), each field it holds must
-    be of its type (`json_type_problem`). Every problem is one `error` naming the file,
-    what it should be and `fix`:
-
-        cost = read_json(path, "a run's cost (cost.json)", "regenerate it: python -m "
-                         "icil_paper.planning.cost", keys=("total",), fields={"total": dict})
-    """
+    """The JSON in `path`, read through `load_file`: an object holding `keys`, its `fields`
+    of their types (`json_type_problem`), or one `error` naming the file and `fix`."""
     def parse(p: Path) -> Any:
         obj = json.loads(p.read_bytes().decode("utf-8"))
         if keys or fields:
@@ -306,11 +262,8 @@ def _write_holder(fd: int) -> None:
 
 @contextmanager
 def exclusive_lock(path: str | Path, what: str = "", wait: bool = True) -> Iterator[None]:
-    """Hold an exclusive lock on the file `path` while the block runs (`filelock.FileLock`):
-    one holder at a time across processes and threads; the holding thread may take it again.
-    A holder that dies releases it with its process. The file names its holder, which a
-    waiter prints once ("waiting for pid 123 on host (icil-paper train ...), which holds
-    <what>"), and is removed as the lock is let go. With `wait=False` a lock held
+    """Hold an exclusive, re-entrant lock on the file `path` while the block runs
+    (`filelock.FileLock`); a waiter prints the holder once. With `wait=False` a lock held
     elsewhere raises LockedError naming the holder."""
     path = Path(os.path.abspath(path))
     what = what or str(path)

@@ -9,11 +9,8 @@ from torch import nn
 
 def mlp(sizes: Sequence[int], activation: type[nn.Module] = nn.ReLU,
         linear: type[nn.Module] = nn.Linear, final_activation: bool = False) -> nn.Sequential:
-    """Linear layers of the given sizes with `activation` between them.
-
-    `mlp([7, 64, 128, 32])` is Linear(7, 64)-ReLU-Linear(64, 128)-ReLU-Linear(128, 32);
-    `final_activation=True` adds one after the last layer too.
-    """
+    """Linear layers of the given sizes with `activation` between them (and after the last
+    with `final_activation`): `mlp([7, 64, 32])` is Linear(7, 64)-ReLU-Linear(64, 32)."""
     if len(sizes) < 2:
         raise ValueError(f"an MLP needs at least an input and an output size, got {list(sizes)}")
     layers: list[nn.Module] = []

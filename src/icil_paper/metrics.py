@@ -1,16 +1,9 @@
 """Smoothness scores of latent trajectories and of executed motion, codebook statistics and
 empirical Lipschitz constants.
 
-Latents (Table III): `least_energy(z)` is the paper's score, the energy of the discrete
-second difference of a latent trajectory z (T, D) (Horn 1983),
-
-    least_energy(z) = sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2
-
-It grows with the square of the latent scale, so a Lipschitz bound that shrinks the latents
-lowers it too. `standardized_least_energies(set)` divides by sigma^2, sigma the pooled
-standard deviation of every latent value of the set about its dimension's mean: a score
-unchanged by scaling or shifting the latents, comparable across tokenizers.
-`smoothness_summary` gives the raw score, the standardized one and sigma.
+Latents (Table III): `least_energy(z) = sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2`, the paper's
+score for a latent trajectory z (T, D) (Horn 1983); `standardized_least_energies(set)` divides
+it by the set's pooled latent variance, a score comparable across tokenizers.
 
 Motion (what a rollout does), `motion_smoothness(path, actions, dt)`:
 - `log_dimensionless_jerk` (LDLJ; Hogan and Sternad 2009) of the end-effector path;
@@ -18,8 +11,8 @@ Motion (what a rollout does), `motion_smoothness(path, actions, dt)`:
 - `action_second_difference`, the per-step least energy of the executed actions.
 Higher LDLJ and SPARC, lower action second difference: smoother.
 
-Inputs are NumPy arrays or torch tensors, (T, D) or (T,). Degenerate inputs never raise:
-a measure returns NaN where it is undefined (too few steps, no motion, non-finite values).
+Inputs are NumPy arrays or torch tensors, (T, D) or (T,); a measure is NaN where it is
+undefined (too few steps, no motion, non-finite values).
 """
 
 from __future__ import annotations
@@ -30,26 +23,30 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 
+def _as_signal(x, width: int | None, name: str) -> np.ndarray | None:
+    """(T, width) (or (T, D) from (T,)) float64 array, or None where it holds non-finite values."""
+    if hasattr(x, "detach"):
+        x = x.detach().cpu().numpy()
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 1 and width is None:
+        x = x[:, None]
+    if x.ndim != 2 or (width is not None and x.shape[1] != width):
+        shape = f"(T, {width})" if width is not None else "(T, D) or (T,)"
+        raise ValueError(f"{name} must be shaped {shape}, got {x.shape}")
+    return x if np.isfinite(x).all() else None
+
+
 def _as_curve(z) -> np.ndarray:
-    """(T, D) or (T,) array/tensor -> float64 array (T, D); ValueError for other shapes/NaN."""
-    if hasattr(z, "detach"):
-        z = z.detach().cpu().numpy()
-    z = np.asarray(z, dtype=np.float64)
-    if z.ndim == 1:
-        z = z[:, None]
-    if z.ndim != 2:
-        raise ValueError(f"a latent trajectory must be shaped (T, D) or (T,), got {z.shape}")
-    if not np.isfinite(z).all():
+    """A latent trajectory (T, D) or (T,) -> float64 (T, D); ValueError for NaN or inf."""
+    curve = _as_signal(z, None, "a latent trajectory")
+    if curve is None:
         raise ValueError("the latent trajectory contains NaN or inf values")
-    return z
+    return curve
 
 
 def least_energy(z) -> float:
-    """The paper's smoothness score: sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2 over z (T, D).
-
-    Lower is smoother. 0 for fewer than 3 points. For x_t = t^2 (one dimension, T points)
-    every second difference is 2, so the score is 4 (T - 2).
-    """
+    """The paper's smoothness score: sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2 over z (T, D);
+    lower is smoother, 0 for fewer than 3 points."""
     z = _as_curve(z)
     if len(z) < 3:
         return 0.0
@@ -64,12 +61,8 @@ def _latent_scale(curves: list[np.ndarray]) -> float:
 
 
 def least_energy_standardized(z, scale: float) -> float:
-    """Least energy of z / scale: least_energy(z) / scale^2, for z (T, D) and a set's scale.
-
-    `scale` is the latent scale sigma of the evaluation set z belongs to (see
-    `standardized_least_energies`, which computes it). With scale 1 this is the paper's
-    least energy. A scale of 0 means no latent of the set moves: the score is then 0.
-    """
+    """least_energy(z) / scale^2, for z (T, D) and its set's latent scale sigma (0: no
+    latent of the set moves, score 0)."""
     scale = float(scale)
     if not math.isfinite(scale) or scale < 0:
         raise ValueError(f"the latent scale must be a finite number >= 0, got {scale}")
@@ -99,13 +92,8 @@ def _curve_set(trajectories) -> list[np.ndarray]:
 
 
 def standardized_least_energies(trajectories) -> tuple[np.ndarray, float]:
-    """Every trajectory's standardized least energy and the set's latent scale sigma.
-
-    trajectories: a sequence of latent trajectories (T_i, D) (lengths may differ, the width
-    D may not), or one array (N, T, D). Returns (scores (N,), sigma), sigma the pooled
-    standard deviation of all latent values about each dimension's mean. A set with no
-    spread (sigma 0) scores 0 throughout.
-    """
+    """(scores (N,), sigma) for latent trajectories (T_i, D) or one array (N, T, D): each
+    one's least energy / sigma^2, sigma the pooled standard deviation of the set's latents."""
     curves = _curve_set(trajectories)
     sigma = _latent_scale(curves)
     if sigma <= 1e-300:
@@ -113,20 +101,8 @@ def standardized_least_energies(trajectories) -> tuple[np.ndarray, float]:
     return np.array([least_energy(c) / sigma**2 for c in curves]), sigma
 
 
-SMOOTHNESS_SCORES: dict[str, Callable] = {
-    "least_energy": least_energy,
-}
-"""Smoothness scores defined on one trajectory alone (the standardized score needs the set's
-scale: use `smoothness_summary` or `standardized_least_energies`)."""
-
-
 def smoothness_summary(trajectories) -> dict[str, float]:
-    """Mean raw and standardized least energy of a set of latent trajectories, and its scale.
-
-    Returns `least_energy` (the paper's score, mean over trajectories),
-    `least_energy_standardized` (mean over trajectories) and `latent_scale` (sigma): the
-    three numbers to show wherever smoothness is shown.
-    """
+    """Mean `least_energy`, `least_energy_standardized` and the `latent_scale` of a set."""
     curves = _curve_set(trajectories)
     scores, sigma = standardized_least_energies(curves)
     raw = [least_energy(z) for z in curves]
@@ -136,13 +112,8 @@ def smoothness_summary(trajectories) -> dict[str, float]:
 
 
 def codebook_usage(ids, codebook_size: int) -> dict[str, float]:
-    """Usage and perplexity of discrete codes.
-
-    ids: integer codes in [0, codebook_size), any shape (flattened). Returns
-    `usage` (distinct codes seen / codebook_size), `perplexity` (exp of the entropy of the
-    empirical code distribution: the number of equally used codes with the same entropy)
-    and `codes_used`.
-    """
+    """`usage` (distinct codes / codebook_size), `perplexity` (exp of the codes' entropy) and
+    `codes_used` of integer codes `ids` in [0, codebook_size), any shape."""
     if hasattr(ids, "detach"):
         ids = ids.detach().cpu().numpy()
     ids = np.asarray(ids).ravel().astype(np.int64)
@@ -159,12 +130,8 @@ def codebook_usage(ids, codebook_size: int) -> dict[str, float]:
 
 def empirical_lipschitz(fn: Callable, x, n_pairs: int = 1000, radius: float = 0.1,
                         seed: int = 0, ord: float = math.inf) -> float:
-    """Largest ||fn(x1) - fn(x2)|| / ||x1 - x2|| over random pairs near the points x.
-
-    x: tensor (N, A) of anchor points; each pair is an anchor and the anchor plus a uniform
-    perturbation in [-radius, radius]^A, plus as many pairs of two random anchors. `ord` is
-    the vector norm (inf: the paper's choice). A lower estimate of the true constant.
-    """
+    """Largest ||fn(x1) - fn(x2)|| / ||x1 - x2|| over random pairs near and between anchors
+    x (N, A), in the `ord` norm: a lower estimate of the Lipschitz constant."""
     import torch
 
     x = torch.as_tensor(x, dtype=torch.float32)
@@ -205,28 +172,13 @@ SMOOTHER = {"ldlj": +1, "sparc": +1, "action_jerk": -1}
 MIN_MOTION_STEPS = 4
 """Positions a path needs for LDLJ and SPARC (one third difference; three speeds)."""
 MIN_AMPLITUDE = 1e-6
-"""A path whose points all lie within this distance of its first (1 micrometre for positions
-in metres) did not move: its smoothness is undefined (NaN)."""
+"""A path within this distance of its first point (metres) did not move: NaN."""
 SPARC_PADLEVEL = 4
 """SPARC's zero padding: the spectrum has 2^(ceil(log2 N) + padlevel) points."""
 SPARC_CUTOFF_HZ = 10.0
-"""SPARC's largest cut-off frequency (Hz), the human-movement default of the 2015 paper."""
+"""SPARC's largest cut-off frequency (Hz)."""
 SPARC_AMPLITUDE_THRESHOLD = 0.05
 """SPARC's adaptive cut-off: the highest frequency whose normalised magnitude reaches this."""
-
-
-def _as_signal(x, width: int | None, name: str) -> np.ndarray | None:
-    """(T, width) float64 array, or None where it holds non-finite values; ValueError for a
-    wrong shape (a programming error, unlike a degenerate rollout)."""
-    if hasattr(x, "detach"):
-        x = x.detach().cpu().numpy()
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim == 1 and width is None:
-        x = x[:, None]
-    if x.ndim != 2 or (width is not None and x.shape[1] != width):
-        shape = f"(T, {width})" if width is not None else "(T, A) or (T,)"
-        raise ValueError(f"{name} must be shaped {shape}, got {x.shape}")
-    return x if np.isfinite(x).all() else None
 
 
 def _check_dt(dt: float) -> float:
@@ -248,16 +200,9 @@ def speed_profile(path, dt: float) -> np.ndarray:
 
 
 def log_dimensionless_jerk(path, dt: float) -> float:
-    """LDLJ of a path (T, 3) of positions sampled every `dt` seconds.
-
+    """LDLJ of a path (T, 3) of positions sampled every `dt` seconds:
     -ln((t2 - t1)^5 / A^2 * integral |d3x/dt3|^2 dt), A the largest distance from the first
-    point, the jerk from third differences of the positions and t2 - t1 = (T - 1) dt. It is
-    dimensionless (unchanged when the path is scaled or replayed faster), but a path that
-    reaches and then rests scores lower than the reach alone (the duration enters to the
-    fifth power). Higher is smoother, a minimum-jerk reach -ln 720 = -6.58. NaN for fewer than
-    `MIN_MOTION_STEPS` positions, a path that moves less than `MIN_AMPLITUDE` or non-finite
-    positions; +inf where the jerk is zero throughout.
-    """
+    point. Higher is smoother (a minimum-jerk reach: -ln 720); +inf for zero jerk."""
     dt = _check_dt(dt)
     x = _as_signal(path, 3, "a path")
     if x is None or len(x) < MIN_MOTION_STEPS:
@@ -275,17 +220,9 @@ def log_dimensionless_jerk(path, dt: float) -> float:
 
 def sparc(speed, dt: float, padlevel: int = SPARC_PADLEVEL, cutoff: float = SPARC_CUTOFF_HZ,
           threshold: float = SPARC_AMPLITUDE_THRESHOLD) -> float:
-    """Spectral arc length of a speed profile (T,) sampled every `dt` seconds, following
-    Balasubramanian et al. 2015's reference implementation:
-
-        SPARC = -integral_0^{w_c} sqrt((1 / w_c)^2 + (dV^(w) / dw)^2) dw,
-        V^(w) = |V(w)| / |V(0)|,  w_c = min(cutoff, the highest frequency where V^ >= threshold)
-
-    the spectrum zero-padded to 2^(ceil(log2 T) + padlevel) points. Independent of the
-    movement's amplitude and duration and of rests around it. Higher is smoother, a
-    minimum-jerk reach about -1.40. NaN for fewer than `MIN_MOTION_STEPS - 1` samples, a
-    profile that is zero throughout or non-finite values.
-    """
+    """Spectral arc length of a speed profile (T,) sampled every `dt` seconds (Balasubramanian
+    et al. 2015): SPARC = -integral_0^{w_c} sqrt((1 / w_c)^2 + (dV^(w) / dw)^2) dw, V^ the
+    normalised spectrum. Higher is smoother (a minimum-jerk reach: about -1.40)."""
     dt = _check_dt(dt)
     v = np.asarray(speed.detach().cpu().numpy() if hasattr(speed, "detach") else speed,
                    dtype=np.float64)
@@ -311,9 +248,7 @@ def sparc(speed, dt: float, padlevel: int = SPARC_PADLEVEL, cutoff: float = SPAR
 
 
 def action_second_difference(actions) -> float:
-    """Mean squared second difference of executed actions (T, A):
-    mean_t ||a[t+2] - 2 a[t+1] + a[t]||^2 (every dimension, the gripper's included). 0 for
-    actions that change linearly in time; NaN for fewer than 3 actions or non-finite values."""
+    """mean_t ||a[t+2] - 2 a[t+1] + a[t]||^2 of executed actions (T, A)."""
     a = _as_signal(actions, None, "actions")
     if a is None or len(a) < 3:
         return math.nan
@@ -322,10 +257,7 @@ def action_second_difference(actions) -> float:
 
 
 def motion_smoothness(path, actions, dt: float) -> dict[str, float]:  # keys: MOTION_MEASURES
-    """One rollout's motion smoothness: `ldlj` and `sparc` of its end-effector path (T + 1, 3)
-    (positions at reset and after each step) and `action_jerk`, the
-    `action_second_difference` of its executed actions (T, A); each NaN or inf where the
-    measure is undefined (see the functions)."""
+    """One rollout's `ldlj`, `sparc` (of its path (T + 1, 3)) and `action_jerk` (actions (T, A))."""
     return {"ldlj": log_dimensionless_jerk(path, dt),
             "sparc": sparc(speed_profile(path, dt), dt),
             "action_jerk": action_second_difference(actions)}

@@ -10,18 +10,11 @@ the library (`@register_tokenizer`, `@register_policy`) when it is imported. Thr
     #   pca = "my_tokenizers.pca"
     from icil_paper.plugins import load_plugins; load_plugins(["./pca.py"])   # from code
 
-Entry points of the groups `icil_paper.tokenizers` and `icil_paper.policies` are loaded
-once per process by `discover`, which building a preset's component sections,
-`make_tokenizer`, `make_policy` and the command line call. Plugins named with `--plugin`
-(or `load_plugins`) travel with each cell (`tables.cells`: the job's `plugins`) and are
-loaded in the worker before the cell's function is imported. Every record the results
-store writes names the plugins that registered a component its config uses (`record_of`):
-which module or file, at which package version or file SHA-256.
-
-Each plugin is checked as it is loaded; a bad one raises `PluginError` (one line and exit 2
-at the command line, before any work): a module that does not import or registers nothing,
-a name already held, a config field without a default or a config that does not check its
-values, a component that fails its kind's probe (`tokenizers.base.probe`).
+Entry points are loaded once per process by `discover`; plugins named with `--plugin` travel
+with each cell to its worker. Every stored record names the plugins its config uses
+(`record_of`), with package version or file SHA-256. Each plugin is checked as it is loaded
+(imports, registers something new, config fields have defaults and are checked, the
+component passes its kind's probe); a bad one raises `PluginError`.
 """
 
 from __future__ import annotations
@@ -41,8 +34,7 @@ from typing import Any
 from icil_paper.registry import REGISTRIES, ComponentRegistry, NameClashError
 
 VALIDATION_PROBE = {"tokenizer": "latent_dim", "policy": "n_layer"}
-"""A field of each kind's base config that its checks refuse at -1: a config class whose
-`__post_init__` lets -1 through does not validate its values."""
+"""A field of each kind's base config that a config class checking its values refuses at -1."""
 
 
 class PluginError(ValueError):
@@ -72,24 +64,13 @@ class Plugin:
 
     def record(self) -> dict[str, Any]:
         """The plugin as a stored record names it (JSON)."""
-        return {"spec": self.spec, "source": self.source, "module": self.module,
-                "names": {k: list(v) for k, v in self.names.items()}, "path": self.path,
-                "sha256": self.sha256, "distribution": self.distribution,
-                "version": self.version}
-
-    def describe(self) -> str:
-        """One line: the plugin and its version or digest."""
-        return needed_by([self.record()])
+        return dataclasses.asdict(self) | {"names": {k: list(v) for k, v in self.names.items()}}
 
 
 _LOADED: dict[str, Plugin] = {}
 """Loaded plugins by their spec (a file by its resolved path)."""
 _DISCOVERED: set[str] = set()
 """The kinds whose entry points this process has loaded."""
-
-
-def registry(kind: str) -> ComponentRegistry:
-    return REGISTRIES[kind]
 
 
 def discover() -> None:
@@ -106,8 +87,7 @@ def loaded() -> list[Plugin]:
 
 
 def named() -> list[str]:
-    """The specs of the plugins loaded by name or file (not entry points): what a grid
-    worker loads before it runs a cell."""
+    """The specs of the plugins loaded by name or file: what a grid worker loads."""
     return [(p.path if p.source == "file" else p.spec) for p in _LOADED.values()
             if p.source != "entry point"]
 
@@ -139,8 +119,7 @@ def _types(value: Any) -> Iterable[str]:
 
 # --------------------------------------------------------------------------- loading
 def load_plugins(specs: Sequence[str]) -> list[Plugin]:
-    """Load the entry-point plugins, then each module or file of `specs`, checked (module
-    docstring); return the plugins of `specs`. Loading one twice returns it again."""
+    """Load the entry-point plugins, then each module or file of `specs`; return the latter."""
     discover()
     return [load_plugin(spec) for spec in specs]
 
@@ -213,7 +192,7 @@ def load_entry_points(reg: ComponentRegistry) -> None:
             raise PluginError(f"{where}: {ep.value!r} registers no {reg.kind} (and none "
                               f"named {ep.name!r}); decorate its config class with "
                               f"@register_{reg.kind}")
-        _check_names(where, names, before)
+        _check_names(where, names)
         plugin = _describe(spec, "entry point", module_name, names)
         if dist is not None:
             plugin = dataclasses.replace(plugin, distribution=dist.metadata["Name"],
@@ -236,8 +215,7 @@ def _registered() -> dict[str, dict[str, type]]:
 
 
 def _new_names(before: Mapping[str, Mapping[str, type]]) -> dict[str, tuple[str, ...]]:
-    """What was registered since `before`, the package's own components left out (a plugin's
-    import may be what first imports a kind's registry and so its built-ins)."""
+    """What was registered since `before`, the package's own components left out."""
     return {kind: tuple(n for n, cls in reg.configs.items() if n not in before.get(kind, {})
                         and not cls.__module__.startswith("icil_paper."))
             for kind, reg in REGISTRIES.items()}
@@ -260,34 +238,29 @@ def _import_checked(spec: str, module_name: str, path: Path | None) -> dict[str,
     where = f"plugin {spec}"
     before = _registered()
     try:
-        if path is None:
-            importlib.import_module(module_name)
-        else:
-            loader_spec = importlib.util.spec_from_file_location(module_name, path)
-            module = importlib.util.module_from_spec(loader_spec)
-            sys.modules[module_name] = module  # dataclasses look the module up by name
-            loader_spec.loader.exec_module(module)
-    except NameClashError as exc:
-        _forget(before)
-        sys.modules.pop(module_name, None)
-        raise _clash(where, exc) from None
-    except Exception as exc:
-        _forget(before)
-        sys.modules.pop(module_name, None)
-        if isinstance(exc, TypeError) and "non-default argument" in str(exc):
-            raise PluginError(f"{where}: a config class has a field without a default "
-                              f"({_line(exc)}); give every field a default, so that a "
-                              "preset can build it") from exc
-        raise PluginError(f"{where}: importing it failed ({_line(exc)}); fix the "
-                          "module") from exc
-    names = _new_names(before)
-    if not any(names.values()):
-        sys.modules.pop(module_name, None)
-        raise PluginError(f"{where} registers nothing: decorate its config class with "
-                          "@register_tokenizer(name, 'Class') or @register_policy(name, "
-                          "'Class') (see icil_paper.plugins)")
-    try:
-        _check_names(where, names, before)
+        try:
+            if path is None:
+                importlib.import_module(module_name)
+            else:
+                loader_spec = importlib.util.spec_from_file_location(module_name, path)
+                module = importlib.util.module_from_spec(loader_spec)
+                sys.modules[module_name] = module  # dataclasses look the module up by name
+                loader_spec.loader.exec_module(module)
+        except NameClashError as exc:
+            raise _clash(where, exc) from None
+        except Exception as exc:
+            if isinstance(exc, TypeError) and "non-default argument" in str(exc):
+                raise PluginError(f"{where}: a config class has a field without a default "
+                                  f"({_line(exc)}); give every field a default, so that a "
+                                  "preset can build it") from exc
+            raise PluginError(f"{where}: importing it failed ({_line(exc)}); fix the "
+                              "module") from exc
+        names = _new_names(before)
+        if not any(names.values()):
+            raise PluginError(f"{where} registers nothing: decorate its config class with "
+                              "@register_tokenizer(name, 'Class') or @register_policy(name, "
+                              "'Class') (see icil_paper.plugins)")
+        _check_names(where, names)
     except PluginError:
         _forget(before)
         sys.modules.pop(module_name, None)
@@ -295,8 +268,7 @@ def _import_checked(spec: str, module_name: str, path: Path | None) -> dict[str,
     return names
 
 
-def _check_names(where: str, names: Mapping[str, tuple[str, ...]],
-                 before: Mapping[str, Mapping[str, type]]) -> None:
+def _check_names(where: str, names: Mapping[str, tuple[str, ...]]) -> None:
     for kind, new in names.items():
         for name in new:
             cls = REGISTRIES[kind].configs[name]
@@ -334,9 +306,8 @@ def check_config_class(where: str, kind: str, name: str, cls: type) -> None:
 
 
 def probe_component(where: str, kind: str, name: str, cls: type) -> None:
-    """Run its kind's own check (`ComponentRegistry.probe`: for a tokenizer,
-    `tokenizers.base.probe`, which builds it and runs it on a random batch of actions) on
-    the default config of a component a plugin registered; PluginError naming the problem."""
+    """Run its kind's own check (`ComponentRegistry.probe`) on the default config of a
+    component a plugin registered; PluginError naming the problem."""
     check = REGISTRIES[kind].probe
     if check is None:
         return

@@ -5,11 +5,9 @@
     store.run(*eval_record(run, ev), compute, seed=ev.seed)
     store.get(*features_record(run, spec))
 
-Every caller (training, evaluation, feature measurement, the table scheduler) names a
-record here and nowhere else. A record's config is the keyed content of the specs it
-stands for (`config_data.to_dict(..., keyed_only=True)`), so its key is the specs' content key
-(`RunSpec.key()`, `runspec.eval_key`, `runspec.feature_key`); its name is for people
-reading the results folder:
+A record's config is the keyed content of the specs it stands for, so its key is the specs'
+content key (`RunSpec.key()`, `runspec.eval_key`, `runspec.feature_key`); its name is for
+people reading the results folder:
 
 | kind       | name                                                         | config              |
 |------------|--------------------------------------------------------------|---------------------|

@@ -38,14 +38,12 @@ def check_name(kind: str, name: str, valid: Iterable[str]) -> str:
 
 
 REGISTRIES: dict[str, ComponentRegistry] = {}
-"""kind -> its registry (`icil_paper.tokenizers.configs`, `icil_paper.policies.configs`),
-added as each is built: what `icil_paper.plugins` checks and adds to."""
+"""kind -> its registry, added as each is built."""
 
 
 class ComponentRegistry(Mapping[str, type]):
-    """Components of one kind by name: `configs`, name -> config class, filled by a decorator
-    on each config class (LeRobot's `register_subclass`), and name -> model class (this
-    mapping), filled by a decorator on each model class.
+    """Components of one kind by name: `configs` (name -> config class) and this mapping (name
+    -> model class), each filled by a decorator.
 
         TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig)
         register_tokenizer = TOKENIZER_REGISTRY.register
@@ -58,15 +56,10 @@ class ComponentRegistry(Mapping[str, type]):
         @register_tokenizer_model("vq")          # vq.py
         class VQTokenizer(ActionTokenizer): ...
 
-    The config is what presets, keys and the command line read, so config modules stay
-    torch-free; the kind's `factory` module imports the package's model modules, whose
-    classes register as they import. A component written as one file (a plugin) may name its
-    model in the config's decorator instead: `register("toy", ToyTokenizer)`, or the class's
-    name in the same module, `register("toy", "ToyTokenizer")`, looked up there on first use.
-
-    `group` is the entry-point group of plugins (`icil_paper.plugins.discover` loads it);
-    `probe` the kind's own check of a plugin's component, `probe(config) -> str | None`,
-    set by the module that defines the component's base class.
+    Config modules stay torch-free. A component of one file (a plugin) may name its model in
+    the config's decorator: `register("toy", ToyTokenizer)` or `register("toy", "ToyTokenizer")`.
+    `group` is the plugins' entry-point group; `probe(config) -> str | None` the kind's check
+    of a plugin's component.
     """
 
     def __init__(self, kind: str, base: type, group: str | None = None):

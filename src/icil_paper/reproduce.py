@@ -1,25 +1,13 @@
 """`icil-paper reproduce`: run every experiment of a preset, in order, into the results store.
 
-Each stage (`STAGES` below, in order) names a library function `run(preset,
-store, force) -> None` that writes its records through `ResultsStore.run`, so a stage that
-already has its results is a cheap load, and a run killed half-way resumes where it stopped.
-The book's notebooks call the same functions, so after `reproduce` they only load. `make
-reproduce` then builds the book.
+Each stage (`STAGES`, in order) is a function `run(preset, store, force) -> None` that writes
+its records through `ResultsStore.run`, so a finished stage is a cheap load and a killed run
+resumes where it stopped; the notebooks call the same functions, and then only load.
 
-The table stages fan their cells (one trained policy each, with its evaluations) out over
-`--workers` processes (`--executor local`, the default) or a Ray cluster (`--executor ray`,
-`--ray-address HOST:PORT` to join one). The first of a block of table stages (chosen
-stages with no other stage between them) computes the cells of every table stage of its
-block (`TOGETHER`): a policy shared by several tables is trained once and evaluated for all
-of them in one cell. Chapter 02's run (`table-icrt`) comes before the chapters' own studies,
-so it is a block of its own, computed where the stage stands.
-
-A preset with seeds in stages (`tables.seed_stages`, the reference preset) registers its
-design in `results/<preset>/design.json` before its first cell and runs its table stages
-stage by stage (`icil_paper.planning.staged`): every row a claim reads at the first stage's
-seeds, then, after each look of the ledger (written to the record with every row's seeds),
-the rows the stage rule sends on at the next stage's, until no row goes on; the claims stage
-writes the ledger at the seeds reached.
+The table stages fan their cells out over `--workers` processes or a Ray cluster
+(`--executor ray`); a block of consecutive table stages is computed together (`TOGETHER`), so
+a shared policy is trained once. A preset with seeds in stages (`tables.seed_stages`) registers
+its design first and runs its table stages look by look (`icil_paper.planning.staged`).
 """
 
 from __future__ import annotations
@@ -70,19 +58,13 @@ def record_environment(preset: Preset, store: ResultsStore, force: bool) -> None
 
 
 TOGETHER: list[list[str]] = []
-"""The tables of this invocation's table stages, by block: the chosen table stages that
-follow one another with no other stage between them (set by `run_stages`). The first table
-stage of a block computes the cells of all of its tables, so that each policy is trained
-once and evaluated for every table that reads it in the same cell: its checkpoint (under
-`runs/`, not committed) need not outlive the sitting, and a run resumed elsewhere from the
-committed records never trains a policy again only to evaluate it for another table. The
-later table stages of the block then find their records done."""
+"""The tables of this invocation's table stages, by block of consecutive table stages (set by
+`run_stages`): the first stage of a block computes the cells of all of its tables."""
 
 
 def table_blocks(names: list[str]) -> list[list[str]]:
-    """The table ids of the stage names `names` (in order), in blocks of table stages that
-    follow one another: ["table-icrt", "lipschitz", "table-I", "table-V"] -> [["icrt"],
-    ["I", "V"]]."""
+    """The table ids of `names` in blocks of consecutive table stages:
+    ["table-icrt", "lipschitz", "table-I", "table-V"] -> [["icrt"], ["I", "V"]]."""
     blocks: list[list[str]] = []
     after_table = False
     for name in names:
@@ -95,7 +77,7 @@ def table_blocks(names: list[str]) -> list[list[str]]:
     return blocks
 
 
-def _table_stage(table_id: str):
+def _table(table_id: str) -> Stage:
     def stage(preset: Preset, store: ResultsStore, force: bool) -> None:
         if force:
             raise ValueError("--force does not apply to the table stages: delete the records "
@@ -111,18 +93,13 @@ def _table_stage(table_id: str):
                        f"{len(looks[-1].going_on)} rows go on")
             current = after
     stage.__doc__ = f"Compute every missing cell of table {table_id}."
-    return stage
+    _, what, chapter = next(t for t in TABLE_STAGES if t[0] == table_id)
+    return Stage(f"table-{table_id}", f"{what} (chapter {chapter})", stage)
 
 
 def claims_stage(preset: Preset, store: ResultsStore, force: bool) -> None:
-    """Write results/<preset>/claims.json from the tables' records (at the seeds a staged
-    preset's rows have reached)."""
+    """Write results/<preset>/claims.json from the tables' records."""
     write_ledger(staged_preset(preset, store)[0], store)
-
-
-def _table(table_id: str) -> Stage:
-    _, what, chapter = next(t for t in TABLE_STAGES if t[0] == table_id)
-    return Stage(f"table-{table_id}", f"{what} (chapter {chapter})", _table_stage(table_id))
 
 
 STAGES: tuple[Stage, ...] = (
@@ -148,11 +125,9 @@ STAGES: tuple[Stage, ...] = (
 
 def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = False) -> dict:
     """Run the named stages (default all) and return {stage: seconds}."""
-    names = [s.name for s in STAGES]
     chosen = [s for s in STAGES if stages is None or s.name in stages]
     for name in stages or []:
-        if name not in names:
-            check_name("stage", name, names)
+        check_name("stage", name, [s.name for s in STAGES])
     store = ResultsStore(preset.name)
     TOGETHER[:] = table_blocks([s.name for s in chosen])
     timings = {}
@@ -167,8 +142,8 @@ def run_stages(preset: Preset, stages: list[str] | None = None, force: bool = Fa
 
 
 def check_outputs(preset: Preset) -> None:
-    """Refuse, before any stage, output folders this process cannot write to: the results
-    store, the run folders and, when a data set of the preset is missing, the data folder."""
+    """Refuse, before any stage, output folders this process cannot write to (the data folder
+    only when a data set of the preset is missing)."""
     check_env_folder(RESULTS_ENV_VAR, "results")
     check_env_folder(RUNS_ENV_VAR, "runs")
     tasks = preset_tasks(preset)

@@ -1,21 +1,11 @@
 """The results store: one JSON record per run under `results/<preset>/<kind>/`.
 
 Each record carries its config, config hash, seed, git commit, package versions, host, wall
-time and metrics. Records are written atomically (temporary file, then rename), so a crash
-never leaves half a record and a failed run never overwrites a good one. A run whose config
-hash already has a valid record is skipped unless forced; a corrupt record (unreadable,
-incomplete, tampered with, or holding a NaN or infinite metric) is reported, moved aside
-under a name no other file has (never deleted, never overwriting an earlier one) and
-recomputed. Several processes may read the store at once: when two of them find the same
-corrupt record, one sets it aside and the other treats it as missing. One process computes
-a record at a time: `run` holds the record's lock (`fileio.exclusive_lock` on
-`.<name>__<hash>.lock` beside it) while it computes, so a second process asking for the
-same record waits and then reads the one the first wrote.
-
-A record that stands for files (a `train` record for its `policy.pt`) names them with their
-SHA-256 in `files` (`run(..., files=...)`); `files_problem` says when one is missing or
-changed, and the caller then recomputes rather than report a record whose file is not the
-one it describes (`train.stored.train_run`).
+time and metrics, and is written atomically. A run whose config hash has a valid record is
+skipped unless forced; a corrupt record (unreadable, incomplete, tampered with, a non-finite
+metric) is reported, set aside (never deleted) and recomputed. `run` holds the record's lock
+while it computes, so a second process asking for it waits and reads what the first wrote.
+A record that stands for files names them with their SHA-256 (`files`, `files_problem`).
 
     store = ResultsStore("small")
     record = store.run("tokenizer", "lipvq", config, lambda: {"recon_mse": 0.01})
@@ -56,8 +46,7 @@ FIELD_TYPES: dict[str, type | tuple[type, ...]] = {
     "schema": int, "kind": str, "name": str, "preset": str, "config": dict,
     "config_hash": str, "seed": int, "git_commit": (str, type(None)), "packages": dict,
     "host": dict, "wall_time_s": float, "cpu_time_s": float, "metrics": dict, "files": dict}
-"""The JSON type of every field a record may hold: a record with another (a `files` that is
-a string, say) is corrupt like a damaged one (`fileio.json_type_problem`)."""
+"""The JSON type of every field a record may hold (another type: the record is corrupt)."""
 
 
 class CorruptRecordWarning(UserWarning):
@@ -65,26 +54,20 @@ class CorruptRecordWarning(UserWarning):
 
 
 def results_root() -> Path:
-    """Root of the store: $ICIL_RESULTS, else `results/` in the repository.
-
-    An empty (or blank) $ICIL_RESULTS counts as unset: it would otherwise put the store in
-    whatever folder the command happens to run from.
-    """
+    """Root of the store: $ICIL_RESULTS (blank counts as unset), else `results/`."""
     return folder_from_env(RESULTS_ENV_VAR, "results")
 
 
 def bench_path(name: str) -> Path:
-    """`results/bench/<name>.json` of the results folder in use, else the one committed with
-    the repository (the measurements a reader's own results folder does not hold)."""
+    """`results/bench/<name>.json` of the results folder in use, else the committed one."""
     path = results_root() / "bench" / f"{name}.json"
     committed = Path(__file__).resolve().parents[2] / "results" / "bench" / f"{name}.json"
     return path if path.exists() else committed
 
 
 def save_benchmark(name: str, record: dict[str, Any], out: str | Path | None = None) -> Path:
-    """Add provenance (git commit, package versions, host, load average) to a measurement
-    `record` and write it atomically to `out` (default results/bench/<name>.json); returns
-    the path. The benchmarks of `tools/bench/` and the pilots write theirs with it."""
+    """Write a measurement `record` with its provenance atomically to `out` (default
+    results/bench/<name>.json); returns the path."""
     record = {"benchmark": name, **record, "load_average_1min": os.getloadavg()[0],
               "git": git_state(), "packages": package_versions(), "host": host_info()}
     path = Path(out) if out else results_root() / "bench" / f"{name}.json"
@@ -94,8 +77,7 @@ def save_benchmark(name: str, record: dict[str, Any], out: str | Path | None = N
 
 
 def config_hash(config: Mapping[str, Any]) -> str:
-    """A short stable hash of a JSON-ready config: `config_data.content_hash`, the one every key
-    of the library is taken with (16 hex digits of SHA-256 over sorted, compact JSON)."""
+    """16 hex digits of a JSON-ready config (`config_data.content_hash`)."""
     return content_hash(config)
 
 
@@ -104,8 +86,7 @@ def _slug(name: str) -> str:
 
 
 def cpu_seconds() -> float:
-    """CPU seconds of this process and of its finished child processes (user + system):
-    the difference of two calls is what a computation cost on the cores."""
+    """CPU seconds (user + system) of this process and its finished children."""
     t = os.times()
     return t.user + t.system + t.children_user + t.children_system
 
@@ -133,24 +114,16 @@ class ResultsStore:
     def get(self, kind: str, name: str, config: Mapping[str, Any]) -> dict[str, Any] | None:
         """The valid record of this run, or None (a corrupt one is reported and set aside)."""
         chash = config_hash(config)
-        path = self.path_for(kind, name, chash)
-        try:
-            record, problem, identity = _read_record(path)
-        except FileNotFoundError:  # never written, or set aside by another process meanwhile
-            return None
-        if problem is None and record["config_hash"] != chash:
-            problem = f"config hash {record['config_hash']} does not match {chash}"
-        if problem is not None:
-            self._set_aside(path, problem, identity)
-            return None
-        return record
+        return self._read(self.path_for(kind, name, chash), chash)
 
     def write(self, kind: str, name: str, config: Mapping[str, Any], metrics: Mapping[str, Any],
               seed: int, wall_time_s: float, extra: Mapping[str, Any] | None = None,
               cpu_time_s: float | None = None) -> Path:
-        """Atomically write one record and return its path; `cpu_time_s` (`cpu_seconds`
-        spent computing it) is kept where given, for the run's cost."""
-        _check_finite_metrics(metrics)
+        """Atomically write one record and return its path."""
+        bad = _non_finite(dict(metrics))
+        if bad is not None:
+            raise ValueError(f"metric {bad[0]} is {bad[1]}; a result with a non-finite metric "
+                             "is not stored (fix the run, or store None explicitly)")
         chash = config_hash(config)
         git = git_state()
         record = {
@@ -182,14 +155,9 @@ class ResultsStore:
             compute: Callable[[], Mapping[str, Any]], seed: int | None = None,
             force: bool = False,
             files: Callable[[], Mapping[str, str | Path]] | None = None) -> dict[str, Any]:
-        """Return the stored record of this run, or compute it, store it and return it.
-
-        `compute()` returns the metrics. If it raises, nothing is written, so an existing
-        good record (when forced) is left as it was. The computation holds the record's
-        lock (`lock`): a process that finds another computing the same record waits for it
-        and returns what it stored. `files()`, called after `compute`, names the files the
-        record stands for ({name: path}); the record keeps their SHA-256 under `files`.
-        """
+        """The stored record of this run, or compute it (holding its `lock`), store it and
+        return it. `compute()` returns the metrics (raising: nothing is written); `files()`
+        names the files the record stands for ({name: path})."""
         if not force:
             record = self.get(kind, name, config)
             if record is not None:
@@ -213,17 +181,8 @@ class ResultsStore:
     def records(self, kind: str | None = None) -> list[dict[str, Any]]:
         """Every valid record (of one kind, if given); corrupt ones are reported and skipped."""
         pattern = f"{_slug(kind)}/*.json" if kind else "*/*.json"
-        records = []
-        for path in sorted(self.dir.glob(pattern)):
-            try:
-                record, problem, identity = _read_record(path)
-            except FileNotFoundError:  # set aside by another process since the listing
-                continue
-            if problem is not None:
-                self._set_aside(path, problem, identity)
-                continue
-            records.append(record)
-        return records
+        records = (self._read(path) for path in sorted(self.dir.glob(pattern)))
+        return [record for record in records if record is not None]
 
     def table(self, kind: str | None = None):
         """The records as a pandas DataFrame: one row per run, metrics as columns."""
@@ -238,13 +197,23 @@ class ResultsStore:
             rows.append(row)
         return pd.DataFrame(rows)
 
-    def _set_aside(self, path: Path, problem: str, identity: tuple[int, int] | None) -> None:
-        """Move the corrupt file read as `identity` (device, inode) to a new, unique name.
+    def _read(self, path: Path, chash: str | None = None) -> dict[str, Any] | None:
+        """The valid record in `path` (of config hash `chash`), or None: missing (never
+        written, or set aside by another process meanwhile), or corrupt and set aside."""
+        try:
+            record, problem, identity = _read_record(path)
+        except FileNotFoundError:
+            return None
+        if problem is None and chash is not None and record["config_hash"] != chash:
+            problem = f"config hash {record['config_hash']} does not match {chash}"
+        if problem is not None:
+            self._set_aside(path, problem, identity)
+            return None
+        return record
 
-        Nothing happens when the file is gone (another process set it aside first) or is no
-        longer the file that was read (another process replaced it with a fresh record:
-        atomic writes always give a new inode).
-        """
+    def _set_aside(self, path: Path, problem: str, identity: tuple[int, int] | None) -> None:
+        """Move the corrupt file read as `identity` (device, inode) aside, unless another
+        process has set it aside or replaced it meanwhile."""
         try:
             st = os.stat(path)
         except FileNotFoundError:
@@ -256,23 +225,17 @@ class ResultsStore:
         except OSError as exc:  # a read-only store (`icil-paper tables` on a mount)
             warnings.warn(f"corrupt result {path}: {problem}; it is skipped (it could not be "
                           f"moved aside: {exc.strerror or exc})", CorruptRecordWarning,
-                          stacklevel=3)
+                          stacklevel=4)
             return
         if aside is None:  # lost the race to another process
             return
         warnings.warn(f"corrupt result {path}: {problem}; moved to {aside.name} and it will "
-                      "be recomputed", CorruptRecordWarning, stacklevel=3)
+                      "be recomputed", CorruptRecordWarning, stacklevel=4)
 
 
 def files_problem(record: Mapping[str, Any], folder: str | Path) -> str | None:
-    """Why the files a record stands for are not the ones it was written with, or None.
-
-    The record's `files` ({name: SHA-256}) are looked up in `folder`: a missing file, or one
-    whose bytes hash otherwise, is named. A record without `files` (written before records
-    named their files) gives None here: it is accepted as far as this check goes, and its
-    caller verifies it by loading (a `train` record: its policy's weight digest,
-    `train.stored.train_run`).
-    """
+    """Why the record's `files` ({name: SHA-256}) in `folder` are not the ones it was written
+    with (missing or changed), or None (also for a record without `files`)."""
     for name, digest in (record.get("files") or {}).items():
         try:
             found = file_sha256(Path(folder) / name)
@@ -292,20 +255,14 @@ RECORD_FIX = ("move it out of the results folder (the command that needs it comp
 
 
 def read_record_file(path: str | Path) -> dict[str, Any]:
-    """The JSON object of a record file, read through `fileio.read_json` with the record's
-    field types (`FIELD_TYPES`): a damaged one, or one whose fields have the wrong types,
-    raises UnreadableFileError naming it and the fix. For commands that read records to
-    report on them (`planning.cost`); `ResultsStore.get` sets a damaged record aside instead."""
+    """The JSON object of a record file (UnreadableFileError for a damaged one)."""
     return read_json(path, "a result record (a JSON object)", RECORD_FIX, fields=FIELD_TYPES)
 
 
 def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,
                                       tuple[int, int] | None]:
-    """(record, None, identity) for a valid record, (None, problem, identity) otherwise.
-
-    identity is the (device, inode) of the file that was read. FileNotFoundError
-    propagates: a missing record is not a corrupt one.
-    """
+    """(record, None, identity) for a valid record, (None, problem, identity) otherwise;
+    identity is the file's (device, inode). FileNotFoundError propagates."""
     identity = None
     try:
         with open(path, "rb") as f:
@@ -331,8 +288,6 @@ def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,
         return None, f"schema {record['schema']} is not {SCHEMA_VERSION}", identity
     if config_hash(record["config"]) != record["config_hash"]:
         return None, "its config does not hash to its config_hash", identity
-    if not isinstance(record["metrics"], dict):
-        return None, "its metrics are not a JSON object", identity
     bad = _non_finite(record["metrics"])
     if bad is not None:
         return None, f"metric {bad[0]} is {bad[1]} (a stored metric must be finite)", identity
@@ -340,10 +295,7 @@ def _read_record(path: Path) -> tuple[dict[str, Any] | None, str | None,
 
 
 def _non_finite(value: Any, where: str = "") -> tuple[str, float] | None:
-    """(location, value) of the first NaN or infinite number in nested dicts/lists, or None.
-
-    Locations read like `per_task[3]['success']`.
-    """
+    """(location like `per_task[3]['success']`, value) of the first NaN or inf, or None."""
     if hasattr(value, "tolist") and not isinstance(value, numbers.Number):
         value = value.tolist()  # numpy arrays, torch tensors
     if isinstance(value, Mapping):
@@ -360,10 +312,3 @@ def _non_finite(value: Any, where: str = "") -> tuple[str, float] | None:
         if not math.isfinite(float(value)):
             return where, float(value)
     return None
-
-
-def _check_finite_metrics(metrics: Mapping[str, Any]) -> None:
-    bad = _non_finite(dict(metrics))
-    if bad is not None:
-        raise ValueError(f"metric {bad[0]} is {bad[1]}; a result with a non-finite metric "
-                         "is not stored (fix the run, or store None explicitly)")

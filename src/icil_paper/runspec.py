@@ -1,18 +1,14 @@
 """Run specs: everything a training run or an evaluation reads, with one content key each.
 
     spec = run_spec(preset, policy="icrt", tokenizer="lipvq", tasks=["kitchen/open_drawer"])
-    spec.key()                       # 16 hex digits: changes whenever any field that can
-                                     # change the trained policy changes
+    spec.key()                       # 16 hex digits over every field that shapes the policy
     ev = eval_spec(preset, "kitchen/open_drawer", episodes=10)
     eval_key(spec, ev)               # the key of that policy's evaluation
     feature_key(spec, FeatureSpec(...))  # of a measurement of its tokenizer's features (Table III)
 
-A `RunSpec` is the data (tasks, source, observations, demos per task, the data seed), the
-policy's config, its tokenizer's config, the training loop's config and the training seed.
-Run folders (`runs/<preset>/<label>__<tasks>__<source>__seed<k>__<key8>`), the results
-store's records and every table cell derive their keys from these specs alone, never from
-hand-picked sections, so a changed knob never returns a stale result
-(`tests/test_specs.py` changes every field and watches the keys).
+A `RunSpec` is the data, the policy's and tokenizer's configs, the training loop and the
+training seed. Run folders, stored records and table cells take their keys from these specs
+alone, so a changed knob never returns a stale result.
 """
 
 from __future__ import annotations
@@ -36,15 +32,12 @@ from icil_paper.seeding import data_set_seed
 from icil_paper.tokenizers.configs import TokenizerConfig
 
 SCENE_DISTRIBUTIONS = ("generated", "human")
-"""Scene distributions an evaluation can name (`icil_paper.sim.kitchen.SCENE_DISTRIBUTIONS`,
-named here so specs stay light); the first is every suite's default."""
+"""Scene distributions an evaluation can name; the first is every suite's default."""
 
 
 SUITE_VERSION = 4
-"""The version of the task suites' scenes, success checks and scripted experts
-(`icil_paper.sim`), in every `DataSpec`'s and `EvalSpec`'s key, so that no run or record made
-on an older suite is returned for the current one; raise it whenever a layout range,
-fixture, success check or expert changes (the history is in git)."""
+"""The version of the task suites' scenes, success checks and experts, in every data and
+evaluation key; raise it whenever one of them changes."""
 
 
 @dataclass(frozen=True)
@@ -62,8 +55,7 @@ class DataSpec:
     demos_per_task: int = 10
     """Demonstrations per task (the first ones of each data set)."""
     task_demos: tuple[str, ...] = field(default=(), metadata=KEYED_WHEN_SET)
-    """Exceptions to `demos_per_task` for some of `tasks`, each `TASK:N`
-    (`config.task_demo_counts`; `demos_for`)."""
+    """Exceptions to `demos_per_task` for some of `tasks`, each `TASK:N`."""
     seed: int = 0
     """Base seed the demonstrations are generated from."""
     dataset: str | None = None
@@ -80,8 +72,7 @@ class DataSpec:
         task_demo_counts(self.task_demos)
 
     def demos_for(self, task: str) -> int:
-        """Demonstrations of `task` trained on: its `task_demos` entry, else
-        `demos_per_task`."""
+        """Demonstrations of `task` trained on."""
         return task_demo_counts(self.task_demos).get(task, self.demos_per_task)
 
     @property
@@ -127,10 +118,8 @@ class RunSpec:
 
 
 EVAL_RECORD_VERSION = 2
-"""What an evaluation record holds: 1, each episode's success, steps and return; 2, also
-its motion smoothness (`ldlj`, `sparc`, `action_jerk`). It is in every evaluation's key
-(`EvalSpec.record_version`), so a record of older code is never returned where the current
-contents are expected; raise it whenever a record gains a measurement."""
+"""What an evaluation record holds (2: success, steps, return and motion smoothness), in
+every evaluation's key; raise it whenever a record gains a measurement."""
 
 
 @dataclass(frozen=True)
@@ -150,16 +139,13 @@ class EvalSpec:
     prompt_source: str = "generated"
     """Where prompt demonstrations come from (`generated` or `human`)."""
     prompt_task: str | None = None
-    """Draw prompts from this task's demonstrations instead of `task`'s (the prompt
-    ablation: does the prompt carry the task?)."""
+    """Draw prompts from this task's demonstrations instead of `task`'s (prompt ablation)."""
     prompt_steps: int | None = None
     """Keep only the first this many steps of each prompt demonstration (None: whole)."""
     scenes: str = "generated"
-    """The scene distribution the episodes' layouts are drawn from: `generated` (every
-    table's but VI's) or `human` (Table VI's cross-dataset shift; kitchen tasks only, see
-    `icil_paper.sim.kitchen.scenes`)."""
+    """Scene distribution of the episodes: `generated`, or `human` (Table VI; kitchen only)."""
     record_version: int = EVAL_RECORD_VERSION
-    """What its record holds (`EVAL_RECORD_VERSION`, the only version this code computes)."""
+    """What its record holds (`EVAL_RECORD_VERSION`)."""
     suite_version: int = SUITE_VERSION
     """The task suites' version the episodes are played on (`SUITE_VERSION`)."""
 
@@ -188,10 +174,8 @@ class FeatureSpec:
     view_steps: int = 10
     """Fig. 4: steps of the first trajectory whose latents are kept for the t-SNE plot."""
     sampling: str = "per_task"
-    """How the `steps` features are drawn (`eval.features.held_out_pieces`): `per_task`, an
-    equal share `steps // len(data.tasks)` from every task's held-out trajectories;
-    `task_order`, the first `steps` of the trajectories in task order (the tasks listed
-    last may get none)."""
+    """`per_task`: an equal share of `steps` from every task; `task_order`: the first `steps`
+    of the trajectories in task order."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -211,29 +195,14 @@ def feature_key(run: RunSpec, spec: FeatureSpec) -> str:
     return spec_key({"run": run, "features": spec})
 
 
-def policy_obs(policy: PolicyConfig, obs: str) -> str:
-    """The observations a policy learns from: `obs`, except that image-only policies (MCR)
-    read `rgb` where `obs` is `state`."""
-    if obs == "state" and policy.needs_images:
-        return "rgb"
-    return obs
-
-
 def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerConfig | None = None,
              tasks: Sequence[str] | None = None, source: str = "generated",
              obs: str | None = None, seed: int | None = None,
              data_set: int | None = None) -> RunSpec:
-    """The run a preset describes for `policy` (+ `tokenizer`) on `tasks`.
-
-    policy, tokenizer: registry names (their configs come from the preset) or, for the
-        tokenizer, a config; None gives the policy's default tokenizer (ICRT: `mlp`).
-    tasks: default the preset's kitchen tasks. obs: default the preset's (MCR: `rgb`).
-    seed: training seed (default the preset's).
-    data_set: the demonstration set trained on (`seeding.data_set_seed`); default k for
-        training seed preset.seed + k, so that training seed k of every table row trains
-        on set k (its own expert seeds): seed k of two rows shares its data, two seeds of
-        a row do not. A seed below the preset's trains on set 0.
-    """
+    """The run a preset describes for `policy` (+ `tokenizer`: a registry name, a config, or
+    None for the policy's default) on `tasks` (default the preset's RoboCasa tasks).
+    `data_set` defaults to k for training seed preset.seed + k (`seeding.data_set_seed`);
+    an image-only policy (MCR) reads `rgb` where `obs` is `state`."""
     policy_cfg = preset.policies.get(policy)
     if isinstance(tokenizer, str):
         tokenizer = preset.tokenizers.get(tokenizer)
@@ -246,8 +215,10 @@ def run_spec(preset: Preset, policy: str = "icrt", tokenizer: str | TokenizerCon
         data_set = max(0, seed - preset.seed)
     tasks = tuple(tasks or preset.data.robocasa_tasks)
     exceptions = task_demo_counts(preset.data.task_demos)
-    data = DataSpec(tasks=tasks, source=source,
-                    obs=policy_obs(policy_cfg, obs or preset.data.obs),
+    obs = obs or preset.data.obs
+    if obs == "state" and policy_cfg.needs_images:
+        obs = "rgb"
+    data = DataSpec(tasks=tasks, source=source, obs=obs,
                     demos_per_task=preset.data.demos_per_task,
                     task_demos=tuple(f"{t}:{exceptions[t]}" for t in tasks if t in exceptions),
                     seed=data_set_seed(preset.seed, data_set))
@@ -259,8 +230,7 @@ def eval_spec(preset: Preset, task: str, episodes: int | None = None, seed: int 
               prompt_source: str = "generated", prompt_task: str | None = None,
               prompt_steps: int | None = None, max_steps: int | None = None,
               scenes: str = "generated") -> EvalSpec:
-    """The evaluation a preset describes on `task` (episodes from its suite's
-    `tables.episodes_per_task_by_suite`, else `preset.eval`; the step limit from `preset.eval`)."""
+    """The evaluation a preset describes on `task` (episodes by suite, else `preset.eval`)."""
     default = preset.tables.episodes_for(task, preset.eval.episodes_per_task)
     return EvalSpec(task=task, episodes=default if episodes is None else int(episodes),
                     seed=preset.seed if seed is None else int(seed),

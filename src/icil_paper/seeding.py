@@ -1,10 +1,8 @@
-"""The one seeding function of the project, torch's CPU thread control, and the base seeds
-of a preset's demonstration sets (`data_set_seed`).
+"""The one seeding function of the project, torch's CPU thread control (a thread count
+changes float rounding), and the base seeds of a preset's demonstration sets.
 
-Every entry point (CLI command, notebook, test) calls `seed_everything` once with the
-run's seed; nothing else in the library seeds a global generator. `cpu_threads(n)` runs a
-block with n torch CPU threads (training, stand-alone tokenizer training and rollout
-workers use it; a thread count changes float rounding, so it sits beside the seed).
+Every entry point calls `seed_everything` once with the run's seed; nothing else in the
+library seeds a global generator.
 """
 
 from __future__ import annotations
@@ -32,11 +30,8 @@ def cpu_threads(n: int | None) -> Iterator[None]:
 
 
 def seed_everything(seed: int, deterministic: bool = True) -> np.random.Generator:
-    """Seed Python, NumPy and torch (if installed); return a fresh NumPy Generator.
-
-    With `deterministic=True`, torch is asked for deterministic kernels, so that the same
-    seed and preset give the same numbers on the same machine.
-    """
+    """Seed Python, NumPy and torch (if installed; `deterministic`: deterministic kernels);
+    return a fresh NumPy Generator."""
     if not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     random.seed(seed)
@@ -57,18 +52,14 @@ def seed_everything(seed: int, deterministic: bool = True) -> np.random.Generato
 
 
 DATA_SET_STRIDE = 10_000
-"""Seed step between the demonstration sets of a preset: set k of base seed b is generated
-from base seed b + k * DATA_SET_STRIDE (`data_set_seed`), so that its demos' scenes are its
-own as long as a set holds fewer demos than this (and b stays below it)."""
+"""Seed step between the demonstration sets of a preset (`data_set_seed`)."""
 DATA_SETS = 50
-"""Demonstration sets a preset can have: set k's generated demos stay below the `human`
-source's seeds (`data.sources.SOURCE_SEED_OFFSET`, 500_000) for k < 500_000 / DATA_SET_STRIDE."""
+"""Demonstration sets a preset can have (below the `human` source's seed offset)."""
 
 
 def data_set_seed(base_seed: int, index: int) -> int:
-    """The base seed of demonstration set `index` of a preset whose seed is `base_seed`:
-    training seed k of every table row trains on set k (`runspec.run_spec`), so two seeds
-    of a row never share their demonstrations, and seed k of two rows always does."""
+    """The base seed of demonstration set `index` (training seed k of every row trains on set
+    k) of a preset whose seed is `base_seed`: base_seed + index * DATA_SET_STRIDE."""
     if not 0 <= int(index) < DATA_SETS:
         raise ValueError(f"demonstration set {index} out of range: a preset has sets 0 .. "
                          f"{DATA_SETS - 1} (one per training seed)")

@@ -1,12 +1,6 @@
-"""The stages of `icil-paper reproduce` (`icil_paper.reproduce.STAGES`, in order): what each
-is, the table stages' order, and how the table stages run their cells (`GRID`).
-
-    from icil_paper.reproduce import STAGES
-    for stage in STAGES: print(stage.name, stage.description)   # environment .. claims
-
-It imports nothing of the package, so the planning modules that count a run's cost by
-stage (`planning.cost`) and the chapters' studies that read `GRID` (`book.own_tokenizer`)
-sit below the runner that calls them.
+"""The stages of `icil-paper reproduce` (`icil_paper.reproduce.STAGES`): what each is, the
+table stages' order, and how the table stages run their cells (`GRID`). It imports nothing of
+the package, so the modules that read it sit below the runner.
 """
 
 from __future__ import annotations
@@ -45,8 +39,7 @@ TABLE_STAGES: tuple[tuple[str, str, str], ...] = (
     ("official", "the paper against its official code: LipVQ-VAE, Bin and prompts as the "
                  "code has them", "13"),
 )
-"""(table id, what it computes, chapter) of each table stage `table-<id>`, in run order
-(chapter 02's run comes before the chapters' own studies; the paper's tables after them)."""
+"""(table id, what it computes, chapter) of each table stage `table-<id>`, in run order."""
 
 
 GRID = {"executor": "local", "workers": None, "ray_address": None, "gpus_per_cell": 0.0}

@@ -4,19 +4,14 @@
     diff = paired_difference(a, b, scenes="per_seed")     # a - b with its 95% interval
     verdict(diff, direction=+1)                           # holds, does not hold, ...
 
-- Intervals: the t interval on per-seed values (Student 1908); a difference, the paired t
-  where seed k of both rows plays scene set k (common random numbers), else Welch's t. One
-  seed: the episodes' noise only, and no verdict.
+- Intervals: the t interval on per-seed values; a difference, the paired t where seed k of
+  both rows plays scene set k, else Welch's t. One seed: episode noise only, no verdict.
 - Verdict: the 95% interval against 0; best of k, an intersection-union test (Berger 1982).
 - Multiplicity: the graphical procedure of Bretz et al. (2009), weighted Holm by default.
-- Seeds in stages: Lan-DeMets (1983) O'Brien-Fleming-type spending, repeated p-values and
-  confidence intervals (Jennison and Turnbull 2000, "Group Sequential Methods", ch. 9), the
-  graph at every look (Maurer and Bretz 2013), conditional power (ibid. Sec. 10.1).
-- Planning: (t_{1-a/2} + t_{power}) se on the variance the test reads (Colas et al. 2018);
-  episodes per task by two-stage sampling (Cochran 1977, "Sampling Techniques", 10.6).
-
-`tests/test_verdicts.py` and `tests/test_calibration.py` simulate rows with no true
-difference at the measured spreads and check the error rates.
+- Seeds in stages: Lan-DeMets (1983) O'Brien-Fleming-type spending, repeated p-values
+  (Jennison and Turnbull 2000, ch. 9), the graph at every look (Maurer and Bretz 2013).
+- Planning: (t_{1-a/2} + t_{power}) se (Colas et al. 2018); episodes per task by two-stage
+  sampling (Cochran 1977, 10.6).
 """
 
 from __future__ import annotations

@@ -5,12 +5,8 @@
         run_cell(...)                    # the library's phases are marked with `phase(...)`
     phases.as_dict()                     # {"train.step": {"wall_s", "cpu_s", "count"}, ...}
 
-The library marks its phases (`with phase("eval.sim"): env.step(a)`) so that
-`tools/bench/cells.py` can split one cell's wall time into training steps, checkpoints,
-environment steps, policy forward passes and the rest. Marked phases do not nest: each
-names a leaf of the work, so their seconds add up to at most the recorded wall time.
-Outside `recording()` a `phase` costs one global lookup (about a microsecond, against
-milliseconds for the shortest marked phase, an environment step).
+Marked phases (`with phase("eval.sim"): env.step(a)`) do not nest, so their seconds add up
+to at most the recorded wall time; outside `recording()` a `phase` costs one global lookup.
 """
 
 from __future__ import annotations

@@ -34,8 +34,7 @@ _CLAIM = {
 
 
 def claim_words(verdict: Verdict, side: str) -> str:
-    """"the claim <words>" of a ledger entry; `side` is "above" or "below" (the claimed
-    side of 0)."""
+    """"the claim <words>" of a ledger entry; `side` is "above" or "below"."""
     return _CLAIM[Verdict(verdict)].format(side=side)
 
 
@@ -53,8 +52,7 @@ COLOURS = {HOLDS: "#1a7f37", DOES_NOT_HOLD: "#cf222e", INCONCLUSIVE: "#9a6700",
 
 
 def counted(verdict: Verdict, k: int) -> str:
-    """"3 hold", "1 does not hold", ...: `k` claims with this verdict, as the ledger's summary
-    sentence counts them."""
+    """"3 hold", "1 does not hold", ...: `k` claims with this verdict."""
     one = k == 1
     return {HOLDS: f"{k} {'holds' if one else 'hold'}",
             DOES_NOT_HOLD: f"{k} {'does' if one else 'do'} not hold",
@@ -85,15 +83,13 @@ ANALYSIS_SUCCESS = {HOLDS: "more successful", DOES_NOT_HOLD: "less successful",
 EXPLANATION = {HOLDS: "survives", DOES_NOT_HOLD: "does not survive",
                INCONCLUSIVE: "cannot be decided at this number of seeds and episodes",
                TOO_FEW_SEEDS: "cannot be decided (a row has one seed)", NOT_RUN: "has not run yet"}
-"""The smoothness explanation's verdict (chapter 11: LipVQ-VAE smoother on the standardized
-score and more successful than VQ-VAE)."""
+"""The smoothness explanation's verdict (chapter 11)."""
 
 OUTCOME = {HOLDS: "higher", DOES_NOT_HOLD: "lower",
            INCONCLUSIVE: "no difference detected (the interval contains 0)",
            TOO_FEW_SEEDS: "not decided (a row has a single training seed)",
            NOT_RUN: "not run yet"}
-"""A two-sided question read as "the variant succeeds more" (the official code's table):
-holds reads "higher", does not hold "lower"."""
+"""A two-sided question read as "the variant succeeds more" (the official code's table)."""
 
 OUTCOME_SHORT = {HOLDS: "higher", DOES_NOT_HOLD: "lower",
                  INCONCLUSIVE: "no difference detected", TOO_FEW_SEEDS: "not decided",
@@ -104,40 +100,32 @@ TRAINING_WINDOW = {HOLDS: "holds", DOES_NOT_HOLD: "does not hold (windows do bet
                    INCONCLUSIVE: "is inconclusive (the interval contains 0)",
                    TOO_FEW_SEEDS: "is not decided: one training seed cannot tell its luck "
                                   "from the method (too few seeds)"}
-"""Chapter 02's "that whole episodes help <words>" (whole episodes minus random windows,
-claimed higher)."""
+"""Chapter 02's "that whole episodes help <words>"."""
 
 DESIGN_OUTCOME = {HOLDS: "decided: it holds", DOES_NOT_HOLD: "decided: it does not hold",
                   INCONCLUSIVE: "undecided", TOO_FEW_SEEDS: "undecided (a row has one seed)",
                   NOT_RUN: "not run yet"}
-"""The design's outcome for a claim (its verdict after Holm), as the introduction quotes it
-beside the number that carries a question."""
+"""The design's outcome for a claim (its verdict after Holm), as the introduction quotes it."""
 
 SMALLER_THAN_PAPER = "decided: smaller than the paper's effect"
 """The outcome of a claim whose size was decided below the paper's effect (`Size.SMALLER`)."""
 
 SEEDS_TO_DECIDE = "about {n} seeds a row would decide it"
+"""What an undecided claim would take: the seeds a row its power analysis asks for."""
 ALONE_BUT_NOT_TOGETHER = {
     HOLDS: "its 95% interval alone lies on the claimed side of 0, but not at the stricter "
            "level that testing every claim at once requires",
     DOES_NOT_HOLD: "its 95% interval alone lies on the other side of 0, but not at the "
                    "stricter level that testing every claim at once requires"}
 """Why a claim whose interval excludes 0 is still undecided (keyed by its unadjusted verdict)."""
-"""What an undecided claim would take: the seeds a row its power analysis asks for."""
-
-CLAIMED = {+1: "higher", -1: "lower"}
-"""The claimed side of a difference in words."""
 
 MISSING = NOT_RUN.value
-"""What a table cell or a finding shows while a record it reads is missing (the ledger's
-verdict for a claim that reads it)."""
+"""What a table cell or a finding shows while a record it reads is missing."""
 
 
 def answer(verdicts) -> str:
-    """A question's answer from the verdicts (after Holm) of the claims that decide it:
-    "Yes" when every one holds, "No" when every one does not hold, "In part" when some are
-    decided either way, "Not decided at this scale" when none is, "Not run yet" when none
-    has its records."""
+    """A question's answer from the verdicts (after Holm) of the claims that decide it: "Yes",
+    "No", "In part (...)", "Not decided at this scale" or "Not run yet"."""
     verdicts = [Verdict(v) for v in verdicts]
     run = [v for v in verdicts if v != NOT_RUN]
     if not run:
