@@ -18,10 +18,8 @@ Layout written (robomimic's, also robosuite's, RoboCasa's and MimicGen's, so rob
     +-- demo_1 ...
     mask/train, mask/valid    demo names, robomimic's filter keys
 
-Every dataset carries a Fletcher-32 checksum that HDF5 verifies on read. Files of the
-layout's version 1 (stacked `obs/rgb`, `obs/depth`) still load. Loaders return `Demo`s with
-the entries `proprio`, `object`, `rgb` (T, n_cams, H, W, 3) and `depth` (T, n_cams, H, W),
-whatever the file's keys (`icil_paper.data.obs_keys` maps those of other tools' files).
+Every dataset carries a Fletcher-32 checksum. Files of layout version 1 (stacked
+`obs/rgb`, `obs/depth`) still load; other tools' keys are mapped by `data.obs_keys`.
 """
 
 from __future__ import annotations
@@ -56,10 +54,10 @@ class DatasetError(ValueError):
 
 @dataclass
 class Demo:
-    """One demonstration: T steps of observations and the actions taken from them.
+    """One demonstration: `obs[key][t]` is the observation before `actions[t]`.
 
-    `obs[key][t]` is the observation before `actions[t]`. Keys: "proprio" (T, P), "object"
-    (T, O), optionally "rgb" (T, n_cams, H, W, 3) uint8 and "depth" (T, n_cams, H, W) metres.
+    Keys: "proprio" (T, P), "object" (T, O), optionally "rgb" (T, n_cams, H, W, 3) uint8 and
+    "depth" (T, n_cams, H, W) metres.
     """
 
     actions: np.ndarray
@@ -83,8 +81,7 @@ class Demo:
     meta: dict[str, Any] = field(default_factory=dict)
     """Other per-demo attributes of the file."""
     final_obs: dict[str, np.ndarray] | None = None
-    """The observation after the last action (same keys as `obs`, no time axis), when known;
-    it completes robomimic's `next_obs`."""
+    """The observation after the last action (keys of `obs`, no time axis), when known."""
     cameras: tuple[str, ...] = ()
     """Names of the cameras along the camera axis of `obs["rgb"]` / `obs["depth"]`."""
 
@@ -134,8 +131,7 @@ def _write_obs(group: Any, obs: Mapping[str, np.ndarray], cameras: Sequence[str]
 
 
 def _next_obs(demo: Any) -> dict[str, np.ndarray]:
-    """robomimic's next_obs: obs shifted by one step, then the final observation (the last
-    observation repeated when the demo did not record it)."""
+    """robomimic's next_obs: obs shifted by one step, then the final (or last) observation."""
     final = getattr(demo, "final_obs", None) or {}
     out = {}
     for key, value in demo.obs.items():
@@ -178,10 +174,9 @@ def _write_demo(group: Any, demo: Any) -> None:
 def write_demos(path: str | Path, demos: Sequence[Demo], file_attrs: dict[str, Any] | None = None,
                 valid_fraction: float = 0.1, split_seed: int = 0,
                 names: Sequence[str] | None = None) -> Path:
-    """Write demos to `path` atomically (temporary file, then rename); return the path.
+    """Write demos to `path` atomically; return the path.
 
-    `names` default to demo_0, demo_1, ...; `file_attrs` go onto the `data` group (with
-    `env_args` JSON-encoded). The train/valid masks come from `splits.train_valid_split`.
+    `names` default to demo_0, demo_1, ...; `file_attrs` go onto the `data` group.
     """
     path = Path(path)
     names = list(names) if names is not None else [f"demo_{i}" for i in range(len(demos))]
@@ -235,11 +230,9 @@ def _atomic_h5(path: Path) -> Iterator[Any]:
 def merge_demo_files(path: str | Path, parts: Sequence[tuple[str | Path, str, str]],
                      file_attrs: dict[str, Any], valid_fraction: float = 0.1,
                      split_seed: int = 0) -> Path:
-    """Atomically write `path` from demos copied out of other files.
+    """Atomically write `path` from (file, demo name there, demo name in `path`) `parts`.
 
-    `parts` is a list of (file, demo name in that file, demo name in the output); a demo in
-    the current layout is copied bit for bit, one in the version 1 layout is rewritten in the
-    current one. `path` itself may be one of the inputs.
+    Demos in the current layout are copied bit for bit; `path` may be one of the inputs.
     """
     import h5py
 
@@ -294,10 +287,8 @@ def _json_attr(attrs: Any, key: str) -> Any:
 
 
 def file_info(path: str | Path) -> dict[str, Any]:
-    """The `data` group's attributes and demo names of a file, without loading arrays.
-
-    Raises DatasetError when the file is missing, not HDF5, damaged or has no `data` group.
-    """
+    """The `data` group's attributes and demo names ("demos") of a file; DatasetError when
+    the file is missing, not HDF5, damaged or has no `data` group."""
     import h5py
 
     path = Path(path)
@@ -327,10 +318,8 @@ def file_info(path: str | Path) -> dict[str, Any]:
 def verify_file(path: str | Path, images: bool = True) -> dict[str, Any]:
     """Read every dataset of a file once (checking its checksums); return `file_info(path)`.
 
-    `images=False` skips the image and depth arrays (datasets of 4 or more dimensions), the
-    bulk of an image data set (reading them costs about as much as loading them). Raises
-    DatasetError naming the file and the first dataset that cannot be read. Only the file's
-    integrity is checked, not its contents (that is `load_demos`'s job).
+    `images=False` skips datasets of 4 or more dimensions. Raises DatasetError naming the
+    first dataset that cannot be read.
     """
     import h5py
 
@@ -519,21 +508,10 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
                obs_keys: Sequence[str] | Mapping[str, Sequence[str]] | None = None) -> list[Demo]:
     """Load and validate the demos of a robomimic-layout HDF5 file (ours or robomimic's).
 
-    Args:
-        path: the file.
-        action_dim: expected action width; a mismatch raises DatasetError.
-        limit: load exactly the first `limit` demos (in numeric order, demo_2 before demo_10);
-            a file with fewer raises DatasetError.
-        images: load `rgb` / `depth` arrays (False skips them, for state-only training).
-        obs_keys: the file's observation keys to use (`icil_paper.data.obs_keys`); None: the
-            project's own keys, or the default mapping for files of other tools, which warns
-            naming the keys it drops.
-
-    Raises DatasetError naming the file, the demo and the problem: missing keys, wrong shapes,
-    action widths that differ from `action_dim`, from the file's `action_dim` attribute or
-    between demos, steps that disagree between keys, NaN or infinite values, observation widths
-    that differ between the demos of one file, and damaged files (failed checksums, truncated
-    data).
+    `limit` loads exactly the first `limit` demos (numeric order); `images=False` skips
+    `rgb` / `depth`; `obs_keys` picks the file's observation keys (`data.obs_keys`; None: ours,
+    or the default mapping, which warns naming the keys it drops). Raises DatasetError naming
+    file, demo and problem (missing keys, shapes, action widths, NaNs, damaged data).
     """
     import h5py
 
