@@ -22,8 +22,7 @@ from icil_paper.train.stored import trusted_policy
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = Parser(prog="icil-paper eval",
-                                description="Roll out a trained policy; store its success rate.")
+    p = Parser(prog="icil-paper eval", description="Roll out a trained policy; store its success rate.")
     add_preset_arguments(p)
     p.add_argument("--run-dir", default=None,
                    help="folder of a training run (default: the one that --policy, --tokenizer, "
@@ -56,8 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _check_outputs(run: Any, policy: Any, tasks: Sequence[str], prompt_source: str,
                    preset: Any) -> None:
-    """Refuse, before any rollout, a results store (and, where a prompt data set must be
-    generated, a data folder) that this process cannot write to."""
+    """Refuse, before any rollout, results and data folders this process cannot write to."""
     check_env_folder(RESULTS_ENV_VAR, "results")
     if policy.uses_prompt and not all(demo_path(preset, t, prompt_source, run.data.obs).exists()
                                       for t in tasks):

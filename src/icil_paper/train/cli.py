@@ -23,8 +23,7 @@ from icil_paper.train.stored import train_run
 
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="icil-paper train",
-                                description="Train a policy (ICRT or a baseline) with an action "
-                                            "tokenizer.")
+               description="Train a policy (ICRT or a baseline) with an action tokenizer.")
     add_preset_arguments(p)
     p.add_argument("--policy", default="icrt", help=f"one of {', '.join(POLICIES)}")
     p.add_argument("--tokenizer", default=None,
@@ -84,10 +83,8 @@ def spec_from_args(args: argparse.Namespace, preset):
 
 
 def check_dataset_widths(path: Path, demos) -> None:
-    """Refuse, before training, a data set whose action or state widths differ from those
-    of the registered task its demos name (ValueError naming both): a policy trained on it
-    could not act in that task. Demos of a task this library does not know (a file's own
-    name, say) are not checked."""
+    """Refuse a data set whose action or state widths differ from those of the registered
+    task its demos name (demos of unknown tasks are not checked)."""
     known = set(sim.all_tasks())
     for demo in demos:
         task = str(getattr(demo, "task", ""))
@@ -110,8 +107,8 @@ def check_dataset_widths(path: Path, demos) -> None:
 
 
 def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -> None:
-    """Refuse, before any work, output folders this process cannot write to: the run
-    folder, the results store and, when a data set must be generated, the data folder."""
+    """Refuse, before any work, output folders (run, results, data) this process cannot
+    write to."""
     if explicit_run_dir:
         check_writable(run_dir, f"--run-dir {run_dir}", "pass another --run-dir")
     else:
