@@ -5,8 +5,7 @@
     icil-paper demos --check path/to/file.hdf5 [--action-dim 7]
     icil-paper demos --list                           # task names and data set paths
 
-Every existing data set file is read back whole first (checksums included); a damaged one is
-set aside under a unique name, named in a warning, and generated again.
+A damaged data set file is set aside, named in a warning, and generated again.
 """
 
 from __future__ import annotations
