@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
+from icil_paper.data.generate import worker_init
 from icil_paper.data.sources import ExpertSource, expert_rollout, make_source, source_env_options
 from icil_paper.fileio import atomic_write_json
 from icil_paper.results import results_root
@@ -28,15 +29,6 @@ from icil_paper.sim import SUITES, make_env, make_expert, tasks_of
 
 REQUIRED_RATE = 0.9
 _CACHE: dict[str, Any] = {}
-
-
-def _worker_init() -> None:
-    try:
-        import torch
-
-        torch.set_num_threads(1)
-    except ImportError:
-        pass
 
 
 def _get(task: str) -> tuple[Any, Any, Any, Any]:
@@ -131,12 +123,12 @@ def measure(suite: str, n_seeds: int = 50, seed: int = 0, workers: int = 2,
     rows = []
     bar = tqdm(total=len(jobs), desc=f"experts {suite}", disable=not progress)
     if workers <= 1:
-        _worker_init()
+        worker_init()
         for job in jobs:
             rows.append(measure_one(job))
             bar.update()
     else:
-        with mp.get_context("spawn").Pool(workers, initializer=_worker_init) as pool:
+        with mp.get_context("spawn").Pool(workers, initializer=worker_init) as pool:
             for row in pool.imap_unordered(measure_one, jobs):
                 rows.append(row)
                 bar.update()

@@ -150,7 +150,8 @@ _CACHE_SIZE = 2
 """Envs (with their experts) a worker keeps open: one per (task, source) it recently served."""
 
 
-def _worker_init() -> None:
+def worker_init() -> None:
+    """Initializer of a generation pool's worker processes: one torch thread each."""
     try:
         import torch
 
@@ -412,7 +413,7 @@ def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None
             context = mp.get_context("spawn")
             # chunks of one job in submission order: a worker mostly meets the task it has
             # an env for, and the bar moves demo by demo
-            with context.Pool(min(workers, len(jobs)), initializer=_worker_init) as pool:
+            with context.Pool(min(workers, len(jobs)), initializer=worker_init) as pool:
                 for summary in pool.imap_unordered(generate_one, jobs):
                     bar.set_postfix(task=summary["task"], seed=str(summary["seed"]))
                     bar.update()

@@ -404,24 +404,15 @@ def _gather(path: Path, name: str, raw: Any, keys: ObsKeyMap, rows: slice,
                 if a.ndim != 3:
                     raise _err(path, name, f"{prefix}/{k} must be (T, H, W) or (T, H, W, 1)")
             arrays.append(a[:, None])  # one camera
+        if len({a.shape[2:] for a in arrays}) > 1 or len({a.ndim for a in arrays}) > 1:
+            raise _err(path, name, f"cameras {', '.join(f'{prefix}/{k}' for k in file_keys)} "
+                                   f"have different image shapes {[a.shape[1:] for a in arrays]}")
         if arrays:
-            obs[entry] = _stack_cameras(path, name, prefix, file_keys, arrays)
+            obs[entry] = np.concatenate(arrays, axis=1)
     return obs
 
 
-def _stack_cameras(path: Path, name: str, prefix: str, keys: Sequence[str],
-                   arrays: list[np.ndarray]) -> np.ndarray:
-    shapes = {a.shape[2:] for a in arrays}
-    if len(shapes) > 1 or any(a.ndim != arrays[0].ndim for a in arrays):
-        raise _err(path, name, f"cameras {', '.join(f'{prefix}/{k}' for k in keys)} have "
-                               f"different image shapes {[a.shape[1:] for a in arrays]}")
-    return np.concatenate(arrays, axis=1)
-
-
-def _check_obs(path: Path, name: str, obs: dict[str, np.ndarray], T: int) -> None:
-    for key, value in obs.items():
-        if value.shape[0] != T:
-            raise _err(path, name, f"obs/{key} has {value.shape[0]} steps but actions have {T}")
+def _check_obs(path: Path, name: str, obs: dict[str, np.ndarray]) -> None:
     if "rgb" in obs:
         rgb = obs["rgb"]
         if rgb.ndim != 5 or rgb.shape[-1] != 3:
@@ -455,7 +446,7 @@ def _read_demo(path: Path, name: str, group: Any, keys: ObsKeyMap, file_task: st
     T = actions.shape[0]
     _finite(path, name, "actions", actions)
     obs = _gather(path, name, group["obs"], keys, slice(None), T)
-    _check_obs(path, name, obs, T)
+    _check_obs(path, name, obs)
     final = None
     if "next_obs" in group:
         final = {k: v[0] for k, v in _gather(path, name, group["next_obs"], keys,

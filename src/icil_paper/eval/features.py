@@ -42,7 +42,6 @@ class HeldOutPiece:
     """One scored stretch of a held-out trajectory."""
 
     task: str
-    """The task whose data set it comes from."""
     demo: int
     """Index of the demonstration in that data set."""
     actions: np.ndarray

@@ -46,11 +46,8 @@ class EvalResult:
     """What `evaluate_policy` returns (and what an `eval` record's metrics hold)."""
 
     task: str
-    """The task rolled out."""
     episodes: int
-    """Rollouts run."""
     successes: int
-    """Rollouts that reached the task's success predicate."""
     success_rate: float
     """successes / episodes."""
     ci_low: float

@@ -41,7 +41,6 @@ class Episode:
     spec: int
     """Which evaluation it belongs to (an index into the caller's specs; keys `prompts`)."""
     task: str
-    """The task (the env to build)."""
     index: int
     """Its index within its evaluation (episode 0, 1, ...)."""
     seed: int
@@ -219,13 +218,10 @@ class GroupJob:
     """One lockstep group (`run_group`): what to run and with what."""
 
     episodes: list[Episode]
-    """The group's episodes."""
     prompts: dict[int, dict[int, Any]]
     """The prompt demonstrations they use: {spec: {pool index: demonstration}}."""
     policy: Any
-    """The policy that acts."""
     env: EnvSetup
-    """How the envs are built."""
     record_dir: str | None = None
     """Write a rerun recording of each rollout there."""
 
