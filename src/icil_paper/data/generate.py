@@ -215,10 +215,8 @@ def _finished_shards(path: Path) -> dict[int, Path]:
 
 def outdated(info: dict[str, Any], source: str) -> str | None:
     """None when a file (its `file_info`) of `source` holds what this generator makes, else why."""
-    made_by = info.get("generator")
-    if made_by is None or str(made_by) == GENERATOR:
-        return None
-    if source in OLDER_GENERATORS.get(str(made_by), ()):
+    made_by = str(info.get("generator", GENERATOR))
+    if made_by == GENERATOR or source in OLDER_GENERATORS.get(made_by, ()):
         return None
     return (f"was made by {made_by}, which made {source} demonstrations differently from "
             f"this code's {GENERATOR}")
@@ -268,19 +266,14 @@ class _Plan:
     """`make_env` options of its envs: the caller's and the source's."""
 
 
-def _env_options(task: str, source: str, env_options: dict[str, Any]) -> dict[str, Any]:
+def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
+          env_options: dict[str, Any], full_check: bool = False) -> _Plan:
+    path = demo_path(preset, task, source, obs, seed=base_seed)
+    control_freq = int(get_suite(suite_of(task)).control_freq)
     if "scenes" in env_options:
         raise ValueError("a data set's scene distribution follows its source "
                          "(sources.SOURCE_SCENES); generate without a `scenes` option")
-    return {**env_options, **source_env_options(source, task)}
-
-
-def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
-          env_options: dict[str, Any], full_check: bool = False) -> _Plan:
-    check_name("demo source", source, SOURCES)
-    path = demo_path(preset, task, source, obs, seed=base_seed)
-    control_freq = int(get_suite(suite_of(task)).control_freq)
-    options = _env_options(task, source, env_options)
+    options = {**env_options, **source_env_options(source, task)}
     attrs: dict[str, Any] = {
         "task": task, "source": source, "obs_kind": obs, "base_seed": base_seed,
         "action_dim": ACTION_DIM, "generator": GENERATOR, "control_freq": control_freq,

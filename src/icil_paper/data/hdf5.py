@@ -276,8 +276,8 @@ def _attr(attrs: Any, key: str, default: Any = None) -> Any:
     return value
 
 
-def _json_attr(attrs: Any, key: str) -> Any:
-    value = _attr(attrs, key)
+def _json(value: Any) -> Any:
+    """`value` decoded from JSON where it is a JSON string, else as it is."""
     if isinstance(value, str):
         try:
             return json.loads(value)
@@ -306,11 +306,8 @@ def file_info(path: str | Path) -> dict[str, Any]:
         raise _err(path, None, f"not a readable HDF5 file ({exc})") from None
     except (RuntimeError, KeyError) as exc:
         raise _err(path, None, f"the file is damaged ({_damage(exc)})") from None
-    if "env_args" in attrs and isinstance(attrs["env_args"], str):
-        try:
-            attrs["env_args"] = json.loads(attrs["env_args"])
-        except json.JSONDecodeError:
-            pass
+    if "env_args" in attrs:
+        attrs["env_args"] = _json(attrs["env_args"])
     attrs["demos"] = names
     return attrs
 
@@ -456,11 +453,8 @@ def _read_demo(path: Path, name: str, group: Any, keys: ObsKeyMap, file_task: st
         raise _err(path, name, f"states have {states.shape[0]} steps but actions have {T}")
     rewards = _read(path, name, group, "rewards") if "rewards" in group else None
     attrs = group.attrs
-    ep_meta = _attr(attrs, "ep_meta")
-    try:
-        lang = json.loads(ep_meta).get("lang", "") if ep_meta else ""
-    except (json.JSONDecodeError, AttributeError):
-        lang = ""
+    ep_meta = _json(_attr(attrs, "ep_meta"))
+    lang = ep_meta.get("lang", "") if isinstance(ep_meta, dict) else ""
     cameras = tuple(camera_of(k) for k in keys.rgb or keys.depth
                     if k not in ("rgb", "depth"))
     return Demo(
@@ -569,7 +563,7 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
 
 
 def _key_map(path: Path, name: str, group: Any, obs_keys: Any, own: bool) -> ObsKeyMap:
-    cameras = _json_attr(group.attrs, "cameras")
+    cameras = _json(_attr(group.attrs, "cameras"))
     try:
         return map_obs_keys(_available(group["obs"]), obs_keys, own=own,
                             camera_order=cameras if isinstance(cameras, list) else None)
