@@ -322,8 +322,7 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
                 workers: int | None = None, progress: bool = True, seed: int | None = None,
                 obs: str | None = None, full_check: bool = False,
                 **env_options: Any) -> dict[tuple[str, str], Path]:
-    """`ensure_demos` for every (task, source) pair, with one pool of workers for them all;
-    returns {(task, source): path}."""
+    """`ensure_demos` for every (task, source) pair, one worker pool for all; {pair: path}."""
     preset = _preset(preset)
     n = int(preset.data.demos_per_task if n is None else n)
     if n < 1:
@@ -440,8 +439,7 @@ def check_tasks(preset: Any) -> None:
 
 
 def preset_tasks(preset: Any, available: bool = False) -> tuple[str, ...]:
-    """Every task of a preset's tables; `available=True` leaves out (saying why on stderr)
-    the tasks of suites that cannot run here."""
+    """Every task of a preset's tables; `available=True` skips suites that cannot run here."""
     preset = _preset(preset)
     twins = sorted(set(sim_to_real_pairs().values()))
     tasks = tuple(dict.fromkeys((*preset.data.robocasa_tasks, *preset.data.zero_shot_tasks,

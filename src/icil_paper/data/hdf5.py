@@ -287,8 +287,7 @@ def _json(value: Any) -> Any:
 
 
 def file_info(path: str | Path) -> dict[str, Any]:
-    """The `data` group's attributes and demo names ("demos") of a file; DatasetError when
-    the file is missing, not HDF5, damaged or has no `data` group."""
+    """The `data` group's attributes and demo names ("demos") of a file, without arrays."""
     import h5py
 
     path = Path(path)

@@ -32,8 +32,7 @@ _KEPT: OrderedDict[tuple, tuple[Any, int]] = OrderedDict()
 
 
 def signature(path: Any) -> tuple | None:
-    """What identifies the bytes of the file at `path`, or None (missing, or changed too
-    recently to tell a later change apart)."""
+    """What identifies the bytes of the file at `path`, or None (missing or just changed)."""
     try:
         st = os.stat(path)
     except OSError:
@@ -70,8 +69,7 @@ def forget() -> None:
 
 
 def _copy(value: Any) -> Any:
-    """A deep copy of arrays, dicts, lists, tuples and dataclasses of them (a few times
-    faster than `copy.deepcopy` on a data set's thousands of small arrays)."""
+    """A deep copy of arrays, dicts, lists, tuples and dataclasses (faster than deepcopy)."""
     if isinstance(value, (str, int, float, bool, type(None))):
         return value
     if isinstance(value, np.ndarray):

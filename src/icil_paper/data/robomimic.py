@@ -42,8 +42,7 @@ ROBOMIMIC_NOTE = ("robomimic's env factory cannot build this env (its gym type i
 
 def robomimic_env_args(task: str, obs: str, env_options: Mapping[str, Any] | None = None,
                        control_freq: int | None = None) -> dict[str, Any]:
-    """`data.attrs["env_args"]` of a data set of `task`: gymnasium id, robomimic's gym type
-    and the options of `icil_paper.sim.make_env`."""
+    """`data.attrs["env_args"]` of a data set of `task`, in robomimic's form."""
     return {
         "env_name": gym_id(task),
         "type": ROBOMIMIC_GYM_TYPE,

@@ -184,8 +184,7 @@ def make_source(source: str, task: str, expert: Any = None,
 
 def expert_rollout(env: Any, policy: Any, seed: int, source: str = "generated",
                    record_states: bool = True, max_steps: int | None = None) -> tuple[Demo, bool]:
-    """Run one episode of `policy` (a source) from `env.reset(seed=seed)` until success or
-    the horizon; returns (Demo, succeeded)."""
+    """One episode of `policy` (a source) from `env.reset(seed=seed)`: (Demo, succeeded)."""
     obs, info = env.reset(seed=seed)
     policy.reset(env, obs, seed=seed)
     get_state = getattr(env, "get_state", None) if record_states else None

@@ -11,8 +11,7 @@ from icil_paper.sim import get_suite, tasks_of
 
 def train_valid_split(names: Sequence[str], valid_fraction: float = 0.1,
                       seed: int = 0) -> dict[str, list[str]]:
-    """Split demo names into `train` and `valid` (round(fraction * n) valid demos, seeded);
-    robomimic's filter keys. Both lists keep the names' order."""
+    """Split demo names into `train` and `valid` (round(fraction * n) valid demos, seeded)."""
     if not 0.0 <= valid_fraction < 1.0:
         raise ValueError(f"valid_fraction must be in [0, 1), got {valid_fraction}")
     names = list(names)
@@ -41,8 +40,7 @@ def _normalize_split(split) -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 
 def zero_shot_split(suite: str = "metaworld") -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(training tasks, held-out tasks) of a suite's zero-shot setting (Meta-World's ML45:
-    Table VII's)."""
+    """(training tasks, held-out tasks) of a suite's zero-shot setting (Table VII)."""
     split = get_suite(suite, f"the {suite} zero-shot split").zero_shot_split
     if split is None:
         raise ValueError(f"the {suite} suite defines no zero-shot split")

@@ -49,8 +49,7 @@ class HeldOutPiece:
 
 
 def held_out_pieces(spec: FeatureSpec, preset: Any) -> list[HeldOutPiece]:
-    """The held-out pieces `spec` scores: demonstrations [start, start + demos_per_task) of
-    each task's data set, cut per `spec.sampling`."""
+    """The held-out pieces `spec` scores, cut per `spec.sampling` (module docstring)."""
     d = spec.data
     n = spec.start + d.demos_per_task
     per_task = spec.sampling == "per_task"

@@ -151,8 +151,7 @@ def _first_position(env: Any) -> list[np.ndarray] | None:
 
 
 def motion_record(out: Mapping[str, Any]) -> dict[str, float | None]:
-    """`ldlj`, `sparc` and `action_jerk` of one `rollout_batch` output, to 7 significant
-    digits; None where a measure is undefined (NaN or inf)."""
+    """`ldlj`, `sparc` and `action_jerk` of one `rollout_batch` output; None where undefined."""
     if out.get("eef_path") is None:
         values = {"ldlj": math.nan, "sparc": math.nan,
                   "action_jerk": action_second_difference(out["actions"])}

@@ -60,8 +60,7 @@ def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[
                       record_dir: str | Path | None = None, force: bool = False,
                       progress: bool = True, batch_size: int | None = None,
                       keep_envs: bool = False) -> list[dict[str, Any]]:
-    """`evaluate_run` for many evaluations of one run, the missing ones computed in one
-    `evaluate_many` call; the records, in the order of `evs`."""
+    """`evaluate_run` for many evaluations of one run, the missing ones in one call."""
     evs = list(evs)
     ids = [eval_record(run, ev) for ev in evs]
     records = [None if force else store.get(*record_id) for record_id in ids]

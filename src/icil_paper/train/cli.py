@@ -54,8 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def spec_from_args(args: argparse.Namespace, preset):
-    """(RunSpec, preset, demos or None) the arguments describe; every name is checked
-    before any work (demos are read here only for --dataset, to name its tasks)."""
+    """(RunSpec, preset, demos or None) the arguments describe, checked before any work."""
     if args.steps is not None:
         preset = preset.with_overrides([f"train.steps={args.steps}"])
     if args.dataset is not None:
@@ -107,8 +106,7 @@ def check_dataset_widths(path: Path, demos) -> None:
 
 
 def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -> None:
-    """Refuse, before any work, output folders (run, results, data) this process cannot
-    write to."""
+    """Refuse output folders (run, results, data) this process cannot write to."""
     if explicit_run_dir:
         check_writable(run_dir, f"--run-dir {run_dir}", "pass another --run-dir")
     else:

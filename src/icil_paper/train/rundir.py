@@ -136,8 +136,7 @@ def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
 
 
 def read_config(run_dir: Path) -> dict[str, Any]:
-    """The config.json of a run folder ({"key", "label", "spec"}); UnreadableFileError when
-    it is damaged."""
+    """The config.json of a run folder: {"key", "label", "spec"}."""
     return read_json(Path(run_dir) / CONFIG_FILE, _CONFIG_WHAT, _config_fix(run_dir),
                      keys=("key", "spec"))
 
@@ -150,8 +149,7 @@ def _config_fix(run_dir: Path) -> str:
 
 
 def read_run_spec(run_dir: Path) -> Any:
-    """The RunSpec of a run folder's config.json; UnreadableFileError when this version
-    cannot build it."""
+    """The RunSpec of a run folder's config.json."""
     spec = read_config(run_dir)["spec"]
     try:
         return RunSpec.from_dict(spec)

@@ -40,8 +40,7 @@ def gripper_yaw(mat: np.ndarray) -> float:
 
 
 class HookExpert:
-    """Doors and drawers: fingertips in the gap behind the handle bar drag the part along the
-    joint's path (`part_point`)."""
+    """Doors and drawers: fingertips behind the handle bar drag the part along its path."""
 
     phases = ("approach", "descend", "drag", "lift", "retreat", "recover")
     budgets = {"approach": 60, "descend": 30, "drag": 120, "lift": 30}

@@ -112,8 +112,7 @@ def build_metaworld_env(metaworld_id: str):
 
 
 class MetaWorldEnv(TaskEnv):
-    """A Meta-World task as a `TaskEnv`; options `camera_size`, `horizon`, `scenes`,
-    `render_mode`."""
+    """A Meta-World task as a `TaskEnv`."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
 

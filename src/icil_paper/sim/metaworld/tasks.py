@@ -161,6 +161,5 @@ ALL_TASK_FAMILIES: dict[str, tuple[str, ...]] = {
 
 
 def family_of(task: str) -> str | None:
-    """The skill family a task stands in for (held-out ML45 tasks included), or None.
-    Raises `UnknownNameError` for a name that is no Meta-World task."""
+    """The skill family a Meta-World task stands in for (held-out ML45 tasks included)."""
     return METAWORLD_TASKS[check_name("Meta-World task", task, TASKS)].family
