@@ -4,13 +4,9 @@
     demos = memo.recall(sig, ("demos", limit))       # a fresh copy, or None
     memo.keep(path, sig, ("demos", limit), demos)    # kept if the file did not change
 
-A pool worker runs cell after cell on the same data sets, and reading one through h5py costs
-seconds (thousands of small reads), so `load_demos` and `verify_file` keep what they read
-(as the worker keeps its envs) and hand out deep copies: a caller may change what it gets.
-A file is known by its path, inode, size and modification and change times; one changed
-less than `SETTLE_S` ago is always read afresh (file times are only as fine as the kernel's
-clock tick), so an entry never outlives the bytes it was read from. At most `MAX_BYTES`
-of arrays are kept, the least recently used dropped first.
+`load_demos` and `verify_file` keep what they read and hand out deep copies. A file is
+known by its path, inode, size and times; one changed less than `SETTLE_S` ago is always
+read afresh. At most `MAX_BYTES` of arrays are kept, the least recently used dropped first.
 """
 
 from __future__ import annotations

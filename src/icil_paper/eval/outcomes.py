@@ -188,8 +188,6 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
     specs = list(specs)
     if not specs:
         raise ValueError("evaluate_many needs at least one EvalSpec")
-    if batch_size is not None and batch_size < 1:
-        raise ValueError(f"batch_size must be at least 1, got {batch_size}")
     pools = _pools(specs, prompts)
     k = getattr(policy.config, "prompt_demos", 1)
     episodes: list[Episode] = []

@@ -1,8 +1,6 @@
 """The kitchen suite's environments: a robosuite `ManipulationEnv` per scene and a
 `gymnasium.Env` around it with the project's observation dict (`icil_paper.sim.base.TaskEnv`).
 
-    env = make_env("kitchen/open_drawer", obs="state", seed=0)
-
 Action (7-D in [-1, 1]), robosuite's OSC_POSE controller with delta input at 20 Hz, in the
 robot base frame; the rotation an axis-angle vector applied on the left of the current
 end-effector orientation::
@@ -17,9 +15,8 @@ Observation (the same widths for every kitchen and Kinova task)::
     rgb     (2, H, W, 3) uint8     cameras agentview, robot0_eye_in_hand (obs="rgb"/"rgbd")
     depth   (2, H, W) float32      metres (obs="rgbd")
 
-The quaternion's sign does not flip while the gripper points down; the finger offsets are
-the pads' signed distances from the grip site, the same for the Panda's and Kinova's grippers.
-The reward is 1.0 on success steps, else 0.0.
+The finger offsets are the pads' signed distances from the grip site. The reward is 1.0 on
+success steps, else 0.0.
 """
 
 from __future__ import annotations

@@ -1,10 +1,5 @@
 """Scenes of the kitchen suite: which fixture stands on the counter, where (per seed), and what
-counts as success.
-
-    scene = make_scene(scene, goal, scenes="generated")
-
-A scene builds its MJCF fixture once and re-samples its layout (fixture position and yaw,
-initial joint position) on every reset, never rebuilding the model.
+counts as success. A scene builds its fixture once and re-samples its layout on every reset.
 
 The object-state vector (`object_state`, KITCHEN_OBJECT_DIM = 18, every kitchen and Kinova task)::
 

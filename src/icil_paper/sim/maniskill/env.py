@@ -1,13 +1,9 @@
 """The ManiSkill suite's env: PickCube-v1, PushCube-v1 and StackCube-v1 as the project's envs.
 
-ManiSkill 3 runs on `physx_cpu` with lavapipe's Vulkan when there is no GPU, else `physx_cuda`.
-
 Action (7-D in [-1, 1], as the kitchen suite's), ManiSkill's `pd_ee_delta_pose` controller::
 
     a = [dx, dy, dz,  rx, ry, rz,  g]
          x 0.1 m      x 0.1 rad    +1 closes, -1 opens (robosuite's sign)
-
-The rotation is an axis-angle delta (clipped to norm 1), converted to ManiSkill's Euler input.
 
 Observations (the same keys for every task of the suite)::
 

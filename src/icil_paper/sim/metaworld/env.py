@@ -1,13 +1,11 @@
-"""The Meta-World suite's env: one goal-observable Meta-World v3 task as the project's
-gymnasium env (`icil_paper.sim.base.TaskEnv`).
+"""The Meta-World suite's env: one goal-observable Meta-World v3 task as a `TaskEnv`.
 
 Actions: Meta-World moves a Sawyer's hand by a mocap body at 80 Hz; the 7-D action maps as
 
     a = [dx, dy, dz,  rx, ry, rz,  g]   ->   Meta-World [dx, dy, dz, g]
          x 0.01 m     ignored      +1 closes, -1 opens
 
-Observation: Meta-World's 39-D state (hand, gripper, two objects now and one step ago, and
-the goal, always observable: many experts read their target from it) split into keys:
+Observation: Meta-World's 39-D state, goal included, split into keys:
 
     proprio (8,)  float32 = hand xyz, gripper opening (0..1) now | the same one step ago
     object  (31,) float32 = obj1 pos, quat | obj2 pos, quat now (14) | one step ago (14) | goal (3)
