@@ -1,5 +1,4 @@
-"""Measure every expert's success rate over random seeds and record it (one command for
-every suite).
+"""Measure every expert's success rate over random seeds and record it.
 
     python -m icil_paper.data.experts --suites kitchen kinova maniskill --seeds 50
 
@@ -149,8 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--tasks", nargs="*", help="only these tasks (of a single suite)")
     parser.add_argument("--no-human", action="store_true", help="skip the human-source episodes")
-    parser.add_argument("--out", help="output JSON of a single suite (default "
-                                      "results/experts/<suite>.json)")
+    parser.add_argument("--out", help="output JSON of a single suite (default: results/experts/)")
     args = parser.parse_args(argv)
     if (args.out or args.tasks) and len(args.suites) > 1:
         parser.error("--out and --tasks take a single suite; pass one --suites name")

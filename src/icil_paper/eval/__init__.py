@@ -1,12 +1,5 @@
-"""Evaluation, beside `train/`: rollouts, episode outcomes, stored evaluation records,
-feature measurement and `icil-paper eval`.
-
-    from icil_paper.eval import evaluate_policy, evaluate_run
-    from icil_paper.runspec import eval_spec
-    result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
-                             prompts=demos)
-    record = evaluate_run(run, ev, policy, store, preset.name)    # stored, computed once
-"""
+"""Evaluation, beside `train/`: rollouts, episode outcomes (`outcomes.py`), stored
+evaluation records, feature measurement and `icil-paper eval`."""
 
 from icil_paper.eval.features import lipschitz_diagnostics, measure_features
 from icil_paper.eval.outcomes import (

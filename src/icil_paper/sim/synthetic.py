@@ -1,5 +1,4 @@
-"""The synthetic suite: a tiny reach task family for tests, benchmarks and a simulator-free
-sanity check.
+"""The synthetic suite: a tiny simulator-free reach task family for tests and benchmarks.
 
 Task k (`synthetic/task<k>`) is "move the end effector to goal g_k", where g_k is *not* part
 of the observation: only a prompt demonstration reveals it. The position moves by STEP_SIZE

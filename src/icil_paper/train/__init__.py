@@ -1,11 +1,5 @@
-"""Training: the one loop every policy shares, its run folders, its stored records and
-`icil-paper train`.
-
-    from icil_paper.runspec import run_spec
-    from icil_paper.train import run_dir_for, train_policy
-    spec = run_spec(preset, "icrt", "lipvq", tasks=["kitchen/open_drawer"])
-    result = train_policy(spec, run_dir=run_dir_for(spec, preset.name), preset=preset.name)
-"""
+"""Training: the one loop every policy shares (`loop.py`), its run folders, its stored
+records and `icil-paper train`."""
 
 from icil_paper.train.loop import TrainResult, TrainState, train_policy, training_demos
 from icil_paper.train.rundir import (

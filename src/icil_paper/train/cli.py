@@ -30,16 +30,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="action tokenizer (icrt: default mlp; act: default none = CVAE)")
     p.add_argument("--tasks", nargs="+", default=None, help="task names (default: see --suite)")
     p.add_argument("--suite", choices=("robocasa", "maniskill"), default="robocasa",
-                   help="train on the preset's tasks of the paper's RoboCasa tables (Meta-World) "
-                        "or of Table II (ManiSkill) when --tasks is not given")
+                   help="without --tasks: the preset's RoboCasa-table or Table II tasks")
     p.add_argument("--source", default="generated", help="demonstration source")
     p.add_argument("--obs", choices=("state", "rgb", "rgbd"), default=None,
                    help="observations to learn from (default: the preset's; mcr: rgb)")
     p.add_argument("--dataset", default=None, metavar="FILE",
                    help="train on this robomimic-layout HDF5 file instead of generated data")
     p.add_argument("--obs-keys", nargs="+", default=None,
-                   help="with --dataset: observation keys to read (default: the documented "
-                        "mapping, see icil_paper.data.load_dataset_file)")
+                   help="with --dataset: observation keys to read (default: data.obs_keys' map)")
     p.add_argument("--run-dir", default=None, help="run folder (default: runs/<preset>/...)")
     resume = p.add_mutually_exclusive_group()
     resume.add_argument("--resume", action="store_true",

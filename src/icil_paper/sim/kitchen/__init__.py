@@ -4,12 +4,6 @@ A Panda arm opens and closes a cabinet door and a drawer (fixtures generated in 
 Kinova tasks are the same four on a Kinova3 arm with perturbed dynamics. Table V trains on
 the Panda tasks and rolls out on their Kinova twins.
 
-    from icil_paper.sim.kitchen import make_kitchen_env, make_kitchen_expert
-    env = make_kitchen_env("kitchen/open_drawer", obs="state", seed=0)
-    obs, info = env.reset(seed=3)          # {"proprio": (9,), "object": (18,)} float32
-    expert = make_kitchen_expert("kitchen/open_drawer"); expert.reset(env, obs)
-    obs, reward, terminated, truncated, info = env.step(expert.act(obs))
-
 Importing this package does not import robosuite; building an env does.
 """
 

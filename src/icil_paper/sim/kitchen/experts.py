@@ -1,9 +1,5 @@
 """Scripted experts of the kitchen suite: closed-loop state machines for doors and drawers.
 
-    expert = HookExpert("kitchen/open_drawer")   # or icil_paper.sim.make_expert(name)
-    expert.reset(env, obs)
-    obs, reward, terminated, truncated, info = env.step(expert.act(obs))
-
 The expert reads only the observation and the fixture's fixed geometry. Phases: `approach`
 above the gap behind the handle bar, `descend` into it, `drag` the handle along the joint's
 path until past the goal, `lift` and `retreat`. A broken precondition or an exhausted step

@@ -1,12 +1,6 @@
 """The Meta-World suite: Meta-World's 50 v3 tasks on its Sawyer arm (MuJoCo), 13 of them
 standing in for the paper's seven RoboCasa skill families, with ML45 as the zero-shot split.
 
-    from icil_paper.sim.metaworld import make_metaworld_env, make_metaworld_expert
-    env = make_metaworld_env("metaworld/drawer-open", obs="state", seed=0)
-    obs, info = env.reset(seed=3)          # {"proprio": (8,), "object": (31,)} float32
-    expert = make_metaworld_expert("metaworld/drawer-open"); expert.reset(env, obs)
-    obs, reward, terminated, truncated, info = env.step(expert.act(obs))
-
 Importing this package imports neither metaworld nor mujoco; building an env or expert does.
 """
 

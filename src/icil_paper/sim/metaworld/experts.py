@@ -1,10 +1,6 @@
 """The Meta-World suite's experts: Meta-World's scripted policies (`metaworld.policies`), one
 per task, acting through the suite's 7-D action.
 
-    expert = MetaWorldExpert("metaworld/drawer-open")
-    expert.reset(env, obs)          # env: a MetaWorldEnv, already reset
-    action = expert.act(obs)        # (7,) float32 in [-1, 1]
-
 A scripted policy reads the raw 39-D observation and returns [dx, dy, dz, gripper], clipped
 to [-1, 1] and placed at [0, 1, 2, 6] of the 7-D action.
 """
