@@ -3,19 +3,10 @@
     keys = map_obs_keys(available)          # available: key -> (shape, dtype kind)
     keys = map_obs_keys(available, ["robot0_eef_pos", "agentview_image"])   # chosen keys
 
-Files of this project store the four entries directly. Files of robosuite / robomimic tools
-(RoboCasa, MimicGen, robomimic's data sets) are mapped by default as:
-
-    proprio = obs/proprio if present; else robot0_eef_pos | robot0_eef_quat |
-              robot0_gripper_qpos (those present); else every low-dim robot key (robot*,
-              eef*, ee_*, tcp*, gripper*, joint*, qpos*, qvel*), sorted by name
-    object  = obs/object if present; else every other low-dim key, sorted (may be empty)
-    rgb     = every `<camera>_image` (T, H, W, 3) key, cameras sorted
-    depth   = every `<camera>_depth` (T, H, W[, 1]) key, same order
-
-Keys none of these take are dropped and named in a warning. `obs_keys` (`--obs-keys`)
-chooses instead: a list of key names sent to an entry by the rules above, or a mapping
-{"proprio": [...], "object": [...], "rgb": [...], ...}.
+Files of this project store the four entries directly; files of robosuite / robomimic tools
+(RoboCasa, MimicGen) are mapped as `ROBOMIMIC_KEY_MAP` says. Keys none of these take are
+dropped and named in a warning. `obs_keys` (`--obs-keys`) chooses instead: a list of key
+names sent to an entry by those rules, or a mapping {"proprio": [...], "rgb": [...], ...}.
 """
 
 from __future__ import annotations
