@@ -516,8 +516,7 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
     file_task, file_source = _file_task(info), str(info.get("source") or "robomimic")
     file_action_dim = info.get("action_dim")
     demos: list[Demo] = []
-    widths: tuple[int, int] | None = None
-    first_action_dim: int | None = None
+    first: tuple[int, int, int] | None = None  # (action, proprio, object) widths of demo 0
     keys: ObsKeyMap | None = None
     warned = False
     try:
@@ -542,17 +541,14 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
                 if file_action_dim is not None and A != int(file_action_dim):
                     raise _err(path, name, f"action dimension {A} does not match the file's "
                                            f"action_dim attribute {int(file_action_dim)}")
-                if first_action_dim is None:
-                    first_action_dim = A
-                elif A != first_action_dim:
+                dims = (A, demo.obs["proprio"].shape[1], demo.obs["object"].shape[1])
+                first = first or dims
+                if A != first[0]:
                     raise _err(path, name, f"action dimension {A} differs from the file's "
-                                           f"first demo ({first_action_dim})")
-                dims = (demo.obs["proprio"].shape[1], demo.obs["object"].shape[1])
-                if widths is None:
-                    widths = dims
-                elif dims != widths:
-                    raise _err(path, name, f"(proprio, object) widths {dims} differ from the "
-                                           f"file's first demo {widths}")
+                                           f"first demo ({first[0]})")
+                if dims[1:] != first[1:]:
+                    raise _err(path, name, f"(proprio, object) widths {dims[1:]} differ from the "
+                                           f"file's first demo {first[1:]}")
                 demos.append(demo)
     except H5_ERRORS as exc:
         raise _err(path, None, f"the file is damaged ({_damage(exc)})") from None
