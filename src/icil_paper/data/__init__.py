@@ -3,21 +3,6 @@
     from icil_paper.data import ensure_demos, load_demos
     path = ensure_demos("small", "maniskill/pick_cube", "generated")   # generates what is missing
     demos = load_demos(path, action_dim=7)                             # validated list[Demo]
-
-- `hdf5`: the `Demo` dataclass, `write_demos`, `load_demos` (also reads robosuite / robomimic
-  files such as RoboCasa's and MimicGen's), `verify_file`, `DatasetError` naming file, demo
-  and problem.
-- `obs_keys`: how a file's observation keys become `proprio`, `object`, `rgb`, `depth`.
-- `robomimic`: `load_dataset_file` (any robomimic-layout file as training data, the contract
-  of `icil-paper train --dataset`), the `env_args` of our data sets.
-- `sources`: the `generated` (expert) and `human` (teleoperation-like) demonstration sources.
-- `generate`: `ensure_demos` / `ensure_many` / `demo_path`, parallel, resumable generation.
-- `splits`: train/valid masks, the zero-shot task split, the sim-to-real task pairs.
-- `trajectories`: synthetic minimum-jerk action trajectories (tokenizer studies without a
-  simulator).
-- `experts`: every expert's success rate over random scenes, open-loop replays and the
-  human source's keep rate (`python -m icil_paper.data.experts --suites ...`).
-- `cli`: `icil-paper demos --task ... --source ... --n ...`.
 """
 
 from icil_paper.data.generate import (

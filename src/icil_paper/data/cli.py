@@ -5,8 +5,7 @@
     icil-paper demos --check path/to/file.hdf5 [--action-dim 7]
     icil-paper demos --list                           # task names and data set paths
 
-Every existing data set file is read back whole first (checksums included); a damaged one is
-set aside under a unique name, named in a warning, and generated again.
+A damaged data set file is set aside, named in a warning, and generated again.
 """
 
 from __future__ import annotations
@@ -34,8 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="task name (repeatable), or 'all' for every task of the preset")
     parser.add_argument("--source", action="append", choices=(*SOURCES, "all"),
                         help="demonstration source (repeatable; default: generated)")
-    parser.add_argument("--n", type=int, help="demos per task and source "
-                        "(default: the preset's data.demos_per_task)")
+    parser.add_argument("--n", type=int, help="demos per task and source (default: the preset's)")
     add_preset_arguments(parser)  # --preset, --seed (the scenes' base seed), --set
     parser.add_argument("--workers", type=int, help="processes (default: the preset's)")
     parser.add_argument("--obs", choices=("state", "rgb", "rgbd"),

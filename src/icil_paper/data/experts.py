@@ -1,26 +1,11 @@
-"""Measure every expert's success rate over random seeds and record it (one command for
-every suite).
+"""Measure every expert's success rate over random seeds and record it.
 
     python -m icil_paper.data.experts --suites kitchen kinova maniskill --seeds 50
 
-For each task of the suite and each of `--seeds` random scene seeds this runs
-
-- the expert as the `generated` source uses it (success rate, episode length);
-- for each successful episode, an open-loop replay of the recorded 7-D actions from the same
-  seed in a second env (does the demonstration, as stored, succeed again?);
-- the `human` source around the same expert, on the scenes it generates its demos on (which
-  share of its episodes are kept as demos);
-- where the suite has a `human` scene distribution (the kitchen suite, Table VI's shift),
-  the expert itself on those scenes too (`expert_success_rate_human_scenes`), from the same
-  seeds;
-- for ManiSkill, whether the motion-planning solution itself succeeded in its own pd_joint_pos
-  run (`planned_success_rate`), the source of the converted actions.
-
-Each suite's record (rates, failing seeds, the seeds, provenance) goes atomically to
-`results/experts/<suite>.json`, and one table of every task measured is printed. The
-project requires every expert rate (on each scene distribution) to be at least 0.9: the exit
-status is 1 when one is below. Here, in `data/`, because it measures the sources that
-generate the data sets (`data.sources`), over the suites of `icil_paper.sim` below it.
+For each task and random scene seed: the expert's episode, an open-loop replay of its
+actions, the `human` source's episode and, where the suite has `human` scenes, the expert
+on those. Each suite's record goes to `results/experts/<suite>.json`; the exit status is 1
+when an expert rate is below `REQUIRED_RATE`.
 """
 
 from __future__ import annotations
@@ -34,6 +19,7 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
+from icil_paper.data.generate import worker_init
 from icil_paper.data.sources import ExpertSource, expert_rollout, make_source, source_env_options
 from icil_paper.fileio import atomic_write_json
 from icil_paper.results import results_root
@@ -44,18 +30,8 @@ REQUIRED_RATE = 0.9
 _CACHE: dict[str, Any] = {}
 
 
-def _worker_init() -> None:
-    try:
-        import torch
-
-        torch.set_num_threads(1)
-    except ImportError:
-        pass
-
-
 def _get(task: str) -> tuple[Any, Any, Any, Any]:
-    """(env, replay env, expert, env of the human source's scenes or None where they are the
-    same as the generated source's)."""
+    """(env, replay env, expert, env of the human source's scenes or None)."""
     if task not in _CACHE:
         options = source_env_options("human", task)
         _CACHE[task] = (make_env(task, obs="state", seed=0), make_env(task, obs="state", seed=0),
@@ -65,8 +41,7 @@ def _get(task: str) -> tuple[Any, Any, Any, Any]:
 
 
 def measure_one(job: tuple[str, int, bool]) -> dict[str, Any]:
-    """Expert episode, open-loop replay and (optionally) a human-source episode for one seed;
-    the expert on the human source's scenes where those differ."""
+    """The episodes of one (task, seed, human) job (module docstring)."""
     task, seed, human = job
     env, replay_env, expert, human_env = _get(task)
     start = time.perf_counter()
@@ -147,12 +122,12 @@ def measure(suite: str, n_seeds: int = 50, seed: int = 0, workers: int = 2,
     rows = []
     bar = tqdm(total=len(jobs), desc=f"experts {suite}", disable=not progress)
     if workers <= 1:
-        _worker_init()
+        worker_init()
         for job in jobs:
             rows.append(measure_one(job))
             bar.update()
     else:
-        with mp.get_context("spawn").Pool(workers, initializer=_worker_init) as pool:
+        with mp.get_context("spawn").Pool(workers, initializer=worker_init) as pool:
             for row in pool.imap_unordered(measure_one, jobs):
                 rows.append(row)
                 bar.update()
@@ -173,8 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--tasks", nargs="*", help="only these tasks (of a single suite)")
     parser.add_argument("--no-human", action="store_true", help="skip the human-source episodes")
-    parser.add_argument("--out", help="output JSON of a single suite (default "
-                                      "results/experts/<suite>.json)")
+    parser.add_argument("--out", help="output JSON of a single suite (default: results/experts/)")
     args = parser.parse_args(argv)
     if (args.out or args.tasks) and len(args.suites) > 1:
         parser.error("--out and --tasks take a single suite; pass one --suites name")

@@ -10,17 +10,10 @@ base seed is `seeding.data_set_seed(preset.seed, k)`:
     data/<preset>/<suite>/<task>/<source>_<obs>.hdf5    (rgb / rgbd observations)
     data/<preset>/<suite>/<task>/<source>.set<k>.hdf5   (demonstration set k > 0)
 
-Guarantees:
-- A killed run loses only the demos in progress: each finished demo is written atomically
-  to its own shard (`<file>.parts/demo_NNNNNN.hdf5`), and the shards are merged into the
-  file (atomically replaced) when all are done. Demo i depends only on i and the base seed
-  (`sources.demo_seed`), so a resumed run equals an uninterrupted one, with any workers.
-- One writer per data set: `ensure_many` holds the data set's lock from reading to merge.
-- A damaged file or shard, or one made by an older generator (`OLDER_GENERATORS`), is set
-  aside under a new name (never deleted) with a warning and generated again; a file made
-  for another task, source, observation kind, seed or scene distribution is an error.
-- Envs are built with the source's options (`sources.source_env_options`); the file's
-  `scenes` and `env_args` attributes record them.
+Each finished demo is written to its own shard (`<file>.parts/demo_NNNNNN.hdf5`), merged
+into the file when all are done; demo i depends only on i and the base seed, so a resumed
+run equals an uninterrupted one. A damaged or outdated file or shard is set aside (never
+deleted) and generated again.
 """
 
 from __future__ import annotations
@@ -70,17 +63,15 @@ from icil_paper.sim import (
 )
 
 GENERATOR = "icil_paper.data.generate/5"
-"""Written into every data set; a change in how demos are made bumps it (and lists the old
-value in `OLDER_GENERATORS`)."""
+"""Written into every data set; bumped (old value into `OLDER_GENERATORS`) when demos change."""
 OLDER_GENERATORS: dict[str, tuple[str, ...]] = {
     "icil_paper.data.generate/1": (),
     "icil_paper.data.generate/2": (),
     "icil_paper.data.generate/3": (),
     "icil_paper.data.generate/4": (),
 }
-"""Earlier values of `GENERATOR`, each with the sources whose data sets it made exactly as
-this one does; its files of any other source are outdated and made again (module
-docstring; what changed at each step is in git's history of this constant)."""
+"""Earlier values of `GENERATOR`, each with the sources whose data sets it made as this one
+does; its files of any other source are outdated."""
 DEFAULT_SCENES = "generated"
 """The `scenes` attribute a file without one was made on (files before generator 2)."""
 
@@ -99,9 +90,7 @@ def _where(preset) -> str:
 
 
 def data_root(preset: Any = None) -> Path:
-    """Root of the data sets of `preset` (a Preset or a preset name; None: the active one):
-    its `data.root`, else `data/` in the repository. NotADirectoryError, naming the setting,
-    when that is a file."""
+    """Root of the data sets of `preset` (a Preset or a name): its `data.root`, else `data/`."""
     preset = _preset(preset)
     path = Path(preset.data.root) if preset.data.root else REPO_ROOT / "data"
     if path.exists() and not path.is_dir():
@@ -111,8 +100,7 @@ def data_root(preset: Any = None) -> Path:
 
 
 def check_data_folder(preset: Any) -> Path:
-    """`data_root(preset)`, refused (naming the setting and how to change it) when this
-    process cannot write there: called before any work by every command that generates."""
+    """`data_root(preset)`, refused (naming the setting) when this process cannot write there."""
     preset = _preset(preset)
     path = data_root(preset)
     check_writable(path, _where(preset), "point data.root (or $ICIL_DATA) at a folder this "
@@ -122,9 +110,7 @@ def check_data_folder(preset: Any) -> Path:
 
 def demo_path(preset_name: Any, task: str, source: str, obs: str | None = None,
               seed: int | None = None) -> Path:
-    """Where the data set of (preset, task, source) lives (see the module docstring);
-    `seed`, its base seed (default the preset's), names demonstration set k > 0
-    (`seeding.data_set_seed`) as `<stem>.set<k>.hdf5`."""
+    """Where the data set of (preset, task, source) with base seed `seed` lives."""
     preset = _preset(preset_name)
     check_name("demo source", source, SOURCES)
     obs = check_name("observation kind", obs or preset.data.obs, OBS_KINDS)
@@ -164,7 +150,8 @@ _CACHE_SIZE = 2
 """Envs (with their experts) a worker keeps open: one per (task, source) it recently served."""
 
 
-def _worker_init() -> None:
+def worker_init() -> None:
+    """Initializer of a generation pool's worker processes: one torch thread each."""
     try:
         import torch
 
@@ -226,30 +213,17 @@ def _finished_shards(path: Path) -> dict[int, Path]:
     return shards
 
 
-def _damage(path: Path, images: bool = True) -> str | None:
-    """None when every dataset of the file reads back (checksums included), else the problem."""
-    try:
-        verify_file(path, images=images)
-    except DatasetError as exc:
-        return str(exc)
-    return None
-
-
 def outdated(info: dict[str, Any], source: str) -> str | None:
-    """None when a file (its `file_info`) of `source` holds what this code's generator makes,
-    else why not: it was made by a generator that made that source's demos differently."""
-    made_by = info.get("generator")
-    if made_by is None or str(made_by) == GENERATOR:
-        return None
-    if source in OLDER_GENERATORS.get(str(made_by), ()):
+    """None when a file (its `file_info`) of `source` holds what this generator makes, else why."""
+    made_by = str(info.get("generator", GENERATOR))
+    if made_by == GENERATOR or source in OLDER_GENERATORS.get(made_by, ()):
         return None
     return (f"was made by {made_by}, which made {source} demonstrations differently from "
             f"this code's {GENERATOR}")
 
 
 def _usable_shards(path: Path, source: str) -> dict[int, Path]:
-    """The finished shards of a data set; damaged or outdated ones are set aside beside it,
-    with a warning."""
+    """The finished shards of a data set; damaged or outdated ones are set aside."""
     shards = _finished_shards(path)
     for index, shard in sorted(shards.items()):
         why = "outdated"
@@ -289,22 +263,17 @@ class _Plan:
     have: set[int]
     missing: list[int]
     env_options: dict[str, Any]
-    """`make_env` options of its envs: the caller's and the source's (`source_env_options`)."""
-
-
-def _env_options(task: str, source: str, env_options: dict[str, Any]) -> dict[str, Any]:
-    if "scenes" in env_options:
-        raise ValueError("a data set's scene distribution follows its source "
-                         "(sources.SOURCE_SCENES); generate without a `scenes` option")
-    return {**env_options, **source_env_options(source, task)}
+    """`make_env` options of its envs: the caller's and the source's."""
 
 
 def _plan(preset: Any, task: str, source: str, n: int, base_seed: int, obs: str,
           env_options: dict[str, Any], full_check: bool = False) -> _Plan:
-    check_name("demo source", source, SOURCES)
     path = demo_path(preset, task, source, obs, seed=base_seed)
     control_freq = int(get_suite(suite_of(task)).control_freq)
-    options = _env_options(task, source, env_options)
+    if "scenes" in env_options:
+        raise ValueError("a data set's scene distribution follows its source "
+                         "(sources.SOURCE_SCENES); generate without a `scenes` option")
+    options = {**env_options, **source_env_options(source, task)}
     attrs: dict[str, Any] = {
         "task": task, "source": source, "obs_kind": obs, "base_seed": base_seed,
         "action_dim": ACTION_DIM, "generator": GENERATOR, "control_freq": control_freq,
@@ -353,12 +322,7 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
                 workers: int | None = None, progress: bool = True, seed: int | None = None,
                 obs: str | None = None, full_check: bool = False,
                 **env_options: Any) -> dict[tuple[str, str], Path]:
-    """`ensure_demos` for every (task, source) pair, with one pool of workers for them all.
-
-    Starting worker processes (importing the simulators) costs seconds, so generating many
-    data sets through one pool is much faster than one `ensure_demos` call each. Returns
-    {(task, source): path}.
-    """
+    """`ensure_demos` for every (task, source) pair, one worker pool for all; {pair: path}."""
     preset = _preset(preset)
     n = int(preset.data.demos_per_task if n is None else n)
     if n < 1:
@@ -381,27 +345,20 @@ def ensure_many(preset: Any, tasks: Sequence[str], sources: Sequence[str], n: in
     return {(plan.task, plan.source): plan.path for plan in plans}
 
 
-def lock_path(path: Path) -> Path:
-    """The lock file of a data set: `.<name>.lock` beside it (removed when released)."""
-    return path.with_name(f".{path.name}.lock")
-
-
 def data_set_lock(path: Path) -> contextlib.AbstractContextManager:
-    """The lock of the data set at `path` (`fileio.exclusive_lock`), held by the one process
-    that plans, generates and merges its demos. A folder this process cannot write to takes
-    no lock: nothing can be generated there, only a whole data set read."""
+    """The lock (`.<name>.lock` beside it) of the data set at `path`; none in a folder this
+    process cannot write to (only a whole data set can be read there)."""
     folder = Path(os.path.abspath(path)).parent
     while not folder.exists() and folder != folder.parent:
         folder = folder.parent
     if not os.access(folder, os.W_OK):  # a read-only mount or folder (access(2) says EROFS)
         return contextlib.nullcontext()
-    return exclusive_lock(lock_path(path), what=f"the data set {path}")
+    return exclusive_lock(path.with_name(f".{path.name}.lock"), what=f"the data set {path}")
 
 
 def _generate(plans: list[_Plan], obs: str, base_seed: int, workers: int,
               progress: bool) -> None:
-    """Generate every missing demo of `plans` (one pool for all) and merge each data set;
-    the caller holds their locks."""
+    """Generate every missing demo of `plans` and merge each data set (the caller locks)."""
     jobs = []
     for plan in plans:
         folder = parts_dir(plan.path)
@@ -425,11 +382,8 @@ def ensure_demos(preset: Any, task: str, source: str, n: int | None = None,
                  **env_options: Any) -> Path:
     """Make sure the data set of (preset, task, source) holds at least `n` demos; return its path.
 
-    Generates only the missing demos (default n: the preset's `data.demos_per_task`), with
-    `workers` processes (default: the preset's `data.workers`) and a progress bar, resuming any
-    interrupted run (module docstring). `seed` is the base seed (default: the preset's). A
-    damaged file is set aside and generated again; `full_check` also reads its image arrays to
-    find damage there (module docstring).
+    Defaults come from the preset (`data.demos_per_task`, `data.workers`, `seed`);
+    `full_check` also reads image arrays when checking an existing file for damage.
     """
     paths = ensure_many(preset, [task], [source], n=n, workers=workers, progress=progress,
                         seed=seed, obs=obs, full_check=full_check, **env_options)
@@ -451,7 +405,7 @@ def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None
             context = mp.get_context("spawn")
             # chunks of one job in submission order: a worker mostly meets the task it has
             # an env for, and the bar moves demo by demo
-            with context.Pool(min(workers, len(jobs)), initializer=_worker_init) as pool:
+            with context.Pool(min(workers, len(jobs)), initializer=worker_init) as pool:
                 for summary in pool.imap_unordered(generate_one, jobs):
                     bar.set_postfix(task=summary["task"], seed=str(summary["seed"]))
                     bar.update()
@@ -464,9 +418,7 @@ class SuiteMissing(ValueError):
 
 
 def check_tasks(preset: Any) -> None:
-    """Refuse, before any work, a preset whose task lists name a task that its suite does
-    not have (UnknownNameError with a "did you mean"). A suite that cannot load here is
-    not checked: its tasks are refused, with the reason, where they are used."""
+    """Refuse, before any work, a preset whose task lists name a task its suite lacks."""
     preset = _preset(preset)
     suites = {"robocasa_tasks": None, "zero_shot_tasks": "metaworld",
               "zero_shot_held_out": "metaworld", "maniskill_tasks": "maniskill"}
@@ -487,12 +439,7 @@ def check_tasks(preset: Any) -> None:
 
 
 def preset_tasks(preset: Any, available: bool = False) -> tuple[str, ...]:
-    """Every task of a preset: its RoboCasa-table tasks, the zero-shot table's, the Panda
-    twins and Kinova tasks of the sim-to-real table, then the ManiSkill tasks.
-
-    `available=True` leaves out the tasks of suites that cannot run here (a suite that does
-    not load, a simulator that cannot start), saying why on stderr once per suite.
-    """
+    """Every task of a preset's tables; `available=True` skips suites that cannot run here."""
     preset = _preset(preset)
     twins = sorted(set(sim_to_real_pairs().values()))
     tasks = tuple(dict.fromkeys((*preset.data.robocasa_tasks, *preset.data.zero_shot_tasks,

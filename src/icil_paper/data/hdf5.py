@@ -18,10 +18,8 @@ Layout written (robomimic's, also robosuite's, RoboCasa's and MimicGen's, so rob
     +-- demo_1 ...
     mask/train, mask/valid    demo names, robomimic's filter keys
 
-Every dataset carries a Fletcher-32 checksum that HDF5 verifies on read. Files of the
-layout's version 1 (stacked `obs/rgb`, `obs/depth`) still load. Loaders return `Demo`s with
-the entries `proprio`, `object`, `rgb` (T, n_cams, H, W, 3) and `depth` (T, n_cams, H, W),
-whatever the file's keys (`icil_paper.data.obs_keys` maps those of other tools' files).
+Every dataset carries a Fletcher-32 checksum. Files of layout version 1 (stacked
+`obs/rgb`, `obs/depth`) still load; other tools' keys are mapped by `data.obs_keys`.
 """
 
 from __future__ import annotations
@@ -56,10 +54,10 @@ class DatasetError(ValueError):
 
 @dataclass
 class Demo:
-    """One demonstration: T steps of observations and the actions taken from them.
+    """One demonstration: `obs[key][t]` is the observation before `actions[t]`.
 
-    `obs[key][t]` is the observation before `actions[t]`. Keys: "proprio" (T, P), "object"
-    (T, O), optionally "rgb" (T, n_cams, H, W, 3) uint8 and "depth" (T, n_cams, H, W) metres.
+    Keys: "proprio" (T, P), "object" (T, O), optionally "rgb" (T, n_cams, H, W, 3) uint8 and
+    "depth" (T, n_cams, H, W) metres.
     """
 
     actions: np.ndarray
@@ -83,8 +81,7 @@ class Demo:
     meta: dict[str, Any] = field(default_factory=dict)
     """Other per-demo attributes of the file."""
     final_obs: dict[str, np.ndarray] | None = None
-    """The observation after the last action (same keys as `obs`, no time axis), when known;
-    it completes robomimic's `next_obs`."""
+    """The observation after the last action (keys of `obs`, no time axis), when known."""
     cameras: tuple[str, ...] = ()
     """Names of the cameras along the camera axis of `obs["rgb"]` / `obs["depth"]`."""
 
@@ -134,8 +131,7 @@ def _write_obs(group: Any, obs: Mapping[str, np.ndarray], cameras: Sequence[str]
 
 
 def _next_obs(demo: Any) -> dict[str, np.ndarray]:
-    """robomimic's next_obs: obs shifted by one step, then the final observation (the last
-    observation repeated when the demo did not record it)."""
+    """robomimic's next_obs: obs shifted by one step, then the final (or last) observation."""
     final = getattr(demo, "final_obs", None) or {}
     out = {}
     for key, value in demo.obs.items():
@@ -178,10 +174,9 @@ def _write_demo(group: Any, demo: Any) -> None:
 def write_demos(path: str | Path, demos: Sequence[Demo], file_attrs: dict[str, Any] | None = None,
                 valid_fraction: float = 0.1, split_seed: int = 0,
                 names: Sequence[str] | None = None) -> Path:
-    """Write demos to `path` atomically (temporary file, then rename); return the path.
+    """Write demos to `path` atomically; return the path.
 
-    `names` default to demo_0, demo_1, ...; `file_attrs` go onto the `data` group (with
-    `env_args` JSON-encoded). The train/valid masks come from `splits.train_valid_split`.
+    `names` default to demo_0, demo_1, ...; `file_attrs` go onto the `data` group.
     """
     path = Path(path)
     names = list(names) if names is not None else [f"demo_{i}" for i in range(len(demos))]
@@ -235,11 +230,9 @@ def _atomic_h5(path: Path) -> Iterator[Any]:
 def merge_demo_files(path: str | Path, parts: Sequence[tuple[str | Path, str, str]],
                      file_attrs: dict[str, Any], valid_fraction: float = 0.1,
                      split_seed: int = 0) -> Path:
-    """Atomically write `path` from demos copied out of other files.
+    """Atomically write `path` from (file, demo name there, demo name in `path`) `parts`.
 
-    `parts` is a list of (file, demo name in that file, demo name in the output); a demo in
-    the current layout is copied bit for bit, one in the version 1 layout is rewritten in the
-    current one. `path` itself may be one of the inputs.
+    Demos in the current layout are copied bit for bit; `path` may be one of the inputs.
     """
     import h5py
 
@@ -283,8 +276,8 @@ def _attr(attrs: Any, key: str, default: Any = None) -> Any:
     return value
 
 
-def _json_attr(attrs: Any, key: str) -> Any:
-    value = _attr(attrs, key)
+def _json(value: Any) -> Any:
+    """`value` decoded from JSON where it is a JSON string, else as it is."""
     if isinstance(value, str):
         try:
             return json.loads(value)
@@ -294,10 +287,7 @@ def _json_attr(attrs: Any, key: str) -> Any:
 
 
 def file_info(path: str | Path) -> dict[str, Any]:
-    """The `data` group's attributes and demo names of a file, without loading arrays.
-
-    Raises DatasetError when the file is missing, not HDF5, damaged or has no `data` group.
-    """
+    """The `data` group's attributes and demo names ("demos") of a file, without arrays."""
     import h5py
 
     path = Path(path)
@@ -315,11 +305,8 @@ def file_info(path: str | Path) -> dict[str, Any]:
         raise _err(path, None, f"not a readable HDF5 file ({exc})") from None
     except (RuntimeError, KeyError) as exc:
         raise _err(path, None, f"the file is damaged ({_damage(exc)})") from None
-    if "env_args" in attrs and isinstance(attrs["env_args"], str):
-        try:
-            attrs["env_args"] = json.loads(attrs["env_args"])
-        except json.JSONDecodeError:
-            pass
+    if "env_args" in attrs:
+        attrs["env_args"] = _json(attrs["env_args"])
     attrs["demos"] = names
     return attrs
 
@@ -327,10 +314,8 @@ def file_info(path: str | Path) -> dict[str, Any]:
 def verify_file(path: str | Path, images: bool = True) -> dict[str, Any]:
     """Read every dataset of a file once (checking its checksums); return `file_info(path)`.
 
-    `images=False` skips the image and depth arrays (datasets of 4 or more dimensions), the
-    bulk of an image data set (reading them costs about as much as loading them). Raises
-    DatasetError naming the file and the first dataset that cannot be read. Only the file's
-    integrity is checked, not its contents (that is `load_demos`'s job).
+    `images=False` skips datasets of 4 or more dimensions. Raises DatasetError naming the
+    first dataset that cannot be read.
     """
     import h5py
 
@@ -415,24 +400,15 @@ def _gather(path: Path, name: str, raw: Any, keys: ObsKeyMap, rows: slice,
                 if a.ndim != 3:
                     raise _err(path, name, f"{prefix}/{k} must be (T, H, W) or (T, H, W, 1)")
             arrays.append(a[:, None])  # one camera
+        if len({a.shape[2:] for a in arrays}) > 1 or len({a.ndim for a in arrays}) > 1:
+            raise _err(path, name, f"cameras {', '.join(f'{prefix}/{k}' for k in file_keys)} "
+                                   f"have different image shapes {[a.shape[1:] for a in arrays]}")
         if arrays:
-            obs[entry] = _stack_cameras(path, name, prefix, file_keys, arrays)
+            obs[entry] = np.concatenate(arrays, axis=1)
     return obs
 
 
-def _stack_cameras(path: Path, name: str, prefix: str, keys: Sequence[str],
-                   arrays: list[np.ndarray]) -> np.ndarray:
-    shapes = {a.shape[2:] for a in arrays}
-    if len(shapes) > 1 or any(a.ndim != arrays[0].ndim for a in arrays):
-        raise _err(path, name, f"cameras {', '.join(f'{prefix}/{k}' for k in keys)} have "
-                               f"different image shapes {[a.shape[1:] for a in arrays]}")
-    return np.concatenate(arrays, axis=1)
-
-
-def _check_obs(path: Path, name: str, obs: dict[str, np.ndarray], T: int) -> None:
-    for key, value in obs.items():
-        if value.shape[0] != T:
-            raise _err(path, name, f"obs/{key} has {value.shape[0]} steps but actions have {T}")
+def _check_obs(path: Path, name: str, obs: dict[str, np.ndarray]) -> None:
     if "rgb" in obs:
         rgb = obs["rgb"]
         if rgb.ndim != 5 or rgb.shape[-1] != 3:
@@ -466,7 +442,7 @@ def _read_demo(path: Path, name: str, group: Any, keys: ObsKeyMap, file_task: st
     T = actions.shape[0]
     _finite(path, name, "actions", actions)
     obs = _gather(path, name, group["obs"], keys, slice(None), T)
-    _check_obs(path, name, obs, T)
+    _check_obs(path, name, obs)
     final = None
     if "next_obs" in group:
         final = {k: v[0] for k, v in _gather(path, name, group["next_obs"], keys,
@@ -476,11 +452,8 @@ def _read_demo(path: Path, name: str, group: Any, keys: ObsKeyMap, file_task: st
         raise _err(path, name, f"states have {states.shape[0]} steps but actions have {T}")
     rewards = _read(path, name, group, "rewards") if "rewards" in group else None
     attrs = group.attrs
-    ep_meta = _attr(attrs, "ep_meta")
-    try:
-        lang = json.loads(ep_meta).get("lang", "") if ep_meta else ""
-    except (json.JSONDecodeError, AttributeError):
-        lang = ""
+    ep_meta = _json(_attr(attrs, "ep_meta"))
+    lang = ep_meta.get("lang", "") if isinstance(ep_meta, dict) else ""
     cameras = tuple(camera_of(k) for k in keys.rgb or keys.depth
                     if k not in ("rgb", "depth"))
     return Demo(
@@ -519,21 +492,10 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
                obs_keys: Sequence[str] | Mapping[str, Sequence[str]] | None = None) -> list[Demo]:
     """Load and validate the demos of a robomimic-layout HDF5 file (ours or robomimic's).
 
-    Args:
-        path: the file.
-        action_dim: expected action width; a mismatch raises DatasetError.
-        limit: load exactly the first `limit` demos (in numeric order, demo_2 before demo_10);
-            a file with fewer raises DatasetError.
-        images: load `rgb` / `depth` arrays (False skips them, for state-only training).
-        obs_keys: the file's observation keys to use (`icil_paper.data.obs_keys`); None: the
-            project's own keys, or the default mapping for files of other tools, which warns
-            naming the keys it drops.
-
-    Raises DatasetError naming the file, the demo and the problem: missing keys, wrong shapes,
-    action widths that differ from `action_dim`, from the file's `action_dim` attribute or
-    between demos, steps that disagree between keys, NaN or infinite values, observation widths
-    that differ between the demos of one file, and damaged files (failed checksums, truncated
-    data).
+    `limit` loads exactly the first `limit` demos (numeric order); `images=False` skips
+    `rgb` / `depth`; `obs_keys` picks the file's observation keys (`data.obs_keys`; None: ours,
+    or the default mapping, which warns naming the keys it drops). Raises DatasetError naming
+    file, demo and problem (missing keys, shapes, action widths, NaNs, damaged data).
     """
     import h5py
 
@@ -554,8 +516,7 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
     file_task, file_source = _file_task(info), str(info.get("source") or "robomimic")
     file_action_dim = info.get("action_dim")
     demos: list[Demo] = []
-    widths: tuple[int, int] | None = None
-    first_action_dim: int | None = None
+    first: tuple[int, int, int] | None = None  # (action, proprio, object) widths of demo 0
     keys: ObsKeyMap | None = None
     warned = False
     try:
@@ -580,17 +541,14 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
                 if file_action_dim is not None and A != int(file_action_dim):
                     raise _err(path, name, f"action dimension {A} does not match the file's "
                                            f"action_dim attribute {int(file_action_dim)}")
-                if first_action_dim is None:
-                    first_action_dim = A
-                elif A != first_action_dim:
+                dims = (A, demo.obs["proprio"].shape[1], demo.obs["object"].shape[1])
+                first = first or dims
+                if A != first[0]:
                     raise _err(path, name, f"action dimension {A} differs from the file's "
-                                           f"first demo ({first_action_dim})")
-                dims = (demo.obs["proprio"].shape[1], demo.obs["object"].shape[1])
-                if widths is None:
-                    widths = dims
-                elif dims != widths:
-                    raise _err(path, name, f"(proprio, object) widths {dims} differ from the "
-                                           f"file's first demo {widths}")
+                                           f"first demo ({first[0]})")
+                if dims[1:] != first[1:]:
+                    raise _err(path, name, f"(proprio, object) widths {dims[1:]} differ from the "
+                                           f"file's first demo {first[1:]}")
                 demos.append(demo)
     except H5_ERRORS as exc:
         raise _err(path, None, f"the file is damaged ({_damage(exc)})") from None
@@ -600,7 +558,7 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
 
 
 def _key_map(path: Path, name: str, group: Any, obs_keys: Any, own: bool) -> ObsKeyMap:
-    cameras = _json_attr(group.attrs, "cameras")
+    cameras = _json(_attr(group.attrs, "cameras"))
     try:
         return map_obs_keys(_available(group["obs"]), obs_keys, own=own,
                             camera_order=cameras if isinstance(cameras, list) else None)

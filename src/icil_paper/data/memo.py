@@ -4,13 +4,9 @@
     demos = memo.recall(sig, ("demos", limit))       # a fresh copy, or None
     memo.keep(path, sig, ("demos", limit), demos)    # kept if the file did not change
 
-A pool worker runs cell after cell on the same data sets, and reading one through h5py costs
-seconds (thousands of small reads), so `load_demos` and `verify_file` keep what they read
-(as the worker keeps its envs) and hand out deep copies: a caller may change what it gets.
-A file is known by its path, inode, size and modification and change times; one changed
-less than `SETTLE_S` ago is always read afresh (file times are only as fine as the kernel's
-clock tick), so an entry never outlives the bytes it was read from. At most `MAX_BYTES`
-of arrays are kept, the least recently used dropped first.
+`load_demos` and `verify_file` keep what they read and hand out deep copies. A file is
+known by its path, inode, size and times; one changed less than `SETTLE_S` ago is always
+read afresh. At most `MAX_BYTES` of arrays are kept, the least recently used dropped first.
 """
 
 from __future__ import annotations
@@ -32,8 +28,7 @@ _KEPT: OrderedDict[tuple, tuple[Any, int]] = OrderedDict()
 
 
 def signature(path: Any) -> tuple | None:
-    """What identifies the bytes of the file at `path`, or None (missing, or changed too
-    recently to tell a later change apart)."""
+    """What identifies the bytes of the file at `path`, or None (missing or just changed)."""
     try:
         st = os.stat(path)
     except OSError:
@@ -70,8 +65,7 @@ def forget() -> None:
 
 
 def _copy(value: Any) -> Any:
-    """A deep copy of arrays, dicts, lists, tuples and dataclasses of them (a few times
-    faster than `copy.deepcopy` on a data set's thousands of small arrays)."""
+    """A deep copy of arrays, dicts, lists, tuples and dataclasses (faster than deepcopy)."""
     if isinstance(value, (str, int, float, bool, type(None))):
         return value
     if isinstance(value, np.ndarray):

@@ -3,20 +3,10 @@
     keys = map_obs_keys(available)          # available: key -> (shape, dtype kind)
     keys = map_obs_keys(available, ["robot0_eef_pos", "agentview_image"])   # chosen keys
 
-Files of this project store the four entries directly. Files of robosuite / robomimic tools
-(RoboCasa, MimicGen, robomimic's data sets) are mapped by default as:
-
-    proprio = obs/proprio if present; else robot0_eef_pos | robot0_eef_quat |
-              robot0_gripper_qpos (those present); else every low-dim robot key (robot*,
-              eef*, ee_*, tcp*, gripper*, joint*, qpos*, qvel*), sorted by name
-    object  = obs/object if present; else every other low-dim key, sorted (may be empty)
-    rgb     = every `<camera>_image` (T, H, W, 3) key, cameras sorted
-    depth   = every `<camera>_depth` (T, H, W[, 1]) key, same order
-
-Several low-dim keys are concatenated in the order listed; keys none of these take are
-dropped and named in a warning. `obs_keys` (`--obs-keys` on the command line) chooses
-instead: a list of key names, each sent to `rgb`, `depth`, `proprio` or `object` by the
-rules above, or a mapping {"proprio": [...], "object": [...], "rgb": [...], ...}.
+Files of this project store the four entries directly; files of robosuite / robomimic tools
+(RoboCasa, MimicGen) are mapped as `ROBOMIMIC_KEY_MAP` says. Keys none of these take are
+dropped and named in a warning. `obs_keys` (`--obs-keys`) chooses instead: a list of key
+names sent to an entry by those rules, or a mapping {"proprio": [...], "rgb": [...], ...}.
 """
 
 from __future__ import annotations
@@ -90,15 +80,10 @@ def camera_of(key: str) -> str:
 def map_obs_keys(available: Mapping[str, tuple[Sequence[int], str]],
                  obs_keys: Sequence[str] | Mapping[str, Sequence[str]] | None = None,
                  own: bool = False, camera_order: Sequence[str] | None = None) -> ObsKeyMap:
-    """Map a file's observation keys onto the project's entries (module docstring).
+    """Map a file's observation keys (key -> (shape, dtype kind)) onto the project's entries.
 
-    Args:
-        available: key -> (shape, dtype kind) of one demo's `obs` group.
-        obs_keys: the keys to use (a list, or a mapping by entry); None for the default mapping.
-        own: a file of this project: `proprio` and `object` must be its own keys.
-        camera_order: order of the cameras (the file's), else sorted by name.
-
-    Raises ValueError naming a missing or unusable key and listing the available ones.
+    `own`: a file of this project (its own `proprio` and `object`); `camera_order`: the
+    file's camera order, else by name. ValueError names a missing or unusable key.
     """
     names = sorted(available)
     listing = f"observation keys of the file: {', '.join(names) or '(none)'}"

@@ -10,17 +10,9 @@ Our data sets load in robomimic 0.3's own `SequenceDataset` with its default arg
     data = SequenceDataset(path, obs_keys=("proprio", "object", "agentview_image"),
                            dataset_keys=("actions", "rewards", "dones"))
 
-robomimic's env factory cannot build our environments (its gym type needs the legacy `gym`
-package), so train robomimic models with `experiment.rollout.enabled = False` and roll them
-out through `icil_paper.sim`. `env_args` says how to build the env::
-
-    {"env_name": "icil_paper/kitchen-open_drawer-v0",   # the task's gymnasium id
-     "type": 2,                                         # robomimic's EnvType.GYM_TYPE
-     "env_kwargs": {"obs": "state", ...},               # options of icil_paper.sim.make_env
-     "icil_paper": {"task": "kitchen/open_drawer", "control_freq": 20, ...}}
-
-The other way, `load_dataset_file` reads any robomimic-layout file (robosuite, RoboCasa,
-MimicGen, robomimic's data sets) into the project's `Demo`s for training.
+robomimic's env factory cannot build our environments, so train with
+`experiment.rollout.enabled = False` and roll out through `icil_paper.sim`. The other way,
+`load_dataset_file` reads any robomimic-layout file (robosuite, RoboCasa, MimicGen) as demos.
 """
 
 from __future__ import annotations
@@ -50,7 +42,7 @@ ROBOMIMIC_NOTE = ("robomimic's env factory cannot build this env (its gym type i
 
 def robomimic_env_args(task: str, obs: str, env_options: Mapping[str, Any] | None = None,
                        control_freq: int | None = None) -> dict[str, Any]:
-    """`data.attrs["env_args"]` of a data set of `task` (module docstring)."""
+    """`data.attrs["env_args"]` of a data set of `task`, in robomimic's form."""
     return {
         "env_name": gym_id(task),
         "type": ROBOMIMIC_GYM_TYPE,
@@ -94,27 +86,11 @@ def load_dataset_file(path: str | Path,
                       obs_keys: Sequence[str] | Mapping[str, Sequence[str]] | None = None,
                       action_dim: int | None = None, limit: int | None = None,
                       images: bool = True) -> list[Demo]:
-    """The demos of any robomimic-layout HDF5 file, as training data.
+    """The demos of any robomimic-layout HDF5 file, as training data (`train --dataset`).
 
-    This is the contract of `icil-paper train --dataset FILE [--obs-keys KEY ...]`:
-
-    - `FILE` is an HDF5 file with robomimic's layout (`data/demo_N/actions` (T, A) and
-      `data/demo_N/obs/<key>`): this project's data sets, or files of robosuite, RoboCasa,
-      MimicGen and robomimic.
-    - Observation keys map onto `proprio`, `object`, `rgb` and `depth` as documented in
-      `icil_paper.data.obs_keys`; `obs_keys` (`--obs-keys`) lists the keys to use instead. A
-      file's keys that the mapping leaves out are named in a warning (none when `obs_keys` is
-      given). `dataset_obs_keys(path, obs_keys)` returns the mapping without loading.
-    - `action_dim` (the policy's or the task's action width) must equal every demo's action
-      width and the file's `action_dim` attribute, if it has one; every demo must have the
-      same width.
-    - Each demo's task is its `task` attribute, else the file's task (`data.attrs["task"]`,
-      `env_args`), else the file's stem, so prompts pair demos of the same task.
-    - `limit` takes exactly the first `limit` demos (numeric order); `images=False` skips
-      image arrays.
-
-    Raises DatasetError (a ValueError) naming the file, the demo and the problem; the command
-    line shows it as one line.
+    Observation keys map as `data.obs_keys` documents, or as `obs_keys` lists them. A demo's
+    task is its `task` attribute, else the file's, else the file's stem. Raises DatasetError
+    as `load_demos` does.
     """
     path = Path(path)
     demos = load_demos(path, action_dim=action_dim, limit=limit, images=images,

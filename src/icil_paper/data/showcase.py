@@ -1,10 +1,4 @@
-"""What chapter 04 shows of each task: a rendered frame and a recorded demonstration.
-
-`showcase_task(task, out_dir)` builds the task's env once, renders its first scene, runs the
-`generated` source's demo 0 (the same seed as demo_0 of the task's data set, so it is that
-demo) and writes its rerun recording with the static picture beside it. It returns a
-JSON-ready dict, so the chapter stores it in the results store and a rebuild only reads it.
-"""
+"""What chapter 04 shows of each task: a rendered frame and a recorded demonstration."""
 
 from __future__ import annotations
 
@@ -30,11 +24,8 @@ def _save_png(path: Path, image: np.ndarray) -> None:
 
 
 def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[str, Any]:
-    """Render a frame of `task`, record its demo 0, and return paths and figures.
-
-    Files: `<out_dir>/<suite>__<task>.frame.png`, `.rrd` and `.png` (the recording and its
-    static picture).
-    """
+    """Render a frame of `task` and record its `generated` demo 0; a JSON-ready dict of
+    paths (`<out_dir>/<suite>__<task>.frame.png`, `.rrd`, `.png`) and figures."""
     out_dir = Path(out_dir)
     stem = task.replace("/", "__")
     options = {"render_size": 256} if suite_of(task) == "maniskill" else {}

@@ -1,24 +1,13 @@
 """Demonstration sources: `generated` (the expert on randomized scenes) and `human`.
 
-The paper trains on MimicGen data and, for its cross-dataset table, evaluates transfer to
-RoboCasa's human demonstrations. Neither can be downloaded here, so:
+- `generated`: the task's scripted expert, our stand-in for MimicGen.
+- `human`: the same expert driven by a model of a teleoperating person (`HumanLikeOperator`:
+  OU hand noise, hesitations, drifting speed, overshoots), on the suite's `human` scenes
+  where it has them (`source_env_options`).
 
-- `generated` is the task's scripted expert on randomized scenes: our stand-in for MimicGen.
-- `human` wraps the same expert in a model of a teleoperating person (`HumanLikeOperator`):
-  temporally correlated hand noise (an Ornstein-Uhlenbeck process on the motion dims),
-  hesitations (the operator stops for a few steps, the expert's clock stops with them), varying
-  speed (a slowly drifting speed factor scales the motion) and small corrections (now and then
-  the motion overshoots for a few steps; the closed-loop expert then steers back). In a suite
-  with named scene distributions (the kitchen suite) its episodes are also played on the
-  suite's `human` scenes (`source_env_options`): the paper's human data set differs from
-  MimicGen's in its object arrangements too, not only in who drives the robot. Elsewhere
-  (ManiSkill, the Kinova tasks) it shares the `generated` source's scene distribution.
-
-Only successful episodes become demos. Seeds: the scene of demo `index` of a data set with base
-seed `b` is `env_seed = b + SOURCE_SEED_OFFSET[source] + index + attempt * ATTEMPT_STRIDE`,
-where `attempt` counts failed episodes of that demo (0 first), so every demo has its own seeds,
-a retry never reuses another demo's scene, and generation in any order or in parallel gives the
-same demos. The human operator's noise is seeded by the env seed: the same seed, same demo.
+Only successful episodes become demos. Demo `index` of a data set with base seed `b` is
+played from `b + SOURCE_SEED_OFFSET[source] + index + attempt * ATTEMPT_STRIDE`, `attempt`
+counting its failed episodes, so generation in any order gives the same demos.
 """
 
 from __future__ import annotations
@@ -44,16 +33,13 @@ EVAL_SEED_BASE = 100_000_000
 
 
 SOURCE_SCENES = {"generated": "generated", "human": "human"}
-"""The scene distribution each source's episodes are played on, where a task's suite offers
-it (`icil_paper.sim.scene_distributions`); elsewhere the suite's only one."""
+"""The scene distribution each source's episodes are played on, where the suite offers it."""
 
 
 def source_env_options(source: str, task: str) -> dict[str, Any]:
     """The `make_env` options a source's episodes of `task` are played with: `scenes` where
-    the task's suite offers the source's scene distribution other than as its default, else
-    none (so the `generated` source's envs, and every env of ManiSkill, are built as before)."""
+    the suite offers the source's scene distribution other than as its default, else none."""
     check_name("demo source", source, SOURCES)
-
     offered = scene_distributions(task)
     scenes = SOURCE_SCENES[source]
     if scenes in offered and scenes != offered[0]:
@@ -71,9 +57,7 @@ def demo_seed(base_seed: int, source: str, index: int, attempt: int = 0) -> int:
 
 ACTION_SCALES = {"maniskill": (0.1, 0.1), "kitchen": (0.05, 0.5), "kinova": (0.05, 0.5),
                  "metaworld": (0.01, 0.5)}
-"""(metres, radians) of end-effector motion per action unit in each suite (the suites'
-controller bounds: ManiSkill's pd_ee_delta_pose, robosuite's OSC_POSE, Meta-World's mocap
-step of 1 cm; Meta-World ignores rotation)."""
+"""(metres, radians) of end-effector motion per action unit in each suite's controller."""
 
 
 @dataclass(frozen=True)
@@ -107,9 +91,7 @@ class OperatorStyle:
 class HumanLikeOperator:
     """Wrap any expert (`reset(env, obs)`, `act(obs)`) as a teleoperating person would drive it.
 
-    While hesitating, the operator holds still (zero motion, gripper unchanged) and does not ask
-    the expert for an action, so the expert's plan waits too. Everything is drawn from a
-    generator seeded at `reset(env, obs, seed)`.
+    While hesitating, the operator holds still and does not ask the expert, whose plan waits.
     """
 
     def __init__(self, expert: Any, style: OperatorStyle | None = None,
@@ -201,14 +183,8 @@ def make_source(source: str, task: str, expert: Any = None,
 
 
 def expert_rollout(env: Any, policy: Any, seed: int, source: str = "generated",
-            record_states: bool = True, max_steps: int | None = None
-            ) -> tuple[Demo, bool]:
-    """Run one episode of `policy` (a source) from `env.reset(seed=seed)`.
-
-    Returns the episode as a Demo (observations before each action, the observation after the
-    last one, simulator states as float64) and whether it succeeded; the episode ends at the
-    first success or at the horizon.
-    """
+                   record_states: bool = True, max_steps: int | None = None) -> tuple[Demo, bool]:
+    """One episode of `policy` (a source) from `env.reset(seed=seed)`: (Demo, succeeded)."""
     obs, info = env.reset(seed=seed)
     policy.reset(env, obs, seed=seed)
     get_state = getattr(env, "get_state", None) if record_states else None

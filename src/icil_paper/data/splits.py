@@ -1,11 +1,4 @@
-"""Splits: train/valid demos within a file, and the task splits of the generalization tables.
-
-- `train_valid_split`: robomimic's `mask/train` / `mask/valid` filter keys, a seeded shuffle.
-- `zero_shot_split`: a suite's tasks trained on and held out in the zero-shot setting (Table
-  VII's: Meta-World's ML45 split, `icil_paper.sim.metaworld.tasks`).
-- `sim_to_real_pairs`: each Kinova task (our sim-to-real stand-in) with the Panda kitchen task
-  of the same skill, e.g. `kinova/open_drawer` <- `kitchen/open_drawer`.
-"""
+"""Splits: train/valid demos within a file, and the task splits of the generalization tables."""
 
 from __future__ import annotations
 
@@ -18,11 +11,7 @@ from icil_paper.sim import get_suite, tasks_of
 
 def train_valid_split(names: Sequence[str], valid_fraction: float = 0.1,
                       seed: int = 0) -> dict[str, list[str]]:
-    """Split demo names into `train` and `valid` (round(fraction * n) valid demos, seeded).
-
-    The split depends only on the names, the fraction and the seed, so re-writing a file with
-    more demos keeps it reproducible. Both lists keep the names' order.
-    """
+    """Split demo names into `train` and `valid` (round(fraction * n) valid demos, seeded)."""
     if not 0.0 <= valid_fraction < 1.0:
         raise ValueError(f"valid_fraction must be in [0, 1), got {valid_fraction}")
     names = list(names)
@@ -51,8 +40,7 @@ def _normalize_split(split) -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 
 def zero_shot_split(suite: str = "metaworld") -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(training tasks, held-out tasks) of a suite's zero-shot setting (Meta-World's ML45:
-    Table VII's)."""
+    """(training tasks, held-out tasks) of a suite's zero-shot setting (Table VII)."""
     split = get_suite(suite, f"the {suite} zero-shot split").zero_shot_split
     if split is None:
         raise ValueError(f"the {suite} suite defines no zero-shot split")

@@ -1,10 +1,7 @@
 """Statistics of demonstration data sets: lengths, keep rates, and how smooth the actions are.
 
-Smoothness uses the project's least-energy score (`icil_paper.metrics.least_energy`, the
-paper's Table III measure) on the 6 motion dims of each action trajectory, divided by the
-number of second differences so that long and short demos compare: the mean squared
-acceleration of the commanded motion, lower is smoother. The `human` source's hand noise,
-hesitations and overshoots raise it; the expert's smooth plans keep it low.
+Smoothness is the least energy (Table III's measure) of the 6 motion dims per second
+difference: the mean squared acceleration of the commanded motion, lower is smoother.
 """
 
 from __future__ import annotations
@@ -18,8 +15,8 @@ from icil_paper.data.hdf5 import Demo
 from icil_paper.metrics import least_energy
 
 STILL_RELATIVE = 0.1
-"""A step counts as standing still when the norm of its motion dims is below this fraction of
-the demo's 90th-percentile motion norm (relative, because the suites' action units differ)."""
+"""A step stands still when its motion norm is below this fraction of the demo's 90th
+percentile."""
 
 
 def action_least_energy_per_step(actions: np.ndarray) -> float:

@@ -1,24 +1,12 @@
 """Synthetic 7-D action trajectories: a stand-in for demonstrations in tokenizer studies.
 
-The tokenizer chapters (02 and 04) need smooth, realistic action trajectories before the
-task suites' demonstrations exist (and the unit tests need them without a simulator). This
-module generates them: a manipulation episode is a chain of segments (reach, descend,
-grasp, lift, transport, release, retreat; or a push or a drawer pull), each a minimum-jerk
-motion (Flash & Hogan 1985), the profile human reaching movements follow:
+An episode is a chain of segments (reach, descend, grasp, lift, transport, release,
+retreat; or a push or a drawer pull), each a minimum-jerk motion (Flash & Hogan 1985):
 
     s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5,   tau in [0, 1]
 
-An action is what the task suites' controllers take (the same layout as `icil_paper.sim`):
-
-    [dx, dy, dz, drx, dry, drz, gripper]     all in [-1, 1]
-
-the per-step end-effector displacement in units of POSITION_SCALE metres and ROTATION_SCALE
-radians (an axis-angle delta), and the gripper command (-1 open, +1 closed) that moves
-between states along a minimum-jerk ramp. `noise > 0` adds low-pass filtered noise, the
-tremor of teleoperated ("human") demonstrations.
-
-These are generated trajectories, not recorded demonstrations: results computed on them say
-how tokenizers treat smooth piecewise motions, not how they treat a particular task.
+Actions are [dx, dy, dz, drx, dry, drz, gripper] in [-1, 1], in units of POSITION_SCALE
+metres and ROTATION_SCALE radians per step; `noise > 0` adds low-pass filtered noise.
 """
 
 from __future__ import annotations

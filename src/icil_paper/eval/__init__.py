@@ -1,21 +1,5 @@
-"""Evaluation, beside `train/`: rollouts, episode outcomes, stored evaluation records,
-feature measurement and `icil-paper eval`.
-
-    from icil_paper.eval import evaluate_policy, evaluate_run
-    from icil_paper.runspec import eval_spec
-    result = evaluate_policy(policy, eval_spec(preset, "kitchen/open_drawer", episodes=10),
-                             prompts=demos)
-    record = evaluate_run(run, ev, policy, store, preset.name)    # stored, computed once
-
-- `rollouts.py`: the rollout engine (lockstep groups of envs stepped with one batched
-  policy forward pass, `rollout_policy` for one episode, rerun recordings).
-- `outcomes.py`: episodes planned from an `EvalSpec`, success rates with intervals
-  (`evaluate_policy`, `evaluate_many`, `EvalResult`, `prompt_pool`).
-- `stored.py`: `evaluate_run`, `evaluate_run_many`: `eval` records (named by
-  `icil_paper.records`).
-- `features.py`: `measure_features`, `lipschitz_diagnostics` (Table III's `features` records).
-- `cli.py`: `icil-paper eval`.
-"""
+"""Evaluation, beside `train/`: rollouts, episode outcomes (`outcomes.py`), stored
+evaluation records, feature measurement and `icil-paper eval`."""
 
 from icil_paper.eval.features import lipschitz_diagnostics, measure_features
 from icil_paper.eval.outcomes import (

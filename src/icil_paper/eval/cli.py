@@ -22,12 +22,10 @@ from icil_paper.train.stored import trusted_policy
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = Parser(prog="icil-paper eval",
-                                description="Roll out a trained policy; store its success rate.")
+    p = Parser(prog="icil-paper eval", description="Roll out a trained policy; store its success rate.")
     add_preset_arguments(p)
     p.add_argument("--run-dir", default=None,
-                   help="folder of a training run (default: the one that --policy, --tokenizer, "
-                        "--train-tasks or --suite, --source and the preset name)")
+                   help="folder of a training run (default: the one the options below name)")
     p.add_argument("--policy", default="icrt", help="policy name, to find the default run folder")
     p.add_argument("--tokenizer", default=None, help="tokenizer name, to find the default run folder")
     p.add_argument("--tasks", nargs="+", default=None,
@@ -35,8 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--train-tasks", nargs="+", default=None,
                    help="the training run's tasks, to find its folder (default: see --suite)")
     p.add_argument("--suite", choices=("robocasa", "maniskill"), default="robocasa",
-                   help="the training run's tasks when --train-tasks is not given: the preset's "
-                        "tasks of the paper's RoboCasa tables (Meta-World) or of Table II")
+                   help="without --train-tasks: the preset's RoboCasa-table or Table II tasks")
     p.add_argument("--source", default="generated", help="the training run's demonstration source")
     p.add_argument("--prompt-source", default="generated", help="where prompt demonstrations come from")
     p.add_argument("--eval-seed", type=int, default=None,
@@ -44,8 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--episodes", type=positive("--episodes"), default=None,
                    help="rollouts per task (default: the preset's eval.episodes_per_task)")
     p.add_argument("--workers", type=positive("--workers"), default=None,
-                   help="no effect, kept for older scripts: the rollouts run batched in this "
-                   "process")
+                   help="no effect, kept for older scripts (rollouts run batched in-process)")
     p.add_argument("--max-steps", type=positive("--max-steps"), default=None,
                    help="step limit per rollout (default: the preset's, else the task's horizon)")
     p.add_argument("--record", action="store_true", help="write a rerun recording of each rollout")
@@ -56,8 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _check_outputs(run: Any, policy: Any, tasks: Sequence[str], prompt_source: str,
                    preset: Any) -> None:
-    """Refuse, before any rollout, a results store (and, where a prompt data set must be
-    generated, a data folder) that this process cannot write to."""
+    """Refuse, before any rollout, results and data folders this process cannot write to."""
     check_env_folder(RESULTS_ENV_VAR, "results")
     if policy.uses_prompt and not all(demo_path(preset, t, prompt_source, run.data.obs).exists()
                                       for t in tasks):

@@ -5,18 +5,14 @@ trajectories (Table III, Fig. 4), its codebook use, and whether Eq. 4 binds in i
     metrics = measure_features(policy, FeatureSpec(data=..., start=10, steps=500), "small")
     metrics["least_energy_standardized"], metrics["capped_fraction"], metrics["perplexity"]
 
-Which steps are scored (`held_out_pieces`, `FeatureSpec.sampling`): with `per_task` (the
-default) every task gets `spec.steps // len(tasks)` steps, taken from its held-out
-trajectories in order, each cut to what is left of the task's share:
+With `sampling="per_task"` every task gets `spec.steps // len(tasks)` steps, taken from its
+held-out trajectories in order, each cut to what is left of the task's share:
 
     task 1: |--- trajectory 1 ---|-- 2 --|        share steps
     task 2: |-------- trajectory 1 ------|        share steps
     task 3: |-- trajectory 1 --|                  all it has (shorter than its share)
 
-A task's shortfall is not made up from other tasks, so no task weighs more than another; a
-last piece shorter than 3 steps (a least energy needs 3) is dropped. `task_order` scores
-the first `steps` of the trajectories in task order instead. The record says what was
-scored (`tasks_scored`, `steps_per_task`, `n_features`, ...).
+`task_order` scores the first `steps` of the trajectories in task order instead.
 """
 
 from __future__ import annotations
@@ -46,7 +42,6 @@ class HeldOutPiece:
     """One scored stretch of a held-out trajectory."""
 
     task: str
-    """The task whose data set it comes from."""
     demo: int
     """Index of the demonstration in that data set."""
     actions: np.ndarray
@@ -54,9 +49,7 @@ class HeldOutPiece:
 
 
 def held_out_pieces(spec: FeatureSpec, preset: Any) -> list[HeldOutPiece]:
-    """The held-out trajectory pieces `spec` scores, in task order (module docstring):
-    demonstrations [start, start + demos_per_task) of each task's data set (generated where
-    missing), cut per `spec.sampling`. Deterministic: the same spec gives the same pieces."""
+    """The held-out pieces `spec` scores, cut per `spec.sampling` (module docstring)."""
     d = spec.data
     n = spec.start + d.demos_per_task
     per_task = spec.sampling == "per_task"
@@ -82,8 +75,7 @@ def held_out_pieces(spec: FeatureSpec, preset: Any) -> list[HeldOutPiece]:
 
 
 def coverage(spec: FeatureSpec, pieces: list[HeldOutPiece]) -> dict[str, Any]:
-    """What `pieces` score, for the record: the sampling rule, the tasks asked for and
-    scored, steps and trajectories per task (every task of the spec, 0 where none)."""
+    """What `pieces` score, for the record: tasks scored, steps and trajectories per task."""
     steps = {t: 0 for t in spec.data.tasks}
     trajectories = {t: 0 for t in spec.data.tasks}
     for p in pieces:
@@ -95,16 +87,9 @@ def coverage(spec: FeatureSpec, pieces: list[HeldOutPiece]) -> dict[str, Any]:
 
 
 def measure_features(policy: Any, spec: FeatureSpec, preset: Any) -> dict[str, Any]:
-    """Table III's measurement: the latent features a trained policy's own tokenizer gives
-    the held-out pieces of `held_out_pieces(spec, preset)`, one trajectory each.
-
-    Returns per-trajectory raw and standardized least energy (lists, for intervals), their
-    means, the latent scale sigma, what was scored (`coverage`, `n_features`,
-    `n_trajectories`), for discrete tokenizers the codebook use on those steps
-    (`codes_used` of `codebook_size`, `usage`, `perplexity`: `metrics.codebook_usage`), the
-    Lipschitz facts of the encoder, and the first `spec.view_steps` latents of the first
-    trajectory (Fig. 4).
-    """
+    """Table III's measurement on the latents a policy's tokenizer gives the held-out pieces:
+    raw and standardized least energy, `coverage`, codebook use (discrete tokenizers),
+    `lipschitz_diagnostics` and the first `spec.view_steps` latents (Fig. 4)."""
     import torch
 
     pieces = held_out_pieces(spec, preset)
@@ -137,11 +122,8 @@ def measure_features(policy: Any, spec: FeatureSpec, preset: Any) -> dict[str, A
 
 
 def lipschitz_diagnostics(tokenizer: Any, actions: np.ndarray) -> dict[str, Any]:
-    """Does Eq. 4 bind in a trained encoder? For tokenizers with Lipschitz layers: the share
-    of rows whose absolute sum the bound caps (`capped_fraction`, all layers together), each
-    layer's bound softplus(c_l), their product (the network's bound, Eq. 3), and, for every
-    tokenizer with an encoder, the largest ratio ||q(x) - q(x')||_inf / ||x - x'||_inf over
-    random nearby pairs of held-out actions (`empirical_lipschitz`, a lower estimate)."""
+    """Does Eq. 4 bind? `capped_fraction` of rows the bound caps, each layer's softplus(c_l)
+    and their product (Eq. 3), and an `empirical_lipschitz` lower estimate of the encoder."""
     import torch
     import torch.nn.functional as F
 

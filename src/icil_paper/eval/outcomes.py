@@ -10,18 +10,10 @@
     results = evaluate_many(policy, [eval_spec(preset, t) for t in tasks],
                             prompts={t: prompt_pool(...) for t in tasks})
 
-Episode i of `EvalSpec.episodes` is fixed by the evaluation seed alone: its env seed is
-`EVAL_SEED_BASE + 10_000 * seed + i` (above every demonstration seed, so scenes are unseen),
-its prompt `ICRTConfig.prompt_demos` demonstrations drawn from the prompt pool with
-`np.random.default_rng([seed, i])`, its scenes from `EvalSpec.scenes`. It runs until
-success, the episode's end or `max_steps`; actions are clipped to [-1, 1]. The rollout
-engine (`icil_paper.eval.rollouts`) steps `batch_size` envs in lockstep with one batched
-policy step, in this process; outcomes do not depend on the batch size.
-
-The result holds the success rate with a Wilson 95% interval (`icil_paper.stats`) and the
-episodes' mean motion smoothness (`icil_paper.metrics.motion_smoothness`).
-`check_policy_fits` refuses a policy whose observation or action widths differ from the
-task's; with a `record_dir` each rollout is also written as a rerun recording.
+Episode i is fixed by the evaluation seed alone: env seed `episode_seed(seed, i)` (above
+every demonstration seed), its `prompt_demos` prompts drawn from the pool with
+`np.random.default_rng([seed, i])`. Results carry a Wilson 95% interval and the mean motion
+smoothness of the episodes.
 """
 
 from __future__ import annotations
@@ -54,11 +46,8 @@ class EvalResult:
     """What `evaluate_policy` returns (and what an `eval` record's metrics hold)."""
 
     task: str
-    """The task rolled out."""
     episodes: int
-    """Rollouts run."""
     successes: int
-    """Rollouts that reached the task's success predicate."""
     success_rate: float
     """successes / episodes."""
     ci_low: float
@@ -68,22 +57,15 @@ class EvalResult:
     mean_steps: float
     """Mean rollout length in env steps."""
     wall_time_s: float
-    """Seconds the evaluation took (from `evaluate_many`: the whole call, which rolled out
-    every spec's episodes side by side)."""
+    """Seconds the evaluation took (from `evaluate_many`: the whole call)."""
     per_episode: list[dict[str, Any]] = field(default_factory=list)
-    """One dict per episode: episode, seed, success, steps, return, prompt (indices into the
-    prompt pool), wall_time_s (from its lockstep group's start to its end), the motion's
-    smoothness ldlj, sparc and action_jerk (`rollouts.motion_record`; None where undefined)
-    and, when recorded, recording."""
+    """One dict per episode (`rollouts.run_episodes`)."""
     ldlj: float | None = None
-    """Mean log dimensionless jerk of the end-effector paths (`icil_paper.metrics`; higher
-    is smoother) over the episodes where it is defined; None where it is in none."""
+    """Mean log dimensionless jerk of the end-effector paths (higher is smoother)."""
     sparc: float | None = None
-    """Mean spectral arc length of the end-effector speed profiles (higher is smoother),
-    over the episodes where it is defined."""
+    """Mean spectral arc length of the end-effector speed profiles (higher is smoother)."""
     action_jerk: float | None = None
-    """Mean squared second difference of the executed actions (lower is smoother), over
-    the episodes where it is defined."""
+    """Mean squared second difference of the executed actions (lower is smoother)."""
 
     @property
     def outcomes(self) -> np.ndarray:
@@ -100,11 +82,7 @@ class EvalResult:
 
 
 def episode_seed(seed: int, index: int) -> int:
-    """Environment seed of evaluation episode `index` under evaluation seed `seed`.
-
-    Evaluation seeds start at `icil_paper.data.EVAL_SEED_BASE`, above every seed that
-    demonstration generation can use.
-    """
+    """Environment seed of evaluation episode `index` under evaluation seed `seed`."""
     return EVAL_SEED_BASE + 10_000 * int(seed) + int(index)
 
 
@@ -117,8 +95,7 @@ def obs_kind(policy: Any) -> str:
 
 
 def check_policy_fits(policy: Any, task: str) -> None:
-    """Raise ValueError when a policy's action or low-dimensional observation width differs
-    from the task's (both widths named), before any rollout."""
+    """Raise ValueError when a policy's action or state width differs from the task's."""
     suite = sim.suite_of(task)
     if policy.action_dim != sim.ACTION_DIM:
         raise ValueError(f"the policy acts in {policy.action_dim} dimensions but {task} takes "
@@ -132,8 +109,7 @@ def check_policy_fits(policy: Any, task: str) -> None:
 
 def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
                 preset: Any = None, progress: bool = True) -> list[Any]:
-    """The prompt demonstrations an EvalSpec draws from (see the module docstring), in the
-    data folder of `preset` (a Preset, whose `data.root` says where, or a preset's name)."""
+    """The prompt demonstrations an EvalSpec draws from, in the data folder of `preset`."""
     if preset is None:
         raise ValueError("prompt_pool needs the preset (preset=...): prompt data sets "
                          "live under data/<preset>/")
@@ -147,7 +123,6 @@ def prompt_pool(ev: EvalSpec, obs: str, demos_per_task: int, data_seed: int,
 
 
 def _first_steps(demo: Any, n: int) -> Any:
-    """A demonstration cut to its first `n` steps (per-step arrays cut alike)."""
     cut = {"actions": demo.actions[:n], "obs": {k: v[:n] for k, v in demo.obs.items()}}
     for name in ("states", "rewards"):
         if getattr(demo, name, None) is not None:
@@ -157,13 +132,11 @@ def _first_steps(demo: Any, n: int) -> Any:
 
 # --------------------------------------------------------------------------- evaluation
 def scene_options(spec: EvalSpec) -> tuple[tuple[str, Any], ...]:
-    """The env options of `spec`'s scene distribution: none for the default (so envs of
-    every suite are built as they always were), else `(("scenes", spec.scenes),)`."""
+    """The env options of `spec`'s scene distribution: none for the default."""
     return () if spec.scenes == SCENE_DISTRIBUTIONS[0] else (("scenes", spec.scenes),)
 
 
 def _check_scenes(spec: EvalSpec) -> None:
-    """A scene distribution other than the default must be one the task's suite offers."""
     if scene_options(spec) and spec.scenes not in scene_distributions(spec.task):
         offered = scene_distributions(spec.task)
         raise ValueError(f"{spec.task} has no {spec.scenes!r} scene distribution (its suite "
@@ -173,9 +146,7 @@ def _check_scenes(spec: EvalSpec) -> None:
 
 def plan_episodes(spec: EvalSpec, pool_size: int = 0, prompt_demos: int = 1,
                   spec_index: int = 0) -> list[Episode]:
-    """The episodes of `spec` (see the module docstring): env seeds, env options (its scene
-    distribution) and, with a prompt pool of `pool_size` demonstrations, the indices of each
-    episode's `prompt_demos` prompts."""
+    """The episodes of `spec`, each with `prompt_demos` indices into a pool of `pool_size`."""
     plan = []
     options = scene_options(spec)
     for i in range(spec.episodes):
@@ -191,7 +162,6 @@ def plan_episodes(spec: EvalSpec, pool_size: int = 0, prompt_demos: int = 1,
 
 
 def _pools(specs: Sequence[EvalSpec], prompts: Any) -> list[list[Any]]:
-    """One prompt pool per spec from `evaluate_many`'s `prompts` argument."""
     if prompts is None:
         return [[] for _ in specs]
     if isinstance(prompts, Mapping):
@@ -210,28 +180,14 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
                   env_options: Mapping[str, Any] | None = None,
                   env_factory: Callable[..., Any] | None = None, batch_size: int | None = None,
                   keep_envs: bool = False) -> list[EvalResult]:
-    """Evaluate one policy on many specs (e.g. every task of a table) in one call; returns
-    one EvalResult per spec, in order. Each result equals what `evaluate_policy` gives for
-    that spec alone, up to float rounding in the policy (see the module docstring).
+    """Evaluate one policy on many specs in one call; one EvalResult per spec, in order.
 
-    Args:
-        policy: a trained policy (`icil_paper.policies`).
-        specs: the evaluations (`runspec.EvalSpec`), one per task or prompt variant.
-        prompts: an in-context policy's prompt pools: {task: pool}, or a list with one pool
-            per spec (`prompt_pool(spec, ...)` gives a spec's).
-        record_dir: write a rerun recording of each rollout there.
-        env_options: extra keyword options for `make_env`.
-        env_factory: a callable (task, obs=, seed=, **env_options) -> env used instead of
-            `icil_paper.sim.make_env` (e.g. a test suite's).
-        batch_size: episodes stepped in lockstep (default `rollouts.default_batch_size`:
-            one episode per spec per group).
-        keep_envs: keep this process's envs for the next call (`rollouts.run_episodes`).
+    `prompts` is {task: pool} or one pool per spec (`prompt_pool`); `env_factory`
+    (task, obs=, seed=, **env_options) -> env replaces `sim.make_env`.
     """
     specs = list(specs)
     if not specs:
         raise ValueError("evaluate_many needs at least one EvalSpec")
-    if batch_size is not None and batch_size < 1:
-        raise ValueError(f"batch_size must be at least 1, got {batch_size}")
     pools = _pools(specs, prompts)
     k = getattr(policy.config, "prompt_demos", 1)
     episodes: list[Episode] = []
@@ -264,8 +220,7 @@ def evaluate_many(policy: Any, specs: Sequence[EvalSpec],
 
 
 def motion_means(per_episode: Sequence[Mapping[str, Any]]) -> dict[str, float | None]:
-    """Each of `metrics.MOTION_MEASURES` averaged over the episodes where it is defined
-    (None where it is in none, or an episode has no such entry: a record of older code)."""
+    """Each of `metrics.MOTION_MEASURES` averaged over the episodes where it is defined."""
     out: dict[str, float | None] = {}
     for name in MOTION_MEASURES:
         values = [e.get(name) for e in per_episode]
@@ -279,8 +234,7 @@ def evaluate_policy(policy: Any, spec: EvalSpec, prompts: Sequence[Any] | None =
                     progress: bool = True, env_options: Mapping[str, Any] | None = None,
                     env_factory: Callable[..., Any] | None = None,
                     batch_size: int | None = None) -> EvalResult:
-    """Success rate of `policy` over the rollouts `spec` describes (see the module docstring):
-    `evaluate_many` for one spec, `prompts` its prompt pool (`prompt_pool` gives it)."""
+    """`evaluate_many` for one spec, `prompts` its prompt pool."""
     return evaluate_many(policy, [spec], [list(prompts or [])], record_dir=record_dir,
                          progress=progress, env_options=env_options, env_factory=env_factory,
                          batch_size=batch_size)[0]

@@ -6,19 +6,9 @@ in lockstep with one batched policy forward pass per step.
                 for i, s in enumerate(seeds)]
     results = run_episodes(policy, episodes, prompts={0: pool}, obs="state")
 
-`icil_paper.eval.outcomes` plans the episodes from `EvalSpec`s and turns these results into
-success rates; this module only runs them. Episodes are interleaved over evaluations
-(episode 0 of every spec, then episode 1, ...) and cut into lockstep groups of at most
-`batch_size` (`group_episodes`). In a group each env is reset from its episode's seed, the
-policy's batched state starts afresh, and every step is one `select_actions` over the
-running episodes; an episode ends on success, termination, truncation or its step limit.
-Its end-effector path becomes three numbers of motion smoothness (`motion_record`).
-
-A group's outcomes depend on its episodes alone, so for a given batch size the results are
-the same bit for bit; another batch size changes the policy's numbers by float rounding
-only (`tests/test_rollouts.py`). Parallelism is one level up: a table's cells run side by
-side (`icil_paper.tables.cells`), each rolling out its episodes here, keeping its envs
-from cell to cell (`keep_envs`).
+Episodes are interleaved over evaluations and cut into lockstep groups of at most
+`batch_size` (`group_episodes`); a group's outcomes depend on its episodes alone, so for a
+given batch size the results are the same bit for bit.
 """
 
 from __future__ import annotations
@@ -41,8 +31,7 @@ from icil_paper.timing import phase
 from icil_paper.viz.recording import record_episode
 
 MAX_BATCH = 16
-"""Largest default group: beyond this the per-step cost of stepping the envs in turn dwarfs
-the batched forward pass."""
+"""Largest default group (beyond it stepping the envs in turn dwarfs the forward pass)."""
 
 
 @dataclass(frozen=True)
@@ -52,7 +41,6 @@ class Episode:
     spec: int
     """Which evaluation it belongs to (an index into the caller's specs; keys `prompts`)."""
     task: str
-    """The task (the env to build)."""
     index: int
     """Its index within its evaluation (episode 0, 1, ...)."""
     seed: int
@@ -62,9 +50,7 @@ class Episode:
     max_steps: int | None = None
     """Step limit; None: the env's horizon."""
     env_options: tuple[tuple[str, Any], ...] = ()
-    """Options of its env beyond the call's (`EnvSetup.options`), as sorted (name, value)
-    pairs: its evaluation's scene distribution (`EvalSpec.scenes`) where that is not the
-    default."""
+    """Options of its env beyond the call's (`EnvSetup.options`), as sorted (name, value)."""
 
 
 @dataclass(frozen=True)
@@ -89,16 +75,12 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
                   prompts: Sequence[Sequence[Any] | None] | None = None,
                   max_steps: Sequence[int | None] | int | None = None,
                   keep_trace: bool = False) -> list[dict[str, Any]]:
-    """Run len(envs) episodes in lockstep: env b from `seeds[b]` with prompt `prompts[b]`,
-    one `policy.select_actions` call per step for every episode still running.
+    """Run len(envs) episodes in lockstep, one `policy.select_actions` per step.
 
-    Episode b ends when its env reports success, terminates or truncates, or after
-    `max_steps[b]` steps (default: the env's horizon). Actions are clipped to [-1, 1].
-    Returns per episode {"success", "steps", "return", "wall_time_s"} (seconds from the
-    start until it ended), "actions" (T, A) executed, "eef_path" (T + 1, 3) (the end
-    effector's position at reset and after each step, `TaskEnv.eef_position`; None for an
-    env without that accessor) and "dt" (the env's `control_dt`, seconds per step, or None)
-    and, with `keep_trace`, "obs" (the observations acted on) and "final_obs".
+    Episode b starts from `seeds[b]` with prompt `prompts[b]` and ends on success,
+    termination, truncation or `max_steps[b]` (default: the env's horizon). Returns per
+    episode {"success", "steps", "return", "wall_time_s", "actions" (T, A) clipped to
+    [-1, 1], "eef_path" (T + 1, 3) or None, "dt"} and, with `keep_trace`, "obs", "final_obs".
     """
     n = len(envs)
     if len(seeds) != n:
@@ -159,8 +141,6 @@ def rollout_batch(policy: Any, envs: Sequence[Any], seeds: Sequence[int],
 
 
 def _first_position(env: Any) -> list[np.ndarray] | None:
-    """[the env's end-effector position after reset], or None for an env that has no
-    `eef_position` (an env of another library, built by a caller's factory)."""
     read = getattr(env, "eef_position", None)
     if read is None:
         return None
@@ -171,10 +151,7 @@ def _first_position(env: Any) -> list[np.ndarray] | None:
 
 
 def motion_record(out: Mapping[str, Any]) -> dict[str, float | None]:
-    """The motion smoothness of one rollout of `rollout_batch` as a record stores it:
-    `ldlj`, `sparc` (of its end-effector path) and `action_jerk` (of its executed actions),
-    `icil_paper.metrics.motion_smoothness` to 7 significant digits; None where a measure is
-    undefined (too few steps, no motion, no path: NaN or inf, which a record cannot hold)."""
+    """`ldlj`, `sparc` and `action_jerk` of one `rollout_batch` output; None where undefined."""
     if out.get("eef_path") is None:
         values = {"ldlj": math.nan, "sparc": math.nan,
                   "action_jerk": action_second_difference(out["actions"])}
@@ -185,13 +162,7 @@ def motion_record(out: Mapping[str, Any]) -> dict[str, float | None]:
 
 def rollout_policy(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | None = None,
             max_steps: int | None = None, keep_trace: bool = False) -> dict[str, Any]:
-    """Run one episode: reset the env with `seed`, reset the policy with `prompt`, act until
-    success, the episode's end or `max_steps` (default: the env's horizon).
-
-    Returns {"success", "steps", "return", "actions" (T, A) executed (clipped to [-1, 1]),
-    "eef_path" (T + 1, 3), "dt"} (see `rollout_batch`) and, with `keep_trace`, "obs" (list
-    of the observations acted on) and "final_obs".
-    """
+    """Run one episode from `seed` with `prompt`; `rollout_batch`'s dict without wall time."""
     out = rollout_batch(policy, [env], [seed], [prompt], [max_steps], keep_trace)[0]
     out.pop("wall_time_s")
     return out
@@ -199,17 +170,8 @@ def rollout_policy(policy: Any, env: Any, seed: int, prompt: Sequence[Any] | Non
 
 def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping[str, Any],
                    record_dir: str | Path) -> str:
-    """Write one rollout as a rerun recording with its static picture.
-
-    Args:
-        policy: the policy that acted; its tokenizer (if any) gives the latent action tokens.
-        task: the task name (for the file name, the title and the object's position).
-        ep: the episode's {"index", "seed"}.
-        trace: `rollout_policy(..., keep_trace=True)`'s output ("obs", "actions", "success").
-        record_dir: the folder of `<task>__seed<seed>.rrd` and `.png`.
-
-    Returns the `.rrd` path, or the `.png` path where rerun is unavailable.
-    """
+    """Write one rollout (`rollout_policy(..., keep_trace=True)`, episode {"index", "seed"})
+    as `<record_dir>/<task>__seed<seed>.rrd`; return that path, or the `.png` without rerun."""
     actions = np.asarray(trace["actions"], np.float32)
     latents = None
     tokenizer = getattr(policy, "tokenizer", None)
@@ -228,10 +190,8 @@ def record_rollout(policy: Any, task: str, ep: Mapping[str, Any], trace: Mapping
 
 # --------------------------------------------------------------------------- groups
 def default_batch_size(episodes: Sequence[Episode], max_batch: int = MAX_BATCH) -> int:
-    """The batch size `run_episodes` uses when none is given: at most one episode per
-    evaluation in a group (so each task's env is built once) and at most `max_batch`, in
-    groups of nearly equal size. One task's evaluation thus runs one episode at a time, as
-    a policy with a single env would."""
+    """`run_episodes`'s default batch size: at most one episode per evaluation in a group and
+    at most `max_batch`, in groups of nearly equal size."""
     n = len(episodes)
     if n == 0:
         return 1
@@ -240,10 +200,8 @@ def default_batch_size(episodes: Sequence[Episode], max_batch: int = MAX_BATCH) 
 
 
 def group_episodes(episodes: Sequence[Episode], batch_size: int) -> list[list[Episode]]:
-    """Cut episodes into lockstep groups of at most `batch_size`: episodes interleaved over
-    evaluations (episode 0 of every spec, then episode 1, ...), split into
-    ceil(n / batch_size) consecutive groups of nearly equal size. Depends on the episodes
-    and `batch_size` alone."""
+    """Episodes interleaved over evaluations (episode 0 of every spec, then 1, ...), cut into
+    ceil(n / batch_size) consecutive groups of nearly equal size."""
     if batch_size < 1:
         raise ValueError(f"batch_size must be at least 1, got {batch_size}")
     order = sorted(episodes, key=lambda e: (e.index, e.spec))
@@ -259,13 +217,10 @@ class GroupJob:
     """One lockstep group (`run_group`): what to run and with what."""
 
     episodes: list[Episode]
-    """The group's episodes."""
     prompts: dict[int, dict[int, Any]]
     """The prompt demonstrations they use: {spec: {pool index: demonstration}}."""
     policy: Any
-    """The policy that acts."""
     env: EnvSetup
-    """How the envs are built."""
     record_dir: str | None = None
     """Write a rerun recording of each rollout there."""
 
@@ -286,14 +241,12 @@ def group_jobs(episodes: Sequence[Episode], prompts: Mapping[int, Sequence[Any]]
 
 @dataclass
 class WorkerState:
-    """What a process keeps between groups: its environments, by setup and task (a group
-    with k episodes of one task uses the first k)."""
+    """The environments a process keeps between groups, by setup and task."""
 
     envs: dict[tuple[Any, ...], list[Any]] = field(default_factory=dict)
 
     def envs_for(self, setup: EnvSetup, episodes: Sequence[Episode]) -> list[Any]:
-        """One env per episode, built where this worker has too few for a task (and the
-        episode's own env options: a task on two scene distributions has two envs)."""
+        """One env per episode, built where this worker has too few for a task."""
         out, used = [], {}
         for ep in episodes:
             key = self.env_key(setup, ep)
@@ -355,10 +308,8 @@ def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
 _STATE: WorkerState | None = None  # the envs this process keeps between calls
 
 KEPT_ENVS = 26
-"""Most environments a process keeps between `run_episodes(..., keep_envs=True)` calls:
-one ICRT cell's (11 kitchen tasks on two scene distributions and 4 Kinova tasks), at about
-170 MB each for a kitchen task with state observations. Beyond it the envs a call does not
-use are closed (oldest first), before the call and after it."""
+"""Most environments a process keeps between `run_episodes(..., keep_envs=True)` calls
+(one ICRT cell's); beyond it the envs a call does not use are closed."""
 
 
 def worker_state() -> WorkerState:
@@ -370,7 +321,6 @@ def worker_state() -> WorkerState:
 
 
 def _close_state() -> None:
-    """Close the envs this process keeps."""
     global _STATE
     if _STATE is not None:
         _STATE.close()
@@ -384,23 +334,12 @@ def run_episodes(policy: Any, episodes: Sequence[Episode],
                  env_options: Mapping[str, Any] | None = None, record_dir: str | Path | None = None,
                  progress: bool = True, desc: str = "rollouts",
                  keep_envs: bool = False) -> list[dict[str, Any]]:
-    """Run every episode in this process (see the module docstring); returns one result dict
-    per episode, in the order of `episodes`: episode, seed, success, steps, return, prompt,
-    wall_time_s (seconds from its group's start until it ended), the motion's smoothness
-    `ldlj`, `sparc` and `action_jerk` (`motion_record`; None where undefined) and, with
+    """Run every episode in this process; one result dict per episode, in order: episode,
+    seed, success, steps, return, prompt, wall_time_s, `motion_record`'s measures and, with
     `record_dir`, recording.
 
-    Args:
-        policy: acts through `reset_batch` / `select_actions` (`icil_paper.policies.base`).
-        episodes: the rollouts.
-        prompts: {spec: prompt pool}; episode e's prompt is [prompts[e.spec][j] for j in e.prompt].
-        obs: the observation kind the envs give.
-        batch_size: episodes per lockstep group (default: `default_batch_size`).
-        env_factory, env_options: how envs are built (`EnvSetup`).
-        record_dir: write a rerun recording of each rollout there.
-        keep_envs: keep the envs for the next call (`worker_state()`, at most `KEPT_ENVS`):
-            a process that evaluates cell after cell builds each task's env once. Results
-            do not change: every episode resets its env from its own seed.
+    Episode e's prompt is [prompts[e.spec][j] for j in e.prompt]; `keep_envs` keeps the envs
+    for the next call (at most `KEPT_ENVS`), which does not change results.
     """
     if not episodes:
         return []

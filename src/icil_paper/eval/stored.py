@@ -4,9 +4,8 @@
     record = evaluate_run(run, ev, policy, store, preset.name)      # computed if missing
     records = evaluate_run_many(run, [ev1, ev2], load, store, preset.name)
 
-A record is named by `icil_paper.records.eval_record(run, ev)`: kind `eval`, the name
-`<label>__<task>__<prompt source>[...]__seed<k>` and the config `{"run", "eval"}` (the
-keyed content of both specs, so its key is `runspec.eval_key(run, ev)`).
+A record is named by `icil_paper.records.eval_record(run, ev)`; its key is
+`runspec.eval_key(run, ev)`.
 """
 
 from __future__ import annotations
@@ -44,11 +43,7 @@ def evaluate_run(run: Any, ev: EvalSpec, policy: Any | Callable[[], Any], store:
                  batch_size: int | None = None) -> dict[str, Any]:
     """The stored evaluation of `run`'s trained policy as `ev` describes, computed if missing.
 
-    `policy` is the trained policy or a function that loads it (called only when the
-    record must be computed). The record's config is the keyed content of both specs, so
-    its key is `runspec.eval_key(run, ev)`. `preset` (a Preset, or a preset's name) locates
-    the prompt data sets (`outcomes.prompt_pool`). Returns the record. `batch_size` goes to
-    `evaluate_policy`.
+    `policy` is the policy or a function that loads it (called only when computing).
     """
     def compute() -> dict[str, Any]:
         trained = _trained(policy)
@@ -65,11 +60,7 @@ def evaluate_run_many(run: Any, evs: Sequence[EvalSpec], policy: Any | Callable[
                       record_dir: str | Path | None = None, force: bool = False,
                       progress: bool = True, batch_size: int | None = None,
                       keep_envs: bool = False) -> list[dict[str, Any]]:
-    """`evaluate_run` for many evaluations of one run (a table's tasks): the records that
-    are missing (or all, with `force`) are computed together in one `evaluate_many` call,
-    each stored as it would be by `evaluate_run`. Returns the records, in the order of `evs`.
-    `keep_envs` keeps this process's envs for the next call (`rollouts.run_episodes`).
-    """
+    """`evaluate_run` for many evaluations of one run, the missing ones in one call."""
     evs = list(evs)
     ids = [eval_record(run, ev) for ev in evs]
     records = [None if force else store.get(*record_id) for record_id in ids]

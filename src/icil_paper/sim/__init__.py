@@ -6,22 +6,12 @@
     obs, reward, terminated, truncated, info = env.step(expert.act(obs))
     info["success"]                      # the task's success predicate, a bool
 
-Suites, named by the prefix of a task name (`SUITE_REGISTRY`, one `Suite` record each):
-`metaworld/` (Meta-World's 50 tasks; 13 stand in for RoboCasa's skill families, ML45 is the
-zero-shot split), `kitchen/` (door and drawer tasks on robosuite's Panda), `kinova/` (the same
-on a Kinova3 with perturbed dynamics, the stand-in for the real robot), `maniskill/`
-(PickCube, PushCube, StackCube; Table II) and `synthetic/` (a simulator-free reach task for
-tests). `SUITES` are the suites of the paper's tables; `ALL_SUITES` adds `synthetic`.
-
-Actions are 7-D in [-1, 1] (position delta, axis-angle rotation delta, gripper). Image
-observations (`obs="rgb"` or `"rgbd"`) add `rgb` (uint8, n_cams, H, W, 3) and `depth`
-(float32 metres). Within a suite every task has the same `obs_dims(suite) = (P, O)` (object
-states zero-padded), so one policy trains on all of a suite's tasks.
-
-Importing this package registers a gymnasium id per task (`gym_id`), e.g.
-`gym.make("icil_paper/kitchen-open_drawer-v0", obs="state")`. Suite modules, and their
-simulators, are imported only when used, so one suite works while another's simulator is
-missing; a suite that fails to load is named with the reason when one of its tasks is asked for.
+Suites, named by the prefix of a task name: `metaworld/`, `kitchen/` (robosuite's Panda),
+`kinova/` (the sim-to-real stand-in), `maniskill/` (Table II) and `synthetic/` (tests).
+Actions are 7-D in [-1, 1]; every task of a suite has the same `obs_dims(suite) = (P, O)`.
+Image observations (`obs="rgb"` or `"rgbd"`) add `rgb` (uint8, n_cams, H, W, 3) and `depth`
+(float32 metres). Suite modules are imported only when used; importing this package
+registers a gymnasium id per task (`gym_id`).
 """
 
 from __future__ import annotations
@@ -115,8 +105,7 @@ def suite_of(name: str) -> str:
 
 
 def task_family(task: str) -> str | None:
-    """The paper's skill family (`SKILL_FAMILIES`) that `task` stands in for, or None (a task
-    of a suite without families, or of none of them)."""
+    """The paper's skill family (`SKILL_FAMILIES`) that `task` stands in for, or None."""
     prefix = str(task).split("/", 1)[0]
     record, _ = _load(prefix) if prefix in SUITE_REGISTRY else (None, None)
     return None if record is None else record.family_of(task)
@@ -128,8 +117,7 @@ def obs_dims(suite: str) -> tuple[int, int]:
 
 
 def object_position(task: str) -> tuple[int, int] | None:
-    """The slice (start, stop) of `obs["object"]` holding an object's position in `task`'s
-    suite (drawn by recordings), or None when the suite has none or is unknown."""
+    """The slice (start, stop) of `obs["object"]` holding an object's position, or None."""
     prefix = str(task).split("/", 1)[0]
     if prefix not in SUITE_REGISTRY:
         return None
@@ -138,21 +126,14 @@ def object_position(task: str) -> tuple[int, int] | None:
 
 
 def make_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
-    """A `gymnasium.Env` of one task (see the module docstring).
-
-    `options` go to the suite: for ManiSkill `sim_backend`, `camera_size`, `horizon`,
-    `render_size`; every suite takes `render_mode` ("rgb_array" or None); the kitchen suite
-    documents its own (`icil_paper.sim.kitchen.make_kitchen_env`), among them `scenes`, the
-    scene distribution (`scene_distributions(name)` lists a task's).
-    """
+    """A `gymnasium.Env` of one task; `options` go to the suite's `make_env`."""
     check_name("observation kind", obs, OBS_KINDS)
     suite = suite_of(name)
     return get_suite(suite).make_env(name, obs=obs, seed=seed, **options)
 
 
 def scene_distributions(name: str) -> tuple[str, ...]:
-    """The named scene distributions a task's env offers through `make_env(..., scenes=)`,
-    the default first; empty when its suite has a single one (and takes no such option)."""
+    """The scene distributions `make_env(..., scenes=)` offers for a task, the default first."""
     return tuple(get_suite(suite_of(name)).scenes)
 
 
@@ -167,11 +148,7 @@ def gym_id(task: str) -> str:
 
 
 def register_gym_envs() -> list[str]:
-    """Register a gymnasium id for every task of every loadable suite (once); return the ids.
-
-    `gymnasium.make(gym_id(task), **options)` calls `make_env(task, **options)`. No
-    `TimeLimit` is added: the envs truncate at their own `horizon` (an option).
-    """
+    """Register a gymnasium id for every task of every loadable suite (once); return the ids."""
     import gymnasium
 
     ids = []

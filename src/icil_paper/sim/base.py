@@ -14,14 +14,8 @@ What every task env has, whatever the simulator::
     obs, reward, terminated, truncated, info = env.step(action)
     frame = env.render()                       (H, W, 3) uint8
 
-An episode is fully determined by its seed: `reset(seed=s)` runs the episode of seed s;
-`reset()` runs the constructor's seed first, then seeds drawn from a generator seeded by the
-last explicit seed, so `reset(seed=s)` then `reset()` repeats exactly, as gymnasium requires.
-`terminated` is True on the first step where the task succeeds, `truncated` after `horizon`
-steps without success.
-
-Observation bounds (`state_box`): quaternions in [-1, 1], flags in [0, 1], metric values in
-[-METRIC_BOUND, METRIC_BOUND], widened by NOISE_MARGIN standard deviations of noise.
+An episode is fully determined by its seed; `reset()` runs the constructor's seed first,
+then seeds drawn from a generator seeded by the last explicit seed.
 """
 
 from __future__ import annotations
@@ -45,11 +39,7 @@ _KIND_BOUNDS = {"metric": (-METRIC_BOUND, METRIC_BOUND), "unit": (-1.0, 1.0), "f
 
 
 def state_box(layout: Sequence[tuple[int, str]], noise_std: float = 0.0) -> spaces.Box:
-    """A float32 Box from a layout of (width, kind) segments.
-
-    Kinds: "metric" (positions, distances, joint values: +-METRIC_BOUND), "unit" (quaternion
-    entries: [-1, 1]), "flag" ([0, 1]), "free" (unbounded).
-    """
+    """A float32 Box from (width, kind) segments, kind "metric", "unit", "flag" or "free"."""
     low = np.concatenate([np.full(n, _KIND_BOUNDS[kind][0]) for n, kind in layout])
     high = np.concatenate([np.full(n, _KIND_BOUNDS[kind][1]) for n, kind in layout])
     margin = NOISE_MARGIN * float(noise_std)
@@ -74,12 +64,9 @@ def observation_space(proprio: spaces.Box, obj: spaces.Box, obs_kind: str,
 
 
 class TaskEnv(gym.Env):
-    """Base class of the task envs (see the module docstring).
-
-    A subclass calls `super().__init__(...)`, builds its simulator, sets `observation_space`
-    (and `cameras`), and implements `reset` (starting with `self._begin_episode(seed)`),
-    `step`, `render`, `eef_position`, and `_close`. `metadata["render_fps"]` is the suite's control rate.
-    """
+    """Base class of the task envs: a subclass sets `observation_space`, and implements
+    `reset` (starting with `self._begin_episode(seed)`), `step`, `render`, `eef_position`
+    and `_close`."""
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 20}
     action_dim = ACTION_DIM
@@ -103,7 +90,7 @@ class TaskEnv(gym.Env):
         self._closed = False
 
     def _begin_episode(self, seed: int | None) -> int:
-        """Choose the episode's seed (module docstring), seed `np_random` with it, return it."""
+        """Choose the episode's seed, seed `np_random` with it, return it."""
         if seed is None:
             seed = (self._first_seed if self._first_seed is not None
                     else int(self._seed_stream.integers(2**31 - 1)))
@@ -116,8 +103,7 @@ class TaskEnv(gym.Env):
         return self.seed
 
     def _checked_action(self, action) -> np.ndarray:
-        """`action` as a (ACTION_DIM,) float64 array clipped to [-1, 1]; ValueError naming the
-        task for a wrong length or a non-finite entry."""
+        """`action` as a (ACTION_DIM,) float64 array clipped to [-1, 1]; ValueError if malformed."""
         a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
         if a.shape != (ACTION_DIM,):
             raise ValueError(f"{self.name}: action must have {ACTION_DIM} entries, got "
@@ -137,10 +123,7 @@ class TaskEnv(gym.Env):
         raise NotImplementedError
 
     def eef_position(self) -> np.ndarray:
-        """The end effector's position now, (3,) float64 in metres (world frame), as the
-        simulator has it: observation noise never reaches it. The rollout engine reads it
-        once after reset and after every step to score the motion's smoothness
-        (`icil_paper.metrics.motion_smoothness`)."""
+        """The end effector's position now, (3,) float64 metres (world frame, no noise)."""
         raise NotImplementedError
 
     @property

@@ -1,10 +1,8 @@
 """System checks for the simulators' rendering: Vulkan (ManiSkill / SAPIEN) and EGL (MuJoCo).
 
-ManiSkill 3 with SAPIEN 3 needs a Vulkan device even for state observations. On a machine with
-no GPU, Mesa's software Vulkan driver (lavapipe) works from Mesa 24.3 on; `make setup` installs
-it where it can (`tools/system_deps.py`). The tests that need ManiSkill skip with
-`vulkan_skip_reason()`, and `make_env("maniskill/...")` raises `RenderingUnavailable` with the
-same explanation instead of SAPIEN's bare "failed to find a rendering device".
+ManiSkill 3 needs a Vulkan device even for state observations (without a GPU: Mesa's
+lavapipe, 24.3 or newer); `make_env("maniskill/...")` raises `RenderingUnavailable` naming
+the fix instead of SAPIEN's bare error.
 """
 
 from __future__ import annotations
@@ -32,11 +30,7 @@ class RenderingUnavailable(RuntimeError):
 
 @functools.lru_cache(maxsize=1)
 def vulkan_problem() -> str | None:
-    """None when SAPIEN finds a Vulkan device, else a sentence naming the problem and the fix.
-
-    The probe runs in a subprocess (a crashing driver must not take the caller down) and is
-    cached for the life of the process.
-    """
+    """None when SAPIEN finds a Vulkan device, else the problem and the fix (probed once)."""
     problem = probe()
     if problem is None:
         return None

@@ -10,9 +10,6 @@ adding a suite is one module plus one registry line::
         object_position=(0, 3),        # obs["object"][0:3] is an object's position
         unavailable=my_problem,        # () -> None, or why the simulator cannot run here
     )
-
-This module imports nothing but the standard library and the task names, so listing suites
-costs nothing.
 """
 
 from __future__ import annotations
@@ -50,20 +47,15 @@ class Suite:
     make_expert: Callable[[str], Any]
     """`(name) -> expert`: `expert.reset(env, obs)`, then `expert.act(obs)` every step."""
     object_position: tuple[int, int] | None = None
-    """(start, stop): the slice of `obs["object"]` that holds an object's position (drawn by
-    recordings), or None when the object state holds none."""
+    """(start, stop): the slice of `obs["object"]` holding an object's position, or None."""
     unavailable: Callable[[], str | None] = always_available
-    """None when the suite's simulator can run on this machine, else a sentence saying why not
-    (and how to fix it). May be slow the first time (it may import the simulator)."""
+    """None when the suite's simulator can run on this machine, else why not."""
     zero_shot_split: Mapping[str, Sequence[str]] | None = None
-    """Tasks trained on and held out in the zero-shot setting ({"train": ..., "test": ...}),
-    for suites that define one."""
+    """Tasks trained on and held out in the zero-shot setting ({"train": ..., "test": ...})."""
     scenes: tuple[str, ...] = ()
-    """Named scene distributions that `make_env`'s `scenes` option selects, the default
-    first; empty when the suite has one and takes no such option."""
+    """Named scene distributions `make_env`'s `scenes` option selects, the default first."""
     families: Mapping[str, Sequence[str]] | None = None
-    """The paper's skill families (`SKILL_FAMILIES`) -> this suite's tasks of that family,
-    for suites that stand in for RoboCasa's tables."""
+    """The paper's skill families (`SKILL_FAMILIES`) -> this suite's tasks of that family."""
     description: str = ""
     """One line on what the suite is."""
 

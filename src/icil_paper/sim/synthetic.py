@@ -1,11 +1,8 @@
-"""The synthetic suite: a tiny reach task family for tests, benchmarks and a simulator-free
-sanity check.
+"""The synthetic suite: a tiny simulator-free reach task family for tests and benchmarks.
 
-Task k (`synthetic/task<k>`, k < N_TASKS) is "move the end effector to goal g_k", where g_k is
-fixed by k but is *not* part of the observation: only a prompt demonstration reveals it, so a
-policy that ignores its prompt cannot solve more than one task. The dynamics are trivial (the
-position moves by 0.08 x the first three action dimensions each step) so that the data
-and the environment below agree exactly and cost nothing to run.
+Task k (`synthetic/task<k>`) is "move the end effector to goal g_k", where g_k is *not* part
+of the observation: only a prompt demonstration reveals it. The position moves by STEP_SIZE
+x the first three action dimensions each step.
 
     demos = synthetic_demos(n_tasks=2, per_task=3, steps=20)     # Demo-like objects
     env = make_env("synthetic/task0")                            # icil_paper.sim.make_env
@@ -79,12 +76,8 @@ def synthetic_demos(n_tasks: int = 2, per_task: int = 3, steps: int | tuple[int,
                     proprio_dim: int = 9, object_dim: int = 6, action_dim: int = 7,
                     image: tuple[int, int, int] | None = None, depth: bool = False,
                     seed: int = 0) -> list[SyntheticDemo]:
-    """Expert demonstrations of tasks 0 .. n_tasks - 1 (`per_task` each).
-
-    `steps` is the length or a (low, high) range. With `image` = (n_cams, H, W), an "rgb" key
-    (T, n_cams, H, W, 3) uint8 is added (a blob drawn where the end effector is), and with
-    `depth` a "depth" key (T, n_cams, H, W) float32.
-    """
+    """Expert demonstrations of tasks 0 .. n_tasks - 1 (`per_task` each); `steps` is the
+    length or a (low, high) range; `image` = (n_cams, H, W) adds "rgb" (and `depth` "depth")."""
     demos = []
     for k in range(n_tasks):
         task = f"synthetic/task{k}"
@@ -177,11 +170,6 @@ class SyntheticReachEnv(TaskEnv):
     def eef_position(self) -> np.ndarray:
         """The point's position (3,) float64 (`proprio[:3]`)."""
         return self.p[:3].astype(np.float64)
-
-    @property
-    def t(self) -> int:
-        """Steps taken in the current episode."""
-        return self.steps
 
 
 class SyntheticExpert:

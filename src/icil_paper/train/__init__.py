@@ -1,18 +1,5 @@
-"""Training: the one loop every policy shares, its run folders, its stored records and
-`icil-paper train`.
-
-    from icil_paper.runspec import run_spec
-    from icil_paper.train import run_dir_for, train_policy
-    spec = run_spec(preset, "icrt", "lipvq", tasks=["kitchen/open_drawer"])
-    result = train_policy(spec, run_dir=run_dir_for(spec, preset.name), preset=preset.name)
-
-- `loop.py`: `train_policy`, `TrainState`, `TrainResult`, `training_demos`.
-- `optim.py`: AdamW with decoupled decay, warm-up + cosine, EMA.
-- `rundir.py`: run folders, safe checkpoint / policy files, metrics lines.
-- `stored.py`: `train_run`, `load_trained`: stored `train` records (named by
-  `icil_paper.records`), trained once and reused only with the policy file they name.
-- `cli.py`: `icil-paper train` (not imported here: `icil_paper.cli` loads it by name).
-"""
+"""Training: the one loop every policy shares (`loop.py`), its run folders, its stored
+records and `icil-paper train`."""
 
 from icil_paper.train.loop import TrainResult, TrainState, train_policy, training_demos
 from icil_paper.train.rundir import (

@@ -23,24 +23,21 @@ from icil_paper.train.stored import train_run
 
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="icil-paper train",
-                                description="Train a policy (ICRT or a baseline) with an action "
-                                            "tokenizer.")
+               description="Train a policy (ICRT or a baseline) with an action tokenizer.")
     add_preset_arguments(p)
     p.add_argument("--policy", default="icrt", help=f"one of {', '.join(POLICIES)}")
     p.add_argument("--tokenizer", default=None,
                    help="action tokenizer (icrt: default mlp; act: default none = CVAE)")
     p.add_argument("--tasks", nargs="+", default=None, help="task names (default: see --suite)")
     p.add_argument("--suite", choices=("robocasa", "maniskill"), default="robocasa",
-                   help="train on the preset's tasks of the paper's RoboCasa tables (Meta-World) "
-                        "or of Table II (ManiSkill) when --tasks is not given")
+                   help="without --tasks: the preset's RoboCasa-table or Table II tasks")
     p.add_argument("--source", default="generated", help="demonstration source")
     p.add_argument("--obs", choices=("state", "rgb", "rgbd"), default=None,
                    help="observations to learn from (default: the preset's; mcr: rgb)")
     p.add_argument("--dataset", default=None, metavar="FILE",
                    help="train on this robomimic-layout HDF5 file instead of generated data")
     p.add_argument("--obs-keys", nargs="+", default=None,
-                   help="with --dataset: observation keys to read (default: the documented "
-                        "mapping, see icil_paper.data.load_dataset_file)")
+                   help="with --dataset: observation keys to read (default: data.obs_keys' map)")
     p.add_argument("--run-dir", default=None, help="run folder (default: runs/<preset>/...)")
     resume = p.add_mutually_exclusive_group()
     resume.add_argument("--resume", action="store_true",
@@ -55,8 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def spec_from_args(args: argparse.Namespace, preset):
-    """(RunSpec, preset, demos or None) the arguments describe; every name is checked
-    before any work (demos are read here only for --dataset, to name its tasks)."""
+    """(RunSpec, preset, demos or None) the arguments describe, checked before any work."""
     if args.steps is not None:
         preset = preset.with_overrides([f"train.steps={args.steps}"])
     if args.dataset is not None:
@@ -84,10 +80,8 @@ def spec_from_args(args: argparse.Namespace, preset):
 
 
 def check_dataset_widths(path: Path, demos) -> None:
-    """Refuse, before training, a data set whose action or state widths differ from those
-    of the registered task its demos name (ValueError naming both): a policy trained on it
-    could not act in that task. Demos of a task this library does not know (a file's own
-    name, say) are not checked."""
+    """Refuse a data set whose action or state widths differ from those of the registered
+    task its demos name (demos of unknown tasks are not checked)."""
     known = set(sim.all_tasks())
     for demo in demos:
         task = str(getattr(demo, "task", ""))
@@ -110,8 +104,7 @@ def check_dataset_widths(path: Path, demos) -> None:
 
 
 def check_outputs(spec, preset, run_dir: Path, explicit_run_dir: bool = False) -> None:
-    """Refuse, before any work, output folders this process cannot write to: the run
-    folder, the results store and, when a data set must be generated, the data folder."""
+    """Refuse output folders (run, results, data) this process cannot write to."""
     if explicit_run_dir:
         check_writable(run_dir, f"--run-dir {run_dir}", "pass another --run-dir")
     else:

@@ -4,20 +4,10 @@
     result = train_policy(spec, run_dir=run_dir_for(spec, preset.name), preset=preset.name)
     result.policy.reset(prompt=demo); result.policy.select_action(obs)
 
-What one run does, in order:
-
-1. `seed_everything(spec.seed)`; load the demonstrations the spec names (generating the
-   missing ones), or take the ones passed as `demos=` (tests, notebooks).
-2. Build the policy from the spec's configs (`make_policy`) and `prepare` it: observation
-   normalisation fitted on the training demonstrations, `tokenizer.fit` where a tokenizer
-   needs it (bin ranges, FAST's BPE), MCR's encoder pre-training.
-3. AdamW (decoupled weight decay on matrices only), linear warm-up then a half-cycle
-   cosine to zero, gradient-norm clipping, optional EMA of the weights (`optim.py`).
-4. Every `ckpt_every` steps and at the end, a checkpoint (`rundir.py`). With `resume=True`
-   a run continues from it; on CPU the result is bit for bit that of an uninterrupted run
-   (a test checks it). Metrics go to `metrics.jsonl`, the trained policy to `policy.pt`.
-   The whole run holds the folder's lock (`rundir.run_lock`): a second process training
-   the same folder waits, then resumes from the finished run without training a step.
+One run: seed, load (or generate) the demonstrations, build and `prepare` the policy
+(normalisation, tokenizer fitting, pre-training), then AdamW with warm-up and cosine decay,
+gradient clipping and optional EMA, checkpointing every `ckpt_every` steps. A resumed run
+on CPU equals an uninterrupted one bit for bit.
 """
 
 from __future__ import annotations
@@ -52,9 +42,8 @@ class TrainResult:
     run_dir: Path | None
     """Where checkpoints, metrics and the policy were written (None: nothing written)."""
     metrics: dict[str, Any] = field(default_factory=dict)
-    """Final loss, steps, the step this call resumed from (0: trained from scratch; its
-    wall time counts only this call's steps), wall time, steps per second, parameter
-    count, demos, device."""
+    """Final loss, steps, resumed_from_step, this call's wall time, steps per second,
+    parameter count, demos, device."""
     history: list[dict[str, Any]] = field(default_factory=list)
     """The metric lines of this call (not of earlier, resumed-from calls)."""
 
@@ -89,9 +78,8 @@ class TrainState:
 
 def training_demos(data: Any, preset: Any = None, workers: int = 1,
                    progress: bool = True) -> list[Any]:
-    """The demonstrations a DataSpec names: the first `demos_for(task)` of each task's data
-    set (generated where missing, under `<data.root>/<preset>/`), or the `dataset` file's.
-    `preset` is the Preset (whose `data.root` locates the data sets) or a preset's name."""
+    """The demonstrations a DataSpec names (generated where missing), or its `dataset` file's;
+    `preset` (a Preset or a name) locates the data sets."""
     if data.dataset is not None:
         return list(load_dataset_file(data.dataset, obs_keys=data.obs_keys))
 
@@ -117,22 +105,11 @@ def train_policy(spec: Any, run_dir: str | Path | None = None, resume: bool = Tr
                  demos: Sequence[Any] | None = None, device: str | None = None,
                  progress: bool = True, stop_after: int | None = None,
                  preset: Any = None, data_workers: int = 1) -> TrainResult:
-    """Train the policy a RunSpec describes; see the module docstring.
+    """Train the policy a RunSpec describes.
 
-    Args:
-        spec: a `icil_paper.runspec.RunSpec`.
-        run_dir: folder for config, checkpoints, metrics and the policy (`run_dir_for`);
-            None writes nothing.
-        resume: continue from the folder's last checkpoint if there is one.
-        demos: demonstrations to train on instead of the ones the spec names.
-        device: "cpu", "cuda", ... (default: cuda when available).
-        stop_after: stop (after checkpointing) once this step is reached, as if killed
-            there; used to test resuming.
-        preset: the Preset whose data folder (`data.root`, `<root>/<name>/`) holds the data
-            sets, or its name (then the data folder is `get_preset(name)`'s); needed unless
-            `demos` or the spec's `dataset` file is given. A command passes the Preset it
-            built, so the data folder is the one its spec names.
-        data_workers: processes that generate missing demonstrations.
+    `run_dir` (None: write nothing) receives config, checkpoints, metrics and the policy;
+    `demos` replaces the spec's demonstrations; `stop_after` stops (after checkpointing) at
+    that step, as if killed; `preset` locates the data sets unless `demos` is given.
     """
     device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
     threads = spec.train.cpu_threads if device.type == "cpu" else 0

@@ -25,12 +25,8 @@ def cosine_schedule(warmup: int, total: int):
 
 def make_optimizer(model: nn.Module, lr: float, weight_decay: float,
                    betas: tuple[float, float]) -> torch.optim.AdamW:
-    """AdamW over trainable parameters, with weight decay on matrices (ndim >= 2) only, as
-    nanoGPT, and none on what the model's `no_weight_decay()` names (e.g. a codebook).
-
-    The bounds c of Lipschitz layers (Eq. 4) get groups of their own, at `lr` times their
-    `c_lr_scale` and without decay (`bound_parameter_groups`).
-    """
+    """AdamW with weight decay on matrices only (none on the model's `no_weight_decay()`);
+    the Lipschitz bounds c (Eq. 4) get their own groups (`bound_parameter_groups`)."""
     bounds = bound_parameter_groups(model, lr)
     own_group = {id(p) for group in bounds for p in group["params"]}
     exempt = {id(p) for p in getattr(model, "no_weight_decay", list)()}

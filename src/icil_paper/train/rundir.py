@@ -8,18 +8,9 @@
         policy.pt            the trained policy (EMA weights if EMA is on)
         .lock                while a process writes here (`run_lock`; removed after)
 
-One process writes a run folder at a time: `train_policy` holds `run_lock(run_dir)` from
-the folder check to the policy file, and a second process training the same run waits for
-it (saying so on stderr) and then resumes from what the first one left (its finished
-policy: no step is trained twice, no metric line written twice).
-
-Every file is written atomically (a temporary file, then a rename), so a killed run leaves
-whole files only. A damaged file is named in a warning, set aside under a unique name
-(`<file>.corrupt-<time>-<pid>-<random>`, never deleted) and the run goes on from what is
-left: the previous checkpoint, the metric lines before a torn one.
-
-Policies and checkpoints hold tensors, numbers and strings only, read with
-`torch.load(..., weights_only=True)`; the policy's spec is a JSON string beside the weights.
+One process writes a run folder at a time (`run_lock`). Every file is written atomically;
+a damaged one is set aside with a warning and the run goes on from what is left. Policies
+and checkpoints hold tensors, numbers and strings only (`torch.load(weights_only=True)`).
 """
 
 from __future__ import annotations
@@ -98,8 +89,11 @@ def set_aside_damaged(path: Path, problem: str) -> None:
 
 
 # --------------------------------------------------------------------------- the folder
-def _check_run_folder(run_dir: Path) -> None:
-    """Create the run folder; RunFolderError when it is a file or cannot be written."""
+@contextmanager
+def run_lock(run_dir: Path):
+    """Hold the run folder's lock, the one writer of a run folder; the folder is created
+    first (RunFolderError when it is a file or cannot be written)."""
+    run_dir = Path(run_dir)
     if run_dir.exists() and not run_dir.is_dir():
         raise RunFolderError(f"the run folder {run_dir} is a file; pass another --run-dir")
     try:
@@ -110,28 +104,17 @@ def _check_run_folder(run_dir: Path) -> None:
     except OSError as exc:
         raise RunFolderError(f"cannot write to the run folder {run_dir} ({exc.strerror}); "
                              "pass another --run-dir or set $ICIL_RUNS") from None
-
-
-@contextmanager
-def run_lock(run_dir: Path):
-    """Hold the run folder's lock (`fileio.exclusive_lock` on its `.lock`): the one writer
-    of a run folder. The folder is created (and checked: RunFolderError) first."""
-    run_dir = Path(run_dir)
-    _check_run_folder(run_dir)
     with exclusive_lock(run_dir / LOCK_FILE, what=f"the run folder {run_dir}"):
         yield
 
 
 def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
-    """Create or check a run folder for `spec` and write its config.json.
+    """Check a run folder for `spec` and write its config.json; the caller holds `run_lock`.
 
-    Raises RunFolderError when the path is a file or cannot be written, or when resuming a
-    folder whose config or checkpoint belongs to a different run. Without `resume`, the
-    files of an earlier run there are removed (its metrics, checkpoints and policy). The
-    caller holds `run_lock(run_dir)`.
+    RunFolderError when resuming a folder of another run; without `resume`, an earlier run's
+    files there are removed.
     """
     run_dir = Path(run_dir)
-    _check_run_folder(run_dir)
     for stale in run_dir.glob(".*.tmp"):  # temporary files of a killed write
         stale.unlink(missing_ok=True)
     key = spec.key()
@@ -153,8 +136,7 @@ def prepare_run_dir(run_dir: Path, spec: Any, resume: bool) -> None:
 
 
 def read_config(run_dir: Path) -> dict[str, Any]:
-    """The config.json of a run folder ({"key", "label", "spec"}), through `fileio.read_json`:
-    FileNotFoundError when there is none, UnreadableFileError when it is damaged."""
+    """The config.json of a run folder: {"key", "label", "spec"}."""
     return read_json(Path(run_dir) / CONFIG_FILE, _CONFIG_WHAT, _config_fix(run_dir),
                      keys=("key", "spec"))
 
@@ -167,9 +149,7 @@ def _config_fix(run_dir: Path) -> str:
 
 
 def read_run_spec(run_dir: Path) -> Any:
-    """The RunSpec of a run folder's config.json (`read_config`); a spec this version
-    cannot build (a field it lacks, a value it refuses) is an UnreadableFileError naming
-    the file too."""
+    """The RunSpec of a run folder's config.json."""
     spec = read_config(run_dir)["spec"]
     try:
         return RunSpec.from_dict(spec)
@@ -216,12 +196,8 @@ def save_tensors(path: Path, obj: Mapping[str, Any]) -> None:
 
 
 def load_tensors(path: Path, fmt: str, map_location: Any = "cpu") -> dict[str, Any]:
-    """Read a file written by `save_tensors` with `weights_only=True`; check its format.
-
-    Raises PolicyFileError (through `fileio.load_file`) for a file that is truncated,
-    damaged, unreadable, not in this format, or holds anything but tensors, numbers and
-    strings; FileNotFoundError when there is none.
-    """
+    """Read a file written by `save_tensors` with `weights_only=True`; PolicyFileError when
+    it is damaged, not in format `fmt` or holds anything but tensors, numbers and strings."""
     blob = load_file(path, lambda p: torch.load(p, map_location=map_location, weights_only=True),
                      f"a {fmt} file this version reads safely",
                      "retrain it (`icil-paper train`) or restore the file", PolicyFileError)
@@ -241,11 +217,8 @@ def save_checkpoint(run_dir: Path, state: Mapping[str, Any]) -> None:
 
 
 def load_checkpoint(run_dir: Path, key: str, map_location: Any = "cpu") -> dict[str, Any] | None:
-    """The newest readable checkpoint of this run, or None when there is none.
-
-    A damaged checkpoint is set aside (with a warning) and the previous one is tried. A
-    checkpoint of another run (its key differs) raises RunFolderError.
-    """
+    """The newest readable checkpoint of this run, or None; a damaged one is set aside and
+    the previous one tried; one of another run raises RunFolderError."""
     for name in (CHECKPOINT, PREVIOUS_CHECKPOINT):
         path = Path(run_dir) / name
         if not path.exists():
@@ -271,10 +244,7 @@ def save_policy(path: Path, policy: Any, meta: Mapping[str, Any]) -> None:
 
 
 def load_policy(path: str | Path, map_location: Any = "cpu"):
-    """The trained policy in a run folder or `policy.pt` file, in eval mode.
-
-    Raises FileNotFoundError (no policy there: train it first) or PolicyFileError.
-    """
+    """The trained policy in a run folder or `policy.pt` file, in eval mode."""
     path = Path(path)
     if path.is_dir():
         path = path / POLICY_FILE
@@ -309,8 +279,7 @@ def policy_digest(policy: Any) -> str:
 
 # --------------------------------------------------------------------------- metrics
 def read_metrics(path: Path) -> list[dict[str, Any]]:
-    """The metric lines of a run; a torn or damaged line (a run killed mid-write, bytes
-    that are not text) is dropped, and so is a line that is not a JSON object."""
+    """The metric lines of a run; torn, damaged or non-object lines are dropped."""
     if not Path(path).exists():
         return []
     raw = load_file(path, Path.read_bytes, "a metrics file",

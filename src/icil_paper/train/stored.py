@@ -1,26 +1,11 @@
-"""Stored training runs: a RunSpec in, a `train` record and a policy file out (the stored-run
-layer of `train/`, as `eval/stored.py` is of evaluation).
+"""Stored training runs: a RunSpec in, a `train` record and a policy file out.
 
     record = train_run(spec, preset.name, store)        # trains only what is missing
     policy = load_trained(spec, preset.name)             # the policy file of that run
 
-The record is named by `icil_paper.records.train_record(spec)`: its config is the run
-spec's keyed content, so its key is `spec.key()`; it holds the training summary and the loss curve, and names the
-SHA-256 of the policy file it stands for (`files`). A stored record is reported only with
-its file: where the run folder's `policy.pt` is missing (a fresh clone holds records only)
-or is not the file the record was written with, the record is stale, the changed file is
-set aside (kept, never deleted) and the run is computed again, resuming from its
-checkpoints (bit for bit the same policy on CPU). A record written before records named
-their files is verified by loading its policy file and comparing the weights' digest with
-the record's `policy_digest`.
-
-Evaluation trusts a policy file only with its record (`trusted_policy`): its own key must be
-the run's and the run's record must name it; otherwise it is set aside and the run computed
-again, so an evaluation is never stored under another run's key.
-
-The run folder's lock (`train.rundir.run_lock`) is held from that check to the new record,
-so two processes asking for one run train it once: the second waits, then finds the record
-and its file as the first one left them.
+The record (key `spec.key()`) holds the training summary, the loss curve and the SHA-256
+of the policy file it stands for. Where that file is missing or another one, the record is
+stale: the file is set aside and the run computed again from its checkpoints.
 """
 
 from __future__ import annotations
@@ -52,8 +37,7 @@ class StaleRecordWarning(UserWarning):
 
 
 def _policy_problem(record: dict[str, Any], folder: Path) -> str | None:
-    """Why `record` does not stand for the policy file in `folder`, or None when it does
-    (by its `files` digest, or for an older record without one, by loading the file)."""
+    """Why `record` does not stand for the policy file in `folder`, or None when it does."""
     path = folder / POLICY_FILE
     if not path.exists():
         return f"{POLICY_FILE} is missing"
@@ -77,13 +61,8 @@ def train_run(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Pat
               force: bool = False, resume: bool = True, progress: bool = True,
               device: str | None = None, data_workers: int = 1,
               demos: Any = None) -> dict[str, Any]:
-    """The `train` record of `run`, training it first if the store has none (or `force`),
-    or if the run folder's policy file is not the one the record names (module docstring).
-
-    `preset` is the Preset whose data folder (`data.root`) holds the data sets, or its
-    name. The run folder defaults to `run_dir_for(run, <its name>)`; training continues from
-    its last checkpoint unless `resume=False` (start over).
-    """
+    """The `train` record of `run`, training it first where the store has none (or `force`)
+    or the run folder's policy file is not the one the record names."""
     folder = Path(run_dir) if run_dir is not None else run_dir_for(run, preset_name(preset))
     record_id = train_record(run)
 
@@ -113,9 +92,7 @@ def train_run(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Pat
 
 
 def policy_key_problem(path: Path, run: RunSpec) -> str | None:
-    """Why the policy file at `path` is not `run`'s by its own record of the run it was
-    trained for (the key in its meta), or None when it is. A damaged file raises
-    PolicyFileError (one line naming it)."""
+    """Why the policy file at `path` is not `run`'s by the key in its meta, or None."""
     key = getattr(load_policy(path), "meta", {}).get("key")
     if key != run.key():
         return (f"{path.name} was trained for the run of key {key}, not this run's "
@@ -125,14 +102,9 @@ def policy_key_problem(path: Path, run: RunSpec) -> str | None:
 
 def trusted_policy(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str | Path,
                    progress: bool = True, device: str | None = None, data_workers: int = 1):
-    """The policy file in `run_dir`, loaded only once it is known to be `run`'s: its own key
-    is `run.key()` and the stored `train` record of `run` names its SHA-256 (`train_run`).
-
-    A policy file of another run, or one that its record does not name, is set aside (kept,
-    with a warning) and the run is computed again from its checkpoints, so an evaluation is
-    never stored under the key of a run whose policy it did not roll out. In a run folder
-    this process cannot write to, nothing can be set aside: such a file is a PolicyFileError
-    naming it instead, as is a damaged file anywhere.
+    """The policy file in `run_dir`, loaded only once its key is `run.key()` and `run`'s
+    `train` record names it; otherwise it is set aside and the run computed again (in a
+    folder this process cannot write to: PolicyFileError).
     """
     folder = Path(run_dir)
     if folder.is_dir() and not os.access(folder, os.W_OK):  # read-only: check, never write
@@ -159,8 +131,7 @@ def trusted_policy(run: RunSpec, preset: Any, store: ResultsStore, run_dir: str 
 
 def load_trained(run: RunSpec, preset: Any, store: ResultsStore | None = None,
                  progress: bool = True, device: str | None = None, data_workers: int = 1):
-    """The trained policy of `run`: its policy file, as its `train` record names it (trained,
-    or trained again, and recorded where it is missing or stale: `train_run`)."""
+    """The trained policy of `run`, trained and recorded where missing or stale (`train_run`)."""
     folder = run_dir_for(run, preset_name(preset))
     with run_lock(folder):  # the file checked is the file loaded
         train_run(run, preset, store or ResultsStore(preset_name(preset)), progress=progress,

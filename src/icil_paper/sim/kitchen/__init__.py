@@ -1,26 +1,10 @@
 """The kitchen suite: door and drawer tasks on robosuite, Table V's sim-to-real stand-in.
 
-A Panda arm opens and closes a cabinet door and a drawer on a robosuite counter, with the
-fixtures generated as MJCF in code (`fixtures.py`); the Kinova tasks are the same four on a
-Kinova3 arm with perturbed dynamics (`kinova.py`). Table V trains on the Panda tasks and rolls
-out on their Kinova twins (`icil_paper.data.splits.sim_to_real_pairs`). Both arms run
-robosuite's OSC pose controller with 7-D delta actions at 20 Hz.
+A Panda arm opens and closes a cabinet door and a drawer (fixtures generated in code); the
+Kinova tasks are the same four on a Kinova3 arm with perturbed dynamics. Table V trains on
+the Panda tasks and rolls out on their Kinova twins.
 
-    from icil_paper.sim.kitchen import make_kitchen_env, make_kitchen_expert
-    env = make_kitchen_env("kitchen/open_drawer", obs="state", seed=0)
-    obs, info = env.reset(seed=3)          # {"proprio": (9,), "object": (18,)} float32
-    expert = make_kitchen_expert("kitchen/open_drawer"); expert.reset(env, obs)
-    obs, reward, terminated, truncated, info = env.step(expert.act(obs))
-
-Public names: `KITCHEN_TASKS`, `KINOVA_TASKS` (task name -> `KitchenTaskSpec`);
-`TASK_FAMILIES` (doors and drawers -> kitchen task names); `SCENE_DISTRIBUTIONS =
-("generated", "human")`, the env option `scenes` (`scenes.py`); `KITCHEN_OBS_DIMS = (9, 18)`
-for every task; `make_kitchen_env(name, obs="state", seed=0, **options)`,
-`make_kitchen_expert(name)`; `KITCHEN_SUITE`, `KINOVA_SUITE`, the records in
-`icil_paper.sim`'s registry.
-
-The spaces are documented in `env.py`, the object-state layout in `scenes.py`, the experts'
-phases in `experts.py`. Importing this package does not import robosuite; building an env does.
+Importing this package does not import robosuite; building an env does.
 """
 
 from __future__ import annotations
@@ -45,8 +29,7 @@ from icil_paper.sim.suite import Suite
 
 KITCHEN_OBS_DIMS = (KITCHEN_PROPRIO_DIM, KITCHEN_OBJECT_DIM)
 OBJECT_POSITION = (1, 4)
-"""The key point (the handle) in `obs["object"]`: it follows the fixture's joint position
-(`icil_paper.sim.kitchen.scenes`)."""
+"""The key point (the handle) in `obs["object"]`."""
 
 # robosuite picks its OpenGL backend when it is first imported (every module of this package
 # that imports it is imported through here); headless image observations need EGL.
@@ -59,12 +42,7 @@ __all__ = ["KITCHEN_TASKS", "KINOVA_TASKS", "ALL_TASKS", "TASK_FAMILIES", "KITCH
 
 
 def _import_robosuite_quietly() -> None:
-    """Import robosuite with its logger off, then turn the logger back on.
-
-    On import robosuite warns about optional extras this suite does not use (a private macro
-    file, robosuite_models, mink-based IK), once in every process, worker processes included.
-    Only those import-time messages are hidden; later warnings are shown as usual.
-    """
+    """Import robosuite with its logger off (it warns about optional extras we do not use)."""
     logger = logging.getLogger("robosuite_logs")
     if logger.disabled:
         return
@@ -86,15 +64,10 @@ def robosuite_problem() -> str | None:
 
 
 def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
-    """Build a kitchen or Kinova task env (`icil_paper.sim.kitchen.env.KitchenEnv`).
+    """Build a kitchen or Kinova task env (`env.KitchenEnv`).
 
-    Options: `camera_size` (default 84, square images), `horizon` (override the task's),
-    `obs_noise_std` (override the Kinova tasks' observation noise; 0 turns it off),
-    `render_mode` ("rgb_array" or None, gymnasium's), `scenes` (the scene distribution of
-    `SCENE_DISTRIBUTIONS`, default "generated"; "human" is the `human` demo source's,
-    `scenes.py`).
-    Raises `UnknownNameError` listing the valid names for an unknown task, obs kind or scene
-    distribution.
+    Options: `camera_size` (default 84), `horizon`, `obs_noise_std` (0 turns the Kinova
+    noise off), `render_mode`, `scenes` (of `SCENE_DISTRIBUTIONS`, default "generated").
     """
     check_name("kitchen task", name, ALL_TASKS)
     check_name("observation kind", obs, ("state", "rgb", "rgbd"))

@@ -1,8 +1,6 @@
 """The kitchen suite's environments: a robosuite `ManipulationEnv` per scene and a
 `gymnasium.Env` around it with the project's observation dict (`icil_paper.sim.base.TaskEnv`).
 
-    env = make_env("kitchen/open_drawer", obs="state", seed=0)
-
 Action (7-D in [-1, 1]), robosuite's OSC_POSE controller with delta input at 20 Hz, in the
 robot base frame; the rotation an axis-angle vector applied on the left of the current
 end-effector orientation::
@@ -17,11 +15,8 @@ Observation (the same widths for every kitchen and Kinova task)::
     rgb     (2, H, W, 3) uint8     cameras agentview, robot0_eye_in_hand (obs="rgb"/"rgbd")
     depth   (2, H, W) float32      metres (obs="rgbd")
 
-The quaternion's sign is chosen so that it does not flip while the gripper points down. The
-finger offsets are the finger pads' signed distances from the grip site (+left, -right, like
-robosuite's `robot0_gripper_qpos`); being geometric, they mean the same for the Panda's and
-the Kinova's grippers. `terminated` on the first success step, `truncated` at the horizon;
-the reward is 1.0 on success steps, else 0.0.
+The finger offsets are the pads' signed distances from the grip site. The reward is 1.0 on
+success steps, else 0.0.
 """
 
 from __future__ import annotations
@@ -63,9 +58,7 @@ _DOWN_QUAT_XYZW = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
 class KitchenSceneEnv(ManipulationEnv):
     """A robosuite manipulation env: one robot at a counter with the fixtures of one `Scene`.
 
-    The MJCF model is built once; resets only re-sample the scene layout (robosuite's
-    `hard_reset=False`). robosuite's own observables are switched off: the wrapper reads the
-    few quantities it needs straight from the simulator, and renders only when asked.
+    Resets only re-sample the layout (`hard_reset=False`); robosuite's observables are off.
     """
 
     def __init__(self, scene: Scene, robot: str = "Panda", horizon: int = 200,
@@ -177,16 +170,9 @@ def _look_at_quat_wxyz(eye, target) -> list[float]:
 
 
 class KitchenEnv(TaskEnv):
-    """A kitchen (or Kinova) task as a `gymnasium.Env` (see the module docstring and
-    `icil_paper.sim.base`).
-
-    `scenes` names the distribution the layouts are drawn from (`SCENE_DISTRIBUTIONS`, see
-    `icil_paper.sim.kitchen.scenes`). `reset(seed)` re-seeds the episode: the layout, the
-    robot's initial joint noise, the Kinova perturbation and observation noise all follow
-    from it (the layout, joint noise and perturbation are drawn from `np_random`, seeded with
-    the episode's seed). `reset()` without a seed uses the constructor's seed first, then
-    seeds drawn from a generator seeded by the last explicit seed.
-    """
+    """A kitchen (or Kinova) task as a `gymnasium.Env`; `scenes` names the layouts'
+    distribution. Layout, joint noise, Kinova perturbation and observation noise all follow
+    from the episode's seed."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
 
@@ -255,8 +241,7 @@ class KitchenEnv(TaskEnv):
         return np.asarray(self.sim.get_state().flatten(), dtype=np.float64)
 
     def eef_position(self) -> np.ndarray:
-        """The grip site's world position (3,) float64, metres: `proprio[:3]` without the
-        Kinova tasks' observation noise."""
+        """The grip site's world position (3,) float64, metres, without observation noise."""
         return self._env.eef_pos().astype(np.float64)
 
     def _close(self) -> None:
@@ -302,8 +287,7 @@ class KitchenEnv(TaskEnv):
 
 @contextlib.contextmanager
 def _quiet_robosuite():
-    """Silence robosuite's notices about controller parts that a single arm lacks (printed
-    whenever it builds controllers: at construction and at every reset)."""
+    """Silence robosuite's notices about controller parts a single arm lacks."""
     logger = logging.getLogger("robosuite_logs")
     level = logger.level
     logger.setLevel(logging.ERROR)

@@ -1,25 +1,9 @@
 """Scripted experts of the kitchen suite: closed-loop state machines for doors and drawers.
 
-The expert reads only the observation at each step (end-effector pose from `proprio`; the
-fixture's joint position, key point and base pose from `object`) plus fixed geometry of the
-fixture (handle offset in the fixture's own frame, read once at reset), and outputs the
-suite's 7-D action. Usage::
-
-    expert = HookExpert("kitchen/open_drawer")   # or icil_paper.sim.make_expert(name)
-    obs, info = env.reset(seed=3)
-    expert.reset(env, obs)
-    while True:
-        obs, reward, terminated, truncated, info = env.step(expert.act(obs))
-        if terminated or truncated:
-            break
-
-Phases (the current one is `expert.phase`): `approach` above the gap behind the handle bar with
-the gripper closed, `descend` into it, `drag` the handle along the joint's path (arc of the
-door, line of the drawer) a little ahead of the joint's current position, turning the hand
-with the door, until the joint is past the goal; then `lift` out of the gap and `retreat`.
-
-Closed loop: a phase that sees its precondition broken (the hand slipped off the handle) goes
-back to `approach`; every phase has a step budget after which it lifts and starts over.
+The expert reads only the observation and the fixture's fixed geometry. Phases: `approach`
+above the gap behind the handle bar, `descend` into it, `drag` the handle along the joint's
+path until past the goal, `lift` and `retreat`. A broken precondition or an exhausted step
+budget lifts the hand and starts over.
 """
 
 from __future__ import annotations
@@ -52,9 +36,7 @@ def gripper_yaw(mat: np.ndarray) -> float:
 
 
 class HookExpert:
-    """Doors and drawers: fingertips in the gap behind the handle bar drag the part along the
-    joint's path (`part_point`: where a point of the moving part is for a given joint value).
-    Observation parsing, pose servoing and phase bookkeeping, then the phases themselves."""
+    """Doors and drawers: fingertips behind the handle bar drag the part along its path."""
 
     phases = ("approach", "descend", "drag", "lift", "retreat", "recover")
     budgets = {"approach": 60, "descend": 30, "drag": 120, "lift": 30}
@@ -138,8 +120,7 @@ class HookExpert:
         return action
 
     def _approach(self, above: np.ndarray, yaw: float, grip: float) -> np.ndarray:
-        """Servo to a point above a target, rising first when the hand is low and far away
-        (so it never sweeps through a fixture on its way)."""
+        """Servo to a point above a target, rising first when the hand is low and far away."""
         far = np.linalg.norm(above[:2] - self.eef[:2]) > 0.04
         if far and self.eef[2] < above[2] - 0.03:
             return self._servo(np.array([self.eef[0], self.eef[1], above[2]]), yaw, grip)

@@ -1,21 +1,11 @@
 """Kitchen fixtures built as MJCF in code: a cabinet with a hinged door and one with a sliding
 drawer.
 
-Every fixture is a `CodeFixture`, a robosuite `MujocoObject` whose body tree is generated here
-(no asset files), so the suite needs nothing beyond robosuite itself. Conventions, in each
-fixture's own frame (the env places and turns it on the counter per seed):
-
-- the origin is the centre of the fixture's footprint, on the counter surface;
-- the front faces -x, towards the robot; z points up;
-- the moving part hangs off one joint named "joint"; a site named "handle" marks the point
-  the robot interacts with (behind the handle bar);
-- geoms are visible (group 1) and collide with the robot but not with each
-  other (contype 2, conaffinity 1), so a drawer cannot jam in its carcass: the joint range is the
-  only stop. Joint friction (`frictionloss`) holds a part where the robot leaves it.
-
-Sizes are in metres. Each builder returns the fixture and its `FixtureGeometry`, the numbers the
-scripted experts need (hinge point, handle offset, height), which `icil_paper.sim.kitchen.scenes`
-hands on as `scene.geometry`.
+No asset files. In each fixture's own frame the origin is the centre of its footprint on
+the counter, the front faces -x (towards the robot), z points up; sizes are in metres. The
+moving part hangs off one joint named "joint"; a site named "handle" marks where the robot
+hooks it. Geoms collide with the robot but not with each other, so the joint range is the
+only stop. Each builder returns the fixture and its `FixtureGeometry`.
 """
 
 from __future__ import annotations
@@ -61,8 +51,8 @@ class _Builder:
 
     @staticmethod
     def inertial(body: ET.Element, mass: float, pos, half) -> ET.Element:
-        """Explicit inertia (a solid box of half sizes `half`): robosuite's compiler takes
-        inertia from group-0 geoms only, and fixture geoms are in the visible group 1."""
+        """Explicit inertia of a solid box of half sizes `half` (fixture geoms are group 1,
+        from which robosuite's compiler takes no inertia)."""
         hx, hy, hz = half
         diag = (mass / 3 * (hy**2 + hz**2), mass / 3 * (hx**2 + hz**2), mass / 3 * (hx**2 + hy**2))
         return ET.SubElement(body, "inertial", attrib={"pos": _fmt(pos), "mass": _fmt(mass),
@@ -85,11 +75,7 @@ class _Builder:
 
 
 class CodeFixture(MujocoObject):
-    """A robosuite `MujocoObject` whose body tree was generated in code.
-
-    `root` is the fixture's root `<body>` element (named "main"); every name inside it gets the
-    prefix `"<name>_"` when merged into the task model, as for robosuite's own objects.
-    """
+    """A robosuite `MujocoObject` whose body tree (`root`, named "main") was generated in code."""
 
     def __init__(self, name: str, root: ET.Element, half_extent: tuple[float, float, float]):
         super().__init__(obj_type="all", duplicate_collision_geoms=False)
@@ -139,13 +125,8 @@ class FixtureGeometry:
 
 
 def cabinet_with_door(name: str = "door_cabinet") -> tuple[CodeFixture, FixtureGeometry]:
-    """A counter-top cabinet whose door swings towards the robot about a vertical hinge.
-
-    The hinge is on the cabinet's +y edge; the joint angle is 0 when closed and grows as the door
-    opens (axis -z). A horizontal handle bar stands 5.5 cm off the door near its top free corner,
-    so closed fingertips can drop into the gap behind the bar from above (the hand stays above
-    the cabinet) and pull or push the door along its arc.
-    """
+    """A counter-top cabinet whose door swings towards the robot about a vertical hinge on
+    its +y edge (angle 0 closed); a handle bar 5.5 cm off the door is hooked from above."""
     b = _Builder()
     depth, width, height, wall, door_t = 0.18, 0.26, 0.22, 0.01, 0.015
     root = ET.Element("body", attrib={"name": "main"})
@@ -174,11 +155,8 @@ def cabinet_with_door(name: str = "door_cabinet") -> tuple[CodeFixture, FixtureG
 
 
 def cabinet_with_drawer(name: str = "drawer_cabinet") -> tuple[CodeFixture, FixtureGeometry]:
-    """A counter-top cabinet with one drawer that slides out towards the robot (-x).
-
-    The joint is the drawer's travel in metres, 0 when closed. Its handle is a horizontal bar
-    5.5 cm in front of the drawer face near the top, hooked from above like the door's.
-    """
+    """A counter-top cabinet with one drawer that slides out towards the robot (-x); travel
+    in metres, 0 closed; a handle bar 5.5 cm in front is hooked from above."""
     b = _Builder()
     depth, width, height, wall, front_t = 0.22, 0.28, 0.14, 0.01, 0.015
     root = ET.Element("body", attrib={"name": "main"})

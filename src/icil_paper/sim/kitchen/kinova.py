@@ -1,18 +1,8 @@
 """The sim-to-real stand-in: Kinova Gen3 door and drawer tasks with a simulated reality gap.
 
-The paper's real-robot table (a Kinova Gen3 opening/closing a drawer and a door, trained on
-simulated plus real demonstrations) cannot be reproduced without the robot. The suite stands
-in for it with the same two fixtures driven by robosuite's `Kinova3` arm (Robotiq 2F-85
-gripper, the same OSC pose controller and 7-D action as the Panda tasks) under a randomized
-"reality gap" drawn anew every episode:
-
-- fixture dynamics: joint damping and joint friction scaled log-uniformly in [1/2, 2], the
-  moving part's mass in [0.7, 1.5];
-- observation noise: Gaussian noise with std `obs_noise_std` (2 mm / 0.002 rad) on every entry
-  of `proprio` and `object`, as from imperfect state estimation.
-
-Policies train on nominal Panda data and/or Kinova episodes and are scored on the perturbed
-Kinova tasks, named `kinova/...` everywhere they appear.
+The same two fixtures driven by robosuite's `Kinova3` arm under a "reality gap" drawn anew
+every episode: fixture damping, friction and part mass scaled at random, and Gaussian noise
+on every observation entry.
 """
 
 from __future__ import annotations

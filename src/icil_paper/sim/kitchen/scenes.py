@@ -1,11 +1,5 @@
 """Scenes of the kitchen suite: which fixture stands on the counter, where (per seed), and what
-counts as success.
-
-    scene = make_scene(scene, goal, scenes="generated")
-
-A scene builds its MJCF fixture once (`build`), binds to the simulator's ids once (`bind`) and
-re-samples its layout on every reset (`reset`: fixture position and yaw, initial joint
-position) by writing `model.body_pos`, `model.body_quat` and `qpos`, never rebuilding the model.
+counts as success. A scene builds its fixture once and re-samples its layout on every reset.
 
 The object-state vector (`object_state`, KITCHEN_OBJECT_DIM = 18, every kitchen and Kinova task)::
 
@@ -16,12 +10,9 @@ The object-state vector (`object_state`, KITCHEN_OBJECT_DIM = 18, every kitchen 
     [11:15]  target orientation, quaternion x, y, z, w (sign: w >= 0)
     [15:18]  key point minus end-effector position
 
-Positions are world coordinates in metres (counter top at z = COUNTER_Z; x from the counter's
-centre towards the far edge, y to the robot's left). Scene distributions (`SCENE_DISTRIBUTIONS`,
-the env option `scenes`) differ only in their ranges (each scene's `layouts`): `generated`
-(the default, the stand-in for MimicGen's scenes, used by every evaluation) and `human` (the
-stand-in for RoboCasa's human data set: cabinets further back and out, a wider yaw), on which
-the `human` source plays its demonstrations.
+Positions are world coordinates in metres (counter top at z = COUNTER_Z). Scene
+distributions differ only in their `layouts`: `generated` (the default) and `human`
+(cabinets further back and out, a wider yaw: the `human` source's scenes).
 """
 
 from __future__ import annotations
@@ -87,7 +78,7 @@ class Scene:
     goal: str
     """The task's goal: a key of `init` and `threshold`."""
     scenes: str = SCENE_DISTRIBUTIONS[0]
-    """The scene distribution its layouts are drawn from (module docstring)."""
+    """The scene distribution its layouts are drawn from."""
 
     def __init__(self, goal: str, scenes: str = SCENE_DISTRIBUTIONS[0]):
         if goal not in self.init:
@@ -180,6 +171,5 @@ SCENES = {"door": DoorScene, "drawer": DrawerScene}
 
 
 def make_scene(scene: str, goal: str, scenes: str = SCENE_DISTRIBUTIONS[0]) -> Scene:
-    """The scene of a task (`KitchenTaskSpec.scene`, `.goal`) drawing its layouts from the
-    scene distribution `scenes` (module docstring)."""
+    """The scene of a task (`KitchenTaskSpec.scene`, `.goal`) on scene distribution `scenes`."""
     return SCENES[scene](goal, scenes)

@@ -1,16 +1,7 @@
 """The kitchen suite's task table: names, skill families, horizons, instructions.
 
-This module imports nothing heavy (no robosuite), so `icil_paper.sim.kitchen` can list its tasks
-cheaply. The Panda tasks are the training tasks of the sim-to-real table (Table V)::
-
-    Open/Close Doors    kitchen/open_door       kitchen/close_door
-    Open/Close Drawers  kitchen/open_drawer     kitchen/close_drawer
-
-The Kinova tasks (`kinova/...`) are their twins, on which Table V rolls the policies out: the
-same fixtures driven by robosuite's Kinova3 arm with its Robotiq 2F-85 gripper, fixture
-dynamics (joint damping, friction, part masses) scaled at random per episode and Gaussian
-noise on the observations, standing in for the reality gap (see `kinova.py`). They have the
-same observation widths as the Panda tasks.
+The Panda tasks (`kitchen/{open,close}_{door,drawer}`) train Table V's policies; their
+Kinova twins (`kinova/...`, perturbed dynamics and noisy observations) are rolled out on.
 """
 
 from __future__ import annotations
@@ -29,9 +20,7 @@ CONTROL_FREQ = 20
 """Control rate of every kitchen and Kinova task, Hz (robosuite's `control_freq`)."""
 
 SCENE_DISTRIBUTIONS = ("generated", "human")
-"""Named distributions a scene's layout is drawn from (the env option `scenes`; the first is
-the default): `generated`, our stand-in for MimicGen's scenes, and `human`, for those of
-RoboCasa's human data set (the layouts are in `icil_paper.sim.kitchen.scenes`)."""
+"""Named distributions a scene's layout is drawn from (the env option `scenes`), default first."""
 
 
 @dataclass(frozen=True)
@@ -88,5 +77,4 @@ TASK_FAMILIES: dict[str, tuple[str, ...]] = {
     family: names for family in SKILL_FAMILIES
     if (names := tuple(t.name for t in _KITCHEN if t.family == family))
 }
-"""Skill family -> kitchen task names, for the families the suite has tasks of (doors and
-drawers), in the paper's column order."""
+"""Skill family -> kitchen task names, in the paper's column order."""

@@ -5,10 +5,6 @@ of ManiSkill 3 on the Panda arm, registered as the `maniskill` suite.
     env = make_env("maniskill/pick_cube", obs="state")   # a ManiSkillEnv (`env.py`)
     expert = make_expert("maniskill/pick_cube")          # its motion planner (`expert.py`)
 
-- `env.py`: the gymnasium env over ManiSkill's, its 7-D action and observation layout
-  (the module docstring draws them), backends.
-- `expert.py`: the motion-planning experts, their actions converted to the env's.
-
 Listing the suite imports neither ManiSkill nor SAPIEN; building an env or an expert does.
 """
 

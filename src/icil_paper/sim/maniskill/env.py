@@ -1,15 +1,9 @@
-"""The ManiSkill suite's env: PickCube-v1, PushCube-v1 and StackCube-v1 as the project's gymnasium
-envs (the suite itself, `MANISKILL_SUITE`, is `icil_paper.sim.maniskill`).
-
-ManiSkill 3 runs the Panda on SAPIEN: on the CPU physics backend (`physx_cpu`) with a Vulkan
-device (Mesa's lavapipe, `icil_paper.sim.rendering`) when there is no GPU, else `physx_cuda`.
+"""The ManiSkill suite's env: PickCube-v1, PushCube-v1 and StackCube-v1 as the project's envs.
 
 Action (7-D in [-1, 1], as the kitchen suite's), ManiSkill's `pd_ee_delta_pose` controller::
 
     a = [dx, dy, dz,  rx, ry, rz,  g]
          x 0.1 m      x 0.1 rad    +1 closes, -1 opens (robosuite's sign)
-
-The rotation is an axis-angle delta (clipped to norm 1), converted to ManiSkill's Euler input.
 
 Observations (the same keys for every task of the suite)::
 
@@ -18,9 +12,8 @@ Observations (the same keys for every task of the suite)::
                     | object -> target (3)
     rgb     (1, H, W, 3) uint8   and depth (1, H, W) float32 metres, for obs="rgb"/"rgbd"
 
-`proprio` has the layout of robosuite's `robot0_eef_pos | robot0_eef_quat | robot0_gripper_qpos`,
-so data sets of either simulator map onto the same keys. The target is PickCube's goal point,
-PushCube's goal region, or the spot one cube height above StackCube's cube B.
+`proprio` has robosuite's layout. The target is PickCube's goal point, PushCube's goal
+region, or the spot one cube height above StackCube's cube B.
 """
 
 from __future__ import annotations
@@ -64,9 +57,7 @@ class ManiSkillTask:
     env_id: str
     """ManiSkill's gymnasium id."""
     horizon: int
-    """Step limit of an episode. ManiSkill's ACT baseline uses 100 (pick, push) and 200 (stack)
-    for motion-planning demos; pick and push get 150 here, because the expert's converted demos
-    reach 90 steps and the `human` source's slower ones need the room."""
+    """Step limit of an episode (room for the `human` source's slower demos)."""
     instruction: str
     """Language instruction of the task."""
     solver: str
@@ -149,12 +140,8 @@ def proprio_features(base_env: Any) -> np.ndarray:
 
 
 def policy_to_maniskill_action(action: np.ndarray) -> np.ndarray:
-    """Map the suite's 7-D action onto ManiSkill's normalized pd_ee_delta_pose action.
-
-    Position passes through; the axis-angle rotation (norm clipped to 1) becomes the XYZ Euler
-    angles that ManiSkill's controller composes, divided by its `rot_lower` (-0.1); the gripper
-    sign flips (ManiSkill: +1 opens).
-    """
+    """Map the suite's 7-D action onto ManiSkill's normalized pd_ee_delta_pose action: the
+    axis-angle rotation becomes XYZ Euler angles over `rot_lower` (-0.1), the gripper flips."""
     from scipy.spatial.transform import Rotation  # here: listing the suite stays cheap
 
     a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
@@ -173,15 +160,10 @@ def policy_to_maniskill_action(action: np.ndarray) -> np.ndarray:
 
 
 class ManiSkillEnv(TaskEnv):
-    """A ManiSkill task as a `gymnasium.Env` with the project's observation dict, 7-D action and
-    success flag (`icil_paper.sim.base.TaskEnv`).
+    """A ManiSkill task as a `TaskEnv`.
 
-    `reset(seed)` seeds ManiSkill explicitly every episode (a `reset()` without a seed runs the
-    constructor's seed first, then seeds drawn from a generator seeded by the last explicit
-    seed), so an episode is fully determined by its seed and actions. For that, every reset
-    also rebuilds the scene (`reconfigure`, about 0.1 s on CPU): PhysX keeps solver state across
-    a plain reset, so the same seed and actions would otherwise end a few millimetres apart
-    depending on the episodes before. `deterministic_reset=False` skips the rebuild.
+    Every reset rebuilds the scene (`reconfigure`), since PhysX keeps solver state across a
+    plain reset; `deterministic_reset=False` skips the rebuild.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
@@ -193,11 +175,8 @@ class ManiSkillEnv(TaskEnv):
         import gymnasium as gym
         import mani_skill.envs  # noqa: F401  (registers the environments)
 
-        # ManiSkill's rebuild of the scene (every deterministic reset) runs a full
-        # gc.collect(), which scans every object of the process: with torch loaded, about
-        # 0.3 s a reset. What the process holds before its first env is built (modules,
-        # models, earlier envs) is moved out of the collector's reach (`gc.freeze`), so a
-        # reset scans only what was made since; the envs' own scenes are collected as before.
+        # ManiSkill's scene rebuild runs a full gc.collect() (0.3 s with torch loaded):
+        # freeze what exists now so a reset scans only what was made since.
         gc.collect()
         gc.freeze()
         self.task_spec = MANISKILL_TASKS[task]
@@ -229,7 +208,6 @@ class ManiSkillEnv(TaskEnv):
             raise RuntimeError(f"{task}: the robot base is rotated ({root_q}); the action frame "
                                "assumes a base aligned with the world axes")
         self.deterministic_reset = deterministic_reset
-        self._last_obs: dict[str, np.ndarray] | None = None
         sensors = dict(self.base._sensors) if obs != "state" else {}
         self.cameras = tuple(sensors)
         size = (next(iter(sensors.values())).config.height,
@@ -289,7 +267,6 @@ class ManiSkillEnv(TaskEnv):
             if self.obs_kind == "rgbd":
                 depth = np.stack([to_numpy(cams[c]["depth"])[..., 0] for c in self.cameras])
                 obs["depth"] = (depth.astype(np.float32) / 1000.0)  # millimetres -> metres
-        self._last_obs = obs
         return obs
 
     def __repr__(self) -> str:

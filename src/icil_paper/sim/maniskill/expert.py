@@ -11,14 +11,9 @@ suite's 7-D end-effector delta actions (`env.py`'s docstring), so the expert con
     run ManiSkill's solution there, recording after          a_rot  = GAIN log(R_target R_tcp^T) / 0.1 rad
       each step the tcp pose and gripper command  -> plan    a_grip = gripper command of plan[k]
 
-The conversion is closed-loop: each action is the delta from the *current* tcp pose to the
-plan's next pose, so the lag of the end-effector controller does not accumulate. Where the plan
-switches the gripper, the expert first waits (at most `MAX_HOLD` steps) until the tcp is within
-`GRIP_TOLERANCE` of the pose where the shadow run switched it, so grasps happen where they were
-planned. The recorded demonstration is exactly the 7-D actions that ran in `pd_ee_delta_pose`, and
-both envs rebuild their scene at every reset (`ManiSkillEnv` docstring), so replaying the actions
-from the same seed reproduces the episode bit for bit (checked in `data.experts` and the
-tests).
+The conversion is closed-loop (from the *current* tcp pose), and where the plan switches the
+gripper the expert waits (at most `MAX_HOLD` steps) until the tcp is within `GRIP_TOLERANCE`
+of where the shadow run switched it.
 """
 
 from __future__ import annotations
@@ -100,12 +95,8 @@ class _ShadowEnv:
 
 
 class MotionPlanningExpert:
-    """ManiSkill's motion-planning solution of a task, acting through 7-D EE delta actions.
-
-    `expert.reset(env, obs)` plans (about 0.3-2 s); then `expert.act(obs)` returns an action
-    (7,) float32 in [-1, 1] each step. `planned_success` tells whether the solution succeeded in
-    its own pd_joint_pos run.
-    """
+    """ManiSkill's motion-planning solution of a task, acting through 7-D EE delta actions;
+    `planned_success` tells whether the solution succeeded in its own pd_joint_pos run."""
 
     def __init__(self, task: str):
         self.task = task

@@ -1,18 +1,6 @@
 """The Meta-World suite: Meta-World's 50 v3 tasks on its Sawyer arm (MuJoCo), 13 of them
 standing in for the paper's seven RoboCasa skill families, with ML45 as the zero-shot split.
 
-    from icil_paper.sim.metaworld import make_metaworld_env, make_metaworld_expert
-    env = make_metaworld_env("metaworld/drawer-open", obs="state", seed=0)
-    obs, info = env.reset(seed=3)          # {"proprio": (8,), "object": (31,)} float32
-    expert = make_metaworld_expert("metaworld/drawer-open"); expert.reset(env, obs)
-    obs, reward, terminated, truncated, info = env.step(expert.act(obs))
-
-- `tasks.py`: the task table (`METAWORLD_TASKS`, instructions, horizons), `TASK_FAMILIES`
-  and `ROBOCASA_TASKS` (the RoboCasa tables' 13), `ML45_TRAIN` / `ML45_HELD_OUT`, `family_of`.
-- `env.py`: `MetaWorldEnv`, its 7-D action, the observation split, seeded layouts and the
-  `generated` / `human` scene distributions.
-- `experts.py`: Meta-World's scripted policies as the suite's experts.
-
 Importing this package imports neither metaworld nor mujoco; building an env or expert does.
 """
 
@@ -65,13 +53,8 @@ def metaworld_problem() -> str | None:
 
 
 def make_metaworld_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
-    """Build a Meta-World task env (`icil_paper.sim.metaworld.env.MetaWorldEnv`).
-
-    Options: `camera_size` (default 84), `horizon` (override the task's 200), `scenes`
-    (`SCENE_DISTRIBUTIONS`, default "generated"), `render_mode` ("rgb_array" or None).
-    Raises `UnknownNameError` listing the valid names for an unknown task, obs kind or scene
-    distribution.
-    """
+    """Build a Meta-World task env (`env.MetaWorldEnv`); options `camera_size` (default 84),
+    `horizon`, `scenes` (default "generated"), `render_mode`."""
     check_name("Meta-World task", name, TASKS)
     check_name("observation kind", obs, OBS_KINDS)
     check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),

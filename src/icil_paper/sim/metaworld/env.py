@@ -1,25 +1,20 @@
-"""The Meta-World suite's env: one goal-observable Meta-World v3 task as the project's
-gymnasium env (`icil_paper.sim.base.TaskEnv`).
+"""The Meta-World suite's env: one goal-observable Meta-World v3 task as a `TaskEnv`.
 
 Actions: Meta-World moves a Sawyer's hand by a mocap body at 80 Hz; the 7-D action maps as
 
     a = [dx, dy, dz,  rx, ry, rz,  g]   ->   Meta-World [dx, dy, dz, g]
          x 0.01 m     ignored      +1 closes, -1 opens
 
-Observation: Meta-World's 39-D state (hand, gripper, two objects now and one step ago, and
-the goal, always observable: many experts read their target from it) split into keys:
+Observation: Meta-World's 39-D state, goal included, split into keys:
 
     proprio (8,)  float32 = hand xyz, gripper opening (0..1) now | the same one step ago
     object  (31,) float32 = obj1 pos, quat | obj2 pos, quat now (14) | one step ago (14) | goal (3)
     rgb     (2, H, W, 3) uint8   cameras corner (turned upright), gripperPOV
     depth   (2, H, W) float32    metres, clipped to the far plane (obs="rgbd")
 
-Layouts (object, goal and fixture positions) come from the episode's seed, drawn with
-`np.random.default_rng(s)` from the task's random-reset box, so a seed is a layout. Scene
-distributions (`scenes`): `generated`, Meta-World's own box; `human` (the stand-in for
-RoboCasa's human data set), layouts from the outer part of each range and a shifted hand
-start, per task (`metaworld.tasks`). `terminated` on Meta-World's first success,
-`truncated` at `horizon` steps (default 200).
+Layouts come from the episode's seed, drawn from the task's random-reset box. Scene
+distributions: `generated`, Meta-World's own box; `human`, layouts from the outer part of
+each range and a shifted hand start (`metaworld.tasks`).
 """
 
 from __future__ import annotations
@@ -55,8 +50,7 @@ RAW_DIM = 39
 
 def draw_layout(rng: np.random.Generator, low: np.ndarray, high: np.ndarray,
                 outer: float | None = None) -> np.ndarray:
-    """One layout vector in the box [low, high]: uniform, or with `outer`, in the `outer`
-    fraction of each coordinate's range at either end (`human` scenes)."""
+    """One layout vector in [low, high]: uniform, or in the `outer` fraction at either end."""
     u = rng.uniform(size=np.shape(low))
     if outer is not None:  # squeeze [0, 1) onto [0, 2 outer), then lift the upper half
         u = 2 * outer * u
@@ -65,13 +59,9 @@ def draw_layout(rng: np.random.Generator, low: np.ndarray, high: np.ndarray,
 
 
 class _LayoutFromDraws:
-    """Mixin before a Meta-World env class: its layout vectors come from `next_layout` (a
-    callable set before each reset) instead of numpy's global generator.
-
-    Meta-World's `reset` runs `reset_model` twice, and a task re-asks for a vector when it
-    rejects one: every `reset_model` replays the same sequence of draws, so both runs end on
-    the same accepted layout.
-    """
+    """Mixin before a Meta-World env class: its layout vectors come from `next_layout`
+    instead of numpy's global generator; every `reset_model` (Meta-World runs it twice)
+    replays the same sequence of draws."""
 
     next_layout: Callable[[], np.ndarray]
     _layout_draws: list[np.ndarray]
@@ -106,12 +96,8 @@ def metaworld_class(metaworld_id: str) -> type:
 
 
 def build_metaworld_env(metaworld_id: str):
-    """A goal-observable Meta-World env of a task, ready for `start_layouts` and `reset`.
-
-    It does what `ALL_V3_ENVIRONMENTS_GOAL_OBSERVABLE`'s classes do at construction (goal
-    observable, task set) on the plain class: theirs call `super(type(self), self)`, which
-    a subclass would send round in a loop, and reset from numpy's global generator.
-    """
+    """A goal-observable Meta-World env of a task, ready for `start_layouts` and `reset`
+    (what `ALL_V3_ENVIRONMENTS_GOAL_OBSERVABLE`'s classes do, on the plain class)."""
     env = metaworld_class(metaworld_id)()
     env._partially_observable = False
     env.__dict__.pop("sawyer_observation_space", None)  # cached with the goal's bounds at 0
@@ -124,12 +110,7 @@ def build_metaworld_env(metaworld_id: str):
 
 
 class MetaWorldEnv(TaskEnv):
-    """A Meta-World task as a `gymnasium.Env` with the project's observation dict, 7-D action
-    and success flag (see the module docstring for the spaces, layouts and scenes).
-
-    Options: `camera_size` (default 84, square images), `horizon` (override the task's),
-    `scenes` ("generated" or "human"), `render_mode` ("rgb_array" or None).
-    """
+    """A Meta-World task as a `TaskEnv`."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
 

@@ -1,14 +1,8 @@
 """The Meta-World suite's experts: Meta-World's scripted policies (`metaworld.policies`), one
 per task, acting through the suite's 7-D action.
 
-    expert = MetaWorldExpert("metaworld/drawer-open")
-    expert.reset(env, obs)          # env: a MetaWorldEnv, already reset
-    action = expert.act(obs)        # (7,) float32 in [-1, 1]
-
-A scripted policy reads Meta-World's raw 39-D observation (`env.raw_observation()`, float64)
-and returns [dx, dy, dz, gripper]; the expert clips it to [-1, 1] (Meta-World clips too; a
-fifth to two fifths of the raw actions lie outside) and places it at [0, 1, 2, 6] of the 7-D
-action, rotation 0. The clipped action is what the env executes and what data sets store.
+A scripted policy reads the raw 39-D observation and returns [dx, dy, dz, gripper], clipped
+to [-1, 1] and placed at [0, 1, 2, 6] of the 7-D action.
 """
 
 from __future__ import annotations
@@ -24,16 +18,12 @@ from icil_paper.sim.suite import ACTION_DIM
 
 POLICY_CLASSES: dict[str, type] = {
     task: ENV_POLICY_MAP[spec.metaworld_id] for task, spec in METAWORLD_TASKS.items()}
-"""Task name -> its scripted policy class (Meta-World's own map: the class names do not all
-follow the task names, e.g. peg-insert-side's `SawyerPegInsertionSideV3Policy`)."""
+"""Task name -> its scripted policy class (Meta-World's own map)."""
 
 
 class MetaWorldExpert:
-    """A task's scripted Meta-World policy as the suite's expert.
-
-    `noise_std` adds Gaussian noise (in action units, before clipping) to the four entries
-    that Meta-World reads, drawn from a generator seeded with the env's episode seed.
-    """
+    """A task's scripted Meta-World policy as the suite's expert; `noise_std` adds Gaussian
+    noise (action units, before clipping), seeded with the env's episode seed."""
 
     def __init__(self, task: str, noise_std: float = 0.0):
         check_name("Meta-World task", task, METAWORLD_TASKS)

@@ -1,9 +1,7 @@
 """The Meta-World suite's task table: names, instructions, horizons, skill families, ML45.
 
-This module imports nothing heavy (no metaworld, no mujoco), so `icil_paper.sim.metaworld`
-lists its tasks cheaply. Every one of Meta-World's 50 v3 tasks is a task `metaworld/<task>`
-(Meta-World's name without `-v3`). Thirteen of them stand in for the paper's seven RoboCasa
-skill families (`TASK_FAMILIES`), each for the motion of RoboCasa's atomic tasks::
+Every one of Meta-World's 50 v3 tasks is a task `metaworld/<task>`; thirteen stand in for
+the paper's seven RoboCasa skill families (`TASK_FAMILIES`)::
 
     Pick and Place      pick-place, pick-place-wall     grasp an object, carry it, release
     Open/Close Doors    door-open, door-close           swing a hinged door
@@ -14,10 +12,8 @@ skill families (`TASK_FAMILIES`), each for the motion of RoboCasa's atomic tasks
                                                         the coffee machine
     Pressing Buttons    button-press, coffee-button     RoboCasa presses appliance buttons
 
-The zero-shot split is Meta-World's ML45 (`ZERO_SHOT_SPLIT`): 45 training tasks and 5
-held-out ones, whose families (for the zero-shot table, `ALL_TASK_FAMILIES`) are bin-picking:
-Pick and Place, box-close: Open/Close Doors (closing a lid), hand-insert: Insertion, door-lock
-and door-unlock: Twisting Knobs (turning a lock).
+The zero-shot split is Meta-World's ML45 (`ZERO_SHOT_SPLIT`); the held-out tasks' families
+are in `ALL_TASK_FAMILIES`.
 """
 
 from __future__ import annotations
@@ -35,11 +31,8 @@ OBJECT_DIM = 31
 CONTROL_FREQ = 80
 """Control rate, Hz: Meta-World's frame_skip 5 of a 2.5 ms timestep (env.py checks it)."""
 DEFAULT_HORIZON = 200
-"""Control steps of an episode for most tasks (Meta-World's own limit is 500; its experts
-finish most tasks in about 75 steps). A task's horizon is the smallest multiple of 100, from
-200 up to 500, that is at least 1.1 times the 99th percentile of its expert's successful
-episode lengths on 100 layouts of each scene distribution (`python -m tools.metaworld_experts
---episodes 100 --first-seed 0 --horizon 500` prints it)."""
+"""Control steps of an episode for most tasks (others: the smallest multiple of 100 at least
+1.1 times their expert's 99th-percentile length, from `python -m tools.metaworld_experts`)."""
 
 HAND_SHIFT = 0.05
 """Metres: the largest shift per axis of the hand's start in `human` scenes (most tasks)."""
@@ -48,9 +41,7 @@ OUTER = 0.2
 """Fraction of each layout coordinate's range, at either end, that `human` scenes draw from."""
 
 SCENE_DISTRIBUTIONS = ("generated", "human")
-"""Named distributions a layout is drawn from (the env option `scenes`, the first the default):
-`generated` is Meta-World's own random-reset box, `human` stands in for the different
-arrangements of RoboCasa's human data set (env.py says how it is drawn)."""
+"""Named distributions a layout is drawn from (the env option `scenes`), default first."""
 
 FAMILIES = SKILL_FAMILIES
 """The seven skill families, in the column order of the paper's RoboCasa tables."""
@@ -71,11 +62,9 @@ class MetaWorldTaskSpec:
     horizon: int = DEFAULT_HORIZON
     """Maximum number of control steps of an episode (it is truncated there)."""
     hand_shift: float = HAND_SHIFT
-    """Metres: the largest shift per axis of the hand's start in `human` scenes (env.py); 0
-    for the tasks whose experts miss from a shifted start."""
+    """Metres: the largest shift per axis of the hand's start in `human` scenes."""
     outer: float = OUTER
-    """Fraction of each layout coordinate's range, at either end, that `human` scenes draw
-    from (0.2: the outer 40%; 0.5 would be Meta-World's uniform draw)."""
+    """Fraction of each layout coordinate's range, at either end, that `human` scenes draw from."""
 
     @property
     def metaworld_id(self) -> str:
@@ -172,6 +161,5 @@ ALL_TASK_FAMILIES: dict[str, tuple[str, ...]] = {
 
 
 def family_of(task: str) -> str | None:
-    """The skill family a task stands in for (held-out ML45 tasks included), or None.
-    Raises `UnknownNameError` for a name that is no Meta-World task."""
+    """The skill family a Meta-World task stands in for (held-out ML45 tasks included)."""
     return METAWORLD_TASKS[check_name("Meta-World task", task, TASKS)].family
