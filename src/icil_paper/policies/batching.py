@@ -6,8 +6,7 @@
 
 ICRT's token layout (Eq. 1, with the query's own actions in context as in ICRT's code). The
 prompt is one or more demonstrations of the task, the query a window of `query_len` steps of
-another demonstration of the same task (`prompt_from="minibatch"`, the official code's
-rule: prompts from the same random minibatch, whatever their task):
+another demonstration of the same task:
 
     prompt (M steps, no loss)                        query (N steps, loss)
      o_p1  a_p1  o_p2  a_p2 ... o_pM  a_pM            o_q1  a_q1  o_q2  a_q2 ... o_qN  a_qN
@@ -16,17 +15,14 @@ rule: prompts from the same random minibatch, whatever their task):
            itself and every token to its left        â_q1..â_q(K) â_q2..         â_qN..
 
 The head reads only the query's observation tokens, so o_qt never sees a_qt, the action it
-predicts. Batches are padded at the end of short prompts and queries; `prompt_valid` /
-`query_valid` mark real steps. A baseline's window is drawn in `window_batch`.
-
-`ObsSpec` names the observation keys and shapes a policy reads (`as_obs_spec` builds one).
-Every sampler draws from a NumPy Generator, so a batch sequence is reproducible.
+predicts. Short prompts and queries are padded at the end; `prompt_valid` / `query_valid`
+mark real steps. Every sampler draws from a NumPy Generator.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -52,8 +48,6 @@ class ObsSpec:
     """(n_cams, H, W) of the "rgb" key, or None for state-only observations."""
     depth: bool = False
     """Whether a "depth" key (n_cams, H, W) accompanies the images (RGB-D)."""
-    lowdim_dims: tuple[int, ...] | None = field(default=None, compare=False)
-    """Width of each low-dimensional key when known (for error messages only)."""
 
     @property
     def has_images(self) -> bool:
@@ -75,13 +69,9 @@ class ObsSpec:
 
 
 def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
-    """Normalize the `obs_dim` argument of `make_policy`.
-
-    - an int: the width of proprio and object state concatenated (state observations);
-    - a mapping key -> size or shape, e.g. {"proprio": 9, "object": 10} or
-      {"proprio": (9,), "object": (10,), "rgb": (2, 84, 84, 3), "depth": (2, 84, 84)};
-    - an ObsSpec.
-    """
+    """The ObsSpec of `make_policy`'s `obs_dim`: an int (proprio and object state widths
+    summed), a mapping key -> size or shape (`{"proprio": 9, "rgb": (2, 84, 84, 3)}`) or an
+    ObsSpec."""
     if isinstance(obs_dim, ObsSpec):
         return obs_dim
     if isinstance(obs_dim, (int, np.integer)):
@@ -101,8 +91,7 @@ def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
             raise ValueError("a depth observation needs an rgb observation beside it")
         if not lowdim and image is None:
             raise ValueError(f"no observation keys in {dict(obs_dim)}")
-        return ObsSpec(tuple(lowdim), sum(lowdim.values()), image, "depth" in obs_dim,
-                       tuple(lowdim.values()))
+        return ObsSpec(tuple(lowdim), sum(lowdim.values()), image, "depth" in obs_dim)
     raise TypeError(f"obs_dim must be an int, a mapping or an ObsSpec, got {type(obs_dim)}")
 
 
@@ -137,10 +126,8 @@ def _check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int | None) 
 class DemoSet:
     """Demonstrations held as arrays, grouped by task, ready to be sampled into batches.
 
-    Args:
-        demos: Demo-like objects (fields `actions` (T, A), `obs` {key: (T, ...)}, `task`,
-            `instruction`).
-        spec: the observation keys to keep; by default inferred from the first demo.
+    demos: Demo-like objects (`actions` (T, A), `obs` {key: (T, ...)}, `task`, `instruction`);
+    spec: the observation keys to keep (default: the first demo's).
     """
 
     def __init__(self, demos: Sequence[Any], spec: ObsSpec | None = None):
@@ -218,22 +205,17 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
                        prompt_demos: int, rng: np.random.Generator,
                        action_context: int = 0, query_start: str = "random",
                        prompt_from: str = "same_task") -> dict[str, Any]:
-    """Sample B (prompt, query) pairs, of the same task by default (see the module docstring).
+    """Sample B (prompt, query) pairs (see the module docstring).
 
     Returns a dict of tensors (padded; B batch, M prompt steps, N query steps, K chunk):
         prompt_obs {key: (B, M, ...)}, prompt_actions (B, M, A), prompt_valid (B, M) bool,
         query_obs {key: (B, N, ...)}, query_actions (B, N, A), query_valid (B, N) bool,
-        targets (B, N, K, A), target_valid (B, N, K) bool (False past a demo's end or on
-        padding), instruction [B strings], and with `action_context` = c > 0
-        query_action_context (B, c, A), the c actions before each query window (edge-padded
-        with the first action at an episode's start).
-    The prompt is `prompt_demos` other demonstrations of the query's task (the query's own
-    demonstration only when the task has no other); with `prompt_from="minibatch"`,
-    `prompt_demos` other demonstrations of the same random minibatch, whatever their task
-    (with repeats only when the data set has fewer than (prompt_demos + 1) B
-    demonstrations). The query window holds `query_len`
-    steps (0: the whole episode) and starts uniformly at random in its episode
-    (`query_start="random"`) or at step 0 (`"episode_start"`, as a rollout does).
+        targets (B, N, K, A), target_valid (B, N, K) bool, instruction [B strings], and with
+        `action_context` = c > 0 query_action_context (B, c, A), the c actions before each
+        query window (edge-padded).
+    The prompt is `prompt_demos` other demonstrations of the query's task (`prompt_from=
+    "minibatch"`: of the same random minibatch). The query window holds `query_len` steps
+    (0: the whole episode) and starts at random or at step 0 (`query_start`).
     """
     if prompt_demos < 1:
         raise ValueError(f"prompt_demos must be at least 1, got {prompt_demos}")
@@ -289,9 +271,8 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
 
 def _minibatch_pairs(n_demos: int, batch_size: int, prompt_demos: int,
                     rng: np.random.Generator) -> list[tuple[int, list[int]]]:
-    """The official code's pairing: (query, prompt demonstrations) for B queries, from one
-    random minibatch of (P + 1) B demonstrations (distinct where there are enough), whose
-    first P B prompt the last B, P each in order; tasks are not looked at."""
+    # the official code's pairing: of (P + 1) B random demonstrations, the first P B prompt
+    # the last B, whatever their tasks
     n = (prompt_demos + 1) * batch_size
     drawn = rng.choice(n_demos, size=n, replace=n_demos < n)
     prompts = drawn[:prompt_demos * batch_size].reshape(batch_size, prompt_demos)
@@ -310,10 +291,9 @@ def window_batch(data: DemoSet, batch_size: int, history: int, chunk_size: int,
         o_(t-H+1) ... o_(t-1)  o_t                     a_t  a_(t+1) ... a_(t+K-1)
         a_(t-H+1) ... a_(t-1)  a_t   (per-step targets)   (masked past the episode's end)
 
-    Returns: obs {key: (B, H, ...)} (edge-padded at the episode start), obs_valid (B, H)
-    (False for padded history steps), actions (B, H, A) the action taken at each history
-    step, targets (B, K, A) and target_valid (B, K) for a_t .. a_(t+K-1), instruction [B],
-    index (demonstration indices (B,), step indices (B,)) as NumPy arrays.
+    Returns: obs {key: (B, H, ...)}, obs_valid (B, H) (False for padded history), actions
+    (B, H, A), targets (B, K, A) and target_valid (B, K), instruction [B], index (demo
+    indices (B,), step indices (B,)) as NumPy arrays.
     """
     flat = rng.integers(0, data.n_steps, size=batch_size)
     demo_idx, step_idx = data.step_index(flat)

@@ -8,9 +8,6 @@ the model class registers with `@register_policy_model(name)`.
     from icil_paper.policies.configs import ICRTConfig
     from icil_paper.tokenizers.configs import LipVQConfig
     policy = make_policy(ICRTConfig(d_model=64), obs_spec, 7, LipVQConfig(latent_dim=32))
-
-The paper scales ACT down to BC-Transformer's size (Sec. IV-A), so the presets give every
-policy the same transformer sizes.
 """
 
 from __future__ import annotations
@@ -50,8 +47,7 @@ class PolicyConfig:
     resnet_width: int = 64
     """First-stage channels of the ResNet-18 image backbone (torchvision's is 64)."""
     language: bool = False
-    """Add a hashed bag-of-words embedding of the instruction to every observation token
-    (`backbones.HashedTextEmbedding`, standing in for the paper's CLIP; every preset sets it)."""
+    """Add a bag-of-words instruction embedding to every observation token (CLIP's stand-in)."""
 
     def __post_init__(self) -> None:
         check_fields(self)  # ranges, empty values, CHOICES: before any work
@@ -66,8 +62,7 @@ class PolicyConfig:
         return self.type
 
     def check_episode_length(self, longest: int) -> None:
-        """Refuse (ConfigError naming the field and the fix) a config that cannot train on
-        episodes of up to `longest` steps. Nothing to check for most policies."""
+        """Refuse (ConfigError) a config that cannot train on episodes of `longest` steps."""
 
 
 POLICY_REGISTRY = ComponentRegistry("policy", PolicyConfig, "icil_paper.policies")
@@ -95,24 +90,18 @@ class ICRTConfig(PolicyConfig):
     prompt_demos: int = 1
     """Full demonstrations in a prompt (the paper uses one)."""
     max_seq_len: int = 1024
-    """Longest token sequence trained on and kept in the KV cache (past it, the oldest query
-    steps leave the cache; the prompt stays)."""
+    """Longest token sequence trained on and kept in the KV cache (the prompt always stays)."""
     query_actions: bool = True
-    """Interleave the query's own past actions with its observations (s1,a1,s2,a2,..., as
-    ICRT's code does); False gives Eq. 1 literally (query observations only)."""
+    """Interleave the query's past actions with its observations (ICRT's code; False: Eq. 1)."""
     query_len: int = 0
-    """Query steps per training sequence; 0 trains on whole episodes (which must then fit in
-    `max_seq_len` with the prompt)."""
+    """Query steps per training sequence; 0: whole episodes (which must fit in max_seq_len)."""
     query_start: str = "episode_start"
-    """Where a training query window starts: `episode_start` (step 0, as a rollout does) or
-    `random` (uniform over the episode: ICRT's code)."""
+    """Where a training query window starts: `episode_start` (step 0) or `random` (ICRT's)."""
     prompt_from: str = "same_task"
-    """Where a training query's prompt comes from: `same_task` (the paper) or `minibatch`,
-    the same random minibatch whatever its task (the official code)."""
+    """Prompts from the query's task, `same_task` (the paper), or `minibatch` (official code)."""
 
     def sequence_tokens(self, longest: int) -> int:
-        """Tokens of the longest training sequence on episodes of up to `longest` steps
-        (`policies.icrt.ICRT.sequence`)."""
+        """Tokens of the longest training sequence on episodes of up to `longest` steps."""
         query = longest if self.query_len == 0 else min(self.query_len, longest)
         return 2 * self.prompt_demos * longest + (2 if self.query_actions else 1) * query
 
@@ -141,8 +130,7 @@ class BCTransformerConfig(PolicyConfig):
 @register_policy("act")
 @dataclass(frozen=True)
 class ACTConfig(PolicyConfig):
-    """ACT (Zhao et al. 2023), scaled to BC-Transformer's size; with a tokenizer, Table II's
-    ACT + tokenizer rows."""
+    """ACT (Zhao et al. 2023) at BC-Transformer's size; with a tokenizer, Table II's ACT + rows."""
 
     takes_tokenizer: ClassVar[bool] = True
 

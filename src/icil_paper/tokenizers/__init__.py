@@ -51,10 +51,5 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = [
-    "TOKENIZERS", "REGISTRY", "make_tokenizer", "ActionTokenizer", "TokenizerOutput",
-    "TokenizerConfig", "default_config", "lipvq_official", "register_tokenizer",
-    "register_tokenizer_model", "LipschitzLinear", "lipschitz_loss", "lipschitz_bounds",
-    "lipschitz_layers", "FastDecodeError", "load_tokenizer", "save_tokenizer",
-    "TokenizerFolderError",
-]
+__all__ = ["TOKENIZERS", "TokenizerConfig", "default_config", "lipvq_official",
+           "register_tokenizer", "register_tokenizer_model", *sorted(TORCH_NAMES)]

@@ -39,8 +39,7 @@ class TokenizerConfig:
     type: ClassVar[str] = ""
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = TOKENIZER_CHOICES
     AT_LEAST: ClassVar[dict[str, int]] = {}
-    """Integer fields (or each integer of a tuple field) with a floor above 1, by field name
-    (merged over the bases, as CHOICES)."""
+    """Floors above 1 of integer fields (each integer of a tuple), merged over the bases."""
 
     latent_dim: int = 64
     """Width D of the action embedding (and of each codebook entry)."""
@@ -88,11 +87,9 @@ class LipschitzOptions:
     c_init: float | None = None
     """Initial c of every layer; None: the layer's largest absolute row sum (Liu et al.)."""
     weight_init: str = "liu"
-    """`liu` (randn * sqrt(2 / in_features), the paper's), `randn` (the official code) or
-    `linear` (`nn.Linear`'s: starts as its plain twin from the same seed; the presets')."""
+    """`liu` (the paper's), `randn` (the official code) or `linear` (`nn.Linear`'s; presets)."""
     c_lr_scale: float = 1.0
-    """Learning rate of every bound c_l as a multiple of the trainer's (no weight decay);
-    0 keeps the bounds fixed, 1 is the paper's single optimiser."""
+    """Learning rate of every bound c_l as a multiple of the trainer's (0: fixed; 1: paper)."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"weight_init": ("liu", "randn", "linear")}
 
@@ -131,8 +128,7 @@ class BinConfig(TokenizerConfig):
     n_bins: int = 256
     """Uniform bins per action dimension (RT-1: 256; the official code: 20)."""
     range: str = "fixed"
-    """Bin range per dimension: `fixed`, fitted to the training actions (RT-1's) or
-    `running`, widened by each training batch (the official code)."""
+    """Bin range per dimension: `fixed` (fitted, RT-1's) or `running` (the official code's)."""
     autoencode: bool = False
     """Let the decode head's loss train the bin embeddings (stand-alone training)."""
     decode_weight: float = 1.0
@@ -155,8 +151,7 @@ class FASTConfig(TokenizerConfig):
     min_frequency: int = 2
     """BPE merge threshold (FAST: 2)."""
     mode: str = "causal"
-    """`causal` (step t tokenized with the chunk ending at t; what a causal policy needs) or
-    `blocked` (FAST's own non-overlapping chunks, whose step embeddings see later actions)."""
+    """`causal` (step t: the chunk ending at t) or `blocked` (FAST's chunks; not causal)."""
     autoencode: bool = False
     """Let the decode head's loss train the token embeddings (stand-alone training)."""
     decode_weight: float = 1.0
@@ -191,8 +186,7 @@ class VQConfig(NormedEncoderConfig):
     recon_weight: float = 1.0
     """Weight of the reconstruction loss."""
     straight_through: str = "vqvae"
-    """How gradients pass the quantizer: `vqvae` (z_e + sg[z_q - z_e]), `codebook`
-    (z_q + (z_e - sg[z_e]), also to the codes) or `none` (z_q, the official code)."""
+    """Gradient through the quantizer: `vqvae`, `codebook` or `none` (the official code)."""
     detach_embeddings: bool = False
     """Give the policy sg[z_q] (the official code) instead of the straight-through value."""
     activation: str = "relu"
@@ -258,8 +252,7 @@ class TokenizerStudyConfig:
     lr: float = 1e-3
     """Adam learning rate."""
     trajectories: str = "demos"
-    """`demos`, the preset's generated demonstrations, or `synthetic`, minimum-jerk
-    trajectories (`icil_paper.data.trajectories`, no simulator)."""
+    """`demos` (the preset's generated demonstrations) or `synthetic` (minimum-jerk)."""
     eval_fraction: float = 0.2
     """Share of each task's demonstrations held out for the metrics (at least one)."""
     n_trajectories: int = 200
@@ -301,8 +294,7 @@ class FSQConfig(NormedEncoderConfig):
     AT_LEAST: ClassVar[dict[str, int]] = {"levels": 3}
 
     levels: tuple[int, ...] = (8, 5, 5, 5)
-    """Levels of each code dimension (at least 3 each); prod(levels) codes (FSQ's choice for
-    about 2^10 codes)."""
+    """Levels of each code dimension (at least 3 each): prod(levels) codes."""
     recon_weight: float = 1.0
     """Weight of the reconstruction loss."""
 
