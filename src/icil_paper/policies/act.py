@@ -72,7 +72,6 @@ class ACT(BatchedPolicy):
         self.decoder = nn.ModuleList([DecoderBlock(cfg) for _ in range(config.n_layer)])
         self.dec_norm = RMSNorm(D)
         self.head = mlp([D, D, out_dim], nn.GELU)
-        self.ensemble = TemporalEnsemble(K, config.ensemble_m)
 
     # ------------------------------------------------------------------ model
     def _cvae_posterior(self, obs: Mapping[str, Tensor], actions: Tensor,
@@ -148,7 +147,6 @@ class ACT(BatchedPolicy):
         self.begin_episodes(texts)
         self._ensembles = [TemporalEnsemble(self.chunk_size, self.config.ensemble_m)
                            for _ in texts]
-        self.ensemble = self._ensembles[0]
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],

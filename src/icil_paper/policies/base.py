@@ -60,7 +60,10 @@ class Policy(nn.Module):
         self.action_dim = int(action_dim)
         self.config = config
         self.tokenizer_config = tokenizer
-        self.spec = policy_spec(config, tokenizer, self.obs_spec, self.action_dim)
+        # what rebuilds the policy (`factory.build_policy`), as JSON-ready data
+        self.spec = {"policy": to_dict(config),
+                     "tokenizer": to_dict(tokenizer) if tokenizer else None,
+                     "obs_spec": self.obs_spec.to_dict(), "action_dim": self.action_dim}
         self.instruction = ""
 
     # ---------------------------------------------------------------- shared parts
@@ -209,13 +212,6 @@ class BatchedPolicy(Policy):
         keep = torch.tensor([where[r] for r in rows], dtype=torch.long, device=self.device)
         self._instructions = [self._instructions[i] for i in keep.tolist()]
         return keep
-
-
-def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spec: ObsSpec,
-                action_dim: int) -> dict[str, Any]:
-    """What rebuilds a policy, as JSON-ready data: its config, its tokenizer's, the shapes."""
-    return {"policy": to_dict(config), "tokenizer": to_dict(tokenizer) if tokenizer else None,
-            "obs_spec": obs_spec.to_dict(), "action_dim": int(action_dim)}
 
 
 def batch_instructions(prompts: Sequence[Any], instructions: Sequence[str | None] | None
