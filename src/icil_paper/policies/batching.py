@@ -188,9 +188,7 @@ def _stack_obs(rows: list[dict[str, np.ndarray]]) -> dict[str, Tensor]:
 
 def _pad_end(x: np.ndarray, length: int) -> np.ndarray:
     """Pad (T, ...) to (length, ...) by repeating the last row."""
-    if len(x) >= length:
-        return x[:length]
-    return np.concatenate([x, np.repeat(x[-1:], length - len(x), axis=0)])
+    return _take(x, np.arange(length))
 
 
 def chunk_targets(actions: np.ndarray, steps: np.ndarray, chunk: int) -> tuple[np.ndarray, np.ndarray]:
