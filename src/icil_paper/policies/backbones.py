@@ -40,8 +40,6 @@ def _norm2d(kind: str, channels: int) -> nn.Module:
 class BasicBlock(nn.Module):
     """torchvision's BasicBlock: two 3x3 convolutions and a residual connection."""
 
-    expansion = 1
-
     def __init__(self, inplanes: int, planes: int, stride: int = 1, norm: str = "group"):
         super().__init__()
         self.conv1 = nn.Conv2d(inplanes, planes, 3, stride=stride, padding=1, bias=False)
