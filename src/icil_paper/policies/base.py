@@ -29,7 +29,7 @@ from torch import Tensor, nn
 
 from icil_paper.config_data import to_dict
 from icil_paper.policies.backbones import ObservationEncoder
-from icil_paper.policies.batching import DemoSet, ObsSpec, as_demo_set, as_obs_spec, obs_batch
+from icil_paper.policies.batching import DemoSet, ObsSpec, as_obs_spec, check_demo, obs_batch
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.tokenizers import make_tokenizer
 from icil_paper.tokenizers.configs import TokenizerConfig
@@ -102,7 +102,7 @@ class Policy(nn.Module):
                 progress: bool = False) -> DemoSet:
         """Fit normalization statistics and the tokenizer (if it needs fitting) to the
         training data; `pretrain=False` skips pre-training (MCR). Returns a DemoSet."""
-        data = as_demo_set(demos, self.obs_spec)
+        data = demos if isinstance(demos, DemoSet) else DemoSet(demos, self.obs_spec)
         if data.action_dim != self.action_dim:
             raise ValueError(f"demonstrations have action dimension {data.action_dim}, the "
                              f"policy expects {self.action_dim}")
@@ -274,14 +274,8 @@ def validate_prompt(prompt: Any, spec: ObsSpec, action_dim: int) -> list[Any]:
         if a.shape[1] != action_dim:
             raise ValueError(f"wrong action dimension in the prompt: demonstration {i} has "
                              f"{a.shape[1]}-dimensional actions, the policy expects {action_dim}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"prompt demonstration {i} has NaN or inf actions")
+        check_demo(i, d, spec.keys, action_dim, what="prompt demonstration")
         for k in spec.keys:
-            if k not in d.obs:
-                raise ValueError(f"prompt demonstration {i} lacks observation key {k!r}")
-            if len(d.obs[k]) != len(a):
-                raise ValueError(f"prompt demonstration {i}: obs[{k!r}] has {len(d.obs[k])} steps "
-                                 f"but there are {len(a)} actions")
             values = np.asarray(d.obs[k])
             if values.dtype.kind == "f" and not np.isfinite(values).all():
                 raise ValueError(f"prompt demonstration {i}: obs[{k!r}] contains NaN or inf")

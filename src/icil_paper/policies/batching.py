@@ -106,12 +106,15 @@ def obs_spec_from_obs(obs: Mapping[str, np.ndarray], time_axis: bool = True) -> 
 
 
 # --------------------------------------------------------------------------- demonstrations
-def _check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int | None) -> None:
-    name = f"demonstration {i} ({getattr(demo, 'task', '?')})"
+def check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int,
+               what: str = "demonstration") -> None:
+    """ValueError naming what is wrong with demonstration `i`: its actions (T, A), or one of
+    its observations `keys` (missing, or of another length)."""
+    name = f"{what} {i} ({getattr(demo, 'task', '?')})"
     actions = np.asarray(demo.actions)
     if actions.ndim != 2 or len(actions) == 0:
         raise ValueError(f"{name}: actions must be a non-empty (T, A) array, got shape {actions.shape}")
-    if action_dim is not None and actions.shape[1] != action_dim:
+    if actions.shape[1] != action_dim:
         raise ValueError(f"{name}: actions have dimension {actions.shape[1]}, expected {action_dim}")
     if not np.isfinite(actions).all():
         raise ValueError(f"{name}: actions contain NaN or inf")
@@ -137,7 +140,7 @@ class DemoSet:
         self.spec = spec or obs_spec_from_obs(demos[0].obs)
         self.action_dim = int(np.asarray(demos[0].actions).shape[1])
         for i, d in enumerate(demos):
-            _check_demo(i, d, self.spec.keys, self.action_dim)
+            check_demo(i, d, self.spec.keys, self.action_dim)
         self.actions = [np.asarray(d.actions, np.float32) for d in demos]
         self.obs = [{k: _as_stored(k, d.obs[k]) for k in self.spec.keys} for d in demos]
         self.tasks = [str(getattr(d, "task", "task")) for d in demos]
@@ -170,10 +173,6 @@ def _as_stored(key: str, x: np.ndarray) -> np.ndarray:
     if key == "rgb":
         return x.astype(np.uint8, copy=False)
     return x.astype(np.float32, copy=False)
-
-
-def as_demo_set(demos: DemoSet | Sequence[Any], spec: ObsSpec | None = None) -> DemoSet:
-    return demos if isinstance(demos, DemoSet) else DemoSet(demos, spec)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -347,5 +346,5 @@ def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec, time_axis: bool = Fa
     return out
 
 
-__all__ = ["DemoSet", "as_demo_set", "prompt_query_batch",
+__all__ = ["DemoSet", "prompt_query_batch",
            "window_batch", "chunk_targets", "batch_to", "obs_batch", "IMAGE_KEYS"]
