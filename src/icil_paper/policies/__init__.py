@@ -22,7 +22,6 @@ from icil_paper.policies.configs import (
     POLICY_CONFIGS,
     PolicyConfig,
     default_policy_config,
-    policy_label,
     register_policy,
     register_policy_model,
     resolve_tokenizer,
@@ -41,5 +40,5 @@ def __getattr__(name: str):
 
 
 __all__ = ["POLICIES", "REGISTRY", "PolicyConfig", "build_policy", "default_policy_config",
-           "make_policy", "policy_label", "register_policy", "register_policy_model",
+           "make_policy", "register_policy", "register_policy_model",
            "resolve_tokenizer"]

@@ -185,10 +185,3 @@ def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None
         raise ValueError(f"the {policy} policy does not take the {tokenizer.type!r} action "
                          "tokenizer (it takes none)")
     return tokenizer
-
-
-def policy_label(policy: str, tokenizer: str | None) -> str:
-    """A run's display name: `icrt+lipvq`, `act`, `act+bin`, `bc_transformer`."""
-    config = POLICY_CONFIGS.get(policy)
-    tokenizer = tokenizer or (config.default_tokenizer if config else None)
-    return f"{policy}+{tokenizer}" if tokenizer else policy
