@@ -70,11 +70,6 @@ class MCR(BatchedPolicy):
         self.visual.requires_grad_(False)  # frozen under the BC head
         return data
 
-    def _lowdim(self, obs: Mapping[str, Tensor], B: int) -> Tensor:
-        if self.state is None:
-            return torch.zeros(B, 1)
-        return self.state.lowdim(obs)[:, -1]
-
     def pretrain(self, data: DemoSet, steps: int | None = None, progress: bool = False) -> list[float]:
         """Manipulation-centric pre-training of `visual`; returns the loss per step."""
         c = self.config
@@ -93,7 +88,8 @@ class MCR(BatchedPolicy):
             obs, chunk, valid = batch["obs"], batch["targets"].float(), batch["target_valid"]
             v = self.visual(obs)[:, -1]  # (B, D)
             v_pos = self.visual(positive)[:, -1]
-            dyn = self.pre_dynamics(torch.cat([self._lowdim(obs, B), chunk.flatten(1)], dim=-1))
+            state = torch.zeros(B, 1) if self.state is None else self.state.lowdim(obs)[:, -1]
+            dyn = self.pre_dynamics(torch.cat([state, chunk.flatten(1)], dim=-1))
             l_dyn = info_nce(self.pre_proj(v), dyn)
             l_act = masked_l1(self.pre_action(v).view_as(chunk), chunk, valid)
             l_tcn = info_nce(self.pre_proj(v), self.pre_proj(v_pos))

@@ -147,7 +147,7 @@ def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
 
 
 class ActionTokenizer(nn.Module):
-    """Base class: validation, the decoder head, and the shared `encode` / `decode` API.
+    """Base class: input validation, fitting, and the shared `decode`.
 
     Built from its config alone. Subclasses set `name` and `discrete`, and implement
     `_forward(actions) -> TokenizerOutput` and, with something to fit, `_fit(trajectories)`.
@@ -215,10 +215,6 @@ class ActionTokenizer(nn.Module):
 
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         raise NotImplementedError
-
-    def encode(self, actions: Tensor) -> Tensor:
-        """Embeddings (B, T, D) of actions (B, T, A)."""
-        return self(actions).embeddings
 
     def decode(self, embeddings: Tensor) -> Tensor:
         """Actions (B, T, A) from embeddings (B, T, D)."""
