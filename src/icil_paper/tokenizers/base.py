@@ -231,7 +231,8 @@ class ActionTokenizer(nn.Module):
 
     @property
     def context_steps(self) -> int:
-        """How many of the latest actions one step's embedding depends on (1 per step)."""
+        """How many of the latest actions one step's embedding depends on (1 per step): to
+        embed a new step, pass at least this many and keep the last embedding."""
         return 1
 
     def tokens_per_step(self, actions=None) -> float:
