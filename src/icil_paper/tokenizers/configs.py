@@ -186,7 +186,8 @@ class VQConfig(NormedEncoderConfig):
     recon_weight: float = 1.0
     """Weight of the reconstruction loss."""
     straight_through: str = "vqvae"
-    """Gradient through the quantizer: `vqvae`, `codebook` or `none` (the official code)."""
+    """Gradients past the quantizer: `vqvae` (to z_e), `codebook` (also the codes) or `none`
+    (the encoder learns from the commitment loss only, the official code)."""
     detach_embeddings: bool = False
     """Give the policy sg[z_q] (the official code) instead of the straight-through value."""
     activation: str = "relu"
