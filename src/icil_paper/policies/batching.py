@@ -95,14 +95,13 @@ def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
     raise TypeError(f"obs_dim must be an int, a mapping or an ObsSpec, got {type(obs_dim)}")
 
 
-def obs_spec_from_obs(obs: Mapping[str, np.ndarray], time_axis: bool = True) -> ObsSpec:
-    """The ObsSpec of an observation dict; with `time_axis` the arrays are (T, ...)."""
+def obs_spec_from_obs(obs: Mapping[str, np.ndarray]) -> ObsSpec:
+    """The ObsSpec of an observation dict of (T, ...) arrays."""
     keys = [k for k in DEFAULT_LOWDIM_KEYS + IMAGE_KEYS if k in obs]
     if not keys:
         raise ValueError(f"observation has none of the keys {DEFAULT_LOWDIM_KEYS + IMAGE_KEYS}; "
                          f"it has {sorted(obs)}")
-    return as_obs_spec({k: tuple(np.shape(obs[k])[1:] if time_axis else np.shape(obs[k]))
-                        for k in keys})
+    return as_obs_spec({k: tuple(np.shape(obs[k])[1:]) for k in keys})
 
 
 # --------------------------------------------------------------------------- demonstrations
@@ -328,8 +327,8 @@ def batch_to(batch: Mapping[str, Any], device: torch.device | str) -> dict[str, 
     return out
 
 
-def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec, time_axis: bool = False) -> dict[str, Tensor]:
-    """An environment observation (or a (T, ...) sequence with `time_axis`) -> {key: (1, T, ...)}."""
+def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec) -> dict[str, Tensor]:
+    """An environment observation -> {key: (1, 1, ...)}."""
     out = {}
     for k in spec.keys:
         if k not in obs:
@@ -339,10 +338,7 @@ def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec, time_axis: bool = Fa
         if x.dtype.kind == "f" and not np.isfinite(x).all():
             raise ValueError(f"observation {k!r} contains NaN or inf; a policy acting on it "
                              "would return NaN actions (check the environment's state)")
-        x = _as_stored(k, x)
-        if not time_axis:
-            x = x[None]
-        out[k] = torch.from_numpy(np.ascontiguousarray(x))[None]
+        out[k] = torch.from_numpy(np.ascontiguousarray(_as_stored(k, x)))[None, None]
     return out
 
 
