@@ -11,11 +11,9 @@
 | `act`            | act.py             | ACT (Table II); with a tokenizer: ACT+tok rows| none = CVAE, or any  |
 | `mcr`            | mcr.py             | MCR encoder + BC head (images only)           | none                 |
 
-Each policy is built from its config (`configs.py`) and its tokenizer's config alone
-(`factory.py`); `obs_dim` is the width of proprio and object state concatenated, or a
-mapping of keys to shapes (`{"proprio": 9, "object": 10, "rgb": (2, 84, 84, 3)}`), or an
-`ObsSpec`. Importing this package imports no torch: `make_policy`, `build_policy` and
-`REGISTRY` (name -> policy class) load the policy modules on first use.
+Each policy is built from its config (`configs.py`) and its tokenizer's config alone.
+Importing this package imports no torch: `make_policy`, `build_policy` and `REGISTRY` load
+the policy modules on first use.
 """
 
 from __future__ import annotations
@@ -24,7 +22,6 @@ from icil_paper.policies.configs import (
     POLICY_CONFIGS,
     PolicyConfig,
     default_policy_config,
-    policy_label,
     register_policy,
     register_policy_model,
     resolve_tokenizer,
@@ -43,5 +40,5 @@ def __getattr__(name: str):
 
 
 __all__ = ["POLICIES", "REGISTRY", "PolicyConfig", "build_policy", "default_policy_config",
-           "make_policy", "policy_label", "register_policy", "register_policy_model",
+           "make_policy", "register_policy", "register_policy_model",
            "resolve_tokenizer"]

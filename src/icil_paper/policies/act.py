@@ -7,21 +7,17 @@ Plain ACT (`tokenizer=None`): a conditional VAE over the action chunk.
                     K learned queries ─ DETR decoder (self-attn, cross-attn to memory) ─> â_t .. â_(t+K-1)
     loss = L1(â, a) + kl_weight * KL(N(mu, sigma) || N(0, I));   at inference z = 0
 
-At inference overlapping chunks are averaged with ACT's temporal ensembling
-(`ACTConfig.ensemble_m`). The blocks are this library's Llama-style blocks with learned
-position embeddings instead of DETR's sine embeddings.
+At inference overlapping chunks are averaged (temporal ensembling). The blocks are this
+library's Llama-style blocks with learned position embeddings.
 
-ACT + tokenizer (`tokenizer="lipvq"` etc.). The paper replaces "ACT's cVAE action encoder"
-with each tokenizer and says no more; our reading: the tokenizer's latent is what the policy
-predicts, and actions are its decoding:
+ACT + tokenizer. The paper replaces "ACT's cVAE action encoder" with each tokenizer; our
+reading: the policy predicts the tokenizer's latent, and actions are its decoding:
 
     memory = [state token, camera tokens...]      (no CVAE and no z)
     K queries ─ decoder ─ Linear ─> ẑ (B, K, D_tok) ─ tokenizer.decode ─> â (B, K, A)
     loss = L1(â, a) + MSE(ẑ, sg[tokenizer(a).embeddings]) + tokenizer losses
 
-`tokenizer.decode` is the tokenizer's own decoder for mlp, vq, lipvq and lfq, and a learned
-MLP head for bin and FAST (whose inverses start from discrete codes, which a regressed
-latent does not give). The target is detached; the tokenizer learns through its own losses.
+The target is detached; the tokenizer learns through its own losses.
 """
 
 from __future__ import annotations
@@ -76,7 +72,6 @@ class ACT(BatchedPolicy):
         self.decoder = nn.ModuleList([DecoderBlock(cfg) for _ in range(config.n_layer)])
         self.dec_norm = RMSNorm(D)
         self.head = mlp([D, D, out_dim], nn.GELU)
-        self.ensemble = TemporalEnsemble(K, config.ensemble_m)
 
     # ------------------------------------------------------------------ model
     def _cvae_posterior(self, obs: Mapping[str, Tensor], actions: Tensor,
@@ -147,18 +142,17 @@ class ACT(BatchedPolicy):
 
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
-        """Start B = len(prompts) episodes (prompts are ignored), one temporal ensemble each."""
+        """Start B = len(prompts) episodes (prompts ignored), one temporal ensemble each."""
         texts = [t or "" for t in batch_instructions(prompts, instructions)]
         self.begin_episodes(texts)
         self._ensembles = [TemporalEnsemble(self.chunk_size, self.config.ensemble_m)
                            for _ in texts]
-        self.ensemble = self._ensembles[0]
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
                        rows: Sequence[int] | None = None) -> np.ndarray:
         """One step of B episodes: their chunks in one forward pass, then each episode's
-        temporal ensemble; obs[i] is episode rows[i]'s observation (default: all)."""
+        temporal ensemble; obs[i] is episode rows[i]'s (default: all)."""
         keep = self.keep_rows(rows, len(obs))
         if keep is not None:
             self._ensembles = [self._ensembles[i] for i in keep.tolist()]

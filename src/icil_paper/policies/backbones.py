@@ -6,20 +6,12 @@
                  └─ per camera: ResNet-18 ─ avgpool ─ concat ───┘
     instruction ─ hashed bag of words ─ EmbeddingBag ──────────────────────────────┘ (optional)
 
-- Low-dimensional state (proprioception and object state) goes through an MLP, after a
-  per-dimension normalization whose mean and standard deviation are fitted on the training
-  demonstrations (`ObservationEncoder.set_stats`) and saved with the weights.
-- Images go through the library's own ResNet-18 (`ResNet18`). Its module names and shapes
-  follow torchvision's `resnet18` exactly (conv1, bn1, layer1..4, fc), because torchvision
-  itself does not load against the CPU build of torch this project uses; with `norm="batch"`
-  and `width=64` a torchvision state dict would load into it. Policies use GroupNorm
-  (`norm="group"`) by default, as diffusion_policy does: batch statistics are a poor fit for
-  small batches of highly correlated frames, and GroupNorm makes a token independent of the
-  rest of the batch. No pretrained weights are available offline, so it trains from scratch.
-- The paper embeds language with CLIP; no pretrained text encoder can be downloaded here, so
-  the optional language embedding (`HashedTextEmbedding`) is a learned bag of words: each
-  lower-cased word is hashed (CRC-32) into one of `n_buckets` learned vectors and the vectors
-  are averaged. It tells tasks apart by their instruction, but knows nothing of word meaning.
+- Low-dimensional state is normalized with statistics fitted on the training
+  demonstrations (`ObservationEncoder.set_stats`, saved with the weights).
+- Images go through the library's own ResNet-18, laid out as torchvision's `resnet18`, with
+  GroupNorm by default (as diffusion_policy), trained from scratch.
+- The paper embeds language with CLIP; offline, `HashedTextEmbedding` stands in: a learned
+  bag of words, each lower-cased word hashed (CRC-32) into one of `n_buckets` vectors.
 """
 
 from __future__ import annotations
@@ -36,7 +28,6 @@ from icil_paper.layers import mlp
 from icil_paper.policies.batching import ObsSpec
 
 
-# --------------------------------------------------------------------------- MLP
 # --------------------------------------------------------------------------- ResNet-18
 def _norm2d(kind: str, channels: int) -> nn.Module:
     if kind == "batch":
@@ -48,8 +39,6 @@ def _norm2d(kind: str, channels: int) -> nn.Module:
 
 class BasicBlock(nn.Module):
     """torchvision's BasicBlock: two 3x3 convolutions and a residual connection."""
-
-    expansion = 1
 
     def __init__(self, inplanes: int, planes: int, stride: int = 1, norm: str = "group"):
         super().__init__()
@@ -73,11 +62,8 @@ class BasicBlock(nn.Module):
 class ResNet18(nn.Module):
     """ResNet-18 with torchvision's layout; returns pooled features (N, 8 * width).
 
-    Args:
-        in_channels: 3 for RGB, 4 for RGB-D (depth as a fourth channel).
-        width: channels of the first stage (torchvision: 64); stages are width x (1, 2, 4, 8).
-        norm: "group" (default, batch-independent) or "batch" (torchvision's).
-        num_classes: size of the final `fc` layer, or None for no classifier (features only).
+    in_channels: 3 for RGB, 4 for RGB-D; width: first-stage channels (torchvision: 64);
+    norm: "group" or "batch" (torchvision's); num_classes: size of `fc` (None: features).
     """
 
     def __init__(self, in_channels: int = 3, width: int = 64, norm: str = "group",
@@ -122,7 +108,7 @@ def hash_words(text: str, n_buckets: int) -> list[int]:
 
 
 class HashedTextEmbedding(nn.Module):
-    """A learned bag-of-words embedding of an instruction (stands in for CLIP; see module doc)."""
+    """A learned bag-of-words embedding of an instruction (stands in for CLIP)."""
 
     def __init__(self, dim: int, n_buckets: int = 4096):
         super().__init__()
@@ -140,17 +126,11 @@ class HashedTextEmbedding(nn.Module):
 
 # --------------------------------------------------------------------------- the encoder
 class ObservationEncoder(nn.Module):
-    """Observation dict (B, T, ...) -> one token per step (B, T, D). See the module docstring.
+    """Observation dict (B, T, ...) -> one token per step (B, T, D).
 
-    Args:
-        spec: which keys and sizes (ObsSpec).
-        d_model: token width D.
-        hidden: width of the low-dimensional MLP.
-        resnet_width: first-stage width of the ResNet-18 (64 is torchvision's).
-        language: add the hashed instruction embedding to every token.
-        separate: return one token per part instead of one fused token per step:
-            (B, T, n_parts, D) with parts [low-dimensional state, camera 1, camera 2, ...,
-            instruction] (ACT's encoder reads its observation this way).
+    hidden: width of the low-dimensional MLP; language: add the instruction embedding;
+    separate: one token per part instead, (B, T, n_parts, D) with parts [state, camera 1,
+    ..., instruction] (ACT's encoder reads its observation this way).
     """
 
     def __init__(self, spec: ObsSpec, d_model: int, hidden: int = 256, resnet_width: int = 64,

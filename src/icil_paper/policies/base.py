@@ -10,16 +10,11 @@
     actions = policy.select_actions([obs_0, obs_1, obs_2])  # (B, A): one batched forward
     actions = policy.select_actions([obs_0, obs_2], rows=[0, 2])  # episode 1 has finished
 
-`reset_batch` / `select_actions` run B episodes in lockstep (the rollout engine,
-`icil_paper.eval.rollouts`). ICRT, ACT, BC-Transformer and MCR implement them with one batched
-forward pass per step; for any other policy the default here keeps one copy of the policy
-per episode and loops over `select_action`.
+`reset_batch` / `select_actions` run B episodes in lockstep: one batched forward pass per
+step (`BatchedPolicy`), or by default one copy of the policy per episode.
 
-A policy is built from its config alone (`policy.config`, a dataclass of
-`icil_paper.policies.configs`), its tokenizer's config (`policy.tokenizer_config`) and the
-data's shapes; `policy.spec` holds all of it as JSON-ready data, so that
-`factory.build_policy(policy.spec)` rebuilds an empty copy (evaluation workers and saved policies
-use it with the state dict).
+A policy is built from its config, its tokenizer's config and the data's shapes;
+`policy.spec` holds them as JSON-ready data, from which `factory.build_policy` rebuilds it.
 """
 
 from __future__ import annotations
@@ -34,7 +29,7 @@ from torch import Tensor, nn
 
 from icil_paper.config_data import to_dict
 from icil_paper.policies.backbones import ObservationEncoder
-from icil_paper.policies.batching import DemoSet, ObsSpec, as_demo_set, as_obs_spec, obs_batch
+from icil_paper.policies.batching import DemoSet, ObsSpec, as_obs_spec, check_demo, obs_batch
 from icil_paper.policies.configs import PolicyConfig
 from icil_paper.tokenizers import make_tokenizer
 from icil_paper.tokenizers.configs import TokenizerConfig
@@ -47,8 +42,7 @@ class Policy(nn.Module):
     """Base class of ICRT and the baselines.
 
     Subclasses set `name` and `uses_prompt` (when `reset` takes prompt demonstrations), and
-    implement `sample_batch`, `forward`, `reset` and `select_action`; what a policy takes (a
-    tokenizer, images) is stated on its config class (`configs.PolicyConfig`).
+    implement `sample_batch`, `forward`, `reset` and `select_action`.
     """
 
     name: str = "policy"
@@ -66,7 +60,10 @@ class Policy(nn.Module):
         self.action_dim = int(action_dim)
         self.config = config
         self.tokenizer_config = tokenizer
-        self.spec = policy_spec(config, tokenizer, self.obs_spec, self.action_dim)
+        # what rebuilds the policy (`factory.build_policy`), as JSON-ready data
+        self.spec = {"policy": to_dict(config),
+                     "tokenizer": to_dict(tokenizer) if tokenizer else None,
+                     "obs_spec": self.obs_spec.to_dict(), "action_dim": self.action_dim}
         self.instruction = ""
 
     # ---------------------------------------------------------------- shared parts
@@ -79,14 +76,9 @@ class Policy(nn.Module):
                                   separate=separate)
 
     def make_tokenizer(self) -> nn.Module | None:
-        """The action tokenizer `tokenizer_config` describes (None without one).
-
-        Common random numbers: it is built from a random stream of its own, forked from
-        torch's (seeded from the seed torch was last seeded with), so that building it
-        draws nothing from the stream the rest of the policy is built from. Under one
-        training seed every row of a policy then starts from the same backbone, whatever its
-        tokenizer, and twins (`lip-mlp` and `mlp`, `lipvq` and `vq`, ... with the presets'
-        `weight_init="linear"`) start from the same tokenizer weights."""
+        """The action tokenizer `tokenizer_config` describes (None without one), built from a
+        random stream of its own, so that under one seed every tokenizer gets the same
+        backbone (common random numbers)."""
         if self.tokenizer_config is None:
             return None
 
@@ -108,11 +100,9 @@ class Policy(nn.Module):
     # ---------------------------------------------------------------- training
     def prepare(self, demos: DemoSet | Sequence[Any], pretrain: bool = True,
                 progress: bool = False) -> DemoSet:
-        """Fit what depends on the training data: normalization statistics and, if there is
-        a tokenizer that needs it, `tokenizer.fit` on the training actions. `pretrain=False`
-        skips expensive pre-training (MCR) when resuming from a checkpoint that holds it.
-        Returns the demonstrations as a DemoSet."""
-        data = as_demo_set(demos, self.obs_spec)
+        """Fit normalization statistics and the tokenizer (if it needs fitting) to the
+        training data; `pretrain=False` skips pre-training (MCR). Returns a DemoSet."""
+        data = demos if isinstance(demos, DemoSet) else DemoSet(demos, self.obs_spec)
         if data.action_dim != self.action_dim:
             raise ValueError(f"demonstrations have action dimension {data.action_dim}, the "
                              f"policy expects {self.action_dim}")
@@ -149,13 +139,8 @@ class Policy(nn.Module):
     # ---------------------------------------------------------------- acting, batched
     def reset_batch(self, prompts: Sequence[Any], instructions: Sequence[str | None] | None = None
                     ) -> None:
-        """Start B = len(prompts) episodes at once: prompts[b] and instructions[b] are what
-        `reset` takes for episode b (None entries: no prompt, the default instruction).
-
-        This default keeps one copy of the policy per episode (B = 1: the policy itself) and
-        `select_actions` loops over their `select_action`; policies with a batched forward
-        pass override both.
-        """
+        """Start B = len(prompts) episodes at once (prompts[b], instructions[b] as `reset`
+        takes them); this default keeps one copy of the policy per episode."""
         instructions = batch_instructions(prompts, instructions)
         replicas = [self] if len(prompts) == 1 else [self._replica() for _ in prompts]
         for policy, prompt, text in zip(replicas, prompts, instructions, strict=True):
@@ -164,9 +149,8 @@ class Policy(nn.Module):
 
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
                        rows: Sequence[int] | None = None) -> np.ndarray:
-        """One step of the episodes started by `reset_batch`: obs[i] is the observation of
-        episode rows[i] (default: every episode, in order). An episode left out of `rows`
-        has finished and must not come back. Returns (len(obs), A) float32 actions."""
+        """One step of the episodes of `reset_batch`: obs[i] is episode rows[i]'s observation
+        (default: all, in order; a finished episode is left out). Returns (len(obs), A)."""
         replicas = getattr(self, "_replicas", None)
         if replicas is None:
             raise RuntimeError("call reset_batch(prompts) before select_actions")
@@ -177,33 +161,12 @@ class Policy(nn.Module):
                          for r, o in zip(rows, obs, strict=True)])
 
     def _replica(self) -> Policy:
-        """A deep copy of this policy for one episode of the default batched acting."""
         saved = self.__dict__.pop("_replicas", None)
         try:
             return copy.deepcopy(self)
         finally:
             if saved is not None:
                 self._replicas = saved
-
-    def _keep_rows(self, rows: Sequence[int] | None, n_obs: int) -> Tensor | None:
-        """Row bookkeeping of a batched `select_actions`: check `rows` against the episodes
-        still running (`self._rows`, set by `reset_batch`); when some have finished, return
-        the positions of the remaining ones in the batched state (to keep those rows), else
-        None."""
-        current = getattr(self, "_rows", None)
-        if current is None:
-            raise RuntimeError("call reset(prompt=...) or reset_batch(...) before select_action")
-        rows = list(current) if rows is None else [int(r) for r in rows]
-        if len(rows) != n_obs:
-            raise ValueError(f"{n_obs} observations for {len(rows)} rows")
-        if rows == current:
-            return None
-        where = {r: i for i, r in enumerate(current)}
-        if any(r not in where for r in rows) or rows != sorted(rows):
-            raise ValueError(f"rows {rows} must be increasing and among the running episodes "
-                             f"{current} (a finished episode cannot come back)")
-        self._rows = rows
-        return torch.tensor([where[r] for r in rows], dtype=torch.long, device=self.device)
 
     def n_params(self) -> int:
         return sum(p.numel() for p in self.parameters())
@@ -212,11 +175,8 @@ class Policy(nn.Module):
 class BatchedPolicy(Policy):
     """A policy that acts for B episodes in one forward pass (ICRT and the baselines).
 
-    Subclasses implement `reset_batch` (calling `begin_episodes` with the episodes'
-    instructions, then setting up their own per-episode state) and `select_actions`
-    (calling `keep_rows` first, which drops finished episodes from the instructions and
-    returns the positions of the remaining ones in their state). A single episode is the
-    batch of one: `reset` and `select_action` are defined here from those two.
+    Subclasses implement `reset_batch` (calling `begin_episodes` first) and `select_actions`
+    (calling `keep_rows` first); `reset` and `select_action` are the batch of one.
     """
 
     def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
@@ -233,18 +193,25 @@ class BatchedPolicy(Policy):
         self._rows = list(range(len(texts)))
 
     def keep_rows(self, rows: Sequence[int] | None, n_obs: int) -> Tensor | None:
-        """`_keep_rows`, and the finished episodes' instructions dropped."""
-        keep = self._keep_rows(rows, n_obs)
-        if keep is not None:
-            self._instructions = [self._instructions[i] for i in keep.tolist()]
+        """Check `rows` against the running episodes; when some have finished, drop their
+        instructions and return the positions of the remaining ones in the batched state
+        (else None)."""
+        current = getattr(self, "_rows", None)
+        if current is None:
+            raise RuntimeError("call reset(prompt=...) or reset_batch(...) before select_action")
+        rows = list(current) if rows is None else [int(r) for r in rows]
+        if len(rows) != n_obs:
+            raise ValueError(f"{n_obs} observations for {len(rows)} rows")
+        if rows == current:
+            return None
+        where = {r: i for i, r in enumerate(current)}
+        if any(r not in where for r in rows) or rows != sorted(rows):
+            raise ValueError(f"rows {rows} must be increasing and among the running episodes "
+                             f"{current} (a finished episode cannot come back)")
+        self._rows = rows
+        keep = torch.tensor([where[r] for r in rows], dtype=torch.long, device=self.device)
+        self._instructions = [self._instructions[i] for i in keep.tolist()]
         return keep
-
-
-def policy_spec(config: PolicyConfig, tokenizer: TokenizerConfig | None, obs_spec: ObsSpec,
-                action_dim: int) -> dict[str, Any]:
-    """What rebuilds a policy, as JSON-ready data: its config, its tokenizer's, the shapes."""
-    return {"policy": to_dict(config), "tokenizer": to_dict(tokenizer) if tokenizer else None,
-            "obs_spec": obs_spec.to_dict(), "action_dim": int(action_dim)}
 
 
 def batch_instructions(prompts: Sequence[Any], instructions: Sequence[str | None] | None
@@ -268,11 +235,8 @@ def masked_l1(pred: Tensor, target: Tensor, valid: Tensor) -> Tensor:
 
 
 class TemporalEnsemble:
-    """ACT's temporal ensembling of overlapping action chunks.
-
-    Every step the policy predicts a chunk of K actions; the action for step t averages every
-    earlier prediction for t, with weights exp(-m i) where i = 0 is the oldest prediction.
-    """
+    """ACT's temporal ensembling: the action for step t averages every earlier chunk's
+    prediction for t, with weights exp(-m i), i = 0 the oldest."""
 
     def __init__(self, chunk_size: int, m: float = 0.01):
         self.chunk_size, self.m = chunk_size, m
@@ -292,10 +256,8 @@ class TemporalEnsemble:
 
 
 def validate_prompt(prompt: Any, spec: ObsSpec, action_dim: int) -> list[Any]:
-    """Check prompt demonstrations; return them as a list. Raises ValueError naming the problem.
-
-    A prompt is a Demo-like object (fields `actions` (T, A) and `obs`), or a list of them.
-    """
+    """Prompt demonstrations (a Demo-like object with `actions` (T, A) and `obs`, or a list of
+    them) checked, as a list; ValueError naming the problem."""
     if prompt is None:
         raise ValueError("this policy needs a prompt: reset(prompt=...) with one or more "
                          "demonstrations of the task")
@@ -312,14 +274,8 @@ def validate_prompt(prompt: Any, spec: ObsSpec, action_dim: int) -> list[Any]:
         if a.shape[1] != action_dim:
             raise ValueError(f"wrong action dimension in the prompt: demonstration {i} has "
                              f"{a.shape[1]}-dimensional actions, the policy expects {action_dim}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"prompt demonstration {i} has NaN or inf actions")
+        check_demo(i, d, spec.keys, action_dim, what="prompt demonstration")
         for k in spec.keys:
-            if k not in d.obs:
-                raise ValueError(f"prompt demonstration {i} lacks observation key {k!r}")
-            if len(d.obs[k]) != len(a):
-                raise ValueError(f"prompt demonstration {i}: obs[{k!r}] has {len(d.obs[k])} steps "
-                                 f"but there are {len(a)} actions")
             values = np.asarray(d.obs[k])
             if values.dtype.kind == "f" and not np.isfinite(values).all():
                 raise ValueError(f"prompt demonstration {i}: obs[{k!r}] contains NaN or inf")

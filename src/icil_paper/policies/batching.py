@@ -6,8 +6,7 @@
 
 ICRT's token layout (Eq. 1, with the query's own actions in context as in ICRT's code). The
 prompt is one or more demonstrations of the task, the query a window of `query_len` steps of
-another demonstration of the same task (`prompt_from="minibatch"`, the official code's
-rule: prompts from the same random minibatch, whatever their task):
+another demonstration of the same task:
 
     prompt (M steps, no loss)                        query (N steps, loss)
      o_p1  a_p1  o_p2  a_p2 ... o_pM  a_pM            o_q1  a_q1  o_q2  a_q2 ... o_qN  a_qN
@@ -16,17 +15,14 @@ rule: prompts from the same random minibatch, whatever their task):
            itself and every token to its left        â_q1..â_q(K) â_q2..         â_qN..
 
 The head reads only the query's observation tokens, so o_qt never sees a_qt, the action it
-predicts. Batches are padded at the end of short prompts and queries; `prompt_valid` /
-`query_valid` mark real steps. A baseline's window is drawn in `window_batch`.
-
-`ObsSpec` names the observation keys and shapes a policy reads (`as_obs_spec` builds one).
-Every sampler draws from a NumPy Generator, so a batch sequence is reproducible.
+predicts. Short prompts and queries are padded at the end; `prompt_valid` / `query_valid`
+mark real steps. Every sampler draws from a NumPy Generator.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -52,8 +48,6 @@ class ObsSpec:
     """(n_cams, H, W) of the "rgb" key, or None for state-only observations."""
     depth: bool = False
     """Whether a "depth" key (n_cams, H, W) accompanies the images (RGB-D)."""
-    lowdim_dims: tuple[int, ...] | None = field(default=None, compare=False)
-    """Width of each low-dimensional key when known (for error messages only)."""
 
     @property
     def has_images(self) -> bool:
@@ -75,13 +69,9 @@ class ObsSpec:
 
 
 def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
-    """Normalize the `obs_dim` argument of `make_policy`.
-
-    - an int: the width of proprio and object state concatenated (state observations);
-    - a mapping key -> size or shape, e.g. {"proprio": 9, "object": 10} or
-      {"proprio": (9,), "object": (10,), "rgb": (2, 84, 84, 3), "depth": (2, 84, 84)};
-    - an ObsSpec.
-    """
+    """The ObsSpec of `make_policy`'s `obs_dim`: an int (proprio and object state widths
+    summed), a mapping key -> size or shape (`{"proprio": 9, "rgb": (2, 84, 84, 3)}`) or an
+    ObsSpec."""
     if isinstance(obs_dim, ObsSpec):
         return obs_dim
     if isinstance(obs_dim, (int, np.integer)):
@@ -101,28 +91,29 @@ def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
             raise ValueError("a depth observation needs an rgb observation beside it")
         if not lowdim and image is None:
             raise ValueError(f"no observation keys in {dict(obs_dim)}")
-        return ObsSpec(tuple(lowdim), sum(lowdim.values()), image, "depth" in obs_dim,
-                       tuple(lowdim.values()))
+        return ObsSpec(tuple(lowdim), sum(lowdim.values()), image, "depth" in obs_dim)
     raise TypeError(f"obs_dim must be an int, a mapping or an ObsSpec, got {type(obs_dim)}")
 
 
-def obs_spec_from_obs(obs: Mapping[str, np.ndarray], time_axis: bool = True) -> ObsSpec:
-    """The ObsSpec of an observation dict; with `time_axis` the arrays are (T, ...)."""
+def obs_spec_from_obs(obs: Mapping[str, np.ndarray]) -> ObsSpec:
+    """The ObsSpec of an observation dict of (T, ...) arrays."""
     keys = [k for k in DEFAULT_LOWDIM_KEYS + IMAGE_KEYS if k in obs]
     if not keys:
         raise ValueError(f"observation has none of the keys {DEFAULT_LOWDIM_KEYS + IMAGE_KEYS}; "
                          f"it has {sorted(obs)}")
-    return as_obs_spec({k: tuple(np.shape(obs[k])[1:] if time_axis else np.shape(obs[k]))
-                        for k in keys})
+    return as_obs_spec({k: tuple(np.shape(obs[k])[1:]) for k in keys})
 
 
 # --------------------------------------------------------------------------- demonstrations
-def _check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int | None) -> None:
-    name = f"demonstration {i} ({getattr(demo, 'task', '?')})"
+def check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int,
+               what: str = "demonstration") -> None:
+    """ValueError naming what is wrong with demonstration `i`: its actions (T, A), or one of
+    its observations `keys` (missing, or of another length)."""
+    name = f"{what} {i} ({getattr(demo, 'task', '?')})"
     actions = np.asarray(demo.actions)
     if actions.ndim != 2 or len(actions) == 0:
         raise ValueError(f"{name}: actions must be a non-empty (T, A) array, got shape {actions.shape}")
-    if action_dim is not None and actions.shape[1] != action_dim:
+    if actions.shape[1] != action_dim:
         raise ValueError(f"{name}: actions have dimension {actions.shape[1]}, expected {action_dim}")
     if not np.isfinite(actions).all():
         raise ValueError(f"{name}: actions contain NaN or inf")
@@ -137,10 +128,8 @@ def _check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int | None) 
 class DemoSet:
     """Demonstrations held as arrays, grouped by task, ready to be sampled into batches.
 
-    Args:
-        demos: Demo-like objects (fields `actions` (T, A), `obs` {key: (T, ...)}, `task`,
-            `instruction`).
-        spec: the observation keys to keep; by default inferred from the first demo.
+    demos: Demo-like objects (`actions` (T, A), `obs` {key: (T, ...)}, `task`, `instruction`);
+    spec: the observation keys to keep (default: the first demo's).
     """
 
     def __init__(self, demos: Sequence[Any], spec: ObsSpec | None = None):
@@ -150,7 +139,7 @@ class DemoSet:
         self.spec = spec or obs_spec_from_obs(demos[0].obs)
         self.action_dim = int(np.asarray(demos[0].actions).shape[1])
         for i, d in enumerate(demos):
-            _check_demo(i, d, self.spec.keys, self.action_dim)
+            check_demo(i, d, self.spec.keys, self.action_dim)
         self.actions = [np.asarray(d.actions, np.float32) for d in demos]
         self.obs = [{k: _as_stored(k, d.obs[k]) for k in self.spec.keys} for d in demos]
         self.tasks = [str(getattr(d, "task", "task")) for d in demos]
@@ -185,10 +174,6 @@ def _as_stored(key: str, x: np.ndarray) -> np.ndarray:
     return x.astype(np.float32, copy=False)
 
 
-def as_demo_set(demos: DemoSet | Sequence[Any], spec: ObsSpec | None = None) -> DemoSet:
-    return demos if isinstance(demos, DemoSet) else DemoSet(demos, spec)
-
-
 # --------------------------------------------------------------------------- helpers
 def _take(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """x[idx] with idx clamped into range (edge padding)."""
@@ -201,9 +186,7 @@ def _stack_obs(rows: list[dict[str, np.ndarray]]) -> dict[str, Tensor]:
 
 def _pad_end(x: np.ndarray, length: int) -> np.ndarray:
     """Pad (T, ...) to (length, ...) by repeating the last row."""
-    if len(x) >= length:
-        return x[:length]
-    return np.concatenate([x, np.repeat(x[-1:], length - len(x), axis=0)])
+    return _take(x, np.arange(length))
 
 
 def chunk_targets(actions: np.ndarray, steps: np.ndarray, chunk: int) -> tuple[np.ndarray, np.ndarray]:
@@ -218,22 +201,17 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
                        prompt_demos: int, rng: np.random.Generator,
                        action_context: int = 0, query_start: str = "random",
                        prompt_from: str = "same_task") -> dict[str, Any]:
-    """Sample B (prompt, query) pairs, of the same task by default (see the module docstring).
+    """Sample B (prompt, query) pairs (see the module docstring).
 
     Returns a dict of tensors (padded; B batch, M prompt steps, N query steps, K chunk):
         prompt_obs {key: (B, M, ...)}, prompt_actions (B, M, A), prompt_valid (B, M) bool,
         query_obs {key: (B, N, ...)}, query_actions (B, N, A), query_valid (B, N) bool,
-        targets (B, N, K, A), target_valid (B, N, K) bool (False past a demo's end or on
-        padding), instruction [B strings], and with `action_context` = c > 0
-        query_action_context (B, c, A), the c actions before each query window (edge-padded
-        with the first action at an episode's start).
-    The prompt is `prompt_demos` other demonstrations of the query's task (the query's own
-    demonstration only when the task has no other); with `prompt_from="minibatch"`,
-    `prompt_demos` other demonstrations of the same random minibatch, whatever their task
-    (with repeats only when the data set has fewer than (prompt_demos + 1) B
-    demonstrations). The query window holds `query_len`
-    steps (0: the whole episode) and starts uniformly at random in its episode
-    (`query_start="random"`) or at step 0 (`"episode_start"`, as a rollout does).
+        targets (B, N, K, A), target_valid (B, N, K) bool, instruction [B strings], and with
+        `action_context` = c > 0 query_action_context (B, c, A), the c actions before each
+        query window (edge-padded).
+    The prompt is `prompt_demos` other demonstrations of the query's task (`prompt_from=
+    "minibatch"`: of the same random minibatch). The query window holds `query_len` steps
+    (0: the whole episode) and starts at random or at step 0 (`query_start`).
     """
     if prompt_demos < 1:
         raise ValueError(f"prompt_demos must be at least 1, got {prompt_demos}")
@@ -289,9 +267,8 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
 
 def _minibatch_pairs(n_demos: int, batch_size: int, prompt_demos: int,
                     rng: np.random.Generator) -> list[tuple[int, list[int]]]:
-    """The official code's pairing: (query, prompt demonstrations) for B queries, from one
-    random minibatch of (P + 1) B demonstrations (distinct where there are enough), whose
-    first P B prompt the last B, P each in order; tasks are not looked at."""
+    # the official code's pairing: of (P + 1) B random demonstrations, the first P B prompt
+    # the last B, whatever their tasks
     n = (prompt_demos + 1) * batch_size
     drawn = rng.choice(n_demos, size=n, replace=n_demos < n)
     prompts = drawn[:prompt_demos * batch_size].reshape(batch_size, prompt_demos)
@@ -310,10 +287,9 @@ def window_batch(data: DemoSet, batch_size: int, history: int, chunk_size: int,
         o_(t-H+1) ... o_(t-1)  o_t                     a_t  a_(t+1) ... a_(t+K-1)
         a_(t-H+1) ... a_(t-1)  a_t   (per-step targets)   (masked past the episode's end)
 
-    Returns: obs {key: (B, H, ...)} (edge-padded at the episode start), obs_valid (B, H)
-    (False for padded history steps), actions (B, H, A) the action taken at each history
-    step, targets (B, K, A) and target_valid (B, K) for a_t .. a_(t+K-1), instruction [B],
-    index (demonstration indices (B,), step indices (B,)) as NumPy arrays.
+    Returns: obs {key: (B, H, ...)}, obs_valid (B, H) (False for padded history), actions
+    (B, H, A), targets (B, K, A) and target_valid (B, K), instruction [B], index (demo
+    indices (B,), step indices (B,)) as NumPy arrays.
     """
     flat = rng.integers(0, data.n_steps, size=batch_size)
     demo_idx, step_idx = data.step_index(flat)
@@ -351,8 +327,8 @@ def batch_to(batch: Mapping[str, Any], device: torch.device | str) -> dict[str, 
     return out
 
 
-def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec, time_axis: bool = False) -> dict[str, Tensor]:
-    """An environment observation (or a (T, ...) sequence with `time_axis`) -> {key: (1, T, ...)}."""
+def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec) -> dict[str, Tensor]:
+    """An environment observation -> {key: (1, 1, ...)}."""
     out = {}
     for k in spec.keys:
         if k not in obs:
@@ -362,12 +338,9 @@ def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec, time_axis: bool = Fa
         if x.dtype.kind == "f" and not np.isfinite(x).all():
             raise ValueError(f"observation {k!r} contains NaN or inf; a policy acting on it "
                              "would return NaN actions (check the environment's state)")
-        x = _as_stored(k, x)
-        if not time_axis:
-            x = x[None]
-        out[k] = torch.from_numpy(np.ascontiguousarray(x))[None]
+        out[k] = torch.from_numpy(np.ascontiguousarray(_as_stored(k, x)))[None, None]
     return out
 
 
-__all__ = ["DemoSet", "as_demo_set", "prompt_query_batch",
+__all__ = ["DemoSet", "prompt_query_batch",
            "window_batch", "chunk_targets", "batch_to", "obs_batch", "IMAGE_KEYS"]

@@ -9,13 +9,9 @@
       head        head    head ──> â_t   (executed)
     â_(t-H+1)    â_(t-1)
 
-As in robomimic, every step of the window is supervised (`supervise_all_steps`) and the
-history is padded at an episode's start by repeating the first observation, at training
-and at inference alike. robomimic's head is a 5-mode GMM; ours regresses the action with an
-L1 loss, the same loss as ICRT and ACT here, so that the comparison is about context and
-not about the output distribution. It sees no prompt: `reset(prompt)` ignores the prompt.
-`reset_batch` / `select_actions` keep a (B, H) window of observation tokens for B episodes
-and act for all of them with one forward pass.
+As in robomimic, every step of the window is supervised and the history is padded at an
+episode's start by repeating the first observation. robomimic's head is a 5-mode GMM; ours
+regresses the action with ICRT's and ACT's L1 loss. It ignores prompts.
 """
 
 from __future__ import annotations
@@ -74,8 +70,7 @@ class BCTransformer(BatchedPolicy):
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
                        rows: Sequence[int] | None = None) -> np.ndarray:
-        """One step of B episodes in one forward pass over their (B, H) histories; obs[i] is
-        episode rows[i]'s observation (default: all); episodes left out have finished."""
+        """One step of B episodes in one forward pass over their (B, H) histories."""
         keep = self.keep_rows(rows, len(obs))
         if keep is not None and self._history is not None:
             self._history = self._history[keep]

@@ -1,18 +1,13 @@
 """One config dataclass per policy; `make_policy(config, obs_spec, action_dim, tokenizer)` builds from it.
 
-Torch-free, so that presets, the command line and result keys can hold policy configs
-without importing the models. Each config class is registered once, by
-`@register_policy(name)`, which sets its class-level `type` (the registry name); the model
-class beside it registers with `@register_policy_model(name)`. What a policy takes (a
-tokenizer, images) is stated on its config class, so that run specs read it without torch.
+Torch-free, so that presets, the command line and result keys hold policy configs without
+importing the models. `@register_policy(name)` registers a config class and sets its `type`;
+the model class registers with `@register_policy_model(name)`.
 
     from icil_paper.policies import make_policy
     from icil_paper.policies.configs import ICRTConfig
     from icil_paper.tokenizers.configs import LipVQConfig
     policy = make_policy(ICRTConfig(d_model=64), obs_spec, 7, LipVQConfig(latent_dim=32))
-
-The paper scales ACT down to BC-Transformer's size (Sec. IV-A), so the presets give every
-policy the same transformer sizes.
 """
 
 from __future__ import annotations
@@ -25,9 +20,7 @@ from icil_paper.registry import ComponentRegistry, check_name
 from icil_paper.tokenizers.configs import default_config
 
 PROMPT_FROM = ("same_task", "minibatch")
-"""Where a training query's prompt comes from (`ICRTConfig.prompt_from`, whose choices
-these are): a demonstration of the same task (the paper) or the first half of the same
-random minibatch (the official code; `batching.prompt_query_batch` builds either)."""
+"""The choices of `ICRTConfig.prompt_from`."""
 
 
 @dataclass(frozen=True)
@@ -54,12 +47,7 @@ class PolicyConfig:
     resnet_width: int = 64
     """First-stage channels of the ResNet-18 image backbone (torchvision's is 64)."""
     language: bool = False
-    """Add a learned hashed bag-of-words embedding of the task's language instruction to
-    every observation token (`backbones.HashedTextEmbedding`; it stands in for the paper's
-    CLIP, which cannot be downloaded here). The paper conditions every policy on the
-    instruction (Sec. III-B), so every preset sets it for every policy; ICRT reads its
-    prompt besides. False (a bare config's default) gives a policy no task information but
-    what it sees (and ICRT its prompt): the older presets' baselines."""
+    """Add a bag-of-words instruction embedding to every observation token (CLIP's stand-in)."""
 
     def __post_init__(self) -> None:
         check_fields(self)  # ranges, empty values, CHOICES: before any work
@@ -74,19 +62,15 @@ class PolicyConfig:
         return self.type
 
     def check_episode_length(self, longest: int) -> None:
-        """Refuse (ConfigError naming the field and the fix) a config that cannot train on
-        episodes of up to `longest` steps; called once the data sets' lengths are known,
-        before any run folder or training step. Nothing to check for most policies."""
+        """Refuse (ConfigError) a config that cannot train on episodes of `longest` steps."""
 
 
 POLICY_REGISTRY = ComponentRegistry("policy", PolicyConfig, "icil_paper.policies")
-"""Every policy by name: its config class (`configs`) and its model class (the mapping; the
-models register as `icil_paper.policies.factory` imports them). The preset's `policies`
-section and the CLI's choices are derived from it."""
+"""Every policy by name: its config class (`configs`) and its model class (the mapping,
+filled as `icil_paper.policies.factory` imports the models)."""
 
 register_policy = POLICY_REGISTRY.register
-"""`@register_policy("name")` above `@dataclass(frozen=True)` on a `PolicyConfig` subclass:
-the one registration of a policy's config."""
+"""`@register_policy("name")` above `@dataclass(frozen=True)` on a `PolicyConfig` subclass."""
 
 register_policy_model = POLICY_REGISTRY.model
 """`@register_policy_model("name")` on the `Policy` built from config `name`."""
@@ -106,32 +90,18 @@ class ICRTConfig(PolicyConfig):
     prompt_demos: int = 1
     """Full demonstrations in a prompt (the paper uses one)."""
     max_seq_len: int = 1024
-    """Longest token sequence trained on and kept in the KV cache at inference (rotary
-    positions have no table limit; past this length the oldest query steps leave the cache,
-    the prompt stays)."""
+    """Longest token sequence trained on and kept in the KV cache (the prompt always stays)."""
     query_actions: bool = True
-    """Interleave the query's own past actions with its observations (s1,a1,s2,a2,..., as
-    ICRT's code does); False gives Eq. 1 literally (query observations only)."""
+    """Interleave the query's past actions with its observations (ICRT's code; False: Eq. 1)."""
     query_len: int = 0
-    """Query steps per training sequence; 0 (the default) trains on whole episodes from
-    step 0, the window the policy acts with (the longest episode's tokens, with its prompt,
-    must then fit in `max_seq_len`). A positive value trains on windows of that many steps,
-    placed by `query_start`."""
+    """Query steps per training sequence; 0: whole episodes (which must fit in max_seq_len)."""
     query_start: str = "episode_start"
-    """Where a training query window starts in its episode: `episode_start` (step 0, as a
-    rollout does; the default) or `random` (uniform over the episode: ICRT's code, which
-    trains on windows although the policy acts from step 0)."""
+    """Where a training query window starts: `episode_start` (step 0) or `random` (ICRT's)."""
     prompt_from: str = "same_task"
-    """Where a training query's prompt comes from: `same_task`, other demonstrations of the
-    query's task (the paper, ICRT); `minibatch`, other demonstrations of the same random
-    minibatch whatever their task (the official LipVQ-VAE code, whose first half of a
-    minibatch prompts its second half). Evaluation prompts are the task's either way."""
+    """Prompts from the query's task, `same_task` (the paper), or `minibatch` (official code)."""
 
     def sequence_tokens(self, longest: int) -> int:
-        """Tokens of the longest training sequence on episodes of up to `longest` steps:
-        two (observation, action) per prompt step of `prompt_demos` episodes, then two per
-        query step (one without `query_actions`) of a whole episode or a `query_len` window
-        (`policies.icrt.ICRT.sequence`)."""
+        """Tokens of the longest training sequence on episodes of up to `longest` steps."""
         query = longest if self.query_len == 0 else min(self.query_len, longest)
         return 2 * self.prompt_demos * longest + (2 if self.query_actions else 1) * query
 
@@ -160,8 +130,7 @@ class BCTransformerConfig(PolicyConfig):
 @register_policy("act")
 @dataclass(frozen=True)
 class ACTConfig(PolicyConfig):
-    """ACT (Zhao et al. 2023), scaled to BC-Transformer's size; with a tokenizer, Table II's
-    ACT + tokenizer rows."""
+    """ACT (Zhao et al. 2023) at BC-Transformer's size; with a tokenizer, Table II's ACT + rows."""
 
     takes_tokenizer: ClassVar[bool] = True
 
@@ -203,8 +172,7 @@ def default_policy_config(name: str, **fields) -> PolicyConfig:
 
 def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None):
     """The tokenizer config a policy gets: `tokenizer` (a config or a name), else the
-    policy's default (None for a policy that works without one). Raises ValueError when the
-    policy does not take that tokenizer."""
+    policy's default (or None). ValueError when the policy does not take that tokenizer."""
     cls = POLICY_CONFIGS[check_name("policy", policy, POLICY_CONFIGS)]
     if tokenizer is None:
         if cls.default_tokenizer is None:
@@ -217,10 +185,3 @@ def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None
         raise ValueError(f"the {policy} policy does not take the {tokenizer.type!r} action "
                          "tokenizer (it takes none)")
     return tokenizer
-
-
-def policy_label(policy: str, tokenizer: str | None) -> str:
-    """A run's display name: `icrt+lipvq`, `act`, `act+bin`, `bc_transformer`."""
-    config = POLICY_CONFIGS.get(policy)
-    tokenizer = tokenizer or (config.default_tokenizer if config else None)
-    return f"{policy}+{tokenizer}" if tokenizer else policy

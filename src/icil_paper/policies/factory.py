@@ -5,8 +5,7 @@
     policy = make_policy(preset.policies.icrt, obs_spec, 7, preset.tokenizers.lipvq)
     copy = build_policy(policy.spec)       # an untrained copy (saved policies, rollout workers)
 
-Importing this module imports the package's policy modules (torch), whose classes register
-with `@register_policy_model` as they import; a plugin's policy comes with its plugin.
+Importing this module imports the policy modules (torch), whose classes register as they import.
 """
 
 from __future__ import annotations
@@ -35,10 +34,8 @@ def make_policy(config: PolicyConfig | str, obs_dim: Any, action_dim: int,
                 tokenizer: Any = None) -> Policy:
     """Build the policy a config describes (a name gives its default config).
 
-    `tokenizer`: a tokenizer config (`icil_paper.tokenizers.configs`) or name, for the
-    policies that take one; None gives the policy's default (`mlp` for ICRT, the CVAE for
-    ACT). Unknown names raise UnknownNameError; a tokenizer the policy does not take raises
-    ValueError.
+    `tokenizer`: a tokenizer config or name; None gives the policy's default (`mlp` for ICRT,
+    the CVAE for ACT). Unknown names raise UnknownNameError (a ValueError).
     """
     plugins.discover()
     if isinstance(config, str):

@@ -8,20 +8,13 @@
       o: ObservationEncoder, a: tokenizer(actions).embeddings ─ MLP
       ─> causal transformer (transformer.py) ─> MLP head at query observation tokens ─> â_t..â_(t+K-1)
 
-- Query actions in context, as ICRT's code (the paper's Eq. 1 lists only query observations;
-  `ICRTConfig.query_actions=False` gives that). The head reads the query's observation
-  tokens, so the token of step t never sees a_t.
+- Query actions in context, as ICRT's code (`query_actions=False`: Eq. 1 literally).
 - Loss: L1 between the predicted chunk and the next K demonstrated actions on query steps,
-  plus the tokenizer's own losses (trained jointly with the policy, as in the paper).
-- Causality of action tokens: every tokenizer embeds step t from actions up to t (FAST's
-  causal mode from the chunk of C actions ending at t; its blocked mode is refused). The
-  batch carries the C - 1 actions before the query window, and at inference the policy
-  keeps the last C executed actions, so training and acting embed alike.
-- Inference: the prompt runs through the transformer once into a KV cache; each step then
-  appends the previous action's and the new observation's tokens. The first action of the
-  chunk is executed, clipped to [-1, 1]. `reset(prompt)` / `select_action(obs)` act for one
-  episode, `reset_batch` / `select_actions` for B in one forward pass per step (prompts
-  padded, finished episodes dropped).
+  plus the tokenizer's own losses (trained jointly, as in the paper).
+- A chunk tokenizer (C = `context_steps`) embeds step t from the C actions ending at t: the
+  batch carries the C - 1 actions before the query window, and acting keeps the last C.
+- Inference: the prompt runs once into a KV cache; each step appends the previous action's
+  and the new observation's tokens, and executes the chunk's first action, clipped to [-1, 1].
 """
 
 from __future__ import annotations
@@ -46,16 +39,12 @@ def action_context_steps(tokenizer: nn.Module) -> int:
     if getattr(tokenizer, "mode", None) == "blocked":
         raise ValueError("FAST's blocked mode embeds a step with later actions of its chunk, "
                          "which a causal policy must not see; use mode='causal'")
-    steps = getattr(tokenizer, "context_steps", None)
-    if steps is None:
-        steps = int(getattr(tokenizer, "chunk", 1)) if getattr(tokenizer, "name", "") == "fast" else 1
-    return max(1, int(steps))
+    return max(1, int(tokenizer.context_steps))
 
 
 @register_policy_model("icrt")
 class ICRT(BatchedPolicy):
-    """In-context robot transformer (ICRTConfig) with any action tokenizer (default `mlp`,
-    ICRT's own)."""
+    """In-context robot transformer (ICRTConfig) with any action tokenizer (default `mlp`)."""
 
     name = "icrt"
     uses_prompt = True
@@ -90,11 +79,8 @@ class ICRT(BatchedPolicy):
 
     def action_tokens(self, actions: Tensor, context: Tensor | None = None
                       ) -> tuple[Tensor, dict[str, Tensor]]:
-        """actions (B, T, A) -> tokens (B, T, D) and the tokenizer's losses.
-
-        context (B, C - 1, A): the actions just before `actions`, which a chunk-based
-        tokenizer reads to embed the first steps (see the module docstring).
-        """
+        """actions (B, T, A) -> tokens (B, T, D) and the tokenizer's losses; context
+        (B, C - 1, A): the actions just before, which a chunk tokenizer reads."""
         B, T, A = actions.shape
         if A != self.action_dim:
             raise ValueError(f"wrong action dimension: got {A}, the policy expects {self.action_dim}")
@@ -169,9 +155,7 @@ class ICRT(BatchedPolicy):
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
         """Start B = len(prompts) episodes: run every prompt through the transformer in one
-        padded batch and keep one batched KV cache. Prompts of different lengths are padded
-        at their end; padding is never attended to and does not shift positions, so each row
-        equals the episode's own cache up to float rounding::
+        padded batch into one KV cache (padding is never attended to)::
 
             row 0   o a o a o a o a │ o a o a ...     (the query steps of all rows
             row 1   o a o a . . . . │ o a o a ...      share columns)
@@ -208,13 +192,8 @@ class ICRT(BatchedPolicy):
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
                        rows: Sequence[int] | None = None) -> np.ndarray:
         """One step of the episodes of `reset_batch`, in one forward pass: append each row's
-        (previous action, observation) to the cache and return (len(obs), A) actions, the
-        first of each predicted chunk, clipped to [-1, 1] (what the env executes, and what
-        the next step's action token embeds).
-
-        obs[i] belongs to episode rows[i] (default: all, in order); episodes left out have
-        finished and their rows leave the cache.
-        """
+        (previous action, observation) and return (len(obs), A) actions, each chunk's first,
+        clipped to [-1, 1]. obs[i] belongs to episode rows[i] (default: all, in order)."""
         if self._cache is None:
             raise RuntimeError("call reset(prompt=...) (or reset_batch) before select_action")
         keep = self.keep_rows(rows, len(obs))
@@ -238,8 +217,7 @@ class ICRT(BatchedPolicy):
         return action.float().cpu().numpy()
 
     def _make_room(self, n_new: int) -> None:
-        """Hide each row's oldest query steps once its cache would exceed max_seq_len (whole
-        (observation, action) pairs; the prompt always stays)."""
+        # hide each row's oldest query steps (whole pairs) once it would exceed max_seq_len
         cache = self._cache
         overflow = cache.valid.sum(dim=1) + n_new - self.max_seq_len  # (B,)
         if bool((overflow > 0).any()):

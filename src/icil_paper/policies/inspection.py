@@ -4,9 +4,7 @@
     roles = token_roles(policy, batch)           # segment, kind, step, valid, supervised
     grads = token_loss_gradients(policy, batch)  # (B, L) |dL/dh| at each output position
 
-`batch` is a training batch of `prompt_query_batch`; positions follow the token layout drawn
-in `icil_paper.policies.batching`. Chapter 02 uses both to show that the loss reaches only
-the query's observation tokens.
+`batch` is a training batch of `prompt_query_batch` (layout in `policies.batching`).
 """
 
 from __future__ import annotations
@@ -42,12 +40,8 @@ def token_roles(policy: ICRT, batch: Mapping[str, Any]) -> dict[str, Tensor]:
 
 
 def token_loss_gradients(policy: ICRT, batch: Mapping[str, Any]) -> Tensor:
-    """|d loss / d h| at every position of the transformer's output, (B, L).
-
-    Zero wherever the loss does not reach directly: prompt tokens, query action tokens,
-    padding. (Earlier layers do pass gradient to prompt tokens through attention: the
-    prompt is context, not a target.) The policy's gradients are cleared afterwards.
-    """
+    """|d loss / d h| at every position of the transformer's output, (B, L): zero wherever
+    the loss does not reach directly. The policy's gradients are cleared afterwards."""
     captured: dict[str, Tensor] = {}
 
     def keep(_module, _inputs, output):

@@ -1,9 +1,7 @@
 """MCR (Jiang et al. 2025): a manipulation-centric visual encoder, frozen under a BC head.
 
-MCR pre-trains a visual encoder on robot data with three objectives and then freezes it for
-behaviour cloning. No MCR checkpoint can be downloaded here, so `prepare` pre-trains the
-library's ResNet-18 on our own training demonstrations with the same three objectives
-(`MCRConfig.pretrain_steps` steps, before the policy's own training):
+No MCR checkpoint can be downloaded here, so `prepare` pre-trains the library's ResNet-18
+on the training demonstrations with MCR's three objectives, then freezes it:
 
     image I_t ─ ResNet-18 ─ v_t ──┬─ dynamics alignment: InfoNCE(v_t, g(proprio_t, a_t..a_(t+K-1)))
                                   ├─ action prediction: L1(f(v_t), a_t..a_(t+K-1))
@@ -12,9 +10,8 @@ library's ResNet-18 on our own training demonstrations with the same three objec
     then:  frozen v_t ─┐
            state_t ────┴─ MLP head ─> â_t .. â_(t+K-1)     (L1; the first action is executed)
 
-MCR needs images: with state observations it raises a ValueError, and it runs on the image
-observation settings only (`DataConfig.obs = "rgb"` or `"rgbd"`). As in the paper's ManiSkill
-runs, depth enters the same ResNet as a fourth input channel.
+MCR needs images (`DataConfig.obs = "rgb"` or `"rgbd"`); depth enters the ResNet as a fourth
+input channel.
 """
 
 from __future__ import annotations
@@ -30,7 +27,7 @@ from tqdm.auto import tqdm
 
 from icil_paper.layers import mlp
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
-from icil_paper.policies.batching import DemoSet, ObsSpec, _take, window_batch
+from icil_paper.policies.batching import DemoSet, ObsSpec, _stack_obs, _take, window_batch
 from icil_paper.policies.configs import MCRConfig, register_policy_model
 
 
@@ -44,11 +41,7 @@ def info_nce(a: Tensor, b: Tensor, temperature: float = 0.1) -> Tensor:
 
 @register_policy_model("mcr")
 class MCR(BatchedPolicy):
-    """Frozen manipulation-centric visual encoder + behaviour-cloning MLP head.
-
-    Pre-training: `MCRConfig.pretrain_steps`, `pretrain_batch`, `pretrain_lr`; its batches
-    are drawn from a generator seeded with the training seed (`seed_everything`).
-    """
+    """Frozen manipulation-centric visual encoder + behaviour-cloning MLP head (MCRConfig)."""
 
     name = "mcr"
 
@@ -77,11 +70,6 @@ class MCR(BatchedPolicy):
         self.visual.requires_grad_(False)  # frozen under the BC head
         return data
 
-    def _lowdim(self, obs: Mapping[str, Tensor], B: int) -> Tensor:
-        if self.state is None:
-            return torch.zeros(B, 1)
-        return self.state.lowdim(obs)[:, -1]
-
     def pretrain(self, data: DemoSet, steps: int | None = None, progress: bool = False) -> list[float]:
         """Manipulation-centric pre-training of `visual`; returns the loss per step."""
         c = self.config
@@ -100,7 +88,8 @@ class MCR(BatchedPolicy):
             obs, chunk, valid = batch["obs"], batch["targets"].float(), batch["target_valid"]
             v = self.visual(obs)[:, -1]  # (B, D)
             v_pos = self.visual(positive)[:, -1]
-            dyn = self.pre_dynamics(torch.cat([self._lowdim(obs, B), chunk.flatten(1)], dim=-1))
+            state = torch.zeros(B, 1) if self.state is None else self.state.lowdim(obs)[:, -1]
+            dyn = self.pre_dynamics(torch.cat([state, chunk.flatten(1)], dim=-1))
             l_dyn = info_nce(self.pre_proj(v), dyn)
             l_act = masked_l1(self.pre_action(v).view_as(chunk), chunk, valid)
             l_tcn = info_nce(self.pre_proj(v), self.pre_proj(v_pos))
@@ -121,7 +110,7 @@ class MCR(BatchedPolicy):
             dt = int(rng.integers(1, radius + 1)) * (1 if rng.random() < 0.5 else -1)
             idx = np.array([t + dt])
             rows.append({k: _take(v, idx) for k, v in data.obs[d].items()})
-        return {k: torch.from_numpy(np.stack([r[k] for r in rows])) for k in rows[0]}
+        return _stack_obs(rows)
 
     # ------------------------------------------------------------------ behaviour cloning
     def sample_batch(self, data: DemoSet, batch_size: int, rng: np.random.Generator) -> dict[str, Any]:
@@ -144,14 +133,13 @@ class MCR(BatchedPolicy):
 
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
-        """Start B = len(prompts) episodes (prompts are ignored; MCR keeps no episode state)."""
+        """Start B = len(prompts) episodes (prompts ignored; no episode state)."""
         self.begin_episodes([t or "" for t in batch_instructions(prompts, instructions)])
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],
                        rows: Sequence[int] | None = None) -> np.ndarray:
-        """The first action of each episode's predicted chunk, (len(obs), A), in one forward
-        pass; obs[i] is episode rows[i]'s observation (default: all)."""
+        """Each episode's first predicted action (len(obs), A), in one forward pass."""
         self.keep_rows(rows, len(obs))
         chunk = self.predict(self.obs_tensors_batch(obs), self._instructions)  # (B, K, A)
         return chunk[:, 0].float().cpu().numpy()

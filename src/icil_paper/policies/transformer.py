@@ -14,13 +14,7 @@ from a per-token validity mask, so padded batches need no moving of tokens: padd
 attended to, and each token always attends to itself (a padding row is well defined).
 
 Positions: rotary embeddings from integer positions that count real tokens only. Keys are
-rotated before they enter the cache, so dropping old cache entries is safe: attention scores
-depend only on the positions used when each key was written.
-
-Batched decoding: one `KVCache` holds B independent sequences (episodes acting in lockstep),
-each with its own next position; rows can leave the batch (`KVCache.select_rows`) or hide
-their oldest entries (`KVCache.invalidate`), and each row equals a cache of its own up to
-float rounding.
+rotated before they enter the cache, so dropping old cache entries is safe.
 """
 
 from __future__ import annotations
@@ -120,13 +114,11 @@ class KVCache:
     """Keys and values of every layer for the tokens seen so far (inference only).
 
     valid: (B, P) bool, which cached columns are real tokens; next_position: (B,) the position
-    the next real token gets. Each layer's keys and values (B, H, P, hd) live in a buffer with
-    room to grow (doubled when full), so appending a step copies only the new columns.
+    the next real token gets. Each layer's keys and values (B, H, P, hd) live in a buffer that
+    doubles when full, so appending a step copies only the new columns.
 
-    Rows are independent sequences (a batch of episodes), padded with invalid columns that no
-    query attends to. `select_rows` keeps some rows (finished episodes drop out) and
-    `invalidate` hides single rows' columns (a row's oldest query steps); both then remove the
-    columns that no row uses any more, so the cache stays as small as its longest row.
+    Rows are independent sequences (a batch of episodes). `select_rows` keeps some rows and
+    `invalidate` hides single rows' columns; both then drop the columns no row uses.
     """
 
     def __init__(self, n_layer: int):
@@ -157,8 +149,7 @@ class KVCache:
         return self._keys[layer][:, :, :n + T], self._values[layer][:, :, :n + T]
 
     def invalidate(self, hide: Tensor) -> None:
-        """Hide the cached tokens where `hide` (B, P) bool is True (no query attends to them
-        any more)."""
+        """Hide the cached tokens where `hide` (B, P) bool is True."""
         self.valid = self.valid & ~hide
         self._compact()
 
@@ -195,7 +186,7 @@ class Attention(nn.Module):
         super().__init__()
         assert cfg.d_model % cfg.n_head == 0, "d_model must be divisible by n_head"
         self.n_head, self.head_dim = cfg.n_head, cfg.d_model // cfg.n_head
-        self.rope, self.rope_base, self.cross = cfg.rope and not cross, cfg.rope_base, cross
+        self.rope = cfg.rope and not cross
         self.q = nn.Linear(cfg.d_model, cfg.d_model, bias=False)
         self.k = nn.Linear(cfg.d_model, cfg.d_model, bias=False)
         self.v = nn.Linear(cfg.d_model, cfg.d_model, bias=False)
@@ -207,19 +198,14 @@ class Attention(nn.Module):
         return x.view(B, T, self.n_head, self.head_dim).transpose(1, 2)  # (B, H, T, hd)
 
     def forward(self, x: Tensor, attn_mask: Tensor | None = None,
-                positions: Tensor | None = None, context: Tensor | None = None,
-                cache: KVCache | None = None, layer: int = 0,
+                context: Tensor | None = None, cache: KVCache | None = None, layer: int = 0,
                 rope: tuple[Tensor, Tensor] | None = None) -> Tensor:
-        """x (B, T, D) -> (B, T, D). Keys/values come from `context` (B, S, D) if given.
-
-        `rope`: the rotary (cos, sin) of `positions`, when the caller computed them once for
-        every layer (`Transformer.forward` does)."""
+        """x (B, T, D) -> (B, T, D). Keys/values come from `context` (B, S, D) if given;
+        `rope`: the rotary (cos, sin) of the tokens' positions (`rope_cos_sin`)."""
         source = x if context is None else context
         q, k, v = self._heads(self.q(x)), self._heads(self.k(source)), self._heads(self.v(source))
         if self.rope:
-            cos, sin = rope if rope is not None else rope_cos_sin(positions, self.head_dim,
-                                                                  self.rope_base)
-            q, k = apply_rope(q, cos, sin), apply_rope(k, cos, sin)
+            q, k = apply_rope(q, *rope), apply_rope(k, *rope)
         if cache is not None:
             k, v = cache.append(layer, k, v)  # (B, H, P + T, hd)
         y = F.scaled_dot_product_attention(
@@ -252,10 +238,9 @@ class Block(nn.Module):
         self.norm2, self.mlp = RMSNorm(cfg.d_model), SwiGLU(cfg)
         self.drop = nn.Dropout(cfg.dropout)
 
-    def forward(self, x: Tensor, attn_mask: Tensor | None, positions: Tensor | None,
-                cache: KVCache | None = None, layer: int = 0,
-                rope: tuple[Tensor, Tensor] | None = None) -> Tensor:
-        x = x + self.drop(self.attn(self.norm1(x), attn_mask, positions, cache=cache, layer=layer,
+    def forward(self, x: Tensor, attn_mask: Tensor | None, cache: KVCache | None = None,
+                layer: int = 0, rope: tuple[Tensor, Tensor] | None = None) -> Tensor:
+        x = x + self.drop(self.attn(self.norm1(x), attn_mask, cache=cache, layer=layer,
                                     rope=rope))
         return x + self.drop(self.mlp(self.norm2(x)))
 
@@ -315,7 +300,7 @@ class Transformer(nn.Module):
         if self.cfg.rope:  # the same angles in every layer: computed once
             rope = rope_cos_sin(positions, self.cfg.d_model // self.cfg.n_head, self.cfg.rope_base)
         for i, block in enumerate(self.blocks):
-            x = block(x, mask, positions, cache=cache, layer=i, rope=rope)
+            x = block(x, mask, cache=cache, layer=i, rope=rope)
         return self.norm(x)
 
 

@@ -8,20 +8,13 @@
     out = tok(actions)                                              # actions (B, T, 7)
     tok = load_tokenizer("exported/lipvq")       # a trained one, exported (`portable.py`)
 
-Each tokenizer is built from its config alone (`configs.py`, one torch-free dataclass per
-tokenizer); `TOKENIZERS` lists the names: the paper's in its order (`mlp`, `lip-mlp`, `bin`,
-`fast`, `vq`, `lfq`, `lipvq`), then those that came after it (`configs.SINCE_PAPER`: `fsq`,
-`rvq`, `bspline`, and `lipfsq`, `liprvq` with every encoder layer a LipschitzLinear, Eq. 4).
-Importing the package or `configs` imports no torch: the names that live in torch modules
-(`make_tokenizer`, `ActionTokenizer`, `load_tokenizer`, `REGISTRY`, ...) load on first use.
+Each tokenizer is built from its config alone (`configs.py`, torch-free). `TOKENIZERS`
+lists the names: the paper's in its order, then `configs.SINCE_PAPER`. Importing the package
+imports no torch: the names of its torch modules load on first use.
 
 A new tokenizer is one module: an `ActionTokenizer` subclass and its config, registered by
 `@register_tokenizer("toy", "ToyTokenizer")` above `@dataclass(frozen=True)` on a
-`TokenizerConfig` subclass (the presets give it their shared `latent_dim` and
-`codebook_size`). Once imported, `--tokenizer toy --set tokenizers.toy.scale=2` works on the
-command line (`tests/test_registration.py`); outside the package it is a plugin
-(`--plugin FILE_OR_MODULE`, or an entry point of the group `icil_paper.tokenizers`; see
-`icil_paper.plugins`), and `icil-paper compare` reads it against LipVQ-VAE (chapter 14).
+`TokenizerConfig` subclass; outside the package it is a plugin (`icil_paper.plugins`).
 """
 
 from __future__ import annotations
@@ -36,8 +29,7 @@ from icil_paper.tokenizers.configs import (
 )
 
 TOKENIZERS = tuple(TOKENIZER_CONFIGS)
-"""The built-in tokenizers' names, the paper's in its order, then the later ones (a snapshot:
-`REGISTRY` also holds those registered after this package was imported)."""
+"""The built-in tokenizers' names (`REGISTRY` also holds those registered later)."""
 
 
 TORCH_NAMES = frozenset({
@@ -59,10 +51,5 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = [
-    "TOKENIZERS", "REGISTRY", "make_tokenizer", "ActionTokenizer", "TokenizerOutput",
-    "TokenizerConfig", "default_config", "lipvq_official", "register_tokenizer",
-    "register_tokenizer_model", "LipschitzLinear", "lipschitz_loss", "lipschitz_bounds",
-    "lipschitz_layers", "FastDecodeError", "load_tokenizer", "save_tokenizer",
-    "TokenizerFolderError",
-]
+__all__ = ["TOKENIZERS", "TokenizerConfig", "default_config", "lipvq_official",
+           "register_tokenizer", "register_tokenizer_model", *sorted(TORCH_NAMES)]

@@ -41,13 +41,11 @@ class TokenizerOutput:
     embeddings: Tensor
     """(B, T, D) action tokens the policy consumes (gradients flow where the method allows)."""
     reconstruction: Tensor
-    """(B, T, A) actions reconstructed by the tokenizer itself (its decoder, bin centres or
-    inverse DCT, depending on the method)."""
+    """(B, T, A) the tokenizer's own reconstruction (decoder, bin centres or inverse DCT)."""
     codes: Tensor | None
-    """Integer codes (LongTensor) for discrete tokenizers, None for continuous ones. Shape
-    per tokenizer: (B, T) for vq / lipvq / lfq / fsq / lipfsq, (B, T, A) for bin, (B, T, Q)
-    for rvq / liprvq (one code per level), (B, T, K * A) for bspline; for fast (B, T, L) in
-    causal mode or (B, ceil(T / chunk), L) in blocked mode, padded with -1."""
+    """LongTensor codes, None for continuous tokenizers: (B, T) for vq / lfq / fsq, (B, T, A)
+    for bin, (B, T, Q) for rvq, (B, T, K * A) for bspline, (B, T or ceil(T / chunk), L)
+    padded with -1 for fast."""
     losses: dict[str, Tensor] = field(default_factory=dict)
     """Weighted scalar losses; a policy trained jointly adds their sum to its own loss."""
     latents: Tensor | None = None
@@ -75,18 +73,11 @@ def activation_class(name: str) -> type[nn.Module]:
 def build_encoder(sizes: Sequence[int], norm: str = "none", activation: str = "relu",
                   output_activation: str = "none",
                   lipschitz: LipschitzOptions | None = None) -> nn.Sequential:
-    """An encoder MLP with a chosen weight normalisation of its linear layers.
-
-    norm: `none`; `lipschitz`, every layer a LipschitzLinear (Eq. 4: LipVQ-VAE and lip-mlp
-    as the paper writes them); `lipschitz-last`, only the last layer (the official code);
-    `spectral`, spectral normalisation (Miyato et al. 2018; chapter 03's comparison, which
-    bounds the 2-norm Lipschitz constant of each layer by 1).
-    """
+    """An encoder MLP with the weight normalisation `norm` of its linear layers: `none`,
+    `lipschitz` (every layer a LipschitzLinear, Eq. 4), `lipschitz-last` (the official
+    code) or `spectral` (Miyato et al. 2018)."""
     if norm not in ENCODER_NORMS:
         raise ValueError(f"unknown encoder norm {norm!r}; valid: {', '.join(ENCODER_NORMS)}")
-    if output_activation not in _OUTPUT_ACTIVATIONS:
-        raise ValueError(f"unknown output activation {output_activation!r}; valid: "
-                         f"{', '.join(_OUTPUT_ACTIVATIONS)}")
     options = lipschitz or LipschitzOptions()
     act = activation_class(activation)
     n_layers = len(sizes) - 1
@@ -114,11 +105,7 @@ LIPSCHITZ_NORMS = ("lipschitz", "lipschitz-last")
 
 def lipschitz_losses(encoder: nn.Module, config) -> dict[str, Tensor]:
     """Eq. 5's Lipschitz term of an encoder built with `config.norm`: {"lipschitz":
-    gamma * prod_l softplus(c_l)} when the norm is a Lipschitz one and gamma > 0, else {}.
-
-    The one place every learned quantizer (vq, fsq, rvq and their `lip*` variants) takes
-    the term from, so that Eq. 4 is the same option in each.
-    """
+    gamma * prod_l softplus(c_l)} when the norm is a Lipschitz one and gamma > 0, else {}."""
     weight = config.lipschitz.weight
     if config.norm not in LIPSCHITZ_NORMS or not weight:
         return {}
@@ -126,10 +113,8 @@ def lipschitz_losses(encoder: nn.Module, config) -> dict[str, Tensor]:
 
 
 def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
-    """Validate `fit` input: an array (N, T, A), a tensor, or a list of (T_i, A) arrays.
-
-    Returns a list of float64 arrays (T_i, A). Raises ValueError naming the problem.
-    """
+    """`fit` input (an array or tensor (N, T, A), or a list of (T_i, A) arrays) as a list of
+    float64 arrays (T_i, A); ValueError naming the problem."""
     if isinstance(actions, Tensor):
         actions = actions.detach().cpu().numpy()
     if isinstance(actions, np.ndarray):
@@ -162,12 +147,10 @@ def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
 
 
 class ActionTokenizer(nn.Module):
-    """Base class: validation, the decoder head, and the shared `encode` / `decode` API.
+    """Base class: input validation, fitting, and the shared `decode`.
 
-    Built from its config alone (`tokenizer.config`, a dataclass of
-    `icil_paper.tokenizers.configs`). Subclasses set `name` and `discrete`, and implement
-    `_forward(actions) -> TokenizerOutput` and, if they have something to fit to data,
-    `_fit(trajectories)`.
+    Built from its config alone. Subclasses set `name` and `discrete`, and implement
+    `_forward(actions) -> TokenizerOutput` and, with something to fit, `_fit(trajectories)`.
     """
 
     name: str = "base"
@@ -191,10 +174,7 @@ class ActionTokenizer(nn.Module):
         return bool(self._fitted)
 
     def fit(self, actions) -> ActionTokenizer:
-        """Fit what must be fitted to data before training; returns self.
-
-        actions: an array (N, T, A), or a list of (T_i, A) arrays of unequal lengths.
-        """
+        """Fit what must be fitted to actions (N, T, A) or [(T_i, A)] before training."""
         trajectories = as_trajectory_list(actions, self.action_dim)
         self._fit(trajectories)
         self._fitted.fill_(True)
@@ -236,10 +216,6 @@ class ActionTokenizer(nn.Module):
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         raise NotImplementedError
 
-    def encode(self, actions: Tensor) -> Tensor:
-        """Embeddings (B, T, D) of actions (B, T, A)."""
-        return self(actions).embeddings
-
     def decode(self, embeddings: Tensor) -> Tensor:
         """Actions (B, T, A) from embeddings (B, T, D)."""
         if embeddings.ndim != 3 or embeddings.shape[-1] != self.latent_dim:
@@ -255,12 +231,8 @@ class ActionTokenizer(nn.Module):
 
     @property
     def context_steps(self) -> int:
-        """How many of the latest actions one step's embedding depends on.
-
-        1 for per-step tokenizers. A policy that embeds actions one step at a time (e.g. at
-        inference) must pass at least this many of the latest actions and keep the last
-        step's embedding.
-        """
+        """How many of the latest actions one step's embedding depends on (1 per step): to
+        embed a new step, pass at least this many and keep the last embedding."""
         return 1
 
     def tokens_per_step(self, actions=None) -> float:
@@ -272,8 +244,7 @@ class ActionTokenizer(nn.Module):
         return codes[codes >= 0].flatten()
 
     def codes_by_level(self, codes: Tensor) -> list[Tensor] | None:
-        """For a tokenizer with several codebooks used in turn (residual VQ): each level's
-        codes, flat; None for the others (one codebook)."""
+        """Each level's codes, flat, for residual VQ; None for one codebook."""
         return None
 
     def no_weight_decay(self) -> list[nn.Parameter]:
@@ -289,11 +260,9 @@ PROBE_SHAPE = (2, 16, 7)
 
 
 def probe(config: TokenizerConfig) -> str | None:
-    """What is wrong with the tokenizer `config` builds, in words, or None: it is built,
-    fitted where it needs fitting and run on random actions (B, T, A) = PROBE_SHAPE, and must
-    give an ActionTokenizer whose TokenizerOutput has embeddings (B, T, latent_dim) and a
-    reconstruction (B, T, A). `icil_paper.plugins` runs it on every tokenizer a plugin
-    registers (`TOKENIZER_REGISTRY.probe`, set below), before any work."""
+    """What is wrong with the tokenizer `config` builds, in words, or None: built, fitted and
+    run on random actions PROBE_SHAPE, it must give embeddings (B, T, latent_dim) and a
+    reconstruction (B, T, A). Run on every tokenizer a plugin registers."""
     try:
         problem = _probe_problem(config, PROBE_SHAPE)
     except Exception as exc:  # noqa: BLE001 - whatever a plugin's code raises is its problem

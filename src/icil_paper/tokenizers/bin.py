@@ -1,26 +1,16 @@
 """`bin`: RT-1 style discretization (Brohan et al. 2022), 256 uniform bins per action dimension.
 
-`fit` records each action dimension's range [low_a, high_a] over the data. A value is then
-mapped to one of `n_bins` equal bins of its dimension (values outside the fitted range go to
-the first or last bin), and reconstructed at the bin's centre, so the reconstruction error
-per dimension is at most half a bin width, (high_a - low_a) / (2 n_bins).
+`fit` records each action dimension's range [low_a, high_a]. A value goes to one of `n_bins`
+equal bins of its dimension (clipped to the first or last) and is reconstructed at the bin's
+centre: the error per dimension is at most (high_a - low_a) / (2 n_bins). The official code's
+variant (`configs.official_bin()`, `range="running"`) fits nothing: each training batch
+widens the range (from [-1, 1] until the first), kept in buffers for evaluation.
 
-The official code's variant (`configs.official_bin()`: `n_bins=20, range="running"`) fits
-nothing beforehand: every training forward pass widens [low_a, high_a] to the min and max
-of the actions seen so far (the first batch sets it), and evaluation uses the range the
-training left in the buffers, so a trained tokenizer is deterministic. Until a training
-batch has been seen the range is [-1, 1]. Early in training the bins move as the range
-grows, so a bin's embedding meets other actions than it started with.
-
-Every (dimension, bin) pair has its own learned embedding; a step's A tokens are pooled by
-their mean into one embedding per step:
+Every (dimension, bin) pair has its own learned embedding, mean-pooled per step:
 
     actions (B, T, A) --bins--> codes (B, T, A) --table (A * n_bins, D), mean over A--> (B, T, D)
 
-`reconstruction` is the bin centres (exact up to the bin width). `decode(embeddings)` is a
-learned MLP head that maps a pooled embedding back to actions; it learns on detached
-embeddings unless `autoencode=True` (then the table is trained by reconstruction too, as in
-stand-alone training). In the policy, the table is trained by the policy's loss.
+`decode(embeddings)` is a learned MLP head (on detached embeddings unless `autoencode=True`).
 """
 
 from __future__ import annotations
@@ -41,8 +31,7 @@ RANGES = field_choices(BinConfig)["range"]
 
 @register_tokenizer_model("bin")
 class BinTokenizer(ActionTokenizer):
-    """Uniform per-dimension bins over fitted (or running) ranges, an embedding per
-    (dimension, bin)."""
+    """Uniform per-dimension bins over fitted (or running) ranges (BinConfig)."""
 
     name = "bin"
     discrete = True
@@ -75,8 +64,7 @@ class BinTokenizer(ActionTokenizer):
 
     @torch.no_grad()
     def _set_range(self, low: Tensor, high: Tensor) -> None:
-        """Store (A,) bounds; a constant dimension (e.g. an unused rotation axis) still gets
-        a non-empty range."""
+        """Store (A,) bounds; a constant dimension still gets a non-empty range."""
         low, high = low.clone(), high.clone()  # copied into the buffers' dtype below
         flat = high - low < 1e-6
         low[flat] -= 1e-3

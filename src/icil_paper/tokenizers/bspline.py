@@ -8,19 +8,15 @@ K control points over the chunk's time s in [0, 1]:
     quantize codes = round((P - low_a) / (high_a - low_a) * (n_bins - 1))   in [0, n_bins)
     decode   chunk_hat = Phi dequantize(codes)                     (C, A)
 
-low_a / high_a are the range of dimension a's control points over the training chunks
-(`fit`). Since B_k >= 0 and sum_k B_k = 1, the decoded error per dimension is at most
+low_a / high_a: the range of dimension a's control points over the training chunks (`fit`).
+Since B_k >= 0 and sum_k B_k = 1, the decoded error per dimension is at most
 (high_a - low_a) / (2 (n_bins - 1)), and a cubic chunk is fitted exactly.
 
-One embedding per step, as `fast`: step t is the chunk of the C actions ending at t (left-
-padded with the first action), so no step sees later actions. Its K * A tokens each have a
-learned embedding per (control point, dimension, bin), averaged into one vector.
-`reconstruction` is the decoded spline at step t; `decode(embeddings)` is a learned MLP head
-(on detached embeddings unless `autoencode=True`).
+One embedding per step, as `fast`: step t is the chunk of the C actions ending at t; its
+K * A tokens' learned embeddings are averaged. `decode(embeddings)` is a learned MLP head.
 
-Deviations from BEAST: plain least squares instead of its ridge fit; degree fixed at 3 (its
-released default); chunks ending at every step instead of consecutive chunks, so its
-continuity constraint between chunks does not apply; ranges fitted once per dimension.
+Deviations from BEAST: plain least squares instead of its ridge fit; a chunk ending at every
+step, so no continuity constraint between chunks; ranges fitted once per dimension.
 """
 
 from __future__ import annotations
@@ -35,7 +31,7 @@ from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
 from icil_paper.tokenizers.configs import BSplineConfig, register_tokenizer_model
 
 DEGREE = 3
-"""Cubic B-splines (the issue's and BEAST's released processor's default)."""
+"""Cubic B-splines (BEAST's released default)."""
 
 
 def clamped_knots(control_points: int, degree: int = DEGREE) -> np.ndarray:
@@ -54,8 +50,7 @@ def basis_matrix(samples: int, control_points: int, degree: int = DEGREE) -> np.
 
 @register_tokenizer_model("bspline")
 class BSplineTokenizer(ActionTokenizer):
-    """Clamped cubic B-spline control points of causal action chunks, quantized to bins
-    (BSplineConfig; see the module docstring)."""
+    """Quantized B-spline control points of causal action chunks (BSplineConfig)."""
 
     name = "bspline"
     discrete = True

@@ -1,19 +1,14 @@
 """One config dataclass per action tokenizer; `make_tokenizer(config, action_dim)` builds from it.
 
-Torch-free, so that presets, the command line and result keys can hold tokenizer configs
-without importing the models. Each config class is registered once, by
-`@register_tokenizer(name)`, which sets its class-level `type` (the registry name); the
-model class beside it registers with `@register_tokenizer_model(name)`.
-`TOKENIZER_CONFIGS`, the tokenizer registry and the presets' `tokenizers` section all read
-that one registration.
+Torch-free, so that presets, the command line and result keys hold tokenizer configs
+without importing the models. `@register_tokenizer(name)` registers a config class and sets
+its `type`; the model class registers with `@register_tokenizer_model(name)`.
 
     from icil_paper.tokenizers import make_tokenizer
     from icil_paper.tokenizers.configs import LipVQConfig
     tok = make_tokenizer(LipVQConfig(latent_dim=32, codebook_size=256), action_dim=7)
 
-Shared by every tokenizer: `latent_dim` (the width D of the action embedding) and `hidden`
-(the encoder MLP's hidden widths; decoders mirror them). Defaults are the paper's
-(Sec. III-B): D = 64, K = 1024, loss weights alpha 1.0, beta 0.25, gamma 1e-6.
+Defaults are the paper's (Sec. III-B): D = 64, K = 1024, alpha 1.0, beta 0.25, gamma 1e-6.
 """
 
 from __future__ import annotations
@@ -34,8 +29,7 @@ TOKENIZER_CHOICES: dict[str, tuple[str, ...]] = {
     "codebook_init": ("uniform", "data"),
     "mode": ("causal", "blocked"),
 }
-"""The valid strings of the tokenizer fields of these names, in every tokenizer config that
-has one (checked when a config is built; the tokenizers' modules name the same values)."""
+"""The valid strings of the tokenizer fields of these names (checked when a config is built)."""
 
 
 @dataclass(frozen=True)
@@ -45,9 +39,7 @@ class TokenizerConfig:
     type: ClassVar[str] = ""
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = TOKENIZER_CHOICES
     AT_LEAST: ClassVar[dict[str, int]] = {}
-    """Integer fields (or each integer of a tuple field) with a floor above the 1 of every
-    count, by field name: the tokenizer's own constructor check, made when the config is
-    built (merged over the bases, as CHOICES)."""
+    """Floors above 1 of integer fields (each integer of a tuple), merged over the bases."""
 
     latent_dim: int = 64
     """Width D of the action embedding (and of each codebook entry)."""
@@ -74,14 +66,11 @@ class TokenizerConfig:
 
 TOKENIZER_REGISTRY = ComponentRegistry("tokenizer", TokenizerConfig, "icil_paper.tokenizers")
 """Every action tokenizer by name: its config class (`configs`) and its model class (the
-mapping; the models register as `icil_paper.tokenizers.factory` imports them). The preset's
-`tokenizers` section and the CLI's choices are derived from it; a plugin's tokenizer is run
-on a probe batch before use (`base.probe`)."""
+mapping, filled as `icil_paper.tokenizers.factory` imports the models)."""
 
 register_tokenizer = TOKENIZER_REGISTRY.register
 """`@register_tokenizer("name")` above `@dataclass(frozen=True)` on a `TokenizerConfig`
-subclass: the one registration of a tokenizer's config (a component of one file may name
-its model class too: `@register_tokenizer("name", "TokenizerClass")`)."""
+subclass (optionally naming its model class: `@register_tokenizer("name", "Class")`)."""
 
 register_tokenizer_model = TOKENIZER_REGISTRY.model
 """`@register_tokenizer_model("name")` on the `ActionTokenizer` built from config `name`."""
@@ -96,19 +85,11 @@ class LipschitzOptions:
     per_row: bool = False
     """One bound per output row (the official code) instead of one per layer (the paper)."""
     c_init: float | None = None
-    """Initial c of every layer; None is Liu et al.'s: the layer's largest absolute row sum,
-    so that nothing is rescaled at the start."""
+    """Initial c of every layer; None: the layer's largest absolute row sum (Liu et al.)."""
     weight_init: str = "liu"
-    """`liu` (randn * sqrt(2 / in_features), Liu et al.'s and the paper's), `randn` (the
-    official code) or `linear` (`nn.Linear`'s own initialisation: with `c_init` None, a
-    Lipschitz encoder then starts as the same function as its plain twin built from the same
-    seed, `mlp` for `lip-mlp`, `vq` for `lipvq`, so that the two differ only by Eq. 4; the
-    presets' choice)."""
+    """`liu` (the paper's), `randn` (the official code) or `linear` (`nn.Linear`'s; presets)."""
     c_lr_scale: float = 1.0
-    """Learning rate of every bound c_l as a multiple of the trainer's (same schedule, no
-    weight decay); 0 keeps the bounds at their initial values. 1, the default, is the
-    paper's single optimiser; the presets set `config.matching_c_lr_scale`, at which a bound
-    travels as far in a short run as at the shared rate over the paper's 500K iterations."""
+    """Learning rate of every bound c_l as a multiple of the trainer's (0: fixed; 1: paper)."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"weight_init": ("liu", "randn", "linear")}
 
@@ -122,9 +103,7 @@ class MLPConfig(TokenizerConfig):
     """`mlp`: ICRT's continuous action MLP."""
 
     autoencode: bool = False
-    """Let the reconstruction loss train the encoder too (stand-alone training); in a policy
-    the embedding is shaped by the policy's loss and the decoder learns on detached
-    embeddings."""
+    """Let the reconstruction loss train the encoder too (stand-alone training)."""
     recon_weight: float = 1.0
     """Weight of the reconstruction loss."""
 
@@ -149,11 +128,7 @@ class BinConfig(TokenizerConfig):
     n_bins: int = 256
     """Uniform bins per action dimension (RT-1: 256; the official code: 20)."""
     range: str = "fixed"
-    """Where each dimension's bin range comes from: `fixed`, the min and max of the training
-    actions, fitted once before training (RT-1's, the paper's); `running`, the min and max
-    of every action seen in training so far, widened by each training batch (the official
-    code; nothing is fitted beforehand). Either way the range is kept in buffers, so a
-    trained tokenizer bins the same at evaluation."""
+    """Bin range per dimension: `fixed` (fitted, RT-1's) or `running` (the official code's)."""
     autoencode: bool = False
     """Let the decode head's loss train the bin embeddings (stand-alone training)."""
     decode_weight: float = 1.0
@@ -176,8 +151,7 @@ class FASTConfig(TokenizerConfig):
     min_frequency: int = 2
     """BPE merge threshold (FAST: 2)."""
     mode: str = "causal"
-    """`causal` (step t tokenized with the chunk ending at t; what a causal policy needs) or
-    `blocked` (FAST's own non-overlapping chunks, whose step embeddings see later actions)."""
+    """`causal` (step t: the chunk ending at t) or `blocked` (FAST's chunks; not causal)."""
     autoencode: bool = False
     """Let the decode head's loss train the token embeddings (stand-alone training)."""
     decode_weight: float = 1.0
@@ -188,14 +162,10 @@ class FASTConfig(TokenizerConfig):
 class NormedEncoderConfig(TokenizerConfig):
     """Knobs of every learned quantizer's encoder (vq, fsq, rvq): its weight normalisation.
 
-    Eq. 4 is an option of each, not a tokenizer of its own: `lipvq`, `lipfsq` and `liprvq`
-    are `vq`, `fsq` and `rvq` with `norm="lipschitz"` (the same `LipschitzLinear` layers,
-    built by `base.build_encoder`, and the same gamma prod_l softplus(c_l) loss term,
-    `base.lipschitz_losses`)."""
+    `lipvq`, `lipfsq` and `liprvq` are `vq`, `fsq` and `rvq` with `norm="lipschitz"`."""
 
     norm: str = "none"
-    """Encoder weight normalisation: `none`, `lipschitz` (every layer, Eq. 4),
-    `lipschitz-last` (the last layer only, the official code) or `spectral`."""
+    """`none`, `lipschitz` (Eq. 4, every layer), `lipschitz-last` (official) or `spectral`."""
     lipschitz: LipschitzOptions = dataclasses.field(default_factory=LipschitzOptions)
     """The Lipschitz layers' initialisation and loss weight (with a Lipschitz norm)."""
 
@@ -216,29 +186,22 @@ class VQConfig(NormedEncoderConfig):
     recon_weight: float = 1.0
     """Weight of the reconstruction loss."""
     straight_through: str = "vqvae"
-    """How gradients pass the quantizer: `vqvae` (z_e + sg[z_q - z_e]: the decoder's and the
-    policy's gradients reach the encoder, the codebook learns from the codebook loss only),
-    `codebook` (z_q + (z_e - sg[z_e]): the same value, but those gradients also reach the
-    codebook) or `none` (z_q: the encoder learns from the commitment loss only, the
-    official code)."""
+    """Gradients past the quantizer: `vqvae` (to z_e), `codebook` (also the codes) or `none`
+    (the encoder learns from the commitment loss only, the official code)."""
     detach_embeddings: bool = False
     """Give the policy sg[z_q] (the official code) instead of the straight-through value."""
     activation: str = "relu"
     """`relu` (the paper) or `gelu` (the official code)."""
     output_activation: str = "none"
-    """Activation after the encoder's last layer: `none` (the paper) or `sigmoid` (the
-    official code)."""
+    """After the encoder's last layer: `none` (the paper) or `sigmoid` (the official code)."""
     decoder_hidden: tuple[int, ...] | None = None
     """Decoder hidden widths; None mirrors `hidden`."""
     codebook_init: str = "uniform"
-    """`uniform` (VQ-VAE's U(-1/K, 1/K)) or `data` (codes set to encoder outputs of the
-    first training batch; a remedy for codebook collapse, not the paper's method)."""
+    """`uniform` (VQ-VAE's U(-1/K, 1/K)) or `data` (encoder outputs of the first batch)."""
     dead_code_restart: int = 0
-    """Every this many training steps, codes unused since the last restart are moved to
-    random encoder outputs of the current batch (a remedy for collapse); 0 never."""
+    """Every this many steps, move unused codes to random encoder outputs; 0 never."""
     codebook_weight_decay: bool = True
-    """Apply the optimiser's weight decay to the codebook (the paper's plain training);
-    False exempts it (a remedy for collapse: decay pulls unused codes to 0)."""
+    """Apply the optimiser's weight decay to the codebook (the paper's plain training)."""
 
 
 @register_tokenizer("lfq")
@@ -290,9 +253,7 @@ class TokenizerStudyConfig:
     lr: float = 1e-3
     """Adam learning rate."""
     trajectories: str = "demos"
-    """What tokenizers are trained on: `demos`, the preset's `generated` demonstrations of
-    its kitchen and ManiSkill tasks (the last `eval_fraction` of each task's demos held out),
-    or `synthetic`, minimum-jerk trajectories from `icil_paper.data.trajectories` (no simulator)."""
+    """`demos` (the preset's generated demonstrations) or `synthetic` (minimum-jerk)."""
     eval_fraction: float = 0.2
     """Share of each task's demonstrations held out for the metrics (at least one)."""
     n_trajectories: int = 200
@@ -311,9 +272,7 @@ class TokenizerStudyConfig:
 
 
 def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConfig:
-    """The official code's LipVQ-VAE (see `lipvq.py`): last layer normalised with per-row
-    bounds initialised to ones, GELU, sigmoid output, no straight-through estimator, the
-    policy gets the quantized latent detached, codebook weight 0.25, no Lipschitz term."""
+    """The official code's LipVQ-VAE (the differences are listed in `lipvq.py`)."""
     return LipVQConfig(
         latent_dim=latent_dim, codebook_size=codebook_size, hidden=(64, 128),
         decoder_hidden=(64, 128), norm="lipschitz-last", activation="gelu",
@@ -323,9 +282,7 @@ def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConf
 
 
 def official_bin(latent_dim: int = 64) -> BinConfig:
-    """The official code's Bin (see `bin.py`): 20 uniform bins per action dimension over
-    the running min and max of the training actions, where the paper names RT-1's 256 bins
-    (fitted ranges)."""
+    """The official code's Bin: 20 bins over the running range of the training actions."""
     return BinConfig(latent_dim=latent_dim, n_bins=20, range="running")
 
 
@@ -338,9 +295,7 @@ class FSQConfig(NormedEncoderConfig):
     AT_LEAST: ClassVar[dict[str, int]] = {"levels": 3}
 
     levels: tuple[int, ...] = (8, 5, 5, 5)
-    """Quantization levels of each code dimension (at least 3 each); the encoder outputs
-    len(levels) numbers and the implicit codebook has prod(levels) codes (FSQ's choice for
-    about 2^10 codes: (8, 5, 5, 5), 1000 codes)."""
+    """Levels of each code dimension (at least 3 each): prod(levels) codes."""
     recon_weight: float = 1.0
     """Weight of the reconstruction loss."""
 
@@ -364,11 +319,9 @@ class RVQConfig(NormedEncoderConfig):
     num_quantizers: int = 2
     """Residual levels: each quantizes what the levels before it left (VQ-BeT: 2)."""
     codebook_size: int = 32
-    """Codes per level; a step's code is one code per level, prod over levels in all
-    (32 x 32 = 1024 combinations, the paper's VQ-VAE codebook size; VQ-BeT: 16 per level)."""
+    """Codes per level (32 x 32 = 1024 combinations, the paper's K; VQ-BeT: 16)."""
     commitment_weight: float = 0.25
-    """beta, the weight of the commitment loss summed over levels (the codebooks learn by
-    exponential moving averages, vector-quantize-pytorch's default, not from a loss)."""
+    """beta, the weight of the commitment loss summed over levels (codebooks learn by EMA)."""
     recon_weight: float = 1.0
     """Weight of the reconstruction loss."""
 
@@ -385,14 +338,12 @@ class LipRVQConfig(RVQConfig):
 @register_tokenizer("bspline")
 @dataclass(frozen=True)
 class BSplineConfig(TokenizerConfig):
-    """`bspline`: BEAST (Zhou et al. 2025), clamped cubic B-spline control points of action
-    chunks, quantized to integer bins."""
+    """`bspline`: BEAST (Zhou et al. 2025), quantized B-spline control points of chunks."""
 
     chunk: int = 8
     """Action steps per fitted chunk (step t is tokenized with the chunk ending at t)."""
     control_points: int = 5
-    """K, control points per action dimension (4 <= K <= chunk; a clamped cubic with K = 4
-    is one Bezier segment)."""
+    """K, control points per action dimension (4 <= K <= chunk)."""
     n_bins: int = 256
     """Integer bins of each control point's value over its fitted range (BEAST: 256)."""
     autoencode: bool = False
@@ -411,13 +362,10 @@ class BSplineConfig(TokenizerConfig):
 
 
 TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = TOKENIZER_REGISTRY.configs
-"""Registry name -> config class, in registration order: the paper's, in the order of
-Table I (mlp first), then the tokenizers that came after it (`SINCE_PAPER`), then any
-registered later (a module of one's own that uses `register_tokenizer`)."""
+"""Registry name -> config class: the paper's in Table I's order, then `SINCE_PAPER`."""
 
 SINCE_PAPER = ("fsq", "lipfsq", "rvq", "liprvq", "bspline")
-"""The tokenizers of this registry that the paper does not compare (it predates them, or
-they are Eq. 4 applied to them): FSQ, residual VQ and BEAST's B-splines."""
+"""The tokenizers the paper does not compare: FSQ, residual VQ, BEAST and their Eq. 4 twins."""
 
 
 def default_config(name: str, **fields) -> TokenizerConfig:

@@ -4,9 +4,8 @@
     tok = make_tokenizer(LipVQConfig(latent_dim=64), action_dim=7)
     tok = make_tokenizer("vq", 7)                  # a name: its default config
 
-Importing this module imports the package's tokenizer modules (torch), whose classes
-register with `@register_tokenizer_model` as they import; a plugin's tokenizer comes with
-its plugin.
+Importing this module imports the tokenizer modules (torch), whose classes register as they
+import.
 """
 
 from __future__ import annotations
@@ -31,10 +30,8 @@ REGISTRY = TOKENIZER_REGISTRY
 
 
 def make_tokenizer(config: TokenizerConfig | str, action_dim: int) -> ActionTokenizer:
-    """Build the tokenizer a config describes (a name gives that tokenizer's default config).
-
-    An unknown name raises UnknownNameError (a ValueError) that lists the valid names.
-    """
+    """Build the tokenizer a config describes (a name gives that tokenizer's default config);
+    an unknown name raises UnknownNameError (a ValueError)."""
     plugins.discover()
     if isinstance(config, str):
         config = default_config(config)

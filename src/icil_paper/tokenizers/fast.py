@@ -7,21 +7,15 @@ Per chunk of `chunk` steps (C, A):
     symbols      = integers flattened frequency-major, shifted to be non-negative
     tokens       = BPE(symbols), a vocabulary of `vocab_size` trained by `fit`
 
-Decoding inverts every step; since the DCT is orthonormal, a chunk's round-trip error is at
-most sqrt(C * A) / (2 scale) in the Euclidean norm. Values outside the range seen in `fit`
-are clipped to it. A malformed token sequence (not exactly C * A symbols, or unknown ids)
-raises `FastDecodeError` in `decode_tokens` (the reference implementation returns zero
-actions), or with `strict=False` gives NaN actions and a per-sequence `ok` flag.
+Decoding inverts every step (the DCT is orthonormal: a chunk's round-trip error is at most
+sqrt(C * A) / (2 scale)); values outside the range seen in `fit` are clipped. A malformed
+token sequence raises `FastDecodeError` in `decode_tokens` (or, with `strict=False`, gives
+NaN actions and `ok` False).
 
-One embedding per step: a chunk's token embeddings plus learned position embeddings,
-mean-pooled. `mode="causal"` (default): step t is the chunk of the actions ending at t
-(left-padded with the first action), so a step never sees later actions; to embed one new
-step pass the last `context_steps` actions. `mode="blocked"`: FAST's own non-overlapping
-chunks, each step its chunk's embedding plus its place in it (it then encodes later
-actions, which ICRT refuses).
-
-`tokens_per_step` counts tokens of non-overlapping chunks (FAST's compression rate);
-`decode(embeddings)` is a learned MLP head (on detached embeddings unless `autoencode=True`).
+One embedding per step: a chunk's token embeddings plus position embeddings, mean-pooled.
+`mode="causal"`: step t is the chunk of the actions ending at t (left-padded with the first
+action). `mode="blocked"`: FAST's own non-overlapping chunks (later actions leak into a
+step, which ICRT refuses). `decode(embeddings)` is a learned MLP head.
 """
 
 from __future__ import annotations
@@ -58,12 +52,6 @@ def _token_ids(ids, index: int) -> list[int]:
             raise FastDecodeError(f"sequence {index}: token id {j!r} is not a whole number")
         out.append(int(j))
     return out
-
-
-def _bpe_from_str(text: str):
-    from tokenizers import Tokenizer
-
-    return Tokenizer.from_str(text)
 
 
 @register_tokenizer_model("fast")
@@ -126,9 +114,11 @@ class FASTTokenizer(ActionTokenizer):
                 "min_token": self.min_token, "max_token": self.max_token}
 
     def set_extra_state(self, state: dict) -> None:
+        from tokenizers import Tokenizer
+
         self.min_token, self.max_token = state["min_token"], state["max_token"]
         if state["bpe"] is not None:
-            self._set_bpe(_bpe_from_str(state["bpe"]))
+            self._set_bpe(Tokenizer.from_str(state["bpe"]))
 
     @property
     def bpe_vocab_size(self) -> int:
@@ -184,11 +174,8 @@ class FASTTokenizer(ActionTokenizer):
 
     def decode_tokens(self, tokens: Sequence[Sequence[int]], strict: bool = True
                       ) -> tuple[np.ndarray, np.ndarray]:
-        """Token id lists -> (actions (N, C, A), ok (N,) bool).
-
-        A malformed sequence (ids outside the vocabulary, or not exactly C * A symbols)
-        raises FastDecodeError when `strict`; otherwise its actions are NaN and `ok` is False.
-        """
+        """Token id lists -> (actions (N, C, A), ok (N,) bool); a malformed sequence raises
+        FastDecodeError when `strict`, else its actions are NaN and `ok` False."""
         self._require_fit()
         n_sym = self.symbols_per_chunk
         ints = np.zeros((len(tokens), n_sym), dtype=np.int64)
@@ -278,10 +265,7 @@ class FASTTokenizer(ActionTokenizer):
         return self.bpe_vocab_size or self.vocab_size
 
     def tokens_per_step(self, actions=None) -> float:
-        """Tokens of non-overlapping chunks per action step, over `actions`.
-
-        actions: (B, T, A) array/tensor or a list of (T_i, A) arrays (required).
-        """
+        """Tokens of non-overlapping chunks per action step over `actions` (required)."""
         if actions is None:
             raise ValueError("FAST's tokens per step depend on the data: pass actions")
         trajectories = as_trajectory_list(actions, self.action_dim)

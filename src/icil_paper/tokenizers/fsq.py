@@ -6,20 +6,13 @@
         --straight-through (round's gradient is the identity)--> (project to D) -->
         embeddings (B, T, D) --decoder--> x_hat
 
-The quantizer is `vector_quantize_pytorch.FSQ`, given the encoder's output directly
-(`dim=len(levels)`, no projection of its own). Dimension i's grid holds the L_i values
-(j - floor(L_i / 2)) / floor(L_i / 2), j = 0 .. L_i - 1. There is no codebook, so the loss is
-the reconstruction alone (plus Eq. 5's Lipschitz term for `lipfsq`). The grid point is
-mapped to the token width D by a learned linear projection (as `lfq` does); the projected
-point is both the policy's embedding and the decoder's input.
+The quantizer is `vector_quantize_pytorch.FSQ` (`dim=len(levels)`). Dimension i's grid holds
+the L_i values (j - floor(L_i / 2)) / floor(L_i / 2), j = 0 .. L_i - 1. The loss is the
+reconstruction alone (plus Eq. 5's Lipschitz term for `lipfsq`, whose encoder layers are all
+`LipschitzLinear`). A learned linear projection maps the grid point to D, as in `lfq`.
 
-`lipfsq` makes every encoder layer a `LipschitzLinear` (`base.build_encoder`, as
-LipVQ-VAE's); FSQ's bound adds a factor of at most 1 + 1e-3 to the encoder's constant.
-
-Deviations from the FSQ paper: one action per step is quantized (the paper quantizes image
-patches); the encoder is this project's MLP; levels below 3 are refused
-(vector-quantize-pytorch needs its `preserve_symmetry` option for 2, which the paper does
-not use).
+Deviations from the FSQ paper: one action per step is quantized (not image patches); levels
+below 3 are refused.
 """
 
 from __future__ import annotations
@@ -42,8 +35,7 @@ from icil_paper.tokenizers.configs import FSQConfig, register_tokenizer_model
 
 @register_tokenizer_model("fsq")
 class FSQTokenizer(ActionTokenizer):
-    """Finite scalar quantization of one action per step (FSQConfig; see the module
-    docstring); `lipfsq` with a LipFSQConfig."""
+    """Finite scalar quantization of one action per step (FSQConfig; `lipfsq`: LipFSQConfig)."""
 
     name = "fsq"
     discrete = True

@@ -8,17 +8,12 @@ Losses: L_rec + entropy_weight * (mean per-sample entropy - gamma * batch codebo
 + commitment_weight * ||z_e - sg[q]||^2. The entropy term makes each step's code confident
 while spreading the batch over the whole implicit codebook of 2^b codes.
 
-The quantizer is `vector_quantize_pytorch.LFQ` (pinned in requirements.txt; checked to work
-with this project's torch 2.13). In eval mode it returns the hard codes and no losses.
+The quantizer is `vector_quantize_pytorch.LFQ`; in eval mode it returns the hard codes and
+no losses. The +-1 code (b = log2(K) bits, usually fewer than D) is mapped to D by a learned
+linear projection, which both the policy and the decoder read.
 
-Code width: the codebook has 2^b codes, so b = log2(codebook_size) (10 for 1024 codes) is
-usually smaller than the token width D. The +-1 code is then mapped to D by a learned
-linear projection; the projected code is the embedding the policy consumes and what the
-decoder reads, so `decode(embeddings)` needs no inverse projection. With b == D the embedding
-is the +-1 code itself.
-
-(The official code's "LFQ-VAE" only L2-normalizes the encoder output and does no lookup-free
-quantization; this file implements the method the paper cites.)
+(The official code's "LFQ-VAE" only L2-normalizes the encoder output; this file implements
+the method the paper cites.)
 """
 
 from __future__ import annotations
@@ -42,21 +37,18 @@ class LFQTokenizer(ActionTokenizer):
 
     def __init__(self, config: LFQConfig, action_dim: int):
         super().__init__(config, action_dim)
-        codebook_size, latent_dim, hidden = config.codebook_size, config.latent_dim, config.hidden
-        bits = int(round(math.log2(codebook_size)))  # a power of two (LFQConfig checks)
-        entropy_weight, diversity_gamma = config.entropy_weight, config.diversity_gamma
-        commitment_weight, recon_weight = config.commitment_weight, config.recon_weight
         from vector_quantize_pytorch import LFQ
 
-        self.bits = bits
-        self.entropy_weight = entropy_weight
-        self.commitment_weight = commitment_weight
-        self.diversity_gamma = diversity_gamma
-        self.recon_weight = recon_weight
+        codebook_size, latent_dim, hidden = config.codebook_size, config.latent_dim, config.hidden
+        bits = self.bits = int(round(math.log2(codebook_size)))  # a power of two (config checks)
+        self.entropy_weight = config.entropy_weight
+        self.commitment_weight = config.commitment_weight
+        self.diversity_gamma = config.diversity_gamma
+        self.recon_weight = config.recon_weight
         self.encoder = mlp([action_dim, *hidden, bits])
         # Weights 1.0 here: the breakdown is weighted below, so `losses` shows each term.
         self.quantizer = LFQ(dim=bits, codebook_size=codebook_size, entropy_loss_weight=1.0,
-                             commitment_loss_weight=1.0, diversity_gamma=diversity_gamma)
+                             commitment_loss_weight=1.0, diversity_gamma=self.diversity_gamma)
         self.project = nn.Identity() if bits == latent_dim else nn.Linear(bits, latent_dim)
         self.decoder = mlp([latent_dim, *hidden[::-1], action_dim])
 

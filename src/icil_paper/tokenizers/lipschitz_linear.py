@@ -10,14 +10,10 @@ to that bound and leaves the other rows alone:
     W_i  <-  W_i * min(1, softplus(c) / sum_j |W_ij|)
 
 With 1-Lipschitz activations between them, a chain of such layers is Lipschitz with
-constant at most prod_l softplus(c_l), the term `lipschitz_loss` returns (weighted by 1e-6
-in the training loss).
+constant at most prod_l softplus(c_l), the term `lipschitz_loss` returns.
 
 Initialisation follows Liu et al.: W ~ randn * sqrt(2 / in_features), c at the largest
-absolute row sum of W, so nothing is rescaled at the start. `per_row=True, c_init=1.0,
-weight_init="randn"` gives the official LipVQ-VAE code's variant (one bound per row).
-The bounds may train at their own learning rate (`c_lr_scale`, read by
-`bound_parameter_groups`).
+absolute row sum of W. `per_row=True, c_init=1.0, weight_init="randn"` is the official code's.
 """
 
 from __future__ import annotations
@@ -40,11 +36,8 @@ class LipschitzLinear(nn.Module):
         per_row: one bound per output row (the official code) instead of one per layer.
         c_init: initial value of c; None uses Liu et al.'s max absolute row sum of W.
         weight_init: "liu" (randn * sqrt(2 / in_features), zero bias), "randn" (the official
-            code) or "linear" (`nn.Linear`'s own initialisation, weight then bias, from the
-            same random numbers: with c at the largest row sum, the layer is then at step 0
-            exactly the `nn.Linear` that the same seed would build, its twin).
-        c_lr_scale: the learning rate of c as a multiple of the optimiser's (read by
-            `bound_parameter_groups`; 0 keeps the bounds fixed).
+            code) or "linear" (`nn.Linear`'s, from the same random numbers: its twin).
+        c_lr_scale: the learning rate of c as a multiple of the optimiser's (0: fixed).
     """
 
     def __init__(self, in_features: int, out_features: int, bias: bool = True,
@@ -110,14 +103,10 @@ def lipschitz_layers(module: nn.Module) -> list[LipschitzLinear]:
 
 
 def bound_parameter_groups(module: nn.Module, lr: float) -> list[dict]:
-    """Optimiser parameter groups for the trainable bounds c of `module`'s LipschitzLinear
-    layers: one group per learning-rate multiple, `{"params": [c, ...], "lr": lr *
-    c_lr_scale, "weight_decay": 0.0}` (sorted by multiple; [] without such layers).
+    """Optimiser parameter groups for the bounds c of `module`'s LipschitzLinear layers: one
+    `{"params": [c, ...], "lr": lr * c_lr_scale, "weight_decay": 0.0}` per multiple (sorted).
 
-    The bounds are never decayed: decay would pull softplus(c) towards softplus(0) = 0.69,
-    a second pressure on the bound that neither the paper nor Liu et al. describe (their
-    only pressure is L_Lipschitz). A trainer puts every other parameter in its own groups
-    and these beside them; a learning-rate schedule then scales each group alike.
+    Never decayed: decay would pull softplus(c) towards 0.69, a pressure the paper lacks.
     """
     by_scale: dict[float, list[nn.Parameter]] = {}
     for layer in lipschitz_layers(module):
@@ -128,11 +117,8 @@ def bound_parameter_groups(module: nn.Module, lr: float) -> list[dict]:
 
 
 def lipschitz_loss(module: nn.Module) -> Tensor:
-    """L_Lipschitz = prod_l softplus(c_l) over the LipschitzLinear layers of `module`.
-
-    The product bounds the Lipschitz constant (infinity norm) of a chain of these layers with
-    1-Lipschitz activations between them. An empty product is 1.
-    """
+    """L_Lipschitz = prod_l softplus(c_l) over the LipschitzLinear layers of `module` (the
+    bound of the chain's Lipschitz constant in the infinity norm; 1 without such layers)."""
     layers = lipschitz_layers(module)
     if not layers:
         return torch.ones(())
@@ -145,14 +131,9 @@ def lipschitz_bounds(module: nn.Module) -> list[float]:
 
 
 def weight_norm_bound(module: nn.Module, ord: float = math.inf) -> float:
-    """prod_l ||W_l|| over the linear layers of `module`, with their effective weights.
-
-    With 1-Lipschitz activations between the layers, this bounds the network's Lipschitz
-    constant in the vector norm `ord`: for ord=inf the operator norm is the largest absolute
-    row sum (for a LipschitzLinear at most softplus(c)); for ord=2 the largest singular value
-    (1 under spectral normalization). Works for LipschitzLinear, nn.Linear and
-    spectral-normalized nn.Linear alike.
-    """
+    """prod_l ||W_l|| over the (Lipschitz, plain or spectral-normalized) linear layers of
+    `module`, with their effective weights: a bound of the network's Lipschitz constant in
+    the norm `ord` (inf: largest absolute row sum; 2: largest singular value)."""
     if ord not in (math.inf, 2):
         raise ValueError(f"ord must be inf or 2, got {ord}")
     bound = 1.0

@@ -1,16 +1,13 @@
 """`mlp` and `lip-mlp`: ICRT's continuous action MLP, and the same MLP made Lipschitz.
 
-ICRT (Fu et al. 2024) embeds each action with an MLP into the token width; the embedding is
-shaped only by the policy's loss. `lip-mlp` is Table IV's ablation: the same MLP with every
-linear layer a `LipschitzLinear` (Eq. 4) and the 1e-6 prod softplus(c_l) term of Eq. 5 in its losses.
+ICRT (Fu et al. 2024) embeds each action with an MLP, shaped only by the policy's loss.
+`lip-mlp` is Table IV's ablation: every linear layer a `LipschitzLinear` (Eq. 4), plus Eq. 5's
+Lipschitz term.
 
     actions (B, T, A) --encoder MLP--> embeddings (B, T, D) --decoder MLP--> reconstruction
 
-The decoder exists so that `decode` works for every tokenizer. By default it learns on
-*detached* embeddings (`autoencode=False`), so the reconstruction loss trains the decoder
-only and the encoder stays exactly ICRT's (trained by the policy alone). With
-`autoencode=True` (stand-alone training, chapter 05) the reconstruction loss trains the
-encoder too, which makes the MLP an ordinary continuous autoencoder.
+The decoder learns on detached embeddings, so the encoder stays ICRT's; `autoencode=True`
+(stand-alone training) lets the reconstruction loss train the encoder too.
 """
 
 from __future__ import annotations

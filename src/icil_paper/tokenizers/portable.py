@@ -16,11 +16,8 @@ The folder (`save_tokenizer` writes it):
     weights.safetensors   the tokenizer's state_dict (parameters and fitted buffers)
     bpe.json              FAST only: its byte-pair encoding (`tokenizers.Tokenizer.from_file`)
 
-Loading builds the tokenizer from its config alone (`make_tokenizer`) and loads the weights
-with `strict=True`. It refuses with a `TokenizerFolderError` (a ValueError: one line and
-exit 2 at the command line) naming the file and the fix: another format version, a config
-that does not match its checksum, a file whose sha256 differs from the config's, weights
-that do not fit the config.
+Loading builds the tokenizer from its config alone and loads the weights with `strict=True`;
+a folder it cannot trust raises `TokenizerFolderError` (a ValueError) naming the file and the fix.
 """
 
 from __future__ import annotations
@@ -46,8 +43,7 @@ CONFIG_FILE = "config.json"
 WEIGHTS_FILE = "weights.safetensors"
 EXTRA_STATE_SUFFIX = "_extra_state"
 EXTERNAL_STATE = {"bpe": "bpe.json"}
-"""Extra-state entries written as files of their own (name without the module prefix):
-FAST's BPE, already the `tokenizers` package's JSON."""
+"""Extra-state entries written as files of their own (FAST's BPE JSON)."""
 
 
 class TokenizerFolderError(ValueError):
@@ -77,19 +73,12 @@ def _split_state(tokenizer: ActionTokenizer) -> tuple[dict[str, torch.Tensor], d
     return tensors, extra
 
 
-def _external_name(key: str, entry: str) -> str:
-    prefix = key[:-len(EXTRA_STATE_SUFFIX)].replace(".", "_")
-    return prefix + EXTERNAL_STATE[entry]
-
-
 # --------------------------------------------------------------------------- writing
 def save_tokenizer(tokenizer: ActionTokenizer, folder: str | Path,
                    source: Mapping[str, Any] | None = None) -> Path:
-    """Write `tokenizer` (fitted) as a portable folder (module docstring); returns the folder.
-
-    `source` (JSON-ready) says where it came from; `export_tokenizer` fills it from the run.
-    The weights and BPE files are written first and `config.json`, which names their hashes,
-    last, so an interrupted export leaves a folder that `load_tokenizer` refuses.
+    """Write `tokenizer` (fitted) as a portable folder; returns the folder. `source`
+    (JSON-ready) says where it came from. `config.json`, which names the other files' hashes,
+    is written last, so an interrupted export leaves a folder that `load_tokenizer` refuses.
     """
     from safetensors.torch import save as safetensors_bytes
 
@@ -111,7 +100,7 @@ def save_tokenizer(tokenizer: ActionTokenizer, folder: str | Path,
         if isinstance(state, dict):
             for entry in EXTERNAL_STATE:
                 if isinstance(state.get(entry), str):
-                    name = _external_name(key, entry)
+                    name = key[:-len(EXTRA_STATE_SUFFIX)].replace(".", "_") + EXTERNAL_STATE[entry]
                     files[name] = state[entry].encode()
                     state[entry] = {"file": name}
         extra_json[key] = state
@@ -179,8 +168,7 @@ def _read_checked(folder: Path, name: str, expected: str) -> bytes:
 
 
 def _check_plugins(folder: Path, config: Mapping[str, Any], specs: Sequence[str]) -> None:
-    """Load `specs`; refuse a tokenizer type that no loaded code registers, naming the
-    plugin the folder says it needs."""
+    # load `specs`; refuse a tokenizer type no loaded code registers, naming its plugin
     plugins.load_plugins(specs)
     name = (config.get("tokenizer") or {}).get("type")
     if not isinstance(name, str) or name in TOKENIZER_REGISTRY.configs:
@@ -201,10 +189,8 @@ def load_tokenizer(folder: str | Path, map_location: Any = "cpu",
                    plugins: Sequence[str] = ()) -> ActionTokenizer:
     """The tokenizer an exported folder holds, rebuilt from its config, in eval mode.
 
-    `plugins`: modules or files to load first (`icil_paper.plugins.load_plugins`), for a
-    tokenizer a plugin registers; the folder's `plugins` entry names the ones it needs.
-    Raises FileNotFoundError (no folder), TokenizerFolderError (module docstring; a
-    tokenizer whose plugin is not loaded, naming it) or PluginError.
+    `plugins`: modules or files to load first, for a tokenizer a plugin registers. Raises
+    FileNotFoundError, TokenizerFolderError or PluginError.
     """
     from safetensors import SafetensorError
     from safetensors.torch import load as safetensors_load

@@ -7,18 +7,12 @@
         ...      (Q levels, K codes each)
         z_q = e_1[k_1] + ... + e_Q[k_Q] --> embeddings (B, T, D) --decoder--> x_hat
 
-Each level quantizes what the levels before it left, so the error ||z_e - z_q|| falls level
-by level (`level_errors`); `codes_used_per_level` counts each level's distinct codes.
+The quantizer is `vector_quantize_pytorch.ResidualVQ` with its defaults (EMA codebooks, the
+rotation trick). Loss: L_rec + beta * the per-level commitment loss, plus Eq. 5's Lipschitz
+term for `liprvq`, whose encoder layers are all `LipschitzLinear`.
 
-The quantizer is `vector_quantize_pytorch.ResidualVQ` with its defaults: EMA codebooks
-(decay 0.8, no codebook loss), the rotation trick (Fifty et al. 2024) for the encoder's
-gradient, no dead-code replacement. Loss: L_rec + beta * the per-level commitment loss, plus
-Eq. 5's Lipschitz term for `liprvq`, whose encoder layers are all `LipschitzLinear`
-(`base.build_encoder`, as LipVQ-VAE's).
-
-Deviations from VQ-BeT: one action per step is quantized (VQ-BeT quantizes a chunk and
-predicts codes with a GPT; here the codes' vectors are the tokens ICRT reads); the encoder
-is this project's MLP; no offset head.
+Deviations from VQ-BeT: one action per step is quantized (VQ-BeT quantizes a chunk); no
+offset head.
 """
 
 from __future__ import annotations
@@ -39,8 +33,7 @@ from icil_paper.tokenizers.configs import RVQConfig, register_tokenizer_model
 
 @register_tokenizer_model("rvq")
 class RVQTokenizer(ActionTokenizer):
-    """Residual VQ of one action per step (RVQConfig; see the module docstring); `liprvq`
-    with a LipRVQConfig."""
+    """Residual VQ of one action per step (RVQConfig; `liprvq`: LipRVQConfig)."""
 
     name = "rvq"
     discrete = True

@@ -1,15 +1,8 @@
 """Stand-alone tokenizer training and the measurements chapter 05 and the benchmark report.
 
-In the paper every tokenizer is trained jointly with the policy. To compare tokenizers on
-their own, chapter 05 trains each as an autoencoder on action trajectories:
-
     tok = make_tokenizer(stand_alone(preset.tokenizers.lipvq), action_dim=7)
     result = train_tokenizer(tok, trajectories, preset.tokenizer_study, seed=0)
     metrics = evaluate_tokenizer(tok, held_out_trajectories)
-
-`stand_alone(config)` lets the reconstruction / decode loss train the embeddings of `mlp`,
-`lip-mlp`, `bin`, `fast` and `bspline` (in a policy those are shaped by the policy's loss
-instead).
 
 Batches are random windows of `config.window` steps from random trajectories:
 
@@ -41,8 +34,7 @@ from icil_paper.tokenizers.lipschitz_linear import bound_parameter_groups, lipsc
 
 def stand_alone(config: TokenizerConfig) -> TokenizerConfig:
     """The config with `autoencode` on where it has that field (mlp, lip-mlp, bin, fast,
-    bspline):
-    trained alone, their embeddings must learn from reconstruction."""
+    bspline): trained alone, their embeddings must learn from reconstruction."""
     if "autoencode" in {f.name for f in dataclasses.fields(config)}:
         return dataclasses.replace(config, autoencode=True)
     return config
@@ -65,54 +57,45 @@ def sample_windows(trajectories: Sequence[np.ndarray], batch_size: int, window: 
 def train_tokenizer(tokenizer: ActionTokenizer, trajectories, config: TokenizerStudyConfig,
                     seed: int = 0, progress: bool = True, steps: int | None = None,
                     log_every: int | None = None, threads: int | None = 1) -> dict:
-    """Train `tokenizer` on its own for `config.steps` Adam steps (lr `config.lr`; the
-    bounds of Lipschitz layers at their `c_lr_scale` times it).
+    """Train `tokenizer` (fitted first if needed) on its own for `config.steps` Adam steps.
 
-    Fits it first if it has something to fit and is not fitted. Returns
-    `{"steps", "wall_time_s", "history"}`; the history has, every `log_every` steps, the
-    step, the total loss, each weighted loss term and (for Lipschitz layers) the bounds
-    softplus(c_l) of every layer (`lipschitz_bounds`, a list per logged step).
-
-    threads: torch threads while training. Tokenizers are tiny, and one thread is several
-    times faster than two on a 2-core machine (thread synchronization dominates).
+    Returns `{"steps", "wall_time_s", "history"}`; every `log_every` steps the history logs
+    the step, the total loss, each weighted loss term and the Lipschitz bounds softplus(c_l).
+    threads: torch threads while training (one is fastest for these tiny models).
     """
     with cpu_threads(threads):
-        return _train(tokenizer, trajectories, config, seed, progress, steps, log_every)
-
-
-def _train(tokenizer, trajectories, config, seed, progress, steps, log_every) -> dict:
-    trajectories = [t.astype(np.float32) for t in
-                    as_trajectory_list(trajectories, tokenizer.action_dim)]
-    if not tokenizer.fitted:
-        tokenizer.fit(trajectories)
-    steps = config.steps if steps is None else steps
-    log_every = log_every or max(1, steps // 50)
-    rng = np.random.default_rng(seed)
-    bounds = bound_parameter_groups(tokenizer, config.lr)  # Eq. 4's c at its own lr
-    own_group = {id(p) for group in bounds for p in group["params"]}
-    params = [p for p in tokenizer.parameters() if p.requires_grad and id(p) not in own_group]
-    optimizer = torch.optim.Adam([{"params": params}, *bounds], lr=config.lr)
-    history: dict[str, list] = {"step": [], "loss": [], "lipschitz_bounds": []}
-    tokenizer.train()
-    start = time.perf_counter()
-    bar = tqdm(range(1, steps + 1), desc=f"train {tokenizer.name}", disable=not progress,
-               leave=False)
-    for step in bar:
-        batch = torch.from_numpy(sample_windows(trajectories, config.batch_size, config.window, rng))
-        out = tokenizer(batch)
-        loss = out.total_loss()
-        optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        optimizer.step()
-        if step % log_every == 0 or step == 1 or step == steps:
-            history["step"].append(step)
-            history["loss"].append(loss.item())
-            for key, value in out.losses.items():
-                history.setdefault(key, []).append(value.item())
-            history["lipschitz_bounds"].append(lipschitz_bounds(tokenizer))
-            bar.set_postfix(loss=f"{loss.item():.4f}")
-    tokenizer.eval()
-    return {"steps": steps, "wall_time_s": time.perf_counter() - start, "history": history}
+        trajectories = [t.astype(np.float32) for t in
+                        as_trajectory_list(trajectories, tokenizer.action_dim)]
+        if not tokenizer.fitted:
+            tokenizer.fit(trajectories)
+        steps = config.steps if steps is None else steps
+        log_every = log_every or max(1, steps // 50)
+        rng = np.random.default_rng(seed)
+        bounds = bound_parameter_groups(tokenizer, config.lr)  # Eq. 4's c at its own lr
+        own_group = {id(p) for group in bounds for p in group["params"]}
+        params = [p for p in tokenizer.parameters() if p.requires_grad and id(p) not in own_group]
+        optimizer = torch.optim.Adam([{"params": params}, *bounds], lr=config.lr)
+        history: dict[str, list] = {"step": [], "loss": [], "lipschitz_bounds": []}
+        tokenizer.train()
+        start = time.perf_counter()
+        bar = tqdm(range(1, steps + 1), desc=f"train {tokenizer.name}", disable=not progress,
+                   leave=False)
+        for step in bar:
+            batch = sample_windows(trajectories, config.batch_size, config.window, rng)
+            out = tokenizer(torch.from_numpy(batch))
+            loss = out.total_loss()
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            optimizer.step()
+            if step % log_every == 0 or step == 1 or step == steps:
+                history["step"].append(step)
+                history["loss"].append(loss.item())
+                for key, value in out.losses.items():
+                    history.setdefault(key, []).append(value.item())
+                history["lipschitz_bounds"].append(lipschitz_bounds(tokenizer))
+                bar.set_postfix(loss=f"{loss.item():.4f}")
+        tokenizer.eval()
+        return {"steps": steps, "wall_time_s": time.perf_counter() - start, "history": history}
 
 
 # ---------------------------------------------------------------------- evaluation
@@ -130,11 +113,8 @@ def _each(tokenizer: ActionTokenizer, trajectories):
 
 
 def reconstruction_errors(tokenizer: ActionTokenizer, trajectories) -> dict[str, float]:
-    """Mean squared errors over every action value of `trajectories`.
-
-    `reconstruction_mse`: the tokenizer's own reconstruction (decoder, bin centres or inverse
-    DCT); `decode_mse`: `decode(embeddings)`, the way back from what the policy consumes.
-    """
+    """Mean squared errors over `trajectories` of the tokenizer's own reconstruction
+    (`reconstruction_mse`) and of `decode(embeddings)` (`decode_mse`)."""
     sq_rec = sq_dec = n = 0.0
     for x, out in _each(tokenizer, trajectories):
         sq_rec += float(((out.reconstruction - x) ** 2).sum())
@@ -145,8 +125,7 @@ def reconstruction_errors(tokenizer: ActionTokenizer, trajectories) -> dict[str,
 
 def codebook_stats(tokenizer: ActionTokenizer, trajectories) -> dict[str, float | None]:
     """Codebook usage and perplexity over `trajectories` (None for continuous tokenizers),
-    and, for a tokenizer with several codebooks used in turn (residual VQ), the distinct
-    codes of each level (`codes_used_per_level`; None for the others)."""
+    and the distinct codes of each level for residual VQ (`codes_used_per_level`)."""
     if not tokenizer.discrete:
         return {"codebook_size": None, "usage": None, "perplexity": None, "codes_used": None,
                 "codes_used_per_level": None}
@@ -172,11 +151,8 @@ def smoothness(tokenizer: ActionTokenizer, trajectories) -> dict:
 
 def throughput(tokenizer: ActionTokenizer, actions: torch.Tensor, min_time: float = 0.5,
                max_repeats: int = 1000, threads: int | None = 1) -> dict[str, float]:
-    """Actions per second for encode (`forward`), `decode`, and both, on a batch (B, T, A).
-
-    Each is timed over repeats until `min_time` seconds have passed (after one warm-up),
-    with `threads` torch threads (one by default: a per-core figure).
-    """
+    """Actions per second for encode (`forward`), `decode`, and both, on a batch (B, T, A),
+    each timed over repeats for `min_time` seconds after a warm-up, on `threads` threads."""
     n_actions = actions.shape[0] * actions.shape[1]
     was_training = tokenizer.training
     tokenizer.eval()
@@ -208,13 +184,9 @@ def evaluate_tokenizer(tokenizer: ActionTokenizer, trajectories,
                        throughput_batch: tuple[int, int] = (32, 16), seed: int = 0,
                        min_time: float = 0.5, threads: int | None = 1,
                        timing: bool = True) -> dict[str, float | None]:
-    """Every measurement of chapter 05 on held-out `trajectories`, as one flat dict.
-
-    Reconstruction errors, codebook usage / perplexity, tokens per step, encode / decode
-    throughput on a batch of `throughput_batch` (B, T) windows (None with `timing=False`:
-    throughput does not depend on the weights, so it is timed once per tokenizer), and the
-    smoothness scores.
-    """
+    """Every measurement of chapter 05 on held-out `trajectories`, as one flat dict:
+    reconstruction errors, codebook usage, tokens per step, throughput on `throughput_batch`
+    (B, T) windows (None with `timing=False`) and the smoothness scores."""
     trajectories = [t.astype(np.float32) for t in
                     as_trajectory_list(trajectories, tokenizer.action_dim)]
     metrics: dict[str, float | None] = {}

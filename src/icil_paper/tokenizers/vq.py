@@ -12,15 +12,9 @@ Losses (Eq. 5; squared errors are means over elements), alpha = 1, beta = 0.25, 
     L_commit   = ||z_e - sg[z_q]||^2        (keeps the encoder near its codes)
     L_Lipschitz = prod_l softplus(c_l)      (only with Lipschitz layers)
 
-`VQConfig.straight_through`: `vqvae` (default) as drawn; `codebook`, z_q + (z_e - sg[z_e]),
-also sends the decoder's and policy's gradients to the codes; `none` gives z_q itself (the
-official code). `VQConfig.norm`, the encoder's weight normalisation (`base.build_encoder`):
-`none`, `lipschitz` (every layer Eq. 4: LipVQ-VAE as the paper writes it), `lipschitz-last`
-(the official code) or `spectral`.
-
-Remedies for codebook collapse, all off by default (the paper's plain method):
-`codebook_init="data"`, `dead_code_restart=N` (unused codes jump to encoder outputs every N
-steps) and `codebook_weight_decay=False`.
+Options (`VQConfig`): `straight_through`, `norm` (Eq. 4 on every layer gives LipVQ-VAE), and
+remedies for codebook collapse, all off by default: `codebook_init="data"`,
+`dead_code_restart=N` and `codebook_weight_decay=False`.
 """
 
 from __future__ import annotations
@@ -45,7 +39,7 @@ CODEBOOK_INITS = ("uniform", "data")
 
 @register_tokenizer_model("vq")
 class VQTokenizer(ActionTokenizer):
-    """VQ-VAE action tokenizer, one code per step (VQConfig; see the module docstring)."""
+    """VQ-VAE action tokenizer, one code per step (VQConfig)."""
 
     name = "vq"
     discrete = True
@@ -53,8 +47,6 @@ class VQTokenizer(ActionTokenizer):
     def __init__(self, config: VQConfig, action_dim: int):
         super().__init__(config, action_dim)
         latent_dim, K = config.latent_dim, config.codebook_size
-        self.norm = config.norm
-        self.lipschitz_weight = config.lipschitz.weight
         self.encoder = build_encoder([action_dim, *config.hidden, latent_dim], config.norm,
                                      config.activation, config.output_activation,
                                      config.lipschitz)
@@ -113,8 +105,7 @@ class VQTokenizer(ActionTokenizer):
 
     @torch.no_grad()
     def _restart_dead_codes(self, z_e: Tensor, codes: Tensor) -> None:
-        """Count a training step; every `dead_code_restart` steps move unused codes to
-        random encoder outputs of this batch (seeded by torch's global generator)."""
+        # every `dead_code_restart` steps, unused codes move to random encoder outputs
         self._used[codes.flatten()] = True
         self._steps += 1
         if int(self._steps) % self.config.dead_code_restart:
@@ -127,7 +118,7 @@ class VQTokenizer(ActionTokenizer):
         self._used.zero_()
 
     def no_weight_decay(self) -> list[nn.Parameter]:
-        """The codebook when `codebook_weight_decay` is off (see the module docstring)."""
+        """The codebook when `codebook_weight_decay` is off."""
         return [] if self.config.codebook_weight_decay else [self.codebook.weight]
 
     @torch.no_grad()
