@@ -4,15 +4,8 @@
     claims(preset)               # beyond-eq4-fsq, beyond-eq4-rvq (claims of our own)
 
 ICRT with FSQ, residual VQ (each without and with Eq. 4) and B-spline control points beside
-Table I's VQ-VAE and LipVQ-VAE policies (the same RunSpecs, with more seeds where
-`tables.since_paper_seeds` asks for them), trained and evaluated as Table I's rows, with
-each trained tokenizer's latent features (as in Table III and the analysis table). Its
-paper's numbers are Table I's, for those two rows only. Its claims are ours: does Eq. 4
-help FSQ and residual VQ as it helps VQ-VAE? They are read against the paper's Eq. 4 gain
-for VQ-VAE (Table IV).
-
-Shown (chapter 12) with the views every result shares (`tables.display`) and the analysis
-table's frame (`analysis.analysis_frame`).
+Table I's VQ-VAE and LipVQ-VAE policies, on Table I's protocol, with features. Its claims
+are ours, read against the paper's Eq. 4 gain for VQ-VAE (Table IV).
 """
 
 from __future__ import annotations
@@ -34,8 +27,7 @@ from icil_paper.tables.definitions import (
 from icil_paper.tables.spec import Row, TableSpec
 
 SINCE_PAPER_TOKENIZERS = ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq", "bspline")
-"""ICRT's tokenizers in the `beyond` table: Table I's VQ-VAE and LipVQ-VAE, then FSQ,
-residual VQ (each without and with Eq. 4) and B-spline control points."""
+"""ICRT's tokenizers in the `beyond` table."""
 
 
 def since_paper_seeds(preset: Preset) -> int:
@@ -44,11 +36,7 @@ def since_paper_seeds(preset: Preset) -> int:
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Tokenizers since the paper: ICRT with each of `SINCE_PAPER_TOKENIZERS` on the kitchen
-    suite, Table I's protocol and episodes; success per family and on average, and each
-    trained tokenizer's latent features (as in Table III and the analysis table). Its VQ-VAE
-    and LipVQ-VAE rows are Table I's policies (the same RunSpecs, trained once), with more
-    seeds where `since_paper_seeds` asks for them."""
+    """ICRT with each of `SINCE_PAPER_TOKENIZERS`, success per family and avg, features."""
     tasks = preset.data.robocasa_tasks
     rows = []
     for tokenizer in SINCE_PAPER_TOKENIZERS:
