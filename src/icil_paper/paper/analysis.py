@@ -23,7 +23,7 @@ import numpy as np
 from icil_paper import config, stats, verdict_words
 from icil_paper.config import Preset
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
 from icil_paper.tables.definitions import (
     features_cell,
     row_seeds,
@@ -83,11 +83,6 @@ PAPER = "icrt+lipvq (paper)"
 VQ = "icrt+vq"
 
 
-def _features(result: TableResult, row: str):
-    cell = result.cell(row, "features")
-    return cell if cell is not None and cell.estimate is not None else None
-
-
 def _mean_metric(cell, key: str) -> float | None:
     values = [m.get(key) for m in cell.extra["metrics"]]
     values = [v for v in values if v is not None]
@@ -106,7 +101,7 @@ def analysis_frame(result: TableResult, digits: int = 2):
 
     out = []
     for row in result.spec.rows:
-        feat = _features(result, row.label)
+        feat = result.features(row.label)
         line: dict[str, Any] = {"": row.label,
                                 "success": unbroken(format_cell(result.cell(row.label, "avg"),
                                                                 digits))}
@@ -139,7 +134,7 @@ def _success_diff(result: TableResult, a: str, b: str):
 
 
 def _smooth_diff(result: TableResult, a: str, b: str, standardized: bool = True):
-    fa, fb = _features(result, a), _features(result, b)
+    fa, fb = result.features(a), result.features(b)
     if fa is None or fb is None:
         return None
     key = "standardized" if standardized else None
@@ -191,7 +186,7 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
 
 
 def _binding_facts(result: TableResult, row: str) -> dict[str, float | None]:
-    feat = _features(result, row)
+    feat = result.features(row)
     if feat is None:
         return {"capped_fraction": None, "bound_product": None, "empirical_lipschitz": None}
     return {k: _mean_metric(feat, k)
@@ -260,7 +255,7 @@ def binding_frame(result: TableResult, threshold: float = BINDS_AT):
     travel = bound_travel(result)
     rows = {}
     for row, share in capped_shares(result).items():
-        feat = _features(result, row)
+        feat = result.features(row)
         bounds = [] if feat is None else [m.get("layer_bounds") for m in feat.extra["metrics"]]
         trained = (", ".join(_short(b) for b in np.mean(np.array(bounds, float), axis=0))
                    if bounds and all(b is not None for b in bounds) else verdict_words.MISSING)
@@ -279,8 +274,9 @@ def binding_frame(result: TableResult, threshold: float = BINDS_AT):
 def _interval(est, digits: int) -> str:
     if est is None:
         return verdict_words.MISSING
-    return (f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
-            if digits else f"{_short(est.value)} [{_short(est.low)}, {_short(est.high)}]")
+    if digits:
+        return format_difference(est, digits)
+    return f"{_short(est.value)} [{_short(est.low)}, {_short(est.high)}]"
 
 
 def variant_effects(result: TableResult) -> list[dict[str, Any]]:

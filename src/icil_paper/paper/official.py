@@ -31,7 +31,7 @@ from icil_paper.config import Preset
 from icil_paper.config_data import get_path, replace_path
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     family_cells,
@@ -162,14 +162,9 @@ def comparisons() -> list[tuple[str, str]]:
     return [(row, base) for row, base in OFFICIAL_ROWS if base is not None]
 
 
-def _features(result: TableResult, row: str):
-    cell = result.cell(row, "features")
-    return cell if cell is not None and cell.estimate is not None else None
-
-
 def codes_used(result: TableResult, row: str) -> list[int] | None:
     """Codes each seed's tokenizer uses on the held-out trajectories (None while not run)."""
-    cell = _features(result, row)
+    cell = result.features(row)
     if cell is None:
         return None
     values = [m.get("codes_used") for m in cell.extra["metrics"]]
@@ -178,7 +173,7 @@ def codes_used(result: TableResult, row: str) -> list[int] | None:
 
 def codebook_size(result: TableResult, row: str) -> int | None:
     """The row's number of distinct codes (for Bin: action dimensions x bins)."""
-    cell = _features(result, row)
+    cell = result.features(row)
     if cell is None:
         return None
     sizes = {m.get("codebook_size") for m in cell.extra["metrics"]}
@@ -204,10 +199,6 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
     return out
 
 
-def _interval(est: stats.Estimate, digits: int = 3) -> str:
-    return f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
-
-
 def _codes_text(codes: list[int] | None) -> str:
     if codes is None:
         return "-"
@@ -224,7 +215,8 @@ def findings_frame(result: TableResult):
         est = f["estimate"]
         seeds = "" if f["seeds"] is None else " v ".join(map(str, f["seeds"].values()))
         rows.append({"variant": f["variant"], "against": f["base"], "seeds": unbroken(seeds),
-                     "success difference": verdict_words.MISSING if est is None else unbroken(_interval(est)),
+                     "success difference": (verdict_words.MISSING if est is None
+                                            else unbroken(format_difference(est))),
                      "verdict": OUTCOME_WORDS[f["verdict"]],
                      "after Holm": OUTCOME_WORDS[f["adjusted_verdict"]],
                      "codes used": _codes_text(f["variant_codes"]),
@@ -240,7 +232,7 @@ def codes_frame(result: TableResult, digits: int = 2):
     for row in result.spec.rows:
         line: dict[str, Any] = {"": row.label, "success": unbroken(
             format_cell(result.cell(row.label, "avg"), digits))}
-        feat = _features(result, row.label)
+        feat = result.features(row.label)
         if feat is None:
             line["codes used"] = verdict_words.MISSING
         else:

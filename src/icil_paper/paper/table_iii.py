@@ -74,7 +74,7 @@ def claims(preset: Preset) -> list[Claim]:
               "representation goes with smoother motion.", "Spearman correlation of "
               "Table III's least energy and Table I's mean LDLJ of the end-effector path over "
               "the six ICRT tokenizers (negative: smoother latents go with smoother motion)",
-              -1, MotionCorrelation(TOKENIZER_ROWS, "ldlj"), None, own=True,
+              -1, MotionCorrelation(TOKENIZER_ROWS, measure="ldlj"), None, own=True,
               reference="none: the paper has no motion measurement"),
     ]
 

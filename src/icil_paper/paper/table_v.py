@@ -77,7 +77,7 @@ def claims(preset: Preset) -> list[Claim]:
               "BC-Transformer's and ICRT+Bin's (avg of drawers and doors; LDLJ is the primary "
               "motion quantity, higher is smoother; SPARC and action jerk are shown beside it "
               "in the chapter)", +1,
-              MotionComparison("V", "icrt+lipvq", ("bc_transformer", "icrt+bin"), "ldlj"),
+              MotionComparison("V", "icrt+lipvq", ("bc_transformer", "icrt+bin"), measure="ldlj"),
               None, reference="none: the paper states it in words, with no number"),
     ]
 

@@ -21,7 +21,7 @@ from icil_paper.config import Preset
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA, TABLE_I_ROWS
 from icil_paper.paper_numbers import family_rows
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell
+from icil_paper.tables.assemble import TableResult, format_cell, format_difference
 from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
@@ -138,9 +138,8 @@ def shift_frame(before: TableResult, after: TableResult, column: str = "avg",
             "": r["row"],
             f"{i} (generated scenes)": format_cell(r["before"], digits),
             f"{vi} (human scenes)": format_cell(r["after"], digits),
-            f"{vi} - {i}": (verdict_words.MISSING if est is None else
-                            f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, "
-                            f"{est.high:+.{digits}f}]"),
+            f"{vi} - {i}": (verdict_words.MISSING if est is None
+                            else format_difference(est, digits)),
             "lower on the human scenes?": r["verdict"],
             f"paper {vi} - {i}": "" if r["paper"] is None else f"{r['paper']:+.{digits}f}",
         })

@@ -134,6 +134,11 @@ class TableResult:
     def cell(self, row: str, column: str) -> CellResult | None:
         return self.cells.get((row, column))
 
+    def features(self, row: str) -> CellResult | None:
+        """The row's `features` cell once its records are read, else None."""
+        cell = self.cell(row, "features")
+        return cell if cell is not None and cell.estimate is not None else None
+
     def estimate(self, row: str, column: str = "avg") -> Estimate | None:
         cell = self.cell(row, column)
         return cell.estimate if cell else None
@@ -238,6 +243,11 @@ def format_cell(cell: CellResult | None, digits: int = 2) -> str:
     if est is None:
         return verdict_words.MISSING
     return f"{est.value:.{digits}f} [{est.low:.{digits}f}, {est.high:.{digits}f}]"
+
+
+def format_difference(est: Estimate, digits: int = 3) -> str:
+    """`+0.053 [-0.012, +0.118]`: a signed difference with its interval."""
+    return f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
 
 
 def assemble(spec: TableSpec, store: ResultsStore) -> TableResult:

@@ -57,6 +57,11 @@ class Comparison:
         return "least_energy" if self.kind == "score" else "success"
 
     @property
+    def sign(self) -> int:
+        """The better direction of a row's value (least energy: lower is smoother)."""
+        return -1 if self.kind == "score" else +1
+
+    @property
     def rows(self) -> tuple[str, ...]:
         return (self.a, *self.others)
 
@@ -68,19 +73,40 @@ class Comparison:
         data = self.data(tables)
         if data is None:
             return None
-        if self.kind == "score":  # least energy: lower is smoother
-            difference, sign = stats.paired_score_difference, -1
+        if self.kind == "score":
+            difference = stats.paired_score_difference
         else:
-            difference, sign = partial(stats.paired_difference, scenes=self.scenes(tables)), +1
+            difference = partial(stats.paired_difference, scenes=self.scenes(tables))
         if len(self.others) == 1:
             return difference(*data)
-        return stats.best_of(data[0], data[1:], difference, sign)
+        return stats.best_of(data[0], data[1:], difference, self.sign)
 
     def scenes(self, tables: dict[str, TableResult]) -> str:
-        """"per_seed" where the rows' seeds are paired by scene set."""
+        """"per_seed" where the rows' seeds are paired by scene set (Welch's t for scores)."""
         if self.kind == "score":
             return "shared"
         return tables[self.table].scenes(*self.rows, column=self.column)
+
+
+@dataclass(frozen=True)
+class MotionComparison(Comparison):
+    """A `Comparison` of a motion measure (`metrics.MOTION_MEASURES`) of the same episodes."""
+
+    measure: str = "ldlj"
+    kind = "score"
+
+    @property
+    def pool(self) -> str:
+        return self.measure
+
+    @property
+    def sign(self) -> int:
+        return SMOOTHER[self.measure]
+
+    def data(self, tables: dict[str, TableResult]) -> list[np.ndarray] | None:
+        data = [tables[self.table].motion_scores(label, self.column, self.measure)
+                for label in self.rows]
+        return None if any(d is None for d in data) else data
 
 
 @dataclass(frozen=True)
@@ -91,83 +117,37 @@ class Correlation:
     table: str = "III"
     kind: str = "correlation"
     n_boot: int = 2000
+    table_i_kind = "success"
+    """What Table I's quantity is to `stats.rank_correlation`."""
 
     @property
     def smallest_p(self) -> float:
         return 1 / self.n_boot
 
-    def data(self, tables: dict[str, TableResult]):
-        smooth = [tables["III"].outcomes(r, "least_energy") for r in self.rows]
-        success = [tables["I"].outcomes(r, "avg") for r in self.rows]
-        return None if any(x is None for x in smooth + success) else (smooth, success)
-
-    def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
-        data = self.data(tables)
-        return None if data is None else stats.rank_correlation(*data, n_boot=self.n_boot)
-
-
-@dataclass(frozen=True)
-class MotionComparison:
-    """A `Comparison` of a motion measure (`metrics.MOTION_MEASURES`) of the same episodes."""
-
-    table: str
-    a: str
-    others: tuple[str, ...]
-    measure: str = "ldlj"
-    column: str = "avg"
-    kind: str = "score"
-    smallest_p = 0.0
-
-    def scenes(self, tables: dict[str, TableResult]) -> str:
-        return "shared"  # Welch's t on per-seed means
-
-    @property
-    def pool(self) -> str:
-        return self.measure
-
-    @property
-    def rows(self) -> tuple[str, ...]:
-        return (self.a, *self.others)
-
-    def data(self, tables: dict[str, TableResult]) -> list[np.ndarray] | None:
-        data = [tables[self.table].motion_scores(label, self.column, self.measure)
-                for label in self.rows]
-        return None if any(d is None for d in data) else data
-
-    def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
-        data = self.data(tables)
-        if data is None:
-            return None
-        if len(self.others) == 1:
-            return stats.paired_score_difference(*data)
-        return stats.best_of(data[0], data[1:], stats.paired_score_difference,
-                             SMOOTHER[self.measure])
-
-
-@dataclass(frozen=True)
-class MotionCorrelation:
-    """Spearman correlation across `rows` of Table III's least energy and Table I's motion
-    `measure` (a joint bootstrap, `stats.rank_correlation`)."""
-
-    rows: tuple[str, ...]
-    measure: str = "ldlj"
-    table: str = "III"
-    kind: str = "correlation"
-    n_boot: int = 2000
-
-    @property
-    def smallest_p(self) -> float:
-        return 1 / self.n_boot
+    def table_i(self, tables: dict[str, TableResult], row: str) -> np.ndarray | None:
+        return tables["I"].outcomes(row, "avg")
 
     def data(self, tables: dict[str, TableResult]):
         smooth = [tables["III"].outcomes(r, "least_energy") for r in self.rows]
-        motion = [tables["I"].motion_scores(r, "avg", self.measure) for r in self.rows]
-        return None if any(x is None for x in smooth + motion) else (smooth, motion)
+        other = [self.table_i(tables, r) for r in self.rows]
+        return None if any(x is None for x in smooth + other) else (smooth, other)
 
     def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
         data = self.data(tables)
         return None if data is None else stats.rank_correlation(
-            *data, ("score", "score"), n_boot=self.n_boot)
+            *data, ("score", self.table_i_kind), n_boot=self.n_boot)
+
+
+@dataclass(frozen=True)
+class MotionCorrelation(Correlation):
+    """Spearman correlation across `rows` of Table III's least energy and Table I's motion
+    `measure` (a joint bootstrap)."""
+
+    measure: str = "ldlj"
+    table_i_kind = "score"
+
+    def table_i(self, tables: dict[str, TableResult], row: str) -> np.ndarray | None:
+        return tables["I"].motion_scores(row, "avg", self.measure)
 
 
 @dataclass(frozen=True)
@@ -347,7 +327,7 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
     compare = claim.compare
     if design.family[claim.id] == DESCRIPTIVE:
         return {**out, "power_note": f"not planned: {design.why[claim.id]}"}
-    if not isinstance(compare, (Comparison, MotionComparison)):
+    if not isinstance(compare, Comparison):
         return {**out, "power_note": "not planned: a rank correlation across rows has no "
                                      "closed form"}
     data = dict(zip(compare.rows, compare.data(tables), strict=True))
@@ -531,7 +511,8 @@ def _sequential(chosen: list[Claim], entries: list[dict[str, Any]],
             own = min(k_dec, k)
             record["decided_at"] = seq.stages[own]
             entry["adjusted_verdict"] = run[own][1]
-            entry["look"] = f"decided at look {own + 1} of {last + 1} ({seq.stages[own]} seeds a row)"
+            entry["look"] = (f"decided at look {own + 1} of {last + 1} "
+                             f"({seq.stages[own]} seeds a row)")
             if k_dec > own:
                 entry["look"] += (f", after the graph at the ledger's look {k_dec + 1} "
                                   f"({seq.stages[k_dec]} seeds a row)")

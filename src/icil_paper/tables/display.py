@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from icil_paper import stats, verdict_words
-from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
 from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
 
 REFERENCE = "reference"
@@ -109,18 +109,24 @@ def _build_summary(result: TableResult) -> str:
     return verdict_words.QUICK_RUN_OPEN.format(preset=result.preset)
 
 
-def show_per_source(results: dict[str, TableResult], make_frame, describe=None) -> None:
+def show_per_source(results: dict[str, TableResult], make_frame, describe=None, empty=None,
+                    empty_text: str = verdict_words.MISSING) -> None:
     """One frame per source (`make_frame(result)`), this build's collapsed beside a
-    reference; `describe(result)` adds a sentence after the source's name."""
+    reference; `describe(result)` adds a sentence after the source's name; where
+    `empty(result, frame)`, one line `empty_text` stands for the frame."""
     from IPython.display import Markdown, display
 
     for source, result in results.items():
         extra = f": {describe(result)}" if describe else ""
-        if source == BUILD and len(results) > 1:
-            display(collapsed_frame(_build_summary(result) + extra, make_frame(result)))
-            continue
-        display(Markdown(f"**{source_label(source, result.preset)}**{extra}"))
-        display(make_frame(result))
+        title = f"**{source_label(source, result.preset)}**"
+        frame = make_frame(result)
+        if empty is not None and empty(result, frame):
+            display(Markdown(f"{title}: {empty_text}"))
+        elif source == BUILD and len(results) > 1:
+            display(collapsed_frame(_build_summary(result) + extra, frame))
+        else:
+            display(Markdown(title + extra))
+            display(frame)
 
 
 def collapsed_frame(summary: str, frame) -> Any:
@@ -219,16 +225,8 @@ def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
     first = next(iter(results.values()))
     display(Markdown("**The paper**"))
     display(values_frame(first, digits, paper=True))
-    for source, result in results.items():
-        title = f"**{source_label(source, result.preset)}**"
-        if not any(c.estimate is not None for c in result.cells.values()):
-            display(Markdown(f"{title}: not run yet."))
-            continue
-        if source == BUILD and len(results) > 1:
-            display(collapsed_frame(_build_summary(result), values_frame(result, digits)))
-            continue
-        display(Markdown(title))
-        display(values_frame(result, digits))
+    show_per_source(results, lambda r: values_frame(r, digits), empty_text="not run yet.",
+                    empty=lambda r, _: all(c.estimate is None for c in r.cells.values()))
     flat = uninformative_frame(results)
     if not flat.empty:
         display(Markdown("**Uninformative columns**"))
@@ -286,8 +284,8 @@ def difference_sentence(results: dict[str, TableResult], a: str, b: str,
             continue
         est = stats.paired_difference(xa, xb)
         claimed = "higher" if direction > 0 else "lower"
-        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = {est.value:+.3f} "
-                     f"[{est.low:+.3f}, {est.high:+.3f}]; '{a}' is {claimed}: "
+        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = "
+                     f"{format_difference(est)}; '{a}' is {claimed}: "
                      f"{stats.verdict(est, direction)}.")
     return "\n".join(lines)
 
@@ -353,15 +351,5 @@ def codebook_frame(result: TableResult, column: str = "features"):
 
 def show_codebook_use(results: dict[str, TableResult], column: str = "features") -> None:
     """Each source's `codebook_frame`, or one line where its records are not there yet."""
-    from IPython.display import Markdown, display
-
-    for source, result in results.items():
-        frame = codebook_frame(result, column)
-        title = f"**{source_label(source, result.preset)}**"
-        if frame.empty or (frame["status"] == verdict_words.MISSING).all():
-            display(Markdown(f"{title}: {verdict_words.MISSING}"))
-        elif source == BUILD and len(results) > 1:
-            display(collapsed_frame(_build_summary(result), frame))
-        else:
-            display(Markdown(title))
-            display(frame)
+    show_per_source(results, lambda r: codebook_frame(r, column), empty=lambda _, f: (
+        f.empty or (f["status"] == verdict_words.MISSING).all()))
