@@ -32,7 +32,6 @@ from icil_paper.tables.definitions import (
     tasks_cell,
 )
 from icil_paper.tables.spec import Row, TableSpec
-from icil_paper.train.optim import cosine_schedule
 
 ANALYSIS_VARIANTS = (
     ("icrt+vq", "vq", {}),
@@ -214,17 +213,11 @@ def binding_rows(result: TableResult, threshold: float = BINDS_AT) -> list[str]:
 
 
 def bound_travel(result: TableResult) -> dict[str, float]:
-    """{Lipschitz row: the most a bound c_l can move in training}: Adam moves it by about
-    its learning rate a step, so lr * c_lr_scale * sum_t schedule(t)."""
-    out = {}
-    for row in result.spec.rows:
-        if not _lipschitz_row(row):
-            continue
-        run = row.cells["features"].units[0].run
-        schedule = cosine_schedule(run.train.warmup_steps, run.train.steps)
-        out[row.label] = (run.train.lr * run.tokenizer.lipschitz.c_lr_scale
-                          * sum(schedule(t) for t in range(run.train.steps)))
-    return out
+    """{Lipschitz row: the most a bound c_l can move in training (`config.bound_travel`)}."""
+    runs = {row.label: row.cells["features"].units[0].run
+            for row in result.spec.rows if _lipschitz_row(row)}
+    return {label: config.bound_travel(run.train, run.tokenizer.lipschitz.c_lr_scale)
+            for label, run in runs.items()}
 
 
 def bound_travel_frame():

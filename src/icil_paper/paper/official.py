@@ -139,14 +139,8 @@ def spec(preset: Preset) -> TableSpec:
                                  "Table I's protocol)",
                      (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
                          "ICRT with the paper's LipVQ-VAE and Bin (Table I's policies) beside "
-                         "the official code's: its LipVQ-VAE with every difference (last "
-                         "layer only normalised, per-row bounds, sigmoid output, GELU, no "
-                         "straight-through estimator, codebook weight 0.25, no Lipschitz "
-                         "term, the policy given the detached latent), three of them alone, "
-                         "its Bin (20 bins over the running min and max) and its prompts "
-                         "(other demonstrations of the training minibatch, any task). "
-                         "`features` holds each trained tokenizer's codes used, latent scale "
-                         "and least energy on held-out trajectories."))
+                         "the official code's LipVQ-VAE (every difference, and three alone), "
+                         "Bin and prompts; `features`: codes used, latent scale, least energy."))
 
 
 # --------------------------------------------------------------------------- the findings

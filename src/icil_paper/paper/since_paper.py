@@ -52,10 +52,7 @@ def spec(preset: Preset) -> TableSpec:
                      (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
                          "ICRT with FSQ, residual VQ (each without and with Eq. 4) and "
                          "B-spline control points beside Table I's VQ-VAE and LipVQ-VAE "
-                         "policies, trained and evaluated as Table I's rows (the paper's "
-                         "numbers are its Table I's, for those two rows only); `features` "
-                         "holds each trained tokenizer's least energy on held-out "
-                         "trajectories, its latent scale, codes used and Lipschitz facts."))
+                         "policies, as Table I's rows; `features` as in the analysis table."))
 
 
 def claims(preset: Preset) -> list[Claim]:

@@ -53,11 +53,9 @@ def spec(preset: Preset) -> TableSpec:
                         TABLE_I_ROBOCASA[label(p, t)]))
     return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",
                      (*FAMILY_COLUMNS, "avg"), tuple(rows), beside=("features",), note=(
-                         "One multi-task policy per row, trained on the generated demonstrations "
-                         "of all kitchen tasks and evaluated per task; ICRT prompts come from the "
-                         "generated data sets. avg is the mean over tasks. Beside the table, "
-                         "the codebook rows' `features` (Table III's measurement) give their "
-                         "codebook use per seed."))
+                         "One multi-task policy per row, trained on every kitchen task and "
+                         "evaluated per task; avg is the mean over tasks. Beside the table, the "
+                         "codebook rows' `features` give their codebook use per seed."))
 
 
 def claims(preset: Preset) -> list[Claim]:

@@ -83,9 +83,10 @@ def fig5_spec(preset: Preset) -> TableSpec:
                         {"avg": FIG5_CODEBOOK_SIZE[paper_size]} if paper_size else {}))
     return TableSpec("fig5", "Impact of LipVQ-VAE's codebook size (Fig. 5)", ("avg",),
                      tuple(rows), beside=("features",), note=(
-                         f"ICRT + LipVQ-VAE with codebook sizes {list(preset.tables.codebook_sizes)}"
-                         f" (the preset's Table I cell uses {base.codebook_size}). "
-                         "Beside the table, each size's `features` give its codebook use."))
+                         "ICRT + LipVQ-VAE with codebook sizes "
+                         f"{list(preset.tables.codebook_sizes)} (the preset's Table I cell uses "
+                         f"{base.codebook_size}). Beside the table, each size's `features` give "
+                         "its codebook use."))
 
 
 def _power_of_two(size: int) -> str:

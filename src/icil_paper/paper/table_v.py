@@ -51,9 +51,9 @@ def spec(preset: Preset) -> TableSpec:
                         TABLE_V_SIM_TO_REAL[label(policy, tokenizer)]))
     return TableSpec("V", "Sim-to-real success rates (our stand-in: Panda -> perturbed Kinova3)",
                      ("drawers", "doors", "avg"), tuple(rows), note=(
-                         "Policies trained on the Panda kitchen's doors and drawers, rolled out on the "
-                         "Kinova3 arm with perturbed dynamics and noisy observations, prompted "
-                         "with Kinova demonstrations; not a real robot."))
+                         "Policies trained on the Panda kitchen's doors and drawers, rolled out "
+                         "on the Kinova3 arm with perturbed dynamics and noisy observations, "
+                         "prompted with Kinova demonstrations; not a real robot."))
 
 
 def claims(preset: Preset) -> list[Claim]:

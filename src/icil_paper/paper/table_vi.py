@@ -56,12 +56,9 @@ def spec(preset: Preset) -> TableSpec:
                      TABLE_VI_CROSS_DATASET[label(p, t)]) for p, t in TABLE_I_ROWS)
     return TableSpec("VI", "Cross-dataset robotic manipulation (generated -> human-like)",
                      (*FAMILY_COLUMNS, "avg"), rows, note=(
-                         "Table I's policies, trained on the generated demonstrations, "
-                         "evaluated on the human-like scene distribution (fixtures placed "
-                         "elsewhere on the counter and turned further, free objects further "
-                         "from their targets): every row faces the shift. ICRT rows are "
-                         "prompted with the human-like source's demonstrations (teleoperation-"
-                         "like operator on those scenes). avg is the mean over tasks."))
+                         "Table I's policies evaluated on the human-like scene distribution: "
+                         "every row faces the shift; ICRT rows are prompted with the human-like "
+                         "source's demonstrations. avg is the mean over tasks."))
 
 
 def claims(preset: Preset) -> list[Claim]:
