@@ -147,9 +147,6 @@ def spec(preset: Preset) -> TableSpec:
 DIRECTION = +1
 """The verdict reads "the variant succeeds more than its base"."""
 
-OUTCOME_WORDS = verdict_words.OUTCOME
-"""A verdict on "the variant succeeds more" in words of the two-sided question."""
-
 
 def comparisons() -> list[tuple[str, str]]:
     """(variant, base) of every comparison, in the table's row order."""
@@ -211,8 +208,8 @@ def findings_frame(result: TableResult):
         rows.append({"variant": f["variant"], "against": f["base"], "seeds": unbroken(seeds),
                      "success difference": (verdict_words.MISSING if est is None
                                             else unbroken(format_difference(est))),
-                     "verdict": OUTCOME_WORDS[f["verdict"]],
-                     "after Holm": OUTCOME_WORDS[f["adjusted_verdict"]],
+                     "verdict": verdict_words.OUTCOME[f["verdict"]],
+                     "after Holm": verdict_words.OUTCOME[f["adjusted_verdict"]],
                      "codes used": _codes_text(f["variant_codes"]),
                      "base's codes": _codes_text(f["base_codes"])})
     return pd.DataFrame(rows).set_index("variant").rename_axis(None)

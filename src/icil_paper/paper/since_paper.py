@@ -30,17 +30,13 @@ SINCE_PAPER_TOKENIZERS = ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq", "bspl
 """ICRT's tokenizers in the `beyond` table."""
 
 
-def since_paper_seeds(preset: Preset) -> int:
-    """Training seeds of every `beyond` row: `tables.since_paper_seeds`, else `icrt_seeds`."""
-    return preset.tables.since_paper_seeds or preset.tables.icrt_seeds
-
-
 def spec(preset: Preset) -> TableSpec:
     """ICRT with each of `SINCE_PAPER_TOKENIZERS`, success per family and avg, features."""
     tasks = preset.data.robocasa_tasks
     rows = []
+    default = preset.tables.since_paper_seeds or preset.tables.icrt_seeds
     for tokenizer in SINCE_PAPER_TOKENIZERS:
-        seeds = row_seeds(preset, "beyond", label("icrt", tokenizer), since_paper_seeds(preset))
+        seeds = row_seeds(preset, "beyond", label("icrt", tokenizer), default)
         if tokenizer in ICRT_TOKENIZERS:  # Table I's runs
             seeds = max(seeds, table_i_seeds(preset, "icrt", tokenizer))
         runs = seed_runs(preset, "icrt", tokenizer, tasks, seeds)

@@ -95,17 +95,12 @@ def _power_of_two(size: int) -> str:
     return f"2^{exponent}" if 2**exponent == size else str(size)
 
 
-def fig5_rows(preset: Preset) -> tuple[str, list[str]]:
-    """The sweep row at the paper's 2^10 position (the third) and the others."""
-    labels = [r.label for r in fig5_spec(preset).rows]
-    best = labels[min(2, len(labels) - 1)]
-    return best, [x for x in labels if x != best]
-
-
 def claims(preset: Preset) -> list[Claim]:
     """Table IV's and Fig. 5's claims, in the order of the paper's Sec. IV."""
     T4 = TABLE_IV_LIPSCHITZ
-    f5_best, f5_others = fig5_rows(preset)
+    f5_rows = [r.label for r in fig5_spec(preset).rows]
+    f5_best = f5_rows[min(2, len(f5_rows) - 1)]  # at the paper's 2^10 position, the third
+    f5_others = [x for x in f5_rows if x != f5_best]
     return [
         Claim("IV-mlp", "IV", "Incorporating Lipschitz regularization improves performance by "
               "2.3% for the MLP tokenizer.", "ICRT+Lip-MLP minus ICRT+MLP (avg)", +1,
