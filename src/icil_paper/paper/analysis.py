@@ -184,12 +184,9 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
             for quantity, direction, est, row, base, kind in comparisons]
 
 
-def _binding_facts(result: TableResult, row: str) -> dict[str, float | None]:
+def _fact(result: TableResult, row: str, key: str) -> float | None:
     feat = result.features(row)
-    if feat is None:
-        return {"capped_fraction": None, "bound_product": None, "empirical_lipschitz": None}
-    return {k: _mean_metric(feat, k)
-            for k in ("capped_fraction", "bound_product", "empirical_lipschitz")}
+    return None if feat is None else _mean_metric(feat, key)
 
 
 def _lipschitz_row(row) -> bool:
@@ -202,7 +199,7 @@ def _lipschitz_row(row) -> bool:
 
 def capped_shares(result: TableResult) -> dict[str, float | None]:
     """{Lipschitz row: share of its encoder's rows Eq. 4 caps, mean over seeds, or None}."""
-    return {row.label: _binding_facts(result, row.label)["capped_fraction"]
+    return {row.label: _fact(result, row.label, "capped_fraction")
             for row in result.spec.rows if _lipschitz_row(row)}
 
 
@@ -252,7 +249,7 @@ def binding_frame(result: TableResult, threshold: float = BINDS_AT):
         bounds = [] if feat is None else [m.get("layer_bounds") for m in feat.extra["metrics"]]
         trained = (", ".join(_short(b) for b in np.mean(np.array(bounds, float), axis=0))
                    if bounds and all(b is not None for b in bounds) else verdict_words.MISSING)
-        product = _binding_facts(result, row)["bound_product"]
+        product = _fact(result, row, "bound_product")
         rows[row] = {"rows capped": verdict_words.MISSING if share is None else f"{share:.0%}",
                      f"binds (>= {threshold:.0%})": _yes_no(None if share is None
                                                             else share >= threshold),

@@ -150,18 +150,18 @@ class TableResult:
     def motion_scores(self, row: str, column: str = "avg",
                       measure: str = "ldlj") -> np.ndarray | None:
         """A success cell's motion measure (seeds, episodes), `filled_motion`; or None."""
-        cell = self.cell(row, column)
-        if cell is None or measure not in cell.motion:
-            return None
-        return filled_motion(cell.motion[measure])
+        values = self._motion(row, column, measure)
+        return None if values is None else filled_motion(values)
 
     def motion_estimate(self, row: str, column: str = "avg",
                         measure: str = "ldlj") -> Estimate | None:
         """A success cell's `motion_estimate`."""
+        values = self._motion(row, column, measure)
+        return None if values is None else motion_estimate(values)
+
+    def _motion(self, row: str, column: str, measure: str) -> np.ndarray | None:
         cell = self.cell(row, column)
-        if cell is None or measure not in cell.motion:
-            return None
-        return motion_estimate(cell.motion[measure])
+        return None if cell is None else cell.motion.get(measure)
 
     def scenes(self, *rows: str, column: str = "avg") -> str:
         """"per_seed" when every one of `rows` gives seed k scene set k, else "shared"."""
