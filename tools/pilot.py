@@ -52,7 +52,7 @@ from icil_paper.tables.cells import (
     run_cell,
     run_jobs,
 )
-from icil_paper.tables.definitions import families, feature_spec, table_eval
+from icil_paper.tables.definitions import evaluation, families, feature_spec
 
 SETTINGS: dict[str, tuple[str, tuple[str, ...]]] = {
     "kitchen_10": ("I", ("data.demos_per_task=10",)),
@@ -206,7 +206,7 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
     for k in range(REGIME_SEED, REGIME_SEED + seeds):
         for policy, tokenizer in rows:
             run = run_spec(preset, policy, tokenizer, seed=preset.seed + k)
-            evals = [table_eval(preset, run, task, k) for task in preset.data.robocasa_tasks]
+            evals = [evaluation(preset, run, task, k) for task in preset.data.robocasa_tasks]
             features = ([feature_spec(preset, run)] if tokenizer and "lip" in tokenizer else [])
             out.append(RunPlan(run, {eval_key(run, e): e for e in evals},
                                {feature_key(run, f): f for f in features}))
@@ -220,7 +220,7 @@ def regime_plans(preset: Any, seeds: int, maniskill: bool = False,
                 train = dataclasses.replace(run.train, steps=steps)
                 run = run.replace(data=dataclasses.replace(run.data, demos_per_task=demos),
                                   train=train, tokenizer=maniskill_tokenizer(run, train))
-                ev = table_eval(evaluated, run, task, k)
+                ev = evaluation(evaluated, run, task, k)
                 out.append(RunPlan(run, {eval_key(run, ev): ev}))
     return out
 

@@ -6,21 +6,9 @@
     ledger = claims_ledger(preset, store)          # every claim with its verdict
     run_tables(preset, ["I", "VI"], workers=2)     # computes what the store lacks
 
-- `icrt_demo.py`     a small ICRT + LipVQ-VAE on one task, one cell, no claims (chapter 02)
-- `table_i.py`       Table I, every policy on the Meta-World tasks (chapter 06)
-- `table_ii.py`      Table II, ACT with each tokenizer on ManiSkill (chapter 07)
-- `table_iii.py`     Table III, the latents' smoothness, with Figs. 1 and 4 (chapter 08)
-- `table_iv.py`      Table IV, Eq. 4's ablation, with Fig. 5, the codebook size (chapter 09)
-- `table_v.py`       Table V, sim-to-real on our perturbed Kinova3 stand-in (chapter 10)
-- `table_vi.py`      Table VI, cross-dataset, and each row's shift from Table I (chapter 10)
-- `table_vii.py`     Table VII, zero-shot on ML45's held-out tasks (chapter 10)
-- `prompt_ablation.py`   does the prompt carry the task? (chapters 06 and 10)
-- `analysis.py`      is it smoothness? Eq. 4, latent scale and collapse (chapters 11 and 02)
-- `since_paper.py`   the tokenizers since the paper, the `beyond` table (chapter 12)
-- `official.py`      the paper against its official code (chapter 13)
-
-Each declares `spec(preset) -> TableSpec`, its `claims(preset)`, the paper's numbers as
-printed and what its chapter shows; the later tables reuse Table I's trained policies.
+Each module (`table_i` .. `table_vii`, `icrt_demo`, `prompt_ablation`, `analysis`,
+`since_paper`, `official`) declares `spec(preset) -> TableSpec`, its `claims(preset)`, the
+paper's numbers as printed and what its chapter shows.
 """
 
 from __future__ import annotations
@@ -83,9 +71,7 @@ def table_spec(preset: Preset, table_id: str) -> TableSpec:
 
 
 def check_row_seeds(preset: Preset) -> None:
-    """Refuse, before any work, a `tables.row_seeds` entry that names no table or no row of
-    its table (UnknownNameError with a "did you mean"); Fig. 5's rows are its codebook sizes,
-    Table I's include the rows of the tables that share its runs (Table IV's Lip-MLP)."""
+    """UnknownNameError for a `tables.row_seeds` entry naming no table or no row of it."""
     for name in preset.tables.seeds_by_row():
         table, row = name.split(":", 1)
         check_name("tables.row_seeds table", table, TABLES)
@@ -101,24 +87,20 @@ def check_row_seeds(preset: Preset) -> None:
 
 
 def claims(preset: Preset) -> list[Claim]:
-    """Every claim, in the ledger's order: the paper's, in the order of its Sec. IV, then
-    those of our own (`beyond`: does Eq. 4 help every quantizer?; and do smoother latents go
-    with smoother motion?)."""
+    """Every claim in the ledger's order: the paper's (as in its Sec. IV), then our own."""
     paper = [c for result in _PAPER_CLAIMS for c in result.claims(preset) if not c.own]
     ours = [c for result in _OWN_CLAIMS for c in result.claims(preset) if c.own]
     return paper + ours
 
 
 def ledger_design_of(preset: Preset, store: ResultsStore | None = None) -> Design:
-    """The design the records of `store` are read under (`tables.design.ledger_design`): the
-    preset's, or the older one where the store's design record says its records are."""
+    """The design the records of `store` are read under (`tables.design.ledger_design`)."""
     store = store or ResultsStore(preset.name)
     return ledger_design(preset, claims(preset), read_record(store))
 
 
 def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[LedgerEntry]:
-    """Every claim evaluated on the records of `store` (default: the preset's), decided
-    under the design of those records (`ledger_design_of`; `tables.claims.ledger_entries`)."""
+    """Every claim evaluated on the records of `store` (default: the preset's)."""
     store = store or ResultsStore(preset.name)
     every = claims(preset)
     needed = {c.table for c in every} | {"I"}
@@ -127,8 +109,7 @@ def claims_ledger(preset: Preset, store: ResultsStore | None = None) -> list[Led
 
 
 def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
-    """Write `results/<preset>/claims.json` (atomically), its design stated above the
-    entries, and return its path."""
+    """Write `results/<preset>/claims.json` (atomically) and return its path."""
     store = store or ResultsStore(preset.name)
     path = store.dir / "claims.json"
     record = DESIGN_FILE if read_record(store) is not None else None
@@ -140,9 +121,8 @@ def write_ledger(preset: Preset, store: ResultsStore | None = None) -> str:
 def run_tables(preset: Preset, table_ids: Sequence[str] | None = None, executor: str = "local",
                workers: int | None = None, ray_address: str | None = None,
                gpus_per_cell: float = 0.0, progress: bool = True) -> dict[str, Any]:
-    """Compute every missing record of the chosen tables (default: all) as grid cells
-    (`tables.cells`: each policy trained once for every table that reads it). Each cell asks for one CPU and `gpus_per_cell` GPUs (Ray schedules by them).
-    Returns the grid's summaries by run key."""
+    """Compute every missing record of the chosen tables (default: all) as cells
+    (`tables.cells.run_specs`); returns their summaries by run key."""
     ids = list(table_ids or TABLES)
     return run_specs(preset, [table_spec(preset, t) for t in ids], executor=executor,
                      workers=workers, ray_address=ray_address, gpus_per_cell=gpus_per_cell,

@@ -7,13 +7,10 @@
     explanation_verdict(result)  # the smoothness explanation's verdict
     training_windows(result)     # chapter 02: whole episodes against 32-step windows
 
-The paper explains LipVQ-VAE's success by smoothness: Eq. 4 bounds the encoder's Lipschitz
-constant, so latent trajectories are smoother, so in-context imitation succeeds more. Each
-link is checked on the table's cells (`ANALYSIS_VARIANTS`; its VQ-VAE and LipVQ-VAE rows
-are Table I's policies): does Eq. 4 bind (`binding_frame`); is LipVQ-VAE smoother once the
-latent scale is removed (standardized least energy); and does each variant move smoothness
-and success together (`variant_effects`, `effects_frame`). `findings` turns each comparison
-into an estimate with its interval and a verdict (`icil_paper.stats`).
+The paper's explanation: Eq. 4 bounds the encoder's Lipschitz constant, so latents are
+smoother, so ICRT succeeds more. Each link is checked on the table's cells: does Eq. 4 bind,
+is LipVQ-VAE smoother once the latent scale is removed, and does each variant move
+smoothness and success together.
 """
 
 from __future__ import annotations
@@ -26,7 +23,7 @@ import numpy as np
 from icil_paper import config, stats, verdict_words
 from icil_paper.config import Preset
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
 from icil_paper.tables.definitions import (
     features_cell,
     row_seeds,
@@ -35,7 +32,6 @@ from icil_paper.tables.definitions import (
     tasks_cell,
 )
 from icil_paper.tables.spec import Row, TableSpec
-from icil_paper.train.optim import cosine_schedule
 
 ANALYSIS_VARIANTS = (
     ("icrt+vq", "vq", {}),
@@ -49,15 +45,8 @@ ANALYSIS_VARIANTS = (
     ("lipvq, 32-step random windows", "lipvq", {"_policy": {"query_len": 32,
                                                            "query_start": "random"}}),
 )
-"""The analysis chapter's rows: (label, tokenizer, changes). Tokenizer changes are fields of
-its config (`lipschitz` a nested section); `_policy` changes ICRT's config. The presets'
-Lipschitz tokenizers start as their plain twins (nn.Linear's initialisation, c at the
-initial largest row sum) and their bounds learn at the multiple of the trainer's rate that
-lets them travel as far as in the paper's 500K iterations (`config.matching_c_lr_scale`).
-`c_l at the shared rate` is the paper's literal setting at our budget (one rate for every
-parameter: the bounds stay within about 0.5 of where they start), and the `Liu et al.
-init` row starts from Liu et al.'s weights (8x larger action tokens at step 0
-than the plain MLP's), as the paper writes them; chapter 11 measures whether Eq. 4 binds."""
+"""The analysis table's rows: (label, tokenizer, changes to its config; `_policy`: to
+ICRT's)."""
 
 
 def _variant(preset: Preset, tokenizer: str, changes: dict) -> tuple:
@@ -70,10 +59,7 @@ def _variant(preset: Preset, tokenizer: str, changes: dict) -> tuple:
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Is it smoothness? Table IV's cells and variants meant to make Eq. 4 bind (a large
-    gamma, small initial bounds, a larger learning rate of the bounds), that remedy codebook
-    collapse, and that train on ICRT's own 32-step random windows instead of whole
-    episodes; success and the trained encoders' smoothness and Lipschitz facts."""
+    """The analysis table: each of `ANALYSIS_VARIANTS` x avg success and features."""
     tasks = preset.data.robocasa_tasks
     rows = []
     for name, tokenizer, changes in ANALYSIS_VARIANTS:
@@ -96,11 +82,6 @@ PAPER = "icrt+lipvq (paper)"
 VQ = "icrt+vq"
 
 
-def _features(result: TableResult, row: str):
-    cell = result.cell(row, "features")
-    return cell if cell is not None and cell.estimate is not None else None
-
-
 def _mean_metric(cell, key: str) -> float | None:
     values = [m.get(key) for m in cell.extra["metrics"]]
     values = [v for v in values if v is not None]
@@ -108,9 +89,8 @@ def _mean_metric(cell, key: str) -> float | None:
 
 
 def analysis_frame(result: TableResult, digits: int = 2):
-    """One row per variant: success, raw and standardized least energy (with 95% intervals),
-    latent scale sigma, codes used, share of encoder rows Eq. 4 caps, product of the bounds
-    and the empirical Lipschitz constant (means over seeds; "-" where it does not apply)."""
+    """One row per variant: success, least energy (raw, standardized), sigma, codes used and
+    Eq. 4's facts (means over seeds; "-" where it does not apply)."""
     import pandas as pd
 
     def number(value, percent=False):
@@ -120,7 +100,7 @@ def analysis_frame(result: TableResult, digits: int = 2):
 
     out = []
     for row in result.spec.rows:
-        feat = _features(result, row.label)
+        feat = result.features(row.label)
         line: dict[str, Any] = {"": row.label,
                                 "success": unbroken(format_cell(result.cell(row.label, "avg"),
                                                                 digits))}
@@ -143,8 +123,7 @@ def analysis_frame(result: TableResult, digits: int = 2):
 
 
 def _short(value: float) -> str:
-    """Three significant digits without an exponent up to 10^6 (6180, not 6.18e+03), so
-    that the analysis table's columns stay narrow."""
+    """Three significant digits without an exponent up to 10^6 (6180, not 6.18e+03)."""
     return f"{value:.0f}" if 1e3 <= abs(value) < 1e6 else f"{value:.3g}"
 
 
@@ -154,7 +133,7 @@ def _success_diff(result: TableResult, a: str, b: str):
 
 
 def _smooth_diff(result: TableResult, a: str, b: str, standardized: bool = True):
-    fa, fb = _features(result, a), _features(result, b)
+    fa, fb = result.features(a), result.features(b)
     if fa is None or fb is None:
         return None
     key = "standardized" if standardized else None
@@ -170,28 +149,18 @@ MORE_SUCCESSFUL = +1
 
 BINDS_AT = 0.25
 """Eq. 4 *binds* in a row when at least this share of its encoder's rows (all Lipschitz
-layers together, the mean over training seeds) is capped after training: the bounds then
-lie below the upper quartile of the row sums, in the bulk of their distribution, and set
-the scale of a good part of the encoder's units. A few capped rows are not enough: with
-Liu et al.'s initialisation the bound starts at the largest row sum, so a bound that has
-barely moved caps that row and the next few (the tail of the distribution), which changes
-little of what the encoder computes. The sentence gives every row's share beside the
-verdict, so that a row far above the threshold (most rows capped) reads apart from one
-just over it."""
+layers, mean over seeds) is capped after training."""
 
 
 def _base(row: str) -> str:
-    """The row a variant is compared with: VQ-VAE's for the VQ-VAE variants, the paper's
-    LipVQ-VAE for the others."""
+    """The row a variant is compared with: VQ-VAE's for VQ variants, else the paper's."""
     return VQ if row.startswith("vq") else PAPER
 
 
 def findings(result: TableResult) -> list[dict[str, Any]]:
-    """The comparisons of the module docstring: quantity, claimed direction, estimate,
-    verdict, `kind` ("success", "smoothness" on the standardized score, or "raw smoothness"),
-    `row` and `base`: the rows compared, and `variant`: the row, or None for LipVQ-VAE
-    against VQ-VAE. Every variant is compared with its base in success and in standardized least
-    energy: the smoothness explanation predicts both to move together."""
+    """Each comparison: quantity, direction, estimate, verdict, `kind` ("success",
+    "smoothness" or "raw smoothness"), `row`, `base` and `variant` (None for LipVQ-VAE
+    against VQ-VAE); every variant against its base in success and smoothness."""
     rows = [r.label for r in result.spec.rows]
     comparisons = [
         ("LipVQ-VAE's standardized least energy minus VQ-VAE's", SMOOTHER,
@@ -215,12 +184,9 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
             for quantity, direction, est, row, base, kind in comparisons]
 
 
-def _binding_facts(result: TableResult, row: str) -> dict[str, float | None]:
-    feat = _features(result, row)
-    if feat is None:
-        return {"capped_fraction": None, "bound_product": None, "empirical_lipschitz": None}
-    return {k: _mean_metric(feat, k)
-            for k in ("capped_fraction", "bound_product", "empirical_lipschitz")}
+def _fact(result: TableResult, row: str, key: str) -> float | None:
+    feat = result.features(row)
+    return None if feat is None else _mean_metric(feat, key)
 
 
 def _lipschitz_row(row) -> bool:
@@ -232,10 +198,8 @@ def _lipschitz_row(row) -> bool:
 
 
 def capped_shares(result: TableResult) -> dict[str, float | None]:
-    """{row: share of its encoder's rows that Eq. 4 caps after training, mean over seeds}
-    for every row whose encoder has Lipschitz layers, in table order; None for a row whose
-    features have not run yet."""
-    return {row.label: _binding_facts(result, row.label)["capped_fraction"]
+    """{Lipschitz row: share of its encoder's rows Eq. 4 caps, mean over seeds, or None}."""
+    return {row.label: _fact(result, row.label, "capped_fraction")
             for row in result.spec.rows if _lipschitz_row(row)}
 
 
@@ -246,25 +210,16 @@ def binding_rows(result: TableResult, threshold: float = BINDS_AT) -> list[str]:
 
 
 def bound_travel(result: TableResult) -> dict[str, float]:
-    """{Lipschitz row: the most a bound c_l can move in its training}, from its RunSpec:
-    Adam moves a parameter by at most about its learning rate per step, so the bound
-    travels at most lr * c_lr_scale * sum_t schedule(t) (warm-up, then cosine)."""
-    out = {}
-    for row in result.spec.rows:
-        if not _lipschitz_row(row):
-            continue
-        run = row.cells["features"].units[0].run
-        schedule = cosine_schedule(run.train.warmup_steps, run.train.steps)
-        out[row.label] = (run.train.lr * run.tokenizer.lipschitz.c_lr_scale
-                          * sum(schedule(t) for t in range(run.train.steps)))
-    return out
+    """{Lipschitz row: the most a bound c_l can move in training (`config.bound_travel`)}."""
+    runs = {row.label: row.cells["features"].units[0].run
+            for row in result.spec.rows if _lipschitz_row(row)}
+    return {label: config.bound_travel(run.train, run.tokenizer.lipschitz.c_lr_scale)
+            for label, run in runs.items()}
 
 
 def bound_travel_frame():
-    """How far a bound c_l can travel (Adam's step, about its learning rate, times the sum of
-    the schedule's factors: `config.bound_travel`) over the paper's 500K iterations and over
-    each preset's training, at the trainer's shared rate and at the preset's `c_lr_scale`
-    (`config.matching_c_lr_scale`): one row per preset (and the paper's run)."""
+    """How far a bound c_l can travel (`config.bound_travel`) in the paper's run and each
+    preset's, at the shared rate and at the preset's `c_lr_scale`."""
     import pandas as pd
 
     paper = config.bound_travel(config.PAPER_TRAIN)
@@ -283,21 +238,18 @@ def bound_travel_frame():
 
 
 def binding_frame(result: TableResult, threshold: float = BINDS_AT):
-    """Does Eq. 4 bind? One row per Lipschitz row of the table: the share of its encoder's
-    rows the trained bounds cap (mean over seeds), whether that reaches `threshold`
-    (`BINDS_AT`), the product of the bounds, the most a bound c_l can move in its training
-    (`bound_travel`) and the trained bounds softplus(c_l), layer by layer (mean over seeds);
-    `verdict_words.MISSING` where a row has not run."""
+    """Does Eq. 4 bind? Per Lipschitz row: share of rows capped, whether it reaches
+    `threshold`, product of the bounds, `bound_travel` and the trained softplus(c_l)."""
     import pandas as pd
 
     travel = bound_travel(result)
     rows = {}
     for row, share in capped_shares(result).items():
-        feat = _features(result, row)
+        feat = result.features(row)
         bounds = [] if feat is None else [m.get("layer_bounds") for m in feat.extra["metrics"]]
         trained = (", ".join(_short(b) for b in np.mean(np.array(bounds, float), axis=0))
                    if bounds and all(b is not None for b in bounds) else verdict_words.MISSING)
-        product = _binding_facts(result, row)["bound_product"]
+        product = _fact(result, row, "bound_product")
         rows[row] = {"rows capped": verdict_words.MISSING if share is None else f"{share:.0%}",
                      f"binds (>= {threshold:.0%})": _yes_no(None if share is None
                                                             else share >= threshold),
@@ -312,14 +264,14 @@ def binding_frame(result: TableResult, threshold: float = BINDS_AT):
 def _interval(est, digits: int) -> str:
     if est is None:
         return verdict_words.MISSING
-    return (f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
-            if digits else f"{_short(est.value)} [{_short(est.low)}, {_short(est.high)}]")
+    if digits:
+        return format_difference(est, digits)
+    return f"{_short(est.value)} [{_short(est.low)}, {_short(est.high)}]"
 
 
 def variant_effects(result: TableResult) -> list[dict[str, Any]]:
-    """One entry per variant row: `variant`, `base`, its `smoothness` and `success`
-    findings against the base (`findings`), and `binds` (True, False, or None when it has
-    no Lipschitz layers or has not run)."""
+    """Per variant: `variant`, `base`, its `smoothness` and `success` findings, and `binds`
+    (None without Lipschitz layers or records)."""
     found = findings(result)
     shares = capped_shares(result)
     out = []
@@ -333,15 +285,13 @@ def variant_effects(result: TableResult) -> list[dict[str, Any]]:
 
 
 def _yes_no(value: bool | None) -> str:
-    """A table cell for a yes/no fact: "yes", "no", or `verdict_words.MISSING` (not run or
-    not applicable)."""
+    """"yes", "no", or `verdict_words.MISSING` for None."""
     return verdict_words.MISSING if value is None else ("yes" if value else "no")
 
 
 def explanation_verdict(result: TableResult) -> Verdict:
-    """The verdict on the smoothness explanation: HOLDS when LipVQ-VAE is both smoother than
-    VQ-VAE on the standardized score and more successful, DOES_NOT_HOLD when either is
-    measured the other way, NOT_RUN while either has not run, else INCONCLUSIVE."""
+    """HOLDS when LipVQ-VAE is both smoother (standardized) and more successful than VQ-VAE,
+    DOES_NOT_HOLD when either goes the other way, else NOT_RUN or INCONCLUSIVE."""
     found = {f["quantity"]: f for f in findings(result)}
     smoother = Verdict(found["LipVQ-VAE's standardized least energy minus VQ-VAE's"]["verdict"])
     better = Verdict(found["LipVQ-VAE's success minus VQ-VAE's"]["verdict"])
@@ -355,9 +305,7 @@ def explanation_verdict(result: TableResult) -> Verdict:
 
 
 def effects_frame(result: TableResult):
-    """Each variant against its base (`variant_effects`): its standardized least energy and
-    success differences with their 95% intervals, each in the vocabulary's words, and
-    whether Eq. 4 binds in it; one row per variant."""
+    """`variant_effects` as a table: differences with 95% intervals, in words, and binding."""
     import pandas as pd
 
     rows = {}
@@ -376,15 +324,12 @@ def effects_frame(result: TableResult):
 # --------------------------------------------------------------------------- chapter 02's windows
 WHOLE_EPISODES = PAPER
 RANDOM_WINDOWS = "lipvq, 32-step random windows"
-"""The analysis table's two ways of training ICRT + LipVQ-VAE: whole episodes from step 0
-(the default: the window the policy acts with) and ICRT's random 32-step query windows."""
+"""ICRT + LipVQ-VAE trained on whole episodes (the default) and on random 32-step windows."""
 
 
 def training_windows(result: TableResult) -> dict[str, Any] | None:
-    """Chapter 02's comparison of the two training windows, from the analysis table: each
-    row's success estimate ("whole", "windows"), the difference whole episodes minus windows
-    ("difference", paired on the same scenes) and its verdict (`icil_paper.stats`, claimed
-    higher), and the training seeds a row; None while either row has not run."""
+    """Chapter 02's comparison: "whole", "windows", "difference" (whole minus windows),
+    "verdict" and "seeds"; None while either row has not run."""
     a, b = result.outcomes(WHOLE_EPISODES), result.outcomes(RANDOM_WINDOWS)
     if a is None or b is None:
         return None

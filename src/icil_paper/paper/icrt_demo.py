@@ -5,14 +5,8 @@ from prompts, as a table of one cell.
     run, evaluation = icrt_specs(preset)  # the cell's training run and its evaluation
     records = icrt_records(preset, store) # {"train": ..., "eval": ...} metrics, or None
 
-One training seed (`tables.row_seeds` may give the row more, "icrt:icrt+lipvq=N"), trained
-on `ICRT_DEMO_TASK` alone and evaluated on it with the preset's episodes and prompts, as
-every table evaluates a row's seed 0 (`tables.definitions.tasks_cell`). It carries no
-paper's numbers and no claims: the chapter opens the model up and shows what one run
-learns. The stage `table-icrt` computes it, through the same grid as every table.
-
-Shown (chapter 02): the train record's loss curve and the eval record's success, with one
-of its episodes replayed (`book.method`).
+One training seed (more through `tables.row_seeds`), trained on `ICRT_DEMO_TASK` alone and
+evaluated there as every table evaluates; no paper's numbers and no claims.
 """
 
 from __future__ import annotations
@@ -56,9 +50,8 @@ def icrt_specs(preset: Preset) -> tuple[RunSpec, EvalSpec]:
 
 def icrt_records(preset: Preset, store: ResultsStore | None = None
                  ) -> dict[str, dict[str, Any]] | None:
-    """{"train": the train record's metrics (summary and loss curve), "eval": the eval
-    record's metrics (success rate, Wilson interval, per-episode seeds and prompts)} of seed
-    0, as the stage `table-icrt` stored them; None while either is missing."""
+    """{"train": ..., "eval": ...}: seed 0's train and eval records' metrics, or None while
+    either is missing."""
     store = store or ResultsStore(preset.name)
     run, ev = icrt_specs(preset)
     trained, evaluated = store.get(*train_record(run)), store.get(*eval_record(run, ev))

@@ -3,10 +3,8 @@
     spec(preset)                 # the paper's LipVQ-VAE and Bin, the official code's, x families
     findings_frame(result)       # each variant against its base: difference, verdict, codes
 
-The official code (`andvg3/LipVQ-VAE`) differs from the paper in ways that could each
-explain a result. The `official` table (`spec`) trains ICRT on Table I's tasks with the
-paper's LipVQ-VAE and Bin (Table I's policies, the paper's numbers Table I's) and with the
-code's versions; every variant row is compared with the paper's row it departs from:
+The official code (`andvg3/LipVQ-VAE`) differs from the paper; each variant row is compared
+with the paper's row it departs from (Table I's policies):
 
     variant                        base                  what differs
     icrt+lipvq (official code)     icrt+lipvq (paper)    every difference of `lipvq_official()`
@@ -17,10 +15,7 @@ code's versions; every variant row is compared with the paper's row it departs f
     icrt+bin (official code)       icrt+bin (paper)      20 bins over the running min and max
     prompts from the minibatch     icrt+lipvq (paper)    training prompts of any task
 
-`findings` gives each comparison (paired 95% interval, verdict, Holm over the table, codes
-used); `differences_frame` what each row changes, read from the run specs; `codes_frame`
-each row's codes used. The question is two-sided: "holds" reads higher, "does not hold"
-lower.
+The question is two-sided: "holds" reads higher, "does not hold" lower.
 """
 
 from __future__ import annotations
@@ -36,7 +31,7 @@ from icil_paper.config import Preset
 from icil_paper.config_data import get_path, replace_path
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     family_cells,
@@ -61,8 +56,7 @@ OFFICIAL_ROWS = (
     ("icrt+bin (official code)", OFFICIAL_PAPER_BIN),
     ("prompts from the minibatch", OFFICIAL_PAPER_LIPVQ),
 )
-"""The `official` table's rows in order: (label, the paper's row it is compared with; None
-for the paper's own rows)."""
+"""The `official` table's rows: (label, the paper's row it is compared with, or None)."""
 
 
 OFFICIAL_SINGLE_DIFFERENCES = {
@@ -71,10 +65,7 @@ OFFICIAL_SINGLE_DIFFERENCES = {
     "detached latent": ("detach_embeddings",),
     "no Lipschitz loss": ("lipschitz.weight",),
 }
-"""The official LipVQ-VAE's differences measured one at a time: row -> the fields it takes
-from `lipvq_official()` (the values are that config's; every other field is the paper's).
-The last layer alone is normalised as the official code does it: one bound per output row,
-initialised to ones, randn weights, a sigmoid after it."""
+"""Row -> the fields it takes from `lipvq_official()` (every other field the paper's)."""
 
 
 def _leaf_values(config, prefix: str = "") -> dict[str, object]:
@@ -89,8 +80,7 @@ def _leaf_values(config, prefix: str = "") -> dict[str, object]:
 
 
 def config_differences(a, b) -> dict[str, tuple[object, object]]:
-    """{dotted field path: (value in `a`, value in `b`)} for every leaf field where two
-    configs of the same class differ (nested configs expanded)."""
+    """{dotted field path: (value in `a`, value in `b`)} where two configs differ."""
     va, vb = _leaf_values(a), _leaf_values(b)
     return {path: (va[path], vb[path]) for path in va if va[path] != vb[path]}
 
@@ -103,11 +93,8 @@ def _take_fields(base, source, paths: Sequence[str]):
 
 
 def official_configs(preset: Preset) -> dict[str, tuple]:
-    """Row -> (ICRT config, tokenizer config) of every `official` row. The official-code
-    rows take every field in which `lipvq_official()` / `official_bin()` differ from the
-    paper's defaults onto the preset's own config (so sizes stay the preset's); the
-    single-difference rows take `OFFICIAL_SINGLE_DIFFERENCES`' fields only; the minibatch
-    row changes ICRT's `prompt_from` only."""
+    """Row -> (ICRT config, tokenizer config): the official-code rows take every field where
+    `lipvq_official()` / `official_bin()` differ from the paper's onto the preset's config."""
     icrt, lipvq, bin_ = preset.policies.icrt, preset.tokenizers.lipvq, preset.tokenizers.bin
     off_lipvq = lipvq_official(lipvq.latent_dim, lipvq.codebook_size)
     off_bin = official_bin(bin_.latent_dim)
@@ -131,13 +118,8 @@ def official_seeds(preset: Preset) -> int:
 
 
 def spec(preset: Preset) -> TableSpec:
-    """The paper against its official code: ICRT on the kitchen suite with the paper's
-    LipVQ-VAE and Bin (Table I's policies, the same RunSpecs, with more seeds where
-    `official_seeds` asks for them), the official code's LipVQ-VAE (every difference at
-    once), each of three of its differences alone, the official Bin (20 running bins) and
-    prompts drawn from the training minibatch; Table I's protocol and episodes, success per
-    family and on average, and each trained tokenizer's latent features (codes used: the
-    official design is known to collapse its codebook)."""
+    """The `official` table: each of `OFFICIAL_ROWS` on Table I's protocol, success per
+    family and on average, and features."""
     tasks = preset.data.robocasa_tasks
     configs = official_configs(preset)
     paper_rows = {OFFICIAL_PAPER_LIPVQ: label("icrt", "lipvq"),
@@ -157,23 +139,13 @@ def spec(preset: Preset) -> TableSpec:
                                  "Table I's protocol)",
                      (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
                          "ICRT with the paper's LipVQ-VAE and Bin (Table I's policies) beside "
-                         "the official code's: its LipVQ-VAE with every difference (last "
-                         "layer only normalised, per-row bounds, sigmoid output, GELU, no "
-                         "straight-through estimator, codebook weight 0.25, no Lipschitz "
-                         "term, the policy given the detached latent), three of them alone, "
-                         "its Bin (20 bins over the running min and max) and its prompts "
-                         "(other demonstrations of the training minibatch, any task). "
-                         "`features` holds each trained tokenizer's codes used, latent scale "
-                         "and least energy on held-out trajectories."))
+                         "the official code's LipVQ-VAE (every difference, and three alone), "
+                         "Bin and prompts; `features`: codes used, latent scale, least energy."))
 
 
 # --------------------------------------------------------------------------- the findings
 DIRECTION = +1
-"""The verdict is read on "the variant succeeds more than its base"; "does not hold" then
-means it succeeds less."""
-
-OUTCOME_WORDS = verdict_words.OUTCOME
-"""A verdict on "the variant succeeds more" in words of the two-sided question."""
+"""The verdict reads "the variant succeeds more than its base"."""
 
 
 def comparisons() -> list[tuple[str, str]]:
@@ -181,15 +153,9 @@ def comparisons() -> list[tuple[str, str]]:
     return [(row, base) for row, base in OFFICIAL_ROWS if base is not None]
 
 
-def _features(result: TableResult, row: str):
-    cell = result.cell(row, "features")
-    return cell if cell is not None and cell.estimate is not None else None
-
-
 def codes_used(result: TableResult, row: str) -> list[int] | None:
-    """Codes each seed's trained tokenizer uses on the held-out trajectories (None while
-    not run)."""
-    cell = _features(result, row)
+    """Codes each seed's tokenizer uses on the held-out trajectories (None while not run)."""
+    cell = result.features(row)
     if cell is None:
         return None
     values = [m.get("codes_used") for m in cell.extra["metrics"]]
@@ -198,7 +164,7 @@ def codes_used(result: TableResult, row: str) -> list[int] | None:
 
 def codebook_size(result: TableResult, row: str) -> int | None:
     """The row's number of distinct codes (for Bin: action dimensions x bins)."""
-    cell = _features(result, row)
+    cell = result.features(row)
     if cell is None:
         return None
     sizes = {m.get("codebook_size") for m in cell.extra["metrics"]}
@@ -206,11 +172,8 @@ def codebook_size(result: TableResult, row: str) -> int | None:
 
 
 def findings(result: TableResult) -> list[dict[str, Any]]:
-    """One entry per comparison: `variant`, `base`, `estimate` (success of the variant minus
-    its base on the same episodes, `stats.paired_difference`; None while not run),
-    `verdict` (`stats.verdict`, direction +1), `adjusted_verdict` (after Holm's correction
-    over the table's comparisons), `seeds` (training seeds of each row) and the codes used
-    per seed of each (`variant_codes`, `base_codes`)."""
+    """Per comparison: `variant`, `base`, `estimate` (paired success difference), `verdict`,
+    `adjusted_verdict` (Holm over the table), `seeds`, `variant_codes`, `base_codes`."""
     out = []
     for variant, base in comparisons():
         xa, xb = result.outcomes(variant, "avg"), result.outcomes(base, "avg")
@@ -227,10 +190,6 @@ def findings(result: TableResult) -> list[dict[str, Any]]:
     return out
 
 
-def _interval(est: stats.Estimate, digits: int = 3) -> str:
-    return f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
-
-
 def _codes_text(codes: list[int] | None) -> str:
     if codes is None:
         return "-"
@@ -239,9 +198,7 @@ def _codes_text(codes: list[int] | None) -> str:
 
 
 def findings_frame(result: TableResult):
-    """The comparisons as a table: variant, base, seeds, success difference [95% interval],
-    the verdict before and after Holm's correction (in words), the codes used (mean over
-    seeds, range where they differ) by the variant and by its base."""
+    """`findings` as a table, verdicts in words, codes used as mean (range)."""
     import pandas as pd
 
     rows = []
@@ -249,26 +206,24 @@ def findings_frame(result: TableResult):
         est = f["estimate"]
         seeds = "" if f["seeds"] is None else " v ".join(map(str, f["seeds"].values()))
         rows.append({"variant": f["variant"], "against": f["base"], "seeds": unbroken(seeds),
-                     "success difference": verdict_words.MISSING if est is None else unbroken(_interval(est)),
-                     "verdict": OUTCOME_WORDS[f["verdict"]],
-                     "after Holm": OUTCOME_WORDS[f["adjusted_verdict"]],
+                     "success difference": (verdict_words.MISSING if est is None
+                                            else unbroken(format_difference(est))),
+                     "verdict": verdict_words.OUTCOME[f["verdict"]],
+                     "after Holm": verdict_words.OUTCOME[f["adjusted_verdict"]],
                      "codes used": _codes_text(f["variant_codes"]),
                      "base's codes": _codes_text(f["base_codes"])})
     return pd.DataFrame(rows).set_index("variant").rename_axis(None)
 
 
 def codes_frame(result: TableResult, digits: int = 2):
-    """One row per table row: success with its interval, codes used on the held-out
-    trajectories (mean over seeds, range where they differ), the codebook size, the latent
-    scale sigma and the standardized least energy (means over seeds; "not run" while the
-    features are missing)."""
+    """Per row: success, codes used, codebook size, sigma and standardized least energy."""
     import pandas as pd
 
     out = []
     for row in result.spec.rows:
         line: dict[str, Any] = {"": row.label, "success": unbroken(
             format_cell(result.cell(row.label, "avg"), digits))}
-        feat = _features(result, row.label)
+        feat = result.features(row.label)
         if feat is None:
             line["codes used"] = verdict_words.MISSING
         else:
@@ -283,8 +238,7 @@ def codes_frame(result: TableResult, digits: int = 2):
 
 
 def differences_frame(result: TableResult):
-    """What each variant row changes against its base, read from the two rows' run specs
-    (seed 0): one line per changed field, `policy.` or `tokenizer.` and the two values."""
+    """One line per field a variant's run spec changes against its base's (seed 0)."""
     import pandas as pd
 
     runs = {row.label: row.cells["avg"].units[0].run for row in result.spec.rows}
@@ -302,7 +256,6 @@ def differences_frame(result: TableResult):
 
 
 def collapsed_rows(result: TableResult) -> list[str]:
-    """Rows whose trained tokenizer uses a single code on the held-out trajectories at every
-    seed: their policy received (nearly) one constant action token."""
+    """Rows whose tokenizer uses a single code on the held-out trajectories at every seed."""
     return [row.label for row in result.spec.rows
             if (codes := codes_used(result, row.label)) is not None and max(codes) <= 1]

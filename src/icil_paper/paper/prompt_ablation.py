@@ -3,12 +3,8 @@
     spec(preset)                              # ICRT + LipVQ-VAE: right, another task's, cut prompt
     prompt_beside_baselines(table1, prompt)   # beside Table I's rows that read no prompt
 
-Table I's ICRT + LipVQ-VAE (the same runs) evaluated with its task's prompt, with the prompt
-of another task (the same fixture's opposite goal where there is one: `other_task`), and
-with only the first `tables.prompt_steps` steps of its own prompt. The paper has no such
-table and no claim about it; chapter 10 compares the right prompt with the other two
-(`display.difference_sentence`), chapter 06 sets it beside the baselines that read the
-task's instruction and no prompt.
+Table I's ICRT + LipVQ-VAE runs evaluated with its task's prompt, another task's
+(`other_task`) and the first `tables.prompt_steps` steps of its own. No claims.
 """
 
 from __future__ import annotations
@@ -25,8 +21,7 @@ from icil_paper.tables.spec import Cell, Row, TableSpec, Unit
 
 def other_task(task: str, tasks: Sequence[str]) -> str:
     """The task whose prompt stands in as the wrong one: the same fixture's opposite goal
-    (open/close, on/off: `metaworld/drawer-open` -> `metaworld/drawer-close`) where there is
-    one, else the next task of the list."""
+    (`metaworld/drawer-open` -> `metaworld/drawer-close`) where there is one, else the next."""
     suite, name = task.split("/", 1)
     swaps = [f"{suite}/{b}{name[len(a):]}" for a, b in (("open_", "close_"), ("close_", "open_"))
              if name.startswith(a)]
@@ -40,8 +35,7 @@ def other_task(task: str, tasks: Sequence[str]) -> str:
 
 
 def spec(preset: Preset) -> TableSpec:
-    """The prompt ablation: Table I's ICRT + LipVQ-VAE runs with the right prompt, another
-    task's (`other_task`) and the first `tables.prompt_steps` steps of its own."""
+    """The prompt ablation's three rows x avg."""
     tasks = list(preset.data.robocasa_tasks)
     runs = table_i_runs(preset, "icrt", "lipvq")
     right = tasks_cell(preset, runs, tasks)
@@ -65,10 +59,8 @@ PROMPT_BASELINES = ("bc_transformer", "act")
 
 def prompt_beside_baselines(table1: dict[str, TableResult], prompt: dict[str, TableResult],
                             digits: int = 3):
-    """The prompt ablation's rows (ICRT + LipVQ-VAE with its task's prompt, another task's,
-    the first steps of its own) beside Table I's baselines, which read the task's language
-    instruction and no prompt: what a prompt adds over the instruction alone. One column
-    per source (reference run, this build), average success with its 95% interval."""
+    """The prompt ablation's rows beside Table I's baselines, which read the instruction and
+    no prompt: average success with its 95% interval, one column per source."""
     import pandas as pd
 
     out = []

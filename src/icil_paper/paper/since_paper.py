@@ -4,15 +4,8 @@
     claims(preset)               # beyond-eq4-fsq, beyond-eq4-rvq (claims of our own)
 
 ICRT with FSQ, residual VQ (each without and with Eq. 4) and B-spline control points beside
-Table I's VQ-VAE and LipVQ-VAE policies (the same RunSpecs, with more seeds where
-`tables.since_paper_seeds` asks for them), trained and evaluated as Table I's rows, with
-each trained tokenizer's latent features (as in Table III and the analysis table). Its
-paper's numbers are Table I's, for those two rows only. Its claims are ours: does Eq. 4
-help FSQ and residual VQ as it helps VQ-VAE? They are read against the paper's Eq. 4 gain
-for VQ-VAE (Table IV).
-
-Shown (chapter 12) with the views every result shares (`tables.display`) and the analysis
-table's frame (`analysis.analysis_frame`).
+Table I's VQ-VAE and LipVQ-VAE policies, on Table I's protocol, with features. Its claims
+are ours, read against the paper's Eq. 4 gain for VQ-VAE (Table IV).
 """
 
 from __future__ import annotations
@@ -34,25 +27,16 @@ from icil_paper.tables.definitions import (
 from icil_paper.tables.spec import Row, TableSpec
 
 SINCE_PAPER_TOKENIZERS = ("vq", "lipvq", "fsq", "lipfsq", "rvq", "liprvq", "bspline")
-"""ICRT's tokenizers in the `beyond` table: Table I's VQ-VAE and LipVQ-VAE, then FSQ,
-residual VQ (each without and with Eq. 4) and B-spline control points."""
-
-
-def since_paper_seeds(preset: Preset) -> int:
-    """Training seeds of every `beyond` row: `tables.since_paper_seeds`, else `icrt_seeds`."""
-    return preset.tables.since_paper_seeds or preset.tables.icrt_seeds
+"""ICRT's tokenizers in the `beyond` table."""
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Tokenizers since the paper: ICRT with each of `SINCE_PAPER_TOKENIZERS` on the kitchen
-    suite, Table I's protocol and episodes; success per family and on average, and each
-    trained tokenizer's latent features (as in Table III and the analysis table). Its VQ-VAE
-    and LipVQ-VAE rows are Table I's policies (the same RunSpecs, trained once), with more
-    seeds where `since_paper_seeds` asks for them."""
+    """ICRT with each of `SINCE_PAPER_TOKENIZERS`, success per family and avg, features."""
     tasks = preset.data.robocasa_tasks
     rows = []
+    default = preset.tables.since_paper_seeds or preset.tables.icrt_seeds
     for tokenizer in SINCE_PAPER_TOKENIZERS:
-        seeds = row_seeds(preset, "beyond", label("icrt", tokenizer), since_paper_seeds(preset))
+        seeds = row_seeds(preset, "beyond", label("icrt", tokenizer), default)
         if tokenizer in ICRT_TOKENIZERS:  # Table I's runs
             seeds = max(seeds, table_i_seeds(preset, "icrt", tokenizer))
         runs = seed_runs(preset, "icrt", tokenizer, tasks, seeds)
@@ -64,10 +48,7 @@ def spec(preset: Preset) -> TableSpec:
                      (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
                          "ICRT with FSQ, residual VQ (each without and with Eq. 4) and "
                          "B-spline control points beside Table I's VQ-VAE and LipVQ-VAE "
-                         "policies, trained and evaluated as Table I's rows (the paper's "
-                         "numbers are its Table I's, for those two rows only); `features` "
-                         "holds each trained tokenizer's least energy on held-out "
-                         "trajectories, its latent scale, codes used and Lipschitz facts."))
+                         "policies, as Table I's rows; `features` as in the analysis table."))
 
 
 def claims(preset: Preset) -> list[Claim]:

@@ -4,16 +4,8 @@
     claims(preset)               # I-lipvq-best, I-lipvq-vs-bc, I-lipvq-vs-lfq, ...
     TABLE_I_ROBOCASA             # the paper's numbers, as printed
 
-One multi-task policy per row (MCR, ACT, BC-Transformer, ICRT with each of the paper's six
-tokenizers), trained on the generated demonstrations of every kitchen task and evaluated per
-task; avg is the mean over tasks. Its policies are the ones Tables III, IV, V, VI, the
-prompt ablation, Fig. 5, the analysis, `beyond` and `official` tables reuse
-(`definitions.table_i_runs`). Beside the table, the codebook rows carry Table III's
-features, for their codebook use (`display.show_codebook_use`).
-
-Shown (chapter 06) with the views every result shares (`tables.display`: `show_comparison`,
-`success_figure`, `seed_correlations`, `show_codebook_use`, `show_motion`,
-`show_values`), beside the prompt ablation (`prompt_ablation.prompt_beside_baselines`).
+One multi-task policy per row, trained on every kitchen task and evaluated per task; avg
+is the mean over tasks. The other tables reuse its policies (`definitions.table_i_runs`).
 """
 
 from __future__ import annotations
@@ -51,8 +43,7 @@ TABLE_I_ROBOCASA = family_rows({
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table I at the preset's sizes: every row's runs (`table_i_runs`), a cell per
-    family and "avg", and the codebook rows' features beside."""
+    """Table I: a cell per family and "avg", and the codebook rows' features beside."""
     tasks = preset.data.robocasa_tasks
     rows = []
     for p, t in TABLE_I_ROWS:
@@ -62,11 +53,9 @@ def spec(preset: Preset) -> TableSpec:
                         TABLE_I_ROBOCASA[label(p, t)]))
     return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",
                      (*FAMILY_COLUMNS, "avg"), tuple(rows), beside=("features",), note=(
-                         "One multi-task policy per row, trained on the generated demonstrations "
-                         "of all kitchen tasks and evaluated per task; ICRT prompts come from the "
-                         "generated data sets. avg is the mean over tasks. Beside the table, "
-                         "the codebook rows' `features` (Table III's measurement) give their "
-                         "codebook use per seed."))
+                         "One multi-task policy per row, trained on every kitchen task and "
+                         "evaluated per task; avg is the mean over tasks. Beside the table, the "
+                         "codebook rows' `features` give their codebook use per seed."))
 
 
 def claims(preset: Preset) -> list[Claim]:

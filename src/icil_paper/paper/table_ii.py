@@ -6,12 +6,7 @@
     TABLE_II_MANISKILL           # the paper's numbers, as printed
 
 ACT's CVAE action encoder replaced by each tokenizer, beside MCR, ACT and BC-Transformer:
-one policy per task (as ManiSkill's baselines), trained on the motion planner's
-demonstrations converted to end-effector deltas, at the preset's `tables.maniskill_*`
-sizes; a Lipschitz tokenizer's bounds learn at the rate that lets them travel as far as in
-the paper's 30K iterations (`maniskill_tokenizer`).
-
-Shown (chapter 07) with the views every result shares (`tables.display`).
+one policy per task, at the preset's `tables.maniskill_*` sizes.
 """
 
 from __future__ import annotations
@@ -53,8 +48,8 @@ TABLE_II_MANISKILL = {
 
 
 def maniskill_settings(preset: Preset) -> tuple[int, int, int]:
-    """Table II's state-based rows: (demonstrations per task, training steps, episodes per
-    task), the preset's `tables.maniskill_*` where set, else its shared values."""
+    """(demonstrations per task, training steps, episodes per task) of Table II's state
+    rows: `tables.maniskill_*` where set, else the preset's shared values."""
     t = preset.tables
     return (t.maniskill_demos_per_task or preset.data.demos_per_task,
             t.maniskill_steps or preset.train.steps,
@@ -62,10 +57,9 @@ def maniskill_settings(preset: Preset) -> tuple[int, int, int]:
 
 
 def maniskill_tokenizer(run: RunSpec, train: TrainConfig):
-    """`run`'s tokenizer for Table II's training `train`: a Lipschitz tokenizer's bounds get
-    the learning-rate multiple that lets them travel, relative to the paper's 30K ManiSkill
-    iterations, as far as the preset's multiple lets them in its kitchen training relative
-    to the paper's 500K (`config.matching_c_lr_scale`); every other tokenizer is unchanged."""
+    """`run`'s tokenizer for Table II's `train`: a Lipschitz tokenizer's `c_lr_scale` rescaled
+    so its bounds travel, relative to the paper's 30K iterations, as far as in the kitchen
+    relative to its 500K; every other tokenizer unchanged."""
     tok = run.tokenizer
     options = getattr(tok, "lipschitz", None)
     lipschitz = getattr(tok, "norm", "lipschitz").startswith("lipschitz")  # lip-mlp: always
@@ -78,8 +72,7 @@ def maniskill_tokenizer(run: RunSpec, train: TrainConfig):
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table II at the preset's sizes: one policy per row and ManiSkill task, a cell per task
-    and "avg" over the three tasks' units."""
+    """Table II: one policy per row and task, a cell per task and "avg"."""
     demos, steps, episodes = maniskill_settings(preset)
     evaluated = preset.replace(eval={"episodes_per_task": episodes})  # MCR: image episodes
 

@@ -6,17 +6,11 @@
     tsne_paths(smooth["this build"])     # Fig. 4: one held-out trajectory in each latent space
     TABLE_III_SMOOTHNESS                 # the paper's numbers, as printed
 
-The least energy of the latent features that Table I's trained ICRT policies' own
-tokenizers give held-out generated trajectories (`definitions.feature_spec`: the same
-records as the codebook use beside Tables I and IV). Its claims: LipVQ-VAE's latents are
-the smoothest, smoother latents go with more success (a rank correlation with Table I's
-success), and, a claim of our own, with smoother motion (`MotionCorrelation`: Table I's
-LDLJ of the end-effector path).
+The least energy of the latents that Table I's ICRT policies' tokenizers give held-out
+trajectories (`definitions.feature_spec`).
 """
 
 from __future__ import annotations
-
-from typing import Any
 
 import numpy as np
 
@@ -40,8 +34,7 @@ TABLE_III_SMOOTHNESS = {"icrt+mlp": 5.71, "icrt+bin": 12.57, "icrt+fast": 5.67, 
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table III: the features of each ICRT tokenizer's Table I runs on held-out trajectories
-    (`feature_spec`), one unit per training seed."""
+    """Table III: each ICRT tokenizer's Table I runs x least_energy, a unit per seed."""
     rows = []
     for tokenizer in ICRT_TOKENIZERS:
         runs = table_i_runs(preset, "icrt", tokenizer)
@@ -64,8 +57,7 @@ def _paper_correlation() -> float:
 
 
 def claims(preset: Preset) -> list[Claim]:
-    """Table III's claims, in the order of the paper's Sec. IV, then ours (the ledger puts
-    it after the paper's: `icil_paper.paper.claims`)."""
+    """Table III's claims, in the order of the paper's Sec. IV, then ours."""
     others = [r for r in TOKENIZER_ROWS if r != "icrt+lipvq"]
     return [
         Claim("III-lipvq-smoothest", "III", "Among all tokenizers, LipVQ-VAE achieves the best "
@@ -82,7 +74,7 @@ def claims(preset: Preset) -> list[Claim]:
               "representation goes with smoother motion.", "Spearman correlation of "
               "Table III's least energy and Table I's mean LDLJ of the end-effector path over "
               "the six ICRT tokenizers (negative: smoother latents go with smoother motion)",
-              -1, MotionCorrelation(TOKENIZER_ROWS, "ldlj"), None, own=True,
+              -1, MotionCorrelation(TOKENIZER_ROWS, measure="ldlj"), None, own=True,
               reference="none: the paper has no motion measurement"),
     ]
 
@@ -98,9 +90,8 @@ CLAIM_LABELS = {
 # --------------------------------------------------------------------------- Figs. 1 and 4
 def smoothness_success_figure(smooth: dict[str, TableResult], success: dict[str, TableResult],
                               standardized: bool = False):
-    """Fig. 1: least energy (Table III) against average success (Table I) of the six ICRT
-    tokenizers, with 95% intervals on both axes; the paper's points beside ours (the paper's
-    on its own axis, since the scales differ)."""
+    """Fig. 1: least energy (Table III) against average success (Table I) with 95% intervals,
+    per source, and the paper's points on their own axes."""
     import matplotlib.pyplot as plt
 
     rows = [r.label for r in next(iter(smooth.values())).spec.rows]
@@ -138,8 +129,7 @@ def smoothness_success_figure(smooth: dict[str, TableResult], success: dict[str,
 
 
 def tsne_paths(smooth: TableResult, seed: int = 0) -> dict[str, np.ndarray]:
-    """Fig. 4: each tokenizer's latents of the first steps of one held-out trajectory,
-    projected to 2-D by t-SNE (scikit-learn), {row label: (steps, 2)} (seed 0's policy)."""
+    """Fig. 4: {row label: (steps, 2)}, seed 0's latents of one held-out trajectory by t-SNE."""
     from sklearn.manifold import TSNE
 
     paths = {}
@@ -155,21 +145,9 @@ def tsne_paths(smooth: TableResult, seed: int = 0) -> dict[str, np.ndarray]:
     return paths
 
 
-def feature_coverage(metrics: dict[str, Any]) -> dict[str, Any]:
-    """What one features record scored: tasks scored and asked for (None in records older
-    than the per-task sampling), trajectories, features, and the steps of each task."""
-    steps = metrics.get("steps_per_task")
-    return {"tasks_scored": len(metrics["tasks_scored"]) if "tasks_scored" in metrics else None,
-            "tasks": len(metrics["tasks"]) if "tasks" in metrics else None,
-            "trajectories": metrics["n_trajectories"], "features": metrics["n_features"],
-            "steps_per_task": dict(steps) if steps else None}
-
-
 def feature_sampling_frame(results: dict[str, TableResult], column: str = "least_energy"):
-    """For each source, what Table III's features records scored, one line per row and
-    seed: tasks scored of the tasks asked for (None in an older record that scored the
-    first features in task order), the fewest and most steps per task, held-out
-    trajectories and features (`feature_coverage`)."""
+    """What Table III's features records scored, per source, row and seed: tasks scored and
+    asked for (None in older records), steps a task, trajectories and features."""
     import pandas as pd
 
     lines = []
@@ -179,14 +157,15 @@ def feature_sampling_frame(results: dict[str, TableResult], column: str = "least
             if cell is None or cell.estimate is None:
                 continue
             for seed, m in enumerate(cell.extra["metrics"]):
-                c = feature_coverage(m)
-                steps = list((c["steps_per_task"] or {}).values())
+                steps = list((m.get("steps_per_task") or {}).values())
                 lines.append({"source": source_label(source, result.preset), "row": row.label,
-                              "seed": seed, "tasks scored": c["tasks_scored"],
-                              "tasks": c["tasks"], "steps a task": (
+                              "seed": seed, "tasks scored": (len(m["tasks_scored"])
+                                                             if "tasks_scored" in m else None),
+                              "tasks": len(m["tasks"]) if "tasks" in m else None,
+                              "steps a task": (
                                   "" if not steps else f"{min(steps)}" if min(steps) == max(steps)
                                   else f"{min(steps)}-{max(steps)}"),
-                              "trajectories": c["trajectories"], "features": c["features"]})
+                              "trajectories": m["n_trajectories"], "features": m["n_features"]})
     columns = ["source", "row", "seed", "tasks scored", "tasks", "steps a task",
                "trajectories", "features"]
     return pd.DataFrame(lines, columns=columns).set_index(["source", "row", "seed"])

@@ -7,10 +7,8 @@ chapter 09.
     codes_used_frame(fig5)       # Fig. 5's numbers: codes used of each size's K
     TABLE_IV_LIPSCHITZ, FIG5_CODEBOOK_SIZE   # the paper's numbers, as printed
 
-Table IV's MLP and VQ-VAE rows, and Fig. 5's size at the preset's codebook size, are Table
-I's policies (the same runs); Fig. 5's sweep is scaled to the preset's model (its i-th size
-stands beside the paper's i-th, 2^8 .. 2^11). Beside both, the codebook rows carry Table
-III's features, for their codebook use (`display.show_codebook_use`).
+Table IV's rows and Fig. 5's size at the preset's codebook size are Table I's policies;
+Fig. 5's i-th size stands beside the paper's i-th (2^8 .. 2^11).
 """
 
 from __future__ import annotations
@@ -50,8 +48,7 @@ FIG5_CODEBOOK_SIZE = {256: 0.475, 512: 0.509, 1024: 0.530, 2048: 0.511}
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table IV: Table I's ICRT runs with MLP, Lip-MLP, VQ-VAE and LipVQ-VAE, average success
-    over the kitchen tasks, the codebook rows' features beside."""
+    """Table IV: ICRT with MLP, Lip-MLP, VQ-VAE and LipVQ-VAE x avg, features beside."""
     tasks = preset.data.robocasa_tasks
     rows = []
     for p, t in TABLE_IV_ROWS:
@@ -66,13 +63,10 @@ def spec(preset: Preset) -> TableSpec:
 
 
 def fig5_spec(preset: Preset) -> TableSpec:
-    """Fig. 5: ICRT + LipVQ-VAE at each of the preset's `tables.codebook_sizes`, its i-th size
-    beside the paper's i-th; the size of Table I's cell reuses Table I's runs."""
+    """Fig. 5: ICRT + LipVQ-VAE at each of `tables.codebook_sizes` x avg."""
     tasks = preset.data.robocasa_tasks
     base = preset.tokenizers.lipvq
     rows = []
-    # the sweep is scaled to the preset's model: its i-th size stands beside the paper's
-    # i-th (2^8 .. 2^11), whatever their absolute values
     paper_sizes = sorted(FIG5_CODEBOOK_SIZE)
     for i, size in enumerate(sorted(preset.tables.codebook_sizes)):
         tok = dataclasses.replace(base, codebook_size=size)
@@ -89,9 +83,10 @@ def fig5_spec(preset: Preset) -> TableSpec:
                         {"avg": FIG5_CODEBOOK_SIZE[paper_size]} if paper_size else {}))
     return TableSpec("fig5", "Impact of LipVQ-VAE's codebook size (Fig. 5)", ("avg",),
                      tuple(rows), beside=("features",), note=(
-                         f"ICRT + LipVQ-VAE with codebook sizes {list(preset.tables.codebook_sizes)}"
-                         f" (the preset's Table I cell uses {base.codebook_size}). "
-                         "Beside the table, each size's `features` give its codebook use."))
+                         "ICRT + LipVQ-VAE with codebook sizes "
+                         f"{list(preset.tables.codebook_sizes)} (the preset's Table I cell uses "
+                         f"{base.codebook_size}). Beside the table, each size's `features` give "
+                         "its codebook use."))
 
 
 def _power_of_two(size: int) -> str:
@@ -100,18 +95,12 @@ def _power_of_two(size: int) -> str:
     return f"2^{exponent}" if 2**exponent == size else str(size)
 
 
-def fig5_rows(preset: Preset) -> tuple[str, list[str]]:
-    """The sweep row at the paper's 2^10 position (the third of four; its label names the
-    paper's size where the preset's differs) and the others."""
-    labels = [r.label for r in fig5_spec(preset).rows]
-    best = labels[min(2, len(labels) - 1)]
-    return best, [x for x in labels if x != best]
-
-
 def claims(preset: Preset) -> list[Claim]:
     """Table IV's and Fig. 5's claims, in the order of the paper's Sec. IV."""
     T4 = TABLE_IV_LIPSCHITZ
-    f5_best, f5_others = fig5_rows(preset)
+    f5_rows = [r.label for r in fig5_spec(preset).rows]
+    f5_best = f5_rows[min(2, len(f5_rows) - 1)]  # at the paper's 2^10 position, the third
+    f5_others = [x for x in f5_rows if x != f5_best]
     return [
         Claim("IV-mlp", "IV", "Incorporating Lipschitz regularization improves performance by "
               "2.3% for the MLP tokenizer.", "ICRT+Lip-MLP minus ICRT+MLP (avg)", +1,
@@ -142,9 +131,7 @@ CLAIM_LABELS = {
 
 
 def codes_used_frame(results: dict[str, TableResult], column: str = "features"):
-    """For each source, how many codes each codebook row used of its K on the held-out
-    trajectories and their perplexity, means over the seeds measured: Fig. 5's numbers on
-    its codebook sizes, from the features records (a row not measured yet has None)."""
+    """Per source and codebook row: codes used of K and perplexity, means over seeds."""
     import pandas as pd
 
     lines = []

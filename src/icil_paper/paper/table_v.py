@@ -4,14 +4,9 @@
     claims(preset)               # V-lipvq-vs-bc, V-lipvq-vs-bin, V-lipvq-smoother-motion
     TABLE_V_SIM_TO_REAL          # the paper's numbers (a real Kinova Gen3), as printed
 
-Table I's policies (trained on the Panda kitchen, the same runs) rolled out on the Kinova3
-arm with perturbed dynamics and noisy observations, prompted with Kinova demonstrations;
-not a real robot. The paper says in words that LipVQ-VAE moves more smoothly on the real
-robot: its claim reads the LDLJ of the end-effector paths of the same episodes
-(`MotionComparison`), with no number of the paper's to size it.
-
-Shown (chapter 10) with the views every result shares (`tables.display`: a comparison per
-family, `success_figure`, `show_motion`).
+Policies trained on the Panda kitchen's doors and drawers, rolled out on the Kinova3 arm
+with perturbed dynamics and noisy observations, prompted with Kinova demonstrations; not a
+real robot. The smoother-motion claim reads LDLJ (`MotionComparison`).
 """
 
 from __future__ import annotations
@@ -35,8 +30,7 @@ TABLE_V_SIM_TO_REAL = {
 
 
 def sim_to_real_runs(preset: Preset, policy: str, tokenizer: str | None):
-    """The runs of one row: trained on the Panda twins of the Kinova tasks
-    (`data.splits.sim_to_real_pairs`), one per training seed."""
+    """One row's runs, trained on the Panda twins of the Kinova tasks."""
     twins = sorted(set(sim_to_real_pairs().values()))
     seeds = row_seeds(preset, "V", label(policy, tokenizer),
                       table_i_seeds(preset, policy, tokenizer))
@@ -44,9 +38,7 @@ def sim_to_real_runs(preset: Preset, policy: str, tokenizer: str | None):
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table V: its three rows trained on the Panda door and drawer tasks and evaluated on
-    the Kinova3 tasks (`data.splits.sim_to_real_pairs`), drawers and doors apart and
-    together."""
+    """Table V: three rows evaluated on the Kinova3 tasks, drawers, doors and avg."""
     kinova = sorted(sim_to_real_pairs())
     columns = {"drawers": [t for t in kinova if t.endswith("drawer")],
                "doors": [t for t in kinova if t.endswith("door")]}
@@ -59,9 +51,9 @@ def spec(preset: Preset) -> TableSpec:
                         TABLE_V_SIM_TO_REAL[label(policy, tokenizer)]))
     return TableSpec("V", "Sim-to-real success rates (our stand-in: Panda -> perturbed Kinova3)",
                      ("drawers", "doors", "avg"), tuple(rows), note=(
-                         "Policies trained on the Panda kitchen's doors and drawers, rolled out on the "
-                         "Kinova3 arm with perturbed dynamics and noisy observations, prompted "
-                         "with Kinova demonstrations; not a real robot."))
+                         "Policies trained on the Panda kitchen's doors and drawers, rolled out "
+                         "on the Kinova3 arm with perturbed dynamics and noisy observations, "
+                         "prompted with Kinova demonstrations; not a real robot."))
 
 
 def claims(preset: Preset) -> list[Claim]:
@@ -85,7 +77,7 @@ def claims(preset: Preset) -> list[Claim]:
               "BC-Transformer's and ICRT+Bin's (avg of drawers and doors; LDLJ is the primary "
               "motion quantity, higher is smoother; SPARC and action jerk are shown beside it "
               "in the chapter)", +1,
-              MotionComparison("V", "icrt+lipvq", ("bc_transformer", "icrt+bin"), "ldlj"),
+              MotionComparison("V", "icrt+lipvq", ("bc_transformer", "icrt+bin"), measure="ldlj"),
               None, reference="none: the paper states it in words, with no number"),
     ]
 

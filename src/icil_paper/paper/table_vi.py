@@ -7,13 +7,9 @@ shift of each Table I row to its Table VI self.
     shift_counts(table_i, table_vi)       # the same, counted per verdict
     TABLE_VI_CROSS_DATASET                # the paper's numbers, as printed
 
-Table VI evaluates Table I's trained policies on the suite's `human` scene distribution,
-ICRT rows with the human-like source's prompts, on episodes with Table I's seeds. Each row's
-change is paired by training seed: d_k = (seed k on human scenes) - (seed k on generated
-scenes), with the paired t interval on the d_k (`stats.paired_difference`, df = S - 1); a
-one-seed row reads "too few seeds". The verdict reads "the shift lowers this row's success"
-(direction -1 on VI - I). The paper's own change (its Table VI minus its Table I) is shown
-beside ours (chapter 10, `show_shift`).
+Table I's policies on the `human` scene distribution (ICRT with the human-like prompts), on
+Table I's episode seeds. Each row's shift is paired by training seed, d_k = (seed k on human
+scenes) - (seed k on generated scenes), read as "the shift lowers this row's success".
 """
 
 from __future__ import annotations
@@ -25,7 +21,7 @@ from icil_paper.config import Preset
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA, TABLE_I_ROWS
 from icil_paper.paper_numbers import family_rows
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell
+from icil_paper.tables.assemble import TableResult, format_cell, format_difference
 from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
@@ -53,22 +49,16 @@ TABLE_VI_CROSS_DATASET = family_rows({
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table I's policies (the same runs) on the kitchen suite's `human` scene distribution,
-    every row alike; ICRT's prompts come from the human-like source (whose demonstrations
-    are played on those scenes too). Episode i of a task has the same seed as in Table I, so
-    each row's change from Table I is measured on paired episodes."""
+    """Table VI: Table I's rows on the `human` scenes (and prompts), per family and avg."""
     tasks = preset.data.robocasa_tasks
     rows = tuple(Row(label(p, t), family_cells(preset, table_i_runs(preset, p, t), tasks,
                                                scenes="human", prompt_source="human"),
                      TABLE_VI_CROSS_DATASET[label(p, t)]) for p, t in TABLE_I_ROWS)
     return TableSpec("VI", "Cross-dataset robotic manipulation (generated -> human-like)",
                      (*FAMILY_COLUMNS, "avg"), rows, note=(
-                         "Table I's policies, trained on the generated demonstrations, "
-                         "evaluated on the human-like scene distribution (fixtures placed "
-                         "elsewhere on the counter and turned further, free objects further "
-                         "from their targets): every row faces the shift. ICRT rows are "
-                         "prompted with the human-like source's demonstrations (teleoperation-"
-                         "like operator on those scenes). avg is the mean over tasks."))
+                         "Table I's policies evaluated on the human-like scene distribution: "
+                         "every row faces the shift; ICRT rows are prompted with the human-like "
+                         "source's demonstrations. avg is the mean over tasks."))
 
 
 def claims(preset: Preset) -> list[Claim]:
@@ -100,9 +90,8 @@ SHIFT_DIRECTION = -1
 
 def row_shift(before: TableResult, after: TableResult, row: str,
               column: str = "avg") -> stats.Estimate | None:
-    """`after` minus `before` for one row (see the module docstring), or None while a cell
-    of it has no records. ValueError when the two cells are not the same design (other
-    seeds, tasks or episodes), since they could not be paired."""
+    """`after` minus `before` for one row, or None while not run; ValueError when the two
+    cells' outcomes cannot be paired."""
     xb, xa = before.outcomes(row, column), after.outcomes(row, column)
     if xa is None or xb is None:
         return None
@@ -121,9 +110,7 @@ def _paper_change(row: str, column: str) -> float | None:
 
 def shift_rows(before: TableResult, after: TableResult,
                column: str = "avg") -> list[dict[str, Any]]:
-    """One dict per row of `after`: row, its cell in each table (`CellResult` or None), the
-    difference's `Estimate` (or None), its verdict ("not run" without records) and the
-    paper's change."""
+    """Per row of `after`: row, `before`, `after` (cells), `estimate`, `verdict`, `paper`."""
     out = []
     for spec_row in after.spec.rows:
         est = row_shift(before, after, spec_row.label, column)
@@ -137,8 +124,7 @@ def shift_rows(before: TableResult, after: TableResult,
 
 def shift_frame(before: TableResult, after: TableResult, column: str = "avg",
                 digits: int = 3):
-    """Rows x (Table I, Table VI, VI - I with its 95% interval, the verdict on "lower on
-    the human scenes", the paper's VI - I), for one column."""
+    """Rows x (Table I, Table VI, VI - I [95% interval], verdict, the paper's VI - I)."""
     import pandas as pd
 
     i, vi = f"Table {before.spec.id}", f"Table {after.spec.id}"
@@ -149,9 +135,8 @@ def shift_frame(before: TableResult, after: TableResult, column: str = "avg",
             "": r["row"],
             f"{i} (generated scenes)": format_cell(r["before"], digits),
             f"{vi} (human scenes)": format_cell(r["after"], digits),
-            f"{vi} - {i}": (verdict_words.MISSING if est is None else
-                            f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, "
-                            f"{est.high:+.{digits}f}]"),
+            f"{vi} - {i}": (verdict_words.MISSING if est is None
+                            else format_difference(est, digits)),
             "lower on the human scenes?": r["verdict"],
             f"paper {vi} - {i}": "" if r["paper"] is None else f"{r['paper']:+.{digits}f}",
         })
@@ -160,9 +145,7 @@ def shift_frame(before: TableResult, after: TableResult, column: str = "avg",
 
 def shift_counts(before: TableResult, after: TableResult, column: str = "avg"
                  ) -> dict[str, Any]:
-    """How many rows the shift lowers, raises or leaves undecided: {"rows", "measured",
-    "mean" (the mean change over the rows measured, None before any), "paper_mean" (the
-    paper's, None when it has none), and one count per verdict value}."""
+    """{"rows", "measured", "mean", "paper_mean", and one count per verdict value}."""
     rows = shift_rows(before, after, column)
     measured = [r for r in rows if r["estimate"] is not None]
     paper_changes = [r["paper"] for r in rows if r["paper"] is not None]
@@ -175,8 +158,7 @@ def shift_counts(before: TableResult, after: TableResult, column: str = "avg"
 
 def show_shift(before: dict[str, TableResult], after: dict[str, TableResult],
                column: str = "avg") -> None:
-    """`shift_frame` per source (the reference run's, this build's collapsed beside it), for
-    `book.report.load_table`'s results of Table I and Table VI (`shift_counts` counts them)."""
+    """`shift_frame` per source, for `load_table`'s results of Tables I and VI."""
     by_preset = {r.preset: r for r in before.values()}
     shown = {k: r for k, r in after.items() if r.preset in by_preset}
     show_per_source(shown, lambda r: shift_frame(by_preset[r.preset], r, column))

@@ -6,22 +6,13 @@
     result.frame()                              # a DataFrame: ours, 95% interval, the paper's
     result.markdown()
 
-A success cell's outcomes are one bool per evaluation episode, shaped (seeds, tasks,
-episodes); its estimate is `stats.success_rate` (a t interval on per-seed values; one seed:
-the episodes' noise only). Beside success it holds how smoothly the robot moved: each
-episode's LDLJ, SPARC and action jerk (`icil_paper.metrics`), shaped (seeds, episodes of
-every task), with the seed as the unit as for success (`motion_estimate`: `stats.score_mean`
-on per-seed means, the t interval for several seeds, a bootstrap over episodes for one):
-
     result.motion_estimate("icrt+lipvq", "avg", "ldlj")    # Estimate or None
     result.motion_scores("icrt+lipvq", "avg", "ldlj")      # (seeds, episodes), for stats
 
-An episode where a measure is undefined (a few steps, no motion) does not count: each
-seed's mean is over its episodes where it is defined (`motion_scores` fills the others with
-that mean, so that per-seed means, which the statistics read, stay what they are). A smoothness cell's scores are the per-trajectory
-least energies of the held-out trajectories, (seeds, trajectories); its estimate is their
-mean with a bootstrap interval. A cell with a unit whose record is missing has no estimate
-(shown as "not run"); `missing` counts those units.
+A success cell holds bools (seeds, tasks, episodes) and `stats.success_rate`; beside them
+each episode's LDLJ, SPARC and action jerk (seeds, episodes), NaN where undefined, with the
+seed as the unit. A smoothness cell holds per-trajectory least energies (seeds,
+trajectories). A cell with a missing record has no estimate ("not run").
 """
 
 from __future__ import annotations
@@ -50,13 +41,11 @@ class CellResult:
     missing: int
     """Units without a record."""
     extra: dict[str, Any] = field(default_factory=dict)
-    """Smoothness cells: the standardized scores (and their estimate), the latent scale, the
-    Fig. 4 view and every feature record's metrics, per seed."""
+    """Smoothness cells: standardized scores and estimate, latent scale, view, metrics."""
     scenes: str = "shared"
     """The evaluation design (`Cell.scenes`): "shared" or "per_seed"."""
     motion: dict[str, np.ndarray] = field(default_factory=dict)
-    """Success cells: each motion measure's per-episode values (`metrics.MOTION_MEASURES`),
-    (seeds, episodes of every task), NaN where undefined; empty where a record has none."""
+    """Success cells: measure -> per-episode values (seeds, episodes), NaN where undefined."""
 
 
 def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
@@ -79,8 +68,7 @@ def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
 
 
 def _motion_values(by_seed: list[list[dict]]) -> dict[str, np.ndarray]:
-    """{measure: (S, episodes)} with NaN where an episode's measure is None; empty where
-    an episode has no motion entries (a record of older code)."""
+    """{measure: (S, episodes)}, NaN where None; empty for a record without motion entries."""
     if not all(m in e for episodes in by_seed for e in episodes for m in MOTION_MEASURES):
         return {}
     return {m: np.array([[np.nan if e[m] is None else float(e[m]) for e in episodes]
@@ -89,9 +77,8 @@ def _motion_values(by_seed: list[list[dict]]) -> dict[str, np.ndarray]:
 
 
 def filled_motion(values: np.ndarray) -> np.ndarray | None:
-    """Per-episode motion values (seeds, episodes) with NaN where undefined -> the same
-    with each seed's NaN entries set to that seed's mean over its defined episodes (its
-    per-seed mean unchanged); None when a seed has no defined episode."""
+    """Motion values (seeds, episodes) with each NaN set to its seed's mean over its defined
+    episodes; None when a seed has none defined."""
     x = np.array(values, dtype=np.float64)
     defined = np.isfinite(x)
     if not defined.any(axis=1).all():
@@ -101,9 +88,8 @@ def filled_motion(values: np.ndarray) -> np.ndarray | None:
 
 
 def motion_estimate(values: np.ndarray) -> Estimate | None:
-    """A cell's mean motion measure with the seed as the unit (`stats.score_mean`): the t
-    interval on per-seed means (each over the seed's defined episodes) for several seeds,
-    a bootstrap over its defined episodes for one; None when a seed has none defined."""
+    """Mean motion measure, seed as the unit (`stats.score_mean`; one seed: a bootstrap over
+    its defined episodes); None when a seed has none defined."""
     x = filled_motion(values)
     if x is None:
         return None
@@ -148,6 +134,11 @@ class TableResult:
     def cell(self, row: str, column: str) -> CellResult | None:
         return self.cells.get((row, column))
 
+    def features(self, row: str) -> CellResult | None:
+        """The row's `features` cell once its records are read, else None."""
+        cell = self.cell(row, "features")
+        return cell if cell is not None and cell.estimate is not None else None
+
     def estimate(self, row: str, column: str = "avg") -> Estimate | None:
         cell = self.cell(row, column)
         return cell.estimate if cell else None
@@ -158,25 +149,22 @@ class TableResult:
 
     def motion_scores(self, row: str, column: str = "avg",
                       measure: str = "ldlj") -> np.ndarray | None:
-        """A success cell's per-episode motion measure (seeds, episodes), undefined episodes
-        filled with their seed's mean (`filled_motion`): what `stats`' score comparisons
-        read. None while the cell has no motion values."""
-        cell = self.cell(row, column)
-        if cell is None or measure not in cell.motion:
-            return None
-        return filled_motion(cell.motion[measure])
+        """A success cell's motion measure (seeds, episodes), `filled_motion`; or None."""
+        values = self._motion(row, column, measure)
+        return None if values is None else filled_motion(values)
 
     def motion_estimate(self, row: str, column: str = "avg",
                         measure: str = "ldlj") -> Estimate | None:
-        """A success cell's mean motion measure with its interval (`motion_estimate`)."""
+        """A success cell's `motion_estimate`."""
+        values = self._motion(row, column, measure)
+        return None if values is None else motion_estimate(values)
+
+    def _motion(self, row: str, column: str, measure: str) -> np.ndarray | None:
         cell = self.cell(row, column)
-        if cell is None or measure not in cell.motion:
-            return None
-        return motion_estimate(cell.motion[measure])
+        return None if cell is None else cell.motion.get(measure)
 
     def scenes(self, *rows: str, column: str = "avg") -> str:
-        """"per_seed" when every one of `rows` gives seed k its own scene set k, else
-        "shared" (the design `stats.paired_difference` is told about)."""
+        """"per_seed" when every one of `rows` gives seed k scene set k, else "shared"."""
         designs = {c.scenes for r in rows if (c := self.cell(r, column)) is not None}
         return "per_seed" if designs == {"per_seed"} else "shared"
 
@@ -243,8 +231,7 @@ class TableResult:
 
 
 def unbroken(text: str) -> str:
-    """`text` with non-breaking spaces, so that a narrow table column in the book does not
-    break `0.53 [0.41, 0.64]` over lines (for display only: not for CSV or Markdown files)."""
+    """`text` with non-breaking spaces, so that a narrow column keeps it on one line."""
     return text.replace(" ", "\u00a0")
 
 
@@ -256,6 +243,11 @@ def format_cell(cell: CellResult | None, digits: int = 2) -> str:
     if est is None:
         return verdict_words.MISSING
     return f"{est.value:.{digits}f} [{est.low:.{digits}f}, {est.high:.{digits}f}]"
+
+
+def format_difference(est: Estimate, digits: int = 3) -> str:
+    """`+0.053 [-0.012, +0.118]`: a signed difference with its interval."""
+    return f"{est.value:+.{digits}f} [{est.low:+.{digits}f}, {est.high:+.{digits}f}]"
 
 
 def assemble(spec: TableSpec, store: ResultsStore) -> TableResult:

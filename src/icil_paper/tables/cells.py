@@ -1,24 +1,15 @@
 """Compute a set of tables: one cell per trained policy, in this process, a process pool or Ray.
 
     plans = plan([table_spec(preset, "I")])       # one RunPlan per policy the tables train
-    run_plans(preset, plans, executor="serial")    # or "local" (workers=2), "ray"
-    run_specs(preset, [table_spec(preset, "I")])   # the same, from the tables
+    run_specs(preset, [table_spec(preset, "I")], executor="serial")  # or "local", "ray"
 
-A cell is one `RunPlan`: `run_cell` trains its policy (resuming from its checkpoint),
-evaluates it on every `EvalSpec` and measures every `FeatureSpec` the tables ask of it,
-each record written atomically by the results store as it finishes. A cell whose records
-are all stored is skipped, so a killed run resumes where it stopped. Rollouts inside a
-cell are batched in its process; cells run side by side on one of three executors
-(`run_jobs`, which runs any function this way):
-
-- `serial`: in this process, one after another (a debugger steps from here to the loss);
-- `local`: `workers` spawned processes (`concurrent.futures.ProcessPoolExecutor`);
-- `ray`: one Ray task each. A task gets the files it reads through Ray's object store and
-  returns the files it wrote, which the driver checks (SHA-256) and writes, records last:
-  nodes share no files with the driver (CONTRIBUTING.md, "On a cluster").
-
-A cell whose worker dies is run again (`retries`); one that raises is not. The other cells
-finish first, then one `CellsFailed` lists each failed cell's label and reason.
+A cell (`RunPlan`, `run_cell`) trains one policy, evaluates it and measures its features,
+each record stored as it finishes; a cell whose records are all stored is skipped, so a
+killed run resumes. `run_jobs` runs cells on one of three executors: `serial` (this
+process), `local` (`workers` spawned processes) or `ray` (one task each; the task gets the
+files it reads through Ray's object store and returns those it wrote, which the driver
+checks and writes, records last). A cell whose worker dies is retried; one that raises is
+not, and one `CellsFailed` lists the failures after the other cells finish.
 """
 
 from __future__ import annotations
@@ -78,8 +69,7 @@ class RunPlan:
 
 
 def plan(tables: Sequence[TableSpec]) -> list[RunPlan]:
-    """The units of `tables` grouped by run, in first-seen order (a policy that five
-    tables read is trained once, evaluated once per distinct EvalSpec)."""
+    """The units of `tables` grouped by run, in first-seen order."""
     plans: dict[str, RunPlan] = {}
     for table in tables:
         for unit in table.units():
@@ -142,9 +132,8 @@ def ensure_data(preset: Preset, plans: Sequence[RunPlan], progress: bool = True)
 # --------------------------------------------------------------------------- one cell
 def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
              progress: bool = False, data_root: str | None = None) -> dict[str, Any]:
-    """Train one run (or find it trained), evaluate it and measure its features, each
-    record stored as it finishes. Arguments are JSON; `data_root` is the driver's data
-    folder (None: the named preset's). Returns a short summary."""
+    """Train one run (or find it trained), evaluate it and measure its features; arguments
+    are JSON (`data_root`: the driver's data folder). Returns a short summary."""
     store = ResultsStore(preset)
     preset = get_preset(preset)
     if data_root is not None:
@@ -178,34 +167,24 @@ def run_cell(preset: str, run: dict, evals: list[dict], features: list[dict],
 def run_specs(preset: Preset, specs: Sequence[TableSpec], executor: str = "local",
               workers: int | None = None, ray_address: str | None = None,
               gpus_per_cell: float = 0.0, progress: bool = True) -> dict[str, Any]:
-    """Compute every missing record of the tables `specs`; returns {run key: summary}."""
+    """Compute every missing record of the tables `specs` (their data sets first, here);
+    returns {run key: summary}."""
     store = ResultsStore(preset.name)
-    todo = [p for p in plan(specs) if not plan_done(store, p)]
     # seed-major: a run stopped part-way leaves every row with about as many seeds
-    todo.sort(key=lambda p: p.run.seed)
-    return run_plans(preset, todo, executor=executor, workers=workers or preset.eval.workers,
-                     ray_address=ray_address, gpus=gpus_per_cell, progress=progress)
-
-
-def run_plans(preset: Preset, plans: Sequence[RunPlan], executor: str = "local",
-              workers: int = 2, ray_address: str | None = None, gpus: float = 0.0,
-              progress: bool = True) -> dict[str, Any]:
-    """Compute the cells `plans` that are not stored (their data sets first, here)."""
-    store = ResultsStore(preset.name)
-    todo = {p.run.key(): p for p in plans if not plan_done(store, p)}
+    todo = {p.run.key(): p for p in sorted(plan(specs), key=lambda p: p.run.seed)
+            if not plan_done(store, p)}
     if not todo:
         return {}
     ensure_data(preset, list(todo.values()), progress=progress)
     jobs = [cell_job(preset, p, store, ray=executor == "ray") for p in todo.values()]
-    return run_jobs(run_cell, jobs, executor=executor, workers=workers, gpus=gpus,
-                    ray_address=ray_address, folders=cell_folders(preset), progress=progress,
-                    done=lambda job: plan_done(store, todo[job.key]))
+    return run_jobs(run_cell, jobs, executor=executor, workers=workers or preset.eval.workers,
+                    gpus=gpus_per_cell, ray_address=ray_address, folders=cell_folders(preset),
+                    progress=progress, done=lambda job: plan_done(store, todo[job.key]))
 
 
 def cell_job(preset: Preset, p: RunPlan, store: ResultsStore, label: str | None = None,
              ray: bool = False) -> Job:
-    """The job that computes cell `p` (`run_cell`); on Ray it reads its node's copies of
-    the driver's folders, so it is sent their files (`cell_inputs`)."""
+    """The job that computes cell `p` (`run_cell`); on Ray, with its input files."""
     return Job(p.run.key(), label or cell_label(p.run),
                {"preset": preset.name, "data_root": None if ray else preset.data.root,
                 "run": p.run.to_dict(), "evals": [to_dict(e) for e in p.evals.values()],
@@ -220,8 +199,8 @@ def cell_folders(preset: Preset) -> dict[str, str]:
 
 
 def cell_inputs(preset: Preset, p: RunPlan, store: ResultsStore) -> dict[str, list[str]]:
-    """The files of `cell_folders` a cell reads, relative to their folders: its data sets,
-    its records and its run folder (those that exist are sent; it makes the rest)."""
+    """The files of `cell_folders` a cell reads (data sets, records, run folder), relative
+    to their folders."""
     data, runs = data_root(preset), runs_root()
     demos = {demo_path(preset, task, source, obs).relative_to(data).as_posix()
              for task, source, obs, _ in data_needs([p])}
@@ -268,11 +247,10 @@ def run_jobs(fn: Callable[..., Any], jobs: Sequence[Job], executor: str = "local
              ray_address: str | None = None, folders: Mapping[str, str] | None = None,
              done: Callable[[Job], bool] | None = None, progress: bool = True,
              recycle_gb: float | None = None) -> dict[str, Any]:
-    """Run `fn(**job.kwargs)` for every job that `done` does not call finished; return
-    {key: what it returned, through JSON}, in the jobs' order. Each call runs on one torch
-    thread. `folders` ({environment variable: folder}) are the folders jobs read and write
-    (Ray: sent and returned as above); `recycle_gb` (local): a worker holding more memory
-    than this after a job is replaced (default: the machine's memory / (workers + 1))."""
+    """Run `fn(**job.kwargs)` on one torch thread for every job not `done`; return {key:
+    result through JSON} in the jobs' order. `folders`: {environment variable: folder} jobs
+    read and write; `recycle_gb` (local): a worker holding more memory after a job is
+    replaced (default: the machine's memory / (workers + 1))."""
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     if not isinstance(workers, int) or workers < 1:
@@ -427,9 +405,8 @@ def _run_local(fn, todo, workers, retries, recycle_gb, finished, bar) -> None:
 
 # --------------------------------------------------------------------------- Ray
 def connect_ray(workers: int = 2, address: str | None = None) -> bool:
-    """Join the Ray cluster at `address`, or start a quiet local one with `workers` CPUs.
-    True when this call connected (the caller then calls `ray.shutdown()`), False when a
-    Ray session was open already."""
+    """Join the Ray cluster at `address`, or start a local one with `workers` CPUs; True
+    when this call connected (the caller then calls `ray.shutdown()`)."""
     try:
         import ray
     except ImportError as exc:
@@ -501,9 +478,8 @@ def _fetch(ref: Any) -> bytes:
 def _on_node(fn: Callable[..., Any], kwargs: Mapping[str, Any], env: Mapping[str, str],
              folders: list[str], names: list, inputs: list[tuple[str, str, str, Any]]
              ) -> dict[str, Any]:
-    """A Ray task: `fn(**kwargs)` in private folders, one for each of `folders`, made of
-    `inputs` ((variable, path, SHA-256, object reference)); returns what `fn` returned,
-    every file it wrote or changed there, and the node it ran on."""
+    """A Ray task: `fn(**kwargs)` in private copies of `folders` made of `inputs`; returns
+    its result, every file it wrote or changed, and the node it ran on."""
     _load_plugins(names)
     scratch = Path(tempfile.mkdtemp(prefix="icil-cell-"))
     try:
@@ -535,8 +511,7 @@ def _on_node(fn: Callable[..., Any], kwargs: Mapping[str, Any], env: Mapping[str
 
 def read_inputs(job: Job, folders: Mapping[str, str], cache: dict | None = None
                 ) -> list[tuple[str, str, str, bytes]]:
-    """The files `job.inputs` names that exist in the driver's `folders`, with their
-    SHA-256 (`cache`: each file read once over many jobs)."""
+    """(variable, path, SHA-256, bytes) of each existing file `job.inputs` names."""
     cache = {} if cache is None else cache
     found = []
     for var, paths in job.inputs.items():
@@ -552,10 +527,8 @@ def read_inputs(job: Job, folders: Mapping[str, str], cache: dict | None = None
 
 def install_files(files: list[tuple[str, str, str, bytes]], folders: Mapping[str, str],
                   sent: Sequence[tuple[str, str, str, Any]] = ()) -> int:
-    """Write the files a Ray task returned into the driver's `folders`; return how many.
-    First every file is checked (its SHA-256, its path inside its folder, and that each
-    record among them names only files that came back with it or were sent); then each is
-    written atomically, records last. ValueError names the first problem."""
+    """Check, then write atomically (records last) the files a Ray task returned into the
+    driver's `folders`; return how many. ValueError names the first problem."""
     checked = []
     shipped = {(PurePosixPath(path).name, digest) for _, path, digest, _ in sent}
     for var, path, digest, data in files:

@@ -5,22 +5,10 @@
     write_ledger(preset, store)                   # results/<preset>/claims.json
     summary(ledger)                               # counts of the decisions, by family
 
-Each result declares its claims in its own module of `icil_paper.paper`; this module
-evaluates them (`ledger_entries`, `evaluate_claims`). A claim is a quantity with a claimed
-direction ("LipVQ-VAE beats BC-Transformer on Table I": the difference of two rows' average
-success, claimed above 0); `paper` is computed from the paper's numbers, `ours` and `ci`
-(95%, the training seed as the unit, `icil_paper.stats`) from our records. The ledger is
-read under the design fixed before the data (`icil_paper.tables.design`). Each entry holds
-`family` and `weight`; `verdict` (the interval alone: holds, does not hold, inconclusive,
-too few seeds, not run); `adjusted_verdict`, the decision to quote (weighted Holm over the
-family, at a look's boundary when seeds come in stages); `size` against the paper's effect;
-`mde`, `power` and `seeds_needed` at 80% power; `seeds`, `n`, `episodes`, `p_value`; and
-with stages, `look` and `sequential` (each look's seeds and p-values, `next`).
-
-Motion smoothness, which the paper states in words only, is read from the same evaluation
-episodes' end-effector paths (`MotionComparison`, LDLJ per episode, `icil_paper.metrics`);
-`MotionCorrelation` relates Table III's least energy to Table I's LDLJ. A claim without a
-paper number is decided like the others, but neither sized nor planned.
+A claim is a quantity with a claimed direction (e.g. the difference of two rows' average
+success, claimed above 0). Each entry holds the paper's value, ours with its 95% interval
+(the training seed as the unit), `verdict` (the interval alone), `adjusted_verdict` (the
+decision to quote, under `tables.design`), `size`, and `mde`, `power`, `seeds_needed`.
 """
 
 from __future__ import annotations
@@ -49,8 +37,7 @@ VERDICTS = verdict_words.LEDGER_ORDER
 
 @dataclass(frozen=True)
 class Comparison:
-    """Rows of one table compared on the same episodes (or trajectories): `a` minus the one
-    other row, or, with several `others`, `a` against each of them (best of k)."""
+    """`a` minus the one other row on the same episodes, or best of k with several `others`."""
 
     table: str
     a: str
@@ -62,12 +49,17 @@ class Comparison:
         return "score" if self.column == "least_energy" else "success"
 
     smallest_p = 0.0
-    """The smallest p-value its test can reach (a t-test: any)."""
+    """The smallest p-value its test can reach."""
 
     @property
     def pool(self) -> str:
-        """The quantity whose per-seed variances a one-seed row borrows (`_power`)."""
+        """The quantity whose per-seed variances a one-seed row borrows."""
         return "least_energy" if self.kind == "score" else "success"
+
+    @property
+    def sign(self) -> int:
+        """The better direction of a row's value (least energy: lower is smoother)."""
+        return -1 if self.kind == "score" else +1
 
     @property
     def rows(self) -> tuple[str, ...]:
@@ -81,19 +73,40 @@ class Comparison:
         data = self.data(tables)
         if data is None:
             return None
-        if self.kind == "score":  # least energy: lower is smoother
-            difference, sign = stats.paired_score_difference, -1
+        if self.kind == "score":
+            difference = stats.paired_score_difference
         else:
-            difference, sign = partial(stats.paired_difference, scenes=self.scenes(tables)), +1
+            difference = partial(stats.paired_difference, scenes=self.scenes(tables))
         if len(self.others) == 1:
             return difference(*data)
-        return stats.best_of(data[0], data[1:], difference, sign)
+        return stats.best_of(data[0], data[1:], difference, self.sign)
 
     def scenes(self, tables: dict[str, TableResult]) -> str:
-        """"per_seed" where the rows' seeds are paired by scene set (a paired test)."""
+        """"per_seed" where the rows' seeds are paired by scene set (Welch's t for scores)."""
         if self.kind == "score":
             return "shared"
         return tables[self.table].scenes(*self.rows, column=self.column)
+
+
+@dataclass(frozen=True)
+class MotionComparison(Comparison):
+    """A `Comparison` of a motion measure (`metrics.MOTION_MEASURES`) of the same episodes."""
+
+    measure: str = "ldlj"
+    kind = "score"
+
+    @property
+    def pool(self) -> str:
+        return self.measure
+
+    @property
+    def sign(self) -> int:
+        return SMOOTHER[self.measure]
+
+    def data(self, tables: dict[str, TableResult]) -> list[np.ndarray] | None:
+        data = [tables[self.table].motion_scores(label, self.column, self.measure)
+                for label in self.rows]
+        return None if any(d is None for d in data) else data
 
 
 @dataclass(frozen=True)
@@ -104,90 +117,37 @@ class Correlation:
     table: str = "III"
     kind: str = "correlation"
     n_boot: int = 2000
+    table_i_kind = "success"
+    """What Table I's quantity is to `stats.rank_correlation`."""
 
     @property
     def smallest_p(self) -> float:
         return 1 / self.n_boot
 
-    def data(self, tables: dict[str, TableResult]):
-        smooth = [tables["III"].outcomes(r, "least_energy") for r in self.rows]
-        success = [tables["I"].outcomes(r, "avg") for r in self.rows]
-        return None if any(x is None for x in smooth + success) else (smooth, success)
-
-    def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
-        data = self.data(tables)
-        return None if data is None else stats.rank_correlation(*data, n_boot=self.n_boot)
-
-
-@dataclass(frozen=True)
-class MotionComparison:
-    """Rows of one table compared on the motion smoothness of the same episodes
-    (`metrics.MOTION_MEASURES`; per-episode values, the seed as the unit, as for success):
-    `a` minus the one other row, or, with several `others`, `a` against each of them (best
-    of k: a's mean minus the smoothest other row's, `stats.best_of`)."""
-
-    table: str
-    a: str
-    others: tuple[str, ...]
-    measure: str = "ldlj"
-    column: str = "avg"
-    kind: str = "score"
-    smallest_p = 0.0
-
-    def scenes(self, tables: dict[str, TableResult]) -> str:
-        return "shared"  # Welch's t on per-seed means
-
-    @property
-    def pool(self) -> str:
-        return self.measure
-
-    @property
-    def rows(self) -> tuple[str, ...]:
-        return (self.a, *self.others)
-
-    def data(self, tables: dict[str, TableResult]) -> list[np.ndarray] | None:
-        data = [tables[self.table].motion_scores(label, self.column, self.measure)
-                for label in self.rows]
-        return None if any(d is None for d in data) else data
-
-    def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
-        data = self.data(tables)
-        if data is None:
-            return None
-        if len(self.others) == 1:
-            return stats.paired_score_difference(*data)
-        return stats.best_of(data[0], data[1:], stats.paired_score_difference,
-                             SMOOTHER[self.measure])
-
-
-@dataclass(frozen=True)
-class MotionCorrelation:
-    """Spearman correlation across `rows` of Table III's least energy (the latents'
-    smoothness) and the motion smoothness of Table I's rollouts (`measure`, average over
-    the kitchen tasks), with a joint bootstrap: each resample draws every row's training
-    seeds with replacement (the same seeds for both of its quantities), then the held-out
-    trajectories and the evaluation episodes (the same indices for every row):
-    `stats.rank_correlation`."""
-
-    rows: tuple[str, ...]
-    measure: str = "ldlj"
-    table: str = "III"
-    kind: str = "correlation"
-    n_boot: int = 2000
-
-    @property
-    def smallest_p(self) -> float:
-        return 1 / self.n_boot
+    def table_i(self, tables: dict[str, TableResult], row: str) -> np.ndarray | None:
+        return tables["I"].outcomes(row, "avg")
 
     def data(self, tables: dict[str, TableResult]):
         smooth = [tables["III"].outcomes(r, "least_energy") for r in self.rows]
-        motion = [tables["I"].motion_scores(r, "avg", self.measure) for r in self.rows]
-        return None if any(x is None for x in smooth + motion) else (smooth, motion)
+        other = [self.table_i(tables, r) for r in self.rows]
+        return None if any(x is None for x in smooth + other) else (smooth, other)
 
     def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
         data = self.data(tables)
         return None if data is None else stats.rank_correlation(
-            *data, ("score", "score"), n_boot=self.n_boot)
+            *data, ("score", self.table_i_kind), n_boot=self.n_boot)
+
+
+@dataclass(frozen=True)
+class MotionCorrelation(Correlation):
+    """Spearman correlation across `rows` of Table III's least energy and Table I's motion
+    `measure` (a joint bootstrap)."""
+
+    measure: str = "ldlj"
+    table_i_kind = "score"
+
+    def table_i(self, tables: dict[str, TableResult], row: str) -> np.ndarray | None:
+        return tables["I"].motion_scores(row, "avg", self.measure)
 
 
 @dataclass(frozen=True)
@@ -207,22 +167,17 @@ class Claim:
     compare: Comparison | Correlation | MotionComparison | MotionCorrelation
     """The rows it reads and how they are compared."""
     paper_value: Callable[[], float] | None
-    """The same quantity from the paper's numbers; for a claim of our own (`own`), the
-    effect it is read and planned against (`reference_effect` in the ledger). None where
-    there is no number: a claim the paper makes in words only (its entry's `paper` and
-    `reference_effect` are None, `reference` says why; nothing is planned)."""
+    """The quantity from the paper's numbers (own claims: the reference effect); None: none."""
     own: bool = False
-    """A claim of this companion, not of the paper (the `beyond` table's): its entry has
-    no `paper` value, only `reference_effect`, named in `reference`."""
+    """A claim of this companion, not of the paper."""
     reference: str = ""
     """What the reference effect of an own claim is."""
 
 
 @dataclass
 class LedgerEntry:
-    """One claim of the ledger as `ledger_entries` computes it and `claims.json` stores it
-    (`to_dict` gives the stored form, key for key; `from_dict` reads it back). Fields a
-    newer ledger adds are kept in `extra` and read as attributes too."""
+    """One claim of the ledger as `claims.json` stores it (`to_dict`, `from_dict`); unknown
+    stored fields are kept in `extra` and read as attributes."""
 
     id: str = ""
     claim: str = ""
@@ -235,16 +190,15 @@ class LedgerEntry:
     source: str = "the paper"
     """"the paper" or "ours" (a claim of this companion)."""
     family: str | None = None
-    """"primary", "secondary" or "descriptive" (`tables.design`; "one family" under the
-    older design; None in a ledger older than families)."""
+    """"primary", "secondary", "descriptive" or "one family" (`tables.design`)."""
     weight: float | None = None
     """The claim's share of the familywise level before any claim is decided."""
     paper: float | None = None
-    """The same quantity from the paper's numbers (None for a claim of ours or in words)."""
+    """The same quantity from the paper's numbers."""
     reference_effect: float | None = None
     """For a claim with no `paper` value: the effect it is sized against, if any."""
     reference: str | None = None
-    """What `reference_effect` is (stored only for a claim with no `paper` value)."""
+    """What `reference_effect` is."""
     ours: float | None = None
     ci: list[float] | None = None
     """Our 95% interval [low, high]."""
@@ -256,15 +210,14 @@ class LedgerEntry:
     p_value: float | None = None
     verdict: Verdict | str = Verdict.NOT_RUN
     size: Size | str | None = None
-    """The decided size against the paper's effect (None: nothing to read it against)."""
+    """The decided size against the paper's effect."""
     mde: float | None = None
     power: float | None = None
     seeds_needed: int | None = None
     variance_from: dict[str, str] | None = None
     power_note: str | None = None
     plan: dict[str, Any] | None = None
-    """What the power fields are planned with: the per-seed `variance` of the difference,
-    whether the test is `paired`, and the nominal `level` it must pass."""
+    """The power fields' `variance` (per seed), `paired` and nominal `level`."""
     adjusted_verdict: Verdict | str | None = None
     """The decision under the ledger's design (the one to quote)."""
     extra: dict[str, Any] = field(default_factory=dict)
@@ -316,7 +269,7 @@ _SIZE_VALUES = {v.value for v in Size}
 
 
 def as_entry(entry: LedgerEntry | dict[str, Any]) -> LedgerEntry:
-    """A ledger entry as a `LedgerEntry` (a stored one, a dict, is read with `from_dict`)."""
+    """A ledger entry, or a stored one (a dict), as a `LedgerEntry`."""
     return entry if isinstance(entry, LedgerEntry) else LedgerEntry.from_dict(entry)
 
 
@@ -339,9 +292,8 @@ def paper_margin(rows: dict, a: str, others: Sequence[str], column: str = "avg")
 
 # --------------------------------------------------------------------------- the ledger
 def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], float]:
-    """(table, quantity) -> the mean per-seed variance of its multi-seed rows (`success`:
-    the "avg" column; `least_energy`; each motion measure of the "avg" column), and
-    ("*", quantity) over every table: what a one-seed row borrows for the power analysis."""
+    """(table or "*", quantity) -> the mean per-seed variance of its multi-seed rows: what
+    a one-seed row borrows for the power analysis."""
     pooled: dict[tuple[str, str], list[float]] = {}
 
     def add(table_id: str, quantity: str, data, kind: str) -> None:
@@ -368,17 +320,14 @@ def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], f
 def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult],
            pooled: dict[tuple[str, str], float], effect: float | None,
            design: Design) -> dict[str, Any]:
-    """mde, power and seeds_needed with the variance the claim's test reads (the paired
-    per-seed differences where its rows are paired by scene set, else the two rows'
-    variances added, a one-seed row's borrowed from the pooled ones) at the level it must
-    pass (`Design.planning_level`). Best of k: against the closest other row (the smallest
-    pairwise margin on the claimed side), the comparison that decides the intersection test."""
+    """mde, power and seeds_needed with the variance the claim's test reads, at
+    `Design.planning_level`; best of k: against the closest other row."""
     out: dict[str, Any] = {"mde": None, "power": None, "seeds_needed": None,
                            "variance_from": None, "power_note": None, "plan": None}
     compare = claim.compare
     if design.family[claim.id] == DESCRIPTIVE:
         return {**out, "power_note": f"not planned: {design.why[claim.id]}"}
-    if not isinstance(compare, (Comparison, MotionComparison)):
+    if not isinstance(compare, Comparison):
         return {**out, "power_note": "not planned: a rank correlation across rows has no "
                                      "closed form"}
     data = dict(zip(compare.rows, compare.data(tables), strict=True))
@@ -428,9 +377,7 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
 def _evaluate(claim: Claim, tables: dict[str, TableResult],
               pooled: dict[tuple[str, str], float], design: Design
               ) -> tuple[dict[str, Any], Any]:
-    """One ledger entry (the claim, its family, the paper's number, ours with its interval,
-    the verdict and the power) and its estimate (None when not run); the decision and the
-    size come from the whole ledger (`ledger_entries`)."""
+    """One ledger entry (without decision and size) and its estimate (None when not run)."""
     estimate = claim.compare.estimate(tables)
     paper_value = (None if claim.paper_value is None
                    else round(float(claim.paper_value()), 4))
@@ -459,10 +406,8 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
 
 def ledger_entries(preset: Preset, chosen: Sequence[Claim], tables: dict[str, TableResult],
                    design: Design | None = None) -> list[LedgerEntry]:
-    """`chosen` claims evaluated on the assembled `tables` they read (every claim's table and
-    Table I, which the correlations read), decided under `design` (default: the preset's,
-    `tables.design.ledger_design`): the graph over the families at one look, or at every
-    look of its seed stages (`icil_paper.paper.claims_ledger` gives it every claim)."""
+    """`chosen` claims evaluated on the assembled `tables` (each claim's and Table I),
+    decided under `design` (default: `tables.design.ledger_design`)."""
     design = design or ledger_design(preset, chosen)
     pooled = _pooled_variances(tables)
     entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in chosen),
@@ -476,15 +421,15 @@ def ledger_entries(preset: Preset, chosen: Sequence[Claim], tables: dict[str, Ta
 
 def ledger_file(preset: Preset, entries: Sequence[LedgerEntry], design: Design | None = None,
                 record: str | None = None) -> dict[str, Any]:
-    """What `claims.json` holds: the preset, the familywise level, the design (with the file
-    of its looks' realised seeds, `record`, where the run has one) and every entry."""
+    """What `claims.json` holds: preset, familywise level, design (and its `record` file)
+    and every entry."""
     design_dict = {} if design is None else {"design": {**design.to_dict(), "record": record}}
     return {"preset": preset.name, "familywise_level": stats.ALPHA, **design_dict,
             "claims": [e.to_dict() for e in entries]}
 
 
 def _undecided(entry: dict[str, Any]) -> Verdict:
-    """An entry's decision where its test does not pass: not run and too few seeds stay."""
+    """An entry's decision where its test does not pass."""
     v = entry["verdict"]
     return v if v in (Verdict.NOT_RUN, Verdict.TOO_FEW_SEEDS) else Verdict.INCONCLUSIVE
 
@@ -525,12 +470,8 @@ def first_seeds(tables: dict[str, TableResult], seeds: int) -> dict[str, TableRe
 def _sequential(chosen: list[Claim], entries: list[dict[str, Any]],
                 tables: dict[str, TableResult], design: Design, stops: Sequence[str] = ()
                 ) -> None:
-    """Each entry's `sequential` record, `look`, decision and size under seeds in stages:
-    the claims' repeated p-values at every look their rows have reached, the graph at every
-    look (`stats.sequential_graph`), sizes from repeated intervals at each claim's
-    Bonferroni share, and the continuation rule on the conditional power at the observed
-    effect at the claim's level after the last look. A claim of `stops`
-    (`TablesConfig.stage_stops`) was stopped by the run's budget."""
+    """Each entry's `sequential` record, `look`, decision and size under seeds in stages
+    (`stats.sequential_graph`); a claim of `stops` was stopped by the run's budget."""
     seq, at_look = design.sequential, {n: first_seeds(tables, n) for n in design.sequential.stages}
     looks, runs, nominal = [], [], []
     for claim, entry in zip(chosen, entries, strict=True):
@@ -570,7 +511,8 @@ def _sequential(chosen: list[Claim], entries: list[dict[str, Any]],
             own = min(k_dec, k)
             record["decided_at"] = seq.stages[own]
             entry["adjusted_verdict"] = run[own][1]
-            entry["look"] = f"decided at look {own + 1} of {last + 1} ({seq.stages[own]} seeds a row)"
+            entry["look"] = (f"decided at look {own + 1} of {last + 1} "
+                             f"({seq.stages[own]} seeds a row)")
             if k_dec > own:
                 entry["look"] += (f", after the graph at the ledger's look {k_dec + 1} "
                                   f"({seq.stages[k_dec]} seeds a row)")
@@ -602,19 +544,15 @@ def _sequential(chosen: list[Claim], entries: list[dict[str, Any]],
 
 
 def sizing_effect(entry: LedgerEntry | dict[str, Any]) -> float | None:
-    """The effect a ledger entry is sized against: the paper's value, or for a claim of our
-    own (no `paper` value) its `reference_effect`; None where the claim has no number."""
+    """The effect an entry is sized against: `paper`, else `reference_effect` (or None)."""
     e = as_entry(entry)
     return e.paper if e.paper is not None else e.reference_effect
 
 
 def summary(ledger: Sequence[LedgerEntry | dict[str, Any]], adjusted: bool = True
             ) -> dict[str, Any]:
-    """What a reader asks first: how many claims hold, do not hold or remain undecided (the
-    decisions under the ledger's design by default), how many are primary, secondary or
-    descriptive, how many sizes are decided against the paper's (a ledger older than size
-    decisions: how many intervals exclude the paper's size), and which undecided claims
-    this design could decide with 10 seeds a row or fewer."""
+    """Counts of the ledger's decisions (or verdicts), families and sizes, and how many
+    undecided claims 10 seeds a row could decide."""
     entries = [as_entry(e) for e in ledger]
     verdict_of = ((lambda e: e.adjusted_verdict) if adjusted else (lambda e: e.verdict))
     counts = Counter(verdict_of(e) for e in entries)
@@ -670,8 +608,7 @@ def sentence(entry: LedgerEntry | dict[str, Any]) -> str:
 
 
 def read_ledger(path) -> dict[str, Any]:
-    """A claims ledger (`claims.json`), through `fileio.read_json`: a damaged one, or one
-    whose `claims` are not objects with an `id`, is one line naming it and the fix."""
+    """A claims ledger (`claims.json`); UnreadableFileError names a damaged one and the fix."""
     fix = ("regenerate it (`icil-paper reproduce --preset <preset>` writes the ledger) or "
            "restore it from git")
     ledger = read_json(path, "a claims ledger (claims.json)", fix, keys=("claims",))
@@ -690,10 +627,8 @@ def load_ledger(path) -> list[LedgerEntry]:
 
 def evaluate_claims(chosen: Sequence[Claim], tables: dict[str, TableResult]
                     ) -> list[dict[str, Any]]:
-    """Ledger entries of `chosen` claims on assembled `tables` (as `ledger_entries` makes
-    them: the verdict, the power and each row's variance pooled over `tables` where it has
-    one seed), decided by Holm's procedure over `chosen` alone, each size at its Bonferroni
-    share (`tables.design.one_family`; `icil-paper compare`)."""
+    """Ledger entries (dicts) of `chosen` claims, decided by Holm's procedure over `chosen`
+    alone (`tables.design.one_family`; `icil-paper compare`)."""
     design = one_family(chosen)
     pooled = _pooled_variances(tables)
     entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in chosen),

@@ -3,23 +3,12 @@
     icil-paper compare --plugin ./my_tok.py --tokenizer mine --against lipvq --preset small
     report = compare(preset, "mine", against=("lipvq",), effect=0.05)   # from code
 
-1. Rows: `icrt+<tokenizer>` and `icrt+<other>` for each `--against` tokenizer, each with
-   Table I's runs and evaluations (`definitions.icrt_rows`): every record already stored is
-   reused (at the reference preset, LipVQ-VAE's ten reference seeds), the rest are trained
-   and evaluated as grid cells (`--executor local|ray`, as `reproduce`).
-2. Seeds: with `--seeds N` every row gets N. Otherwise every row first gets `pilot_seeds`
-   (or the seeds Table I stores for it, if more); the per-seed variances measured there give
-   the seeds a row that detect `--effect` (a difference in average success) with 80% power
-   (`stats.seeds_needed`), and the rows are brought up to that, at most `--max-seeds`. The
-   report says what was planned, and the power the design has at the effect.
-3. The verdict is the claims ledger's (`claims.evaluate_claims`): "<tokenizer> succeeds more
-   often than <other>" as a claim of our own, read against the effect: the difference of
-   average success with its seed-level 95% interval, the verdict and its Holm-adjusted form
-   over the comparisons, the size reading, the smallest detectable difference, the power
-   and the seeds a row that would detect the effect, in the ledger's words (`sentence`).
-4. Output: the lines printed, `compare.json` (the entries, the rows' success with their
-   intervals, the seed plan, the plugins) and `compare.png` (a forest plot), in
-   `results/<preset>/compare/<tokenizer>/` unless `--out` names a folder.
+Rows `icrt+<tokenizer>` and `icrt+<other>` use Table I's runs and evaluations, so stored
+records are reused. With `--seeds N` every row gets N seeds; otherwise `pilot_seeds` first,
+then as many as detect `--effect` with 80% power (at most `--max-seeds`). Each comparison is
+a claim of our own read by the claims ledger (`claims.evaluate_claims`, Holm over the
+comparisons). Output: the lines printed, `compare.json` and `compare.png` (a forest plot) in
+`results/<preset>/compare/<tokenizer>/` unless `--out` names a folder.
 """
 
 from __future__ import annotations
@@ -79,9 +68,8 @@ def check_tokenizers(tokenizer: str, against: Sequence[str]) -> None:
 
 
 def with_registered(preset: Preset) -> Preset:
-    """`preset` with a config for every tokenizer registered since it was built (a plugin
-    loaded afterwards), each given the values the preset gives all of its tokenizers alike
-    (`latent_dim`, `codebook_size`), as `get_preset` does for one registered before."""
+    """`preset` with a config for every tokenizer registered since it was built, given the
+    `SHARED_SIZES` the preset gives all its tokenizers alike."""
     section = preset.tokenizers
     current = dict(section)
     new = {name: cls for name, cls in section.REGISTRY.configs.items()
@@ -112,11 +100,8 @@ def _claims(tokenizer: str, against: Sequence[str], effect: float) -> list[claim
 
 def plan_seeds(result: TableResult, tokenizer: str, against: Sequence[str], effect: float,
                max_seeds: int) -> dict[str, Any]:
-    """The seeds a row that detect `effect` against the least favourable other row, with
-    the variance the comparison's test reads (`stats.seed_variance`: of the paired per-seed
-    differences where seed k of both rows plays scene set k, else the rows' added) at the
-    level Holm's procedure gives each comparison first (`stats.seeds_needed`), capped at
-    `max_seeds`."""
+    """The seeds a row that detect `effect` against every other row (at Holm's first level,
+    `stats.seeds_needed`), capped at `max_seeds`."""
     a = label("icrt", tokenizer)
     needed = []
     for other in against:
@@ -143,8 +128,7 @@ def plan_seeds(result: TableResult, tokenizer: str, against: Sequence[str], effe
 
 
 def other_versions(spec, store: ResultsStore) -> dict[str, int]:
-    """Row -> how many of its stored training records a plugin made at another version or
-    file digest than the one loaded now (a record is reused by its config, not its code)."""
+    """Row -> its stored training records made by another version of its plugin."""
     current = {(name, p.sha256, p.version) for p in plugins.loaded()
                for names in p.names.values() for name in names}
     out: dict[str, int] = {}
@@ -207,13 +191,11 @@ def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGA
 
 OWN_WORDS = {"the paper's size": "the size of the effect of interest",
              "the paper's effect": "the effect of interest"}
-"""The ledger's words for a claim sized against the paper's number, as a comparison of
-one's own reads them (its reference is `--effect`)."""
+"""The ledger's words for the paper's number, as a comparison against `--effect` reads them."""
 
 
 def sentence(entry: dict[str, Any]) -> str:
-    """A comparison in the claims ledger's words (`claims.sentence`), sized against the
-    effect of interest instead of a paper's number."""
+    """A comparison in the claims ledger's words, sized against the effect of interest."""
     text = claims_mod.sentence(entry)
     for ledger, own in OWN_WORDS.items():
         text = text.replace(ledger, own)
@@ -292,12 +274,7 @@ def write(report: dict[str, Any], folder: str | Path) -> tuple[Path, Path]:
     return folder / REPORT_FILE, forest_plot(report, folder / PLOT_FILE)
 
 
-def default_folder(preset: Preset, tokenizer: str) -> Path:
-    return ResultsStore(preset.name).dir / "compare" / tokenizer
-
-
 def main(argv: list[str] | None = None) -> int:
-
     parser = Parser(prog="icil-paper compare", description=__doc__.split("\n\n")[0])
     add_preset_arguments(parser)
     parser.add_argument("--tokenizer", required=True,
@@ -329,10 +306,9 @@ def main(argv: list[str] | None = None) -> int:
     check_tokenizers(args.tokenizer, args.against)
     check_env_folder(RESULTS_ENV_VAR, "results")
     check_env_folder(RUNS_ENV_VAR, "runs")
-    out = Path(args.out) if args.out else default_folder(preset, args.tokenizer)
+    out = Path(args.out or ResultsStore(preset.name).dir / "compare" / args.tokenizer)
     check_writable(out, f"the report folder {out}", "pass another --out")
     if args.executor == "ray" and args.ray_address:
-
         check_reachable(args.ray_address)
     report = compare(preset, args.tokenizer, args.against, effect=args.effect,
                      seeds=args.seeds, pilot_seeds=args.pilot_seeds, max_seeds=args.max_seeds,

@@ -4,20 +4,9 @@
     cells = family_cells(preset, runs, preset.data.robocasa_tasks)   # a column per family + avg
     Row("icrt+lipvq", cells, paper_row)                             # one row of a TableSpec
 
-The results themselves are declared one module each in `icil_paper.paper`, from these blocks:
-
-- `seed_runs`: one RunSpec per training seed of a row; seed k trains on demonstration set k
-  and, for ICRT, starts from the same backbone and draws the same batches as seed k of every
-  other row (common random numbers).
-- `evaluation` (`table_eval` for the pilots): seed k's evaluation on a task, on the preset's
-  episodes and scene set k, so rows are compared episode by episode.
-- `tasks_cell`, `family_cells`: a cell over tasks; the family columns with their average.
-- `table_i_runs`, `table_i_seeds`: Table I's policies, which the other tables reuse (the same
-  RunSpecs), so that each policy is trained once.
-- `feature_spec`, `features_cell`, `with_codebook`: Table III's measurement of a trained
-  tokenizer on held-out trajectories, and the codebook use beside a table.
-- `row_seeds`: the training seeds of one row; `icrt_rows`: Table I's protocol for chosen
-  ICRT tokenizers (`icil-paper compare`).
+Seed k of every row shares its demonstration set, its evaluation scenes and, for ICRT, its
+backbone's initial weights and batch order (common random numbers), so rows are compared
+seed by seed. Table I's runs (`table_i_runs`) are reused by the other tables.
 """
 
 from __future__ import annotations
@@ -43,18 +32,16 @@ TOKENIZER_ROWS = tuple(f"icrt+{t}" for t in ICRT_TOKENIZERS)
 """Their row labels."""
 
 CODEBOOK_TOKENIZERS = ("vq", "lipvq", "lfq", "fsq", "lipfsq", "rvq", "liprvq")
-"""Tokenizers with a learned or fixed codebook (the VQ family): their rows of Tables I, IV
-and Fig. 5 carry a `features` cell beside the table, for their codebook use."""
+"""Tokenizers with a codebook: their rows carry a `features` cell for their codebook use."""
 
 
 def label(policy: str, tokenizer: str | None) -> str:
-    """A row's label: the policy, or `<policy>+<tokenizer>` (the paper's numbers use the same)."""
+    """A row's label: the policy, or `<policy>+<tokenizer>`."""
     return f"{policy}+{tokenizer}" if tokenizer else policy
 
 
 def families(tasks: Sequence[str]) -> dict[str, list[str]]:
-    """Paper column -> the tasks of that skill family (kept in `tasks`' order), as each task's
-    suite maps it (`icil_paper.sim.task_family`)."""
+    """Paper column -> the tasks of `tasks` in that skill family (`sim.task_family`)."""
     of = {t: task_family(t) for t in tasks}
     return {column: [t for t in tasks if of[t] == family]
             for column, family in zip(FAMILY_COLUMNS, SKILL_FAMILIES, strict=True)}
@@ -63,9 +50,7 @@ def families(tasks: Sequence[str]) -> dict[str, list[str]]:
 def seed_runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str],
               seeds: int) -> list[RunSpec]:
     """One RunSpec per training seed (preset.seed, preset.seed + 1, ...); seed k trains on
-    demonstration set k (`run_spec`), so that seed k of every row shares its data, as it
-    shares its evaluation scenes (`evaluation`) and, for ICRT, its backbone's initial
-    weights and batch order."""
+    demonstration set k."""
     runs = [run_spec(preset, policy, tokenizer, tasks=tasks, seed=preset.seed + s)
             for s in range(seeds)]
     if policy == "mcr":  # image observations; fewer demonstrations (rendering is costly)
@@ -79,12 +64,9 @@ def seed_runs(preset: Preset, policy: str, tokenizer, tasks: Sequence[str],
 
 def evaluation(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
                scenes: str = "generated", **prompt) -> EvalSpec:
-    """The evaluation of `run` (training seed `seed_index` of its row) on `task`: the
-    preset's episodes (its suite's `tables.episodes_per_task_by_suite`; MCR's image
-    episodes), the same scenes for every row; with
-    `tables.scenes_per_seed`, seed k of every row plays scene set k (evaluation seed
-    preset.seed + k), else every seed plays the same scenes. `scenes` is the scene
-    distribution (every row's). Prompts only for in-context policies."""
+    """The evaluation of training seed `seed_index` of a row on `task`: the preset's
+    episodes; with `tables.scenes_per_seed`, seed k plays scene set k, else every seed the
+    same scenes. `scenes`: the scene distribution. Prompts only for ICRT."""
     images = run.policy.type == "mcr"
     episodes = (preset.tables.image_episodes_per_task if images
                 else preset.tables.episodes_for(task, preset.eval.episodes_per_task))
@@ -96,12 +78,6 @@ def evaluation(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
                      scenes=scenes, **prompt)
 
 
-def table_eval(preset: Preset, run: RunSpec, task: str, seed_index: int = 0) -> EvalSpec:
-    """The evaluation every table gives training seed `seed_index` of a row on `task`
-    (`evaluation`: its episodes, scene set and prompts); the pilots evaluate as the tables do."""
-    return evaluation(preset, run, task, seed_index)
-
-
 def tasks_cell(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
                **prompt) -> Cell:
     """One cell over `tasks`: every seed's evaluation on each task (`evaluation`)."""
@@ -111,8 +87,7 @@ def tasks_cell(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
 
 def family_cells(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
                  **prompt) -> dict[str, Cell]:
-    """A cell per skill family that has a task among `tasks` (`families`), and "avg" over
-    every task."""
+    """A cell per skill family with a task among `tasks`, and "avg" over every task."""
     cells = {column: tasks_cell(preset, runs, family_tasks, **prompt)
              for column, family_tasks in families(tasks).items() if family_tasks}
     cells["avg"] = tasks_cell(preset, runs, tasks, **prompt)
@@ -120,8 +95,7 @@ def family_cells(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
 
 
 def row_seeds(preset: Preset, table: str, row: str, default: int) -> int:
-    """Training seeds of one row: `tables.row_seeds`' entry for "TABLE:row", else for
-    "TABLE:*", else `default`."""
+    """`tables.row_seeds`' entry for "TABLE:row", else for "TABLE:*", else `default`."""
     named = preset.tables.seeds_by_row()
     return named.get(f"{table}:{row}", named.get(f"{table}:*", default))
 
@@ -139,15 +113,9 @@ def table_i_runs(preset: Preset, policy: str, tokenizer) -> list[RunSpec]:
 
 
 def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
-    """Table III's held-out trajectories for a run trained on the kitchen tasks: the
-    `tables.feature_demos_per_task` generated demonstrations after the training ones of
-    demonstration set 0 (the preset's data seed), of which `tables.feature_steps` features
-    are scored in equal shares per task (`per_task` sampling, `icil_paper.eval.features`).
-    Every training seed trains on its own set (`seed_runs`), so no seed has seen them: set 0's
-    runs stop before them and the other seeds' never read set 0. It depends on the run's
-    data size only, so every training seed of a row scores the same steps, and every table
-    that measures a run (III, the codebook use beside I, IV and Fig. 5, `analysis`,
-    `beyond`) shares one record."""
+    """Table III's held-out trajectories: demonstrations of set 0 after the most any run
+    trains on (no seed has seen them), `tables.feature_steps` features in equal shares per
+    task. Every table that measures a run shares the record."""
     data = DataSpec(tasks=run.data.tasks, source="generated", obs=run.data.obs,
                     demos_per_task=preset.tables.feature_demos_per_task,
                     seed=data_set_seed(preset.seed, 0))
@@ -156,8 +124,7 @@ def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
 
 
 def features_cell(preset: Preset, runs: Sequence[RunSpec]) -> Cell:
-    """One feature measurement per training seed of a row (Table III's units for the same
-    runs: the same records)."""
+    """One feature measurement per training seed of a row."""
     return Cell(tuple(Unit(s, run, features=feature_spec(preset, run))
                       for s, run in enumerate(runs)))
 
@@ -172,11 +139,8 @@ def with_codebook(preset: Preset, cells: dict[str, Cell], runs: Sequence[RunSpec
 
 
 def icrt_rows(preset: Preset, seeds: dict[str, int]) -> TableSpec:
-    """Table I's protocol for chosen ICRT tokenizers at chosen training seeds (tokenizer ->
-    seeds; `icil-paper compare`): each row's runs and evaluations are those Table I has for
-    that tokenizer (its first seeds are the same records), so stored cells are reused, and a
-    tokenizer Table I does not have (a plugin's) is trained and evaluated the same way. The
-    rows carry no paper's numbers (Table I's are `icil_paper.paper.table_i`'s)."""
+    """Table I's protocol for chosen ICRT tokenizers, {tokenizer: seeds} (`icil-paper
+    compare`): Table I's runs and evaluations, so stored cells are reused."""
     tasks = preset.data.robocasa_tasks
     rows = tuple(Row(label("icrt", tok),
                      family_cells(preset, seed_runs(preset, "icrt", tok, tasks, n), tasks))

@@ -4,19 +4,12 @@
     design.family["IV-vq"], design.weights["IV-vq"]       # "primary", 0.8 / 6
     record = read_record(store)                           # results/<preset>/design.json
 
-A design is fixed before the data it reads: the looks (`tables.seed_stages`), the families
-and their shares of the familywise 5% (`tables.primary_claims`, `tables.family_weights`:
-weighted Holm's graph over them, `stats.graph_test`), the continuation rule
-(`tables.continuation_power`) and the episodes (`tables.episodes_per_task_by_suite`). Claims
-that cannot be tested are *descriptive*: the rank correlations across rows, and any claim
-whose smallest attainable p-value cannot pass its first step; they are reported and
-decide nothing.
-
-`design.json` beside a staged run's records holds the design it was registered under and
-each look's realised seeds per row (`planning.staged` writes it). A record labelled
-"older" says that the records were gathered under an earlier design (one family, Holm's
-procedure over every claim, rows continued on the paper's effect): the ledger read from
-them is that design's, labelled so, and the current design decides nothing on them.
+A design is fixed before the data: the looks (`tables.seed_stages`), the families and their
+shares of the familywise 5% (weighted Holm's graph, `stats.graph_test`) and the
+continuation rule. Claims that cannot be tested (rank correlations, or a smallest p-value
+that cannot pass) are *descriptive*: reported, deciding nothing. `design.json` holds the
+design a staged run was registered under and each look's seeds; one labelled "older" is
+read under the older design (`older_design`).
 """
 
 from __future__ import annotations
@@ -43,19 +36,16 @@ DESIGN_FIELDS = ("seed_stages", "stage_budget_hours", "primary_claims", "family_
 
 @dataclass(frozen=True)
 class Design:
-    """The design of one ledger: each claim's family and its initial share of the
-    familywise level, the looks, the continuation rule and whether sizes are decided."""
+    """The design of one ledger: families, shares of the level, looks, continuation rule."""
 
     family: dict[str, str]
     """Claim id -> `PRIMARY`, `SECONDARY`, `DESCRIPTIVE` or `ONE_FAMILY`."""
     weights: dict[str, float]
-    """Claim id -> its share of the familywise level before any claim is decided (0 for a
-    descriptive claim); they sum to 1."""
+    """Claim id -> its initial share of the familywise level (they sum to 1)."""
     sequential: stats.SequentialDesign | None = None
     """The looks (None: one look at the seeds the rows have)."""
     continuation_power: float | None = None
-    """The least conditional power at which a claim's rows go on (None: the older design,
-    whose looks are in its record)."""
+    """The least conditional power at which a claim's rows go on (None: the older design)."""
     why: dict[str, str] = field(default_factory=dict)
     """Claim id -> why it is descriptive."""
     older: bool = False
@@ -65,7 +55,7 @@ class Design:
 
     @property
     def sizes(self) -> bool:
-        """Whether sizes are decided (the older design read them off unadjusted intervals)."""
+        """Whether sizes are decided (not under the older design)."""
         return not self.older
 
     def level(self, claim_id: str) -> float:
@@ -73,8 +63,7 @@ class Design:
         return stats.ALPHA * self.weights.get(claim_id, 0.0)
 
     def planning_level(self, claim_id: str) -> float:
-        """The nominal level the claim's test must pass at the last look, at its share: what
-        its power, detectable difference and seeds needed are planned at."""
+        """The nominal level the claim's test must pass at the last look (for planning)."""
         level = self.level(claim_id)
         if self.sequential is None or level == 0:
             return level
@@ -106,8 +95,7 @@ def _descriptive(claim, weight: float, sequential) -> str | None:
 
 def ledger_design(preset: Preset, claims: Sequence, record: dict[str, Any] | None = None
                   ) -> Design:
-    """The design `claims` are read under: the preset's (`TablesConfig`'s design fields), or
-    with a `record` labelled "older", the older design (`older_design`)."""
+    """The preset's design over `claims`, or the older one for a `record` labelled so."""
     t = preset.tables
     sequential = stats.SequentialDesign(t.seed_stages) if t.seed_stages else None
     if record is not None and record.get("design") == "older":
@@ -132,9 +120,7 @@ def ledger_design(preset: Preset, claims: Sequence, record: dict[str, Any] | Non
 
 
 def older_design(claims: Sequence, sequential: stats.SequentialDesign | None) -> Design:
-    """The design the committed reference records were gathered under: every claim in one
-    family with an equal share (Holm's procedure), its looks and stops in its record, and
-    sizes read, not decided."""
+    """The reference records' design: one family, equal shares (Holm), sizes not decided."""
     ids = [c.id for c in claims]
     return Design(dict.fromkeys(ids, ONE_FAMILY), dict.fromkeys(ids, 1 / len(ids)),
                   sequential, None, {}, older=True)

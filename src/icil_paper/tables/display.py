@@ -6,25 +6,19 @@
     show_motion(results, "avg")           # success beside LDLJ, SPARC, action jerk
     show_per_source(results, make_frame)  # any frame per source, the reference run's first
 
-A chapter shows the paper's numbers, the reference run's and this build's side by side;
-with a reference run beside it, this build's numbers (which test the code, not the paper)
-are in a collapsed block (`collapsed_frame`). What only one result shows (Table III's
-Figs. 1 and 4, Table VI's shift, the analysis table's findings, ...) lives in that result's
-module of `icil_paper.paper`; loading, the ledger's views and the reference run's
-bookkeeping in `icil_paper.book.report`. Nothing here reads the list of results, so every
-result's module can use it.
+A chapter shows the paper's numbers and the reference run's side by side; this build's
+(which test the code, not the paper) go in a collapsed block (`collapsed_frame`). What only
+one result shows lives in its module of `icil_paper.paper`.
 """
 
 from __future__ import annotations
 
-import html
-import re
 from typing import Any
 
 import numpy as np
 
 from icil_paper import stats, verdict_words
-from icil_paper.tables.assemble import TableResult, format_cell, unbroken
+from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
 from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
 
 REFERENCE = "reference"
@@ -34,8 +28,7 @@ BUILD = "this build"
 
 
 SOURCE_WORDS = {f"{REFERENCE} run": "our run", BUILD: "the quick run"}
-"""What a table's column or a paragraph calls each source: our run (the committed records)
-and the quick run (the preset the book is built with)."""
+"""What a table's column or a paragraph calls each source."""
 
 
 def source_label(source: str, preset_name: str) -> str:
@@ -63,9 +56,8 @@ def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: 
 
 def success_figure(results: dict[str, TableResult], column: str = "avg", title: str = "",
                    ylabel: str = "success rate"):
-    """Grouped bars per row: each source's estimate with its 95% interval; the paper's
-    number as a black mark. With a reference run beside it, this build is left out (its
-    numbers test the code; they are in the collapsed block under the table)."""
+    """Grouped bars per row: each source's estimate with its 95% interval, the paper's number
+    as a black mark; this build left out beside a reference run."""
     import matplotlib.pyplot as plt
 
     if len(results) > 1:
@@ -100,8 +92,7 @@ def success_figure(results: dict[str, TableResult], column: str = "avg", title: 
 
 def show_comparison(results: dict[str, TableResult], column: str = "avg",
                     digits: int = 3) -> None:
-    """The paper and the reference run side by side; this build's numbers below, in a
-    collapsed block (shown open when the book is built with the reference preset itself)."""
+    """The paper and the reference run side by side; this build's numbers collapsed below."""
     from IPython.display import display
 
     frame = compare_frame(results, column, digits)
@@ -118,19 +109,24 @@ def _build_summary(result: TableResult) -> str:
     return verdict_words.QUICK_RUN_OPEN.format(preset=result.preset)
 
 
-def show_per_source(results: dict[str, TableResult], make_frame, describe=None) -> None:
-    """One frame per source (`make_frame(result)`): the reference run's shown, this build's
-    in a collapsed block when there is a reference beside it. `describe(result)` adds a
-    sentence after the source's name."""
+def show_per_source(results: dict[str, TableResult], make_frame, describe=None, empty=None,
+                    empty_text: str = verdict_words.MISSING) -> None:
+    """One frame per source (`make_frame(result)`), this build's collapsed beside a
+    reference; `describe(result)` adds a sentence after the source's name; where
+    `empty(result, frame)`, one line `empty_text` stands for the frame."""
     from IPython.display import Markdown, display
 
     for source, result in results.items():
         extra = f": {describe(result)}" if describe else ""
-        if source == BUILD and len(results) > 1:
-            display(collapsed_frame(_build_summary(result) + extra, make_frame(result)))
-            continue
-        display(Markdown(f"**{source_label(source, result.preset)}**{extra}"))
-        display(make_frame(result))
+        title = f"**{source_label(source, result.preset)}**"
+        frame = make_frame(result)
+        if empty is not None and empty(result, frame):
+            display(Markdown(f"{title}: {empty_text}"))
+        elif source == BUILD and len(results) > 1:
+            display(collapsed_frame(_build_summary(result) + extra, frame))
+        else:
+            display(Markdown(title + extra))
+            display(frame)
 
 
 def collapsed_frame(summary: str, frame) -> Any:
@@ -141,37 +137,13 @@ def collapsed_frame(summary: str, frame) -> Any:
                 f"{frame.to_html(classes='dataframe')}</details>")
 
 
-def _markdown_html(text: str) -> str:
-    """The little Markdown the ledger's lists use (items, **bold**, *italic*, `code`) as
-    HTML, for a collapsed block (HTML output is not read as Markdown)."""
-    def inline(line: str) -> str:
-        line = html.escape(line, quote=False)
-        line = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", line)
-        line = re.sub(r"\*(.+?)\*", r"<i>\1</i>", line)
-        return re.sub(r"`(.+?)`", r"<code>\1</code>", line)
-
-    items = [line[2:] for line in text.splitlines() if line.startswith("- ")]
-    if not items:
-        return f"<p>{inline(text)}</p>"
-    return "<ul>" + "".join(f"<li>{inline(i)}</li>" for i in items) + "</ul>"
-
-
-def collapsed_markdown(summary: str, text: str) -> Any:
-    """A Markdown list (or paragraph) inside a closed <details> block."""
-    from IPython.display import HTML
-
-    return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
-                f"{_markdown_html(text)}</details>")
-
-
 MOTION_COLUMNS = {"ldlj": "LDLJ (higher: smoother)", "sparc": "SPARC (higher: smoother)",
                   "action_jerk": "action jerk (lower: smoother)"}
 """The motion frame's columns beside success (`icil_paper.metrics`)."""
 
 
 def _format_estimate(est, digits: int = 3) -> str:
-    """`-12.3 [-13.1, -11.6]` (`digits` significant digits, trailing zeros kept) or
-    `not run`."""
+    """`-12.3 [-13.1, -11.6]` (`digits` significant digits) or `not run`."""
     if est is None:
         return verdict_words.MISSING
 
@@ -182,9 +154,8 @@ def _format_estimate(est, digits: int = 3) -> str:
 
 
 def motion_frame(result: TableResult, column: str = "avg", digits: int = 3):
-    """Rows x (success, LDLJ, SPARC, action jerk) of one column: each row's success and the
-    smoothness of its rollouts' motion (per-seed means of per-episode values, the seed as
-    the unit: `TableResult.motion_estimate`), each `value [95% interval]`."""
+    """Rows x (success, LDLJ, SPARC, action jerk) of one column, each `value [95% interval]`
+    (`TableResult.motion_estimate`)."""
     import pandas as pd
 
     out = []
@@ -200,9 +171,7 @@ def motion_frame(result: TableResult, column: str = "avg", digits: int = 3):
 
 
 def motion_coverage(result: TableResult, column: str = "avg") -> dict[str, tuple[int, int]]:
-    """{measure: (episodes with it defined, episodes)} of the column's episodes, for the
-    measures some episode lacks (an episode of a few steps, or one where the arm did not
-    move, has none); empty when every episode has every measure."""
+    """{measure: (episodes with it defined, episodes)} for the measures some episode lacks."""
     counts = {}
     for row in result.spec.rows:
         cell = result.cell(row.label, column)
@@ -215,9 +184,7 @@ def motion_coverage(result: TableResult, column: str = "avg") -> dict[str, tuple
 
 
 def show_motion(results: dict[str, TableResult], column: str = "avg", digits: int = 3) -> None:
-    """Success beside the smoothness of the motion that earned it (`motion_frame`), for the
-    reference run, then this build in a collapsed block (`show_per_source`); the measures
-    some episodes lack follow, counted (`motion_coverage`)."""
+    """`motion_frame` per source, then the measures some episodes lack (`motion_coverage`)."""
     from IPython.display import display
 
     show_per_source(results, lambda r: motion_frame(r, column, digits))
@@ -230,8 +197,7 @@ def show_motion(results: dict[str, TableResult], column: str = "avg", digits: in
 
 
 def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
-    """Point values only (rows x columns), compact enough for the wide family tables; with
-    `paper`, the paper's numbers instead of ours."""
+    """Point values only (rows x columns); with `paper`, the paper's numbers."""
     import pandas as pd
 
     out = []
@@ -252,24 +218,15 @@ def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
 
 
 def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
-    """Display the paper's point values, then the reference run's, then this build's in a
-    collapsed block (a one-line note for a source that has not computed the table yet), and
-    the columns where every row is at 0 or 1."""
+    """The paper's point values, then each source's (`values_frame`), then the columns where
+    every row is at 0 or 1."""
     from IPython.display import Markdown, display
 
     first = next(iter(results.values()))
     display(Markdown("**The paper**"))
     display(values_frame(first, digits, paper=True))
-    for source, result in results.items():
-        title = f"**{source_label(source, result.preset)}**"
-        if not any(c.estimate is not None for c in result.cells.values()):
-            display(Markdown(f"{title}: not run yet."))
-            continue
-        if source == BUILD and len(results) > 1:
-            display(collapsed_frame(_build_summary(result), values_frame(result, digits)))
-            continue
-        display(Markdown(title))
-        display(values_frame(result, digits))
+    show_per_source(results, lambda r: values_frame(r, digits), empty_text="not run yet.",
+                    empty=lambda r, _: all(c.estimate is None for c in r.cells.values()))
     flat = uninformative_frame(results)
     if not flat.empty:
         display(Markdown("**Uninformative columns**"))
@@ -277,9 +234,8 @@ def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
 
 
 def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, float]:
-    """Columns (families or tasks; not "avg") where every row (whose label starts with
-    `prefix`, e.g. "icrt+" for the tokenizers) is at 0, or every one at 1: they cannot
-    separate those rows. Column -> the value every row has."""
+    """Column -> the value every row whose label starts with `prefix` has, where all are at
+    0 or all at 1 (the column cannot separate them; "avg" aside)."""
     rows = [r for r in result.spec.rows if r.label.startswith(prefix)]
     out = {}
     for column in result.spec.columns:
@@ -295,10 +251,8 @@ def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, fl
 
 
 def uninformative_frame(results: dict[str, TableResult]):
-    """Per source, its columns where every row is at 0 or at 1 ("rows": "all"), or every
-    ICRT row ("ICRT"), the value they share and the share of the average's tasks the column
-    holds (every difference in the average is diluted to 1 minus that share). Empty when
-    there are none."""
+    """Per source, its `uninformative_columns` over every row ("all") or the ICRT rows, with
+    the share of the average's tasks the column holds."""
     import pandas as pd
 
     lines = []
@@ -321,8 +275,7 @@ def uninformative_frame(results: dict[str, TableResult]):
 
 def difference_sentence(results: dict[str, TableResult], a: str, b: str,
                         column: str = "avg", direction: int = +1) -> str:
-    """`a` minus `b` on the same episodes, with its paired interval and the verdict on
-    "a is higher" (direction +1) for each source, in Markdown."""
+    """Per source, `a` minus `b` with its paired interval and verdict, in Markdown."""
     lines = []
     for source, result in results.items():
         xa, xb = result.outcomes(a, column), result.outcomes(b, column)
@@ -331,19 +284,15 @@ def difference_sentence(results: dict[str, TableResult], a: str, b: str,
             continue
         est = stats.paired_difference(xa, xb)
         claimed = "higher" if direction > 0 else "lower"
-        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = {est.value:+.3f} "
-                     f"[{est.low:+.3f}, {est.high:+.3f}]; '{a}' is {claimed}: "
+        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = "
+                     f"{format_difference(est)}; '{a}' is {claimed}: "
                      f"{stats.verdict(est, direction)}.")
     return "\n".join(lines)
 
 
 def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[str, str], float]:
     """{(row a, row b): Pearson r of their per-seed success at the same seed index}, over
-    the seed indices both rows have (at least 3, and neither row constant over them).
-
-    Seed k of every row shares its demonstration set, its evaluation scenes and, for the
-    ICRT rows, its backbone's initial weights and batch order (common random numbers): the
-    larger r, the more a paired comparison by seed index gains over an unpaired one."""
+    at least 3 shared seeds with neither row constant."""
     per_seed = {}
     for row in result.spec.rows:
         cell = result.cell(row.label, column)
@@ -363,8 +312,7 @@ def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[st
 
 # --------------------------------------------------------------------------- features and codebooks
 def codebook_rows(result: TableResult, column: str) -> list[tuple[str, Any]]:
-    """(row label, its `column` cell spec) of every row whose policies' tokenizer has a
-    codebook (`definitions.CODEBOOK_TOKENIZERS`), in the table's order."""
+    """(row label, its `column` cell spec) of every row whose tokenizer has a codebook."""
     out = []
     for row in result.spec.rows:
         cell = row.cells.get(column)
@@ -376,8 +324,7 @@ def codebook_rows(result: TableResult, column: str) -> list[tuple[str, Any]]:
 
 def per_seed_metrics(result: TableResult, label: str, cell_spec, column: str
                       ) -> list[tuple[int, dict[str, Any] | None]]:
-    """(training seed, its features record's metrics or None while not run) per unit of a
-    features cell, in seed order (`assemble` keeps the metrics in that order)."""
+    """(training seed, its features metrics or None) per unit of a features cell."""
     units = sorted(cell_spec.units, key=lambda u: u.seed_index)
     cell = result.cell(label, column)
     metrics = cell.extra.get("metrics") if cell is not None and cell.estimate is not None else None
@@ -385,12 +332,8 @@ def per_seed_metrics(result: TableResult, label: str, cell_spec, column: str
 
 
 def codebook_frame(result: TableResult, column: str = "features"):
-    """Codebook use of every VQ-family row (a tokenizer with a codebook), one line per
-    training seed: the distinct codes its trained tokenizer gives the held-out trajectories
-    of Table III (`codes used` of `K`, the codebook size), their share `usage`, and the
-    perplexity of the code distribution (exp of its entropy: how many equally used codes
-    would give it; rounded to 2 decimals). Values are None while a record is missing ("not
-    run") or older than the perplexity measurement. Index (row, seed)."""
+    """Codebook use of every codebook row per training seed on Table III's held-out
+    trajectories: codes used of `K`, `usage` and the perplexity (exp of the code entropy)."""
     import pandas as pd
 
     lines = []
@@ -407,17 +350,6 @@ def codebook_frame(result: TableResult, column: str = "features"):
 
 
 def show_codebook_use(results: dict[str, TableResult], column: str = "features") -> None:
-    """Each source's `codebook_frame` (the reference run's shown, this build's in a collapsed
-    block beside a reference), or one line for a source whose records are not there yet."""
-    from IPython.display import Markdown, display
-
-    for source, result in results.items():
-        frame = codebook_frame(result, column)
-        title = f"**{source_label(source, result.preset)}**"
-        if frame.empty or (frame["status"] == verdict_words.MISSING).all():
-            display(Markdown(f"{title}: {verdict_words.MISSING}"))
-        elif source == BUILD and len(results) > 1:
-            display(collapsed_frame(_build_summary(result), frame))
-        else:
-            display(Markdown(title))
-            display(frame)
+    """Each source's `codebook_frame`, or one line where its records are not there yet."""
+    show_per_source(results, lambda r: codebook_frame(r, column), empty=lambda _, f: (
+        f.empty or (f["status"] == verdict_words.MISSING).all()))

@@ -5,12 +5,9 @@
                               Cell ── units: Unit(seed_index, run: RunSpec, eval: EvalSpec
                                                   or None, features: FeatureSpec or None)
 
-A unit names one trained policy (its RunSpec) and what is measured on it: one evaluation
-(an EvalSpec: a task, its episodes and prompts) or, for the smoothness table, the latent
-features of held-out trajectories (a FeatureSpec). A cell's number aggregates its units:
-success rates over (seeds, tasks, episodes), smoothness over trajectories. Units are keyed
-by content, so the same trained policy serves every table that names its RunSpec and is
-trained once (`cells.plan` groups the units of all tables by run).
+A unit is one trained policy and one measurement on it: an evaluation or, for the
+smoothness table, latent features of held-out trajectories. Units are keyed by content, so
+a policy that several tables name is trained once (`cells.plan`).
 """
 
 from __future__ import annotations
@@ -48,8 +45,7 @@ class Cell:
 
     @property
     def scenes(self) -> str:
-        """"per_seed" when training seed k is evaluated on scene set k (the evaluation seeds
-        differ between seed indices), else "shared" (`icil_paper.stats`' two designs)."""
+        """"per_seed" when training seed k is evaluated on scene set k, else "shared"."""
         by_seed: dict[int, set] = {}
         for u in self.units:
             if u.eval is not None:
@@ -74,8 +70,7 @@ class TableSpec:
     """One table or figure of the paper."""
 
     id: str
-    """`I` .. `VII`, `fig5`, `prompt`: the paper's numbering (from its source); our own
-    results by name (`analysis`, `beyond`, `official`, `icrt`: chapter 02's run)."""
+    """`I` .. `VII`, `fig5`, `prompt`, or our own results' names (`analysis`, `icrt`, ...)."""
     title: str
     """The caption, as the paper words it, with our stand-in named."""
     columns: tuple[str, ...]
@@ -83,15 +78,11 @@ class TableSpec:
     rows: tuple[Row, ...]
     """The rows in the paper's order."""
     measure: str = "success"
-    """`success` (success rates, higher is better) or `smoothness` (least energy, lower is
-    smoother)."""
+    """`success` (higher is better) or `smoothness` (least energy, lower is smoother)."""
     note: str = ""
     """How this table is computed here, and what stands in for what."""
     beside: tuple[str, ...] = ()
-    """Columns measured beside the table's numbers but not shown among them (`wide`,
-    `values_frame`, the Markdown and JSON tables read `columns` only): `features`, the
-    latent features of each codebook row's policies, whose codebook use
-    `display.codebook_frame` shows."""
+    """Columns measured but not shown among `columns` (`features`: codebook use)."""
 
     def row(self, label: str) -> Row:
         for row in self.rows:
