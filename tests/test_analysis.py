@@ -13,7 +13,7 @@ from icil_paper import stats
 from icil_paper.config import get_preset
 from icil_paper.paper import analysis, table_spec
 from icil_paper.paper.analysis import ANALYSIS_VARIANTS
-from icil_paper.tables.assemble import CellResult, TableResult
+from icil_paper.tables.assemble import EntryResult, TableResult
 from icil_paper.verdict_words import MISSING
 
 SEEDS, TASKS, EPISODES, TRAJECTORIES = 3, 2, 20, 8
@@ -34,15 +34,15 @@ def _label(kind: str) -> str:
     raise AssertionError(f"no {kind} row in ANALYSIS_VARIANTS")
 
 
-def _success(rates) -> CellResult:
+def _success(rates) -> EntryResult:
     """Outcomes (seeds, tasks, episodes) with the given success rate per seed."""
     data = np.zeros((len(rates), TASKS, EPISODES), bool)
     for s, rate in enumerate(rates):
         data[s, :, :round(rate * EPISODES)] = True
-    return CellResult(stats.success_rate(data), data, 0)
+    return EntryResult(stats.success_rate(data), data, 0)
 
 
-def _features(energy: float, capped: float | None) -> CellResult:
+def _features(energy: float, capped: float | None) -> EntryResult:
     """Standardized least energies near `energy` (the same trajectories for every seed)
     and, for a Lipschitz encoder, a capped share of rows."""
     noise = np.array([[-3.0, 1.0, 2.0], [2.0, -1.0, -1.0], [1.0, 0.0, -1.0]])
@@ -51,7 +51,7 @@ def _features(energy: float, capped: float | None) -> CellResult:
                 "bound_product": None if capped is None else 100 * (1 - capped) + 1,
                 "layer_bounds": None if capped is None else [2.0, 5.0],
                 "empirical_lipschitz": 1.0, "codes_used": 10} for _ in range(SEEDS)]
-    return CellResult(stats.score_mean(per_seed), per_seed, 0,
+    return EntryResult(stats.score_mean(per_seed), per_seed, 0,
                       {"standardized": per_seed, "standardized_estimate":
                        stats.score_mean(per_seed), "latent_scale": [1.0] * SEEDS,
                        "view": [[]] * SEEDS, "metrics": metrics})
@@ -73,7 +73,7 @@ def _result(drop: tuple[str, ...] = ()) -> TableResult:
     cells = {}
     for row, (rate, energy, capped) in design.items():
         cells[row, "avg"] = _success([rate - 0.05, rate, rate + 0.05])
-        cells[row, "features"] = (CellResult(None, None, SEEDS) if row in drop
+        cells[row, "features"] = (EntryResult(None, None, SEEDS) if row in drop
                                   else _features(energy, capped))
     return TableResult(spec, cells, "smoke")
 
@@ -152,7 +152,7 @@ def test_analysis_variants_keep_the_rows_and_the_papers_shared_rate_at_the_paper
     assert rows[_label("c_init")][1] == {"lipschitz": {"c_init": 1.0}}
     assert rows[_label("windows")][1]["_policy"] == {"query_len": 32, "query_start": "random"}
     spec = table_spec(preset, "analysis")
-    tok = next(r for r in spec.rows if r.label == _label("c_lr")).cells["features"].units[0] \
+    tok = next(r for r in spec.rows if r.label == _label("c_lr")).entries["features"].units[0] \
         .run.tokenizer
     assert tok.lipschitz.weight == preset.tokenizers.lipvq.lipschitz.weight == 1e-6
     assert tok.lipschitz.c_lr_scale == 1.0  # the paper's literal setting: one shared rate

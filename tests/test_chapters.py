@@ -224,12 +224,12 @@ def _success(rates, tasks: int = 2, episodes: int = 10):
     import numpy as np
 
     from icil_paper import stats
-    from icil_paper.tables.assemble import CellResult
+    from icil_paper.tables.assemble import EntryResult
 
     data = np.zeros((len(rates), tasks, episodes), bool)
     for s, rate in enumerate(rates):
         data[s, :, :round(rate * episodes)] = True
-    return CellResult(stats.success_rate(data), data, 0)
+    return EntryResult(stats.success_rate(data), data, 0)
 
 
 def _smoothness(energy: float, codes: int | None = 4):
@@ -238,12 +238,12 @@ def _smoothness(energy: float, codes: int | None = 4):
     import numpy as np
 
     from icil_paper import stats
-    from icil_paper.tables.assemble import CellResult
+    from icil_paper.tables.assemble import EntryResult
 
     scores = energy + np.arange(15, dtype=float).reshape(3, 5) / 10
     metrics = [{"codes_used": codes, "n_features": 40, "view_actions": [[0.0] * 7] * 6}
                for _ in range(3)]
-    return CellResult(stats.score_mean(scores), scores, 0,
+    return EntryResult(stats.score_mean(scores), scores, 0,
                       {"standardized_estimate": stats.score_mean(scores / 2),
                        "latent_scale": [0.5, 0.7, 0.9], "metrics": metrics})
 

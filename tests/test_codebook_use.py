@@ -71,7 +71,7 @@ def test_table_iii_scores_an_equal_share_of_every_task(preset):
     """Every unit of Table III (every row, every seed) scores SHARE steps of each task; the
     earlier task-order rule scored the first task only."""
     spec = table_spec(preset, "III")
-    units = [u for row in spec.rows for u in row.cells["least_energy"].units]
+    units = [u for row in spec.rows for u in row.entries["least_energy"].units]
     assert len({u.seed_index for u in units}) == 2
     assert len({feature_key(u.run, u.features) for u in units}) == len(units)  # one per run
     assert len({u.features for u in units}) == 1  # every seed scores the same steps
@@ -89,7 +89,7 @@ def test_table_iii_scores_an_equal_share_of_every_task(preset):
 
 
 def test_a_short_task_gives_what_it_has_and_no_task_makes_up_for_it(preset):
-    spec = table_spec(preset, "III").rows[0].cells["least_energy"].units[0].features
+    spec = table_spec(preset, "III").rows[0].entries["least_energy"].units[0].features
     pieces = held_out_pieces(dataclasses.replace(spec, steps=90), preset)  # shares of 30
     per_task = {t: sum(len(p.actions) for p in pieces if p.task == t) for t in fake_suite.KITCHEN}
     assert per_task == {t: 6 + 8 + 13 for t in fake_suite.KITCHEN}  # all three held-out demos
@@ -100,7 +100,7 @@ def test_a_short_task_gives_what_it_has_and_no_task_makes_up_for_it(preset):
 def test_features_records_say_what_they_scored_and_the_chapter_shows_it(preset):
     store = measure(preset, ["III"], rows={"icrt+mlp", "icrt+lipvq"})
     result = assemble(table_spec(preset, "III"), store)
-    cell = result.cell("icrt+lipvq", "least_energy")
+    cell = result.entry("icrt+lipvq", "least_energy")
     assert cell.estimate is not None and cell.data.shape == (2, 6)  # (seeds, trajectories)
     for m in cell.extra["metrics"]:
         assert m["tasks_scored"] == list(fake_suite.KITCHEN) == m["tasks"]
@@ -109,7 +109,7 @@ def test_features_records_say_what_they_scored_and_the_chapter_shows_it(preset):
         assert m["n_features"] == 3 * SHARE and m["n_trajectories"] == 6
         assert m["sampling"] == "per_task"
         assert 1 <= m["perplexity"] <= m["codes_used"] <= m["codebook_size"]
-    assert "perplexity" not in result.cell("icrt+mlp", "least_energy").extra["metrics"][0]
+    assert "perplexity" not in result.entry("icrt+mlp", "least_energy").extra["metrics"][0]
     frame = feature_sampling_frame({"this build": result})
     assert len(frame) and set(frame["tasks scored"]) == {3} == set(frame["tasks"])
     assert set(frame["steps a task"]) == {str(SHARE)} and set(frame["trajectories"]) == {6}
@@ -127,8 +127,8 @@ def test_codebook_rows_share_table_iii_records(preset):
     for t in ("I", "IV", "fig5"):
         spec = table_spec(preset, t)
         for row in spec.rows:
-            types = {u.run.tokenizer.type for u in row.cells["avg"].units if u.run.tokenizer}
-            assert ("features" in row.cells) == bool(types & set(CODEBOOK_TOKENIZERS)), row.label
+            types = {u.run.tokenizer.type for u in row.entries["avg"].units if u.run.tokenizer}
+            assert ("features" in row.entries) == bool(types & set(CODEBOOK_TOKENIZERS)), row.label
         assert "features" not in spec.columns and spec.beside == ("features",)
 
 
@@ -145,7 +145,7 @@ def test_the_codebook_frame_has_a_line_per_codebook_row_and_seed(preset, table_i
     store = measure(preset, [table_id])
     frame = codebook_frame(assemble(spec, store))
     if seeds is None:
-        seeds_of = {r.label: sorted({u.seed_index for u in r.cells["avg"].units})
+        seeds_of = {r.label: sorted({u.seed_index for u in r.entries["avg"].units})
                     for r in spec.rows}
         assert sorted(len(s) for s in seeds_of.values()) == [1, 1, 1,
                                                             preset.tables.icrt_seeds]
@@ -171,7 +171,7 @@ def test_fig5_counts_each_sizes_codes_used(preset, monkeypatch):
     used_frame = codes_used_frame({"this build": result})
     frame = codebook_frame(result)
     for row, lines in frame.groupby(level=0, sort=False):  # means over a row's seeds
-        metrics = result.cell(row, "features").extra["metrics"]
+        metrics = result.entry(row, "features").extra["metrics"]
         perplexity = np.mean([m["perplexity"] for m in metrics])
         used = lines["codes used"].mean()
         line = used_frame.loc[("the quick run (smoke)", row)]

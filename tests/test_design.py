@@ -93,7 +93,7 @@ def test_chapter_00s_design_table_shows_the_seeds_of_the_stage_the_run_reached(
 def test_the_cost_sums_each_records_time_under_its_stage_and_kind(tmp_path):
     preset = smoke()
     store = ResultsStore(preset.name, root=tmp_path)
-    unit = table_spec(preset, "I").row("icrt+lipvq").cells["avg"].units[0]
+    unit = table_spec(preset, "I").row("icrt+lipvq").entries["avg"].units[0]
     episodes = [{"success": True, "steps": 5}] * 2
     write_eval_record(store, unit, episodes, 5.0)
     store.write(*train_record(unit.run), {"steps": 5}, seed=0, wall_time_s=10.0, cpu_time_s=18.0)
@@ -209,7 +209,7 @@ def test_a_staged_runs_cost_is_bounded_by_its_stages(tmp_path):
 def test_the_projection_prices_unfinished_cells_at_their_measured_rate(tmp_path):
     preset = smoke()
     store = ResultsStore(preset.name, root=tmp_path)
-    unit = table_spec(preset, "I").row("icrt+lipvq").cells["avg"].units[0]
+    unit = table_spec(preset, "I").row("icrt+lipvq").entries["avg"].units[0]
     store.write(*train_record(unit.run), {"steps": 5}, seed=0, wall_time_s=10.0, cpu_time_s=18.0)
     projection = run_cost(preset, store)["projection"]
     group = projection["groups"]["table-I / icrt kitchen state"]
@@ -227,7 +227,7 @@ def test_the_projection_prices_unfinished_cells_at_their_measured_rate(tmp_path)
 def test_a_resumed_cell_does_not_lower_the_training_rate(tmp_path):
     preset = smoke("tables.icrt_seeds=2")
     store = ResultsStore(preset.name, root=tmp_path)
-    units = [cell.units for cell in [table_spec(preset, "I").row("icrt+lipvq").cells["avg"]]][0]
+    units = [entry.units for entry in [table_spec(preset, "I").row("icrt+lipvq").entries["avg"]]][0]
     fresh, resumed = sorted({u.run.seed: u.run for u in units}.values(), key=lambda r: r.seed)
     store.write(*train_record(fresh), {"steps": 5, "resumed_from_step": 0}, seed=fresh.seed,
                 wall_time_s=20.0, cpu_time_s=20.0)
@@ -246,8 +246,8 @@ def test_a_seed_counts_as_finished_once_every_record_its_row_reads_is_there(tmp_
 
     preset = smoke("tables.icrt_seeds=2")
     store = ResultsStore(preset.name, root=tmp_path)
-    units = [u for cell in table_spec(preset, "I").row("icrt+lipvq").cells.values()
-             for u in cell.units if u.seed_index == 0]
+    units = [u for entry in table_spec(preset, "I").row("icrt+lipvq").entries.values()
+             for u in entry.units if u.seed_index == 0]
     measured = [u for u in units if u.features is not None]
     assert measured  # the row's features cell counts too
     for unit in {u.eval.task: u for u in units if u.eval is not None}.values():
@@ -376,7 +376,7 @@ def test_the_small_and_reference_presets_carry_the_design():
     assert reference.tables.episodes_per_task_by_suite == REFERENCE_EPISODES
     assert 1 <= len(PRIMARY_CLAIMS) <= 6 and sum(FAMILY_WEIGHTS) == 1
     # the Meta-World evaluations of the reference design play its suite's episodes
-    unit = table_spec(reference, "I").row("icrt+lipvq").cells["avg"].units[0]
+    unit = table_spec(reference, "I").row("icrt+lipvq").entries["avg"].units[0]
     assert unit.eval.episodes == reference.tables.episodes_by_suite()["metaworld"]
 
 
@@ -451,9 +451,9 @@ def test_the_committed_reference_records_are_read_as_the_older_designs_record():
     reference = get_preset("reference")
     run = as_run(reference, store)
     assert run.tables.episodes_per_task_by_suite == ()
-    unit = table_spec(run, "I").row("icrt+lipvq").cells["avg"].units[0]
+    unit = table_spec(run, "I").row("icrt+lipvq").entries["avg"].units[0]
     assert unit.eval.episodes == 5 and unit.eval.episodes < table_spec(
-        reference, "I").row("icrt+lipvq").cells["avg"].units[0].eval.episodes
+        reference, "I").row("icrt+lipvq").entries["avg"].units[0].eval.episodes
     rows = {f"{t}:{r}": n for t, r, n in ((*k, v) for k, v in planned_seeds(run).items())}
     last = record["looks"][-1]
     assert all(rows[r] == n for r, n in last["rows"].items())

@@ -274,8 +274,8 @@ def motion_records(preset, store, table_id, ldlj_of, success=0.5, seed=0, undefi
 
     rng = np.random.default_rng(seed)
     for row in table_spec(preset, table_id).rows:
-        for cell in row.cells.values():
-            for unit in cell.units:
+        for entry in row.entries.values():
+            for unit in entry.units:
                 if unit.eval is None:
                     continue
                 n = unit.eval.episodes
@@ -300,7 +300,7 @@ def test_a_cell_estimates_motion_with_the_seed_as_the_unit():
     seed_means = {0: -10.0, 1: -14.0, 2: -12.0}
     motion_records(preset, store, "V", lambda row, s: seed_means[s], undefined=0.2)
     result = assemble(table_spec(preset, "V"), store)
-    cell = result.cell("icrt+lipvq", "avg")
+    cell = result.entry("icrt+lipvq", "avg")
     assert cell.motion["ldlj"].shape == (3, 4 * 20)  # seeds, episodes of the Kinova tasks
     assert np.isnan(cell.motion["ldlj"]).any()  # the undefined episodes
     est = result.motion_estimate("icrt+lipvq", "avg", "ldlj")
@@ -383,7 +383,7 @@ def test_smoother_latents_and_smoother_motion_are_correlated_across_tokenizers()
     motion_records(preset, store, "I", lambda row, s: -20.0 + 2.0 * rank.get(row, 0))
     rng = np.random.default_rng(0)
     for row in table_spec(preset, "III").rows:
-        for unit in row.cells["least_energy"].units:
+        for unit in row.entries["least_energy"].units:
             energy = rng.normal(10.0 - rank[row.label], 0.2, 30).tolist()  # lipvq lowest
             store.write(*features_record(unit.run, unit.features),
                         {"least_energy_per_trajectory": energy,

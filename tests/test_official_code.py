@@ -213,14 +213,14 @@ def test_each_variant_differs_from_the_papers_row_in_exactly_the_fields_it_names
     bases = dict(OFFICIAL_ROWS)
     assert set(EXPECTED_CHANGES) == set(VARIANTS)
     for variant in VARIANTS:
-        units = spec.row(variant).cells["avg"].units
+        units = spec.row(variant).entries["avg"].units
         seeds = {u.seed_index for u in units}  # the paper's rows may have Table I's more seeds
-        base_units = [u for u in spec.row(bases[variant]).cells["avg"].units
+        base_units = [u for u in spec.row(bases[variant]).entries["avg"].units
                       if u.seed_index in seeds]
         assert [u.eval for u in units] == [u.eval for u in base_units]  # the same episodes
         for u, b in zip(units, base_units, strict=True):
             assert _changes(u.run, b.run) == EXPECTED_CHANGES[variant], variant
-    official = spec.row("icrt+lipvq (official code)").cells["avg"].units[0].run.tokenizer
+    official = spec.row("icrt+lipvq (official code)").entries["avg"].units[0].run.tokenizer
     preset = get_preset(preset_name)
     expected = lipvq_official(preset.tokenizers.lipvq.latent_dim,
                               preset.tokenizers.lipvq.codebook_size)
@@ -239,16 +239,16 @@ def test_the_paper_rows_are_table_is_runs_and_the_reference_plans_five_seeds():
     t1_seeds = preset.tables.icrt_seeds  # the paper's rows are Table I's runs, all of them
     for row in official.rows:
         want = t1_seeds if row.label in (PAPER_LIPVQ, PAPER_BIN) else 5
-        assert {c.seeds for c in row.cells.values()} == {want}, row.label
-        assert row.cells["features"].units[0].features is not None
+        assert {c.seeds for c in row.entries.values()} == {want}, row.label
+        assert row.entries["features"].units[0].features is not None
     for ours, theirs in ((PAPER_LIPVQ, "icrt+lipvq"), (PAPER_BIN, "icrt+bin")):
-        shared = {(u.run.key(), u.eval) for u in official.row(ours).cells["avg"].units}
-        t1 = {(u.run.key(), u.eval) for u in table1.row(theirs).cells["avg"].units}
+        shared = {(u.run.key(), u.eval) for u in official.row(ours).entries["avg"].units}
+        t1 = {(u.run.key(), u.eval) for u in table1.row(theirs).entries["avg"].units}
         assert t1 <= shared  # Table I's seeds, on the same episodes
         assert official.row(ours).paper == table1.row(theirs).paper
     t1_runs = {u.run.key() for u in table1.units()}
     for variant in VARIANTS:
-        assert not {u.run.key() for u in official.row(variant).cells["avg"].units} & t1_runs
+        assert not {u.run.key() for u in official.row(variant).entries["avg"].units} & t1_runs
     seeds = preset.tables.official_seeds
     base = len(plan([table1, beyond]))
     # six variants of five seeds each; the paper's rows are Table I's runs, all of them
@@ -285,7 +285,7 @@ def _fake_records(preset, store, rate_of, codes_of):
     spec = table_spec(preset, "official")
     rng = np.random.default_rng(0)
     for row in spec.rows:
-        for unit in row.cells["avg"].units:
+        for unit in row.entries["avg"].units:
             n = unit.eval.episodes
             per = [{"episode": i, "success": bool(rng.random() < rate_of(row.label)),
                     "steps": 5} for i in range(n)]
@@ -295,7 +295,7 @@ def _fake_records(preset, store, rate_of, codes_of):
                         {"task": unit.eval.task, "episodes": n, "per_episode": per,
                          "successes": sum(e["success"] for e in per)},
                         seed=unit.run.seed, wall_time_s=0.0)
-        for unit in row.cells["features"].units:
+        for unit in row.entries["features"].units:
             kind, name, config = features_record(unit.run, unit.features)
             scores = rng.uniform(0.5, 1.5, 4).tolist()
             store.write(kind, name, config, {

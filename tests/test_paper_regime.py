@@ -186,7 +186,7 @@ def test_the_plan_generates_one_demonstration_set_per_training_seed(tmp_path):
 def test_seed_correlations_pair_rows_by_seed_index():
     from icil_paper import stats
     from icil_paper.paper import table_spec
-    from icil_paper.tables.assemble import CellResult, TableResult
+    from icil_paper.tables.assemble import EntryResult, TableResult
     from icil_paper.tables.display import seed_correlations
 
     spec = table_spec(get_preset("smoke"), "IV")
@@ -198,7 +198,7 @@ def test_seed_correlations_pair_rows_by_seed_index():
         data = np.zeros((len(per_seed), 2, 10), bool)
         for s, rate in enumerate(per_seed):
             data[s, :, :round(rate * 10)] = True
-        cells[label, "avg"] = CellResult(stats.success_rate(data), data, 0)
+        cells[label, "avg"] = EntryResult(stats.success_rate(data), data, 0)
     r = seed_correlations(TableResult(spec, cells, "smoke"))
     assert r[labels[0], labels[1]] == pytest.approx(1.0)
     assert r[labels[0], labels[2]] == pytest.approx(-1.0)

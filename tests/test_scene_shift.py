@@ -28,9 +28,9 @@ from icil_paper.paper.table_vi import shift_counts, shift_frame, shift_rows
 from icil_paper.registry import UnknownNameError
 from icil_paper.runspec import SCENE_DISTRIBUTIONS, EvalSpec, eval_key
 from icil_paper.stats import Estimate
-from icil_paper.tables.assemble import CellResult, TableResult
+from icil_paper.tables.assemble import EntryResult, TableResult
 from icil_paper.tables.definitions import label
-from icil_paper.tables.spec import Cell, Row, TableSpec
+from icil_paper.tables.spec import Entry, Row, TableSpec
 
 TASK = "kitchen/reach_a"
 HUMAN_GOAL_SHIFT = np.array([0.05, -0.04, 0.0])
@@ -96,7 +96,7 @@ def test_table_vi_evaluates_every_row_on_the_human_scenes():
     t1, t6 = table_spec(preset, "I"), table_spec(preset, "VI")
     for policy, tokenizer in TABLE_I_ROWS:
         name = label(policy, tokenizer)
-        u1, u6 = t1.row(name).cells["avg"].units, t6.row(name).cells["avg"].units
+        u1, u6 = t1.row(name).entries["avg"].units, t6.row(name).entries["avg"].units
         assert [u.run.key() for u in u1] == [u.run.key() for u in u6], name  # same policies
         assert {u.eval.scenes for u in u1} == {"generated"}, name
         assert {u.eval.scenes for u in u6} == {"human"}, name
@@ -107,7 +107,7 @@ def test_table_vi_evaluates_every_row_on_the_human_scenes():
                 b.eval.task, b.eval.seed, b.eval.episodes, b.eval.max_steps)
         sources = {u.eval.prompt_source for u in u6}
         assert sources == ({"human"} if policy == "icrt" else {"generated"}), name
-    bc = [u.eval for u in t6.row("bc_transformer").cells["avg"].units]
+    bc = [u.eval for u in t6.row("bc_transformer").entries["avg"].units]
     assert bc[0] != dataclasses.replace(bc[0], scenes="generated")
     assert "human-like scene distribution" in t6.note and "every row" in t6.note
 
@@ -287,8 +287,8 @@ def test_the_expert_solves_a_human_scene():
 # --------------------------------------------------------------------------- Table I vs Table VI
 def _result(table_id: str, rows: dict[str, np.ndarray]) -> TableResult:
     spec = TableSpec(table_id, table_id, ("avg",),
-                     tuple(Row(r, {"avg": Cell(())}) for r in rows))
-    cells = {(r, "avg"): CellResult(Estimate(float(x.mean()), 0.0, 1.0, len(x), "test"), x, 0)
+                     tuple(Row(r, {"avg": Entry(())}) for r in rows))
+    cells = {(r, "avg"): EntryResult(Estimate(float(x.mean()), 0.0, 1.0, len(x), "test"), x, 0)
              for r, x in rows.items()}
     return TableResult(spec, cells, "smoke")
 
@@ -319,7 +319,7 @@ def test_the_shift_is_paired_by_training_seed():
     counts = shift_counts(i, vi)
     assert counts["holds"] == 1 and (counts["measured"], counts["rows"]) == (3, 3)
     missing = _result("VI", {"bc_transformer": after})
-    missing.cells[("bc_transformer", "avg")] = CellResult(None, None, 3)
+    missing.entries[("bc_transformer", "avg")] = EntryResult(None, None, 3)
     assert shift_rows(i, missing)[0]["verdict"] == "not run"
     with pytest.raises(ValueError, match="same policies and episodes"):
         shift_rows(i, _result("VI", {"bc_transformer": after[:2]}))

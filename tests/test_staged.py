@@ -27,7 +27,7 @@ def _preset():
 
 def _seeds(preset, table, row):
     spec = table_spec(preset, table).row(row)
-    return len({u.seed_index for cell in spec.cells.values() for u in cell.units})
+    return len({u.seed_index for entry in spec.entries.values() for u in entry.units})
 
 
 def _records_through(monkeypatch, stage):

@@ -30,7 +30,7 @@ def small_preset(*overrides):
 
 
 def run_keys(spec, label):
-    return {u.run.key() for u in spec.row(label).cells["avg"].units}
+    return {u.run.key() for u in spec.row(label).entries["avg"].units}
 
 
 @pytest.mark.parametrize("preset_name", ["smoke", "small", "reference"])
@@ -45,7 +45,7 @@ def test_every_table_builds_and_every_row_is_evaluated_on_the_same_episodes(pres
                     else (lambda k: preset.seed))
         assert all(seed == scene_of(k) for k, seed in seeds), f"table {table_id}: rows are not paired"
         for row in spec.rows:
-            assert set(row.cells) <= set(spec.columns) | set(spec.beside), (table_id, row.label)
+            assert set(row.entries) <= set(spec.columns) | set(spec.beside), (table_id, row.label)
 
 
 def test_tables_share_the_policies_the_paper_shares():
@@ -58,8 +58,8 @@ def test_tables_share_the_policies_the_paper_shares():
     # Table VI evaluates Table I's policies on the human-like scenes (ICRT with human-like
     # prompts): the same runs, no evaluation of Table I's
     t1_evals = {eval_key(u.run, u.eval) for u in t1.units()}
-    t6_bc = {eval_key(u.run, u.eval) for u in t6.row("bc_transformer").cells["avg"].units}
-    t6_icrt = {eval_key(u.run, u.eval) for u in t6.row("icrt+mlp").cells["avg"].units}
+    t6_bc = {eval_key(u.run, u.eval) for u in t6.row("bc_transformer").entries["avg"].units}
+    t6_icrt = {eval_key(u.run, u.eval) for u in t6.row("icrt+mlp").entries["avg"].units}
     assert not t6_bc & t1_evals and not t6_icrt & t1_evals
     assert run_keys(t6, "bc_transformer") == run_keys(t1, "bc_transformer")
     # Fig. 5 reuses Table I's LipVQ-VAE run at the preset's codebook size (seed 0)
@@ -108,7 +108,7 @@ def test_zero_shot_trains_on_ml45_and_no_held_out_task_reaches_training():
         assert unit.eval.task in held
         if unit.eval.prompt_task is not None:  # ICRT's prompt: a demonstration of the unseen task
             assert unit.eval.prompt_task == unit.eval.task
-    cells = spec.row("icrt+lipvq").cells
+    cells = spec.row("icrt+lipvq").entries
     assert cells.keys() >= {"pick_place", "doors", "knobs", "insertion", "avg"}
     assert not cells.keys() & {"drawers", "levers", "buttons"}  # no held-out task: n/a
 
@@ -121,13 +121,13 @@ def test_a_held_out_task_in_zero_shot_training_is_refused():
 
 def test_prompt_ablation_uses_another_task_and_a_cut_prompt():
     spec = table_spec(get_preset("small"), "prompt")
-    wrong = spec.row("another task's prompt").cells["avg"].units
+    wrong = spec.row("another task's prompt").entries["avg"].units
     assert all(u.eval.prompt_task and u.eval.prompt_task != u.eval.task for u in wrong)
     pairs = {u.eval.task: u.eval.prompt_task for u in wrong}
     assert pairs["metaworld/drawer-open"] == "metaworld/drawer-close"
     assert pairs["metaworld/faucet-close"] == "metaworld/faucet-open"
     assert pairs["metaworld/dial-turn"] != "metaworld/dial-turn"  # no opposite: the next task
-    cut = spec.rows[2].cells["avg"].units
+    cut = spec.rows[2].entries["avg"].units
     assert all(u.eval.prompt_steps == get_preset("small").tables.prompt_steps for u in cut)
 
 
@@ -136,8 +136,8 @@ def fake_records(preset, store, table_id, rate_of, episodes=None, seed=0):
     spec = table_spec(preset, table_id)
     rng = np.random.default_rng(seed)
     for row in spec.rows:
-        for cell in row.cells.values():
-            for unit in cell.units:
+        for entry in row.entries.values():
+            for unit in entry.units:
                 if unit.eval is None:
                     continue
                 n = episodes or unit.eval.episodes
@@ -153,12 +153,12 @@ def test_records_become_estimates_and_claims_get_their_verdicts():
     strong = {"icrt+lipvq": 0.9, "bc_transformer": 0.02}
     fake_records(preset, store, "I", lambda row: strong.get(row, 0.5))
     result = assemble(table_spec(preset, "I"), store)
-    shown = [c for (_, column), c in result.cells.items() if column in result.spec.columns]
+    shown = [c for (_, column), c in result.entries.items() if column in result.spec.columns]
     assert all(c.estimate is not None for c in shown)  # (the codebook features beside: not run)
     est = result.estimate("icrt+lipvq", "avg")
     assert 0.8 < est.value < 1.0 and est.low < est.value < est.high
     assert result.outcomes("icrt+lipvq", "avg").shape == (3, 3, 40)  # seeds, tasks, episodes
-    assert result.cell("icrt+lipvq", "pick_place") is None  # no such task in this preset
+    assert result.entry("icrt+lipvq", "pick_place") is None  # no such task in this preset
     ledger = {e.id: e for e in claims_ledger(preset, store)}
     assert ledger["I-lipvq-vs-bc"].verdict == "holds"
     assert ledger["I-lipvq-vs-bc"].adjusted_verdict == "holds"
@@ -239,7 +239,7 @@ def test_a_table_is_computed_end_to_end_and_reruns_compute_nothing():
     table4 = assemble(table_spec(preset, "IV"), store)
     assert table4.complete
     smooth = assemble(table_spec(preset, "III"), store)
-    cell = smooth.cell("icrt+lipvq", "least_energy")
+    cell = smooth.entry("icrt+lipvq", "least_energy")
     assert cell.estimate is not None and cell.extra["metrics"][0]["capped_fraction"] is not None
     assert run_tables(preset, ["IV", "III"], executor="serial", progress=False) == {}
 
@@ -371,7 +371,7 @@ def test_the_ledger_keeps_each_interval_on_one_line():
 def test_scenes_per_seed_give_seed_k_its_own_scene_set():
     shared = table_spec(small_preset("tables.icrt_seeds=3"), "I")
     per_seed = table_spec(small_preset("tables.icrt_seeds=3", "tables.scenes_per_seed=true"), "I")
-    cell, cell_k = shared.row("icrt+lipvq").cells["avg"], per_seed.row("icrt+lipvq").cells["avg"]
+    cell, cell_k = shared.row("icrt+lipvq").entries["avg"], per_seed.row("icrt+lipvq").entries["avg"]
     assert {u.eval.seed for u in cell.units} == {0} and cell.scenes == "shared"
     assert {(u.seed_index, u.eval.seed) for u in cell_k.units} == {(0, 0), (1, 1), (2, 2)}
     assert cell_k.scenes == "per_seed"
@@ -413,7 +413,7 @@ def test_row_seeds_give_single_rows_their_own_seeds_and_refuse_unknown_rows():
     assert len(run_keys(t1, "icrt+mlp")) == 4 and len(run_keys(t1, "icrt+vq")) == 2
     assert len(run_keys(t1, "bc_transformer")) == 1  # baseline_seeds
     assert {len({u.run.key() for u in c.units}) for r in t2.rows
-            for col, c in r.cells.items() if col != "avg"} == {3}
+            for col, c in r.entries.items() if col != "avg"} == {3}
     assert len(run_keys(beyond, "icrt+fsq")) == 5
     # A row that shares Table I's runs has at least Table I's seeds, and the same first runs
     assert run_keys(t1, "icrt+lipvq") <= run_keys(beyond, "icrt+lipvq")

@@ -272,14 +272,14 @@ def test_the_beyond_table_reuses_table_is_cells_and_plans_five_seeds_for_the_ref
                                                "icrt+bspline"]
     for row in beyond.rows:  # Table I's rows keep all of Table I's seeds
         want = preset.tables.icrt_seeds if row.label in ("icrt+vq", "icrt+lipvq") else 5
-        assert {c.seeds for c in row.cells.values()} == {want}, row.label
-        assert row.cells["features"].units[0].features is not None
+        assert {c.seeds for c in row.entries.values()} == {want}, row.label
+        assert row.entries["features"].units[0].features is not None
     t1_units = {(u.run.key(), u.eval) for u in table1.units()}
     for name in ("icrt+vq", "icrt+lipvq"):
-        shared = {(u.run.key(), u.eval) for u in beyond.row(name).cells["avg"].units}
-        t1 = {(u.run.key(), u.eval) for u in table1.row(name).cells["avg"].units}
+        shared = {(u.run.key(), u.eval) for u in beyond.row(name).entries["avg"].units}
+        t1 = {(u.run.key(), u.eval) for u in table1.row(name).entries["avg"].units}
         assert t1 == shared  # Table I's seeds (10, more than 5), evaluated on the same episodes
-    assert not {(u.run.key(), u.eval) for u in beyond.row("icrt+fsq").cells["avg"].units} \
+    assert not {(u.run.key(), u.eval) for u in beyond.row("icrt+fsq").entries["avg"].units} \
         & t1_units
     both = plan([table1, beyond])
     assert len(both) == len(plan([table1])) + 5 * 5  # the five new rows only

@@ -17,7 +17,7 @@ import pandas as pd
 
 from icil_paper import stats, verdict_words
 from icil_paper.book.report import BUILD, source_label
-from icil_paper.tables.assemble import TableResult, format_cell
+from icil_paper.tables.assemble import TableResult, format_entry
 from icil_paper.tables.display import difference_sentence
 
 Results = Mapping[str, TableResult]
@@ -38,13 +38,13 @@ def standardized_frame(smooth: Results) -> pd.DataFrame | None:
     rows = []
     for source, result in smooth.items():
         for row in result.spec.rows:
-            cell = result.cell(row.label, "least_energy")
+            cell = result.entry(row.label, "least_energy")
             if cell is None or cell.estimate is None:
                 continue
             metrics = cell.extra["metrics"]
             codes = [m.get("codes_used") for m in metrics]
             rows.append({"source": source_label(source, result.preset), "tokenizer": row.label,
-                         "raw": format_cell(cell, 3),
+                         "raw": format_entry(cell, 3),
                          "standardized": _interval(cell.extra["standardized_estimate"]),
                          "latent scale σ": round(float(np.mean(cell.extra["latent_scale"])), 4),
                          "codes used": (None if codes[0] is None
@@ -73,7 +73,7 @@ FIG4_TITLE = ("Fig. 4: the first steps of one held-out trajectory in each tokeni
 
 def tsne_actions(smooth: TableResult) -> np.ndarray:
     """(steps, A) the actions of the held-out trajectory Fig. 4 follows."""
-    first = smooth.cell(smooth.spec.rows[0].label, "least_energy").extra["metrics"][0]
+    first = smooth.entry(smooth.spec.rows[0].label, "least_energy").extra["metrics"][0]
     return np.asarray(first["view_actions"])
 
 

@@ -8,7 +8,7 @@
     training_windows(result)     # chapter 02: whole episodes against 32-step windows
 
 The paper's explanation: Eq. 4 bounds the encoder's Lipschitz constant, so latents are
-smoother, so ICRT succeeds more. Each link is checked on the table's cells: does Eq. 4 bind,
+smoother, so ICRT succeeds more. Each link is checked on the table's entries: does Eq. 4 bind,
 is LipVQ-VAE smoother once the latent scale is removed, and does each variant move
 smoothness and success together.
 """
@@ -23,13 +23,13 @@ import numpy as np
 from icil_paper import config, stats, verdict_words
 from icil_paper.config import Preset
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
+from icil_paper.tables.assemble import TableResult, format_difference, format_entry, unbroken
 from icil_paper.tables.definitions import (
-    features_cell,
+    features_entry,
     row_seeds,
     seed_runs,
     table_i_seeds,
-    tasks_cell,
+    tasks_entry,
 )
 from icil_paper.tables.spec import Row, TableSpec
 
@@ -68,8 +68,8 @@ def spec(preset: Preset) -> TableSpec:
         if not changes:  # Table I's runs
             seeds = max(seeds, table_i_seeds(preset, "icrt", tokenizer))
         runs = [r.replace(policy=policy) for r in seed_runs(preset, "icrt", tok, tasks, seeds)]
-        rows.append(Row(name, {"avg": tasks_cell(preset, runs, tasks),
-                               "features": features_cell(preset, runs)}))
+        rows.append(Row(name, {"avg": tasks_entry(preset, runs, tasks),
+                               "features": features_entry(preset, runs)}))
     return TableSpec("analysis", "Is it smoothness? Lipschitz bound, latent scale and collapse",
                      ("avg", "features"), tuple(rows), note=(
                          "ICRT with VQ-VAE and LipVQ-VAE variants on the kitchen suite; "
@@ -82,8 +82,8 @@ PAPER = "icrt+lipvq (paper)"
 VQ = "icrt+vq"
 
 
-def _mean_metric(cell, key: str) -> float | None:
-    values = [m.get(key) for m in cell.extra["metrics"]]
+def _mean_metric(entry, key: str) -> float | None:
+    values = [m.get(key) for m in entry.extra["metrics"]]
     values = [v for v in values if v is not None]
     return float(np.mean(values)) if values else None
 
@@ -102,7 +102,7 @@ def analysis_frame(result: TableResult, digits: int = 2):
     for row in result.spec.rows:
         feat = result.features(row.label)
         line: dict[str, Any] = {"": row.label,
-                                "success": unbroken(format_cell(result.cell(row.label, "avg"),
+                                "success": unbroken(format_entry(result.entry(row.label, "avg"),
                                                                 digits))}
         if feat is None:
             line["least energy"] = verdict_words.MISSING
@@ -191,8 +191,8 @@ def _fact(result: TableResult, row: str, key: str) -> float | None:
 
 def _lipschitz_row(row) -> bool:
     """Whether a row's encoder has Lipschitz layers (read from its RunSpec's tokenizer)."""
-    cell = row.cells.get("features")
-    tok = cell.units[0].run.tokenizer if cell is not None and cell.units else None
+    entry = row.entries.get("features")
+    tok = entry.units[0].run.tokenizer if entry is not None and entry.units else None
     return (tok is not None and hasattr(tok, "lipschitz")
             and getattr(tok, "norm", "lipschitz") in ("lipschitz", "lipschitz-last"))
 
@@ -211,7 +211,7 @@ def binding_rows(result: TableResult, threshold: float = BINDS_AT) -> list[str]:
 
 def bound_travel(result: TableResult) -> dict[str, float]:
     """{Lipschitz row: the most a bound c_l can move in training (`config.bound_travel`)}."""
-    runs = {row.label: row.cells["features"].units[0].run
+    runs = {row.label: row.entries["features"].units[0].run
             for row in result.spec.rows if _lipschitz_row(row)}
     return {label: config.bound_travel(run.train, run.tokenizer.lipschitz.c_lr_scale)
             for label, run in runs.items()}
@@ -336,4 +336,4 @@ def training_windows(result: TableResult) -> dict[str, Any] | None:
     diff = stats.paired_difference(a, b, scenes=result.scenes(WHOLE_EPISODES, RANDOM_WINDOWS))
     return {"whole": result.estimate(WHOLE_EPISODES), "windows": result.estimate(RANDOM_WINDOWS),
             "difference": diff, "verdict": stats.verdict(diff, direction=+1),
-            "seeds": result.spec.row(WHOLE_EPISODES).cells["avg"].seeds}
+            "seeds": result.spec.row(WHOLE_EPISODES).entries["avg"].seeds}

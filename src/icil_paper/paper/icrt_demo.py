@@ -1,8 +1,8 @@
 """Chapter 02's run: a small ICRT + LipVQ-VAE trained on one kitchen task and rolled out
-from prompts, as a table of one cell.
+from prompts, as a table of one entry.
 
     spec(preset)                          # one row (icrt+lipvq), one column (the task)
-    run, evaluation = icrt_specs(preset)  # the cell's training run and its evaluation
+    run, evaluation = icrt_specs(preset)  # the entry's training run and its evaluation
     records = icrt_records(preset, store) # {"train": ..., "eval": ...} metrics, or None
 
 One training seed (more through `tables.row_seeds`), trained on `ICRT_DEMO_TASK` alone and
@@ -17,7 +17,7 @@ from icil_paper.config import Preset
 from icil_paper.records import eval_record, train_record
 from icil_paper.results import ResultsStore
 from icil_paper.runspec import EvalSpec, RunSpec
-from icil_paper.tables.definitions import label, row_seeds, seed_runs, tasks_cell
+from icil_paper.tables.definitions import label, row_seeds, seed_runs, tasks_entry
 from icil_paper.tables.spec import Row, TableSpec
 
 ICRT_DEMO_TASK = "metaworld/drawer-open"
@@ -32,10 +32,10 @@ ICRT_DEMO_COLUMN = ICRT_DEMO_TASK.split("/", 1)[1]
 
 def spec(preset: Preset) -> TableSpec:
     """Chapter 02's run as a table: ICRT + LipVQ-VAE trained on `ICRT_DEMO_TASK`, its
-    success there from prompts, one cell."""
+    success there from prompts, one entry."""
     seeds = row_seeds(preset, "icrt", ICRT_DEMO_ROW, 1)
     runs = seed_runs(preset, "icrt", ICRT_DEMO_TOKENIZER, [ICRT_DEMO_TASK], seeds)
-    row = Row(ICRT_DEMO_ROW, {ICRT_DEMO_COLUMN: tasks_cell(preset, runs, [ICRT_DEMO_TASK])})
+    row = Row(ICRT_DEMO_ROW, {ICRT_DEMO_COLUMN: tasks_entry(preset, runs, [ICRT_DEMO_TASK])})
     return TableSpec("icrt", "A small ICRT + LipVQ-VAE, trained and rolled out on one task",
                      (ICRT_DEMO_COLUMN,), (row,), note=(
                          f"Trained on {ICRT_DEMO_TASK} alone and evaluated there from "
@@ -44,7 +44,7 @@ def spec(preset: Preset) -> TableSpec:
 
 def icrt_specs(preset: Preset) -> tuple[RunSpec, EvalSpec]:
     """The run and evaluation of the table's seed 0: what chapter 02 shows and replays."""
-    unit = spec(preset).rows[0].cells[ICRT_DEMO_COLUMN].units[0]
+    unit = spec(preset).rows[0].entries[ICRT_DEMO_COLUMN].units[0]
     return unit.run, unit.eval
 
 

@@ -31,11 +31,11 @@ from icil_paper.config import Preset
 from icil_paper.config_data import get_path, replace_path
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
+from icil_paper.tables.assemble import TableResult, format_difference, format_entry, unbroken
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
-    family_cells,
-    features_cell,
+    family_entries,
+    features_entry,
     label,
     row_seeds,
     seed_runs,
@@ -131,9 +131,9 @@ def spec(preset: Preset) -> TableSpec:
         if name in paper_rows:  # Table I's runs
             seeds = max(seeds, table_i_seeds(preset, "icrt", paper_rows[name].split("+")[1]))
         runs = [r.replace(policy=policy) for r in seed_runs(preset, "icrt", tok, tasks, seeds)]
-        cells = family_cells(preset, runs, tasks)
-        cells["features"] = features_cell(preset, runs)
-        rows.append(Row(name, cells, TABLE_I_ROBOCASA[paper_rows[name]]
+        entries = family_entries(preset, runs, tasks)
+        entries["features"] = features_entry(preset, runs)
+        rows.append(Row(name, entries, TABLE_I_ROBOCASA[paper_rows[name]]
                         if name in paper_rows else {}))
     return TableSpec("official", "The paper against its official code (our kitchen suite, "
                                  "Table I's protocol)",
@@ -155,19 +155,19 @@ def comparisons() -> list[tuple[str, str]]:
 
 def codes_used(result: TableResult, row: str) -> list[int] | None:
     """Codes each seed's tokenizer uses on the held-out trajectories (None while not run)."""
-    cell = result.features(row)
-    if cell is None:
+    entry = result.features(row)
+    if entry is None:
         return None
-    values = [m.get("codes_used") for m in cell.extra["metrics"]]
+    values = [m.get("codes_used") for m in entry.extra["metrics"]]
     return None if any(v is None for v in values) else [int(v) for v in values]
 
 
 def codebook_size(result: TableResult, row: str) -> int | None:
     """The row's number of distinct codes (for Bin: action dimensions x bins)."""
-    cell = result.features(row)
-    if cell is None:
+    entry = result.features(row)
+    if entry is None:
         return None
-    sizes = {m.get("codebook_size") for m in cell.extra["metrics"]}
+    sizes = {m.get("codebook_size") for m in entry.extra["metrics"]}
     return sizes.pop() if len(sizes) == 1 else None
 
 
@@ -222,7 +222,7 @@ def codes_frame(result: TableResult, digits: int = 2):
     out = []
     for row in result.spec.rows:
         line: dict[str, Any] = {"": row.label, "success": unbroken(
-            format_cell(result.cell(row.label, "avg"), digits))}
+            format_entry(result.entry(row.label, "avg"), digits))}
         feat = result.features(row.label)
         if feat is None:
             line["codes used"] = verdict_words.MISSING
@@ -241,7 +241,7 @@ def differences_frame(result: TableResult):
     """One line per field a variant's run spec changes against its base's (seed 0)."""
     import pandas as pd
 
-    runs = {row.label: row.cells["avg"].units[0].run for row in result.spec.rows}
+    runs = {row.label: row.entries["avg"].units[0].run for row in result.spec.rows}
     lines = []
     for variant, base in comparisons():
         a, b = runs[variant], runs[base]

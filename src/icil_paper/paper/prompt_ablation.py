@@ -13,10 +13,10 @@ from collections.abc import Sequence
 from typing import Any
 
 from icil_paper.config import Preset
-from icil_paper.tables.assemble import TableResult, format_cell
-from icil_paper.tables.definitions import evaluation, table_i_runs, tasks_cell
+from icil_paper.tables.assemble import TableResult, format_entry
+from icil_paper.tables.definitions import evaluation, table_i_runs, tasks_entry
 from icil_paper.tables.display import source_label
-from icil_paper.tables.spec import Cell, Row, TableSpec, Unit
+from icil_paper.tables.spec import Entry, Row, TableSpec, Unit
 
 
 def other_task(task: str, tasks: Sequence[str]) -> str:
@@ -38,11 +38,11 @@ def spec(preset: Preset) -> TableSpec:
     """The prompt ablation's three rows x avg."""
     tasks = list(preset.data.robocasa_tasks)
     runs = table_i_runs(preset, "icrt", "lipvq")
-    right = tasks_cell(preset, runs, tasks)
-    wrong = Cell(tuple(Unit(s, run, evaluation(preset, run, task, s,
+    right = tasks_entry(preset, runs, tasks)
+    wrong = Entry(tuple(Unit(s, run, evaluation(preset, run, task, s,
                                                prompt_task=other_task(task, tasks)))
                        for s, run in enumerate(runs) for task in tasks))
-    short = tasks_cell(preset, runs, tasks, prompt_steps=preset.tables.prompt_steps)
+    short = tasks_entry(preset, runs, tasks, prompt_steps=preset.tables.prompt_steps)
     rows = (Row("right prompt", {"avg": right}),
             Row("another task's prompt", {"avg": wrong}),
             Row(f"first {preset.tables.prompt_steps} prompt steps", {"avg": short}))
@@ -69,13 +69,13 @@ def prompt_beside_baselines(table1: dict[str, TableResult], prompt: dict[str, Ta
         line: dict[str, Any] = {"": f"ICRT + LipVQ-VAE, {row.label}",
                                 "reads": "instruction and prompt"}
         for source, result in prompt.items():
-            line[source_label(source, result.preset)] = format_cell(
-                result.cell(row.label, "avg"), digits)
+            line[source_label(source, result.preset)] = format_entry(
+                result.entry(row.label, "avg"), digits)
         out.append(line)
     for label in PROMPT_BASELINES:
         line = {"": label, "reads": "instruction only"}
         for source, result in table1.items():
-            line[source_label(source, result.preset)] = format_cell(
-                result.cell(label, "avg"), digits)
+            line[source_label(source, result.preset)] = format_entry(
+                result.entry(label, "avg"), digits)
         out.append(line)
     return pd.DataFrame(out).set_index("")

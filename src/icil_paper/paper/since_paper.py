@@ -17,8 +17,8 @@ from icil_paper.tables.claims import Claim, diff, paper_diff
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     ICRT_TOKENIZERS,
-    family_cells,
-    features_cell,
+    family_entries,
+    features_entry,
     label,
     row_seeds,
     seed_runs,
@@ -40,10 +40,10 @@ def spec(preset: Preset) -> TableSpec:
         if tokenizer in ICRT_TOKENIZERS:  # Table I's runs
             seeds = max(seeds, table_i_seeds(preset, "icrt", tokenizer))
         runs = seed_runs(preset, "icrt", tokenizer, tasks, seeds)
-        cells = family_cells(preset, runs, tasks)
-        cells["features"] = features_cell(preset, runs)
+        entries = family_entries(preset, runs, tasks)
+        entries["features"] = features_entry(preset, runs)
         name = label("icrt", tokenizer)
-        rows.append(Row(name, cells, TABLE_I_ROBOCASA.get(name, {})))
+        rows.append(Row(name, entries, TABLE_I_ROBOCASA.get(name, {})))
     return TableSpec("beyond", "Tokenizers since the paper (our kitchen suite, Table I's protocol)",
                      (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
                          "ICRT with FSQ, residual VQ (each without and with Eq. 4) and "

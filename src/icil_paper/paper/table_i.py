@@ -16,7 +16,7 @@ from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_marg
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     TOKENIZER_ROWS,
-    family_cells,
+    family_entries,
     label,
     table_i_runs,
     with_codebook,
@@ -43,12 +43,12 @@ TABLE_I_ROBOCASA = family_rows({
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table I: a cell per family and "avg", and the codebook rows' features beside."""
+    """Table I: an entry per family and "avg", and the codebook rows' features beside."""
     tasks = preset.data.robocasa_tasks
     rows = []
     for p, t in TABLE_I_ROWS:
         runs = table_i_runs(preset, p, t)
-        rows.append(Row(label(p, t), with_codebook(preset, family_cells(preset, runs, tasks),
+        rows.append(Row(label(p, t), with_codebook(preset, family_entries(preset, runs, tasks),
                                                    runs),
                         TABLE_I_ROBOCASA[label(p, t)]))
     return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",

@@ -22,8 +22,8 @@ from icil_paper.config import (
 )
 from icil_paper.runspec import RunSpec
 from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
-from icil_paper.tables.definitions import label, row_seeds, seed_runs, tasks_cell
-from icil_paper.tables.spec import Cell, Row, TableSpec
+from icil_paper.tables.definitions import label, row_seeds, seed_runs, tasks_entry
+from icil_paper.tables.spec import Entry, Row, TableSpec
 
 TABLE_II_ROWS = (("mcr", None), ("act", None), ("bc_transformer", None), ("act", "bin"),
                  ("act", "fast"), ("act", "vq"), ("act", "lfq"), ("act", "lipvq"))
@@ -72,7 +72,7 @@ def maniskill_tokenizer(run: RunSpec, train: TrainConfig):
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table II: one policy per row and task, a cell per task and "avg"."""
+    """Table II: one policy per row and task, an entry per task and "avg"."""
     demos, steps, episodes = maniskill_settings(preset)
     evaluated = preset.replace(eval={"episodes_per_task": episodes})  # MCR: image episodes
 
@@ -85,15 +85,15 @@ def spec(preset: Preset) -> TableSpec:
 
     rows = []
     for policy, tokenizer in TABLE_II_ROWS:
-        cells = {}
+        entries = {}
         per_task = []
         for column, task in zip(MANISKILL_COLUMNS, preset.data.maniskill_tasks, strict=False):
             seeds = row_seeds(preset, "II", label(policy, tokenizer), 1)
             runs = [state_run(run) for run in seed_runs(preset, policy, tokenizer, [task], seeds)]
-            cells[column] = tasks_cell(evaluated, runs, [task])
-            per_task += list(cells[column].units)
-        cells["avg"] = Cell(tuple(per_task))
-        rows.append(Row(label(policy, tokenizer), cells,
+            entries[column] = tasks_entry(evaluated, runs, [task])
+            per_task += list(entries[column].units)
+        entries["avg"] = Entry(tuple(per_task))
+        rows.append(Row(label(policy, tokenizer), entries,
                         TABLE_II_MANISKILL[label(policy, tokenizer)]))
     return TableSpec("II", "Results on ManiSkill", (*MANISKILL_COLUMNS, "avg"), tuple(rows),
                      note=("One policy per task (as ManiSkill's baselines), trained on the "

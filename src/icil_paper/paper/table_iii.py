@@ -26,7 +26,7 @@ from icil_paper.tables.definitions import (
     table_i_runs,
 )
 from icil_paper.tables.display import source_label
-from icil_paper.tables.spec import Cell, Row, TableSpec, Unit
+from icil_paper.tables.spec import Entry, Row, TableSpec, Unit
 
 # The paper's Table III: least-energy smoothness of 500 latent features (lower is smoother).
 TABLE_III_SMOOTHNESS = {"icrt+mlp": 5.71, "icrt+bin": 12.57, "icrt+fast": 5.67, "icrt+vq": 4.79,
@@ -40,7 +40,7 @@ def spec(preset: Preset) -> TableSpec:
         runs = table_i_runs(preset, "icrt", tokenizer)
         units = tuple(Unit(s, run, features=feature_spec(preset, run))
                       for s, run in enumerate(runs))
-        rows.append(Row(label("icrt", tokenizer), {"least_energy": Cell(units)},
+        rows.append(Row(label("icrt", tokenizer), {"least_energy": Entry(units)},
                         {"least_energy": TABLE_III_SMOOTHNESS[label("icrt", tokenizer)]}))
     return TableSpec("III", "Smoothness of the action tokenizers' latent features",
                      ("least_energy",), tuple(rows), measure="smoothness", note=(
@@ -99,9 +99,9 @@ def smoothness_success_figure(smooth: dict[str, TableResult], success: dict[str,
     fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.6))
     for ax, (source, result) in zip(axes, smooth.items(), strict=False):
         for name in rows:
-            cell = result.cell(name, "least_energy")
-            s_est = (cell.extra.get("standardized_estimate") if cell and standardized
-                     else cell.estimate if cell else None)
+            entry = result.entry(name, "least_energy")
+            s_est = (entry.extra.get("standardized_estimate") if entry and standardized
+                     else entry.estimate if entry else None)
             y_est = success[source].estimate(name, "avg")
             if s_est is None or y_est is None:
                 continue
@@ -134,10 +134,10 @@ def tsne_paths(smooth: TableResult, seed: int = 0) -> dict[str, np.ndarray]:
 
     paths = {}
     for row in smooth.spec.rows:
-        cell = smooth.cell(row.label, "least_energy")
-        if cell is None or cell.estimate is None:
+        entry = smooth.entry(row.label, "least_energy")
+        if entry is None or entry.estimate is None:
             continue
-        z = np.asarray(cell.extra["view"][0], dtype=np.float64)  # (steps, D)
+        z = np.asarray(entry.extra["view"][0], dtype=np.float64)  # (steps, D)
         z = z + 1e-9 * np.random.default_rng(seed).standard_normal(z.shape)  # ties in codes
         perplexity = max(1.0, min(5.0, (len(z) - 1) / 3))
         paths[row.label] = TSNE(n_components=2, perplexity=perplexity, init="pca",
@@ -153,10 +153,10 @@ def feature_sampling_frame(results: dict[str, TableResult], column: str = "least
     lines = []
     for source, result in results.items():
         for row in result.spec.rows:
-            cell = result.cell(row.label, column)
-            if cell is None or cell.estimate is None:
+            entry = result.entry(row.label, column)
+            if entry is None or entry.estimate is None:
                 continue
-            for seed, m in enumerate(cell.extra["metrics"]):
+            for seed, m in enumerate(entry.extra["metrics"]):
                 steps = list((m.get("steps_per_task") or {}).values())
                 lines.append({"source": source_label(source, result.preset), "row": row.label,
                               "seed": seed, "tasks scored": (len(m["tasks_scored"])

@@ -26,7 +26,7 @@ from icil_paper.tables.definitions import (
     seed_runs,
     table_i_runs,
     table_i_seeds,
-    tasks_cell,
+    tasks_entry,
     with_codebook,
 )
 from icil_paper.tables.display import codebook_rows, per_seed_metrics, source_label
@@ -53,8 +53,8 @@ def spec(preset: Preset) -> TableSpec:
     rows = []
     for p, t in TABLE_IV_ROWS:
         runs = table_i_runs(preset, p, t)
-        cells = with_codebook(preset, {"avg": tasks_cell(preset, runs, tasks)}, runs)
-        rows.append(Row(label(p, t), cells, TABLE_IV_LIPSCHITZ[label(p, t)]))
+        entries = with_codebook(preset, {"avg": tasks_entry(preset, runs, tasks)}, runs)
+        rows.append(Row(label(p, t), entries, TABLE_IV_LIPSCHITZ[label(p, t)]))
     return TableSpec("IV", "Lipschitz regularization's impact", ("avg",), tuple(rows),
                      beside=("features",),
                      note="Average success over the kitchen tasks; MLP and VQ-VAE rows are "
@@ -78,13 +78,13 @@ def fig5_spec(preset: Preset) -> TableSpec:
         paper_size = paper_sizes[i] if i < len(paper_sizes) else None
         if paper_size is not None and paper_size != size:
             name += f" (the paper's {_power_of_two(paper_size)})"
-        cells = with_codebook(preset, {"avg": tasks_cell(preset, runs, tasks)}, runs)
-        rows.append(Row(name, cells,
+        entries = with_codebook(preset, {"avg": tasks_entry(preset, runs, tasks)}, runs)
+        rows.append(Row(name, entries,
                         {"avg": FIG5_CODEBOOK_SIZE[paper_size]} if paper_size else {}))
     return TableSpec("fig5", "Impact of LipVQ-VAE's codebook size (Fig. 5)", ("avg",),
                      tuple(rows), beside=("features",), note=(
                          "ICRT + LipVQ-VAE with codebook sizes "
-                         f"{list(preset.tables.codebook_sizes)} (the preset's Table I cell uses "
+                         f"{list(preset.tables.codebook_sizes)} (the preset's Table I entry uses "
                          f"{base.codebook_size}). Beside the table, each size's `features` give "
                          "its codebook use."))
 

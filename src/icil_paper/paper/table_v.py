@@ -16,7 +16,7 @@ import numpy as np
 from icil_paper.config import Preset
 from icil_paper.data.splits import sim_to_real_pairs
 from icil_paper.tables.claims import Claim, MotionComparison, diff
-from icil_paper.tables.definitions import label, row_seeds, seed_runs, table_i_seeds, tasks_cell
+from icil_paper.tables.definitions import label, row_seeds, seed_runs, table_i_seeds, tasks_entry
 from icil_paper.tables.spec import Row, TableSpec
 
 TABLE_V_ROWS = (("bc_transformer", None), ("icrt", "bin"), ("icrt", "lipvq"))
@@ -45,9 +45,9 @@ def spec(preset: Preset) -> TableSpec:
     rows = []
     for policy, tokenizer in TABLE_V_ROWS:
         runs = sim_to_real_runs(preset, policy, tokenizer)
-        cells = {c: tasks_cell(preset, runs, tasks) for c, tasks in columns.items()}
-        cells["avg"] = tasks_cell(preset, runs, kinova)
-        rows.append(Row(label(policy, tokenizer), cells,
+        entries = {c: tasks_entry(preset, runs, tasks) for c, tasks in columns.items()}
+        entries["avg"] = tasks_entry(preset, runs, kinova)
+        rows.append(Row(label(policy, tokenizer), entries,
                         TABLE_V_SIM_TO_REAL[label(policy, tokenizer)]))
     return TableSpec("V", "Sim-to-real success rates (our stand-in: Panda -> perturbed Kinova3)",
                      ("drawers", "doors", "avg"), tuple(rows), note=(

@@ -21,12 +21,12 @@ from icil_paper.config import Preset
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA, TABLE_I_ROWS
 from icil_paper.paper_numbers import family_rows
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_cell, format_difference
+from icil_paper.tables.assemble import TableResult, format_difference, format_entry
 from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     TOKENIZER_ROWS,
-    family_cells,
+    family_entries,
     label,
     table_i_runs,
 )
@@ -51,7 +51,7 @@ TABLE_VI_CROSS_DATASET = family_rows({
 def spec(preset: Preset) -> TableSpec:
     """Table VI: Table I's rows on the `human` scenes (and prompts), per family and avg."""
     tasks = preset.data.robocasa_tasks
-    rows = tuple(Row(label(p, t), family_cells(preset, table_i_runs(preset, p, t), tasks,
+    rows = tuple(Row(label(p, t), family_entries(preset, table_i_runs(preset, p, t), tasks,
                                                scenes="human", prompt_source="human"),
                      TABLE_VI_CROSS_DATASET[label(p, t)]) for p, t in TABLE_I_ROWS)
     return TableSpec("VI", "Cross-dataset robotic manipulation (generated -> human-like)",
@@ -91,7 +91,7 @@ SHIFT_DIRECTION = -1
 def row_shift(before: TableResult, after: TableResult, row: str,
               column: str = "avg") -> stats.Estimate | None:
     """`after` minus `before` for one row, or None while not run; ValueError when the two
-    cells' outcomes cannot be paired."""
+    entries' outcomes cannot be paired."""
     xb, xa = before.outcomes(row, column), after.outcomes(row, column)
     if xa is None or xb is None:
         return None
@@ -110,12 +110,12 @@ def _paper_change(row: str, column: str) -> float | None:
 
 def shift_rows(before: TableResult, after: TableResult,
                column: str = "avg") -> list[dict[str, Any]]:
-    """Per row of `after`: row, `before`, `after` (cells), `estimate`, `verdict`, `paper`."""
+    """Per row of `after`: row, `before`, `after` (entries), `estimate`, `verdict`, `paper`."""
     out = []
     for spec_row in after.spec.rows:
         est = row_shift(before, after, spec_row.label, column)
-        out.append({"row": spec_row.label, "before": before.cell(spec_row.label, column),
-                    "after": after.cell(spec_row.label, column), "estimate": est,
+        out.append({"row": spec_row.label, "before": before.entry(spec_row.label, column),
+                    "after": after.entry(spec_row.label, column), "estimate": est,
                     "verdict": (Verdict.NOT_RUN if est is None
                                 else stats.verdict(est, direction=SHIFT_DIRECTION)),
                     "paper": _paper_change(spec_row.label, column)})
@@ -133,8 +133,8 @@ def shift_frame(before: TableResult, after: TableResult, column: str = "avg",
         est = r["estimate"]
         lines.append({
             "": r["row"],
-            f"{i} (generated scenes)": format_cell(r["before"], digits),
-            f"{vi} (human scenes)": format_cell(r["after"], digits),
+            f"{i} (generated scenes)": format_entry(r["before"], digits),
+            f"{vi} (human scenes)": format_entry(r["after"], digits),
             f"{vi} - {i}": (verdict_words.MISSING if est is None
                             else format_difference(est, digits)),
             "lower on the human scenes?": r["verdict"],

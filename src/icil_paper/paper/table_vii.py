@@ -18,7 +18,7 @@ from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_marg
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     TOKENIZER_ROWS,
-    family_cells,
+    family_entries,
     label,
     row_seeds,
     seed_runs,
@@ -40,14 +40,14 @@ TABLE_VII_ZERO_SHOT = family_rows({
 
 
 def spec(preset: Preset) -> TableSpec:
-    """Table VII: a cell per family with a held-out task, and "avg"."""
+    """Table VII: an entry per family with a held-out task, and "avg"."""
     # `DataConfig` refuses a held-out task among the training tasks
     train, held_out = tuple(preset.data.zero_shot_tasks), tuple(preset.data.zero_shot_held_out)
     rows = []
     for policy, tokenizer in TABLE_I_ROWS:
         seeds = row_seeds(preset, "VII", label(policy, tokenizer), 1)
         runs = seed_runs(preset, policy, tokenizer, train, seeds)
-        rows.append(Row(label(policy, tokenizer), family_cells(preset, runs, held_out),
+        rows.append(Row(label(policy, tokenizer), family_entries(preset, runs, held_out),
                         TABLE_VII_ZERO_SHOT[label(policy, tokenizer)]))
     return TableSpec("VII", "Zero-shot robotic manipulation results", (*FAMILY_COLUMNS, "avg"),
                      tuple(rows), note=(

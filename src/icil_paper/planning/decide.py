@@ -133,9 +133,9 @@ def make_plan(preset: Preset, ledger: list[dict[str, Any]], cost: dict[str, Any]
     runs_of_row: dict[tuple[str, str], dict[str, int]] = defaultdict(dict)
     for table, spec in specs.items():
         for row in spec.rows:
-            for cell in row.cells.values():
+            for entry in row.entries.values():
                 runs_of_row[table, row.label].update((u.run.key(), u.seed_index)
-                                                     for u in cell.units)
+                                                     for u in entry.units)
     for line in claims:  # a claim alone: its rows' missing runs below its own seeds
         keys = {key for r in line["rows"] if line["planned"]
                 for key, k in runs_of_row[tuple(r.split(":", 1))].items()

@@ -50,8 +50,8 @@ TABLE_IDS = tuple(TABLES)
 
 def planned_seeds(preset: Preset) -> dict[tuple[str, str], int]:
     """(table, row) -> the training seeds the preset gives that row."""
-    return {(table_id, row.label): len({u.seed_index for cell in row.cells.values()
-                                        for u in cell.units})
+    return {(table_id, row.label): len({u.seed_index for entry in row.entries.values()
+                                        for u in entry.units})
             for table_id in TABLE_IDS for row in table_spec(preset, table_id).rows}
 
 
@@ -62,8 +62,8 @@ def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
     for table_id in TABLE_IDS:
         for row in table_spec(preset, table_id).rows:
             whole: dict[int, bool] = {}
-            for cell in row.cells.values():
-                for u in cell.units:
+            for entry in row.entries.values():
+                for u in entry.units:
                     record = (eval_record(u.run, u.eval) if u.eval is not None
                               else features_record(u.run, u.features))
                     done = store.record_path(*record).exists()
@@ -374,8 +374,8 @@ def within_budget(preset: Preset, wanted: dict[str, int], budget_hours: float,
     specs = {t: table_spec(upper, t) for t in TABLE_IDS}
     plans = {p.run.key(): p for p in plan(list(specs.values()))}
     now = {p.run.key() for p in plan([table_spec(preset, t) for t in TABLE_IDS])}
-    units = {(t, r): [(u.seed_index, u.run.key()) for cell in specs[t].row(r).cells.values()
-                      for u in cell.units] for t, r in runs}
+    units = {(t, r): [(u.seed_index, u.run.key()) for entry in specs[t].row(r).entries.values()
+                      for u in entry.units] for t, r in runs}
 
     def hours(claims: dict[str, int]) -> float:
         keys = set(now)
@@ -396,7 +396,7 @@ def within_budget(preset: Preset, wanted: dict[str, int], budget_hours: float,
 def _first_runs(preset: Preset, table: str, row: str) -> frozenset[str]:
     """The keys of a row's first training seed's runs."""
     spec = table_spec(preset, table).row(row)
-    return frozenset(u.run.key() for cell in spec.cells.values() for u in cell.units
+    return frozenset(u.run.key() for entry in spec.entries.values() for u in entry.units
                      if u.seed_index == 0)
 
 
@@ -436,12 +436,12 @@ def episode_design(preset: Preset, store=None, cost: dict[str, Any] | None = Non
         result = tables[compare.table]
         if compare.scenes(tables) != "per_seed" or compare.data(tables) is None:
             continue
-        spec = result.spec.row(compare.a).cells[compare.column].units[0]
+        spec = result.spec.row(compare.a).entries[compare.column].units[0]
         for other in compare.others:
             a, b = result.outcomes(compare.a, compare.column), result.outcomes(other, compare.column)
             if min(len(a), len(b)) < 2 or a.shape[2] < 2:
                 continue
-            pair = ("tokenizer pairs" if result.spec.row(other).cells[compare.column].units[0]
+            pair = ("tokenizer pairs" if result.spec.row(other).entries[compare.column].units[0]
                     .run.policy.type == spec.run.policy.type else "policy pairs")
             suite = spec.eval.task.split("/", 1)[0] if spec.eval else "?"
             parts[suite, pair].append((*stats.paired_variance_parts(a, b), a.shape[1],

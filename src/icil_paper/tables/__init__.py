@@ -7,7 +7,7 @@
     run_tables(preset, ["I", "II"], workers=2)     # trains and evaluates what the store lacks
     result = assemble(spec, ResultsStore(preset.name))   # estimates with 95% intervals
 
-`spec` (TableSpec, Row, Cell, Unit), `definitions` (a table spec's building blocks), `cells`
+`spec` (TableSpec, Row, Entry, Unit), `definitions` (a table spec's building blocks), `cells`
 (computing cells: serial, process pool or Ray), `assemble` (records -> numbers), `claims`,
 `design`, `display` and `compare` (`icil-paper compare`). It imports no `icil_paper.paper`.
 """

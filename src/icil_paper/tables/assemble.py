@@ -9,10 +9,10 @@
     result.motion_estimate("icrt+lipvq", "avg", "ldlj")    # Estimate or None
     result.motion_scores("icrt+lipvq", "avg", "ldlj")      # (seeds, episodes), for stats
 
-A success cell holds bools (seeds, tasks, episodes) and `stats.success_rate`; beside them
+A success entry holds bools (seeds, tasks, episodes) and `stats.success_rate`; beside them
 each episode's LDLJ, SPARC and action jerk (seeds, episodes), NaN where undefined, with the
-seed as the unit. A smoothness cell holds per-trajectory least energies (seeds,
-trajectories). A cell with a missing record has no estimate ("not run").
+seed as the unit. A smoothness entry holds per-trajectory least energies (seeds,
+trajectories). An entry with a missing record has no estimate ("not run").
 """
 
 from __future__ import annotations
@@ -27,12 +27,12 @@ from icil_paper.metrics import MOTION_MEASURES
 from icil_paper.records import eval_record, features_record
 from icil_paper.results import ResultsStore
 from icil_paper.stats import Estimate, score_mean, success_rate
-from icil_paper.tables.spec import Cell, TableSpec
+from icil_paper.tables.spec import Entry, TableSpec
 
 
 @dataclass
-class CellResult:
-    """What one cell of a table holds once its records are read."""
+class EntryResult:
+    """What one entry of a table holds once its records are read."""
 
     estimate: Estimate | None
     """The number and its 95% interval (None while a unit has no record)."""
@@ -41,18 +41,18 @@ class CellResult:
     missing: int
     """Units without a record."""
     extra: dict[str, Any] = field(default_factory=dict)
-    """Smoothness cells: standardized scores and estimate, latent scale, view, metrics."""
+    """Smoothness entries: standardized scores and estimate, latent scale, view, metrics."""
     scenes: str = "shared"
-    """The evaluation design (`Cell.scenes`): "shared" or "per_seed"."""
+    """The evaluation design (`Entry.scenes`): "shared" or "per_seed"."""
     motion: dict[str, np.ndarray] = field(default_factory=dict)
-    """Success cells: measure -> per-episode values (seeds, episodes), NaN where undefined."""
+    """Success entries: measure -> per-episode values (seeds, episodes), NaN where undefined."""
 
 
-def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
+def _success_entry(entry: Entry, store: ResultsStore) -> EntryResult:
     by_seed: dict[int, list[list[bool]]] = {}
     motion: dict[int, list[dict]] = {}
     missing = 0
-    for unit in cell.units:
+    for unit in entry.units:
         record = store.get(*eval_record(unit.run, unit.eval))
         if record is None:
             missing += 1
@@ -61,9 +61,9 @@ def _success_cell(cell: Cell, store: ResultsStore) -> CellResult:
         by_seed.setdefault(unit.seed_index, []).append([bool(e["success"]) for e in episodes])
         motion.setdefault(unit.seed_index, []).extend(episodes)
     if missing or not by_seed:
-        return CellResult(None, None, missing or len(cell.units))
+        return EntryResult(None, None, missing or len(entry.units))
     data = np.array([by_seed[s] for s in sorted(by_seed)], dtype=bool)  # (S, T, E)
-    return CellResult(success_rate(data), data, 0, scenes=cell.scenes,
+    return EntryResult(success_rate(data), data, 0, scenes=entry.scenes,
                       motion=_motion_values([motion[s] for s in sorted(motion)]))
 
 
@@ -98,10 +98,10 @@ def motion_estimate(values: np.ndarray) -> Estimate | None:
     return score_mean(x)
 
 
-def _smoothness_cell(cell: Cell, store: ResultsStore) -> CellResult:
+def _smoothness_entry(entry: Entry, store: ResultsStore) -> EntryResult:
     raw, standardized, scale, view, per_seed = [], [], [], [], []
     missing = 0
-    for unit in sorted(cell.units, key=lambda u: u.seed_index):
+    for unit in sorted(entry.units, key=lambda u: u.seed_index):
         record = store.get(*features_record(unit.run, unit.features))
         if record is None:
             missing += 1
@@ -113,68 +113,68 @@ def _smoothness_cell(cell: Cell, store: ResultsStore) -> CellResult:
         view.append(m["view"])
         per_seed.append(m)
     if missing or not raw:
-        return CellResult(None, None, missing or len(cell.units))
+        return EntryResult(None, None, missing or len(entry.units))
     data = np.array(raw, dtype=np.float64)
     std = np.array(standardized, dtype=np.float64)
-    return CellResult(score_mean(data), data, 0,
+    return EntryResult(score_mean(data), data, 0,
                       {"standardized": std, "standardized_estimate": score_mean(std),
                        "latent_scale": scale, "view": view, "metrics": per_seed})
 
 
 @dataclass
 class TableResult:
-    """A table's cells read from a results store."""
+    """A table's entries read from a results store."""
 
     spec: TableSpec
-    cells: dict[tuple[str, str], CellResult]
-    """(row label, column) -> CellResult."""
+    entries: dict[tuple[str, str], EntryResult]
+    """(row label, column) -> EntryResult."""
     preset: str
     """The preset whose records these are."""
 
-    def cell(self, row: str, column: str) -> CellResult | None:
-        return self.cells.get((row, column))
+    def entry(self, row: str, column: str) -> EntryResult | None:
+        return self.entries.get((row, column))
 
-    def features(self, row: str) -> CellResult | None:
-        """The row's `features` cell once its records are read, else None."""
-        cell = self.cell(row, "features")
-        return cell if cell is not None and cell.estimate is not None else None
+    def features(self, row: str) -> EntryResult | None:
+        """The row's `features` entry once its records are read, else None."""
+        entry = self.entry(row, "features")
+        return entry if entry is not None and entry.estimate is not None else None
 
     def estimate(self, row: str, column: str = "avg") -> Estimate | None:
-        cell = self.cell(row, column)
-        return cell.estimate if cell else None
+        entry = self.entry(row, column)
+        return entry.estimate if entry else None
 
     def outcomes(self, row: str, column: str = "avg") -> np.ndarray | None:
-        cell = self.cell(row, column)
-        return cell.data if cell else None
+        entry = self.entry(row, column)
+        return entry.data if entry else None
 
     def motion_scores(self, row: str, column: str = "avg",
                       measure: str = "ldlj") -> np.ndarray | None:
-        """A success cell's motion measure (seeds, episodes), `filled_motion`; or None."""
+        """A success entry's motion measure (seeds, episodes), `filled_motion`; or None."""
         values = self._motion(row, column, measure)
         return None if values is None else filled_motion(values)
 
     def motion_estimate(self, row: str, column: str = "avg",
                         measure: str = "ldlj") -> Estimate | None:
-        """A success cell's `motion_estimate`."""
+        """A success entry's `motion_estimate`."""
         values = self._motion(row, column, measure)
         return None if values is None else motion_estimate(values)
 
     def _motion(self, row: str, column: str, measure: str) -> np.ndarray | None:
-        cell = self.cell(row, column)
-        return None if cell is None else cell.motion.get(measure)
+        entry = self.entry(row, column)
+        return None if entry is None else entry.motion.get(measure)
 
     def scenes(self, *rows: str, column: str = "avg") -> str:
         """"per_seed" when every one of `rows` gives seed k scene set k, else "shared"."""
-        designs = {c.scenes for r in rows if (c := self.cell(r, column)) is not None}
+        designs = {c.scenes for r in rows if (c := self.entry(r, column)) is not None}
         return "per_seed" if designs == {"per_seed"} else "shared"
 
     @property
     def complete(self) -> bool:
-        return all(c.estimate is not None for c in self.cells.values())
+        return all(c.estimate is not None for c in self.entries.values())
 
     @property
     def missing(self) -> int:
-        return sum(c.missing for c in self.cells.values())
+        return sum(c.missing for c in self.entries.values())
 
     def frame(self, paper: bool = True):
         """A long DataFrame: row, column, ours, low, high, n, paper (the paper's number)."""
@@ -183,14 +183,14 @@ class TableResult:
         rows = []
         for row in self.spec.rows:
             for column in self.spec.columns:
-                cell = self.cells.get((row.label, column))
-                est = cell.estimate if cell else None
+                entry = self.entries.get((row.label, column))
+                est = entry.estimate if entry else None
                 rows.append({"row": row.label, "column": column,
                              "ours": est.value if est else None,
                              "low": est.low if est else None,
                              "high": est.high if est else None,
                              "n": est.n if est else None,
-                             "status": ("n/a" if cell is None else
+                             "status": ("n/a" if entry is None else
                                         "ok" if est else verdict_words.MISSING),
                              **({"paper": row.paper.get(column)} if paper else {})})
         return pd.DataFrame(rows)
@@ -203,8 +203,8 @@ class TableResult:
         for row in self.spec.rows:
             line = {"": row.label}
             for column in self.spec.columns:
-                cell = self.cells.get((row.label, column))
-                line[column] = format_cell(cell, digits)
+                entry = self.entries.get((row.label, column))
+                line[column] = format_entry(entry, digits)
                 if paper:
                     value = row.paper.get(column)
                     places = digits + 1 if column == "avg" else digits  # as the paper prints
@@ -224,8 +224,8 @@ class TableResult:
     def to_json(self) -> dict[str, Any]:
         return {"table": self.spec.id, "title": self.spec.title, "preset": self.preset,
                 "measure": self.spec.measure, "columns": list(self.spec.columns),
-                "rows": [{"row": row.label, "paper": dict(row.paper), "cells": {
-                    column: (None if (c := self.cells.get((row.label, column))) is None
+                "rows": [{"row": row.label, "paper": dict(row.paper), "entries": {
+                    column: (None if (c := self.entries.get((row.label, column))) is None
                              or c.estimate is None else c.estimate.to_dict())
                     for column in self.spec.columns}} for row in self.spec.rows]}
 
@@ -235,11 +235,11 @@ def unbroken(text: str) -> str:
     return text.replace(" ", "\u00a0")
 
 
-def format_cell(cell: CellResult | None, digits: int = 2) -> str:
+def format_entry(entry: EntryResult | None, digits: int = 2) -> str:
     """`0.53 [0.41, 0.64]`, `not run` or `n/a`."""
-    if cell is None:
+    if entry is None:
         return "n/a"
-    est = cell.estimate
+    est = entry.estimate
     if est is None:
         return verdict_words.MISSING
     return f"{est.value:.{digits}f} [{est.low:.{digits}f}, {est.high:.{digits}f}]"
@@ -251,8 +251,8 @@ def format_difference(est: Estimate, digits: int = 3) -> str:
 
 
 def assemble(spec: TableSpec, store: ResultsStore) -> TableResult:
-    """Read every cell of `spec` from `store` (nothing is computed)."""
-    cells = {(row.label, column): (_smoothness_cell if cell.units[0].features is not None
-                                   else _success_cell)(cell, store)
-             for row in spec.rows for column, cell in row.cells.items()}
-    return TableResult(spec, cells, store.preset)
+    """Read every entry of `spec` from `store` (nothing is computed)."""
+    entries = {(row.label, column): (_smoothness_entry if entry.units[0].features is not None
+                                   else _success_entry)(entry, store)
+             for row in spec.rows for column, entry in row.entries.items()}
+    return TableResult(spec, entries, store.preset)

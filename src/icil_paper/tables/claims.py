@@ -303,13 +303,13 @@ def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], f
             pooled.setdefault(("*", quantity), []).append(var)
 
     for table_id, result in tables.items():
-        for (row, column), cell in result.cells.items():
-            if cell.data is None or column not in ("avg", "least_energy"):
+        for (row, column), entry in result.entries.items():
+            if entry.data is None or column not in ("avg", "least_energy"):
                 continue
             if column == "least_energy":
-                add(table_id, "least_energy", cell.data, "score")
+                add(table_id, "least_energy", entry.data, "score")
                 continue
-            add(table_id, "success", cell.data, "success")
+            add(table_id, "success", entry.data, "success")
             for measure in MOTION_MEASURES:
                 scores = result.motion_scores(row, column, measure)
                 if scores is not None:
@@ -456,14 +456,14 @@ def _fixed(chosen: list[Claim], entries: list[dict[str, Any]], estimates: list, 
 
 # --------------------------------------------------------------------------- seeds in stages
 def first_seeds(tables: dict[str, TableResult], seeds: int) -> dict[str, TableResult]:
-    """The tables as they stood at a look: every cell's first `seeds` training seeds."""
-    def cut(cell):
-        if cell.data is None:
-            return cell
-        return replace(cell, data=cell.data[:seeds],
-                       motion={m: v[:seeds] for m, v in cell.motion.items()})
+    """The tables as they stood at a look: every entry's first `seeds` training seeds."""
+    def cut(entry):
+        if entry.data is None:
+            return entry
+        return replace(entry, data=entry.data[:seeds],
+                       motion={m: v[:seeds] for m, v in entry.motion.items()})
 
-    return {t: replace(r, cells={k: cut(c) for k, c in r.cells.items()})
+    return {t: replace(r, entries={k: cut(c) for k, c in r.entries.items()})
             for t, r in tables.items()}
 
 

@@ -133,7 +133,7 @@ def other_versions(spec, store: ResultsStore) -> dict[str, int]:
                for names in p.names.values() for name in names}
     out: dict[str, int] = {}
     runs = {u.run.key(): (row.label, u.run) for row in spec.rows
-            for cell in row.cells.values() for u in cell.units}
+            for entry in row.entries.values() for u in entry.units}
     for label_, run in runs.values():
         record = store.get(*train_record(run))
         for made in (record or {}).get("plugins") or []:

@@ -1,8 +1,8 @@
-"""What every result's table spec is built from: a row's runs, their evaluations, its cells.
+"""What every result's table spec is built from: a row's runs, their evaluations, its entries.
 
     runs = seed_runs(preset, "icrt", "lipvq", preset.data.robocasa_tasks, seeds=3)
-    cells = family_cells(preset, runs, preset.data.robocasa_tasks)   # a column per family + avg
-    Row("icrt+lipvq", cells, paper_row)                             # one row of a TableSpec
+    entries = family_entries(preset, runs, preset.data.robocasa_tasks)   # a column per family + avg
+    Row("icrt+lipvq", entries, paper_row)                             # one row of a TableSpec
 
 Seed k of every row shares its demonstration set, its evaluation scenes and, for ICRT, its
 backbone's initial weights and batch order (common random numbers), so rows are compared
@@ -20,7 +20,7 @@ from icil_paper.runspec import DataSpec, EvalSpec, RunSpec, eval_spec, run_spec
 from icil_paper.seeding import data_set_seed
 from icil_paper.sim import task_family
 from icil_paper.sim.suite import SKILL_FAMILIES
-from icil_paper.tables.spec import Cell, FeatureSpec, Row, TableSpec, Unit
+from icil_paper.tables.spec import Entry, FeatureSpec, Row, TableSpec, Unit
 
 FAMILY_COLUMNS = FAMILIES
 """The seven skill families (columns of Tables I, VI, VII) in the paper's order."""
@@ -32,7 +32,7 @@ TOKENIZER_ROWS = tuple(f"icrt+{t}" for t in ICRT_TOKENIZERS)
 """Their row labels."""
 
 CODEBOOK_TOKENIZERS = ("vq", "lipvq", "lfq", "fsq", "lipfsq", "rvq", "liprvq")
-"""Tokenizers with a codebook: their rows carry a `features` cell for their codebook use."""
+"""Tokenizers with a codebook: their rows carry a `features` entry for their codebook use."""
 
 
 def label(policy: str, tokenizer: str | None) -> str:
@@ -78,20 +78,20 @@ def evaluation(preset: Preset, run: RunSpec, task: str, seed_index: int = 0,
                      scenes=scenes, **prompt)
 
 
-def tasks_cell(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
-               **prompt) -> Cell:
-    """One cell over `tasks`: every seed's evaluation on each task (`evaluation`)."""
-    return Cell(tuple(Unit(s, run, evaluation(preset, run, task, s, **prompt))
+def tasks_entry(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
+               **prompt) -> Entry:
+    """One entry over `tasks`: every seed's evaluation on each task (`evaluation`)."""
+    return Entry(tuple(Unit(s, run, evaluation(preset, run, task, s, **prompt))
                       for s, run in enumerate(runs) for task in tasks))
 
 
-def family_cells(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
-                 **prompt) -> dict[str, Cell]:
-    """A cell per skill family with a task among `tasks`, and "avg" over every task."""
-    cells = {column: tasks_cell(preset, runs, family_tasks, **prompt)
+def family_entries(preset: Preset, runs: Sequence[RunSpec], tasks: Sequence[str],
+                 **prompt) -> dict[str, Entry]:
+    """An entry per skill family with a task among `tasks`, and "avg" over every task."""
+    entries = {column: tasks_entry(preset, runs, family_tasks, **prompt)
              for column, family_tasks in families(tasks).items() if family_tasks}
-    cells["avg"] = tasks_cell(preset, runs, tasks, **prompt)
-    return cells
+    entries["avg"] = tasks_entry(preset, runs, tasks, **prompt)
+    return entries
 
 
 def row_seeds(preset: Preset, table: str, row: str, default: int) -> int:
@@ -123,27 +123,27 @@ def feature_spec(preset: Preset, run: RunSpec) -> FeatureSpec:
                        steps=preset.tables.feature_steps, sampling="per_task")
 
 
-def features_cell(preset: Preset, runs: Sequence[RunSpec]) -> Cell:
+def features_entry(preset: Preset, runs: Sequence[RunSpec]) -> Entry:
     """One feature measurement per training seed of a row."""
-    return Cell(tuple(Unit(s, run, features=feature_spec(preset, run))
+    return Entry(tuple(Unit(s, run, features=feature_spec(preset, run))
                       for s, run in enumerate(runs)))
 
 
-def with_codebook(preset: Preset, cells: dict[str, Cell], runs: Sequence[RunSpec]
-                  ) -> dict[str, Cell]:
-    """`cells`, plus a `features` cell where the runs' tokenizer has a codebook."""
+def with_codebook(preset: Preset, entries: dict[str, Entry], runs: Sequence[RunSpec]
+                  ) -> dict[str, Entry]:
+    """`entries`, plus a `features` entry where the runs' tokenizer has a codebook."""
     tokenizer = runs[0].tokenizer
     if tokenizer is not None and tokenizer.type in CODEBOOK_TOKENIZERS:
-        cells = {**cells, "features": features_cell(preset, runs)}
-    return cells
+        entries = {**entries, "features": features_entry(preset, runs)}
+    return entries
 
 
 def icrt_rows(preset: Preset, seeds: dict[str, int]) -> TableSpec:
     """Table I's protocol for chosen ICRT tokenizers, {tokenizer: seeds} (`icil-paper
-    compare`): Table I's runs and evaluations, so stored cells are reused."""
+    compare`): Table I's runs and evaluations, so stored entries are reused."""
     tasks = preset.data.robocasa_tasks
     rows = tuple(Row(label("icrt", tok),
-                     family_cells(preset, seed_runs(preset, "icrt", tok, tasks, n), tasks))
+                     family_entries(preset, seed_runs(preset, "icrt", tok, tasks, n), tasks))
                  for tok, n in seeds.items())
     return TableSpec("I", "ICRT tokenizers on Table I's protocol (our kitchen suite)",
                      (*FAMILY_COLUMNS, "avg"), rows, note=(

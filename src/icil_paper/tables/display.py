@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from icil_paper import stats, verdict_words
-from icil_paper.tables.assemble import TableResult, format_cell, format_difference, unbroken
+from icil_paper.tables.assemble import TableResult, format_difference, format_entry, unbroken
 from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
 
 REFERENCE = "reference"
@@ -48,7 +48,7 @@ def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: 
         value = row.paper.get(column)
         line["paper"] = "" if value is None else f"{value:.{digits}f}"
         for source, result in results.items():
-            line[source_label(source, result.preset)] = format_cell(result.cell(row.label, column),
+            line[source_label(source, result.preset)] = format_entry(result.entry(row.label, column),
                                                               digits)
         out.append(line)
     return pd.DataFrame(out).set_index("")
@@ -160,10 +160,10 @@ def motion_frame(result: TableResult, column: str = "avg", digits: int = 3):
 
     out = []
     for row in result.spec.rows:
-        cell = result.cell(row.label, column)
-        line: dict[str, Any] = {"": row.label, "success": unbroken(format_cell(cell, 2))}
+        entry = result.entry(row.label, column)
+        line: dict[str, Any] = {"": row.label, "success": unbroken(format_entry(entry, 2))}
         for measure, name in MOTION_COLUMNS.items():
-            line[name] = ("n/a" if cell is None else
+            line[name] = ("n/a" if entry is None else
                           _format_estimate(result.motion_estimate(row.label, column, measure),
                                            digits))
         out.append(line)
@@ -174,10 +174,10 @@ def motion_coverage(result: TableResult, column: str = "avg") -> dict[str, tuple
     """{measure: (episodes with it defined, episodes)} for the measures some episode lacks."""
     counts = {}
     for row in result.spec.rows:
-        cell = result.cell(row.label, column)
+        entry = result.entry(row.label, column)
         for measure in MOTION_COLUMNS:
-            if cell is not None and measure in cell.motion:
-                values = cell.motion[measure]
+            if entry is not None and measure in entry.motion:
+                values = entry.motion[measure]
                 done, total = counts.get(measure, (0, 0))
                 counts[measure] = (done + int(np.isfinite(values).sum()), total + values.size)
     return {MOTION_COLUMNS[m].split(" (")[0]: (d, t) for m, (d, t) in counts.items() if d < t}
@@ -207,11 +207,11 @@ def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
             if paper:
                 value = row.paper.get(column)
             else:
-                cell = result.cell(row.label, column)
-                if cell is None or cell.estimate is None:
-                    line[column] = "n/a" if cell is None else verdict_words.MISSING
+                entry = result.entry(row.label, column)
+                if entry is None or entry.estimate is None:
+                    line[column] = "n/a" if entry is None else verdict_words.MISSING
                     continue
-                value = cell.estimate.value
+                value = entry.estimate.value
             line[column] = "" if value is None else round(float(value), digits)
         out.append(line)
     return pd.DataFrame(out).set_index("")
@@ -226,7 +226,7 @@ def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
     display(Markdown("**The paper**"))
     display(values_frame(first, digits, paper=True))
     show_per_source(results, lambda r: values_frame(r, digits), empty_text="not run yet.",
-                    empty=lambda r, _: all(c.estimate is None for c in r.cells.values()))
+                    empty=lambda r, _: all(c.estimate is None for c in r.entries.values()))
     flat = uninformative_frame(results)
     if not flat.empty:
         display(Markdown("**Uninformative columns**"))
@@ -241,10 +241,10 @@ def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, fl
     for column in result.spec.columns:
         if column in ("avg", "features", "least_energy"):
             continue
-        cells = [result.cell(r.label, column) for r in rows]
-        cells = [c for c in cells if c is not None]
-        values = [c.estimate.value for c in cells if c.estimate is not None]
-        if len(values) >= 2 and len(values) == len(cells) and (
+        entries = [result.entry(r.label, column) for r in rows]
+        entries = [c for c in entries if c is not None]
+        values = [c.estimate.value for c in entries if c.estimate is not None]
+        if len(values) >= 2 and len(values) == len(entries) and (
                 all(v == 0.0 for v in values) or all(v == 1.0 for v in values)):
             out[column] = values[0]
     return out
@@ -258,8 +258,8 @@ def uninformative_frame(results: dict[str, TableResult]):
     lines = []
     for source, result in results.items():
         spec_row = result.spec.rows[0]
-        tasks = {c: len({u.eval.task for u in cell.units if u.eval is not None})
-                 for c, cell in spec_row.cells.items() if c not in ("avg", "features")}
+        tasks = {c: len({u.eval.task for u in entry.units if u.eval is not None})
+                 for c, entry in spec_row.entries.items() if c not in ("avg", "features")}
         total = sum(tasks.values())
         flat = uninformative_columns(result)
         icrt = {c: v for c, v in uninformative_columns(result, "icrt+").items() if c not in flat}
@@ -295,9 +295,9 @@ def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[st
     at least 3 shared seeds with neither row constant."""
     per_seed = {}
     for row in result.spec.rows:
-        cell = result.cell(row.label, column)
-        if cell is not None and cell.data is not None and np.ndim(cell.data) >= 2:
-            data = np.asarray(cell.data, dtype=np.float64)
+        entry = result.entry(row.label, column)
+        if entry is not None and entry.data is not None and np.ndim(entry.data) >= 2:
+            data = np.asarray(entry.data, dtype=np.float64)
             per_seed[row.label] = data.reshape(len(data), -1).mean(axis=1)
     out = {}
     labels = list(per_seed)
@@ -312,22 +312,22 @@ def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[st
 
 # --------------------------------------------------------------------------- features and codebooks
 def codebook_rows(result: TableResult, column: str) -> list[tuple[str, Any]]:
-    """(row label, its `column` cell spec) of every row whose tokenizer has a codebook."""
+    """(row label, its `column` entry spec) of every row whose tokenizer has a codebook."""
     out = []
     for row in result.spec.rows:
-        cell = row.cells.get(column)
-        tokenizer = cell.units[0].run.tokenizer if cell is not None and cell.units else None
+        entry = row.entries.get(column)
+        tokenizer = entry.units[0].run.tokenizer if entry is not None and entry.units else None
         if tokenizer is not None and tokenizer.type in CODEBOOK_TOKENIZERS:
-            out.append((row.label, cell))
+            out.append((row.label, entry))
     return out
 
 
 def per_seed_metrics(result: TableResult, label: str, cell_spec, column: str
                       ) -> list[tuple[int, dict[str, Any] | None]]:
-    """(training seed, its features metrics or None) per unit of a features cell."""
+    """(training seed, its features metrics or None) per unit of a features entry."""
     units = sorted(cell_spec.units, key=lambda u: u.seed_index)
-    cell = result.cell(label, column)
-    metrics = cell.extra.get("metrics") if cell is not None and cell.estimate is not None else None
+    entry = result.entry(label, column)
+    metrics = entry.extra.get("metrics") if entry is not None and entry.estimate is not None else None
     return [(u.run.seed, metrics[i] if metrics else None) for i, u in enumerate(units)]
 
 

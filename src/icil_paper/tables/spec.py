@@ -1,8 +1,8 @@
-"""A table as data: rows x columns -> cells, each cell a set of (run, evaluation) units.
+"""A table as data: rows x columns -> entries, each entry a set of (run, evaluation) units.
 
-    TableSpec ── rows: Row(label, cells: {column: Cell}, paper: {column: number})
+    TableSpec ── rows: Row(label, entries: {column: Entry}, paper: {column: number})
                                               │
-                              Cell ── units: Unit(seed_index, run: RunSpec, eval: EvalSpec
+                              Entry ── units: Unit(seed_index, run: RunSpec, eval: EvalSpec
                                                   or None, features: FeatureSpec or None)
 
 A unit is one trained policy and one measurement on it: an evaluation or, for the
@@ -33,11 +33,11 @@ class Unit:
 
 
 @dataclass(frozen=True)
-class Cell:
+class Entry:
     """The units one number of a table aggregates."""
 
     units: tuple[Unit, ...]
-    """Every (seed, task) unit of the cell."""
+    """Every (seed, task) unit of the entry."""
 
     @property
     def seeds(self) -> int:
@@ -55,12 +55,12 @@ class Cell:
 
 @dataclass(frozen=True)
 class Row:
-    """One row of a table: a policy (+ tokenizer, or a variant) and its cells by column."""
+    """One row of a table: a policy (+ tokenizer, or a variant) and its entries by column."""
 
     label: str
     """Row name as the paper prints it (`icrt+lipvq`, `bc_transformer`, `2^10`, ...)."""
-    cells: Mapping[str, Cell]
-    """Column -> cell; a column missing here has no unit in our stand-in (shown as n/a)."""
+    entries: Mapping[str, Entry]
+    """Column -> entry; a column missing here has no unit in our stand-in (shown as n/a)."""
     paper: Mapping[str, float] = field(default_factory=dict)
     """The paper's numbers of this row by column (empty where the paper has none)."""
 
@@ -92,5 +92,5 @@ class TableSpec:
                        f"{', '.join(r.label for r in self.rows)}")
 
     def units(self) -> list[Unit]:
-        """Every unit of every cell (with repeats where cells share units)."""
-        return [u for row in self.rows for cell in row.cells.values() for u in cell.units]
+        """Every unit of every entry (with repeats where entries share units)."""
+        return [u for row in self.rows for entry in row.entries.values() for u in entry.units]
