@@ -26,6 +26,7 @@ from icil_paper.book.report import (
     ledger_views,
     older_ledger,
     reference_freshness,
+    rerun_progress,
     retired_records,
     run_progress,
     stale_records,
@@ -255,6 +256,11 @@ glue("ch00_cells_done", progress["finished"])
 glue("ch00_cells_planned", progress["planned"])
 glue("ch00_machine_hours", f"{progress['hours']:.1f}")
 glue("ch00_cost_file", progress["file"])
+rerun = rerun_progress() or {"finished": 0, "planned": 0, "hours": 0.0, "commits": []}
+glue("ch00_rerun_done", rerun["finished"])
+glue("ch00_rerun_planned", rerun["planned"])
+glue("ch00_rerun_hours", f"{rerun['hours']:.1f}")
+glue("ch00_rerun_commits", ", ".join(rerun["commits"]) or "none yet")
 
 # %% [markdown]
 # Seeds are allocated in stages: looks at {glue:text}`ch00_stages` seeds a row, with
@@ -292,6 +298,13 @@ glue("ch00_cost_file", progress["file"])
 # ({glue:text}`ch00_rate_now_per10` per 10 CPU-hours); the older protocol's run,
 # {glue:text}`ch00_rate_older_decided` for {glue:text}`ch00_rate_older_hours` CPU-hours
 # ({glue:text}`ch00_rate_older_per10` per 10).
+#
+# The run on Meta-World under the design above is under way, from the frozen commit
+# {glue:text}`ch00_rerun_commits`, and its records are committed as they finish under
+# `results/rerun/reference/`: {glue:text}`ch00_rerun_done` of the
+# {glue:text}`ch00_rerun_planned` cells of its first stage so far, in
+# {glue:text}`ch00_rerun_hours` hours of machine time. When it has finished, its records
+# replace those above and the ledger on this page is read from them.
 
 # %% [markdown]
 # ## What each claim compares

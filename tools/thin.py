@@ -15,9 +15,14 @@ import ast
 import contextlib
 import io
 import json
+import os
 import re
 import sys
+import tempfile
 from pathlib import Path
+
+from icil_paper.config import get_preset
+from icil_paper.paper import run_tables
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "src" / "icil_paper"
@@ -56,13 +61,7 @@ def chain_modules() -> list[str]:
     """The package's modules on the stack when Table I's first smoke cell, run serially in
     this process, first calls `loss.backward()` (outermost first, each once). Results and
     runs go to a temporary folder, so that nothing stored is found instead."""
-    import os
-    import tempfile
-
     import torch
-
-    from icil_paper.config import get_preset
-    from icil_paper.paper import run_tables
 
     seen: list[str] = []
     backward = torch.Tensor.backward

@@ -28,7 +28,7 @@ from icil_paper.config import PRESET_NAMES, Preset, get_preset, task_demo_counts
 from icil_paper.fileio import atomic_write_json
 from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, run_tables, table_spec
 from icil_paper.planning.staged import as_run
-from icil_paper.results import ResultsStore
+from icil_paper.results import ResultsStore, results_root
 from icil_paper.runspec import eval_key, feature_key
 from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, assemble, unbroken
@@ -340,6 +340,22 @@ def run_progress(path=None) -> dict[str, Any] | None:
             "more_stages": (len(looks) < len(stages.get("stages", []))
                             and (not looks or bool(looks[-1].get("going_on")))),
             "older": older, "file": path.name}
+
+
+RERUN = "rerun"
+"""Under the results folder: the reference run in progress (`rerun/reference/`), committed as
+its records finish, until it replaces the records of `results/reference/`."""
+
+
+def rerun_progress() -> dict[str, Any] | None:
+    """`run_progress` of the reference run in progress (`RERUN`), with the commits it ran
+    from (`commits`); None before it has a `cost.json`."""
+    path = ResultsStore(REFERENCE, root=results_root() / RERUN).dir / "cost.json"
+    progress = run_progress(path)
+    if progress is not None:
+        sittings = json.loads(path.read_text())["sittings"]
+        progress["commits"] = sorted({c for s in sittings for c in s.get("commits", [])})
+    return progress
 
 
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
