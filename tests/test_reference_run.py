@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
-from tools.reference_run import copy_finished, finished_files
+import os
+
+import pytest
+
+from tools.reference_run import _running, copy_finished, finished_files, start
 
 
 def _store(tmp_path):
@@ -33,3 +37,13 @@ def test_sync_copies_again_only_what_changed(tmp_path):
     (store / "design.json").write_text('{"looks": [{"seeds": 5}]}')   # a look was taken
     assert copy_finished(store, target) == 1
     assert (target / "design.json").read_text() == '{"looks": [{"seeds": 5}]}'
+
+
+def test_start_refuses_a_second_run_while_one_runs(tmp_path):
+    folders = tmp_path / "files"
+    folders.mkdir()
+    (folders / "reference-run.pid").write_text(str(os.getpid()))   # a live process
+    with pytest.raises(SystemExit, match="already running"):
+        start("HEAD", tmp_path / "worktree", folders)
+    (folders / "reference-run.pid").write_text("999999999")          # no such process
+    assert _running(folders) is None

@@ -65,7 +65,17 @@ def _git(*args: str, cwd: Path = ROOT) -> str:
                           text=True).stdout.strip()
 
 
+def _running(folders: Path) -> int | None:
+    """The process group of the run started from `folders`, while it runs."""
+    pid_file = folders / "reference-run.pid"
+    pid = int(pid_file.read_text()) if pid_file.exists() else None
+    return pid if pid is not None and Path(f"/proc/{pid}").exists() else None
+
+
 def start(commit: str, worktree: Path, folders: Path) -> None:
+    if (pid := _running(folders)) is not None:
+        sys.exit(f"the reference run is already running (process group {pid}); "
+                 "`python -m tools.reference_run status` shows it")
     if not worktree.exists():
         _git("worktree", "add", "--detach", str(worktree), commit)
     head = _git("rev-parse", "HEAD", cwd=worktree)
@@ -109,13 +119,11 @@ def sync(folders: Path) -> None:
 
 
 def status(folders: Path) -> None:
-    pid_file = folders / "reference-run.pid"
-    pid = int(pid_file.read_text()) if pid_file.exists() else None
-    running = pid is not None and Path(f"/proc/{pid}").exists()
+    pid = _running(folders)
     store = folders / "results" / "reference"
     records = sum(1 for p in finished_files(store) if p.suffix == ".json") if store.exists() else 0
     committed = sum(1 for p in finished_files(RERUN) if p.suffix == ".json") if RERUN.exists() else 0
-    print(f"process {pid}: {'running' if running else 'not running'}; {records} records in "
+    print(f"{'running, process group ' + str(pid) if pid else 'not running'}; {records} records in "
           f"{store}, {committed} committed under {RERUN.relative_to(ROOT)}")
 
 
