@@ -316,7 +316,8 @@ def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dic
 def run_progress(path=None) -> dict[str, Any] | None:
     """Where the committed reference run stands, from its `cost.json` (else the older
     protocol's, `older` True): cells finished and planned, sittings, hours, projected and
-    target wall hours, whether more stages may follow. None without a cost record."""
+    target wall hours, whether more stages may follow, the commits it ran from. None without
+    a cost record."""
     older = False
     if path is None:
         store = ResultsStore(REFERENCE).dir
@@ -339,7 +340,8 @@ def run_progress(path=None) -> dict[str, Any] | None:
             "target_hours": projection.get("target_wall_hours"),
             "more_stages": (len(looks) < len(stages.get("stages", []))
                             and (not looks or bool(looks[-1].get("going_on")))),
-            "older": older, "file": path.name}
+            "older": older, "file": path.name,
+            "commits": sorted({c for s in cost["sittings"] for c in s.get("commits", [])})}
 
 
 RERUN = "rerun"
@@ -348,14 +350,9 @@ its records finish, until it replaces the records of `results/reference/`."""
 
 
 def rerun_progress() -> dict[str, Any] | None:
-    """`run_progress` of the reference run in progress (`RERUN`), with the commits it ran
-    from (`commits`); None before it has a `cost.json`."""
-    path = ResultsStore(REFERENCE, root=results_root() / RERUN).dir / "cost.json"
-    progress = run_progress(path)
-    if progress is not None:
-        sittings = json.loads(path.read_text())["sittings"]
-        progress["commits"] = sorted({c for s in sittings for c in s.get("commits", [])})
-    return progress
+    """`run_progress` of the reference run in progress (`RERUN`); None before it has a
+    `cost.json`."""
+    return run_progress(ResultsStore(REFERENCE, root=results_root() / RERUN).dir / "cost.json")
 
 
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
