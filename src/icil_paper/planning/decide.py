@@ -54,8 +54,7 @@ def seeds_entry_name(table: str, row: str) -> str:
 
 def row_seeds_setting(preset: Preset, wanted: dict[str, int]) -> str:
     """The `--set` value of `tables.row_seeds`: the preset's entries raised to `wanted`."""
-    entries = {name: int(n) for name, _, n in
-               (entry.rpartition("=") for entry in preset.tables.row_seeds)}
+    entries = preset.tables.seeds_by_row()
     for name, n in wanted.items():
         entries[name] = max(n, entries.get(name, 0))
     return "tables.row_seeds=" + ",".join(f"{name}={n}" for name, n in entries.items())

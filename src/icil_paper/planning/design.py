@@ -221,14 +221,8 @@ def data_cost(plans, path: str | Path | None = None) -> dict[str, Any]:
             "core_s": round(core, 1), "measured": sorted(rates)}
 
 
-def report(preset: Preset) -> dict[str, Any]:
-    """Every claim's seeds and expected half-width, the rule's violations and the plan's cost."""
-    ledger = design_ledger(preset)
-    return {"preset": preset.name, "claims": _claims_report(preset, ledger),
-            "violations": design_problems(preset, ledger), "cost": plan_cost(preset)}
-
-
 def _claims_report(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every claim's rows and seeds, required seeds and half-width now and expected."""
     seeds = planned_seeds(preset)
     claims_out = []
     for claim_id, rows in claim_rows(preset).items():
@@ -246,7 +240,7 @@ def _claims_report(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[di
 
 
 def design_frame(preset: Preset):
-    """`report`'s claims as a table for the book: seeds needed and where the variances came
+    """The design's claims as a table for the book: seeds needed and where the variances came
     from, required, planned and finished seeds, the expected 95% half-width. A staged preset
     (pass `staged.as_run`'s) shows its stage's seeds instead of required and planned."""
     import pandas as pd
@@ -474,17 +468,17 @@ def main(argv: list[str] | None = None) -> int:
     if args.stages:
         return _print_stages(preset)
 
-    out = report(preset)
-    for c in out["claims"]:
+    ledger, cost = design_ledger(preset), plan_cost(preset)
+    for c in _claims_report(preset, ledger):
         print(f"{c['id']:<38} needed {str(c['seeds_needed']):>5}  required {c['required']:>2}  "
               f"hw now {c['half_width_now']}  expected {c['expected_half_width']}  "
               f"rows {c['rows']}")
-    for line in out["violations"]:
+    for line in design_problems(preset, ledger):
         print("violation:", line)
-    for name, k in sorted(out["cost"]["kinds"].items()):
+    for name, k in sorted(cost["kinds"].items()):
         print(f"{name:<28} {k}")
-    print(f"{out['cost']['cells']} cells, {out['cost']['core_s'] / 3600:.1f} core-hours, "
-          f"{out['cost']['wall_h_at_2']} h at two cells at a time")
+    print(f"{cost['cells']} cells, {cost['core_s'] / 3600:.1f} core-hours, "
+          f"{cost['wall_h_at_2']} h at two cells at a time")
     if args.interim:
         seeds, ledger = interim_ledger(preset)
         if ledger is None:
