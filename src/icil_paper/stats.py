@@ -459,12 +459,9 @@ class SequentialDesign:
         `decision_p_value` on repeated p-values, with its side."""
         out, best = [], None
         for k, est in enumerate(looks):
-            def swap(e, k=k):
-                return replace(e, p_value=None if e.p_value is None
-                               else float(self.repeated_p_value(e.p_value, k)))
-
-            test = decision_p_value(replace(swap(est), components=tuple(
-                map(swap, est.components))), direction)
+            first, *rest = [replace(e, p_value=None if e.p_value is None else float(
+                self.repeated_p_value(e.p_value, k))) for e in (est, *est.components)]
+            test = decision_p_value(replace(first, components=tuple(rest)), direction)
             best = test if test is not None and (best is None or test[0] < best[0]) else best
             out.append(best)
         return out
