@@ -100,10 +100,8 @@ def ledger_design(preset: Preset, claims: Sequence, record: dict[str, Any] | Non
     sequential = stats.SequentialDesign(t.seed_stages) if t.seed_stages else None
     if record is not None and record.get("design") == "older":
         return replace(older_design(claims, sequential), note=record.get("why", ""))
-    primary = set(t.primary_claims)
+    primary = set(t.primary_claims)  # none among `claims`: one family (Holm's procedure)
     family = {c.id: PRIMARY if c.id in primary else SECONDARY for c in claims}
-    if not primary & set(family):  # no primary family: one family (Holm's procedure)
-        family = dict.fromkeys(family, SECONDARY)
     why: dict[str, str] = {}
     while True:  # a claim that leaves raises the others' shares: look again
         shares = dict(zip((PRIMARY, SECONDARY), t.family_weights, strict=True))
