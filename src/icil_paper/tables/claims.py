@@ -617,5 +617,3 @@ def read_ledger(path) -> dict[str, Any]:
 def load_ledger(path) -> list[LedgerEntry]:
     """The entries of a stored `claims.json` (`read_ledger`)."""
     return [LedgerEntry.from_dict(e) for e in read_ledger(path)["claims"]]
-
-
