@@ -330,20 +330,15 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
     if paired:
         var = stats.seed_variance(a, compare.kind, b)
         source = dict.fromkeys((compare.a, other), "own seeds, paired")
-    else:
-        variances, source = [], {}
-        for label, x in ((compare.a, a), (other, b)):
-            v = stats.seed_variance(x, compare.kind)
-            where = ("own seeds" if v is not None else
-                     f"pooled over Table {compare.table}'s multi-seed rows"
-                     if (compare.table, compare.pool) in pooled else
-                     "pooled over the ledger's rows" if ("*", compare.pool) in pooled else None)
-            if where is None:
-                return {**out, "power_note": "no row with two seeds to measure a variance"}
-            variances.append(v if v is not None else pooled.get(
-                (compare.table, compare.pool), pooled.get(("*", compare.pool))))
-            source[label] = where
-        var = sum(variances)
+    else:  # each row's own variance, else the one its table's (or the ledger's) rows pool
+        own = {label: stats.seed_variance(x, compare.kind) for label, x in ((compare.a, a), (other, b))}
+        borrow = {(compare.table, compare.pool): f"pooled over Table {compare.table}'s multi-seed rows",
+                  ("*", compare.pool): "pooled over the ledger's rows"}
+        key = next((k for k in borrow if k in pooled), None)
+        if key is None and None in own.values():
+            return {**out, "power_note": "no row with two seeds to measure a variance"}
+        source = {label: "own seeds" if v is not None else borrow[key] for label, v in own.items()}
+        var = sum(v if v is not None else pooled[key] for v in own.values())
     level = design.planning_level(claim.id)
     out.update(variance_from=source, plan={"variance": var, "paired": paired, "level": level})
     if seeds >= 2:
