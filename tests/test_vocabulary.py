@@ -60,7 +60,7 @@ def test_every_table_of_words_covers_the_verdicts_it_can_be_given():
     decided_or_not = set(Verdict) - {Verdict.NOT_RUN}
     for name in ("SMOOTHER", "TRAINING_WINDOW"):
         assert set(getattr(verdict_words, name)) == decided_or_not, name
-    for name in ("ANALYSIS_SMOOTH", "ANALYSIS_SUCCESS", "OUTCOME", "OUTCOME_SHORT", "COLOURS"):
+    for name in ("ANALYSIS_SMOOTH", "ANALYSIS_SUCCESS", "OUTCOME", "COLOURS"):
         assert set(getattr(verdict_words, name)) == set(Verdict), name
     assert set(verdict_words.LEDGER_ORDER) == set(Verdict)
     for v in decided_or_not:
