@@ -19,7 +19,7 @@ import pandas as pd
 from IPython.display import display
 
 from icil_paper import sim, stats
-from icil_paper.book.summaries import SeedRecords
+from icil_paper.book.studies import SeedRecords
 from icil_paper.data import SOURCES, load_demos, zero_shot_split
 from icil_paper.data.stats import data_set_stats, keep_rate
 from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS

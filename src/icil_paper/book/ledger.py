@@ -3,6 +3,7 @@
     ledgers = chapter_ledgers(preset)        # {"reference run": (preset, ledger), "this build": ...}
     reference_ledger(ledgers)                # the reference run's entries
     committed_design("I")                    # {"protocol": "kitchen", "seeds": {row: n}}
+    for q in QUESTIONS: q.decides, q.beside  # Sec. IV's questions and the claims answering them
 
 This build's ledger is written (`results/<preset>/claims.json`) before it is read; the
 reference run's is read from its committed records and never written here.
@@ -10,6 +11,7 @@ reference run's is read from its committed records and never written here.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 from icil_paper.book.report import REFERENCE, run_sources
@@ -56,3 +58,29 @@ def committed_design(table: str, preset_name: str = REFERENCE) -> dict[str, Any]
 def reference_ledger(ledgers: Ledgers) -> list:
     """The reference run's entries among `chapter_ledgers`' sources."""
     return next(ledger for p, ledger in ledgers.values() if p.name == REFERENCE)
+
+
+@dataclass(frozen=True)
+class Question:
+    """One of Sec. IV's questions and the claims of the ledger that answer it."""
+
+    key: str
+    """"Q1", "Q2" or "Q3", as the paper numbers them."""
+    text: str
+    """The question in plain words."""
+    decides: tuple[str, ...]
+    """The claims whose verdicts answer it."""
+    beside: tuple[str, ...] = ()
+    """Claims quoted beside them (they do not change the answer)."""
+
+
+QUESTIONS = (
+    Question("Q1", "Does the action tokenizer matter, and is LipVQ-VAE the best one?",
+             ("I-lipvq-best", "II-lipvq-best", "I-tokenizer-gap"), ("I-lipvq-vs-bc",)),
+    Question("Q2", "Does smoothness explain it?",
+             ("III-lipvq-smoothest", "III-smoother-succeeds", "IV-vq")),
+    Question("Q3", "Does it transfer from simulation to the real robot, across data sets and "
+             "to unseen tasks?",
+             ("V-lipvq-vs-bc", "V-lipvq-vs-bin"), ("VI-lipvq-best", "VII-lipvq-vs-bc")),
+)
+"""Sec. IV's Q1-Q3 (Q3 is sim-to-real in the paper; Tables VI and VII are quoted beside)."""

@@ -5,7 +5,7 @@ ledger's views and the reference run's bookkeeping.
     verdicts(preset, "I")                           # the ledger's sentences, in Markdown
     claims_figure(preset, "I")                      # the forest plot of one table's claims
     ledger_frame(ledger)                            # chapter 0: every claim, its verdict
-    undecided_frame(ledger)                         # what the undecided claims could detect
+    ledger_frame(ledger, "undecided")               # what the undecided claims could detect
     run_progress()                                  # the reference run's cells, hours, projection
 
 `load_table` computes what this build's store lacks (as `icil-paper reproduce` does) and
@@ -20,7 +20,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+import pandas as pd
 
 from icil_paper import verdict_words
 from icil_paper.book.studies import study_keys
@@ -28,9 +28,11 @@ from icil_paper.config import PRESET_NAMES, Preset, get_preset, task_demo_counts
 from icil_paper.fileio import atomic_write_json
 from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, run_tables, table_spec
 from icil_paper.planning.staged import as_run
+from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.runspec import eval_key, feature_key
 from icil_paper.stats import Verdict
+from icil_paper.tables import display
 from icil_paper.tables.assemble import TableResult, assemble, unbroken
 from icil_paper.tables.cells import plan
 from icil_paper.tables.claims import (
@@ -153,19 +155,17 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
 
 
 def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdicts"):
-    """The claims ledger as a table, in two parts that each fit the book's column:
-    "verdicts" (seeds, the paper, ours [95% interval], verdict, decision, size) and "power"
-    (mde, power, seeds needed)."""
-    ledger = [as_entry(e) for e in ledger]
-    import pandas as pd
-
-    if part not in ("verdicts", "power"):
-        raise ValueError(f"part must be 'verdicts' or 'power', got {part!r}")
+    """The claims ledger as a table, in parts that each fit the book's column: "verdicts"
+    (seeds, the paper, ours [95% interval], verdict, decision, size), "power" (mde, power,
+    seeds needed), "undecided" (the undecided claims with what their design could detect)
+    and "details" (quantity, the paper's sentence, its reference and power note)."""
+    check_name("ledger part", part, ("verdicts", "power", "undecided", "details"))
     rows = []
-    for e in ledger:
+    for e in map(as_entry, ledger):
+        ours = ("" if e.ours is None else
+                unbroken(f"{e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"))
+        mde = "" if e.mde is None else f"{e.mde:.3f}"
         if part == "verdicts":
-            ours = ("" if e.ours is None else
-                    unbroken(f"{e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"))
             paper_cell = (f"{e.paper:+.3f}" if e.paper is not None
                           else "—" if e.reference_effect is None
                           else f"({e.reference_effect:+.3f})")
@@ -174,54 +174,34 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
                          "ours": ours, "verdict": e.verdict,
                          "decided": (e.adjusted_verdict or ""),
                          "size": verdict_words.SIZE_SHORT.get(e.size, "")})
-        else:
+        elif part == "power":
             needed = e.seeds_needed
             older = {"size vs the paper": e.extra["magnitude"]} if "magnitude" in e.extra else {}
-            rows.append({"claim": e.id, **older,
-                         "mde": "" if e.mde is None else f"{e.mde:.3f}",
+            rows.append({"claim": e.id, **older, "mde": mde,
                          "power": "" if e.power is None else f"{e.power:.0%}",
                          "seeds needed": ("" if e.verdict == Verdict.NOT_RUN else
                                           str(needed) if needed else "—")})
-    return pd.DataFrame(rows).set_index("claim").rename_axis(None)
-
-
-def ledger_views(ledger: list[LedgerEntry | dict[str, Any]], title: str = "") -> dict[str, Any]:
-    """Chapter 0's views of one ledger: "forest", "verdicts", "power", "undecided", "counts"."""
-    ledger = [as_entry(e) for e in ledger]
-    return {"forest": forest_plot(ledger, title=title), "counts": summary(ledger),
-            "verdicts": ledger_frame(ledger, "verdicts"), "undecided": undecided_frame(ledger),
-            "power": ledger_frame(ledger, "power")}
-
-
-def undecided_frame(ledger: list[LedgerEntry | dict[str, Any]]):
-    """The undecided claims with what their design could detect, one line each."""
-    import pandas as pd
-
-    rows = []
-    for e in map(as_entry, ledger):
-        if e.adjusted_verdict not in verdict_words.UNDECIDED:
-            continue
-        effect = sizing_effect(e)
-        rows.append({"claim": e.id, "decided": e.adjusted_verdict,
-                     "ours": unbroken(f"{e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"),
-                     "sized against": "" if effect is None else f"{effect:+.3f}",
-                     "power": "" if e.power is None or effect is None else f"{e.power:.0%}",
-                     "mde": "" if e.mde is None else f"{e.mde:.3f}",
-                     "seeds needed": e.seeds_needed if effect is not None else None,
-                     "note": e.power_note or ""})
-    columns = ["claim", "decided", "ours", "sized against", "power", "mde", "seeds needed",
-               "note"]
+        elif part == "details":
+            rows.append({"claim": e.id, "quantity": e.quantity, "the paper says": e.claim,
+                         "read against": "" if e.paper is not None else e.reference,
+                         "power note": e.power_note or ""})
+        elif e.adjusted_verdict in verdict_words.UNDECIDED:
+            effect = sizing_effect(e)
+            rows.append({"claim": e.id, "decided": e.adjusted_verdict, "ours": ours,
+                         "sized against": "" if effect is None else f"{effect:+.3f}",
+                         "power": "" if e.power is None or effect is None else f"{e.power:.0%}",
+                         "mde": mde, "seeds needed": e.seeds_needed if effect is not None else None,
+                         "note": e.power_note or ""})
+    columns = (["claim", "decided", "ours", "sized against", "power", "mde", "seeds needed",
+                "note"] if part == "undecided" else None)
     return pd.DataFrame(rows, columns=columns).set_index("claim").rename_axis(None)
 
 
-def details_frame(ledger: list[LedgerEntry | dict[str, Any]]):
-    """Each claim's quantity, the paper's sentence, its reference and power note."""
-    import pandas as pd
-
-    rows = [{"claim": e.id, "quantity": e.quantity, "the paper says": e.claim,
-             "read against": "" if e.paper is not None else e.reference,
-             "power note": e.power_note or ""} for e in map(as_entry, ledger)]
-    return pd.DataFrame(rows).set_index("claim").rename_axis(None)
+def ledger_views(ledger: list[LedgerEntry | dict[str, Any]], title: str = "") -> dict[str, Any]:
+    """Chapter 0's views of one ledger: "forest", "counts" and each part of `ledger_frame`."""
+    ledger = [as_entry(e) for e in ledger]
+    return {"forest": forest_plot(ledger, title=title), "counts": summary(ledger),
+            **{part: ledger_frame(ledger, part) for part in ("verdicts", "undecided", "power")}}
 
 
 def row_label(entry: LedgerEntry) -> str:
@@ -230,63 +210,9 @@ def row_label(entry: LedgerEntry) -> str:
     return f"{label}  [{entry.id}]" if label else entry.id
 
 
-def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", verdict_key: str = "adjusted_verdict"):
-    """One row per claim: our estimate and 95% interval coloured by the decision, the
-    paper's value as a black diamond; one panel per scale of quantity. Claims with too few
-    seeds are drawn dashed."""
-    ledger = [as_entry(e) for e in ledger]
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-
-    def panel_of(e):
-        quantity = e.quantity.lower()
-        return ("rank correlation" if "correlation" in quantity else
-                "least energy" if "least energy" in quantity else
-                "LDLJ difference" if "ldlj" in quantity else "success difference")
-
-    panels = {}
-    for e in ledger:
-        panels.setdefault(panel_of(e), []).append(e)
-    order = [p for p in ("success difference", "least energy", "LDLJ difference",
-                         "rank correlation") if p in panels]
-    heights = [len(panels[p]) for p in order]
-    fig, axes = plt.subplots(len(order), 1, figsize=(10.5, 0.32 * sum(heights) + 1.2 * len(order) + 0.6),
-                             gridspec_kw={"height_ratios": heights}, squeeze=False)
-    for ax, name in zip(axes[:, 0], order, strict=True):
-        entries = panels[name]
-        y = np.arange(len(entries))[::-1]
-        for yi, e in zip(y, entries, strict=True):
-            verdict = getattr(e, verdict_key) or e.verdict
-            colour = verdict_words.COLOURS.get(verdict, "black")
-            if e.ours is not None:
-                style = "--" if verdict == Verdict.TOO_FEW_SEEDS else "-"
-                ax.plot(e.ci, [yi, yi], style, color=colour, lw=2.2)
-                ax.plot(e.ours, yi, "o", color=colour, ms=5)
-            if e.paper is not None:
-                ax.plot(e.paper, yi, "D", color="black", ms=4, zorder=5)
-            elif e.reference_effect is not None:  # the effect a claim of ours is read against
-                ax.plot(e.reference_effect, yi, "D", mfc="white", mec="black", ms=4, zorder=5)
-        ax.axvline(0, color="#57606a", lw=0.8)
-        ax.set_yticks(y, [row_label(e) for e in entries], fontsize=8)
-        ax.set_ylim(-0.7, len(entries) - 0.3)
-        sides = {e.direction for e in entries}
-        side = ("" if len(sides) > 1 else
-                " (the paper claims above 0)" if sides == {1} else " (the paper claims below 0)")
-        ax.set_xlabel(name + side, fontsize=8)
-        ax.tick_params(axis="x", labelsize=8)
-        ax.grid(axis="x", color="#eaeef2", lw=0.6)
-    handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == Verdict.TOO_FEW_SEEDS else "-",
-                      label=str(v)) for v, c in verdict_words.COLOURS.items() if v != Verdict.NOT_RUN]
-    handles.append(Line2D([], [], color="black", marker="D", ls="", ms=4, label="the paper"))
-    if any(e.paper is None and e.reference_effect is not None for e in ledger):
-        handles.append(Line2D([], [], mfc="white", mec="black", marker="D", ls="", ms=4,
-                              label="reference size (our claims)"))
-    fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=len(handles),
-               frameon=False)
-    axes[0, 0].set_title(title or "Claims: our 95% intervals and the paper's values", fontsize=10)
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
-    plt.close(fig)
-    return fig
+def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = ""):
+    """`tables.display.forest_plot` with each claim's `row_label`."""
+    return display.forest_plot(ledger, title, label=row_label)
 
 
 # --------------------------------------------------------------------------- the reference run
