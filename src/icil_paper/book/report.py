@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -98,9 +99,7 @@ def current_keys(preset_name: str = REFERENCE) -> set[str]:
         keys.add(p.run.key())
         keys.update(eval_key(p.run, ev) for ev in p.evals.values())
         keys.update(feature_key(p.run, f) for f in p.features.values())
-    for study in study_keys(preset).values():
-        keys.update(study)
-    return keys
+    return keys.union(*study_keys(preset).values())
 
 
 def _stale(store: ResultsStore) -> list[dict[str, Any]]:
@@ -129,20 +128,17 @@ def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
     counted by commit in `made_by.json`. Returns {commit: records moved}."""
     store = ResultsStore(preset_name)
     older = store.dir / OLDER_RECORDS
-    counts = retired_records(preset_name)
-    moved: dict[str, int] = {}
+    moved: Counter[str] = Counter()
     for record in _stale(store):
         source = store.path_for(record["kind"], record["name"], record["config_hash"])
         target = older / record["kind"] / source.name
         target.parent.mkdir(parents=True, exist_ok=True)
         os.replace(source, target)
-        commit = str(record.get("git_commit") or "unknown")
-        moved[commit] = moved.get(commit, 0) + 1
-    for commit, n in moved.items():
-        counts[commit] = counts.get(commit, 0) + n
+        moved[str(record.get("git_commit") or "unknown")] += 1
     if moved:
+        counts = Counter(retired_records(preset_name)) + moved
         atomic_write_json(older / "made_by.json", dict(sorted(counts.items())))
-    return moved
+    return dict(moved)
 
 
 # --------------------------------------------------------------------------- the claims ledger
@@ -299,13 +295,8 @@ def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
     ledger, or while none of its claims has run, `older_ledger`'s with its `made_by`."""
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     ledger = load_ledger(path) if path.exists() else []
-    if any(e.run for e in ledger):
-        return ledger, None
-    older = older_ledger(REFERENCE)
-    if older is None:
-        return ledger, None
-    made_by, claims = older
-    return [as_entry(e) for e in claims], made_by
+    older = None if any(e.run for e in ledger) else older_ledger(REFERENCE)
+    return (ledger, None) if older is None else ([as_entry(e) for e in older[1]], older[0])
 
 
 PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)",

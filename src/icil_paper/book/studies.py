@@ -88,19 +88,18 @@ def study_data(preset: Preset) -> DataSpec:
                     seed=preset.seed)
 
 
-def study_spec(preset: Preset, config: TokenizerConfig, radii: tuple[float, ...] = ()
-               ) -> TokenizerStudySpec:
+def study_spec(preset: Preset, config: TokenizerConfig, radii: tuple[float, ...] = (),
+               seed_index: int = 0) -> TokenizerStudySpec:
     return TokenizerStudySpec(tokenizer=stand_alone(config), study=preset.tokenizer_study,
-                              data=study_data(preset), seed=preset.seed, radii=tuple(radii))
+                              data=study_data(preset), seed=preset.seed + seed_index,
+                              radii=tuple(radii))
 
 
 def seeded_study_specs(preset: Preset, runs: list[tuple[str, TokenizerConfig]],
-                       radii: tuple[float, ...] = ()):
+                       radii: tuple[float, ...] = ()) -> list[tuple[str, TokenizerStudySpec]]:
     """(label, spec) of every run of a stand-alone study at each training seed, in order."""
-    for label, config in runs:
-        for s in range(preset.tokenizer_study.seeds):
-            yield label, dataclasses.replace(study_spec(preset, config, radii=radii),
-                                             seed=preset.seed + s)
+    return [(label, study_spec(preset, config, radii, s)) for label, config in runs
+            for s in range(preset.tokenizer_study.seeds)]
 
 
 def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.ndarray], dict]:

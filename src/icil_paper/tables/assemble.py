@@ -195,30 +195,21 @@ class TableResult:
                              **({"paper": row.paper.get(column)} if paper else {})})
         return pd.DataFrame(rows)
 
-    def wide(self, digits: int = 2, paper: bool = True):
-        """One row per table row: each column as `ours [low, high]`, the paper's beside it."""
-        import pandas as pd
-
-        out = []
+    def markdown(self, digits: int = 2, paper: bool = True) -> str:
+        """A GitHub-flavoured markdown table, one row per table row: each column as
+        `ours [low, high]`, the paper's number beside it."""
+        header = ["", *(name for column in self.spec.columns
+                        for name in (column, f"{column} (paper)")[:1 + paper])]
+        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
         for row in self.spec.rows:
-            line = {"": row.label}
+            cells = [row.label]
             for column in self.spec.columns:
-                entry = self.entries.get((row.label, column))
-                line[column] = format_entry(entry, digits)
+                cells.append(format_entry(self.entries.get((row.label, column)), digits))
                 if paper:
                     value = row.paper.get(column)
                     places = digits + 1 if column == "avg" else digits  # as the paper prints
-                    line[f"{column} (paper)"] = "" if value is None else f"{value:.{places}f}"
-            out.append(line)
-        return pd.DataFrame(out).set_index("")
-
-    def markdown(self, digits: int = 2, paper: bool = True) -> str:
-        """The wide table as a GitHub-flavoured markdown table."""
-        wide = self.wide(digits, paper)
-        header = ["", *wide.columns]
-        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        for label, values in wide.iterrows():
-            lines.append("| " + " | ".join([str(label), *map(str, values)]) + " |")
+                    cells.append("" if value is None else f"{value:.{places}f}")
+            lines.append("| " + " | ".join(cells) + " |")
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:

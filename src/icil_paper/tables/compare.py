@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -132,16 +133,14 @@ def other_versions(spec, store: ResultsStore) -> dict[str, int]:
     """Row -> its stored training records made by another version of its plugin."""
     current = {(name, p.sha256, p.version) for p in plugins.loaded()
                for names in p.names.values() for name in names}
-    out: dict[str, int] = {}
+    out: Counter[str] = Counter()
     runs = {u.run.key(): (row.label, u.run) for row in spec.rows
             for entry in row.entries.values() for u in entry.units}
     for label_, run in runs.values():
-        record = store.get(*train_record(run))
-        for made in (record or {}).get("plugins") or []:
-            for name in made["names"].get("tokenizer", []):
-                if (name, made.get("sha256"), made.get("version")) not in current:
-                    out[label_] = out.get(label_, 0) + 1
-    return out
+        for made in (store.get(*train_record(run)) or {}).get("plugins") or []:
+            out[label_] += sum((name, made.get("sha256"), made.get("version")) not in current
+                               for name in made["names"].get("tokenizer", []))
+    return {row: n for row, n in out.items() if n}
 
 
 def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGAINST,

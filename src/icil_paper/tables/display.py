@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from icil_paper import stats, verdict_words
+from icil_paper import verdict_words
 from icil_paper.stats import Verdict
-from icil_paper.tables.assemble import TableResult, format_difference, format_entry, unbroken
+from icil_paper.tables.assemble import TableResult, format_entry, unbroken
 from icil_paper.tables.claims import LedgerEntry, as_entry
 from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
 
@@ -40,6 +40,16 @@ def source_label(source: str, preset_name: str) -> str:
     """"the quick run (small)"; "our run" (its preset is in its source's name already)."""
     words = SOURCE_WORDS.get(source, source)
     return words if preset_name in source else f"{words} ({preset_name})"
+
+
+def shown_once(fig, **layout):
+    """`fig` laid out (`tight_layout(**layout)`) and closed, so that it shows once: where
+    the caller displays it."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout(**layout)
+    plt.close(fig)
+    return fig
 
 
 def success_figure(results: dict[str, TableResult], column: str = "avg", title: str = "",
@@ -73,9 +83,7 @@ def success_figure(results: dict[str, TableResult], column: str = "avg", title: 
     ax.set_ylabel(ylabel)
     ax.set_title(title or f"Table {spec.id}, {column}")
     ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
-    plt.close(fig)  # shown once, by the caller's display(fig)
-    return fig
+    return shown_once(fig)
 
 
 def show_comparison(results: dict[str, TableResult], column: str = "avg",
@@ -284,41 +292,21 @@ def uninformative_frame(results: dict[str, TableResult]):
                                         "share of the average"])
 
 
-def difference_sentence(results: dict[str, TableResult], a: str, b: str,
-                        column: str = "avg", direction: int = +1) -> str:
-    """Per source, `a` minus `b` with its paired interval and verdict, in Markdown."""
-    lines = []
-    for source, result in results.items():
-        xa, xb = result.outcomes(a, column), result.outcomes(b, column)
-        if xa is None or xb is None:
-            lines.append(f"- {source_label(source, result.preset)}: not run yet.")
-            continue
-        est = stats.paired_difference(xa, xb)
-        claimed = "higher" if direction > 0 else "lower"
-        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = "
-                     f"{format_difference(est)}; '{a}' is {claimed}: "
-                     f"{stats.verdict(est, direction)}.")
-    return "\n".join(lines)
-
-
 def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[str, str], float]:
     """{(row a, row b): Pearson r of their per-seed success at the same seed index}, over
     at least 3 shared seeds with neither row constant."""
+    import pandas as pd
+
     per_seed = {}
     for row in result.spec.rows:
         entry = result.entry(row.label, column)
         if entry is not None and entry.data is not None and np.ndim(entry.data) >= 2:
             data = np.asarray(entry.data, dtype=np.float64)
-            per_seed[row.label] = data.reshape(len(data), -1).mean(axis=1)
-    out = {}
+            per_seed[row.label] = pd.Series(data.reshape(len(data), -1).mean(axis=1))
+    r = pd.DataFrame(per_seed).corr(min_periods=3)  # NaN where a row is constant
     labels = list(per_seed)
-    for i, a in enumerate(labels):
-        for b in labels[i + 1:]:
-            n = min(len(per_seed[a]), len(per_seed[b]))
-            x, y = per_seed[a][:n], per_seed[b][:n]
-            if n >= 3 and x.std() > 0 and y.std() > 0:
-                out[a, b] = float(np.corrcoef(x, y)[0, 1])
-    return out
+    return {(a, b): float(r.loc[a, b]) for i, a in enumerate(labels) for b in labels[i + 1:]
+            if np.isfinite(r.loc[a, b])}
 
 
 # --------------------------------------------------------------------------- features and codebooks
@@ -422,6 +410,4 @@ def forest_plot(ledger: Sequence[LedgerEntry | dict[str, Any]], title: str = "",
     fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=len(handles),
                frameon=False)
     axes[0, 0].set_title(title or "Claims: our 95% intervals and the paper's values", fontsize=10)
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
-    plt.close(fig)
-    return fig
+    return shown_once(fig, rect=(0, 0.04, 1, 1))
