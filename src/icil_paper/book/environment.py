@@ -12,6 +12,7 @@ from typing import Any
 import pandas as pd
 
 from icil_paper.config import Preset, field_docs
+from icil_paper.config_data import get_path
 
 PRESET_SECTIONS = ("data", "train", "eval", "tables", "tokenizer_study", "policies.icrt",
                    "tokenizers.lipvq")
@@ -33,9 +34,6 @@ def preset_fields(preset: Preset, sections: Sequence[str] = PRESET_SECTIONS) -> 
     """One row per leaf field of `sections`: value and docstring, indexed by its `--set` path."""
     rows = []
     for section in sections:
-        config = preset
-        for part in section.split("."):
-            config = getattr(config, part)
         rows += [{"field": name, "value": str(value), "meaning": doc}
-                 for name, value, doc in config_fields(config, section)]
+                 for name, value, doc in config_fields(get_path(preset, section), section)]
     return pd.DataFrame(rows).set_index("field")

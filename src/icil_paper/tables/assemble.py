@@ -150,18 +150,14 @@ class TableResult:
     def motion_scores(self, row: str, column: str = "avg",
                       measure: str = "ldlj") -> np.ndarray | None:
         """A success entry's motion measure (seeds, episodes), `filled_motion`; or None."""
-        values = self._motion(row, column, measure)
+        values = self.entry(row, column).motion.get(measure) if self.entry(row, column) else None
         return None if values is None else filled_motion(values)
 
     def motion_estimate(self, row: str, column: str = "avg",
                         measure: str = "ldlj") -> Estimate | None:
         """A success entry's `motion_estimate`."""
-        values = self._motion(row, column, measure)
+        values = self.entry(row, column).motion.get(measure) if self.entry(row, column) else None
         return None if values is None else motion_estimate(values)
-
-    def _motion(self, row: str, column: str, measure: str) -> np.ndarray | None:
-        entry = self.entry(row, column)
-        return None if entry is None else entry.motion.get(measure)
 
     def scenes(self, *rows: str, column: str = "avg") -> str:
         """"per_seed" when every one of `rows` gives seed k scene set k, else "shared"."""
