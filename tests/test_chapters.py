@@ -283,7 +283,7 @@ def test_chapter_0_ledgers_write_this_builds_and_read_the_committed_design(shown
     import os
     from pathlib import Path
 
-    from icil_paper.book.ledger import chapter_ledgers, committed_design, reference_ledger
+    from icil_paper.book.report import chapter_ledgers, committed_design, reference_ledger
     from icil_paper.config import get_preset
 
     ledgers = chapter_ledgers(get_preset("smoke"))
@@ -297,7 +297,7 @@ def test_chapter_0_ledgers_write_this_builds_and_read_the_committed_design(shown
 def test_the_committed_design_is_read_from_design_json(monkeypatch):
     import json
 
-    from icil_paper.book.ledger import committed_design
+    from icil_paper.book.report import committed_design
 
     monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
     design = committed_design("I")
@@ -312,7 +312,7 @@ def test_the_committed_design_is_read_from_design_json(monkeypatch):
 
 
 def test_chapter_1_lists_every_preset_field_with_its_docstring():
-    from icil_paper.book.environment import config_fields, preset_fields
+    from icil_paper.book.report import config_fields, preset_fields
     from icil_paper.config import get_preset
 
     preset = get_preset("smoke")

@@ -1,23 +1,32 @@
 """What the book reads across the paper's results: tables loaded per source, the claims
-ledger's views and the reference run's bookkeeping.
+ledger and its views (chapter 00), the reference run's bookkeeping and the presets (01).
 
     results = load_table(preset, "I")               # {"reference run": ..., "this build": ...}
     verdicts(preset, "I")                           # the ledger's sentences, in Markdown
     claims_figure(preset, "I")                      # the forest plot of one table's claims
-    ledger_frame(ledger)                            # chapter 0: every claim, its verdict
+    ledgers = chapter_ledgers(preset)               # {"reference run": (preset, ledger), ...}
+    ledger_frame(reference_ledger(ledgers))         # chapter 00: every claim, its verdict
     ledger_frame(ledger, "undecided")               # what the undecided claims could detect
+    committed_design("I")                           # {"protocol": "kitchen", "seeds": {row: n}}
+    for q in QUESTIONS: q.decides, q.beside         # Sec. IV's questions, the claims answering
     run_progress()                                  # the reference run's cells, hours, projection
+    preset_fields(preset)                           # chapter 01: field -> value, meaning
 
 `load_table` computes what this build's store lacks (as `icil-paper reproduce` does) and
 reads the reference run's committed records without computing anything; a committed record
-whose key the current code no longer computes is stale (`stale_records`).
+whose key the current code no longer computes is stale (`stale_records`). This build's
+ledger is written (`results/<preset>/claims.json`) before it is read; the reference run's is
+read from its committed records and never written here.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from collections import Counter
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -25,9 +34,17 @@ import pandas as pd
 
 from icil_paper import verdict_words
 from icil_paper.book.studies import study_keys
-from icil_paper.config import PRESET_NAMES, Preset, get_preset, task_demo_counts
+from icil_paper.config import PRESET_NAMES, Preset, field_docs, get_preset, task_demo_counts
+from icil_paper.config_data import get_path
 from icil_paper.fileio import atomic_write_json
-from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, run_tables, table_spec
+from icil_paper.paper import (
+    CLAIM_LABELS,
+    TABLES,
+    claims_ledger,
+    run_tables,
+    table_spec,
+    write_ledger,
+)
 from icil_paper.planning.staged import as_run
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, results_root
@@ -40,10 +57,12 @@ from icil_paper.tables.claims import (
     LedgerEntry,
     as_entry,
     load_ledger,
+    read_ledger,
     sentence,
     sizing_effect,
     summary,
 )
+from icil_paper.tables.design import read_record
 from icil_paper.tables.display import BUILD, REFERENCE, source_label
 
 
@@ -211,6 +230,72 @@ def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = ""):
     return display.forest_plot(ledger, title, label=row_label)
 
 
+# --------------------------------------------------------------------------- chapter 00
+Ledgers = dict[str, tuple[Preset, list]]
+"""{source: (its preset, its ledger entries)}, the reference run first."""
+
+
+def chapter_ledgers(preset: Preset) -> Ledgers:
+    """The ledgers chapter 0 shows, by source (this build's written to its store first)."""
+    ledgers = {}
+    for source, p in run_sources(preset):
+        store = ResultsStore(p.name)
+        if p.name == preset.name:
+            write_ledger(p, store)
+        if (read_record(store) or {}).get("protocol") == "kitchen":
+            # the kitchen run's records: its tasks are retired, its ledger kept as computed
+            entries = read_ledger(store.dir / "claims.json")["claims"]
+            ledgers[f"{source} (kitchen suite, older protocol)"] = (
+                p, [as_entry(e) for e in entries])
+            continue
+        ledgers[source] = (p, claims_ledger(p, store))
+    return ledgers
+
+
+def committed_design(table: str, preset_name: str = REFERENCE) -> dict[str, Any]:
+    """The design the committed run of `preset_name` used for `table`, from its design
+    record: {"protocol": "kitchen" or "metaworld", "seeds": {row: seeds at its last look}}."""
+    record = read_record(ResultsStore(preset_name)) or {}
+    seeds: dict[str, int] = {}
+    for look in record.get("looks", []):
+        for name, n in look.get("rows", {}).items():
+            t, row = name.split(":", 1)
+            if t == table:
+                seeds[row] = max(seeds.get(row, 0), int(n))
+    return {"protocol": record.get("protocol", "metaworld"), "seeds": seeds}
+
+
+def reference_ledger(ledgers: Ledgers) -> list:
+    """The reference run's entries among `chapter_ledgers`' sources."""
+    return next(ledger for p, ledger in ledgers.values() if p.name == REFERENCE)
+
+
+@dataclass(frozen=True)
+class Question:
+    """One of Sec. IV's questions and the claims of the ledger that answer it."""
+
+    key: str
+    """"Q1", "Q2" or "Q3", as the paper numbers them."""
+    text: str
+    """The question in plain words."""
+    decides: tuple[str, ...]
+    """The claims whose verdicts answer it."""
+    beside: tuple[str, ...] = ()
+    """Claims quoted beside them (they do not change the answer)."""
+
+
+QUESTIONS = (
+    Question("Q1", "Does the action tokenizer matter, and is LipVQ-VAE the best one?",
+             ("I-lipvq-best", "II-lipvq-best", "I-tokenizer-gap"), ("I-lipvq-vs-bc",)),
+    Question("Q2", "Does smoothness explain it?",
+             ("III-lipvq-smoothest", "III-smoother-succeeds", "IV-vq")),
+    Question("Q3", "Does it transfer from simulation to the real robot, across data sets and "
+             "to unseen tasks?",
+             ("V-lipvq-vs-bc", "V-lipvq-vs-bin"), ("VI-lipvq-best", "VII-lipvq-vs-bc")),
+)
+"""Sec. IV's Q1-Q3 (Q3 is sim-to-real in the paper; Tables VI and VII are quoted beside)."""
+
+
 # --------------------------------------------------------------------------- the reference run
 OLDER_LEDGER = "older-code/claims.json"
 """Under `results/reference/`: the reference ledger an older version of the code computed."""
@@ -319,3 +404,29 @@ def preset_table() -> str:
                      f"{demos} | {p.eval.episodes_per_task} | "
                      f"{p.tables.icrt_seeds} / {p.tables.baseline_seeds} |")
     return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- chapter 01
+PRESET_SECTIONS = ("data", "train", "eval", "tables", "tokenizer_study", "policies.icrt",
+                   "tokenizers.lipvq")
+"""The parts of a preset chapter 01 lists."""
+
+
+def config_fields(config: Any, path: str) -> Iterator[tuple[str, Any, str]]:
+    """(dotted path, value, docstring) of every leaf field of a config dataclass."""
+    docs = field_docs(type(config))
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if dataclasses.is_dataclass(value):
+            yield from config_fields(value, f"{path}.{f.name}")
+        else:
+            yield f"{path}.{f.name}", value, docs.get(f.name, "")
+
+
+def preset_fields(preset: Preset, sections: Sequence[str] = PRESET_SECTIONS) -> pd.DataFrame:
+    """One row per leaf field of `sections`: value and docstring, indexed by its `--set` path."""
+    rows = []
+    for section in sections:
+        rows += [{"field": name, "value": str(value), "meaning": doc}
+                 for name, value, doc in config_fields(get_path(preset, section), section)]
+    return pd.DataFrame(rows).set_index("field")
