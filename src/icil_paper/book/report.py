@@ -57,7 +57,6 @@ from icil_paper.tables.claims import (
     LedgerEntry,
     as_entry,
     load_ledger,
-    read_ledger,
     sentence,
     sizing_effect,
     summary,
@@ -244,11 +243,10 @@ def chapter_ledgers(preset: Preset) -> Ledgers:
             write_ledger(p, store)
         if (read_record(store) or {}).get("protocol") == "kitchen":
             # the kitchen run's records: its tasks are retired, its ledger kept as computed
-            entries = read_ledger(store.dir / "claims.json")["claims"]
             ledgers[f"{source} (kitchen suite, older protocol)"] = (
-                p, [as_entry(e) for e in entries])
-            continue
-        ledgers[source] = (p, claims_ledger(p, store))
+                p, load_ledger(store.dir / "claims.json"))
+        else:
+            ledgers[source] = (p, claims_ledger(p, store))
     return ledgers
 
 

@@ -382,10 +382,6 @@ class SeedRecords:
 
     def seed_means(self) -> dict[str, dict[str, Any]]:
         """One row per label: the mean over seeds of every number, seed 0's value otherwise."""
-        rows = {}
-        for label, ms in self.records.items():
-            first = ms[0]
-            rows[label] = {k: (float(np.mean([m[k] for m in ms]))
-                               if isinstance(v, (int, float))
-                               else v) for k, v in first.items()}
-        return rows
+        return {label: {k: float(np.mean([m[k] for m in ms])) if isinstance(v, (int, float))
+                        else v for k, v in ms[0].items()}
+                for label, ms in self.records.items()}

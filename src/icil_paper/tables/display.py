@@ -7,6 +7,7 @@
     show_per_source(results, make_frame)  # any frame per source, the reference run's first
     show_sources(results, make_markdown)  # **reference run.** <its Markdown> ...
     show_frame_or(frame, "*No smoothness records yet.*")
+    forest_plot(ledger)                   # each claim's interval, the paper's value, the decision
 
 A chapter shows the paper's numbers and the reference run's side by side; this build's
 (which test the code, not the paper) go in a collapsed block (`collapsed_frame`). What only
