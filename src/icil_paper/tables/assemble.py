@@ -99,26 +99,21 @@ def motion_estimate(values: np.ndarray) -> Estimate | None:
 
 
 def _smoothness_entry(entry: Entry, store: ResultsStore) -> EntryResult:
-    raw, standardized, scale, view, per_seed = [], [], [], [], []
-    missing = 0
+    per_seed, missing = [], 0
     for unit in sorted(entry.units, key=lambda u: u.seed_index):
         record = store.get(*features_record(unit.run, unit.features))
         if record is None:
             missing += 1
-            continue
-        m = record["metrics"]
-        raw.append(m["least_energy_per_trajectory"])
-        standardized.append(m["least_energy_standardized_per_trajectory"])
-        scale.append(m["latent_scale"])
-        view.append(m["view"])
-        per_seed.append(m)
-    if missing or not raw:
+        else:
+            per_seed.append(record["metrics"])
+    if missing or not per_seed:
         return EntryResult(None, None, missing or len(entry.units))
-    data = np.array(raw, dtype=np.float64)
-    std = np.array(standardized, dtype=np.float64)
+    data, std = (np.array([m[key] for m in per_seed], dtype=np.float64) for key in (
+        "least_energy_per_trajectory", "least_energy_standardized_per_trajectory"))
     return EntryResult(score_mean(data), data, 0,
                       {"standardized": std, "standardized_estimate": score_mean(std),
-                       "latent_scale": scale, "view": view, "metrics": per_seed})
+                       "latent_scale": [m["latent_scale"] for m in per_seed],
+                       "view": [m["view"] for m in per_seed], "metrics": per_seed})
 
 
 @dataclass
