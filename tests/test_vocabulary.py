@@ -112,8 +112,7 @@ def test_the_introduction_answers_the_three_questions_with_their_numbers():
     """Every claim that decides or stands beside a question is in the committed ledger with
     its number (what chapter 0 glues into the introduction), and the answer word follows
     the verdicts after Holm."""
-    from icil_paper.book.questions import QUESTIONS
-    from icil_paper.book.report import answering_ledger
+    from icil_paper.book.report import QUESTIONS, answering_ledger
     from icil_paper.config import get_preset
     from icil_paper.paper import CLAIM_LABELS, claims
     from icil_paper.tables.claims import load_ledger
