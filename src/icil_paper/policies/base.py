@@ -175,12 +175,17 @@ class Policy(nn.Module):
 class BatchedPolicy(Policy):
     """A policy that acts for B episodes in one forward pass (ICRT and the baselines).
 
-    Subclasses implement `reset_batch` (calling `begin_episodes` first) and `select_actions`
-    (calling `keep_rows` first); `reset` and `select_action` are the batch of one.
+    Subclasses implement `select_actions` (calling `keep_rows` first) and extend `reset_batch`;
+    `reset` and `select_action` are the batch of one.
     """
 
     def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
         self.reset_batch([prompt], [instruction])
+
+    def reset_batch(self, prompts: Sequence[Any], instructions: Sequence[str | None] | None = None
+                    ) -> None:
+        """Start B = len(prompts) episodes (prompts ignored: the baselines take none)."""
+        self.begin_episodes([t or "" for t in batch_instructions(prompts, instructions)])
 
     @torch.no_grad()
     def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
 
 from icil_paper.tokenizers.configs import (
@@ -110,6 +111,13 @@ def lipschitz_losses(encoder: nn.Module, config) -> dict[str, Tensor]:
     if config.norm not in LIPSCHITZ_NORMS or not weight:
         return {}
     return {"lipschitz": weight * lipschitz_loss(encoder)}
+
+
+def causal_chunks(actions: Tensor, chunk: int) -> Tensor:
+    """(B, T, A) -> (B, T, C, A): the C = `chunk` actions ending at each step, the first
+    action repeated before the start (`fast`, `bspline`)."""
+    padded = torch.cat([actions[:, :1].expand(-1, chunk - 1, -1), actions], dim=1)
+    return padded.unfold(1, chunk, 1).transpose(-1, -2)
 
 
 def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
@@ -215,6 +223,12 @@ class ActionTokenizer(nn.Module):
 
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         raise NotImplementedError
+
+    def decode_losses(self, z: Tensor, actions: Tensor) -> dict[str, Tensor]:
+        """{"decode": weighted MSE of the learned head `decoder` on embeddings z (B, T, D)},
+        detached unless the config's `autoencode` (bin, fast, bspline)."""
+        decoded = self.decoder(z if self.config.autoencode else z.detach())
+        return {"decode": self.config.decode_weight * F.mse_loss(decoded, actions)}
 
     def decode(self, embeddings: Tensor) -> Tensor:
         """Actions (B, T, A) from embeddings (B, T, D)."""

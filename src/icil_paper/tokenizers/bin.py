@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 from torch import Tensor, nn
 
 from icil_paper.config_data import field_choices
@@ -41,8 +40,6 @@ class BinTokenizer(ActionTokenizer):
         super().__init__(config, action_dim)
         n_bins, latent_dim = config.n_bins, config.latent_dim
         self.n_bins = int(n_bins)
-        self.autoencode = config.autoencode
-        self.decode_weight = config.decode_weight
         self.range = config.range
         self.register_buffer("low", torch.full((action_dim,), -1.0))
         self.register_buffer("high", torch.full((action_dim,), 1.0))
@@ -102,10 +99,8 @@ class BinTokenizer(ActionTokenizer):
         codes = self.bins(actions)  # (B, T, A)
         tokens = self.embedding(codes + self.offsets)  # (B, T, A, D)
         z = tokens.mean(dim=2)  # (B, T, D)
-        decoded = self.decoder(z if self.autoencode else z.detach())
-        losses = {"decode": self.decode_weight * F.mse_loss(decoded, actions)}
         return TokenizerOutput(embeddings=z, reconstruction=self.centres(codes), codes=codes,
-                               losses=losses)
+                               losses=self.decode_losses(z, actions))
 
     def vocabulary_ids(self, codes: Tensor) -> Tensor:
         """Codes (B, T, A) as token ids in [0, A * n_bins), flattened."""
