@@ -50,22 +50,9 @@ class ObsSpec:
     """Whether a "depth" key (n_cams, H, W) accompanies the images (RGB-D)."""
 
     @property
-    def has_images(self) -> bool:
-        return self.image is not None
-
-    @property
     def keys(self) -> tuple[str, ...]:
         extra = (("rgb",) if self.image else ()) + (("depth",) if self.depth else ())
         return self.lowdim_keys + extra
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"lowdim_keys": list(self.lowdim_keys), "lowdim_dim": self.lowdim_dim,
-                "image": list(self.image) if self.image else None, "depth": self.depth}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> ObsSpec:
-        return cls(tuple(d["lowdim_keys"]), int(d["lowdim_dim"]),
-                   tuple(d["image"]) if d.get("image") else None, bool(d.get("depth", False)))
 
 
 def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
@@ -112,9 +99,11 @@ def check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int,
     name = f"{what} {i} ({getattr(demo, 'task', '?')})"
     actions = np.asarray(demo.actions)
     if actions.ndim != 2 or len(actions) == 0:
-        raise ValueError(f"{name}: actions must be a non-empty (T, A) array, got shape {actions.shape}")
+        raise ValueError(f"{'empty' if actions.size == 0 else 'misshaped'} {name}: actions must "
+                         f"be a non-empty (T, A) array, got shape {actions.shape}")
     if actions.shape[1] != action_dim:
-        raise ValueError(f"{name}: actions have dimension {actions.shape[1]}, expected {action_dim}")
+        raise ValueError(f"wrong action dimension in {name}: {actions.shape[1]}-dimensional "
+                         f"actions, expected {action_dim}")
     if not np.isfinite(actions).all():
         raise ValueError(f"{name}: actions contain NaN or inf")
     for k in keys:

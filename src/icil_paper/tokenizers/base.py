@@ -19,7 +19,8 @@ value raises a ValueError that names the problem.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -113,6 +114,18 @@ def lipschitz_losses(encoder: nn.Module, config) -> dict[str, Tensor]:
     return {"lipschitz": weight * lipschitz_loss(encoder)}
 
 
+@contextmanager
+def evaluating(module: nn.Module) -> Iterator[nn.Module]:
+    """`module` in eval mode and without gradients inside the block, its mode restored after."""
+    was_training = module.training
+    module.eval()
+    try:
+        with torch.no_grad():
+            yield module
+    finally:
+        module.train(was_training)
+
+
 def causal_chunks(actions: Tensor, chunk: int) -> Tensor:
     """(B, T, A) -> (B, T, C, A): the C = `chunk` actions ending at each step, the first
     action repeated before the start (`fast`, `bspline`)."""
@@ -123,21 +136,14 @@ def causal_chunks(actions: Tensor, chunk: int) -> Tensor:
 def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
     """`fit` input (an array or tensor (N, T, A), or a list of (T_i, A) arrays) as a list of
     float64 arrays (T_i, A); ValueError naming the problem."""
-    if isinstance(actions, Tensor):
-        actions = actions.detach().cpu().numpy()
-    if isinstance(actions, np.ndarray):
-        if actions.ndim == 2:
-            actions = [actions]
-        elif actions.ndim == 3:
-            actions = list(actions)
-        else:
+    if isinstance(actions, (np.ndarray, Tensor)):
+        if actions.ndim not in (2, 3):
             raise ValueError(f"actions must be shaped (N, T, A) or be a list of (T, A) arrays; "
-                             f"got an array with shape {actions.shape}")
+                             f"got an array with shape {tuple(actions.shape)}")
+        actions = [actions] if actions.ndim == 2 else list(actions)
     trajectories = []
     for i, traj in enumerate(actions):
-        if isinstance(traj, Tensor):
-            traj = traj.detach().cpu().numpy()
-        traj = np.asarray(traj, dtype=np.float64)
+        traj = np.asarray(traj.detach().cpu() if isinstance(traj, Tensor) else traj, np.float64)
         if traj.ndim != 2:
             raise ValueError(f"trajectory {i} must be shaped (T, A), got shape {traj.shape}")
         if traj.shape[1] != action_dim:
