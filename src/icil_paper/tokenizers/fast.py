@@ -39,7 +39,6 @@ from icil_paper.tokenizers.configs import FASTConfig, register_tokenizer_model
 # Symbol of integer v is chr(v - min_token + _CHAR_OFFSET). 0 is kept free because NumPy's
 # fixed-width strings (used to build symbol strings fast) drop trailing NUL characters.
 _CHAR_OFFSET = 1
-_MODES = ("causal", "blocked")
 
 
 class FastDecodeError(ValueError):
