@@ -197,6 +197,17 @@ class ActionTokenizer(nn.Module):
     def _fit(self, trajectories: list[np.ndarray]) -> None:
         """Nothing to fit for learned tokenizers."""
 
+    @torch.no_grad()
+    def _set_range(self, low: Tensor, high: Tensor) -> None:
+        """Store (A,) bounds in the `low` / `high` buffers (bin, bspline); a constant dimension
+        still gets a non-empty range."""
+        low, high = low.clone(), high.clone()  # copied into the buffers' dtype below
+        flat = high - low < 1e-6
+        low[flat] -= 1e-3
+        high[flat] += 1e-3
+        self.low.copy_(low)
+        self.high.copy_(high)
+
     # ----------------------------------------------------------------- forward
     def check_actions(self, actions: Tensor) -> Tensor:
         """Raise ValueError for a wrong shape, wrong action dimension or NaN/inf values."""
@@ -219,9 +230,7 @@ class ActionTokenizer(nn.Module):
         return actions.to(self._param_dtype())
 
     def _param_dtype(self) -> torch.dtype:
-        for p in self.parameters():
-            return p.dtype
-        return torch.float32
+        return next((p.dtype for p in self.parameters()), torch.float32)
 
     def forward(self, actions: Tensor) -> TokenizerOutput:
         """Tokenize actions (B, T, A) -> TokenizerOutput (see the module docstring)."""

@@ -60,16 +60,6 @@ class BinTokenizer(ActionTokenizer):
         self._set_range(torch.as_tensor(data.min(axis=0)), torch.as_tensor(data.max(axis=0)))
 
     @torch.no_grad()
-    def _set_range(self, low: Tensor, high: Tensor) -> None:
-        """Store (A,) bounds; a constant dimension still gets a non-empty range."""
-        low, high = low.clone(), high.clone()  # copied into the buffers' dtype below
-        flat = high - low < 1e-6
-        low[flat] -= 1e-3
-        high[flat] += 1e-3
-        self.low.copy_(low)
-        self.high.copy_(high)
-
-    @torch.no_grad()
     def _update_running_range(self, actions: Tensor) -> None:
         """`range="running"`: widen [low, high] to the min and max of `actions` (B, T, A)."""
         flat = actions.reshape(-1, self.action_dim)

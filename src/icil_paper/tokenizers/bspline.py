@@ -76,13 +76,7 @@ class BSplineTokenizer(ActionTokenizer):
     def _fit(self, trajectories: list[np.ndarray]) -> None:
         points = torch.cat([self.control_points_of(causal_chunks(
             torch.from_numpy(t)[None], self.chunk))[0] for t in trajectories])  # (N, K, A)
-        low = points.amin(dim=(0, 1))
-        high = points.amax(dim=(0, 1))
-        flat = high - low < 1e-6  # a constant dimension still gets a non-empty range
-        low[flat] -= 1e-3
-        high[flat] += 1e-3
-        self.low.copy_(low)
-        self.high.copy_(high)
+        self._set_range(points.amin(dim=(0, 1)), points.amax(dim=(0, 1)))
 
     @property
     def bin_width(self) -> Tensor:

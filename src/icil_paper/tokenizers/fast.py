@@ -255,7 +255,6 @@ class FASTTokenizer(ActionTokenizer):
         if actions is None:
             raise ValueError("FAST's tokens per step depend on the data: pass actions")
         trajectories = as_trajectory_list(actions, self.action_dim)
-        n_tokens = 0
-        for traj in trajectories:
-            n_tokens += sum(len(t) for t in self.encode_tokens(self._blocked_chunks(traj[None])[0]))
+        n_tokens = sum(len(t) for traj in trajectories
+                       for t in self.encode_tokens(self._blocked_chunks(traj[None])[0]))
         return n_tokens / sum(len(t) for t in trajectories)

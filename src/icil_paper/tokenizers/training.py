@@ -47,10 +47,7 @@ def sample_windows(trajectories: Sequence[np.ndarray], batch_size: int, window: 
     for b, i in enumerate(rng.integers(len(trajectories), size=batch_size)):
         traj = trajectories[i]
         start = int(rng.integers(max(len(traj) - window, 0) + 1))
-        piece = traj[start:start + window]
-        if len(piece) < window:
-            piece = np.concatenate([piece, np.repeat(piece[-1:], window - len(piece), 0)])
-        out[b] = piece
+        out[b] = traj[np.minimum(np.arange(start, start + window), len(traj) - 1)]
     return out
 
 
