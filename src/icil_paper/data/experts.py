@@ -11,7 +11,6 @@ when an expert rate is below `REQUIRED_RATE`.
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
 import sys
 import time
 from typing import Any
@@ -19,7 +18,7 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from icil_paper.data.generate import worker_init
+from icil_paper.data.generate import imap_jobs, worker_init
 from icil_paper.data.sources import ExpertSource, expert_rollout, make_source, source_env_options
 from icil_paper.fileio import atomic_write_json
 from icil_paper.results import results_root
@@ -123,14 +122,9 @@ def measure(suite: str, n_seeds: int = 50, seed: int = 0, workers: int = 2,
     bar = tqdm(total=len(jobs), desc=f"experts {suite}", disable=not progress)
     if workers <= 1:
         worker_init()
-        for job in jobs:
-            rows.append(measure_one(job))
-            bar.update()
-    else:
-        with mp.get_context("spawn").Pool(workers, initializer=worker_init) as pool:
-            for row in pool.imap_unordered(measure_one, jobs):
-                rows.append(row)
-                bar.update()
+    for row in imap_jobs(measure_one, jobs, workers):
+        rows.append(row)
+        bar.update()
     bar.close()
     rows.sort(key=lambda r: (tasks.index(r["task"]), seeds.index(r["seed"])))
     return {"suite": suite, "n_seeds": n_seeds, "seed": seed, "seeds": seeds,

@@ -26,7 +26,7 @@ import shutil
 import sys
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -393,24 +393,23 @@ def ensure_demos(preset: Any, task: str, source: str, n: int | None = None,
 def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None:
     bar = tqdm(total=len(jobs), desc=desc, unit="demo", disable=not progress)
     try:
-        if workers <= 1 or len(jobs) == 1:
-            try:
-                for job in jobs:
-                    summary = generate_one(job)
-                    bar.set_postfix(task=job.task, seed=str(summary["seed"]))
-                    bar.update()
-            finally:
-                _close_cache()
-        else:
-            context = mp.get_context("spawn")
-            # chunks of one job in submission order: a worker mostly meets the task it has
-            # an env for, and the bar moves demo by demo
-            with context.Pool(min(workers, len(jobs)), initializer=worker_init) as pool:
-                for summary in pool.imap_unordered(generate_one, jobs):
-                    bar.set_postfix(task=summary["task"], seed=str(summary["seed"]))
-                    bar.update()
+        for summary in imap_jobs(generate_one, jobs, workers):
+            bar.set_postfix(task=summary["task"], seed=str(summary["seed"]))
+            bar.update()
     finally:
+        _close_cache()  # the envs of this process (none when a pool ran the jobs)
         bar.close()
+
+
+def imap_jobs(fn: Callable[[Any], Any], jobs: Sequence[Any], workers: int) -> Iterator[Any]:
+    """`fn(job)` of every job, in this process (`workers` <= 1 or one job) or in a pool of
+    `workers` spawned processes on one torch thread each; results as they finish. Jobs go
+    out one at a time in order, so a worker mostly meets the task it has an env for."""
+    if workers <= 1 or len(jobs) == 1:
+        yield from map(fn, jobs)
+        return
+    with mp.get_context("spawn").Pool(min(workers, len(jobs)), initializer=worker_init) as pool:
+        yield from pool.imap_unordered(fn, jobs)
 
 
 class SuiteMissing(ValueError):
