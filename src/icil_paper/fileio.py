@@ -181,8 +181,9 @@ READ_ERRORS: tuple[type[BaseException], ...] = (
 """What parsers raise on a bad file (a truncated torch file: RuntimeError, EOFError, OSError)."""
 
 
-def _detail(exc: BaseException) -> str:
-    text = (str(exc).splitlines() or [""])[0][:80]
+def one_line(exc: BaseException, limit: int | None = None) -> str:
+    """`Type: the message's first line` (cut to `limit` characters), or the type alone."""
+    text = (str(exc).strip().splitlines() or [""])[0][:limit]
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
@@ -203,7 +204,7 @@ def load_file(path: str | Path, parse: Callable[[Path], T], what: str, fix: str,
     except UnreadableFileError:
         raise
     except READ_ERRORS as exc:
-        raise error(f"{path} is damaged or not {what} ({_detail(exc)}); {fix}") from None
+        raise error(f"{path} is damaged or not {what} ({one_line(exc, 80)}); {fix}") from None
 
 
 JSON_TYPES = {dict: "an object", list: "a list", str: "a string", int: "an integer",

@@ -521,12 +521,11 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
                 demo = _read_demo(path, name, group, keys or ObsKeyMap((), ()), file_task,
                                   file_source)
                 A = demo.actions.shape[1]
-                if action_dim is not None and A != action_dim:
-                    raise _err(path, name, f"action dimension {A} does not match the expected "
-                                           f"{action_dim}")
-                if file_action_dim is not None and A != int(file_action_dim):
-                    raise _err(path, name, f"action dimension {A} does not match the file's "
-                                           f"action_dim attribute {int(file_action_dim)}")
+                for what, want in (("the expected", action_dim),
+                                   ("the file's action_dim attribute", file_action_dim)):
+                    if want is not None and A != int(want):
+                        raise _err(path, name, f"action dimension {A} does not match {what} "
+                                               f"{int(want)}")
                 dims = (A, demo.obs["proprio"].shape[1], demo.obs["object"].shape[1])
                 first = first or dims
                 if A != first[0]:
