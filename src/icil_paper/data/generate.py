@@ -22,6 +22,7 @@ import contextlib
 import json
 import multiprocessing as mp
 import os
+import re
 import shutil
 import sys
 import time
@@ -202,15 +203,9 @@ def generate_one(job: _Job) -> dict[str, Any]:
 
 
 def _finished_shards(path: Path) -> dict[int, Path]:
-    folder = parts_dir(path)
-    shards = {}
-    if folder.is_dir():
-        for p in folder.glob("demo_*.hdf5"):
-            try:
-                shards[int(p.stem.split("_")[1])] = p
-            except (IndexError, ValueError):
-                continue
-    return shards
+    """{demo index: shard} of the `demo_NNNNNN.hdf5` files in the data set's parts folder."""
+    return {int(p.stem[len("demo_"):]): p for p in parts_dir(path).glob("demo_*.hdf5")
+            if re.fullmatch(r"demo_\d+", p.stem)}
 
 
 def outdated(info: dict[str, Any], source: str) -> str | None:
@@ -446,14 +441,9 @@ def preset_tasks(preset: Any, available: bool = False) -> tuple[str, ...]:
                                  *preset.data.maniskill_tasks)))
     if not available:
         return tasks
-    problems: dict[str, str | None] = {}
-    kept = []
-    for task in tasks:
-        suite = task.split("/", 1)[0]
-        if suite not in problems:
-            problems[suite] = suite_unavailable(suite)
-            if problems[suite]:
-                print(f"skipping the {suite} tasks: {problems[suite]}", file=sys.stderr)
-        if not problems[suite]:
-            kept.append(task)
-    return tuple(kept)
+    problems = {suite: suite_unavailable(suite)
+                for suite in dict.fromkeys(task.split("/", 1)[0] for task in tasks)}
+    for suite, problem in problems.items():
+        if problem:
+            print(f"skipping the {suite} tasks: {problem}", file=sys.stderr)
+    return tuple(task for task in tasks if not problems[task.split("/", 1)[0]])
