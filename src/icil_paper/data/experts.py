@@ -71,17 +71,25 @@ def measure_one(job: tuple[str, int, bool]) -> dict[str, Any]:
     return out
 
 
+def _outcome(rs: list[dict[str, Any]], ok: str, length: str) -> tuple[float, list, float | None]:
+    """(success rate, failed seeds, mean length of the successes) of one kind of episode."""
+    won = [r[length] for r in rs if r[ok]]
+    return (len(won) / len(rs), [r["seed"] for r in rs if not r[ok]],
+            float(np.mean(won)) if won else None)
+
+
 def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """Per-task rates from the per-seed rows."""
     tasks: dict[str, Any] = {}
     for task in dict.fromkeys(r["task"] for r in rows):
         rs = [r for r in rows if r["task"] == task]
         ok = [r for r in rs if r["success"]]
+        rate, failed, mean = _outcome(rs, "success", "length")
         entry = {
             "episodes": len(rs),
-            "expert_success_rate": len(ok) / len(rs),
-            "failed_seeds": [r["seed"] for r in rs if not r["success"]],
-            "mean_length": float(np.mean([r["length"] for r in ok])) if ok else None,
+            "expert_success_rate": rate,
+            "failed_seeds": failed,
+            "mean_length": mean,
             "max_length": int(max(r["length"] for r in ok)) if ok else None,
             "replay_success_rate": (float(np.mean([r["replay_success"] for r in ok]))
                                     if ok else None),
@@ -90,17 +98,12 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         if "planned_success" in rs[0]:
             entry["planned_success_rate"] = float(np.mean([r["planned_success"] for r in rs]))
         if "human_scenes_success" in rs[0]:
-            sk = [r for r in rs if r["human_scenes_success"]]
-            entry["expert_success_rate_human_scenes"] = len(sk) / len(rs)
-            entry["failed_seeds_human_scenes"] = [r["seed"] for r in rs
-                                                  if not r["human_scenes_success"]]
-            entry["mean_length_human_scenes"] = (float(np.mean([r["human_scenes_length"]
-                                                                for r in sk])) if sk else None)
+            (entry["expert_success_rate_human_scenes"], entry["failed_seeds_human_scenes"],
+             entry["mean_length_human_scenes"]) = _outcome(rs, "human_scenes_success",
+                                                           "human_scenes_length")
         if "human_success" in rs[0]:
-            hk = [r for r in rs if r["human_success"]]
-            entry["human_success_rate"] = len(hk) / len(rs)
-            entry["human_mean_length"] = (float(np.mean([r["human_length"] for r in hk]))
-                                          if hk else None)
+            entry["human_success_rate"], _, entry["human_mean_length"] = _outcome(
+                rs, "human_success", "human_length")
         entry["meets_required_rate"] = (
             entry["expert_success_rate"] >= REQUIRED_RATE
             and entry.get("expert_success_rate_human_scenes", 1.0) >= REQUIRED_RATE)
