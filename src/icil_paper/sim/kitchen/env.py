@@ -17,6 +17,10 @@ Observation (the same widths for every kitchen and Kinova task)::
 
 The finger offsets are the pads' signed distances from the grip site. The reward is 1.0 on
 success steps, else 0.0.
+
+The Kinova tasks, the sim-to-real stand-in, run the same fixtures on robosuite's `Kinova3` arm
+under a "reality gap" drawn anew every episode (`RealityGap`): fixture damping, friction and
+part mass scaled at random, and Gaussian noise on every observation entry.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import logging
 from collections import OrderedDict
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -35,7 +40,6 @@ from robosuite.models.tasks import ManipulationTask
 
 from icil_paper.registry import check_name
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
-from icil_paper.sim.kitchen.kinova import DynamicsPerturbation, RealityGap
 from icil_paper.sim.kitchen.scenes import Scene, make_scene
 from icil_paper.sim.kitchen.tasks import (
     ALL_TASKS,
@@ -53,6 +57,50 @@ OBJECT_LAYOUT = ((1, "metric"), (3, "metric"), (4, "unit"), (3, "metric"), (4, "
                  (3, "metric"))
 """Kinds of the `object` entries (layout in `icil_paper.sim.kitchen.scenes`)."""
 _DOWN_QUAT_XYZW = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
+
+
+@dataclass(frozen=True)
+class RealityGap:
+    """Per-episode perturbation of the Kinova tasks."""
+
+    damping_scale: tuple[float, float] = (0.5, 2.0)
+    """Range of the factor on the fixture joint's damping (sampled log-uniformly)."""
+    friction_scale: tuple[float, float] = (0.5, 2.0)
+    """Range of the factor on the fixture joint's friction loss (log-uniform)."""
+    mass_scale: tuple[float, float] = (0.7, 1.5)
+    """Range of the factor on the mass (and inertia) of the fixture's moving part (uniform)."""
+    obs_noise_std: float = 0.002
+    """Std of Gaussian noise added to every proprio and object entry (m or rad)."""
+
+
+class DynamicsPerturbation:
+    """Scales a fixture's joint damping, friction and part mass from their nominal values."""
+
+    def __init__(self, gap: RealityGap):
+        self.gap = gap
+        self._nominal = None
+        self.last_scales: dict[str, float] = {}
+
+    def bind(self, sim, dof_ids: list[int], body_ids: list[int]) -> None:
+        m = sim.model
+        self.dof_ids, self.body_ids = list(dof_ids), list(body_ids)
+        self._nominal = (m.dof_damping[self.dof_ids].copy(),
+                         m.dof_frictionloss[self.dof_ids].copy(),
+                         m.body_mass[self.body_ids].copy(), m.body_inertia[self.body_ids].copy())
+
+    def apply(self, sim, rng: np.random.Generator) -> dict[str, float]:
+        damping, friction, mass, inertia = self._nominal
+        g = self.gap
+        scales = {"damping": float(np.exp(rng.uniform(*np.log(g.damping_scale)))),
+                  "friction": float(np.exp(rng.uniform(*np.log(g.friction_scale)))),
+                  "mass": float(rng.uniform(*g.mass_scale))}
+        m = sim.model
+        m.dof_damping[self.dof_ids] = damping * scales["damping"]
+        m.dof_frictionloss[self.dof_ids] = friction * scales["friction"]
+        m.body_mass[self.body_ids] = mass * scales["mass"]
+        m.body_inertia[self.body_ids] = inertia * scales["mass"]
+        self.last_scales = scales
+        return scales
 
 
 class KitchenSceneEnv(ManipulationEnv):
