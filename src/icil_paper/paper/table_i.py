@@ -4,8 +4,8 @@
     claims(preset)               # I-lipvq-best, I-lipvq-vs-bc, I-lipvq-vs-lfq, ...
     TABLE_I_ROBOCASA             # the paper's numbers, as printed
 
-One multi-task policy per row, trained on every kitchen task and evaluated per task; avg
-is the mean over tasks. The other tables reuse its policies (`definitions.table_i_runs`).
+`spec`'s note says what a row is; the other tables reuse its policies
+(`definitions.table_i_runs`).
 """
 
 from __future__ import annotations
@@ -17,16 +17,17 @@ from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     TOKENIZER_ROWS,
     family_entries,
-    label,
     table_i_runs,
     with_codebook,
 )
 from icil_paper.tables.spec import Row, TableSpec
 
-TABLE_I_ROWS = (("mcr", None), ("act", None), ("bc_transformer", None), ("icrt", "mlp"),
-                ("icrt", "bin"), ("icrt", "fast"), ("icrt", "vq"), ("icrt", "lfq"),
-                ("icrt", "lipvq"))
-"""(policy, tokenizer) of Table I's rows, in the paper's order (also Tables VI's and VII's)."""
+
+def policy_tokenizer(row: str) -> tuple[str, str | None]:
+    """(policy, tokenizer or None) of a row label (`definitions.label`'s inverse)."""
+    policy, _, tokenizer = row.partition("+")
+    return policy, tokenizer or None
+
 
 # The paper's Table I: success rates on RoboCasa (MimicGen data).
 TABLE_I_ROBOCASA = family_rows({
@@ -41,16 +42,18 @@ TABLE_I_ROBOCASA = family_rows({
     "icrt+lipvq":     (0.32, 0.80, 0.84, 0.68, 0.41, 0.41, 0.59, 0.530),
 })
 
+TABLE_I_ROWS = tuple(policy_tokenizer(row) for row in TABLE_I_ROBOCASA)
+"""(policy, tokenizer) of Table I's rows, in the paper's order (also Tables VI's and VII's)."""
+
 
 def spec(preset: Preset) -> TableSpec:
     """Table I: an entry per family and "avg", and the codebook rows' features beside."""
     tasks = preset.data.robocasa_tasks
     rows = []
-    for p, t in TABLE_I_ROWS:
-        runs = table_i_runs(preset, p, t)
-        rows.append(Row(label(p, t), with_codebook(preset, family_entries(preset, runs, tasks),
-                                                   runs),
-                        TABLE_I_ROBOCASA[label(p, t)]))
+    for name, paper in TABLE_I_ROBOCASA.items():
+        runs = table_i_runs(preset, *policy_tokenizer(name))
+        rows.append(Row(name, with_codebook(preset, family_entries(preset, runs, tasks), runs),
+                        paper))
     return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",
                      (*FAMILY_COLUMNS, "avg"), tuple(rows), beside=("features",), note=(
                          "One multi-task policy per row, trained on every kitchen task and "
@@ -90,4 +93,3 @@ CLAIM_LABELS = {
     "I-tokenizer-gap": "LipVQ-VAE beats MLP tokenizer, kitchen",
     "I-mlp-below-bc": "MLP tokenizer below BC-Transformer",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

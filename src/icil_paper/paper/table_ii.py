@@ -20,14 +20,12 @@ from icil_paper.config import (
     TrainConfig,
     bound_travel,
 )
+from icil_paper.paper.table_i import policy_tokenizer
 from icil_paper.runspec import RunSpec
 from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
-from icil_paper.tables.definitions import label, row_seeds, seed_runs, tasks_entry
+from icil_paper.tables.definitions import row_seeds, seed_runs, tasks_entry
 from icil_paper.tables.spec import Entry, Row, TableSpec
 
-TABLE_II_ROWS = (("mcr", None), ("act", None), ("bc_transformer", None), ("act", "bin"),
-                 ("act", "fast"), ("act", "vq"), ("act", "lfq"), ("act", "lipvq"))
-"""Table II: ACT's CVAE action encoder replaced by each tokenizer."""
 MANISKILL_COLUMNS = ("pick_cube", "push_cube", "stack_cube")
 ACT_TOKENIZER_ROWS = ("act+bin", "act+fast", "act+vq", "act+lfq", "act+lipvq")
 
@@ -84,17 +82,14 @@ def spec(preset: Preset) -> TableSpec:
                            train=train, tokenizer=maniskill_tokenizer(run, train))
 
     rows = []
-    for policy, tokenizer in TABLE_II_ROWS:
+    for name, paper in TABLE_II_MANISKILL.items():
         entries = {}
-        per_task = []
         for column, task in zip(MANISKILL_COLUMNS, preset.data.maniskill_tasks, strict=False):
-            seeds = row_seeds(preset, "II", label(policy, tokenizer), 1)
-            runs = [state_run(run) for run in seed_runs(preset, policy, tokenizer, [task], seeds)]
+            seeds = row_seeds(preset, "II", name, 1)
+            runs = [state_run(r) for r in seed_runs(preset, *policy_tokenizer(name), [task], seeds)]
             entries[column] = tasks_entry(evaluated, runs, [task])
-            per_task += list(entries[column].units)
-        entries["avg"] = Entry(tuple(per_task))
-        rows.append(Row(label(policy, tokenizer), entries,
-                        TABLE_II_MANISKILL[label(policy, tokenizer)]))
+        entries["avg"] = Entry(tuple(u for e in entries.values() for u in e.units))
+        rows.append(Row(name, entries, paper))
     return TableSpec("II", "Results on ManiSkill", (*MANISKILL_COLUMNS, "avg"), tuple(rows),
                      note=("One policy per task (as ManiSkill's baselines), trained on the "
                            f"motion planner's {demos} demonstrations per task, converted to "
@@ -123,4 +118,3 @@ CLAIM_LABELS = {
     "II-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE in ACT",
     "II-lipvq-vs-act": "ACT+LipVQ-VAE beats ACT",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

@@ -84,7 +84,6 @@ CLAIM_LABELS = {
     "III-smoother-succeeds": "smoother latents, more success",
     "III-smoother-latents-smoother-motion": "ours: smoother latents, smoother motion",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
 
 
 # --------------------------------------------------------------------------- Figs. 1 and 4

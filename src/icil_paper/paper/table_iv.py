@@ -18,10 +18,10 @@ import dataclasses
 import numpy as np
 
 from icil_paper.config import Preset
+from icil_paper.paper.table_i import policy_tokenizer
 from icil_paper.tables.assemble import TableResult
 from icil_paper.tables.claims import Claim, diff, margin, paper_diff
 from icil_paper.tables.definitions import (
-    label,
     row_seeds,
     seed_runs,
     table_i_runs,
@@ -31,8 +31,6 @@ from icil_paper.tables.definitions import (
 )
 from icil_paper.tables.display import codebook_rows, per_seed_metrics, source_label
 from icil_paper.tables.spec import Row, TableSpec
-
-TABLE_IV_ROWS = (("icrt", "mlp"), ("icrt", "lip-mlp"), ("icrt", "vq"), ("icrt", "lipvq"))
 
 # The paper's Table IV: impact of Lipschitz regularization (RoboCasa average success).
 TABLE_IV_LIPSCHITZ = {
@@ -51,10 +49,10 @@ def spec(preset: Preset) -> TableSpec:
     """Table IV: ICRT with MLP, Lip-MLP, VQ-VAE and LipVQ-VAE x avg, features beside."""
     tasks = preset.data.robocasa_tasks
     rows = []
-    for p, t in TABLE_IV_ROWS:
-        runs = table_i_runs(preset, p, t)
-        entries = with_codebook(preset, {"avg": tasks_entry(preset, runs, tasks)}, runs)
-        rows.append(Row(label(p, t), entries, TABLE_IV_LIPSCHITZ[label(p, t)]))
+    for name, paper in TABLE_IV_LIPSCHITZ.items():
+        runs = table_i_runs(preset, *policy_tokenizer(name))
+        rows.append(Row(name, with_codebook(preset, {"avg": tasks_entry(preset, runs, tasks)},
+                                            runs), paper))
     return TableSpec("IV", "Lipschitz regularization's impact", ("avg",), tuple(rows),
                      beside=("features",),
                      note="Average success over the kitchen tasks; MLP and VQ-VAE rows are "
@@ -127,7 +125,6 @@ CLAIM_LABELS = {
     "IV-vq-over-mlp": "VQ-VAE beats MLP tokenizer",
     "fig5-best": "codebook of 2^10 best",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
 
 
 def codes_used_frame(results: dict[str, TableResult], column: str = "features"):

@@ -80,7 +80,6 @@ CLAIM_LABELS = {
     "VI-mlp-vs-bc": "cross-dataset: ICRT+MLP beats BC-Transformer",
     "VI-lipvq-best": "cross-dataset: LipVQ-VAE best",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
 
 
 # --------------------------------------------------------------------------- the shift from Table I

@@ -75,4 +75,3 @@ CLAIM_LABELS = {
     "VII-lipvq-vs-bc": "zero-shot: beats BC-Transformer",
     "VII-lipvq-best": "zero-shot: LipVQ-VAE best",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
