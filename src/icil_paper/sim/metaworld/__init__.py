@@ -74,8 +74,8 @@ def __getattr__(attr: str) -> Any:
         from icil_paper.sim.metaworld import env
         return env.MetaWorldEnv
     if attr == "MetaWorldExpert":
-        from icil_paper.sim.metaworld import experts
-        return experts.MetaWorldExpert
+        from icil_paper.sim.metaworld import env
+        return env.MetaWorldExpert
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
