@@ -136,10 +136,8 @@ def _smooth_diff(result: TableResult, a: str, b: str, standardized: bool = True)
     fa, fb = result.features(a), result.features(b)
     if fa is None or fb is None:
         return None
-    key = "standardized" if standardized else None
-    xa = fa.extra[key] if key else fa.data
-    xb = fb.extra[key] if key else fb.data
-    return stats.paired_score_difference(xa, xb)
+    return stats.paired_score_difference(*(f.extra["standardized"] if standardized else f.data
+                                           for f in (fa, fb)))
 
 
 SMOOTHER = -1
