@@ -69,10 +69,7 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
     Options: `camera_size` (default 84), `horizon`, `obs_noise_std` (0 turns the Kinova
     noise off), `render_mode`, `scenes` (of `SCENE_DISTRIBUTIONS`, default "generated").
     """
-    check_name("kitchen task", name, ALL_TASKS)
-    check_name("observation kind", obs, ("state", "rgb", "rgbd"))
-    check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
-               SCENE_DISTRIBUTIONS)
+    check_name("kitchen task", name, ALL_TASKS)  # the env checks `obs` and `scenes`
     _import_robosuite_quietly()
     return __getattr__("KitchenEnv")(name, obs=obs, seed=seed, **options)
 

@@ -314,19 +314,13 @@ class KitchenEnv(TaskEnv):
             obj = obj + self._noise_rng.normal(0, self.obs_noise_std, obj.shape)
         out = {"proprio": proprio.astype(np.float32), "object": obj.astype(np.float32)}
         if self.obs_kind != "state":
-            rgbs, depths = [], []
-            size = self.camera_size
-            for cam in self.cameras:
-                if self.obs_kind == "rgbd":
-                    rgb, depth = self.sim.render(width=size, height=size, camera_name=cam,
-                                                 depth=True)
-                    depths.append(_metric_depth(self.sim, depth[::-1]))
-                else:
-                    rgb = self.sim.render(width=size, height=size, camera_name=cam)
-                rgbs.append(rgb[::-1])
-            out["rgb"] = np.stack(rgbs).astype(np.uint8)
-            if depths:
-                out["depth"] = np.stack(depths).astype(np.float32)
+            size, rgbd = self.camera_size, self.obs_kind == "rgbd"
+            frames = [self.sim.render(width=size, height=size, camera_name=cam, depth=rgbd)
+                      for cam in self.cameras]  # (rgb, depth) pairs for "rgbd"
+            out["rgb"] = np.stack([(f[0] if rgbd else f)[::-1] for f in frames]).astype(np.uint8)
+            if rgbd:
+                out["depth"] = np.stack([_metric_depth(self.sim, f[1][::-1])
+                                         for f in frames]).astype(np.float32)
         return out
 
     def __repr__(self) -> str:

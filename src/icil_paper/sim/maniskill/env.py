@@ -164,11 +164,8 @@ def object_features(task: str, base_env: Any) -> np.ndarray:
         target = np.concatenate([to_numpy(goal.pose.p), _IDENTITY_QUAT_XYZW]).astype(np.float32)
     obj_p, obj_q = to_numpy(obj.pose.p), to_numpy(obj.pose.q)
     grasped = np.array([float(to_numpy(agent.is_grasping(obj)))], np.float32)
-    feats = np.concatenate([_pose7(obj_p, obj_q), obj_p - tcp, grasped, target,
-                            target[:3] - obj_p]).astype(np.float32)
-    out = np.zeros(MANISKILL_OBJECT_DIM, np.float32)
-    out[: feats.shape[0]] = feats
-    return out
+    return np.concatenate([_pose7(obj_p, obj_q), obj_p - tcp, grasped, target,
+                           target[:3] - obj_p]).astype(np.float32)  # (MANISKILL_OBJECT_DIM,)
 
 
 def proprio_features(base_env: Any) -> np.ndarray:
@@ -265,9 +262,7 @@ class ManiSkillEnv(TaskEnv):
             options = {"reconfigure": True, **(options or {})}
         raw, _ = self._env.reset(seed=self.seed, options=options)
         self.base = self._env.unwrapped
-        obs = self._make_obs(raw)
-        info = self._info(self.base.evaluate())
-        return obs, info
+        return self._make_obs(raw), self._info(self.base.evaluate())
 
     def step(self, action):
         raw, reward, _, _, info = self._env.step(policy_to_maniskill_action(action))

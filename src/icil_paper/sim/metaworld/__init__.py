@@ -28,7 +28,7 @@ from icil_paper.sim.metaworld.tasks import (
     MetaWorldTaskSpec,
     family_of,
 )
-from icil_paper.sim.suite import OBS_KINDS, Suite
+from icil_paper.sim.suite import Suite
 
 METAWORLD_OBS_DIMS = (PROPRIO_DIM, OBJECT_DIM)
 OBJECT_POSITION = (0, 3)
@@ -55,10 +55,7 @@ def metaworld_problem() -> str | None:
 def make_metaworld_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
     """Build a Meta-World task env (`env.MetaWorldEnv`); options `camera_size` (default 84),
     `horizon`, `scenes` (default "generated"), `render_mode`."""
-    check_name("Meta-World task", name, TASKS)
-    check_name("observation kind", obs, OBS_KINDS)
-    check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
-               SCENE_DISTRIBUTIONS)
+    check_name("Meta-World task", name, TASKS)  # the env checks `obs` and `scenes`
     return __getattr__("MetaWorldEnv")(name, obs=obs, seed=seed, **options)
 
 
