@@ -290,9 +290,8 @@ def _yes_no(value: bool | None) -> str:
 def explanation_verdict(result: TableResult) -> Verdict:
     """HOLDS when LipVQ-VAE is both smoother (standardized) and more successful than VQ-VAE,
     DOES_NOT_HOLD when either goes the other way, else NOT_RUN or INCONCLUSIVE."""
-    found = {f["quantity"]: f for f in findings(result)}
-    smoother = Verdict(found["LipVQ-VAE's standardized least energy minus VQ-VAE's"]["verdict"])
-    better = Verdict(found["LipVQ-VAE's success minus VQ-VAE's"]["verdict"])
+    found = {f["kind"]: Verdict(f["verdict"]) for f in findings(result) if f["variant"] is None}
+    smoother, better = found["smoothness"], found["success"]
     if Verdict.NOT_RUN in (smoother, better):
         return Verdict.NOT_RUN
     if smoother == better == Verdict.HOLDS:
