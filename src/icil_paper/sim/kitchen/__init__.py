@@ -9,6 +9,7 @@ Importing this package does not import robosuite; building an env does.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from typing import Any
@@ -98,8 +99,6 @@ KITCHEN_SUITE = Suite(
     object_position=OBJECT_POSITION, unavailable=robosuite_problem,
     scenes=SCENE_DISTRIBUTIONS, families=TASK_FAMILIES,
     description="door and drawer tasks on robosuite (Panda), Table V's training tasks")
-KINOVA_SUITE = Suite(
-    name="kinova", tasks=tuple(KINOVA_TASKS), obs_dims=KITCHEN_OBS_DIMS,
-    control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,
-    object_position=OBJECT_POSITION, unavailable=robosuite_problem,
+KINOVA_SUITE = dataclasses.replace(  # the same envs and experts; one scene distribution
+    KITCHEN_SUITE, name="kinova", tasks=tuple(KINOVA_TASKS), scenes=(), families=None,
     description="door and drawer tasks on a Kinova3 arm with a simulated reality gap")
