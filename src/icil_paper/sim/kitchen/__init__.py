@@ -29,8 +29,6 @@ from icil_paper.sim.kitchen.tasks import (
 from icil_paper.sim.suite import Suite
 
 KITCHEN_OBS_DIMS = (KITCHEN_PROPRIO_DIM, KITCHEN_OBJECT_DIM)
-OBJECT_POSITION = (1, 4)
-"""The key point (the handle) in `obs["object"]`."""
 
 # robosuite picks its OpenGL backend when it is first imported (every module of this package
 # that imports it is imported through here); headless image observations need EGL.
@@ -96,7 +94,7 @@ def __getattr__(attr: str) -> Any:
 KITCHEN_SUITE = Suite(
     name="kitchen", tasks=tuple(KITCHEN_TASKS), obs_dims=KITCHEN_OBS_DIMS,
     control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,
-    object_position=OBJECT_POSITION, unavailable=robosuite_problem,
+    object_position=(1, 4), unavailable=robosuite_problem,  # the handle's position
     scenes=SCENE_DISTRIBUTIONS, families=TASK_FAMILIES,
     description="door and drawer tasks on robosuite (Panda), Table V's training tasks")
 KINOVA_SUITE = dataclasses.replace(  # the same envs and experts; one scene distribution

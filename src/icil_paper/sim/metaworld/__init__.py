@@ -30,14 +30,10 @@ from icil_paper.sim.metaworld.tasks import (
 )
 from icil_paper.sim.suite import Suite
 
-METAWORLD_OBS_DIMS = (PROPRIO_DIM, OBJECT_DIM)
-OBJECT_POSITION = (0, 3)
-"""The first object's position in `obs["object"]`."""
-
 # Headless image observations need EGL; MuJoCo picks its OpenGL backend when first imported.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-__all__ = ["METAWORLD_SUITE", "METAWORLD_TASKS", "METAWORLD_OBS_DIMS", "TASKS", "FAMILIES",
+__all__ = ["METAWORLD_SUITE", "METAWORLD_TASKS", "TASKS", "FAMILIES",
            "TASK_FAMILIES", "ALL_TASK_FAMILIES", "ROBOCASA_TASKS", "ML45_TRAIN", "ML45_HELD_OUT", "ZERO_SHOT_SPLIT",
            "SCENE_DISTRIBUTIONS", "CONTROL_FREQ", "MetaWorldTaskSpec", "family_of",
            "make_metaworld_env", "make_metaworld_expert", "metaworld_problem"]
@@ -77,9 +73,9 @@ def __getattr__(attr: str) -> Any:
 
 
 METAWORLD_SUITE = Suite(
-    name="metaworld", tasks=TASKS, obs_dims=METAWORLD_OBS_DIMS, control_freq=CONTROL_FREQ,
+    name="metaworld", tasks=TASKS, obs_dims=(PROPRIO_DIM, OBJECT_DIM), control_freq=CONTROL_FREQ,
     make_env=make_metaworld_env, make_expert=make_metaworld_expert,
-    object_position=OBJECT_POSITION, unavailable=metaworld_problem,
+    object_position=(0, 3), unavailable=metaworld_problem,  # the first object's position
     zero_shot_split=ZERO_SHOT_SPLIT, scenes=SCENE_DISTRIBUTIONS,
     families=ALL_TASK_FAMILIES,
     description="Meta-World (Sawyer) tasks: the paper's seven RoboCasa skill families and ML45")
