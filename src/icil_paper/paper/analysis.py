@@ -224,15 +224,13 @@ def bound_travel_frame():
     rows = [("the paper (500K iterations)", config.PAPER_TRAIN, 1.0)]
     rows += [(f"`{name}` preset", p.train, p.tokenizers.lipvq.lipschitz.c_lr_scale)
              for name in config.PRESET_NAMES for p in [config.get_preset(name)]]
-    out = []
-    for label, train, scale in rows:
-        out.append({"": label, "steps": train.steps, "warm-up": train.warmup_steps,
-                    "lr": train.lr,
-                    "sum of schedule factors": config.schedule_sum(train.warmup_steps, train.steps),
-                    "travel at the shared rate": config.bound_travel(train),
-                    "c_lr_scale": scale, "travel": config.bound_travel(train, scale),
-                    "travel / paper's": config.bound_travel(train, scale) / paper})
-    return pd.DataFrame(out).set_index("")
+    return pd.DataFrame([{
+        "": label, "steps": train.steps, "warm-up": train.warmup_steps, "lr": train.lr,
+        "sum of schedule factors": config.schedule_sum(train.warmup_steps, train.steps),
+        "travel at the shared rate": config.bound_travel(train),
+        "c_lr_scale": scale, "travel": config.bound_travel(train, scale),
+        "travel / paper's": config.bound_travel(train, scale) / paper}
+        for label, train, scale in rows]).set_index("")
 
 
 def binding_frame(result: TableResult, threshold: float = BINDS_AT):
