@@ -280,7 +280,11 @@ class KitchenEnv(TaskEnv):
     def render(self, camera: str = "agentview", size: int | tuple[int, int] = 256) -> np.ndarray:
         """An RGB frame (H, W, 3) uint8 from a camera of the scene (at most 640 x 480)."""
         width, height = (size, size) if np.isscalar(size) else size
-        self._ensure_render_context()
+        if self.sim._render_context_offscreen is None:  # a state env has none yet
+            from robosuite.utils.binding_utils import MjRenderContextOffscreen
+
+            MjRenderContextOffscreen(self.sim, device_id=-1)
+            self.sim._render_context_offscreen.vopt.geomgroup[0] = 0   # hide collision meshes
         rgb = self.sim.render(width=int(width), height=int(height), camera_name=camera)
         return np.ascontiguousarray(rgb[::-1])
 
@@ -296,13 +300,6 @@ class KitchenEnv(TaskEnv):
         self._env.close()
 
     # -----------------------------------------------------------------------------------------
-    def _ensure_render_context(self) -> None:
-        if self.sim._render_context_offscreen is None:
-            from robosuite.utils.binding_utils import MjRenderContextOffscreen
-
-            MjRenderContextOffscreen(self.sim, device_id=-1)
-            self.sim._render_context_offscreen.vopt.geomgroup[0] = 0   # hide collision meshes
-
     def _info(self, success: bool) -> dict[str, Any]:
         return {"success": bool(success), "joint_pos": self.scene.joint_pos(self.sim)}
 
