@@ -104,15 +104,10 @@ def suite_of(name: str) -> str:
     return prefix
 
 
-def _record_of(task: str):
-    """The `Suite` record of a task's suite, or None (an unknown or unloadable suite)."""
-    prefix = str(task).split("/", 1)[0]
-    return _load(prefix)[0] if prefix in SUITE_REGISTRY else None
-
-
 def task_family(task: str) -> str | None:
     """The paper's skill family (`SKILL_FAMILIES`) that `task` stands in for, or None."""
-    record = _record_of(task)
+    prefix = str(task).split("/", 1)[0]
+    record, _ = _load(prefix) if prefix in SUITE_REGISTRY else (None, None)
     return None if record is None else record.family_of(task)
 
 
@@ -123,7 +118,10 @@ def obs_dims(suite: str) -> tuple[int, int]:
 
 def object_position(task: str) -> tuple[int, int] | None:
     """The slice (start, stop) of `obs["object"]` holding an object's position, or None."""
-    record = _record_of(task)
+    prefix = str(task).split("/", 1)[0]
+    if prefix not in SUITE_REGISTRY:
+        return None
+    record, _ = _load(prefix)
     return None if record is None else record.object_position
 
 
