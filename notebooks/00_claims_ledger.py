@@ -17,15 +17,15 @@
 import pandas as pd
 from IPython.display import display
 
-from icil_paper.book.ledger import chapter_ledgers, reference_ledger
 from icil_paper.book.report import (
     REFERENCE,
+    chapter_ledgers,
     decision_rate,
-    details_frame,
     ledger_frame,
     ledger_views,
     older_ledger,
     reference_freshness,
+    reference_ledger,
     rerun_progress,
     retired_records,
     run_progress,
@@ -88,8 +88,7 @@ for source in quick:
 
 # %% tags=["remove-cell"]
 from icil_paper import verdict_words as words
-from icil_paper.book.ledger import committed_design
-from icil_paper.book.questions import QUESTIONS
+from icil_paper.book.report import QUESTIONS, committed_design
 from icil_paper.stats import Size
 
 # What the introduction pastes: for each of Sec. IV's questions, the claim that carries it
@@ -310,7 +309,7 @@ glue("ch00_rerun_commits", ", ".join(rerun["commits"]) or "none yet")
 # ## What each claim compares
 
 # %% tags=["remove-input", "hide-output"]
-display(details_frame(reference_ledger(ledgers)))
+display(ledger_frame(reference_ledger(ledgers), "details"))
 
 # %% [markdown]
 # ## Reference records made by older code

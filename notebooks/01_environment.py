@@ -29,7 +29,7 @@
 # %% tags=["hide-input"]
 import pandas as pd
 
-from icil_paper.book.environment import preset_fields
+from icil_paper.book.report import preset_fields
 from icil_paper.config import get_preset
 from icil_paper.setup.envcheck import environment_report, format_report
 

@@ -133,8 +133,7 @@ from IPython.display import Markdown, display
 
 from icil_paper.book.method import bound_figure, bound_history_figure, lipschitz_frame
 from icil_paper.book.studies import LIPSCHITZ_RADII as RADII
-from icil_paper.book.studies import lipschitz_study
-from icil_paper.book.summaries import SeedRecords
+from icil_paper.book.studies import SeedRecords, lipschitz_study
 from icil_paper.config import get_preset
 from icil_paper.results import ResultsStore
 

@@ -100,7 +100,6 @@ from icil_paper.book.components import (
     task_registry,
     zero_shot_lines,
 )
-from icil_paper.book.display import show_frame_or
 from icil_paper.book.studies import (
     demo_stage,
     expert_measurements,
@@ -110,6 +109,7 @@ from icil_paper.book.studies import (
 from icil_paper.config import get_preset
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import seed_everything
+from icil_paper.tables.display import show_frame_or
 from icil_paper.viz.viewer import show_recordings
 
 preset = get_preset()  # reads ICIL_PRESET

@@ -168,12 +168,11 @@ for name in ("mlp", "bin", "fast", "vq", "lfq", "lipvq"):
 from IPython.display import display
 
 from icil_paper.book.components import (
-                       paper_tokenizer_smoothness,
-                       smoothness_figure,
-                       tokenizer_frames,
+    paper_tokenizer_smoothness,
+    smoothness_figure,
+    tokenizer_frames,
 )
-from icil_paper.book.studies import tokenizer_latent_recording, tokenizer_study
-from icil_paper.book.summaries import SeedRecords
+from icil_paper.book.studies import SeedRecords, tokenizer_latent_recording, tokenizer_study
 from icil_paper.config import get_preset
 from icil_paper.results import ResultsStore
 from icil_paper.tokenizers import TOKENIZERS

@@ -43,8 +43,7 @@
 from IPython.display import Markdown, display
 from myst_nb import glue
 
-from icil_paper.book.ledger import committed_design
-from icil_paper.book.report import claims_figure, load_table, verdicts
+from icil_paper.book.report import claims_figure, committed_design, load_table, verdicts
 from icil_paper.config import get_preset
 from icil_paper.paper.table_i import TABLE_I_ROBOCASA
 from icil_paper.tables.display import show_comparison, show_motion, show_values, success_figure

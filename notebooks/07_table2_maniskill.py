@@ -34,7 +34,7 @@
 # %% tags=["remove-cell"]
 from myst_nb import glue
 
-from icil_paper.book.ledger import committed_design
+from icil_paper.book.report import committed_design
 
 seeds = committed_design("II")["seeds"].values() or [0]
 glue("ch07_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}")

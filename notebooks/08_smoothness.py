@@ -42,7 +42,7 @@
 # %% tags=["remove-cell"]
 from myst_nb import glue
 
-from icil_paper.book.ledger import committed_design
+from icil_paper.book.report import committed_design
 
 seeds = committed_design("III")["seeds"].values() or [0]
 glue("ch08_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}")
@@ -50,7 +50,6 @@ glue("ch08_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds
 # %% tags=["hide-input"]
 from IPython.display import Markdown, display
 
-from icil_paper.book.display import show_frame_or
 from icil_paper.book.experiments import (
     FIG4_TITLE,
     NO_SMOOTHNESS,
@@ -66,7 +65,7 @@ from icil_paper.paper.table_iii import (
     tsne_paths,
 )
 from icil_paper.results import results_root
-from icil_paper.tables.display import collapsed_frame, show_comparison
+from icil_paper.tables.display import collapsed_frame, show_comparison, show_frame_or
 from icil_paper.viz.recording import record_latent_trajectories
 from icil_paper.viz.viewer import show_recording
 

@@ -50,12 +50,11 @@
 # held-out actions, infinity norm).
 
 # %% tags=["hide-input"]
-from icil_paper.book.display import show_sources
 from icil_paper.book.experiments import comparison_list
 from icil_paper.book.report import load_table
 from icil_paper.config import get_preset
 from icil_paper.paper import analysis
-from icil_paper.tables.display import show_per_source
+from icil_paper.tables.display import show_per_source, show_sources
 
 preset = get_preset()
 results = load_table(preset, "analysis")

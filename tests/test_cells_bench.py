@@ -59,7 +59,7 @@ def test_a_worker_that_keeps_its_envs_writes_the_same_records(tmp_path, monkeypa
             run_cell("smoke", spec.to_dict(), [to_dict(e) for e in evals], [])
         return dict(phases.count)
 
-    rollouts._close_state()
+    rollouts.worker_state().close()
     monkeypatch.setenv("ICIL_RUNS", str(tmp_path / "kept-runs"))
     monkeypatch.setenv("ICIL_RESULTS", str(tmp_path / "kept"))
     assert cell(run)["eval.env_build"] == len(TASKS)
@@ -67,18 +67,18 @@ def test_a_worker_that_keeps_its_envs_writes_the_same_records(tmp_path, monkeypa
     assert "eval.env_build" not in counts and counts["eval.sim"] > 0
     kept = _eval_rows(ResultsStore("smoke"), second, evals)
 
-    rollouts._close_state()  # a fresh worker: every env built anew
+    rollouts.worker_state().close()  # a fresh worker: every env built anew
     monkeypatch.setenv("ICIL_RUNS", str(tmp_path / "fresh-runs"))
     monkeypatch.setenv("ICIL_RESULTS", str(tmp_path / "fresh"))
     assert cell(second)["eval.env_build"] == len(TASKS)
     assert _eval_rows(ResultsStore("smoke"), second, evals) == kept
-    rollouts._close_state()
+    rollouts.worker_state().close()
 
 
 def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch):
     from icil_paper.sim.synthetic import make_synthetic_env
 
-    rollouts._close_state()
+    rollouts.worker_state().close()
     monkeypatch.setattr(rollouts, "KEPT_ENVS", 2)
     from tools.bench.eval import ZeroActions
 
@@ -99,7 +99,7 @@ def test_the_kept_envs_are_capped_and_a_call_keeps_the_ones_it_uses(monkeypatch)
                           progress=False, keep_envs=True)
     assert kept() == ["synthetic/task0", "synthetic/task2"]  # task1's, unused, was closed
     assert rollouts.worker_state().envs[next(iter(rollouts.worker_state().envs))][0] is before
-    rollouts._close_state()
+    rollouts.worker_state().close()
 
 
 @pytest.mark.parametrize("kind", ["icrt_lipvq", "bc_transformer", "act_maniskill",

@@ -211,10 +211,12 @@ def test_every_pasted_number_is_glued_by_its_chapter(path):
 @pytest.fixture()
 def shown(monkeypatch):
     """What the book's display helpers display, in order (instead of a notebook's output)."""
-    from icil_paper.book import components, display
+    import IPython.display
+
+    from icil_paper.book import components
 
     out = []
-    for module in (display, components):
+    for module in (IPython.display, components):
         monkeypatch.setattr(module, "display", out.append)
     return out
 
@@ -260,7 +262,7 @@ def _table(table_id: str, cells) -> object:
 def test_display_helpers_name_each_source_and_say_when_there_is_nothing(shown):
     import pandas as pd
 
-    from icil_paper.book.display import show_frame_or, show_sources, source_paragraph
+    from icil_paper.tables.display import show_frame_or, show_sources, source_paragraph
 
     result = _table("prompt", {})
     assert source_paragraph("this build", result, lambda r: "a.", lambda r: "b.") == (
@@ -281,7 +283,7 @@ def test_chapter_0_ledgers_write_this_builds_and_read_the_committed_design(shown
     import os
     from pathlib import Path
 
-    from icil_paper.book.ledger import chapter_ledgers, committed_design, reference_ledger
+    from icil_paper.book.report import chapter_ledgers, committed_design, reference_ledger
     from icil_paper.config import get_preset
 
     ledgers = chapter_ledgers(get_preset("smoke"))
@@ -295,7 +297,7 @@ def test_chapter_0_ledgers_write_this_builds_and_read_the_committed_design(shown
 def test_the_committed_design_is_read_from_design_json(monkeypatch):
     import json
 
-    from icil_paper.book.ledger import committed_design
+    from icil_paper.book.report import committed_design
 
     monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
     design = committed_design("I")
@@ -310,7 +312,7 @@ def test_the_committed_design_is_read_from_design_json(monkeypatch):
 
 
 def test_chapter_1_lists_every_preset_field_with_its_docstring():
-    from icil_paper.book.environment import config_fields, preset_fields
+    from icil_paper.book.report import config_fields, preset_fields
     from icil_paper.config import get_preset
 
     preset = get_preset("smoke")
@@ -474,7 +476,7 @@ def test_chapter_5_tables_and_figure_from_made_up_seed_records():
         smoothness_figure,
         tokenizer_frames,
     )
-    from icil_paper.book.summaries import SeedRecords
+    from icil_paper.book.studies import SeedRecords
     from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
 
     paper = paper_tokenizer_smoothness()

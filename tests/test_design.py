@@ -260,13 +260,14 @@ def test_a_seed_counts_as_finished_once_every_record_its_row_reads_is_there(tmp_
 
 
 def test_the_interim_check_reads_every_row_at_the_seeds_finished_so_far(tmp_path):
-    from icil_paper.planning.design import at_seeds, interim_check
+    from icil_paper.planning.design import at_seeds, interim_ledger
 
     preset = smoke()
     assert set(planned_seeds(at_seeds(get_preset("reference"), 3)).values()) == {3}
     store = ResultsStore(preset.name, root=tmp_path)
-    assert interim_check(preset, store=store) == (0, None)  # nothing finished: no variance
-    seeds, problems = interim_check(preset, seeds=2, store=store)
+    assert interim_ledger(preset, store=store) == (0, None)  # nothing finished: no variance
+    seeds, ledger = interim_ledger(preset, seeds=2, store=store)
+    problems = design_problems(preset, {e.id: e.to_dict() for e in ledger})
     assert seeds == 2 and problems == design_problems(preset, {})  # no records: no power either
 
 

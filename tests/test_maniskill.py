@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from icil_paper.sim.rendering import vulkan_available, vulkan_skip_reason
+from icil_paper.sim.maniskill.env import vulkan_available, vulkan_skip_reason
 
 pytestmark = [pytest.mark.sim,
               pytest.mark.skipif(not vulkan_available(), reason=vulkan_skip_reason())]

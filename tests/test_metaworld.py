@@ -121,7 +121,7 @@ class TestSimulated:
     def test_every_task_has_its_policy_and_its_env(self):
         from metaworld.env_dict import ALL_V3_ENVIRONMENTS
 
-        from icil_paper.sim.metaworld.experts import POLICY_CLASSES
+        from icil_paper.sim.metaworld.env import POLICY_CLASSES
 
         assert {s.metaworld_id for s in METAWORLD_TASKS.values()} == set(ALL_V3_ENVIRONMENTS)
         rest = [f"metaworld/{n.removesuffix('-v3')}" for n in ALL_V3_ENVIRONMENTS]

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import torch
 
-from icil_paper import cli
+from icil_paper import cli, commands
 from icil_paper.config import get_preset
 from icil_paper.runspec import run_spec
 from icil_paper.sim.synthetic import synthetic_demos
@@ -240,7 +240,7 @@ def test_damaged_or_foreign_folder_is_refused_in_one_line(tmp_path, kind):
         load_tokenizer(folder)
     assert isinstance(exc.value, ValueError) and "\n" not in str(exc.value)
     assert "export" in str(exc.value)  # the fix: export it again
-    assert any(isinstance(exc.value, e) for e in cli.USER_ERRORS)  # the CLI's exit 2
+    assert any(isinstance(exc.value, e) for e in commands.USER_ERRORS)  # the CLI's exit 2
 
 
 def test_missing_folder_and_unfitted_tokenizer(tmp_path):

@@ -393,16 +393,22 @@ def test_the_configs_choices_are_the_components_own():
     from icil_paper.data.sources import SOURCES
     from icil_paper.policies import batching
     from icil_paper.policies.configs import ICRTConfig
-    from icil_paper.tokenizers import base, fast, vq
-    from icil_paper.tokenizers.configs import LipschitzOptions, VQConfig
+    from icil_paper.tokenizers import base, make_tokenizer
+    from icil_paper.tokenizers.configs import FASTConfig, LipschitzOptions, VQConfig
 
     choices = field_choices(VQConfig)
     assert choices["norm"] == base.ENCODER_NORMS
     assert choices["activation"] == tuple(base._ACTIVATIONS)
     assert choices["output_activation"] == tuple(base._OUTPUT_ACTIVATIONS)
-    assert choices["straight_through"] == vq.STRAIGHT_THROUGH
-    assert choices["codebook_init"] == vq.CODEBOOK_INITS
-    assert choices["mode"] == fast._MODES
+    actions = torch.as_tensor(np.random.default_rng(0).uniform(-1, 1, (2, 6, 3)), dtype=torch.float32)
+    for st in choices["straight_through"]:
+        for init in choices["codebook_init"]:  # each choice is a branch of vq's
+            tok = make_tokenizer(VQConfig(latent_dim=4, codebook_size=8, straight_through=st,
+                                          codebook_init=init), 3).train()
+            assert tok(actions).embeddings.shape == (2, 6, 4)
+    for mode in choices["mode"]:
+        tok = make_tokenizer(FASTConfig(latent_dim=4, vocab_size=300, chunk=2, mode=mode), 3)
+        assert tok.fit(actions.numpy())(actions).embeddings.shape == (2, 6, 4)
     assert OBS_KINDS == sim.OBS_KINDS and DEMO_SOURCES == SOURCES
     for query_start in field_choices(ICRTConfig)["query_start"]:  # the batcher takes each
         batching.prompt_query_batch(batching.DemoSet(synthetic_demos(1, 2, 6)), 1, 4, 1, 1,

@@ -145,9 +145,9 @@ def test_action_conversion_to_maniskill_controller():
 
 
 def test_rendering_check_reports_a_reason_or_nothing():
-    from icil_paper.sim import rendering
+    from icil_paper.sim.maniskill import env
 
-    reason = rendering.vulkan_skip_reason()
-    assert (reason == "") == rendering.vulkan_available()
-    assert "lavapipe" in rendering.LAVAPIPE_HOWTO and "bookworm-backports" in \
-        rendering.LAVAPIPE_HOWTO
+    reason = env.vulkan_skip_reason()
+    assert (reason == "") == env.vulkan_available()
+    assert "lavapipe" in env.LAVAPIPE_HOWTO and "bookworm-backports" in \
+        env.LAVAPIPE_HOWTO

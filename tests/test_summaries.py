@@ -1,4 +1,4 @@
-"""The chapters' seed summaries (`icil_paper.book.summaries`): means over seeds, intervals
+"""The chapters' seed summaries (`icil_paper.book.studies`): means over seeds, intervals
 and verdicts computed from the records a study stores; and the findings of chapters 02-05
 built on them (`icil_paper.book.method`, `icil_paper.book.components`)."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from icil_paper.book.summaries import SeedRecords
+from icil_paper.book.studies import SeedRecords
 
 
 def records():

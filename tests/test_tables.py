@@ -452,11 +452,9 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
 
     from icil_paper.book.report import (
         answering_ledger,
-        details_frame,
         forest_plot,
         ledger_frame,
         run_progress,
-        undecided_frame,
     )
     from icil_paper.planning.design import design_frame
     from icil_paper.planning.staged import as_run
@@ -465,8 +463,8 @@ def test_chapter_0_renders_every_piece_of_the_committed_reference_ledger(monkeyp
     monkeypatch.setenv("ICIL_RESULTS", str(ROOT / "results"))
     ledger = json.loads((ROOT / "results" / "reference" / "claims.json").read_text())["claims"]
     counts = summary(ledger)
-    assert counts["claims"] == len(ledger) == len(details_frame(ledger))
-    undecided = undecided_frame(ledger)
+    assert counts["claims"] == len(ledger) == len(ledger_frame(ledger, "details"))
+    undecided = ledger_frame(ledger, "undecided")
     assert len(undecided) == sum(as_entry(e).adjusted_verdict in ("inconclusive", "too few seeds")
                                  for e in ledger)
     forest_plot(ledger, title="reference")

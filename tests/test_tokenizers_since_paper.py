@@ -15,6 +15,7 @@ from icil_paper.data.trajectories import generate_trajectories
 from icil_paper.metrics import empirical_lipschitz
 from icil_paper.seeding import seed_everything
 from icil_paper.tokenizers import lipschitz_layers, lipschitz_loss, make_tokenizer
+from icil_paper.tokenizers.base import causal_chunks
 from icil_paper.tokenizers.configs import (
     SINCE_PAPER,
     BSplineConfig,
@@ -202,7 +203,7 @@ def test_bspline_step_embedding_ignores_future_actions(trajectories):
     tail = tok(x[:, -tok.context_steps:]).embeddings[:, -1]
     assert torch.equal(out.embeddings[:, -1], tail)
     # reconstruction: the decoded chunk ending at each step, at that step
-    chunks = tok._causal_chunks(x)[0]  # (T, C, A)
+    chunks = causal_chunks(x.double(), tok.chunk)[0]  # (T, C, A)
     decoded = tok.decode_codes(tok.encode_chunks(chunks))[:, -1]
     np.testing.assert_allclose(out.reconstruction[0].numpy(), decoded.numpy(), atol=1e-6)
     assert tok.tokens_per_step() == pytest.approx(4 * A / 6)

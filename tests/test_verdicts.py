@@ -321,7 +321,7 @@ def test_variance_parts_recover_the_simulated_seed_and_episode_noise():
 
 
 def test_chapter_0_lists_each_undecided_claim_with_its_power():
-    from icil_paper.book.report import undecided_frame
+    from icil_paper.book.report import ledger_frame
 
     held = {"id": "a", "adjusted_verdict": "holds", "ours": 0.1, "ci": [0.05, 0.15]}
     open_ = {"id": "b", "adjusted_verdict": "inconclusive", "ours": 0.01, "ci": [-0.04, 0.06],
@@ -332,7 +332,7 @@ def test_chapter_0_lists_each_undecided_claim_with_its_power():
     beyond = {"id": "d", "adjusted_verdict": "inconclusive", "ours": 0.02, "ci": [-0.03, 0.07],
               "paper": None, "reference_effect": 0.055, "power": 0.31, "mde": 0.098,
               "seeds_needed": 14}
-    frame = undecided_frame([held, open_, unplanned, beyond])
+    frame = ledger_frame([held, open_, unplanned, beyond], "undecided")
     assert list(frame.index) == ["b", "c", "d"]
     assert frame.loc["d"].to_dict() == {
         "decided": "inconclusive", "ours": frame.loc["d", "ours"], "sized against": "+0.055",
@@ -342,4 +342,4 @@ def test_chapter_0_lists_each_undecided_claim_with_its_power():
             frame.loc["b", "seeds needed"]) == ("+0.041", "23%", 26)
     assert frame.loc["c", "decided"] == "too few seeds"
     assert frame.loc["c", "note"] == "no reference effect" and frame.loc["c", "power"] == ""
-    assert undecided_frame([held]).empty
+    assert ledger_frame([held], "undecided").empty

@@ -60,7 +60,7 @@ def test_every_table_of_words_covers_the_verdicts_it_can_be_given():
     decided_or_not = set(Verdict) - {Verdict.NOT_RUN}
     for name in ("SMOOTHER", "TRAINING_WINDOW"):
         assert set(getattr(verdict_words, name)) == decided_or_not, name
-    for name in ("ANALYSIS_SMOOTH", "ANALYSIS_SUCCESS", "OUTCOME", "OUTCOME_SHORT", "COLOURS"):
+    for name in ("ANALYSIS_SMOOTH", "ANALYSIS_SUCCESS", "OUTCOME", "COLOURS"):
         assert set(getattr(verdict_words, name)) == set(Verdict), name
     assert set(verdict_words.LEDGER_ORDER) == set(Verdict)
     for v in decided_or_not:
@@ -112,8 +112,7 @@ def test_the_introduction_answers_the_three_questions_with_their_numbers():
     """Every claim that decides or stands beside a question is in the committed ledger with
     its number (what chapter 0 glues into the introduction), and the answer word follows
     the verdicts after Holm."""
-    from icil_paper.book.questions import QUESTIONS
-    from icil_paper.book.report import answering_ledger
+    from icil_paper.book.report import QUESTIONS, answering_ledger
     from icil_paper.config import get_preset
     from icil_paper.paper import CLAIM_LABELS, claims
     from icil_paper.tables.claims import load_ledger

@@ -13,14 +13,10 @@ import sys
 from collections.abc import Callable
 from functools import partial
 
-from icil_paper import commands
-from icil_paper.commands import Parser, RayUnavailable, run_module
+from icil_paper.commands import Parser, run_module
 from icil_paper.config import PRESET_NAMES, REFERENCE_BUDGET_HOURS, active_preset_name
 from icil_paper.plugins import load_plugins
 from icil_paper.setup.envcheck import environment_report, format_report
-
-USER_ERRORS: tuple[type[BaseException], ...] = (*commands.USER_ERRORS, RayUnavailable)
-"""What a command reports in one line (exit 2) instead of a traceback."""
 
 SUBCOMMANDS = {
     "demos": "generate demonstration data sets (robomimic HDF5)",
@@ -123,16 +119,13 @@ def _dispatch(command: str, argv: list[str]) -> int | None:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = [a for a in argv if a != "--debug"]
-    if not args or args[0] in ("-h", "--help"):
+    command = next((a for a in argv if a != "--debug"), "--help")
+    if command in ("-h", "--help"):
         build_parser().print_help()
         return 0
-    command, rest = args[0], args[1:]
-    if "--debug" in argv:
-        rest.append("--debug")  # run_module reads it
+    argv.remove(command)  # the rest, --debug included: run_module reads it
     try:
-        return run_module(f"icil-paper {command}", partial(_dispatch, command), rest,
-                          USER_ERRORS)
+        return run_module(f"icil-paper {command}", partial(_dispatch, command), argv)
     except KeyboardInterrupt:
         print(f"icil-paper {command}: interrupted; rerun the same command to resume",
               file=sys.stderr)

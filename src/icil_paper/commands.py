@@ -18,13 +18,15 @@ from typing import Any
 
 from icil_paper.config import PRESET_NAMES, active_preset_name, get_preset
 
-USER_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
-"""What a command reports in one line (exit 2) instead of a traceback."""
-
 
 class RayUnavailable(RuntimeError):
     """Ray is not installed, or could not be started or reached (`tables.cells`)."""
+
+
+USER_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError,
+    RayUnavailable)
+"""What a command reports in one line (exit 2) instead of a traceback."""
 
 
 class Parser(argparse.ArgumentParser):
@@ -95,15 +97,14 @@ def positive(name: str):
     return parse
 
 
-def run_module(prog: str, command: Any, argv: list[str] | None = None,
-               user_errors: tuple[type[BaseException], ...] = USER_ERRORS) -> int:
-    """`command(argv)` with the command line's errors: one of `user_errors` is one line and
+def run_module(prog: str, command: Any, argv: list[str] | None = None) -> int:
+    """`command(argv)` with the command line's errors: one of `USER_ERRORS` is one line and
     exit status 2 (`--debug` in argv shows the traceback)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     try:
         return int(command([a for a in argv if a != "--debug"]) or 0)
-    except user_errors as exc:
+    except USER_ERRORS as exc:
         if debug:
             raise
         message = " ".join(str(exc).split()) or type(exc).__name__

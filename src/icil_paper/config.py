@@ -26,12 +26,11 @@ from icil_paper.benchmark_tasks import ML45_HELD_OUT, ML45_TRAIN, ROBOCASA_TASKS
 from icil_paper.config_data import (
     KEYED_WHEN_SET,
     NOT_KEYED,
+    Checked,
     ConfigError,
     OverrideError,
-    check_fields,
     field_docs,
     from_dict,
-    to_dict,
     with_overrides,
 )
 from icil_paper.policies.configs import POLICY_REGISTRY
@@ -53,13 +52,6 @@ DEMO_SOURCES = ("generated", "human")
 """Demonstration sources (`icil_paper.data.sources.SOURCES`)."""
 
 
-class _Checked:
-    """Base of the preset's sections: each checks its own fields when it is built."""
-
-    def __post_init__(self) -> None:
-        check_fields(self)  # ranges, empty values, CHOICES (`config_data.check_fields`)
-
-
 def task_demo_counts(entries: Sequence[str]) -> dict[str, int]:
     """{task: demonstrations} from `TASK:N` entries; ConfigError for a bad or repeated one."""
     counts: dict[str, int] = {}
@@ -75,7 +67,7 @@ def task_demo_counts(entries: Sequence[str]) -> dict[str, int]:
 
 
 @dataclass(frozen=True)
-class DataConfig(_Checked):
+class DataConfig(Checked):
     """Which demonstrations are generated and how."""
 
     CHOICES = {"obs": OBS_KINDS, "sources": DEMO_SOURCES}
@@ -178,11 +170,11 @@ class ComponentConfigs(Mapping[str, Any]):
 
     def get(self, name: str):  # noqa: D102 (a registry name, not Mapping.get's default)
         """The config of component `name` (`lip-mlp` or `lip_mlp`)."""
-        names = {n: n.replace("-", "_") for n in self.REGISTRY.configs
-                 if n.replace("-", "_") in self._configs}
-        if name in self._configs:
-            return self._configs[name]
-        return self._configs[names[check_name(self.REGISTRY.kind, name, names)]]
+        attr = name.replace("-", "_")
+        if attr not in self._configs:
+            check_name(self.REGISTRY.kind, name, [n for n in self.REGISTRY.configs
+                                                  if n.replace("-", "_") in self._configs])
+        return self._configs[attr]
 
     def replace(self, **changes: Any):
         """A copy with some components' configs replaced."""
@@ -231,7 +223,7 @@ class PolicyConfigs(ComponentConfigs):
 
 
 @dataclass(frozen=True)
-class TrainConfig(_Checked):
+class TrainConfig(Checked):
     """The one training loop shared by every policy."""
 
     steps: int = 2000
@@ -259,7 +251,7 @@ class TrainConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class EvalConfig(_Checked):
+class EvalConfig(Checked):
     """Rollouts that turn a trained policy into a success rate."""
 
     episodes_per_task: int = 10
@@ -293,7 +285,7 @@ CONTINUATION_POWER = 0.1
 
 
 @dataclass(frozen=True)
-class TablesConfig(_Checked):
+class TablesConfig(Checked):
     """The paper's tables and figures: seeds, sweeps, sizes and the claims ledger's design."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"primary_claims": CLAIM_IDS}
@@ -394,7 +386,7 @@ class TablesConfig(_Checked):
 
 
 @dataclass(frozen=True)
-class Preset(_Checked):
+class Preset(Checked):
     """Everything a run depends on besides code: one object, saved with every result."""
 
     name: str = DEFAULT_PRESET
@@ -415,10 +407,6 @@ class Preset(_Checked):
     """Tokenizers trained alone (chapters 03 and 05)."""
     tables: TablesConfig = field(default_factory=TablesConfig)
     """The paper's tables and figures."""
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-ready dict (tuples become lists, component configs carry their type)."""
-        return to_dict(self)
 
     def with_overrides(self, overrides: Sequence[str]) -> Preset:
         """A copy with `SECTION.FIELD=VALUE` overrides applied (the CLI's `--set`)."""
@@ -472,11 +460,6 @@ def _lipschitz_twins(train: TrainConfig, c_lr_scale: float | None = None
     return {name: {"lipschitz": options} for name in ("lip-mlp", "lipvq", "lipfsq", "liprvq")}
 
 
-def _policies(**sizes: Any) -> PolicyConfigs:
-    """Every policy at the same transformer size (each size to the configs that have it)."""
-    return PolicyConfigs.build(sizes)
-
-
 def _tokenizers(latent_dim: int, codebook_size: int, **per_tokenizer: dict[str, Any]
                 ) -> TokenizerConfigs:
     """Every tokenizer at one width and codebook size, plus each one's own values by name."""
@@ -496,9 +479,9 @@ def _smoke() -> Preset:
                                rvq={"num_quantizers": 2, "codebook_size": 8},
                                bspline={"chunk": 4, "control_points": 4, "n_bins": 32},
                                **_lipschitz_twins(train)),
-        policies=_policies(d_model=32, n_layer=1, n_head=2, dropout=0.0, chunk_size=2,
-                           history=4, max_seq_len=1024, resnet_width=8, query_len=8,
-                           pretrain_steps=3, language=True),
+        policies=PolicyConfigs.build(dict(  # every policy at one size (where it has the field)
+            d_model=32, n_layer=1, n_head=2, dropout=0.0, chunk_size=2, history=4,
+            max_seq_len=1024, resnet_width=8, query_len=8, pretrain_steps=3, language=True)),
         train=train,
         eval=EvalConfig(episodes_per_task=1, max_steps=10, workers=1),
         tokenizer_study=TokenizerStudyConfig(steps=30, batch_size=8, window=8, n_trajectories=12,
@@ -525,9 +508,9 @@ def _small() -> Preset:
         name="small",
         data=DataConfig(demos_per_task=10, workers=2, expert_seeds=0),
         tokenizers=_small_tokenizers(train),
-        policies=_policies(d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4,
-                           history=10, max_seq_len=2048, resnet_width=16, query_len=0,
-                           pretrain_steps=100, language=True),
+        policies=PolicyConfigs.build(dict(
+            d_model=64, n_layer=2, n_head=2, dropout=0.0, chunk_size=4, history=10,
+            max_seq_len=2048, resnet_width=16, query_len=0, pretrain_steps=100, language=True)),
         train=train,
         eval=EvalConfig(episodes_per_task=1, max_steps=150, workers=2),
         tokenizer_study=TokenizerStudyConfig(steps=400, n_trajectories=64, n_eval_trajectories=16),
@@ -605,9 +588,9 @@ def _full() -> Preset:
                                rvq={"num_quantizers": 2, "codebook_size": 32},
                                bspline={"chunk": 16, "control_points": 8, "n_bins": 256},
                                **_lipschitz_twins(PAPER_TRAIN, c_lr_scale=1.0)),
-        policies=_policies(d_model=512, n_layer=6, n_head=8, dropout=0.1, chunk_size=16,
-                           history=10, max_seq_len=4096, resnet_width=64, query_len=0,
-                           pretrain_steps=20000, language=True),
+        policies=PolicyConfigs.build(dict(
+            d_model=512, n_layer=6, n_head=8, dropout=0.1, chunk_size=16, history=10,
+            max_seq_len=4096, resnet_width=64, query_len=0, pretrain_steps=20000, language=True)),
         train=TrainConfig(steps=500_000, batch_size=32, warmup_steps=2000, ckpt_every=5000,
                           ema_decay=0.999, cpu_threads=0),
         eval=EvalConfig(episodes_per_task=50, workers=16),

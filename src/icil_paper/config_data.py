@@ -92,18 +92,7 @@ def _replace(obj: Any, **changes: Any) -> Any:
     return obj.replace(**changes) if _is_section(obj) else dataclasses.replace(obj, **changes)
 
 
-@functools.cache
-def _hints(cls: type) -> dict[str, Any]:
-    return typing.get_type_hints(cls)
-
-
-def _is_keyed(f: dataclasses.Field) -> bool:
-    return f.metadata.get("key", True)
-
-
-def _unset(f: dataclasses.Field, value: Any) -> bool:
-    """A KEYED_WHEN_SET field at its default."""
-    return f.metadata.get("key") == "when_set" and value == f.default
+_hints = functools.cache(typing.get_type_hints)
 
 
 def config_class(base: type, type_name: str) -> type:
@@ -122,8 +111,8 @@ def to_dict(obj: Any, keyed_only: bool = False) -> Any:
         if getattr(obj, "type", None):
             out["type"] = obj.type
         for f in dataclasses.fields(obj):
-            value = getattr(obj, f.name)
-            if keyed_only and (not _is_keyed(f) or _unset(f, value)):
+            value, key = getattr(obj, f.name), f.metadata.get("key", True)
+            if keyed_only and (key is False or key == "when_set" and value == f.default):
                 continue
             out[f.name] = to_dict(value, keyed_only)
         return out
@@ -186,25 +175,13 @@ def _coerce(annotation: Any, value: Any, where: str) -> Any:
         if isinstance(value, Mapping) and not _is_section(value):
             return from_dict(annotation, value)
         return value
-    if annotation is bool:
-        if isinstance(value, bool):
-            return value
-        raise OverrideError(f"{where}: expected true or false, got {value!r}")
-    if annotation is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            if isinstance(value, float) and value.is_integer():
-                return int(value)
-            raise OverrideError(f"{where}: expected an integer, got {value!r}")
-        return value
-    if annotation is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise OverrideError(f"{where}: expected a number, got {value!r}")
-        return float(value)
-    if annotation is str:
-        if not isinstance(value, str):
-            raise OverrideError(f"{where}: expected a string, got {value!r}")
-        return value
-    if isinstance(annotation, type) and isinstance(value, annotation):
+    if annotation in (bool, int, float, str):  # JSON's scalars; a bool is no number
+        if annotation is int and isinstance(value, float) and value.is_integer():
+            return int(value)
+        kinds = (int, float) if annotation is float else annotation
+        if isinstance(value, kinds) and isinstance(value, bool) == (annotation is bool):
+            return float(value) if annotation is float else value
+    elif isinstance(annotation, type) and isinstance(value, annotation):
         return value
     raise OverrideError(f"{where}: expected {_type_name(annotation)}, got {value!r}")
 
@@ -250,23 +227,17 @@ def spec_key(spec: Any) -> str:
     return content_hash(to_dict(spec, keyed_only=True))
 
 
-def keyed_paths(cls_or_obj: Any, prefix: str = "") -> list[str]:
+def keyed_paths(obj: Any, prefix: str = "") -> list[str]:
     """Dotted paths of every keyed leaf field of a config (nested configs expanded)."""
-    obj = cls_or_obj
+    items = obj.items() if _is_section(obj) else (
+        (f.name, getattr(obj, f.name)) for f in dataclasses.fields(obj)
+        if f.metadata.get("key", True) is not False)  # NOT_KEYED
     paths = []
-    if _is_section(obj):
-        for name, value in obj.items():
-            paths += keyed_paths(value, f"{prefix}{name}.")
-        return paths
-    for f in dataclasses.fields(obj):
-        if not _is_keyed(f):
-            continue
-        value = getattr(obj, f.name) if not isinstance(obj, type) else None
-        path = f"{prefix}{f.name}"
+    for name, value in items:
         if dataclasses.is_dataclass(value) or _is_section(value):
-            paths += keyed_paths(value, path + ".")
+            paths += keyed_paths(value, f"{prefix}{name}.")
         else:
-            paths.append(path)
+            paths.append(f"{prefix}{name}")
     return paths
 
 
@@ -298,8 +269,18 @@ def replace_path(obj: Any, path: str, value: Any, _done: str = "") -> Any:
         valid = ", ".join(_names(current))
         raise OverrideError(f"{head} is a section; set one of its fields: {head}.<field> with "
                             f"<field> one of {valid}")
-    annotation = _hints(type(obj))[head]
-    return dataclasses.replace(obj, **{head: _coerce(annotation, value, f"{_done}{head}")})
+    annotation, where = _hints(type(obj))[head], f"{_done}{head}"
+    if value is not None and not isinstance(value, (list, tuple)) and _accepts_sequence(annotation):
+        value = [value]  # `--set data.sources=human` on a tuple field
+    try:
+        changed = dataclasses.replace(obj, **{head: _coerce(annotation, value, where)})
+    except OverrideError:
+        raise
+    except ValueError:  # refused by the config's own check: name the range by the path
+        check_range(where, value, annotation)
+        raise
+    check_range(where, value, annotation)
+    return changed
 
 
 def parse_override(text: str) -> tuple[str, Any]:
@@ -327,19 +308,8 @@ def with_overrides(obj: Any, overrides: Sequence[str]) -> Any:
     """`obj` with every `PATH=VALUE` of `overrides` applied in order (OverrideError on a bad one)."""
     for text in overrides or ():
         path, value = parse_override(text)
-        annotation = _leaf_annotation(obj, path)
-        if _accepts_sequence(annotation) and not isinstance(value, (list, tuple)) \
-                and value is not None:
-            value = [value]  # `--set data.sources=human` on a tuple field
         try:
-            try:
-                obj = replace_path(obj, path, value)
-            except OverrideError:
-                raise
-            except ValueError:  # refused by a config's own check: name the range by the path
-                check_range(path, value, annotation)
-                raise
-            check_range(path, value, annotation)
+            obj = replace_path(obj, path, value)
         except ValueError as exc:  # OverrideError, ConfigError, UnknownNameError
             raise OverrideError(f"--set {text}: {exc}") from None
     return obj
@@ -380,20 +350,33 @@ EMPTY_ALLOWED = frozenset({"hidden", "decoder_hidden", "maniskill_tasks", "row_s
 """Tuple fields that may be empty; every other tuple or string field needs a value."""
 
 
-def field_choices(cls: type) -> dict[str, tuple[str, ...]]:
-    """{field name: its valid strings} from the `CHOICES` of a config class and its bases."""
-    out: dict[str, tuple[str, ...]] = {}
+def field_choices(cls: type, attr: str = "CHOICES") -> dict[str, Any]:
+    """{field name: its valid strings} from the `CHOICES` of a config class and its bases
+    (`attr="AT_LEAST"`: {field name: the floor above 1 of each of its integers})."""
+    out: dict[str, Any] = {}
     for klass in reversed(cls.__mro__):
-        out.update(vars(klass).get("CHOICES", {}))
+        out.update(vars(klass).get(attr, {}))
     return out
+
+
+class Checked:
+    """Base of the configs: each checks its own fields when it is built (`check_fields`)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict (tuples become lists, component configs carry their type)."""
+        return to_dict(self)
 
 
 def check_fields(obj: Any) -> None:
     """The checks every config's `__post_init__` makes of its own fields: `check_range`, no
-    empty value (but `EMPTY_ALLOWED`), strings among `field_choices`; None passes."""
+    empty value (but `EMPTY_ALLOWED`), strings among `field_choices`, integers at least their
+    `AT_LEAST` floor; None passes."""
     cls = type(obj)
     hints = _hints(cls)
-    choices = field_choices(cls)
+    choices, floors = field_choices(cls), field_choices(cls, "AT_LEAST")
     for f in dataclasses.fields(obj):
         value = getattr(obj, f.name)
         if value is None or dataclasses.is_dataclass(value):
@@ -403,8 +386,11 @@ def check_fields(obj: Any) -> None:
         many = isinstance(value, (list, tuple))
         if many and not value and f.name not in EMPTY_ALLOWED:
             raise ConfigError(f"{where} needs at least one value, got an empty list")
-        valid = choices.get(f.name)
+        valid, low = choices.get(f.name), floors.get(f.name)
         for item in value if many else [value]:
+            if low is not None and item < low:
+                raise ConfigError(f"{where} must be at least {low}{' each' if many else ''}, "
+                                  f"got {value}")
             if not isinstance(item, str):
                 continue
             if not item.strip():
@@ -422,21 +408,7 @@ def _integer_field(annotation: Any) -> bool:
                and a is not Ellipsis)
 
 
-def _leaf_annotation(obj: Any, path: str) -> Any:
-    parts = path.split(".")
-    for part in parts[:-1]:
-        if not (dataclasses.is_dataclass(obj) or _is_section(obj)) or part not in _names(obj):
-            return None
-        obj = getattr(obj, part)
-    if not dataclasses.is_dataclass(obj):
-        return None
-    return _hints(type(obj)).get(parts[-1])
-
-
 def _accepts_sequence(annotation: Any) -> bool:
-    if annotation is None:
-        return False
-    if typing.get_origin(annotation) is tuple:
-        return True
-    return any(_accepts_sequence(a) for a in typing.get_args(annotation)
-               if typing.get_origin(annotation) in (typing.Union, types.UnionType))
+    origin = typing.get_origin(annotation)
+    return origin is tuple or origin in (typing.Union, types.UnionType) and any(
+        _accepts_sequence(a) for a in typing.get_args(annotation))

@@ -1,7 +1,8 @@
 """Files that are never half-written and never lost: atomic writes, damaged files set aside.
 
     atomic_write_json(path, obj)     # temporary file in the same folder, fsync, rename
-    aside = set_aside(path)          # `<name>.corrupt-<time>[-k]` beside it, never overwritten
+    with atomic_path(path) as tmp: ...   # the same for a writer that wants a path (h5py)
+    aside = set_aside(path)          # `<name>.corrupt-<time>-<random>` beside it, kept
     config = read_json(path, "a run config", fix="train the run again")   # one-line errors
     with exclusive_lock(folder / ".lock"):   # one writer at a time, across processes
         ...
@@ -58,21 +59,28 @@ def _umask() -> int:
     return mask
 
 
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write `data` to `path` atomically (temporary file, rename) with `open`'s usual mode."""
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside `path` to write; renamed onto `path` (fsync, `open`'s usual
+    mode) when the block ends, removed when it raises."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
     try:
-        os.chmod(tmp, 0o666 & ~_umask())
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
+        yield Path(tmp)
+        with open(tmp, "rb+") as f:
             os.fsync(f.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
-    except BaseException:
+    finally:
         Path(tmp).unlink(missing_ok=True)
-        raise
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write `data` to `path` atomically (`atomic_path`)."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def atomic_write_json(path: Path, obj: Any) -> None:
@@ -91,30 +99,24 @@ def file_sha256(path: str | Path) -> str:
 
 
 def set_aside(path: Path, folder: Path | None = None, why: str = "corrupt") -> Path | None:
-    """Move a damaged file (or folder) to a unique `<name>.<why>-<time>[-k]` name, in `folder`
-    (default: beside it); nothing is deleted. Returns the new path, or None when the file is
-    gone (another process set it aside first). `why="outdated"`: made by older code."""
+    """Move a damaged file (or folder) to a new `<name>.<why>-<time>-<random>` name, in
+    `folder` (default: beside it); nothing is deleted. Returns the new path, or None when the
+    file is gone (another process set it aside first). `why="outdated"`: made by older code."""
     path = Path(path)
     try:
         is_dir = path.is_dir()
     except OSError:
         is_dir = False
     target = Path(folder) / path.name if folder is not None else path
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
-    for k in range(1, 10_000):
-        # created exclusively (an empty folder for a folder), so no two callers share a name
-        aside = target.with_name(f"{target.name}.{why}-{stamp}" + (f"-{k}" if k > 1 else ""))
-        try:
-            if is_dir:
-                os.mkdir(aside)
-            else:
-                with open(aside, "x"):
-                    pass
-            break
-        except FileExistsError:
-            continue
+    # the new name is created exclusively (an empty folder for a folder): never shared
+    where = {"dir": target.parent, "prefix": f"{target.name}.{why}-"
+             f"{datetime.now().strftime('%Y%m%d-%H%M%S')}-"}
+    if is_dir:
+        aside = Path(tempfile.mkdtemp(**where))
     else:
-        raise RuntimeError(f"no free name to set {path} aside under")  # pragma: no cover
+        fd, name = tempfile.mkstemp(**where)
+        os.close(fd)
+        aside = Path(name)
     try:
         os.replace(path, aside)
     except BaseException as exc:
@@ -179,8 +181,9 @@ READ_ERRORS: tuple[type[BaseException], ...] = (
 """What parsers raise on a bad file (a truncated torch file: RuntimeError, EOFError, OSError)."""
 
 
-def _detail(exc: BaseException) -> str:
-    text = (str(exc).splitlines() or [""])[0][:80]
+def one_line(exc: BaseException, limit: int | None = None) -> str:
+    """`Type: the message's first line` (cut to `limit` characters), or the type alone."""
+    text = (str(exc).strip().splitlines() or [""])[0][:limit]
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
@@ -201,7 +204,7 @@ def load_file(path: str | Path, parse: Callable[[Path], T], what: str, fix: str,
     except UnreadableFileError:
         raise
     except READ_ERRORS as exc:
-        raise error(f"{path} is damaged or not {what} ({_detail(exc)}); {fix}") from None
+        raise error(f"{path} is damaged or not {what} ({one_line(exc, 80)}); {fix}") from None
 
 
 JSON_TYPES = {dict: "an object", list: "a list", str: "a string", int: "an integer",

@@ -23,8 +23,10 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 
-def _as_signal(x, width: int | None, name: str) -> np.ndarray | None:
-    """(T, width) (or (T, D) from (T,)) float64 array, or None where it holds non-finite values."""
+def _as_signal(x, width: int | None, name: str = "a latent trajectory",
+               strict: bool = False) -> np.ndarray | None:
+    """(T, width) (or (T, D) from (T,)) float64 array, or None where it holds non-finite values
+    (ValueError if `strict`)."""
     if hasattr(x, "detach"):
         x = x.detach().cpu().numpy()
     x = np.asarray(x, dtype=np.float64)
@@ -33,21 +35,15 @@ def _as_signal(x, width: int | None, name: str) -> np.ndarray | None:
     if x.ndim != 2 or (width is not None and x.shape[1] != width):
         shape = f"(T, {width})" if width is not None else "(T, D) or (T,)"
         raise ValueError(f"{name} must be shaped {shape}, got {x.shape}")
+    if strict and not np.isfinite(x).all():
+        raise ValueError(f"{name} contains NaN or inf values")
     return x if np.isfinite(x).all() else None
-
-
-def _as_curve(z) -> np.ndarray:
-    """A latent trajectory (T, D) or (T,) -> float64 (T, D); ValueError for NaN or inf."""
-    curve = _as_signal(z, None, "a latent trajectory")
-    if curve is None:
-        raise ValueError("the latent trajectory contains NaN or inf values")
-    return curve
 
 
 def least_energy(z) -> float:
     """The paper's smoothness score: sum_t ||z[t+2] - 2 z[t+1] + z[t]||^2 over z (T, D);
     lower is smoother, 0 for fewer than 3 points."""
-    z = _as_curve(z)
+    z = _as_signal(z, None, strict=True)
     if len(z) < 3:
         return 0.0
     accel = z[2:] - 2 * z[1:-1] + z[:-2]  # (T-2, D)
@@ -82,7 +78,7 @@ def _curve_set(trajectories) -> list[np.ndarray]:
     if isinstance(trajectories, np.ndarray) and trajectories.ndim != 3:
         raise ValueError("a set of latent trajectories must be a sequence of (T, D) arrays or "
                          f"one array (N, T, D), got an array shaped {trajectories.shape}")
-    curves = [_as_curve(z) for z in trajectories]
+    curves = [_as_signal(z, None, strict=True) for z in trajectories]
     if not curves:
         raise ValueError("no latent trajectories to score")
     widths = sorted({c.shape[1] for c in curves})

@@ -20,13 +20,15 @@ component passes its kind's probe); a bad one raises `PluginError`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import importlib
 import importlib.metadata
 import importlib.util
+import re
 import sys
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -132,20 +134,13 @@ def load_plugin(spec: str) -> Plugin:
     """Import one module (a dotted name) or file (a path) and check what it registered."""
     if not isinstance(spec, str) or not spec.strip():
         raise PluginError("--plugin needs a module name or a .py file, got an empty value")
-    key = str(Path(spec).resolve()) if _is_file(spec) else spec
+    path = Path(spec).resolve() if _is_file(spec) else None
+    key = str(path) if path else spec
     if key in _LOADED:
         return _LOADED[key]
     discover()
-    if _is_file(spec):
-        path = Path(spec).resolve()
-        if not path.is_file():
-            raise PluginError(f"plugin {spec}: no such file; pass the path of a .py file "
-                              "that registers a tokenizer or policy, or an importable module")
-        digest = hashlib.sha256(str(path).encode()).hexdigest()[:8]
-        module_name = f"icil_plugin_{_identifier(path.stem)}_{digest}"
-        source = "file"
-    else:
-        module_name, source, path = spec, "module", None
+    if path is None:
+        module_name = spec
         try:
             found = importlib.util.find_spec(spec)
         except (ImportError, ValueError):
@@ -153,55 +148,86 @@ def load_plugin(spec: str) -> Plugin:
         if found is None:
             raise PluginError(f"plugin {spec}: no module named {spec!r} on the import path; "
                               "install the package that provides it, or pass a .py file")
-    names = _import_checked(spec, module_name, path)
-    plugin = _describe(spec, source, module_name, names)
-    _LOADED[key] = plugin
-    return plugin
+        load = functools.partial(importlib.import_module, spec)
+    else:
+        if not path.is_file():
+            raise PluginError(f"plugin {spec}: no such file; pass the path of a .py file "
+                              "that registers a tokenizer or policy, or an importable module")
+        digest = hashlib.sha256(str(path).encode()).hexdigest()[:8]
+        module_name = f"icil_plugin_{_identifier(path.stem)}_{digest}"
+        load = functools.partial(_exec_file, module_name, path)
+
+    names = _load_checked(f"plugin {spec}", load, "fix the module", module_name)
+    _LOADED[key] = _describe(spec, "file" if path else "module", module_name, names)
+    return _LOADED[key]
+
+
+def _exec_file(module_name: str, path: Path) -> None:
+    loader_spec = importlib.util.spec_from_file_location(module_name, path)
+    module = importlib.util.module_from_spec(loader_spec)
+    sys.modules[module_name] = module  # dataclasses look the module up by name
+    loader_spec.loader.exec_module(module)
 
 
 def load_entry_points(reg: ComponentRegistry) -> None:
     """Load and check the entry points of `reg.group` (`discover` calls it once)."""
-    if not reg.group:
-        return
-    for ep in importlib.metadata.entry_points(group=reg.group):
+    for ep in importlib.metadata.entry_points(group=reg.group) if reg.group else ():
         spec = f"{ep.name} = {ep.value}"
         if spec in _LOADED:
             continue
-        where = f"entry point {ep.name!r} of group {reg.group}"
+        where = f"entry point {ep.name!r} ({ep.value}) of group {reg.group}"
         dist = getattr(ep, "dist", None)
         if dist is not None:
             where += f" (package {dist.metadata['Name']} {dist.version})"
-        module_name = ep.value.partition(":")[0].strip()
-        before = _registered()
+        names = _load_checked(where, ep.load, "reinstall or fix the package, or uninstall it",
+                              kind=reg.kind, name=ep.name)
+        _LOADED[spec] = _describe(spec, "entry point", ep.value.partition(":")[0].strip(), names,
+                                  dist)
+
+
+def _load_checked(where: str, load: Callable[[], Any], fix: str, module_name: str | None = None,
+                  kind: str | None = None, name: str | None = None) -> dict[str, tuple[str, ...]]:
+    """What `load()` (an import) registered, each component checked: something (with
+    `kind`, an entry point's, a component of that kind or one already called `name`). On a
+    problem a PluginError (`fix` for a failed import), the registries and `sys.modules` left
+    as they were."""
+    before = _registered()
+    try:
         try:
-            ep.load()
+            load()
         except NameClashError as exc:
-            _forget(before)
-            raise _clash(where, exc) from None
-        except ImportError as exc:
-            _forget(before)
-            raise PluginError(f"{where}: cannot import {ep.value!r} ({_line(exc)}); "
-                              "reinstall the package or remove it") from None
+            holder = owner(exc.kind, exc.name)
+            by = f"the plugin {holder.spec}" if holder else "a built-in"
+            raise PluginError(f"{where} registers the {exc.kind} {exc.name!r}, a name {by} "
+                              "already has; register it under another name") from None
         except Exception as exc:
-            _forget(before)
-            raise PluginError(f"{where}: importing {ep.value!r} failed ({_line(exc)}); "
-                              "fix the module or uninstall the package") from None
+            if isinstance(exc, TypeError) and "non-default argument" in str(exc):
+                raise PluginError(f"{where}: a config class has a field without a default "
+                                  f"({_line(exc)}); give every field a default, so that a "
+                                  "preset can build it") from exc
+            raise PluginError(f"{where}: importing it failed ({_line(exc)}); {fix}") from exc
         names = _new_names(before)
-        if not names.get(reg.kind) and ep.name not in reg.configs:
-            _forget(before)
-            raise PluginError(f"{where}: {ep.value!r} registers no {reg.kind} (and none "
-                              f"named {ep.name!r}); decorate its config class with "
-                              f"@register_{reg.kind}")
-        _check_names(where, names)
-        plugin = _describe(spec, "entry point", module_name, names)
-        if dist is not None:
-            plugin = dataclasses.replace(plugin, distribution=dist.metadata["Name"],
-                                         version=dist.version)
-        _LOADED[spec] = plugin
+        if kind is None and not any(names.values()):
+            raise PluginError(f"{where} registers nothing: decorate its config class with "
+                              "@register_tokenizer(name, 'Class') or @register_policy(name, "
+                              "'Class') (see icil_paper.plugins)")
+        if kind is not None and not names.get(kind) and name not in REGISTRIES[kind].configs:
+            raise PluginError(f"{where} registers no {kind} (and none named {name!r}); "
+                              f"decorate its config class with @register_{kind}")
+        for new_kind, new in names.items():
+            for new_name in new:
+                _check_component(where, new_kind, new_name, REGISTRIES[new_kind].configs[new_name])
+    except PluginError:
+        for new_kind, new in _new_names(before).items():  # unregister what it registered
+            REGISTRIES[new_kind].forget(new)
+        if module_name:
+            sys.modules.pop(module_name, None)
+        raise
+    return names
 
 
 def _identifier(text: str) -> str:
-    out = "".join(c if c.isalnum() or c == "_" else "_" for c in text)
+    out = re.sub(r"\W", "_", text)
     return out if out and not out[0].isdigit() else f"_{out}"
 
 
@@ -221,71 +247,17 @@ def _new_names(before: Mapping[str, Mapping[str, type]]) -> dict[str, tuple[str,
             for kind, reg in REGISTRIES.items()}
 
 
-def _forget(before: Mapping[str, Mapping[str, type]]) -> None:
-    """Unregister what a failed plugin registered, so the process stays as it was."""
-    for kind, names in _new_names(before).items():
-        REGISTRIES[kind].forget(names)
-
-
-def _clash(where: str, exc: NameClashError) -> PluginError:
-    holder = owner(exc.kind, exc.name)
-    by = f"the plugin {holder.spec}" if holder else "a built-in"
-    return PluginError(f"{where} registers the {exc.kind} {exc.name!r}, a name {by} "
-                       "already has; register it under another name")
-
-
-def _import_checked(spec: str, module_name: str, path: Path | None) -> dict[str, tuple]:
-    where = f"plugin {spec}"
-    before = _registered()
-    try:
-        try:
-            if path is None:
-                importlib.import_module(module_name)
-            else:
-                loader_spec = importlib.util.spec_from_file_location(module_name, path)
-                module = importlib.util.module_from_spec(loader_spec)
-                sys.modules[module_name] = module  # dataclasses look the module up by name
-                loader_spec.loader.exec_module(module)
-        except NameClashError as exc:
-            raise _clash(where, exc) from None
-        except Exception as exc:
-            if isinstance(exc, TypeError) and "non-default argument" in str(exc):
-                raise PluginError(f"{where}: a config class has a field without a default "
-                                  f"({_line(exc)}); give every field a default, so that a "
-                                  "preset can build it") from exc
-            raise PluginError(f"{where}: importing it failed ({_line(exc)}); fix the "
-                              "module") from exc
-        names = _new_names(before)
-        if not any(names.values()):
-            raise PluginError(f"{where} registers nothing: decorate its config class with "
-                              "@register_tokenizer(name, 'Class') or @register_policy(name, "
-                              "'Class') (see icil_paper.plugins)")
-        _check_names(where, names)
-    except PluginError:
-        _forget(before)
-        sys.modules.pop(module_name, None)
-        raise
-    return names
-
-
-def _check_names(where: str, names: Mapping[str, tuple[str, ...]]) -> None:
-    for kind, new in names.items():
-        for name in new:
-            cls = REGISTRIES[kind].configs[name]
-            check_config_class(where, kind, name, cls)
-            probe_component(where, kind, name, cls)
-
-
-def check_config_class(where: str, kind: str, name: str, cls: type) -> None:
-    """Every field has a default, the defaults pass the class's own checks, and its
-    `__post_init__` checks values (refuses -1 for the base's `VALIDATION_PROBE` field)."""
+def _check_component(where: str, kind: str, name: str, cls: type) -> None:
+    """Every field of its config class has a default, the defaults pass the class's own
+    checks, its `__post_init__` checks values (refuses -1 for the base's `VALIDATION_PROBE`
+    field), and the component passes its kind's own check (`ComponentRegistry.probe`)."""
+    what = f"{where}: the config class {cls.__name__} of {kind} {name!r}"
     missing = [f.name for f in dataclasses.fields(cls) if f.init
                and f.default is dataclasses.MISSING
                and f.default_factory is dataclasses.MISSING]
     if missing:
-        raise PluginError(f"{where}: the config class {cls.__name__} of {kind} {name!r} has "
-                          f"fields without a default ({', '.join(missing)}); give each a "
-                          "default, so that a preset can build it")
+        raise PluginError(f"{what} has fields without a default ({', '.join(missing)}); give "
+                          "each a default, so that a preset can build it")
     try:
         config = cls()
     except Exception as exc:
@@ -295,51 +267,45 @@ def check_config_class(where: str, kind: str, name: str, cls: type) -> None:
     try:
         dataclasses.replace(config, **{probe: -1})
     except ValueError:
-        return
+        pass
     except Exception as exc:
-        raise PluginError(f"{where}: the config class {cls.__name__} of {kind} {name!r} "
-                          f"fails on a bad value with {_line(exc)} instead of a ValueError; "
-                          "let its __post_init__ call super().__post_init__()") from None
-    raise PluginError(f"{where}: the config class {cls.__name__} of {kind} {name!r} does "
-                      f"not check its values ({probe}=-1 passes); its __post_init__ must "
-                      "call super().__post_init__()")
-
-
-def probe_component(where: str, kind: str, name: str, cls: type) -> None:
-    """Run its kind's own check (`ComponentRegistry.probe`) on the default config of a
-    component a plugin registered; PluginError naming the problem."""
-    check = REGISTRIES[kind].probe
-    if check is None:
+        raise PluginError(f"{what} fails on a bad value with {_line(exc)} instead of a "
+                          "ValueError; let its __post_init__ call super().__post_init__()"
+                          ) from None
+    else:
+        raise PluginError(f"{what} does not check its values ({probe}=-1 passes); its "
+                          "__post_init__ must call super().__post_init__()")
+    if REGISTRIES[kind].probe is None:
         return
     with warnings.catch_warnings():  # a broken component's broadcasting warnings say less
         warnings.simplefilter("ignore")
         try:
-            problem = check(cls())
+            problem = REGISTRIES[kind].probe(cls())
         except Exception as exc:
             problem = f"raises {_line(exc)}"
     if problem:
         raise PluginError(f"{where}: the {kind} {name!r}, {problem}")
 
 
-def _describe(spec: str, source: str, module_name: str,
-              names: Mapping[str, tuple[str, ...]]) -> Plugin:
+def _describe(spec: str, source: str, module_name: str, names: Mapping[str, tuple[str, ...]],
+              dist: Any = None) -> Plugin:
     module = sys.modules.get(module_name)
     file = getattr(module, "__file__", None)
     sha = hashlib.sha256(Path(file).read_bytes()).hexdigest() if file and Path(
         file).is_file() else None
-    dist = version = None
-    if source == "module":
-        top = module_name.split(".")[0]
-        dists = importlib.metadata.packages_distributions().get(top) or []
+    name = version = None
+    if dist is not None:
+        name, version = dist.metadata["Name"], dist.version
+    elif source == "module":
+        dists = importlib.metadata.packages_distributions().get(module_name.split(".")[0])
         if dists:
-            dist = dists[0]
             try:
-                version = importlib.metadata.version(dist)
+                name, version = dists[0], importlib.metadata.version(dists[0])
             except importlib.metadata.PackageNotFoundError:
-                dist = None
+                pass
     return Plugin(spec=spec, source=source, module=module_name,
                   names={k: tuple(v) for k, v in names.items() if v}, path=file,
-                  sha256=sha, distribution=dist, version=version)
+                  sha256=sha, distribution=name, version=version)
 
 
 def needed_by(records: Sequence[Mapping[str, Any]]) -> str:

@@ -105,6 +105,10 @@ class ComponentRegistry(Mapping[str, type]):
 
         return decorate
 
+    def default(self, name: str, **fields: Any) -> Any:
+        """The default config of component `name`, with some fields changed."""
+        return self.configs[check_name(self.kind, name, self.configs)](**fields)
+
     def forget(self, names: Iterable[str]) -> None:
         """Unregister components (a plugin that failed its checks)."""
         for name in names:

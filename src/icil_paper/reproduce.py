@@ -12,6 +12,7 @@ its design first and runs its table stages look by look (`icil_paper.planning.st
 
 from __future__ import annotations
 
+import itertools
 import sys
 import time
 
@@ -65,16 +66,8 @@ TOGETHER: list[list[str]] = []
 def table_blocks(names: list[str]) -> list[list[str]]:
     """The table ids of `names` in blocks of consecutive table stages:
     ["table-icrt", "lipschitz", "table-I", "table-V"] -> [["icrt"], ["I", "V"]]."""
-    blocks: list[list[str]] = []
-    after_table = False
-    for name in names:
-        is_table = name.startswith("table-")
-        if is_table and not after_table:
-            blocks.append([])
-        if is_table:
-            blocks[-1].append(name.removeprefix("table-"))
-        after_table = is_table
-    return blocks
+    runs = itertools.groupby(names, key=lambda name: name.startswith("table-"))
+    return [[name.removeprefix("table-") for name in run] for is_table, run in runs if is_table]
 
 
 def _table(table_id: str) -> Stage:
@@ -163,9 +156,8 @@ def main(argv: list[str] | None = None) -> int:
     preset = preset_from_args(args)
     check_tasks(preset)
     check_row_seeds(preset)
-    if args.stages:
-        for name in args.stages:
-            check_name("stage", name, [s.name for s in STAGES])
+    for name in args.stages or []:
+        check_name("stage", name, [s.name for s in STAGES])
     check_outputs(preset)
     if args.executor == "ray" and args.ray_address:
         check_reachable(args.ray_address)  # before any stage, not after the data sets

@@ -299,16 +299,12 @@ def _non_finite(value: Any, where: str = "") -> tuple[str, float] | None:
     if hasattr(value, "tolist") and not isinstance(value, numbers.Number):
         value = value.tolist()  # numpy arrays, torch tensors
     if isinstance(value, Mapping):
-        for key, item in value.items():
-            found = _non_finite(item, f"{where}[{key!r}]" if where else repr(key))
-            if found is not None:
-                return found
+        items = ((f"{where}[{key!r}]" if where else repr(key), item)
+                 for key, item in value.items())
     elif isinstance(value, (list, tuple)):
-        for i, item in enumerate(value):
-            found = _non_finite(item, f"{where}[{i}]")
-            if found is not None:
-                return found
-    elif isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral):
-        if not math.isfinite(float(value)):
-            return where, float(value)
-    return None
+        items = ((f"{where}[{i}]", item) for i, item in enumerate(value))
+    else:
+        real = isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral)
+        return (where, float(value)) if real and not math.isfinite(float(value)) else None
+    return next((found for at, item in items if (found := _non_finite(item, at)) is not None),
+                None)

@@ -21,11 +21,10 @@ from typing import Any
 from icil_paper.config import DEMO_SOURCES, OBS_KINDS, Preset, TrainConfig, task_demo_counts
 from icil_paper.config_data import (
     KEYED_WHEN_SET,
+    Checked,
     ConfigError,
-    check_fields,
     from_dict,
     spec_key,
-    to_dict,
 )
 from icil_paper.policies.configs import PolicyConfig, resolve_tokenizer
 from icil_paper.seeding import data_set_seed
@@ -41,7 +40,7 @@ evaluation key; raise it whenever one of them changes."""
 
 
 @dataclass(frozen=True)
-class DataSpec:
+class DataSpec(Checked):
     """The demonstrations a policy is trained on."""
 
     CHOICES = {"obs": OBS_KINDS, "source": (*DEMO_SOURCES, "file")}
@@ -68,7 +67,7 @@ class DataSpec:
     """The task suites' version the demonstrations were made on (`SUITE_VERSION`)."""
 
     def __post_init__(self) -> None:
-        check_fields(self)  # a task list, a source, an observation kind: before any work
+        super().__post_init__()  # a task list, a source, an observation kind: before any work
         task_demo_counts(self.task_demos)
 
     def demos_for(self, task: str) -> int:
@@ -82,7 +81,7 @@ class DataSpec:
 
 
 @dataclass(frozen=True)
-class RunSpec:
+class RunSpec(Checked):
     """One training run: what it learns from, what it trains and how."""
 
     data: DataSpec
@@ -106,9 +105,6 @@ class RunSpec:
         """The content key of this run (see the module docstring)."""
         return spec_key(self)
 
-    def to_dict(self) -> dict[str, Any]:
-        return to_dict(self)
-
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> RunSpec:
         return from_dict(cls, data)
@@ -123,7 +119,7 @@ every evaluation's key; raise it whenever a record gains a measurement."""
 
 
 @dataclass(frozen=True)
-class EvalSpec:
+class EvalSpec(Checked):
     """Rollouts of one trained policy on one task."""
 
     CHOICES = {"prompt_source": DEMO_SOURCES, "scenes": SCENE_DISTRIBUTIONS}
@@ -150,17 +146,14 @@ class EvalSpec:
     """The task suites' version the episodes are played on (`SUITE_VERSION`)."""
 
     def __post_init__(self) -> None:
-        check_fields(self)
+        super().__post_init__()
         if self.record_version != EVAL_RECORD_VERSION:
             raise ConfigError(f"EvalSpec.record_version {self.record_version}: this code "
                              f"computes evaluation records of version {EVAL_RECORD_VERSION}")
 
-    def to_dict(self) -> dict[str, Any]:
-        return to_dict(self)
-
 
 @dataclass(frozen=True)
-class FeatureSpec:
+class FeatureSpec(Checked):
     """Latent features of held-out trajectories through a trained policy's tokenizer (Table III)."""
 
     CHOICES = {"sampling": ("per_task", "task_order")}
@@ -178,7 +171,7 @@ class FeatureSpec:
     of the trajectories in task order."""
 
     def __post_init__(self) -> None:
-        check_fields(self)
+        super().__post_init__()
         if self.sampling == "per_task" and self.steps // len(self.data.tasks) < 3:
             raise ConfigError(f"FeatureSpec.steps {self.steps} gives each of the "
                               f"{len(self.data.tasks)} tasks fewer than the 3 steps a least "

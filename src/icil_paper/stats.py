@@ -283,14 +283,17 @@ def holm(p_values: Sequence[float | None], alpha: float = ALPHA) -> list[bool]:
 
 
 def adjusted_verdicts(estimates: Sequence[Estimate | None], directions: Sequence[int],
-                      alpha: float = ALPHA, weights=None) -> list[Verdict]:
+                      alpha: float = ALPHA, weights=None, tested=None) -> list[Verdict]:
     """Verdicts after the graph (Holm; with `weights`, weighted Holm): a rejected claim keeps
-    its side, another testable one is inconclusive, the others (None: not run) stay."""
-    tests = [e and decision_p_value(e, d) for e, d in zip(estimates, directions, strict=True)]
+    its side, any other is inconclusive, or too few seeds / not run (None) as it was; one
+    not `tested` (a descriptive claim; default: all are) is in the graph without a test."""
+    tests = [decision_p_value(e, d) if e is not None and test else None for e, d, test in
+             zip(estimates, directions, tested or [True] * len(estimates), strict=True)]
     weights = np.full(len(tests), 1 / max(len(tests), 1)) if weights is None else weights
     rejected = graph_test([t and t[0] for t in tests], weights, alpha=alpha)[0]
-    return [Verdict.NOT_RUN if e is None else verdict(e, d) if t is None
-            else t[1] if r else Verdict.INCONCLUSIVE
+    return [Verdict.NOT_RUN if e is None else t[1] if r
+            else Verdict.TOO_FEW_SEEDS if verdict(e, d) == Verdict.TOO_FEW_SEEDS
+            else Verdict.INCONCLUSIVE
             for e, d, t, r in zip(estimates, directions, tests, rejected, strict=True)]
 
 
@@ -456,12 +459,9 @@ class SequentialDesign:
         `decision_p_value` on repeated p-values, with its side."""
         out, best = [], None
         for k, est in enumerate(looks):
-            def swap(e, k=k):
-                return replace(e, p_value=None if e.p_value is None
-                               else float(self.repeated_p_value(e.p_value, k)))
-
-            test = decision_p_value(replace(swap(est), components=tuple(
-                map(swap, est.components))), direction)
+            first, *rest = [replace(e, p_value=None if e.p_value is None else float(
+                self.repeated_p_value(e.p_value, k))) for e in (est, *est.components)]
+            test = decision_p_value(replace(first, components=tuple(rest)), direction)
             best = test if test is not None and (best is None or test[0] < best[0]) else best
             out.append(best)
         return out

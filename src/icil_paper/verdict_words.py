@@ -68,16 +68,15 @@ SMOOTHER = {HOLDS: "smoother", DOES_NOT_HOLD: "less smooth",
             TOO_FEW_SEEDS: "not decided (a single training seed)"}
 """A least-energy difference (claimed: lower, the first row smoother) in words."""
 
-ANALYSIS_SMOOTH = {HOLDS: "smoother", DOES_NOT_HOLD: "less smooth",
-                   INCONCLUSIVE: "not measurably different in smoothness",
-                   TOO_FEW_SEEDS: "undecided in smoothness (too few seeds)",
-                   NOT_RUN: "not yet measured in smoothness"}
+def _finding(more: str, less: str, what: str) -> dict[Verdict, str]:
+    return {HOLDS: more, DOES_NOT_HOLD: less, INCONCLUSIVE: f"not measurably different in {what}",
+            TOO_FEW_SEEDS: f"undecided in {what} (too few seeds)", NOT_RUN: f"not yet measured in {what}"}
+
+
+ANALYSIS_SMOOTH = _finding("smoother", "less smooth", "smoothness")
 """The analysis table's smoothness finding (claimed: the variant is smoother)."""
 
-ANALYSIS_SUCCESS = {HOLDS: "more successful", DOES_NOT_HOLD: "less successful",
-                    INCONCLUSIVE: "not measurably different in success",
-                    TOO_FEW_SEEDS: "undecided in success (too few seeds)",
-                    NOT_RUN: "not yet measured in success"}
+ANALYSIS_SUCCESS = _finding("more successful", "less successful", "success")
 """The analysis table's success finding (claimed: the variant succeeds more)."""
 
 EXPLANATION = {HOLDS: "survives", DOES_NOT_HOLD: "does not survive",
@@ -90,11 +89,6 @@ OUTCOME = {HOLDS: "higher", DOES_NOT_HOLD: "lower",
            TOO_FEW_SEEDS: "not decided (a row has a single training seed)",
            NOT_RUN: "not run yet"}
 """A two-sided question read as "the variant succeeds more" (the official code's table)."""
-
-OUTCOME_SHORT = {HOLDS: "higher", DOES_NOT_HOLD: "lower",
-                 INCONCLUSIVE: "no difference detected", TOO_FEW_SEEDS: "not decided",
-                 NOT_RUN: "not run yet"}
-"""`OUTCOME` in a few words, for a list."""
 
 TRAINING_WINDOW = {HOLDS: "holds", DOES_NOT_HOLD: "does not hold (windows do better)",
                    INCONCLUSIVE: "is inconclusive (the interval contains 0)",

@@ -19,10 +19,11 @@ import pandas as pd
 from IPython.display import display
 
 from icil_paper import sim, stats
-from icil_paper.book.summaries import SeedRecords
+from icil_paper.book.studies import SeedRecords
 from icil_paper.data import SOURCES, load_demos, zero_shot_split
 from icil_paper.data.stats import data_set_stats, keep_rate
 from icil_paper.paper.table_iii import TABLE_III_SMOOTHNESS
+from icil_paper.tables.display import shown_once
 
 # --------------------------------------------------------------------------- chapter 04
 DATA_TASKS = ("metaworld/drawer-open", "maniskill/pick_cube")
@@ -60,9 +61,7 @@ def first_frames_figure(showcase: Mapping[str, Mapping[str, Any]], cols: int = 6
         ax.imshow(plt.imread(entry["frame"]))
         ax.set_title(task, fontsize=8)
     fig.suptitle("first scene of every task (seed of demo 0)")
-    fig.tight_layout()
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 def showcase_recordings(showcase: Mapping[str, Mapping[str, Any]]) -> dict[str, tuple[str, str]]:
@@ -143,9 +142,7 @@ def demos_figure(demos: Mapping[tuple[str, str], Sequence[Any]], stats_frame: pd
             ax.plot(demo.actions[:, 2], color=color, ls="--", label=f"{source} dz")
         ax.set(xlabel="step", ylabel="action", title=f"{task}: demo 0 of each source")
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 def zero_shot_lines() -> str:
@@ -230,6 +227,4 @@ def smoothness_figure(seeds: SeedRecords, paper_smoothness: Mapping[str, float],
                  color="C7")
     axes[-1].set_xticks(range(len(paper_labels)), paper_labels, rotation=60)
     axes[-1].set_title("least energy (the paper, Table III)")
-    fig.tight_layout()
-    plt.close(fig)
-    return fig
+    return shown_once(fig)

@@ -17,8 +17,8 @@ import pandas as pd
 
 from icil_paper import stats, verdict_words
 from icil_paper.book.report import BUILD, source_label
-from icil_paper.tables.assemble import TableResult, format_entry
-from icil_paper.tables.display import difference_sentence
+from icil_paper.tables.assemble import TableResult, format_difference, format_entry
+from icil_paper.tables.display import shown_once
 
 Results = Mapping[str, TableResult]
 """{source: TableResult}, as `book.report.load_table` returns them."""
@@ -61,9 +61,7 @@ def tsne_figure(paths: Mapping[str, np.ndarray]):
         ax.scatter(xy[:, 0], xy[:, 1], c=np.arange(len(xy)), cmap="viridis", zorder=2)
         ax.set_title(label.split("+")[1])
         ax.set_xticks([]), ax.set_yticks([])
-    fig.tight_layout()
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 FIG4_TITLE = ("Fig. 4: the first steps of one held-out trajectory in each tokenizer's latent "
@@ -89,7 +87,7 @@ def prompt_frame(prompt: Results) -> pd.DataFrame:
             est = None if xa is None or xb is None else stats.paired_difference(xa, xb)
             rows[source_label(source, result.preset), other] = {
                 f"'{labels[0]}' minus it": verdict_words.MISSING if est is None
-                else f"{est.value:+.3f} [{est.low:+.3f}, {est.high:+.3f}]",
+                else format_difference(est),
                 "the right prompt is higher": verdict_words.MISSING if est is None
                 else stats.verdict(est, +1).value}
     return pd.DataFrame(rows).T
@@ -104,9 +102,7 @@ def comparison_list(found: Sequence[Mapping[str, Any]]) -> str:
     """The analysis table's comparisons (`tables.analysis.findings`) as a Markdown list."""
     lines = []
     for f in found:
-        est = f["estimate"]
-        value = (verdict_words.MISSING if est is None else
-                 f"{est.value:+.3f} [{est.low:+.3f}, {est.high:+.3f}]")
+        value = verdict_words.MISSING if f["estimate"] is None else format_difference(f["estimate"])
         lines.append(f"- {f['quantity']}: {value} (expected {EXPECTED[f['direction']]}): "
                      f"{f['verdict']}")
     return "\n".join(lines)
@@ -119,6 +115,19 @@ EQ4_PAIRS = (("icrt+lipvq", "icrt+vq"), ("icrt+lipfsq", "icrt+fsq"),
 
 
 def eq4_differences(results: Results, pairs: Sequence[tuple[str, str]] = EQ4_PAIRS) -> str:
-    """Each Eq. 4 variant minus its quantizer, paired, for every source, in Markdown."""
-    return "\n\n".join(f"**{a} against {b}**\n\n" + difference_sentence(results, a, b)
-                       for a, b in pairs)
+    """Each Eq. 4 variant minus its quantizer, paired, with its interval and verdict, for every
+    source, in Markdown."""
+    lines = []
+    for a, b in pairs:
+        lines.append(f"**{a} against {b}**\n")
+        for source, result in results.items():
+            xa, xb = result.outcomes(a), result.outcomes(b)
+            name = source_label(source, result.preset)
+            if xa is None or xb is None:
+                lines.append(f"- {name}: not run yet.")
+                continue
+            est = stats.paired_difference(xa, xb)
+            lines.append(f"- {name}: '{a}' minus '{b}' = {format_difference(est)}; '{a}' is "
+                         f"higher: {stats.verdict(est, +1)}.")
+        lines.append("")
+    return "\n".join(lines).rstrip("\n")

@@ -19,6 +19,7 @@ import pandas as pd
 from icil_paper.eval import rollout_policy
 from icil_paper.seeding import cpu_threads
 from icil_paper.sim import make_env
+from icil_paper.tables.display import shown_once
 
 
 # --------------------------------------------------------------------------- chapter 02
@@ -32,8 +33,7 @@ def attention_mask_figure(mask: np.ndarray, batch: Mapping[str, Any], b: int):
     ax.set_xlabel("key position")
     ax.set_ylabel("query position")
     ax.set_title(f"sequence {b}: causal mask with prompt padding\n(orange line: prompt | query)")
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 def loss_gradient_figure(grads: Any):
@@ -45,8 +45,7 @@ def loss_gradient_figure(grads: Any):
     ax.set_ylabel("|dL/dh|")
     ax.legend(loc="upper left", frameon=False)
     ax.set_title("loss gradient at the transformer's output")
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 def loss_coverage(roles: Mapping[str, Any], grads: Any) -> dict[str, int]:
@@ -75,8 +74,7 @@ def training_figure(metrics: Mapping[str, Any], title: str):
     ax.set_xlabel("step")
     ax.legend(frameon=False)
     ax.set_title(title)
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 def shown_episode(per_episode: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
@@ -120,9 +118,7 @@ def rollout_figure(trace: Mapping[str, Any], demo: Any):
     axes[2].legend(frameon=False)
     for a in axes[1:]:
         a.set_xlabel("step")
-    fig.tight_layout()
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 # --------------------------------------------------------------------------- chapter 03
@@ -161,9 +157,7 @@ def bound_figure(records: Mapping[str, Mapping[str, Any]], radii: Sequence[float
     ax.set_ylabel("Lipschitz constant (inf-norm)")
     ax.legend()
     ax.set_title("Empirical Lipschitz constant vs. its bound")
-    fig.tight_layout()
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 def bound_history_figure(metrics: Mapping[str, Any], title: str):
@@ -176,9 +170,7 @@ def bound_history_figure(metrics: Mapping[str, Any], title: str):
     ax.set_ylabel("softplus(c_l)")
     ax.set_title(title)
     ax.legend()
-    fig.tight_layout()
-    plt.close(fig)
-    return fig
+    return shown_once(fig)
 
 
 BOUND_RTOL = 1e-5

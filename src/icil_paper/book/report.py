@@ -1,36 +1,56 @@
 """What the book reads across the paper's results: tables loaded per source, the claims
-ledger's views and the reference run's bookkeeping.
+ledger and its views (chapter 00), the reference run's bookkeeping and the presets (01).
 
     results = load_table(preset, "I")               # {"reference run": ..., "this build": ...}
     verdicts(preset, "I")                           # the ledger's sentences, in Markdown
     claims_figure(preset, "I")                      # the forest plot of one table's claims
-    ledger_frame(ledger)                            # chapter 0: every claim, its verdict
-    undecided_frame(ledger)                         # what the undecided claims could detect
+    ledgers = chapter_ledgers(preset)               # {"reference run": (preset, ledger), ...}
+    ledger_frame(reference_ledger(ledgers))         # chapter 00: every claim, its verdict
+    ledger_frame(ledger, "undecided")               # what the undecided claims could detect
+    committed_design("I")                           # {"protocol": "kitchen", "seeds": {row: n}}
+    for q in QUESTIONS: q.decides, q.beside         # Sec. IV's questions, the claims answering
     run_progress()                                  # the reference run's cells, hours, projection
+    preset_fields(preset)                           # chapter 01: field -> value, meaning
 
 `load_table` computes what this build's store lacks (as `icil-paper reproduce` does) and
 reads the reference run's committed records without computing anything; a committed record
-whose key the current code no longer computes is stale (`stale_records`).
+whose key the current code no longer computes is stale (`stale_records`). This build's
+ledger is written (`results/<preset>/claims.json`) before it is read; the reference run's is
+read from its committed records and never written here.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
+from collections import Counter
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+import pandas as pd
 
 from icil_paper import verdict_words
 from icil_paper.book.studies import study_keys
-from icil_paper.config import PRESET_NAMES, Preset, get_preset, task_demo_counts
+from icil_paper.config import PRESET_NAMES, Preset, field_docs, get_preset, task_demo_counts
+from icil_paper.config_data import get_path
 from icil_paper.fileio import atomic_write_json
-from icil_paper.paper import CLAIM_LABELS, TABLES, claims_ledger, run_tables, table_spec
+from icil_paper.paper import (
+    CLAIM_LABELS,
+    TABLES,
+    claims_ledger,
+    run_tables,
+    table_spec,
+    write_ledger,
+)
 from icil_paper.planning.staged import as_run
+from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.runspec import eval_key, feature_key
 from icil_paper.stats import Verdict
+from icil_paper.tables import display
 from icil_paper.tables.assemble import TableResult, assemble, unbroken
 from icil_paper.tables.cells import plan
 from icil_paper.tables.claims import (
@@ -41,6 +61,7 @@ from icil_paper.tables.claims import (
     sizing_effect,
     summary,
 )
+from icil_paper.tables.design import read_record
 from icil_paper.tables.display import BUILD, REFERENCE, source_label
 
 
@@ -96,9 +117,7 @@ def current_keys(preset_name: str = REFERENCE) -> set[str]:
         keys.add(p.run.key())
         keys.update(eval_key(p.run, ev) for ev in p.evals.values())
         keys.update(feature_key(p.run, f) for f in p.features.values())
-    for study in study_keys(preset).values():
-        keys.update(study)
-    return keys
+    return keys.union(*study_keys(preset).values())
 
 
 def _stale(store: ResultsStore) -> list[dict[str, Any]]:
@@ -127,20 +146,17 @@ def retire_stale_records(preset_name: str = REFERENCE) -> dict[str, int]:
     counted by commit in `made_by.json`. Returns {commit: records moved}."""
     store = ResultsStore(preset_name)
     older = store.dir / OLDER_RECORDS
-    counts = retired_records(preset_name)
-    moved: dict[str, int] = {}
+    moved: Counter[str] = Counter()
     for record in _stale(store):
         source = store.path_for(record["kind"], record["name"], record["config_hash"])
         target = older / record["kind"] / source.name
         target.parent.mkdir(parents=True, exist_ok=True)
         os.replace(source, target)
-        commit = str(record.get("git_commit") or "unknown")
-        moved[commit] = moved.get(commit, 0) + 1
-    for commit, n in moved.items():
-        counts[commit] = counts.get(commit, 0) + n
+        moved[str(record.get("git_commit") or "unknown")] += 1
     if moved:
+        counts = Counter(retired_records(preset_name)) + moved
         atomic_write_json(older / "made_by.json", dict(sorted(counts.items())))
-    return moved
+    return dict(moved)
 
 
 # --------------------------------------------------------------------------- the claims ledger
@@ -153,19 +169,17 @@ def _seeds_cell(seeds: dict[str, int] | None) -> str:
 
 
 def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdicts"):
-    """The claims ledger as a table, in two parts that each fit the book's column:
-    "verdicts" (seeds, the paper, ours [95% interval], verdict, decision, size) and "power"
-    (mde, power, seeds needed)."""
-    ledger = [as_entry(e) for e in ledger]
-    import pandas as pd
-
-    if part not in ("verdicts", "power"):
-        raise ValueError(f"part must be 'verdicts' or 'power', got {part!r}")
+    """The claims ledger as a table, in parts that each fit the book's column: "verdicts"
+    (seeds, the paper, ours [95% interval], verdict, decision, size), "power" (mde, power,
+    seeds needed), "undecided" (the undecided claims with what their design could detect)
+    and "details" (quantity, the paper's sentence, its reference and power note)."""
+    check_name("ledger part", part, ("verdicts", "power", "undecided", "details"))
     rows = []
-    for e in ledger:
+    for e in map(as_entry, ledger):
+        ours = ("" if e.ours is None else
+                unbroken(f"{e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"))
+        mde = "" if e.mde is None else f"{e.mde:.3f}"
         if part == "verdicts":
-            ours = ("" if e.ours is None else
-                    unbroken(f"{e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"))
             paper_cell = (f"{e.paper:+.3f}" if e.paper is not None
                           else "—" if e.reference_effect is None
                           else f"({e.reference_effect:+.3f})")
@@ -174,54 +188,34 @@ def ledger_frame(ledger: list[LedgerEntry | dict[str, Any]], part: str = "verdic
                          "ours": ours, "verdict": e.verdict,
                          "decided": (e.adjusted_verdict or ""),
                          "size": verdict_words.SIZE_SHORT.get(e.size, "")})
-        else:
+        elif part == "power":
             needed = e.seeds_needed
             older = {"size vs the paper": e.extra["magnitude"]} if "magnitude" in e.extra else {}
-            rows.append({"claim": e.id, **older,
-                         "mde": "" if e.mde is None else f"{e.mde:.3f}",
+            rows.append({"claim": e.id, **older, "mde": mde,
                          "power": "" if e.power is None else f"{e.power:.0%}",
                          "seeds needed": ("" if e.verdict == Verdict.NOT_RUN else
                                           str(needed) if needed else "—")})
-    return pd.DataFrame(rows).set_index("claim").rename_axis(None)
-
-
-def ledger_views(ledger: list[LedgerEntry | dict[str, Any]], title: str = "") -> dict[str, Any]:
-    """Chapter 0's views of one ledger: "forest", "verdicts", "power", "undecided", "counts"."""
-    ledger = [as_entry(e) for e in ledger]
-    return {"forest": forest_plot(ledger, title=title), "counts": summary(ledger),
-            "verdicts": ledger_frame(ledger, "verdicts"), "undecided": undecided_frame(ledger),
-            "power": ledger_frame(ledger, "power")}
-
-
-def undecided_frame(ledger: list[LedgerEntry | dict[str, Any]]):
-    """The undecided claims with what their design could detect, one line each."""
-    import pandas as pd
-
-    rows = []
-    for e in map(as_entry, ledger):
-        if e.adjusted_verdict not in verdict_words.UNDECIDED:
-            continue
-        effect = sizing_effect(e)
-        rows.append({"claim": e.id, "decided": e.adjusted_verdict,
-                     "ours": unbroken(f"{e.ours:+.3f} [{e.ci[0]:+.3f}, {e.ci[1]:+.3f}]"),
-                     "sized against": "" if effect is None else f"{effect:+.3f}",
-                     "power": "" if e.power is None or effect is None else f"{e.power:.0%}",
-                     "mde": "" if e.mde is None else f"{e.mde:.3f}",
-                     "seeds needed": e.seeds_needed if effect is not None else None,
-                     "note": e.power_note or ""})
-    columns = ["claim", "decided", "ours", "sized against", "power", "mde", "seeds needed",
-               "note"]
+        elif part == "details":
+            rows.append({"claim": e.id, "quantity": e.quantity, "the paper says": e.claim,
+                         "read against": "" if e.paper is not None else e.reference,
+                         "power note": e.power_note or ""})
+        elif e.adjusted_verdict in verdict_words.UNDECIDED:
+            effect = sizing_effect(e)
+            rows.append({"claim": e.id, "decided": e.adjusted_verdict, "ours": ours,
+                         "sized against": "" if effect is None else f"{effect:+.3f}",
+                         "power": "" if e.power is None or effect is None else f"{e.power:.0%}",
+                         "mde": mde, "seeds needed": e.seeds_needed if effect is not None else None,
+                         "note": e.power_note or ""})
+    columns = (["claim", "decided", "ours", "sized against", "power", "mde", "seeds needed",
+                "note"] if part == "undecided" else None)
     return pd.DataFrame(rows, columns=columns).set_index("claim").rename_axis(None)
 
 
-def details_frame(ledger: list[LedgerEntry | dict[str, Any]]):
-    """Each claim's quantity, the paper's sentence, its reference and power note."""
-    import pandas as pd
-
-    rows = [{"claim": e.id, "quantity": e.quantity, "the paper says": e.claim,
-             "read against": "" if e.paper is not None else e.reference,
-             "power note": e.power_note or ""} for e in map(as_entry, ledger)]
-    return pd.DataFrame(rows).set_index("claim").rename_axis(None)
+def ledger_views(ledger: list[LedgerEntry | dict[str, Any]], title: str = "") -> dict[str, Any]:
+    """Chapter 0's views of one ledger: "forest", "counts" and each part of `ledger_frame`."""
+    ledger = [as_entry(e) for e in ledger]
+    return {"forest": forest_plot(ledger, title=title), "counts": summary(ledger),
+            **{part: ledger_frame(ledger, part) for part in ("verdicts", "undecided", "power")}}
 
 
 def row_label(entry: LedgerEntry) -> str:
@@ -230,63 +224,74 @@ def row_label(entry: LedgerEntry) -> str:
     return f"{label}  [{entry.id}]" if label else entry.id
 
 
-def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = "", verdict_key: str = "adjusted_verdict"):
-    """One row per claim: our estimate and 95% interval coloured by the decision, the
-    paper's value as a black diamond; one panel per scale of quantity. Claims with too few
-    seeds are drawn dashed."""
-    ledger = [as_entry(e) for e in ledger]
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
+def forest_plot(ledger: list[LedgerEntry | dict[str, Any]], title: str = ""):
+    """`tables.display.forest_plot` with each claim's `row_label`."""
+    return display.forest_plot(ledger, title, label=row_label)
 
-    def panel_of(e):
-        quantity = e.quantity.lower()
-        return ("rank correlation" if "correlation" in quantity else
-                "least energy" if "least energy" in quantity else
-                "LDLJ difference" if "ldlj" in quantity else "success difference")
 
-    panels = {}
-    for e in ledger:
-        panels.setdefault(panel_of(e), []).append(e)
-    order = [p for p in ("success difference", "least energy", "LDLJ difference",
-                         "rank correlation") if p in panels]
-    heights = [len(panels[p]) for p in order]
-    fig, axes = plt.subplots(len(order), 1, figsize=(10.5, 0.32 * sum(heights) + 1.2 * len(order) + 0.6),
-                             gridspec_kw={"height_ratios": heights}, squeeze=False)
-    for ax, name in zip(axes[:, 0], order, strict=True):
-        entries = panels[name]
-        y = np.arange(len(entries))[::-1]
-        for yi, e in zip(y, entries, strict=True):
-            verdict = getattr(e, verdict_key) or e.verdict
-            colour = verdict_words.COLOURS.get(verdict, "black")
-            if e.ours is not None:
-                style = "--" if verdict == Verdict.TOO_FEW_SEEDS else "-"
-                ax.plot(e.ci, [yi, yi], style, color=colour, lw=2.2)
-                ax.plot(e.ours, yi, "o", color=colour, ms=5)
-            if e.paper is not None:
-                ax.plot(e.paper, yi, "D", color="black", ms=4, zorder=5)
-            elif e.reference_effect is not None:  # the effect a claim of ours is read against
-                ax.plot(e.reference_effect, yi, "D", mfc="white", mec="black", ms=4, zorder=5)
-        ax.axvline(0, color="#57606a", lw=0.8)
-        ax.set_yticks(y, [row_label(e) for e in entries], fontsize=8)
-        ax.set_ylim(-0.7, len(entries) - 0.3)
-        sides = {e.direction for e in entries}
-        side = ("" if len(sides) > 1 else
-                " (the paper claims above 0)" if sides == {1} else " (the paper claims below 0)")
-        ax.set_xlabel(name + side, fontsize=8)
-        ax.tick_params(axis="x", labelsize=8)
-        ax.grid(axis="x", color="#eaeef2", lw=0.6)
-    handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == Verdict.TOO_FEW_SEEDS else "-",
-                      label=str(v)) for v, c in verdict_words.COLOURS.items() if v != Verdict.NOT_RUN]
-    handles.append(Line2D([], [], color="black", marker="D", ls="", ms=4, label="the paper"))
-    if any(e.paper is None and e.reference_effect is not None for e in ledger):
-        handles.append(Line2D([], [], mfc="white", mec="black", marker="D", ls="", ms=4,
-                              label="reference size (our claims)"))
-    fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=len(handles),
-               frameon=False)
-    axes[0, 0].set_title(title or "Claims: our 95% intervals and the paper's values", fontsize=10)
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
-    plt.close(fig)
-    return fig
+# --------------------------------------------------------------------------- chapter 00
+Ledgers = dict[str, tuple[Preset, list]]
+"""{source: (its preset, its ledger entries)}, the reference run first."""
+
+
+def chapter_ledgers(preset: Preset) -> Ledgers:
+    """The ledgers chapter 0 shows, by source (this build's written to its store first)."""
+    ledgers = {}
+    for source, p in run_sources(preset):
+        store = ResultsStore(p.name)
+        if p.name == preset.name:
+            write_ledger(p, store)
+        if (read_record(store) or {}).get("protocol") == "kitchen":
+            # the kitchen run's records: its tasks are retired, its ledger kept as computed
+            ledgers[f"{source} (kitchen suite, older protocol)"] = (
+                p, load_ledger(store.dir / "claims.json"))
+        else:
+            ledgers[source] = (p, claims_ledger(p, store))
+    return ledgers
+
+
+def committed_design(table: str, preset_name: str = REFERENCE) -> dict[str, Any]:
+    """The design the committed run of `preset_name` used for `table`, from its design
+    record: {"protocol": "kitchen" or "metaworld", "seeds": {row: seeds at its last look}}."""
+    record = read_record(ResultsStore(preset_name)) or {}
+    seeds: dict[str, int] = {}
+    for look in record.get("looks", []):
+        for name, n in look.get("rows", {}).items():
+            t, row = name.split(":", 1)
+            if t == table:
+                seeds[row] = max(seeds.get(row, 0), int(n))
+    return {"protocol": record.get("protocol", "metaworld"), "seeds": seeds}
+
+
+def reference_ledger(ledgers: Ledgers) -> list:
+    """The reference run's entries among `chapter_ledgers`' sources."""
+    return next(ledger for p, ledger in ledgers.values() if p.name == REFERENCE)
+
+
+@dataclass(frozen=True)
+class Question:
+    """One of Sec. IV's questions and the claims of the ledger that answer it."""
+
+    key: str
+    """"Q1", "Q2" or "Q3", as the paper numbers them."""
+    text: str
+    """The question in plain words."""
+    decides: tuple[str, ...]
+    """The claims whose verdicts answer it."""
+    beside: tuple[str, ...] = ()
+    """Claims quoted beside them (they do not change the answer)."""
+
+
+QUESTIONS = (
+    Question("Q1", "Does the action tokenizer matter, and is LipVQ-VAE the best one?",
+             ("I-lipvq-best", "II-lipvq-best", "I-tokenizer-gap"), ("I-lipvq-vs-bc",)),
+    Question("Q2", "Does smoothness explain it?",
+             ("III-lipvq-smoothest", "III-smoother-succeeds", "IV-vq")),
+    Question("Q3", "Does it transfer from simulation to the real robot, across data sets and "
+             "to unseen tasks?",
+             ("V-lipvq-vs-bc", "V-lipvq-vs-bin"), ("VI-lipvq-best", "VII-lipvq-vs-bc")),
+)
+"""Sec. IV's Q1-Q3 (Q3 is sim-to-real in the paper; Tables VI and VII are quoted beside)."""
 
 
 # --------------------------------------------------------------------------- the reference run
@@ -373,13 +378,8 @@ def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
     ledger, or while none of its claims has run, `older_ledger`'s with its `made_by`."""
     path = Path(path) if path else ResultsStore(REFERENCE).dir / "claims.json"
     ledger = load_ledger(path) if path.exists() else []
-    if any(e.run for e in ledger):
-        return ledger, None
-    older = older_ledger(REFERENCE)
-    if older is None:
-        return ledger, None
-    made_by, claims = older
-    return [as_entry(e) for e in claims], made_by
+    older = None if any(e.run for e in ledger) else older_ledger(REFERENCE)
+    return (ledger, None) if older is None else ([as_entry(e) for e in older[1]], older[0])
 
 
 PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)",
@@ -402,3 +402,29 @@ def preset_table() -> str:
                      f"{demos} | {p.eval.episodes_per_task} | "
                      f"{p.tables.icrt_seeds} / {p.tables.baseline_seeds} |")
     return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- chapter 01
+PRESET_SECTIONS = ("data", "train", "eval", "tables", "tokenizer_study", "policies.icrt",
+                   "tokenizers.lipvq")
+"""The parts of a preset chapter 01 lists."""
+
+
+def config_fields(config: Any, path: str) -> Iterator[tuple[str, Any, str]]:
+    """(dotted path, value, docstring) of every leaf field of a config dataclass."""
+    docs = field_docs(type(config))
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if dataclasses.is_dataclass(value):
+            yield from config_fields(value, f"{path}.{f.name}")
+        else:
+            yield f"{path}.{f.name}", value, docs.get(f.name, "")
+
+
+def preset_fields(preset: Preset, sections: Sequence[str] = PRESET_SECTIONS) -> pd.DataFrame:
+    """One row per leaf field of `sections`: value and docstring, indexed by its `--set` path."""
+    rows = []
+    for section in sections:
+        rows += [{"field": name, "value": str(value), "meaning": doc}
+                 for name, value, doc in config_fields(get_path(preset, section), section)]
+    return pd.DataFrame(rows).set_index("field")

@@ -1,5 +1,11 @@
 """Experiments that a chapter and `icil-paper reproduce` share: each runs what the store
-lacks (`ResultsStore.run`, so a second call only loads) and returns the metrics by label.
+lacks (`ResultsStore.run`, so a second call only loads) and returns the metrics by label;
+`SeedRecords` summarises them over training seeds.
+
+    seeds = SeedRecords(tokenizer_study(preset, store))    # {label: [metrics per seed]}
+    seeds.mean("lipvq", "usage")                            # mean over training seeds
+    seeds.with_interval("lipvq", "least_energy")            # "0.012 [0.01, 0.014]"
+    seeds.seed_means()                                      # one row of means per label
 """
 
 from __future__ import annotations
@@ -7,12 +13,14 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from icil_paper import sim
+from icil_paper import sim, stats
 from icil_paper.config import Preset, TokenizerStudyConfig
 from icil_paper.config_data import to_dict
 from icil_paper.data import SOURCES, ensure_many, load_demos, preset_tasks
@@ -80,19 +88,18 @@ def study_data(preset: Preset) -> DataSpec:
                     seed=preset.seed)
 
 
-def study_spec(preset: Preset, config: TokenizerConfig, radii: tuple[float, ...] = ()
-               ) -> TokenizerStudySpec:
+def study_spec(preset: Preset, config: TokenizerConfig, radii: tuple[float, ...] = (),
+               seed_index: int = 0) -> TokenizerStudySpec:
     return TokenizerStudySpec(tokenizer=stand_alone(config), study=preset.tokenizer_study,
-                              data=study_data(preset), seed=preset.seed, radii=tuple(radii))
+                              data=study_data(preset), seed=preset.seed + seed_index,
+                              radii=tuple(radii))
 
 
 def seeded_study_specs(preset: Preset, runs: list[tuple[str, TokenizerConfig]],
-                       radii: tuple[float, ...] = ()):
+                       radii: tuple[float, ...] = ()) -> list[tuple[str, TokenizerStudySpec]]:
     """(label, spec) of every run of a stand-alone study at each training seed, in order."""
-    for label, config in runs:
-        for s in range(preset.tokenizer_study.seeds):
-            yield label, dataclasses.replace(study_spec(preset, config, radii=radii),
-                                             seed=preset.seed + s)
+    return [(label, study_spec(preset, config, radii, s)) for label, config in runs
+            for s in range(preset.tokenizer_study.seeds)]
 
 
 def tokenizer_trajectories(preset: Preset) -> tuple[list[np.ndarray], list[np.ndarray], dict]:
@@ -337,3 +344,44 @@ def study_keys(preset: Preset) -> dict[str, set[str]]:
                                                    LIPSCHITZ_RADII)),
             "showcase": {config_hash(to_dict(ShowcaseSpec(task=task, seed=preset.seed)))
                          for task in shown_tasks(preset)}}
+
+
+class SeedRecords:
+    """A study's records, {label: [metrics of each training seed]}, summarised over seeds."""
+
+    def __init__(self, records: Mapping[str, Sequence[Mapping[str, Any]]]):
+        self.records = {label: list(ms) for label, ms in records.items()}
+        empty = [label for label, ms in self.records.items() if not ms]
+        if empty:
+            raise ValueError(f"no seed's record for {empty}: run the study first")
+
+    @property
+    def n_seeds(self) -> int:
+        """Training seeds of the first label (every label of a study has the same)."""
+        return len(next(iter(self.records.values()))) if self.records else 0
+
+    def mean(self, label: str, key: str) -> float | None:
+        """The mean of `key` over the seeds that recorded it (None where none did)."""
+        values = [m[key] for m in self.records[label] if m.get(key) is not None]
+        return float(np.mean(values)) if values else None
+
+    def per_level(self, label: str) -> str | None:
+        """Residual VQ: the codes each level uses, mean over seeds ("8 / 7"); None otherwise."""
+        levels = [m["codes_used_per_level"] for m in self.records[label]
+                  if m.get("codes_used_per_level")]
+        return " / ".join(f"{v:.0f}" for v in np.mean(levels, axis=0)) if levels else None
+
+    def scores(self, label: str, key: str) -> np.ndarray:
+        """(seeds, trajectories) per-trajectory scores of `key` (`<key>_per_trajectory`)."""
+        return np.array([m[f"{key}_per_trajectory"] for m in self.records[label]], dtype=float)
+
+    def with_interval(self, label: str, key: str, digits: int = 3) -> str:
+        """The mean score with its 95% interval (`stats.score_mean`), as text."""
+        est = stats.score_mean(self.scores(label, key))
+        return f"{est.value:.{digits}g} [{est.low:.{digits}g}, {est.high:.{digits}g}]"
+
+    def seed_means(self) -> dict[str, dict[str, Any]]:
+        """One row per label: the mean over seeds of every number, seed 0's value otherwise."""
+        return {label: {k: float(np.mean([m[k] for m in ms])) if isinstance(v, (int, float))
+                        else v for k, v in ms[0].items()}
+                for label, ms in self.records.items()}

@@ -11,7 +11,6 @@ when an expert rate is below `REQUIRED_RATE`.
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
 import sys
 import time
 from typing import Any
@@ -19,7 +18,7 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from icil_paper.data.generate import worker_init
+from icil_paper.data.generate import imap_jobs, worker_init
 from icil_paper.data.sources import ExpertSource, expert_rollout, make_source, source_env_options
 from icil_paper.fileio import atomic_write_json
 from icil_paper.results import results_root
@@ -72,17 +71,25 @@ def measure_one(job: tuple[str, int, bool]) -> dict[str, Any]:
     return out
 
 
+def _outcome(rs: list[dict[str, Any]], ok: str, length: str) -> tuple[float, list, float | None]:
+    """(success rate, failed seeds, mean length of the successes) of one kind of episode."""
+    won = [r[length] for r in rs if r[ok]]
+    return (len(won) / len(rs), [r["seed"] for r in rs if not r[ok]],
+            float(np.mean(won)) if won else None)
+
+
 def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """Per-task rates from the per-seed rows."""
     tasks: dict[str, Any] = {}
     for task in dict.fromkeys(r["task"] for r in rows):
         rs = [r for r in rows if r["task"] == task]
         ok = [r for r in rs if r["success"]]
+        rate, failed, mean = _outcome(rs, "success", "length")
         entry = {
             "episodes": len(rs),
-            "expert_success_rate": len(ok) / len(rs),
-            "failed_seeds": [r["seed"] for r in rs if not r["success"]],
-            "mean_length": float(np.mean([r["length"] for r in ok])) if ok else None,
+            "expert_success_rate": rate,
+            "failed_seeds": failed,
+            "mean_length": mean,
             "max_length": int(max(r["length"] for r in ok)) if ok else None,
             "replay_success_rate": (float(np.mean([r["replay_success"] for r in ok]))
                                     if ok else None),
@@ -91,17 +98,12 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         if "planned_success" in rs[0]:
             entry["planned_success_rate"] = float(np.mean([r["planned_success"] for r in rs]))
         if "human_scenes_success" in rs[0]:
-            sk = [r for r in rs if r["human_scenes_success"]]
-            entry["expert_success_rate_human_scenes"] = len(sk) / len(rs)
-            entry["failed_seeds_human_scenes"] = [r["seed"] for r in rs
-                                                  if not r["human_scenes_success"]]
-            entry["mean_length_human_scenes"] = (float(np.mean([r["human_scenes_length"]
-                                                                for r in sk])) if sk else None)
+            (entry["expert_success_rate_human_scenes"], entry["failed_seeds_human_scenes"],
+             entry["mean_length_human_scenes"]) = _outcome(rs, "human_scenes_success",
+                                                           "human_scenes_length")
         if "human_success" in rs[0]:
-            hk = [r for r in rs if r["human_success"]]
-            entry["human_success_rate"] = len(hk) / len(rs)
-            entry["human_mean_length"] = (float(np.mean([r["human_length"] for r in hk]))
-                                          if hk else None)
+            entry["human_success_rate"], _, entry["human_mean_length"] = _outcome(
+                rs, "human_success", "human_length")
         entry["meets_required_rate"] = (
             entry["expert_success_rate"] >= REQUIRED_RATE
             and entry.get("expert_success_rate_human_scenes", 1.0) >= REQUIRED_RATE)
@@ -123,14 +125,9 @@ def measure(suite: str, n_seeds: int = 50, seed: int = 0, workers: int = 2,
     bar = tqdm(total=len(jobs), desc=f"experts {suite}", disable=not progress)
     if workers <= 1:
         worker_init()
-        for job in jobs:
-            rows.append(measure_one(job))
-            bar.update()
-    else:
-        with mp.get_context("spawn").Pool(workers, initializer=worker_init) as pool:
-            for row in pool.imap_unordered(measure_one, jobs):
-                rows.append(row)
-                bar.update()
+    for row in imap_jobs(measure_one, jobs, workers):
+        rows.append(row)
+        bar.update()
     bar.close()
     rows.sort(key=lambda r: (tasks.index(r["task"]), seeds.index(r["seed"])))
     return {"suite": suite, "n_seeds": n_seeds, "seed": seed, "seeds": seeds,

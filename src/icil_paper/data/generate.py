@@ -22,11 +22,12 @@ import contextlib
 import json
 import multiprocessing as mp
 import os
+import re
 import shutil
 import sys
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -202,15 +203,9 @@ def generate_one(job: _Job) -> dict[str, Any]:
 
 
 def _finished_shards(path: Path) -> dict[int, Path]:
-    folder = parts_dir(path)
-    shards = {}
-    if folder.is_dir():
-        for p in folder.glob("demo_*.hdf5"):
-            try:
-                shards[int(p.stem.split("_")[1])] = p
-            except (IndexError, ValueError):
-                continue
-    return shards
+    """{demo index: shard} of the `demo_NNNNNN.hdf5` files in the data set's parts folder."""
+    return {int(p.stem[len("demo_"):]): p for p in parts_dir(path).glob("demo_*.hdf5")
+            if re.fullmatch(r"demo_\d+", p.stem)}
 
 
 def outdated(info: dict[str, Any], source: str) -> str | None:
@@ -393,24 +388,23 @@ def ensure_demos(preset: Any, task: str, source: str, n: int | None = None,
 def _run_jobs(jobs: list[_Job], workers: int, progress: bool, desc: str) -> None:
     bar = tqdm(total=len(jobs), desc=desc, unit="demo", disable=not progress)
     try:
-        if workers <= 1 or len(jobs) == 1:
-            try:
-                for job in jobs:
-                    summary = generate_one(job)
-                    bar.set_postfix(task=job.task, seed=str(summary["seed"]))
-                    bar.update()
-            finally:
-                _close_cache()
-        else:
-            context = mp.get_context("spawn")
-            # chunks of one job in submission order: a worker mostly meets the task it has
-            # an env for, and the bar moves demo by demo
-            with context.Pool(min(workers, len(jobs)), initializer=worker_init) as pool:
-                for summary in pool.imap_unordered(generate_one, jobs):
-                    bar.set_postfix(task=summary["task"], seed=str(summary["seed"]))
-                    bar.update()
+        for summary in imap_jobs(generate_one, jobs, workers):
+            bar.set_postfix(task=summary["task"], seed=str(summary["seed"]))
+            bar.update()
     finally:
+        _close_cache()  # the envs of this process (none when a pool ran the jobs)
         bar.close()
+
+
+def imap_jobs(fn: Callable[[Any], Any], jobs: Sequence[Any], workers: int) -> Iterator[Any]:
+    """`fn(job)` of every job, in this process (`workers` <= 1 or one job) or in a pool of
+    `workers` spawned processes on one torch thread each; results as they finish. Jobs go
+    out one at a time in order, so a worker mostly meets the task it has an env for."""
+    if workers <= 1 or len(jobs) == 1:
+        yield from map(fn, jobs)
+        return
+    with mp.get_context("spawn").Pool(min(workers, len(jobs)), initializer=worker_init) as pool:
+        yield from pool.imap_unordered(fn, jobs)
 
 
 class SuiteMissing(ValueError):
@@ -447,14 +441,9 @@ def preset_tasks(preset: Any, available: bool = False) -> tuple[str, ...]:
                                  *preset.data.maniskill_tasks)))
     if not available:
         return tasks
-    problems: dict[str, str | None] = {}
-    kept = []
-    for task in tasks:
-        suite = task.split("/", 1)[0]
-        if suite not in problems:
-            problems[suite] = suite_unavailable(suite)
-            if problems[suite]:
-                print(f"skipping the {suite} tasks: {problems[suite]}", file=sys.stderr)
-        if not problems[suite]:
-            kept.append(task)
-    return tuple(kept)
+    problems = {suite: suite_unavailable(suite)
+                for suite in dict.fromkeys(task.split("/", 1)[0] for task in tasks)}
+    for suite, problem in problems.items():
+        if problem:
+            print(f"skipping the {suite} tasks: {problem}", file=sys.stderr)
+    return tuple(task for task in tasks if not problems[task.split("/", 1)[0]])

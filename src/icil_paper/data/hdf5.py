@@ -26,9 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import re
-import tempfile
 import warnings
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -40,6 +38,7 @@ import numpy as np
 from icil_paper.data import memo
 from icil_paper.data.obs_keys import ObsKeyMap, camera_of, map_obs_keys
 from icil_paper.data.splits import train_valid_split
+from icil_paper.fileio import atomic_path
 
 FORMAT = "icil_paper/2"
 """Layout version written into `data.attrs["format"]` (version 1: stacked images, no next_obs)."""
@@ -207,24 +206,11 @@ def _finish_file(f: Any, file_attrs: dict[str, Any], valid_fraction: float,
 
 @contextlib.contextmanager
 def _atomic_h5(path: Path) -> Iterator[Any]:
-    """An h5py File on a temporary path beside `path`, renamed onto `path` on success."""
+    """An h5py File written to `path` atomically (`fileio.atomic_path`)."""
     import h5py
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as f:
-            yield f
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 -> the usual permissions
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        yield f
 
 
 def merge_demo_files(path: str | Path, parts: Sequence[tuple[str | Path, str, str]],
@@ -535,12 +521,11 @@ def load_demos(path: str | Path, action_dim: int | None = None, limit: int | Non
                 demo = _read_demo(path, name, group, keys or ObsKeyMap((), ()), file_task,
                                   file_source)
                 A = demo.actions.shape[1]
-                if action_dim is not None and A != action_dim:
-                    raise _err(path, name, f"action dimension {A} does not match the expected "
-                                           f"{action_dim}")
-                if file_action_dim is not None and A != int(file_action_dim):
-                    raise _err(path, name, f"action dimension {A} does not match the file's "
-                                           f"action_dim attribute {int(file_action_dim)}")
+                for what, want in (("the expected", action_dim),
+                                   ("the file's action_dim attribute", file_action_dim)):
+                    if want is not None and A != int(want):
+                        raise _err(path, name, f"action dimension {A} does not match {what} "
+                                               f"{int(want)}")
                 dims = (A, demo.obs["proprio"].shape[1], demo.obs["object"].shape[1])
                 first = first or dims
                 if A != first[0]:

@@ -39,9 +39,7 @@ def showcase_task(task: str, out_dir: str | Path, base_seed: int = 0) -> dict[st
         _save_png(frame_path, frame)
         source = make_source("generated", task)
         demo, ok = expert_rollout(env, source, seed, record_states=False)
-        close = getattr(source, "close", None)
-        if close is not None:
-            close()
+        source.close()
     finally:
         env.close()
     paths = record_episode(out_dir / f"{stem}.rrd", demo.obs, demo.actions,

@@ -88,7 +88,25 @@ class OperatorStyle:
     """Range (inclusive) of an overshoot's length in steps."""
 
 
-class HumanLikeOperator:
+class ExpertSource:
+    """The `generated` source: the expert itself (the seed argument is accepted and unused)."""
+
+    def __init__(self, expert: Any):
+        self.expert = expert
+
+    def reset(self, env: Any, obs: dict[str, np.ndarray], seed: int | None = None) -> None:
+        self.expert.reset(env, obs)
+
+    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        return np.asarray(self.expert.act(obs), dtype=np.float32)
+
+    def close(self) -> None:
+        close = getattr(self.expert, "close", None)
+        if close is not None:
+            close()
+
+
+class HumanLikeOperator(ExpertSource):
     """Wrap any expert (`reset(env, obs)`, `act(obs)`) as a teleoperating person would drive it.
 
     While hesitating, the operator holds still and does not ask the expert, whose plan waits.
@@ -145,29 +163,6 @@ class HumanLikeOperator:
         action[:6] = action[:6] * gain + self.noise
         self.gripper = float(action[6])
         return np.clip(action, -1.0, 1.0).astype(np.float32)
-
-    def close(self) -> None:
-        close = getattr(self.expert, "close", None)
-        if close is not None:
-            close()
-
-
-class ExpertSource:
-    """The `generated` source: the expert itself (the seed argument is accepted and unused)."""
-
-    def __init__(self, expert: Any):
-        self.expert = expert
-
-    def reset(self, env: Any, obs: dict[str, np.ndarray], seed: int | None = None) -> None:
-        self.expert.reset(env, obs)
-
-    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
-        return np.asarray(self.expert.act(obs), dtype=np.float32)
-
-    def close(self) -> None:
-        close = getattr(self.expert, "close", None)
-        if close is not None:
-            close()
 
 
 def make_source(source: str, task: str, expert: Any = None,

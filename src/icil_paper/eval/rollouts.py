@@ -13,6 +13,7 @@ given batch size the results are the same bit for bit.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -305,26 +306,16 @@ def run_group(state: WorkerState, job: GroupJob) -> list[dict[str, Any]]:
     return results
 
 
-_STATE: WorkerState | None = None  # the envs this process keeps between calls
-
 KEPT_ENVS = 26
 """Most environments a process keeps between `run_episodes(..., keep_envs=True)` calls
 (one ICRT cell's); beyond it the envs a call does not use are closed."""
 
 
+@functools.cache
 def worker_state() -> WorkerState:
-    """This process's WorkerState (kept between `keep_envs` calls)."""
-    global _STATE
-    if _STATE is None:
-        _STATE = WorkerState()
-    return _STATE
-
-
-def _close_state() -> None:
-    global _STATE
-    if _STATE is not None:
-        _STATE.close()
-        _STATE = None
+    """This process's WorkerState, the envs it keeps between `keep_envs` calls (`close()`
+    it to start from none)."""
+    return WorkerState()
 
 
 # --------------------------------------------------------------------------- many episodes

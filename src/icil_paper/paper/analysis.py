@@ -136,10 +136,8 @@ def _smooth_diff(result: TableResult, a: str, b: str, standardized: bool = True)
     fa, fb = result.features(a), result.features(b)
     if fa is None or fb is None:
         return None
-    key = "standardized" if standardized else None
-    xa = fa.extra[key] if key else fa.data
-    xb = fb.extra[key] if key else fb.data
-    return stats.paired_score_difference(xa, xb)
+    return stats.paired_score_difference(*(f.extra["standardized"] if standardized else f.data
+                                           for f in (fa, fb)))
 
 
 SMOOTHER = -1
@@ -226,15 +224,13 @@ def bound_travel_frame():
     rows = [("the paper (500K iterations)", config.PAPER_TRAIN, 1.0)]
     rows += [(f"`{name}` preset", p.train, p.tokenizers.lipvq.lipschitz.c_lr_scale)
              for name in config.PRESET_NAMES for p in [config.get_preset(name)]]
-    out = []
-    for label, train, scale in rows:
-        out.append({"": label, "steps": train.steps, "warm-up": train.warmup_steps,
-                    "lr": train.lr,
-                    "sum of schedule factors": config.schedule_sum(train.warmup_steps, train.steps),
-                    "travel at the shared rate": config.bound_travel(train),
-                    "c_lr_scale": scale, "travel": config.bound_travel(train, scale),
-                    "travel / paper's": config.bound_travel(train, scale) / paper})
-    return pd.DataFrame(out).set_index("")
+    return pd.DataFrame([{
+        "": label, "steps": train.steps, "warm-up": train.warmup_steps, "lr": train.lr,
+        "sum of schedule factors": config.schedule_sum(train.warmup_steps, train.steps),
+        "travel at the shared rate": config.bound_travel(train),
+        "c_lr_scale": scale, "travel": config.bound_travel(train, scale),
+        "travel / paper's": config.bound_travel(train, scale) / paper}
+        for label, train, scale in rows]).set_index("")
 
 
 def binding_frame(result: TableResult, threshold: float = BINDS_AT):
@@ -292,9 +288,8 @@ def _yes_no(value: bool | None) -> str:
 def explanation_verdict(result: TableResult) -> Verdict:
     """HOLDS when LipVQ-VAE is both smoother (standardized) and more successful than VQ-VAE,
     DOES_NOT_HOLD when either goes the other way, else NOT_RUN or INCONCLUSIVE."""
-    found = {f["quantity"]: f for f in findings(result)}
-    smoother = Verdict(found["LipVQ-VAE's standardized least energy minus VQ-VAE's"]["verdict"])
-    better = Verdict(found["LipVQ-VAE's success minus VQ-VAE's"]["verdict"])
+    found = {f["kind"]: Verdict(f["verdict"]) for f in findings(result) if f["variant"] is None}
+    smoother, better = found["smoothness"], found["success"]
     if Verdict.NOT_RUN in (smoother, better):
         return Verdict.NOT_RUN
     if smoother == better == Verdict.HOLDS:

@@ -10,7 +10,6 @@ Table I's ICRT + LipVQ-VAE runs evaluated with its task's prompt, another task's
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 from icil_paper.config import Preset
 from icil_paper.tables.assemble import TableResult, format_entry
@@ -63,19 +62,10 @@ def prompt_beside_baselines(table1: dict[str, TableResult], prompt: dict[str, Ta
     no prompt: average success with its 95% interval, one column per source."""
     import pandas as pd
 
-    out = []
-    any_prompt = next(iter(prompt.values()))
-    for row in any_prompt.spec.rows:
-        line: dict[str, Any] = {"": f"ICRT + LipVQ-VAE, {row.label}",
-                                "reads": "instruction and prompt"}
-        for source, result in prompt.items():
-            line[source_label(source, result.preset)] = format_entry(
-                result.entry(row.label, "avg"), digits)
-        out.append(line)
-    for label in PROMPT_BASELINES:
-        line = {"": label, "reads": "instruction only"}
-        for source, result in table1.items():
-            line[source_label(source, result.preset)] = format_entry(
-                result.entry(label, "avg"), digits)
-        out.append(line)
+    rows = [(f"ICRT + LipVQ-VAE, {row.label}", "instruction and prompt", prompt, row.label)
+            for row in next(iter(prompt.values())).spec.rows]
+    rows += [(label, "instruction only", table1, label) for label in PROMPT_BASELINES]
+    out = [{"": name, "reads": reads, **{source_label(source, result.preset): format_entry(
+                result.entry(row, "avg"), digits) for source, result in results.items()}}
+           for name, reads, results, row in rows]
     return pd.DataFrame(out).set_index("")

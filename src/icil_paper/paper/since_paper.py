@@ -72,4 +72,3 @@ CLAIM_LABELS = {
     "beyond-eq4-fsq": "ours: Eq. 4 helps FSQ",
     "beyond-eq4-rvq": "ours: Eq. 4 helps residual VQ",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

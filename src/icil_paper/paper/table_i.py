@@ -4,11 +4,14 @@
     claims(preset)               # I-lipvq-best, I-lipvq-vs-bc, I-lipvq-vs-lfq, ...
     TABLE_I_ROBOCASA             # the paper's numbers, as printed
 
-One multi-task policy per row, trained on every kitchen task and evaluated per task; avg
-is the mean over tasks. The other tables reuse its policies (`definitions.table_i_runs`).
+`spec`'s note says what a row is; the other tables reuse its policies
+(`definitions.table_i_runs`).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import partial
 
 from icil_paper.config import Preset
 from icil_paper.paper_numbers import family_rows
@@ -17,16 +20,27 @@ from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     TOKENIZER_ROWS,
     family_entries,
-    label,
     table_i_runs,
     with_codebook,
 )
 from icil_paper.tables.spec import Row, TableSpec
 
-TABLE_I_ROWS = (("mcr", None), ("act", None), ("bc_transformer", None), ("icrt", "mlp"),
-                ("icrt", "bin"), ("icrt", "fast"), ("icrt", "vq"), ("icrt", "lfq"),
-                ("icrt", "lipvq"))
-"""(policy, tokenizer) of Table I's rows, in the paper's order (also Tables VI's and VII's)."""
+
+def policy_tokenizer(row: str) -> tuple[str, str | None]:
+    """(policy, tokenizer or None) of a row label (`definitions.label`'s inverse)."""
+    policy, _, tokenizer = row.partition("+")
+    return policy, tokenizer or None
+
+
+def versus(table: str, paper: dict, a: str, b: str | Sequence[str], claim_id: str, claim: str,
+           quantity: str, **options) -> Claim:
+    """The claim that row `a` of `table` beats row `b`, or the best of several rows `b`, on
+    average success; the paper's number from its rows `paper`."""
+    one = isinstance(b, str)
+    return Claim(claim_id, table, claim, quantity, +1,
+                 diff(table, a, b) if one else margin(table, a, b),
+                 paper_diff(paper, a, b) if one else paper_margin(paper, a, b), **options)
+
 
 # The paper's Table I: success rates on RoboCasa (MimicGen data).
 TABLE_I_ROBOCASA = family_rows({
@@ -41,16 +55,18 @@ TABLE_I_ROBOCASA = family_rows({
     "icrt+lipvq":     (0.32, 0.80, 0.84, 0.68, 0.41, 0.41, 0.59, 0.530),
 })
 
+TABLE_I_ROWS = tuple(policy_tokenizer(row) for row in TABLE_I_ROBOCASA)
+"""(policy, tokenizer) of Table I's rows, in the paper's order (also Tables VI's and VII's)."""
+
 
 def spec(preset: Preset) -> TableSpec:
     """Table I: an entry per family and "avg", and the codebook rows' features beside."""
     tasks = preset.data.robocasa_tasks
     rows = []
-    for p, t in TABLE_I_ROWS:
-        runs = table_i_runs(preset, p, t)
-        rows.append(Row(label(p, t), with_codebook(preset, family_entries(preset, runs, tasks),
-                                                   runs),
-                        TABLE_I_ROBOCASA[label(p, t)]))
+    for name, paper in TABLE_I_ROBOCASA.items():
+        runs = table_i_runs(preset, *policy_tokenizer(name))
+        rows.append(Row(name, with_codebook(preset, family_entries(preset, runs, tasks), runs),
+                        paper))
     return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",
                      (*FAMILY_COLUMNS, "avg"), tuple(rows), beside=("features",), note=(
                          "One multi-task policy per row, trained on every kitchen task and "
@@ -60,26 +76,21 @@ def spec(preset: Preset) -> TableSpec:
 
 def claims(preset: Preset) -> list[Claim]:
     """Table I's claims, in the order of the paper's Sec. IV."""
-    T1 = TABLE_I_ROBOCASA
+    c = partial(versus, "I", TABLE_I_ROBOCASA)
     others = [r for r in TOKENIZER_ROWS if r != "icrt+lipvq"]
     return [
-        Claim("I-lipvq-best", "I", "Among all action tokenizers, LipVQ-VAE achieves the highest "
-              "performance.", "ICRT+LipVQ minus the best other ICRT tokenizer (avg)", +1,
-              margin("I", "icrt+lipvq", others), paper_margin(T1, "icrt+lipvq", others)),
-        Claim("I-lipvq-vs-bc", "I", "Integrating LipVQ-VAE into ICRT achieves a 5.3% improvement "
-              "over BC-Transformer.", "ICRT+LipVQ minus BC-Transformer (avg)", +1,
-              diff("I", "icrt+lipvq", "bc_transformer"),
-              paper_diff(T1, "icrt+lipvq", "bc_transformer")),
-        Claim("I-lipvq-vs-lfq", "I", "LipVQ-VAE surpasses the second-best tokenizer, LFQ-VAE, by "
-              "4.1%.", "ICRT+LipVQ minus ICRT+LFQ (avg)", +1,
-              diff("I", "icrt+lipvq", "icrt+lfq"), paper_diff(T1, "icrt+lipvq", "icrt+lfq")),
-        Claim("I-tokenizer-gap", "I", "An 8.8% performance gap between the best (LipVQ-VAE) and "
-              "worst (MLP) tokenizers.", "ICRT+LipVQ minus ICRT+MLP (avg)", +1,
-              diff("I", "icrt+lipvq", "icrt+mlp"), paper_diff(T1, "icrt+lipvq", "icrt+mlp")),
-        Claim("I-mlp-below-bc", "I", "An ineffective tokenizer can degrade performance, with MLP "
-              "underperforming BC-Transformer by 3.5%.", "BC-Transformer minus ICRT+MLP (avg)",
-              +1, diff("I", "bc_transformer", "icrt+mlp"),
-              paper_diff(T1, "bc_transformer", "icrt+mlp")),
+        c("icrt+lipvq", others, "I-lipvq-best", "Among all action tokenizers, LipVQ-VAE achieves "
+          "the highest performance.", "ICRT+LipVQ minus the best other ICRT tokenizer (avg)"),
+        c("icrt+lipvq", "bc_transformer", "I-lipvq-vs-bc", "Integrating LipVQ-VAE into ICRT "
+          "achieves a 5.3% improvement over BC-Transformer.",
+          "ICRT+LipVQ minus BC-Transformer (avg)"),
+        c("icrt+lipvq", "icrt+lfq", "I-lipvq-vs-lfq", "LipVQ-VAE surpasses the second-best "
+          "tokenizer, LFQ-VAE, by 4.1%.", "ICRT+LipVQ minus ICRT+LFQ (avg)"),
+        c("icrt+lipvq", "icrt+mlp", "I-tokenizer-gap", "An 8.8% performance gap between the best "
+          "(LipVQ-VAE) and worst (MLP) tokenizers.", "ICRT+LipVQ minus ICRT+MLP (avg)"),
+        c("bc_transformer", "icrt+mlp", "I-mlp-below-bc", "An ineffective tokenizer can degrade "
+          "performance, with MLP underperforming BC-Transformer by 3.5%.",
+          "BC-Transformer minus ICRT+MLP (avg)"),
     ]
 
 
@@ -90,4 +101,3 @@ CLAIM_LABELS = {
     "I-tokenizer-gap": "LipVQ-VAE beats MLP tokenizer, kitchen",
     "I-mlp-below-bc": "MLP tokenizer below BC-Transformer",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

@@ -12,6 +12,7 @@ one policy per task, at the preset's `tables.maniskill_*` sizes.
 from __future__ import annotations
 
 import dataclasses
+from functools import partial
 
 from icil_paper.config import (
     PAPER_MANISKILL_TRAIN,
@@ -20,14 +21,12 @@ from icil_paper.config import (
     TrainConfig,
     bound_travel,
 )
+from icil_paper.paper.table_i import policy_tokenizer, versus
 from icil_paper.runspec import RunSpec
-from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
-from icil_paper.tables.definitions import label, row_seeds, seed_runs, tasks_entry
+from icil_paper.tables.claims import Claim
+from icil_paper.tables.definitions import row_seeds, seed_runs, tasks_entry
 from icil_paper.tables.spec import Entry, Row, TableSpec
 
-TABLE_II_ROWS = (("mcr", None), ("act", None), ("bc_transformer", None), ("act", "bin"),
-                 ("act", "fast"), ("act", "vq"), ("act", "lfq"), ("act", "lipvq"))
-"""Table II: ACT's CVAE action encoder replaced by each tokenizer."""
 MANISKILL_COLUMNS = ("pick_cube", "push_cube", "stack_cube")
 ACT_TOKENIZER_ROWS = ("act+bin", "act+fast", "act+vq", "act+lfq", "act+lipvq")
 
@@ -84,17 +83,14 @@ def spec(preset: Preset) -> TableSpec:
                            train=train, tokenizer=maniskill_tokenizer(run, train))
 
     rows = []
-    for policy, tokenizer in TABLE_II_ROWS:
+    for name, paper in TABLE_II_MANISKILL.items():
         entries = {}
-        per_task = []
         for column, task in zip(MANISKILL_COLUMNS, preset.data.maniskill_tasks, strict=False):
-            seeds = row_seeds(preset, "II", label(policy, tokenizer), 1)
-            runs = [state_run(run) for run in seed_runs(preset, policy, tokenizer, [task], seeds)]
+            seeds = row_seeds(preset, "II", name, 1)
+            runs = [state_run(r) for r in seed_runs(preset, *policy_tokenizer(name), [task], seeds)]
             entries[column] = tasks_entry(evaluated, runs, [task])
-            per_task += list(entries[column].units)
-        entries["avg"] = Entry(tuple(per_task))
-        rows.append(Row(label(policy, tokenizer), entries,
-                        TABLE_II_MANISKILL[label(policy, tokenizer)]))
+        entries["avg"] = Entry(tuple(u for e in entries.values() for u in e.units))
+        rows.append(Row(name, entries, paper))
     return TableSpec("II", "Results on ManiSkill", (*MANISKILL_COLUMNS, "avg"), tuple(rows),
                      note=("One policy per task (as ManiSkill's baselines), trained on the "
                            f"motion planner's {demos} demonstrations per task, converted to "
@@ -103,18 +99,16 @@ def spec(preset: Preset) -> TableSpec:
 
 def claims(preset: Preset) -> list[Claim]:
     """Table II's claims, in the order of the paper's Sec. IV."""
-    T2 = TABLE_II_MANISKILL
+    c = partial(versus, "II", TABLE_II_MANISKILL)
     act_others = [r for r in ACT_TOKENIZER_ROWS if r != "act+lipvq"]
     return [
-        Claim("II-lipvq-best", "II", "LipVQ-VAE still achieves the highest performance among all "
-              "action tokenizers.", "ACT+LipVQ minus the best other ACT+tokenizer (avg)", +1,
-              margin("II", "act+lipvq", act_others), paper_margin(T2, "act+lipvq", act_others)),
-        Claim("II-lipvq-vs-lfq", "II", "LipVQ-VAE exceeds LFQ-VAE by 6%.",
-              "ACT+LipVQ minus ACT+LFQ (avg)", +1, diff("II", "act+lipvq", "act+lfq"),
-              paper_diff(T2, "act+lipvq", "act+lfq")),
-        Claim("II-lipvq-vs-act", "II", "A 19.7% performance gap in favor of our method over the "
-              "original ACT.", "ACT+LipVQ minus ACT (avg)", +1, diff("II", "act+lipvq", "act"),
-              paper_diff(T2, "act+lipvq", "act")),
+        c("act+lipvq", act_others, "II-lipvq-best", "LipVQ-VAE still achieves the highest "
+          "performance among all action tokenizers.",
+          "ACT+LipVQ minus the best other ACT+tokenizer (avg)"),
+        c("act+lipvq", "act+lfq", "II-lipvq-vs-lfq", "LipVQ-VAE exceeds LFQ-VAE by 6%.",
+          "ACT+LipVQ minus ACT+LFQ (avg)"),
+        c("act+lipvq", "act", "II-lipvq-vs-act", "A 19.7% performance gap in favor of our method "
+          "over the original ACT.", "ACT+LipVQ minus ACT (avg)"),
     ]
 
 
@@ -123,4 +117,3 @@ CLAIM_LABELS = {
     "II-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE in ACT",
     "II-lipvq-vs-act": "ACT+LipVQ-VAE beats ACT",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

@@ -21,12 +21,11 @@ from icil_paper.tables.claims import Claim, Correlation, MotionCorrelation, marg
 from icil_paper.tables.definitions import (
     ICRT_TOKENIZERS,
     TOKENIZER_ROWS,
-    feature_spec,
-    label,
+    features_entry,
     table_i_runs,
 )
 from icil_paper.tables.display import source_label
-from icil_paper.tables.spec import Entry, Row, TableSpec, Unit
+from icil_paper.tables.spec import Row, TableSpec
 
 # The paper's Table III: least-energy smoothness of 500 latent features (lower is smoother).
 TABLE_III_SMOOTHNESS = {"icrt+mlp": 5.71, "icrt+bin": 12.57, "icrt+fast": 5.67, "icrt+vq": 4.79,
@@ -35,15 +34,12 @@ TABLE_III_SMOOTHNESS = {"icrt+mlp": 5.71, "icrt+bin": 12.57, "icrt+fast": 5.67, 
 
 def spec(preset: Preset) -> TableSpec:
     """Table III: each ICRT tokenizer's Table I runs x least_energy, a unit per seed."""
-    rows = []
-    for tokenizer in ICRT_TOKENIZERS:
-        runs = table_i_runs(preset, "icrt", tokenizer)
-        units = tuple(Unit(s, run, features=feature_spec(preset, run))
-                      for s, run in enumerate(runs))
-        rows.append(Row(label("icrt", tokenizer), {"least_energy": Entry(units)},
-                        {"least_energy": TABLE_III_SMOOTHNESS[label("icrt", tokenizer)]}))
+    rows = tuple(
+        Row(name, {"least_energy": features_entry(preset, table_i_runs(preset, "icrt", tok))},
+            {"least_energy": TABLE_III_SMOOTHNESS[name]})
+        for tok, name in zip(ICRT_TOKENIZERS, TOKENIZER_ROWS, strict=True))
     return TableSpec("III", "Smoothness of the action tokenizers' latent features",
-                     ("least_energy",), tuple(rows), measure="smoothness", note=(
+                     ("least_energy",), rows, measure="smoothness", note=(
                          "Least energy of the latent features that Table I's trained ICRT "
                          "policies' own tokenizers give held-out generated trajectories."))
 
@@ -84,7 +80,6 @@ CLAIM_LABELS = {
     "III-smoother-succeeds": "smoother latents, more success",
     "III-smoother-latents-smoother-motion": "ours: smoother latents, smoother motion",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
 
 
 # --------------------------------------------------------------------------- Figs. 1 and 4

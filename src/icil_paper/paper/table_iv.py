@@ -14,14 +14,15 @@ Fig. 5's i-th size stands beside the paper's i-th (2^8 .. 2^11).
 from __future__ import annotations
 
 import dataclasses
+from functools import partial
 
 import numpy as np
 
 from icil_paper.config import Preset
+from icil_paper.paper.table_i import policy_tokenizer, versus
 from icil_paper.tables.assemble import TableResult
-from icil_paper.tables.claims import Claim, diff, margin, paper_diff
+from icil_paper.tables.claims import Claim, margin
 from icil_paper.tables.definitions import (
-    label,
     row_seeds,
     seed_runs,
     table_i_runs,
@@ -31,8 +32,6 @@ from icil_paper.tables.definitions import (
 )
 from icil_paper.tables.display import codebook_rows, per_seed_metrics, source_label
 from icil_paper.tables.spec import Row, TableSpec
-
-TABLE_IV_ROWS = (("icrt", "mlp"), ("icrt", "lip-mlp"), ("icrt", "vq"), ("icrt", "lipvq"))
 
 # The paper's Table IV: impact of Lipschitz regularization (RoboCasa average success).
 TABLE_IV_LIPSCHITZ = {
@@ -51,10 +50,10 @@ def spec(preset: Preset) -> TableSpec:
     """Table IV: ICRT with MLP, Lip-MLP, VQ-VAE and LipVQ-VAE x avg, features beside."""
     tasks = preset.data.robocasa_tasks
     rows = []
-    for p, t in TABLE_IV_ROWS:
-        runs = table_i_runs(preset, p, t)
-        entries = with_codebook(preset, {"avg": tasks_entry(preset, runs, tasks)}, runs)
-        rows.append(Row(label(p, t), entries, TABLE_IV_LIPSCHITZ[label(p, t)]))
+    for name, paper in TABLE_IV_LIPSCHITZ.items():
+        runs = table_i_runs(preset, *policy_tokenizer(name))
+        rows.append(Row(name, with_codebook(preset, {"avg": tasks_entry(preset, runs, tasks)},
+                                            runs), paper))
     return TableSpec("IV", "Lipschitz regularization's impact", ("avg",), tuple(rows),
                      beside=("features",),
                      note="Average success over the kitchen tasks; MLP and VQ-VAE rows are "
@@ -97,22 +96,19 @@ def _power_of_two(size: int) -> str:
 
 def claims(preset: Preset) -> list[Claim]:
     """Table IV's and Fig. 5's claims, in the order of the paper's Sec. IV."""
-    T4 = TABLE_IV_LIPSCHITZ
+    c = partial(versus, "IV", TABLE_IV_LIPSCHITZ)
     f5_rows = [r.label for r in fig5_spec(preset).rows]
     f5_best = f5_rows[min(2, len(f5_rows) - 1)]  # at the paper's 2^10 position, the third
     f5_others = [x for x in f5_rows if x != f5_best]
     return [
-        Claim("IV-mlp", "IV", "Incorporating Lipschitz regularization improves performance by "
-              "2.3% for the MLP tokenizer.", "ICRT+Lip-MLP minus ICRT+MLP (avg)", +1,
-              diff("IV", "icrt+lip-mlp", "icrt+mlp"),
-              paper_diff(T4, "icrt+lip-mlp", "icrt+mlp")),
-        Claim("IV-vq", "IV", "Incorporating Lipschitz regularization improves performance by "
-              "5.5% for VQ-VAE.", "ICRT+LipVQ minus ICRT+VQ (avg)", +1,
-              diff("IV", "icrt+lipvq", "icrt+vq"), paper_diff(T4, "icrt+lipvq", "icrt+vq")),
-        Claim("IV-vq-over-mlp", "IV", "VQ-VAE outperforms MLP in both regularized and "
-              "non-regularized settings.", "ICRT+VQ minus ICRT+MLP (avg; the regularized pair "
-              "is in the chapter)", +1, diff("IV", "icrt+vq", "icrt+mlp"),
-              paper_diff(T4, "icrt+vq", "icrt+mlp")),
+        c("icrt+lip-mlp", "icrt+mlp", "IV-mlp", "Incorporating Lipschitz regularization "
+          "improves performance by 2.3% for the MLP tokenizer.",
+          "ICRT+Lip-MLP minus ICRT+MLP (avg)"),
+        c("icrt+lipvq", "icrt+vq", "IV-vq", "Incorporating Lipschitz regularization improves "
+          "performance by 5.5% for VQ-VAE.", "ICRT+LipVQ minus ICRT+VQ (avg)"),
+        c("icrt+vq", "icrt+mlp", "IV-vq-over-mlp", "VQ-VAE outperforms MLP in both regularized "
+          "and non-regularized settings.", "ICRT+VQ minus ICRT+MLP (avg; the regularized pair "
+          "is in the chapter)"),
         Claim("fig5-best", "fig5", "The codebook size of 2^10 yields the best performance.",
               f"LipVQ at {f5_best} minus the best other size of the sweep (avg)", +1,
               margin("fig5", f5_best, f5_others),
@@ -127,7 +123,6 @@ CLAIM_LABELS = {
     "IV-vq-over-mlp": "VQ-VAE beats MLP tokenizer",
     "fig5-best": "codebook of 2^10 best",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""
 
 
 def codes_used_frame(results: dict[str, TableResult], column: str = "features"):

@@ -15,11 +15,10 @@ import numpy as np
 
 from icil_paper.config import Preset
 from icil_paper.data.splits import sim_to_real_pairs
+from icil_paper.paper.table_i import policy_tokenizer
 from icil_paper.tables.claims import Claim, MotionComparison, diff
 from icil_paper.tables.definitions import label, row_seeds, seed_runs, table_i_seeds, tasks_entry
 from icil_paper.tables.spec import Row, TableSpec
-
-TABLE_V_ROWS = (("bc_transformer", None), ("icrt", "bin"), ("icrt", "lipvq"))
 
 # The paper's Table V: sim-to-real success on a real Kinova Gen3 (ours is a simulated stand-in).
 TABLE_V_SIM_TO_REAL = {
@@ -43,12 +42,11 @@ def spec(preset: Preset) -> TableSpec:
     columns = {"drawers": [t for t in kinova if t.endswith("drawer")],
                "doors": [t for t in kinova if t.endswith("door")]}
     rows = []
-    for policy, tokenizer in TABLE_V_ROWS:
-        runs = sim_to_real_runs(preset, policy, tokenizer)
+    for name, paper in TABLE_V_SIM_TO_REAL.items():
+        runs = sim_to_real_runs(preset, *policy_tokenizer(name))
         entries = {c: tasks_entry(preset, runs, tasks) for c, tasks in columns.items()}
         entries["avg"] = tasks_entry(preset, runs, kinova)
-        rows.append(Row(label(policy, tokenizer), entries,
-                        TABLE_V_SIM_TO_REAL[label(policy, tokenizer)]))
+        rows.append(Row(name, entries, paper))
     return TableSpec("V", "Sim-to-real success rates (our stand-in: Panda -> perturbed Kinova3)",
                      ("drawers", "doors", "avg"), tuple(rows), note=(
                          "Policies trained on the Panda kitchen's doors and drawers, rolled out "
@@ -87,4 +85,3 @@ CLAIM_LABELS = {
     "V-lipvq-vs-bin": "sim-to-real: beats Bin",
     "V-lipvq-smoother-motion": "sim-to-real: smoother motion",
 }
-"""What each claim says, in a few words (the forest plot's rows, the introduction)."""

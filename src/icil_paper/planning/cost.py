@@ -158,13 +158,13 @@ def run_cost(preset: Preset, store: ResultsStore | None = None) -> dict[str, Any
     }
 
 
-def _cpu_per_cell(group: dict[str, float]) -> float:
-    """A finished cell's mean CPU time (training averaged over the cells trained in one go)."""
-    evaluation = (group["cpu_s"] - group["train_cpu_s"]) / group["cells"]
-    whole = group["cells"] - group["resumed_cells"]
+def train_cpu_per_cell(group: dict[str, float]) -> float:
+    """A finished cell's mean training CPU time, averaged over the cells trained in one go
+    (a resumed cell's record times only the steps after its checkpoint)."""
+    whole = group["cells"] - group.get("resumed_cells", 0)
     if not whole:
-        return evaluation + group["train_cpu_s"] / group["cells"]
-    return evaluation + (group["train_cpu_s"] - group["resumed_cpu_s"]) / whole
+        return group["train_cpu_s"] / group["cells"]
+    return (group["train_cpu_s"] - group.get("resumed_cpu_s", 0.0)) / whole
 
 
 def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
@@ -183,7 +183,7 @@ def _projection(preset: Preset, planned: dict[Path, tuple[str, str]],
         finished = int(done["cells"]) if done else 0
         measured = finished and not done["without_cpu_time"]
         if measured:
-            per_cell = _cpu_per_cell(done)
+            per_cell = (done["cpu_s"] - done["train_cpu_s"]) / done["cells"] + train_cpu_per_cell(done)
         else:  # the same plans, so every kind planned here has an estimate
             per_cell = estimate.get(kind)
         if per_cell is None:
@@ -219,12 +219,11 @@ def stages_cost(preset: Preset, store: ResultsStore) -> dict[str, Any]:
             "fixed_design_wall_hours_at_2": plan_cost(preset)["wall_h_at_2"]}
 
 
-COST_FIX = "regenerate it: python -m icil_paper.planning.cost --preset <preset>"
-
-
 def read_cost(path: str | Path) -> dict[str, Any]:
     """A run's `cost.json` (`write_cost`); a damaged one raises one line naming the fix."""
-    return read_json(path, "a run's cost (cost.json)", COST_FIX, keys=("preset", "total"),
+    return read_json(path, "a run's cost (cost.json)",
+                     "regenerate it: python -m icil_paper.planning.cost --preset <preset>",
+                     keys=("preset", "total"),
                      fields={"preset": str, "total": dict, "by_stage": dict, "by_kind": dict})
 
 

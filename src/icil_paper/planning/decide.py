@@ -22,14 +22,13 @@ from icil_paper.commands import Parser, add_preset_arguments, positive, preset_f
 from icil_paper.config import Preset
 from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
 from icil_paper.paper import TABLES, table_spec
-from icil_paper.planning.design import cell_kind, claim_rows, planned_seeds
+from icil_paper.planning.cost import train_cpu_per_cell
+from icil_paper.planning.design import cell_kind, claim_rows, planned_seeds, row_units
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import DATA_SETS
-from icil_paper.stats import Verdict
 from icil_paper.tables.cells import plan, plan_records
+from icil_paper.verdict_words import DECIDED
 
-DECIDED = (Verdict.HOLDS, Verdict.DOES_NOT_HOLD)
-"""Verdicts that settle a claim; every other one is planned."""
 SHARES_TABLE_I = ("III", "IV", "V", "VI", "prompt")
 """Tables whose rows are Table I's runs: their seeds are Table I's row seeds."""
 PLAN_FILE = "plan.json"
@@ -55,8 +54,7 @@ def seeds_entry_name(table: str, row: str) -> str:
 
 def row_seeds_setting(preset: Preset, wanted: dict[str, int]) -> str:
     """The `--set` value of `tables.row_seeds`: the preset's entries raised to `wanted`."""
-    entries = {name: int(n) for name, _, n in
-               (entry.rpartition("=") for entry in preset.tables.row_seeds)}
+    entries = preset.tables.seeds_by_row()
     for name, n in wanted.items():
         entries[name] = max(n, entries.get(name, 0))
     return "tables.row_seeds=" + ",".join(f"{name}={n}" for name, n in entries.items())
@@ -68,11 +66,9 @@ def _rates(cost: dict[str, Any]) -> dict[str, tuple[float, float]]:
     for kind, g in cost["by_kind"].items():
         if not g.get("cells"):
             continue
-        whole = g["cells"] - g.get("resumed_cells", 0)
-        train = ((g["train_cpu_s"] - g.get("resumed_cpu_s", 0.0)) / whole if whole
-                 else g["train_cpu_s"] / g["cells"])
         others = g["records"] - g["cells"]
-        out[kind] = (train, (g["cpu_s"] - g["train_cpu_s"]) / others if others > 0 else 0.0)
+        out[kind] = (train_cpu_per_cell(g),
+                     (g["cpu_s"] - g["train_cpu_s"]) / others if others > 0 else 0.0)
     return out
 
 
@@ -133,9 +129,8 @@ def make_plan(preset: Preset, ledger: list[dict[str, Any]], cost: dict[str, Any]
     runs_of_row: dict[tuple[str, str], dict[str, int]] = defaultdict(dict)
     for table, spec in specs.items():
         for row in spec.rows:
-            for entry in row.entries.values():
-                runs_of_row[table, row.label].update((u.run.key(), u.seed_index)
-                                                     for u in entry.units)
+            runs_of_row[table, row.label].update((u.run.key(), u.seed_index)
+                                                 for u in row_units(row))
     for line in claims:  # a claim alone: its rows' missing runs below its own seeds
         keys = {key for r in line["rows"] if line["planned"]
                 for key, k in runs_of_row[tuple(r.split(":", 1))].items()

@@ -48,10 +48,14 @@ TABLE_IDS = tuple(TABLES)
 """Every table the reference run computes."""
 
 
+def row_units(row) -> list:
+    """Every unit (one run and what it evaluates) of a table row's entries."""
+    return [u for entry in row.entries.values() for u in entry.units]
+
+
 def planned_seeds(preset: Preset) -> dict[tuple[str, str], int]:
     """(table, row) -> the training seeds the preset gives that row."""
-    return {(table_id, row.label): len({u.seed_index for entry in row.entries.values()
-                                        for u in entry.units})
+    return {(table_id, row.label): len({u.seed_index for u in row_units(row)})
             for table_id in TABLE_IDS for row in table_spec(preset, table_id).rows}
 
 
@@ -62,12 +66,11 @@ def finished_seeds(preset: Preset, store=None) -> dict[tuple[str, str], int]:
     for table_id in TABLE_IDS:
         for row in table_spec(preset, table_id).rows:
             whole: dict[int, bool] = {}
-            for entry in row.entries.values():
-                for u in entry.units:
-                    record = (eval_record(u.run, u.eval) if u.eval is not None
-                              else features_record(u.run, u.features))
-                    done = store.record_path(*record).exists()
-                    whole[u.seed_index] = whole.get(u.seed_index, True) and done
+            for u in row_units(row):
+                record = (eval_record(u.run, u.eval) if u.eval is not None
+                          else features_record(u.run, u.features))
+                done = store.record_path(*record).exists()
+                whole[u.seed_index] = whole.get(u.seed_index, True) and done
             out[table_id, row.label] = sum(whole.values())
     return out
 
@@ -122,9 +125,11 @@ def design_problems(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[s
 def expected_half_width(entry: dict[str, Any], seeds: int) -> float | None:
     """The 95% half-width a claim's difference is expected to have at `seeds` seeds a row,
     from the entry's `plan` variance, else (an older ledger, Welch's test) the variance read
-    back from its `mde` or its `seeds_needed`."""
+    back from its `mde` or its `seeds_needed`; None below two seeds or with neither."""
     plan, mde, rows = entry.get("plan"), entry.get("mde"), entry.get("seeds") or {}
     needed, effect = entry.get("seeds_needed"), sizing_effect(entry)
+    if seeds < 2:
+        return None
     if plan:
         var, paired = plan["variance"], plan["paired"]
     elif mde is not None and min(rows.values(), default=0) >= 2:
@@ -216,36 +221,26 @@ def data_cost(plans, path: str | Path | None = None) -> dict[str, Any]:
             "core_s": round(core, 1), "measured": sorted(rates)}
 
 
-def report(preset: Preset) -> dict[str, Any]:
-    """Every claim's seeds and expected half-width, the rule's violations and the plan's cost."""
-    ledger = design_ledger(preset)
-    return {"preset": preset.name, "claims": _claims_report(preset, ledger),
-            "violations": design_problems(preset, ledger), "cost": plan_cost(preset)}
-
-
 def _claims_report(preset: Preset, ledger: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every claim's rows and seeds, required seeds and half-width now and expected."""
     seeds = planned_seeds(preset)
     claims_out = []
     for claim_id, rows in claim_rows(preset).items():
         entry = ledger[claim_id]
         planned = min((seeds.get(r, 0) for r in rows), default=0)
+        hw = expected_half_width(entry, planned)
         claims_out.append({
             "id": claim_id, "rows": {f"{t}:{r}": seeds.get((t, r)) for t, r in rows},
             "seeds_needed": entry.get("seeds_needed"), "required": required_seeds(entry),
             "paper": sizing_effect(entry),
             "half_width_now": (None if not entry.get("ci") else
                                round((entry["ci"][1] - entry["ci"][0]) / 2, 4)),
-            "expected_half_width": _expected(entry, planned)})
+            "expected_half_width": None if hw is None else round(hw, 4)})
     return claims_out
 
 
-def _expected(entry: dict[str, Any], planned: int) -> float | None:
-    hw = None if planned < 2 else expected_half_width(entry, planned)
-    return None if hw is None else round(hw, 4)
-
-
 def design_frame(preset: Preset):
-    """`report`'s claims as a table for the book: seeds needed and where the variances came
+    """The design's claims as a table for the book: seeds needed and where the variances came
     from, required, planned and finished seeds, the expected 95% half-width. A staged preset
     (pass `staged.as_run`'s) shows its stage's seeds instead of required and planned."""
     import pandas as pd
@@ -298,16 +293,6 @@ def interim_ledger(preset: Preset, seeds: int | None = None, store=None
     return seeds, claims_ledger(at_seeds(preset, seeds), store)
 
 
-def interim_check(preset: Preset, seeds: int | None = None, store=None
-                  ) -> tuple[int, list[str] | None]:
-    """(seeds, the rows below the rule for `interim_ledger`), or (seeds, None) below two
-    seeds: which rows to top up while the run is under way."""
-    seeds, ledger = interim_ledger(preset, seeds, store)
-    if ledger is None:
-        return seeds, None
-    return seeds, design_problems(preset, {e.id: e.to_dict() for e in ledger})
-
-
 # --------------------------------------------------------------------------- stages
 def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
                budget_hours: float | None = None) -> dict[str, Any]:
@@ -326,7 +311,7 @@ def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
     over: dict[str, int] = {}
     if budget_hours is not None and wanted:
         wanted, over = within_budget(preset, wanted, budget_hours, runs=runs)
-    go = _going_rows(runs, {c: (n, rows_of[c]) for c, n in wanted.items()})
+    go = _going_rows(runs, rows_of, wanted)
     return {"continue": go,
             "stop": {row: [c for c, rows in rows_of.items() if row in rows]
                      for row in sorted(readers) if row not in go},
@@ -334,12 +319,13 @@ def stage_plan(preset: Preset, ledger: list[dict[str, Any]],
 
 
 def _going_rows(runs: dict[tuple[str, str], frozenset[str]],
-                claims_going: dict[str, tuple[int, tuple]]
+                rows_of: dict[str, tuple[tuple[str, str], ...]], going: dict[str, int]
                 ) -> dict[tuple[str, str], tuple[int, list[str]]]:
-    """{row: (next seeds, [claim ids])} of the claims going on and the rows sharing runs."""
+    """{row: (next seeds, [claim ids])} of the claims `going` on ({claim id: next seeds})
+    and the rows sharing their runs."""
     go: dict[tuple[str, str], tuple[int, list[str]]] = {}
-    for claim_id, (nxt, rows) in claims_going.items():
-        for row in rows:
+    for claim_id, nxt in going.items():
+        for row in rows_of[claim_id]:
             seeds, ids = go.get(row, (0, []))
             go[row] = (max(seeds, nxt), [*ids, claim_id])
     direct = dict(go)
@@ -365,21 +351,18 @@ def within_budget(preset: Preset, wanted: dict[str, int], budget_hours: float,
     rates = rates or cell_rates()
     if runs is None:
         runs = {row: _first_runs(preset, *row) for rows in rows_of.values() for row in rows}
-
-    def rows(claims: dict[str, int]) -> dict[tuple[str, str], tuple[int, list[str]]]:
-        return _going_rows(runs, {c: (n, rows_of[c]) for c, n in claims.items()})
-
     # Every claim going on at once plans every run any subset of them can add.
-    upper = with_row_seeds(preset, {row: n for row, (n, _) in rows(wanted).items()})
+    upper = with_row_seeds(preset, {row: n for row, (n, _) in
+                                    _going_rows(runs, rows_of, wanted).items()})
     specs = {t: table_spec(upper, t) for t in TABLE_IDS}
     plans = {p.run.key(): p for p in plan(list(specs.values()))}
     now = {p.run.key() for p in plan([table_spec(preset, t) for t in TABLE_IDS])}
-    units = {(t, r): [(u.seed_index, u.run.key()) for entry in specs[t].row(r).entries.values()
-                      for u in entry.units] for t, r in runs}
+    units = {(t, r): [(u.seed_index, u.run.key()) for u in row_units(specs[t].row(r))]
+             for t, r in runs}
 
     def hours(claims: dict[str, int]) -> float:
         keys = set(now)
-        for row, (n, _) in rows(claims).items():
+        for row, (n, _) in _going_rows(runs, rows_of, claims).items():
             keys |= {key for seed, key in units[row] if seed < n}
         return plans_cost([plans[k] for k in keys], rates)["core_s"] / 2 / 3600
 
@@ -395,8 +378,7 @@ def within_budget(preset: Preset, wanted: dict[str, int], budget_hours: float,
 
 def _first_runs(preset: Preset, table: str, row: str) -> frozenset[str]:
     """The keys of a row's first training seed's runs."""
-    spec = table_spec(preset, table).row(row)
-    return frozenset(u.run.key() for entry in spec.entries.values() for u in entry.units
+    return frozenset(u.run.key() for u in row_units(table_spec(preset, table).row(row))
                      if u.seed_index == 0)
 
 
@@ -486,17 +468,17 @@ def main(argv: list[str] | None = None) -> int:
     if args.stages:
         return _print_stages(preset)
 
-    out = report(preset)
-    for c in out["claims"]:
+    ledger, cost = design_ledger(preset), plan_cost(preset)
+    for c in _claims_report(preset, ledger):
         print(f"{c['id']:<38} needed {str(c['seeds_needed']):>5}  required {c['required']:>2}  "
               f"hw now {c['half_width_now']}  expected {c['expected_half_width']}  "
               f"rows {c['rows']}")
-    for line in out["violations"]:
+    for line in design_problems(preset, ledger):
         print("violation:", line)
-    for name, k in sorted(out["cost"]["kinds"].items()):
+    for name, k in sorted(cost["kinds"].items()):
         print(f"{name:<28} {k}")
-    print(f"{out['cost']['cells']} cells, {out['cost']['core_s'] / 3600:.1f} core-hours, "
-          f"{out['cost']['wall_h_at_2']} h at two cells at a time")
+    print(f"{cost['cells']} cells, {cost['core_s'] / 3600:.1f} core-hours, "
+          f"{cost['wall_h_at_2']} h at two cells at a time")
     if args.interim:
         seeds, ledger = interim_ledger(preset)
         if ledger is None:

@@ -30,7 +30,7 @@ import torch
 from torch import Tensor, nn
 
 from icil_paper.layers import mlp
-from icil_paper.policies.base import BatchedPolicy, TemporalEnsemble, batch_instructions, masked_l1
+from icil_paper.policies.base import BatchedPolicy, TemporalEnsemble, masked_l1
 from icil_paper.policies.batching import DemoSet, ObsSpec, window_batch
 from icil_paper.policies.configs import ACTConfig, register_policy_model
 from icil_paper.policies.transformer import DecoderBlock, RMSNorm, Transformer, TransformerConfig
@@ -143,10 +143,9 @@ class ACT(BatchedPolicy):
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
         """Start B = len(prompts) episodes (prompts ignored), one temporal ensemble each."""
-        texts = [t or "" for t in batch_instructions(prompts, instructions)]
-        self.begin_episodes(texts)
+        super().reset_batch(prompts, instructions)
         self._ensembles = [TemporalEnsemble(self.chunk_size, self.config.ensemble_m)
-                           for _ in texts]
+                           for _ in self._instructions]
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],

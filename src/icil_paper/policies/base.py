@@ -54,7 +54,7 @@ class Policy(nn.Module):
         self.obs_spec = as_obs_spec(obs_dim)
         if action_dim < 1:
             raise ValueError(f"action_dim must be positive, got {action_dim}")
-        if config.needs_images and not self.obs_spec.has_images:
+        if config.needs_images and self.obs_spec.image is None:
             raise ValueError(f"the {self.name} policy needs image observations (obs='rgb' or "
                              f"'rgbd'); got state observations {list(self.obs_spec.keys)}")
         self.action_dim = int(action_dim)
@@ -63,7 +63,7 @@ class Policy(nn.Module):
         # what rebuilds the policy (`factory.build_policy`), as JSON-ready data
         self.spec = {"policy": to_dict(config),
                      "tokenizer": to_dict(tokenizer) if tokenizer else None,
-                     "obs_spec": self.obs_spec.to_dict(), "action_dim": self.action_dim}
+                     "obs_spec": to_dict(self.obs_spec), "action_dim": self.action_dim}
         self.instruction = ""
 
     # ---------------------------------------------------------------- shared parts
@@ -175,12 +175,17 @@ class Policy(nn.Module):
 class BatchedPolicy(Policy):
     """A policy that acts for B episodes in one forward pass (ICRT and the baselines).
 
-    Subclasses implement `reset_batch` (calling `begin_episodes` first) and `select_actions`
-    (calling `keep_rows` first); `reset` and `select_action` are the batch of one.
+    Subclasses implement `select_actions` (calling `keep_rows` first) and extend `reset_batch`;
+    `reset` and `select_action` are the batch of one.
     """
 
     def reset(self, prompt: Any = None, instruction: str | None = None) -> None:
         self.reset_batch([prompt], [instruction])
+
+    def reset_batch(self, prompts: Sequence[Any], instructions: Sequence[str | None] | None = None
+                    ) -> None:
+        """Start B = len(prompts) episodes (prompts ignored: the baselines take none)."""
+        self.begin_episodes([t or "" for t in batch_instructions(prompts, instructions)])
 
     @torch.no_grad()
     def select_action(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -268,12 +273,6 @@ def validate_prompt(prompt: Any, spec: ObsSpec, action_dim: int) -> list[Any]:
         if not hasattr(d, "actions") or not hasattr(d, "obs"):
             raise ValueError(f"prompt item {i} is a {type(d).__name__}, not a demonstration "
                              "with `actions` and `obs`")
-        a = np.asarray(d.actions)
-        if a.ndim != 2 or len(a) == 0:
-            raise ValueError(f"empty prompt: demonstration {i} has actions of shape {a.shape}")
-        if a.shape[1] != action_dim:
-            raise ValueError(f"wrong action dimension in the prompt: demonstration {i} has "
-                             f"{a.shape[1]}-dimensional actions, the policy expects {action_dim}")
         check_demo(i, d, spec.keys, action_dim, what="prompt demonstration")
         for k in spec.keys:
             values = np.asarray(d.obs[k])

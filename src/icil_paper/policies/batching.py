@@ -50,22 +50,9 @@ class ObsSpec:
     """Whether a "depth" key (n_cams, H, W) accompanies the images (RGB-D)."""
 
     @property
-    def has_images(self) -> bool:
-        return self.image is not None
-
-    @property
     def keys(self) -> tuple[str, ...]:
         extra = (("rgb",) if self.image else ()) + (("depth",) if self.depth else ())
         return self.lowdim_keys + extra
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"lowdim_keys": list(self.lowdim_keys), "lowdim_dim": self.lowdim_dim,
-                "image": list(self.image) if self.image else None, "depth": self.depth}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> ObsSpec:
-        return cls(tuple(d["lowdim_keys"]), int(d["lowdim_dim"]),
-                   tuple(d["image"]) if d.get("image") else None, bool(d.get("depth", False)))
 
 
 def as_obs_spec(obs_dim: int | Mapping[str, Any] | ObsSpec) -> ObsSpec:
@@ -112,9 +99,11 @@ def check_demo(i: int, demo: Any, keys: Sequence[str], action_dim: int,
     name = f"{what} {i} ({getattr(demo, 'task', '?')})"
     actions = np.asarray(demo.actions)
     if actions.ndim != 2 or len(actions) == 0:
-        raise ValueError(f"{name}: actions must be a non-empty (T, A) array, got shape {actions.shape}")
+        raise ValueError(f"{'empty' if actions.size == 0 else 'misshaped'} {name}: actions must "
+                         f"be a non-empty (T, A) array, got shape {actions.shape}")
     if actions.shape[1] != action_dim:
-        raise ValueError(f"{name}: actions have dimension {actions.shape[1]}, expected {action_dim}")
+        raise ValueError(f"wrong action dimension in {name}: {actions.shape[1]}-dimensional "
+                         f"actions, expected {action_dim}")
     if not np.isfinite(actions).all():
         raise ValueError(f"{name}: actions contain NaN or inf")
     for k in keys:
@@ -168,10 +157,7 @@ class DemoSet:
 
 
 def _as_stored(key: str, x: np.ndarray) -> np.ndarray:
-    x = np.asarray(x)
-    if key == "rgb":
-        return x.astype(np.uint8, copy=False)
-    return x.astype(np.float32, copy=False)
+    return np.asarray(x).astype(np.uint8 if key == "rgb" else np.float32, copy=False)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -182,6 +168,16 @@ def _take(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
 
 def _stack_obs(rows: list[dict[str, np.ndarray]]) -> dict[str, Tensor]:
     return {k: torch.from_numpy(np.stack([r[k] for r in rows])) for k in rows[0]}
+
+
+def _stack(rows: list[dict[str, Any]], key: str, length: int | None = None) -> Any:
+    """The rows' `key` stacked (B, ...) ({key: (B, ...)} for observations), each row first
+    edge-padded to `length` steps (None: as they are)."""
+    items = [r[key] for r in rows]
+    if isinstance(items[0], dict):
+        return _stack_obs([{k: _pad_end(v, length) if length else v for k, v in i.items()}
+                           for i in items])
+    return torch.from_numpy(np.stack([_pad_end(i, length) if length else i for i in items]))
 
 
 def _pad_end(x: np.ndarray, length: int) -> np.ndarray:
@@ -251,17 +247,13 @@ def prompt_query_batch(data: DemoSet, batch_size: int, query_len: int, chunk_siz
     batch = {
         "prompt_valid": torch.tensor(np.stack([np.arange(M) < len(r["prompt_actions"]) for r in rows])),
         "query_valid": torch.tensor(np.stack([np.arange(N) < len(r["query_actions"]) for r in rows])),
-        "prompt_obs": _stack_obs([{k: _pad_end(v, M) for k, v in r["prompt_obs"].items()} for r in rows]),
-        "prompt_actions": torch.from_numpy(np.stack([_pad_end(r["prompt_actions"], M) for r in rows])),
-        "query_obs": _stack_obs([{k: _pad_end(v, N) for k, v in r["query_obs"].items()} for r in rows]),
-        "query_actions": torch.from_numpy(np.stack([_pad_end(r["query_actions"], N) for r in rows])),
-        "targets": torch.from_numpy(np.stack([_pad_end(r["targets"], N) for r in rows])),
+        **{k: _stack(rows, k, M) for k in ("prompt_obs", "prompt_actions")},
+        **{k: _stack(rows, k, N) for k in ("query_obs", "query_actions", "targets")},
         "instruction": [r["instruction"] for r in rows],
     }
     if action_context > 0:
-        batch["query_action_context"] = torch.from_numpy(np.stack([r["context"] for r in rows]))
-    tvalid = np.stack([_pad_end(r["target_valid"], N) for r in rows])
-    batch["target_valid"] = torch.from_numpy(tvalid) & batch["query_valid"][:, :, None]
+        batch["query_action_context"] = _stack(rows, "context")
+    batch["target_valid"] = _stack(rows, "target_valid", N) & batch["query_valid"][:, :, None]
     return batch
 
 
@@ -293,38 +285,22 @@ def window_batch(data: DemoSet, batch_size: int, history: int, chunk_size: int,
     """
     flat = rng.integers(0, data.n_steps, size=batch_size)
     demo_idx, step_idx = data.step_index(flat)
-    obs_rows, actions, valid, targets, tvalid, instr = [], [], [], [], [], []
+    rows = []
     for d, t in zip(demo_idx.tolist(), step_idx.tolist(), strict=True):
         hist = np.arange(t - history + 1, t + 1)
-        obs_rows.append({k: _take(v, hist) for k, v in data.obs[d].items()})
-        actions.append(_take(data.actions[d], hist))
-        valid.append(hist >= 0)
-        tg, tv = chunk_targets(data.actions[d], np.array([t]), chunk_size)
-        targets.append(tg[0])
-        tvalid.append(tv[0])
-        instr.append(data.instructions[d])
-    return {
-        "obs": _stack_obs(obs_rows),
-        "obs_valid": torch.from_numpy(np.stack(valid)),
-        "actions": torch.from_numpy(np.stack(actions)),
-        "targets": torch.from_numpy(np.stack(targets)),
-        "target_valid": torch.from_numpy(np.stack(tvalid)),
-        "instruction": instr,
-        "index": (demo_idx, step_idx),
-    }
+        targets, tvalid = chunk_targets(data.actions[d], np.array([t]), chunk_size)
+        rows.append({"obs": {k: _take(v, hist) for k, v in data.obs[d].items()},
+                     "obs_valid": hist >= 0, "actions": _take(data.actions[d], hist),
+                     "targets": targets[0], "target_valid": tvalid[0]})
+    return {**{k: _stack(rows, k) for k in ("obs", "obs_valid", "actions", "targets", "target_valid")},
+            "instruction": [data.instructions[d] for d in demo_idx.tolist()],
+            "index": (demo_idx, step_idx)}
 
 
 def batch_to(batch: Mapping[str, Any], device: torch.device | str) -> dict[str, Any]:
     """Move every tensor of a (nested) batch dict to `device`."""
-    out: dict[str, Any] = {}
-    for k, v in batch.items():
-        if isinstance(v, Tensor):
-            out[k] = v.to(device)
-        elif isinstance(v, Mapping):
-            out[k] = batch_to(v, device)
-        else:
-            out[k] = v
-    return out
+    return {k: v.to(device) if isinstance(v, Tensor) else
+            batch_to(v, device) if isinstance(v, Mapping) else v for k, v in batch.items()}
 
 
 def obs_batch(obs: Mapping[str, np.ndarray], spec: ObsSpec) -> dict[str, Tensor]:

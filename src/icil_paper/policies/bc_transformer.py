@@ -24,7 +24,7 @@ import torch
 from torch import Tensor, nn
 
 from icil_paper.layers import mlp
-from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
+from icil_paper.policies.base import BatchedPolicy, masked_l1
 from icil_paper.policies.batching import DemoSet, ObsSpec, window_batch
 from icil_paper.policies.configs import BCTransformerConfig, register_policy_model
 from icil_paper.policies.transformer import Transformer, TransformerConfig
@@ -63,8 +63,7 @@ class BCTransformer(BatchedPolicy):
 
     def reset_batch(self, prompts: Sequence[Any],
                     instructions: Sequence[str | None] | None = None) -> None:
-        """Start B = len(prompts) episodes (prompts are ignored); see `select_actions`."""
-        self.begin_episodes([t or "" for t in batch_instructions(prompts, instructions)])
+        super().reset_batch(prompts, instructions)
         self._history: Tensor | None = None  # (B, H, D) the last H observation tokens
 
     @torch.no_grad()

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from icil_paper.config_data import ConfigError, check_fields
+from icil_paper.config_data import Checked, ConfigError
 from icil_paper.registry import ComponentRegistry, check_name
 from icil_paper.tokenizers.configs import default_config
 
@@ -24,7 +24,7 @@ PROMPT_FROM = ("same_task", "minibatch")
 
 
 @dataclass(frozen=True)
-class PolicyConfig:
+class PolicyConfig(Checked):
     """Sizes every policy shares: the transformer and the observation backbone."""
 
     type: ClassVar[str] = ""
@@ -50,7 +50,7 @@ class PolicyConfig:
     """Add a bag-of-words instruction embedding to every observation token (CLIP's stand-in)."""
 
     def __post_init__(self) -> None:
-        check_fields(self)  # ranges, empty values, CHOICES: before any work
+        super().__post_init__()  # ranges, empty values, CHOICES: before any work
         if self.d_model % self.n_head:
             raise ConfigError(f"{type(self).__name__}.d_model ({self.d_model}) must be a "
                               f"multiple of n_head ({self.n_head}): each attention head gets "
@@ -164,10 +164,8 @@ class MCRConfig(PolicyConfig):
 POLICY_CONFIGS: dict[str, type[PolicyConfig]] = POLICY_REGISTRY.configs
 """Registry name -> config class, in registration order."""
 
-
-def default_policy_config(name: str, **fields) -> PolicyConfig:
-    """The default config of policy `name`, with some fields changed."""
-    return POLICY_CONFIGS[check_name("policy", name, POLICY_CONFIGS)](**fields)
+default_policy_config = POLICY_REGISTRY.default
+"""`default_policy_config(name, **fields)`: the default config of policy `name`, some changed."""
 
 
 def resolve_tokenizer(policy: str, tokenizer: Any, latent_dim: int | None = None):

@@ -48,5 +48,5 @@ def build_policy(spec: Mapping[str, Any]) -> Policy:
     """Rebuild an (untrained) policy from `policy.spec`."""
     tokenizer = spec.get("tokenizer")
     return make_policy(from_dict(PolicyConfig, spec["policy"]),
-                       ObsSpec.from_dict(spec["obs_spec"]), int(spec["action_dim"]),
+                       from_dict(ObsSpec, spec["obs_spec"]), int(spec["action_dim"]),
                        from_dict(TokenizerConfig, tokenizer) if tokenizer else None)

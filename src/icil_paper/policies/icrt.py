@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import torch
 from torch import Tensor, nn
+from torch.nn.utils.rnn import pad_sequence
 
 from icil_paper.layers import mlp
 from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1, validate_prompt
@@ -175,9 +176,11 @@ class ICRT(BatchedPolicy):
             raise ValueError(f"a prompt of {M} steps ({2 * M} tokens) leaves no room for the "
                              f"query within max_seq_len={self.max_seq_len}")
         dev = self.device
-        obs = {k: torch.from_numpy(_pad_rows([o[k] for o in rows_obs], M)).to(dev) for k in keys}
-        obs = {k: v.float() if k != "rgb" else v for k, v in obs.items()}  # (B, M, ...)
-        actions = torch.from_numpy(_pad_rows(rows_actions, M)).to(dev)  # (B, M, A)
+        # (B, M, ...) each, zero after a row's end
+        obs = {k: pad_sequence([torch.from_numpy(o[k]) for o in rows_obs], batch_first=True)
+               .to(dev) for k in keys}
+        obs = {k: v.float() if k != "rgb" else v for k, v in obs.items()}
+        actions = pad_sequence([torch.from_numpy(a) for a in rows_actions], batch_first=True).to(dev)
         valid = torch.arange(M, device=dev)[None] < torch.tensor(lengths, device=dev)[:, None]
         o_p = self.obs_tokens(obs, texts)
         a_p, _ = self.action_tokens(actions)
@@ -227,11 +230,3 @@ class ICRT(BatchedPolicy):
             rank = cache.valid.long().cumsum(dim=1) - 1  # index among the row's real tokens
             first = self._prompt_len[:, None]
             cache.invalidate(cache.valid & (rank >= first) & (rank < first + overflow[:, None]))
-
-
-def _pad_rows(rows: Sequence[np.ndarray], length: int) -> np.ndarray:
-    """Stack arrays (T_b, ...) into (B, length, ...), zero after each row's end."""
-    out = np.zeros((len(rows), length, *rows[0].shape[1:]), dtype=rows[0].dtype)
-    for b, row in enumerate(rows):
-        out[b, :len(row)] = row
-    return out

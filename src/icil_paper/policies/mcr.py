@@ -26,7 +26,7 @@ from torch import Tensor, nn
 from tqdm.auto import tqdm
 
 from icil_paper.layers import mlp
-from icil_paper.policies.base import BatchedPolicy, batch_instructions, masked_l1
+from icil_paper.policies.base import BatchedPolicy, masked_l1
 from icil_paper.policies.batching import DemoSet, ObsSpec, _stack_obs, _take, window_batch
 from icil_paper.policies.configs import MCRConfig, register_policy_model
 
@@ -130,11 +130,6 @@ class MCR(BatchedPolicy):
         pred = self.predict(batch["obs"], batch.get("instruction"))
         loss = masked_l1(pred, batch["targets"].float(), batch["target_valid"])
         return loss, {"action_l1": float(loss.detach())}
-
-    def reset_batch(self, prompts: Sequence[Any],
-                    instructions: Sequence[str | None] | None = None) -> None:
-        """Start B = len(prompts) episodes (prompts ignored; no episode state)."""
-        self.begin_episodes([t or "" for t in batch_instructions(prompts, instructions)])
 
     @torch.no_grad()
     def select_actions(self, obs: Sequence[Mapping[str, np.ndarray]],

@@ -102,37 +102,35 @@ assert image.shape == (64, 64, 3) and image.max() > 0, "blank image"
 print(f"MuJoCo offscreen rendering with MUJOCO_GL={os.environ['MUJOCO_GL']}: 64x64 frame")
 """
 
-_FIXES = {
-    "robosuite": "run `make setup` (robosuite 1.5.2 needs mujoco 3.3.x, not 4.x)",
-    "metaworld": "run `make setup` (it installs metaworld==3.1.1 with --no-deps beside the "
-                 "pinned mujoco 3.3.7)",
-    "maniskill": "ManiSkill needs a Vulkan device: `make setup` installs Mesa's lavapipe on "
-                 "Debian 12 as root; see `python -m tools.system_deps`",
-    "offscreen rendering": "install an EGL driver (Debian: libegl1 libegl-mesa0) or set "
-                           "MUJOCO_GL=osmesa with libosmesa6",
+_CHECKS = {  # name: (a script that exercises it, what to do when it fails)
+    "metaworld": (_METAWORLD, "run `make setup` (it installs metaworld==3.1.1 with --no-deps "
+                              "beside the pinned mujoco 3.3.7)"),
+    "robosuite": (_ROBOSUITE, "run `make setup` (robosuite 1.5.2 needs mujoco 3.3.x, not 4.x)"),
+    "maniskill": (_MANISKILL, "ManiSkill needs a Vulkan device: `make setup` installs Mesa's "
+                              "lavapipe on Debian 12 as root; see `python -m tools.system_deps`"),
+    "offscreen rendering": (_OFFSCREEN, "install an EGL driver (Debian: libegl1 libegl-mesa0) "
+                                        "or set MUJOCO_GL=osmesa with libosmesa6"),
 }
 
 
-def _run_check(name: str, code: str, timeout: float = 180) -> Check:
+def _run_check(name: str, code: str, fix: str, timeout: float = 180) -> Check:
     start = time.perf_counter()
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     try:
         out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                              timeout=timeout, env=env)
     except subprocess.TimeoutExpired:
-        return Check(name, False, timeout, f"timed out after {timeout:.0f} s; {_FIXES[name]}")
+        return Check(name, False, timeout, f"timed out after {timeout:.0f} s; {fix}")
     seconds = time.perf_counter() - start
     if out.returncode == 0:
         return Check(name, True, seconds, out.stdout.strip().splitlines()[-1])
     last = (out.stderr.strip().splitlines() or ["no output"])[-1]
-    return Check(name, False, seconds, f"{last[:300]}. Fix: {_FIXES[name]}")
+    return Check(name, False, seconds, f"{last[:300]}. Fix: {fix}")
 
 
 def check_simulators() -> list[Check]:
     """Run the Meta-World, robosuite, ManiSkill and offscreen-rendering checks."""
-    return [_run_check("metaworld", _METAWORLD), _run_check("robosuite", _ROBOSUITE),
-            _run_check("maniskill", _MANISKILL),
-            _run_check("offscreen rendering", _OFFSCREEN)]
+    return [_run_check(name, code, fix) for name, (code, fix) in _CHECKS.items()]
 
 
 def environment_report(preset: str, simulators: bool = True) -> dict:

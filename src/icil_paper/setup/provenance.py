@@ -21,18 +21,15 @@ REPO_ROOT = Path(__file__).resolve().parents[3]
 
 def package_versions(names: tuple[str, ...] = KEY_PACKAGES) -> dict[str, str | None]:
     """Installed version of each package, or None (looked up once per process)."""
-    return dict(_package_versions(tuple(names)))
+    return {name: _version(name) for name in names}
 
 
-@functools.lru_cache(maxsize=8)
-def _package_versions(names: tuple[str, ...]) -> dict[str, str | None]:
-    versions = {}
-    for name in names:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = None
-    return versions
+@functools.cache
+def _version(name: str) -> str | None:
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return None
 
 
 @functools.lru_cache(maxsize=1)

@@ -151,10 +151,7 @@ class SyntheticReachEnv(TaskEnv):
         return self._obs(), {"success": False}
 
     def step(self, action):
-        action = np.asarray(action, dtype=np.float64)
-        if action.shape != (self.action_dim,):
-            raise ValueError(f"action must have shape ({self.action_dim},), got {action.shape}")
-        self.p = _step_state(self.p, np.clip(action, -1, 1))
+        self.p = _step_state(self.p, self._checked_action(action))
         success = bool(np.linalg.norm(self.p[:3] - self.goal) < SUCCESS_RADIUS)
         terminated, truncated = self._step_outcome(success)
         return self._obs(), float(success), terminated, truncated, {"success": success}
@@ -183,9 +180,8 @@ class SyntheticExpert:
                              7).astype(np.float32)
 
 
-def make_synthetic_env(name: str, obs: str = "state", seed: int = 0, **options: Any) -> SyntheticReachEnv:
-    """`make_env`-compatible factory for `synthetic/task<k>` (usable by `evaluate_policy`)."""
-    return SyntheticReachEnv(name, obs=obs, seed=seed, **options)
+make_synthetic_env = SyntheticReachEnv
+"""`make_env`-compatible factory for `synthetic/task<k>` (usable by `evaluate_policy`)."""
 
 
 def make_synthetic_expert(name: str) -> SyntheticExpert:

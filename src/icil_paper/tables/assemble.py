@@ -99,26 +99,21 @@ def motion_estimate(values: np.ndarray) -> Estimate | None:
 
 
 def _smoothness_entry(entry: Entry, store: ResultsStore) -> EntryResult:
-    raw, standardized, scale, view, per_seed = [], [], [], [], []
-    missing = 0
+    per_seed, missing = [], 0
     for unit in sorted(entry.units, key=lambda u: u.seed_index):
         record = store.get(*features_record(unit.run, unit.features))
         if record is None:
             missing += 1
-            continue
-        m = record["metrics"]
-        raw.append(m["least_energy_per_trajectory"])
-        standardized.append(m["least_energy_standardized_per_trajectory"])
-        scale.append(m["latent_scale"])
-        view.append(m["view"])
-        per_seed.append(m)
-    if missing or not raw:
+        else:
+            per_seed.append(record["metrics"])
+    if missing or not per_seed:
         return EntryResult(None, None, missing or len(entry.units))
-    data = np.array(raw, dtype=np.float64)
-    std = np.array(standardized, dtype=np.float64)
+    data, std = (np.array([m[key] for m in per_seed], dtype=np.float64) for key in (
+        "least_energy_per_trajectory", "least_energy_standardized_per_trajectory"))
     return EntryResult(score_mean(data), data, 0,
                       {"standardized": std, "standardized_estimate": score_mean(std),
-                       "latent_scale": scale, "view": view, "metrics": per_seed})
+                       "latent_scale": [m["latent_scale"] for m in per_seed],
+                       "view": [m["view"] for m in per_seed], "metrics": per_seed})
 
 
 @dataclass
@@ -150,18 +145,14 @@ class TableResult:
     def motion_scores(self, row: str, column: str = "avg",
                       measure: str = "ldlj") -> np.ndarray | None:
         """A success entry's motion measure (seeds, episodes), `filled_motion`; or None."""
-        values = self._motion(row, column, measure)
+        values = self.entry(row, column).motion.get(measure) if self.entry(row, column) else None
         return None if values is None else filled_motion(values)
 
     def motion_estimate(self, row: str, column: str = "avg",
                         measure: str = "ldlj") -> Estimate | None:
         """A success entry's `motion_estimate`."""
-        values = self._motion(row, column, measure)
+        values = self.entry(row, column).motion.get(measure) if self.entry(row, column) else None
         return None if values is None else motion_estimate(values)
-
-    def _motion(self, row: str, column: str, measure: str) -> np.ndarray | None:
-        entry = self.entry(row, column)
-        return None if entry is None else entry.motion.get(measure)
 
     def scenes(self, *rows: str, column: str = "avg") -> str:
         """"per_seed" when every one of `rows` gives seed k scene set k, else "shared"."""
@@ -195,30 +186,21 @@ class TableResult:
                              **({"paper": row.paper.get(column)} if paper else {})})
         return pd.DataFrame(rows)
 
-    def wide(self, digits: int = 2, paper: bool = True):
-        """One row per table row: each column as `ours [low, high]`, the paper's beside it."""
-        import pandas as pd
-
-        out = []
+    def markdown(self, digits: int = 2, paper: bool = True) -> str:
+        """A GitHub-flavoured markdown table, one row per table row: each column as
+        `ours [low, high]`, the paper's number beside it."""
+        header = ["", *(name for column in self.spec.columns
+                        for name in (column, f"{column} (paper)")[:1 + paper])]
+        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
         for row in self.spec.rows:
-            line = {"": row.label}
+            cells = [row.label]
             for column in self.spec.columns:
-                entry = self.entries.get((row.label, column))
-                line[column] = format_entry(entry, digits)
+                cells.append(format_entry(self.entries.get((row.label, column)), digits))
                 if paper:
                     value = row.paper.get(column)
                     places = digits + 1 if column == "avg" else digits  # as the paper prints
-                    line[f"{column} (paper)"] = "" if value is None else f"{value:.{places}f}"
-            out.append(line)
-        return pd.DataFrame(out).set_index("")
-
-    def markdown(self, digits: int = 2, paper: bool = True) -> str:
-        """The wide table as a GitHub-flavoured markdown table."""
-        wide = self.wide(digits, paper)
-        header = ["", *wide.columns]
-        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        for label, values in wide.iterrows():
-            lines.append("| " + " | ".join([str(label), *map(str, values)]) + " |")
+                    cells.append("" if value is None else f"{value:.{places}f}")
+            lines.append("| " + " | ".join(cells) + " |")
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:

@@ -42,7 +42,7 @@ from icil_paper.config_data import from_dict, to_dict
 from icil_paper.data import ensure_many
 from icil_paper.data.generate import data_root, demo_path
 from icil_paper.eval import evaluate_run_many, measure_features
-from icil_paper.fileio import atomic_write_bytes
+from icil_paper.fileio import atomic_write_bytes, one_line
 from icil_paper.records import eval_record, features_record, train_record
 from icil_paper.results import RESULTS_ENV_VAR, ResultsStore, canonical_json, results_root
 from icil_paper.runspec import EvalSpec, FeatureSpec, RunSpec, eval_key, feature_key, tasks_tag
@@ -278,7 +278,7 @@ def run_jobs(fn: Callable[..., Any], jobs: Sequence[Job], executor: str = "local
                 try:
                     finished(job, _call(fn, job.kwargs))
                 except Exception as exc:  # a failing cell must not stop the others
-                    finished(job, failure=Failure(job.label, _one_line(exc), 1,
+                    finished(job, failure=Failure(job.label, one_line(exc), 1,
                                                   traceback.format_exc()))
         elif executor == "local":
             limit = recycle_gb or os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / (
@@ -330,11 +330,6 @@ def _call(fn: Callable[..., Any], kwargs: Mapping[str, Any], env: Mapping[str, s
             torch.set_num_threads(threads)
 
 
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
-
-
 # --------------------------------------------------------------------------- local pool
 def _load_plugins(names: list[str]) -> None:
     """The driver's --plugin modules and files (entry points: the registries find them)."""
@@ -376,7 +371,7 @@ def _run_local(fn, todo, workers, retries, recycle_gb, finished, bar) -> None:
                 finished(job, failure=Failure(
                     job.label, f"the worker process died (in each of {n} attempts)", n))
         except Exception as exc:  # the cell raised: not retried
-            finished(job, failure=Failure(job.label, _one_line(exc), n,
+            finished(job, failure=Failure(job.label, one_line(exc), n,
                                           "".join(traceback.format_exception(exc))))
             return
         else:
@@ -439,7 +434,7 @@ def connect_ray(workers: int = 2, address: str | None = None) -> bool:
             if address or attempt == 2:
                 where = f"the Ray cluster at {address}" if address else "a local Ray"
                 raise RayUnavailable(f"could not start or reach {where}: "
-                                     f"{_one_line(exc)}") from exc
+                                     f"{one_line(exc)}") from exc
     return True
 
 
@@ -584,7 +579,7 @@ def _run_ray(fn, todo, workers, retries, gpus, address, folders, done, finished,
                 install_files(answer["files"], folders, sent)
             except ray.exceptions.RayTaskError as exc:  # the function raised
                 cause = exc.cause if isinstance(exc.cause, BaseException) else exc
-                finished(job, failure=Failure(job.label, _one_line(cause), 1, str(exc)))
+                finished(job, failure=Failure(job.label, one_line(cause), 1, str(exc)))
             except ray.exceptions.RayError as exc:  # its worker or node died each time
                 finished(job, failure=Failure(job.label, f"the worker died in each of "
                                               f"{retries + 1} attempts", retries + 1, str(exc)))

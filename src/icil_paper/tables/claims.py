@@ -65,8 +65,12 @@ class Comparison:
     def rows(self) -> tuple[str, ...]:
         return (self.a, *self.others)
 
+    def row(self, tables: dict[str, TableResult], label: str) -> np.ndarray | None:
+        """One row's outcomes (scores where `kind` is "score"); None: not run."""
+        return tables[self.table].outcomes(label, self.column)
+
     def data(self, tables: dict[str, TableResult]) -> list[np.ndarray] | None:
-        data = [tables[self.table].outcomes(label, self.column) for label in self.rows]
+        data = [self.row(tables, label) for label in self.rows]
         return None if any(d is None for d in data) else data
 
     def estimate(self, tables: dict[str, TableResult]) -> stats.Estimate | None:
@@ -103,10 +107,8 @@ class MotionComparison(Comparison):
     def sign(self) -> int:
         return SMOOTHER[self.measure]
 
-    def data(self, tables: dict[str, TableResult]) -> list[np.ndarray] | None:
-        data = [tables[self.table].motion_scores(label, self.column, self.measure)
-                for label in self.rows]
-        return None if any(d is None for d in data) else data
+    def row(self, tables: dict[str, TableResult], label: str) -> np.ndarray | None:
+        return tables[self.table].motion_scores(label, self.column, self.measure)
 
 
 @dataclass(frozen=True)
@@ -239,33 +241,16 @@ class LedgerEntry:
     def from_dict(cls, data: dict[str, Any]) -> LedgerEntry:
         names = {f.name for f in fields(cls)} - {"extra", "order"}
         known = {k: v for k, v in data.items() if k in names}
-        for key in ("verdict", "adjusted_verdict"):
-            if known.get(key) in _VERDICT_VALUES:
-                known[key] = Verdict(known[key])
-        if known.get("size") in _SIZE_VALUES:
-            known["size"] = Size(known["size"])
+        for key, enum in (("verdict", Verdict), ("adjusted_verdict", Verdict), ("size", Size)):
+            if known.get(key) in set(enum):  # a stored value: its enum member
+                known[key] = enum(known[key])
         return cls(**known, extra={k: v for k, v in data.items() if k not in names},
                    order=tuple(data))
 
     def to_dict(self) -> dict[str, Any]:
-        order = self.order or tuple(self._stored_fields()) + tuple(self.extra)
+        """The stored keys in their stored order (built by hand: every field, then `extra`)."""
+        order = self.order or [f.name for f in fields(self)][:-2] + list(self.extra)
         return {k: (self.extra[k] if k in self.extra else getattr(self, k)) for k in order}
-
-    def _stored_fields(self):
-        for f in fields(self):
-            if f.name in ("extra", "order"):
-                continue
-            if f.name in ("reference_effect", "reference") and not (
-                    self.source == "ours" or self.paper is None):
-                continue
-            if f.name in ("adjusted_verdict", "family", "weight", "plan") and getattr(
-                    self, f.name) is None:
-                continue
-            yield f.name
-
-
-_VERDICT_VALUES = {v.value for v in Verdict}
-_SIZE_VALUES = {v.value for v in Size}
 
 
 def as_entry(entry: LedgerEntry | dict[str, Any]) -> LedgerEntry:
@@ -317,13 +302,17 @@ def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], f
     return {k: float(np.mean(v)) for k, v in pooled.items()}
 
 
+_POWER_FIELDS = ("mde", "power", "seeds_needed", "variance_from", "power_note", "plan")
+_ESTIMATE_FIELDS = ("ours", "ci", "n", "episodes", "seeds", "method", "p_value", "verdict",
+                    "size")
+
+
 def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult],
            pooled: dict[tuple[str, str], float], effect: float | None,
            design: Design) -> dict[str, Any]:
     """mde, power and seeds_needed with the variance the claim's test reads, at
     `Design.planning_level`; best of k: against the closest other row."""
-    out: dict[str, Any] = {"mde": None, "power": None, "seeds_needed": None,
-                           "variance_from": None, "power_note": None, "plan": None}
+    out: dict[str, Any] = dict.fromkeys(_POWER_FIELDS)
     compare = claim.compare
     if design.family[claim.id] == DESCRIPTIVE:
         return {**out, "power_note": f"not planned: {design.why[claim.id]}"}
@@ -341,20 +330,15 @@ def _power(claim: Claim, estimate: stats.Estimate, tables: dict[str, TableResult
     if paired:
         var = stats.seed_variance(a, compare.kind, b)
         source = dict.fromkeys((compare.a, other), "own seeds, paired")
-    else:
-        variances, source = [], {}
-        for label, x in ((compare.a, a), (other, b)):
-            v = stats.seed_variance(x, compare.kind)
-            where = ("own seeds" if v is not None else
-                     f"pooled over Table {compare.table}'s multi-seed rows"
-                     if (compare.table, compare.pool) in pooled else
-                     "pooled over the ledger's rows" if ("*", compare.pool) in pooled else None)
-            if where is None:
-                return {**out, "power_note": "no row with two seeds to measure a variance"}
-            variances.append(v if v is not None else pooled.get(
-                (compare.table, compare.pool), pooled.get(("*", compare.pool))))
-            source[label] = where
-        var = sum(variances)
+    else:  # each row's own variance, else the one its table's (or the ledger's) rows pool
+        own = {label: stats.seed_variance(x, compare.kind) for label, x in ((compare.a, a), (other, b))}
+        borrow = {(compare.table, compare.pool): f"pooled over Table {compare.table}'s multi-seed rows",
+                  ("*", compare.pool): "pooled over the ledger's rows"}
+        key = next((k for k in borrow if k in pooled), None)
+        if key is None and None in own.values():
+            return {**out, "power_note": "no row with two seeds to measure a variance"}
+        source = {label: "own seeds" if v is not None else borrow[key] for label, v in own.items()}
+        var = sum(v if v is not None else pooled[key] for v in own.values())
     level = design.planning_level(claim.id)
     out.update(variance_from=source, plan={"variance": var, "paired": paired, "level": level})
     if seeds >= 2:
@@ -390,9 +374,7 @@ def _evaluate(claim: Claim, tables: dict[str, TableResult],
     if claim.own or paper_value is None:
         entry.update(reference_effect=paper_value, reference=claim.reference)
     if estimate is None:
-        entry.update(ours=None, ci=None, n=None, episodes=None, seeds=None, method=None,
-                     p_value=None, verdict=Verdict.NOT_RUN, size=None, mde=None, power=None,
-                     seeds_needed=None, variance_from=None, power_note=None, plan=None)
+        entry.update(dict.fromkeys(_ESTIMATE_FIELDS + _POWER_FIELDS), verdict=Verdict.NOT_RUN)
         return entry, None
     test = stats.decision_p_value(estimate, claim.direction)
     entry.update(ours=estimate.value, ci=[estimate.low, estimate.high], n=estimate.n,
@@ -409,14 +391,25 @@ def ledger_entries(preset: Preset, chosen: Sequence[Claim], tables: dict[str, Ta
     """`chosen` claims evaluated on the assembled `tables` (each claim's and Table I),
     decided under `design` (default: `tables.design.ledger_design`)."""
     design = design or ledger_design(preset, chosen)
+    entries = evaluate_claims(chosen, tables, design, preset.tables.stage_stops)
+    return [LedgerEntry.from_dict(e) for e in entries]
+
+
+def evaluate_claims(chosen: Sequence[Claim], tables: dict[str, TableResult],
+                    design: Design | None = None, stops: Sequence[str] = ()
+                    ) -> list[dict[str, Any]]:
+    """Ledger entries (dicts) of `chosen` claims decided under `design`, by default Holm's
+    procedure over `chosen` alone (`tables.design.one_family`; `icil-paper compare`); a
+    claim of `stops` was stopped by a staged run's budget."""
+    design = design or one_family(chosen)
     pooled = _pooled_variances(tables)
     entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in chosen),
                              strict=True)
     if design.sequential is None:
         _fixed(list(chosen), list(entries), list(estimates), design)
     else:
-        _sequential(list(chosen), list(entries), tables, design, preset.tables.stage_stops)
-    return [LedgerEntry.from_dict(e) for e in entries]
+        _sequential(list(chosen), list(entries), tables, design, stops)
+    return list(entries)
 
 
 def ledger_file(preset: Preset, entries: Sequence[LedgerEntry], design: Design | None = None,
@@ -434,24 +427,25 @@ def _undecided(entry: dict[str, Any]) -> Verdict:
     return v if v in (Verdict.NOT_RUN, Verdict.TOO_FEW_SEEDS) else Verdict.INCONCLUSIVE
 
 
-def _effect(entry: dict[str, Any]) -> float | None:
-    return entry["paper"] if entry["paper"] is not None else entry.get("reference_effect")
-
-
 def _fixed(chosen: list[Claim], entries: list[dict[str, Any]], estimates: list, design: Design
            ) -> None:
     """One look: the graph over the claims' p-values, and each size at its Bonferroni share."""
-    tests = [None if e is None or design.family[c.id] == DESCRIPTIVE
-             else stats.decision_p_value(e, c.direction)
-             for c, e in zip(chosen, estimates, strict=True)]
-    rejected, _ = stats.graph_test([t and t[0] for t in tests],
-                                   [design.weights[c.id] for c in chosen])
-    for claim, entry, est, test, r in zip(chosen, entries, estimates, tests, rejected,
-                                          strict=True):
-        entry["adjusted_verdict"] = test[1] if r else _undecided(entry)
-        if est is not None and design.sizes and design.family[claim.id] != DESCRIPTIVE:
-            entry["size"] = stats.size_decision(est, claim.direction, _effect(entry),
-                                                design.level(claim.id))
+    adjusted = stats.adjusted_verdicts(
+        estimates, [c.direction for c in chosen], weights=[design.weights[c.id] for c in chosen],
+        tested=[design.family[c.id] != DESCRIPTIVE for c in chosen])
+    for claim, entry, est, verdict in zip(chosen, entries, estimates, adjusted, strict=True):
+        entry["adjusted_verdict"] = verdict
+        _size(claim, entry, design, [] if est is None else [est])
+
+
+def _size(claim: Claim, entry: dict[str, Any], design: Design, looks: list) -> None:
+    """The entry's size: the first look that decides it, else the last (none if descriptive,
+    not run, or under the older design)."""
+    if design.sizes and design.family[claim.id] != DESCRIPTIVE and looks:
+        sizes = [stats.size_decision(e, claim.direction, sizing_effect(entry),
+                                     design.level(claim.id), design.sequential, j)
+                 for j, e in enumerate(looks)]
+        entry["size"] = next((s for s in sizes if s in (Size.SMALLER, Size.LARGER)), sizes[-1])
 
 
 # --------------------------------------------------------------------------- seeds in stages
@@ -497,12 +491,7 @@ def _sequential(chosen: list[Claim], entries: list[dict[str, Any]],
                       for j in range(k + 1)],
             "p_value": run[-1][0] if run and run[-1] else None, "level": level,
             "decided_at": None, "next": None}
-        if design.sizes and design.family[claim.id] != DESCRIPTIVE and looks[i]:
-            sizes = [stats.size_decision(e, claim.direction, _effect(entry),
-                                         design.level(claim.id), seq, j)
-                     for j, e in enumerate(looks[i])]
-            entry["size"] = next((s for s in sizes if s in (Size.SMALLER, Size.LARGER)),
-                                 sizes[-1])
+        _size(claim, entry, design, looks[i])
         entry["adjusted_verdict"] = _undecided(entry)
         n = seq.stages[k] if k >= 0 else seeds
         if k_dec is not None:
@@ -623,15 +612,3 @@ def read_ledger(path) -> dict[str, Any]:
 def load_ledger(path) -> list[LedgerEntry]:
     """The entries of a stored `claims.json` (`read_ledger`)."""
     return [LedgerEntry.from_dict(e) for e in read_ledger(path)["claims"]]
-
-
-def evaluate_claims(chosen: Sequence[Claim], tables: dict[str, TableResult]
-                    ) -> list[dict[str, Any]]:
-    """Ledger entries (dicts) of `chosen` claims, decided by Holm's procedure over `chosen`
-    alone (`tables.design.one_family`; `icil-paper compare`)."""
-    design = one_family(chosen)
-    pooled = _pooled_variances(tables)
-    entries, estimates = zip(*(_evaluate(c, tables, pooled, design) for c in chosen),
-                             strict=True)
-    _fixed(list(chosen), list(entries), list(estimates), design)
-    return list(entries)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -39,6 +40,7 @@ from icil_paper.tables import claims as claims_mod
 from icil_paper.tables.assemble import TableResult, assemble
 from icil_paper.tables.cells import check_reachable, run_specs
 from icil_paper.tables.definitions import icrt_rows, label, table_i_seeds
+from icil_paper.tables.display import forest_plot
 from icil_paper.tokenizers.configs import TOKENIZER_REGISTRY as REGISTRY
 from icil_paper.train.rundir import RUNS_ENV_VAR
 
@@ -131,16 +133,14 @@ def other_versions(spec, store: ResultsStore) -> dict[str, int]:
     """Row -> its stored training records made by another version of its plugin."""
     current = {(name, p.sha256, p.version) for p in plugins.loaded()
                for names in p.names.values() for name in names}
-    out: dict[str, int] = {}
+    out: Counter[str] = Counter()
     runs = {u.run.key(): (row.label, u.run) for row in spec.rows
             for entry in row.entries.values() for u in entry.units}
     for label_, run in runs.values():
-        record = store.get(*train_record(run))
-        for made in (record or {}).get("plugins") or []:
-            for name in made["names"].get("tokenizer", []):
-                if (name, made.get("sha256"), made.get("version")) not in current:
-                    out[label_] = out.get(label_, 0) + 1
-    return out
+        for made in (store.get(*train_record(run)) or {}).get("plugins") or []:
+            out[label_] += sum((name, made.get("sha256"), made.get("version")) not in current
+                               for name in made["names"].get("tokenizer", []))
+    return {row: n for row, n in out.items() if n}
 
 
 def compare(preset: Preset, tokenizer: str, against: Sequence[str] = DEFAULT_AGAINST,
@@ -230,48 +230,18 @@ def lines(report: dict[str, Any]) -> list[str]:
     return out
 
 
-def forest_plot(report: dict[str, Any], path: str | Path) -> Path:
-    """Each comparison's difference with its 95% interval, 0 and +-effect marked."""
+def write(report: dict[str, Any], folder: str | Path) -> tuple[Path, Path]:
+    """`compare.json` and `compare.png` (the comparisons' `display.forest_plot`) in `folder`."""
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    entries = [e for e in report["comparisons"] if e["ci"] is not None]
-    fig, ax = plt.subplots(figsize=(6.5, 1.2 + 0.6 * max(1, len(entries))))
-    effect = report["effect"]
-    for y, e in enumerate(entries):
-        low, high = e["ci"]
-        ax.plot([low, high], [y, y], color="C0", lw=2)
-        ax.plot([e["ours"]], [y], "o", color="C0")
-        ax.annotate(e.get("adjusted_verdict") or e["verdict"], (high, y), xytext=(6, 0),
-                    textcoords="offset points", va="center", fontsize=8)
-    ax.axvline(0, color="black", lw=1)
-    for x in (-effect, effect):
-        ax.axvline(x, color="grey", lw=1, ls="--")
-    lows = [e["ci"][0] for e in entries] + [-effect]
-    highs = [e["ci"][1] for e in entries] + [effect]
-    span = max(highs) - min(lows)
-    ax.set_xlim(min(lows) - 0.05 * span, max(highs) + 0.35 * span)  # room for the verdict
-    ax.set_yticks(range(len(entries)))
-    ax.set_yticklabels([e["quantity"].split(",")[0] for e in entries], fontsize=8)
-    ax.set_ylim(-0.7, len(entries) - 0.3)
-    ax.set_xlabel(f"difference of average success (95% interval; dashed: ±{effect:g})")
-    ax.set_title(f"{report['tokenizer']} on Table I's protocol ({report['preset']})", fontsize=9)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
-
-
-def write(report: dict[str, Any], folder: str | Path) -> tuple[Path, Path]:
-    """`compare.json` and `compare.png` in `folder`."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     atomic_write_json(folder / REPORT_FILE, report)
-    return folder / REPORT_FILE, forest_plot(report, folder / PLOT_FILE)
+    fig = forest_plot(report["comparisons"], label=lambda e: e.quantity.split(",")[0],
+                      title=f"{report['tokenizer']} on Table I's protocol ({report['preset']})")
+    fig.savefig(folder / PLOT_FILE, dpi=120)
+    return folder / REPORT_FILE, folder / PLOT_FILE
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -100,10 +100,8 @@ def ledger_design(preset: Preset, claims: Sequence, record: dict[str, Any] | Non
     sequential = stats.SequentialDesign(t.seed_stages) if t.seed_stages else None
     if record is not None and record.get("design") == "older":
         return replace(older_design(claims, sequential), note=record.get("why", ""))
-    primary = set(t.primary_claims)
+    primary = set(t.primary_claims)  # none among `claims`: one family (Holm's procedure)
     family = {c.id: PRIMARY if c.id in primary else SECONDARY for c in claims}
-    if not primary & set(family):  # no primary family: one family (Holm's procedure)
-        family = dict.fromkeys(family, SECONDARY)
     why: dict[str, str] = {}
     while True:  # a claim that leaves raises the others' shares: look again
         shares = dict(zip((PRIMARY, SECONDARY), t.family_weights, strict=True))
@@ -121,15 +119,13 @@ def ledger_design(preset: Preset, claims: Sequence, record: dict[str, Any] | Non
 
 def older_design(claims: Sequence, sequential: stats.SequentialDesign | None) -> Design:
     """The reference records' design: one family, equal shares (Holm), sizes not decided."""
-    ids = [c.id for c in claims]
-    return Design(dict.fromkeys(ids, ONE_FAMILY), dict.fromkeys(ids, 1 / len(ids)),
-                  sequential, None, {}, older=True)
+    return replace(one_family(claims, ONE_FAMILY), sequential=sequential, older=True)
 
 
-def one_family(claims: Sequence) -> Design:
+def one_family(claims: Sequence, family: str = SECONDARY) -> Design:
     """A fixed design over `claims` alone, one family (Holm): `icil-paper compare`'s."""
     ids = [c.id for c in claims]
-    return Design(dict.fromkeys(ids, SECONDARY), dict.fromkeys(ids, 1 / len(ids)))
+    return Design(dict.fromkeys(ids, family), dict.fromkeys(ids, 1 / len(ids)))
 
 
 # --------------------------------------------------------------------------- the record
@@ -150,7 +146,8 @@ def read_record(store) -> dict[str, Any] | None:
 def new_record(preset: Preset) -> dict[str, Any]:
     """The record a staged run registers before its first cell: its design, no look yet."""
     return {"design": "current", "preset": preset.name,
-            "tables": {f: _plain(getattr(preset.tables, f)) for f in DESIGN_FIELDS},
+            "tables": {f: list(v) if isinstance(v := getattr(preset.tables, f), tuple) else v
+                       for f in DESIGN_FIELDS},
             "looks": []}
 
 
@@ -158,7 +155,3 @@ def write_record(store, record: dict[str, Any]) -> Path:
     path = record_path(store)
     atomic_write_json(path, record)
     return path
-
-
-def _plain(value):
-    return list(value) if isinstance(value, tuple) else value

@@ -1,10 +1,13 @@
 """What every result's chapter shows the same way: frames and figures per source.
 
     results = load_table(preset, "I")     # book.report: {"reference run": ..., "this build": ...}
-    compare_frame(results, "avg")         # rows x (paper, reference, this build)
+    show_comparison(results, "avg")       # rows x (paper, reference, this build)
     success_figure(results, "avg")        # bars with 95% intervals, the paper's marks
     show_motion(results, "avg")           # success beside LDLJ, SPARC, action jerk
     show_per_source(results, make_frame)  # any frame per source, the reference run's first
+    show_sources(results, make_markdown)  # **reference run.** <its Markdown> ...
+    show_frame_or(frame, "*No smoothness records yet.*")
+    forest_plot(ledger)                   # each claim's interval, the paper's value, the decision
 
 A chapter shows the paper's numbers and the reference run's side by side; this build's
 (which test the code, not the paper) go in a collapsed block (`collapsed_frame`). What only
@@ -13,12 +16,15 @@ one result shows lives in its module of `icil_paper.paper`.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from icil_paper import stats, verdict_words
-from icil_paper.tables.assemble import TableResult, format_difference, format_entry, unbroken
+from icil_paper import verdict_words
+from icil_paper.stats import Verdict
+from icil_paper.tables.assemble import TableResult, format_entry, unbroken
+from icil_paper.tables.claims import LedgerEntry, as_entry
 from icil_paper.tables.definitions import CODEBOOK_TOKENIZERS
 
 REFERENCE = "reference"
@@ -37,21 +43,14 @@ def source_label(source: str, preset_name: str) -> str:
     return words if preset_name in source else f"{words} ({preset_name})"
 
 
-def compare_frame(results: dict[str, TableResult], column: str = "avg", digits: int = 3):
-    """Rows x (paper, reference, this build) for one column, as `value [low, high]`."""
-    import pandas as pd
+def shown_once(fig, **layout):
+    """`fig` laid out (`tight_layout(**layout)`) and closed, so that it shows once: where
+    the caller displays it."""
+    import matplotlib.pyplot as plt
 
-    any_result = next(iter(results.values()))
-    out = []
-    for row in any_result.spec.rows:
-        line: dict[str, Any] = {"": row.label}
-        value = row.paper.get(column)
-        line["paper"] = "" if value is None else f"{value:.{digits}f}"
-        for source, result in results.items():
-            line[source_label(source, result.preset)] = format_entry(result.entry(row.label, column),
-                                                              digits)
-        out.append(line)
-    return pd.DataFrame(out).set_index("")
+    fig.tight_layout(**layout)
+    plt.close(fig)
+    return fig
 
 
 def success_figure(results: dict[str, TableResult], column: str = "avg", title: str = "",
@@ -85,28 +84,32 @@ def success_figure(results: dict[str, TableResult], column: str = "avg", title: 
     ax.set_ylabel(ylabel)
     ax.set_title(title or f"Table {spec.id}, {column}")
     ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
-    plt.close(fig)  # shown once, by the caller's display(fig)
-    return fig
+    return shown_once(fig)
 
 
 def show_comparison(results: dict[str, TableResult], column: str = "avg",
                     digits: int = 3) -> None:
-    """The paper and the reference run side by side; this build's numbers collapsed below."""
+    """Rows x (paper, each source) for one column, as `value [low, high]`: the paper and the
+    reference run side by side; this build's numbers collapsed below."""
+    import pandas as pd
     from IPython.display import display
 
-    frame = compare_frame(results, column, digits)
+    lines = []
+    for row in next(iter(results.values())).spec.rows:
+        value = row.paper.get(column)
+        lines.append({"": row.label, "paper": "" if value is None else f"{value:.{digits}f}",
+                      **{source_label(source, result.preset):
+                         format_entry(result.entry(row.label, column), digits)
+                         for source, result in results.items()}})
+    frame = pd.DataFrame(lines).set_index("")
     build = results.get(BUILD)
     if build is None or len(results) == 1:
         display(frame)
         return
     build_column = source_label(BUILD, build.preset)
     display(frame.drop(columns=[build_column]))
-    display(collapsed_frame(_build_summary(build), frame[["paper", build_column]]))
-
-
-def _build_summary(result: TableResult) -> str:
-    return verdict_words.QUICK_RUN_OPEN.format(preset=result.preset)
+    display(collapsed_frame(verdict_words.QUICK_RUN_OPEN.format(preset=build.preset),
+                            frame[["paper", build_column]]))
 
 
 def show_per_source(results: dict[str, TableResult], make_frame, describe=None, empty=None,
@@ -123,7 +126,8 @@ def show_per_source(results: dict[str, TableResult], make_frame, describe=None, 
         if empty is not None and empty(result, frame):
             display(Markdown(f"{title}: {empty_text}"))
         elif source == BUILD and len(results) > 1:
-            display(collapsed_frame(_build_summary(result) + extra, frame))
+            display(collapsed_frame(
+                verdict_words.QUICK_RUN_OPEN.format(preset=result.preset) + extra, frame))
         else:
             display(Markdown(title + extra))
             display(frame)
@@ -135,6 +139,29 @@ def collapsed_frame(summary: str, frame) -> Any:
 
     return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
                 f"{frame.to_html(classes='dataframe')}</details>")
+
+
+def source_paragraph(source: str, result: TableResult, *parts: Callable[[TableResult], str],
+                     sep: str = " ") -> str:
+    """"**<source>.** <part 1> <part 2> ...", joined by `sep` ("\n\n": a list under the name)."""
+    return sep.join([f"**{source_label(source, result.preset)}.**",
+                     *(part(result) for part in parts)])
+
+
+def show_sources(results: dict[str, TableResult], *parts: Callable[[TableResult], str],
+                 sep: str = " ") -> None:
+    """Display one paragraph per source of a table (`source_paragraph`)."""
+    from IPython.display import Markdown, display
+
+    for source, result in results.items():
+        display(Markdown(source_paragraph(source, result, *parts, sep=sep)))
+
+
+def show_frame_or(frame: Any, message: str) -> None:
+    """Display `frame`, or `message` (Markdown) where it is None or has no rows."""
+    from IPython.display import Markdown, display
+
+    display(Markdown(message) if frame is None or len(frame) == 0 else frame)
 
 
 MOTION_COLUMNS = {"ldlj": "LDLJ (higher: smoother)", "sparc": "SPARC (higher: smoother)",
@@ -200,21 +227,17 @@ def values_frame(result: TableResult, digits: int = 2, paper: bool = False):
     """Point values only (rows x columns); with `paper`, the paper's numbers."""
     import pandas as pd
 
-    out = []
-    for row in result.spec.rows:
-        line: dict[str, Any] = {"": row.label}
-        for column in result.spec.columns:
-            if paper:
-                value = row.paper.get(column)
-            else:
-                entry = result.entry(row.label, column)
-                if entry is None or entry.estimate is None:
-                    line[column] = "n/a" if entry is None else verdict_words.MISSING
-                    continue
-                value = entry.estimate.value
-            line[column] = "" if value is None else round(float(value), digits)
-        out.append(line)
-    return pd.DataFrame(out).set_index("")
+    def value(row, column):
+        entry = result.entry(row.label, column)
+        if paper:
+            return "" if row.paper.get(column) is None else round(float(row.paper[column]), digits)
+        return ("n/a" if entry is None else verdict_words.MISSING if entry.estimate is None
+                else round(float(entry.estimate.value), digits))
+
+    rows = result.spec.rows
+    return pd.DataFrame({column: [value(row, column) for row in rows]
+                         for column in result.spec.columns},
+                        index=pd.Index([row.label for row in rows], name=""))
 
 
 def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
@@ -233,37 +256,34 @@ def show_values(results: dict[str, TableResult], digits: int = 2) -> None:
         display(flat.set_index(["source", "column"]))
 
 
-def uninformative_columns(result: TableResult, prefix: str = "") -> dict[str, float]:
-    """Column -> the value every row whose label starts with `prefix` has, where all are at
-    0 or all at 1 (the column cannot separate them; "avg" aside)."""
-    rows = [r for r in result.spec.rows if r.label.startswith(prefix)]
-    out = {}
-    for column in result.spec.columns:
-        if column in ("avg", "features", "least_energy"):
-            continue
-        entries = [result.entry(r.label, column) for r in rows]
-        entries = [c for c in entries if c is not None]
-        values = [c.estimate.value for c in entries if c.estimate is not None]
-        if len(values) >= 2 and len(values) == len(entries) and (
-                all(v == 0.0 for v in values) or all(v == 1.0 for v in values)):
-            out[column] = values[0]
-    return out
-
-
 def uninformative_frame(results: dict[str, TableResult]):
-    """Per source, its `uninformative_columns` over every row ("all") or the ICRT rows, with
-    the share of the average's tasks the column holds."""
+    """Per source, the columns where every row ("all") or every ICRT row is at 0 or every
+    one at 1 (the column cannot separate them; "avg" aside), with the share of the average's
+    tasks the column holds."""
     import pandas as pd
+
+    def flat(result: TableResult, prefix: str) -> dict[str, float]:
+        rows = [r for r in result.spec.rows if r.label.startswith(prefix)]
+        out = {}
+        for column in result.spec.columns:
+            if column in ("avg", "features", "least_energy"):
+                continue
+            entries = [c for r in rows if (c := result.entry(r.label, column)) is not None]
+            values = [c.estimate.value for c in entries if c.estimate is not None]
+            if len(values) >= 2 and len(values) == len(entries) and (
+                    all(v == 0.0 for v in values) or all(v == 1.0 for v in values)):
+                out[column] = values[0]
+        return out
 
     lines = []
     for source, result in results.items():
-        spec_row = result.spec.rows[0]
         tasks = {c: len({u.eval.task for u in entry.units if u.eval is not None})
-                 for c, entry in spec_row.entries.items() if c not in ("avg", "features")}
+                 for c, entry in result.spec.rows[0].entries.items()
+                 if c not in ("avg", "features")}
         total = sum(tasks.values())
-        flat = uninformative_columns(result)
-        icrt = {c: v for c, v in uninformative_columns(result, "icrt+").items() if c not in flat}
-        for rows, found in (("all", flat), ("ICRT", icrt)):
+        every = flat(result, "")
+        icrt = {c: v for c, v in flat(result, "icrt+").items() if c not in every}
+        for rows, found in (("all", every), ("ICRT", icrt)):
             for c, v in found.items():
                 lines.append({"source": source_label(source, result.preset), "column": c,
                               "rows": rows, "every row at": v,
@@ -273,41 +293,21 @@ def uninformative_frame(results: dict[str, TableResult]):
                                         "share of the average"])
 
 
-def difference_sentence(results: dict[str, TableResult], a: str, b: str,
-                        column: str = "avg", direction: int = +1) -> str:
-    """Per source, `a` minus `b` with its paired interval and verdict, in Markdown."""
-    lines = []
-    for source, result in results.items():
-        xa, xb = result.outcomes(a, column), result.outcomes(b, column)
-        if xa is None or xb is None:
-            lines.append(f"- {source_label(source, result.preset)}: not run yet.")
-            continue
-        est = stats.paired_difference(xa, xb)
-        claimed = "higher" if direction > 0 else "lower"
-        lines.append(f"- {source_label(source, result.preset)}: '{a}' minus '{b}' = "
-                     f"{format_difference(est)}; '{a}' is {claimed}: "
-                     f"{stats.verdict(est, direction)}.")
-    return "\n".join(lines)
-
-
 def seed_correlations(result: TableResult, column: str = "avg") -> dict[tuple[str, str], float]:
     """{(row a, row b): Pearson r of their per-seed success at the same seed index}, over
     at least 3 shared seeds with neither row constant."""
+    import pandas as pd
+
     per_seed = {}
     for row in result.spec.rows:
         entry = result.entry(row.label, column)
         if entry is not None and entry.data is not None and np.ndim(entry.data) >= 2:
             data = np.asarray(entry.data, dtype=np.float64)
-            per_seed[row.label] = data.reshape(len(data), -1).mean(axis=1)
-    out = {}
+            per_seed[row.label] = pd.Series(data.reshape(len(data), -1).mean(axis=1))
+    r = pd.DataFrame(per_seed).corr(min_periods=3)  # NaN where a row is constant
     labels = list(per_seed)
-    for i, a in enumerate(labels):
-        for b in labels[i + 1:]:
-            n = min(len(per_seed[a]), len(per_seed[b]))
-            x, y = per_seed[a][:n], per_seed[b][:n]
-            if n >= 3 and x.std() > 0 and y.std() > 0:
-                out[a, b] = float(np.corrcoef(x, y)[0, 1])
-    return out
+    return {(a, b): float(r.loc[a, b]) for i, a in enumerate(labels) for b in labels[i + 1:]
+            if np.isfinite(r.loc[a, b])}
 
 
 # --------------------------------------------------------------------------- features and codebooks
@@ -353,3 +353,62 @@ def show_codebook_use(results: dict[str, TableResult], column: str = "features")
     """Each source's `codebook_frame`, or one line where its records are not there yet."""
     show_per_source(results, lambda r: codebook_frame(r, column), empty=lambda _, f: (
         f.empty or (f["status"] == verdict_words.MISSING).all()))
+
+
+# --------------------------------------------------------------------------- claims
+def forest_plot(ledger: Sequence[LedgerEntry | dict[str, Any]], title: str = "",
+                label: Callable[[LedgerEntry], str] = lambda e: e.id):
+    """One row per claim (`label(entry)`): our estimate and 95% interval coloured by the
+    decision, the paper's value (or the effect a claim of ours is sized against) as a
+    diamond; one panel per scale of quantity. Claims with too few seeds are drawn dashed."""
+    ledger = [as_entry(e) for e in ledger]
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    def panel_of(e):
+        quantity = e.quantity.lower()
+        return ("rank correlation" if "correlation" in quantity else
+                "least energy" if "least energy" in quantity else
+                "LDLJ difference" if "ldlj" in quantity else "success difference")
+
+    panels = {}
+    for e in ledger:
+        panels.setdefault(panel_of(e), []).append(e)
+    order = [p for p in ("success difference", "least energy", "LDLJ difference",
+                         "rank correlation") if p in panels]
+    heights = [len(panels[p]) for p in order]
+    fig, axes = plt.subplots(len(order), 1, figsize=(10.5, 0.32 * sum(heights) + 1.2 * len(order) + 0.6),
+                             gridspec_kw={"height_ratios": heights}, squeeze=False)
+    for ax, name in zip(axes[:, 0], order, strict=True):
+        entries = panels[name]
+        y = np.arange(len(entries))[::-1]
+        for yi, e in zip(y, entries, strict=True):
+            verdict = e.adjusted_verdict or e.verdict
+            colour = verdict_words.COLOURS.get(verdict, "black")
+            if e.ours is not None:
+                style = "--" if verdict == Verdict.TOO_FEW_SEEDS else "-"
+                ax.plot(e.ci, [yi, yi], style, color=colour, lw=2.2)
+                ax.plot(e.ours, yi, "o", color=colour, ms=5)
+            if e.paper is not None:
+                ax.plot(e.paper, yi, "D", color="black", ms=4, zorder=5)
+            elif e.reference_effect is not None:  # the effect a claim of ours is read against
+                ax.plot(e.reference_effect, yi, "D", mfc="white", mec="black", ms=4, zorder=5)
+        ax.axvline(0, color="#57606a", lw=0.8)
+        ax.set_yticks(y, [label(e) for e in entries], fontsize=8)
+        ax.set_ylim(-0.7, len(entries) - 0.3)
+        sides = {e.direction for e in entries}
+        side = ("" if len(sides) > 1 else
+                " (the paper claims above 0)" if sides == {1} else " (the paper claims below 0)")
+        ax.set_xlabel(name + side, fontsize=8)
+        ax.tick_params(axis="x", labelsize=8)
+        ax.grid(axis="x", color="#eaeef2", lw=0.6)
+    handles = [Line2D([], [], color=c, lw=2.2, ls="--" if v == Verdict.TOO_FEW_SEEDS else "-",
+                      label=str(v)) for v, c in verdict_words.COLOURS.items() if v != Verdict.NOT_RUN]
+    handles.append(Line2D([], [], color="black", marker="D", ls="", ms=4, label="the paper"))
+    if any(e.paper is None and e.reference_effect is not None for e in ledger):
+        handles.append(Line2D([], [], mfc="white", mec="black", marker="D", ls="", ms=4,
+                              label="reference size (our claims)"))
+    fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=len(handles),
+               frameon=False)
+    axes[0, 0].set_title(title or "Claims: our 95% intervals and the paper's values", fontsize=10)
+    return shown_once(fig, rect=(0, 0.04, 1, 1))

@@ -19,11 +19,13 @@ value raises a ValueError that names the problem.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
 
 from icil_paper.tokenizers.configs import (
@@ -112,24 +114,36 @@ def lipschitz_losses(encoder: nn.Module, config) -> dict[str, Tensor]:
     return {"lipschitz": weight * lipschitz_loss(encoder)}
 
 
+@contextmanager
+def evaluating(module: nn.Module) -> Iterator[nn.Module]:
+    """`module` in eval mode and without gradients inside the block, its mode restored after."""
+    was_training = module.training
+    module.eval()
+    try:
+        with torch.no_grad():
+            yield module
+    finally:
+        module.train(was_training)
+
+
+def causal_chunks(actions: Tensor, chunk: int) -> Tensor:
+    """(B, T, A) -> (B, T, C, A): the C = `chunk` actions ending at each step, the first
+    action repeated before the start (`fast`, `bspline`)."""
+    padded = torch.cat([actions[:, :1].expand(-1, chunk - 1, -1), actions], dim=1)
+    return padded.unfold(1, chunk, 1).transpose(-1, -2)
+
+
 def as_trajectory_list(actions, action_dim: int) -> list[np.ndarray]:
     """`fit` input (an array or tensor (N, T, A), or a list of (T_i, A) arrays) as a list of
     float64 arrays (T_i, A); ValueError naming the problem."""
-    if isinstance(actions, Tensor):
-        actions = actions.detach().cpu().numpy()
-    if isinstance(actions, np.ndarray):
-        if actions.ndim == 2:
-            actions = [actions]
-        elif actions.ndim == 3:
-            actions = list(actions)
-        else:
+    if isinstance(actions, (np.ndarray, Tensor)):
+        if actions.ndim not in (2, 3):
             raise ValueError(f"actions must be shaped (N, T, A) or be a list of (T, A) arrays; "
-                             f"got an array with shape {actions.shape}")
+                             f"got an array with shape {tuple(actions.shape)}")
+        actions = [actions] if actions.ndim == 2 else list(actions)
     trajectories = []
     for i, traj in enumerate(actions):
-        if isinstance(traj, Tensor):
-            traj = traj.detach().cpu().numpy()
-        traj = np.asarray(traj, dtype=np.float64)
+        traj = np.asarray(traj.detach().cpu() if isinstance(traj, Tensor) else traj, np.float64)
         if traj.ndim != 2:
             raise ValueError(f"trajectory {i} must be shaped (T, A), got shape {traj.shape}")
         if traj.shape[1] != action_dim:
@@ -183,6 +197,17 @@ class ActionTokenizer(nn.Module):
     def _fit(self, trajectories: list[np.ndarray]) -> None:
         """Nothing to fit for learned tokenizers."""
 
+    @torch.no_grad()
+    def _set_range(self, low: Tensor, high: Tensor) -> None:
+        """Store (A,) bounds in the `low` / `high` buffers (bin, bspline); a constant dimension
+        still gets a non-empty range."""
+        low, high = low.clone(), high.clone()  # copied into the buffers' dtype below
+        flat = high - low < 1e-6
+        low[flat] -= 1e-3
+        high[flat] += 1e-3
+        self.low.copy_(low)
+        self.high.copy_(high)
+
     # ----------------------------------------------------------------- forward
     def check_actions(self, actions: Tensor) -> Tensor:
         """Raise ValueError for a wrong shape, wrong action dimension or NaN/inf values."""
@@ -205,9 +230,7 @@ class ActionTokenizer(nn.Module):
         return actions.to(self._param_dtype())
 
     def _param_dtype(self) -> torch.dtype:
-        for p in self.parameters():
-            return p.dtype
-        return torch.float32
+        return next((p.dtype for p in self.parameters()), torch.float32)
 
     def forward(self, actions: Tensor) -> TokenizerOutput:
         """Tokenize actions (B, T, A) -> TokenizerOutput (see the module docstring)."""
@@ -215,6 +238,12 @@ class ActionTokenizer(nn.Module):
 
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         raise NotImplementedError
+
+    def decode_losses(self, z: Tensor, actions: Tensor) -> dict[str, Tensor]:
+        """{"decode": weighted MSE of the learned head `decoder` on embeddings z (B, T, D)},
+        detached unless the config's `autoencode` (bin, fast, bspline)."""
+        decoded = self.decoder(z if self.config.autoencode else z.detach())
+        return {"decode": self.config.decode_weight * F.mse_loss(decoded, actions)}
 
     def decode(self, embeddings: Tensor) -> Tensor:
         """Actions (B, T, A) from embeddings (B, T, D)."""

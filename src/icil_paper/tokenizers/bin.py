@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 from torch import Tensor, nn
 
 from icil_paper.config_data import field_choices
@@ -41,8 +40,6 @@ class BinTokenizer(ActionTokenizer):
         super().__init__(config, action_dim)
         n_bins, latent_dim = config.n_bins, config.latent_dim
         self.n_bins = int(n_bins)
-        self.autoencode = config.autoencode
-        self.decode_weight = config.decode_weight
         self.range = config.range
         self.register_buffer("low", torch.full((action_dim,), -1.0))
         self.register_buffer("high", torch.full((action_dim,), 1.0))
@@ -61,16 +58,6 @@ class BinTokenizer(ActionTokenizer):
             return  # nothing is fitted: training batches set the range
         data = np.concatenate(trajectories, axis=0)
         self._set_range(torch.as_tensor(data.min(axis=0)), torch.as_tensor(data.max(axis=0)))
-
-    @torch.no_grad()
-    def _set_range(self, low: Tensor, high: Tensor) -> None:
-        """Store (A,) bounds; a constant dimension still gets a non-empty range."""
-        low, high = low.clone(), high.clone()  # copied into the buffers' dtype below
-        flat = high - low < 1e-6
-        low[flat] -= 1e-3
-        high[flat] += 1e-3
-        self.low.copy_(low)
-        self.high.copy_(high)
 
     @torch.no_grad()
     def _update_running_range(self, actions: Tensor) -> None:
@@ -102,10 +89,8 @@ class BinTokenizer(ActionTokenizer):
         codes = self.bins(actions)  # (B, T, A)
         tokens = self.embedding(codes + self.offsets)  # (B, T, A, D)
         z = tokens.mean(dim=2)  # (B, T, D)
-        decoded = self.decoder(z if self.autoencode else z.detach())
-        losses = {"decode": self.decode_weight * F.mse_loss(decoded, actions)}
         return TokenizerOutput(embeddings=z, reconstruction=self.centres(codes), codes=codes,
-                               losses=losses)
+                               losses=self.decode_losses(z, actions))
 
     def vocabulary_ids(self, codes: Tensor) -> Tensor:
         """Codes (B, T, A) as token ids in [0, A * n_bins), flattened."""

@@ -23,11 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 from torch import Tensor, nn
 
 from icil_paper.layers import mlp
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput
+from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, causal_chunks
 from icil_paper.tokenizers.configs import BSplineConfig, register_tokenizer_model
 
 DEGREE = 3
@@ -60,8 +59,6 @@ class BSplineTokenizer(ActionTokenizer):
         super().__init__(config, action_dim)
         chunk, k, n_bins = config.chunk, config.control_points, config.n_bins
         self.chunk, self.control_points, self.n_bins = int(chunk), int(k), int(n_bins)
-        self.autoencode = config.autoencode
-        self.decode_weight = config.decode_weight
         phi = basis_matrix(chunk, k)
         self.register_buffer("basis", torch.from_numpy(phi), persistent=False)  # (C, K)
         self.register_buffer("fit_matrix", torch.from_numpy(np.linalg.pinv(phi)),
@@ -77,15 +74,9 @@ class BSplineTokenizer(ActionTokenizer):
 
     # ------------------------------------------------------------------ fitting
     def _fit(self, trajectories: list[np.ndarray]) -> None:
-        points = torch.cat([self.control_points_of(self._causal_chunks(
-            torch.from_numpy(t)[None]))[0] for t in trajectories])  # (N, K, A)
-        low = points.amin(dim=(0, 1))
-        high = points.amax(dim=(0, 1))
-        flat = high - low < 1e-6  # a constant dimension still gets a non-empty range
-        low[flat] -= 1e-3
-        high[flat] += 1e-3
-        self.low.copy_(low)
-        self.high.copy_(high)
+        points = torch.cat([self.control_points_of(causal_chunks(
+            torch.from_numpy(t)[None], self.chunk))[0] for t in trajectories])  # (N, K, A)
+        self._set_range(points.amin(dim=(0, 1)), points.amax(dim=(0, 1)))
 
     @property
     def bin_width(self) -> Tensor:
@@ -93,12 +84,6 @@ class BSplineTokenizer(ActionTokenizer):
         return (self.high - self.low) / (self.n_bins - 1)
 
     # ------------------------------------------------------------------ chunks
-    def _causal_chunks(self, actions: Tensor) -> Tensor:
-        """(B, T, A) -> (B, T, C, A) float64: the C actions ending at each step."""
-        x = actions.to(self.basis.dtype)
-        padded = torch.cat([x[:, :1].expand(-1, self.chunk - 1, -1), x], dim=1)
-        return padded.unfold(1, self.chunk, 1).transpose(-1, -2)  # (B, T, C, A)
-
     def control_points_of(self, chunks: Tensor) -> Tensor:
         """Least-squares control points (..., K, A) of chunks (..., C, A), float64."""
         return self.fit_matrix @ chunks.to(self.fit_matrix)
@@ -133,15 +118,14 @@ class BSplineTokenizer(ActionTokenizer):
     # ------------------------------------------------------------------ forward
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         b, t, a = actions.shape
-        codes = self.quantize(self.control_points_of(self._causal_chunks(actions)))  # (B,T,K,A)
+        chunks = causal_chunks(actions.to(self.basis.dtype), self.chunk)  # (B, T, C, A)
+        codes = self.quantize(self.control_points_of(chunks))  # (B, T, K, A)
         tokens = self.embedding(codes + self.offsets)  # (B, T, K, A, D)
         z = tokens.mean(dim=(2, 3))  # (B, T, D)
         # the decoded spline at the chunk's last sample: step t itself
         recon = (self.basis[-1] @ self.dequantize(codes)).to(actions.dtype)  # (B, T, A)
-        decoded = self.decoder(z if self.autoencode else z.detach())
-        losses = {"decode": self.decode_weight * F.mse_loss(decoded, actions)}
         return TokenizerOutput(embeddings=z, reconstruction=recon,
-                               codes=codes.reshape(b, t, -1), losses=losses)
+                               codes=codes.reshape(b, t, -1), losses=self.decode_losses(z, actions))
 
     # ------------------------------------------------------------------ facts
     @property

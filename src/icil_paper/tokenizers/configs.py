@@ -17,8 +17,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
-from icil_paper.config_data import ConfigError, check_fields
-from icil_paper.registry import ComponentRegistry, check_name
+from icil_paper.config_data import Checked, ConfigError
+from icil_paper.registry import ComponentRegistry
 
 DEFAULT_HIDDEN = (64, 128)
 TOKENIZER_CHOICES: dict[str, tuple[str, ...]] = {
@@ -33,7 +33,7 @@ TOKENIZER_CHOICES: dict[str, tuple[str, ...]] = {
 
 
 @dataclass(frozen=True)
-class TokenizerConfig:
+class TokenizerConfig(Checked):
     """Knobs every action tokenizer has."""
 
     type: ClassVar[str] = ""
@@ -45,18 +45,6 @@ class TokenizerConfig:
     """Width D of the action embedding (and of each codebook entry)."""
     hidden: tuple[int, ...] = DEFAULT_HIDDEN
     """Hidden widths of the encoder MLP; the decoder mirrors them."""
-
-    def __post_init__(self) -> None:
-        check_fields(self)  # ranges, empty values, CHOICES: before any work
-        floors: dict[str, int] = {}
-        for klass in reversed(type(self).__mro__):
-            floors.update(vars(klass).get("AT_LEAST", {}))
-        for name, low in floors.items():
-            value = getattr(self, name)
-            many = isinstance(value, (tuple, list))
-            if value is not None and any(v < low for v in (value if many else [value])):
-                raise ConfigError(f"{type(self).__name__}.{name} must be at least {low}"
-                                  f"{' each' if many else ''}, got {value}")
 
     @property
     def name(self) -> str:
@@ -77,7 +65,7 @@ register_tokenizer_model = TOKENIZER_REGISTRY.model
 
 
 @dataclass(frozen=True)
-class LipschitzOptions:
+class LipschitzOptions(Checked):
     """How every `LipschitzLinear` layer (Eq. 4) of an encoder is set up and regularised."""
 
     weight: float = 1e-6
@@ -92,9 +80,6 @@ class LipschitzOptions:
     """Learning rate of every bound c_l as a multiple of the trainer's (0: fixed; 1: paper)."""
 
     CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"weight_init": ("liu", "randn", "linear")}
-
-    def __post_init__(self) -> None:
-        check_fields(self)
 
 
 @register_tokenizer("mlp")
@@ -239,7 +224,7 @@ class LipVQConfig(VQConfig):
 
 # ----------------------------------------------------------------- training alone
 @dataclass(frozen=True)
-class TokenizerStudyConfig:
+class TokenizerStudyConfig(Checked):
     """Tokenizers trained alone on action trajectories (chapters 02 and 04, the benchmark)."""
 
     CHOICES = {"trajectories": ("demos", "synthetic")}
@@ -266,9 +251,6 @@ class TokenizerStudyConfig:
     """Actions FAST's BPE is fitted on in the benchmark (the paper: 1M)."""
     seeds: int = 3
     """Training seeds of every tokenizer trained alone (the chapters show the spread)."""
-
-    def __post_init__(self) -> None:
-        check_fields(self)
 
 
 def lipvq_official(latent_dim: int = 64, codebook_size: int = 1024) -> LipVQConfig:
@@ -367,7 +349,5 @@ TOKENIZER_CONFIGS: dict[str, type[TokenizerConfig]] = TOKENIZER_REGISTRY.configs
 SINCE_PAPER = ("fsq", "lipfsq", "rvq", "liprvq", "bspline")
 """The tokenizers the paper does not compare: FSQ, residual VQ, BEAST and their Eq. 4 twins."""
 
-
-def default_config(name: str, **fields) -> TokenizerConfig:
-    """The default config of tokenizer `name`, with some fields changed."""
-    return TOKENIZER_CONFIGS[check_name("tokenizer", name, TOKENIZER_CONFIGS)](**fields)
+default_config = TOKENIZER_REGISTRY.default
+"""`default_config(name, **fields)`: the default config of tokenizer `name`, some fields changed."""

@@ -1,12 +1,5 @@
-"""Every tokenizer of the package by name, and `make_tokenizer`, which builds one from its config.
-
-    from icil_paper.tokenizers import make_tokenizer
-    tok = make_tokenizer(LipVQConfig(latent_dim=64), action_dim=7)
-    tok = make_tokenizer("vq", 7)                  # a name: its default config
-
-Importing this module imports the tokenizer modules (torch), whose classes register as they
-import.
-"""
+"""Every tokenizer of the package by name, and `make_tokenizer`, which builds one from its config
+(usage: the package's docstring). Importing it imports the tokenizer modules, which register."""
 
 from __future__ import annotations
 

@@ -24,17 +24,21 @@ from collections.abc import Sequence
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 from torch import Tensor, nn
+from torch.nn.utils.rnn import pad_sequence
 
 from icil_paper.layers import mlp
-from icil_paper.tokenizers.base import ActionTokenizer, TokenizerOutput, as_trajectory_list
+from icil_paper.tokenizers.base import (
+    ActionTokenizer,
+    TokenizerOutput,
+    as_trajectory_list,
+    causal_chunks,
+)
 from icil_paper.tokenizers.configs import FASTConfig, register_tokenizer_model
 
 # Symbol of integer v is chr(v - min_token + _CHAR_OFFSET). 0 is kept free because NumPy's
 # fixed-width strings (used to build symbol strings fast) drop trailing NUL characters.
 _CHAR_OFFSET = 1
-_MODES = ("causal", "blocked")
 
 
 class FastDecodeError(ValueError):
@@ -68,10 +72,7 @@ class FASTTokenizer(ActionTokenizer):
         self.chunk = int(config.chunk)
         self.scale = float(config.scale)
         self.vocab_size = int(config.vocab_size)
-        self.min_frequency = int(config.min_frequency)
         self.mode = config.mode
-        self.autoencode = config.autoencode
-        self.decode_weight = config.decode_weight
         self.symbols_per_chunk = self.chunk * action_dim
         self.token_embedding = nn.Embedding(self.vocab_size, latent_dim)
         self.token_position = nn.Embedding(self.symbols_per_chunk, latent_dim)
@@ -98,7 +99,7 @@ class FASTTokenizer(ActionTokenizer):
         strings = self._symbol_strings(ints)
         bpe = Tokenizer(models.BPE())
         trainer = trainers.BpeTrainer(
-            vocab_size=self.vocab_size, min_frequency=self.min_frequency, show_progress=False,
+            vocab_size=self.vocab_size, min_frequency=int(self.config.min_frequency), show_progress=False,
             special_tokens=[], max_token_length=10000,
             initial_alphabet=[chr(i + _CHAR_OFFSET) for i in range(n_symbols)])
         bpe.train_from_iterator(strings, trainer, length=len(strings))
@@ -132,12 +133,6 @@ class FASTTokenizer(ActionTokenizer):
         n = -(-t // self.chunk)
         padded = np.concatenate([actions, np.repeat(actions[:, -1:], n * self.chunk - t, 1)], 1)
         return padded.reshape(b, n, self.chunk, a)
-
-    def _causal_chunks(self, actions: np.ndarray) -> np.ndarray:
-        """(B, T, A) -> (B, T, C, A): the C actions ending at each step (first one repeated)."""
-        padded = np.concatenate([np.repeat(actions[:, :1], self.chunk - 1, 1), actions], 1)
-        windows = np.lib.stride_tricks.sliding_window_view(padded, self.chunk, axis=1)
-        return np.ascontiguousarray(windows.transpose(0, 1, 3, 2))  # (B, T, C, A)
 
     def _quantize(self, chunks: np.ndarray) -> np.ndarray:
         """Chunks (..., C, A) -> rounded scaled DCT coefficients (..., C, A), int64."""
@@ -208,14 +203,6 @@ class FASTTokenizer(ActionTokenizer):
         if self._bpe is None:
             raise RuntimeError("the fast tokenizer must be fitted first: call tokenizer.fit(...)")
 
-    def _token_array(self, token_lists: list[list[int]]) -> Tensor:
-        """Ragged id lists -> LongTensor (N, L) padded with -1."""
-        length = max(1, max(len(t) for t in token_lists))
-        out = np.full((len(token_lists), length), -1, dtype=np.int64)
-        for i, ids in enumerate(token_lists):
-            out[i, :len(ids)] = ids
-        return torch.from_numpy(out)
-
     # ------------------------------------------------------------------ forward
     def _pool(self, ids: Tensor) -> Tensor:
         """Token ids (N, L) padded with -1 -> mean of token + position embeddings (N, D)."""
@@ -227,16 +214,17 @@ class FASTTokenizer(ActionTokenizer):
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         self._require_fit()
         b, t, a = actions.shape
-        x = actions.detach().cpu().double().numpy()
+        x = actions.detach().cpu().double()
         if self.mode == "causal":
-            chunks = self._causal_chunks(x)  # (B, T, C, A)
+            chunks = causal_chunks(x, self.chunk).numpy()  # (B, T, C, A)
         else:
-            chunks = self._blocked_chunks(x)  # (B, n, C, A)
+            chunks = self._blocked_chunks(x.numpy())  # (B, n, C, A)
         n = chunks.shape[1]
         ints = self._quantize(chunks.reshape(b * n, self.chunk, a))
         ints = np.clip(ints, self.min_token, self.max_token)
-        token_lists = [e.ids for e in self._bpe.encode_batch(self._symbol_strings(ints))]
-        ids = self._token_array(token_lists).to(actions.device)  # (B * n, L)
+        ids = pad_sequence([torch.tensor(e.ids, dtype=torch.long) for e in
+                            self._bpe.encode_batch(self._symbol_strings(ints))],
+                           batch_first=True, padding_value=-1).to(actions.device)  # (B * n, L)
         pooled = self._pool(ids).view(b, n, -1)  # (B, n, D)
         recon_chunks = self._dequantize(ints).reshape(b, n, self.chunk, a)
         if self.mode == "causal":
@@ -248,10 +236,8 @@ class FASTTokenizer(ActionTokenizer):
             z = z + self.step_position(steps % self.chunk)
             recon = recon_chunks.reshape(b, n * self.chunk, a)[:, :t]
         recon = torch.as_tensor(recon, dtype=actions.dtype, device=actions.device)
-        decoded = self.decoder(z if self.autoencode else z.detach())
-        losses = {"decode": self.decode_weight * F.mse_loss(decoded, actions)}
-        codes = ids.view(b, n, -1)
-        return TokenizerOutput(embeddings=z, reconstruction=recon, codes=codes, losses=losses)
+        return TokenizerOutput(embeddings=z, reconstruction=recon, codes=ids.view(b, n, -1),
+                               losses=self.decode_losses(z, actions))
 
     # ------------------------------------------------------------------ facts
     @property
@@ -269,7 +255,6 @@ class FASTTokenizer(ActionTokenizer):
         if actions is None:
             raise ValueError("FAST's tokens per step depend on the data: pass actions")
         trajectories = as_trajectory_list(actions, self.action_dim)
-        n_tokens = 0
-        for traj in trajectories:
-            n_tokens += sum(len(t) for t in self.encode_tokens(self._blocked_chunks(traj[None])[0]))
+        n_tokens = sum(len(t) for traj in trajectories
+                       for t in self.encode_tokens(self._blocked_chunks(traj[None])[0]))
         return n_tokens / sum(len(t) for t in trajectories)

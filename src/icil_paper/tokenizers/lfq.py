@@ -41,14 +41,10 @@ class LFQTokenizer(ActionTokenizer):
 
         codebook_size, latent_dim, hidden = config.codebook_size, config.latent_dim, config.hidden
         bits = self.bits = int(round(math.log2(codebook_size)))  # a power of two (config checks)
-        self.entropy_weight = config.entropy_weight
-        self.commitment_weight = config.commitment_weight
-        self.diversity_gamma = config.diversity_gamma
-        self.recon_weight = config.recon_weight
         self.encoder = mlp([action_dim, *hidden, bits])
         # Weights 1.0 here: the breakdown is weighted below, so `losses` shows each term.
         self.quantizer = LFQ(dim=bits, codebook_size=codebook_size, entropy_loss_weight=1.0,
-                             commitment_loss_weight=1.0, diversity_gamma=self.diversity_gamma)
+                             commitment_loss_weight=1.0, diversity_gamma=config.diversity_gamma)
         self.project = nn.Identity() if bits == latent_dim else nn.Linear(bits, latent_dim)
         self.decoder = mlp([latent_dim, *hidden[::-1], action_dim])
 
@@ -61,10 +57,11 @@ class LFQTokenizer(ActionTokenizer):
         (q, codes, _), breakdown = self.quantizer(z_e, return_loss_breakdown=True)
         z = self.project(q)  # (B, T, D)
         recon = self.decoder(z)
-        losses = {"reconstruction": self.recon_weight * F.mse_loss(recon, actions)}
+        cfg = self.config
+        losses = {"reconstruction": cfg.recon_weight * F.mse_loss(recon, actions)}
         if self.training:
-            entropy = breakdown.per_sample_entropy - self.diversity_gamma * breakdown.batch_entropy
-            losses["entropy"] = self.entropy_weight * entropy
-            losses["commitment"] = self.commitment_weight * breakdown.commitment
+            entropy = breakdown.per_sample_entropy - cfg.diversity_gamma * breakdown.batch_entropy
+            losses["entropy"] = cfg.entropy_weight * entropy
+            losses["commitment"] = cfg.commitment_weight * breakdown.commitment
         return TokenizerOutput(embeddings=z, reconstruction=recon, codes=codes.long(),
                                losses=losses, latents=z_e)

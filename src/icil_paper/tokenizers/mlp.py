@@ -31,11 +31,8 @@ class MLPTokenizer(ActionTokenizer):
     def __init__(self, config: MLPConfig, action_dim: int):
         super().__init__(config, action_dim)
         self.lipschitz = isinstance(config, LipMLPConfig)
-        self.autoencode = config.autoencode
-        self.recon_weight = config.recon_weight
         sizes = [action_dim, *config.hidden, config.latent_dim]
         if self.lipschitz:
-            self.lipschitz_weight = config.lipschitz.weight
             self.encoder = build_encoder(sizes, "lipschitz", lipschitz=config.lipschitz)
         else:
             self.encoder = mlp(sizes)
@@ -43,10 +40,11 @@ class MLPTokenizer(ActionTokenizer):
 
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         z = self.encoder(actions)  # (B, T, D)
-        recon = self.decoder(z if self.autoencode else z.detach())  # (B, T, A)
-        losses = {"reconstruction": self.recon_weight * F.mse_loss(recon, actions)}
-        if self.lipschitz and self.lipschitz_weight:
-            losses["lipschitz"] = self.lipschitz_weight * lipschitz_loss(self.encoder)
+        cfg = self.config
+        recon = self.decoder(z if cfg.autoencode else z.detach())  # (B, T, A)
+        losses = {"reconstruction": cfg.recon_weight * F.mse_loss(recon, actions)}
+        if self.lipschitz and cfg.lipschitz.weight:
+            losses["lipschitz"] = cfg.lipschitz.weight * lipschitz_loss(self.encoder)
         return TokenizerOutput(embeddings=z, reconstruction=recon, codes=None, losses=losses,
                                latents=z)
 

@@ -26,6 +26,7 @@ from icil_paper.tokenizers.base import (
     ActionTokenizer,
     TokenizerOutput,
     build_encoder,
+    evaluating,
     lipschitz_losses,
 )
 from icil_paper.tokenizers.configs import RVQConfig, register_tokenizer_model
@@ -66,19 +67,14 @@ class RVQTokenizer(ActionTokenizer):
         z_q, codes, level_losses = self.quantizer(z_e)
         return z_q, codes.long(), level_losses.reshape(-1)
 
-    @torch.no_grad()
     def level_errors(self, actions: Tensor) -> list[float]:
         """Mean squared quantization error ||z_e - (e_1[k_1] + ... + e_l[k_l])||^2 after each
         level l = 1 .. Q, for actions (B, T, A) (eval mode: no codebook update)."""
-        was_training = self.training
-        self.eval()
-        try:
+        with evaluating(self):
             z_e = self.encoder(self.check_actions(actions))
             _, _, _, per_level = self.quantizer(z_e, return_all_codes=True)  # (Q, B, T, D)
             partial = per_level.cumsum(dim=0)
             return [float(((z_e - partial[l]) ** 2).mean()) for l in range(len(partial))]
-        finally:
-            self.train(was_training)
 
     def _forward(self, actions: Tensor) -> TokenizerOutput:
         z_e = self.encoder(actions)  # (B, T, D)

@@ -27,7 +27,7 @@ from icil_paper.metrics import (
     standardized_least_energies,
 )
 from icil_paper.seeding import cpu_threads
-from icil_paper.tokenizers.base import ActionTokenizer, as_trajectory_list
+from icil_paper.tokenizers.base import ActionTokenizer, as_trajectory_list, evaluating
 from icil_paper.tokenizers.configs import TokenizerConfig, TokenizerStudyConfig
 from icil_paper.tokenizers.lipschitz_linear import bound_parameter_groups, lipschitz_bounds
 
@@ -47,10 +47,7 @@ def sample_windows(trajectories: Sequence[np.ndarray], batch_size: int, window: 
     for b, i in enumerate(rng.integers(len(trajectories), size=batch_size)):
         traj = trajectories[i]
         start = int(rng.integers(max(len(traj) - window, 0) + 1))
-        piece = traj[start:start + window]
-        if len(piece) < window:
-            piece = np.concatenate([piece, np.repeat(piece[-1:], window - len(piece), 0)])
-        out[b] = piece
+        out[b] = traj[np.minimum(np.arange(start, start + window), len(traj) - 1)]
     return out
 
 
@@ -101,15 +98,10 @@ def train_tokenizer(tokenizer: ActionTokenizer, trajectories, config: TokenizerS
 # ---------------------------------------------------------------------- evaluation
 def _each(tokenizer: ActionTokenizer, trajectories):
     """(trajectory tensor (1, T, A), output) per trajectory, in eval mode without gradients."""
-    was_training = tokenizer.training
-    tokenizer.eval()
-    try:
-        with torch.no_grad():
-            for traj in as_trajectory_list(trajectories, tokenizer.action_dim):
-                x = torch.as_tensor(traj, dtype=torch.float32)[None]
-                yield x, tokenizer(x)
-    finally:
-        tokenizer.train(was_training)
+    with evaluating(tokenizer):
+        for traj in as_trajectory_list(trajectories, tokenizer.action_dim):
+            x = torch.as_tensor(traj, dtype=torch.float32)[None]
+            yield x, tokenizer(x)
 
 
 def reconstruction_errors(tokenizer: ActionTokenizer, trajectories) -> dict[str, float]:
@@ -154,28 +146,23 @@ def throughput(tokenizer: ActionTokenizer, actions: torch.Tensor, min_time: floa
     """Actions per second for encode (`forward`), `decode`, and both, on a batch (B, T, A),
     each timed over repeats for `min_time` seconds after a warm-up, on `threads` threads."""
     n_actions = actions.shape[0] * actions.shape[1]
-    was_training = tokenizer.training
-    tokenizer.eval()
-    try:
-        with torch.no_grad():
-            emb = tokenizer(actions).embeddings
-            tokenizer.decode(emb)
 
-            def rate(fn) -> float:
-                start, repeats = time.perf_counter(), 0
-                while repeats < max_repeats:
-                    fn()
-                    repeats += 1
-                    if time.perf_counter() - start >= min_time:
-                        break
-                return repeats * n_actions / (time.perf_counter() - start)
+    def rate(fn) -> float:
+        start, repeats = time.perf_counter(), 0
+        while repeats < max_repeats:
+            fn()
+            repeats += 1
+            if time.perf_counter() - start >= min_time:
+                break
+        return repeats * n_actions / (time.perf_counter() - start)
 
-            with cpu_threads(threads):
-                encode = rate(lambda: tokenizer(actions))
-                decode = rate(lambda: tokenizer.decode(emb))
-                both = rate(lambda: tokenizer.decode(tokenizer(actions).embeddings))
-    finally:
-        tokenizer.train(was_training)
+    with evaluating(tokenizer):
+        emb = tokenizer(actions).embeddings
+        tokenizer.decode(emb)
+        with cpu_threads(threads):
+            encode = rate(lambda: tokenizer(actions))
+            decode = rate(lambda: tokenizer.decode(emb))
+            both = rate(lambda: tokenizer.decode(tokenizer(actions).embeddings))
     return {"encode_actions_per_s": encode, "decode_actions_per_s": decode,
             "encode_decode_actions_per_s": both}
 

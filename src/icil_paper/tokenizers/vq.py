@@ -33,9 +33,6 @@ from icil_paper.tokenizers.base import (
 )
 from icil_paper.tokenizers.configs import VQConfig, register_tokenizer_model
 
-STRAIGHT_THROUGH = ("vqvae", "codebook", "none")
-CODEBOOK_INITS = ("uniform", "data")
-
 
 @register_tokenizer_model("vq")
 class VQTokenizer(ActionTokenizer):

@@ -114,9 +114,6 @@ class RecordingBlock:
     page_prefix: str  # from the page to the book's root, e.g. "../"
     height: str
 
-    def _url(self, name: str) -> str:
-        return f"{self.page_prefix}_static/{RECORDINGS_URL_DIR}/{name}"
-
     def _repr_html_(self) -> str:
         items = [{"label": r.label, "rrd": f"{RECORDINGS_URL_DIR}/{r.rrd}",
                   "png": f"{RECORDINGS_URL_DIR}/{r.png}" if r.png else None}
@@ -140,7 +137,8 @@ class RecordingBlock:
         caption = []
         if viewable:
             links = [f'<a class="icil-recording-download" download '
-                     f'data-rrd="{RECORDINGS_URL_DIR}/{r.rrd}" href="{self._url(r.rrd)}">'
+                     f'data-rrd="{RECORDINGS_URL_DIR}/{r.rrd}" '
+                     f'href="{self.page_prefix}_static/{RECORDINGS_URL_DIR}/{r.rrd}">'
                      f"{html.escape(r.label)}</a> ({r.rrd_bytes / 1024:,.0f} kB)"
                      for r in viewable]
             caption.append(f"Download the recording{'s' if len(links) > 1 else ''}: "

@@ -9,6 +9,7 @@ Importing this package does not import robosuite; building an env does.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from typing import Any
@@ -28,8 +29,6 @@ from icil_paper.sim.kitchen.tasks import (
 from icil_paper.sim.suite import Suite
 
 KITCHEN_OBS_DIMS = (KITCHEN_PROPRIO_DIM, KITCHEN_OBJECT_DIM)
-OBJECT_POSITION = (1, 4)
-"""The key point (the handle) in `obs["object"]`."""
 
 # robosuite picks its OpenGL backend when it is first imported (every module of this package
 # that imports it is imported through here); headless image observations need EGL.
@@ -69,10 +68,7 @@ def make_kitchen_env(name: str, obs: str = "state", seed: int = 0, **options: An
     Options: `camera_size` (default 84), `horizon`, `obs_noise_std` (0 turns the Kinova
     noise off), `render_mode`, `scenes` (of `SCENE_DISTRIBUTIONS`, default "generated").
     """
-    check_name("kitchen task", name, ALL_TASKS)
-    check_name("observation kind", obs, ("state", "rgb", "rgbd"))
-    check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
-               SCENE_DISTRIBUTIONS)
+    check_name("kitchen task", name, ALL_TASKS)  # the env checks `obs` and `scenes`
     _import_robosuite_quietly()
     return __getattr__("KitchenEnv")(name, obs=obs, seed=seed, **options)
 
@@ -98,11 +94,9 @@ def __getattr__(attr: str) -> Any:
 KITCHEN_SUITE = Suite(
     name="kitchen", tasks=tuple(KITCHEN_TASKS), obs_dims=KITCHEN_OBS_DIMS,
     control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,
-    object_position=OBJECT_POSITION, unavailable=robosuite_problem,
+    object_position=(1, 4), unavailable=robosuite_problem,  # the handle's position
     scenes=SCENE_DISTRIBUTIONS, families=TASK_FAMILIES,
     description="door and drawer tasks on robosuite (Panda), Table V's training tasks")
-KINOVA_SUITE = Suite(
-    name="kinova", tasks=tuple(KINOVA_TASKS), obs_dims=KITCHEN_OBS_DIMS,
-    control_freq=CONTROL_FREQ, make_env=make_kitchen_env, make_expert=make_kitchen_expert,
-    object_position=OBJECT_POSITION, unavailable=robosuite_problem,
+KINOVA_SUITE = dataclasses.replace(  # the same envs and experts; one scene distribution
+    KITCHEN_SUITE, name="kinova", tasks=tuple(KINOVA_TASKS), scenes=(), families=None,
     description="door and drawer tasks on a Kinova3 arm with a simulated reality gap")

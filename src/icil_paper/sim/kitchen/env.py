@@ -17,6 +17,10 @@ Observation (the same widths for every kitchen and Kinova task)::
 
 The finger offsets are the pads' signed distances from the grip site. The reward is 1.0 on
 success steps, else 0.0.
+
+The Kinova tasks, the sim-to-real stand-in, run the same fixtures on robosuite's `Kinova3` arm
+under a "reality gap" drawn anew every episode (`RealityGap`): fixture damping, friction and
+part mass scaled at random, and Gaussian noise on every observation entry.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import logging
 from collections import OrderedDict
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -35,7 +40,6 @@ from robosuite.models.tasks import ManipulationTask
 
 from icil_paper.registry import check_name
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
-from icil_paper.sim.kitchen.kinova import DynamicsPerturbation, RealityGap
 from icil_paper.sim.kitchen.scenes import Scene, make_scene
 from icil_paper.sim.kitchen.tasks import (
     ALL_TASKS,
@@ -53,6 +57,50 @@ OBJECT_LAYOUT = ((1, "metric"), (3, "metric"), (4, "unit"), (3, "metric"), (4, "
                  (3, "metric"))
 """Kinds of the `object` entries (layout in `icil_paper.sim.kitchen.scenes`)."""
 _DOWN_QUAT_XYZW = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
+
+
+@dataclass(frozen=True)
+class RealityGap:
+    """Per-episode perturbation of the Kinova tasks."""
+
+    damping_scale: tuple[float, float] = (0.5, 2.0)
+    """Range of the factor on the fixture joint's damping (sampled log-uniformly)."""
+    friction_scale: tuple[float, float] = (0.5, 2.0)
+    """Range of the factor on the fixture joint's friction loss (log-uniform)."""
+    mass_scale: tuple[float, float] = (0.7, 1.5)
+    """Range of the factor on the mass (and inertia) of the fixture's moving part (uniform)."""
+    obs_noise_std: float = 0.002
+    """Std of Gaussian noise added to every proprio and object entry (m or rad)."""
+
+
+class DynamicsPerturbation:
+    """Scales a fixture's joint damping, friction and part mass from their nominal values."""
+
+    def __init__(self, gap: RealityGap):
+        self.gap = gap
+        self._nominal = None
+        self.last_scales: dict[str, float] = {}
+
+    def bind(self, sim, dof_ids: list[int], body_ids: list[int]) -> None:
+        m = sim.model
+        self.dof_ids, self.body_ids = list(dof_ids), list(body_ids)
+        self._nominal = (m.dof_damping[self.dof_ids].copy(),
+                         m.dof_frictionloss[self.dof_ids].copy(),
+                         m.body_mass[self.body_ids].copy(), m.body_inertia[self.body_ids].copy())
+
+    def apply(self, sim, rng: np.random.Generator) -> dict[str, float]:
+        damping, friction, mass, inertia = self._nominal
+        g = self.gap
+        scales = {"damping": float(np.exp(rng.uniform(*np.log(g.damping_scale)))),
+                  "friction": float(np.exp(rng.uniform(*np.log(g.friction_scale)))),
+                  "mass": float(rng.uniform(*g.mass_scale))}
+        m = sim.model
+        m.dof_damping[self.dof_ids] = damping * scales["damping"]
+        m.dof_frictionloss[self.dof_ids] = friction * scales["friction"]
+        m.body_mass[self.body_ids] = mass * scales["mass"]
+        m.body_inertia[self.body_ids] = inertia * scales["mass"]
+        self.last_scales = scales
+        return scales
 
 
 class KitchenSceneEnv(ManipulationEnv):
@@ -232,7 +280,11 @@ class KitchenEnv(TaskEnv):
     def render(self, camera: str = "agentview", size: int | tuple[int, int] = 256) -> np.ndarray:
         """An RGB frame (H, W, 3) uint8 from a camera of the scene (at most 640 x 480)."""
         width, height = (size, size) if np.isscalar(size) else size
-        self._ensure_render_context()
+        if self.sim._render_context_offscreen is None:  # a state env has none yet
+            from robosuite.utils.binding_utils import MjRenderContextOffscreen
+
+            MjRenderContextOffscreen(self.sim, device_id=-1)
+            self.sim._render_context_offscreen.vopt.geomgroup[0] = 0   # hide collision meshes
         rgb = self.sim.render(width=int(width), height=int(height), camera_name=camera)
         return np.ascontiguousarray(rgb[::-1])
 
@@ -248,13 +300,6 @@ class KitchenEnv(TaskEnv):
         self._env.close()
 
     # -----------------------------------------------------------------------------------------
-    def _ensure_render_context(self) -> None:
-        if self.sim._render_context_offscreen is None:
-            from robosuite.utils.binding_utils import MjRenderContextOffscreen
-
-            MjRenderContextOffscreen(self.sim, device_id=-1)
-            self.sim._render_context_offscreen.vopt.geomgroup[0] = 0   # hide collision meshes
-
     def _info(self, success: bool) -> dict[str, Any]:
         return {"success": bool(success), "joint_pos": self.scene.joint_pos(self.sim)}
 
@@ -266,19 +311,13 @@ class KitchenEnv(TaskEnv):
             obj = obj + self._noise_rng.normal(0, self.obs_noise_std, obj.shape)
         out = {"proprio": proprio.astype(np.float32), "object": obj.astype(np.float32)}
         if self.obs_kind != "state":
-            rgbs, depths = [], []
-            size = self.camera_size
-            for cam in self.cameras:
-                if self.obs_kind == "rgbd":
-                    rgb, depth = self.sim.render(width=size, height=size, camera_name=cam,
-                                                 depth=True)
-                    depths.append(_metric_depth(self.sim, depth[::-1]))
-                else:
-                    rgb = self.sim.render(width=size, height=size, camera_name=cam)
-                rgbs.append(rgb[::-1])
-            out["rgb"] = np.stack(rgbs).astype(np.uint8)
-            if depths:
-                out["depth"] = np.stack(depths).astype(np.float32)
+            size, rgbd = self.camera_size, self.obs_kind == "rgbd"
+            frames = [self.sim.render(width=size, height=size, camera_name=cam, depth=rgbd)
+                      for cam in self.cameras]  # (rgb, depth) pairs for "rgbd"
+            out["rgb"] = np.stack([(f[0] if rgbd else f)[::-1] for f in frames]).astype(np.uint8)
+            if rgbd:
+                out["depth"] = np.stack([_metric_depth(self.sim, f[1][::-1])
+                                         for f in frames]).astype(np.float32)
         return out
 
     def __repr__(self) -> str:

@@ -18,8 +18,8 @@ from icil_paper.sim.maniskill.env import (
     MANISKILL_TASKS,
     ManiSkillEnv,
     make_maniskill_env,
+    vulkan_skip_reason,
 )
-from icil_paper.sim.rendering import vulkan_problem
 from icil_paper.sim.suite import Suite
 
 
@@ -41,8 +41,7 @@ def maniskill_problem() -> str | None:
     """None when ManiSkill can start here, else why not (and how to fix it)."""
     if importlib.util.find_spec("mani_skill") is None:
         return "mani_skill is not installed; install the pinned requirements with `make setup`"
-    problem = vulkan_problem()
-    return None if problem is None else f"ManiSkill cannot start: {problem}"
+    return vulkan_skip_reason() or None
 
 
 MANISKILL_SUITE = Suite(

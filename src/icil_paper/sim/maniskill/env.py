@@ -14,10 +14,15 @@ Observations (the same keys for every task of the suite)::
 
 `proprio` has robosuite's layout. The target is PickCube's goal point, PushCube's goal
 region, or the spot one cube height above StackCube's cube B.
+
+ManiSkill 3 needs a Vulkan device even for state observations (without a GPU: Mesa's
+lavapipe, 24.3 or newer); building an env raises `RenderingUnavailable` naming the fix
+instead of SAPIEN's bare error.
 """
 
 from __future__ import annotations
 
+import functools
 import gc
 import warnings
 from dataclasses import dataclass
@@ -25,8 +30,9 @@ from typing import Any
 
 import numpy as np
 
+from icil_paper.setup.envcheck import MANUAL_FIX
+from icil_paper.setup.envcheck import vulkan_problem as probe
 from icil_paper.sim.base import TaskEnv, observation_space, state_box
-from icil_paper.sim.rendering import LAVAPIPE_HOWTO, RenderingUnavailable
 from icil_paper.sim.suite import ACTION_DIM
 
 PROPRIO_DIM = 9
@@ -46,6 +52,42 @@ POS_SCALE = 0.1
 ROT_SCALE = 0.1
 """Radians of end-effector rotation per unit of action (ManiSkill's pd_ee_delta_pose bound)."""
 _IDENTITY_QUAT_XYZW = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
+
+
+LAVAPIPE_HOWTO = (
+    "ManiSkill (SAPIEN 3) needs a Vulkan device, even for state observations. With an NVIDIA "
+    "GPU install the driver's Vulkan ICD (libnvidia-gl). Without a GPU install Mesa's software "
+    "driver lavapipe, version 24.3 or newer (SAPIEN needs VK_KHR_external_semaphore_fd): on "
+    "Debian 12 as root, `make setup` does it (python -m tools.system_deps --install), or by "
+    "hand: add the 'bookworm-backports' suite of your Debian mirror to apt, then `apt-get update "
+    "&& apt-get install -t bookworm-backports mesa-vulkan-drivers`; on Ubuntu 24.10 or newer "
+    "`apt-get install mesa-vulkan-drivers`. Check with `vulkaninfo --summary` (package "
+    "vulkan-tools) that a device named 'llvmpipe' is listed."
+)
+
+
+class RenderingUnavailable(RuntimeError):
+    """The simulator cannot start because the machine lacks a rendering device."""
+
+
+@functools.lru_cache(maxsize=1)
+def vulkan_problem() -> str | None:
+    """None when SAPIEN finds a Vulkan device, else the problem and the fix (probed once)."""
+    problem = probe()
+    if problem is None:
+        return None
+    return f"{problem.replace(MANUAL_FIX, '').strip()} {LAVAPIPE_HOWTO}"
+
+
+def vulkan_available() -> bool:
+    """Whether ManiSkill can start on this machine."""
+    return vulkan_problem() is None
+
+
+def vulkan_skip_reason() -> str:
+    """The reason ManiSkill tests give when they skip ('' when Vulkan works)."""
+    problem = vulkan_problem()
+    return "" if problem is None else f"ManiSkill cannot start: {problem}"
 
 
 @dataclass(frozen=True)
@@ -122,11 +164,8 @@ def object_features(task: str, base_env: Any) -> np.ndarray:
         target = np.concatenate([to_numpy(goal.pose.p), _IDENTITY_QUAT_XYZW]).astype(np.float32)
     obj_p, obj_q = to_numpy(obj.pose.p), to_numpy(obj.pose.q)
     grasped = np.array([float(to_numpy(agent.is_grasping(obj)))], np.float32)
-    feats = np.concatenate([_pose7(obj_p, obj_q), obj_p - tcp, grasped, target,
-                            target[:3] - obj_p]).astype(np.float32)
-    out = np.zeros(MANISKILL_OBJECT_DIM, np.float32)
-    out[: feats.shape[0]] = feats
-    return out
+    return np.concatenate([_pose7(obj_p, obj_q), obj_p - tcp, grasped, target,
+                           target[:3] - obj_p]).astype(np.float32)  # (MANISKILL_OBJECT_DIM,)
 
 
 def proprio_features(base_env: Any) -> np.ndarray:
@@ -223,9 +262,7 @@ class ManiSkillEnv(TaskEnv):
             options = {"reconfigure": True, **(options or {})}
         raw, _ = self._env.reset(seed=self.seed, options=options)
         self.base = self._env.unwrapped
-        obs = self._make_obs(raw)
-        info = self._info(self.base.evaluate())
-        return obs, info
+        return self._make_obs(raw), self._info(self.base.evaluate())
 
     def step(self, action):
         raw, reward, _, _, info = self._env.step(policy_to_maniskill_action(action))
@@ -273,6 +310,5 @@ class ManiSkillEnv(TaskEnv):
         return f"ManiSkillEnv({self.name!r}, obs={self.obs_kind!r}, backend={self.sim_backend!r})"
 
 
-def make_maniskill_env(name: str, obs: str = "state", seed: int = 0, **options) -> ManiSkillEnv:
-    """Build a ManiSkill task of the suite (see the module docstring for spaces)."""
-    return ManiSkillEnv(name, obs=obs, seed=seed, **options)
+make_maniskill_env = ManiSkillEnv
+"""Build a ManiSkill task of the suite: `(name, obs="state", seed=0, **options)`."""

@@ -28,16 +28,12 @@ from icil_paper.sim.metaworld.tasks import (
     MetaWorldTaskSpec,
     family_of,
 )
-from icil_paper.sim.suite import OBS_KINDS, Suite
-
-METAWORLD_OBS_DIMS = (PROPRIO_DIM, OBJECT_DIM)
-OBJECT_POSITION = (0, 3)
-"""The first object's position in `obs["object"]`."""
+from icil_paper.sim.suite import Suite
 
 # Headless image observations need EGL; MuJoCo picks its OpenGL backend when first imported.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-__all__ = ["METAWORLD_SUITE", "METAWORLD_TASKS", "METAWORLD_OBS_DIMS", "TASKS", "FAMILIES",
+__all__ = ["METAWORLD_SUITE", "METAWORLD_TASKS", "TASKS", "FAMILIES",
            "TASK_FAMILIES", "ALL_TASK_FAMILIES", "ROBOCASA_TASKS", "ML45_TRAIN", "ML45_HELD_OUT", "ZERO_SHOT_SPLIT",
            "SCENE_DISTRIBUTIONS", "CONTROL_FREQ", "MetaWorldTaskSpec", "family_of",
            "make_metaworld_env", "make_metaworld_expert", "metaworld_problem"]
@@ -55,10 +51,7 @@ def metaworld_problem() -> str | None:
 def make_metaworld_env(name: str, obs: str = "state", seed: int = 0, **options: Any):
     """Build a Meta-World task env (`env.MetaWorldEnv`); options `camera_size` (default 84),
     `horizon`, `scenes` (default "generated"), `render_mode`."""
-    check_name("Meta-World task", name, TASKS)
-    check_name("observation kind", obs, OBS_KINDS)
-    check_name("scene distribution", options.get("scenes", SCENE_DISTRIBUTIONS[0]),
-               SCENE_DISTRIBUTIONS)
+    check_name("Meta-World task", name, TASKS)  # the env checks `obs` and `scenes`
     return __getattr__("MetaWorldEnv")(name, obs=obs, seed=seed, **options)
 
 
@@ -74,15 +67,15 @@ def __getattr__(attr: str) -> Any:
         from icil_paper.sim.metaworld import env
         return env.MetaWorldEnv
     if attr == "MetaWorldExpert":
-        from icil_paper.sim.metaworld import experts
-        return experts.MetaWorldExpert
+        from icil_paper.sim.metaworld import env
+        return env.MetaWorldExpert
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
 METAWORLD_SUITE = Suite(
-    name="metaworld", tasks=TASKS, obs_dims=METAWORLD_OBS_DIMS, control_freq=CONTROL_FREQ,
+    name="metaworld", tasks=TASKS, obs_dims=(PROPRIO_DIM, OBJECT_DIM), control_freq=CONTROL_FREQ,
     make_env=make_metaworld_env, make_expert=make_metaworld_expert,
-    object_position=OBJECT_POSITION, unavailable=metaworld_problem,
+    object_position=(0, 3), unavailable=metaworld_problem,  # the first object's position
     zero_shot_split=ZERO_SHOT_SPLIT, scenes=SCENE_DISTRIBUTIONS,
     families=ALL_TASK_FAMILIES,
     description="Meta-World (Sawyer) tasks: the paper's seven RoboCasa skill families and ML45")
