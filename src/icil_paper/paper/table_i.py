@@ -10,37 +10,20 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from functools import partial
 
 from icil_paper.config import Preset
 from icil_paper.paper_numbers import family_rows
-from icil_paper.tables.claims import Claim, diff, margin, paper_diff, paper_margin
+from icil_paper.tables.claims import Claim, versus
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     TOKENIZER_ROWS,
     family_entries,
+    policy_tokenizer,
     table_i_runs,
     with_codebook,
 )
 from icil_paper.tables.spec import Row, TableSpec
-
-
-def policy_tokenizer(row: str) -> tuple[str, str | None]:
-    """(policy, tokenizer or None) of a row label (`definitions.label`'s inverse)."""
-    policy, _, tokenizer = row.partition("+")
-    return policy, tokenizer or None
-
-
-def versus(table: str, paper: dict, a: str, b: str | Sequence[str], claim_id: str, claim: str,
-           quantity: str, **options) -> Claim:
-    """The claim that row `a` of `table` beats row `b`, or the best of several rows `b`, on
-    average success; the paper's number from its rows `paper`."""
-    one = isinstance(b, str)
-    return Claim(claim_id, table, claim, quantity, +1,
-                 diff(table, a, b) if one else margin(table, a, b),
-                 paper_diff(paper, a, b) if one else paper_margin(paper, a, b), **options)
-
 
 # The paper's Table I: success rates on RoboCasa (MimicGen data).
 TABLE_I_ROBOCASA = family_rows({

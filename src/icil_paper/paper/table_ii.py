@@ -21,10 +21,9 @@ from icil_paper.config import (
     TrainConfig,
     bound_travel,
 )
-from icil_paper.paper.table_i import policy_tokenizer, versus
 from icil_paper.runspec import RunSpec
-from icil_paper.tables.claims import Claim
-from icil_paper.tables.definitions import row_seeds, seed_runs, tasks_entry
+from icil_paper.tables.claims import Claim, versus
+from icil_paper.tables.definitions import policy_tokenizer, row_seeds, seed_runs, tasks_entry
 from icil_paper.tables.spec import Entry, Row, TableSpec
 
 MANISKILL_COLUMNS = ("pick_cube", "push_cube", "stack_cube")

@@ -19,10 +19,10 @@ from functools import partial
 import numpy as np
 
 from icil_paper.config import Preset
-from icil_paper.paper.table_i import policy_tokenizer, versus
 from icil_paper.tables.assemble import TableResult
-from icil_paper.tables.claims import Claim, margin
+from icil_paper.tables.claims import Claim, margin, versus
 from icil_paper.tables.definitions import (
+    policy_tokenizer,
     row_seeds,
     seed_runs,
     table_i_runs,

@@ -15,9 +15,15 @@ import numpy as np
 
 from icil_paper.config import Preset
 from icil_paper.data.splits import sim_to_real_pairs
-from icil_paper.paper.table_i import policy_tokenizer
 from icil_paper.tables.claims import Claim, MotionComparison, diff
-from icil_paper.tables.definitions import label, row_seeds, seed_runs, table_i_seeds, tasks_entry
+from icil_paper.tables.definitions import (
+    label,
+    policy_tokenizer,
+    row_seeds,
+    seed_runs,
+    table_i_seeds,
+    tasks_entry,
+)
 from icil_paper.tables.spec import Row, TableSpec
 
 # The paper's Table V: sim-to-real success on a real Kinova Gen3 (ours is a simulated stand-in).

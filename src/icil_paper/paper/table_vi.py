@@ -19,11 +19,11 @@ from typing import Any
 
 from icil_paper import stats, verdict_words
 from icil_paper.config import Preset
-from icil_paper.paper.table_i import TABLE_I_ROBOCASA, TABLE_I_ROWS, versus
+from icil_paper.paper.table_i import TABLE_I_ROBOCASA, TABLE_I_ROWS
 from icil_paper.paper_numbers import family_rows
 from icil_paper.stats import Verdict
 from icil_paper.tables.assemble import TableResult, format_difference, format_entry
-from icil_paper.tables.claims import Claim
+from icil_paper.tables.claims import Claim, versus
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     TOKENIZER_ROWS,

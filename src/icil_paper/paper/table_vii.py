@@ -14,9 +14,9 @@ from __future__ import annotations
 from functools import partial
 
 from icil_paper.config import Preset
-from icil_paper.paper.table_i import TABLE_I_ROWS, versus
+from icil_paper.paper.table_i import TABLE_I_ROWS
 from icil_paper.paper_numbers import family_rows
-from icil_paper.tables.claims import Claim
+from icil_paper.tables.claims import Claim, versus
 from icil_paper.tables.definitions import (
     FAMILY_COLUMNS,
     TOKENIZER_ROWS,

@@ -275,6 +275,16 @@ def paper_margin(rows: dict, a: str, others: Sequence[str], column: str = "avg")
     return lambda: rows[a][column] - max(rows[o][column] for o in others)
 
 
+def versus(table: str, paper: dict, a: str, b: str | Sequence[str], claim_id: str, claim: str,
+           quantity: str, **options) -> Claim:
+    """The claim that row `a` of `table` beats row `b`, or the best of several rows `b`, on
+    average success; the paper's number from its rows `paper`."""
+    one = isinstance(b, str)
+    return Claim(claim_id, table, claim, quantity, +1,
+                 diff(table, a, b) if one else margin(table, a, b),
+                 paper_diff(paper, a, b) if one else paper_margin(paper, a, b), **options)
+
+
 # --------------------------------------------------------------------------- the ledger
 def _pooled_variances(tables: dict[str, TableResult]) -> dict[tuple[str, str], float]:
     """(table or "*", quantity) -> the mean per-seed variance of its multi-seed rows: what

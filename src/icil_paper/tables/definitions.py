@@ -40,6 +40,12 @@ def label(policy: str, tokenizer: str | None) -> str:
     return f"{policy}+{tokenizer}" if tokenizer else policy
 
 
+def policy_tokenizer(row: str) -> tuple[str, str | None]:
+    """(policy, tokenizer or None) of a row label (`definitions.label`'s inverse)."""
+    policy, _, tokenizer = row.partition("+")
+    return policy, tokenizer or None
+
+
 def families(tasks: Sequence[str]) -> dict[str, list[str]]:
     """Paper column -> the tasks of `tasks` in that skill family (`sim.task_family`)."""
     of = {t: task_family(t) for t in tasks}
