@@ -1,12 +1,22 @@
-"""`tools/reference_run.py`'s sync copies finished records only, and only what changed."""
+"""`tools/reference_run.py`: sync copies finished records only, and only what changed; finish
+waits for the whole run and keeps the kitchen run's files, labelled."""
 
 from __future__ import annotations
 
+import json
 import os
 
 import pytest
 
-from tools.reference_run import _running, copy_finished, finished_files, start
+from tools.reference_run import (
+    KITCHEN,
+    _running,
+    archive_kitchen,
+    copy_finished,
+    finished_files,
+    start,
+    unfinished,
+)
 
 
 def _store(tmp_path):
@@ -47,3 +57,36 @@ def test_start_refuses_a_second_run_while_one_runs(tmp_path):
         start("HEAD", tmp_path / "worktree", folders)
     (folders / "reference-run.pid").write_text("999999999")          # no such process
     assert _running(folders) is None
+
+
+def _cost(tmp_path, finished, planned, looks, stages=(5, 10, 15)):
+    path = tmp_path / "cost.json"
+    path.write_text(json.dumps({
+        "planned_cells": planned, "finished_cells": finished, "projection": {},
+        "sittings": [{"elapsed_s": 3600.0, "commits": ["49b6dde"]}],
+        "stages": {"stages": list(stages), "looks": looks}}))
+    return path
+
+
+def test_finish_waits_for_every_cell_and_the_last_look(tmp_path):
+    assert "3 of its 4 planned cells" in unfinished(_cost(tmp_path, 3, 4, []))
+    going = [{"seeds": 5, "going_on": ["I:icrt+lipvq"]}]
+    assert "another stage" in unfinished(_cost(tmp_path, 4, 4, going))
+    stopped = [{"seeds": 5, "going_on": ["I:icrt+lipvq"]}, {"seeds": 10, "going_on": []}]
+    assert unfinished(_cost(tmp_path, 4, 4, stopped)) is None
+    assert unfinished(_cost(tmp_path, 4, 4, [{"seeds": s, "going_on": ["x"]} for s in (5, 10, 15)])) is None
+
+
+def test_the_kitchen_run_is_kept_labelled_and_only_once(tmp_path):
+    reference = tmp_path / "reference"
+    reference.mkdir()
+    (reference / "claims.json").write_text(json.dumps({"claims": [{"id": "I-lipvq-best"}]}))
+    (reference / "cost.json").write_text("{}")
+    (reference / "design.json").write_text(json.dumps({"protocol": "kitchen", "looks": []}))
+    moved = archive_kitchen(reference, "e5c58be")
+    assert moved == [f"{KITCHEN}/{name}" for name in ("claims.json", "cost.json", "design.json")]
+    assert not any((reference / name).exists() for name in ("claims.json", "cost.json", "design.json"))
+    kept = json.loads((reference / KITCHEN / "claims.json").read_text())
+    assert kept["made_by"]["commit"] == "e5c58be" and kept["claims"] == [{"id": "I-lipvq-best"}]
+    (reference / "design.json").write_text(json.dumps({"looks": []}))   # the new run's
+    assert archive_kitchen(reference, "e5c58be") == []

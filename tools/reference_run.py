@@ -3,6 +3,8 @@
     python -m tools.reference_run start --commit 49b6dde   # worktree, folders, background run
     python -m tools.reference_run sync                     # commit the records finished so far
     python -m tools.reference_run status                   # the run's process and records
+    python -m tools.reference_run finish                   # once every cell has run: the
+                                                           # run's records become results/reference/
 
 `start` checks out COMMIT as a detached worktree beside the repository (`../icil-reference-run`
 unless `--worktree`), so that no change to the code in this checkout moves a run key while
@@ -13,11 +15,19 @@ they are missing, the results folder starts from the records committed under
 `results/rerun/reference/`, so the run resumes where the last sitting stopped (data sets are
 made again from their seeds). `sync` copies every finished record (no temporary, lock or
 recording file) into `results/rerun/reference/`, writes its `cost.json` and commits them.
+
+`finish`, once the run has stopped with every planned cell of its last stage finished, makes
+its records the reference run's: the kitchen suite's run (the protocol before Meta-World)
+keeps its ledger, cost and design record under `results/reference/older-code/kitchen/`, the
+run's records are copied into `results/reference/`, every record the current code no longer
+computes moves to `older-code/records/` (`icil-paper tables --retire-stale`), the ledger and
+`cost.json` are computed from the new records, and `results/rerun/` goes; one commit.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import shutil
 import subprocess
@@ -27,6 +37,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 RERUN = ROOT / "results" / "rerun" / "reference"
 """Where the run's records are committed while it goes on."""
+REFERENCE = ROOT / "results" / "reference"
+"""The committed reference run, which the finished run replaces."""
+KITCHEN = "older-code/kitchen"
+"""Under `REFERENCE`: the kitchen suite's run, kept as a record of that protocol."""
+KITCHEN_FILES = ("claims.json", "cost.json", "design.json")
 SKIPPED_SUFFIXES = (".tmp", ".lock", ".rrd", ".png")
 """Files `sync` never copies: unfinished writes, locks, and what git ignores in results."""
 
@@ -127,10 +142,72 @@ def status(folders: Path) -> None:
           f"{store}, {committed} committed under {RERUN.relative_to(ROOT)}")
 
 
+def unfinished(cost_file: Path) -> str | None:
+    """Why the run whose `cost.json` is `cost_file` has not finished, or None when every
+    planned cell of its last stage has its records and no stage follows."""
+    from icil_paper.book.report import run_progress
+
+    progress = run_progress(cost_file)
+    if progress is None:
+        return f"{cost_file} plans no cells yet"
+    if progress["finished"] < progress["planned"]:
+        return f"{progress['finished']} of its {progress['planned']} planned cells have finished"
+    if progress["more_stages"]:
+        return "its last look sends rows on to another stage"
+    return None
+
+
+def archive_kitchen(reference: Path, commit: str) -> list[str]:
+    """Move the kitchen suite's ledger, cost and design record from `reference` to `KITCHEN`,
+    the ledger labelled with `commit`, the one that computed it; returns the files moved
+    (none when `reference` holds no kitchen run)."""
+    design = reference / "design.json"
+    if not design.exists() or json.loads(design.read_text()).get("protocol") != "kitchen":
+        return []
+    target = reference / KITCHEN
+    target.mkdir(parents=True, exist_ok=True)
+    claims = json.loads((reference / "claims.json").read_text())
+    claims["made_by"] = {"commit": commit or "unknown", "why_kept": (
+        "the reference run on the robosuite kitchen suite that stood in for RoboCasa before "
+        "Meta-World, under the older design (Holm's correction over every claim alike); kept "
+        "as a record of that protocol beside the run on Meta-World that replaced it")}
+    tmp = target / ".claims.json.tmp"
+    tmp.write_text(json.dumps(claims, indent=2) + "\n")
+    os.replace(tmp, target / "claims.json")
+    (reference / "claims.json").unlink()
+    for name in KITCHEN_FILES[1:]:
+        os.replace(reference / name, target / name)
+    return [f"{KITCHEN}/{name}" for name in KITCHEN_FILES]
+
+
+def finish(folders: Path) -> None:
+    if (pid := _running(folders)) is not None:
+        sys.exit(f"the reference run is still running (process group {pid}): finish it first")
+    sync(folders)
+    if (why := unfinished(RERUN / "cost.json")) is not None:
+        sys.exit(f"the reference run has not finished: {why}; resume it with `python -m "
+                 "tools.reference_run start --commit COMMIT`")
+    moved = archive_kitchen(REFERENCE, _git("log", "-1", "--format=%H", "--",
+                                            str(REFERENCE / "claims.json")))
+    print(f"the kitchen run's {', '.join(moved) or 'files: none (already kept)'}")
+    print(f"{copy_finished(RERUN, REFERENCE)} records copied into {REFERENCE}")
+    env = {**os.environ, "ICIL_RESULTS": str(REFERENCE.parent), "PYTHONPATH": str(ROOT / "src")}
+    for command in (["-m", "icil_paper.cli", "tables", "--preset", "reference", "--retire-stale"],
+                    ["-m", "icil_paper.cli", "reproduce", "--preset", "reference", "--stages",
+                     "claims"],
+                    ["-m", "icil_paper.planning.cost", "--preset", "reference"]):
+        subprocess.run([sys.executable, *command], cwd=ROOT, env=env, check=True)
+    _git("rm", "-r", "-q", str(RERUN.parent))
+    _git("add", "-A", str(REFERENCE))
+    _git("commit", "-q", "-m", "Reference run on Meta-World finished: its records are the "
+         "reference run's, the kitchen run's ledger, cost and design kept under older-code/kitchen/")
+    print("committed; the book and README now read the finished run")
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m tools.reference_run",
                                      description=__doc__.split("\n\n")[0])
-    parser.add_argument("action", choices=("start", "sync", "status"))
+    parser.add_argument("action", choices=("start", "sync", "status", "finish"))
     parser.add_argument("--commit", help="with start: the commit the run runs from")
     parser.add_argument("--worktree", type=Path, default=ROOT.parent / "icil-reference-run")
     parser.add_argument("--folders", type=Path, default=ROOT.parent / "icil-reference-run-files",
@@ -142,6 +219,8 @@ def main(argv: list[str] | None = None) -> None:
         start(args.commit, args.worktree, args.folders)
     elif args.action == "sync":
         sync(args.folders)
+    elif args.action == "finish":
+        finish(args.folders)
     else:
         status(args.folders)
 
