@@ -20,8 +20,9 @@ recording file) into `results/rerun/reference/`, writes its `cost.json` and comm
 its records the reference run's: the kitchen suite's run (the protocol before Meta-World)
 keeps its ledger, cost and design record under `results/reference/older-code/kitchen/`, the
 run's records are copied into `results/reference/`, every record the current code no longer
-computes moves to `older-code/records/` (`icil-paper tables --retire-stale`), the ledger and
-`cost.json` are computed from the new records, and `results/rerun/` goes; one commit.
+computes moves to `older-code/records/` (`icil-paper tables --retire-stale`), the ledger,
+`cost.json` and the plan for the undecided claims (`icil-paper plan`) are computed from the
+new records, and `results/rerun/` goes; one commit.
 """
 
 from __future__ import annotations
@@ -195,7 +196,8 @@ def finish(folders: Path) -> None:
     for command in (["-m", "icil_paper.cli", "tables", "--preset", "reference", "--retire-stale"],
                     ["-m", "icil_paper.cli", "reproduce", "--preset", "reference", "--stages",
                      "claims"],
-                    ["-m", "icil_paper.planning.cost", "--preset", "reference"]):
+                    ["-m", "icil_paper.planning.cost", "--preset", "reference"],
+                    ["-m", "icil_paper.cli", "plan", "--preset", "reference"]):
         subprocess.run([sys.executable, *command], cwd=ROOT, env=env, check=True)
     _git("rm", "-r", "-q", str(RERUN.parent))
     _git("add", "-A", str(REFERENCE))
