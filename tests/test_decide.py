@@ -74,3 +74,18 @@ def test_plan_command_writes_the_plan_and_refuses_missing_inputs(tmp_path, monke
     assert written["cores"] == 8
     lfq = next(c for c in written["claims"] if c["id"] == "I-lipvq-vs-lfq")
     assert not lfq["planned"] and "--max-seeds 2" in lfq["why_not"]
+
+
+def test_a_staged_run_is_planned_from_the_seeds_it_reached(tmp_path):
+    """With seeds in stages and no look yet, every claimed row has the first stage's seeds,
+    not the preset's fixed ones: the plan starts from those."""
+    folder = tmp_path / "results" / "smoke"
+    folder.mkdir(parents=True)
+    (folder / "claims.json").write_text(json.dumps({"claims": LEDGER}))
+    (folder / "cost.json").write_text(json.dumps(COST))
+    fixed = min(n for (t, _), n in planned_seeds(get_preset("smoke")).items() if t == "I")
+    code, err = run_cli("plan", "--preset", "smoke", "--set", "tables.seed_stages=2,4")
+    assert code == 0, err
+    written = json.loads((folder / "plan.json").read_text())
+    lfq = next(c for c in written["claims"] if c["id"] == "I-lipvq-vs-lfq")
+    assert fixed != 2 and lfq["seeds_now"] == 2

@@ -24,6 +24,7 @@ from icil_paper.fileio import UnreadableFileError, atomic_write_json, read_json
 from icil_paper.paper import TABLES, table_spec
 from icil_paper.planning.cost import train_cpu_per_cell
 from icil_paper.planning.design import cell_kind, claim_rows, planned_seeds, row_units
+from icil_paper.planning.staged import as_run
 from icil_paper.results import ResultsStore
 from icil_paper.seeding import DATA_SETS
 from icil_paper.tables.cells import plan, plan_records
@@ -186,6 +187,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     preset = preset_from_args(args)
     store = ResultsStore(preset.name)
+    preset = as_run(preset, store)  # seeds in stages: the seeds the run reached
     inputs = {}
     for name, what, keys in (("claims.json", "a claims ledger", ("claims",)),
                              ("cost.json", "a run's cost", ("by_kind",))):
