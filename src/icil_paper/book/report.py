@@ -49,7 +49,7 @@ from icil_paper.planning.staged import as_run
 from icil_paper.registry import check_name
 from icil_paper.results import ResultsStore, results_root
 from icil_paper.runspec import eval_key, feature_key
-from icil_paper.stats import Verdict
+from icil_paper.stats import Size, Verdict
 from icil_paper.tables import display
 from icil_paper.tables.assemble import TableResult, assemble, unbroken
 from icil_paper.tables.cells import plan
@@ -301,6 +301,29 @@ OLDER_COST = "older-code/cost.json"
 """Under `results/<preset>/`: what the older protocol's run cost (its `cost.json`)."""
 
 
+@dataclass(frozen=True)
+class EarlierRun:
+    """A reference run before the one on Meta-World, kept under `results/reference/`."""
+
+    name: str
+    """How the book names it."""
+    folder: str
+    """Its folder under `results/reference/`: its `claims.json` and `cost.json`."""
+    differs: str
+    """What its protocol did otherwise than the current one."""
+
+
+EARLIER_RUNS = (
+    EarlierRun("the kitchen run", "older-code/kitchen",
+               "the robosuite kitchen suite for RoboCasa, 3 demonstrations a task, Holm's "
+               "correction over every claim alike"),
+    EarlierRun("the older protocol's run", "older-code",
+               "the robosuite kitchen suite, baselines without the task's instruction, one "
+               "demonstration set for every training seed"),
+)
+"""The earlier reference runs, newest first."""
+
+
 def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
     """{"records", "current", "stale"}: committed records of `preset_name` by freshness."""
     stale = len(stale_records(preset_name))
@@ -309,9 +332,11 @@ def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
     return {"records": total, "current": total - stale, "stale": stale}
 
 
-def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dict]] | None:
-    """(made_by, ledger) of `OLDER_LEDGER`, or None when there is none."""
-    path = ResultsStore(preset_name).dir / OLDER_LEDGER
+def older_ledger(preset_name: str = REFERENCE, folder: str = "older-code"
+                 ) -> tuple[dict[str, Any], list[dict]] | None:
+    """(made_by, ledger) of the `claims.json` an older version of the code computed, kept in
+    `folder` of `results/<preset>/` (an `EarlierRun`'s), or None when there is none."""
+    path = ResultsStore(preset_name).dir / folder / "claims.json"
     if not path.exists():
         return None
     data = json.loads(path.read_text())
@@ -371,6 +396,40 @@ def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
     planned = cost.get("planned_cells")
     finished = planned is not None and cost.get("finished_cells") == planned
     return decided, cost["total"]["cpu_s"] / 3600, finished
+
+
+def earlier_verdicts(ledger: list[LedgerEntry | dict[str, Any]],
+                     preset_name: str = REFERENCE):
+    """Each claim's decision in `ledger` (with its size against the paper's effect) beside
+    its decision in every committed `EARLIER_RUNS` ledger ("" where that run lacked it)."""
+    earlier = {run.name: {e["id"]: as_entry(e).adjusted_verdict for e in older[1]}
+               for run in EARLIER_RUNS
+               if (older := older_ledger(preset_name, run.folder)) is not None}
+    rows = []
+    for e in map(as_entry, ledger):
+        size = (f", {verdict_words.SIZE_SHORT[e.size]} than the paper's"
+                if e.size in (Size.SMALLER, Size.LARGER) else "")
+        rows.append({"claim": e.id, "this run": e.adjusted_verdict + size,
+                     **{name: verdicts.get(e.id, "") for name, verdicts in earlier.items()}})
+    return pd.DataFrame(rows).set_index("claim").rename_axis(None)
+
+
+def looks_frame(record: dict[str, Any] | None):
+    """Each look of a staged run's design record (`design.json`): the seeds a row at the
+    look, the rows it read with their realised seeds, the rows that went on and to how many
+    seeds, and the claims the budget stopped."""
+    rows = []
+    record = record or {}
+    for look in record.get("looks", []):
+        seeds = sorted(set(look.get("rows", {}).values()))
+        going = look.get("going_on") or {}
+        rows.append({"look at": f"{look['seeds']} seeds", "rows read": len(look.get("rows", {})),
+                     "their seeds": "–".join(map(str, seeds[::max(len(seeds) - 1, 1)])),
+                     "rows going on": ", ".join(going) or "none",
+                     "to seeds": ", ".join(sorted({str(n) for n in going.values()})),
+                     "stopped by the budget": ", ".join(look.get("over_budget", []))})
+    return pd.DataFrame(rows, columns=["look at", "rows read", "their seeds", "rows going on",
+                                       "to seeds", "stopped by the budget"])
 
 
 def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
