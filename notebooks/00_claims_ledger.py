@@ -60,6 +60,8 @@ from myst_nb import glue
 counts = views["counts"]
 glue("ch00_claims", counts["claims"])
 glue("ch00_decided", counts["decided"])
+glue("ch00_holds", counts["counts"]["holds"])
+glue("ch00_not_hold", counts["counts"]["does not hold"])
 glue("ch00_smaller", counts["size_excluded"])
 glue("ch00_larger", counts["size_larger"])
 glue("ch00_undecided", counts["undecided"])

@@ -10,6 +10,8 @@ ledger and its views (chapter 00), the reference run's bookkeeping and the prese
     committed_design("I")                           # {"protocol": "kitchen", "seeds": {row: n}}
     for q in QUESTIONS: q.decides, q.beside         # Sec. IV's questions, the claims answering
     run_progress()                                  # the reference run's cells, hours, projection
+    looks_frame(read_record(store))                 # each look's realised seeds, rows going on
+    earlier_verdicts(ledger)                        # each claim beside the earlier runs' decisions
     preset_fields(preset)                           # chapter 01: field -> value, meaning
 
 `load_table` computes what this build's store lacks (as `icil-paper reproduce` does) and
@@ -47,7 +49,7 @@ from icil_paper.paper import (
 )
 from icil_paper.planning.staged import as_run
 from icil_paper.registry import check_name
-from icil_paper.results import ResultsStore, results_root
+from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key, feature_key
 from icil_paper.stats import Size, Verdict
 from icil_paper.tables import display
@@ -372,17 +374,6 @@ def run_progress(path=None) -> dict[str, Any] | None:
                             and (not looks or bool(looks[-1].get("going_on")))),
             "older": older, "file": path.name,
             "commits": sorted({c for s in cost["sittings"] for c in s.get("commits", [])})}
-
-
-RERUN = "rerun"
-"""Under the results folder: the reference run in progress (`rerun/reference/`), committed as
-its records finish, until it replaces the records of `results/reference/`."""
-
-
-def rerun_progress() -> dict[str, Any] | None:
-    """`run_progress` of the reference run in progress (`RERUN`); None before it has a
-    `cost.json`."""
-    return run_progress(ResultsStore(REFERENCE, root=results_root() / RERUN).dir / "cost.json")
 
 
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
