@@ -35,6 +35,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from icil_paper.book.report import run_progress
+
 ROOT = Path(__file__).resolve().parents[1]
 RERUN = ROOT / "results" / "rerun" / "reference"
 """Where the run's records are committed while it goes on."""
@@ -146,8 +148,6 @@ def status(folders: Path) -> None:
 def unfinished(cost_file: Path) -> str | None:
     """Why the run whose `cost.json` is `cost_file` has not finished, or None when every
     planned cell of its last stage has its records and no stage follows."""
-    from icil_paper.book.report import run_progress
-
     progress = run_progress(cost_file)
     if progress is None:
         return f"{cost_file} plans no cells yet"
