@@ -311,18 +311,10 @@ class EarlierRun:
     """How the book names it."""
     folder: str
     """Its folder under `results/reference/`: its `claims.json` and `cost.json`."""
-    differs: str
-    """What its protocol did otherwise than the current one."""
 
 
-EARLIER_RUNS = (
-    EarlierRun("the kitchen run", "older-code/kitchen",
-               "the robosuite kitchen suite for RoboCasa, 3 demonstrations a task, Holm's "
-               "correction over every claim alike"),
-    EarlierRun("the older protocol's run", "older-code",
-               "the robosuite kitchen suite, baselines without the task's instruction, one "
-               "demonstration set for every training seed"),
-)
+EARLIER_RUNS = (EarlierRun("the kitchen run", "older-code/kitchen"),
+                EarlierRun("the older protocol's run", "older-code"))
 """The earlier reference runs, newest first."""
 
 
