@@ -195,6 +195,48 @@ def test_decisions_per_cpu_hour_are_read_from_each_runs_ledger_and_cost(tmp_path
     assert report.decision_rate(store) is None
 
 
+def test_each_earlier_runs_decision_stands_beside_this_runs(tmp_path, monkeypatch):
+    """`earlier_verdicts` puts each claim's decision (with a decided size) beside the
+    decision of every earlier run that kept a ledger, blank where that run lacked the claim."""
+    from icil_paper.book import report
+
+    monkeypatch.setenv("ICIL_RESULTS", str(tmp_path))
+    store = ResultsStore("reference").dir
+    kitchen, older = (store / run.folder for run in report.EARLIER_RUNS)
+    kitchen.mkdir(parents=True)
+    made_by = {"commit": "e" * 40, "why_kept": "a record of that protocol"}
+    (kitchen / "claims.json").write_text(json.dumps({"made_by": made_by, "claims": [
+        {"id": "x", "verdict": "does not hold", "adjusted_verdict": "does not hold"}]}))
+    (older / "claims.json").write_text(json.dumps({"made_by": made_by, "claims": [
+        {"id": "x", "verdict": "holds", "adjusted_verdict": "inconclusive"},
+        {"id": "y", "verdict": "holds", "adjusted_verdict": "holds"}]}))
+    ours = [{"id": "x", "verdict": "holds", "adjusted_verdict": "holds",
+             "size": "smaller than the paper's effect"},
+            {"id": "y", "verdict": "inconclusive", "adjusted_verdict": "inconclusive"}]
+    frame = report.earlier_verdicts(ours)
+    assert list(frame.columns) == ["this run", "the kitchen run", "the older protocol's run"]
+    assert frame.loc["x"].tolist() == ["holds, smaller than the paper's", "does not hold",
+                                       "inconclusive"]
+    assert frame.loc["y"].tolist() == ["inconclusive", "", "holds"]
+
+
+def test_each_look_shows_the_seeds_its_rows_had_and_the_rows_it_sent_on():
+    from icil_paper.book.report import looks_frame
+
+    record = {"looks": [
+        {"seeds": 5, "rows": {"I:icrt+lipvq": 5, "I:bc_transformer": 5, "II:act": 5},
+         "going_on": {"I:icrt+lipvq": 10, "I:bc_transformer": 10}, "over_budget": ["II-x"]},
+        {"seeds": 10, "rows": {"I:icrt+lipvq": 10, "I:bc_transformer": 9}, "going_on": {}}]}
+    frame = looks_frame(record)
+    assert frame["look at"].tolist() == ["5 seeds", "10 seeds"]
+    assert frame["rows read"].tolist() == [3, 2]
+    assert frame["their seeds"].tolist() == ["5", "9–10"]
+    assert frame["rows going on"].tolist() == ["I:icrt+lipvq, I:bc_transformer", "none"]
+    assert frame["to seeds"].tolist() == ["10", ""]
+    assert frame["stopped by the budget"].tolist() == ["II-x", ""]
+    assert looks_frame(None).empty
+
+
 def test_a_staged_runs_cost_is_bounded_by_its_stages(tmp_path):
     from icil_paper.planning.cost import stages_cost
 

@@ -280,6 +280,18 @@ def test_committed_reference_records_are_current_or_labelled_as_older_code(monke
     assert "retired_records(REFERENCE)" in chapter
 
 
+def test_the_committed_reference_run_finished_within_its_budget():
+    """Every cell the reference run planned has its records, no look sends a row on, and
+    from the cells' own CPU times the run takes at most its budget at two cells at a time
+    on 2 cores (`cost.json`, computed from the committed records)."""
+    from icil_paper.book.report import run_progress
+
+    progress = run_progress(ROOT / "results" / "reference" / "cost.json")
+    assert progress is not None and progress["finished"] == progress["planned"] > 0
+    assert not progress["more_stages"]
+    assert progress["wall_hours"] <= progress["target_hours"]
+
+
 def test_retiring_moves_only_stale_records_out_of_the_store_and_counts_them(tmp_path,
                                                                            monkeypatch):
     """`retire_stale_records` moves each stale record whole to older-code/records/<kind>/,
