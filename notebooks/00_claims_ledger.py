@@ -57,11 +57,13 @@ display(collapsed_frame("Size and power of every claim. Open to see them.", view
 # %% tags=["remove-cell"]
 from myst_nb import glue
 
+from icil_paper.stats import Verdict
+
 counts = views["counts"]
 glue("ch00_claims", counts["claims"])
 glue("ch00_decided", counts["decided"])
-glue("ch00_holds", counts["counts"]["holds"])
-glue("ch00_not_hold", counts["counts"]["does not hold"])
+glue("ch00_holds", counts["counts"][Verdict.HOLDS])
+glue("ch00_not_hold", counts["counts"][Verdict.DOES_NOT_HOLD])
 glue("ch00_smaller", counts["size_excluded"])
 glue("ch00_larger", counts["size_larger"])
 glue("ch00_undecided", counts["undecided"])
