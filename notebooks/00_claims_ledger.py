@@ -108,7 +108,6 @@ for q in QUESTIONS:
 seeds = [n for t in ("I", "II", "III", "V") for n in committed_design(t)["seeds"].values()]
 glue("run_seeds", "no look yet" if not seeds else f"{min(seeds)}" if min(seeds) == max(seeds)
      else f"{min(seeds)} to {max(seeds)}")
-glue("run_protocol", committed_design("I")["protocol"])
 
 # %% [markdown]
 # ## How to read the ledger
