@@ -72,7 +72,7 @@ def spec(preset: Preset) -> TableSpec:
                                "features": features_entry(preset, runs)}))
     return TableSpec("analysis", "Is it smoothness? Lipschitz bound, latent scale and collapse",
                      ("avg", "features"), tuple(rows), note=(
-                         "ICRT with VQ-VAE and LipVQ-VAE variants on the kitchen suite; "
+                         "ICRT with VQ-VAE and LipVQ-VAE variants on Table I's Meta-World tasks; "
                          "`features` holds each trained encoder's least energy (raw and "
                          "standardized), latent scale, codes used and Lipschitz facts."))
 

@@ -1,4 +1,4 @@
-"""Chapter 02's run: a small ICRT + LipVQ-VAE trained on one kitchen task and rolled out
+"""Chapter 02's run: a small ICRT + LipVQ-VAE trained on one Meta-World task and rolled out
 from prompts, as a table of one entry.
 
     spec(preset)                          # one row (icrt+lipvq), one column (the task)

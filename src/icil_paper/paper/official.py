@@ -135,7 +135,7 @@ def spec(preset: Preset) -> TableSpec:
         entries["features"] = features_entry(preset, runs)
         rows.append(Row(name, entries, TABLE_I_ROBOCASA[paper_rows[name]]
                         if name in paper_rows else {}))
-    return TableSpec("official", "The paper against its official code (our kitchen suite, "
+    return TableSpec("official", "The paper against its official code (Meta-World, "
                                  "Table I's protocol)",
                      (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
                          "ICRT with the paper's LipVQ-VAE and Bin (Table I's policies) beside "

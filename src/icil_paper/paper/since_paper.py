@@ -44,7 +44,7 @@ def spec(preset: Preset) -> TableSpec:
         entries["features"] = features_entry(preset, runs)
         name = label("icrt", tokenizer)
         rows.append(Row(name, entries, TABLE_I_ROBOCASA.get(name, {})))
-    return TableSpec("beyond", "Tokenizers since the paper (our kitchen suite, Table I's protocol)",
+    return TableSpec("beyond", "Tokenizers since the paper (Meta-World, Table I's protocol)",
                      (*FAMILY_COLUMNS, "avg", "features"), tuple(rows), note=(
                          "ICRT with FSQ, residual VQ (each without and with Eq. 4) and "
                          "B-spline control points beside Table I's VQ-VAE and LipVQ-VAE "

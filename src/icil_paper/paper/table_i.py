@@ -1,4 +1,4 @@
-"""Table I: every policy on RoboCasa (our kitchen suite), chapter 06.
+"""Table I: every policy on RoboCasa (Meta-World standing in), chapter 06.
 
     spec(preset)                 # nine rows x seven skill families + avg (+ features beside)
     claims(preset)               # I-lipvq-best, I-lipvq-vs-bc, I-lipvq-vs-lfq, ...
@@ -50,9 +50,9 @@ def spec(preset: Preset) -> TableSpec:
         runs = table_i_runs(preset, *policy_tokenizer(name))
         rows.append(Row(name, with_codebook(preset, family_entries(preset, runs, tasks), runs),
                         paper))
-    return TableSpec("I", "Robotic manipulation results on RoboCasa (our kitchen suite)",
+    return TableSpec("I", "Robotic manipulation results on RoboCasa (Meta-World standing in)",
                      (*FAMILY_COLUMNS, "avg"), tuple(rows), beside=("features",), note=(
-                         "One multi-task policy per row, trained on every kitchen task and "
+                         "One multi-task policy per row, trained on every Meta-World task and "
                          "evaluated per task; avg is the mean over tasks. Beside the table, the "
                          "codebook rows' `features` give their codebook use per seed."))
 
@@ -78,9 +78,9 @@ def claims(preset: Preset) -> list[Claim]:
 
 
 CLAIM_LABELS = {
-    "I-lipvq-best": "LipVQ-VAE best tokenizer, kitchen",
-    "I-lipvq-vs-bc": "ICRT+LipVQ-VAE beats BC-Transformer, kitchen",
-    "I-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE, kitchen",
-    "I-tokenizer-gap": "LipVQ-VAE beats MLP tokenizer, kitchen",
+    "I-lipvq-best": "LipVQ-VAE best tokenizer, Meta-World",
+    "I-lipvq-vs-bc": "ICRT+LipVQ-VAE beats BC-Transformer, Meta-World",
+    "I-lipvq-vs-lfq": "LipVQ-VAE beats LFQ-VAE, Meta-World",
+    "I-tokenizer-gap": "LipVQ-VAE beats MLP tokenizer, Meta-World",
     "I-mlp-below-bc": "MLP tokenizer below BC-Transformer",
 }

@@ -56,7 +56,7 @@ def maniskill_settings(preset: Preset) -> tuple[int, int, int]:
 
 def maniskill_tokenizer(run: RunSpec, train: TrainConfig):
     """`run`'s tokenizer for Table II's `train`: a Lipschitz tokenizer's `c_lr_scale` rescaled
-    so its bounds travel, relative to the paper's 30K iterations, as far as in the kitchen
+    so its bounds travel, relative to the paper's 30K iterations, as far as in Table I's run
     relative to its 500K; every other tokenizer unchanged."""
     tok = run.tokenizer
     options = getattr(tok, "lipschitz", None)

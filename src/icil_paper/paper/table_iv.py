@@ -56,7 +56,7 @@ def spec(preset: Preset) -> TableSpec:
                                             runs), paper))
     return TableSpec("IV", "Lipschitz regularization's impact", ("avg",), tuple(rows),
                      beside=("features",),
-                     note="Average success over the kitchen tasks; MLP and VQ-VAE rows are "
+                     note="Average success over the Meta-World tasks; MLP and VQ-VAE rows are "
                           "Table I's. Beside the table, the codebook rows' `features` give "
                           "their codebook use per seed.")
 
