@@ -20,6 +20,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from icil_paper.book.report import decision_rate
 from icil_paper.config import get_preset
 from icil_paper.stats import Verdict
 from icil_paper.tables.claims import summary
@@ -98,6 +99,13 @@ def _claims(field: str, ledger: str = "claims.json") -> int:
     return s["counts"][field] if field in s["counts"] else s[field]
 
 
+def _decided_per_10(folder: str) -> float:
+    """Claims a reference run decided per 10 CPU-hours (`book.report.decision_rate`), the run
+    whose ledger and cost lie in `folder` of `results/reference/`."""
+    decided, cpu_hours, _ = decision_rate(REFERENCE / folder)
+    return 10 * decided / cpu_hours
+
+
 FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
     "eval.policy_steps_per_s": ("results/bench/eval.json",
                                 lambda: _bench("eval")["policy_steps_per_s"]),
@@ -159,13 +167,10 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                            ("decided", "decided"), ("do_not_hold", Verdict.DOES_NOT_HOLD),
                            ("undecided", "undecided"), ("size_excluded", "size_excluded"),
                            ("size_larger", "size_larger"), ("not_run", Verdict.NOT_RUN))},
-    **{f"{prefix}.decided_per_10_cpu_hours": (
-        f"results/reference/{ledger}", lambda ledger=ledger, folder=folder:
-        10 * _claims("decided", ledger) / _cost_hours("cpu", folder()))
-       for prefix, ledger, folder in (
-           ("claims", "claims.json", lambda: REFERENCE),
-           ("kitchen_claims", "older-code/kitchen/claims.json", lambda: KITCHEN),
-           ("older_claims", "older-code/claims.json", lambda: OLDER))},
+    **{f"{prefix}.decided_per_10_cpu_hours": (f"results/reference/{folder}claims.json",
+                                              lambda folder=folder: _decided_per_10(folder))
+       for prefix, folder in (("claims", ""), ("kitchen_claims", "older-code/kitchen/"),
+                              ("older_claims", "older-code/"))},
     "design.budget_hours": ("src/icil_paper/config.py",
                             lambda: get_preset("reference").tables.stage_budget_hours),
 }
