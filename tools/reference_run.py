@@ -36,6 +36,7 @@ import sys
 from pathlib import Path
 
 from icil_paper.book.report import run_progress
+from icil_paper.fileio import atomic_write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 RERUN = ROOT / "results" / "rerun" / "reference"
@@ -172,9 +173,7 @@ def archive_kitchen(reference: Path, commit: str) -> list[str]:
         "the reference run on the robosuite kitchen suite that stood in for RoboCasa before "
         "Meta-World, under the older design (Holm's correction over every claim alike); kept "
         "as a record of that protocol beside the run on Meta-World that replaced it")}
-    tmp = target / ".claims.json.tmp"
-    tmp.write_text(json.dumps(claims, indent=2) + "\n")
-    os.replace(tmp, target / "claims.json")
+    atomic_write_json(target / "claims.json", claims)
     (reference / "claims.json").unlink()
     for name in KITCHEN_FILES[1:]:
         os.replace(reference / name, target / name)
