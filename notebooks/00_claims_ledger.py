@@ -18,15 +18,17 @@ import pandas as pd
 from IPython.display import display
 
 from icil_paper.book.report import (
+    EARLIER_RUNS,
     REFERENCE,
     chapter_ledgers,
     decision_rate,
+    earlier_verdicts,
     ledger_frame,
     ledger_views,
+    looks_frame,
     older_ledger,
     reference_freshness,
     reference_ledger,
-    rerun_progress,
     retired_records,
     run_progress,
     stale_records,
@@ -35,7 +37,7 @@ from icil_paper.config import get_preset
 from icil_paper.planning.design import design_frame, stage_counts
 from icil_paper.planning.staged import as_run
 from icil_paper.results import ResultsStore
-from icil_paper.tables.claims import as_entry
+from icil_paper.tables.design import read_record
 from icil_paper.tables.display import collapsed_frame
 
 pd.set_option("display.max_colwidth", None)
@@ -45,9 +47,6 @@ ledgers = chapter_ledgers(preset)  # writes this build's ledger, reads the refer
 # %% tags=["remove-input"]
 ours, *quick = ledgers  # our run's ledger first, then the quick run's
 ledger = ledgers[ours][1]
-older = None if any(as_entry(e).run for e in ledger) else older_ledger(REFERENCE)
-if older is not None:  # no claim has run under the current protocol: the older one's
-    ledger = older[1]
 views = ledger_views(ledger, "Our run: each claim's 95% interval, the paper's value, the decision")
 display(views["forest"])
 display(views["verdicts"])
@@ -58,25 +57,26 @@ display(collapsed_frame("Size and power of every claim. Open to see them.", view
 # %% tags=["remove-cell"]
 from myst_nb import glue
 
+from icil_paper.stats import Verdict
+
 counts = views["counts"]
 glue("ch00_claims", counts["claims"])
 glue("ch00_decided", counts["decided"])
+glue("ch00_holds", counts["counts"][Verdict.HOLDS])
+glue("ch00_not_hold", counts["counts"][Verdict.DOES_NOT_HOLD])
 glue("ch00_smaller", counts["size_excluded"])
 glue("ch00_larger", counts["size_larger"])
 glue("ch00_undecided", counts["undecided"])
 glue("ch00_decidable", counts["decidable_with_10_seeds"])
-glue("ch00_older", f"the older protocol's (commit {older[0]['commit'][:7]})" if older else "our run's")
 
 # %% [markdown]
-# The ledger shown is {glue:text}`ch00_older`. Claims: {glue:text}`ch00_claims`; decided
-# under the ledger's design: {glue:text}`ch00_decided`; decided smaller than the paper's
-# effect: {glue:text}`ch00_smaller`, larger: {glue:text}`ch00_larger`. Undecided:
+# Claims: {glue:text}`ch00_claims`; decided under the pre-registered design:
+# {glue:text}`ch00_decided`; decided smaller than the paper's effect:
+# {glue:text}`ch00_smaller`, larger: {glue:text}`ch00_larger`. Undecided:
 # {glue:text}`ch00_undecided`, of which {glue:text}`ch00_decidable` would detect the paper's
 # effect with 10 or fewer seeds a row. Each row of the verdicts gives the seeds of each row
-# it reads, the claim's row first. (While no claim has a record under the current protocol,
-# the ledger shown is the older protocol's: its baselines did not read the task's
-# instruction and its training seeds shared one demonstration set, so read it as a record
-# of that protocol, not of the paper's regime.)
+# it reads, the claim's row first. What the undecided claims would cost to decide on a
+# cluster follows below the design.
 #
 # The quick run's ledger (CI's small preset: it tests the code, not the paper):
 
@@ -106,8 +106,8 @@ for q in QUESTIONS:
     parts = [outcome, why, words.SEEDS_TO_DECIDE.format(n=needs) if needs else None]
     glue(f"{q.key}_outcome", "; ".join(p for p in parts if p))
 seeds = [n for t in ("I", "II", "III", "V") for n in committed_design(t)["seeds"].values()]
-glue("run_seeds", f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}")
-glue("run_protocol", committed_design("I")["protocol"])
+glue("run_seeds", "no look yet" if not seeds else f"{min(seeds)}" if min(seeds) == max(seeds)
+     else f"{min(seeds)} to {max(seeds)}")
 
 # %% [markdown]
 # ## How to read the ledger
@@ -153,10 +153,11 @@ glue("run_protocol", committed_design("I")["protocol"])
 # results committed under `results/reference/`; tables name it "reference
 # run") and **the quick run** (CI's small preset: it tests the code, not the paper; tables
 # name it "this build"). The ledger of each is written to `results/<preset>/claims.json`.
-# The committed records of our run were made on the robosuite kitchen suite that stood in
-# for RoboCasa before Meta-World: until the run is repeated on Meta-World, they are records
-# of that older protocol, shown labelled as such (the last section of this chapter), and a
-# claim without a current record reads *not run*.
+# Our run's records were made under the design of the next two sections, fixed in the
+# preset and committed before its first cell; every record names the commit it was made by.
+# The records of the two earlier reference runs, on the robosuite kitchen suite that stood
+# in for RoboCasa before Meta-World, are kept apart with their ledgers (the last sections of
+# this chapter): read them as records of those protocols.
 #
 # **What stands in for what.** The paper's RoboCasa tables (I, III, IV, VI, VII, Fig. 5)
 # run on Meta-World: a public benchmark, so anyone can set our numbers beside published
@@ -244,22 +245,22 @@ glue("ch00_look_unlooked", looks["unlooked"])
 
 # %% tags=["remove-cell"]
 store = ResultsStore(REFERENCE).dir
-rates = {"now": decision_rate(store), "older": decision_rate(store / "older-code")}
+rates = {"now": decision_rate(store),
+         **{f"earlier{k}": decision_rate(store / run.folder) for k, run in enumerate(EARLIER_RUNS)}}
 for name, rate in rates.items():
     decided, hours = rate[:2] if rate else (0, 0.0)
     glue(f"ch00_rate_{name}_decided", decided)
     glue(f"ch00_rate_{name}_hours", f"{hours:.1f}")
     glue(f"ch00_rate_{name}_per10", f"{10 * decided / hours:.1f}" if hours else "—")
-progress = run_progress() or {"finished": 0, "planned": 0, "hours": 0.0, "file": "cost.json"}
+progress = run_progress() or {"finished": 0, "planned": 0, "hours": 0.0, "sittings": 0,
+                              "wall_hours": None, "target_hours": None, "commits": []}
 glue("ch00_cells_done", progress["finished"])
 glue("ch00_cells_planned", progress["planned"])
 glue("ch00_machine_hours", f"{progress['hours']:.1f}")
-glue("ch00_cost_file", progress["file"])
-rerun = rerun_progress() or {"finished": 0, "planned": 0, "hours": 0.0, "commits": []}
-glue("ch00_rerun_done", rerun["finished"])
-glue("ch00_rerun_planned", rerun["planned"])
-glue("ch00_rerun_hours", f"{rerun['hours']:.1f}")
-glue("ch00_rerun_commits", ", ".join(rerun["commits"]) or "none yet")
+glue("ch00_sittings", progress["sittings"])
+glue("ch00_wall_at_2", f"{progress['wall_hours']:.1f}" if progress["wall_hours"] else "—")
+glue("ch00_target_hours", f"{progress['target_hours']:g}" if progress["target_hours"] else "no")
+glue("ch00_run_commits", ", ".join(progress["commits"]) or "none")
 
 # %% [markdown]
 # Seeds are allocated in stages: looks at {glue:text}`ch00_stages` seeds a row, with
@@ -278,11 +279,7 @@ glue("ch00_rerun_commits", ", ".join(rerun["commits"]) or "none yet")
 # no error. The run has a budget of {glue:text}`ch00_budget` hours at two cells at a time,
 # as the benchmark rates project them: after a look the claims that may go on are taken
 # cheapest first while the whole run stays within it, and the others stop too. Stopping a
-# claim can only lower its chance of a wrong decision. The committed records were gathered
-# under the older design (Holm's correction over every claim alike, rows going on while a
-# later stage could detect the paper's effect with 80% power, sizes read off unadjusted
-# intervals) where the ledger's family says "one family": that ledger is a record of that
-# design, and the design above decides nothing on it.
+# claim can only lower its chance of a wrong decision.
 #
 # The committed ledger's looks, of its {glue:text}`ch00_look_claims` claims: decided at a
 # look, {glue:text}`ch00_look_decided`; undecided and going on to the next stage,
@@ -290,26 +287,80 @@ glue("ch00_rerun_commits", ", ".join(rerun["commits"]) or "none yet")
 # {glue:text}`ch00_look_stopped` ({glue:text}`ch00_look_budget` of them at the budget); no
 # look yet (a row they read has not finished its stage), {glue:text}`ch00_look_unlooked`.
 #
-# What the run cost, from `results/reference/`{glue:text}`ch00_cost_file`:
-# {glue:text}`ch00_cells_done` of {glue:text}`ch00_cells_planned` trained cells finished,
-# {glue:text}`ch00_machine_hours` hours of machine time. Claims decided per CPU-hour: this
-# run, {glue:text}`ch00_rate_now_decided` for {glue:text}`ch00_rate_now_hours` CPU-hours
-# ({glue:text}`ch00_rate_now_per10` per 10 CPU-hours); the older protocol's run,
-# {glue:text}`ch00_rate_older_decided` for {glue:text}`ch00_rate_older_hours` CPU-hours
-# ({glue:text}`ch00_rate_older_per10` per 10).
+# Each look, from the run's design record (`results/reference/design.json`): the seeds a
+# row had at it, the rows it read with the seeds they had realised, and the rows it sent on:
+
+# %% tags=["remove-input"]
+display(looks_frame(read_record(ResultsStore(REFERENCE))))
+
+# %% [markdown]
+# What the run cost, from `results/reference/cost.json`: {glue:text}`ch00_cells_done` of
+# {glue:text}`ch00_cells_planned` planned cells finished, from commit
+# {glue:text}`ch00_run_commits`, in {glue:text}`ch00_machine_hours` hours of machine time
+# over {glue:text}`ch00_sittings` sittings (the run was stopped between sittings and resumed
+# from its last checkpoints). From the cells' own CPU times, the whole run takes
+# {glue:text}`ch00_wall_at_2` hours at two cells at a time on an idle 2-core machine,
+# against a budget of {glue:text}`ch00_target_hours` hours. Claims decided per CPU-hour:
+# this run, {glue:text}`ch00_rate_now_decided` for {glue:text}`ch00_rate_now_hours`
+# CPU-hours ({glue:text}`ch00_rate_now_per10` per 10 CPU-hours); the kitchen run before it,
+# {glue:text}`ch00_rate_earlier0_decided` for {glue:text}`ch00_rate_earlier0_hours`
+# CPU-hours ({glue:text}`ch00_rate_earlier0_per10` per 10); the older protocol's run,
+# {glue:text}`ch00_rate_earlier1_decided` for {glue:text}`ch00_rate_earlier1_hours`
+# CPU-hours ({glue:text}`ch00_rate_earlier1_per10` per 10).
 #
-# The run on Meta-World under the design above is under way, from the frozen commit
-# {glue:text}`ch00_rerun_commits`, and its records are committed as they finish under
-# `results/rerun/reference/`: {glue:text}`ch00_rerun_done` of the
-# {glue:text}`ch00_rerun_planned` cells of its first stage so far, in
-# {glue:text}`ch00_rerun_hours` hours of machine time. When it has finished, its records
-# replace those above and the ledger on this page is read from them.
+# What deciding the undecided claims would take on a cluster, from `icil-paper plan
+# --preset reference` (`results/reference/plan.json`): the seeds a row each claim needs to
+# detect the paper's effect with 80% power, the cells the run lacks for it and their CPU
+# time at the run's own CPU time per cell.
+
+# %% tags=["remove-input"]
+from icil_paper.fileio import read_json
+
+plan = read_json(store / "plan.json", "the reference run's plan",
+                 "write it: icil-paper plan --preset reference", keys=("claims", "total"))
+plan_rows = pd.DataFrame(plan["claims"]).set_index("id").rename_axis(None)
+hours = f"hours at {plan['cores']} cores"
+plan_rows = plan_rows.rename(columns={"seeds_now": "seeds now", "seeds_needed": "seeds needed",
+                                      "cpu_hours": "CPU-hours", "wall_hours": hours,
+                                      "why_not": "not planned because"})
+total, planned = plan["total"], int(plan_rows["planned"].sum())
+display(collapsed_frame(
+    f"{len(plan_rows)} undecided claims; the {planned} planned take {total['cells']} cells, "
+    f"{total['cpu_hours']:.1f} CPU-hours, {total['wall_hours']:.1f} {hours}. Open to see each.",
+    plan_rows[["verdict", "seeds now", "seeds needed", "cells", "CPU-hours", hours,
+               "not planned because"]].fillna("")))
 
 # %% [markdown]
 # ## What each claim compares
 
 # %% tags=["remove-input", "hide-output"]
 display(ledger_frame(reference_ledger(ledgers), "details"))
+
+# %% [markdown]
+# ## What the earlier runs said
+#
+# Two reference runs came before this one, both on the robosuite kitchen suite that stood in
+# for RoboCasa before Meta-World. Their ledgers are kept as those protocols' records, each
+# with the commit of the code that computed it; the table sets their decisions beside this
+# run's, claim by claim. Read the earlier columns as what those protocols said, not as
+# results of this one: their regime starved the baselines that do not learn in context and
+# left the kitchen's pick and place at 0, and the newer of them decided under Holm's
+# correction over every claim alike.
+
+# %% tags=["remove-cell"]
+older = {run.name: older_ledger(REFERENCE, run.folder) for run in EARLIER_RUNS}
+for k, kept in enumerate(older.values()):
+    glue(f"ch00_earlier{k}_commit", kept[0]["commit"][:7] if kept else "none")
+
+# %% [markdown]
+# The kitchen run (its ledger computed by commit {glue:text}`ch00_earlier0_commit`) played
+# the robosuite kitchen suite with 3 demonstrations a task and decided under Holm's
+# correction over every claim alike. The older protocol's run (commit
+# {glue:text}`ch00_earlier1_commit`) played the same suite with baselines that did not read
+# the task's instruction and one demonstration set for every training seed.
+
+# %% tags=["remove-input"]
+display(earlier_verdicts(reference_ledger(ledgers)))
 
 # %% [markdown]
 # ## Reference records made by older code
@@ -319,30 +370,27 @@ display(ledger_frame(reference_ledger(ledgers), "details"))
 # a definition changed since it was run; for the records made on the kitchen suite, the
 # suite itself) is not used above; it is listed here until
 # `icil-paper tables --preset reference --retire-stale` moves it out of the store, beside
-# the older ledger, and nothing is deleted. The ledger that the older code computed from
-# those records follows,
-# labelled with that code's commit: read it as a record of the older protocol, not as a
-# result of the current one.
+# the older ledgers, and nothing is deleted.
 # :::
 
 # %% tags=["remove-cell"]
 stale = stale_records(REFERENCE)
 freshness = reference_freshness(REFERENCE)
 retired = retired_records(REFERENCE)
-older = older_ledger(REFERENCE)
 glue("stale_n", freshness["stale"])
 glue("records_n", freshness["records"])
 glue("retired_n", sum(retired.values()))
-glue("older_commit", older[0]["commit"][:7] if older else "none")
 
 # %% [markdown]
 # Of the {glue:text}`records_n` committed reference records, {glue:text}`stale_n` are stale
 # and not used above; {glue:text}`retired_n` more, made by older versions of the code, were
-# moved out of the store to `results/reference/older-code/`, each with its provenance. The
-# ledger that the older code (commit {glue:text}`older_commit`) computed from them follows,
-# collapsed: read it as a record of the older protocol, not as a result of the current one.
+# moved out of the store to `results/reference/older-code/records/`, each counted by the
+# commit that made it. The earlier runs' ledgers follow, collapsed, each labelled with its
+# commit.
 
 # %% tags=["remove-input", "hide-output"]
 print("stale records:", ", ".join(stale) or "none")
-if older is not None:
-    display(ledger_frame(older[1], "verdicts"))
+for name, kept in older.items():
+    if kept is not None:
+        print(f"{name}, ledger computed by commit {kept[0]['commit'][:7]}:")
+        display(ledger_frame(kept[1], "verdicts"))

@@ -31,11 +31,11 @@
 # ({doc}`chapter 1 <01_environment>` lists them).
 #
 # The table shows three sources: **the paper**; **our run** ({glue:md}`ch06_seeds` seeds a
-# row, results committed under `results/reference/`), whose committed records were made on
-# the {glue:md}`ch06_protocol`; and **the quick run** (CI's small preset: it tests the code,
-# not the paper). Until our run is repeated on Meta-World, its column reads
-# "not run": the current code computes none of the kitchen records' cells, and
-# {doc}`chapter 0 <00_claims_ledger>` shows the kitchen run's ledger as it was computed. Every number comes with its 95% interval (`icil_paper.stats`): a t
+# row, on the Meta-World tasks above, results committed under `results/reference/`); and
+# **the quick run** (CI's small preset: it tests the code, not the paper). The earlier runs
+# on the robosuite kitchen suite are kept as records of their protocols, and
+# {doc}`chapter 0 <00_claims_ledger>` sets their decisions beside ours. Every number comes
+# with its 95% interval (`icil_paper.stats`): a t
 # interval on the per-seed values where a row has several training seeds; for a single
 # seed, the episodes' noise only (and no comparison with it is decided).
 
@@ -56,10 +56,6 @@ glue("ch06_seeds", Markdown(f"{low}" if low == high else f"{low} to {high}"), di
 families = [v for k, v in TABLE_I_ROBOCASA["icrt+lipvq"].items() if k != "avg"]
 glue("ch06_paper_low", min(families), display=False)
 glue("ch06_paper_high", max(families), display=False)
-glue("ch06_protocol", Markdown("robosuite kitchen suite that stood in for RoboCasa before "
-                               "Meta-World (an older protocol: these are its numbers, not "
-                               "Meta-World's)" if design["protocol"] == "kitchen"
-                               else "Meta-World tasks above"), display=False)
 
 # %% [markdown]
 # ## How one cell is made

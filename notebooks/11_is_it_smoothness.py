@@ -89,7 +89,7 @@ show_sources(results, lambda result: comparison_list(analysis.findings(result)),
 #
 # The explanation survives when, with the latent scale removed, LipVQ-VAE is both smoother
 # than VQ-VAE and more successful; it fails when either is measured the other way; else
-# the data cannot decide. In our run (the kitchen protocol's committed records) it
+# the data cannot decide. In our run (the reference preset's committed records) it
 # {glue:text}`ch11_ours`; in the quick run (CI's small preset: it tests the code, not the
 # paper) it {glue:text}`ch11_quick`. Each variant against its base, in the same words:
 

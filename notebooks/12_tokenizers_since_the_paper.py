@@ -33,8 +33,7 @@
 # ({doc}`chapter 11 <11_is_it_smoothness>`).
 #
 # The tables show **the paper** (Table I's two rows), **our run** (the `reference` preset,
-# results committed under `results/reference/`, made on the kitchen protocol before
-# Meta-World; a row whose records are not there yet shows as "not run")
+# results committed under `results/reference/`)
 # and **the quick run** (CI's small preset: it tests the code, not the
 # paper).
 

@@ -42,8 +42,7 @@
 # known to collapse its codebook, so the codes used are shown for every row.
 #
 # The tables show **the paper** (Table I's two rows), **our run** (the `reference` preset,
-# results committed under `results/reference/`, made on the kitchen protocol before
-# Meta-World; a row whose records are not there yet shows as "not run")
+# results committed under `results/reference/`)
 # and **the quick run** (CI's small preset: it tests the code, not the
 # paper).
 

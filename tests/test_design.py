@@ -195,6 +195,48 @@ def test_decisions_per_cpu_hour_are_read_from_each_runs_ledger_and_cost(tmp_path
     assert report.decision_rate(store) is None
 
 
+def test_each_earlier_runs_decision_stands_beside_this_runs(tmp_path, monkeypatch):
+    """`earlier_verdicts` puts each claim's decision (with a decided size) beside the
+    decision of every earlier run that kept a ledger, blank where that run lacked the claim."""
+    from icil_paper.book import report
+
+    monkeypatch.setenv("ICIL_RESULTS", str(tmp_path))
+    store = ResultsStore("reference").dir
+    kitchen, older = (store / run.folder for run in report.EARLIER_RUNS)
+    kitchen.mkdir(parents=True)
+    made_by = {"commit": "e" * 40, "why_kept": "a record of that protocol"}
+    (kitchen / "claims.json").write_text(json.dumps({"made_by": made_by, "claims": [
+        {"id": "x", "verdict": "does not hold", "adjusted_verdict": "does not hold"}]}))
+    (older / "claims.json").write_text(json.dumps({"made_by": made_by, "claims": [
+        {"id": "x", "verdict": "holds", "adjusted_verdict": "inconclusive"},
+        {"id": "y", "verdict": "holds", "adjusted_verdict": "holds"}]}))
+    ours = [{"id": "x", "verdict": "holds", "adjusted_verdict": "holds",
+             "size": "smaller than the paper's effect"},
+            {"id": "y", "verdict": "inconclusive", "adjusted_verdict": "inconclusive"}]
+    frame = report.earlier_verdicts(ours)
+    assert list(frame.columns) == ["this run", "the kitchen run", "the older protocol's run"]
+    assert frame.loc["x"].tolist() == ["holds, smaller than the paper's", "does not hold",
+                                       "inconclusive"]
+    assert frame.loc["y"].tolist() == ["inconclusive", "", "holds"]
+
+
+def test_each_look_shows_the_seeds_its_rows_had_and_the_rows_it_sent_on():
+    from icil_paper.book.report import looks_frame
+
+    record = {"looks": [
+        {"seeds": 5, "rows": {"I:icrt+lipvq": 5, "I:bc_transformer": 5, "II:act": 5},
+         "going_on": {"I:icrt+lipvq": 10, "I:bc_transformer": 10}, "over_budget": ["II-x"]},
+        {"seeds": 10, "rows": {"I:icrt+lipvq": 10, "I:bc_transformer": 9}, "going_on": {}}]}
+    frame = looks_frame(record)
+    assert frame["look at"].tolist() == ["5 seeds", "10 seeds"]
+    assert frame["rows read"].tolist() == [3, 2]
+    assert frame["their seeds"].tolist() == ["5", "9–10"]
+    assert frame["rows going on"].tolist() == ["I:icrt+lipvq, I:bc_transformer", "none"]
+    assert frame["to seeds"].tolist() == ["10", ""]
+    assert frame["stopped by the budget"].tolist() == ["II-x", ""]
+    assert looks_frame(None).empty
+
+
 def test_a_staged_runs_cost_is_bounded_by_its_stages(tmp_path):
     from icil_paper.planning.cost import stages_cost
 
@@ -438,31 +480,30 @@ def test_the_design_gives_the_families_their_shares_and_leaves_descriptive_claim
     assert set(older.weights.values()) == {1 / 24} and older.older and not older.sizes
 
 
-def test_the_committed_reference_records_are_read_as_the_older_designs_record():
-    """results/reference/design.json says the committed records were gathered under the
-    older design: the preset is read at its recorded fields (five episodes a task, its
-    looks' seeds), and its ledger is that design's alone, labelled so in claims.json."""
+def test_the_committed_reference_run_is_read_at_the_design_it_registered():
+    """results/reference/design.json is the design the run registered before its first
+    cell: read at it, every claimed row has the seeds of its last look, and the ledger is
+    that design's (primary, secondary and descriptive claims). The kitchen run's record,
+    kept under older-code/kitchen/, is the older design's and says so."""
     from icil_paper.paper import ledger_design_of
     from icil_paper.tables.claims import read_ledger
-    from icil_paper.tables.design import ONE_FAMILY, read_record
+    from icil_paper.tables.design import DESCRIPTIVE, PRIMARY, SECONDARY, read_record
 
     store = ResultsStore("reference", root=ROOT / "results")
     record = read_record(store)
-    assert record["design"] == "older" and "older design" in record["why"]
-    reference = get_preset("reference")
-    run = as_run(reference, store)
-    assert run.tables.episodes_per_task_by_suite == ()
-    unit = table_spec(run, "I").row("icrt+lipvq").entries["avg"].units[0]
-    assert unit.eval.episodes == 5 and unit.eval.episodes < table_spec(
-        reference, "I").row("icrt+lipvq").entries["avg"].units[0].eval.episodes
-    rows = {f"{t}:{r}": n for t, r, n in ((*k, v) for k, v in planned_seeds(run).items())}
+    assert record["design"] == "current" and record["looks"]
+    run = as_run(get_preset("reference"), store)
+    rows = {f"{t}:{r}": n for (t, r), n in planned_seeds(run).items()}
     last = record["looks"][-1]
+    assert not last.get("going_on") or last["seeds"] == max(record["tables"]["seed_stages"])
     assert all(rows[r] == n for r, n in last["rows"].items())
-    assert ledger_design_of(run, store).older
+    assert not ledger_design_of(run, store).older
     ledger = read_ledger(ROOT / "results" / "reference" / "claims.json")
-    assert ledger["design"]["name"] == "older" and ledger["design"]["record"] == "design.json"
-    assert {e["family"] for e in ledger["claims"]} == {ONE_FAMILY}
-    assert all(e["size"] is None for e in ledger["claims"])  # no size decided on old data
+    assert {e["family"] for e in ledger["claims"]} <= {PRIMARY, SECONDARY, DESCRIPTIVE}
+    kitchen = json.loads((ROOT / "results" / "reference" / "older-code" / "kitchen" /
+                          "design.json").read_text())
+    assert kitchen["design"] == "older" and kitchen["protocol"] == "kitchen"
+    assert "kitchen suite" in kitchen["why"]
 
 
 def test_a_staged_run_registers_its_design_and_writes_each_look(tmp_path, monkeypatch):

@@ -73,3 +73,8 @@ def test_the_readmes_first_screen_says_what_the_book_concludes_from_the_ledger()
     assert {"claims.total", "claims.holds", "claims.undecided"} <= set(names)
     prose = re.sub(r"<!--.*?-->", "", conclusion).replace("Sec. IV", "Sec IV")
     assert prose.count(". ") + prose.rstrip().endswith(".") <= 3  # heading + two sentences
+
+
+def test_the_conclusion_is_written_from_the_finished_ledger():
+    """The README's conclusion sentence is written once the run has finished, from its ledger."""
+    assert "CONCLUSION-SENTENCE" not in README.read_text()

@@ -17,14 +17,11 @@ import argparse
 import json
 import re
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from icil_paper.config import Preset, get_preset
-from icil_paper.fileio import read_json
-from icil_paper.planning.design import plan_cost
-from icil_paper.planning.staged import at_stage
+from icil_paper.book.report import decision_rate
+from icil_paper.config import get_preset
 from icil_paper.stats import Verdict
 from icil_paper.tables.claims import summary
 
@@ -33,8 +30,12 @@ BENCH = ROOT / "results" / "bench"
 REFERENCE = ROOT / "results" / "reference"
 OLDER = REFERENCE / "older-code"
 """The older protocol's reference records, ledger, cost and plan."""
+KITCHEN = OLDER / "kitchen"
+"""The kitchen run's ledger, cost and design record (the run before the one on Meta-World)."""
 OLDER_COST = "results/reference/older-code/cost.json"
+KITCHEN_COST = "results/reference/older-code/kitchen/cost.json"
 COST = "results/reference/cost.json"
+PLAN = "results/reference/plan.json"
 DOCUMENTS = (ROOT / "README.md", ROOT / "CONTRIBUTING.md")
 """The files whose measured figures carry markers."""
 
@@ -59,27 +60,28 @@ def _cell(kind: str, field: str) -> float:
     return cell["first"]["floor_ratio"] if field == "first_floor_ratio" else cell[field]
 
 
-
-def _cost(folder: Path = OLDER) -> dict[str, Any]:
-    """A reference run's `cost.json` (`python -m icil_paper.planning.cost`): the older
-    protocol's, kept beside its records in `older-code/`, or the current run's
-    (`REFERENCE`)."""
+def _cost(folder: Path) -> dict[str, Any]:
+    """A reference run's `cost.json` (`python -m icil_paper.planning.cost`) in `folder`: the
+    current run's (`REFERENCE`) or an earlier run's (`KITCHEN`, `OLDER`)."""
     return json.loads((folder / "cost.json").read_text())
 
 
-def _plan(field: str) -> float:
-    """The older protocol's plan for its undecided claims (`icil-paper plan`, written to
-    `plan.json`, kept in `older-code/`): its total `cells`, `cpu_hours`, `wall_hours` at
-    `cores`, or the number of `undecided` claims it lists."""
-    plan = json.loads((OLDER / "plan.json").read_text())
+def _plan(field: str, folder: Path) -> float:
+    """A run's plan for its undecided claims (`icil-paper plan`, written to `plan.json`; the
+    older protocol's kept in `older-code/`): `cores`, the number of `undecided` claims it
+    lists and of those it `planned` (the others need more seeds than a preset has data sets
+    for), or the `cells`, `cpu_hours` and `wall_hours` at `cores` of their missing cells."""
+    plan = json.loads((folder / "plan.json").read_text())
     if field == "cores":
         return plan["cores"]
     if field == "undecided":
         return len(plan["claims"])
-    return plan["total"][field]
+    if field == "planned":
+        return sum(1 for c in plan["claims"] if c["planned"])
+    return plan["total"][field]  # each cell once, though claims may share it
 
 
-def _cost_hours(field: str, folder: Path = OLDER) -> float:
+def _cost_hours(field: str, folder: Path) -> float:
     """Hours of a reference run (`_cost`'s `folder`): `elapsed` (the sittings' elapsed times
     summed: the machine's hours), `wall` (every record's wall time summed: cell-hours) or
     `cpu`."""
@@ -97,31 +99,11 @@ def _claims(field: str, ledger: str = "claims.json") -> int:
     return s["counts"][field] if field in s["counts"] else s[field]
 
 
-def _older_design() -> Preset:
-    """The reference preset at the design fields the committed records' design record
-    keeps (`results/reference/design.json`: the older design's stages, budget, episodes)."""
-    record = read_json(REFERENCE / "design.json", "the reference run's design record",
-                       "restore it from git", keys=("tables",))
-    fields = {k: tuple(v) if isinstance(v, list) else v for k, v in record["tables"].items()}
-    preset = get_preset("reference")
-    return replace(preset, tables=replace(preset.tables, **fields))
-
-
-def _projected_hours(stage: int | None = None, older: bool = False) -> float:
-    """The reference preset's projected hours at two cells at a time
-    (`planning.design.plan_cost`, from `results/bench/cells.json` and `datasets.json`): at
-    its fixed design's seeds, or with every claimed row at seed stage `stage` (0: the
-    first, -1: the last; `planning.staged.at_stage`); `older`: under the older design that
-    the committed records were gathered under."""
-    preset = _older_design() if older else get_preset("reference")
-    return plan_cost(preset if stage is None else at_stage(preset, stage))["wall_h_at_2"]
-
-
-def _cell_seconds(kind: str) -> float:
-    """The mean wall time of one cell of a kind (its training, evaluations and features);
-    0 while no cell of that kind has finished."""
-    k = _cost()["by_kind"].get(kind)
-    return k["wall_s"] / k["cells"] if k and k.get("cells") else 0.0
+def _decided_per_10(folder: str) -> float:
+    """Claims a reference run decided per 10 CPU-hours (`book.report.decision_rate`), the run
+    whose ledger and cost lie in `folder` of `results/reference/`."""
+    decided, cpu_hours, _ = decision_rate(REFERENCE / folder)
+    return 10 * decided / cpu_hours
 
 
 FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
@@ -162,56 +144,35 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                  lambda kind=kind, field=field: _cell(kind, field))
        for kind in ("icrt_lipvq", "bc_transformer", "act_maniskill", "kinova_eval")
        for field in ("seed_cost_s", "floor_ratio", "first_floor_ratio")},
-    "older_cost.cells": (OLDER_COST, lambda: _cost()["finished_cells"]),
-    "older_cost.planned_cells": (OLDER_COST, lambda: _cost()["planned_cells"]),
-    "older_cost.episodes": (OLDER_COST, lambda: _cost()["total"]["episodes"]),
-    "older_cost.sittings": (OLDER_COST, lambda: len(_cost()["sittings"])),
-    **{f"older_cost.{field}_hours": (OLDER_COST,
-                               lambda field=field: _cost_hours(field))
-       for field in ("elapsed", "wall", "cpu")},
-    **{f"older_cost.projected_{field}": (OLDER_COST,
-                                   lambda field=field: _cost()["projection"][field])
-       for field in ("cpu_hours", "wall_hours_at_2", "target_wall_hours")},
+    "older_cost.cpu_hours": (OLDER_COST, lambda: _cost_hours("cpu", OLDER)),
     **{f"older_plan.{field}": ("results/reference/older-code/plan.json",
-                         lambda field=field: _plan(field))
+                               lambda field=field: _plan(field, OLDER))
        for field in ("cells", "cpu_hours", "wall_hours", "cores", "undecided")},
-    "older_cost.projected_from_records_pct": (OLDER_COST,
-                                        lambda: 100 * _cost()["projection"]["from_records"]),
+    "kitchen_cost.cpu_hours": (KITCHEN_COST, lambda: _cost_hours("cpu", KITCHEN)),
     "cost.cells": (COST, lambda: _cost(REFERENCE)["finished_cells"]),
+    "cost.planned_cells": (COST, lambda: _cost(REFERENCE)["planned_cells"]),
     "cost.cpu_hours": (COST, lambda: _cost_hours("cpu", REFERENCE)),
+    "cost.elapsed_hours": (COST, lambda: _cost_hours("elapsed", REFERENCE)),
     "cost.projected_wall_hours_at_2": (
         COST, lambda: _cost(REFERENCE)["projection"]["wall_hours_at_2"]),
-    **{name: ("results/reference/claims.json", lambda field=field: _claims(field))
-       for name, field in (("claims.total", "claims"), ("claims.holds", Verdict.HOLDS),
-                           ("claims.decided", "decided"),
-                           ("claims.do_not_hold", Verdict.DOES_NOT_HOLD),
-                           ("claims.undecided", "undecided"),
-                           ("claims.size_excluded", "size_excluded"),
-                           ("claims.not_run", Verdict.NOT_RUN))},
-    **{name: ("results/reference/older-code/claims.json",
-              lambda field=field: _claims(field, "older-code/claims.json"))
-       for name, field in (("older_claims.total", "claims"),
-                           ("older_claims.decided", "decided"),
-                           ("older_claims.holds", Verdict.HOLDS),
-                           ("older_claims.do_not_hold", Verdict.DOES_NOT_HOLD),
-                           ("older_claims.undecided", "undecided"),
-                           ("older_claims.size_excluded", "size_excluded"))},
-    "design.projected_wall_hours_at_2": ("results/bench/cells.json", _projected_hours),
-    "design.first_stage_wall_hours_at_2": ("results/bench/cells.json",
-                                           lambda: _projected_hours(0)),
-    "design.last_stage_wall_hours_at_2": ("results/bench/cells.json",
-                                          lambda: _projected_hours(-1)),
+    "cost.target_wall_hours": (COST, lambda: _cost(REFERENCE)["projection"]["target_wall_hours"]),
+    **{f"plan.{field}": (PLAN, lambda field=field: _plan(field, REFERENCE))
+       for field in ("cells", "cpu_hours", "wall_hours", "cores", "undecided", "planned")},
+    **{f"{prefix}.{name}": (f"results/reference/{ledger}",
+                            lambda field=field, ledger=ledger: _claims(field, ledger))
+       for prefix, ledger in (("claims", "claims.json"),
+                              ("older_claims", "older-code/claims.json"),
+                              ("kitchen_claims", "older-code/kitchen/claims.json"))
+       for name, field in (("total", "claims"), ("holds", Verdict.HOLDS),
+                           ("decided", "decided"), ("do_not_hold", Verdict.DOES_NOT_HOLD),
+                           ("undecided", "undecided"), ("size_excluded", "size_excluded"),
+                           ("size_larger", "size_larger"), ("not_run", Verdict.NOT_RUN))},
+    **{f"{prefix}.decided_per_10_cpu_hours": (f"results/reference/{folder}claims.json",
+                                              lambda folder=folder: _decided_per_10(folder))
+       for prefix, folder in (("claims", ""), ("kitchen_claims", "older-code/kitchen/"),
+                              ("older_claims", "older-code/"))},
     "design.budget_hours": ("src/icil_paper/config.py",
                             lambda: get_preset("reference").tables.stage_budget_hours),
-    **{f"older_design.{name}_wall_hours_at_2": ("results/reference/design.json",
-                                                lambda stage=stage: _projected_hours(stage, True))
-       for name, stage in (("projected", None), ("first_stage", 0), ("last_stage", -1))},
-    "older_design.budget_hours": ("results/reference/design.json",
-                                  lambda: _older_design().tables.stage_budget_hours),
-    **{f"older_cost.{name}_cell_s": (OLDER_COST,
-                               lambda kind=kind: _cell_seconds(kind))
-       for name, kind in (("icrt", "icrt kitchen state"), ("bc", "bc_transformer kitchen state"),
-                          ("act_maniskill", "act maniskill state"), ("mcr", "mcr kitchen rgb"))},
 }
 """Figure name -> (the records it comes from, a function computing it from them)."""
 

@@ -10,6 +10,8 @@ ledger and its views (chapter 00), the reference run's bookkeeping and the prese
     committed_design("I")                           # {"protocol": "kitchen", "seeds": {row: n}}
     for q in QUESTIONS: q.decides, q.beside         # Sec. IV's questions, the claims answering
     run_progress()                                  # the reference run's cells, hours, projection
+    looks_frame(read_record(store))                 # each look's realised seeds, rows going on
+    earlier_verdicts(ledger)                        # each claim beside the earlier runs' decisions
     preset_fields(preset)                           # chapter 01: field -> value, meaning
 
 `load_table` computes what this build's store lacks (as `icil-paper reproduce` does) and
@@ -47,9 +49,9 @@ from icil_paper.paper import (
 )
 from icil_paper.planning.staged import as_run
 from icil_paper.registry import check_name
-from icil_paper.results import ResultsStore, results_root
+from icil_paper.results import ResultsStore
 from icil_paper.runspec import eval_key, feature_key
-from icil_paper.stats import Verdict
+from icil_paper.stats import Size, Verdict
 from icil_paper.tables import display
 from icil_paper.tables.assemble import TableResult, assemble, unbroken
 from icil_paper.tables.cells import plan
@@ -301,6 +303,21 @@ OLDER_COST = "older-code/cost.json"
 """Under `results/<preset>/`: what the older protocol's run cost (its `cost.json`)."""
 
 
+@dataclass(frozen=True)
+class EarlierRun:
+    """A reference run before the one on Meta-World, kept under `results/reference/`."""
+
+    name: str
+    """How the book names it."""
+    folder: str
+    """Its folder under `results/reference/`: its `claims.json` and `cost.json`."""
+
+
+EARLIER_RUNS = (EarlierRun("the kitchen run", "older-code/kitchen"),
+                EarlierRun("the older protocol's run", "older-code"))
+"""The earlier reference runs, newest first."""
+
+
 def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
     """{"records", "current", "stale"}: committed records of `preset_name` by freshness."""
     stale = len(stale_records(preset_name))
@@ -309,9 +326,11 @@ def reference_freshness(preset_name: str = REFERENCE) -> dict[str, int]:
     return {"records": total, "current": total - stale, "stale": stale}
 
 
-def older_ledger(preset_name: str = REFERENCE) -> tuple[dict[str, Any], list[dict]] | None:
-    """(made_by, ledger) of `OLDER_LEDGER`, or None when there is none."""
-    path = ResultsStore(preset_name).dir / OLDER_LEDGER
+def older_ledger(preset_name: str = REFERENCE, folder: str = "older-code"
+                 ) -> tuple[dict[str, Any], list[dict]] | None:
+    """(made_by, ledger) of the `claims.json` an older version of the code computed, kept in
+    `folder` of `results/<preset>/` (an `EarlierRun`'s), or None when there is none."""
+    path = ResultsStore(preset_name).dir / folder / "claims.json"
     if not path.exists():
         return None
     data = json.loads(path.read_text())
@@ -349,17 +368,6 @@ def run_progress(path=None) -> dict[str, Any] | None:
             "commits": sorted({c for s in cost["sittings"] for c in s.get("commits", [])})}
 
 
-RERUN = "rerun"
-"""Under the results folder: the reference run in progress (`rerun/reference/`), committed as
-its records finish, until it replaces the records of `results/reference/`."""
-
-
-def rerun_progress() -> dict[str, Any] | None:
-    """`run_progress` of the reference run in progress (`RERUN`); None before it has a
-    `cost.json`."""
-    return run_progress(ResultsStore(REFERENCE, root=results_root() / RERUN).dir / "cost.json")
-
-
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
     """(claims decided, CPU-hours, every planned cell finished) of the run whose
     `claims.json` and `cost.json` lie in `folder`; None when either is missing."""
@@ -371,6 +379,40 @@ def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
     planned = cost.get("planned_cells")
     finished = planned is not None and cost.get("finished_cells") == planned
     return decided, cost["total"]["cpu_s"] / 3600, finished
+
+
+def earlier_verdicts(ledger: list[LedgerEntry | dict[str, Any]],
+                     preset_name: str = REFERENCE):
+    """Each claim's decision in `ledger` (with its size against the paper's effect) beside
+    its decision in every committed `EARLIER_RUNS` ledger ("" where that run lacked it)."""
+    earlier = {run.name: {e["id"]: as_entry(e).adjusted_verdict for e in older[1]}
+               for run in EARLIER_RUNS
+               if (older := older_ledger(preset_name, run.folder)) is not None}
+    rows = []
+    for e in map(as_entry, ledger):
+        size = (f", {verdict_words.SIZE_SHORT[e.size]} than the paper's"
+                if e.size in (Size.SMALLER, Size.LARGER) else "")
+        rows.append({"claim": e.id, "this run": e.adjusted_verdict + size,
+                     **{name: verdicts.get(e.id, "") for name, verdicts in earlier.items()}})
+    return pd.DataFrame(rows).set_index("claim").rename_axis(None)
+
+
+def looks_frame(record: dict[str, Any] | None):
+    """Each look of a staged run's design record (`design.json`): the seeds a row at the
+    look, the rows it read with their realised seeds, the rows that went on and to how many
+    seeds, and the claims the budget stopped."""
+    rows = []
+    record = record or {}
+    for look in record.get("looks", []):
+        seeds = sorted(set(look.get("rows", {}).values()))
+        going = look.get("going_on") or {}
+        rows.append({"look at": f"{look['seeds']} seeds", "rows read": len(look.get("rows", {})),
+                     "their seeds": "–".join(map(str, seeds[::max(len(seeds) - 1, 1)])),
+                     "rows going on": ", ".join(going) or "none",
+                     "to seeds": ", ".join(sorted({str(n) for n in going.values()})),
+                     "stopped by the budget": ", ".join(look.get("over_budget", []))})
+    return pd.DataFrame(rows, columns=["look at", "rows read", "their seeds", "rows going on",
+                                       "to seeds", "stopped by the budget"])
 
 
 def answering_ledger(path=None) -> tuple[list, dict[str, Any] | None]:
