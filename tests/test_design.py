@@ -4,6 +4,7 @@ the ledger's `seeds_needed`, and what a run cost is summed from its records."""
 from __future__ import annotations
 
 import json
+import shutil
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -53,9 +54,17 @@ def test_a_decidable_claim_asks_ten_seeds_of_every_row_it_reads():
     assert any(f"asks {OTHER_SEEDS}" in p for p in design_problems(few, {}))
 
 
-def test_the_reference_preset_follows_the_rule_for_its_ledger():
+def test_the_reference_preset_follows_the_rule_for_its_ledger(tmp_path):
+    """The fixed seeds a row were set by the rule from the ledgers there were when the design
+    was registered: the kitchen run's and the older protocol's (the run they planned has its
+    own ledger now, and a design is not changed by the data it judges)."""
     preset = get_preset("reference")
-    ledger = design_ledger(preset, root=ROOT / "results")  # the committed ledgers
+    registered = tmp_path / "reference"
+    older = ROOT / "results" / "reference" / "older-code"
+    (registered / "older-code").mkdir(parents=True)
+    shutil.copy(older / "kitchen" / "claims.json", registered / "claims.json")
+    shutil.copy(older / "claims.json", registered / "older-code" / "claims.json")
+    ledger = design_ledger(preset, root=tmp_path)
     assert ledger["I-tokenizer-gap"]["seeds_needed"] is not None
     assert design_problems(preset, ledger) == []
     seeds = planned_seeds(preset)
@@ -346,6 +355,8 @@ def test_the_reference_preset_has_stages_and_its_ledger_records_each_look(capsys
         assert decided == look.startswith("decided at look") == (seq["decided_at"] is not None)
         if decided:  # decided at its boundary: the design's p-value is below the level
             assert seq["p_value"] <= 0.05 and seq["decided_at"] in seq["stages"]
+        elif e["family"] == "descriptive":  # a rank correlation: described, never tested
+            assert look.startswith(f"described at {seq['seeds']} seeds, not tested")
         elif e["verdict"] != "not run":
             assert look.startswith(f"undecided at {seq['seeds'] if seq['seeds'] < 15 else 15}")
     assert main(["--preset", "smoke", "--stages"]) == 2

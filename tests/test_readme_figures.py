@@ -15,9 +15,9 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 
 
 def significant_digits(printed: str) -> int:
-    """"15.6" -> 3, "0.074" -> 2, "241" -> 3, "290" -> 2 (an integer's trailing zeros are
+    """"15.6" -> 3, "-4.4" -> 2, "0.074" -> 2, "241" -> 3, "290" -> 2 (an integer's trailing zeros are
     not significant)."""
-    digits = printed.replace(",", "")
+    digits = printed.replace(",", "").lstrip("-")
     if "." in digits:
         return len(digits.replace(".", "").lstrip("0"))
     return len(digits.lstrip("0").rstrip("0")) or 1
@@ -40,7 +40,7 @@ def test_the_readme_marks_its_measured_figures():
     unknown = sorted(set(names) - set(FIGURES))
     assert not unknown, f"README figures with no computation in tools/readme_figures.py: {unknown}"
     markers = [m for path in DOCUMENTS
-               for m in re.findall(r"<!-- figure: ([\w.]+) -->", path.read_text())]
+               for m in re.findall(r"<!-- figure: ([\w.-]+) -->", path.read_text())]
     assert len(markers) == len(names), "a marker that does not follow a number"
     assert README in DOCUMENTS and all(p.exists() for p in DOCUMENTS)
 
@@ -78,3 +78,22 @@ def test_the_readmes_first_screen_says_what_the_book_concludes_from_the_ledger()
 def test_the_conclusion_is_written_from_the_finished_ledger():
     """The README's conclusion sentence is written once the run has finished, from its ledger."""
     assert "CONCLUSION-SENTENCE" not in README.read_text()
+
+
+CONCLUSION_VERDICTS = {
+    "I-lipvq-vs-bc": "holds", "I-lipvq-vs-lfq": "holds", "beyond-eq4-rvq": "holds",
+    "II-lipvq-vs-act": "does not hold", "I-lipvq-best": "inconclusive",
+    "III-lipvq-smoothest": "inconclusive", "V-lipvq-vs-bc": "inconclusive",
+}
+"""What the README's conclusion says of each claim it names, in the ledger's words."""
+
+
+def test_the_conclusions_words_are_the_ledgers_decisions():
+    """The conclusion says "beats", "does not help", "stays undecided": each is the decision
+    (after the design's correction) of the committed ledger."""
+    import json
+    ledger = json.loads((README.parent / "results/reference/claims.json").read_text())
+    decided = {c["id"]: c["adjusted_verdict"] for c in ledger["claims"]}
+    assert {k: decided[k] for k in CONCLUSION_VERDICTS} == CONCLUSION_VERDICTS
+    quoted = {name.split(".")[1] for _, name in marked_figures() if name.startswith("claim.")}
+    assert quoted <= set(CONCLUSION_VERDICTS)

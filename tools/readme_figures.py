@@ -99,6 +99,19 @@ def _claims(field: str, ledger: str = "claims.json") -> int:
     return s["counts"][field] if field in s["counts"] else s[field]
 
 
+CONCLUSION_CLAIMS = ("I-lipvq-vs-bc", "I-lipvq-vs-lfq", "I-lipvq-best", "II-lipvq-vs-act",
+                     "V-lipvq-vs-bc", "beyond-eq4-rvq")
+"""The success-difference claims the README's conclusion quotes."""
+
+
+def _claim_points(claim_id: str, field: str) -> float:
+    """One claim's success difference in points from the reference ledger: `ours` (this
+    run's estimate) or `paper` (the paper's number)."""
+    claims = json.loads((REFERENCE / "claims.json").read_text())["claims"]
+    (claim,) = [c for c in claims if c["id"] == claim_id]
+    return 100 * claim[field]
+
+
 def _decided_per_10(folder: str) -> float:
     """Claims a reference run decided per 10 CPU-hours (`book.report.decision_rate`), the run
     whose ledger and cost lie in `folder` of `results/reference/`."""
@@ -171,6 +184,10 @@ FIGURES: dict[str, tuple[str, Callable[[], float]]] = {
                                               lambda folder=folder: _decided_per_10(folder))
        for prefix, folder in (("claims", ""), ("kitchen_claims", "older-code/kitchen/"),
                               ("older_claims", "older-code/"))},
+    **{f"claim.{claim_id}.{field}_points": (
+        "results/reference/claims.json",
+        lambda claim_id=claim_id, field=field: _claim_points(claim_id, field))
+       for claim_id in CONCLUSION_CLAIMS for field in ("ours", "paper")},
     "design.budget_hours": ("src/icil_paper/config.py",
                             lambda: get_preset("reference").tables.stage_budget_hours),
 }
@@ -184,8 +201,9 @@ def figure(name: str) -> float:
     return float(FIGURES[name][1]())
 
 
-MARKED = re.compile(r"(\d[\d,]*(?:\.\d+)?)(\s*[^\s<]*\s*)<!-- figure: ([\w.]+) -->")
-"""A README figure: the printed number, what follows it (a unit), and its marker."""
+MARKED = re.compile(r"(-?\d[\d,]*(?:\.\d+)?)(\s*[^\s<]*\s*)<!-- figure: ([\w.-]+) -->")
+"""A README figure: the printed number with its sign, what follows it (a unit), and its
+marker."""
 
 
 def printed_at(value: float, printed: str) -> str:
