@@ -27,6 +27,7 @@ from icil_paper.book.report import (
     ledger_views,
     looks_frame,
     older_ledger,
+    plan_frame,
     reference_freshness,
     reference_ledger,
     retired_records,
@@ -87,27 +88,14 @@ for source in quick:
     display(views["verdicts"])
 
 # %% tags=["remove-cell"]
-from icil_paper import verdict_words as words
-from icil_paper.book.report import QUESTIONS, committed_design
-from icil_paper.stats import Size
+from icil_paper.book.report import question_answers, seeds_range
 
 # What the introduction pastes: for each of Sec. IV's questions, the claim that carries it
 # in our run (the committed reference records), its number, the paper's and the outcome.
-by_id = {e.id: e for e in reference_ledger(ledgers)}
-for q in QUESTIONS:
-    e = by_id[q.decides[0]]
-    scale = 100 if e.table != "III" else 1  # success in points; least energy as it is
-    glue(f"{q.key}_ours", round(e.ours * scale, 1) if e.ours is not None else "n/a")
-    glue(f"{q.key}_paper", round(e.paper * scale, 1))
-    outcome = (words.SMALLER_THAN_PAPER if e.size == Size.SMALLER
-               else words.DESIGN_OUTCOME[words.Verdict(e.adjusted_verdict)])
-    why = words.ALONE_BUT_NOT_TOGETHER.get(e.verdict) if outcome == "undecided" else None
-    needs = e.seeds_needed if e.adjusted_verdict in words.UNDECIDED else None
-    parts = [outcome, why, words.SEEDS_TO_DECIDE.format(n=needs) if needs else None]
-    glue(f"{q.key}_outcome", "; ".join(p for p in parts if p))
-seeds = [n for t in ("I", "II", "III", "V") for n in committed_design(t)["seeds"].values()]
-glue("run_seeds", "no look yet" if not seeds else f"{min(seeds)}" if min(seeds) == max(seeds)
-     else f"{min(seeds)} to {max(seeds)}")
+for key, answer in question_answers(reference_ledger(ledgers)).items():
+    for field, value in answer.items():
+        glue(f"{key}_{field}", value)
+glue("run_seeds", seeds_range())
 
 # %% [markdown]
 # ## How to read the ledger
@@ -311,24 +299,16 @@ display(looks_frame(read_record(ResultsStore(REFERENCE))))
 # What deciding the undecided claims would take on a cluster, from `icil-paper plan
 # --preset reference` (`results/reference/plan.json`): the seeds a row each claim needs to
 # detect the paper's effect with 80% power, the cells the run lacks for it and their CPU
-# time at the run's own CPU time per cell.
+# time at the run's own CPU time per cell. Of the {glue:text}`ch00_plan_undecided` undecided
+# claims, the {glue:text}`ch00_plan_planned` that a preset's data sets can decide take
+# {glue:text}`ch00_plan_cells` cells, {glue:text}`ch00_plan_cpu_hours` CPU-hours, or
+# {glue:text}`ch00_plan_wall_hours` hours at {glue:text}`ch00_plan_cores` cores.
 
 # %% tags=["remove-input"]
-from icil_paper.fileio import read_json
-
-plan = read_json(store / "plan.json", "the reference run's plan",
-                 "write it: icil-paper plan --preset reference", keys=("claims", "total"))
-plan_rows = pd.DataFrame(plan["claims"]).set_index("id").rename_axis(None)
-hours = f"hours at {plan['cores']} cores"
-plan_rows = plan_rows.rename(columns={"seeds_now": "seeds now", "seeds_needed": "seeds needed",
-                                      "cpu_hours": "CPU-hours", "wall_hours": hours,
-                                      "why_not": "not planned because"})
-total, planned = plan["total"], int(plan_rows["planned"].sum())
-display(collapsed_frame(
-    f"{len(plan_rows)} undecided claims; the {planned} planned take {total['cells']} cells, "
-    f"{total['cpu_hours']:.1f} CPU-hours, {total['wall_hours']:.1f} {hours}. Open to see each.",
-    plan_rows[["verdict", "seeds now", "seeds needed", "cells", "CPU-hours", hours,
-               "not planned because"]].fillna("")))
+plan_rows, plan_totals = plan_frame(store)
+for name, value in plan_totals.items():
+    glue(f"ch00_plan_{name}", value, display=False)
+display(collapsed_frame("The plan for each undecided claim. Open to see it.", plan_rows))
 
 # %% [markdown]
 # ## What each claim compares

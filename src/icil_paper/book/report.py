@@ -296,6 +296,37 @@ QUESTIONS = (
 """Sec. IV's Q1-Q3 (Q3 is sim-to-real in the paper; Tables VI and VII are quoted beside)."""
 
 
+def question_answers(ledger: list) -> dict[str, dict[str, Any]]:
+    """For each of `QUESTIONS`, what the introduction quotes from the ledger: the first claim
+    that answers it, its number and the paper's (success in points, least energy as it is)
+    and the outcome in the design's words, with the seeds that would decide it if undecided."""
+    words = verdict_words
+    by_id = {e.id: e for e in ledger}
+    out = {}
+    for q in QUESTIONS:
+        e = by_id[q.decides[0]]
+        scale = 100 if e.table != "III" else 1
+        outcome = (words.SMALLER_THAN_PAPER if e.size == Size.SMALLER
+                   else words.DESIGN_OUTCOME[Verdict(e.adjusted_verdict)])
+        why = words.ALONE_BUT_NOT_TOGETHER.get(e.verdict) if outcome == "undecided" else None
+        needs = e.seeds_needed if e.adjusted_verdict in words.UNDECIDED else None
+        parts = [outcome, why, words.SEEDS_TO_DECIDE.format(n=needs) if needs else None]
+        out[q.key] = {"ours": round(e.ours * scale, 1) if e.ours is not None else "n/a",
+                      "paper": round(e.paper * scale, 1),
+                      "outcome": "; ".join(p for p in parts if p)}
+    return out
+
+
+def seeds_range(tables: Sequence[str] = ("I", "II", "III", "V"),
+                preset_name: str = REFERENCE) -> str:
+    """The seeds a row the committed run's design reached in `tables`: "5", "5 to 15", or
+    "no look yet"."""
+    seeds = [n for t in tables for n in committed_design(t, preset_name)["seeds"].values()]
+    if not seeds:
+        return "no look yet"
+    return f"{min(seeds)}" if min(seeds) == max(seeds) else f"{min(seeds)} to {max(seeds)}"
+
+
 # --------------------------------------------------------------------------- the reference run
 OLDER_LEDGER = "older-code/claims.json"
 """Under `results/reference/`: the reference ledger an older version of the code computed."""
@@ -366,6 +397,27 @@ def run_progress(path=None) -> dict[str, Any] | None:
                             and (not looks or bool(looks[-1].get("going_on")))),
             "older": older, "file": path.name,
             "commits": sorted({c for s in cost["sittings"] for c in s.get("commits", [])})}
+
+
+def plan_frame(folder: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The plan `icil-paper plan` wrote for a run's undecided claims (`folder/plan.json`): one
+    row a claim (seeds now and needed, cells, CPU-hours, hours on the plan's cores, why a
+    claim is not planned), and its totals: `undecided`, `planned`, `cells`, `cpu_hours`,
+    `wall_hours`, `cores`."""
+    from icil_paper.fileio import read_json
+
+    plan = read_json(folder / "plan.json", "a reference run's plan",
+                     "write it: icil-paper plan --preset reference", keys=("claims", "total"))
+    rows = pd.DataFrame(plan["claims"]).set_index("id").rename_axis(None)
+    hours = f"hours at {plan['cores']} cores"
+    rows = rows.rename(columns={"seeds_now": "seeds now", "seeds_needed": "seeds needed",
+                                "cpu_hours": "CPU-hours", "wall_hours": hours,
+                                "why_not": "not planned because"})
+    totals = {"undecided": len(rows), "planned": int(rows["planned"].sum()),
+              "cells": plan["total"]["cells"], "cpu_hours": round(plan["total"]["cpu_hours"], 1),
+              "wall_hours": round(plan["total"]["wall_hours"], 1), "cores": plan["cores"]}
+    return rows[["verdict", "seeds now", "seeds needed", "cells", "CPU-hours", hours,
+                 "not planned because"]].fillna(""), totals
 
 
 def decision_rate(folder: Path) -> tuple[int, float, bool] | None:
