@@ -562,3 +562,19 @@ def test_the_reference_episodes_are_the_cost_optimal_counts_of_its_records():
             assert n == episodes[suite], suite
     rows = json.loads((ROOT / "results" / "bench" / "episodes.json").read_text())["rows"]
     assert all(0 < r["episode_share"] < 1 and r["seed_by_row_part"] > 0 for r in rows)
+
+
+def test_a_questions_answer_asks_for_seeds_only_where_the_run_has_fewer():
+    """Q1-Q3 as the introduction quotes them: "about N seeds a row would decide it" only when
+    the run has fewer than N seeds; where it has them, its effect is not the paper's."""
+    from icil_paper.book.report import QUESTIONS, question_answers
+
+    def entry(claim_id, needed, seeds):
+        return SimpleNamespace(id=claim_id, table="I", ours=0.01, paper=0.05, size=None,
+                               adjusted_verdict="inconclusive", verdict="inconclusive",
+                               seeds_needed=needed, seeds={"a": seeds, "b": seeds})
+
+    ledger = [entry(q.decides[0], 12, 5) for q in QUESTIONS]
+    assert question_answers(ledger)["Q1"]["outcome"].endswith("about 12 seeds a row would decide it")
+    ledger = [entry(q.decides[0], 4, 5) for q in QUESTIONS]
+    assert question_answers(ledger)["Q1"]["outcome"] == "undecided"

@@ -310,6 +310,8 @@ def question_answers(ledger: list) -> dict[str, dict[str, Any]]:
                    else words.DESIGN_OUTCOME[Verdict(e.adjusted_verdict)])
         why = words.ALONE_BUT_NOT_TOGETHER.get(e.verdict) if outcome == "undecided" else None
         needs = e.seeds_needed if e.adjusted_verdict in words.UNDECIDED else None
+        if needs and needs <= min((e.seeds or {}).values(), default=0):
+            needs = None  # the seeds for the paper's effect are there: the run's effect differs
         parts = [outcome, why, words.SEEDS_TO_DECIDE.format(n=needs) if needs else None]
         out[q.key] = {"ours": round(e.ours * scale, 1) if e.ours is not None else "n/a",
                       "paper": round(e.paper * scale, 1),
