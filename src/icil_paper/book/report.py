@@ -38,7 +38,7 @@ from icil_paper import verdict_words
 from icil_paper.book.studies import study_keys
 from icil_paper.config import PRESET_NAMES, Preset, field_docs, get_preset, task_demo_counts
 from icil_paper.config_data import get_path
-from icil_paper.fileio import atomic_write_json
+from icil_paper.fileio import atomic_write_json, read_json
 from icil_paper.paper import (
     CLAIM_LABELS,
     TABLES,
@@ -406,8 +406,6 @@ def plan_frame(folder: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     row a claim (seeds now and needed, cells, CPU-hours, hours on the plan's cores, why a
     claim is not planned), and its totals: `undecided`, `planned`, `cells`, `cpu_hours`,
     `wall_hours`, `cores`."""
-    from icil_paper.fileio import read_json
-
     plan = read_json(folder / "plan.json", "a reference run's plan",
                      "write it: icil-paper plan --preset reference", keys=("claims", "total"))
     rows = pd.DataFrame(plan["claims"]).set_index("id").rename_axis(None)
