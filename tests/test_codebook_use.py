@@ -179,4 +179,5 @@ def test_fig5_counts_each_sizes_codes_used(preset, monkeypatch):
         assert line["perplexity"] == pytest.approx(round(perplexity, 1))
     shown.clear()
     show_codebook_use({"this build": result})
-    assert shown[1].equals(frame)  # the title, then the frame
+    assert len(shown) == 1 and frame.to_html(classes="dataframe") in shown[0].data
+    assert shown[0].data.startswith("<details") and f"({len(frame)} rows)" in shown[0].data

@@ -343,3 +343,24 @@ def test_chapter_0_lists_each_undecided_claim_with_its_power():
     assert frame.loc["c", "decided"] == "too few seeds"
     assert frame.loc["c", "note"] == "no reference effect" and frame.loc["c", "power"] == ""
     assert ledger_frame([held], "undecided").empty
+
+
+def test_a_chapters_verdicts_collapse_the_quick_runs_below_the_reference_runs(monkeypatch):
+    """The quick run tests the code, not the paper: its sentences sit in a closed <details>
+    block after the reference run's, which stay open."""
+    from types import SimpleNamespace
+
+    from icil_paper.book import report
+    from icil_paper.config import get_preset
+
+    def ledger(p, store):
+        return [SimpleNamespace(table="I", claim=f"claim of {p.name}", id=p.name)]
+
+    monkeypatch.setattr(report, "claims_ledger", ledger)
+    monkeypatch.setattr(report, "sentence", lambda e: f"said by {e.id}.")
+    text = report.verdicts(get_preset("small"), "I")
+    opened, closed = text.split("<details", 1)
+    assert "claim of reference" in opened and "claim of small" not in opened
+    assert "claim of small" in closed and closed.rstrip().endswith("</details>")
+    alone = report.verdicts(get_preset("reference"), "I")
+    assert "<details" not in alone and "claim of reference" in alone

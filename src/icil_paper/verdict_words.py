@@ -134,6 +134,8 @@ def answer(verdicts) -> str:
 
 QUICK_RUN_OPEN = "The quick run ({preset} preset: it tests the code, not the paper). Open to see it."
 """The label of a collapsed block holding the quick run's numbers beside our run's."""
+PER_SEED_OPEN = "codebook use of each training seed ({rows} rows). Open to see it."
+"""The label of a collapsed block holding one source's codebook use, a row per seed."""
 
 DESCRIPTIVE_WHY = {
     "correlation": "a rank correlation across rows, read from a joint bootstrap: described, "

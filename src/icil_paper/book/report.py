@@ -85,15 +85,21 @@ def run_sources(preset: Preset) -> list[tuple[str, Preset]]:
 
 
 def verdicts(preset: Preset, table_id: str) -> str:
-    """The claims ledger's sentences about one table, for each source, as Markdown."""
+    """The claims ledger's sentences about one table, for each source, as Markdown; this
+    build's collapsed in a <details> block below the reference run's."""
     lines = []
-    for source, p in run_sources(preset):
+    sources = run_sources(preset)
+    for source, p in sources:
         entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
         if not entries:
             continue
+        collapse = source == BUILD and len(sources) > 1
+        if collapse:
+            summary = verdict_words.QUICK_RUN_OPEN.format(preset=p.name)
+            lines.append(f"<details class='icil-build'><summary>{summary}</summary>\n")
         lines.append(f"**{source_label(source, p.name)}**\n")
         lines += [f"- *{e.claim}* {sentence(e)}" for e in entries]
-        lines.append("")
+        lines.append("\n</details>\n" if collapse else "")
     return "\n".join(lines)
 
 

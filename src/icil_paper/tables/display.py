@@ -113,10 +113,13 @@ def show_comparison(results: dict[str, TableResult], column: str = "avg",
 
 
 def show_per_source(results: dict[str, TableResult], make_frame, describe=None, empty=None,
-                    empty_text: str = verdict_words.MISSING) -> None:
+                    empty_text: str = verdict_words.MISSING,
+                    collapsed: str | None = None) -> None:
     """One frame per source (`make_frame(result)`), this build's collapsed beside a
     reference; `describe(result)` adds a sentence after the source's name; where
-    `empty(result, frame)`, one line `empty_text` stands for the frame."""
+    `empty(result, frame)`, one line `empty_text` stands for the frame. With `collapsed`
+    (a table of seeds, say), every source's frame is collapsed under
+    "<source>: <collapsed>", where `{rows}` stands for its number of rows."""
     from IPython.display import Markdown, display
 
     for source, result in results.items():
@@ -125,6 +128,10 @@ def show_per_source(results: dict[str, TableResult], make_frame, describe=None, 
         frame = make_frame(result)
         if empty is not None and empty(result, frame):
             display(Markdown(f"{title}: {empty_text}"))
+        elif collapsed is not None:
+            summary = collapsed.format(rows=len(frame))
+            display(collapsed_frame(f"{source_label(source, result.preset)}{extra}: {summary}",
+                                    frame))
         elif source == BUILD and len(results) > 1:
             display(collapsed_frame(
                 verdict_words.QUICK_RUN_OPEN.format(preset=result.preset) + extra, frame))
@@ -350,9 +357,11 @@ def codebook_frame(result: TableResult, column: str = "features"):
 
 
 def show_codebook_use(results: dict[str, TableResult], column: str = "features") -> None:
-    """Each source's `codebook_frame`, or one line where its records are not there yet."""
+    """Each source's `codebook_frame`, collapsed (a row per training seed), or one line
+    where its records are not there yet."""
     show_per_source(results, lambda r: codebook_frame(r, column), empty=lambda _, f: (
-        f.empty or (f["status"] == verdict_words.MISSING).all()))
+        f.empty or (f["status"] == verdict_words.MISSING).all()),
+        collapsed=verdict_words.PER_SEED_OPEN)
 
 
 # --------------------------------------------------------------------------- claims
