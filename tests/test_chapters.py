@@ -571,3 +571,24 @@ def test_the_introduction_pastes_only_what_chapter_0_glues():
     assert all(any(g.match(k) for g in glued) for k in keys), keys
     first_screen = intro[:intro.index("## What the paper claims")]
     assert not re.search(r"\b(?:I|II|III|IV|V|VI|VII)-[a-z]", first_screen)
+
+
+def test_the_introductions_preset_table_shows_what_each_preset_runs():
+    """A preset that evaluates some suites with their own episode counts, or gives its rows
+    their seeds in stages, shows those, not the defaults it never runs with."""
+    from icil_paper.book.report import preset_table
+    from icil_paper.config import PRESET_NAMES, get_preset
+
+    rows = {line.split("|")[1].strip(" `"): [c.strip() for c in line.split("|")[1:-1]]
+            for line in preset_table().splitlines()[2:]}
+    assert set(rows) == set(PRESET_NAMES)
+    for name in PRESET_NAMES:
+        tables = get_preset(name).tables
+        episodes, seeds = rows[name][4], rows[name][5]
+        for suite, n in tables.episodes_by_suite().items():
+            assert f"{suite}: {n}" in episodes
+        if tables.seed_stages:
+            assert all(str(s) in seeds for s in tables.seed_stages) and "stages" in seeds
+        else:
+            assert seeds == f"{tables.icrt_seeds} / {tables.baseline_seeds}"
+    assert get_preset("reference").tables.seed_stages  # the staged case is tested

@@ -491,7 +491,7 @@ PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)
 def preset_table() -> str:
     """The presets' scale as a Markdown table, read from the presets themselves."""
     lines = ["| preset | meant for | training steps | demonstrations per task | episodes "
-             "per task | training seeds (ICRT / other rows) |", "|---|---|---|---|---|---|"]
+             "per task | training seeds a row (ICRT / other rows) |", "|---|---|---|---|---|---|"]
     for name in PRESET_NAMES:
         p = get_preset(name)
         demos = str(p.data.demos_per_task)
@@ -499,9 +499,25 @@ def preset_table() -> str:
             demos += " (" + ", ".join(f"{t.split('/', 1)[-1]}: {n}" for t, n in
                                       task_demo_counts(p.data.task_demos).items()) + ")"
         lines.append(f"| `{name}` | {PRESET_ROLES.get(name, '')} | {p.train.steps} | "
-                     f"{demos} | {p.eval.episodes_per_task} | "
-                     f"{p.tables.icrt_seeds} / {p.tables.baseline_seeds} |")
+                     f"{demos} | {_preset_episodes(p)} | {_preset_seeds(p)} |")
     return "\n".join(lines)
+
+
+def _preset_episodes(p: Preset) -> str:
+    """"5", or a suite's own count beside the default: "metaworld: 20, ..., others: 5"."""
+    by_suite = p.tables.episodes_by_suite()
+    if not by_suite:
+        return str(p.eval.episodes_per_task)
+    return ", ".join([*(f"{suite}: {n}" for suite, n in by_suite.items()),
+                      f"others: {p.eval.episodes_per_task}"])
+
+
+def _preset_seeds(p: Preset) -> str:
+    """"10 / 3" (ICRT / other rows), or a staged design's seeds at its looks."""
+    stages = p.tables.seed_stages
+    if stages:
+        return f"{', '.join(map(str, stages[:-1]))} or {stages[-1]}, in stages"
+    return f"{p.tables.icrt_seeds} / {p.tables.baseline_seeds}"
 
 
 # --------------------------------------------------------------------------- chapter 01
