@@ -491,7 +491,7 @@ PRESET_ROLES = {"smoke": "the test suite (every path runs; numbers mean nothing)
 def preset_table() -> str:
     """The presets' scale as a Markdown table, read from the presets themselves."""
     lines = ["| preset | meant for | training steps | demonstrations per task | episodes "
-             "per task | training seeds a row (ICRT / other rows) |", "|---|---|---|---|---|---|"]
+             "per task | training seeds (ICRT / other rows) |", "|---|---|---|---|---|---|"]
     for name in PRESET_NAMES:
         p = get_preset(name)
         demos = str(p.data.demos_per_task)
