@@ -255,3 +255,18 @@ def test_the_built_method_chapters_show_the_library_source_of_their_step():
                 # the first line of its body as the module has it, not a copy that drifted
                 body = source.split(f"def {last}(", 1)[1].splitlines()[1].strip()
                 assert body in text, (chapter, name, body)
+
+
+def test_a_block_of_many_recordings_folds_its_download_links(tmp_path, monkeypatch):
+    """Up to DOWNLOADS_OPEN links stay in the caption; more go into a closed dropdown that
+    still holds every link, so the page stays short and nothing is lost."""
+    book = _book(tmp_path)
+    monkeypatch.chdir(book)
+    files = {f"task {k}": _recording(tmp_path / "runs", f"r{k}", bytes([k + 1]))
+             for k in range(viewer.DOWNLOADS_OPEN + 1)}
+    few = viewer.show_recordings(dict(list(files.items())[:viewer.DOWNLOADS_OPEN]))._repr_html_()
+    assert "<details" not in few and few.count('class="icil-recording-download"') == 3
+    many = viewer.show_recordings(files)._repr_html_()
+    folded = many.split('<details class="icil-downloads">', 1)[1].split("</details>", 1)[0]
+    assert f"Download the {len(files)} recordings</summary>" in folded
+    assert folded.count('class="icil-recording-download"') == len(files)

@@ -42,6 +42,9 @@ RECORDINGS_URL_DIR = "recordings"
 
 DEFAULT_HEIGHT = "520px"
 
+DOWNLOADS_OPEN = 3
+"""A block of more recordings than this lists their download links in a closed dropdown."""
+
 
 def book_root(start: str | Path | None = None) -> Path:
     """The nearest folder at or above `start` (default: cwd) with `_toc.yml` and `_config.yml`."""
@@ -141,9 +144,13 @@ class RecordingBlock:
                      f'href="{self.page_prefix}_static/{RECORDINGS_URL_DIR}/{r.rrd}">'
                      f"{html.escape(r.label)}</a> ({r.rrd_bytes / 1024:,.0f} kB)"
                      for r in viewable]
-            caption.append(f"Download the recording{'s' if len(links) > 1 else ''}: "
-                           f"{'; '.join(links)}. Open a downloaded file with "
-                           f"<code>rerun &lt;file&gt;.rrd</code>{_sdk_hint()}.")
+            text = (f"{'; '.join(links)}. Open a downloaded file with "
+                    f"<code>rerun &lt;file&gt;.rrd</code>{_sdk_hint()}.")
+            if len(links) > DOWNLOADS_OPEN:
+                caption.append(f'<details class="icil-downloads"><summary>Download the '
+                               f"{len(links)} recordings</summary>{text}</details>")
+            else:
+                caption.append(f"Download the recording{'s' if len(links) > 1 else ''}: {text}")
         pictures_only = [html.escape(r.label) for r in self.recordings if r.rrd is None]
         if pictures_only:
             caption.append("Static picture only, no rerun recording was written: "
