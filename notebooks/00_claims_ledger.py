@@ -322,10 +322,9 @@ display(ledger_frame(reference_ledger(ledgers), "details"))
 # Two reference runs came before this one, both on the robosuite kitchen suite that stood in
 # for RoboCasa before Meta-World. Their ledgers are kept as those protocols' records, each
 # with the commit of the code that computed it; the collapsed table sets their decisions
-# beside this run's, claim by claim. Read the earlier columns as what those protocols said, not as
-# results of this one: their regime starved the baselines that do not learn in context and
-# left the kitchen's pick and place at 0, and the newer of them decided under Holm's
-# correction over every claim alike.
+# beside this run's, claim by claim. Read the earlier columns as what those protocols said,
+# not as results of this one: their regime starved the baselines that do not learn in
+# context and left the kitchen's pick and place at 0.
 
 # %% tags=["remove-cell"]
 older = {run.name: older_ledger(REFERENCE, run.folder) for run in EARLIER_RUNS}

@@ -64,7 +64,7 @@ from icil_paper.tables.claims import (
     summary,
 )
 from icil_paper.tables.design import read_record
-from icil_paper.tables.display import BUILD, REFERENCE, source_label
+from icil_paper.tables.display import BUILD, REFERENCE, collapsed_markdown, source_label
 
 
 def load_table(preset: Preset, table_id: str, compute: bool = True,
@@ -87,20 +87,18 @@ def run_sources(preset: Preset) -> list[tuple[str, Preset]]:
 def verdicts(preset: Preset, table_id: str) -> str:
     """The claims ledger's sentences about one table, for each source, as Markdown; this
     build's collapsed in a <details> block below the reference run's."""
-    lines = []
+    parts = []
     sources = run_sources(preset)
     for source, p in sources:
         entries = [e for e in claims_ledger(p, ResultsStore(p.name)) if e.table == table_id]
         if not entries:
             continue
-        collapse = source == BUILD and len(sources) > 1
-        if collapse:
-            summary = verdict_words.QUICK_RUN_OPEN.format(preset=p.name)
-            lines.append(f"<details class='icil-build'><summary>{summary}</summary>\n")
-        lines.append(f"**{source_label(source, p.name)}**\n")
-        lines += [f"- *{e.claim}* {sentence(e)}" for e in entries]
-        lines.append("\n</details>\n" if collapse else "")
-    return "\n".join(lines)
+        part = "\n".join([f"**{source_label(source, p.name)}**\n",
+                          *(f"- *{e.claim}* {sentence(e)}" for e in entries), ""])
+        if source == BUILD and len(sources) > 1:
+            part = collapsed_markdown(verdict_words.QUICK_RUN_OPEN.format(preset=p.name), part)
+        parts.append(part)
+    return "\n".join(parts)
 
 
 def claims_figure(preset: Preset, table_id: str):

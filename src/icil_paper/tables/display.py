@@ -140,12 +140,22 @@ def show_per_source(results: dict[str, TableResult], make_frame, describe=None, 
             display(frame)
 
 
+COLLAPSED_OPEN = "<details class='icil-build'><summary>{summary}</summary>"
+"""The opening of a closed block the reader opens (`collapsed_frame`, `collapsed_markdown`)."""
+
+
 def collapsed_frame(summary: str, frame) -> Any:
     """A frame inside a closed <details> block (the reader opens it)."""
     from IPython.display import HTML
 
-    return HTML(f"<details class='icil-build'><summary>{summary}</summary>"
-                f"{frame.to_html(classes='dataframe')}</details>")
+    return HTML(COLLAPSED_OPEN.format(summary=summary)
+                + f"{frame.to_html(classes='dataframe')}</details>")
+
+
+def collapsed_markdown(summary: str, markdown: str) -> str:
+    """Markdown inside a closed <details> block: the blank lines around it let MyST parse
+    the Markdown inside the HTML."""
+    return f"{COLLAPSED_OPEN.format(summary=summary)}\n\n{markdown}\n\n</details>\n"
 
 
 def source_paragraph(source: str, result: TableResult, *parts: Callable[[TableResult], str],
